@@ -1,0 +1,88 @@
+#pragma once
+// A measurement design: which rotary axis, at which angles, with which DBB
+// installations (ball position and reading direction), and with which noise
+// and error parameterisation. Format `dbbkit.design/1` (formats.md).
+
+#include <Eigen/Core>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace dbbkit {
+
+// C: turntable about Z, ball at table coordinates (L, D, H).
+// B: swinging head about Y, ball at (L sin b, D, L cos b) (model.md §3-4).
+enum class Axis { C, B };
+
+const char* axis_name(Axis axis);
+
+// Reading direction in the rotating (body) frame. The body frame coincides
+// with the machine frame at angle 0, so `body` is the machine-frame direction
+// at angle 0: C radial = X, tangential = Y, axial = Z; B radial = Z (tool
+// axis), tangential = X, axial = Y (swing axis).
+struct Direction {
+  enum class Kind { Radial, Tangential, Axial, Vector };
+  Kind kind = Kind::Radial;
+  Eigen::Vector3d body = Eigen::Vector3d::UnitX();  // unit vector
+
+  static Direction named(Axis axis, Kind kind);
+  static Direction vector(const Eigen::Vector3d& unit_body);
+  std::string label() const;  // "radial", ..., or "[x, y, z]"
+};
+
+struct Installation {
+  std::string id;
+  double L_mm = 0.0;  // C: radial distance from the axis; B: distance along the tool axis
+  double D_mm = 0.0;  // lateral offset (C: along body Y; B: along the swing axis Y)
+  double H_mm = 0.0;  // C: height above the table surface; unused for B
+  Direction direction;
+  int sign = +1;                 // s of model.md §2: reading = s * u . dP
+  std::optional<double> bar_mm;  // bar length, when declared
+};
+
+// Instrument noise of one reading. Uniform: +-half_width (the instrument's
+// stated accuracy), sigma = a / sqrt(3) (JCGM 100 rectangular). Normal: sigma given.
+struct NoiseModel {
+  enum class Distribution { Uniform, Normal };
+  Distribution distribution = Distribution::Uniform;
+  double half_width_um = 1.25;  // Uniform only
+  double std_um = 0.0;          // Normal only
+
+  double sigma_um() const;
+  std::string describe() const;
+};
+
+// How the six errors depend on the angle (model.md §5).
+struct ErrorModel {
+  enum class Kind { PerAngle, Fourier, Legendre };
+  Kind kind = Kind::PerAngle;
+  int order = 0;  // series order K (Fourier: harmonics 0..K; Legendre: degree 0..K)
+
+  std::string describe() const;
+};
+
+struct Design {
+  std::string name;
+  std::string description;
+  std::map<std::string, std::string> assumed;  // declared assumptions, e.g. "L1": "100 mm, not given by the paper"
+  Axis axis = Axis::C;
+  std::vector<double> angles_deg;
+  NoiseModel noise;
+  ErrorModel errors;
+  std::optional<double> reference_length_mm;
+  std::vector<Installation> installations;
+
+  // Index of the installation with this id, or -1.
+  int find_installation(const std::string& id) const;
+};
+
+// Checks a design built in code or read from a file; throws InputError with
+// `source` and the key of the first problem.
+void validate_design(const Design& design, const std::string& source = "design");
+
+// Tolerance on angles: two angles closer than this are the same position.
+// |a - b| < kAngleTolerance_deg  (C: compared modulo 360).
+inline constexpr double kAngleTolerance_deg = 1e-6;
+
+}  // namespace dbbkit

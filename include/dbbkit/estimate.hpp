@@ -1,0 +1,75 @@
+#pragma once
+// Weighted least squares on the stacked model y = J theta + v (model.md §7):
+//   theta_hat = (J' W J)^+ J' W y,  Cov(theta_hat) = (J' W J)^+,  W = Sigma^-1,
+// solved by SVD of the column-equilibrated whitened Jacobian
+//   Js = Sigma^-1/2 J S,  S = diag(1 / |column j of Sigma^-1/2 J|),
+// never by inverting J'J. Rank loss is a status: only linear functions of theta
+// that the data determine get a value and a standard uncertainty.
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+
+#include "dbbkit/linear_model.hpp"
+
+namespace dbbkit {
+
+struct EstimateOptions {
+  // Singular value i of Js counts toward the rank when
+  //   sigma_i > min_relative_singular_value * sigma_max.
+  double min_relative_singular_value = 1e-9;
+  // A function c.theta is determined when, with w = S^-1 c its coefficients on
+  // the scaled unknowns and N an orthonormal basis of the null space of Js,
+  //   |N' w| <= estimable_tolerance * |w|.
+  double estimable_tolerance = 1e-7;
+  // Column j of Sigma^-1/2 J is treated as zero when
+  //   |column j| <= negligible_column * max_k |column k|.
+  double negligible_column = 1e-12;
+};
+
+enum class EstimateStatus { kFullRank, kRankDeficient, kNoReadings };
+
+const char* status_name(EstimateStatus status);
+
+// A linear function of theta: its value and standard uncertainty when the data
+// determine it; otherwise `determined` is false and both are absent.
+struct Determined {
+  bool determined = false;
+  double value = 0.0;
+  double std = 0.0;
+};
+
+struct Estimate {
+  EstimateStatus status = EstimateStatus::kNoReadings;
+  std::string message;
+  int n_readings = 0;
+  int n_unknowns = 0;
+  int rank = 0;
+
+  Eigen::VectorXd theta;            // minimum-norm solution (in the scaled unknowns)
+  Eigen::MatrixXd covariance;       // pseudo-inverse covariance; meaningful only for determined functions
+  Eigen::VectorXd column_scale;     // |column j of Sigma^-1/2 J|, 1 for a negligible column
+  Eigen::VectorXd singular_values;  // of Js, descending
+  std::optional<double> condition_number;  // sigma_max / sigma_rank of Js
+  Eigen::MatrixXd null_space_scaled;       // orthonormal basis of the null space of Js (p x (p - rank))
+
+  Eigen::VectorXd residual_um;  // y - J theta
+  double rms_um = 0.0;          // sqrt(mean(residual^2))
+  double chi2 = 0.0;            // sum (residual / sigma)^2
+  int dof = 0;                  // n_readings - rank
+  std::optional<double> p_value;  // P(chi2_dof >= chi2); absent when dof = 0
+
+  double estimable_tolerance = 0.0;
+
+  // The function c.theta (c in theta units).
+  Determined evaluate(const Eigen::VectorXd& c) const;
+  bool determined(const Eigen::VectorXd& c) const;
+  // A basis of the undetermined directions of theta (columns, theta units), as
+  // sparse as row reduction makes it, each normalised to unit length with its
+  // largest coefficient positive: theta and theta + t * column give the same readings.
+  Eigen::MatrixXd null_directions() const;
+};
+
+Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options = {});
+
+}  // namespace dbbkit

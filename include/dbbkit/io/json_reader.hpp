@@ -1,0 +1,53 @@
+#pragma once
+// Strict JSON reading: syntax errors name line and column, duplicate keys and
+// unknown keys are errors, every type error names the key path.
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
+#include <string>
+
+namespace dbbkit::io {
+
+// Reads a whole file; throws InputError(path, "", ...) when it cannot be read.
+std::string read_text_file(const std::string& path);
+
+// Parses JSON; a syntax error or a repeated key throws InputError naming the line.
+nlohmann::json parse_json(const std::string& text, const std::string& source);
+
+// Reads the keys of one JSON object, remembering which were used, so that
+// finish() can reject the keys nobody asked for (typos must not pass).
+class ObjectReader {
+ public:
+  ObjectReader(const nlohmann::json& value, std::string source, std::string path);
+
+  bool has(const std::string& key) const;
+  const nlohmann::json& required(const std::string& key);
+  const nlohmann::json* optional(const std::string& key);
+
+  double number(const std::string& key);
+  std::optional<double> optional_number(const std::string& key);
+  int integer(const std::string& key);
+  std::optional<int> optional_integer(const std::string& key);
+  std::string string(const std::string& key);
+  std::optional<std::string> optional_string(const std::string& key);
+  ObjectReader object(const std::string& key);
+
+  std::string key_path(const std::string& key) const;
+  const std::string& source() const { return source_; }
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const;
+  // Throws on the first key that was never read.
+  void finish() const;
+
+ private:
+  const nlohmann::json& value_;
+  std::string source_, path_;
+  std::set<std::string> used_;
+};
+
+// Value conversions with the key path in the error.
+double as_number(const nlohmann::json& v, const std::string& source, const std::string& path);
+int as_integer(const nlohmann::json& v, const std::string& source, const std::string& path);
+std::string as_string(const nlohmann::json& v, const std::string& source, const std::string& path);
+
+}  // namespace dbbkit::io

@@ -1,0 +1,29 @@
+#pragma once
+// Result JSON (formats.md "Keys every result JSON carries") and the
+// human-readable summaries printed on the terminal.
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/identify.hpp"
+#include "dbbkit/measurement.hpp"
+
+namespace dbbkit::io {
+
+struct InputFiles {
+  std::string design, data;
+};
+
+// `dbbkit.identify/1`.
+nlohmann::json identify_to_json(const Design& design, const std::vector<Reading>& readings,
+                                const IdentifyResult& result, const InputFiles& inputs);
+
+// The residual block {rms_um, chi2, dof, p_value}.
+nlohmann::json residual_to_json(const Estimate& est);
+
+// Aligned tables with units.
+std::string identify_summary(const Design& design, const IdentifyResult& result);
+
+}  // namespace dbbkit::io

@@ -1,0 +1,50 @@
+#pragma once
+// Ball position, reading direction and the sensitivity of one DBB reading to
+// the six error motions of the rotary axis (model.md §1-4).
+//
+// Error motion vector e6 = (dx, dy, dz [um], ex, ey, ez [urad]) of the moving
+// body at one angle, expressed in the machine frame. To first order a point P
+// of the moving body moves by dP[um] = 1e-3 * (e x P[mm]) + d   (model.md §1).
+
+#include <Eigen/Core>
+#include <array>
+
+#include "dbbkit/design.hpp"
+
+namespace dbbkit {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using RowVector6d = Eigen::Matrix<double, 1, 6>;
+
+inline constexpr std::array<const char*, 6> kErrorNames = {"dx", "dy", "dz", "ex", "ey", "ez"};
+inline constexpr std::array<const char*, 6> kErrorUnits = {"um", "um", "um", "urad", "urad", "urad"};
+
+// sin and cos of an angle in degrees, exact (0, +-1) at multiples of 90 deg,
+// so that a lever arm times cos(90 deg) is 0 and not 6e-17.
+void sincos_deg(double angle_deg, double& s, double& c);
+
+// Rotation of the axis at `angle_deg`: Rz for C, Ry for B.
+Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg);
+
+// Ball position in the body frame (= machine frame at angle 0):
+// C: (L, D, H) (model.md §3); B: (0, D, L), so that P(b) = (L sin b, D, L cos b) (§4).
+Eigen::Vector3d ball_body_mm(Axis axis, const Installation& inst);
+
+// Nominal ball position and unit reading direction in the machine frame at an angle.
+Eigen::Vector3d ball_position_mm(Axis axis, const Installation& inst, double angle_deg);
+Eigen::Vector3d direction_machine(Axis axis, const Installation& inst, double angle_deg);
+
+// First-order displacement of a point of the moving body [um].
+Eigen::Vector3d displacement_um(const Vector6d& e6, const Eigen::Vector3d& P_mm);
+
+// d(reading [um]) / d(e6): reading = s u.dP = s u.d + 1e-3 s (P x u).e   (model.md §2).
+RowVector6d J_reading_error(Axis axis, const Installation& inst, double angle_deg);
+
+// The reading computed through the exact homogeneous transform
+// E = Trans(d) Rx(ex) Ry(ey) Rz(ez) applied to the ball, with the following ball
+// at F = P - s * bar * u on the nominal path: reading = |E P - F| - |P - F| [um].
+// No small-angle approximation; used to check J_reading_error.
+double exact_reading_um(Axis axis, const Installation& inst, double angle_deg, const Vector6d& e6,
+                        double bar_mm);
+
+}  // namespace dbbkit

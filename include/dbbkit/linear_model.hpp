@@ -1,0 +1,31 @@
+#pragma once
+// The stacked linear model y = J theta + v (architecture.md): one row per
+// reading, theta the unknowns of a Parameterisation, v the instrument noise
+// with standard deviation sigma per row (uncorrelated).
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/measurement.hpp"
+#include "dbbkit/parameterisation.hpp"
+
+namespace dbbkit {
+
+struct LinearModel {
+  Eigen::MatrixXd J;          // [um per unit of theta], n_readings x n_parameters
+  Eigen::VectorXd y_um;       // readings (zero for a design model)
+  Eigen::VectorXd sigma_um;   // standard deviation of each reading
+  std::vector<int> row_installation;
+  std::vector<int> row_station;
+  std::vector<double> row_angle_deg;
+};
+
+// Rows for the given readings (validated against the design beforehand).
+LinearModel build_linear_model(const Design& design, const Parameterisation& param,
+                               const std::vector<Reading>& readings);
+
+// Rows the design would measure: one per installation and design angle, y = 0.
+LinearModel design_model(const Design& design, const Parameterisation& param);
+
+}  // namespace dbbkit

@@ -1,0 +1,33 @@
+#pragma once
+// DBB readings as measured: one per row of a measurement file (formats.md).
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+
+namespace dbbkit {
+
+enum class Sweep { CW, CCW };
+
+struct Reading {
+  std::string installation;  // an id of the design
+  double angle_deg = 0.0;
+  double reading_um = 0.0;      // bar length change
+  std::optional<double> time_s;  // absent: not recorded
+  std::optional<Sweep> sweep;
+  std::optional<int> repeat;
+  int line = 0;  // line in the source file (0: not from a file)
+};
+
+// Largest |reading| accepted, a plausibility bound: no DBB reads a length
+// change of 10 mm; larger values are almost always a unit mix-up (um in a mm column).
+inline constexpr double kMaxAbsReading_um = 10000.0;
+
+// Checks readings against a design: the installation exists, the angle is a
+// position of the design, values are finite. Throws InputError(source, "line N", ...).
+void validate_readings(const Design& design, const std::vector<Reading>& readings,
+                       const std::string& source);
+
+}  // namespace dbbkit

@@ -1,0 +1,62 @@
+#pragma once
+// Maps the unknown vector theta to the six errors at an angle (model.md §5):
+//   per_angle: six free unknowns at every measured position ("station");
+//   fourier K (axis C): each error = c0 + sum_k (a_k cos k g + b_k sin k g), k = 1..K;
+//   legendre K (axis B): each error = sum_k c_k P_k(x), x = 2 (b - b_min)/(b_max - b_min) - 1.
+// Stations are the distinct positions of the design; for C, angles equal
+// modulo 360 deg are one station (360 repeats 0).
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+
+namespace dbbkit {
+
+// Basis functions of a series, shared by the parameterisation and the simulator:
+// Fourier (1, cos g, sin g, ..., cos K g, sin K g) of the angle in degrees, and
+// Legendre P_0..P_K at x in [-1, 1].
+Eigen::VectorXd fourier_basis(int order, double angle_deg);
+Eigen::VectorXd legendre_basis(int order, double x);
+
+class Parameterisation {
+ public:
+  explicit Parameterisation(const Design& design);
+
+  const ErrorModel& model() const { return model_; }
+  Axis axis() const { return axis_; }
+  int n_parameters() const { return n_parameters_; }
+  int n_stations() const { return static_cast<int>(station_deg_.size()); }
+  double station_angle_deg(int station) const { return station_deg_[station]; }
+  // The station of an angle, or -1 when the angle is no position of the design.
+  int station_of(double angle_deg) const;
+
+  // e6 = E theta at a station (6 x n_parameters), and at any angle for a series
+  // (per_angle: the angle must be a station).
+  Eigen::MatrixXd error_map(int station) const;
+  Eigen::MatrixXd error_map_at_angle(double angle_deg) const;
+
+  // Parameter j: which error (0..5 = dx..ez), which station (per_angle; else -1), name.
+  int parameter_error(int j) const;
+  int parameter_station(int j) const;
+  std::string parameter_name(int j) const;
+  // Number of series coefficients per error (per_angle: 1).
+  int coefficients_per_error() const { return per_error_; }
+  // Legendre: the range the polynomials are defined on.
+  double range_min_deg() const { return lo_deg_; }
+  double range_max_deg() const { return hi_deg_; }
+
+  // The basis functions of one error at an angle (size coefficients_per_error()).
+  Eigen::VectorXd series_basis(double angle_deg) const;
+
+ private:
+  Axis axis_;
+  ErrorModel model_;
+  std::vector<double> station_deg_;
+  int per_error_ = 1;
+  int n_parameters_ = 0;
+  double lo_deg_ = 0, hi_deg_ = 0;
+};
+
+}  // namespace dbbkit

@@ -1,0 +1,40 @@
+#pragma once
+// Synthetic readings from a declared truth: the errors of the axis (per angle
+// or as a series), the instrument noise and a seed. Readings follow the
+// first-order model of model.md §2: reading = s u.dP + noise.
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/kinematics.hpp"
+#include "dbbkit/measurement.hpp"
+
+namespace dbbkit {
+
+// Format `dbbkit.truth/1` (README).
+struct Truth {
+  ErrorModel model;  // per_angle, fourier (C) or legendre (B)
+  std::vector<std::pair<double, Vector6d>> per_angle;  // angle_deg, (dx..ez)
+  std::array<std::vector<double>, 6> coefficients;      // series: per error, in basis order
+  std::optional<std::pair<double, double>> range_deg;   // legendre: the range x in [-1, 1] maps to
+  std::optional<NoiseModel> noise;  // absent: the design's noise
+  bool noiseless = false;           // noise "none"
+  int repeats = 1;                  // readings per installation and angle
+  std::optional<std::uint64_t> seed;
+};
+
+// The true errors at an angle. Throws InputError when a per-angle truth has no
+// value at that position.
+Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std::string& source = "truth");
+
+// Checks a truth against a design (every position covered, coefficients of the right length).
+void validate_truth(const Truth& truth, const Design& design, const std::string& source = "truth");
+
+// One reading per installation, design angle and repeat, in design order.
+std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uint64_t seed);
+
+}  // namespace dbbkit

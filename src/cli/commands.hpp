@@ -1,0 +1,16 @@
+#pragma once
+// One file per command: each registers its subcommand and returns the function
+// that runs it once the command line is parsed. Runners return the exit status
+// (0 success, 1 a check failed) and throw InputError for bad input (status 2).
+
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace dbbkit::cli {
+
+using Runner = std::function<int()>;
+
+Runner add_identify(CLI::App& app);
+Runner add_simulate(CLI::App& app);
+
+}  // namespace dbbkit::cli

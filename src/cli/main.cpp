@@ -1,0 +1,38 @@
+#include <iostream>
+#include <vector>
+
+#include "commands.hpp"
+#include "dbbkit/error.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"dbbkit: identification of rotary-axis errors from double ball bar readings"};
+  app.set_version_flag("--version", std::string(DBBKIT_VERSION));
+  app.require_subcommand(1);
+  std::vector<std::pair<CLI::App*, dbbkit::cli::Runner>> commands;
+  auto add = [&](dbbkit::cli::Runner (*adder)(CLI::App&)) {
+    const size_t before = app.get_subcommands({}).size();
+    dbbkit::cli::Runner run = adder(app);
+    commands.emplace_back(app.get_subcommands({}).at(before), run);
+  };
+  add(dbbkit::cli::add_identify);
+  add(dbbkit::cli::add_simulate);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+  try {
+    for (auto& [sub, run] : commands) {
+      if (sub->parsed()) return run();
+    }
+  } catch (const dbbkit::InputError& e) {
+    std::cerr << "dbbkit: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "dbbkit: internal error: " << e.what() << "\n";
+    return 3;
+  }
+  return 2;
+}

@@ -1,0 +1,44 @@
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include "commands.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/measurement_io.hpp"
+#include "dbbkit/io/output.hpp"
+#include "dbbkit/io/truth_io.hpp"
+#include "dbbkit/simulate.hpp"
+
+namespace dbbkit::cli {
+
+namespace {
+struct SimulateArgs {
+  std::string design, truth, out;
+  std::optional<std::uint64_t> seed;
+};
+}  // namespace
+
+Runner add_simulate(CLI::App& app) {
+  auto args = std::make_shared<SimulateArgs>();
+  CLI::App* sub = app.add_subcommand("simulate", "Synthetic readings of a design from a declared truth");
+  sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
+  sub->add_option("--truth", args->truth, "Truth file (dbbkit.truth/1)")->required();
+  sub->add_option("--seed", args->seed, "Seed of the noise generator (overrides the truth file's seed)");
+  sub->add_option("--out", args->out, "Measurement CSV; '-' or absent: stdout");
+  return [args]() {
+    const Design design = io::read_design_file(args->design);
+    const Truth truth = io::read_truth_file(args->truth);
+    validate_truth(truth, design, args->truth);
+    const std::optional<std::uint64_t> seed = args->seed ? args->seed : truth.seed;
+    if (!seed && !truth.noiseless) {
+      throw InputError(args->truth, "seed", "no seed: give --seed or \"seed\" in the truth file");
+    }
+    std::ostringstream csv;
+    io::write_measurements_csv(csv, simulate(design, truth, seed.value_or(0)));
+    io::write_output(args->out, csv.str(), {args->design, args->truth});
+    return 0;
+  };
+}
+
+}  // namespace dbbkit::cli

@@ -1,0 +1,140 @@
+#include "dbbkit/identify.hpp"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "dbbkit/kinematics.hpp"
+#include "dbbkit/linear_model.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+std::string fmt(double x, int digits = 4) {
+  std::ostringstream s;
+  s << std::setprecision(digits) << x;
+  return s.str();
+}
+
+std::string fmt_vec(const Eigen::Vector3d& v, int digits = 4) {
+  auto clean = [](double x) { return std::abs(x) < 5e-13 ? 0.0 : x; };
+  return "(" + fmt(clean(v.x()), digits) + ", " + fmt(clean(v.y()), digits) + ", " +
+         fmt(clean(v.z()), digits) + ")";
+}
+
+std::string expression_of(const std::vector<std::pair<std::string, double>>& terms) {
+  std::ostringstream s;
+  for (size_t i = 0; i < terms.size(); ++i) {
+    const double c = terms[i].second;
+    if (i == 0) {
+      s << (c < 0 ? "-" : "");
+    } else {
+      s << (c < 0 ? " - " : " + ");
+    }
+    s << fmt(std::abs(c)) << " " << terms[i].first;
+  }
+  return s.str();
+}
+
+// A null direction confined to one station is a small rigid motion (d, e):
+// a screw about an axis. Says which, and whether it moves any ball of the design.
+std::string interpret_rigid_motion(const Design& design, double angle_deg, const Eigen::Vector3d& d,
+                                   const Eigen::Vector3d& e) {
+  std::ostringstream s;
+  if (e.norm() == 0.0) {
+    s << "a translation of the moving body along " << fmt_vec(d.normalized())
+      << " (machine frame): it changes no reading";
+    return s.str();
+  }
+  const Eigen::Vector3d a = e.normalized();
+  // dP = 1e-3 e x (P - Q) + h a: the line through Q (mm) along a, pitch h.
+  const Eigen::Vector3d Q_mm = 1e3 * e.cross(d) / e.squaredNorm();
+  const double h = d.dot(a);
+  bool on_all_balls = true;
+  for (const Installation& inst : design.installations) {
+    const Eigen::Vector3d P = ball_position_mm(design.axis, inst, angle_deg);
+    if ((P - Q_mm).cross(a).norm() > 1e-6) on_all_balls = false;
+  }
+  if (std::abs(h) <= 1e-9 * (d.norm() + 1e-3 * e.norm())) {
+    s << "a rotation about the line through " << fmt_vec(Q_mm) << " mm along " << fmt_vec(a)
+      << " (machine frame)";
+  } else {
+    s << "a screw motion about the line through " << fmt_vec(Q_mm) << " mm along " << fmt_vec(a)
+      << " (machine frame)";
+  }
+  if (design.axis == Axis::B && Q_mm.norm() < 1e-6 &&
+      a.cross(axis_rotation(Axis::B, angle_deg) * Eigen::Vector3d::UnitZ()).norm() < 1e-9) {
+    s << ", the tool axis";
+  }
+  if (on_all_balls) {
+    s << "; every ball of the design lies on that line, so no reading sees it";
+  } else {
+    s << "; it moves the balls only across their reading directions";
+  }
+  return s.str();
+}
+
+}  // namespace
+
+std::vector<ErrorsAtAngle> errors_at_stations(const Parameterisation& param, const Estimate& est) {
+  std::vector<ErrorsAtAngle> out;
+  for (int s = 0; s < param.n_stations(); ++s) {
+    ErrorsAtAngle ea;
+    ea.station = s;
+    ea.angle_deg = param.station_angle_deg(s);
+    const Eigen::MatrixXd E = param.error_map(s);
+    for (int k = 0; k < 6; ++k) ea.errors[k] = est.evaluate(E.row(k).transpose());
+    out.push_back(ea);
+  }
+  return out;
+}
+
+std::vector<Unidentifiable> describe_null_space(const Design& design, const Parameterisation& param,
+                                                const Estimate& est) {
+  std::vector<Unidentifiable> out;
+  const Eigen::MatrixXd N = est.null_directions();
+  const bool per_angle = param.model().kind == ErrorModel::Kind::PerAngle;
+  for (int c = 0; c < N.cols(); ++c) {
+    Unidentifiable u;
+    int station = -2;  // -2: none seen yet, -1: several
+    for (int j = 0; j < N.rows(); ++j) {
+      if (N(j, c) == 0.0) continue;
+      const int s = param.parameter_station(j);
+      station = (station == -2 || station == s) ? s : -1;
+    }
+    const bool local = per_angle && station >= 0;
+    Eigen::Vector3d d = Eigen::Vector3d::Zero(), e = Eigen::Vector3d::Zero();
+    for (int j = 0; j < N.rows(); ++j) {
+      if (N(j, c) == 0.0) continue;
+      const int k = param.parameter_error(j);
+      u.terms.emplace_back(local ? std::string(kErrorNames[k]) : param.parameter_name(j), N(j, c));
+      if (k < 3) {
+        d(k) = N(j, c);
+      } else {
+        e(k - 3) = N(j, c);
+      }
+    }
+    u.expression = expression_of(u.terms);
+    if (local) {
+      u.angle_deg = param.station_angle_deg(station);
+      u.interpretation = interpret_rigid_motion(design, *u.angle_deg, d, e);
+    }
+    out.push_back(u);
+  }
+  return out;
+}
+
+IdentifyResult identify(const Design& design, const std::vector<Reading>& readings,
+                        const EstimateOptions& options) {
+  const Parameterisation param(design);
+  const LinearModel model = build_linear_model(design, param, readings);
+  IdentifyResult result;
+  result.estimate = estimate_wls(model, options);
+  result.errors = errors_at_stations(param, result.estimate);
+  result.unidentifiable = describe_null_space(design, param, result.estimate);
+  return result;
+}
+
+}  // namespace dbbkit

@@ -1,0 +1,208 @@
+#include "dbbkit/io/design_io.hpp"
+
+#include <cmath>
+
+#include "dbbkit/error.hpp"
+
+namespace dbbkit::io {
+
+using nlohmann::json;
+
+namespace {
+
+// Largest number of angles a grid may have (a typo such as step 0.0001 must not exhaust memory).
+constexpr double kMaxAngles = 100000;
+
+std::vector<double> read_angles(ObjectReader& top) {
+  const json& v = top.required("angles_deg");
+  const std::string path = top.key_path("angles_deg");
+  std::vector<double> angles;
+  if (v.is_array()) {
+    for (size_t i = 0; i < v.size(); ++i) {
+      angles.push_back(as_number(v[i], top.source(), path + "[" + std::to_string(i) + "]"));
+    }
+    if (angles.empty()) throw InputError(top.source(), path, "the list of angles is empty");
+    return angles;
+  }
+  ObjectReader grid(v, top.source(), path);
+  const double start = grid.number("start"), stop = grid.number("stop"), step = grid.number("step");
+  grid.finish();
+  if (step == 0.0) grid.fail("step", "must not be 0");
+  const double n = (stop - start) / step;
+  if (n < -1e-9) grid.fail("step", "goes away from stop (the sign of step is wrong)");
+  if (std::abs(n - std::round(n)) > 1e-9 * std::max(1.0, std::abs(n))) {
+    grid.fail("stop", "is not start + k * step for a whole k");
+  }
+  if (n + 1 > kMaxAngles) grid.fail("step", "gives more than 100000 angles");
+  const long count = std::lround(n) + 1;
+  for (long i = 0; i < count; ++i) angles.push_back(start + static_cast<double>(i) * step);
+  return angles;
+}
+
+Direction read_direction(const json& v, Axis axis, const std::string& source, const std::string& path) {
+  if (v.is_string()) {
+    const std::string s = v.get<std::string>();
+    if (s == "radial") return Direction::named(axis, Direction::Kind::Radial);
+    if (s == "tangential") return Direction::named(axis, Direction::Kind::Tangential);
+    if (s == "axial") return Direction::named(axis, Direction::Kind::Axial);
+    throw InputError(source, path,
+                     "unknown direction '" + s + "' (expected radial, tangential, axial or a unit vector [x, y, z])");
+  }
+  if (v.is_array() && v.size() == 3) {
+    Eigen::Vector3d u;
+    for (int i = 0; i < 3; ++i) u(i) = as_number(v[i], source, path + "[" + std::to_string(i) + "]");
+    if (std::abs(u.norm() - 1.0) > 1e-6) {
+      throw InputError(source, path, "an explicit direction must be a unit vector (|v| = " +
+                                         std::to_string(u.norm()) + ")");
+    }
+    return Direction::vector(u);
+  }
+  throw InputError(source, path, "expected radial, tangential, axial or a unit vector [x, y, z]");
+}
+
+}  // namespace
+
+std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
+  const std::string dist = noise.optional_string("distribution").value_or("uniform");
+  NoiseModel m;
+  if (dist == "uniform") {
+    m.distribution = NoiseModel::Distribution::Uniform;
+    m.half_width_um = noise.number("accuracy_um");
+    if (!(m.half_width_um > 0)) noise.fail("accuracy_um", "must be a positive number of um");
+  } else if (dist == "normal") {
+    m.distribution = NoiseModel::Distribution::Normal;
+    if (noise.has("accuracy_um")) {
+      noise.fail("accuracy_um",
+                 "a normal distribution is declared by its standard deviation std_um, not by an accuracy");
+    }
+    m.std_um = noise.number("std_um");
+    if (!(m.std_um > 0)) noise.fail("std_um", "must be a positive number of um");
+  } else if (dist == "none" && allow_none) {
+    noise.finish();
+    return std::nullopt;
+  } else {
+    noise.fail("distribution", "unknown distribution '" + dist + "' (expected uniform or normal" +
+                                   std::string(allow_none ? " or none)" : ")"));
+  }
+  noise.finish();
+  return m;
+}
+
+json noise_to_json(const NoiseModel& noise) {
+  if (noise.distribution == NoiseModel::Distribution::Uniform) {
+    return {{"distribution", "uniform"}, {"accuracy_um", noise.half_width_um}};
+  }
+  return {{"distribution", "normal"}, {"std_um", noise.std_um}};
+}
+
+Design design_from_json(const json& j, const std::string& source) {
+  ObjectReader top(j, source, "");
+  Design d;
+  const std::string format = top.string("format");
+  if (format != kDesignFormat) top.fail("format", "expected \"" + std::string(kDesignFormat) + "\", found \"" + format + "\"");
+  d.name = top.optional_string("name").value_or("");
+  d.description = top.optional_string("description").value_or("");
+  if (const json* a = top.optional("assumed")) {
+    ObjectReader assumed(*a, source, "assumed");
+    for (auto it = a->begin(); it != a->end(); ++it) {
+      d.assumed[it.key()] = assumed.string(it.key());
+    }
+  }
+  const std::string axis = top.string("axis");
+  if (axis == "C") {
+    d.axis = Axis::C;
+  } else if (axis == "B") {
+    d.axis = Axis::B;
+  } else {
+    top.fail("axis", "unknown axis '" + axis + "' (expected \"C\" or \"B\")");
+  }
+  d.angles_deg = read_angles(top);
+  if (const json* n = top.optional("noise")) d.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
+  if (const json* e = top.optional("errors")) {
+    ObjectReader errors(*e, source, "errors");
+    const std::string model = errors.string("model");
+    if (model == "per_angle") {
+      d.errors.kind = ErrorModel::Kind::PerAngle;
+      if (errors.has("order")) errors.fail("order", "a per_angle model has no order");
+    } else if (model == "fourier" || model == "legendre") {
+      d.errors.kind = model == "fourier" ? ErrorModel::Kind::Fourier : ErrorModel::Kind::Legendre;
+      d.errors.order = errors.integer("order");
+      if (d.errors.order < 0) errors.fail("order", "must be >= 0");
+    } else {
+      errors.fail("model", "unknown model '" + model + "' (expected per_angle, fourier or legendre)");
+    }
+    errors.finish();
+  }
+  d.reference_length_mm = top.optional_number("reference_length_mm");
+
+  const json& list = top.required("installations");
+  if (!list.is_array()) top.fail("installations", "expected a list of installations");
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string path = "installations[" + std::to_string(i) + "]";
+    ObjectReader in(list[i], source, path);
+    Installation inst;
+    inst.id = in.string("id");
+    ObjectReader ball = in.object("ball_mm");
+    inst.L_mm = ball.number("L");
+    inst.D_mm = ball.optional_number("D").value_or(0.0);
+    if (d.axis == Axis::C) {
+      inst.H_mm = ball.number("H");
+    } else if (ball.has("H")) {
+      ball.fail("H", "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
+    }
+    ball.finish();
+    inst.direction = read_direction(in.required("direction"), d.axis, source, path + ".direction");
+    inst.sign = in.optional_integer("sign").value_or(1);
+    if (inst.sign != 1 && inst.sign != -1) in.fail("sign", "must be +1 or -1");
+    inst.bar_mm = in.optional_number("bar_mm");
+    in.optional_string("description");
+    in.finish();
+    d.installations.push_back(inst);
+  }
+  top.finish();
+  validate_design(d, source);
+  return d;
+}
+
+Design read_design_file(const std::string& path) { return design_from_json(parse_json(read_text_file(path), path), path); }
+
+json design_to_json(const Design& d) {
+  json j;
+  j["format"] = kDesignFormat;
+  if (!d.name.empty()) j["name"] = d.name;
+  if (!d.description.empty()) j["description"] = d.description;
+  if (!d.assumed.empty()) j["assumed"] = d.assumed;
+  j["axis"] = axis_name(d.axis);
+  j["angles_deg"] = d.angles_deg;
+  j["noise"] = noise_to_json(d.noise);
+  json errors;
+  if (d.errors.kind == ErrorModel::Kind::PerAngle) {
+    errors["model"] = "per_angle";
+  } else {
+    errors["model"] = d.errors.kind == ErrorModel::Kind::Fourier ? "fourier" : "legendre";
+    errors["order"] = d.errors.order;
+  }
+  j["errors"] = errors;
+  if (d.reference_length_mm) j["reference_length_mm"] = *d.reference_length_mm;
+  json list = json::array();
+  for (const Installation& in : d.installations) {
+    json i;
+    i["id"] = in.id;
+    json ball = {{"L", in.L_mm}};
+    if (in.D_mm != 0.0) ball["D"] = in.D_mm;
+    if (d.axis == Axis::C) ball["H"] = in.H_mm;
+    i["ball_mm"] = ball;
+    if (in.direction.kind == Direction::Kind::Vector) {
+      i["direction"] = {in.direction.body.x(), in.direction.body.y(), in.direction.body.z()};
+    } else {
+      i["direction"] = in.direction.label();
+    }
+    if (in.sign != 1) i["sign"] = in.sign;
+    if (in.bar_mm) i["bar_mm"] = *in.bar_mm;
+    list.push_back(i);
+  }
+  j["installations"] = list;
+  return j;
+}
+
+}  // namespace dbbkit::io

@@ -1,0 +1,164 @@
+#include "dbbkit/io/json_reader.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "dbbkit/error.hpp"
+
+namespace dbbkit::io {
+
+using nlohmann::json;
+
+std::string read_text_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "", "cannot open the file for reading");
+  std::ostringstream s;
+  s << in.rdbuf();
+  if (in.bad()) throw InputError(path, "", "error while reading the file");
+  return s.str();
+}
+
+namespace {
+
+std::string line_column(const std::string& text, std::size_t byte) {
+  std::size_t line = 1, col = 1;
+  for (std::size_t i = 0; i < byte && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      col = 1;
+    } else {
+      ++col;
+    }
+  }
+  return "line " + std::to_string(line) + ", column " + std::to_string(col);
+}
+
+std::string type_name(const json& v) {
+  if (v.is_number()) return "a number";
+  if (v.is_string()) return "a string";
+  if (v.is_object()) return "an object";
+  if (v.is_array()) return "a list";
+  if (v.is_boolean()) return "true/false";
+  if (v.is_null()) return "null";
+  return "a value of another type";
+}
+
+}  // namespace
+
+json parse_json(const std::string& text, const std::string& source) {
+  if (text.find_first_not_of(" \t\r\n") == std::string::npos) {
+    throw InputError(source, "", "the file is empty");
+  }
+  std::vector<std::set<std::string>> keys;
+  std::optional<std::string> duplicate;
+  json::parser_callback_t cb = [&](int, json::parse_event_t event, json& parsed) {
+    if (event == json::parse_event_t::object_start) {
+      keys.emplace_back();
+    } else if (event == json::parse_event_t::object_end) {
+      keys.pop_back();
+    } else if (event == json::parse_event_t::key && !duplicate) {
+      const std::string key = parsed.get<std::string>();
+      if (!keys.empty() && !keys.back().insert(key).second) duplicate = key;
+    }
+    return true;
+  };
+  json j;
+  try {
+    j = json::parse(text, cb);
+  } catch (const json::parse_error& e) {
+    std::string what = e.what();
+    const auto pos = what.find("parse error");
+    throw InputError(source, line_column(text, e.byte > 0 ? e.byte - 1 : 0),
+                     "not valid JSON (" + (pos == std::string::npos ? what : what.substr(pos)) + ")");
+  }
+  if (duplicate) throw InputError(source, "key '" + *duplicate + "'", "the key appears twice in one object");
+  return j;
+}
+
+ObjectReader::ObjectReader(const json& value, std::string source, std::string path)
+    : value_(value), source_(std::move(source)), path_(std::move(path)) {
+  if (!value_.is_object()) {
+    throw InputError(source_, path_.empty() ? "top level" : path_,
+                     "expected an object {...}, found " + type_name(value_));
+  }
+}
+
+std::string ObjectReader::key_path(const std::string& key) const {
+  return path_.empty() ? key : path_ + "." + key;
+}
+
+void ObjectReader::fail(const std::string& key, const std::string& what) const {
+  throw InputError(source_, key_path(key), what);
+}
+
+bool ObjectReader::has(const std::string& key) const { return value_.contains(key); }
+
+const json& ObjectReader::required(const std::string& key) {
+  if (!value_.contains(key)) fail(key, "required key is missing");
+  used_.insert(key);
+  return value_.at(key);
+}
+
+const json* ObjectReader::optional(const std::string& key) {
+  if (!value_.contains(key)) return nullptr;
+  used_.insert(key);
+  return &value_.at(key);
+}
+
+double ObjectReader::number(const std::string& key) { return as_number(required(key), source_, key_path(key)); }
+
+std::optional<double> ObjectReader::optional_number(const std::string& key) {
+  const json* v = optional(key);
+  if (!v) return std::nullopt;
+  return as_number(*v, source_, key_path(key));
+}
+
+int ObjectReader::integer(const std::string& key) { return as_integer(required(key), source_, key_path(key)); }
+
+std::optional<int> ObjectReader::optional_integer(const std::string& key) {
+  const json* v = optional(key);
+  if (!v) return std::nullopt;
+  return as_integer(*v, source_, key_path(key));
+}
+
+std::string ObjectReader::string(const std::string& key) {
+  return as_string(required(key), source_, key_path(key));
+}
+
+std::optional<std::string> ObjectReader::optional_string(const std::string& key) {
+  const json* v = optional(key);
+  if (!v) return std::nullopt;
+  return as_string(*v, source_, key_path(key));
+}
+
+ObjectReader ObjectReader::object(const std::string& key) {
+  return ObjectReader(required(key), source_, key_path(key));
+}
+
+void ObjectReader::finish() const {
+  for (auto it = value_.begin(); it != value_.end(); ++it) {
+    if (!used_.count(it.key())) fail(it.key(), "unknown key (misspelt?)");
+  }
+}
+
+double as_number(const json& v, const std::string& source, const std::string& path) {
+  if (!v.is_number()) throw InputError(source, path, "expected a number, found " + type_name(v));
+  const double x = v.get<double>();
+  if (!std::isfinite(x)) throw InputError(source, path, "not a finite number");
+  return x;
+}
+
+int as_integer(const json& v, const std::string& source, const std::string& path) {
+  const double x = as_number(v, source, path);
+  if (x != std::floor(x) || std::abs(x) > 2e9) throw InputError(source, path, "expected an integer");
+  return static_cast<int>(x);
+}
+
+std::string as_string(const json& v, const std::string& source, const std::string& path) {
+  if (!v.is_string()) throw InputError(source, path, "expected a string, found " + type_name(v));
+  return v.get<std::string>();
+}
+
+}  // namespace dbbkit::io

@@ -1,0 +1,179 @@
+#include "dbbkit/io/measurement_io.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <iomanip>
+#include <map>
+#include <sstream>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/json_reader.hpp"
+
+namespace dbbkit::io {
+
+namespace {
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t");
+  if (b == std::string::npos) return "";
+  const auto e = s.find_last_not_of(" \t");
+  return s.substr(b, e - b + 1);
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cell;
+  std::istringstream s(line);
+  while (std::getline(s, cell, ',')) out.push_back(trim(cell));
+  if (!line.empty() && line.back() == ',') out.emplace_back();
+  return out;
+}
+
+struct Cell {
+  const std::string& source;
+  int line;
+  const std::string& column;
+  const std::string& text;
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw InputError(source, "line " + std::to_string(line) + ", column " + column, what);
+  }
+  double number() const {
+    if (text.empty()) fail("empty value");
+    char* end = nullptr;
+    errno = 0;
+    const double x = std::strtod(text.c_str(), &end);
+    if (end != text.c_str() + text.size() || errno == ERANGE) fail("'" + text + "' is not a number");
+    if (!std::isfinite(x)) fail("'" + text + "' is not a finite number");
+    return x;
+  }
+  int integer() const {
+    if (text.empty()) fail("empty value");
+    char* end = nullptr;
+    errno = 0;
+    const long x = std::strtol(text.c_str(), &end, 10);
+    if (end != text.c_str() + text.size() || errno == ERANGE || std::abs(x) > 2000000000L) {
+      fail("'" + text + "' is not an integer");
+    }
+    return static_cast<int>(x);
+  }
+};
+
+const std::vector<std::string> kKnownColumns = {"installation", "angle_deg", "reading_mm",
+                                                "reading_um",   "time_s",    "sweep",
+                                                "repeat"};
+
+}  // namespace
+
+std::vector<Reading> parse_measurements(const std::string& text, const std::string& source) {
+  std::istringstream in(text);
+  std::string raw;
+  int line_no = 0;
+  std::map<std::string, int> col;
+  std::vector<std::string> header;
+  std::vector<Reading> readings;
+  while (std::getline(in, raw)) {
+    ++line_no;
+    if (!raw.empty() && raw.back() == '\r') raw.pop_back();
+    if (line_no == 1 && raw.size() >= 3 && raw.compare(0, 3, "\xEF\xBB\xBF") == 0) raw.erase(0, 3);
+    if (trim(raw).empty()) continue;  // blank lines carry nothing
+    const std::string where = "line " + std::to_string(line_no);
+    if (raw.find('"') != std::string::npos) {
+      throw InputError(source, where, "quoted fields are not supported (ids and numbers need no quotes)");
+    }
+    std::vector<std::string> cells = split(raw);
+    if (header.empty()) {
+      header = cells;
+      for (size_t i = 0; i < header.size(); ++i) {
+        const std::string& h = header[i];
+        bool known = false;
+        for (const auto& k : kKnownColumns) known = known || k == h;
+        if (!known) {
+          throw InputError(source, where, "unknown column '" + h +
+                                              "' (expected installation, angle_deg, reading_mm or reading_um, "
+                                              "and optionally time_s, sweep, repeat)");
+        }
+        if (!col.emplace(h, static_cast<int>(i)).second) throw InputError(source, where, "column '" + h + "' appears twice");
+      }
+      for (const char* req : {"installation", "angle_deg"}) {
+        if (!col.count(req)) throw InputError(source, where, std::string("required column '") + req + "' is missing");
+      }
+      const bool mm = col.count("reading_mm"), um = col.count("reading_um");
+      if (!mm && !um) throw InputError(source, where, "a column reading_mm or reading_um is required");
+      if (mm && um) throw InputError(source, where, "both reading_mm and reading_um: give one");
+      continue;
+    }
+    if (cells.size() != header.size()) {
+      throw InputError(source, where, "expected " + std::to_string(header.size()) + " fields, found " +
+                                          std::to_string(cells.size()));
+    }
+    auto cell = [&](const std::string& name) { return Cell{source, line_no, name, cells[col.at(name)]}; };
+    auto present = [&](const std::string& name) { return col.count(name) && !cells[col.at(name)].empty(); };
+    Reading r;
+    r.line = line_no;
+    r.installation = cells[col.at("installation")];
+    if (r.installation.empty()) cell("installation").fail("empty installation id");
+    r.angle_deg = cell("angle_deg").number();
+    if (col.count("reading_mm")) {
+      r.reading_um = 1000.0 * cell("reading_mm").number();
+    } else {
+      r.reading_um = cell("reading_um").number();
+    }
+    if (present("time_s")) r.time_s = cell("time_s").number();
+    if (present("sweep")) {
+      const std::string& s = cells[col.at("sweep")];
+      if (s == "cw") {
+        r.sweep = Sweep::CW;
+      } else if (s == "ccw") {
+        r.sweep = Sweep::CCW;
+      } else {
+        cell("sweep").fail("'" + s + "' is not a sweep (expected cw or ccw)");
+      }
+    }
+    if (present("repeat")) r.repeat = cell("repeat").integer();
+    readings.push_back(r);
+  }
+  if (header.empty()) throw InputError(source, "", "the file is empty (no header line)");
+  if (readings.empty()) throw InputError(source, "", "no readings after the header line");
+  return readings;
+}
+
+std::vector<Reading> read_measurement_file(const std::string& path, const Design& design) {
+  std::vector<Reading> readings = parse_measurements(read_text_file(path), path);
+  validate_readings(design, readings, path);
+  return readings;
+}
+
+void write_measurements_csv(std::ostream& out, const std::vector<Reading>& readings) {
+  bool time = false, sweep = false, repeat = false;
+  for (const Reading& r : readings) {
+    time = time || r.time_s.has_value();
+    sweep = sweep || r.sweep.has_value();
+    repeat = repeat || r.repeat.has_value();
+  }
+  out << "installation,angle_deg,reading_um";
+  if (time) out << ",time_s";
+  if (sweep) out << ",sweep";
+  if (repeat) out << ",repeat";
+  out << "\n";
+  for (const Reading& r : readings) {
+    out << r.installation << "," << std::setprecision(12) << r.angle_deg << "," << std::fixed
+        << std::setprecision(6) << r.reading_um << std::defaultfloat;
+    if (time) {
+      out << ",";
+      if (r.time_s) out << std::setprecision(12) << *r.time_s;
+    }
+    if (sweep) {
+      out << ",";
+      if (r.sweep) out << (*r.sweep == Sweep::CW ? "cw" : "ccw");
+    }
+    if (repeat) {
+      out << ",";
+      if (r.repeat) out << *r.repeat;
+    }
+    out << "\n";
+  }
+}
+
+}  // namespace dbbkit::io

@@ -1,0 +1,158 @@
+#include "dbbkit/io/result_io.hpp"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/kinematics.hpp"
+#include "dbbkit/linear_model.hpp"
+
+namespace dbbkit::io {
+
+using nlohmann::json;
+
+namespace {
+
+// Values are written to 1e-6 of their unit (pm, prad): far below any uncertainty.
+double r6(double x) { return std::round(x * 1e6) / 1e6; }
+
+const char* kConditionScaling =
+    "singular values of Sigma^-1/2 J S, S scaling every column to unit Euclidean norm";
+
+json optional_number(const std::optional<double>& x) { return x ? json(*x) : json(nullptr); }
+
+}  // namespace
+
+json residual_to_json(const Estimate& est) {
+  return {{"rms_um", r6(est.rms_um)},
+          {"chi2", est.chi2},
+          {"dof", est.dof},
+          {"p_value", optional_number(est.p_value)}};
+}
+
+json identify_to_json(const Design& design, const std::vector<Reading>& readings, const IdentifyResult& result,
+                      const InputFiles& inputs) {
+  const Estimate& est = result.estimate;
+  json j;
+  j["format"] = "dbbkit.identify/1";
+  j["dbbkit_version"] = DBBKIT_VERSION;
+  j["inputs"] = {{"design", inputs.design}, {"data", inputs.data}};
+  j["design"] = {{"name", design.name}, {"axis", axis_name(design.axis)}, {"errors_model", design.errors.describe()}};
+  if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
+  j["noise"] = noise_to_json(design.noise);
+  j["noise"]["sigma_um"] = design.noise.sigma_um();
+  j["uncertainty"] =
+      "standard uncertainties (k = 1) from the declared instrument noise (Type B), "
+      "propagated by weighted least squares";
+  j["status"] = status_name(est.status);
+  j["message"] = est.message;
+  j["n_readings"] = est.n_readings;
+  j["n_unknowns"] = est.n_unknowns;
+  j["rank"] = est.rank;
+  j["condition_number"] = optional_number(est.condition_number);
+  j["condition_scaling"] = kConditionScaling;
+
+  json errors = json::array();
+  for (const ErrorsAtAngle& ea : result.errors) {
+    json value, std;
+    for (int k = 0; k < 6; ++k) {
+      const Determined& d = ea.errors[k];
+      value[kErrorNames[k]] = d.determined ? json(r6(d.value)) : json(nullptr);
+      std[kErrorNames[k]] = d.determined ? json(r6(d.std)) : json(nullptr);
+    }
+    errors.push_back({{"angle_deg", ea.angle_deg}, {"value", value}, {"std", std}});
+  }
+  j["errors"] = errors;
+  j["units"] = {{"dx", "um"}, {"dy", "um"}, {"dz", "um"}, {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
+
+  json unid = json::array();
+  for (const Unidentifiable& u : result.unidentifiable) {
+    json coeffs = json::object();
+    for (const auto& [name, c] : u.terms) coeffs[name] = r6(c);
+    json entry = {{"combination", coeffs}, {"expression", u.expression}};
+    if (u.angle_deg) entry["angle_deg"] = *u.angle_deg;
+    if (!u.interpretation.empty()) entry["interpretation"] = u.interpretation;
+    unid.push_back(entry);
+  }
+  j["unidentifiable"] = unid;
+  j["residual"] = residual_to_json(est);
+
+  if (design.errors.kind != ErrorModel::Kind::PerAngle) {
+    const Parameterisation param(design);
+    json params = json::array();
+    for (int p = 0; p < param.n_parameters(); ++p) {
+      Eigen::VectorXd c = Eigen::VectorXd::Zero(param.n_parameters());
+      c(p) = 1.0;
+      const Determined d = est.evaluate(c);
+      params.push_back({{"name", param.parameter_name(p)},
+                        {"unit", kErrorUnits[param.parameter_error(p)]},
+                        {"value", d.determined ? json(r6(d.value)) : json(nullptr)},
+                        {"std", d.determined ? json(r6(d.std)) : json(nullptr)}});
+    }
+    j["parameters"] = params;
+  }
+
+  json rows = json::array();
+  for (size_t i = 0; i < readings.size() && i < static_cast<size_t>(est.residual_um.size()); ++i) {
+    const Reading& r = readings[i];
+    rows.push_back({{"installation", r.installation},
+                    {"angle_deg", r.angle_deg},
+                    {"reading_um", r6(r.reading_um)},
+                    {"fitted_um", r6(r.reading_um - est.residual_um(i))},
+                    {"residual_um", r6(est.residual_um(i))}});
+  }
+  j["readings"] = rows;
+  return j;
+}
+
+std::string identify_summary(const Design& design, const IdentifyResult& result) {
+  const Estimate& est = result.estimate;
+  std::ostringstream s;
+  s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis " << axis_name(design.axis)
+    << "  errors " << design.errors.describe() << "\n";
+  s << "noise: " << design.noise.describe() << "\n";
+  s << est.message << "\n";
+  if (est.condition_number) {
+    s << "condition number " << std::setprecision(4) << *est.condition_number << " (" << kConditionScaling << ")\n";
+  }
+  s << "residual: rms " << std::setprecision(4) << est.rms_um << " um, chi2 " << est.chi2 << " on " << est.dof
+    << " dof";
+  if (est.p_value) {
+    s << ", p = " << std::setprecision(3) << *est.p_value;
+  } else {
+    s << ", p undefined (no redundant reading)";
+  }
+  s << "\n\nvalue +- standard uncertainty (k = 1); '--' = not determined by the data\n";
+  s << std::setw(9) << "angle_deg";
+  for (int k = 0; k < 6; ++k) {
+    s << std::setw(20) << (std::string(kErrorNames[k]) + " [" + kErrorUnits[k] + "]");
+  }
+  s << "\n";
+  for (const ErrorsAtAngle& ea : result.errors) {
+    s << std::setw(9) << std::setprecision(6) << ea.angle_deg;
+    for (int k = 0; k < 6; ++k) {
+      std::ostringstream cell;
+      if (ea.errors[k].determined) {
+        cell << std::fixed << std::setprecision(2) << ea.errors[k].value << " +- " << ea.errors[k].std;
+      } else {
+        cell << "--";
+      }
+      s << std::setw(20) << cell.str();
+    }
+    s << "\n";
+  }
+  if (!result.unidentifiable.empty()) {
+    s << "\nnot determined by the data (" << result.unidentifiable.size() << " combination(s)):\n";
+    for (const Unidentifiable& u : result.unidentifiable) {
+      s << "  ";
+      if (u.angle_deg) s << "at " << *u.angle_deg << " deg: ";
+      s << u.expression;
+      if (!u.interpretation.empty()) s << "\n      = " << u.interpretation;
+      s << "\n";
+    }
+  }
+  return s.str();
+}
+
+}  // namespace dbbkit::io

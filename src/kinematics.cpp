@@ -1,0 +1,88 @@
+#include "dbbkit/kinematics.hpp"
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+namespace dbbkit {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+double rad(double deg) { return deg * kPi / 180.0; }
+}  // namespace
+
+void sincos_deg(double angle_deg, double& s, double& c) {
+  double a = std::fmod(angle_deg, 360.0);
+  if (a < 0) a += 360.0;
+  const int quadrant = static_cast<int>(std::lround(a / 90.0)) % 4;
+  const double r = rad(a - 90.0 * std::lround(a / 90.0));  // |r| <= 45 deg
+  const double sr = std::sin(r), cr = std::cos(r);
+  switch (quadrant) {
+    case 0:
+      s = sr, c = cr;
+      break;
+    case 1:
+      s = cr, c = -sr;
+      break;
+    case 2:
+      s = -sr, c = -cr;
+      break;
+    default:
+      s = -cr, c = sr;
+      break;
+  }
+}
+
+Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg) {
+  double s, c;
+  sincos_deg(angle_deg, s, c);
+  Eigen::Matrix3d R;
+  if (axis == Axis::C) {
+    R << c, -s, 0, s, c, 0, 0, 0, 1;
+  } else {
+    R << c, 0, s, 0, 1, 0, -s, 0, c;
+  }
+  return R;
+}
+
+Eigen::Vector3d ball_body_mm(Axis axis, const Installation& inst) {
+  if (axis == Axis::C) return {inst.L_mm, inst.D_mm, inst.H_mm};
+  return {0.0, inst.D_mm, inst.L_mm};
+}
+
+Eigen::Vector3d ball_position_mm(Axis axis, const Installation& inst, double angle_deg) {
+  return axis_rotation(axis, angle_deg) * ball_body_mm(axis, inst);
+}
+
+Eigen::Vector3d direction_machine(Axis axis, const Installation& inst, double angle_deg) {
+  return axis_rotation(axis, angle_deg) * inst.direction.body;
+}
+
+Eigen::Vector3d displacement_um(const Vector6d& e6, const Eigen::Vector3d& P_mm) {
+  return 1e-3 * e6.tail<3>().cross(P_mm) + e6.head<3>();
+}
+
+RowVector6d J_reading_error(Axis axis, const Installation& inst, double angle_deg) {
+  const Eigen::Matrix3d R = axis_rotation(axis, angle_deg);
+  const Eigen::Vector3d P = R * ball_body_mm(axis, inst);
+  const Eigen::Vector3d u = R * inst.direction.body;
+  RowVector6d row;
+  // u.(e x P) = e.(P x u)
+  row.head<3>() = inst.sign * u.transpose();
+  row.tail<3>() = 1e-3 * inst.sign * P.cross(u).transpose();
+  return row;
+}
+
+double exact_reading_um(Axis axis, const Installation& inst, double angle_deg, const Vector6d& e6,
+                        double bar_mm) {
+  const Eigen::Vector3d P = ball_position_mm(axis, inst, angle_deg);
+  const Eigen::Vector3d u = direction_machine(axis, inst, angle_deg);
+  const Eigen::Vector3d F = P - inst.sign * bar_mm * u;
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(1e-6 * e6(3), Eigen::Vector3d::UnitX()) *
+                             Eigen::AngleAxisd(1e-6 * e6(4), Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(1e-6 * e6(5), Eigen::Vector3d::UnitZ()))
+                                .toRotationMatrix();
+  const Eigen::Vector3d P_actual = R * P + 1e-3 * e6.head<3>();
+  return 1e3 * ((P_actual - F).norm() - (P - F).norm());
+}
+
+}  // namespace dbbkit

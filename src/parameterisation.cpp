@@ -1,0 +1,134 @@
+#include "dbbkit/parameterisation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+bool same_position(Axis axis, double a_deg, double b_deg) {
+  double diff = std::abs(a_deg - b_deg);
+  if (axis == Axis::C) {
+    diff = std::fmod(diff, 360.0);
+    diff = std::min(diff, 360.0 - diff);
+  }
+  return diff < kAngleTolerance_deg;
+}
+
+std::string format_angle(double a) {
+  std::ostringstream s;
+  s << a;
+  return s.str();
+}
+}  // namespace
+
+Parameterisation::Parameterisation(const Design& design) : axis_(design.axis), model_(design.errors) {
+  for (double a : design.angles_deg) {
+    if (station_of(a) < 0) station_deg_.push_back(a);
+  }
+  lo_deg_ = *std::min_element(design.angles_deg.begin(), design.angles_deg.end());
+  hi_deg_ = *std::max_element(design.angles_deg.begin(), design.angles_deg.end());
+  switch (model_.kind) {
+    case ErrorModel::Kind::PerAngle:
+      per_error_ = 1;
+      n_parameters_ = 6 * n_stations();
+      break;
+    case ErrorModel::Kind::Fourier:
+      per_error_ = 2 * model_.order + 1;
+      n_parameters_ = 6 * per_error_;
+      break;
+    case ErrorModel::Kind::Legendre:
+      per_error_ = model_.order + 1;
+      n_parameters_ = 6 * per_error_;
+      break;
+  }
+}
+
+int Parameterisation::station_of(double angle_deg) const {
+  for (size_t s = 0; s < station_deg_.size(); ++s) {
+    if (same_position(axis_, station_deg_[s], angle_deg)) return static_cast<int>(s);
+  }
+  return -1;
+}
+
+Eigen::VectorXd fourier_basis(int order, double angle_deg) {
+  Eigen::VectorXd f(2 * order + 1);
+  f(0) = 1.0;
+  for (int k = 1; k <= order; ++k) sincos_deg(k * angle_deg, f(2 * k), f(2 * k - 1));
+  return f;
+}
+
+Eigen::VectorXd legendre_basis(int order, double x) {
+  Eigen::VectorXd f(order + 1);
+  f(0) = 1.0;
+  if (order > 0) f(1) = x;
+  // Bonnet: (k+1) P_{k+1} = (2k+1) x P_k - k P_{k-1}
+  for (int k = 1; k < order; ++k) f(k + 1) = ((2.0 * k + 1.0) * x * f(k) - k * f(k - 1)) / (k + 1.0);
+  return f;
+}
+
+Eigen::VectorXd Parameterisation::series_basis(double angle_deg) const {
+  switch (model_.kind) {
+    case ErrorModel::Kind::Fourier:
+      return fourier_basis(model_.order, angle_deg);
+    case ErrorModel::Kind::Legendre:
+      return legendre_basis(model_.order, hi_deg_ > lo_deg_
+                                              ? 2.0 * (angle_deg - lo_deg_) / (hi_deg_ - lo_deg_) - 1.0
+                                              : 0.0);
+    case ErrorModel::Kind::PerAngle:
+      break;
+  }
+  return Eigen::VectorXd::Ones(1);
+}
+
+Eigen::MatrixXd Parameterisation::error_map(int station) const {
+  if (model_.kind == ErrorModel::Kind::PerAngle) {
+    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(6, n_parameters_);
+    E.middleCols(6 * station, 6).setIdentity();
+    return E;
+  }
+  return error_map_at_angle(station_deg_[station]);
+}
+
+Eigen::MatrixXd Parameterisation::error_map_at_angle(double angle_deg) const {
+  if (model_.kind == ErrorModel::Kind::PerAngle) {
+    const int s = station_of(angle_deg);
+    if (s < 0) {
+      throw InputError("parameterisation", "angle " + format_angle(angle_deg),
+                       "a per-angle model has no errors between its measured positions");
+    }
+    return error_map(s);
+  }
+  const Eigen::VectorXd f = series_basis(angle_deg);
+  Eigen::MatrixXd E = Eigen::MatrixXd::Zero(6, n_parameters_);
+  for (int k = 0; k < 6; ++k) E.block(k, k * per_error_, 1, per_error_) = f.transpose();
+  return E;
+}
+
+int Parameterisation::parameter_error(int j) const {
+  return model_.kind == ErrorModel::Kind::PerAngle ? j % 6 : j / per_error_;
+}
+
+int Parameterisation::parameter_station(int j) const {
+  return model_.kind == ErrorModel::Kind::PerAngle ? j / 6 : -1;
+}
+
+std::string Parameterisation::parameter_name(int j) const {
+  const std::string error = kErrorNames[parameter_error(j)];
+  if (model_.kind == ErrorModel::Kind::PerAngle) {
+    return error + "@" + format_angle(station_deg_[parameter_station(j)]);
+  }
+  const int c = j % per_error_;
+  if (model_.kind == ErrorModel::Kind::Fourier) {
+    if (c == 0) return error + ".c0";
+    return error + ((c % 2) ? ".cos" : ".sin") + std::to_string((c + 1) / 2);
+  }
+  return error + ".P" + std::to_string(c);
+}
+
+}  // namespace dbbkit

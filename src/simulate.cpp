@@ -1,0 +1,104 @@
+#include "dbbkit/simulate.hpp"
+
+#include <cmath>
+#include <random>
+#include <sstream>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/parameterisation.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+bool same_position(Axis axis, double a, double b) {
+  double diff = std::abs(a - b);
+  if (axis == Axis::C) {
+    diff = std::fmod(diff, 360.0);
+    diff = std::min(diff, 360.0 - diff);
+  }
+  return diff < kAngleTolerance_deg;
+}
+
+int coefficients_per_error(const ErrorModel& m) {
+  return m.kind == ErrorModel::Kind::Fourier ? 2 * m.order + 1 : m.order + 1;
+}
+
+}  // namespace
+
+Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std::string& source) {
+  if (truth.model.kind == ErrorModel::Kind::PerAngle) {
+    for (const auto& [a, e] : truth.per_angle) {
+      if (same_position(axis, a, angle_deg)) return e;
+    }
+    std::ostringstream s;
+    s << "no errors given at angle " << angle_deg << " deg, a position of the design";
+    throw InputError(source, "errors.values", s.str());
+  }
+  Eigen::VectorXd f;
+  if (truth.model.kind == ErrorModel::Kind::Fourier) {
+    f = fourier_basis(truth.model.order, angle_deg);
+  } else {
+    const auto [lo, hi] = *truth.range_deg;
+    f = legendre_basis(truth.model.order, 2.0 * (angle_deg - lo) / (hi - lo) - 1.0);
+  }
+  Vector6d e;
+  for (int k = 0; k < 6; ++k) {
+    e(k) = f.dot(Eigen::Map<const Eigen::VectorXd>(truth.coefficients[k].data(), f.size()));
+  }
+  return e;
+}
+
+void validate_truth(const Truth& truth, const Design& design, const std::string& source) {
+  if (truth.repeats < 1) throw InputError(source, "repeats", "must be an integer >= 1");
+  if (truth.model.kind == ErrorModel::Kind::PerAngle) {
+    for (double a : design.angles_deg) truth_errors(truth, design.axis, a, source);
+    return;
+  }
+  if (truth.model.kind == ErrorModel::Kind::Fourier && design.axis != Axis::C) {
+    throw InputError(source, "errors.model", "a Fourier truth is for the full-turn axis C");
+  }
+  if (truth.model.kind == ErrorModel::Kind::Legendre) {
+    if (!truth.range_deg || !(truth.range_deg->second > truth.range_deg->first)) {
+      throw InputError(source, "errors.range_deg", "a Legendre truth needs its range [min, max] with max > min");
+    }
+  }
+  const size_t m = static_cast<size_t>(coefficients_per_error(truth.model));
+  for (int k = 0; k < 6; ++k) {
+    if (truth.coefficients[k].size() != m) {
+      throw InputError(source, std::string("errors.coefficients.") + kErrorNames[k],
+                       "expected " + std::to_string(m) + " coefficients for " + truth.model.describe() +
+                           ", got " + std::to_string(truth.coefficients[k].size()));
+    }
+  }
+}
+
+std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uint64_t seed) {
+  validate_truth(truth, design);
+  std::mt19937_64 rng(seed);
+  const NoiseModel noise = truth.noise.value_or(design.noise);
+  std::uniform_real_distribution<double> uniform(-noise.half_width_um, noise.half_width_um);
+  std::normal_distribution<double> normal(0.0, noise.std_um);
+  auto draw = [&]() -> double {
+    if (truth.noiseless) return 0.0;
+    return noise.distribution == NoiseModel::Distribution::Uniform ? uniform(rng) : normal(rng);
+  };
+
+  std::vector<Reading> out;
+  for (const Installation& inst : design.installations) {
+    for (double a : design.angles_deg) {
+      const double clean = J_reading_error(design.axis, inst, a) * truth_errors(truth, design.axis, a);
+      for (int r = 0; r < truth.repeats; ++r) {
+        Reading reading;
+        reading.installation = inst.id;
+        reading.angle_deg = a;
+        reading.reading_um = clean + draw();
+        if (truth.repeats > 1) reading.repeat = r;
+        out.push_back(reading);
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace dbbkit

@@ -1,0 +1,3 @@
+#include <gtest/gtest.h>
+#include "dbbkit/kinematics.hpp"
+TEST(Kinematics, Placeholder) {}
