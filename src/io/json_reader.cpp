@@ -1,5 +1,6 @@
 #include "dbbkit/io/json_reader.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -43,6 +44,22 @@ std::string type_name(const json& v) {
   if (v.is_boolean()) return "true/false";
   if (v.is_null()) return "null";
   return "a value of another type";
+}
+
+// Levenshtein distance, for pointing at a misspelt key.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
 }
 
 }  // namespace
@@ -96,7 +113,14 @@ void ObjectReader::fail(const std::string& key, const std::string& what) const {
 bool ObjectReader::has(const std::string& key) const { return value_.contains(key); }
 
 const json& ObjectReader::required(const std::string& key) {
-  if (!value_.contains(key)) fail(key, "required key is missing");
+  if (!value_.contains(key)) {
+    for (auto it = value_.begin(); it != value_.end(); ++it) {
+      if (edit_distance(it.key(), key) <= 2) {
+        fail(key, "required key is missing (is '" + it.key() + "' a misspelling of it?)");
+      }
+    }
+    fail(key, "required key is missing");
+  }
   used_.insert(key);
   return value_.at(key);
 }

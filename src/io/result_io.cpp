@@ -118,7 +118,9 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
   }
   s << "residual: rms " << std::setprecision(4) << est.rms_um << " um, chi2 " << est.chi2 << " on " << est.dof
     << " dof";
-  if (est.p_value) {
+  if (est.p_value && *est.p_value < 1e-300) {
+    s << ", p < 1e-300";
+  } else if (est.p_value) {
     s << ", p = " << std::setprecision(3) << *est.p_value;
   } else {
     s << ", p undefined (no redundant reading)";

@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Installs what is missing, builds everything and runs the whole test suite.
+set -euo pipefail
+cd "$(dirname "$0")"
+./setup.sh
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DDBBKIT_BUILD_TESTS=ON >/dev/null
+cmake --build build -j "$(nproc)"
+ctest --test-dir build --output-on-failure -j "$(nproc)"

@@ -1,0 +1,206 @@
+// The command line as a user meets it: exit statuses and messages for bad input,
+// and the identify / simulate round trip through files.
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace {
+
+struct CliRun {
+  int status = -1;
+  std::string out, err;
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+CliRun run_cli(const std::string& args) {
+  const auto dir = std::filesystem::temp_directory_path();
+  const std::string out = (dir / ("dbbkit_cli_out_" + std::to_string(::getpid()))).string();
+  const std::string err = out + ".err";
+  const std::string cmd = std::string(DBBKIT_CLI) + " " + args + " > " + out + " 2> " + err;
+  const int raw = std::system(cmd.c_str());
+  CliRun r;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  std::filesystem::remove(out);
+  std::filesystem::remove(err);
+  return r;
+}
+
+std::string bad(const std::string& name) { return test::source_path("tests/data/bad/" + name); }
+const std::string kDesignC = test::source_path("designs/paper-c-turntable.json");
+const std::string kDesignB = test::source_path("designs/paper-b-head.json");
+const std::string kDataC = test::source_path("tests/data/paper/paper_c_turntable.csv");
+
+struct BadCase {
+  std::string file;    // the broken file, under tests/data/bad
+  std::string args;    // the command line, with {} for the broken file
+  std::string where;   // the line or key the message must name
+  std::string detail;  // what it must say is wrong
+};
+
+void PrintTo(const BadCase& c, std::ostream* os) { *os << c.file; }
+
+class BadInput : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(BadInput, ExitsTwoNamingFileAndPlace) {
+  const BadCase& c = GetParam();
+  std::string args = c.args;
+  args.replace(args.find("{}"), 2, bad(c.file));
+  const CliRun r = run_cli(args);
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find(c.file), std::string::npos) << "file not named: " << r.err;
+  EXPECT_NE(r.err.find(c.where), std::string::npos) << "place '" << c.where << "' not named: " << r.err;
+  EXPECT_NE(r.err.find(c.detail), std::string::npos) << "'" << c.detail << "' not said: " << r.err;
+  EXPECT_TRUE(r.out.empty()) << "a failed run must write no result: " << r.out;
+}
+
+const std::string kIdentifyDesign = "identify --data " + kDataC + " --design {}";
+const std::string kIdentifyDesignB = "identify --data " + test::source_path("tests/data/paper/paper_b_head.csv") + " --design {}";
+const std::string kIdentifyDataC = "identify --design " + kDesignC + " --data {}";
+const std::string kIdentifyDataB = "identify --design " + kDesignB + " --data {}";
+const std::string kSimulateC = "simulate --design " + kDesignC + " --truth {}";
+
+INSTANTIATE_TEST_SUITE_P(
+    Catalogue, BadInput,
+    ::testing::Values(
+        BadCase{"design_missing_axis.json", kIdentifyDesign, "axis", "required key is missing"},
+        BadCase{"design_unknown_key.json", kIdentifyDesign, "angles_deg", "is 'anlges_deg' a misspelling"},
+        BadCase{"design_direction_typo.json", kIdentifyDesign, "installations[1].direction", "unknown direction 'tangental'"},
+        BadCase{"design_duplicate_id.json", kIdentifyDesign, "installations[2].id", "duplicate installation id '1r'"},
+        BadCase{"design_wrong_format.json", kIdentifyDesign, "format", "dbbkit.design/1"},
+        BadCase{"design_text_number.json", kIdentifyDesign, "installations[0].ball_mm.L", "expected a number, found a string"},
+        BadCase{"design_b_angle_out_of_range.json", kIdentifyDesignB, "angles_deg[0]", "outside [-180, 180]"},
+        BadCase{"design_step_zero.json", kIdentifyDesign, "angles_deg.step", "must not be 0"},
+        BadCase{"design_grid_not_whole.json", kIdentifyDesign, "angles_deg.stop", "not start + k * step"},
+        BadCase{"design_not_unit_vector.json", kIdentifyDesign, "installations[3].direction", "unit vector"},
+        BadCase{"design_b_with_h.json", kIdentifyDesignB, "installations[0].ball_mm.H", "not used for the swinging head"},
+        BadCase{"design_negative_noise.json", kIdentifyDesign, "noise.accuracy_um", "positive"},
+        BadCase{"design_fourier_on_b.json", kIdentifyDesignB, "errors.model", "full-turn axis C"},
+        BadCase{"design_bad_sign.json", kIdentifyDesign, "installations[0].sign", "+1 or -1"},
+        BadCase{"design_ball_unknown_key.json", kIdentifyDesign, "installations[4].ball_mm.Hh", "unknown key"},
+        BadCase{"design_normal_with_accuracy.json", kIdentifyDesign, "noise.accuracy_um", "std_um"},
+        BadCase{"design_no_installations.json", kIdentifyDesign, "installations", "no installations"},
+        BadCase{"design_per_angle_order.json", kIdentifyDesign, "errors.order", "no order"},
+        BadCase{"design_syntax_error.json", kIdentifyDesign, "line 3", "not valid JSON"},
+        BadCase{"design_nan.json", kIdentifyDesign, "line 11", "not valid JSON"},
+        BadCase{"design_duplicate_key.json", kIdentifyDesign, "key 'axis'", "appears twice"},
+        BadCase{"design_empty.json", kIdentifyDesign, "", "the file is empty"},
+        BadCase{"data_empty.csv", kIdentifyDataC, "", "the file is empty"},
+        BadCase{"data_unknown_installation.csv", kIdentifyDataC, "line 3", "installation '4r' is not in the design"},
+        BadCase{"data_nan.csv", kIdentifyDataC, "line 2, column reading_mm", "not a finite number"},
+        BadCase{"data_text_in_number.csv", kIdentifyDataC, "line 4, column reading_mm", "'abc' is not a number"},
+        BadCase{"data_missing_column.csv", kIdentifyDataC, "line 1", "required column 'angle_deg'"},
+        BadCase{"data_unknown_column.csv", kIdentifyDataC, "line 1", "unknown column 'reading_mn'"},
+        BadCase{"data_angle_not_in_design.csv", kIdentifyDataC, "line 2", "angle 25 deg is not a position of the design"},
+        BadCase{"data_b_angle_out_of_range.csv", kIdentifyDataB, "line 3", "outside its range -100 .. 0 deg"},
+        BadCase{"data_field_count.csv", kIdentifyDataC, "line 3", "expected 3 fields, found 2"},
+        BadCase{"data_both_units.csv", kIdentifyDataC, "line 1", "both reading_mm and reading_um"},
+        BadCase{"data_bad_sweep.csv", kIdentifyDataC, "line 3, column sweep", "'clockwise' is not a sweep"},
+        BadCase{"data_header_only.csv", kIdentifyDataC, "", "no readings"},
+        BadCase{"data_unit_mixup.csv", kIdentifyDataC, "line 3", "is the column's unit right?"},
+        BadCase{"data_negative_time.csv", kIdentifyDataC, "line 3", "time_s"},
+        BadCase{"data_repeat_not_integer.csv", kIdentifyDataC, "line 3, column repeat", "not an integer"},
+        BadCase{"data_empty_id.csv", kIdentifyDataC, "line 3, column installation", "empty installation id"},
+        BadCase{"data_quoted.csv", kIdentifyDataC, "line 2", "quoted fields"},
+        BadCase{"data_duplicate_column.csv", kIdentifyDataC, "line 1", "column 'angle_deg' appears twice"},
+        BadCase{"truth_missing_angle.json", kSimulateC, "errors.values", "no errors given at angle 340"},
+        BadCase{"truth_wrong_coefficient_count.json", kSimulateC, "errors.coefficients.dz", "expected 3 coefficients"},
+        BadCase{"truth_unknown_key.json", kSimulateC, "noize", "unknown key"},
+        BadCase{"truth_no_seed.json", kSimulateC, "seed", "give --seed"}),
+    [](const auto& info) {
+      std::string name = info.param.file;
+      for (char& ch : name) {
+        if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+      }
+      return name;
+    });
+
+TEST(Cli, MissingFileAndMissingOptionExitTwo) {
+  CliRun r = run_cli("identify --design /nonexistent/d.json --data " + kDataC);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("/nonexistent/d.json: cannot open"), std::string::npos) << r.err;
+  r = run_cli("identify --design " + kDesignC);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--data"), std::string::npos) << r.err;
+  r = run_cli("no-such-command");
+  EXPECT_EQ(r.status, 2);
+}
+
+TEST(Cli, OutputOverAnInputIsRefused) {
+  const std::string copy = (std::filesystem::temp_directory_path() / "dbbkit_cli_copy.csv").string();
+  std::filesystem::copy_file(kDataC, copy, std::filesystem::copy_options::overwrite_existing);
+  const CliRun r = run_cli("identify --design " + kDesignC + " --data " + copy + " --out " + copy);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("would overwrite the input"), std::string::npos) << r.err;
+  EXPECT_EQ(slurp(copy), slurp(kDataC));
+  std::filesystem::remove(copy);
+}
+
+TEST(Cli, IdentifyPaperBReportsNullsAndTheCombination) {
+  const CliRun r = run_cli("identify --design " + kDesignB + " --data " + test::source_path("tests/data/paper/paper_b_head.csv"));
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["format"], "dbbkit.identify/1");
+  EXPECT_EQ(j["rank"], 105);
+  EXPECT_EQ(j["n_unknowns"], 126);
+  ASSERT_EQ(j["errors"].size(), 21u);
+  for (const auto& e : j["errors"]) {
+    const double a = e["angle_deg"];
+    for (const char* k : {"dx", "dy", "dz", "ey"}) {
+      EXPECT_TRUE(e["value"][k].is_number()) << a << k;
+      EXPECT_TRUE(e["std"][k].is_number()) << a << k;
+    }
+    EXPECT_EQ(e["value"]["ex"].is_null(), a != 0.0) << a;
+    EXPECT_EQ(e["std"]["ex"].is_null(), a != 0.0) << a;
+    EXPECT_EQ(e["value"]["ez"].is_null(), a != -90.0) << a;
+  }
+  EXPECT_EQ(j["unidentifiable"].size(), 21u);
+  EXPECT_NE(j["unidentifiable"][0]["interpretation"].get<std::string>().find("tool axis"), std::string::npos);
+  for (const char* k : {"rms_um", "chi2", "dof", "p_value"}) EXPECT_TRUE(j["residual"].contains(k)) << k;
+}
+
+TEST(Cli, SimulateThenIdentifyRoundTrip) {
+  const auto dir = std::filesystem::temp_directory_path();
+  const std::string csv = (dir / "dbbkit_sim.csv").string();
+  const std::string result = (dir / "dbbkit_sim.json").string();
+  const std::string truth = test::source_path("tests/data/truth_c_per_angle.json");
+  CliRun r = run_cli("simulate --design " + kDesignC + " --truth " + truth + " --seed 9 --out " + csv);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string first = slurp(csv);
+  r = run_cli("simulate --design " + kDesignC + " --truth " + truth + " --seed 9");
+  EXPECT_EQ(r.out, first) << "the same seed must give the same readings";
+  r = run_cli("identify --design " + kDesignC + " --data " + csv + " --out " + result);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("full rank"), std::string::npos) << r.out;  // the summary table
+  const nlohmann::json j = nlohmann::json::parse(slurp(result));
+  // The truth is dx..ez = 1..6 at every angle.
+  for (const auto& e : j["errors"]) {
+    int k = 1;
+    for (const char* name : {"dx", "dy", "dz", "ex", "ey", "ez"}) {
+      const double v = e["value"][name], s = e["std"][name];
+      EXPECT_LE(std::abs(v - k), 5 * s) << e["angle_deg"] << name;
+      ++k;
+    }
+  }
+  std::filesystem::remove(csv);
+  std::filesystem::remove(result);
+}
+
+}  // namespace
+}  // namespace dbbkit

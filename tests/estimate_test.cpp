@@ -1,0 +1,113 @@
+#include "dbbkit/estimate.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <random>
+
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace {
+
+LinearModel model_of(const Eigen::MatrixXd& J, const Eigen::VectorXd& y, const Eigen::VectorXd& sigma) {
+  LinearModel m;
+  m.J = J;
+  m.y_um = y;
+  m.sigma_um = sigma;
+  return m;
+}
+
+// Full rank: the SVD route gives the textbook normal-equation results.
+TEST(Estimate, FullRankMatchesNormalEquations) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n01;
+  Eigen::MatrixXd J(12, 4);
+  for (int i = 0; i < J.size(); ++i) J.data()[i] = n01(rng);
+  J.col(2) *= 1e-3;  // badly scaled column: equilibration must not change the answer
+  Eigen::VectorXd y(12), sigma(12);
+  for (int i = 0; i < 12; ++i) y(i) = n01(rng), sigma(i) = 0.5 + 0.1 * i;
+  const Estimate est = estimate_wls(model_of(J, y, sigma));
+  ASSERT_EQ(est.status, EstimateStatus::kFullRank);
+  EXPECT_EQ(est.rank, 4);
+  EXPECT_EQ(est.dof, 8);
+  const Eigen::MatrixXd W = sigma.cwiseAbs2().cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd M = J.transpose() * W * J;
+  const Eigen::MatrixXd cov = M.inverse();
+  const Eigen::VectorXd theta = cov * J.transpose() * W * y;
+  EXPECT_TRUE(test::near(est.theta, theta, 1e-10, 1e-9));
+  EXPECT_TRUE(test::near(est.covariance, cov, 1e-10, 1e-9));
+  const Eigen::VectorXd r = y - J * theta;
+  EXPECT_NEAR(est.chi2, r.transpose() * W * r, 1e-10);
+  EXPECT_NEAR(est.rms_um, std::sqrt(r.squaredNorm() / 12), 1e-12);
+  const Determined d = est.evaluate(Eigen::Vector4d(1, 0, 2, 0));
+  ASSERT_TRUE(d.determined);
+  EXPECT_NEAR(d.std, std::sqrt(cov(0, 0) + 4 * cov(2, 2) + 4 * cov(0, 2)), 1e-10);
+}
+
+// chi2 with 2 degrees of freedom: P(chi2 >= x) = exp(-x/2) exactly.
+TEST(Estimate, PValueOfTwoDegreesOfFreedom) {
+  const Eigen::MatrixXd J = Eigen::MatrixXd::Ones(3, 1);
+  const Eigen::VectorXd y = Eigen::Vector3d(0, 1, 2), sigma = Eigen::Vector3d::Ones();
+  const Estimate est = estimate_wls(model_of(J, y, sigma));
+  EXPECT_NEAR(est.theta(0), 1.0, 1e-14);
+  EXPECT_NEAR(est.chi2, 2.0, 1e-12);
+  ASSERT_TRUE(est.p_value.has_value());
+  EXPECT_NEAR(*est.p_value, std::exp(-1.0), 1e-12);
+}
+
+TEST(Estimate, NoRedundancyHasNoPValue) {
+  const Estimate est = estimate_wls(model_of(Eigen::MatrixXd::Identity(2, 2), Eigen::Vector2d(1, 2), Eigen::Vector2d(1, 1)));
+  EXPECT_EQ(est.dof, 0);
+  EXPECT_FALSE(est.p_value.has_value());
+}
+
+// Two unknowns that always appear as a sum: each alone is undetermined, the sum is
+// determined with the right uncertainty, and the null direction is (1, -1)/sqrt(2).
+TEST(Estimate, RankLossIsReportedWithTheMissingCombination) {
+  Eigen::MatrixXd J(4, 3);
+  J << 1, 1, 0,  //
+      1, 1, 1,   //
+      2, 2, 0,   //
+      0, 0, 1;
+  const Eigen::VectorXd y = Eigen::Vector4d(3, 4, 6, 1), sigma = Eigen::Vector4d::Constant(0.5);
+  const Estimate est = estimate_wls(model_of(J, y, sigma));
+  ASSERT_EQ(est.status, EstimateStatus::kRankDeficient);
+  EXPECT_EQ(est.rank, 2);
+  EXPECT_FALSE(est.evaluate(Eigen::Vector3d(1, 0, 0)).determined);
+  EXPECT_FALSE(est.evaluate(Eigen::Vector3d(0, 1, 0)).determined);
+  const Determined sum = est.evaluate(Eigen::Vector3d(1, 1, 0));
+  ASSERT_TRUE(sum.determined);
+  // Reduced model y = a s + b t with columns (1,1,2,0) and (0,1,0,1).
+  Eigen::MatrixXd Jr(4, 2);
+  Jr << 1, 0, 1, 1, 2, 0, 0, 1;
+  const Eigen::MatrixXd cov = (Jr.transpose() * Jr / 0.25).inverse();
+  const Eigen::VectorXd theta = cov * Jr.transpose() * y / 0.25;
+  EXPECT_NEAR(sum.value, theta(0), 1e-12);
+  EXPECT_NEAR(sum.std, std::sqrt(cov(0, 0)), 1e-12);
+  const Eigen::MatrixXd N = est.null_directions();
+  ASSERT_EQ(N.cols(), 1);
+  EXPECT_TRUE(test::near(N.col(0), Eigen::Vector3d(1, -1, 0) / std::sqrt(2.0), 1e-12));
+}
+
+TEST(Estimate, NegligibleColumnIsNotInflatedIntoInformation) {
+  // Column 2 is 1e-17 times column 1 (a lever arm times cos(90 deg) in floating point):
+  // scaling it to unit norm would make it look like column 1 and hide column 1's value.
+  Eigen::MatrixXd J(3, 2);
+  J << 1, 1e-17, 2, 2e-17, 1, 1e-17;
+  const Estimate est = estimate_wls(model_of(J, Eigen::Vector3d(1, 2, 1), Eigen::Vector3d::Ones()));
+  EXPECT_EQ(est.rank, 1);
+  EXPECT_TRUE(est.evaluate(Eigen::Vector2d(1, 0)).determined);
+  EXPECT_FALSE(est.evaluate(Eigen::Vector2d(0, 1)).determined);
+}
+
+TEST(Estimate, NoReadingsGivesNoNumbers) {
+  const Estimate est = estimate_wls(model_of(Eigen::MatrixXd(0, 3), Eigen::VectorXd(0), Eigen::VectorXd(0)));
+  EXPECT_EQ(est.status, EstimateStatus::kNoReadings);
+  EXPECT_FALSE(est.evaluate(Eigen::Vector3d(1, 0, 0)).determined);
+  EXPECT_FALSE(est.p_value.has_value());
+}
+
+}  // namespace
+}  // namespace dbbkit

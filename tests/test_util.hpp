@@ -1,0 +1,46 @@
+#pragma once
+// Tolerance helpers and small fixtures shared by the tests.
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <cmath>
+#include <string>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/io/design_io.hpp"
+
+namespace dbbkit::test {
+
+// |a - b| <= abs_tol + rel_tol * max(|a|, |b|), elementwise.
+inline ::testing::AssertionResult near(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, double abs_tol,
+                                       double rel_tol = 0.0) {
+  if (a.rows() != b.rows() || a.cols() != b.cols()) {
+    return ::testing::AssertionFailure() << "shapes differ: " << a.rows() << "x" << a.cols() << " vs " << b.rows()
+                                         << "x" << b.cols();
+  }
+  for (Eigen::Index i = 0; i < a.rows(); ++i) {
+    for (Eigen::Index j = 0; j < a.cols(); ++j) {
+      const double tol = abs_tol + rel_tol * std::max(std::abs(a(i, j)), std::abs(b(i, j)));
+      if (!(std::abs(a(i, j) - b(i, j)) <= tol)) {
+        return ::testing::AssertionFailure() << "(" << i << "," << j << "): " << a(i, j) << " vs " << b(i, j)
+                                             << " differ by " << std::abs(a(i, j) - b(i, j)) << " > " << tol;
+      }
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+inline std::string source_path(const std::string& relative) { return std::string(DBBKIT_SOURCE_DIR) + "/" + relative; }
+
+inline Design paper_design(char axis) {
+  return io::read_design_file(source_path(axis == 'C' ? "designs/paper-c-turntable.json" : "designs/paper-b-head.json"));
+}
+
+// Two-sided binomial acceptance band: the number of successes in n trials of
+// probability p lies within p n +- z sqrt(n p (1 - p)).
+inline bool within_binomial(double successes, double n, double p, double z) {
+  return std::abs(successes - p * n) <= z * std::sqrt(n * p * (1 - p));
+}
+
+}  // namespace dbbkit::test
