@@ -18,22 +18,23 @@ const char* status_name(EstimateStatus status) {
   return "";
 }
 
-Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options) {
-  Estimate est;
-  const int n = static_cast<int>(model.J.rows());
-  const int p = static_cast<int>(model.J.cols());
+WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options)
+    : J_(J), sigma_(sigma_um) {
+  Estimate& est = prior_;
+  const int n = static_cast<int>(J.rows());
+  const int p = static_cast<int>(J.cols());
   est.n_readings = n;
   est.n_unknowns = p;
   est.estimable_tolerance = options.estimable_tolerance;
   if (n == 0) {
     est.status = EstimateStatus::kNoReadings;
     est.message = "no readings: nothing can be estimated";
-    return est;
+    gain_ = Eigen::MatrixXd::Zero(p, 0);
+    return;
   }
 
-  const Eigen::VectorXd w = model.sigma_um.cwiseInverse();
-  Eigen::MatrixXd Js = w.asDiagonal() * model.J;
-  const Eigen::VectorXd yw = w.cwiseProduct(model.y_um);
+  const Eigen::VectorXd w = sigma_um.cwiseInverse();
+  Eigen::MatrixXd Js = w.asDiagonal() * J;
   est.column_scale = Js.colwise().norm().transpose();
   // A column with |c_j| <= negligible_column * max_k |c_k| is rounding (e.g. a
   // lever arm times cos(90 deg) = 6e-17): scaling it to unit norm would turn
@@ -61,21 +62,14 @@ Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options) 
   const Eigen::MatrixXd V = svd.matrixV();
   const Eigen::MatrixXd Vr = V.leftCols(rank);
   const Eigen::VectorXd inv_s = est.singular_values.head(rank).cwiseInverse();
-  const Eigen::VectorXd theta_scaled = Vr * inv_s.asDiagonal() * (svd.matrixU().leftCols(rank).transpose() * yw);
-  const Eigen::MatrixXd cov_scaled = Vr * inv_s.cwiseAbs2().asDiagonal() * Vr.transpose();
   const Eigen::VectorXd unscale = est.column_scale.cwiseInverse();
-  est.theta = unscale.cwiseProduct(theta_scaled);
+  // theta = S Vr Sr^-1 Ur' W^1/2 y
+  gain_ = unscale.asDiagonal() * (Vr * inv_s.asDiagonal() * svd.matrixU().leftCols(rank).transpose()) *
+          w.asDiagonal();
+  const Eigen::MatrixXd cov_scaled = Vr * inv_s.cwiseAbs2().asDiagonal() * Vr.transpose();
   est.covariance = unscale.asDiagonal() * cov_scaled * unscale.asDiagonal();
   est.null_space_scaled = V.rightCols(p - rank);
-
-  est.residual_um = model.y_um - model.J * est.theta;
-  est.rms_um = std::sqrt(est.residual_um.squaredNorm() / n);
-  est.chi2 = est.residual_um.cwiseProduct(w).squaredNorm();
   est.dof = n - rank;
-  if (est.dof > 0) {
-    boost::math::chi_squared dist(est.dof);
-    est.p_value = boost::math::cdf(boost::math::complement(dist, est.chi2));
-  }
 
   if (rank == p) {
     est.status = EstimateStatus::kFullRank;
@@ -85,7 +79,25 @@ Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options) 
     est.message = "rank " + std::to_string(rank) + " of " + std::to_string(p) + ": " +
                   std::to_string(p - rank) + " combination(s) of the unknowns are not determined by the data";
   }
+}
+
+Estimate WlsSolver::solve(const Eigen::VectorXd& y_um) const {
+  Estimate est = prior_;
+  if (est.status == EstimateStatus::kNoReadings) return est;
+  const int n = est.n_readings;
+  est.theta = gain_ * y_um;
+  est.residual_um = y_um - J_ * est.theta;
+  est.rms_um = std::sqrt(est.residual_um.squaredNorm() / n);
+  est.chi2 = est.residual_um.cwiseQuotient(sigma_).squaredNorm();
+  if (est.dof > 0) {
+    boost::math::chi_squared dist(est.dof);
+    est.p_value = boost::math::cdf(boost::math::complement(dist, est.chi2));
+  }
   return est;
+}
+
+Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options) {
+  return WlsSolver(model.J, model.sigma_um, options).solve(model.y_um);
 }
 
 bool Estimate::determined(const Eigen::VectorXd& c) const {

@@ -70,6 +70,28 @@ struct Estimate {
   Eigen::MatrixXd null_directions() const;
 };
 
+// The factorisation of a design's Jacobian, done once and reused for any
+// number of reading vectors (Monte Carlo, coverage studies, a-priori evaluation).
+class WlsSolver {
+ public:
+  WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options = {});
+
+  // Everything that does not depend on the readings (theta and residual empty).
+  const Estimate& a_priori() const { return prior_; }
+  // theta_hat = gain() * y: the p x n map from readings to the minimum-norm estimate.
+  const Eigen::MatrixXd& gain() const { return gain_; }
+  const Eigen::MatrixXd& J() const { return J_; }
+  const Eigen::VectorXd& sigma_um() const { return sigma_; }
+
+  Estimate solve(const Eigen::VectorXd& y_um) const;
+
+ private:
+  Eigen::MatrixXd J_;
+  Eigen::VectorXd sigma_;
+  Estimate prior_;
+  Eigen::MatrixXd gain_;
+};
+
 Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options = {});
 
 }  // namespace dbbkit
