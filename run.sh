@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 ./setup.sh
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DDBBKIT_BUILD_TESTS=OFF >/dev/null
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j "$(nproc)" --target dbbkit_cli
 mkdir -p reports
 for axis in c-turntable b-head; do

@@ -12,5 +12,6 @@ using Runner = std::function<int()>;
 
 Runner add_identify(CLI::App& app);
 Runner add_simulate(CLI::App& app);
+Runner add_evaluate(CLI::App& app);
 
 }  // namespace dbbkit::cli

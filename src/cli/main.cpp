@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   };
   add(dbbkit::cli::add_identify);
   add(dbbkit::cli::add_simulate);
+  add(dbbkit::cli::add_evaluate);
 
   try {
     app.parse(argc, argv);

@@ -24,6 +24,39 @@ json optional_number(const std::optional<double>& x) { return x ? json(*x) : jso
 
 }  // namespace
 
+std::string errors_table(const std::vector<ErrorsAtAngle>& errors, bool values);
+std::string unidentifiable_text(const std::vector<Unidentifiable>& list);
+
+json errors_to_json(const std::vector<ErrorsAtAngle>& list, bool values) {
+  json errors = json::array();
+  for (const ErrorsAtAngle& ea : list) {
+    json value, std;
+    for (int k = 0; k < 6; ++k) {
+      const Determined& d = ea.errors[k];
+      value[kErrorNames[k]] = d.determined ? json(r6(d.value)) : json(nullptr);
+      std[kErrorNames[k]] = d.determined ? json(r6(d.std)) : json(nullptr);
+    }
+    json entry = {{"angle_deg", ea.angle_deg}};
+    if (values) entry["value"] = value;
+    entry["std"] = std;
+    errors.push_back(entry);
+  }
+  return errors;
+}
+
+json unidentifiable_to_json(const std::vector<Unidentifiable>& list) {
+  json unid = json::array();
+  for (const Unidentifiable& u : list) {
+    json coeffs = json::object();
+    for (const auto& [name, c] : u.terms) coeffs[name] = r6(c);
+    json entry = {{"combination", coeffs}, {"expression", u.expression}};
+    if (u.angle_deg) entry["angle_deg"] = *u.angle_deg;
+    if (!u.interpretation.empty()) entry["interpretation"] = u.interpretation;
+    unid.push_back(entry);
+  }
+  return unid;
+}
+
 json residual_to_json(const Estimate& est) {
   return {{"rms_um", r6(est.rms_um)},
           {"chi2", est.chi2},
@@ -53,29 +86,9 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
   j["condition_number"] = optional_number(est.condition_number);
   j["condition_scaling"] = kConditionScaling;
 
-  json errors = json::array();
-  for (const ErrorsAtAngle& ea : result.errors) {
-    json value, std;
-    for (int k = 0; k < 6; ++k) {
-      const Determined& d = ea.errors[k];
-      value[kErrorNames[k]] = d.determined ? json(r6(d.value)) : json(nullptr);
-      std[kErrorNames[k]] = d.determined ? json(r6(d.std)) : json(nullptr);
-    }
-    errors.push_back({{"angle_deg", ea.angle_deg}, {"value", value}, {"std", std}});
-  }
-  j["errors"] = errors;
+  j["errors"] = errors_to_json(result.errors, true);
   j["units"] = {{"dx", "um"}, {"dy", "um"}, {"dz", "um"}, {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
-
-  json unid = json::array();
-  for (const Unidentifiable& u : result.unidentifiable) {
-    json coeffs = json::object();
-    for (const auto& [name, c] : u.terms) coeffs[name] = r6(c);
-    json entry = {{"combination", coeffs}, {"expression", u.expression}};
-    if (u.angle_deg) entry["angle_deg"] = *u.angle_deg;
-    if (!u.interpretation.empty()) entry["interpretation"] = u.interpretation;
-    unid.push_back(entry);
-  }
-  j["unidentifiable"] = unid;
+  j["unidentifiable"] = unidentifiable_to_json(result.unidentifiable);
   j["residual"] = residual_to_json(est);
 
   if (design.errors.kind != ErrorModel::Kind::PerAngle) {
@@ -126,35 +139,123 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
     s << ", p undefined (no redundant reading)";
   }
   s << "\n\nvalue +- standard uncertainty (k = 1); '--' = not determined by the data\n";
+  s << errors_table(result.errors, true);
+  s << unidentifiable_text(result.unidentifiable);
+  return s.str();
+}
+
+std::string evaluate_summary(const Design& design, const Evaluation& ev) {
+  const Estimate& est = ev.prior;
+  std::ostringstream s;
+  s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis " << axis_name(design.axis)
+    << "  errors " << design.errors.describe() << "  " << est.n_readings << " readings\n";
+  s << "noise: " << design.noise.describe() << "\n";
+  s << est.message << "\n";
+  if (est.condition_number) {
+    s << "condition number " << std::setprecision(4) << *est.condition_number << " (" << kConditionScaling << ")\n";
+  }
+  const ObservabilityIndices& o = ev.indices;
+  s << std::setprecision(4) << "observability: O1 " << o.O1 << "  O2 " << o.O2 << "  O3 " << o.O3 << "  O4 " << o.O4
+    << "  O5 " << o.O5 << "\n";
+  const DesignCriteria& c = ev.criteria;
+  s << "criteria on J'WJ (um, urad): D = log det ";
+  if (c.D_logdet) s << *c.D_logdet; else s << "(singular)";
+  s << ", A = trace inv ";
+  if (c.A_trace) s << *c.A_trace; else s << "(singular)";
+  s << ", E = min eig " << c.E_min_eigenvalue << ", G = max leverage " << c.G_max_leverage << "\n";
+  const WorstCase& w = ev.worst;
+  s << "worst standard uncertainty (angular errors x " << ev.reference_length_mm << " mm): ";
+  if (w.worst_std_um) {
+    s << *w.worst_std_um << " um (" << kErrorNames[w.at_error] << " at " << w.at_angle_deg << " deg)\n";
+  } else {
+    s << "undefined: " << w.n_undetermined << " error value(s) not determined";
+    if (w.worst_determined_std_um) {
+      s << "; over the determined ones " << *w.worst_determined_std_um << " um (" << kErrorNames[w.at_error] << " at "
+        << w.at_angle_deg << " deg)";
+    }
+    s << "\n";
+  }
+  s << "\na-priori standard uncertainty (k = 1); '--' = not determined by the design\n";
+  s << errors_table(ev.errors, false);
+  s << unidentifiable_text(ev.unidentifiable);
+  return s.str();
+}
+
+std::string errors_table(const std::vector<ErrorsAtAngle>& errors, bool values) {
+  std::ostringstream s;
   s << std::setw(9) << "angle_deg";
   for (int k = 0; k < 6; ++k) {
     s << std::setw(20) << (std::string(kErrorNames[k]) + " [" + kErrorUnits[k] + "]");
   }
   s << "\n";
-  for (const ErrorsAtAngle& ea : result.errors) {
+  for (const ErrorsAtAngle& ea : errors) {
     s << std::setw(9) << std::setprecision(6) << ea.angle_deg;
     for (int k = 0; k < 6; ++k) {
       std::ostringstream cell;
-      if (ea.errors[k].determined) {
+      if (!ea.errors[k].determined) {
+        cell << "--";
+      } else if (values) {
         cell << std::fixed << std::setprecision(2) << ea.errors[k].value << " +- " << ea.errors[k].std;
       } else {
-        cell << "--";
+        cell << std::fixed << std::setprecision(3) << ea.errors[k].std;
       }
       s << std::setw(20) << cell.str();
     }
     s << "\n";
   }
-  if (!result.unidentifiable.empty()) {
-    s << "\nnot determined by the data (" << result.unidentifiable.size() << " combination(s)):\n";
-    for (const Unidentifiable& u : result.unidentifiable) {
-      s << "  ";
-      if (u.angle_deg) s << "at " << *u.angle_deg << " deg: ";
-      s << u.expression;
-      if (!u.interpretation.empty()) s << "\n      = " << u.interpretation;
-      s << "\n";
-    }
+  return s.str();
+}
+
+std::string unidentifiable_text(const std::vector<Unidentifiable>& list) {
+  std::ostringstream s;
+  if (list.empty()) return "";
+  s << "\nnot determined (" << list.size() << " combination(s)):\n";
+  for (const Unidentifiable& u : list) {
+    s << "  ";
+    if (u.angle_deg) s << "at " << *u.angle_deg << " deg: ";
+    s << u.expression;
+    if (!u.interpretation.empty()) s << "\n      = " << u.interpretation;
+    s << "\n";
   }
   return s.str();
+}
+
+json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file) {
+  const Estimate& est = ev.prior;
+  json j;
+  j["format"] = "dbbkit.evaluate/1";
+  j["dbbkit_version"] = DBBKIT_VERSION;
+  j["inputs"] = {{"design", design_file}};
+  j["design"] = {{"name", design.name}, {"axis", axis_name(design.axis)}, {"errors_model", design.errors.describe()}};
+  if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
+  j["noise"] = noise_to_json(design.noise);
+  j["noise"]["sigma_um"] = design.noise.sigma_um();
+  j["status"] = status_name(est.status);
+  j["message"] = est.message;
+  j["n_readings"] = est.n_readings;
+  j["n_unknowns"] = est.n_unknowns;
+  j["rank"] = est.rank;
+  j["condition_number"] = optional_number(est.condition_number);
+  j["condition_scaling"] = kConditionScaling;
+  j["singular_values"] = std::vector<double>(est.singular_values.data(), est.singular_values.data() + est.singular_values.size());
+  const ObservabilityIndices& o = ev.indices;
+  j["observability"] = {{"O1", o.O1}, {"O2", o.O2}, {"O3", o.O3}, {"O4", o.O4}, {"O5", o.O5},
+                        {"on", "singular values of the equilibrated whitened Jacobian"}};
+  const DesignCriteria& c = ev.criteria;
+  j["criteria"] = {{"D_logdet", optional_number(c.D_logdet)},
+                   {"A_trace", optional_number(c.A_trace)},
+                   {"E_min_eigenvalue", c.E_min_eigenvalue},
+                   {"G_max_leverage", c.G_max_leverage},
+                   {"on", "M = J' Sigma^-1 J in the units of theta (um, urad)"}};
+  j["reference_length_mm"] = ev.reference_length_mm;
+  const WorstCase& w = ev.worst;
+  j["worst_std_um"] = optional_number(w.worst_std_um);
+  j["worst_determined_std_um"] = optional_number(w.worst_determined_std_um);
+  j["n_undetermined"] = w.n_undetermined;
+  if (w.at_error >= 0) j["worst_at"] = {{"angle_deg", w.at_angle_deg}, {"error", kErrorNames[w.at_error]}};
+  j["errors"] = errors_to_json(ev.errors, false);
+  j["unidentifiable"] = unidentifiable_to_json(ev.unidentifiable);
+  return j;
 }
 
 }  // namespace dbbkit::io

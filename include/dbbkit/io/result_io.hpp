@@ -9,6 +9,7 @@
 #include "dbbkit/design.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/measurement.hpp"
+#include "dbbkit/observability.hpp"
 
 namespace dbbkit::io {
 
@@ -22,6 +23,15 @@ nlohmann::json identify_to_json(const Design& design, const std::vector<Reading>
 
 // The residual block {rms_um, chi2, dof, p_value}.
 nlohmann::json residual_to_json(const Estimate& est);
+
+// `dbbkit.evaluate/1`.
+nlohmann::json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file);
+std::string evaluate_summary(const Design& design, const Evaluation& ev);
+
+// The errors block (value and std per angle, null where not determined); with
+// values = false only the std is written (a-priori evaluation).
+nlohmann::json errors_to_json(const std::vector<ErrorsAtAngle>& errors, bool values);
+nlohmann::json unidentifiable_to_json(const std::vector<Unidentifiable>& list);
 
 // Aligned tables with units.
 std::string identify_summary(const Design& design, const IdentifyResult& result);

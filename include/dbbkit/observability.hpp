@@ -1,0 +1,67 @@
+#pragma once
+// What a design can tell before any reading is taken (model.md §7): rank,
+// singular values and condition number of the equilibrated Jacobian, the
+// observability indices O1..O5, the D/A/E/G criteria on M = J' Sigma^-1 J, the
+// a-priori standard uncertainty of every error at every angle and the worst case.
+
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/estimate.hpp"
+#include "dbbkit/identify.hpp"
+
+namespace dbbkit {
+
+// On the singular values s_1 >= ... >= s_p of Js = Sigma^-1/2 J S (S: unit-norm
+// columns), with p unknowns and n readings; a missing or sub-rank singular value counts as 0:
+//   O1 = (s_1 s_2 ... s_p)^(1/p) / sqrt(n)    Borm & Menq (1991)
+//   O2 = s_p / s_1                            Driels & Pathre (1990), inverse condition number
+//   O3 = s_p                                  Nahvi & Hollerbach (1996), minimum singular value
+//   O4 = s_p^2 / s_1                          Nahvi & Hollerbach (1996), noise amplification index
+//   O5 = 1 / (1/s_1 + ... + 1/s_p)            Sun & Hollerbach (2008)
+struct ObservabilityIndices {
+  double O1 = 0, O2 = 0, O3 = 0, O4 = 0, O5 = 0;
+};
+ObservabilityIndices observability_indices(const Eigen::VectorXd& singular_values, int rank, int n_unknowns,
+                                           int n_readings);
+
+// Criteria on M = J' Sigma^-1 J in the units of theta (um, urad: they mix units,
+// so compare them only between designs with the same parameterisation):
+//   D = log det M, A = trace M^-1 (absent when M is singular), E = smallest
+//   eigenvalue of M (0 when singular), G = largest leverage h_ii of a reading
+//   (diagonal of the hat matrix; rank / n on average).
+struct DesignCriteria {
+  std::optional<double> D_logdet;
+  std::optional<double> A_trace;
+  double E_min_eigenvalue = 0;
+  double G_max_leverage = 0;
+};
+DesignCriteria design_criteria(const WlsSolver& solver);
+
+// Largest standard uncertainty over all angles and all six errors, angular
+// errors converted to um at the reference length: u[um] = 1e-3 * L_ref[mm] * u[urad].
+struct WorstCase {
+  std::optional<double> worst_std_um;  // absent when any error at any angle is not determined
+  std::optional<double> worst_determined_std_um;  // over the determined ones
+  int n_undetermined = 0;
+  double at_angle_deg = 0;
+  int at_error = -1;  // 0..5
+};
+WorstCase worst_case(const std::vector<ErrorsAtAngle>& errors, double reference_length_mm);
+
+struct Evaluation {
+  Estimate prior;  // rank, singular values, condition number, covariance
+  ObservabilityIndices indices;
+  DesignCriteria criteria;
+  std::vector<ErrorsAtAngle> errors;  // std only (the value is not meaningful without data)
+  std::vector<Unidentifiable> unidentifiable;
+  WorstCase worst;
+  double reference_length_mm = 0;
+};
+
+// The design as it would be measured: one reading per installation and angle.
+Evaluation evaluate_design(const Design& design, double reference_length_mm, const EstimateOptions& options = {});
+
+}  // namespace dbbkit

@@ -1,0 +1,116 @@
+#include "dbbkit/observability.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// J = [1 0; 1 1; 0 1], sigma = 2 um. By hand:
+//   M = J'J / 4 = [2 1; 1 2] / 4: det = 3/16, trace M^-1 = 4 * 4/3 = 16/3, min eig = 1/4;
+//   hat diagonal of J (J'J)^-1 J' = 2/3 for every row.
+//   Columns of J/2 have norm sqrt(2)/2, so Js = J / sqrt(2): Js'Js = [2 1; 1 2]/2, singular values sqrt(3/2), sqrt(1/2).
+TEST(Observability, IndicesAndCriteriaAgainstHandValues) {
+  Eigen::MatrixXd J(3, 2);
+  J << 1, 0, 1, 1, 0, 1;
+  const WlsSolver solver(J, Eigen::Vector3d::Constant(2.0));
+  const Estimate& est = solver.a_priori();
+  const double s1 = std::sqrt(1.5), s2 = std::sqrt(0.5);
+  EXPECT_NEAR(est.singular_values(0), s1, 1e-14);
+  EXPECT_NEAR(est.singular_values(1), s2, 1e-14);
+  EXPECT_NEAR(*est.condition_number, std::sqrt(3.0), 1e-13);
+  const ObservabilityIndices o = observability_indices(est.singular_values, est.rank, 2, 3);
+  EXPECT_NEAR(o.O1, std::sqrt(s1 * s2) / std::sqrt(3.0), 1e-14);
+  EXPECT_NEAR(o.O2, 1 / std::sqrt(3.0), 1e-14);
+  EXPECT_NEAR(o.O3, s2, 1e-14);
+  EXPECT_NEAR(o.O4, 0.5 / s1, 1e-14);
+  EXPECT_NEAR(o.O5, 1 / (1 / s1 + 1 / s2), 1e-14);
+  const DesignCriteria c = design_criteria(solver);
+  ASSERT_TRUE(c.D_logdet && c.A_trace);
+  EXPECT_NEAR(*c.D_logdet, std::log(3.0 / 16.0), 1e-13);
+  EXPECT_NEAR(*c.A_trace, 16.0 / 3.0, 1e-13);
+  EXPECT_NEAR(c.E_min_eigenvalue, 0.25, 1e-13);
+  EXPECT_NEAR(c.G_max_leverage, 2.0 / 3.0, 1e-13);
+}
+
+TEST(Observability, RankLossZeroesIndicesAndHidesDA) {
+  Eigen::MatrixXd J(3, 2);
+  J << 1, 1, 2, 2, 3, 3;
+  const WlsSolver solver(J, Eigen::Vector3d::Ones());
+  const Estimate& est = solver.a_priori();
+  EXPECT_EQ(est.rank, 1);
+  const ObservabilityIndices o = observability_indices(est.singular_values, est.rank, 2, 3);
+  EXPECT_EQ(o.O1, 0.0);
+  EXPECT_EQ(o.O3, 0.0);
+  const DesignCriteria c = design_criteria(solver);
+  EXPECT_FALSE(c.D_logdet.has_value());
+  EXPECT_FALSE(c.A_trace.has_value());
+  EXPECT_EQ(c.E_min_eigenvalue, 0.0);
+}
+
+// Closed form for the paper's C design (model.md §3), per angle g, k = 1e-3 um/(urad mm):
+//   radial at (L, H):     a + k H et,            a = dx c + dy s,   et = -ex s + ey c
+//   tangential at (L, H): b - k H er + k L ez,   b = -dx s + dy c,  er = ex c + ey s
+//   axial at (0, H1):     dz
+// Radial readings do not depend on L: 1r and 2r repeat a + k H1 et, 3r gives a + k H3 et,
+// a straight-line fit in H with Sxx = (2/3) dH^2, so u(et) = sigma / (k dH sqrt(2/3)).
+// Tangential: t2 - t1 = k (L2 - L1) ez gives u(ez) = sqrt(2) sigma / (k dL) (the L1/L2 pair
+// alone), t3 - t1 = -k dH er gives u(er) = sqrt(2) sigma / (k dH). dz = the axial reading: u = sigma.
+// er and et come from disjoint readings, so u(ex)^2 = c^2 u(er)^2 + s^2 u(et)^2 and
+// u(ey)^2 = s^2 u(er)^2 + c^2 u(et)^2. At 0 deg the readings at 360 deg halve every variance.
+TEST(Observability, PaperTurntableMatchesClosedForm) {
+  const Design d = test::paper_design('C');
+  const Evaluation ev = evaluate_design(d, 100.0);
+  ASSERT_EQ(ev.prior.rank, 108);
+  const double sigma = 1.25 / std::sqrt(3.0), k = 1e-3;
+  const double dL = 200 - 100, dH = 160 - 60;
+  const double u_et = sigma / (k * dH * std::sqrt(2.0 / 3.0));
+  const double u_er = std::sqrt(2.0) * sigma / (k * dH);
+  const double u_ez = std::sqrt(2.0) * sigma / (k * dL);
+  ASSERT_EQ(ev.errors.size(), 18u);
+  for (const ErrorsAtAngle& ea : ev.errors) {
+    const double g = ea.angle_deg * kPi / 180, c = std::cos(g), s = std::sin(g);
+    const double repeat = ea.angle_deg == 0.0 ? std::sqrt(2.0) : 1.0;
+    EXPECT_NEAR(ea.errors[2].std, sigma / repeat, 1e-12) << "dz at " << ea.angle_deg;
+    EXPECT_NEAR(ea.errors[5].std, u_ez / repeat, 1e-9) << "ez at " << ea.angle_deg;
+    EXPECT_NEAR(ea.errors[3].std, std::sqrt(c * c * u_er * u_er + s * s * u_et * u_et) / repeat, 1e-9)
+        << "ex at " << ea.angle_deg;
+    EXPECT_NEAR(ea.errors[4].std, std::sqrt(s * s * u_er * u_er + c * c * u_et * u_et) / repeat, 1e-9)
+        << "ey at " << ea.angle_deg;
+  }
+  ASSERT_TRUE(ev.worst.worst_std_um.has_value());
+  EXPECT_EQ(ev.worst.n_undetermined, 0);
+}
+
+TEST(Observability, PaperHeadIsRankFiveOfSixAndNamesTheCombination) {
+  const Evaluation ev = evaluate_design(test::paper_design('B'), 100.0);
+  EXPECT_EQ(ev.prior.rank, 105);
+  EXPECT_EQ(ev.prior.n_unknowns, 126);
+  EXPECT_EQ(ev.unidentifiable.size(), 21u);
+  EXPECT_FALSE(ev.worst.worst_std_um.has_value());
+  EXPECT_EQ(ev.worst.n_undetermined, 40);  // ex and ez at 21 angles, less ex at 0 and ez at -90
+  ASSERT_TRUE(ev.worst.worst_determined_std_um.has_value());
+  for (const Unidentifiable& u : ev.unidentifiable) {
+    EXPECT_NE(u.interpretation.find("the tool axis"), std::string::npos);
+  }
+}
+
+TEST(Observability, WorstCaseConvertsAngularErrorsAtTheReferenceLength) {
+  ErrorsAtAngle ea;
+  ea.angle_deg = 10;
+  for (int k = 0; k < 6; ++k) ea.errors[k] = {true, 0.0, 1.0};
+  ea.errors[4].std = 30.0;  // urad: 3 um at 100 mm, 0.6 um at 20 mm
+  WorstCase w = worst_case({ea}, 100.0);
+  EXPECT_DOUBLE_EQ(*w.worst_std_um, 3.0);
+  EXPECT_EQ(w.at_error, 4);
+  w = worst_case({ea}, 20.0);
+  EXPECT_DOUBLE_EQ(*w.worst_std_um, 1.0);  // dx..dz at 1 um now dominate
+}
+
+}  // namespace
+}  // namespace dbbkit
