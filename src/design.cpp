@@ -145,6 +145,14 @@ void validate_design(const Design& d, const std::string& source) {
             "reference_length_mm", "must be a positive length in mm");
   }
 
+  for (const auto& [key, u] : {std::pair<const char*, double>{"L", d.setup_std.L_mm}, {"D", d.setup_std.D_mm},
+                               {"H", d.setup_std.H_mm}}) {
+    require(std::isfinite(u) && u >= 0, source, std::string("setup_std_mm.") + key,
+            "must be a standard uncertainty >= 0 mm");
+  }
+  if (d.axis == Axis::B) {
+    require(d.setup_std.H_mm == 0, source, "setup_std_mm.H", "H is not used for the swinging head B");
+  }
   require(!d.installations.empty(), source, "installations", "no installations");
   std::set<std::string> ids;
   for (size_t i = 0; i < d.installations.size(); ++i) {

@@ -127,14 +127,17 @@ std::vector<Unidentifiable> describe_null_space(const Design& design, const Para
 }
 
 IdentifyResult identify(const Design& design, const std::vector<Reading>& readings,
-                        const EstimateOptions& options) {
-  const Parameterisation param(design);
-  const LinearModel model = build_linear_model(design, param, readings);
-  IdentifyResult result;
-  result.estimate = estimate_wls(model, options);
-  result.errors = errors_at_stations(param, result.estimate);
-  result.unidentifiable = describe_null_space(design, param, result.estimate);
-  return result;
+                        const IdentifyOptions& options) {
+  Parameterisation param(design);
+  LinearModel model = build_linear_model(design, param, readings);
+  WlsSolver solver(model.J, model.sigma_um, options.estimate);
+  Estimate estimate = solver.solve(model.y_um);
+  Budget budget = uncertainty_budget(design, param, model, solver, estimate, options.budget);
+  std::vector<ErrorsAtAngle> errors = errors_at_stations(param, estimate);
+  for (const ValueBudget& v : budget.values) errors[v.station].errors[v.error].std = v.u_c;
+  std::vector<Unidentifiable> unidentifiable = describe_null_space(design, param, estimate);
+  return {std::move(param),  std::move(model),  std::move(solver),        std::move(estimate),
+          std::move(budget), std::move(errors), std::move(unidentifiable)};
 }
 
 }  // namespace dbbkit

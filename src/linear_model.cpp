@@ -59,4 +59,34 @@ LinearModel design_model(const Design& design, const Parameterisation& param) {
   return assemble(design, param, rows);
 }
 
+std::vector<SetupInput> setup_inputs(const Design& design) {
+  std::vector<SetupInput> out;
+  const double u[3] = {design.setup_std.L_mm, design.setup_std.D_mm, design.setup_std.H_mm};
+  for (size_t i = 0; i < design.installations.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      if (u[c] > 0) out.push_back({static_cast<int>(i), c, u[c]});
+    }
+  }
+  return out;
+}
+
+Eigen::MatrixXd setup_sensitivity(const Design& design, const Parameterisation& param, const LinearModel& model,
+                                  const std::vector<SetupInput>& inputs, const Eigen::VectorXd& theta) {
+  const int n = static_cast<int>(model.J.rows());
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(n, static_cast<int>(inputs.size()));
+  for (size_t j = 0; j < inputs.size(); ++j) {
+    const SetupInput& in = inputs[j];
+    Installation moved = design.installations[in.installation];
+    (in.coord == 0 ? moved.L_mm : in.coord == 1 ? moved.D_mm : moved.H_mm) += 1.0;
+    for (int i = 0; i < n; ++i) {
+      if (model.row_installation[i] != in.installation) continue;
+      const double a = model.row_angle_deg[i];
+      const RowVector6d d_row =
+          J_reading_error(design.axis, moved, a) - J_reading_error(design.axis, design.installations[in.installation], a);
+      D(i, static_cast<int>(j)) = d_row * (param.error_map_at_angle(a) * theta);
+    }
+  }
+  return D;
+}
+
 }  // namespace dbbkit

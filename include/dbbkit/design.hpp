@@ -62,6 +62,13 @@ struct ErrorModel {
   std::string describe() const;
 };
 
+// Standard uncertainty of the set-up inputs of every installation (the ball
+// position L, D, H as set), independent between installations; 0 = exact.
+struct SetupUncertainty {
+  double L_mm = 0, D_mm = 0, H_mm = 0;
+  bool any() const { return L_mm > 0 || D_mm > 0 || H_mm > 0; }
+};
+
 struct Design {
   std::string name;
   std::string description;
@@ -71,6 +78,7 @@ struct Design {
   NoiseModel noise;
   ErrorModel errors;
   std::optional<double> reference_length_mm;
+  SetupUncertainty setup_std;
   std::vector<Installation> installations;
 
   // Index of the installation with this id, or -1.

@@ -12,7 +12,9 @@
 #include "dbbkit/design.hpp"
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/measurement.hpp"
+#include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
+#include "dbbkit/uncertainty.hpp"
 
 namespace dbbkit {
 
@@ -33,8 +35,18 @@ struct Unidentifiable {
   std::string interpretation;       // the rigid motion it stands for, when per_angle
 };
 
+struct IdentifyOptions {
+  EstimateOptions estimate;
+  BudgetOptions budget;
+};
+
+// `errors` carry the combined standard uncertainty of the budget as their std.
 struct IdentifyResult {
+  Parameterisation param;
+  LinearModel model;
+  WlsSolver solver;
   Estimate estimate;
+  Budget budget;
   std::vector<ErrorsAtAngle> errors;
   std::vector<Unidentifiable> unidentifiable;
 };
@@ -48,6 +60,6 @@ std::vector<Unidentifiable> describe_null_space(const Design& design, const Para
 
 // Readings must have been validated against the design (validate_readings).
 IdentifyResult identify(const Design& design, const std::vector<Reading>& readings,
-                        const EstimateOptions& options = {});
+                        const IdentifyOptions& options = {});
 
 }  // namespace dbbkit

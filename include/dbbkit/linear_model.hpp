@@ -28,4 +28,19 @@ LinearModel build_linear_model(const Design& design, const Parameterisation& par
 // Rows the design would measure: one per installation and design angle, y = 0.
 LinearModel design_model(const Design& design, const Parameterisation& param);
 
+// One set-up input: coordinate `coord` (0 = L, 1 = D, 2 = H) of one installation.
+struct SetupInput {
+  int installation = 0;
+  int coord = 0;
+  double std_mm = 0;
+};
+
+// The set-up inputs with a declared uncertainty (design.setup_std), in installation order.
+std::vector<SetupInput> setup_inputs(const Design& design);
+
+// d(readings)/d(input) [um/mm] at the errors theta: column j is the change of the
+// model readings J theta per mm of set-up input j. Exact: a row is linear in the ball position.
+Eigen::MatrixXd setup_sensitivity(const Design& design, const Parameterisation& param, const LinearModel& model,
+                                  const std::vector<SetupInput>& inputs, const Eigen::VectorXd& theta);
+
 }  // namespace dbbkit

@@ -1,7 +1,9 @@
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include "commands.hpp"
+#include "uncertainty_options.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
@@ -13,6 +15,7 @@ namespace dbbkit::cli {
 namespace {
 struct IdentifyArgs {
   std::string design, data, out;
+  bool type_a = false;
 };
 }  // namespace
 
@@ -24,13 +27,29 @@ Runner add_identify(CLI::App& app) {
   sub->add_option("--out", args->out,
                   "Result JSON (dbbkit.identify/1); '-' or absent: JSON on stdout. "
                   "With a file, a summary table is printed on stdout");
-  return [args]() {
+  sub->add_flag("--type-a", args->type_a,
+                "Evaluate the reading noise from the residual (Type A, n - rank degrees of freedom) "
+                "instead of the declared instrument accuracy");
+  auto unc = std::make_shared<UncertaintyArgs>();
+  add_uncertainty_options(sub, unc);
+  return [args, unc]() {
     const Design design = io::read_design_file(args->design);
     const std::vector<Reading> readings = io::read_measurement_file(args->data, design);
-    const IdentifyResult result = identify(design, readings);
-    const nlohmann::json j = io::identify_to_json(design, readings, result, {args->design, args->data});
+    IdentifyOptions options;
+    options.budget.type_a = args->type_a;
+    options.budget.coverage_probability = unc->coverage;
+    const IdentifyResult result = identify(design, readings, options);
+    std::optional<MonteCarloResult> mc;
+    if (unc->monte_carlo) {
+      mc = monte_carlo(design, result.param, result.model, result.solver, result.estimate, result.budget, unc->mc);
+    }
+    const nlohmann::json j =
+        io::identify_to_json(design, readings, result, {args->design, args->data}, mc ? &*mc : nullptr);
     io::write_output(args->out, j.dump(2) + "\n", {args->design, args->data});
-    if (!args->out.empty() && args->out != "-") std::cout << io::identify_summary(design, result);
+    if (!args->out.empty() && args->out != "-") {
+      std::cout << io::identify_summary(design, result);
+      if (mc) std::cout << io::monte_carlo_summary(*mc);
+    }
     return 0;
   };
 }

@@ -134,6 +134,13 @@ Design design_from_json(const json& j, const std::string& source) {
     errors.finish();
   }
   d.reference_length_mm = top.optional_number("reference_length_mm");
+  if (const json* u = top.optional("setup_std_mm")) {
+    ObjectReader setup(*u, source, "setup_std_mm");
+    d.setup_std.L_mm = setup.optional_number("L").value_or(0.0);
+    d.setup_std.D_mm = setup.optional_number("D").value_or(0.0);
+    d.setup_std.H_mm = setup.optional_number("H").value_or(0.0);
+    setup.finish();
+  }
 
   const json& list = top.required("installations");
   if (!list.is_array()) top.fail("installations", "expected a list of installations");
@@ -184,6 +191,10 @@ json design_to_json(const Design& d) {
   }
   j["errors"] = errors;
   if (d.reference_length_mm) j["reference_length_mm"] = *d.reference_length_mm;
+  if (d.setup_std.any()) {
+    j["setup_std_mm"] = {{"L", d.setup_std.L_mm}, {"D", d.setup_std.D_mm}};
+    if (d.axis == Axis::C) j["setup_std_mm"]["H"] = d.setup_std.H_mm;
+  }
   json list = json::array();
   for (const Installation& in : d.installations) {
     json i;

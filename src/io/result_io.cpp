@@ -1,5 +1,6 @@
 #include "dbbkit/io/result_io.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -64,8 +65,93 @@ json residual_to_json(const Estimate& est) {
           {"p_value", optional_number(est.p_value)}};
 }
 
+json budget_to_json(const Design& design, const Budget& budget) {
+  json b;
+  b["standard"] = "JCGM 100: u_c^2 = sum of the components' u^2, nu_eff by Welch-Satterthwaite, U = k u_c";
+  b["coverage_probability"] = budget.coverage_probability;
+  b["noise_evaluation"] = budget.noise_evaluation;
+  if (budget.type_a_scale) b["type_a_scale"] = *budget.type_a_scale;
+  b["setup_std_mm"] = {{"L", design.setup_std.L_mm}, {"D", design.setup_std.D_mm}, {"H", design.setup_std.H_mm}};
+  json values = json::array();
+  for (const ValueBudget& v : budget.values) {
+    json comps = json::array();
+    for (const BudgetComponent& c : v.components) {
+      comps.push_back({{"name", c.name}, {"type", c.type}, {"u", r6(c.u)}, {"dof", optional_number(c.dof)}});
+    }
+    values.push_back({{"angle_deg", v.angle_deg},
+                      {"error", kErrorNames[v.error]},
+                      {"unit", kErrorUnits[v.error]},
+                      {"value", r6(v.value)},
+                      {"components", comps},
+                      {"u_c", r6(v.u_c)},
+                      {"nu_eff", optional_number(v.nu_eff)},
+                      {"k", v.k},
+                      {"U", r6(v.U)}});
+  }
+  b["values"] = values;
+  return b;
+}
+
+json monte_carlo_to_json(const MonteCarloResult& mc) {
+  json m;
+  m["standard"] = "JCGM 101: adaptive Monte Carlo, probabilistically symmetric coverage intervals, validation of the linear result";
+  m["trials"] = mc.trials;
+  m["converged"] = mc.converged;
+  m["threads"] = mc.threads;
+  m["seed"] = mc.seed;
+  m["coverage_probability"] = mc.coverage_probability;
+  m["significant_digits"] = mc.significant_digits;
+  m["n_validated"] = mc.n_validated;
+  m["message"] = mc.message;
+  json values = json::array();
+  for (const MonteCarloValue& v : mc.values) {
+    values.push_back({{"angle_deg", v.angle_deg},
+                      {"error", kErrorNames[v.error]},
+                      {"mean", r6(v.mean)},
+                      {"std", r6(v.std)},
+                      {"low", r6(v.low)},
+                      {"high", r6(v.high)},
+                      {"linear_low", r6(v.linear_value - v.linear_U)},
+                      {"linear_high", r6(v.linear_value + v.linear_U)},
+                      {"delta", v.delta},
+                      {"d_low", r6(v.d_low)},
+                      {"d_high", r6(v.d_high)},
+                      {"validated", v.validated},
+                      {"interval", {r6(v.interval_low()), r6(v.interval_high())}},
+                      {"interval_method", v.validated ? "linear (validated)" : "Monte Carlo"}});
+  }
+  m["values"] = values;
+  return m;
+}
+
+std::string monte_carlo_summary(const MonteCarloResult& mc) {
+  std::ostringstream s;
+  s << "\nMonte Carlo (JCGM 101): " << mc.trials << " trials, " << mc.threads << " thread(s), seed " << mc.seed
+    << (mc.converged ? ", converged" : ", NOT converged") << "\n  " << mc.message << "\n";
+  int shown = 0;
+  for (const MonteCarloValue& v : mc.values) {
+    if (v.validated) continue;
+    if (shown++ == 0) {
+      s << "  not validated (the " << 100 * mc.coverage_probability
+        << "% interval reported is the Monte Carlo one):\n";
+      s << std::setw(13) << "angle_deg" << std::setw(6) << "error" << std::setw(24) << "linear interval"
+        << std::setw(24) << "Monte Carlo interval" << std::setw(10) << "d_low" << std::setw(10) << "d_high"
+        << std::setw(10) << "delta" << "\n";
+    }
+    if (shown > 12) continue;
+    std::ostringstream lin, m;
+    lin << std::fixed << std::setprecision(3) << "[" << v.linear_value - v.linear_U << ", " << v.linear_value + v.linear_U << "]";
+    m << std::fixed << std::setprecision(3) << "[" << v.low << ", " << v.high << "]";
+    s << std::setw(13) << v.angle_deg << std::setw(6) << kErrorNames[v.error] << std::setw(24) << lin.str()
+      << std::setw(24) << m.str() << std::setw(10) << std::setprecision(3) << v.d_low << std::setw(10) << v.d_high
+      << std::setw(10) << v.delta << "\n";
+  }
+  if (shown > 12) s << "  ... and " << shown - 12 << " more (see the JSON)\n";
+  return s.str();
+}
+
 json identify_to_json(const Design& design, const std::vector<Reading>& readings, const IdentifyResult& result,
-                      const InputFiles& inputs) {
+                      const InputFiles& inputs, const MonteCarloResult* mc) {
   const Estimate& est = result.estimate;
   json j;
   j["format"] = "dbbkit.identify/1";
@@ -75,9 +161,7 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
   if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
   j["noise"] = noise_to_json(design.noise);
   j["noise"]["sigma_um"] = design.noise.sigma_um();
-  j["uncertainty"] =
-      "standard uncertainties (k = 1) from the declared instrument noise (Type B), "
-      "propagated by weighted least squares";
+  j["uncertainty"] = "std: combined standard uncertainty u_c (k = 1); U: expanded uncertainty k u_c (see budget)";
   j["status"] = status_name(est.status);
   j["message"] = est.message;
   j["n_readings"] = est.n_readings;
@@ -87,6 +171,12 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
   j["condition_scaling"] = kConditionScaling;
 
   j["errors"] = errors_to_json(result.errors, true);
+  for (json& e : j["errors"]) {
+    e["U"] = {{"dx", nullptr}, {"dy", nullptr}, {"dz", nullptr}, {"ex", nullptr}, {"ey", nullptr}, {"ez", nullptr}};
+  }
+  for (const ValueBudget& v : result.budget.values) j["errors"][v.station]["U"][kErrorNames[v.error]] = r6(v.U);
+  j["budget"] = budget_to_json(design, result.budget);
+  if (mc) j["monte_carlo"] = monte_carlo_to_json(*mc);
   j["units"] = {{"dx", "um"}, {"dy", "um"}, {"dz", "um"}, {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
   j["unidentifiable"] = unidentifiable_to_json(result.unidentifiable);
   j["residual"] = residual_to_json(est);
@@ -138,7 +228,19 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
   } else {
     s << ", p undefined (no redundant reading)";
   }
-  s << "\n\nvalue +- standard uncertainty (k = 1); '--' = not determined by the data\n";
+  const Budget& b = result.budget;
+  s << "\nuncertainty: reading noise " << b.noise_evaluation;
+  if (design.setup_std.any()) {
+    s << "; set-up L, D, H +- " << design.setup_std.L_mm << ", " << design.setup_std.D_mm << ", " << design.setup_std.H_mm
+      << " mm (standard)";
+  }
+  if (!b.values.empty()) {
+    double kmin = b.values[0].k, kmax = kmin;
+    for (const ValueBudget& v : b.values) kmin = std::min(kmin, v.k), kmax = std::max(kmax, v.k);
+    s << "\nexpanded uncertainty U = k u_c for " << 100 * b.coverage_probability << "% coverage, k = " << std::setprecision(4) << kmin;
+    if (kmax > kmin) s << " .. " << kmax;
+  }
+  s << "\n\nvalue +- combined standard uncertainty u_c (k = 1); '--' = not determined by the data\n";
   s << errors_table(result.errors, true);
   s << unidentifiable_text(result.unidentifiable);
   return s.str();
@@ -220,7 +322,8 @@ std::string unidentifiable_text(const std::vector<Unidentifiable>& list) {
   return s.str();
 }
 
-json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file) {
+json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file,
+                      const MonteCarloResult* mc) {
   const Estimate& est = ev.prior;
   json j;
   j["format"] = "dbbkit.evaluate/1";
@@ -255,6 +358,7 @@ json evaluate_to_json(const Design& design, const Evaluation& ev, const std::str
   if (w.at_error >= 0) j["worst_at"] = {{"angle_deg", w.at_angle_deg}, {"error", kErrorNames[w.at_error]}};
   j["errors"] = errors_to_json(ev.errors, false);
   j["unidentifiable"] = unidentifiable_to_json(ev.unidentifiable);
+  if (mc) j["monte_carlo"] = monte_carlo_to_json(*mc);
   return j;
 }
 

@@ -9,6 +9,7 @@
 #include "dbbkit/design.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/measurement.hpp"
+#include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/observability.hpp"
 
 namespace dbbkit::io {
@@ -19,13 +20,20 @@ struct InputFiles {
 
 // `dbbkit.identify/1`.
 nlohmann::json identify_to_json(const Design& design, const std::vector<Reading>& readings,
-                                const IdentifyResult& result, const InputFiles& inputs);
+                                const IdentifyResult& result, const InputFiles& inputs,
+                                const MonteCarloResult* mc = nullptr);
+
+// The JCGM 100 budget block and the JCGM 101 block.
+nlohmann::json budget_to_json(const Design& design, const Budget& budget);
+nlohmann::json monte_carlo_to_json(const MonteCarloResult& mc);
+std::string monte_carlo_summary(const MonteCarloResult& mc);
 
 // The residual block {rms_um, chi2, dof, p_value}.
 nlohmann::json residual_to_json(const Estimate& est);
 
 // `dbbkit.evaluate/1`.
-nlohmann::json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file);
+nlohmann::json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file,
+                                const MonteCarloResult* mc = nullptr);
 std::string evaluate_summary(const Design& design, const Evaluation& ev);
 
 // The errors block (value and std per angle, null where not determined); with

@@ -1,0 +1,63 @@
+#pragma once
+// Uncertainty budget of every identified value after JCGM 100 (GUM):
+//   reading noise, Type B from the declared instrument (rectangular +-a ->
+//   a/sqrt(3), infinite degrees of freedom) or, on request, Type A from the
+//   residual (u scaled by sqrt(chi2 / nu), nu = n - rank degrees of freedom);
+//   set-up inputs L, D, H of every installation (Type B, design.setup_std),
+//   propagated through the model at the identified errors;
+//   u_c^2 = sum u_i^2, nu_eff by Welch-Satterthwaite, U = k u_c with k the
+//   Student t quantile at nu_eff for the stated coverage probability.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/estimate.hpp"
+#include "dbbkit/linear_model.hpp"
+#include "dbbkit/parameterisation.hpp"
+
+namespace dbbkit {
+
+struct BudgetOptions {
+  bool type_a = false;                // evaluate the reading noise from the residual
+  double coverage_probability = 0.95;
+};
+
+struct BudgetComponent {
+  std::string name;  // "reading noise", "set-up L", "set-up D", "set-up H"
+  std::string type;  // "A" or "B"
+  double u = 0;      // standard uncertainty contribution, in the value's unit
+  std::optional<double> dof;  // absent: infinite
+};
+
+struct ValueBudget {
+  int station = 0;
+  double angle_deg = 0;
+  int error = 0;  // 0..5
+  double value = 0;
+  std::vector<BudgetComponent> components;
+  double u_c = 0;
+  std::optional<double> nu_eff;  // absent: infinite
+  double k = 0;
+  double U = 0;
+};
+
+struct Budget {
+  double coverage_probability = 0.95;
+  std::string noise_evaluation;        // "Type B (declared instrument)" or "Type A (residual)"
+  std::optional<double> type_a_scale;  // sqrt(chi2 / nu) when Type A
+  std::vector<ValueBudget> values;     // determined values only, station-major
+};
+
+// k such that P(|T_nu| <= k) = p; the normal quantile when nu is absent (infinite).
+double coverage_factor(std::optional<double> nu, double p);
+
+// nu_eff = u_c^4 / sum(u_i^4 / nu_i) over components with finite nu (Welch-Satterthwaite).
+std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& components);
+
+// Throws InputError when Type A is asked for and the residual has no degrees of freedom.
+Budget uncertainty_budget(const Design& design, const Parameterisation& param, const LinearModel& model,
+                          const WlsSolver& solver, const Estimate& est, const BudgetOptions& options);
+
+}  // namespace dbbkit

@@ -1,0 +1,33 @@
+#pragma once
+// Options shared by the commands that report uncertainty.
+
+#include <CLI/CLI.hpp>
+#include <memory>
+
+#include "dbbkit/monte_carlo.hpp"
+
+namespace dbbkit::cli {
+
+struct UncertaintyArgs {
+  double coverage = 0.95;
+  bool monte_carlo = false;
+  MonteCarloOptions mc;
+};
+
+inline void add_uncertainty_options(CLI::App* sub, const std::shared_ptr<UncertaintyArgs>& args) {
+  sub->add_option("--coverage", args->coverage, "Coverage probability of the expanded uncertainty")
+      ->check(CLI::Range(0.5, 0.9999))
+      ->capture_default_str();
+  sub->add_flag("--monte-carlo", args->monte_carlo, "Check the linear result by Monte Carlo (JCGM 101)");
+  sub->add_option("--mc-seed", args->mc.seed, "Monte Carlo seed")->capture_default_str();
+  sub->add_option("--mc-threads", args->mc.threads, "Monte Carlo threads (0: all)")->capture_default_str();
+  sub->add_option("--mc-max-trials", args->mc.max_trials, "Most Monte Carlo trials")->capture_default_str();
+  sub->add_option("--mc-batch", args->mc.batch_trials, "Trials per adaptive batch (a multiple of 1000)")
+      ->capture_default_str();
+  sub->add_option("--mc-digits", args->mc.significant_digits,
+                  "Significant digits of u that set the numerical tolerance")
+      ->check(CLI::Range(1, 4))
+      ->capture_default_str();
+}
+
+}  // namespace dbbkit::cli

@@ -1,0 +1,85 @@
+#include "dbbkit/uncertainty.hpp"
+
+#include <boost/math/distributions/normal.hpp>
+#include <boost/math/distributions/students_t.hpp>
+#include <cmath>
+
+#include "dbbkit/error.hpp"
+
+namespace dbbkit {
+
+double coverage_factor(std::optional<double> nu, double p) {
+  const double q = 0.5 * (1.0 + p);
+  if (!nu) return boost::math::quantile(boost::math::normal(), q);
+  return boost::math::quantile(boost::math::students_t(*nu), q);
+}
+
+std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& components) {
+  double uc2 = 0, denom = 0;
+  for (const BudgetComponent& c : components) {
+    uc2 += c.u * c.u;
+    if (c.dof) denom += std::pow(c.u, 4) / *c.dof;
+  }
+  if (denom <= 0) return std::nullopt;
+  return uc2 * uc2 / denom;
+}
+
+Budget uncertainty_budget(const Design& design, const Parameterisation& param, const LinearModel& model,
+                          const WlsSolver& solver, const Estimate& est, const BudgetOptions& options) {
+  if (!(options.coverage_probability > 0 && options.coverage_probability < 1)) {
+    throw InputError("options", "coverage_probability", "must lie strictly between 0 and 1");
+  }
+  Budget b;
+  b.coverage_probability = options.coverage_probability;
+  double noise_scale = 1.0;
+  std::optional<double> noise_dof;
+  if (options.type_a) {
+    if (est.dof <= 0) {
+      throw InputError("--type-a", "", "the residual has no degrees of freedom: a Type A evaluation is impossible");
+    }
+    noise_scale = std::sqrt(est.chi2 / est.dof);
+    noise_dof = est.dof;
+    b.type_a_scale = noise_scale;
+    b.noise_evaluation = "Type A (residual, " + std::to_string(est.dof) + " degrees of freedom)";
+  } else {
+    b.noise_evaluation = "Type B (declared instrument: " + design.noise.describe() + ")";
+  }
+
+  const std::vector<SetupInput> inputs = setup_inputs(design);
+  Eigen::MatrixXd GD;  // d(theta_hat)/d(input) [theta units per mm]
+  if (!inputs.empty()) GD = solver.gain() * setup_sensitivity(design, param, model, inputs, est.theta);
+  static const char* kSetupNames[3] = {"set-up L", "set-up D", "set-up H"};
+
+  for (int s = 0; s < param.n_stations(); ++s) {
+    const Eigen::MatrixXd E = param.error_map(s);
+    for (int k = 0; k < 6; ++k) {
+      const Eigen::VectorXd c = E.row(k).transpose();
+      const Determined d = est.evaluate(c);
+      if (!d.determined) continue;
+      ValueBudget v;
+      v.station = s;
+      v.angle_deg = param.station_angle_deg(s);
+      v.error = k;
+      v.value = d.value;
+      v.components.push_back({"reading noise", options.type_a ? "A" : "B", d.std * noise_scale, noise_dof});
+      if (!inputs.empty()) {
+        double u2[3] = {0, 0, 0};
+        const Eigen::VectorXd sens = GD.transpose() * c;  // d(value)/d(input)
+        for (size_t j = 0; j < inputs.size(); ++j) u2[inputs[j].coord] += std::pow(sens(j) * inputs[j].std_mm, 2);
+        for (int q = 0; q < 3; ++q) {
+          if (u2[q] > 0) v.components.push_back({kSetupNames[q], "B", std::sqrt(u2[q]), std::nullopt});
+        }
+      }
+      double uc2 = 0;
+      for (const BudgetComponent& comp : v.components) uc2 += comp.u * comp.u;
+      v.u_c = std::sqrt(uc2);
+      v.nu_eff = welch_satterthwaite(v.components);
+      v.k = coverage_factor(v.nu_eff, options.coverage_probability);
+      v.U = v.k * v.u_c;
+      b.values.push_back(v);
+    }
+  }
+  return b;
+}
+
+}  // namespace dbbkit

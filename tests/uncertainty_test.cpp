@@ -1,0 +1,235 @@
+#include "dbbkit/uncertainty.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/identify.hpp"
+#include "dbbkit/monte_carlo.hpp"
+#include "dbbkit/simulate.hpp"
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace {
+
+Truth constant_truth(const Design& d, const Vector6d& e) {
+  Truth t;
+  t.model.kind = ErrorModel::Kind::PerAngle;
+  for (double a : d.angles_deg) t.per_angle.emplace_back(a, e);
+  return t;
+}
+
+TEST(Budget, CoverageFactorsFromTables) {
+  EXPECT_NEAR(coverage_factor(std::nullopt, 0.95), 1.959964, 1e-6);
+  EXPECT_NEAR(coverage_factor(10.0, 0.95), 2.228139, 1e-6);  // Student t, 10 dof, two-sided 95%
+  EXPECT_NEAR(coverage_factor(3.0, 0.9545), 3.307, 2e-3);    // JCGM 100 Table G.2
+}
+
+TEST(Budget, WelchSatterthwaiteByHand) {
+  // u1 = 1 with 4 dof, u2 = 1 Type B: nu_eff = (1 + 1)^2 / (1^4 / 4) = 16.
+  const std::vector<BudgetComponent> c = {{"a", "A", 1.0, 4.0}, {"b", "B", 1.0, std::nullopt}};
+  ASSERT_TRUE(welch_satterthwaite(c).has_value());
+  EXPECT_DOUBLE_EQ(*welch_satterthwaite(c), 16.0);
+  EXPECT_FALSE(welch_satterthwaite({{"b", "B", 1.0, std::nullopt}}).has_value());
+}
+
+TEST(Budget, TypeAScalesByTheObservedNoise) {
+  Design d = test::paper_design('C');
+  Truth t = constant_truth(d, Vector6d::Constant(3.0));
+  NoiseModel heavy;
+  heavy.distribution = NoiseModel::Distribution::Normal;
+  heavy.std_um = 2.0 * d.noise.sigma_um();  // the machine is twice as noisy as declared
+  t.noise = heavy;
+  t.repeats = 3;  // 399 readings, 108 unknowns: 291 dof
+  const std::vector<Reading> readings = simulate(d, t, 21);
+  IdentifyOptions opt;
+  const IdentifyResult b = identify(d, readings, opt);
+  opt.budget.type_a = true;
+  const IdentifyResult a = identify(d, readings, opt);
+  ASSERT_TRUE(a.budget.type_a_scale.has_value());
+  EXPECT_NEAR(*a.budget.type_a_scale, 2.0, 0.25);  // sqrt(chi2/nu), nu = 291
+  ASSERT_EQ(a.budget.values.size(), b.budget.values.size());
+  for (size_t i = 0; i < a.budget.values.size(); ++i) {
+    EXPECT_NEAR(a.budget.values[i].u_c, *a.budget.type_a_scale * b.budget.values[i].u_c, 1e-9);
+    ASSERT_TRUE(a.budget.values[i].nu_eff.has_value());
+    EXPECT_DOUBLE_EQ(*a.budget.values[i].nu_eff, 291.0);
+    EXPECT_NEAR(a.budget.values[i].k, coverage_factor(291.0, 0.95), 1e-12);
+    EXPECT_NEAR(b.budget.values[i].k, 1.959964, 1e-6);
+  }
+}
+
+TEST(Budget, TypeAWithoutRedundancyIsRefused) {
+  Design d = test::paper_design('C');
+  d.angles_deg = {0, 20};
+  d.installations.erase(d.installations.begin() + 3);  // without 2r: 6 readings per angle, rank 6, no residual
+  std::vector<Reading> readings = simulate(d, constant_truth(d, Vector6d::Ones()), 1);
+  IdentifyOptions opt;
+  opt.budget.type_a = true;
+  EXPECT_THROW(identify(d, readings, opt), InputError);
+}
+
+// The set-up component against a finite difference: readings taken with every ball
+// moved by dL, identified with the nominal design, shift the values by dvalue; with
+// independent inputs u_setup^2 = sum_i (dvalue_i/dL)^2 u_L^2 over the installations i.
+TEST(Budget, SetupUncertaintyMatchesFiniteDifference) {
+  Design d = test::paper_design('C');
+  d.setup_std.L_mm = 0.2;
+  Vector6d e;
+  e << 5, -4, 3, 40, -30, 60;
+  Truth t = constant_truth(d, e);
+  t.noiseless = true;
+  const IdentifyResult nominal = identify(d, simulate(d, t, 0));
+  std::vector<Eigen::VectorXd> shift;  // per installation, dvalue/dL over the budget's values
+  const double dL = 0.5;
+  for (size_t i = 0; i < d.installations.size(); ++i) {
+    Design moved = d;
+    moved.installations[i].L_mm += dL;
+    std::vector<Reading> readings = simulate(moved, t, 0);
+    const IdentifyResult r = identify(d, readings);
+    Eigen::VectorXd s(nominal.budget.values.size());
+    for (size_t v = 0; v < nominal.budget.values.size(); ++v) {
+      s(v) = (r.budget.values[v].value - nominal.budget.values[v].value) / dL;
+    }
+    shift.push_back(s);
+  }
+  int checked = 0;
+  for (size_t v = 0; v < nominal.budget.values.size(); ++v) {
+    double expected2 = 0;
+    for (const auto& s : shift) expected2 += std::pow(s(v) * 0.2, 2);
+    double got = 0;
+    for (const BudgetComponent& c : nominal.budget.values[v].components) {
+      if (c.name == "set-up L") got = c.u;
+    }
+    EXPECT_NEAR(got, std::sqrt(expected2), 1e-9 + 1e-6 * std::sqrt(expected2)) << v;
+    checked += expected2 > 1e-6;
+  }
+  EXPECT_GT(checked, 30);  // the set-up matters for many values, not a vacuous check
+}
+
+TEST(MonteCarlo, AgreesWithTheLinearResultForNormalNoise) {
+  Design d = test::paper_design('C');
+  d.noise.distribution = NoiseModel::Distribution::Normal;
+  d.noise.std_um = 0.7;
+  MonteCarloOptions o;
+  o.significant_digits = 1;
+  o.threads = 2;
+  const MonteCarloResult mc = monte_carlo_a_priori(d, 0.95, o);
+  EXPECT_TRUE(mc.converged);
+  EXPECT_EQ(mc.n_validated, 108) << mc.message;
+}
+
+// The comparison can fail: with rectangular noise, dz at every angle but 0 is one
+// rectangular reading, whose 95% interval is +-0.95 a, not +-1.96 a/sqrt(3).
+TEST(MonteCarlo, DetectsANonGaussianOutput) {
+  const Design d = test::paper_design('C');
+  MonteCarloOptions o;
+  o.significant_digits = 1;
+  const MonteCarloResult mc = monte_carlo_a_priori(d, 0.95, o);
+  int dz_checked = 0;
+  for (const MonteCarloValue& v : mc.values) {
+    if (v.error != 2 || v.angle_deg == 0.0) continue;
+    EXPECT_FALSE(v.validated) << v.angle_deg;
+    EXPECT_NEAR(v.high, 0.95 * 1.25, 0.01);
+    EXPECT_NEAR(v.linear_U, 1.959964 * 1.25 / std::sqrt(3.0), 1e-6);
+    ++dz_checked;
+  }
+  EXPECT_EQ(dz_checked, 17);
+}
+
+TEST(MonteCarlo, ReproducibleForASeedWhateverTheThreads) {
+  const Design d = test::paper_design('B');
+  MonteCarloOptions o;
+  o.adaptive = false;
+  o.max_trials = 20000;
+  o.seed = 77;
+  o.threads = 1;
+  const MonteCarloResult one = monte_carlo_a_priori(d, 0.95, o);
+  o.threads = 2;
+  const MonteCarloResult two = monte_carlo_a_priori(d, 0.95, o);
+  o.seed = 78;
+  const MonteCarloResult other = monte_carlo_a_priori(d, 0.95, o);
+  ASSERT_EQ(one.values.size(), two.values.size());
+  bool differs = false;
+  for (size_t i = 0; i < one.values.size(); ++i) {
+    EXPECT_EQ(one.values[i].low, two.values[i].low);
+    EXPECT_EQ(one.values[i].std, two.values[i].std);
+    differs = differs || one.values[i].std != other.values[i].std;
+  }
+  EXPECT_TRUE(differs);
+}
+
+// Coverage: over 2000 simulated data sets the reported 95% intervals (linear where
+// Monte Carlo validates it, Monte Carlo otherwise) contain the truth 95% of the time,
+// within the binomial tolerance, per value and pooled.
+struct CoverageCase {
+  const char* name;
+  bool fourier;
+  bool normal;
+};
+
+class Coverage95 : public ::testing::TestWithParam<CoverageCase> {};
+
+TEST_P(Coverage95, IntervalsContainTheTruth) {
+  const CoverageCase& c = GetParam();
+  Design d = test::paper_design('C');
+  if (c.fourier) d.errors = {ErrorModel::Kind::Fourier, 3};
+  if (c.normal) {
+    d.noise.distribution = NoiseModel::Distribution::Normal;
+    d.noise.std_um = 0.6;
+  }
+  MonteCarloOptions o;
+  o.adaptive = false;
+  o.max_trials = 200000;
+  o.threads = 2;
+  const MonteCarloResult mc = monte_carlo_a_priori(d, 0.95, o);  // offsets of the value from the truth
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n01;
+  const int sets = 2000;
+  std::vector<int> inside(mc.values.size(), 0);
+  const Parameterisation param(d);
+  for (int s = 0; s < sets; ++s) {
+    Truth t;
+    t.model = d.errors;
+    if (c.fourier) {
+      for (int k = 0; k < 6; ++k) {
+        for (int j = 0; j < 7; ++j) t.coefficients[k].push_back(10 * n01(rng));
+      }
+    } else {
+      for (double a : d.angles_deg) {
+        Vector6d e;
+        for (int k = 0; k < 6; ++k) e(k) = 20 * n01(rng);
+        t.per_angle.emplace_back(a, e);
+      }
+    }
+    const IdentifyResult r = identify(d, simulate(d, t, 1000 + s));
+    ASSERT_EQ(r.budget.values.size(), mc.values.size());
+    for (size_t v = 0; v < mc.values.size(); ++v) {
+      const ValueBudget& b = r.budget.values[v];
+      const MonteCarloValue& m = mc.values[v];
+      const double lo = m.validated ? b.value - b.U : b.value + m.low;
+      const double hi = m.validated ? b.value + b.U : b.value + m.high;
+      const double truth = truth_errors(t, d.axis, b.angle_deg)(b.error);
+      inside[v] += lo <= truth && truth <= hi;
+    }
+  }
+  double pooled = 0;
+  for (size_t v = 0; v < inside.size(); ++v) {
+    EXPECT_TRUE(test::within_binomial(inside[v], sets, 0.95, 4.5)) << c.name << " value " << v << ": " << inside[v];
+    pooled += inside[v];
+  }
+  pooled /= static_cast<double>(inside.size());
+  // The pooled share is a mean of correlated shares: its spread is at most that of one value.
+  EXPECT_TRUE(test::within_binomial(pooled, sets, 0.95, 4.0)) << c.name << " pooled " << pooled / sets;
+}
+
+INSTANTIATE_TEST_SUITE_P(Models, Coverage95,
+                         ::testing::Values(CoverageCase{"per_angle_normal", false, true},
+                                           CoverageCase{"per_angle_rectangular", false, false},
+                                           CoverageCase{"fourier_normal", true, true},
+                                           CoverageCase{"fourier_rectangular", true, false}),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+}  // namespace
+}  // namespace dbbkit
