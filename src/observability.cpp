@@ -80,4 +80,37 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm, con
   return ev;
 }
 
+std::vector<SweepPoint> sweep_design(const Design& design, const std::vector<SweepVariable>& variables,
+                                     double reference_length_mm) {
+  std::vector<SweepPoint> out;
+  std::vector<size_t> index(variables.size(), 0);
+  for (const SweepVariable& v : variables) {
+    if (v.values.empty()) return out;
+  }
+  while (true) {
+    Design d = design;
+    SweepPoint p;
+    for (size_t i = 0; i < variables.size(); ++i) {
+      const double x = variables[i].values[index[i]];
+      p.values.push_back(x);
+      for (int inst : variables[i].installations) {
+        Installation& in = d.installations[inst];
+        (variables[i].coord == 0 ? in.L_mm : variables[i].coord == 1 ? in.D_mm : in.H_mm) = x;
+      }
+    }
+    validate_design(d, "--sweep");
+    const Evaluation ev = evaluate_design(d, reference_length_mm);
+    p.rank = ev.prior.rank;
+    p.n_unknowns = ev.prior.n_unknowns;
+    p.condition_number = ev.prior.condition_number;
+    p.worst_std_um = ev.worst.worst_std_um;
+    p.worst_determined_std_um = ev.worst.worst_determined_std_um;
+    out.push_back(p);
+    int i = static_cast<int>(variables.size()) - 1;
+    while (i >= 0 && ++index[i] == variables[i].values.size()) index[i--] = 0;
+    if (i < 0) break;
+  }
+  return out;
+}
+
 }  // namespace dbbkit

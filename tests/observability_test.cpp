@@ -114,3 +114,43 @@ TEST(Observability, WorstCaseConvertsAngularErrorsAtTheReferenceLength) {
 
 }  // namespace
 }  // namespace dbbkit
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/sweep_io.hpp"
+
+namespace dbbkit {
+namespace {
+
+TEST(DesignMap, EveryPointIsTheEvaluationOfThatDesign) {
+  const Design d = test::paper_design('C');
+  const std::vector<SweepVariable> vars = {io::parse_sweep(d, "L2=150:250:50"), io::parse_sweep(d, "H@3r,3t=100:200:100")};
+  EXPECT_EQ(vars[0].installations, (std::vector<int>{3, 4}));  // 2r, 2t
+  EXPECT_EQ(vars[1].installations, (std::vector<int>{5, 6}));
+  const std::vector<SweepPoint> map = sweep_design(d, vars, 100.0);
+  ASSERT_EQ(map.size(), 6u);
+  EXPECT_EQ(map[1].values, (std::vector<double>{150, 200}));  // the first variable varies slowest
+  for (const SweepPoint& p : map) {
+    Design m = d;
+    m.installations[3].L_mm = m.installations[4].L_mm = p.values[0];
+    m.installations[5].H_mm = m.installations[6].H_mm = p.values[1];
+    const Evaluation ev = evaluate_design(m, 100.0);
+    ASSERT_TRUE(p.worst_std_um.has_value());
+    EXPECT_DOUBLE_EQ(*p.worst_std_um, *ev.worst.worst_std_um);
+    EXPECT_DOUBLE_EQ(*p.condition_number, *ev.prior.condition_number);
+  }
+  // A longer lever arm L2 - L1 shrinks u(ez) = sqrt(2) sigma / (k (L2 - L1)), so the worst case cannot grow.
+  EXPECT_LE(*map[4].worst_std_um, *map[0].worst_std_um);
+}
+
+TEST(DesignMap, BadSpecificationsAreRefused) {
+  const Design d = test::paper_design('C');
+  for (const char* spec : {"L2", "X2=1:2:1", "L9=1:2:1", "L@4r=1:2:1", "L2=1:2", "L2=5:1:1", "L2=1:2:0", "L2=a:2:1"}) {
+    EXPECT_THROW(io::parse_sweep(d, spec), InputError) << spec;
+  }
+  EXPECT_THROW(io::parse_sweep(test::paper_design('B'), "H1=1:2:1"), InputError);
+  // L below 0 makes an invalid turntable design.
+  EXPECT_THROW(sweep_design(d, {io::parse_sweep(d, "L2=-10:0:10")}, 100.0), InputError);
+}
+
+}  // namespace
+}  // namespace dbbkit

@@ -64,4 +64,25 @@ struct Evaluation {
 // The design as it would be measured: one reading per installation and angle.
 Evaluation evaluate_design(const Design& design, double reference_length_mm, const EstimateOptions& options = {});
 
+// A design map: one set-up coordinate (0 = L, 1 = D, 2 = H) of some installations
+// set to each of a list of values.
+struct SweepVariable {
+  std::string name;  // as given, e.g. "L2"
+  int coord = 0;
+  std::vector<int> installations;
+  std::vector<double> values;
+};
+
+struct SweepPoint {
+  std::vector<double> values;  // one per variable
+  int rank = 0;
+  int n_unknowns = 0;
+  std::optional<double> condition_number, worst_std_um, worst_determined_std_um;
+};
+
+// Every combination of the variables' values (first variable slowest). Throws
+// InputError when a combination makes an invalid design.
+std::vector<SweepPoint> sweep_design(const Design& design, const std::vector<SweepVariable>& variables,
+                                     double reference_length_mm);
+
 }  // namespace dbbkit

@@ -1,6 +1,7 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include "commands.hpp"
 #include "uncertainty_options.hpp"
@@ -8,14 +9,16 @@
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/sweep_io.hpp"
 #include "dbbkit/observability.hpp"
 
 namespace dbbkit::cli {
 
 namespace {
 struct EvaluateArgs {
-  std::string design, out;
+  std::string design, out, map_csv;
   std::optional<double> reference_length_mm;
+  std::vector<std::string> sweeps;
 };
 }  // namespace
 
@@ -26,6 +29,10 @@ Runner add_evaluate(CLI::App& app) {
   sub->add_option("--reference-length-mm", args->reference_length_mm,
                   "Lever arm converting angular uncertainty to um (default: the design's reference_length_mm)");
   sub->add_option("--out", args->out, "Result JSON (dbbkit.evaluate/1); '-': stdout. The summary goes to stdout otherwise");
+  sub->add_option("--sweep", args->sweeps,
+                  "Design map: NAME=start:stop:step with NAME = L|D|H and an installation-id prefix (L2: L of "
+                  "installations 2*) or L|D|H@id,id; repeat for a grid");
+  sub->add_option("--map-csv", args->map_csv, "Write the design map as CSV (with --sweep)");
   auto unc = std::make_shared<UncertaintyArgs>();
   add_uncertainty_options(sub, unc);
   return [args, unc]() {
@@ -35,16 +42,39 @@ Runner add_evaluate(CLI::App& app) {
       throw InputError(args->design, "reference_length_mm",
                        "needed to express angular uncertainty in um (or give --reference-length-mm)");
     }
+    if (!args->map_csv.empty() && args->sweeps.empty()) {
+      throw InputError("--map-csv", "", "a design map needs at least one --sweep");
+    }
+    std::vector<SweepVariable> variables;
+    for (const std::string& spec : args->sweeps) variables.push_back(io::parse_sweep(design, spec));
     const Evaluation ev = evaluate_design(design, *ref);
+    std::vector<SweepPoint> map;
+    if (!variables.empty()) map = sweep_design(design, variables, *ref);
     std::optional<MonteCarloResult> mc;
     if (unc->monte_carlo) mc = monte_carlo_a_priori(design, unc->coverage, unc->mc);
     if (!args->out.empty()) {
-      io::write_output(args->out, io::evaluate_to_json(design, ev, args->design, mc ? &*mc : nullptr).dump(2) + "\n",
-                       {args->design});
+      nlohmann::json j = io::evaluate_to_json(design, ev, args->design, mc ? &*mc : nullptr);
+      if (!variables.empty()) j["sweep"] = io::sweep_to_json(variables, map);
+      io::write_output(args->out, j.dump(2) + "\n", {args->design});
     }
+    if (!args->map_csv.empty()) io::write_output(args->map_csv, io::sweep_csv(variables, map), {args->design});
     if (args->out != "-") {
       std::cout << io::evaluate_summary(design, ev);
       if (mc) std::cout << io::monte_carlo_summary(*mc);
+      if (!variables.empty()) {
+        std::cout << "\ndesign map: " << map.size() << " designs";
+        const SweepPoint* best = nullptr;
+        for (const SweepPoint& p : map) {
+          if (p.worst_std_um && (!best || *p.worst_std_um < *best->worst_std_um)) best = &p;
+        }
+        if (best) {
+          std::cout << "; smallest worst_std_um " << *best->worst_std_um << " um at";
+          for (size_t i = 0; i < variables.size(); ++i) std::cout << " " << variables[i].name << " = " << best->values[i];
+        } else {
+          std::cout << "; none determines every error";
+        }
+        std::cout << "\n";
+      }
     }
     return 0;
   };

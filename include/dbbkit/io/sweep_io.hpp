@@ -1,0 +1,20 @@
+#pragma once
+// The --sweep argument of `evaluate` and the design map it writes.
+//   NAME=start:stop:step   NAME = L|D|H followed by a prefix of installation ids
+//                          ("L2": L of every installation whose id starts with "2")
+//                          or L|D|H@id,id,... naming the installations.
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "dbbkit/observability.hpp"
+
+namespace dbbkit::io {
+
+SweepVariable parse_sweep(const Design& design, const std::string& spec);
+
+nlohmann::json sweep_to_json(const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& points);
+std::string sweep_csv(const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& points);
+
+}  // namespace dbbkit::io
