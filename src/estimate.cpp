@@ -48,7 +48,10 @@ WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, 
   }
   Js = Js * est.column_scale.cwiseInverse().asDiagonal();
 
-  Eigen::BDCSVD<Eigen::MatrixXd> svd(Js, Eigen::ComputeThinU | Eigen::ComputeFullV);
+  // JacobiSVD, not BDCSVD: Eigen 3.4.0's divide-and-conquer SVD fails (an index
+  // assertion in debug builds, NaNs in release builds) on some rank-deficient
+  // matrices such as the B head augmented with centring columns.
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Js, Eigen::ComputeThinU | Eigen::ComputeFullV);
   est.singular_values = svd.singularValues();
   const double s_max = est.singular_values.size() > 0 ? est.singular_values(0) : 0.0;
   int rank = 0;

@@ -1,5 +1,6 @@
 #include "dbbkit/simulate.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <sstream>
@@ -51,6 +52,35 @@ Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std
 
 void validate_truth(const Truth& truth, const Design& design, const std::string& source) {
   if (truth.repeats < 1) throw InputError(source, "repeats", "must be an integer >= 1");
+  for (std::size_t i = 0; i < truth.effects.size(); ++i) {
+    const TruthEffect& e = truth.effects[i];
+    const std::string key = "effects[" + std::to_string(i) + "]";
+    if (effect_is_shared(e.effect.kind) != e.installation.empty()) {
+      throw InputError(source, key + ".installation",
+                       effect_is_shared(e.effect.kind) ? "a shared effect applies to every installation: no installation"
+                                                       : "this effect needs the installation it applies to");
+    }
+    if (!e.installation.empty() && design.find_installation(e.installation) < 0) {
+      throw InputError(source, key + ".installation", "installation '" + e.installation + "' is not in the design");
+    }
+    if ((e.effect.kind == EffectKind::Scale || e.effect.kind == EffectKind::Squareness)) {
+      for (const Installation& in : design.installations) {
+        if (!in.bar_mm) throw InputError(source, key, std::string(effect_name(e.effect.kind)) + " needs bar_mm on every installation of the design");
+      }
+    }
+    if ((e.effect.kind == EffectKind::Drift && !truth.schedule)) {
+      throw InputError(source, key, "drift needs a schedule (the readings' times)");
+    }
+    if (e.effect.kind == EffectKind::Reversal && (!truth.schedule || truth.schedule->sweeps.size() < 2)) {
+      throw InputError(source, key, "reversal needs a schedule with both sweeps");
+    }
+  }
+  if (truth.schedule) {
+    if (!(truth.schedule->per_reading_s >= 0) || !(truth.schedule->per_installation_s >= 0)) {
+      throw InputError(source, "schedule", "times must be >= 0 s");
+    }
+    if (truth.schedule->sweeps.empty()) throw InputError(source, "schedule.sweeps", "needs at least one sweep");
+  }
   if (truth.model.kind == ErrorModel::Kind::PerAngle) {
     for (double a : design.angles_deg) truth_errors(truth, design.axis, a, source);
     return;
@@ -85,18 +115,40 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
   };
 
   std::vector<Reading> out;
+  double t = 0;
+  const std::vector<Sweep> sweeps = truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::CCW};
   for (const Installation& inst : design.installations) {
-    for (double a : design.angles_deg) {
-      const double clean = J_reading_error(design.axis, inst, a) * truth_errors(truth, design.axis, a);
-      for (int r = 0; r < truth.repeats; ++r) {
-        Reading reading;
-        reading.installation = inst.id;
-        reading.angle_deg = a;
-        reading.reading_um = clean + draw();
-        if (truth.repeats > 1) reading.repeat = r;
-        out.push_back(reading);
+    for (Sweep sweep : sweeps) {
+      std::vector<double> angles = design.angles_deg;
+      if (sweep == Sweep::CW) std::reverse(angles.begin(), angles.end());
+      for (double a : angles) {
+        for (int r = 0; r < truth.repeats; ++r) {
+          Reading reading;
+          reading.installation = inst.id;
+          reading.angle_deg = a;
+          if (truth.repeats > 1) reading.repeat = r;
+          if (truth.schedule) {
+            reading.time_s = t;
+            reading.sweep = sweep;
+            t += truth.schedule->per_reading_s;
+          }
+          out.push_back(reading);
+        }
       }
     }
+    if (truth.schedule) t += truth.schedule->per_installation_s;
+  }
+  const std::vector<double> t0 = installation_start_times(design, out);
+  for (Reading& reading : out) {
+    const int i = design.find_installation(reading.installation);
+    double value = J_reading_error(design.axis, design.installations[i], reading.angle_deg) *
+                   truth_errors(truth, design.axis, reading.angle_deg);
+    for (const TruthEffect& e : truth.effects) {
+      EffectCandidate c = e.effect;
+      c.installation = e.installation.empty() ? -1 : design.find_installation(e.installation);
+      value += effect_row(design, reading, t0[i], c).dot(e.value);
+    }
+    reading.reading_um = value + draw();
   }
   return out;
 }

@@ -10,10 +10,26 @@
 #include <vector>
 
 #include "dbbkit/design.hpp"
+#include "dbbkit/effects.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/measurement.hpp"
 
 namespace dbbkit {
+
+// An effect hidden in simulated readings: the reading changes by effect_row . value.
+struct TruthEffect {
+  EffectCandidate effect;
+  std::string installation;  // id, empty for a shared effect (resolved against the design)
+  Eigen::VectorXd value;     // full length, in effect_parameter_names order
+};
+
+// When readings are taken: installations one after another, each swept through
+// the design's angles once per entry of `sweeps` (ccw in design order, cw reversed).
+struct Schedule {
+  double per_reading_s = 3;
+  double per_installation_s = 240;
+  std::vector<Sweep> sweeps = {Sweep::CCW};
+};
 
 // Format `dbbkit.truth/1` (README).
 struct Truth {
@@ -25,6 +41,8 @@ struct Truth {
   bool noiseless = false;           // noise "none"
   int repeats = 1;                  // readings per installation and angle
   std::optional<std::uint64_t> seed;
+  std::vector<TruthEffect> effects;
+  std::optional<Schedule> schedule;  // absent: no time_s and no sweep in the readings
 };
 
 // The true errors at an angle. Throws InputError when a per-angle truth has no

@@ -13,5 +13,6 @@ using Runner = std::function<int()>;
 Runner add_identify(CLI::App& app);
 Runner add_simulate(CLI::App& app);
 Runner add_evaluate(CLI::App& app);
+Runner add_diagnose(CLI::App& app);
 
 }  // namespace dbbkit::cli

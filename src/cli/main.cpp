@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   add(dbbkit::cli::add_identify);
   add(dbbkit::cli::add_simulate);
   add(dbbkit::cli::add_evaluate);
+  add(dbbkit::cli::add_diagnose);
 
   try {
     app.parse(argc, argv);

@@ -25,8 +25,8 @@ json optional_number(const std::optional<double>& x) { return x ? json(*x) : jso
 
 }  // namespace
 
-std::string errors_table(const std::vector<ErrorsAtAngle>& errors, bool values);
-std::string unidentifiable_text(const std::vector<Unidentifiable>& list);
+
+
 
 json errors_to_json(const std::vector<ErrorsAtAngle>& list, bool values) {
   json errors = json::array();

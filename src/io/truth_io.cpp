@@ -57,6 +57,64 @@ Truth truth_from_json(const json& j, const std::string& source) {
     t.noise = read_noise(ObjectReader(*n, source, "noise"), true);
     t.noiseless = !t.noise.has_value();
   }
+  if (const json* list = top.optional("effects")) {
+    if (!list->is_array()) top.fail("effects", "expected a list of effects");
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      const std::string path = "effects[" + std::to_string(i) + "]";
+      ObjectReader e((*list)[i], source, path);
+      TruthEffect te;
+      te.effect.kind = effect_kind(e.string("name"), source, path + ".name");
+      te.installation = e.optional_string("installation").value_or("");
+      const std::vector<std::string> names = effect_parameter_names(te.effect.kind);
+      te.value = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(names.size()));
+      const json& v = e.required("value");
+      const std::string vpath = path + ".value";
+      switch (te.effect.kind) {
+        case EffectKind::Centring: {
+          if (!v.is_array() || v.size() < 2 || v.size() > 3) throw InputError(source, vpath, "expected [cx, cy] or [cx, cy, cz] in um");
+          for (std::size_t k = 0; k < v.size(); ++k) te.value(static_cast<Eigen::Index>(k)) = as_number(v[k], source, vpath + "[" + std::to_string(k) + "]");
+          break;
+        }
+        case EffectKind::Scale:
+        case EffectKind::Squareness: {
+          ObjectReader o(v, source, vpath);
+          for (std::size_t k = 0; k < names.size(); ++k) te.value(static_cast<Eigen::Index>(k)) = o.optional_number(names[k]).value_or(0.0);
+          o.finish();
+          break;
+        }
+        case EffectKind::Periodic: {
+          ObjectReader o(v, source, vpath);
+          te.effect.harmonic = o.integer("harmonic");
+          if (te.effect.harmonic < 1) o.fail("harmonic", "must be >= 1");
+          te.value(0) = o.number("amplitude_um");
+          te.effect.phase_deg = o.optional_number("phase_deg").value_or(0.0);
+          o.finish();
+          break;
+        }
+        default:
+          te.value(0) = as_number(v, source, vpath);
+      }
+      e.finish();
+      t.effects.push_back(te);
+    }
+  }
+  if (const json* sc = top.optional("schedule")) {
+    ObjectReader o(*sc, source, "schedule");
+    Schedule s;
+    s.per_reading_s = o.optional_number("per_reading_s").value_or(s.per_reading_s);
+    s.per_installation_s = o.optional_number("per_installation_s").value_or(s.per_installation_s);
+    if (const json* sw = o.optional("sweeps")) {
+      if (!sw->is_array() || sw->empty()) o.fail("sweeps", "expected a list of \"ccw\" and/or \"cw\"");
+      s.sweeps.clear();
+      for (std::size_t k = 0; k < sw->size(); ++k) {
+        const std::string x = as_string((*sw)[k], source, "schedule.sweeps[" + std::to_string(k) + "]");
+        if (x != "cw" && x != "ccw") o.fail("sweeps", "'" + x + "' is not a sweep (cw or ccw)");
+        s.sweeps.push_back(x == "cw" ? Sweep::CW : Sweep::CCW);
+      }
+    }
+    o.finish();
+    t.schedule = s;
+  }
   t.repeats = top.optional_integer("repeats").value_or(1);
   if (t.repeats < 1) top.fail("repeats", "must be an integer >= 1");
   if (const json* s = top.optional("seed")) {

@@ -42,6 +42,8 @@ nlohmann::json errors_to_json(const std::vector<ErrorsAtAngle>& errors, bool val
 nlohmann::json unidentifiable_to_json(const std::vector<Unidentifiable>& list);
 
 // Aligned tables with units.
+std::string errors_table(const std::vector<ErrorsAtAngle>& errors, bool values);
+std::string unidentifiable_text(const std::vector<Unidentifiable>& list);
 std::string identify_summary(const Design& design, const IdentifyResult& result);
 
 }  // namespace dbbkit::io

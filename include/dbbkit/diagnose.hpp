@@ -1,0 +1,93 @@
+#pragma once
+// Closing the loop (model.md §6): find what the model does not explain, trace
+// it to an effect of the library, add the effect, report before and after.
+//
+// Forward selection: at each step every candidate effect not yet in the model
+// is appended to J. A candidate whose columns do not raise the rank by their
+// number is confounded with the model (axis errors + effects already added) and
+// is not added: its size cannot be told from the data. For the others, the
+// nested F-test
+//   F = ((chi2_cur - chi2_try) / q) / (chi2_try / (n - rank_try))
+// gives p = P(F_{q, n - rank_try} >= F). The best candidate is added when
+//   p < level / m   (Bonferroni over the m candidates tested at that step)
+// and the Bayesian information criterion n ln(chi2/n) + rank ln n decreases.
+// Selection stops when no candidate passes.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/effects.hpp"
+#include "dbbkit/estimate.hpp"
+#include "dbbkit/identify.hpp"
+
+namespace dbbkit {
+
+struct DiagnoseOptions {
+  double level = 0.01;  // family-wise significance level of each step
+  int max_effects = 12;
+  EstimateOptions estimate;
+};
+
+struct EffectEvidence {
+  int step = 0;
+  double F = 0;
+  int q = 0;    // columns added
+  int dof = 0;  // n - rank after
+  double p_value = 1;
+  double p_threshold = 0;  // level / candidates tested at that step
+  int n_tested = 0;
+  double bic_change = 0;
+  double chi2_before = 0, chi2_after = 0;
+};
+
+struct AddedEffect {
+  EffectBlock block;
+  std::vector<Determined> values;  // one per column, in block.parameters order
+  EffectEvidence evidence;
+};
+
+// The last word on every candidate: "added", "not significant", "confounded", "not applicable".
+struct CandidateStatus {
+  std::string label;
+  std::string status;
+  std::string detail;
+};
+
+struct ResidualSignature {
+  struct Installation {
+    std::string id;
+    int n = 0;
+    double mean_um = 0, rms_um = 0;
+    std::vector<double> harmonic_um;  // amplitude of k = 1, 2, ... per turn (axis C)
+    std::optional<double> slope_um_per_min;
+    std::optional<double> cw_minus_ccw_um;
+  };
+  std::vector<Installation> installations;
+  std::string dominant;  // the largest feature, in words
+};
+
+struct DiagnoseResult {
+  double level = 0.01;
+  Estimate before, after;
+  std::vector<ErrorsAtAngle> errors_before, errors_after;
+  std::vector<Unidentifiable> unidentifiable_after;
+  std::vector<AddedEffect> added;
+  std::vector<CandidateStatus> candidates;
+  ResidualSignature signature_before, signature_after;
+  bool significant_before = false, significant_after = false;
+  std::optional<double> p_lower_after;  // P(chi2_dof <= chi2 after): small when the residual is too small
+  std::string verdict;
+};
+
+ResidualSignature residual_signature(const Design& design, const std::vector<Reading>& readings,
+                                     const Eigen::VectorXd& residual_um);
+
+DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readings,
+                        const DiagnoseOptions& options = {});
+
+// Which effects of the library a design (with its error model) can tell from the
+// axis errors, one at a time: "detectable", "confounded" or "not applicable".
+std::vector<CandidateStatus> effect_detectability(const Design& design, const std::vector<Reading>& readings);
+
+}  // namespace dbbkit

@@ -1,0 +1,64 @@
+#pragma once
+// Effects the six error motions do not describe (model.md §6), each a block of
+// extra columns of J with a name, a unit and the installations it applies to.
+// A reading changes by row . value, with row from effect_row():
+//   length_offset (per installation, um):       1
+//   centring (per installation, um):            -s u . c, c the constant offset of the
+//                                               following ball's path (machine frame)
+//   drift (per installation, um/min):           (t - t0) / 60, t0 the installation's first reading
+//   reversal (per installation, um):            +1/2 on cw sweeps, -1/2 on ccw: value = cw - ccw
+//   scale (shared, um/m):                       -s u . dF, dF_k = 1e-3 k_k F_k
+//   squareness (shared, urad):                  -s u . dF, dF = 1e-3 (S_xy F_y, S_yz F_z, S_zx F_x)
+// with F = P - s bar u the following ball (mm, needs bar_mm). Outside the library,
+// for tests of what the tool does with an unknown effect:
+//   periodic (per installation, um):            cos(k a - phase) times the amplitude
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/measurement.hpp"
+
+namespace dbbkit {
+
+enum class EffectKind { LengthOffset, Centring, Drift, Reversal, Scale, Squareness, Periodic };
+
+const char* effect_name(EffectKind kind);
+// Throws InputError(source, key, ...) for an unknown name.
+EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key);
+bool effect_is_shared(EffectKind kind);
+const char* effect_unit(EffectKind kind);
+// Names of the full parameter vector of an effect (before unseen columns are dropped).
+std::vector<std::string> effect_parameter_names(EffectKind kind);
+
+struct EffectCandidate {
+  EffectKind kind = EffectKind::LengthOffset;
+  int installation = -1;  // -1: shared by all installations
+  int harmonic = 0;       // Periodic only
+  double phase_deg = 0;   // Periodic only
+  std::string label(const Design& design) const;  // e.g. "centring[2r]", "squareness"
+};
+
+// Per reading, the full-length row of the effect; `t0_s` the first time of the reading's installation.
+Eigen::VectorXd effect_row(const Design& design, const Reading& reading, double t0_s, const EffectCandidate& effect);
+
+// First time_s of every installation (NaN when it has no time).
+std::vector<double> installation_start_times(const Design& design, const std::vector<Reading>& readings);
+
+struct EffectBlock {
+  EffectCandidate effect;
+  std::string label;
+  std::string unit;
+  std::vector<std::string> parameters;  // the columns kept
+  Eigen::MatrixXd X;                    // n_readings x parameters
+  std::string not_applicable;           // why the effect cannot be formed from these readings, or empty
+};
+
+// The columns of an effect over the readings; all-zero columns are dropped.
+EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings, const EffectCandidate& effect);
+
+// Every effect of the library that the readings could show (applicable or not, with the reason).
+std::vector<EffectBlock> candidate_effects(const Design& design, const std::vector<Reading>& readings);
+
+}  // namespace dbbkit

@@ -1,0 +1,18 @@
+#pragma once
+// Result of `diagnose` (`dbbkit.diagnose/1`), its terminal summary and a
+// self-contained HTML report.
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "dbbkit/diagnose.hpp"
+#include "dbbkit/io/result_io.hpp"
+
+namespace dbbkit::io {
+
+nlohmann::json diagnose_to_json(const Design& design, const DiagnoseResult& result, const InputFiles& inputs);
+std::string diagnose_summary(const Design& design, const DiagnoseResult& result);
+std::string diagnose_html(const Design& design, const DiagnoseResult& result, const InputFiles& inputs);
+
+}  // namespace dbbkit::io

@@ -1,0 +1,50 @@
+#include <iostream>
+#include <memory>
+
+#include "commands.hpp"
+#include "dbbkit/diagnose.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/diagnose_io.hpp"
+#include "dbbkit/io/measurement_io.hpp"
+#include "dbbkit/io/output.hpp"
+
+namespace dbbkit::cli {
+
+namespace {
+struct DiagnoseArgs {
+  std::string design, data, out, report;
+  double level = 0.01;
+  int max_effects = 12;
+};
+}  // namespace
+
+Runner add_diagnose(CLI::App& app) {
+  auto args = std::make_shared<DiagnoseArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "diagnose", "Find what the model does not explain, add the effects that explain it, report before and after");
+  sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
+  sub->add_option("--data", args->data, "Measurement file (CSV)")->required();
+  sub->add_option("--out", args->out, "Result JSON (dbbkit.diagnose/1); '-' or absent: JSON on stdout");
+  sub->add_option("--report", args->report, "A readable report (HTML)");
+  sub->add_option("--level", args->level, "Family-wise significance level of each selection step")
+      ->check(CLI::Range(1e-6, 0.2))
+      ->capture_default_str();
+  sub->add_option("--max-effects", args->max_effects, "Most effects added")->check(CLI::Range(0, 100))->capture_default_str();
+  return [args]() {
+    const Design design = io::read_design_file(args->design);
+    const std::vector<Reading> readings = io::read_measurement_file(args->data, design);
+    DiagnoseOptions options;
+    options.level = args->level;
+    options.max_effects = args->max_effects;
+    const DiagnoseResult result = diagnose(design, readings, options);
+    const io::InputFiles inputs{args->design, args->data};
+    const std::vector<std::string> in = {args->design, args->data};
+    if (!args->report.empty()) io::write_output(args->report, io::diagnose_html(design, result, inputs), in);
+    io::write_output(args->out, io::diagnose_to_json(design, result, inputs).dump(2) + "\n", in);
+    if (!args->out.empty() && args->out != "-") std::cout << io::diagnose_summary(design, result);
+    return 0;
+  };
+}
+
+}  // namespace dbbkit::cli

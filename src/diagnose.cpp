@@ -1,0 +1,294 @@
+#include "dbbkit/diagnose.hpp"
+
+#include <Eigen/QR>
+#include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/fisher_f.hpp>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "dbbkit/linear_model.hpp"
+#include "dbbkit/parameterisation.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+std::string fmt(double x, int digits = 3) {
+  std::ostringstream s;
+  s << std::setprecision(digits) << x;
+  return s.str();
+}
+
+Eigen::MatrixXd append(const Eigen::MatrixXd& J, const Eigen::MatrixXd& X) {
+  Eigen::MatrixXd out(J.rows(), J.cols() + X.cols());
+  out << J, X;
+  return out;
+}
+
+double bic(const Estimate& e) {
+  const double n = e.n_readings;
+  return n * std::log(std::max(e.chi2, 1e-300) / n) + e.rank * std::log(n);
+}
+
+std::vector<ErrorsAtAngle> errors_of(const Parameterisation& param, const Estimate& est) {
+  std::vector<ErrorsAtAngle> out;
+  for (int s = 0; s < param.n_stations(); ++s) {
+    ErrorsAtAngle ea;
+    ea.station = s;
+    ea.angle_deg = param.station_angle_deg(s);
+    const Eigen::MatrixXd E = param.error_map(s);
+    for (int k = 0; k < 6; ++k) {
+      Eigen::VectorXd c = Eigen::VectorXd::Zero(est.n_unknowns);
+      c.head(E.cols()) = E.row(k).transpose();
+      ea.errors[k] = est.evaluate(c);
+    }
+    out.push_back(ea);
+  }
+  return out;
+}
+
+// Rank of [J X] against J: does X add q independent columns?
+bool confounded(int rank_before, int rank_after, int q) { return rank_after - rank_before < q; }
+
+}  // namespace
+
+ResidualSignature residual_signature(const Design& design, const std::vector<Reading>& readings,
+                                     const Eigen::VectorXd& r) {
+  ResidualSignature sig;
+  double best = -1;
+  for (std::size_t i = 0; i < design.installations.size(); ++i) {
+    ResidualSignature::Installation s;
+    s.id = design.installations[i].id;
+    std::vector<int> rows;
+    for (std::size_t j = 0; j < readings.size(); ++j) {
+      if (readings[j].installation == s.id) rows.push_back(static_cast<int>(j));
+    }
+    s.n = static_cast<int>(rows.size());
+    if (s.n == 0) continue;
+    Eigen::VectorXd ri(s.n);
+    for (int j = 0; j < s.n; ++j) ri(j) = r(rows[j]);
+    s.mean_um = ri.mean();
+    s.rms_um = std::sqrt(ri.squaredNorm() / s.n);
+    auto consider = [&](double size, const std::string& what) {
+      if (size > best) {
+        best = size;
+        sig.dominant = what;
+      }
+    };
+    consider(std::abs(s.mean_um), "a mean residual of " + fmt(s.mean_um) + " um in installation " + s.id);
+    if (design.axis == Axis::C) {
+      // Distinct positions bound the harmonics that can be told apart: 2K + 1 <= positions.
+      std::vector<double> positions;
+      for (int j : rows) {
+        const double a = std::fmod(std::fmod(readings[j].angle_deg, 360.0) + 360.0, 360.0);
+        bool seen = false;
+        for (double p : positions) seen = seen || std::abs(p - a) < kAngleTolerance_deg;
+        if (!seen) positions.push_back(a);
+      }
+      const int K = std::min(4, (static_cast<int>(positions.size()) - 1) / 2);
+      if (K >= 1) {
+        Eigen::MatrixXd A(s.n, 2 * K + 1);
+        for (int j = 0; j < s.n; ++j) A.row(j) = fourier_basis(K, readings[rows[j]].angle_deg).transpose();
+        const Eigen::VectorXd coef = A.colPivHouseholderQr().solve(ri);
+        for (int k = 1; k <= K; ++k) {
+          s.harmonic_um.push_back(std::hypot(coef(2 * k - 1), coef(2 * k)));
+          consider(s.harmonic_um.back(), "a " + std::to_string(k) + "-per-turn term of amplitude " +
+                                             fmt(s.harmonic_um.back()) + " um in installation " + s.id);
+        }
+      }
+    }
+    double t_sum = 0, t2 = 0, tr = 0, t_min = 1e300, t_max = -1e300;
+    int nt = 0;
+    double cw_sum = 0, ccw_sum = 0;
+    int ncw = 0, nccw = 0;
+    for (int j = 0; j < s.n; ++j) {
+      const Reading& rd = readings[rows[j]];
+      if (rd.time_s) {
+        const double t = *rd.time_s / 60.0;
+        t_sum += t, t2 += t * t, tr += t * ri(j), ++nt;
+        t_min = std::min(t_min, t), t_max = std::max(t_max, t);
+      }
+      if (rd.sweep) (*rd.sweep == Sweep::CW ? (cw_sum += ri(j), ++ncw) : (ccw_sum += ri(j), ++nccw));
+    }
+    if (nt == s.n && nt > 2 && t_max > t_min) {
+      const double tm = t_sum / nt;
+      s.slope_um_per_min = (tr - tm * ri.sum()) / (t2 - nt * tm * tm);
+      consider(std::abs(*s.slope_um_per_min) * (t_max - t_min),
+               "a drift of " + fmt(*s.slope_um_per_min) + " um/min in installation " + s.id);
+    }
+    if (ncw > 0 && nccw > 0) {
+      s.cw_minus_ccw_um = cw_sum / ncw - ccw_sum / nccw;
+      consider(std::abs(*s.cw_minus_ccw_um),
+               "a difference cw - ccw of " + fmt(*s.cw_minus_ccw_um) + " um in installation " + s.id);
+    }
+    sig.installations.push_back(s);
+  }
+  return sig;
+}
+
+DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readings, const DiagnoseOptions& options) {
+  DiagnoseResult res;
+  res.level = options.level;
+  const Parameterisation param(design);
+  const LinearModel model = build_linear_model(design, param, readings);
+  Eigen::MatrixXd J = model.J;
+  Estimate current = WlsSolver(J, model.sigma_um, options.estimate).solve(model.y_um);
+  res.before = current;
+  res.errors_before = errors_of(param, current);
+  res.signature_before = residual_signature(design, readings, current.residual_um);
+  res.significant_before = current.p_value && *current.p_value < options.level;
+
+  std::vector<EffectBlock> pool = candidate_effects(design, readings);
+  std::vector<bool> used(pool.size(), false);
+  std::vector<CandidateStatus> status(pool.size());
+  for (std::size_t i = 0; i < pool.size(); ++i) {
+    status[i].label = pool[i].label;
+    if (!pool[i].not_applicable.empty()) {
+      status[i] = {pool[i].label, "not applicable", pool[i].not_applicable};
+      used[i] = true;
+    }
+  }
+
+  for (int step = 1; step <= options.max_effects; ++step) {
+    int best = -1, tested = 0;
+    Estimate best_est;
+    double best_p = 2, best_F = 0;
+    for (std::size_t i = 0; i < pool.size(); ++i) {
+      if (used[i]) continue;
+      const int q = static_cast<int>(pool[i].X.cols());
+      const Estimate trial = WlsSolver(append(J, pool[i].X), model.sigma_um, options.estimate).solve(model.y_um);
+      if (confounded(current.rank, trial.rank, q)) {
+        status[i] = {pool[i].label, "confounded",
+                     "its " + std::to_string(q) + " column(s) raise the rank by " +
+                         std::to_string(trial.rank - current.rank) +
+                         ": its size cannot be told from the axis errors" +
+                         (res.added.empty() ? std::string() : " and the effects already added")};
+        continue;
+      }
+      if (trial.dof <= 0) {
+        status[i] = {pool[i].label, "not significant", "no residual degrees of freedom left to test it"};
+        continue;
+      }
+      ++tested;
+      const double F = ((current.chi2 - trial.chi2) / q) / (trial.chi2 / trial.dof);
+      const double p = F > 0 ? boost::math::cdf(boost::math::complement(boost::math::fisher_f(q, trial.dof), F)) : 1.0;
+      status[i] = {pool[i].label, "not significant", "F = " + fmt(F) + ", p = " + fmt(p)};
+      if (p < best_p) best = static_cast<int>(i), best_p = p, best_F = F, best_est = trial;
+    }
+    if (best < 0) break;
+    const double threshold = options.level / tested;
+    const double dbic = bic(best_est) - bic(current);
+    if (!(best_p < threshold && dbic < 0)) {
+      status[best].detail += " (the best candidate at step " + std::to_string(step) + "; needs p < " + fmt(threshold) +
+                             " and a lower BIC, change " + fmt(dbic) + ")";
+      break;
+    }
+    AddedEffect a;
+    a.block = pool[best];
+    a.evidence = {step,  best_F,      static_cast<int>(pool[best].X.cols()), best_est.dof, best_p, threshold, tested,
+                  dbic,  current.chi2, best_est.chi2};
+    res.added.push_back(a);
+    used[best] = true;
+    status[best] = {pool[best].label, "added", "step " + std::to_string(step) + ": F = " + fmt(best_F) + ", p = " +
+                                                   fmt(best_p) + " < " + fmt(threshold) + ", BIC change " + fmt(dbic)};
+    J = append(J, pool[best].X);
+    current = best_est;
+  }
+
+  res.after = current;
+  res.errors_after = errors_of(param, current);
+  // The effects' values from the final model.
+  int col = param.n_parameters();
+  for (AddedEffect& a : res.added) {
+    for (int j = 0; j < a.block.X.cols(); ++j, ++col) {
+      Eigen::VectorXd c = Eigen::VectorXd::Zero(current.n_unknowns);
+      c(col) = 1.0;
+      a.values.push_back(current.evaluate(c));
+    }
+  }
+  {
+    // Null space of the final model over the axis-error unknowns (effects are all determined when added).
+    Estimate axis_only = current;
+    const int p = param.n_parameters();
+    axis_only.null_space_scaled = current.null_space_scaled.topRows(p);
+    axis_only.column_scale = current.column_scale.head(p);
+    axis_only.n_unknowns = p;
+    res.unidentifiable_after = describe_null_space(design, param, axis_only);
+  }
+  res.signature_after = residual_signature(design, readings, current.residual_um);
+  res.significant_after = current.p_value && *current.p_value < options.level;
+  res.candidates = status;
+
+  std::ostringstream v;
+  auto chi = [](const Estimate& e) {
+    std::ostringstream s;
+    s << "chi2 " << fmt(e.chi2, 4) << " on " << e.dof << " dof, p ";
+    if (e.p_value && *e.p_value < 1e-300) {
+      s << "< 1e-300";
+    } else if (e.p_value) {
+      s << "= " << fmt(*e.p_value);
+    } else {
+      s << "undefined";
+    }
+    return s.str();
+  };
+  if (!res.before.p_value) {
+    v << "The design leaves no redundant reading: nothing can be tested.";
+  } else if (!res.significant_before && res.added.empty()) {
+    v << "The residual is consistent with the declared noise (" << chi(res.before) << "): nothing to explain.";
+  } else {
+    v << "Before: " << chi(res.before) << ". ";
+    if (res.added.empty()) {
+      v << "No effect of the library is justified. ";
+    } else {
+      v << "Added:";
+      for (const AddedEffect& a : res.added) v << " " << a.block.label;
+      v << ". After: " << chi(res.after) << ". ";
+    }
+    if (res.significant_after) {
+      v << "A significant residual remains that no effect of the library explains; its largest feature is "
+        << res.signature_after.dominant << ".";
+    } else {
+      v << "No significant residual remains.";
+    }
+  }
+  if (res.after.dof > 0) {
+    // The lower tail: a residual far smaller than the declared noise predicts.
+    const double lower = boost::math::cdf(boost::math::chi_squared(res.after.dof), res.after.chi2);
+    res.p_lower_after = lower;
+    if (lower < options.level) {
+      v << " The residual is smaller than the declared noise predicts (P(chi2 <= " << fmt(res.after.chi2, 4)
+        << ") = " << fmt(lower) << "): the declared instrument accuracy overstates the scatter of these readings "
+        << "(averaged readings?); the uncertainties stated from it are conservative, and a Type A evaluation "
+        << "(identify --type-a) would state them from the data.";
+    }
+  }
+  res.verdict = v.str();
+  return res;
+}
+
+std::vector<CandidateStatus> effect_detectability(const Design& design, const std::vector<Reading>& readings) {
+  const Parameterisation param(design);
+  const LinearModel model = build_linear_model(design, param, readings);
+  const int rank = WlsSolver(model.J, model.sigma_um).a_priori().rank;
+  std::vector<CandidateStatus> out;
+  for (const EffectBlock& b : candidate_effects(design, readings)) {
+    if (!b.not_applicable.empty()) {
+      out.push_back({b.label, "not applicable", b.not_applicable});
+      continue;
+    }
+    const int q = static_cast<int>(b.X.cols());
+    const int r = WlsSolver(append(model.J, b.X), model.sigma_um).a_priori().rank;
+    if (confounded(rank, r, q)) {
+      out.push_back({b.label, "confounded",
+                     "raises the rank by " + std::to_string(r - rank) + " of " + std::to_string(q) +
+                         ": indistinguishable from the axis errors of the " + design.errors.describe() + " model"});
+    } else {
+      out.push_back({b.label, "detectable", ""});
+    }
+  }
+  return out;
+}
+
+}  // namespace dbbkit

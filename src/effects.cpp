@@ -1,0 +1,166 @@
+#include "dbbkit/effects.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit {
+
+namespace {
+struct KindInfo {
+  EffectKind kind;
+  const char* name;
+  const char* unit;
+  bool shared;
+};
+constexpr KindInfo kKinds[] = {
+    {EffectKind::LengthOffset, "length_offset", "um", false}, {EffectKind::Centring, "centring", "um", false},
+    {EffectKind::Drift, "drift", "um/min", false},            {EffectKind::Reversal, "reversal", "um", false},
+    {EffectKind::Scale, "scale", "um/m", true},               {EffectKind::Squareness, "squareness", "urad", true},
+    {EffectKind::Periodic, "periodic", "um", false},
+};
+const KindInfo& info(EffectKind k) {
+  for (const KindInfo& i : kKinds) {
+    if (i.kind == k) return i;
+  }
+  return kKinds[0];
+}
+}  // namespace
+
+const char* effect_name(EffectKind kind) { return info(kind).name; }
+const char* effect_unit(EffectKind kind) { return info(kind).unit; }
+bool effect_is_shared(EffectKind kind) { return info(kind).shared; }
+
+EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key) {
+  for (const KindInfo& i : kKinds) {
+    if (name == i.name) return i.kind;
+  }
+  throw InputError(source, key,
+                   "unknown effect '" + name +
+                       "' (expected length_offset, centring, drift, reversal, scale, squareness or periodic)");
+}
+
+std::vector<std::string> effect_parameter_names(EffectKind kind) {
+  switch (kind) {
+    case EffectKind::Centring:
+      return {"cx", "cy", "cz"};
+    case EffectKind::Scale:
+      return {"x", "y", "z"};
+    case EffectKind::Squareness:
+      return {"xy", "yz", "zx"};
+    default:
+      return {"value"};
+  }
+}
+
+std::string EffectCandidate::label(const Design& design) const {
+  std::string s = effect_name(kind);
+  if (installation >= 0) s += "[" + design.installations[installation].id + "]";
+  if (kind == EffectKind::Periodic) s += "(" + std::to_string(harmonic) + "/turn)";
+  return s;
+}
+
+std::vector<double> installation_start_times(const Design& design, const std::vector<Reading>& readings) {
+  std::vector<double> t0(design.installations.size(), std::numeric_limits<double>::quiet_NaN());
+  for (const Reading& r : readings) {
+    const int i = design.find_installation(r.installation);
+    if (i >= 0 && r.time_s && !(t0[i] <= *r.time_s)) t0[i] = *r.time_s;
+  }
+  return t0;
+}
+
+Eigen::VectorXd effect_row(const Design& design, const Reading& r, double t0_s, const EffectCandidate& e) {
+  const int inst = design.find_installation(r.installation);
+  const std::size_t n = effect_parameter_names(e.kind).size();
+  Eigen::VectorXd row = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n));
+  if (e.installation >= 0 && e.installation != inst) return row;
+  const Installation& in = design.installations[inst];
+  const Eigen::Vector3d u = direction_machine(design.axis, in, r.angle_deg);
+  switch (e.kind) {
+    case EffectKind::LengthOffset:
+      row(0) = 1.0;
+      break;
+    case EffectKind::Centring:
+      row = -in.sign * u;
+      break;
+    case EffectKind::Drift:
+      if (r.time_s && std::isfinite(t0_s)) row(0) = (*r.time_s - t0_s) / 60.0;
+      break;
+    case EffectKind::Reversal:
+      if (r.sweep) row(0) = *r.sweep == Sweep::CW ? 0.5 : -0.5;
+      break;
+    case EffectKind::Scale:
+    case EffectKind::Squareness: {
+      if (!in.bar_mm) break;
+      const Eigen::Vector3d F = ball_position_mm(design.axis, in, r.angle_deg) - in.sign * *in.bar_mm * u;
+      const Eigen::Vector3d w = -in.sign * 1e-3 * u;  // reading per um of following-ball motion, per mm of F
+      if (e.kind == EffectKind::Scale) {
+        row = w.cwiseProduct(F);
+      } else {
+        row << w.x() * F.y(), w.y() * F.z(), w.z() * F.x();
+      }
+      break;
+    }
+    case EffectKind::Periodic: {
+      double s, c;
+      sincos_deg(e.harmonic * r.angle_deg - e.phase_deg, s, c);
+      row(0) = c;
+      break;
+    }
+  }
+  return row;
+}
+
+EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings, const EffectCandidate& e) {
+  EffectBlock b;
+  b.effect = e;
+  b.label = e.label(design);
+  b.unit = effect_unit(e.kind);
+  const std::vector<std::string> names = effect_parameter_names(e.kind);
+  const std::vector<double> t0 = installation_start_times(design, readings);
+  Eigen::MatrixXd full(static_cast<Eigen::Index>(readings.size()), static_cast<Eigen::Index>(names.size()));
+  bool time_missing = false, cw = false, ccw = false, bar_missing = false;
+  for (std::size_t i = 0; i < readings.size(); ++i) {
+    const Reading& r = readings[i];
+    const int inst = design.find_installation(r.installation);
+    const bool applies = e.installation < 0 || e.installation == inst;
+    if (applies) {
+      time_missing = time_missing || !r.time_s;
+      cw = cw || (r.sweep && *r.sweep == Sweep::CW);
+      ccw = ccw || (r.sweep && *r.sweep == Sweep::CCW);
+      bar_missing = bar_missing || !design.installations[inst].bar_mm;
+    }
+    full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, t0[inst], e).transpose();
+  }
+  if (e.kind == EffectKind::Drift && time_missing) b.not_applicable = "needs time_s on every reading it applies to";
+  if (e.kind == EffectKind::Reversal && !(cw && ccw)) b.not_applicable = "needs readings of both sweeps (cw and ccw)";
+  if ((e.kind == EffectKind::Scale || e.kind == EffectKind::Squareness) && bar_missing) {
+    b.not_applicable = "needs bar_mm on every installation (the following ball's position)";
+  }
+  std::vector<int> keep;
+  for (int j = 0; j < full.cols(); ++j) {
+    if (full.col(j).cwiseAbs().maxCoeff() > 1e-12) keep.push_back(j);
+  }
+  if (keep.empty() && b.not_applicable.empty()) b.not_applicable = "changes no reading of this design";
+  b.X.resize(full.rows(), static_cast<Eigen::Index>(keep.size()));
+  for (std::size_t j = 0; j < keep.size(); ++j) {
+    b.X.col(static_cast<Eigen::Index>(j)) = full.col(keep[j]);
+    b.parameters.push_back(names[keep[j]]);
+  }
+  return b;
+}
+
+std::vector<EffectBlock> candidate_effects(const Design& design, const std::vector<Reading>& readings) {
+  std::vector<EffectBlock> out;
+  for (EffectKind k : {EffectKind::LengthOffset, EffectKind::Centring, EffectKind::Drift, EffectKind::Reversal}) {
+    for (std::size_t i = 0; i < design.installations.size(); ++i) {
+      out.push_back(effect_block(design, readings, {k, static_cast<int>(i)}));
+    }
+  }
+  for (EffectKind k : {EffectKind::Scale, EffectKind::Squareness}) out.push_back(effect_block(design, readings, {k, -1}));
+  return out;
+}
+
+}  // namespace dbbkit

@@ -1,0 +1,224 @@
+#include "dbbkit/io/diagnose_io.hpp"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit::io {
+
+using nlohmann::json;
+
+namespace {
+
+double r6(double x) { return std::round(x * 1e6) / 1e6; }
+
+json signature_to_json(const ResidualSignature& s) {
+  json list = json::array();
+  for (const auto& i : s.installations) {
+    json e = {{"installation", i.id}, {"n", i.n}, {"mean_um", r6(i.mean_um)}, {"rms_um", r6(i.rms_um)}};
+    json h = json::array();
+    for (double a : i.harmonic_um) h.push_back(r6(a));
+    e["harmonic_amplitude_um"] = h;
+    e["slope_um_per_min"] = i.slope_um_per_min ? json(r6(*i.slope_um_per_min)) : json(nullptr);
+    e["cw_minus_ccw_um"] = i.cw_minus_ccw_um ? json(r6(*i.cw_minus_ccw_um)) : json(nullptr);
+    list.push_back(e);
+  }
+  return {{"installations", list}, {"dominant", s.dominant}};
+}
+
+std::vector<std::string> installations_of(const Design& d, const EffectCandidate& e) {
+  std::vector<std::string> ids;
+  for (std::size_t i = 0; i < d.installations.size(); ++i) {
+    if (e.installation < 0 || e.installation == static_cast<int>(i)) ids.push_back(d.installations[i].id);
+  }
+  return ids;
+}
+
+std::string signature_text(const ResidualSignature& s, Axis axis) {
+  std::ostringstream o;
+  o << std::setw(8) << "inst" << std::setw(5) << "n" << std::setw(10) << "mean" << std::setw(10) << "rms";
+  if (axis == Axis::C) o << std::setw(9) << "1/turn" << std::setw(9) << "2/turn" << std::setw(9) << "3/turn" << std::setw(9) << "4/turn";
+  o << std::setw(12) << "um/min" << std::setw(10) << "cw-ccw" << "\n";
+  for (const auto& i : s.installations) {
+    o << std::setw(8) << i.id << std::setw(5) << i.n << std::fixed << std::setprecision(2) << std::setw(10) << i.mean_um
+      << std::setw(10) << i.rms_um;
+    if (axis == Axis::C) {
+      for (int k = 0; k < 4; ++k) {
+        if (k < static_cast<int>(i.harmonic_um.size())) {
+          o << std::setw(9) << i.harmonic_um[k];
+        } else {
+          o << std::setw(9) << "--";
+        }
+      }
+    }
+    o << std::setw(12);
+    if (i.slope_um_per_min) o << std::setprecision(3) << *i.slope_um_per_min; else o << "--";
+    o << std::setw(10);
+    if (i.cw_minus_ccw_um) o << std::setprecision(2) << *i.cw_minus_ccw_um; else o << "--";
+    o << std::defaultfloat << "\n";
+  }
+  o << "largest feature: " << s.dominant << "\n";
+  return o.str();
+}
+
+std::string residual_line(const Estimate& e) {
+  std::ostringstream s;
+  s << "rms " << std::setprecision(4) << e.rms_um << " um, chi2 " << e.chi2 << " on " << e.dof << " dof, p ";
+  if (e.p_value && *e.p_value < 1e-300) {
+    s << "< 1e-300";
+  } else if (e.p_value) {
+    s << "= " << std::setprecision(3) << *e.p_value;
+  } else {
+    s << "undefined";
+  }
+  return s.str();
+}
+
+std::string html_escape(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    if (c == '<') o += "&lt;";
+    else if (c == '>') o += "&gt;";
+    else if (c == '&') o += "&amp;";
+    else o += c;
+  }
+  return o;
+}
+
+}  // namespace
+
+json diagnose_to_json(const Design& design, const DiagnoseResult& r, const InputFiles& inputs) {
+  json j;
+  j["format"] = "dbbkit.diagnose/1";
+  j["dbbkit_version"] = DBBKIT_VERSION;
+  j["inputs"] = {{"design", inputs.design}, {"data", inputs.data}};
+  j["design"] = {{"name", design.name}, {"axis", axis_name(design.axis)}, {"errors_model", design.errors.describe()}};
+  if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
+  j["noise"] = noise_to_json(design.noise);
+  j["noise"]["sigma_um"] = design.noise.sigma_um();
+  j["method"] =
+      "forward selection; a candidate is added when its nested F-test p-value is below level / (candidates tested "
+      "at that step) and the BIC decreases; a candidate that does not raise the rank by its number of columns is "
+      "confounded and never added";
+  j["level"] = r.level;
+  j["before"] = residual_to_json(r.before);
+  j["after"] = residual_to_json(r.after);
+  j["residual"] = j["after"];
+  j["significant_residual_before"] = r.significant_before;
+  j["significant_residual_after"] = r.significant_after;
+  j["after_lower_tail_p"] = r.p_lower_after ? json(*r.p_lower_after) : json(nullptr);
+  j["verdict"] = r.verdict;
+  json added = json::array();
+  for (const AddedEffect& a : r.added) {
+    json value = json::object(), std = json::object();
+    for (std::size_t k = 0; k < a.values.size(); ++k) {
+      const std::string& p = a.block.parameters[k];
+      value[p] = a.values[k].determined ? json(r6(a.values[k].value)) : json(nullptr);
+      std[p] = a.values[k].determined ? json(r6(a.values[k].std)) : json(nullptr);
+    }
+    const EffectEvidence& e = a.evidence;
+    added.push_back({{"name", effect_name(a.block.effect.kind)},
+                     {"label", a.block.label},
+                     {"installations", installations_of(design, a.block.effect)},
+                     {"value", value},
+                     {"std", std},
+                     {"unit", a.block.unit},
+                     {"evidence",
+                      {{"step", e.step},
+                       {"F", e.F},
+                       {"q", e.q},
+                       {"dof", e.dof},
+                       {"p_value", e.p_value},
+                       {"p_threshold", e.p_threshold},
+                       {"candidates_tested", e.n_tested},
+                       {"bic_change", e.bic_change},
+                       {"chi2_before", e.chi2_before},
+                       {"chi2_after", e.chi2_after}}}});
+  }
+  j["added_effects"] = added;
+  json cands = json::array();
+  for (const CandidateStatus& c : r.candidates) cands.push_back({{"label", c.label}, {"status", c.status}, {"detail", c.detail}});
+  j["candidates"] = cands;
+  j["errors"] = errors_to_json(r.errors_after, true);
+  j["errors_before"] = errors_to_json(r.errors_before, true);
+  json change = json::object();
+  for (int k = 0; k < 6; ++k) {
+    double m = 0;
+    bool any = false;
+    for (std::size_t s = 0; s < r.errors_after.size(); ++s) {
+      const Determined &a = r.errors_after[s].errors[k], &b = r.errors_before[s].errors[k];
+      if (a.determined && b.determined) m = std::max(m, std::abs(a.value - b.value)), any = true;
+    }
+    change[kErrorNames[k]] = any ? json(r6(m)) : json(nullptr);
+  }
+  j["largest_change_of_errors"] = change;
+  j["units"] = {{"dx", "um"}, {"dy", "um"}, {"dz", "um"}, {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
+  j["unidentifiable"] = unidentifiable_to_json(r.unidentifiable_after);
+  j["signature_before"] = signature_to_json(r.signature_before);
+  j["signature_after"] = signature_to_json(r.signature_after);
+  return j;
+}
+
+std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
+  std::ostringstream s;
+  s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis " << axis_name(design.axis)
+    << "  errors " << design.errors.describe() << "\n";
+  s << "noise: " << design.noise.describe() << "\n";
+  s << "before: " << residual_line(r.before) << "\n";
+  s << "after:  " << residual_line(r.after) << "\n\n";
+  s << r.verdict << "\n\n";
+  if (!r.added.empty()) {
+    s << "added effects (value +- standard uncertainty):\n";
+    for (const AddedEffect& a : r.added) {
+      s << "  " << std::left << std::setw(22) << a.block.label << std::right;
+      for (std::size_t k = 0; k < a.values.size(); ++k) {
+        s << " " << a.block.parameters[k] << " = " << std::fixed << std::setprecision(3) << a.values[k].value << " +- "
+          << a.values[k].std << std::defaultfloat;
+      }
+      s << " " << a.block.unit << "   (F = " << std::setprecision(4) << a.evidence.F << ", p = " << std::setprecision(3)
+        << a.evidence.p_value << ")\n";
+    }
+    s << "\n";
+  }
+  int confounded = 0, na = 0;
+  for (const CandidateStatus& c : r.candidates) {
+    confounded += c.status == "confounded";
+    na += c.status == "not applicable";
+  }
+  s << "candidates: " << r.candidates.size() << " (" << confounded << " confounded with the model, " << na
+    << " not applicable to these readings; see the JSON)\n";
+  s << "\nresidual signature before [um]:\n" << signature_text(r.signature_before, design.axis);
+  s << "\nresidual signature after [um]:\n" << signature_text(r.signature_after, design.axis);
+  s << "\nerrors after (value +- standard uncertainty, k = 1); '--' = not determined\n";
+  s << errors_table(r.errors_after, true);
+  s << unidentifiable_text(r.unidentifiable_after);
+  return s.str();
+}
+
+std::string diagnose_html(const Design& design, const DiagnoseResult& r, const InputFiles& inputs) {
+  std::ostringstream h;
+  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>dbbkit diagnose: "
+    << html_escape(design.name) << "</title>\n<style>body{font-family:sans-serif;max-width:70em;margin:2em auto;}"
+    << "pre{font-size:0.85em;background:#f6f6f6;padding:1em;overflow-x:auto;}</style></head><body>\n";
+  h << "<h1>dbbkit diagnose: " << html_escape(design.name) << "</h1>\n";
+  h << "<p>design <code>" << html_escape(inputs.design) << "</code>, data <code>" << html_escape(inputs.data)
+    << "</code>, dbbkit " << DBBKIT_VERSION << "</p>\n";
+  if (!design.assumed.empty()) {
+    h << "<h2>Assumptions of the design</h2><ul>\n";
+    for (const auto& [k, v] : design.assumed) h << "<li><b>" << html_escape(k) << "</b>: " << html_escape(v) << "</li>\n";
+    h << "</ul>\n";
+  }
+  h << "<h2>Verdict</h2><p>" << html_escape(r.verdict) << "</p>\n";
+  h << "<h2>Details</h2><pre>" << html_escape(diagnose_summary(design, r)) << "</pre>\n";
+  h << "<h2>Candidates</h2><pre>";
+  for (const CandidateStatus& c : r.candidates) {
+    h << html_escape(c.label) << ": " << html_escape(c.status) << (c.detail.empty() ? "" : " (" + html_escape(c.detail) + ")") << "\n";
+  }
+  h << "</pre>\n</body></html>\n";
+  return h.str();
+}
+
+}  // namespace dbbkit::io
