@@ -3,6 +3,7 @@
 #include <Eigen/QR>
 #include <boost/math/distributions/chi_squared.hpp>
 #include <boost/math/distributions/fisher_f.hpp>
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -150,9 +151,14 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
     }
   }
 
-  for (int step = 1; step <= options.max_effects; ++step) {
+  int step = 0;
+  for (bool changed = true; changed;) {
+  changed = false;
+  while (static_cast<int>(res.added.size()) < options.max_effects) {
+    ++step;
     int best = -1, tested = 0;
     Estimate best_est;
+    std::vector<double> trial_chi2(pool.size(), -1.0);
     double best_p = 2, best_F = 0;
     for (std::size_t i = 0; i < pool.size(); ++i) {
       if (used[i]) continue;
@@ -171,6 +177,7 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
         continue;
       }
       ++tested;
+      trial_chi2[i] = trial.chi2;
       const double F = ((current.chi2 - trial.chi2) / q) / (trial.chi2 / trial.dof);
       const double p = F > 0 ? boost::math::cdf(boost::math::complement(boost::math::fisher_f(q, trial.dof), F)) : 1.0;
       status[i] = {pool[i].label, "not significant", "F = " + fmt(F) + ", p = " + fmt(p)};
@@ -184,8 +191,42 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
                              " and a lower BIC, change " + fmt(dbic) + ")";
       break;
     }
+    // Equivalent alternatives: each spans the other modulo the current model.
+    std::vector<int> equivalent;
+    const Eigen::MatrixXd J_best = append(J, pool[best].X);
+    for (std::size_t i = 0; i < pool.size(); ++i) {
+      if (used[i] || static_cast<int>(i) == best || status[i].status == "confounded") continue;
+      if (pool[i].X.cols() != pool[best].X.cols()) continue;
+      const int r_both = WlsSolver(append(J_best, pool[i].X), model.sigma_um, options.estimate).a_priori().rank;
+      if (r_both == best_est.rank) equivalent.push_back(static_cast<int>(i));
+    }
+    if (!equivalent.empty()) {
+      // Convention: the latest installation carries the effect, the earlier is the reference.
+      int chosen = best;
+      for (int i : equivalent) {
+        if (pool[i].effect.installation > pool[chosen].effect.installation) chosen = i;
+      }
+      if (chosen != best) {
+        equivalent.erase(std::find(equivalent.begin(), equivalent.end(), chosen));
+        equivalent.push_back(best);
+        best_est = WlsSolver(append(J, pool[chosen].X), model.sigma_um, options.estimate).solve(model.y_um);
+        best = chosen;
+      }
+    }
     AddedEffect a;
     a.block = pool[best];
+    for (std::size_t i = 0; i < pool.size(); ++i) {
+      if (static_cast<int>(i) == best || trial_chi2[i] < 0 || pool[i].X.cols() != pool[best].X.cols()) continue;
+      if (std::find(equivalent.begin(), equivalent.end(), static_cast<int>(i)) != equivalent.end()) continue;
+      if (trial_chi2[i] - best_est.chi2 < 4.0 * best_est.chi2 / best_est.dof) a.close_alternatives.push_back(pool[i].label);
+    }
+    for (int i : equivalent) {
+      a.equivalent_to.push_back(pool[i].label);
+      used[i] = true;
+      status[i] = {pool[i].label, "equivalent",
+                   "explains the data exactly as " + pool[best].label +
+                       " does (only their difference is determined); by convention the later installation carries it"};
+    }
     a.evidence = {step,  best_F,      static_cast<int>(pool[best].X.cols()), best_est.dof, best_p, threshold, tested,
                   dbic,  current.chi2, best_est.chi2};
     res.added.push_back(a);
@@ -194,8 +235,65 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
                                                    fmt(best_p) + " < " + fmt(threshold) + ", BIC change " + fmt(dbic)};
     J = append(J, pool[best].X);
     current = best_est;
+    }
+  // Exchange: replace an added effect by another candidate when that lowers chi2
+  // (forward selection alone cannot undo an early choice that noise favoured).
+  std::vector<int> chosen_idx;
+  for (const AddedEffect& a : res.added) {
+    for (std::size_t i = 0; i < pool.size(); ++i) {
+      if (pool[i].label == a.block.label) chosen_idx.push_back(static_cast<int>(i));
+    }
+  }
+  double best_chi2 = current.chi2 * (1 - 1e-9);
+  int swap_out = -1, swap_in = -1;
+  Estimate swapped;
+  for (std::size_t a = 0; a < res.added.size(); ++a) {
+    Eigen::MatrixXd base = model.J;
+    for (std::size_t b = 0; b < res.added.size(); ++b) {
+      if (b != a) base = append(base, res.added[b].block.X);
+    }
+    const int base_rank = WlsSolver(base, model.sigma_um, options.estimate).a_priori().rank;
+    for (std::size_t i = 0; i < pool.size(); ++i) {
+      if (used[i] || status[i].status == "confounded" || status[i].status == "equivalent") continue;
+      if (pool[i].X.cols() != res.added[a].block.X.cols()) continue;
+      const Estimate trial = WlsSolver(append(base, pool[i].X), model.sigma_um, options.estimate).solve(model.y_um);
+      if (trial.rank - base_rank < pool[i].X.cols()) continue;
+      if (trial.chi2 < best_chi2) best_chi2 = trial.chi2, swap_out = static_cast<int>(a), swap_in = static_cast<int>(i), swapped = trial;
+    }
+  }
+  if (swap_out >= 0) {
+    const int out_idx = chosen_idx[swap_out];
+    used[out_idx] = false;
+    status[out_idx] = {pool[out_idx].label, "not significant",
+                       "exchanged for " + pool[swap_in].label + ", which explains the data better"};
+    used[swap_in] = true;
+    status[swap_in] = {pool[swap_in].label, "added", "exchanged in for " + pool[out_idx].label};
+    res.added[swap_out].block = pool[swap_in];
+    res.added[swap_out].equivalent_to.clear();
+    res.added[swap_out].close_alternatives = {pool[out_idx].label};
+    J = model.J;
+    for (const AddedEffect& a : res.added) J = append(J, a.block.X);
+    current = swapped;
+    changed = true;
+  }
   }
 
+  // Evidence of every added effect in the final model: the F-test of dropping it.
+  for (std::size_t a = 0; a < res.added.size(); ++a) {
+    Eigen::MatrixXd without = model.J;
+    for (std::size_t b = 0; b < res.added.size(); ++b) {
+      if (b != a) without = append(without, res.added[b].block.X);
+    }
+    const Estimate reduced = WlsSolver(without, model.sigma_um, options.estimate).solve(model.y_um);
+    EffectEvidence& e = res.added[a].evidence;
+    e.q = static_cast<int>(res.added[a].block.X.cols());
+    e.dof = current.dof;
+    e.chi2_before = reduced.chi2;
+    e.chi2_after = current.chi2;
+    e.F = current.dof > 0 ? ((reduced.chi2 - current.chi2) / e.q) / (current.chi2 / current.dof) : 0.0;
+    e.p_value = e.F > 0 ? boost::math::cdf(boost::math::complement(boost::math::fisher_f(e.q, current.dof), e.F)) : 1.0;
+    e.bic_change = bic(current) - bic(reduced);
+  }
   res.after = current;
   res.errors_after = errors_of(param, current);
   // The effects' values from the final model.
@@ -245,6 +343,18 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
       v << "Added:";
       for (const AddedEffect& a : res.added) v << " " << a.block.label;
       v << ". After: " << chi(res.after) << ". ";
+      for (const AddedEffect& a : res.added) {
+        if (!a.close_alternatives.empty()) {
+          v << a.block.label << " was chosen over";
+          for (const std::string& l : a.close_alternatives) v << " " << l;
+          v << ", which fit almost as well: these readings cannot tell them apart reliably. ";
+        }
+        if (a.equivalent_to.empty()) continue;
+        v << a.block.label << " is equivalent to";
+        for (const std::string& l : a.equivalent_to) v << " " << l;
+        v << ": the data determine only their difference, so it is attributed by convention to the later "
+             "installation, and the errors after are conditional on that choice. ";
+      }
     }
     if (res.significant_after) {
       v << "A significant residual remains that no effect of the library explains; its largest feature is "

@@ -57,6 +57,7 @@ std::vector<std::string> effect_parameter_names(EffectKind kind) {
 
 std::string EffectCandidate::label(const Design& design) const {
   std::string s = effect_name(kind);
+  if (component >= 0) s += "." + effect_parameter_names(kind)[component];
   if (installation >= 0) s += "[" + design.installations[installation].id + "]";
   if (kind == EffectKind::Periodic) s += "(" + std::to_string(harmonic) + "/turn)";
   return s;
@@ -141,7 +142,7 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
   }
   std::vector<int> keep;
   for (int j = 0; j < full.cols(); ++j) {
-    if (full.col(j).cwiseAbs().maxCoeff() > 1e-12) keep.push_back(j);
+    if ((e.component < 0 || e.component == j) && full.col(j).cwiseAbs().maxCoeff() > 1e-12) keep.push_back(j);
   }
   if (keep.empty() && b.not_applicable.empty()) b.not_applicable = "changes no reading of this design";
   b.X.resize(full.rows(), static_cast<Eigen::Index>(keep.size()));
@@ -159,7 +160,11 @@ std::vector<EffectBlock> candidate_effects(const Design& design, const std::vect
       out.push_back(effect_block(design, readings, {k, static_cast<int>(i)}));
     }
   }
-  for (EffectKind k : {EffectKind::Scale, EffectKind::Squareness}) out.push_back(effect_block(design, readings, {k, -1}));
+  // Shared effects one parameter at a time: part of a scale or squareness can be
+  // confounded (an isotropic scale is a length offset) while the rest is not.
+  for (EffectKind k : {EffectKind::Scale, EffectKind::Squareness}) {
+    for (int c = 0; c < 3; ++c) out.push_back(effect_block(design, readings, {k, -1, c}));
+  }
   return out;
 }
 

@@ -11,7 +11,17 @@
 // gives p = P(F_{q, n - rank_try} >= F). The best candidate is added when
 //   p < level / m   (Bonferroni over the m candidates tested at that step)
 // and the Bayesian information criterion n ln(chi2/n) + rank ln n decreases.
-// Selection stops when no candidate passes.
+// Selection stops when no candidate passes; then an exchange pass replaces an
+// added effect by another candidate when that lowers chi2 (noise can favour a
+// wrong candidate early), and forward selection resumes.
+//
+// Candidates can be equivalent: each alone is identifiable, but each lies in the
+// span of the model plus the other (a length offset of 1r or of 2r, when both
+// radial readings measure the same combination: only their difference is
+// determined). The choice is then fixed by a declared convention: the candidate
+// of the latest installation in the design is chosen, the earlier installation
+// being the reference (shared effects count as earliest); the alternatives are
+// reported, and the errors after are conditional on that convention.
 
 #include <optional>
 #include <string>
@@ -29,6 +39,8 @@ struct DiagnoseOptions {
   EstimateOptions estimate;
 };
 
+// F, p, chi2 and BIC change: the test of dropping the effect from the final
+// model; step, p_threshold and n_tested: the selection step that added it.
 struct EffectEvidence {
   int step = 0;
   double F = 0;
@@ -43,6 +55,12 @@ struct EffectEvidence {
 
 struct AddedEffect {
   EffectBlock block;
+  std::vector<std::string> equivalent_to;  // labels of equivalent alternatives not chosen
+  // Candidates that fit almost as well when the effect was chosen:
+  //   chi2_other - chi2_chosen < 4 chi2_chosen / dof  (within two residual standard deviations);
+  // the readings cannot tell them apart reliably (e.g. drift and reversal of one installation
+  // measured ccw then cw).
+  std::vector<std::string> close_alternatives;
   std::vector<Determined> values;  // one per column, in block.parameters order
   EffectEvidence evidence;
 };

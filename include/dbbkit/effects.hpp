@@ -35,9 +35,10 @@ std::vector<std::string> effect_parameter_names(EffectKind kind);
 struct EffectCandidate {
   EffectKind kind = EffectKind::LengthOffset;
   int installation = -1;  // -1: shared by all installations
+  int component = -1;     // one parameter of a multi-parameter effect (e.g. scale.x); -1: all
   int harmonic = 0;       // Periodic only
   double phase_deg = 0;   // Periodic only
-  std::string label(const Design& design) const;  // e.g. "centring[2r]", "squareness"
+  std::string label(const Design& design) const;  // e.g. "centring[2r]", "squareness.xy"
 };
 
 // Per reading, the full-length row of the effect; `t0_s` the first time of the reading's installation.

@@ -126,6 +126,8 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
                      {"value", value},
                      {"std", std},
                      {"unit", a.block.unit},
+                     {"equivalent_to", a.equivalent_to},
+                     {"close_alternatives", a.close_alternatives},
                      {"evidence",
                       {{"step", e.step},
                        {"F", e.F},
