@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The main job: install what is missing, build, and analyse the paper's data,
-# writing the results under reports/.
+# The main job: install what is missing, build, and run the closed-loop analysis
+# of the paper's data (identify, then diagnose: what the model lacks, before and
+# after), writing the results under reports/.
 set -euo pipefail
 cd "$(dirname "$0")"
 ./setup.sh
@@ -8,8 +9,14 @@ cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j "$(nproc)" --target dbbkit_cli
 mkdir -p reports
 for axis in c-turntable b-head; do
+  design="designs/paper-${axis}.json"
   csv="tests/data/paper/paper_${axis//-/_}.csv"
-  ./build/dbbkit identify --design "designs/paper-${axis}.json" --data "$csv" \
+  ./build/dbbkit identify --design "$design" --data "$csv" \
     --out "reports/paper-${axis}-identify.json" > "reports/paper-${axis}-identify.txt"
-  echo "wrote reports/paper-${axis}-identify.json and .txt"
+  ./build/dbbkit diagnose --design "$design" --data "$csv" \
+    --out "reports/paper-${axis}-diagnose.json" --report "reports/paper-${axis}-diagnose.html" \
+    > "reports/paper-${axis}-diagnose.txt"
+  echo "== ${axis}"
+  sed -n '3,4p' "reports/paper-${axis}-diagnose.txt"
 done
+echo "reports written under reports/"

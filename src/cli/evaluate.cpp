@@ -5,7 +5,9 @@
 
 #include "commands.hpp"
 #include "uncertainty_options.hpp"
+#include "dbbkit/diagnose.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/linear_model.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/result_io.hpp"
@@ -50,16 +52,34 @@ Runner add_evaluate(CLI::App& app) {
     const Evaluation ev = evaluate_design(design, *ref);
     std::vector<SweepPoint> map;
     if (!variables.empty()) map = sweep_design(design, variables, *ref);
+    // Which effects the design could tell from the axis errors, on the readings it would take
+    // (one per installation and angle: no times and no sweeps, so drift and reversal need data).
+    std::vector<Reading> nominal;
+    for (const Installation& in : design.installations) {
+      for (double a : design.angles_deg) nominal.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
+    }
+    const std::vector<CandidateStatus> effects = effect_detectability(design, nominal);
     std::optional<MonteCarloResult> mc;
     if (unc->monte_carlo) mc = monte_carlo_a_priori(design, unc->coverage, unc->mc);
     if (!args->out.empty()) {
       nlohmann::json j = io::evaluate_to_json(design, ev, args->design, mc ? &*mc : nullptr);
       if (!variables.empty()) j["sweep"] = io::sweep_to_json(variables, map);
+      nlohmann::json e = nlohmann::json::array();
+      for (const CandidateStatus& c : effects) e.push_back({{"label", c.label}, {"status", c.status}, {"detail", c.detail}});
+      j["effects"] = e;
       io::write_output(args->out, j.dump(2) + "\n", {args->design});
     }
     if (!args->map_csv.empty()) io::write_output(args->map_csv, io::sweep_csv(variables, map), {args->design});
     if (args->out != "-") {
       std::cout << io::evaluate_summary(design, ev);
+      std::cout << "\neffects this design can tell from the axis errors (" << design.errors.describe() << "):\n";
+      for (const char* st : {"detectable", "confounded", "not applicable"}) {
+        std::cout << "  " << st << ":";
+        for (const CandidateStatus& c : effects) {
+          if (c.status == st) std::cout << " " << c.label;
+        }
+        std::cout << "\n";
+      }
       if (mc) std::cout << io::monte_carlo_summary(*mc);
       if (!variables.empty()) {
         std::cout << "\ndesign map: " << map.size() << " designs";
