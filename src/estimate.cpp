@@ -2,7 +2,10 @@
 
 #include <Eigen/SVD>
 #include <boost/math/distributions/chi_squared.hpp>
+#include <algorithm>
 #include <cmath>
+#include <functional>
+#include <vector>
 
 namespace dbbkit {
 
@@ -48,30 +51,108 @@ WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, 
   }
   Js = Js * est.column_scale.cwiseInverse().asDiagonal();
 
+  // Independent blocks: columns linked through the rows they share (union-find).
+  // A per-angle model splits into one small block per station; each block is
+  // factorised alone and the pieces are assembled, with the rank tolerance taken
+  // against the largest singular value of the whole matrix.
+  std::vector<int> parent(p);
+  for (int j = 0; j < p; ++j) parent[j] = j;
+  auto root = [&](int j) {
+    while (parent[j] != j) j = parent[j] = parent[parent[j]];
+    return j;
+  };
+  std::vector<int> row_block(n, -1);
+  for (int i = 0; i < n; ++i) {
+    int first = -1;
+    for (int j = 0; j < p; ++j) {
+      if (Js(i, j) == 0.0) continue;
+      if (first < 0) {
+        first = j;
+      } else {
+        parent[root(j)] = root(first);
+      }
+    }
+    row_block[i] = first;
+  }
+  std::vector<int> block_of_col(p, -1), block_ids;
+  for (int j = 0; j < p; ++j) {
+    const int r = root(j);
+    if (block_of_col[r] < 0) {
+      block_of_col[r] = static_cast<int>(block_ids.size());
+      block_ids.push_back(r);
+    }
+    block_of_col[j] = block_of_col[r];
+  }
+  const int n_blocks = static_cast<int>(block_ids.size());
+  std::vector<std::vector<int>> cols(n_blocks), rows(n_blocks);
+  for (int j = 0; j < p; ++j) cols[block_of_col[j]].push_back(j);
+  for (int i = 0; i < n; ++i) {
+    if (row_block[i] >= 0) rows[block_of_col[row_block[i]]].push_back(i);
+  }
+
   // JacobiSVD, not BDCSVD: Eigen 3.4.0's divide-and-conquer SVD fails (an index
   // assertion in debug builds, NaNs in release builds) on some rank-deficient
   // matrices such as the B head augmented with centring columns.
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Js, Eigen::ComputeThinU | Eigen::ComputeFullV);
-  est.singular_values = svd.singularValues();
-  const double s_max = est.singular_values.size() > 0 ? est.singular_values(0) : 0.0;
-  int rank = 0;
-  while (rank < est.singular_values.size() &&
-         est.singular_values(rank) > options.min_relative_singular_value * s_max) {
-    ++rank;
+  struct BlockSvd {
+    Eigen::MatrixXd U, V;
+    Eigen::VectorXd s;
+  };
+  std::vector<BlockSvd> svds(n_blocks);
+  double s_max = 0;
+  for (int b = 0; b < n_blocks; ++b) {
+    Eigen::MatrixXd sub(rows[b].size(), cols[b].size());
+    for (std::size_t r = 0; r < rows[b].size(); ++r) {
+      for (std::size_t c = 0; c < cols[b].size(); ++c) sub(r, c) = Js(rows[b][r], cols[b][c]);
+    }
+    if (sub.rows() == 0) {
+      svds[b].V = Eigen::MatrixXd::Identity(sub.cols(), sub.cols());
+      svds[b].U = Eigen::MatrixXd(0, 0);
+      svds[b].s = Eigen::VectorXd(0);
+      continue;
+    }
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(sub, Eigen::ComputeThinU | Eigen::ComputeFullV);
+    svds[b] = {svd.matrixU(), svd.matrixV(), svd.singularValues()};
+    if (svds[b].s.size() > 0) s_max = std::max(s_max, svds[b].s(0));
   }
-  est.rank = rank;
-  if (rank > 0) est.condition_number = s_max / est.singular_values(rank - 1);
 
-  const Eigen::MatrixXd V = svd.matrixV();
-  const Eigen::MatrixXd Vr = V.leftCols(rank);
-  const Eigen::VectorXd inv_s = est.singular_values.head(rank).cwiseInverse();
   const Eigen::VectorXd unscale = est.column_scale.cwiseInverse();
-  // theta = S Vr Sr^-1 Ur' W^1/2 y
-  gain_ = unscale.asDiagonal() * (Vr * inv_s.asDiagonal() * svd.matrixU().leftCols(rank).transpose()) *
-          w.asDiagonal();
-  const Eigen::MatrixXd cov_scaled = Vr * inv_s.cwiseAbs2().asDiagonal() * Vr.transpose();
+  gain_ = Eigen::MatrixXd::Zero(p, n);
+  Eigen::MatrixXd cov_scaled = Eigen::MatrixXd::Zero(p, p);
+  std::vector<Eigen::VectorXd> null_vectors;
+  std::vector<double> all_s;
+  int rank = 0;
+  double s_min_kept = 0;
+  for (int b = 0; b < n_blocks; ++b) {
+    const BlockSvd& d = svds[b];
+    int r = 0;
+    while (r < d.s.size() && d.s(r) > options.min_relative_singular_value * s_max) ++r;
+    for (int k = 0; k < d.s.size(); ++k) all_s.push_back(d.s(k));
+    if (r > 0) s_min_kept = s_min_kept == 0 ? d.s(r - 1) : std::min(s_min_kept, d.s(r - 1));
+    rank += r;
+    const Eigen::MatrixXd Vr = d.V.leftCols(r);
+    const Eigen::VectorXd inv_s = d.s.head(r).cwiseInverse();
+    const Eigen::MatrixXd g = Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose();  // scaled, whitened
+    const Eigen::MatrixXd c = Vr * inv_s.cwiseAbs2().asDiagonal() * Vr.transpose();
+    for (std::size_t a = 0; a < cols[b].size(); ++a) {
+      const int ja = cols[b][a];
+      for (std::size_t rr = 0; rr < rows[b].size(); ++rr) {
+        gain_(ja, rows[b][rr]) = unscale(ja) * g(a, rr) * w(rows[b][rr]);
+      }
+      for (std::size_t c2 = 0; c2 < cols[b].size(); ++c2) cov_scaled(ja, cols[b][c2]) = c(a, c2);
+    }
+    for (int k = r; k < d.V.cols(); ++k) {
+      Eigen::VectorXd v = Eigen::VectorXd::Zero(p);
+      for (std::size_t a = 0; a < cols[b].size(); ++a) v(cols[b][a]) = d.V(a, k);
+      null_vectors.push_back(v);
+    }
+  }
+  std::sort(all_s.begin(), all_s.end(), std::greater<double>());
+  est.singular_values = Eigen::Map<Eigen::VectorXd>(all_s.data(), static_cast<Eigen::Index>(all_s.size()));
+  est.rank = rank;
+  if (rank > 0) est.condition_number = s_max / s_min_kept;
   est.covariance = unscale.asDiagonal() * cov_scaled * unscale.asDiagonal();
-  est.null_space_scaled = V.rightCols(p - rank);
+  est.null_space_scaled.resize(p, static_cast<Eigen::Index>(null_vectors.size()));
+  for (std::size_t k = 0; k < null_vectors.size(); ++k) est.null_space_scaled.col(static_cast<Eigen::Index>(k)) = null_vectors[k];
   est.dof = n - rank;
 
   if (rank == p) {
@@ -103,21 +184,40 @@ Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options) 
   return WlsSolver(model.J, model.sigma_um, options).solve(model.y_um);
 }
 
+namespace {
+// The nonzero entries of c: values at one angle touch few unknowns.
+std::vector<int> support(const Eigen::VectorXd& c) {
+  std::vector<int> idx;
+  for (int j = 0; j < c.size(); ++j) {
+    if (c(j) != 0.0) idx.push_back(j);
+  }
+  return idx;
+}
+}  // namespace
+
 bool Estimate::determined(const Eigen::VectorXd& c) const {
   if (status == EstimateStatus::kNoReadings) return false;
-  const Eigen::VectorXd w = c.cwiseQuotient(column_scale);
-  const double norm = w.norm();
-  if (norm == 0.0) return true;  // the zero function is known exactly
+  const std::vector<int> idx = support(c);
+  double norm2 = 0;
+  for (int j : idx) norm2 += std::pow(c(j) / column_scale(j), 2);
+  if (norm2 == 0.0) return true;  // the zero function is known exactly
   if (null_space_scaled.cols() == 0) return true;
-  return (null_space_scaled.transpose() * w).norm() <= estimable_tolerance * norm;
+  Eigen::VectorXd proj = Eigen::VectorXd::Zero(null_space_scaled.cols());
+  for (int j : idx) proj += (c(j) / column_scale(j)) * null_space_scaled.row(j).transpose();
+  return proj.norm() <= estimable_tolerance * std::sqrt(norm2);
 }
 
 Determined Estimate::evaluate(const Eigen::VectorXd& c) const {
   Determined d;
   if (!determined(c)) return d;
+  const std::vector<int> idx = support(c);
   d.determined = true;
-  d.value = c.dot(theta);
-  d.std = std::sqrt(std::max(0.0, c.dot(covariance * c)));
+  double var = 0;
+  for (int a : idx) {
+    if (theta.size() > 0) d.value += c(a) * theta(a);
+    for (int b : idx) var += c(a) * covariance(a, b) * c(b);
+  }
+  d.std = std::sqrt(std::max(0.0, var));
   return d;
 }
 

@@ -1,5 +1,6 @@
 #include "dbbkit/monte_carlo.hpp"
 
+#include <Eigen/SparseCore>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -78,6 +79,9 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   Eigen::MatrixXd C(n_out, param.n_parameters());
   for (int v = 0; v < n_out; ++v) C.row(v) = param.error_map(budget.values[v].station).row(budget.values[v].error);
   const Eigen::MatrixXd A = C * solver.gain();
+  // Per-angle values read a handful of the readings: a sparse A saves most of the products.
+  const Eigen::SparseMatrix<double> A_sparse = A.sparseView(1.0, 1e-300);
+  const bool sparse = A_sparse.nonZeros() < A.size() / 4;
   const Eigen::VectorXd base = A * (model.J * est.theta);
   const std::vector<SetupInput> inputs = setup_inputs(design);
   Eigen::MatrixXd AD;
@@ -108,7 +112,11 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
             for (int i = 0; i < n; ++i) V(i, t) = noise.std_um * n01(rng);
           }
         }
-        out.noalias() = A * V;
+        if (sparse) {
+          out.noalias() = A_sparse * V;
+        } else {
+          out.noalias() = A * V;
+        }
         if (!inputs.empty()) {
           Q.resize(static_cast<Eigen::Index>(inputs.size()), kChunk);
           for (long t = 0; t < kChunk; ++t) {
@@ -165,9 +173,24 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   }
   res.trials = total;
 
+  // Final statistics per value, in parallel over values.
+  std::vector<Stats> final_stats(n_out);
+  {
+    std::atomic<int> next{0};
+    auto worker = [&]() {
+      for (int v = next++; v < n_out; v = next++) {
+        final_stats[v] = stats_of(std::move(samples[v]), p);
+        std::vector<float>().swap(samples[v]);
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < res.threads; ++t) pool.emplace_back(worker);
+    worker();
+    for (std::thread& t : pool) t.join();
+  }
   for (int v = 0; v < n_out; ++v) {
     const ValueBudget& b = budget.values[v];
-    const Stats s = stats_of(samples[v], p);
+    const Stats& s = final_stats[v];
     MonteCarloValue mv;
     mv.station = b.station;
     mv.angle_deg = b.angle_deg;
@@ -185,7 +208,6 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     mv.validated = mv.d_low <= mv.delta && mv.d_high <= mv.delta;
     res.n_validated += mv.validated;
     res.values.push_back(mv);
-    std::vector<float>().swap(samples[v]);
   }
   res.message = std::to_string(res.n_validated) + " of " + std::to_string(n_out) +
                 " values: the linear (GUM) interval is validated by Monte Carlo within its numerical tolerance";

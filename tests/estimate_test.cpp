@@ -102,6 +102,37 @@ TEST(Estimate, NegligibleColumnIsNotInflatedIntoInformation) {
   EXPECT_FALSE(est.evaluate(Eigen::Vector2d(0, 1)).determined);
 }
 
+// A block-diagonal J (two independent groups of unknowns, an unseen unknown and an
+// empty reading) is factorised block by block: the result must be the dense one.
+TEST(Estimate, BlockDiagonalEqualsDense) {
+  std::mt19937_64 rng(8);
+  std::normal_distribution<double> n01;
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(9, 6);
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 2; ++j) J(i, j) = n01(rng);
+  }
+  for (int i = 4; i < 8; ++i) {
+    for (int j = 2; j < 5; ++j) J(i, j) = n01(rng);
+  }
+  // column 5 is seen by no reading, row 8 sees nothing
+  Eigen::VectorXd y(9), sigma(9);
+  for (int i = 0; i < 9; ++i) y(i) = n01(rng), sigma(i) = 0.3 + 0.05 * i;
+  const Estimate est = estimate_wls(model_of(J, y, sigma));
+  EXPECT_EQ(est.rank, 5);
+  EXPECT_EQ(est.dof, 4);
+  const Eigen::MatrixXd W = sigma.cwiseAbs2().cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd Js = J.leftCols(5);
+  const Eigen::MatrixXd cov = (Js.transpose() * W * Js).inverse();
+  const Eigen::VectorXd theta = cov * Js.transpose() * W * y;
+  EXPECT_TRUE(test::near(est.theta.head(5), theta, 1e-10, 1e-9));
+  EXPECT_TRUE(test::near(est.covariance.topLeftCorner(5, 5), cov, 1e-10, 1e-9));
+  EXPECT_FALSE(est.evaluate(Eigen::VectorXd::Unit(6, 5)).determined);
+  const Eigen::VectorXd r = y - Js * theta;
+  EXPECT_NEAR(est.chi2, r.transpose() * W * r, 1e-10);
+  ASSERT_EQ(est.null_directions().cols(), 1);
+  EXPECT_TRUE(test::near(est.null_directions().col(0), Eigen::VectorXd::Unit(6, 5), 0.0));
+}
+
 TEST(Estimate, NoReadingsGivesNoNumbers) {
   const Estimate est = estimate_wls(model_of(Eigen::MatrixXd(0, 3), Eigen::VectorXd(0), Eigen::VectorXd(0)));
   EXPECT_EQ(est.status, EstimateStatus::kNoReadings);

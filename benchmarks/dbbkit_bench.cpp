@@ -1,0 +1,90 @@
+// Speed targets of dbbkit (benchmarks/RESULTS.md records the figures).
+//   evaluate the paper's C design:          >= 200,000 designs/s on one thread
+//   Monte Carlo, paper C identification:    10^6 trials < 0.5 s on 2 threads
+//   identify 360 angles, 12 installations, Fourier order 20: < 50 ms
+
+#include <benchmark/benchmark.h>
+
+#include <string>
+
+#include "dbbkit/identify.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/linear_model.hpp"
+#include "dbbkit/monte_carlo.hpp"
+#include "dbbkit/observability.hpp"
+#include "dbbkit/simulate.hpp"
+
+namespace {
+
+using namespace dbbkit;
+
+Design paper_c() { return io::read_design_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/paper-c-turntable.json"); }
+
+// What optimize needs of a design: the factorisation and the worst-case a-priori uncertainty.
+void BM_WorstCasePaperC(benchmark::State& state) {
+  const Design d = paper_c();
+  for (auto _ : state) {
+    const Parameterisation param(d);
+    const LinearModel m = design_model(d, param);
+    const WlsSolver solver(m.J, m.sigma_um);
+    Estimate prior = solver.a_priori();
+    prior.theta = Eigen::VectorXd::Zero(prior.n_unknowns);
+    const WorstCase w = worst_case(errors_at_stations(param, prior), 100.0);
+    benchmark::DoNotOptimize(w.worst_std_um);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_WorstCasePaperC)->Unit(benchmark::kMicrosecond);
+
+// The whole evaluate (indices, criteria, null-space description as well).
+void BM_EvaluatePaperC(benchmark::State& state) {
+  const Design d = paper_c();
+  for (auto _ : state) benchmark::DoNotOptimize(evaluate_design(d, 100.0).worst.worst_std_um);
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_EvaluatePaperC)->Unit(benchmark::kMicrosecond);
+
+void BM_MonteCarloPaperC(benchmark::State& state) {
+  const Design d = paper_c();
+  MonteCarloOptions o;
+  o.adaptive = false;
+  o.max_trials = state.range(0);
+  o.threads = static_cast<int>(state.range(1));
+  for (auto _ : state) benchmark::DoNotOptimize(monte_carlo_a_priori(d, 0.95, o).trials);
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+BENCHMARK(BM_MonteCarloPaperC)->Args({1000000, 2})->Args({1000000, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// A large series model: `angles` angles over a full turn, 12 installations, Fourier order `order`.
+void BM_IdentifyFourier(benchmark::State& state) {
+  Design d = paper_c();
+  const int angles = static_cast<int>(state.range(0));
+  d.angles_deg.clear();
+  for (int i = 0; i < angles; ++i) d.angles_deg.push_back(360.0 * i / angles);
+  d.errors = {ErrorModel::Kind::Fourier, static_cast<int>(state.range(1))};
+  for (int k = 0; k < 5; ++k) {
+    Installation in = d.installations[k % 7];
+    in.id = "x" + std::to_string(k);
+    in.L_mm += 30 + 10 * k;
+    in.H_mm += 20 * k;
+    d.installations.push_back(in);
+  }
+  Truth t;
+  t.model = d.errors;
+  for (int k = 0; k < 6; ++k) t.coefficients[k].assign(2 * d.errors.order + 1, 1.0);
+  const std::vector<Reading> readings = simulate(d, t, 1);
+  for (auto _ : state) benchmark::DoNotOptimize(identify(d, readings).estimate.chi2);
+  state.counters["readings"] = static_cast<double>(readings.size());
+  state.counters["unknowns"] = 6.0 * (2 * d.errors.order + 1);
+}
+BENCHMARK(BM_IdentifyFourier)
+    ->Args({360, 20})
+    ->Args({180, 20})
+    ->Args({90, 20})
+    ->Args({360, 10})
+    ->Args({360, 5})
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
