@@ -1,8 +1,49 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds everything and runs the whole test suite.
+# Installs what is missing, builds everything and runs the whole test suite:
+#   1. the unit and property tests (ctest);
+#   2. the same suite built with AddressSanitizer and UndefinedBehaviorSanitizer (less
+#      the long statistical studies of stage 1);
+#   3. a short libFuzzer run of every file reader (30 s each, on a copy of the committed corpus).
+# DBBKIT_QUICK=1 runs stage 1 only (for quick local iterations; CI runs all three).
 set -euo pipefail
 cd "$(dirname "$0")"
 ./setup.sh
+jobs="$(nproc)"
+
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DDBBKIT_BUILD_TESTS=ON >/dev/null
-cmake --build build -j "$(nproc)"
-ctest --test-dir build --output-on-failure -j "$(nproc)"
+cmake --build build -j "$jobs"
+ctest --test-dir build --output-on-failure -j "$jobs"
+[ "${DBBKIT_QUICK:-0}" = 1 ] && exit 0
+
+echo "== AddressSanitizer + UndefinedBehaviorSanitizer"
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDBBKIT_SANITIZE=address,undefined \
+  -DDBBKIT_BUILD_TESTS=ON -DDBBKIT_BUILD_BENCHMARKS=OFF >/dev/null
+cmake --build build-asan -j "$jobs"
+# The statistical studies (thousands of repeated identifications) ran in stage 1; here
+# every code path they use is exercised by the other tests, at a fraction of the time.
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build-asan --output-on-failure -j "$jobs" \
+  -E 'Coverage|FindsEffect|CleanDataAddsNothing'
+
+echo "== fuzzing (libFuzzer, 30 s per reader)"
+CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDBBKIT_BUILD_FUZZERS=ON \
+  -DDBBKIT_SANITIZE=address,undefined -DDBBKIT_BUILD_TESTS=OFF -DDBBKIT_BUILD_BENCHMARKS=OFF >/dev/null
+cmake --build build-fuzz -j "$jobs"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+passed=0
+failed=0
+for target in design measurement truth; do
+  mkdir -p "$work/$target"
+  cp tests/fuzz/corpus/"$target"/* "$work/$target/"
+  if ./build-fuzz/tests/fuzz/fuzz_"$target" -max_total_time=30 -timeout=10 -rss_limit_mb=2048 \
+      -artifact_prefix="$work/" "$work/$target" >"$work/$target.log" 2>&1; then
+    passed=$((passed + 1))
+    echo "fuzz_$target: $(grep -E '^Done [0-9]+ runs' "$work/$target.log")"
+  else
+    failed=$((failed + 1))
+    echo "fuzz_$target FAILED:"; tail -40 "$work/$target.log"
+  fi
+done
+echo "fuzz: $passed passed, $failed failed"
+[ "$failed" = 0 ]

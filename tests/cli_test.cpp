@@ -152,6 +152,15 @@ TEST(Cli, OutputOverAnInputIsRefused) {
   std::filesystem::remove(copy);
 }
 
+TEST(Cli, AFailedRunLeavesNoFile) {
+  const std::string out = (std::filesystem::temp_directory_path() / "dbbkit_never_written.json").string();
+  std::filesystem::remove(out);
+  const CliRun r = run_cli("identify --design " + kDesignC + " --data " + bad("data_nan.csv") + " --out " + out);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_FALSE(std::filesystem::exists(out));
+  EXPECT_FALSE(std::filesystem::exists(out + ".tmp"));
+}
+
 TEST(Cli, IdentifyPaperBReportsNullsAndTheCombination) {
   const CliRun r = run_cli("identify --design " + kDesignB + " --data " + test::source_path("tests/data/paper/paper_b_head.csv"));
   ASSERT_EQ(r.status, 0) << r.err;

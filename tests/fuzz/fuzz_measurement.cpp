@@ -1,0 +1,22 @@
+// libFuzzer target: the measurement CSV reader, validated against the paper's C design,
+// and identification of what it accepts.
+#include <cstdint>
+#include <string>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/identify.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/measurement_io.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  static const dbbkit::Design design = dbbkit::io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  try {
+    const auto readings = dbbkit::io::parse_measurements(text, "fuzz");
+    dbbkit::validate_readings(design, readings, "fuzz");
+    const dbbkit::IdentifyResult r = dbbkit::identify(design, readings);
+    if (!(r.estimate.chi2 >= 0)) __builtin_trap();
+  } catch (const dbbkit::InputError&) {
+  }
+  return 0;
+}
