@@ -32,23 +32,6 @@ double bic(const Estimate& e) {
   return n * std::log(std::max(e.chi2, 1e-300) / n) + e.rank * std::log(n);
 }
 
-std::vector<ErrorsAtAngle> errors_of(const Parameterisation& param, const Estimate& est) {
-  std::vector<ErrorsAtAngle> out;
-  for (int s = 0; s < param.n_stations(); ++s) {
-    ErrorsAtAngle ea;
-    ea.station = s;
-    ea.angle_deg = param.station_angle_deg(s);
-    const Eigen::MatrixXd E = param.error_map(s);
-    for (int k = 0; k < 6; ++k) {
-      Eigen::VectorXd c = Eigen::VectorXd::Zero(est.n_unknowns);
-      c.head(E.cols()) = E.row(k).transpose();
-      ea.errors[k] = est.evaluate(c);
-    }
-    out.push_back(ea);
-  }
-  return out;
-}
-
 // Rank of [J X] against J: does X add q independent columns?
 bool confounded(int rank_before, int rank_after, int q) { return rank_after - rank_before < q; }
 
@@ -61,6 +44,9 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
   for (std::size_t i = 0; i < design.installations.size(); ++i) {
     ResidualSignature::Installation s;
     s.id = design.installations[i].id;
+    s.L_mm = design.installations[i].L_mm;
+    s.D_mm = design.installations[i].D_mm;
+    s.H_mm = design.installations[i].H_mm;
     std::vector<int> rows;
     for (std::size_t j = 0; j < readings.size(); ++j) {
       if (readings[j].installation == s.id) rows.push_back(static_cast<int>(j));
@@ -136,7 +122,7 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   Eigen::MatrixXd J = model.J;
   Estimate current = WlsSolver(J, model.sigma_um, options.estimate).solve(model.y_um);
   res.before = current;
-  res.errors_before = errors_of(param, current);
+  res.errors_before = errors_at_stations(param, current);
   res.signature_before = residual_signature(design, readings, current.residual_um);
   res.significant_before = current.p_value && *current.p_value < options.level;
 
@@ -295,7 +281,7 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
     e.bic_change = bic(current) - bic(reduced);
   }
   res.after = current;
-  res.errors_after = errors_of(param, current);
+  res.errors_after = errors_at_stations(param, current);
   // The effects' values from the final model.
   int col = param.n_parameters();
   for (AddedEffect& a : res.added) {

@@ -1,6 +1,7 @@
 #include "dbbkit/identify.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -85,7 +86,11 @@ std::vector<ErrorsAtAngle> errors_at_stations(const Parameterisation& param, con
     ea.station = s;
     ea.angle_deg = param.station_angle_deg(s);
     const Eigen::MatrixXd E = param.error_map(s);
-    for (int k = 0; k < 6; ++k) ea.errors[k] = est.evaluate(E.row(k).transpose());
+    for (int k = 0; k < 6; ++k) {
+      Eigen::VectorXd c = Eigen::VectorXd::Zero(std::max<Eigen::Index>(est.n_unknowns, E.cols()));
+      c.head(E.cols()) = E.row(k).transpose();  // unknowns beyond the axis errors (effects) get 0
+      ea.errors[k] = est.evaluate(c);
+    }
     out.push_back(ea);
   }
   return out;

@@ -75,6 +75,7 @@ struct CandidateStatus {
 struct ResidualSignature {
   struct Installation {
     std::string id;
+    double L_mm = 0, D_mm = 0, H_mm = 0;  // the ball, so that dependence on radius and height shows
     int n = 0;
     double mean_um = 0, rms_um = 0;
     std::vector<double> harmonic_um;  // amplitude of k = 1, 2, ... per turn (axis C)

@@ -51,7 +51,8 @@ struct IdentifyResult {
   std::vector<Unidentifiable> unidentifiable;
 };
 
-// The errors at every station of the parameterisation from an estimate.
+// The errors at every station of the parameterisation from an estimate (whose
+// unknowns may extend beyond the axis errors, e.g. by effects appended to J).
 std::vector<ErrorsAtAngle> errors_at_stations(const Parameterisation& param, const Estimate& est);
 
 // Named, localised description of the null space of an estimate.

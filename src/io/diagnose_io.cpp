@@ -18,7 +18,7 @@ double r6(double x) { return std::round(x * 1e6) / 1e6; }
 json signature_to_json(const ResidualSignature& s) {
   json list = json::array();
   for (const auto& i : s.installations) {
-    json e = {{"installation", i.id}, {"n", i.n}, {"mean_um", r6(i.mean_um)}, {"rms_um", r6(i.rms_um)}};
+    json e = {{"installation", i.id}, {"ball_mm", {{"L", i.L_mm}, {"D", i.D_mm}, {"H", i.H_mm}}}, {"n", i.n}, {"mean_um", r6(i.mean_um)}, {"rms_um", r6(i.rms_um)}};
     json h = json::array();
     for (double a : i.harmonic_um) h.push_back(r6(a));
     e["harmonic_amplitude_um"] = h;
@@ -39,11 +39,13 @@ std::vector<std::string> installations_of(const Design& d, const EffectCandidate
 
 std::string signature_text(const ResidualSignature& s, Axis axis) {
   std::ostringstream o;
-  o << std::setw(8) << "inst" << std::setw(5) << "n" << std::setw(10) << "mean" << std::setw(10) << "rms";
+  o << std::setw(8) << "inst" << std::setw(8) << "L_mm" << std::setw(8) << (axis == Axis::C ? "H_mm" : "D_mm")
+    << std::setw(5) << "n" << std::setw(10) << "mean" << std::setw(10) << "rms";
   if (axis == Axis::C) o << std::setw(9) << "1/turn" << std::setw(9) << "2/turn" << std::setw(9) << "3/turn" << std::setw(9) << "4/turn";
   o << std::setw(12) << "um/min" << std::setw(10) << "cw-ccw" << "\n";
   for (const auto& i : s.installations) {
-    o << std::setw(8) << i.id << std::setw(5) << i.n << std::fixed << std::setprecision(2) << std::setw(10) << i.mean_um
+    o << std::setw(8) << i.id << std::fixed << std::setprecision(1) << std::setw(8) << i.L_mm << std::setw(8) << (axis == Axis::C ? i.H_mm : i.D_mm)
+      << std::setw(5) << i.n << std::fixed << std::setprecision(2) << std::setw(10) << i.mean_um
       << std::setw(10) << i.rms_um;
     if (axis == Axis::C) {
       for (int k = 0; k < 4; ++k) {
@@ -91,14 +93,7 @@ std::string html_escape(const std::string& s) {
 }  // namespace
 
 json diagnose_to_json(const Design& design, const DiagnoseResult& r, const InputFiles& inputs) {
-  json j;
-  j["format"] = "dbbkit.diagnose/1";
-  j["dbbkit_version"] = DBBKIT_VERSION;
-  j["inputs"] = {{"design", inputs.design}, {"data", inputs.data}};
-  j["design"] = {{"name", design.name}, {"axis", axis_name(design.axis)}, {"errors_model", design.errors.describe()}};
-  if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
-  j["noise"] = noise_to_json(design.noise);
-  j["noise"]["sigma_um"] = design.noise.sigma_um();
+  json j = result_header("dbbkit.diagnose/1", design, inputs);
   j["method"] =
       "forward selection; a candidate is added when its nested F-test p-value is below level / (candidates tested "
       "at that step) and the BIC decreases; a candidate that does not raise the rank by its number of columns is "

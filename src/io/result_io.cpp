@@ -65,6 +65,28 @@ json residual_to_json(const Estimate& est) {
           {"p_value", optional_number(est.p_value)}};
 }
 
+json result_header(const std::string& format, const Design& design, const InputFiles& inputs) {
+  json j;
+  j["format"] = format;
+  j["dbbkit_version"] = DBBKIT_VERSION;
+  j["inputs"] = {{"design", inputs.design}, {"data", inputs.data}};
+  j["design"] = {{"name", design.name}, {"axis", axis_name(design.axis)}, {"errors_model", design.errors.describe()}};
+  if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
+  j["noise"] = noise_to_json(design.noise);
+  j["noise"]["sigma_um"] = design.noise.sigma_um();
+  return j;
+}
+
+void add_rank_block(json& j, const Estimate& est) {
+  j["status"] = status_name(est.status);
+  j["message"] = est.message;
+  j["n_readings"] = est.n_readings;
+  j["n_unknowns"] = est.n_unknowns;
+  j["rank"] = est.rank;
+  j["condition_number"] = optional_number(est.condition_number);
+  j["condition_scaling"] = kConditionScaling;
+}
+
 json budget_to_json(const Design& design, const Budget& budget) {
   json b;
   b["standard"] = "JCGM 100: u_c^2 = sum of the components' u^2, nu_eff by Welch-Satterthwaite, U = k u_c";
@@ -153,22 +175,9 @@ std::string monte_carlo_summary(const MonteCarloResult& mc) {
 json identify_to_json(const Design& design, const std::vector<Reading>& readings, const IdentifyResult& result,
                       const InputFiles& inputs, const MonteCarloResult* mc) {
   const Estimate& est = result.estimate;
-  json j;
-  j["format"] = "dbbkit.identify/1";
-  j["dbbkit_version"] = DBBKIT_VERSION;
-  j["inputs"] = {{"design", inputs.design}, {"data", inputs.data}};
-  j["design"] = {{"name", design.name}, {"axis", axis_name(design.axis)}, {"errors_model", design.errors.describe()}};
-  if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
-  j["noise"] = noise_to_json(design.noise);
-  j["noise"]["sigma_um"] = design.noise.sigma_um();
+  json j = result_header("dbbkit.identify/1", design, inputs);
   j["uncertainty"] = "std: combined standard uncertainty u_c (k = 1); U: expanded uncertainty k u_c (see budget)";
-  j["status"] = status_name(est.status);
-  j["message"] = est.message;
-  j["n_readings"] = est.n_readings;
-  j["n_unknowns"] = est.n_unknowns;
-  j["rank"] = est.rank;
-  j["condition_number"] = optional_number(est.condition_number);
-  j["condition_scaling"] = kConditionScaling;
+  add_rank_block(j, est);
 
   j["errors"] = errors_to_json(result.errors, true);
   for (json& e : j["errors"]) {
@@ -325,21 +334,9 @@ std::string unidentifiable_text(const std::vector<Unidentifiable>& list) {
 json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file,
                       const MonteCarloResult* mc) {
   const Estimate& est = ev.prior;
-  json j;
-  j["format"] = "dbbkit.evaluate/1";
-  j["dbbkit_version"] = DBBKIT_VERSION;
-  j["inputs"] = {{"design", design_file}};
-  j["design"] = {{"name", design.name}, {"axis", axis_name(design.axis)}, {"errors_model", design.errors.describe()}};
-  if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
-  j["noise"] = noise_to_json(design.noise);
-  j["noise"]["sigma_um"] = design.noise.sigma_um();
-  j["status"] = status_name(est.status);
-  j["message"] = est.message;
-  j["n_readings"] = est.n_readings;
-  j["n_unknowns"] = est.n_unknowns;
-  j["rank"] = est.rank;
-  j["condition_number"] = optional_number(est.condition_number);
-  j["condition_scaling"] = kConditionScaling;
+  json j = result_header("dbbkit.evaluate/1", design, {design_file, ""});
+  j["inputs"].erase("data");
+  add_rank_block(j, est);
   j["singular_values"] = std::vector<double>(est.singular_values.data(), est.singular_values.data() + est.singular_values.size());
   const ObservabilityIndices& o = ev.indices;
   j["observability"] = {{"O1", o.O1}, {"O2", o.O2}, {"O3", o.O3}, {"O4", o.O4}, {"O5", o.O5},

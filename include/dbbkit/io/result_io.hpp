@@ -18,6 +18,11 @@ struct InputFiles {
   std::string design, data;
 };
 
+// What every result carries first: format, version, input files, design, noise.
+nlohmann::json result_header(const std::string& format, const Design& design, const InputFiles& inputs);
+// status, message, n_readings, n_unknowns, rank, condition_number, condition_scaling.
+void add_rank_block(nlohmann::json& j, const Estimate& est);
+
 // `dbbkit.identify/1`.
 nlohmann::json identify_to_json(const Design& design, const std::vector<Reading>& readings,
                                 const IdentifyResult& result, const InputFiles& inputs,
