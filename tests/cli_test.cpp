@@ -101,6 +101,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"design_nan.json", kIdentifyDesign, "line 11", "not valid JSON"},
         BadCase{"design_duplicate_key.json", kIdentifyDesign, "key 'axis'", "appears twice"},
         BadCase{"design_empty.json", kIdentifyDesign, "", "the file is empty"},
+        BadCase{"design_number_overflow.json", kIdentifyDesign, "line 40", "beyond the range of a double"},
         BadCase{"data_empty.csv", kIdentifyDataC, "", "the file is empty"},
         BadCase{"data_unknown_installation.csv", kIdentifyDataC, "line 3", "installation '4r' is not in the design"},
         BadCase{"data_nan.csv", kIdentifyDataC, "line 2, column reading_mm", "not a finite number"},

@@ -1,7 +1,9 @@
 #include "dbbkit/io/json_reader.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -89,6 +91,19 @@ json parse_json(const std::string& text, const std::string& source) {
     const auto pos = what.find("parse error");
     throw InputError(source, line_column(text, e.byte > 0 ? e.byte - 1 : 0),
                      "not valid JSON (" + (pos == std::string::npos ? what : what.substr(pos)) + ")");
+  } catch (const json::exception& e) {
+    // e.g. out_of_range for a number beyond the range of a double: find the number.
+    for (std::size_t i = 0; i < text.size(); ++i) {
+      const char c = text[i];
+      if (!(std::isdigit(static_cast<unsigned char>(c)) || c == '-') || (i > 0 && std::isalnum(static_cast<unsigned char>(text[i - 1])))) continue;
+      char* end = nullptr;
+      const double x = std::strtod(text.c_str() + i, &end);
+      if (end != text.c_str() + i && std::isinf(x)) {
+        throw InputError(source, line_column(text, i), "a number beyond the range of a double");
+      }
+      if (end > text.c_str() + i) i = static_cast<std::size_t>(end - text.c_str());
+    }
+    throw InputError(source, "", std::string("not valid JSON (") + e.what() + ")");
   }
   if (duplicate) throw InputError(source, "key '" + *duplicate + "'", "the key appears twice in one object");
   return j;
