@@ -68,9 +68,9 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
       // Distinct positions bound the harmonics that can be told apart: 2K + 1 <= positions.
       std::vector<double> positions;
       for (int j : rows) {
-        const double a = std::fmod(std::fmod(readings[j].angle_deg, 360.0) + 360.0, 360.0);
+        const double a = readings[j].angle_deg;
         bool seen = false;
-        for (double p : positions) seen = seen || std::abs(p - a) < kAngleTolerance_deg;
+        for (double p : positions) seen = seen || same_position(Axis::C, p, a);
         if (!seen) positions.push_back(a);
       }
       const int K = std::min(4, (static_cast<int>(positions.size()) - 1) / 2);

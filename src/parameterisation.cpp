@@ -9,8 +9,6 @@
 
 namespace dbbkit {
 
-namespace {
-
 bool same_position(Axis axis, double a_deg, double b_deg) {
   double diff = std::abs(a_deg - b_deg);
   if (axis == Axis::C) {
@@ -19,6 +17,20 @@ bool same_position(Axis axis, double a_deg, double b_deg) {
   }
   return diff < kAngleTolerance_deg;
 }
+
+int coefficients_per_error(const ErrorModel& model) {
+  switch (model.kind) {
+    case ErrorModel::Kind::Fourier:
+      return 2 * model.order + 1;
+    case ErrorModel::Kind::Legendre:
+      return model.order + 1;
+    case ErrorModel::Kind::PerAngle:
+      break;
+  }
+  return 1;
+}
+
+namespace {
 
 std::string format_angle(double a) {
   std::ostringstream s;
@@ -33,20 +45,8 @@ Parameterisation::Parameterisation(const Design& design) : axis_(design.axis), m
   }
   lo_deg_ = *std::min_element(design.angles_deg.begin(), design.angles_deg.end());
   hi_deg_ = *std::max_element(design.angles_deg.begin(), design.angles_deg.end());
-  switch (model_.kind) {
-    case ErrorModel::Kind::PerAngle:
-      per_error_ = 1;
-      n_parameters_ = 6 * n_stations();
-      break;
-    case ErrorModel::Kind::Fourier:
-      per_error_ = 2 * model_.order + 1;
-      n_parameters_ = 6 * per_error_;
-      break;
-    case ErrorModel::Kind::Legendre:
-      per_error_ = model_.order + 1;
-      n_parameters_ = 6 * per_error_;
-      break;
-  }
+  per_error_ = dbbkit::coefficients_per_error(model_);
+  n_parameters_ = model_.kind == ErrorModel::Kind::PerAngle ? 6 * n_stations() : 6 * per_error_;
 }
 
 int Parameterisation::station_of(double angle_deg) const {

@@ -10,22 +10,6 @@
 
 namespace dbbkit {
 
-namespace {
-
-bool same_position(Axis axis, double a, double b) {
-  double diff = std::abs(a - b);
-  if (axis == Axis::C) {
-    diff = std::fmod(diff, 360.0);
-    diff = std::min(diff, 360.0 - diff);
-  }
-  return diff < kAngleTolerance_deg;
-}
-
-int coefficients_per_error(const ErrorModel& m) {
-  return m.kind == ErrorModel::Kind::Fourier ? 2 * m.order + 1 : m.order + 1;
-}
-
-}  // namespace
 
 Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std::string& source) {
   if (truth.model.kind == ErrorModel::Kind::PerAngle) {

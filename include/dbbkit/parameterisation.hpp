@@ -14,6 +14,13 @@
 
 namespace dbbkit {
 
+// Two angles are the same position of the axis: |a - b| < kAngleTolerance_deg,
+// for C modulo 360 deg.
+bool same_position(Axis axis, double a_deg, double b_deg);
+
+// Series coefficients per error: Fourier 2K + 1, Legendre K + 1, per_angle 1.
+int coefficients_per_error(const ErrorModel& model);
+
 // Basis functions of a series, shared by the parameterisation and the simulator:
 // Fourier (1, cos g, sin g, ..., cos K g, sin K g) of the angle in degrees, and
 // Legendre P_0..P_K at x in [-1, 1].
