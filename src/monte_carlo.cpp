@@ -13,7 +13,8 @@ namespace dbbkit {
 
 namespace {
 
-constexpr long kChunk = 1000;  // trials per random stream; streams are independent of the thread count
+constexpr long kChunk =
+    1000;  // trials per random stream; streams are independent of the thread count
 
 std::uint64_t splitmix64(std::uint64_t x) {
   x += 0x9E3779B97F4A7C15ULL;
@@ -26,7 +27,8 @@ struct Stats {
   double mean = 0, std = 0, low = 0, high = 0;
 };
 
-// Mean, standard deviation and the probabilistically symmetric p-interval of a sample (JCGM 101 §7.7).
+// Mean, standard deviation and the probabilistically symmetric p-interval of a sample (JCGM 101
+// §7.7).
 Stats stats_of(std::vector<float> x, double p) {
   Stats s;
   const long M = static_cast<long>(x.size());
@@ -45,6 +47,20 @@ Stats stats_of(std::vector<float> x, double p) {
   return s;
 }
 
+// Runs body(i) for i = 0 .. n - 1 on `threads` threads (the caller's among them),
+// each taking the next index; which thread runs an index does not affect the result.
+template <typename Body>
+void parallel_for(long n, int threads, Body&& body) {
+  std::atomic<long> next{0};
+  auto worker = [&]() {
+    for (long i = next++; i < n; i = next++) body(i);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+}
+
 }  // namespace
 
 double numerical_tolerance(double u, int significant_digits) {
@@ -53,21 +69,23 @@ double numerical_tolerance(double u, int significant_digits) {
   return 0.5 * std::pow(10.0, l);
 }
 
-MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param, const LinearModel& model,
-                             const WlsSolver& solver, const Estimate& est, const Budget& budget,
-                             const MonteCarloOptions& options) {
+MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param,
+                             const LinearModel& model, const WlsSolver& solver, const Estimate& est,
+                             const Budget& budget, const MonteCarloOptions& options) {
   if (options.batch_trials < kChunk || options.batch_trials % kChunk != 0) {
     throw InputError("options", "batch_trials", "must be a positive multiple of 1000");
   }
   if (options.max_trials < options.batch_trials) {
     throw InputError("options", "max_trials", "must be at least one batch");
   }
-  if (options.significant_digits < 1) throw InputError("options", "significant_digits", "must be >= 1");
+  if (options.significant_digits < 1)
+    throw InputError("options", "significant_digits", "must be >= 1");
   MonteCarloResult res;
   res.seed = options.seed;
   res.coverage_probability = budget.coverage_probability;
   res.significant_digits = options.significant_digits;
-  res.threads = options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  res.threads =
+      options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
   const int n = static_cast<int>(model.J.rows());
   const int n_out = static_cast<int>(budget.values.size());
   if (n_out == 0 || n == 0) {
@@ -77,7 +95,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
 
   // Outputs: values = C theta; A = C G maps readings to values.
   Eigen::MatrixXd C(n_out, param.n_parameters());
-  for (int v = 0; v < n_out; ++v) C.row(v) = param.error_map(budget.values[v].station).row(budget.values[v].error);
+  for (int v = 0; v < n_out; ++v)
+    C.row(v) = param.error_map(budget.values[v].station).row(budget.values[v].error);
   const Eigen::MatrixXd A = C * solver.gain();
   // Per-angle values read a handful of the readings: a sparse A saves most of the products.
   const Eigen::SparseMatrix<double> A_sparse = A.sparseView(1.0, 1e-300);
@@ -93,48 +112,43 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
 
   std::vector<std::vector<float>> samples(n_out);
   auto run_chunks = [&](long first_chunk, long n_chunks, long offset) {
-    std::atomic<long> next{0};
-    auto worker = [&]() {
-      Eigen::MatrixXd V(n, kChunk), Q;
-      Eigen::MatrixXd out;
-      for (long c = next++; c < n_chunks; c = next++) {
-        std::mt19937_64 rng(splitmix64(options.seed ^ splitmix64(static_cast<std::uint64_t>(first_chunk + c))));
-        std::uniform_real_distribution<double> uni(-noise.half_width_um, noise.half_width_um);
-        std::normal_distribution<double> n01;
-        std::chi_squared_distribution<double> chi2(nu > 0 ? nu : 1.0);
-        for (long t = 0; t < kChunk; ++t) {
-          if (type_a) {
-            const double scale = noise.sigma_um() * *budget.type_a_scale * std::sqrt(nu / chi2(rng));
-            for (int i = 0; i < n; ++i) V(i, t) = scale * n01(rng);
-          } else if (noise.distribution == NoiseModel::Distribution::Uniform) {
-            for (int i = 0; i < n; ++i) V(i, t) = uni(rng);
-          } else {
-            for (int i = 0; i < n; ++i) V(i, t) = noise.std_um * n01(rng);
-          }
-        }
-        if (sparse) {
-          out.noalias() = A_sparse * V;
+    parallel_for(n_chunks, res.threads, [&](long c) {
+      thread_local Eigen::MatrixXd V, Q, out;  // per-thread buffers, reused across chunks
+      V.resize(n, kChunk);
+      std::mt19937_64 rng(
+          splitmix64(options.seed ^ splitmix64(static_cast<std::uint64_t>(first_chunk + c))));
+      std::uniform_real_distribution<double> uni(-noise.half_width_um, noise.half_width_um);
+      std::normal_distribution<double> n01;
+      std::chi_squared_distribution<double> chi2(nu > 0 ? nu : 1.0);
+      for (long t = 0; t < kChunk; ++t) {
+        if (type_a) {
+          const double scale = noise.sigma_um() * *budget.type_a_scale * std::sqrt(nu / chi2(rng));
+          for (int i = 0; i < n; ++i) V(i, t) = scale * n01(rng);
+        } else if (noise.distribution == NoiseModel::Distribution::Uniform) {
+          for (int i = 0; i < n; ++i) V(i, t) = uni(rng);
         } else {
-          out.noalias() = A * V;
-        }
-        if (!inputs.empty()) {
-          Q.resize(static_cast<Eigen::Index>(inputs.size()), kChunk);
-          for (long t = 0; t < kChunk; ++t) {
-            for (size_t j = 0; j < inputs.size(); ++j) Q(static_cast<Eigen::Index>(j), t) = inputs[j].std_mm * n01(rng);
-          }
-          out.noalias() += AD * Q;
-        }
-        const long at = offset + c * kChunk;
-        for (int v = 0; v < n_out; ++v) {
-          float* dst = samples[v].data() + at;
-          for (long t = 0; t < kChunk; ++t) dst[t] = static_cast<float>(base(v) + out(v, t));
+          for (int i = 0; i < n; ++i) V(i, t) = noise.std_um * n01(rng);
         }
       }
-    };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < res.threads; ++t) pool.emplace_back(worker);
-    worker();
-    for (std::thread& t : pool) t.join();
+      if (sparse) {
+        out.noalias() = A_sparse * V;
+      } else {
+        out.noalias() = A * V;
+      }
+      if (!inputs.empty()) {
+        Q.resize(static_cast<Eigen::Index>(inputs.size()), kChunk);
+        for (long t = 0; t < kChunk; ++t) {
+          for (size_t j = 0; j < inputs.size(); ++j)
+            Q(static_cast<Eigen::Index>(j), t) = inputs[j].std_mm * n01(rng);
+        }
+        out.noalias() += AD * Q;
+      }
+      const long at = offset + c * kChunk;
+      for (int v = 0; v < n_out; ++v) {
+        float* dst = samples[v].data() + at;
+        for (long t = 0; t < kChunk; ++t) dst[t] = static_cast<float>(base(v) + out(v, t));
+      }
+    });
   };
 
   const long M = options.batch_trials;
@@ -148,7 +162,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     total += batch;
     if (!options.adaptive) break;
     for (int v = 0; v < n_out; ++v) {
-      history[v].push_back(stats_of(std::vector<float>(samples[v].end() - batch, samples[v].end()), p));
+      history[v].push_back(
+          stats_of(std::vector<float>(samples[v].end() - batch, samples[v].end()), p));
     }
     const long h = static_cast<long>(history[0].size());
     if (h < 2) continue;
@@ -164,7 +179,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
         for (int i = 0; i < 4; ++i) ss[i] += (q[i] - m[i]) * (q[i] - m[i]);
       }
       const double delta = numerical_tolerance(m[1], options.significant_digits);
-      for (int i = 0; i < 4; ++i) stable = stable && 2.0 * std::sqrt(ss[i] / (h * (h - 1.0))) <= delta;
+      for (int i = 0; i < 4; ++i)
+        stable = stable && 2.0 * std::sqrt(ss[i] / (h * (h - 1.0))) <= delta;
     }
     if (stable) {
       res.converged = true;
@@ -175,19 +191,10 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
 
   // Final statistics per value, in parallel over values.
   std::vector<Stats> final_stats(n_out);
-  {
-    std::atomic<int> next{0};
-    auto worker = [&]() {
-      for (int v = next++; v < n_out; v = next++) {
-        final_stats[v] = stats_of(std::move(samples[v]), p);
-        std::vector<float>().swap(samples[v]);
-      }
-    };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < res.threads; ++t) pool.emplace_back(worker);
-    worker();
-    for (std::thread& t : pool) t.join();
-  }
+  parallel_for(n_out, res.threads, [&](long v) {
+    final_stats[v] = stats_of(std::move(samples[v]), p);
+    std::vector<float>().swap(samples[v]);
+  });
   for (int v = 0; v < n_out; ++v) {
     const ValueBudget& b = budget.values[v];
     const Stats& s = final_stats[v];
@@ -210,7 +217,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     res.values.push_back(mv);
   }
   res.message = std::to_string(res.n_validated) + " of " + std::to_string(n_out) +
-                " values: the linear (GUM) interval is validated by Monte Carlo within its numerical tolerance";
+                " values: the linear (GUM) interval is validated by Monte Carlo within its "
+                "numerical tolerance";
   if (options.adaptive && !res.converged) {
     res.message += "; the adaptive procedure stopped at max_trials before its tolerance was met";
   }
