@@ -66,19 +66,6 @@ std::string signature_text(const ResidualSignature& s, Axis axis) {
   return o.str();
 }
 
-std::string residual_line(const Estimate& e) {
-  std::ostringstream s;
-  s << "rms " << std::setprecision(4) << e.rms_um << " um, chi2 " << e.chi2 << " on " << e.dof << " dof, p ";
-  if (e.p_value && *e.p_value < 1e-300) {
-    s << "< 1e-300";
-  } else if (e.p_value) {
-    s << "= " << std::setprecision(3) << *e.p_value;
-  } else {
-    s << "undefined";
-  }
-  return s.str();
-}
-
 std::string html_escape(const std::string& s) {
   std::string o;
   for (char c : s) {
@@ -164,8 +151,8 @@ std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
   s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis " << axis_name(design.axis)
     << "  errors " << design.errors.describe() << "\n";
   s << "noise: " << design.noise.describe() << "\n";
-  s << "before: " << residual_line(r.before) << "\n";
-  s << "after:  " << residual_line(r.after) << "\n\n";
+  s << "before: " << residual_text(r.before) << "\n";
+  s << "after:  " << residual_text(r.after) << "\n\n";
   s << r.verdict << "\n\n";
   if (!r.added.empty()) {
     s << "added effects (value +- standard uncertainty):\n";

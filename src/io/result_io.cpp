@@ -87,6 +87,19 @@ void add_rank_block(json& j, const Estimate& est) {
   j["condition_scaling"] = kConditionScaling;
 }
 
+std::string residual_text(const Estimate& est) {
+  std::ostringstream s;
+  s << "rms " << std::setprecision(4) << est.rms_um << " um, chi2 " << est.chi2 << " on " << est.dof << " dof";
+  if (est.p_value && *est.p_value < 1e-300) {
+    s << ", p < 1e-300";
+  } else if (est.p_value) {
+    s << ", p = " << std::setprecision(3) << *est.p_value;
+  } else {
+    s << ", p undefined (no redundant reading)";
+  }
+  return s.str();
+}
+
 json budget_to_json(const Design& design, const Budget& budget) {
   json b;
   b["standard"] = "JCGM 100: u_c^2 = sum of the components' u^2, nu_eff by Welch-Satterthwaite, U = k u_c";
@@ -228,15 +241,7 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
   if (est.condition_number) {
     s << "condition number " << std::setprecision(4) << *est.condition_number << " (" << kConditionScaling << ")\n";
   }
-  s << "residual: rms " << std::setprecision(4) << est.rms_um << " um, chi2 " << est.chi2 << " on " << est.dof
-    << " dof";
-  if (est.p_value && *est.p_value < 1e-300) {
-    s << ", p < 1e-300";
-  } else if (est.p_value) {
-    s << ", p = " << std::setprecision(3) << *est.p_value;
-  } else {
-    s << ", p undefined (no redundant reading)";
-  }
+  s << "residual: " << residual_text(est);
   const Budget& b = result.budget;
   s << "\nuncertainty: reading noise " << b.noise_evaluation;
   if (design.setup_std.any()) {

@@ -46,6 +46,9 @@ std::string evaluate_summary(const Design& design, const Evaluation& ev);
 nlohmann::json errors_to_json(const std::vector<ErrorsAtAngle>& errors, bool values);
 nlohmann::json unidentifiable_to_json(const std::vector<Unidentifiable>& list);
 
+// "rms .. um, chi2 .. on .. dof, p .." for the terminal.
+std::string residual_text(const Estimate& est);
+
 // Aligned tables with units.
 std::string errors_table(const std::vector<ErrorsAtAngle>& errors, bool values);
 std::string unidentifiable_text(const std::vector<Unidentifiable>& list);
