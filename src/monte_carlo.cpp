@@ -2,12 +2,11 @@
 
 #include <Eigen/SparseCore>
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <random>
-#include <thread>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/parallel.hpp"
 
 namespace dbbkit {
 
@@ -45,20 +44,6 @@ Stats stats_of(std::vector<float> x, double p) {
   std::nth_element(x.begin(), x.begin() + std::min(r + q, M - 1), x.end());
   s.high = x[std::min(r + q, M - 1)];
   return s;
-}
-
-// Runs body(i) for i = 0 .. n - 1 on `threads` threads (the caller's among them),
-// each taking the next index; which thread runs an index does not affect the result.
-template <typename Body>
-void parallel_for(long n, int threads, Body&& body) {
-  std::atomic<long> next{0};
-  auto worker = [&]() {
-    for (long i = next++; i < n; i = next++) body(i);
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
 }
 
 }  // namespace
