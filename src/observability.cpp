@@ -3,7 +3,9 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
+#include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
+#include "dbbkit/parameterisation.hpp"
 
 namespace dbbkit {
 
@@ -62,6 +64,111 @@ WorstCase worst_case(const std::vector<ErrorsAtAngle>& errors, double reference_
   if (worst >= 0) w.worst_determined_std_um = worst;
   if (worst >= 0 && w.n_undetermined == 0) w.worst_std_um = worst;
   return w;
+}
+
+namespace {
+
+// Inverse of a symmetric positive definite 6 x 6 matrix by Cholesky
+// (M = L L', M^-1 = L^-T L^-1); false when a pivot is not positive.
+bool inverse6(const double (&M)[6][6], double (&inv)[6][6]) {
+  double L[6][6] = {}, X[6][6] = {};
+  for (int j = 0; j < 6; ++j) {
+    double d = M[j][j];
+    for (int k = 0; k < j; ++k) d -= L[j][k] * L[j][k];
+    if (!(d > 0)) return false;
+    L[j][j] = std::sqrt(d);
+    for (int i = j + 1; i < 6; ++i) {
+      double v = M[i][j];
+      for (int k = 0; k < j; ++k) v -= L[i][k] * L[j][k];
+      L[i][j] = v / L[j][j];
+    }
+  }
+  for (int j = 0; j < 6; ++j) {
+    X[j][j] = 1.0 / L[j][j];
+    for (int i = j + 1; i < 6; ++i) {
+      double v = 0;
+      for (int k = j; k < i; ++k) v += L[i][k] * X[k][j];
+      X[i][j] = -v / L[i][i];
+    }
+  }
+  for (int j = 0; j < 6; ++j) {
+    for (int k = 0; k <= j; ++k) {
+      double v = 0;
+      for (int i = j; i < 6; ++i) v += X[i][j] * X[i][k];
+      inv[j][k] = inv[k][j] = v;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm) {
+  // Every installation is read at every angle, and the row of a reading at angle g is the
+  // body-frame row turned by T = diag(R(g), R(g)): s (R u, 1e-3 R P x R u) = s (R u, 1e-3 R (P x u)).
+  // So the information of one angle is T Mb T' with Mb the body-frame information, and a
+  // station met n times has the covariance T Mb^-1 T' / n: one 6 x 6 inverse serves every angle.
+  if (design.errors.kind != ErrorModel::Kind::PerAngle || design.installations.empty()) return std::nullopt;
+  const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
+  double Mb[6][6] = {};
+  for (const Installation& in : design.installations) {
+    const Eigen::Vector3d u = in.direction.body;
+    const Eigen::Vector3d q = 1e-3 * ball_body_mm(design.axis, in).cross(u);
+    const double r[6] = {u(0), u(1), u(2), q(0), q(1), q(2)};  // the sign squares away
+    for (int j = 0; j < 6; ++j) {
+      for (int k = 0; k < 6; ++k) Mb[j][k] += w * r[j] * r[k];
+    }
+  }
+  // Scale the translation and the rotation block each by one number, a scaling that
+  // commutes with T: with A = S Mb S, every angle's equilibrated Jacobian has
+  // cond <= sqrt(6) cond(J S) (van der Sluis) and cond(J S)^2 = cond(A) <= trace A trace A^-1.
+  double ct = 0, cr = 0;
+  for (int j = 0; j < 3; ++j) ct += Mb[j][j] / 3, cr += Mb[j + 3][j + 3] / 3;
+  if (!(ct > 0) || !(cr > 0)) return std::nullopt;
+  const double sc[6] = {1 / std::sqrt(ct), 1 / std::sqrt(ct), 1 / std::sqrt(ct),
+                        1 / std::sqrt(cr), 1 / std::sqrt(cr), 1 / std::sqrt(cr)};
+  double A[6][6], Ai[6][6];
+  double trace_A = 0, trace_Ai = 0;
+  for (int j = 0; j < 6; ++j) {
+    for (int k = 0; k < 6; ++k) A[j][k] = sc[j] * Mb[j][k] * sc[k];
+    trace_A += A[j][j];
+  }
+  if (!inverse6(A, Ai)) return std::nullopt;
+  for (int j = 0; j < 6; ++j) trace_Ai += Ai[j][j];
+  if (!(std::sqrt(6.0 * trace_A * trace_Ai) <= 1e5)) return std::nullopt;  // cond(Js) <= 1e5 << 1e9
+  Eigen::Matrix3d Ct, Cr;  // Mb^-1 blocks: translation and rotation
+  for (int j = 0; j < 3; ++j) {
+    for (int k = 0; k < 3; ++k) {
+      Ct(j, k) = sc[j] * Ai[j][k] * sc[k];
+      Cr(j, k) = sc[j + 3] * Ai[j + 3][k + 3] * sc[k + 3];
+    }
+  }
+  const Parameterisation param(design);
+  std::vector<int> count(param.n_stations(), 0);
+  for (double a : design.angles_deg) ++count[param.station_of(a)];
+  WorstCase wc;
+  double worst = -1;
+  for (int st = 0; st < param.n_stations(); ++st) {
+    const Eigen::Matrix3d R = axis_rotation(design.axis, param.station_angle_deg(st));
+    const Eigen::Vector3d vt = (R * Ct * R.transpose()).diagonal(), vr = (R * Cr * R.transpose()).diagonal();
+    for (int k = 0; k < 6; ++k) {
+      const double sd = std::sqrt(std::max(0.0, k < 3 ? vt(k) : vr(k - 3)) / count[st]);
+      const double u = k < 3 ? sd : 1e-3 * reference_length_mm * sd;
+      if (u > worst) {
+        worst = u;
+        wc.at_angle_deg = param.station_angle_deg(st);
+        wc.at_error = k;
+      }
+    }
+  }
+  wc.worst_std_um = worst;
+  wc.worst_determined_std_um = worst;
+  return wc;
+}
+
+WorstCase design_worst_case(const Design& design, double reference_length_mm) {
+  if (std::optional<WorstCase> w = fast_worst_case(design, reference_length_mm)) return *w;
+  return evaluate_design(design, reference_length_mm).worst;
 }
 
 Evaluation evaluate_design(const Design& design, double reference_length_mm, const EstimateOptions& options) {

@@ -41,7 +41,12 @@ std::string format_angle(double a) {
 
 Parameterisation::Parameterisation(const Design& design) : axis_(design.axis), model_(design.errors) {
   for (double a : design.angles_deg) {
-    if (station_of(a) < 0) station_deg_.push_back(a);
+    if (station_of(a) < 0) {
+      const double k = key_of(a);
+      index_.insert(std::lower_bound(index_.begin(), index_.end(), std::pair<double, int>(k, -1)),
+                    {k, static_cast<int>(station_deg_.size())});
+      station_deg_.push_back(a);
+    }
   }
   lo_deg_ = *std::min_element(design.angles_deg.begin(), design.angles_deg.end());
   hi_deg_ = *std::max_element(design.angles_deg.begin(), design.angles_deg.end());
@@ -49,11 +54,33 @@ Parameterisation::Parameterisation(const Design& design) : axis_(design.axis), m
   n_parameters_ = model_.kind == ErrorModel::Kind::PerAngle ? 6 * n_stations() : 6 * per_error_;
 }
 
+double Parameterisation::key_of(double angle_deg) const {
+  if (axis_ != Axis::C) return angle_deg;
+  double k = std::fmod(angle_deg, 360.0);
+  if (k < 0) k += 360.0;
+  return k;
+}
+
 int Parameterisation::station_of(double angle_deg) const {
-  for (size_t s = 0; s < station_deg_.size(); ++s) {
-    if (same_position(axis_, station_deg_[s], angle_deg)) return static_cast<int>(s);
+  // The stations whose key lies within the tolerance (for C also across 0/360),
+  // checked with same_position; the first station wins, as in a linear scan.
+  const double k = key_of(angle_deg);
+  int found = -1;
+  auto scan = [&](double lo, double hi) {
+    for (auto it = std::lower_bound(index_.begin(), index_.end(), std::pair<double, int>(lo, -1));
+         it != index_.end() && it->first <= hi; ++it) {
+      if ((found < 0 || it->second < found) && same_position(axis_, station_deg_[it->second], angle_deg)) {
+        found = it->second;
+      }
+    }
+  };
+  const double tol = 2 * kAngleTolerance_deg;
+  scan(k - tol, k + tol);
+  if (axis_ == Axis::C) {
+    if (k < tol) scan(360.0 + k - tol, 360.0 + tol);
+    if (k > 360.0 - tol) scan(-tol, k - 360.0 + tol);
   }
-  return -1;
+  return found;
 }
 
 Eigen::VectorXd fourier_basis(int order, double angle_deg) {
