@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds everything and runs the whole test suite:
-#   1. the unit and property tests (ctest);
+#   1. the unit and property tests (ctest), then the design gate (`dbbkit bench`);
 #   2. the same suite built with AddressSanitizer and UndefinedBehaviorSanitizer (less
 #      the long statistical studies of stage 1);
-#   3. a short libFuzzer run of every file reader (30 s each, on a copy of the committed corpus).
+#   3. a short libFuzzer run of every file reader (design, measurement, truth, kit; 30 s each,
+#      on a copy of the committed corpus).
 # DBBKIT_QUICK=1 runs stage 1 only (for quick local iterations; CI runs all three).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -13,6 +14,8 @@ jobs="$(nproc)"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DDBBKIT_BUILD_TESTS=ON >/dev/null
 cmake --build build -j "$jobs"
 ctest --test-dir build --output-on-failure -j "$jobs"
+echo "== design gate: every committed design against benchmarks/designs-baseline.json"
+./build/dbbkit bench designs/*.json --baseline benchmarks/designs-baseline.json
 [ "${DBBKIT_QUICK:-0}" = 1 ] && exit 0
 
 echo "== AddressSanitizer + UndefinedBehaviorSanitizer"
@@ -23,7 +26,7 @@ cmake --build build-asan -j "$jobs"
 # every code path they use is exercised by the other tests, at a fraction of the time.
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan --output-on-failure -j "$jobs" \
-  -E 'Coverage|FindsEffect|CleanDataAddsNothing'
+  -E 'Coverage|FindsEffect|CleanDataAddsNothing|Exhaustive'
 
 echo "== fuzzing (libFuzzer, 30 s per reader)"
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDBBKIT_BUILD_FUZZERS=ON \
@@ -33,7 +36,7 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 passed=0
 failed=0
-for target in design measurement truth; do
+for target in design measurement truth kit; do
   mkdir -p "$work/$target"
   cp tests/fuzz/corpus/"$target"/* "$work/$target/"
   if ./build-fuzz/tests/fuzz/fuzz_"$target" -max_total_time=30 -timeout=10 -rss_limit_mb=2048 \

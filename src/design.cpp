@@ -101,6 +101,24 @@ bool finite(double x) { return std::isfinite(x); }
 
 }  // namespace
 
+void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axis, const std::string& source) {
+  if (n.distribution == NoiseModel::Distribution::Uniform) {
+    require(finite(n.half_width_um) && n.half_width_um > 0, source, "noise.accuracy_um",
+            "must be a positive number of um");
+  } else {
+    require(finite(n.std_um) && n.std_um > 0, source, "noise.std_um", "must be a positive number of um");
+  }
+  require(m.order >= 0, source, "errors.order", "must be a non-negative integer");
+  if (m.kind == ErrorModel::Kind::Fourier) {
+    require(axis == Axis::C, source, "errors.model",
+            "a Fourier series is for the full-turn axis C; use \"legendre\" for the swinging head B");
+  }
+  if (m.kind == ErrorModel::Kind::Legendre) {
+    require(axis == Axis::B, source, "errors.model",
+            "a Legendre series is for the partial-range axis B; use \"fourier\" for the turntable C");
+  }
+}
+
 void validate_design(const Design& d, const std::string& source) {
   require(!d.angles_deg.empty(), source, "angles_deg", "no angles");
   for (size_t i = 0; i < d.angles_deg.size(); ++i) {
@@ -117,22 +135,8 @@ void validate_design(const Design& d, const std::string& source) {
     }
   }
 
-  const NoiseModel& n = d.noise;
-  if (n.distribution == NoiseModel::Distribution::Uniform) {
-    require(finite(n.half_width_um) && n.half_width_um > 0, source, "noise.accuracy_um",
-            "must be a positive number of um");
-  } else {
-    require(finite(n.std_um) && n.std_um > 0, source, "noise.std_um", "must be a positive number of um");
-  }
-
-  require(d.errors.order >= 0, source, "errors.order", "must be a non-negative integer");
-  if (d.errors.kind == ErrorModel::Kind::Fourier) {
-    require(d.axis == Axis::C, source, "errors.model",
-            "a Fourier series is for the full-turn axis C; use \"legendre\" for the swinging head B");
-  }
+  validate_noise_and_model(d.noise, d.errors, d.axis, source);
   if (d.errors.kind == ErrorModel::Kind::Legendre) {
-    require(d.axis == Axis::B, source, "errors.model",
-            "a Legendre series is for the partial-range axis B; use \"fourier\" for the turntable C");
     if (d.errors.order > 0) {
       double lo = d.angles_deg.front(), hi = lo;
       for (double a : d.angles_deg) lo = std::min(lo, a), hi = std::max(hi, a);

@@ -75,6 +75,8 @@ const std::string kIdentifyDesignB = "identify --data " + test::source_path("tes
 const std::string kIdentifyDataC = "identify --design " + kDesignC + " --data {}";
 const std::string kIdentifyDataB = "identify --design " + kDesignB + " --data {}";
 const std::string kSimulateC = "simulate --design " + kDesignC + " --truth {}";
+const std::string kOptimize = "optimize --quiet --kit {}";
+const std::string kBench = "bench " + kDesignC + " --baseline {}";
 
 INSTANTIATE_TEST_SUITE_P(
     Catalogue, BadInput,
@@ -123,7 +125,25 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"truth_missing_angle.json", kSimulateC, "errors.values", "no errors given at angle 340"},
         BadCase{"truth_wrong_coefficient_count.json", kSimulateC, "errors.coefficients.dz", "expected 3 coefficients"},
         BadCase{"truth_unknown_key.json", kSimulateC, "noize", "unknown key"},
-        BadCase{"truth_no_seed.json", kSimulateC, "seed", "give --seed"}),
+        BadCase{"truth_no_seed.json", kSimulateC, "seed", "give --seed"},
+        BadCase{"kit_wrong_format.json", kOptimize, "format", "expected \"dbbkit.kit/1\""},
+        BadCase{"kit_unknown_key.json", kOptimize, "bars_mm", "misspelling"},
+        BadCase{"kit_free_pattern.json", kOptimize, "pattern", "\"free\" is not supported"},
+        BadCase{"kit_L_min_above_max.json", kOptimize, "L_mm", "min is larger than max"},
+        BadCase{"kit_negative_block.json", kOptimize, "H_mm.blocks[1]", "positive height"},
+        BadCase{"kit_one_height.json", kOptimize, "H_mm", "needs two heights"},
+        BadCase{"kit_no_bars.json", kOptimize, "bars_mm", "no bars"},
+        BadCase{"kit_travel_reversed.json", kOptimize, "travel_mm.y", "min < max"},
+        BadCase{"kit_travel_not_pair.json", kOptimize, "travel_mm.z", "expected [min, max]"},
+        BadCase{"kit_step_not_dividing.json", kOptimize, "angles_deg.steps[1]", "whole number of steps"},
+        BadCase{"kit_negative_budget.json", kOptimize, "time_s.budget", "positive time"},
+        BadCase{"kit_b_with_h.json", kOptimize, "H_mm", "not used for the swinging head"},
+        BadCase{"kit_b_offset_excludes_zero.json", kOptimize, "D_mm", "must include 0"},
+        BadCase{"kit_missing_reference_length.json", kOptimize, "reference_length_mm", "required key is missing"},
+        BadCase{"kit_range_over_a_turn.json", kOptimize, "angles_deg.range", "more than one turn"},
+        BadCase{"kit_syntax_error.json", kOptimize, "line 5", "not valid JSON"},
+        BadCase{"baseline_bad_tolerance.json", kBench, "tolerance_relative", "fraction"},
+        BadCase{"baseline_unknown_key.json", kBench, "designs.paper-c-turntable.json.worst_std", "unknown key"}),
     [](const auto& info) {
       std::string name = info.param.file;
       for (char& ch : name) {
@@ -210,6 +230,95 @@ TEST(Cli, SimulateThenIdentifyRoundTrip) {
   }
   std::filesystem::remove(csv);
   std::filesystem::remove(result);
+}
+
+
+TEST(Cli, OptimizeWritesADesignThatEvaluateAndIdentifyAccept) {
+  const auto dir = std::filesystem::temp_directory_path();
+  const std::string best = (dir / "dbbkit_opt_best.json").string();
+  const std::string result = (dir / "dbbkit_opt_result.json").string();
+  const std::string front = (dir / "dbbkit_opt_front.csv").string();
+  const std::string kit = test::source_path("designs/kits/c-turntable-kit.json");
+  CliRun r = run_cli("optimize --kit " + kit + " --out " + best + " --result " + result + " --reference " + kDesignC +
+                     " --pareto --pareto-csv " + front + " --threads 2");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("ratio optimised / reference: 0.387"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Pareto front"), std::string::npos) << r.out;
+  const nlohmann::json res = nlohmann::json::parse(slurp(result));
+  EXPECT_EQ(res["format"], "dbbkit.optimize/1");
+  EXPECT_NEAR(res["reference"]["ratio_worst_std_um"].get<double>(),
+              res["best"]["worst_std_um"].get<double>() / res["reference"]["worst_std_um"].get<double>(), 1e-12);
+  EXPECT_EQ(res["choices"].size(), 252u);  // 7 heights x 6 other heights x 6 steps
+  EXPECT_FALSE(res["pareto"].empty());
+  EXPECT_EQ(slurp(front).substr(0, 54), "time_s,n_installations,n_angles,step_deg,worst_std_um\n");
+  // The design file: evaluate recomputes the prediction it carries.
+  const nlohmann::json design = nlohmann::json::parse(slurp(best));
+  r = run_cli("evaluate --design " + best + " --out -");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json ev = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(ev["worst_std_um"].get<double>(), design["predicted"]["worst_std_um"].get<double>(), 1e-9);
+  EXPECT_EQ(ev["rank"], design["predicted"]["rank"]);
+  // identify accepts it as it is: simulate readings for it and identify them.
+  const std::string csv = (dir / "dbbkit_opt_sim.csv").string();
+  const std::string truth = (dir / "dbbkit_opt_truth.json").string();
+  std::ofstream(truth) << R"({"format": "dbbkit.truth/1", "seed": 4, "errors": {"model": "fourier", "order": 0,
+    "coefficients": {"dx": [1], "dy": [2], "dz": [3], "ex": [4], "ey": [5], "ez": [6]}}})";
+  r = run_cli("simulate --design " + best + " --truth " + truth + " --out " + csv);
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = run_cli("identify --design " + best + " --data " + csv + " --out -");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json id = nlohmann::json::parse(r.out);
+  EXPECT_EQ(id["rank"], id["n_unknowns"]);
+  for (const std::string& f : {best, result, front, csv, truth}) std::filesystem::remove(f);
+}
+
+TEST(Cli, OptimizeRefusesAReferenceWithOtherNoise) {
+  const std::string kit = test::source_path("designs/kits/c-turntable-kit.json");
+  nlohmann::json d = nlohmann::json::parse(slurp(kDesignC));
+  d["noise"] = {{"distribution", "uniform"}, {"accuracy_um", 0.5}};
+  const std::string ref = (std::filesystem::temp_directory_path() / "dbbkit_ref_noise.json").string();
+  std::ofstream(ref) << d.dump(2);
+  const CliRun r = run_cli("optimize --kit " + kit + " --reference " + ref + " --out -");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("compare instruments, not designs"), std::string::npos) << r.err;
+  std::filesystem::remove(ref);
+}
+
+TEST(Cli, DesignGatePassesTheCommittedDesignsAndFailsADegradedOne) {
+  const std::string baseline = test::source_path("benchmarks/designs-baseline.json");
+  std::string all;
+  for (const auto& e : std::filesystem::directory_iterator(test::source_path("designs"))) {
+    if (e.path().extension() == ".json") all += " " + e.path().string();
+  }
+  CliRun r = run_cli("bench" + all + " --baseline " + baseline);
+  EXPECT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find(" 0 worse than the baseline"), std::string::npos) << r.out;
+  // Degrade the paper C design under the same file name (the baseline key): the second ball
+  // moves in from 200 to 130 mm, the positions crowd together, and the gate fails.
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_gate";
+  std::filesystem::create_directories(dir);
+  nlohmann::json d = nlohmann::json::parse(slurp(kDesignC));
+  for (auto& in : d["installations"]) {
+    if (in["id"] == "2r" || in["id"] == "2t") in["ball_mm"]["L"] = 130;  // L2 from 200 to 130 mm
+  }
+  const std::string degraded = (dir / "paper-c-turntable.json").string();
+  std::ofstream(degraded) << d.dump(2);
+  r = run_cli("bench " + degraded + " --baseline " + baseline);
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("worse"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("worst_std_um 2.0565 ->"), std::string::npos) << r.out;
+  // A rank loss fails too: drop the axial reading (dz is then seen by no reading).
+  nlohmann::json e = nlohmann::json::parse(slurp(kDesignC));
+  nlohmann::json kept = nlohmann::json::array();
+  for (auto& in : e["installations"]) {
+    if (in["id"] != "1a") kept.push_back(in);
+  }
+  e["installations"] = kept;
+  std::ofstream(degraded) << e.dump(2);
+  r = run_cli("bench " + degraded + " --baseline " + baseline);
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("rank deficiency 0 -> 18"), std::string::npos) << r.out;
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

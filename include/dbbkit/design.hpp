@@ -39,6 +39,7 @@ struct Installation {
   Direction direction;
   int sign = +1;                 // s of model.md §2: reading = s * u . dP
   std::optional<double> bar_mm;  // bar length, when declared
+  std::string description;       // free text for the person setting it up
 };
 
 // Instrument noise of one reading. Uniform: +-half_width (the instrument's
@@ -69,6 +70,14 @@ struct SetupUncertainty {
   bool any() const { return L_mm > 0 || D_mm > 0 || H_mm > 0; }
 };
 
+// What `optimize` predicted for a design it wrote (informative; `evaluate` recomputes it).
+struct Prediction {
+  std::string criterion;
+  std::optional<double> worst_std_um, worst_determined_std_um;
+  int rank = 0, n_unknowns = 0;
+  std::optional<double> time_s;
+};
+
 struct Design {
   std::string name;
   std::string description;
@@ -80,10 +89,15 @@ struct Design {
   std::optional<double> reference_length_mm;
   SetupUncertainty setup_std;
   std::vector<Installation> installations;
+  std::optional<Prediction> predicted;
 
   // Index of the installation with this id, or -1.
   int find_installation(const std::string& id) const;
 };
+
+// The noise is positive and finite; a series suits the axis (Fourier: C, Legendre: B).
+void validate_noise_and_model(const NoiseModel& noise, const ErrorModel& errors, Axis axis,
+                              const std::string& source);
 
 // Checks a design built in code or read from a file; throws InputError with
 // `source` and the key of the first problem.

@@ -14,5 +14,7 @@ Runner add_identify(CLI::App& app);
 Runner add_simulate(CLI::App& app);
 Runner add_evaluate(CLI::App& app);
 Runner add_diagnose(CLI::App& app);
+Runner add_optimize(CLI::App& app);
+Runner add_bench(CLI::App& app);
 
 }  // namespace dbbkit::cli

@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
   add(dbbkit::cli::add_simulate);
   add(dbbkit::cli::add_evaluate);
   add(dbbkit::cli::add_diagnose);
+  add(dbbkit::cli::add_optimize);
+  add(dbbkit::cli::add_bench);
 
   try {
     app.parse(argc, argv);

@@ -88,6 +88,30 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
   return m;
 }
 
+Axis read_axis(ObjectReader& top) {
+  const std::string axis = top.string("axis");
+  if (axis == "B") return Axis::B;
+  if (axis != "C") top.fail("axis", "unknown axis '" + axis + "' (expected \"C\" or \"B\")");
+  return Axis::C;
+}
+
+ErrorModel read_error_model(ObjectReader errors) {
+  ErrorModel m;
+  const std::string model = errors.string("model");
+  if (model == "per_angle") {
+    m.kind = ErrorModel::Kind::PerAngle;
+    if (errors.has("order")) errors.fail("order", "a per_angle model has no order");
+  } else if (model == "fourier" || model == "legendre") {
+    m.kind = model == "fourier" ? ErrorModel::Kind::Fourier : ErrorModel::Kind::Legendre;
+    m.order = errors.integer("order");
+    if (m.order < 0) errors.fail("order", "must be >= 0");
+  } else {
+    errors.fail("model", "unknown model '" + model + "' (expected per_angle, fourier or legendre)");
+  }
+  errors.finish();
+  return m;
+}
+
 json noise_to_json(const NoiseModel& noise) {
   if (noise.distribution == NoiseModel::Distribution::Uniform) {
     return {{"distribution", "uniform"}, {"accuracy_um", noise.half_width_um}};
@@ -108,31 +132,10 @@ Design design_from_json(const json& j, const std::string& source) {
       d.assumed[it.key()] = assumed.string(it.key());
     }
   }
-  const std::string axis = top.string("axis");
-  if (axis == "C") {
-    d.axis = Axis::C;
-  } else if (axis == "B") {
-    d.axis = Axis::B;
-  } else {
-    top.fail("axis", "unknown axis '" + axis + "' (expected \"C\" or \"B\")");
-  }
+  d.axis = read_axis(top);
   d.angles_deg = read_angles(top);
   if (const json* n = top.optional("noise")) d.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
-  if (const json* e = top.optional("errors")) {
-    ObjectReader errors(*e, source, "errors");
-    const std::string model = errors.string("model");
-    if (model == "per_angle") {
-      d.errors.kind = ErrorModel::Kind::PerAngle;
-      if (errors.has("order")) errors.fail("order", "a per_angle model has no order");
-    } else if (model == "fourier" || model == "legendre") {
-      d.errors.kind = model == "fourier" ? ErrorModel::Kind::Fourier : ErrorModel::Kind::Legendre;
-      d.errors.order = errors.integer("order");
-      if (d.errors.order < 0) errors.fail("order", "must be >= 0");
-    } else {
-      errors.fail("model", "unknown model '" + model + "' (expected per_angle, fourier or legendre)");
-    }
-    errors.finish();
-  }
+  if (const json* e = top.optional("errors")) d.errors = read_error_model(ObjectReader(*e, source, "errors"));
   d.reference_length_mm = top.optional_number("reference_length_mm");
   if (const json* u = top.optional("setup_std_mm")) {
     ObjectReader setup(*u, source, "setup_std_mm");
@@ -162,9 +165,23 @@ Design design_from_json(const json& j, const std::string& source) {
     inst.sign = in.optional_integer("sign").value_or(1);
     if (inst.sign != 1 && inst.sign != -1) in.fail("sign", "must be +1 or -1");
     inst.bar_mm = in.optional_number("bar_mm");
-    in.optional_string("description");
+    inst.description = in.optional_string("description").value_or("");
     in.finish();
     d.installations.push_back(inst);
+  }
+  if (const json* p = top.optional("predicted")) {
+    ObjectReader pr(*p, source, "predicted");
+    Prediction pred;
+    pred.criterion = pr.optional_string("criterion").value_or("");
+    for (auto [key, field] : {std::pair{"worst_std_um", &pred.worst_std_um},
+                              std::pair{"worst_determined_std_um", &pred.worst_determined_std_um}}) {
+      if (const json* v = pr.optional(key); v && !v->is_null()) *field = as_number(*v, source, pr.key_path(key));
+    }
+    pred.rank = pr.integer("rank");
+    pred.n_unknowns = pr.integer("n_unknowns");
+    pred.time_s = pr.optional_number("time_s");
+    pr.finish();
+    d.predicted = pred;
   }
   top.finish();
   validate_design(d, source);
@@ -210,9 +227,21 @@ json design_to_json(const Design& d) {
     }
     if (in.sign != 1) i["sign"] = in.sign;
     if (in.bar_mm) i["bar_mm"] = *in.bar_mm;
+    if (!in.description.empty()) i["description"] = in.description;
     list.push_back(i);
   }
   j["installations"] = list;
+  if (d.predicted) {
+    const Prediction& p = *d.predicted;
+    json pj;
+    if (!p.criterion.empty()) pj["criterion"] = p.criterion;
+    pj["worst_std_um"] = p.worst_std_um ? json(*p.worst_std_um) : json(nullptr);
+    pj["worst_determined_std_um"] = p.worst_determined_std_um ? json(*p.worst_determined_std_um) : json(nullptr);
+    pj["rank"] = p.rank;
+    pj["n_unknowns"] = p.n_unknowns;
+    if (p.time_s) pj["time_s"] = *p.time_s;
+    j["predicted"] = pj;
+  }
   return j;
 }
 

@@ -22,4 +22,10 @@ nlohmann::json design_to_json(const Design& design);
 std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none);
 nlohmann::json noise_to_json(const NoiseModel& noise);
 
+// "axis": "C" or "B".
+Axis read_axis(ObjectReader& top);
+
+// {"model": "per_angle"} or {"model": "fourier" | "legendre", "order": K}.
+ErrorModel read_error_model(ObjectReader errors);
+
 }  // namespace dbbkit::io

@@ -1,0 +1,32 @@
+#pragma once
+// Output of `optimize`: the design file it writes, the result JSON
+// (`dbbkit.optimize/1`), the terminal summary and the Pareto front as CSV.
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "dbbkit/kit.hpp"
+#include "dbbkit/optimize.hpp"
+
+namespace dbbkit::io {
+
+// A design the kit's best candidate stands for, with its prediction and a
+// description of how it was found (identify and evaluate accept it as it is).
+Design optimized_design(const Kit& kit, const OptimizeResult& res, const std::string& kit_file);
+
+// A reference design evaluated beside the optimised one.
+struct Reference {
+  std::string file;
+  Design design;
+  WorstCase worst;
+  int rank = 0, n_unknowns = 0;
+};
+
+nlohmann::json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
+                                double seconds, const std::optional<Reference>& reference);
+std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
+                             double seconds, const std::optional<Reference>& reference, bool pareto);
+std::string pareto_csv(const OptimizeResult& res);
+
+}  // namespace dbbkit::io

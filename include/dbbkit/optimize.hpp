@@ -1,0 +1,111 @@
+#pragma once
+// The design search over a kit (model.md §7, formats.md "Kit file"): discrete
+// choices (cushion-block stacks, angle step, whether a B design has its
+// off-axis position) are enumerated; the continuous ball positions of each are
+// searched by NLopt, a global derivative-free stage (DIRECT-L, deterministic,
+// with the travel and separation constraints) followed by a local polish
+// (COBYLA). The minimax objective worst_std_um is non-smooth; both stages are
+// derivative-free and never differentiate it.
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/kit.hpp"
+#include "dbbkit/observability.hpp"
+
+namespace dbbkit {
+
+// What is minimised. Worst: worst_std_um (evaluate); D: -log det M; A: trace
+// M^-1; E: -(smallest eigenvalue of M); Condition: condition number of the
+// equilibrated whitened Jacobian. Designs that leave more undetermined always
+// rank behind designs that leave less, whatever the criterion.
+enum class Criterion { Worst, D, A, E, Condition };
+const char* criterion_name(Criterion c);
+
+// One discrete choice of the three_position pattern.
+//   C: balls at (L1, D1, H1), (L2, D2, H1), (L3, D3, H3), radial + tangential
+//      readings at each, the axial reading at (0, 0, H1); H1, H3 from the block stacks.
+//   B: balls at (L1, 0) and (L2, 0) on the tool axis with radial, tangential and
+//      axial readings; with `offset`, a third at (L3, D3) off the axis with
+//      radial + tangential (model.md §4: without it, rank 5 at every angle).
+struct PatternChoice {
+  double step_deg = 0;
+  int h1 = -1, h3 = -1;  // C: indices into block_stacks(kit)
+  bool offset = false;   // B
+  double H1_mm = 0, H3_mm = 0;  // C: the heights of those stacks
+};
+
+// The continuous variables of a choice: names ("L1", "D3", ...) and bounds in mm.
+struct PatternSpace {
+  std::vector<std::string> names;
+  std::vector<double> lower, upper;
+};
+
+// A candidate design and how it scores.
+struct Candidate {
+  PatternChoice choice;
+  std::vector<double> x;  // the continuous variables
+  Design design;          // bars and signs fitted to the travel
+  double travel_violation_mm = 0;      // <= 0: the following ball stays inside travel
+  double separation_violation_mm = 0;  // <= 0: ball positions at least min_separation apart
+  double time_s = 0;
+  bool feasible = false;  // inside travel, separation and the time budget
+  WorstCase worst;
+  int n_undetermined = 0;   // errors at angles the design cannot determine
+  double objective = 0;     // of the criterion (smaller is better)
+  bool objective_defined = false;
+};
+
+// Searches the kit's discrete choices, the continuous positions of each, and
+// returns the best per choice and overall. Deterministic: the same kit and
+// options give the same result whatever the number of threads.
+struct OptimizeOptions {
+  Criterion criterion = Criterion::Worst;
+  int threads = 1;
+  int global_evaluations_per_variable = 150;  // DIRECT-L budget: this x (variables + 1)
+  int local_evaluations = 600;                // COBYLA budget per start
+  // Called after each discrete choice is searched (from the worker threads, serialised).
+  std::function<void(int done, int total, const Candidate* best_so_far)> progress;
+};
+
+struct ChoiceResult {
+  PatternChoice choice;
+  std::string label;   // e.g. "H1 = 45 mm, H3 = 145 mm (blocks 100), step 20 deg"
+  std::string status;  // "searched", or why the choice was skipped (time budget, travel)
+  std::optional<Candidate> best;
+};
+
+struct OptimizeResult {
+  Criterion criterion = Criterion::Worst;
+  std::vector<ChoiceResult> choices;
+  std::optional<Candidate> best;  // absent when no choice is feasible
+  Evaluation best_evaluation;     // evaluate_design of the best
+  std::vector<Candidate> pareto;  // non-dominated (time, objective) among the best's determination class
+  long evaluations = 0;           // designs scored
+  std::string note;               // e.g. why a B design stays at rank 5
+};
+
+// The discrete choices of a kit, its continuous space for a choice, and the
+// design for a choice and a point (bars and signs fitted; violations set).
+std::vector<PatternChoice> pattern_choices(const Kit& kit);
+std::string choice_label(const Kit& kit, const PatternChoice& choice);
+PatternSpace pattern_space(const Kit& kit, const PatternChoice& choice);
+Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std::vector<double>& x);
+// Sets each installation's description (cup height and blocks, bar) for the person setting it up.
+void describe_installations(const Kit& kit, Candidate& c);
+// Scores a candidate (its design evaluated for the criterion).
+void score_candidate(const Kit& kit, Criterion criterion, Candidate& c);
+// True when a is better than b: feasible first, then fewer undetermined, then
+// the smaller objective, and between objectives equal to 1e-9 the shorter time.
+bool better(const Candidate& a, const Candidate& b);
+
+OptimizeResult optimize_kit(const Kit& kit, const OptimizeOptions& options = {});
+
+// Every point of a grid with spacing grid_mm over each choice's continuous
+// space (both bounds included): the reference the search is tested against.
+OptimizeResult exhaustive_search(const Kit& kit, Criterion criterion, double grid_mm, int threads = 1);
+
+}  // namespace dbbkit

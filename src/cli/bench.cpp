@@ -1,0 +1,78 @@
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <set>
+
+#include "commands.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/bench_io.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/output.hpp"
+#include "dbbkit/observability.hpp"
+
+namespace dbbkit::cli {
+
+namespace {
+struct BenchArgs {
+  std::vector<std::string> designs;
+  std::string baseline, write_baseline;
+  std::optional<double> tolerance;
+};
+}  // namespace
+
+Runner add_bench(CLI::App& app) {
+  auto args = std::make_shared<BenchArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "bench", "Evaluate designs and fail (exit 1) when one got worse than its baseline");
+  sub->add_option("designs", args->designs, "Design files (dbbkit.design/1)")->required();
+  sub->add_option("--baseline", args->baseline, "Baseline file (dbbkit.designs-baseline/1)");
+  sub->add_option("--tolerance", args->tolerance,
+                  "Relative change of worst_std_um allowed (default: the baseline's tolerance_relative)");
+  sub->add_option("--write-baseline", args->write_baseline,
+                  "Write the present figures as a new baseline file (with --tolerance, default 0.001)");
+  return [args]() {
+    io::Baseline baseline;
+    if (!args->baseline.empty()) baseline = io::read_baseline_file(args->baseline);
+    double tol = args->tolerance.value_or(args->baseline.empty() ? 0.001 : baseline.tolerance_relative);
+    if (!(tol >= 0 && tol < 1)) throw InputError("--tolerance", "", "must be a fraction in [0, 1)");
+    std::vector<io::BenchRow> rows;
+    std::set<std::string> keys;
+    for (const std::string& file : args->designs) {
+      const Design d = io::read_design_file(file);
+      io::BenchRow row;
+      row.file = file;
+      row.key = std::filesystem::path(file).filename().string();
+      if (!keys.insert(row.key).second) {
+        throw InputError(file, "", "two designs share the file name '" + row.key + "' (the baseline key)");
+      }
+      if (!d.reference_length_mm) {
+        throw InputError(file, "reference_length_mm", "needed to express angular uncertainty in um");
+      }
+      const Evaluation ev = evaluate_design(d, *d.reference_length_mm);
+      row.name = d.name;
+      row.axis = axis_name(d.axis);
+      row.model = d.errors.describe();
+      row.now = {ev.prior.rank, ev.prior.n_unknowns, ev.worst.worst_std_um, ev.worst.worst_determined_std_um};
+      row.condition_number = ev.prior.condition_number;
+      if (auto it = baseline.designs.find(row.key); it != baseline.designs.end()) row.baseline = it->second;
+      io::judge(row, tol);
+      rows.push_back(row);
+    }
+    std::cout << io::bench_table(rows, tol);
+    for (const auto& [key, f] : baseline.designs) {
+      if (!keys.count(key)) std::cout << "note: " << key << " is in the baseline but was not given\n";
+    }
+    int worse = 0;
+    for (const io::BenchRow& r : rows) worse += r.status == "worse";
+    if (!args->write_baseline.empty()) {
+      io::Baseline out;
+      out.tolerance_relative = tol;
+      for (const io::BenchRow& r : rows) out.designs[r.key] = r.now;
+      io::write_output(args->write_baseline, io::baseline_to_json(out).dump(2) + "\n", args->designs);
+    }
+    std::cout << rows.size() << " designs, " << worse << " worse than the baseline\n";
+    return worse ? 1 : 0;
+  };
+}
+
+}  // namespace dbbkit::cli

@@ -1,0 +1,113 @@
+#include <chrono>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <thread>
+
+#include "commands.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/kit_io.hpp"
+#include "dbbkit/io/optimize_io.hpp"
+#include "dbbkit/io/output.hpp"
+#include "dbbkit/optimize.hpp"
+
+namespace dbbkit::cli {
+
+namespace {
+struct OptimizeArgs {
+  std::string kit, out, result, reference, pareto_csv, criterion = "worst";
+  bool pareto = false, quiet = false;
+  int threads = 0;
+};
+
+Criterion parse_criterion(const std::string& s) {
+  if (s == "worst") return Criterion::Worst;
+  if (s == "D") return Criterion::D;
+  if (s == "A") return Criterion::A;
+  if (s == "E") return Criterion::E;
+  if (s == "condition") return Criterion::Condition;
+  throw InputError("--criterion", "", "unknown criterion '" + s + "' (expected worst, D, A, E or condition)");
+}
+}  // namespace
+
+Runner add_optimize(CLI::App& app) {
+  auto args = std::make_shared<OptimizeArgs>();
+  CLI::App* sub = app.add_subcommand("optimize", "Search a kit for the design with the smallest worst-case uncertainty");
+  sub->add_option("--kit", args->kit, "Kit file (dbbkit.kit/1)")->required();
+  sub->add_option("--out", args->out,
+                  "The best design (dbbkit.design/1), which identify accepts as it is; '-' or absent: stdout");
+  sub->add_option("--result", args->result, "Search result JSON (dbbkit.optimize/1): every choice, the Pareto front");
+  sub->add_option("--criterion", args->criterion,
+                  "worst (worst_std_um, default), D (max log det M), A (min trace M^-1), E (max smallest "
+                  "eigenvalue), condition (min condition number)");
+  sub->add_option("--reference", args->reference,
+                  "A design to compare with (same noise and error model as the kit): ratio of worst_std_um");
+  sub->add_flag("--pareto", args->pareto, "Print the front of the criterion against measurement time");
+  sub->add_option("--pareto-csv", args->pareto_csv, "Write the Pareto front as CSV");
+  sub->add_option("--threads", args->threads, "Worker threads (0: all cores); the result does not depend on it");
+  sub->add_flag("--quiet", args->quiet, "No progress and no summary");
+  return [args]() {
+    const Criterion criterion = parse_criterion(args->criterion);
+    const Kit kit = io::read_kit_file(args->kit);
+    std::optional<io::Reference> reference;
+    if (!args->reference.empty()) {
+      io::Reference r;
+      r.file = args->reference;
+      r.design = io::read_design_file(args->reference);
+      if (r.design.axis != kit.axis) {
+        throw InputError(args->reference, "axis", "the reference is for axis " + std::string(axis_name(r.design.axis)) +
+                                                      ", the kit for axis " + axis_name(kit.axis));
+      }
+      if (std::abs(r.design.noise.sigma_um() - kit.noise.sigma_um()) > 1e-12 * kit.noise.sigma_um()) {
+        throw InputError(args->reference, "noise",
+                         "declares " + r.design.noise.describe() + ", the kit " + kit.noise.describe() +
+                             ": the ratio would compare instruments, not designs");
+      }
+      if (r.design.errors.kind != kit.errors.kind || r.design.errors.order != kit.errors.order) {
+        throw InputError(args->reference, "errors",
+                         "the reference uses " + r.design.errors.describe() + ", the kit " + kit.errors.describe());
+      }
+      const Evaluation ev = evaluate_design(r.design, kit.reference_length_mm);
+      r.worst = ev.worst;
+      r.rank = ev.prior.rank;
+      r.n_unknowns = ev.prior.n_unknowns;
+      reference = r;
+    }
+    OptimizeOptions options;
+    options.criterion = criterion;
+    options.threads = args->threads > 0 ? args->threads : std::max(1u, std::thread::hardware_concurrency());
+    const auto start = std::chrono::steady_clock::now();
+    auto elapsed = [&]() { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+    double last_report = 0;
+    if (!args->quiet) {
+      options.progress = [&](int done, int total, const Candidate* best) {
+        const double t = elapsed();
+        if (t < 1.0 || (t - last_report < 1.0 && done < total)) return;
+        last_report = t;
+        std::cerr << "optimize: " << done << "/" << total << " choices searched, " << t << " s";
+        if (best && best->objective_defined) std::cerr << ", best " << criterion_name(criterion) << " " << best->objective;
+        std::cerr << "\n";
+      };
+    }
+    const OptimizeResult res = optimize_kit(kit, options);
+    const double seconds = elapsed();
+    if (!args->result.empty()) {
+      io::write_output(args->result, io::optimize_to_json(kit, res, args->kit, seconds, reference).dump(2) + "\n",
+                       {args->kit, args->reference});
+    }
+    if (!args->pareto_csv.empty()) io::write_output(args->pareto_csv, io::pareto_csv(res), {args->kit, args->reference});
+    if (res.best) {
+      const Design d = io::optimized_design(kit, res, args->kit);
+      io::write_output(args->out, io::design_to_json(d).dump(2) + "\n", {args->kit, args->reference});
+    }
+    if (!args->quiet && !args->out.empty() && args->out != "-") {
+      std::cout << io::optimize_summary(kit, res, args->kit, seconds, reference, args->pareto);
+    } else if (!res.best && !args->quiet) {
+      std::cerr << io::optimize_summary(kit, res, args->kit, seconds, reference, args->pareto);
+    }
+    return res.best ? 0 : 1;
+  };
+}
+
+}  // namespace dbbkit::cli

@@ -1,0 +1,209 @@
+#include "dbbkit/io/optimize_io.hpp"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/result_io.hpp"
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit::io {
+
+using nlohmann::json;
+
+namespace {
+
+std::string num(double x, int digits = 4) {
+  std::ostringstream s;
+  s << std::setprecision(digits) << x;
+  return s.str();
+}
+
+json opt(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+
+std::string where(const WorstCase& w) {
+  if (w.at_error < 0) return "";
+  return std::string(" (") + kErrorNames[w.at_error] + " at " + num(w.at_angle_deg, 6) + " deg)";
+}
+
+json candidate_json(const Kit& kit, const Candidate& c) {
+  json j;
+  j["choice"] = choice_label(kit, c.choice);
+  j["step_deg"] = c.choice.step_deg;
+  j["n_installations"] = c.design.installations.size();
+  j["n_angles"] = c.design.angles_deg.size();
+  j["time_s"] = c.time_s;
+  j["worst_std_um"] = opt(c.worst.worst_std_um);
+  j["worst_determined_std_um"] = opt(c.worst.worst_determined_std_um);
+  j["n_undetermined"] = c.n_undetermined;
+  j["objective"] = c.objective_defined ? json(c.objective) : json(nullptr);
+  const PatternSpace space = pattern_space(kit, c.choice);
+  json vars = json::object();
+  for (size_t i = 0; i < space.names.size(); ++i) vars[space.names[i]] = c.x[i];
+  j["variables_mm"] = vars;
+  return j;
+}
+
+}  // namespace
+
+Design optimized_design(const Kit& kit, const OptimizeResult& res, const std::string& kit_file) {
+  Design d = res.best->design;
+  const Evaluation& ev = res.best_evaluation;
+  d.description = "Found by dbbkit optimize in kit " + kit_file + " (criterion " + criterion_name(res.criterion) +
+                  "): " + choice_label(kit, res.best->choice) + ".";
+  Prediction p;
+  p.criterion = criterion_name(res.criterion);
+  p.worst_std_um = ev.worst.worst_std_um;
+  p.worst_determined_std_um = ev.worst.worst_determined_std_um;
+  p.rank = ev.prior.rank;
+  p.n_unknowns = ev.prior.n_unknowns;
+  p.time_s = res.best->time_s;
+  d.predicted = p;
+  return d;
+}
+
+json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::string& kit_file, double seconds,
+                      const std::optional<Reference>& reference) {
+  json j;
+  j["format"] = "dbbkit.optimize/1";
+  j["dbbkit_version"] = DBBKIT_VERSION;
+  j["kit_file"] = kit_file;
+  j["axis"] = axis_name(kit.axis);
+  j["pattern"] = pattern_name(kit.pattern);
+  j["criterion"] = criterion_name(res.criterion);
+  j["reference_length_mm"] = kit.reference_length_mm;
+  j["noise"] = noise_to_json(kit.noise);
+  j["evaluations"] = res.evaluations;
+  j["seconds"] = seconds;
+  if (!res.note.empty()) j["note"] = res.note;
+  if (res.best) {
+    const Evaluation& ev = res.best_evaluation;
+    json b = candidate_json(kit, *res.best);
+    b["design"] = design_to_json(optimized_design(kit, res, kit_file));
+    add_rank_block(b, ev.prior);
+    b["worst_std_um"] = opt(ev.worst.worst_std_um);
+    b["worst_determined_std_um"] = opt(ev.worst.worst_determined_std_um);
+    b["errors"] = errors_to_json(ev.errors, false);
+    b["unidentifiable"] = unidentifiable_to_json(ev.unidentifiable);
+    j["best"] = b;
+  } else {
+    j["best"] = nullptr;
+  }
+  json choices = json::array();
+  for (const ChoiceResult& cr : res.choices) {
+    json c = cr.best ? candidate_json(kit, *cr.best) : json{{"choice", cr.label}};
+    c["status"] = cr.status;
+    choices.push_back(c);
+  }
+  j["choices"] = choices;
+  json front = json::array();
+  for (const Candidate& c : res.pareto) front.push_back(candidate_json(kit, c));
+  j["pareto"] = front;
+  if (reference) {
+    json r = {{"file", reference->file},
+              {"worst_std_um", opt(reference->worst.worst_std_um)},
+              {"worst_determined_std_um", opt(reference->worst.worst_determined_std_um)},
+              {"rank", reference->rank},
+              {"n_unknowns", reference->n_unknowns}};
+    if (res.best && res.best_evaluation.worst.worst_std_um && reference->worst.worst_std_um) {
+      r["ratio_worst_std_um"] = *res.best_evaluation.worst.worst_std_um / *reference->worst.worst_std_um;
+    } else {
+      r["ratio_worst_std_um"] = nullptr;
+    }
+    j["reference"] = r;
+  }
+  return j;
+}
+
+std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
+                             double seconds, const std::optional<Reference>& reference, bool pareto) {
+  std::ostringstream s;
+  int searched = 0;
+  for (const ChoiceResult& cr : res.choices) searched += cr.status == "searched";
+  s << "kit " << kit_file << ": axis " << axis_name(kit.axis) << ", pattern " << pattern_name(kit.pattern)
+    << ", " << kit.errors.describe() << ", noise " << kit.noise.describe() << "\n";
+  s << "criterion " << criterion_name(res.criterion) << "; " << res.choices.size() << " discrete choices, "
+    << searched << " feasible; " << res.evaluations << " designs scored in " << num(seconds, 3) << " s\n";
+  if (!res.note.empty()) s << "note: " << res.note << "\n";
+  if (!res.best) {
+    s << "\nno design fits the kit:\n";
+    for (const ChoiceResult& cr : res.choices) s << "  " << cr.label << ": " << cr.status << "\n";
+    return s.str();
+  }
+  const Candidate& b = *res.best;
+  const Evaluation& ev = res.best_evaluation;
+  s << "\nbest: " << choice_label(kit, b.choice) << "\n";
+  s << std::setw(4) << "id" << std::setw(10) << "L [mm]" << std::setw(10) << "D [mm]";
+  if (kit.axis == Axis::C) s << std::setw(10) << "H [mm]";
+  s << std::setw(13) << "direction" << std::setw(10) << "bar [mm]" << std::setw(6) << "sign" << "\n";
+  for (const Installation& in : b.design.installations) {
+    s << std::setw(4) << in.id << std::fixed << std::setprecision(2) << std::setw(10) << in.L_mm << std::setw(10)
+      << in.D_mm;
+    if (kit.axis == Axis::C) s << std::setw(10) << in.H_mm;
+    s << std::setw(13) << in.direction.label() << std::setw(10) << *in.bar_mm << std::setw(6) << in.sign << "\n";
+    s.unsetf(std::ios::fixed);
+  }
+  const size_t n_inst = b.design.installations.size(), n_ang = b.design.angles_deg.size();
+  s << "time " << num(b.time_s, 6) << " s = " << n_inst << " installations x " << num(kit.time_per_installation_s)
+    << " s + " << n_inst * n_ang << " readings x " << num(kit.time_per_reading_s) << " s";
+  if (kit.time_budget_s) s << " (budget " << num(*kit.time_budget_s, 6) << " s)";
+  s << "\n";
+  s << "rank " << ev.prior.rank << " of " << ev.prior.n_unknowns;
+  if (ev.prior.condition_number) s << ", condition number " << num(*ev.prior.condition_number);
+  s << "\n";
+  if (ev.worst.worst_std_um) {
+    s << "worst_std_um " << num(*ev.worst.worst_std_um) << " um" << where(ev.worst) << ", angular errors at "
+      << num(kit.reference_length_mm) << " mm\n";
+  } else if (ev.worst.worst_determined_std_um) {
+    s << "worst_std_um: none (" << ev.worst.n_undetermined << " errors at angles not determined); worst determined "
+      << num(*ev.worst.worst_determined_std_um) << " um" << where(ev.worst) << "\n";
+  }
+  if (res.criterion != Criterion::Worst && b.objective_defined) {
+    s << criterion_name(res.criterion) << " objective " << num(b.objective, 6) << "\n";
+  }
+  s << unidentifiable_text(ev.unidentifiable);
+  s << "\npredicted standard uncertainty (k = 1) at each angle:\n" << errors_table(ev.errors, false);
+  if (reference) {
+    s << "\nreference " << reference->file << ": rank " << reference->rank << " of " << reference->n_unknowns;
+    if (reference->worst.worst_std_um) {
+      s << ", worst_std_um " << num(*reference->worst.worst_std_um) << " um" << where(reference->worst);
+      if (ev.worst.worst_std_um) {
+        s << "\nratio optimised / reference: " << num(*ev.worst.worst_std_um / *reference->worst.worst_std_um, 3);
+      }
+    } else {
+      s << ", worst_std_um: none (not every error determined)";
+    }
+    s << "\n";
+  }
+  if (kit.errors.kind == ErrorModel::Kind::PerAngle && kit.angle_steps_deg.size() > 1) {
+    s << "\nper_angle errors: each angle has its own six unknowns, so a finer step adds angles, each known as "
+         "well as before; between designs equally good the shorter measurement (the coarser step) is chosen. "
+         "Leave out of the kit the steps coarser than the spacing the errors are needed at.\n";
+  }
+  if (pareto) {
+    s << "\nPareto front, " << criterion_name(res.criterion) << " against time (designs that determine as much as "
+      << "the best; each the best of its angle step and installations):\n";
+    s << std::setw(10) << "time [s]" << std::setw(15) << "installations" << std::setw(8) << "angles" << std::setw(12)
+      << "step [deg]" << std::setw(14) << criterion_name(res.criterion) << "\n";
+    for (const Candidate& c : res.pareto) {
+      s << std::setw(10) << num(c.time_s, 6) << std::setw(15) << c.design.installations.size() << std::setw(8)
+        << c.design.angles_deg.size() << std::setw(12) << num(c.choice.step_deg) << std::setw(14)
+        << num(c.objective, 5) << "\n";
+    }
+  }
+  return s.str();
+}
+
+std::string pareto_csv(const OptimizeResult& res) {
+  std::ostringstream s;
+  s << "time_s,n_installations,n_angles,step_deg," << criterion_name(res.criterion) << "\n";
+  s << std::setprecision(10);
+  for (const Candidate& c : res.pareto) {
+    s << c.time_s << "," << c.design.installations.size() << "," << c.design.angles_deg.size() << ","
+      << c.choice.step_deg << "," << c.objective << "\n";
+  }
+  return s.str();
+}
+
+}  // namespace dbbkit::io

@@ -1,0 +1,205 @@
+#include "dbbkit/kit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+void require(bool ok, const std::string& source, const std::string& key, const std::string& what) {
+  if (!ok) throw InputError(source, key, what);
+}
+
+bool finite(double x) { return std::isfinite(x); }
+
+// Largest number of blocks (their subsets are enumerated) and of angles per step.
+constexpr size_t kMaxBlocks = 16;
+constexpr double kMaxAngles = 100000;
+
+// The extent of a + b cos(g) + c sin(g) over the arc [lo, hi] (degrees):
+// the end points and the stationary points inside the arc.
+std::pair<double, double> arc_extent(double a, double b, double c, double lo_deg, double hi_deg) {
+  double s, co;
+  sincos_deg(lo_deg, s, co);
+  double v0 = a + b * co + c * s;
+  sincos_deg(hi_deg, s, co);
+  const double v1 = a + b * co + c * s;
+  double mn = std::min(v0, v1), mx = std::max(v0, v1);
+  const double amp = std::hypot(b, c);
+  if (amp > 0) {
+    const double g_max = std::atan2(c, b) * 180.0 / 3.14159265358979323846;  // where the value is a + amp
+    for (const double g : {g_max, g_max + 180.0}) {
+      // Is g (modulo 360) inside [lo, hi]?
+      const double k = std::ceil((lo_deg - g) / 360.0);
+      if (g + 360.0 * k <= hi_deg) {
+        if (g == g_max) {
+          mx = std::max(mx, a + amp);
+        } else {
+          mn = std::min(mn, a - amp);
+        }
+      }
+    }
+  }
+  return {mn, mx};
+}
+
+}  // namespace
+
+const char* pattern_name(Kit::Pattern) { return "three_position"; }
+
+void validate_kit(const Kit& k, const std::string& source) {
+  validate_noise_and_model(k.noise, k.errors, k.axis, source);
+  require(finite(k.reference_length_mm) && k.reference_length_mm > 0, source, "reference_length_mm",
+          "must be a positive length in mm (it converts angular uncertainty to um)");
+
+  require(finite(k.L_mm.min) && finite(k.L_mm.max), source, "L_mm", "min and max must be finite numbers of mm");
+  require(k.L_mm.min >= 0, source, "L_mm.min", "must be >= 0 mm");
+  require(k.L_mm.min <= k.L_mm.max, source, "L_mm", "min is larger than max");
+  require(finite(k.D_mm.min) && finite(k.D_mm.max), source, "D_mm", "min and max must be finite numbers of mm");
+  require(k.D_mm.min <= k.D_mm.max, source, "D_mm", "min is larger than max");
+  if (k.axis == Axis::B) {
+    require(k.D_mm.contains(0.0), source, "D_mm",
+            "the B pattern puts two balls on the tool axis (D = 0): the range must include 0");
+  }
+
+  if (k.axis == Axis::C) {
+    require(finite(k.H_base_mm) && k.H_base_mm >= 0, source, "H_mm.base", "must be a height >= 0 mm");
+    require(k.blocks_mm.size() <= kMaxBlocks, source, "H_mm.blocks", "more than 16 blocks");
+    for (size_t i = 0; i < k.blocks_mm.size(); ++i) {
+      require(finite(k.blocks_mm[i]) && k.blocks_mm[i] > 0, source, "H_mm.blocks[" + std::to_string(i) + "]",
+              "must be a positive height in mm");
+    }
+    require(k.max_stack >= 0, source, "H_mm.max_stack", "must be an integer >= 0");
+    require(block_stacks(k).size() >= 2, source, "H_mm",
+            "the three_position pattern needs two heights (H3 != H1): at least one block and max_stack >= 1");
+  }
+  require(!k.bars_mm.empty(), source, "bars_mm", "no bars");
+  for (size_t i = 0; i < k.bars_mm.size(); ++i) {
+    require(finite(k.bars_mm[i]) && k.bars_mm[i] > 0, source, "bars_mm[" + std::to_string(i) + "]",
+            "must be a positive length in mm");
+  }
+  const char* xyz[] = {"x", "y", "z"};
+  for (int i = 0; i < 3; ++i) {
+    const Interval& t = k.travel_mm[i];
+    require(finite(t.min) && finite(t.max) && t.min < t.max, source, std::string("travel_mm.") + xyz[i],
+            "must be [min, max] with min < max, in mm");
+  }
+  require(finite(k.min_separation_mm) && k.min_separation_mm >= 0, source, "min_separation_mm",
+          "must be a distance >= 0 mm");
+
+  const Interval& r = k.angle_range_deg;
+  require(finite(r.min) && finite(r.max) && r.min < r.max, source, "angles_deg.range",
+          "must be [first, last] with first < last, in degrees");
+  if (k.axis == Axis::C) {
+    require(r.width() <= 360.0 + kAngleTolerance_deg, source, "angles_deg.range", "spans more than one turn");
+  } else {
+    require(r.min >= -180.0 && r.max <= 180.0, source, "angles_deg.range",
+            "is outside [-180, 180] deg, the most a swinging head B can reach");
+  }
+  require(!k.angle_steps_deg.empty(), source, "angles_deg.steps", "no angle steps");
+  for (size_t i = 0; i < k.angle_steps_deg.size(); ++i) {
+    const std::string key = "angles_deg.steps[" + std::to_string(i) + "]";
+    const double st = k.angle_steps_deg[i];
+    require(finite(st) && st > 0, source, key, "must be a positive step in degrees");
+    const double m = r.width() / st;
+    require(m + 1 <= kMaxAngles, source, key, "gives more than 100000 angles");
+    require(std::abs(m - std::round(m)) <= 1e-9 * std::max(1.0, m), source, key,
+            "does not divide the range into a whole number of steps");
+    for (size_t j = 0; j < i; ++j) {
+      require(std::abs(k.angle_steps_deg[j] - st) > kAngleTolerance_deg, source, key,
+              "repeats angles_deg.steps[" + std::to_string(j) + "]");
+    }
+  }
+  require(finite(k.time_per_reading_s) && k.time_per_reading_s >= 0, source, "time_s.per_reading",
+          "must be a time >= 0 s");
+  require(finite(k.time_per_installation_s) && k.time_per_installation_s >= 0, source, "time_s.per_installation",
+          "must be a time >= 0 s");
+  if (k.time_budget_s) {
+    require(finite(*k.time_budget_s) && *k.time_budget_s > 0, source, "time_s.budget", "must be a positive time in s");
+  }
+}
+
+std::vector<Stack> block_stacks(const Kit& kit) {
+  std::map<double, std::vector<double>> by_height;  // height -> fewest blocks
+  const size_t nb = kit.blocks_mm.size();
+  for (unsigned mask = 0; mask < (1u << nb); ++mask) {
+    std::vector<double> used;
+    double h = kit.H_base_mm;
+    for (size_t i = 0; i < nb; ++i) {
+      if (mask & (1u << i)) {
+        used.push_back(kit.blocks_mm[i]);
+        h += kit.blocks_mm[i];
+      }
+    }
+    if (static_cast<int>(used.size()) > kit.max_stack) continue;
+    // Heights closer than 1 um are the same height.
+    const double key = std::round(h * 1000.0) / 1000.0;
+    auto it = by_height.find(key);
+    if (it == by_height.end() || used.size() < it->second.size()) by_height[key] = used;
+  }
+  std::vector<Stack> out;
+  for (auto& [h, used] : by_height) out.push_back({h, used});
+  return out;
+}
+
+std::vector<double> kit_angles(const Kit& kit, double step_deg) {
+  const long m = std::lround(kit.angle_range_deg.width() / step_deg);
+  std::vector<double> a;
+  for (long i = 0; i <= m; ++i) a.push_back(i == m ? kit.angle_range_deg.max : kit.angle_range_deg.min + i * step_deg);
+  return a;
+}
+
+double design_time_s(const Kit& kit, const Design& design) {
+  const double n_inst = static_cast<double>(design.installations.size());
+  return n_inst * kit.time_per_installation_s +
+         n_inst * static_cast<double>(design.angles_deg.size()) * kit.time_per_reading_s;
+}
+
+double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst, const std::vector<double>& angles_deg) {
+  if (angles_deg.empty() || !inst.bar_mm) return 0.0;
+  const auto [lo_it, hi_it] = std::minmax_element(angles_deg.begin(), angles_deg.end());
+  // R(g) = M0 + cos g M1 + sin g M2 for a rotation about a fixed axis.
+  const Eigen::Matrix3d R0 = axis_rotation(axis, 0), R90 = axis_rotation(axis, 90), R180 = axis_rotation(axis, 180);
+  const Eigen::Matrix3d M0 = 0.5 * (R0 + R180), M1 = 0.5 * (R0 - R180), M2 = R90 - M0;
+  const Eigen::Vector3d G = ball_body_mm(axis, inst) - inst.sign * *inst.bar_mm * inst.direction.body;
+  const Eigen::Vector3d a = M0 * G, b = M1 * G, c = M2 * G;
+  double worst = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    const auto [mn, mx] = arc_extent(a(k), b(k), c(k), *lo_it, *hi_it);
+    worst = std::max({worst, kit.travel_mm[k].min - mn, mx - kit.travel_mm[k].max});
+  }
+  return worst;
+}
+
+double fit_bar(const Kit& kit, Axis axis, Installation& inst, const std::vector<double>& angles_deg) {
+  std::vector<double> bars = kit.bars_mm;
+  std::sort(bars.begin(), bars.end());
+  double best = std::numeric_limits<double>::infinity();
+  double best_bar = bars.front();
+  int best_sign = 1;
+  for (double bar : bars) {
+    for (int sign : {1, -1}) {
+      Installation t = inst;
+      t.bar_mm = bar;
+      t.sign = sign;
+      const double v = travel_violation_mm(kit, axis, t, angles_deg);
+      if (v <= 0) {
+        inst.bar_mm = bar;
+        inst.sign = sign;
+        return v;
+      }
+      if (v < best) best = v, best_bar = bar, best_sign = sign;
+    }
+  }
+  inst.bar_mm = best_bar;
+  inst.sign = best_sign;
+  return best;
+}
+
+}  // namespace dbbkit

@@ -1,0 +1,495 @@
+#include "dbbkit/optimize.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <nlopt.hpp>
+#include <sstream>
+
+#include "dbbkit/parallel.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+constexpr double kPenalty = 1e12;  // objective of a point the criterion cannot score
+constexpr int kNearRankLoss = 1 << 20;  // n_undetermined of a point the fast path declined
+
+std::string mm(double x) {
+  std::ostringstream os;
+  os << std::round(x * 1000.0) / 1000.0;
+  return os.str();
+}
+
+std::string stack_text(const Kit& kit, const Stack& s) {
+  std::string t = mm(s.height_mm) + " mm (";
+  if (s.blocks_mm.empty()) return t + "cup on the table)";
+  t += "cup of " + mm(kit.H_base_mm) + " mm on block";
+  if (s.blocks_mm.size() > 1) t += "s";
+  for (size_t i = 0; i < s.blocks_mm.size(); ++i) t += (i ? " + " : " ") + mm(s.blocks_mm[i]);
+  return t + " mm)";
+}
+
+bool has_offset(const Kit& kit) { return kit.D_mm.min < 0 || kit.D_mm.max > 0; }
+
+struct Position {
+  double L, D, H;
+};
+
+Installation make_installation(Axis axis, const char* id, const Position& p, Direction::Kind kind) {
+  Installation in;
+  in.id = id;
+  in.L_mm = p.L;
+  in.D_mm = p.D;
+  in.H_mm = axis == Axis::C ? p.H : 0.0;
+  in.direction = Direction::named(axis, kind);
+  return in;
+}
+
+// The search over one choice: DIRECT-L, then COBYLA from the best point found
+// and from the centre. Every scored point is kept if it is the best so far.
+class ChoiceSearch {
+ public:
+  ChoiceSearch(const Kit& kit, const PatternChoice& choice, Criterion criterion)
+      : kit_(kit), choice_(choice), criterion_(criterion), space_(pattern_space(kit, choice)) {
+    for (size_t i = 0; i < space_.names.size(); ++i) {
+      if (space_.upper[i] > space_.lower[i]) free_.push_back(static_cast<int>(i));
+    }
+    // The determination a generic point of this choice reaches: points that reach less are penalised.
+    // The centre may be degenerate (e.g. L1 = L2): a generic point is taken a third of the way in.
+    std::vector<double> generic = space_.lower;
+    for (int i : free_) generic[i] += (space_.upper[i] - space_.lower[i]) * (0.29 + 0.07 * i);
+    Candidate probe = make_candidate(kit_, choice_, generic);
+    score_candidate(kit_, criterion_, probe);
+    generic_undetermined_ = probe.n_undetermined;
+    fast_only_ = criterion_ == Criterion::Worst && kit_.errors.kind == ErrorModel::Kind::PerAngle &&
+                 generic_undetermined_ == 0 && fast_worst_case(probe.design, kit_.reference_length_mm).has_value();
+  }
+
+  long evaluations() const { return evaluations_; }
+  const std::optional<Candidate>& best() const { return best_; }
+  int n_free() const { return static_cast<int>(free_.size()); }
+
+  std::vector<double> centre_free() const {
+    std::vector<double> x;
+    for (int i : free_) x.push_back(0.5 * (space_.lower[i] + space_.upper[i]));
+    return x;
+  }
+  std::vector<double> full(const std::vector<double>& xf) const {
+    std::vector<double> x = space_.lower;
+    for (size_t k = 0; k < free_.size(); ++k) x[free_[k]] = xf[k];
+    return x;
+  }
+  std::vector<double> free_part(const std::vector<double>& x) const {
+    std::vector<double> xf;
+    for (int i : free_) xf.push_back(x[i]);
+    return xf;
+  }
+
+  // Scores the point (cached for the constraint calls at the same point).
+  const Candidate& at(const std::vector<double>& x) {
+    if (last_ && last_->x == x) return *last_;
+    Candidate c = make_candidate(kit_, choice_, x);
+    if (fast_only_) {
+      // A choice whose generic point is full rank: a point the fast path declines is within
+      // a factor 1e4 of rank loss (or at it, e.g. two balls at one position) and is penalised
+      // instead of being evaluated in full; such a point is never the best.
+      if (std::optional<WorstCase> w = fast_worst_case(c.design, kit_.reference_length_mm)) {
+        c.worst = *w;
+        c.objective = *w->worst_std_um;
+        c.objective_defined = true;
+      } else {
+        c.objective_defined = false;
+        c.n_undetermined = kNearRankLoss;
+      }
+    } else {
+      score_candidate(kit_, criterion_, c);
+    }
+    ++evaluations_;
+    if (!best_ || better(c, *best_)) best_ = c;
+    last_ = std::move(c);
+    return *last_;
+  }
+
+  double objective(const std::vector<double>& xf) {
+    const Candidate& c = at(full(xf));
+    if (!c.objective_defined || c.n_undetermined > generic_undetermined_) return kPenalty;
+    return c.objective;
+  }
+
+  void run(const OptimizeOptions& options) {
+    const int n = n_free();
+    if (n == 0) {
+      at(full({}));
+      return;
+    }
+    std::vector<double> lb, ub;
+    for (int i : free_) lb.push_back(space_.lower[i]), ub.push_back(space_.upper[i]);
+    auto f = [](const std::vector<double>& x, std::vector<double>&, void* self) {
+      return static_cast<ChoiceSearch*>(self)->objective(x);
+    };
+    auto travel = [](const std::vector<double>& x, std::vector<double>&, void* self) {
+      auto* s = static_cast<ChoiceSearch*>(self);
+      return s->at(s->full(x)).travel_violation_mm;
+    };
+    auto separation = [](const std::vector<double>& x, std::vector<double>&, void* self) {
+      auto* s = static_cast<ChoiceSearch*>(self);
+      return s->at(s->full(x)).separation_violation_mm;
+    };
+    auto setup = [&](nlopt::opt& o) {
+      o.set_lower_bounds(lb);
+      o.set_upper_bounds(ub);
+      o.set_min_objective(f, this);
+      o.add_inequality_constraint(travel, this, 1e-9);
+      o.add_inequality_constraint(separation, this, 1e-9);
+    };
+    // Global stage.
+    {
+      nlopt::opt o(nlopt::GN_ORIG_DIRECT_L, n);
+      setup(o);
+      o.set_maxeval(options.global_evaluations_per_variable * (n + 1));
+      std::vector<double> x = centre_free();
+      double fx = 0;
+      try {
+        o.optimize(x, fx);
+      } catch (const std::exception&) {
+        // A stage that stops early (round-off, forced stop) leaves its best point in best_.
+      }
+    }
+    // Local polish from the best point so far and from the centre.
+    std::vector<std::vector<double>> starts;
+    if (best_) starts.push_back(free_part(best_->x));
+    starts.push_back(centre_free());
+    for (std::vector<double> x : starts) {
+      nlopt::opt o(nlopt::LN_COBYLA, n);
+      setup(o);
+      std::vector<double> step;
+      for (int k = 0; k < n; ++k) step.push_back(0.1 * (ub[k] - lb[k]));
+      o.set_initial_step(step);
+      o.set_xtol_rel(1e-10);
+      o.set_maxeval(options.local_evaluations);
+      double fx = 0;
+      try {
+        o.optimize(x, fx);
+      } catch (const std::exception&) {
+      }
+    }
+  }
+
+  void grid(double h) {
+    const int n = n_free();
+    std::vector<std::vector<double>> axes(n);
+    for (int k = 0; k < n; ++k) {
+      const double lo = space_.lower[free_[k]], hi = space_.upper[free_[k]];
+      const long m = static_cast<long>(std::ceil((hi - lo) / h - 1e-9));
+      for (long i = 0; i <= m; ++i) axes[k].push_back(i == m ? hi : lo + static_cast<double>(i) * h);
+    }
+    std::vector<size_t> idx(n, 0);
+    std::vector<double> xf(n);
+    while (true) {
+      for (int k = 0; k < n; ++k) xf[k] = axes[k][idx[k]];
+      at(full(xf));
+      int k = n - 1;
+      while (k >= 0 && ++idx[k] == axes[k].size()) idx[k--] = 0;
+      if (k < 0) break;
+    }
+  }
+
+ private:
+  const Kit& kit_;
+  PatternChoice choice_;
+  Criterion criterion_;
+  PatternSpace space_;
+  std::vector<int> free_;
+  int generic_undetermined_ = 0;
+  bool fast_only_ = false;
+  long evaluations_ = 0;
+  std::optional<Candidate> best_, last_;
+};
+
+// Runs `search_one` over every choice in parallel and assembles the result.
+template <typename SearchOne>
+OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, SearchOne&& search_one,
+                          const std::function<void(int, int, const Candidate*)>& progress) {
+  OptimizeResult res;
+  res.criterion = criterion;
+  const std::vector<PatternChoice> choices = pattern_choices(kit);
+  res.choices.resize(choices.size());
+  std::atomic<long> evaluations{0};
+  std::mutex mutex;
+  int done = 0;
+  std::optional<Candidate> best_so_far;
+  parallel_for(static_cast<long>(choices.size()), std::max(1, threads), [&](long i) {
+    ChoiceResult& cr = res.choices[i];
+    cr.choice = choices[i];
+    cr.label = choice_label(kit, choices[i]);
+    const Candidate probe = make_candidate(kit, choices[i], pattern_space(kit, choices[i]).lower);
+    if (kit.time_budget_s && probe.time_s > *kit.time_budget_s) {
+      cr.status = "over the time budget (" + mm(probe.time_s) + " s > " + mm(*kit.time_budget_s) + " s)";
+    } else {
+      ChoiceSearch s(kit, choices[i], criterion);
+      search_one(s);
+      evaluations += s.evaluations();
+      cr.best = s.best();
+      if (cr.best) describe_installations(kit, *cr.best);
+      if (cr.best && cr.best->feasible) {
+        cr.status = "searched";
+      } else if (cr.best && cr.best->travel_violation_mm > 0) {
+        cr.status = "no position keeps the following ball inside travel (least excursion " +
+                    mm(cr.best->travel_violation_mm) + " mm)";
+      } else {
+        cr.status = "no position keeps the balls min_separation_mm apart";
+      }
+    }
+    std::lock_guard<std::mutex> lock(mutex);
+    ++done;
+    if (cr.best && cr.best->feasible && (!best_so_far || better(*cr.best, *best_so_far))) best_so_far = cr.best;
+    if (progress) progress(done, static_cast<int>(choices.size()), best_so_far ? &*best_so_far : nullptr);
+  });
+  res.evaluations = evaluations;
+  for (const ChoiceResult& cr : res.choices) {
+    if (cr.best && cr.best->feasible && (!res.best || better(*cr.best, *res.best))) res.best = cr.best;
+  }
+  if (res.best) {
+    res.best_evaluation = evaluate_design(res.best->design, kit.reference_length_mm);
+    // Pareto front of (time, objective) among the choices that determine as much as the best.
+    std::vector<Candidate> pool;
+    for (const ChoiceResult& cr : res.choices) {
+      if (cr.best && cr.best->feasible && cr.best->objective_defined &&
+          cr.best->n_undetermined == res.best->n_undetermined) {
+        pool.push_back(*cr.best);
+      }
+    }
+    std::stable_sort(pool.begin(), pool.end(), [](const Candidate& a, const Candidate& b) {
+      return a.time_s < b.time_s || (a.time_s == b.time_s && a.objective < b.objective);
+    });
+    double running = std::numeric_limits<double>::infinity();
+    for (const Candidate& c : pool) {
+      if (c.objective < running * (1 - 1e-12)) {
+        if (!res.pareto.empty() && res.pareto.back().time_s == c.time_s) res.pareto.pop_back();
+        res.pareto.push_back(c);
+        running = c.objective;
+      }
+    }
+  }
+  if (kit.axis == Axis::B) {
+    if (!has_offset(kit)) {
+      res.note = "the kit allows no lateral offset (D_mm = [" + mm(kit.D_mm.min) + ", " + mm(kit.D_mm.max) +
+                 "]): every ball lies on the tool axis, so a rotation about that axis is unobservable (rank 5 "
+                 "of 6 at every angle); the search minimises what is identifiable";
+    } else if (!res.best || !res.best->choice.offset) {
+      res.note = "no design with the off-axis position fits the kit (time budget or travel): rank 5 of 6 at "
+                 "every angle; the search minimises what is identifiable";
+    }
+  }
+  return res;
+}
+
+}  // namespace
+
+const char* criterion_name(Criterion c) {
+  switch (c) {
+    case Criterion::Worst:
+      return "worst_std_um";
+    case Criterion::D:
+      return "D";
+    case Criterion::A:
+      return "A";
+    case Criterion::E:
+      return "E";
+    case Criterion::Condition:
+      return "condition";
+  }
+  return "?";
+}
+
+std::vector<PatternChoice> pattern_choices(const Kit& kit) {
+  std::vector<PatternChoice> out;
+  if (kit.axis == Axis::C) {
+    const std::vector<Stack> stacks = block_stacks(kit);
+    const size_t n = stacks.size();
+    for (size_t i = 0; i < n; ++i) {
+      for (size_t j = 0; j < n; ++j) {
+        if (i == j) continue;
+        for (double step : kit.angle_steps_deg) {
+          out.push_back({step, static_cast<int>(i), static_cast<int>(j), false, stacks[i].height_mm, stacks[j].height_mm});
+        }
+      }
+    }
+  } else {
+    for (double step : kit.angle_steps_deg) {
+      out.push_back({step, -1, -1, false});
+      if (has_offset(kit)) out.push_back({step, -1, -1, true});
+    }
+  }
+  return out;
+}
+
+std::string choice_label(const Kit& kit, const PatternChoice& c) {
+  std::string t;
+  if (kit.axis == Axis::C) {
+    const std::vector<Stack> stacks = block_stacks(kit);
+    t = "H1 = " + stack_text(kit, stacks[c.h1]) + ", H3 = " + stack_text(kit, stacks[c.h3]) + ", ";
+  } else {
+    t = c.offset ? "with the off-axis position, " : "tool axis only, ";
+  }
+  return t + "step " + mm(c.step_deg) + " deg";
+}
+
+PatternSpace pattern_space(const Kit& kit, const PatternChoice& c) {
+  PatternSpace s;
+  auto add = [&](const std::string& name, const Interval& r) {
+    s.names.push_back(name);
+    s.lower.push_back(r.min);
+    s.upper.push_back(r.max);
+  };
+  if (kit.axis == Axis::C) {
+    for (const char* n : {"L1", "L2", "L3"}) add(n, kit.L_mm);
+    for (const char* n : {"D1", "D2", "D3"}) add(n, kit.D_mm);
+  } else {
+    add("L1", kit.L_mm);
+    add("L2", kit.L_mm);
+    if (c.offset) {
+      add("L3", kit.L_mm);
+      add("D3", kit.D_mm);
+    }
+  }
+  return s;
+}
+
+Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std::vector<double>& x) {
+  Candidate c;
+  c.choice = choice;
+  c.x = x;
+  Design& d = c.design;
+  d.axis = kit.axis;
+  d.name = kit.name.empty() ? "optimized" : kit.name + "-optimized";
+  d.angles_deg = kit_angles(kit, choice.step_deg);
+  d.noise = kit.noise;
+  d.errors = kit.errors;
+  d.reference_length_mm = kit.reference_length_mm;
+  using K = Direction::Kind;
+  std::vector<Position> positions;
+  if (kit.axis == Axis::C) {
+    const double H1 = choice.H1_mm, H3 = choice.H3_mm;
+    positions = {{x[0], x[3], H1}, {x[1], x[4], H1}, {x[2], x[5], H3}};
+    d.installations = {
+        make_installation(Axis::C, "1r", positions[0], K::Radial),
+        make_installation(Axis::C, "1t", positions[0], K::Tangential),
+        make_installation(Axis::C, "1a", {0, 0, H1}, K::Axial),
+        make_installation(Axis::C, "2r", positions[1], K::Radial),
+        make_installation(Axis::C, "2t", positions[1], K::Tangential),
+        make_installation(Axis::C, "3r", positions[2], K::Radial),
+        make_installation(Axis::C, "3t", positions[2], K::Tangential),
+    };
+  } else {
+    positions = {{x[0], 0, 0}, {x[1], 0, 0}};
+    d.installations = {
+        make_installation(Axis::B, "1r", positions[0], K::Radial),
+        make_installation(Axis::B, "1t", positions[0], K::Tangential),
+        make_installation(Axis::B, "1a", positions[0], K::Axial),
+        make_installation(Axis::B, "2r", positions[1], K::Radial),
+        make_installation(Axis::B, "2t", positions[1], K::Tangential),
+        make_installation(Axis::B, "2a", positions[1], K::Axial),
+    };
+    if (choice.offset) {
+      positions.push_back({x[2], x[3], 0});
+      d.installations.push_back(make_installation(Axis::B, "3r", positions[2], K::Radial));
+      d.installations.push_back(make_installation(Axis::B, "3t", positions[2], K::Tangential));
+    }
+  }
+  c.travel_violation_mm = -std::numeric_limits<double>::infinity();
+  for (Installation& in : d.installations) {
+    c.travel_violation_mm = std::max(c.travel_violation_mm, fit_bar(kit, kit.axis, in, d.angles_deg));
+  }
+  c.separation_violation_mm = -std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < positions.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      const double dist = std::hypot(positions[i].L - positions[j].L, positions[i].D - positions[j].D,
+                                     positions[i].H - positions[j].H);
+      c.separation_violation_mm = std::max(c.separation_violation_mm, kit.min_separation_mm - dist);
+    }
+  }
+  c.time_s = design_time_s(kit, d);
+  c.feasible = c.travel_violation_mm <= 1e-9 && c.separation_violation_mm <= 1e-9 &&
+               (!kit.time_budget_s || c.time_s <= *kit.time_budget_s);
+  return c;
+}
+
+void describe_installations(const Kit& kit, Candidate& c) {
+  std::vector<Stack> stacks;
+  if (kit.axis == Axis::C) stacks = block_stacks(kit);
+  for (Installation& in : c.design.installations) {
+    std::string t;
+    if (kit.axis == Axis::C) {
+      const bool third = in.id[0] == '3';
+      t = std::string(third ? "H3 = " : "H1 = ") + stack_text(kit, stacks[third ? c.choice.h3 : c.choice.h1]);
+      if (in.id == "1a") t += ", on the axis";
+    } else {
+      t = in.id[0] == '3' ? "off the tool axis" : "on the tool axis";
+    }
+    in.description = t + ", bar " + mm(*in.bar_mm) + " mm";
+  }
+}
+
+void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
+  if (criterion == Criterion::Worst) {
+    c.worst = design_worst_case(c.design, kit.reference_length_mm);
+    c.n_undetermined = c.worst.n_undetermined;
+    const std::optional<double> v = c.worst.worst_std_um ? c.worst.worst_std_um : c.worst.worst_determined_std_um;
+    c.objective_defined = v.has_value();
+    c.objective = v.value_or(0.0);
+    return;
+  }
+  const Evaluation ev = evaluate_design(c.design, kit.reference_length_mm);
+  c.worst = ev.worst;
+  c.n_undetermined = ev.worst.n_undetermined;
+  std::optional<double> v;
+  switch (criterion) {
+    case Criterion::D:
+      if (ev.criteria.D_logdet) v = -*ev.criteria.D_logdet;
+      break;
+    case Criterion::A:
+      v = ev.criteria.A_trace;
+      break;
+    case Criterion::E:
+      if (ev.prior.rank == ev.prior.n_unknowns) v = -ev.criteria.E_min_eigenvalue;
+      break;
+    case Criterion::Condition:
+      if (ev.prior.rank == ev.prior.n_unknowns) v = ev.prior.condition_number;
+      break;
+    case Criterion::Worst:
+      break;
+  }
+  c.objective_defined = v.has_value();
+  c.objective = v.value_or(0.0);
+}
+
+bool better(const Candidate& a, const Candidate& b) {
+  if (a.feasible != b.feasible) return a.feasible;
+  if (!a.feasible) {  // the less infeasible
+    return std::max(a.travel_violation_mm, a.separation_violation_mm) <
+           std::max(b.travel_violation_mm, b.separation_violation_mm);
+  }
+  if (a.n_undetermined != b.n_undetermined) return a.n_undetermined < b.n_undetermined;
+  if (a.objective_defined != b.objective_defined) return a.objective_defined;
+  // Objectives equal to 1e-9 (relative): the shorter measurement is better.
+  if (std::abs(a.objective - b.objective) > 1e-9 * std::max(std::abs(a.objective), std::abs(b.objective))) {
+    return a.objective < b.objective;
+  }
+  return a.time_s < b.time_s;
+}
+
+OptimizeResult optimize_kit(const Kit& kit, const OptimizeOptions& options) {
+  return search_all(
+      kit, options.criterion, options.threads, [&](ChoiceSearch& s) { s.run(options); }, options.progress);
+}
+
+OptimizeResult exhaustive_search(const Kit& kit, Criterion criterion, double grid_mm, int threads) {
+  return search_all(
+      kit, criterion, threads, [&](ChoiceSearch& s) { s.grid(grid_mm); }, {});
+}
+
+}  // namespace dbbkit

@@ -1,0 +1,286 @@
+// The design search: the fast worst case against the full evaluation, the
+// kit's geometry (block stacks, travel), and the search against exhaustive
+// enumeration on small kits whose travel limits bind.
+
+#include "dbbkit/optimize.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "dbbkit/io/kit_io.hpp"
+#include "dbbkit/kinematics.hpp"
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace {
+
+Design random_design(std::mt19937& rng, Axis axis) {
+  std::uniform_real_distribution<double> L(0, 300), D(-80, 80), H(0, 200), unit(-1, 1);
+  Design d;
+  d.axis = axis;
+  d.angles_deg = axis == Axis::C ? std::vector<double>{0, 30, 60, 90, 135, 200, 270, 330, 360}
+                                 : std::vector<double>{-100, -75, -50, -20, 0};
+  d.noise.half_width_um = 1.0 + unit(rng) * 0.5;
+  const int n = 6 + static_cast<int>(rng() % 4);
+  for (int i = 0; i < n; ++i) {
+    Installation in;
+    in.id = "i" + std::to_string(i);
+    in.L_mm = axis == Axis::C ? L(rng) : 50 + L(rng);
+    in.D_mm = D(rng);
+    in.H_mm = axis == Axis::C ? H(rng) : 0.0;
+    if (rng() % 2) {
+      in.direction = Direction::named(axis, static_cast<Direction::Kind>(rng() % 3));
+    } else {
+      in.direction = Direction::vector(Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized());
+    }
+    in.sign = rng() % 2 ? 1 : -1;
+    d.installations.push_back(in);
+  }
+  validate_design(d);
+  return d;
+}
+
+TEST(FastWorstCase, MatchesTheFullEvaluation) {
+  std::mt19937 rng(7);
+  int fast = 0;
+  for (int t = 0; t < 200; ++t) {
+    const Design d = random_design(rng, t % 2 ? Axis::C : Axis::B);
+    const std::optional<WorstCase> w = fast_worst_case(d, 120.0);
+    const Evaluation ev = evaluate_design(d, 120.0);
+    if (!w) continue;
+    ++fast;
+    ASSERT_TRUE(ev.worst.worst_std_um) << "the fast path answered for a design the full path finds rank-deficient";
+    EXPECT_NEAR(*w->worst_std_um, *ev.worst.worst_std_um, 1e-9 * *ev.worst.worst_std_um);
+  }
+  EXPECT_GT(fast, 150);  // random designs with six or more installations are almost always full rank
+}
+
+TEST(FastWorstCase, DeclinesRankLossAndSeries) {
+  const Design b = test::paper_design('B');  // both balls on the tool axis: rank 5 at every angle
+  EXPECT_FALSE(fast_worst_case(b, 100));
+  const WorstCase w = design_worst_case(b, 100);
+  EXPECT_FALSE(w.worst_std_um);
+  EXPECT_GT(w.n_undetermined, 0);
+  Design c = test::paper_design('C');
+  ASSERT_TRUE(fast_worst_case(c, 100));
+  EXPECT_NEAR(*fast_worst_case(c, 100)->worst_std_um, *evaluate_design(c, 100).worst.worst_std_um, 1e-12);
+  c.errors = {ErrorModel::Kind::Fourier, 2};
+  EXPECT_FALSE(fast_worst_case(c, 100));
+}
+
+Kit formats_kit() { return io::read_kit_file(test::source_path("designs/kits/c-turntable-kit.json")); }
+
+TEST(Kit, BlockStacksAreTheDistinctHeights) {
+  const std::vector<Stack> s = block_stacks(formats_kit());  // base 45, blocks 25, 50, 100, at most 2
+  std::vector<double> h;
+  for (const Stack& x : s) h.push_back(x.height_mm);
+  EXPECT_EQ(h, (std::vector<double>{45, 70, 95, 120, 145, 170, 195}));
+  EXPECT_EQ(s[4].blocks_mm, (std::vector<double>{100}));  // 145 = 45 + 100, one block rather than none
+  EXPECT_EQ(s[3].blocks_mm, (std::vector<double>{25, 50}));
+}
+
+TEST(Kit, TravelExtentIsExactOverTheArc) {
+  Kit kit = formats_kit();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int t = 0; t < 300; ++t) {
+    const Axis axis = t % 2 ? Axis::C : Axis::B;
+    Installation in;
+    in.L_mm = 150 + 100 * u(rng);
+    in.D_mm = 40 * u(rng);
+    in.H_mm = axis == Axis::C ? 100 + 50 * u(rng) : 0;
+    in.direction = Direction::named(axis, static_cast<Direction::Kind>(t % 3));
+    in.sign = u(rng) > 0 ? 1 : -1;
+    in.bar_mm = 150;
+    const double lo = axis == Axis::C ? 360 * u(rng) : -100 + 30 * u(rng);
+    const double hi = lo + (axis == Axis::C ? 180 + 180 * u(rng) : 90 + 20 * u(rng));
+    const double v = travel_violation_mm(kit, axis, in, {lo, hi});
+    // Dense sampling can only find less (or equal) excursion, and nearly as much.
+    double sampled = -1e300;
+    for (int i = 0; i <= 20000; ++i) {
+      const double a = lo + (hi - lo) * i / 20000.0;
+      const Eigen::Vector3d F = ball_position_mm(axis, in, a) - in.sign * 150.0 * direction_machine(axis, in, a);
+      for (int k = 0; k < 3; ++k) {
+        sampled = std::max({sampled, kit.travel_mm[k].min - F(k), F(k) - kit.travel_mm[k].max});
+      }
+    }
+    EXPECT_LE(sampled, v + 1e-9);
+    EXPECT_GE(sampled, v - 1e-3);
+  }
+}
+
+TEST(Kit, FitBarTakesTheShortestBarThatFits) {
+  Kit kit = formats_kit();  // y travel +-300 mm: a tangential bar reaches sqrt(L^2 + bar^2) from the axis
+  Installation in;
+  in.L_mm = 250;
+  in.H_mm = 45;
+  in.direction = Direction::named(Axis::C, Direction::Kind::Tangential);
+  const std::vector<double> turn = kit_angles(kit, 20);
+  EXPECT_LE(fit_bar(kit, Axis::C, in, turn), 0);
+  EXPECT_EQ(*in.bar_mm, 100);  // sqrt(250^2 + 100^2) = 269 <= 300; 150 gives 292 too, but 100 is shorter
+  kit.bars_mm = {250, 300};
+  EXPECT_GT(fit_bar(kit, Axis::C, in, turn), 0);  // sqrt(250^2 + 250^2) = 354 > 300: nothing fits
+  EXPECT_NEAR(fit_bar(kit, Axis::C, in, turn), std::hypot(250.0, 250.0) - 300, 1e-9);
+}
+
+// A small C kit whose travel binds: x, y within +-220 mm, so a tangential bar of
+// 100 mm allows L <= sqrt(220^2 - 100^2) = 196 mm of the 250 the table offers
+// (a 150 mm block sets the heights apart, so that the radii limit the worst case).
+Kit small_c_kit() {
+  Kit k;
+  k.name = "small-c";
+  k.axis = Axis::C;
+  k.reference_length_mm = 100;
+  k.L_mm = {20, 250};
+  k.D_mm = {0, 0};
+  k.H_base_mm = 45;
+  k.blocks_mm = {150};
+  k.max_stack = 1;
+  k.bars_mm = {100, 150};
+  k.travel_mm = {Interval{-220, 220}, Interval{-220, 220}, Interval{-50, 400}};
+  k.min_separation_mm = 30;
+  k.angle_range_deg = {0, 360};
+  k.angle_steps_deg = {30};
+  k.time_per_reading_s = 3;
+  k.time_per_installation_s = 240;
+  validate_kit(k);
+  return k;
+}
+
+// A small B kit: L along the tool axis 100..260 mm and a holder that offsets the
+// ball up to 150 mm along the swing axis; the following ball of an offset ball
+// sits at the same y, and y travel stops at +-100 mm: the travel limits the offset.
+Kit small_b_kit() {
+  Kit k;
+  k.name = "small-b";
+  k.axis = Axis::B;
+  k.reference_length_mm = 100;
+  k.L_mm = {100, 260};
+  k.D_mm = {0, 150};
+  k.bars_mm = {100, 150};
+  k.travel_mm = {Interval{-260, 260}, Interval{-100, 100}, Interval{-150, 260}};
+  k.min_separation_mm = 30;
+  k.angle_range_deg = {-100, 0};
+  k.angle_steps_deg = {20};
+  k.time_per_reading_s = 3;
+  k.time_per_installation_s = 240;
+  validate_kit(k);
+  return k;
+}
+
+void expect_no_better_grid_point(const Kit& kit, double grid_mm) {
+  const OptimizeResult opt = optimize_kit(kit, {Criterion::Worst, 2});
+  const OptimizeResult grid = exhaustive_search(kit, Criterion::Worst, grid_mm, 2);
+  ASSERT_TRUE(opt.best && grid.best);
+  EXPECT_TRUE(opt.best->feasible);
+  EXPECT_EQ(opt.best->n_undetermined, grid.best->n_undetermined);
+  EXPECT_LE(opt.best->objective, 1.005 * grid.best->objective)
+      << "a grid point is more than 0.5% better: " << grid.best->objective << " um vs " << opt.best->objective;
+  // The travel binds: it is active at the optimum, and relaxing it lets the search do better.
+  EXPECT_GT(opt.best->travel_violation_mm, -0.5);
+  Kit relaxed = kit;
+  relaxed.travel_mm = {Interval{-2000, 2000}, Interval{-2000, 2000}, Interval{-2000, 2000}};
+  const OptimizeResult free = optimize_kit(relaxed, {Criterion::Worst, 2});
+  ASSERT_TRUE(free.best);
+  EXPECT_LT(free.best->objective, 0.99 * opt.best->objective);
+  std::cout << kit.name << ": optimize " << opt.best->objective << " um (" << opt.evaluations << " designs), grid "
+            << grid_mm << " mm " << grid.best->objective << " um (" << grid.evaluations << " designs), travel relaxed "
+            << free.best->objective << " um\n";
+}
+
+TEST(Exhaustive, SmallCKitNoGridPointBeatsTheSearch) { expect_no_better_grid_point(small_c_kit(), 2.5); }
+
+TEST(Exhaustive, SmallBKitNoGridPointBeatsTheSearch) { expect_no_better_grid_point(small_b_kit(), 5.0); }
+
+TEST(Optimize, BKitWithOffsetGivesRankSix) {
+  const OptimizeResult r = optimize_kit(small_b_kit(), {Criterion::Worst, 2});
+  ASSERT_TRUE(r.best);
+  EXPECT_TRUE(r.best->choice.offset);
+  EXPECT_EQ(r.best_evaluation.prior.rank, r.best_evaluation.prior.n_unknowns);
+  EXPECT_TRUE(r.best_evaluation.worst.worst_std_um);
+  EXPECT_TRUE(r.best_evaluation.unidentifiable.empty());
+  EXPECT_NE(r.best->design.installations.back().D_mm, 0.0);
+  EXPECT_TRUE(r.note.empty());
+}
+
+TEST(Optimize, BKitWithoutOffsetGivesRankFiveAndNamesTheMissingRotation) {
+  Kit k = small_b_kit();
+  k.D_mm = {0, 0};
+  const OptimizeResult r = optimize_kit(k, {Criterion::Worst, 2});
+  ASSERT_TRUE(r.best);
+  const int n_angles = static_cast<int>(r.best->design.angles_deg.size());
+  EXPECT_EQ(r.best_evaluation.prior.rank, 5 * n_angles);
+  EXPECT_EQ(r.best_evaluation.prior.n_unknowns, 6 * n_angles);
+  ASSERT_EQ(static_cast<int>(r.best_evaluation.unidentifiable.size()), n_angles);
+  for (const Unidentifiable& u : r.best_evaluation.unidentifiable) {
+    EXPECT_NE(u.interpretation.find("the tool axis"), std::string::npos) << u.interpretation;
+  }
+  EXPECT_NE(r.note.find("rank 5"), std::string::npos) << r.note;
+  EXPECT_FALSE(r.best_evaluation.worst.worst_std_um);
+  EXPECT_TRUE(r.best_evaluation.worst.worst_determined_std_um);
+}
+
+TEST(Optimize, ResultDoesNotDependOnThreads) {
+  const Kit k = small_c_kit();
+  const OptimizeResult a = optimize_kit(k, {Criterion::Worst, 1});
+  const OptimizeResult b = optimize_kit(k, {Criterion::Worst, 3});
+  ASSERT_TRUE(a.best && b.best);
+  EXPECT_EQ(a.best->x, b.best->x);
+  EXPECT_EQ(a.best->objective, b.best->objective);
+  EXPECT_EQ(a.evaluations, b.evaluations);
+}
+
+TEST(Optimize, TimeBudgetExcludesChoices) {
+  Kit k = small_c_kit();
+  k.angle_steps_deg = {10, 30};
+  // 7 installations: 37 angles take 7 * 240 + 259 * 3 = 2457 s, 13 angles 1953 s.
+  k.time_budget_s = 2000;
+  const OptimizeResult r = optimize_kit(k, {Criterion::Worst, 2});
+  ASSERT_TRUE(r.best);
+  EXPECT_EQ(r.best->choice.step_deg, 30);
+  EXPECT_DOUBLE_EQ(r.best->time_s, 1953);
+  int over = 0;
+  for (const ChoiceResult& c : r.choices) over += c.status.find("over the time budget") != std::string::npos;
+  EXPECT_EQ(over, 2);  // step 10 for both height orders
+}
+
+TEST(Optimize, OtherCriteriaScoreFullRankDesigns) {
+  Kit k = small_c_kit();
+  for (Criterion c : {Criterion::D, Criterion::A, Criterion::E, Criterion::Condition}) {
+    OptimizeOptions o;
+    o.criterion = c;
+    o.threads = 2;
+    o.global_evaluations_per_variable = 40;
+    o.local_evaluations = 100;
+    const OptimizeResult r = optimize_kit(k, o);
+    ASSERT_TRUE(r.best) << criterion_name(c);
+    EXPECT_TRUE(r.best->objective_defined) << criterion_name(c);
+    EXPECT_EQ(r.best_evaluation.prior.rank, r.best_evaluation.prior.n_unknowns) << criterion_name(c);
+    // The search's value is the criterion of the design it returns.
+    const Evaluation& ev = r.best_evaluation;
+    const double expect = c == Criterion::D ? -*ev.criteria.D_logdet
+                          : c == Criterion::A ? *ev.criteria.A_trace
+                          : c == Criterion::E ? -ev.criteria.E_min_eigenvalue
+                                              : *ev.prior.condition_number;
+    EXPECT_NEAR(r.best->objective, expect, 1e-9 * std::abs(expect)) << criterion_name(c);
+  }
+}
+
+TEST(Optimize, FormatsKitBeatsThePaperLikeDesign) {
+  const Kit k = formats_kit();
+  const OptimizeResult r = optimize_kit(k, {Criterion::Worst, 2});
+  ASSERT_TRUE(r.best && r.best_evaluation.worst.worst_std_um);
+  const Evaluation paper = evaluate_design(test::paper_design('C'), k.reference_length_mm);
+  ASSERT_TRUE(paper.worst.worst_std_um);
+  const double ratio = *r.best_evaluation.worst.worst_std_um / *paper.worst.worst_std_um;
+  EXPECT_LT(ratio, 1.0);
+  std::cout << "formats.md kit: optimised " << *r.best_evaluation.worst.worst_std_um << " um, paper-like "
+            << *paper.worst.worst_std_um << " um, ratio " << ratio << "\n";
+  // The prediction carried by the search equals the full evaluation of the design it returns.
+  EXPECT_NEAR(r.best->objective, *r.best_evaluation.worst.worst_std_um, 1e-9);
+}
+
+}  // namespace
+}  // namespace dbbkit
