@@ -2,6 +2,7 @@
 //   evaluate the paper's C design:          >= 200,000 designs/s on one thread
 //   Monte Carlo, paper C identification:    10^6 trials < 0.5 s on 2 threads
 //   identify 360 angles, 12 installations, Fourier order 20: < 50 ms
+//   optimize the formats.md C kit (designs/kits/c-turntable-kit.json): < 2 s
 
 #include <benchmark/benchmark.h>
 
@@ -9,6 +10,8 @@
 
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/kit_io.hpp"
+#include "dbbkit/optimize.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/observability.hpp"
@@ -20,8 +23,16 @@ using namespace dbbkit;
 
 Design paper_c() { return io::read_design_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/paper-c-turntable.json"); }
 
-// What optimize needs of a design: the factorisation and the worst-case a-priori uncertainty.
+// What optimize needs of a design: the worst-case a-priori uncertainty (the fast path).
 void BM_WorstCasePaperC(benchmark::State& state) {
+  const Design d = paper_c();
+  for (auto _ : state) benchmark::DoNotOptimize(design_worst_case(d, 100.0).worst_std_um);
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_WorstCasePaperC)->Unit(benchmark::kMicrosecond);
+
+// The same number through the general solver: the stacked Jacobian, its SVD and the covariance.
+void BM_WorstCasePaperCGeneralSolver(benchmark::State& state) {
   const Design d = paper_c();
   for (auto _ : state) {
     const Parameterisation param(d);
@@ -34,7 +45,22 @@ void BM_WorstCasePaperC(benchmark::State& state) {
   }
   state.SetItemsProcessed(state.iterations());
 }
-BENCHMARK(BM_WorstCasePaperC)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_WorstCasePaperCGeneralSolver)->Unit(benchmark::kMicrosecond);
+
+// The whole search over the kit of formats.md, on 1 and 2 threads.
+void BM_OptimizeFormatsKit(benchmark::State& state) {
+  const Kit kit = io::read_kit_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/kits/c-turntable-kit.json");
+  OptimizeOptions o;
+  o.threads = static_cast<int>(state.range(0));
+  long evaluations = 0;
+  for (auto _ : state) {
+    const OptimizeResult r = optimize_kit(kit, o);
+    evaluations = r.evaluations;
+    benchmark::DoNotOptimize(r.best->objective);
+  }
+  state.counters["designs_scored"] = static_cast<double>(evaluations);
+}
+BENCHMARK(BM_OptimizeFormatsKit)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 // The whole evaluate (indices, criteria, null-space description as well).
 void BM_EvaluatePaperC(benchmark::State& state) {

@@ -65,8 +65,8 @@ struct Candidate {
 struct OptimizeOptions {
   Criterion criterion = Criterion::Worst;
   int threads = 1;
-  int global_evaluations_per_variable = 150;  // DIRECT-L budget: this x (variables + 1)
-  int local_evaluations = 600;                // COBYLA budget per start
+  int global_evaluations_per_variable = 100;  // DIRECT-L budget: this x (variables + 1)
+  int local_evaluations = 300;                // COBYLA budget per start
   // Called after each discrete choice is searched (from the worker threads, serialised).
   std::function<void(int done, int total, const Candidate* best_so_far)> progress;
 };
