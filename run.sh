@@ -12,11 +12,19 @@ for axis in c-turntable b-head; do
   design="designs/paper-${axis}.json"
   csv="tests/data/paper/paper_${axis//-/_}.csv"
   ./build/dbbkit identify --design "$design" --data "$csv" \
-    --out "reports/paper-${axis}-identify.json" > "reports/paper-${axis}-identify.txt"
+    --out "reports/paper-${axis}-identify.json" --report "reports/paper-${axis}-identify.html" \
+    --summary "reports/paper-${axis}-identify.md" > "reports/paper-${axis}-identify.txt"
   ./build/dbbkit diagnose --design "$design" --data "$csv" \
     --out "reports/paper-${axis}-diagnose.json" --report "reports/paper-${axis}-diagnose.html" \
-    > "reports/paper-${axis}-diagnose.txt"
+    --summary "reports/paper-${axis}-diagnose.md" > "reports/paper-${axis}-diagnose.txt"
+  ./build/dbbkit evaluate --design "$design" --quiet --out "reports/paper-${axis}-evaluate.json" \
+    --report "reports/paper-${axis}-evaluate.html" --summary "reports/paper-${axis}-evaluate.md"
   echo "== ${axis}"
   sed -n '3,4p' "reports/paper-${axis}-diagnose.txt"
 done
+# What the kit of formats.md allows, against the paper-like design.
+./build/dbbkit optimize --kit designs/kits/c-turntable-kit.json --reference designs/paper-c-turntable.json \
+  --out reports/c-turntable-kit-optimized.json --result reports/c-turntable-kit-optimize.json \
+  --report reports/c-turntable-kit-optimize.html --summary reports/c-turntable-kit-optimize.md --pareto --quiet
+echo "== C kit of formats.md: $(grep -m1 'ratio' reports/c-turntable-kit-optimize.md || true)"
 echo "reports written under reports/"

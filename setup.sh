@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages dbbkit needs that are missing on this machine.
 # Runs as root, or through sudo when available. Does nothing when all are present.
+#   ./setup.sh            the build, the tests, the reports (gnuplot)
+#   ./setup.sh --browser  also Chromium, for the browser test of the HTML reports
 set -euo pipefail
 
 packages=(
@@ -9,6 +11,9 @@ packages=(
   libgtest-dev libbenchmark-dev libcli11-dev gnuplot-nox
   clang libclang-rt-14-dev
 )
+if [ "${1:-}" = "--browser" ]; then
+  packages+=(chromium)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

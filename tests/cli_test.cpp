@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "dbbkit/io/report.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -319,6 +320,40 @@ TEST(Cli, DesignGatePassesTheCommittedDesignsAndFailsADegradedOne) {
   EXPECT_EQ(r.status, 1) << r.out << r.err;
   EXPECT_NE(r.out.find("rank deficiency 0 -> 18"), std::string::npos) << r.out;
   std::filesystem::remove_all(dir);
+}
+
+TEST(Report, Sha256KnownVectors) {
+  EXPECT_EQ(io::sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ(io::sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  EXPECT_EQ(io::sha256_hex(std::string(1000000, 'a')),
+            "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+}
+
+TEST(Report, IdentifyWritesHtmlWithPlotsAndAMarkdownSummary) {
+  const auto dir = std::filesystem::temp_directory_path();
+  const std::string html = (dir / "dbbkit_report.html").string(), md = (dir / "dbbkit_report.md").string();
+  const CliRun r = run_cli("identify --design " + kDesignC + " --data " + kDataC + " --out - --report " + html +
+                           " --summary " + md);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["format"], "dbbkit.identify/1");  // --out -: JSON alone on stdout
+  const std::string h = slurp(html), m = slurp(md);
+  int plots = 0;
+  for (size_t at = h.find("<figure class=\"plot\"><svg"); at != std::string::npos;
+       at = h.find("<figure class=\"plot\"><svg", at + 1)) {
+    ++plots;
+  }
+  EXPECT_EQ(plots, 3);  // design, errors, residuals
+  EXPECT_EQ(h.find("src=\"http"), std::string::npos) << "the report must not fetch anything";
+  const std::string hash = io::sha256_file(kDesignC);
+  for (const std::string* page : {&h, &m}) {
+    EXPECT_NE(page->find(hash), std::string::npos) << "the design's SHA-256 is part of the conditions";
+    EXPECT_NE(page->find("Uncertainty budget (JCGM 100)"), std::string::npos);
+  }
+  EXPECT_NE(m.find("| angle [deg] | dx ± U [um] |"), std::string::npos) << m.substr(0, 2000);
+  EXPECT_NE(m.find("| 20 | 36.09 ± 2.19 |"), std::string::npos) << "a row of the errors table";
+  EXPECT_EQ(m.find("<svg"), std::string::npos);
+  std::filesystem::remove(html);
+  std::filesystem::remove(md);
 }
 
 }  // namespace

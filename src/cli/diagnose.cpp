@@ -2,6 +2,8 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "report_options.hpp"
+#include "dbbkit/io/reports.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
@@ -13,7 +15,7 @@ namespace dbbkit::cli {
 
 namespace {
 struct DiagnoseArgs {
-  std::string design, data, out, report;
+  std::string design, data, out;
   double level = 0.01;
   int max_effects = 12;
 };
@@ -25,13 +27,16 @@ Runner add_diagnose(CLI::App& app) {
       "diagnose", "Find what the model does not explain, add the effects that explain it, report before and after");
   sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
   sub->add_option("--data", args->data, "Measurement file (CSV)")->required();
-  sub->add_option("--out", args->out, "Result JSON (dbbkit.diagnose/1); '-' or absent: JSON on stdout");
-  sub->add_option("--report", args->report, "A readable report (HTML)");
+  sub->add_option("--out", args->out,
+                  "Result JSON (dbbkit.diagnose/1); '-': stdout. Absent: JSON on stdout when it is not a terminal, "
+                  "else the tables");
+  auto rep = std::make_shared<ReportArgs>();
+  add_report_options(sub, rep);
   sub->add_option("--level", args->level, "Family-wise significance level of each selection step")
       ->check(CLI::Range(1e-6, 0.2))
       ->capture_default_str();
   sub->add_option("--max-effects", args->max_effects, "Most effects added")->check(CLI::Range(0, 100))->capture_default_str();
-  return [args]() {
+  return [args, rep]() {
     const Design design = io::read_design_file(args->design);
     const std::vector<Reading> readings = io::read_measurement_file(args->data, design);
     DiagnoseOptions options;
@@ -40,9 +45,18 @@ Runner add_diagnose(CLI::App& app) {
     const DiagnoseResult result = diagnose(design, readings, options);
     const io::InputFiles inputs{args->design, args->data};
     const std::vector<std::string> in = {args->design, args->data};
-    if (!args->report.empty()) io::write_output(args->report, io::diagnose_html(design, result, inputs), in);
-    io::write_output(args->out, io::diagnose_to_json(design, result, inputs).dump(2) + "\n", in);
-    if (!args->out.empty() && args->out != "-") std::cout << io::diagnose_summary(design, result);
+    const io::RunContext run{command_line(), in};
+    if (!rep->report.empty()) {
+      io::write_output(rep->report, io::diagnose_report(io::ReportFormat::Html, run, design, readings, result), in);
+    }
+    if (!rep->summary.empty()) {
+      io::write_output(rep->summary, io::diagnose_report(io::ReportFormat::Markdown, run, design, readings, result),
+                       in);
+    }
+    if (!args->out.empty() || json_to_stdout(args->out)) {
+      io::write_output(args->out, io::diagnose_to_json(design, result, inputs).dump(2) + "\n", in);
+    }
+    if (tables_to_stdout(args->out, rep->quiet)) std::cout << io::diagnose_summary(design, result);
     return 0;
   };
 }

@@ -4,12 +4,14 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "report_options.hpp"
 #include "uncertainty_options.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/output.hpp"
+#include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/sweep_io.hpp"
 #include "dbbkit/observability.hpp"
@@ -37,7 +39,9 @@ Runner add_evaluate(CLI::App& app) {
   sub->add_option("--map-csv", args->map_csv, "Write the design map as CSV (with --sweep)");
   auto unc = std::make_shared<UncertaintyArgs>();
   add_uncertainty_options(sub, unc);
-  return [args, unc]() {
+  auto rep = std::make_shared<ReportArgs>();
+  add_report_options(sub, rep);
+  return [args, unc, rep]() {
     const Design design = io::read_design_file(args->design);
     const std::optional<double> ref = args->reference_length_mm ? args->reference_length_mm : design.reference_length_mm;
     if (!ref || !(*ref > 0)) {
@@ -70,7 +74,15 @@ Runner add_evaluate(CLI::App& app) {
       io::write_output(args->out, j.dump(2) + "\n", {args->design});
     }
     if (!args->map_csv.empty()) io::write_output(args->map_csv, io::sweep_csv(variables, map), {args->design});
-    if (args->out != "-") {
+    const io::RunContext run{command_line(), {args->design}};
+    for (const auto& [file, format] : {std::pair{rep->report, io::ReportFormat::Html},
+                                       std::pair{rep->summary, io::ReportFormat::Markdown}}) {
+      if (!file.empty()) {
+        io::write_output(file, io::evaluate_report(format, run, design, ev, variables, map, mc ? &*mc : nullptr),
+                         {args->design});
+      }
+    }
+    if (args->out != "-" && !rep->quiet) {
       std::cout << io::evaluate_summary(design, ev);
       std::cout << "\neffects this design can tell from the axis errors (" << design.errors.describe() << "):\n";
       for (const char* st : {"detectable", "confounded", "not applicable"}) {

@@ -3,11 +3,13 @@
 #include <optional>
 
 #include "commands.hpp"
+#include "report_options.hpp"
 #include "uncertainty_options.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/output.hpp"
+#include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_io.hpp"
 
 namespace dbbkit::cli {
@@ -25,14 +27,16 @@ Runner add_identify(CLI::App& app) {
   sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
   sub->add_option("--data", args->data, "Measurement file (CSV)")->required();
   sub->add_option("--out", args->out,
-                  "Result JSON (dbbkit.identify/1); '-' or absent: JSON on stdout. "
-                  "With a file, a summary table is printed on stdout");
+                  "Result JSON (dbbkit.identify/1); '-': stdout. Absent: JSON on stdout when it is not a terminal, "
+                  "else the tables");
   sub->add_flag("--type-a", args->type_a,
                 "Evaluate the reading noise from the residual (Type A, n - rank degrees of freedom) "
                 "instead of the declared instrument accuracy");
   auto unc = std::make_shared<UncertaintyArgs>();
   add_uncertainty_options(sub, unc);
-  return [args, unc]() {
+  auto rep = std::make_shared<ReportArgs>();
+  add_report_options(sub, rep);
+  return [args, unc, rep]() {
     const Design design = io::read_design_file(args->design);
     const std::vector<Reading> readings = io::read_measurement_file(args->data, design);
     IdentifyOptions options;
@@ -45,8 +49,21 @@ Runner add_identify(CLI::App& app) {
     }
     const nlohmann::json j =
         io::identify_to_json(design, readings, result, {args->design, args->data}, mc ? &*mc : nullptr);
-    io::write_output(args->out, j.dump(2) + "\n", {args->design, args->data});
-    if (!args->out.empty() && args->out != "-") {
+    const std::vector<std::string> inputs = {args->design, args->data};
+    const io::RunContext run{command_line(), inputs};
+    if (!rep->report.empty()) {
+      io::write_output(rep->report,
+                       io::identify_report(io::ReportFormat::Html, run, design, readings, result, mc ? &*mc : nullptr),
+                       inputs);
+    }
+    if (!rep->summary.empty()) {
+      io::write_output(rep->summary,
+                       io::identify_report(io::ReportFormat::Markdown, run, design, readings, result,
+                                           mc ? &*mc : nullptr),
+                       inputs);
+    }
+    if (!args->out.empty() || json_to_stdout(args->out)) io::write_output(args->out, j.dump(2) + "\n", inputs);
+    if (tables_to_stdout(args->out, rep->quiet)) {
       std::cout << io::identify_summary(design, result);
       if (mc) std::cout << io::monte_carlo_summary(*mc);
     }

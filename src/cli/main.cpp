@@ -2,9 +2,22 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "report_options.hpp"
 #include "dbbkit/error.hpp"
 
+namespace dbbkit::cli {
+namespace {
+std::string g_command_line;
+}
+const std::string& command_line() { return g_command_line; }
+}  // namespace dbbkit::cli
+
 int main(int argc, char** argv) {
+  {
+    std::string line = "dbbkit";
+    for (int i = 1; i < argc; ++i) line += std::string(" ") + argv[i];
+    dbbkit::cli::g_command_line = line;
+  }
   CLI::App app{"dbbkit: identification of rotary-axis errors from double ball bar readings"};
   app.set_version_flag("--version", std::string(DBBKIT_VERSION));
   app.require_subcommand(1);

@@ -5,6 +5,8 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "report_options.hpp"
+#include "dbbkit/io/reports.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/kit_io.hpp"
@@ -46,8 +48,10 @@ Runner add_optimize(CLI::App& app) {
   sub->add_flag("--pareto", args->pareto, "Print the front of the criterion against measurement time");
   sub->add_option("--pareto-csv", args->pareto_csv, "Write the Pareto front as CSV");
   sub->add_option("--threads", args->threads, "Worker threads (0: all cores); the result does not depend on it");
-  sub->add_flag("--quiet", args->quiet, "No progress and no summary");
-  return [args]() {
+  auto rep = std::make_shared<ReportArgs>();
+  add_report_options(sub, rep);
+  return [args, rep]() {
+    args->quiet = rep->quiet;
     const Criterion criterion = parse_criterion(args->criterion);
     const Kit kit = io::read_kit_file(args->kit);
     std::optional<io::Reference> reference;
@@ -97,6 +101,14 @@ Runner add_optimize(CLI::App& app) {
                        {args->kit, args->reference});
     }
     if (!args->pareto_csv.empty()) io::write_output(args->pareto_csv, io::pareto_csv(res), {args->kit, args->reference});
+    const io::RunContext run{command_line(), {args->kit, args->reference}};
+    for (const auto& [file, format] : {std::pair{rep->report, io::ReportFormat::Html},
+                                       std::pair{rep->summary, io::ReportFormat::Markdown}}) {
+      if (!file.empty()) {
+        io::write_output(file, io::optimize_report(format, run, kit, res, reference, seconds),
+                         {args->kit, args->reference});
+      }
+    }
     if (res.best) {
       const Design d = io::optimized_design(kit, res, args->kit);
       io::write_output(args->out, io::design_to_json(d).dump(2) + "\n", {args->kit, args->reference});

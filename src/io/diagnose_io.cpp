@@ -66,16 +66,6 @@ std::string signature_text(const ResidualSignature& s, Axis axis) {
   return o.str();
 }
 
-std::string html_escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    if (c == '<') o += "&lt;";
-    else if (c == '>') o += "&gt;";
-    else if (c == '&') o += "&amp;";
-    else o += c;
-  }
-  return o;
-}
 
 }  // namespace
 
@@ -182,27 +172,5 @@ std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
   return s.str();
 }
 
-std::string diagnose_html(const Design& design, const DiagnoseResult& r, const InputFiles& inputs) {
-  std::ostringstream h;
-  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>dbbkit diagnose: "
-    << html_escape(design.name) << "</title>\n<style>body{font-family:sans-serif;max-width:70em;margin:2em auto;}"
-    << "pre{font-size:0.85em;background:#f6f6f6;padding:1em;overflow-x:auto;}</style></head><body>\n";
-  h << "<h1>dbbkit diagnose: " << html_escape(design.name) << "</h1>\n";
-  h << "<p>design <code>" << html_escape(inputs.design) << "</code>, data <code>" << html_escape(inputs.data)
-    << "</code>, dbbkit " << DBBKIT_VERSION << "</p>\n";
-  if (!design.assumed.empty()) {
-    h << "<h2>Assumptions of the design</h2><ul>\n";
-    for (const auto& [k, v] : design.assumed) h << "<li><b>" << html_escape(k) << "</b>: " << html_escape(v) << "</li>\n";
-    h << "</ul>\n";
-  }
-  h << "<h2>Verdict</h2><p>" << html_escape(r.verdict) << "</p>\n";
-  h << "<h2>Details</h2><pre>" << html_escape(diagnose_summary(design, r)) << "</pre>\n";
-  h << "<h2>Candidates</h2><pre>";
-  for (const CandidateStatus& c : r.candidates) {
-    h << html_escape(c.label) << ": " << html_escape(c.status) << (c.detail.empty() ? "" : " (" + html_escape(c.detail) + ")") << "\n";
-  }
-  h << "</pre>\n</body></html>\n";
-  return h.str();
-}
 
 }  // namespace dbbkit::io

@@ -13,6 +13,5 @@ namespace dbbkit::io {
 
 nlohmann::json diagnose_to_json(const Design& design, const DiagnoseResult& result, const InputFiles& inputs);
 std::string diagnose_summary(const Design& design, const DiagnoseResult& result);
-std::string diagnose_html(const Design& design, const DiagnoseResult& result, const InputFiles& inputs);
 
 }  // namespace dbbkit::io

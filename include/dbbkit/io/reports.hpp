@@ -1,0 +1,39 @@
+#pragma once
+// The report of each command: HTML (with plots) or Markdown (tables only), from
+// the same sections.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/diagnose.hpp"
+#include "dbbkit/identify.hpp"
+#include "dbbkit/io/optimize_io.hpp"
+#include "dbbkit/measurement.hpp"
+#include "dbbkit/monte_carlo.hpp"
+#include "dbbkit/observability.hpp"
+#include "dbbkit/optimize.hpp"
+
+namespace dbbkit::io {
+
+enum class ReportFormat { Html, Markdown };
+
+// What ran: the command line and the input files (hashed into the conditions).
+struct RunContext {
+  std::string command;
+  std::vector<std::string> inputs;
+};
+
+std::string identify_report(ReportFormat f, const RunContext& run, const Design& design,
+                            const std::vector<Reading>& readings, const IdentifyResult& result,
+                            const MonteCarloResult* mc);
+std::string evaluate_report(ReportFormat f, const RunContext& run, const Design& design, const Evaluation& ev,
+                            const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& map,
+                            const MonteCarloResult* mc);
+std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& kit, const OptimizeResult& res,
+                            const std::optional<Reference>& reference, double seconds);
+std::string diagnose_report(ReportFormat f, const RunContext& run, const Design& design,
+                            const std::vector<Reading>& readings, const DiagnoseResult& result);
+
+}  // namespace dbbkit::io

@@ -1,0 +1,378 @@
+#include "dbbkit/io/reports.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+#include <memory>
+
+#include "dbbkit/io/diagnose_io.hpp"
+#include "dbbkit/io/report.hpp"
+#include "dbbkit/io/result_io.hpp"
+#include "dbbkit/kinematics.hpp"
+#include "dbbkit/uncertainty.hpp"
+
+namespace dbbkit::io {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// One page, written as HTML or as Markdown; figures exist only in HTML and are
+// drawn only then.
+class Page {
+ public:
+  Page(ReportFormat f, const std::string& title) : format_(f) {
+    if (f == ReportFormat::Html) {
+      html_ = std::make_unique<HtmlReport>(title);
+    } else {
+      md_ = std::make_unique<MarkdownSummary>(title);
+    }
+  }
+  void heading(const std::string& t, int level = 2) { html_ ? html_->heading(t, level) : md_->heading(t, level); }
+  void paragraph(const std::string& t) { html_ ? html_->paragraph(t) : md_->paragraph(t); }
+  void preformatted(const std::string& t) { html_ ? html_->preformatted(t) : md_->preformatted(t); }
+  void table(const std::vector<std::string>& h, const std::vector<std::vector<std::string>>& rows) {
+    html_ ? html_->table(h, rows) : md_->table(h, rows);
+  }
+  void figure(const std::function<std::string()>& svg, const std::string& caption) {
+    if (html_) html_->figure(svg(), caption);
+  }
+  void conditions(const RunContext& run, const Design* design) {
+    html_ ? html_->conditions(run.command, run.inputs, design) : md_->conditions(run.command, run.inputs, design);
+  }
+  std::string str() const { return html_ ? html_->str() : md_->str(); }
+
+ private:
+  ReportFormat format_;
+  std::unique_ptr<HtmlReport> html_;
+  std::unique_ptr<MarkdownSummary> md_;
+};
+
+std::string opt_num(const std::optional<double>& v, int digits = 4) { return v ? fmt_num(*v, digits) : "--"; }
+
+std::vector<std::vector<std::string>> installation_rows(const Design& d) {
+  std::vector<std::vector<std::string>> rows;
+  for (const Installation& in : d.installations) {
+    rows.push_back({in.id, fmt_num(in.L_mm, 6), fmt_num(in.D_mm, 6), d.axis == Axis::C ? fmt_num(in.H_mm, 6) : "--",
+                    in.direction.label(), std::to_string(in.sign), in.bar_mm ? fmt_num(*in.bar_mm, 6) : "--",
+                    in.description});
+  }
+  return rows;
+}
+
+void design_section(Page& p, const Design& d) {
+  p.heading("Design");
+  p.paragraph(d.name + ": axis " + axis_name(d.axis) + ", " + std::to_string(d.angles_deg.size()) + " angles from " +
+              fmt_num(*std::min_element(d.angles_deg.begin(), d.angles_deg.end()), 6) + " to " +
+              fmt_num(*std::max_element(d.angles_deg.begin(), d.angles_deg.end()), 6) + " deg, " +
+              std::to_string(d.installations.size()) + " installations, errors " + d.errors.describe() + ".");
+  if (!d.description.empty()) p.paragraph(d.description);
+  p.figure([&] { return plot_design(d); }, "Ball positions (red) and bars to the following ball (blue), labelled "
+                                           "with the installations that use them; dashed: the axis of rotation.");
+  p.table({"id", "L [mm]", "D [mm]", "H [mm]", "direction", "sign", "bar [mm]", "set-up"}, installation_rows(d));
+}
+
+// Residual against angle, one line per installation.
+std::vector<PlotSeries> residual_series(const Design& d, const std::vector<Reading>& readings,
+                                        const Eigen::VectorXd& residual) {
+  std::vector<PlotSeries> out;
+  for (const Installation& in : d.installations) {
+    std::vector<std::pair<double, double>> pts;
+    for (size_t i = 0; i < readings.size(); ++i) {
+      if (readings[i].installation == in.id) pts.push_back({readings[i].angle_deg, residual(static_cast<long>(i))});
+    }
+    if (pts.empty()) continue;
+    std::stable_sort(pts.begin(), pts.end(), [](auto& a, auto& b) { return a.first < b.first; });
+    PlotSeries s;
+    s.title = in.id;
+    for (auto& [a, r] : pts) s.x.push_back(a), s.y.push_back(r);
+    out.push_back(s);
+  }
+  return out;
+}
+
+void unidentifiable_section(Page& p, const std::vector<Unidentifiable>& list) {
+  if (list.empty()) return;
+  p.heading("Not determined");
+  p.paragraph(std::to_string(list.size()) +
+              " combination(s) of the errors no reading sees; their values are reported as '--', never as numbers.");
+  std::vector<std::vector<std::string>> rows;
+  for (const Unidentifiable& u : list) {
+    rows.push_back({u.angle_deg ? fmt_num(*u.angle_deg, 6) : "all", u.expression, u.interpretation});
+  }
+  p.table({"angle [deg]", "combination", "meaning"}, rows);
+}
+
+// Errors with U = k u per value (k from the budget when there is one).
+std::vector<ErrorsAtAngle> with_expanded(const std::vector<ErrorsAtAngle>& errors, const Budget* budget, double k) {
+  std::vector<ErrorsAtAngle> out = errors;
+  std::map<std::pair<int, int>, double> U;
+  if (budget) {
+    for (const ValueBudget& v : budget->values) U[{v.station, v.error}] = v.U;
+  }
+  for (ErrorsAtAngle& ea : out) {
+    for (int e = 0; e < 6; ++e) {
+      if (!ea.errors[e].determined) continue;
+      auto it = U.find({ea.station, e});
+      ea.errors[e].std = it != U.end() ? it->second : k * ea.errors[e].std;
+    }
+  }
+  return out;
+}
+
+void errors_section(Page& p, const std::vector<ErrorsAtAngle>& expanded, bool values, const std::string& what) {
+  p.figure([&] { return plot_errors(expanded, values, 1.0, what); },
+           values ? "The six errors against angle; the band is the expanded uncertainty U (95 %)."
+                  : "Expanded uncertainty U (95 %) of each error at each angle, before any reading is taken.");
+  p.table(errors_header(values), errors_rows(expanded, values, 1.0));
+}
+
+}  // namespace
+
+std::string identify_report(ReportFormat f, const RunContext& run, const Design& design,
+                            const std::vector<Reading>& readings, const IdentifyResult& r, const MonteCarloResult* mc) {
+  Page p(f, "dbbkit identify: " + design.name);
+  const Estimate& est = r.estimate;
+  p.heading("Result");
+  p.paragraph(std::to_string(est.n_readings) + " readings, " + std::to_string(est.n_unknowns) + " unknowns, rank " +
+              std::to_string(est.rank) + (est.rank == est.n_unknowns ? " (full rank)" : " (rank-deficient)") +
+              "; residual " + residual_text(est) + ". Reading noise: " + r.budget.noise_evaluation +
+              "; expanded uncertainty U = k u_c at " + fmt_num(100 * r.budget.coverage_probability) +
+              " % coverage (k from Student's t at the effective degrees of freedom).");
+  design_section(p, design);
+  p.heading("Errors");
+  errors_section(p, with_expanded(r.errors, &r.budget, 0), true, "identified errors of " + design.name);
+  unidentifiable_section(p, r.unidentifiable);
+  p.heading("Residuals");
+  p.figure([&] {
+    return plot_series("residual per installation", "angle [deg]", "reading - model [um]",
+                       residual_series(design, readings, est.residual_um));
+  }, "Residual of every reading against the fitted model, per installation.");
+  // The budget of the value with the largest U of each error (JCGM 100).
+  p.heading("Uncertainty budget (JCGM 100)");
+  p.paragraph("For each error, the value with the largest expanded uncertainty; every value's budget is in the "
+              "JSON result (budget).");
+  std::vector<std::vector<std::string>> rows;
+  for (int e = 0; e < 6; ++e) {
+    const ValueBudget* worst = nullptr;
+    for (const ValueBudget& v : r.budget.values) {
+      if (v.error == e && (!worst || v.U > worst->U)) worst = &v;
+    }
+    if (!worst) continue;
+    const std::string q = std::string(kErrorNames[e]) + " at " + fmt_num(worst->angle_deg, 6) + " deg [" +
+                          kErrorUnits[e] + "]";
+    for (const BudgetComponent& c : worst->components) {
+      rows.push_back({q, c.name, c.type, fmt_num(c.u), c.dof ? fmt_num(*c.dof) : "inf", "", "", ""});
+    }
+    rows.push_back({q, "combined", "", fmt_num(worst->u_c), worst->nu_eff ? fmt_num(*worst->nu_eff) : "inf",
+                    fmt_num(worst->k), fmt_num(worst->U), fmt_num(worst->value)});
+  }
+  p.table({"quantity", "source", "type", "u", "degrees of freedom", "k", "U", "value"}, rows);
+  if (mc) {
+    p.heading("Monte Carlo check (JCGM 101)");
+    p.paragraph(std::to_string(mc->trials) + " trials; " + std::to_string(mc->n_validated) + " of " +
+                std::to_string(mc->values.size()) +
+                " linear intervals validated; where not validated the Monte Carlo interval is the one to report.");
+    std::vector<std::vector<std::string>> mrows;
+    for (const MonteCarloValue& v : mc->values) {
+      if (v.validated) continue;
+      mrows.push_back({fmt_num(v.angle_deg, 6), kErrorNames[v.error],
+                       "[" + fmt_num(v.linear_value - v.linear_U) + ", " + fmt_num(v.linear_value + v.linear_U) + "]",
+                       "[" + fmt_num(v.low) + ", " + fmt_num(v.high) + "]", fmt_num(v.d_low, 3), fmt_num(v.d_high, 3),
+                       fmt_num(v.delta, 3)});
+    }
+    if (!mrows.empty()) {
+      p.table({"angle [deg]", "error", "linear interval", "Monte Carlo interval", "d_low", "d_high", "delta"}, mrows);
+    }
+  }
+  p.conditions(run, &design);
+  return p.str();
+}
+
+std::string evaluate_report(ReportFormat f, const RunContext& run, const Design& design, const Evaluation& ev,
+                            const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& map,
+                            const MonteCarloResult* mc) {
+  Page p(f, "dbbkit evaluate: " + design.name);
+  const Estimate& est = ev.prior;
+  const double k = coverage_factor(std::nullopt, 0.95);
+  p.heading("What the design can identify");
+  std::string s = std::to_string(est.n_readings) + " readings (one per installation and angle), " +
+                  std::to_string(est.n_unknowns) + " unknowns, rank " + std::to_string(est.rank) + ". ";
+  if (est.condition_number) s += "Condition number " + fmt_num(*est.condition_number) + " (equilibrated). ";
+  if (ev.worst.worst_std_um) {
+    s += "worst_std_um " + fmt_num(*ev.worst.worst_std_um) + " um (" + kErrorNames[ev.worst.at_error] + " at " +
+         fmt_num(ev.worst.at_angle_deg, 6) + " deg; angular errors at " + fmt_num(ev.reference_length_mm) + " mm).";
+  } else {
+    s += "worst_std_um: none, " + std::to_string(ev.worst.n_undetermined) + " errors at angles are not determined.";
+  }
+  p.paragraph(s);
+  p.table({"O1", "O2", "O3", "O4", "O5", "D = log det M", "A = trace M^-1", "E = min eig M", "G = max leverage"},
+          {{fmt_num(ev.indices.O1), fmt_num(ev.indices.O2), fmt_num(ev.indices.O3), fmt_num(ev.indices.O4),
+            fmt_num(ev.indices.O5), opt_num(ev.criteria.D_logdet), opt_num(ev.criteria.A_trace),
+            fmt_num(ev.criteria.E_min_eigenvalue), fmt_num(ev.criteria.G_max_leverage)}});
+  design_section(p, design);
+  p.heading("Uncertainty before measuring");
+  p.paragraph("Reading noise Type B: " + design.noise.describe() + "; U = " + fmt_num(k) +
+              " u (95 %, infinite degrees of freedom).");
+  errors_section(p, with_expanded(ev.errors, nullptr, k), false, "a-priori expanded uncertainty of " + design.name);
+  unidentifiable_section(p, ev.unidentifiable);
+  if (mc) {
+    p.heading("Monte Carlo check (JCGM 101)");
+    p.paragraph(std::to_string(mc->trials) + " trials; " + std::to_string(mc->n_validated) + " of " +
+                std::to_string(mc->values.size()) + " linear intervals validated.");
+  }
+  if (!variables.empty()) {
+    p.heading("Design map");
+    std::vector<std::string> header;
+    for (const SweepVariable& v : variables) header.push_back(v.name + " [mm]");
+    header.insert(header.end(), {"rank", "condition number", "worst_std_um"});
+    std::vector<std::vector<std::string>> rows;
+    for (const SweepPoint& pt : map) {
+      std::vector<std::string> r;
+      for (double v : pt.values) r.push_back(fmt_num(v, 6));
+      r.insert(r.end(), {std::to_string(pt.rank) + "/" + std::to_string(pt.n_unknowns), opt_num(pt.condition_number),
+                         opt_num(pt.worst_std_um)});
+      rows.push_back(r);
+    }
+    if (variables.size() == 2) {
+      p.figure([&] {
+        std::vector<double> z;
+        // sweep_design varies the last variable fastest: x = the second variable.
+        for (const SweepPoint& pt : map) z.push_back(pt.worst_std_um.value_or(kNaN));
+        return plot_heatmap("worst_std_um [um] over the design map", variables[1].name + " [mm]",
+                            variables[0].name + " [mm]", "worst_std_um [um]", variables[1].values, variables[0].values,
+                            z);
+      }, "worst_std_um at each point of the map; blank where not every error is determined.");
+    } else if (variables.size() == 1) {
+      p.figure([&] {
+        PlotSeries sr;
+        sr.title = "worst_std_um";
+        for (const SweepPoint& pt : map) sr.x.push_back(pt.values[0]), sr.y.push_back(pt.worst_std_um.value_or(kNaN));
+        return plot_series("worst_std_um over the design map", variables[0].name + " [mm]", "worst_std_um [um]", {sr});
+      }, "worst_std_um at each point of the map; gaps where not every error is determined.");
+    }
+    p.table(header, rows);
+  }
+  p.conditions(run, &design);
+  return p.str();
+}
+
+std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& kit, const OptimizeResult& res,
+                            const std::optional<Reference>& reference, double seconds) {
+  Page p(f, "dbbkit optimize: " + (kit.name.empty() ? std::string("kit") : kit.name));
+  int feasible = 0;
+  for (const ChoiceResult& c : res.choices) feasible += c.status == "searched";
+  p.heading("Search");
+  p.paragraph("Axis " + std::string(axis_name(kit.axis)) + ", pattern " + pattern_name(kit.pattern) + ", criterion " +
+              criterion_name(res.criterion) + "; " + std::to_string(res.choices.size()) + " discrete choices, " +
+              std::to_string(feasible) + " feasible; " + std::to_string(res.evaluations) + " designs scored in " +
+              fmt_num(seconds, 3) + " s." + (res.note.empty() ? "" : " " + res.note + "."));
+  if (!res.best) {
+    p.paragraph("No design fits the kit.");
+    std::vector<std::vector<std::string>> rows;
+    for (const ChoiceResult& c : res.choices) rows.push_back({c.label, c.status});
+    p.table({"choice", "status"}, rows);
+    p.conditions(run, nullptr);
+    return p.str();
+  }
+  const Candidate& b = *res.best;
+  const Evaluation& ev = res.best_evaluation;
+  const double k = coverage_factor(std::nullopt, 0.95);
+  std::vector<std::vector<std::string>> summary = {
+      {"choice", choice_label(kit, b.choice)},
+      {"time", fmt_num(b.time_s, 6) + " s" + (kit.time_budget_s ? " of " + fmt_num(*kit.time_budget_s, 6) + " s" : "")},
+      {"rank", std::to_string(ev.prior.rank) + " of " + std::to_string(ev.prior.n_unknowns)},
+      {"condition number", opt_num(ev.prior.condition_number)},
+      {"worst_std_um", opt_num(ev.worst.worst_std_um) + " um"},
+      {"worst determined", opt_num(ev.worst.worst_determined_std_um) + " um"}};
+  if (reference) {
+    summary.push_back({"reference " + reference->file, opt_num(reference->worst.worst_std_um) + " um"});
+    if (ev.worst.worst_std_um && reference->worst.worst_std_um) {
+      summary.push_back({"ratio optimised / reference", fmt_num(*ev.worst.worst_std_um / *reference->worst.worst_std_um, 3)});
+    }
+  }
+  p.table({"best design", ""}, summary);
+  const Design d = optimized_design(kit, res, run.inputs.empty() ? "" : run.inputs.front());
+  design_section(p, d);
+  p.heading("Predicted uncertainty");
+  errors_section(p, with_expanded(ev.errors, nullptr, k), false, "predicted expanded uncertainty, best design");
+  unidentifiable_section(p, ev.unidentifiable);
+  p.heading("Trade-off against time");
+  p.figure([&] {
+    PlotSeries all, front;
+    all.title = "best of each choice";
+    all.style = "points";
+    front.title = "Pareto front";
+    front.style = "linespoints";
+    for (const ChoiceResult& c : res.choices) {
+      if (c.best && c.best->feasible && c.best->objective_defined && c.best->n_undetermined == b.n_undetermined) {
+        all.x.push_back(c.best->time_s);
+        all.y.push_back(c.best->objective);
+      }
+    }
+    for (const Candidate& c : res.pareto) front.x.push_back(c.time_s), front.y.push_back(c.objective);
+    return plot_series(std::string(criterion_name(res.criterion)) + " against measurement time", "time [s]",
+                       criterion_name(res.criterion), {all, front});
+  }, "Every discrete choice's best design (points) and the front of those no other beats in both time and "
+     "uncertainty (line).");
+  std::vector<std::vector<std::string>> front;
+  for (const Candidate& c : res.pareto) {
+    front.push_back({fmt_num(c.time_s, 6), std::to_string(c.design.installations.size()),
+                     std::to_string(c.design.angles_deg.size()), fmt_num(c.choice.step_deg), fmt_num(c.objective, 5)});
+  }
+  p.table({"time [s]", "installations", "angles", "step [deg]", criterion_name(res.criterion)}, front);
+  p.conditions(run, &d);
+  return p.str();
+}
+
+std::string diagnose_report(ReportFormat f, const RunContext& run, const Design& design,
+                            const std::vector<Reading>& readings, const DiagnoseResult& r) {
+  Page p(f, "dbbkit diagnose: " + design.name);
+  p.heading("Verdict");
+  p.paragraph(r.verdict);
+  p.table({"", "rms [um]", "chi2", "dof", "p"},
+          {{"before", fmt_num(r.before.rms_um), fmt_num(r.before.chi2), std::to_string(r.before.dof),
+            opt_num(r.before.p_value, 3)},
+           {"after", fmt_num(r.after.rms_um), fmt_num(r.after.chi2), std::to_string(r.after.dof),
+            opt_num(r.after.p_value, 3)}});
+  p.heading("Effects added");
+  if (r.added.empty()) {
+    p.paragraph("None: no effect of the library explains the residual significantly better.");
+  } else {
+    std::vector<std::vector<std::string>> rows;
+    for (const AddedEffect& a : r.added) {
+      for (size_t i = 0; i < a.values.size(); ++i) {
+        const Determined& v = a.values[i];
+        rows.push_back({a.block.label, a.block.parameters[i], v.determined ? fmt_num(v.value) : "--",
+                        v.determined ? fmt_num(v.std) : "--", a.block.unit, fmt_num(a.evidence.p_value, 3),
+                        fmt_num(a.evidence.bic_change, 4)});
+      }
+    }
+    p.table({"effect", "parameter", "value", "u", "unit", "p (F-test)", "BIC change"}, rows);
+  }
+  design_section(p, design);
+  p.heading("Residuals before and after");
+  p.figure([&] {
+    return plot_series("residual before (axis errors only)", "angle [deg]", "reading - model [um]",
+                       residual_series(design, readings, r.before.residual_um));
+  }, "Residual per installation with the six error motions alone.");
+  p.figure([&] {
+    return plot_series("residual after (with the effects added)", "angle [deg]", "reading - model [um]",
+                       residual_series(design, readings, r.after.residual_um));
+  }, "Residual per installation with the effects added.");
+  p.heading("Errors after");
+  const double k = coverage_factor(std::nullopt, 0.95);
+  errors_section(p, with_expanded(r.errors_after, nullptr, k), true, "errors with the effects added, " + design.name);
+  unidentifiable_section(p, r.unidentifiable_after);
+  p.heading("Details");
+  p.preformatted(diagnose_summary(design, r));
+  std::vector<std::vector<std::string>> cand;
+  for (const CandidateStatus& c : r.candidates) cand.push_back({c.label, c.status, c.detail});
+  p.table({"candidate", "status", "why"}, cand);
+  p.conditions(run, &design);
+  return p.str();
+}
+
+}  // namespace dbbkit::io
