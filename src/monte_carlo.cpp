@@ -145,6 +145,7 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     for (auto& s : samples) s.resize(total + batch);
     run_chunks(total / kChunk, batch / kChunk, total);
     total += batch;
+    if (options.progress) options.progress(total);
     if (!options.adaptive) break;
     for (int v = 0; v < n_out; ++v) {
       history[v].push_back(

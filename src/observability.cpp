@@ -1,5 +1,6 @@
 #include "dbbkit/observability.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
@@ -101,6 +102,69 @@ bool inverse6(const double (&M)[6][6], double (&inv)[6][6]) {
   return true;
 }
 
+// The body-frame information of one reading of every installation, 6 x 6.
+Eigen::Matrix<double, 6, 6> body_information(const Design& design) {
+  Eigen::Matrix<double, 6, 6> Mb = Eigen::Matrix<double, 6, 6>::Zero();
+  const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
+  for (const Installation& in : design.installations) {
+    Eigen::Matrix<double, 6, 1> r;
+    r.head<3>() = in.direction.body;
+    r.tail<3>() = 1e-3 * ball_body_mm(design.axis, in).cross(in.direction.body);
+    Mb.noalias() += w * r * r.transpose();
+  }
+  return Mb;
+}
+
+// A series model: theta holds, error by error, the coefficients of the basis f(g); a reading's
+// row is kron(r(g), f(g)), so an angle adds kron(Q(g), f f') with Q(g) = T Mb T' to the
+// information M (p x p). M is equilibrated to unit diagonal (Ms, the scaling of the general
+// solver), and used only when cond(Ms) <= p trace(Ms^-1) <= 1e10.
+std::optional<WorstCase> fast_worst_case_series(const Design& design, double reference_length_mm) {
+  const Parameterisation param(design);
+  const int nb = param.coefficients_per_error(), p = param.n_parameters();
+  const Eigen::Matrix<double, 6, 6> Mb = body_information(design);
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(p, p);
+  for (double a : design.angles_deg) {
+    Eigen::Matrix<double, 6, 6> T = Eigen::Matrix<double, 6, 6>::Zero();
+    const Eigen::Matrix3d R = axis_rotation(design.axis, a);
+    T.topLeftCorner<3, 3>() = R;
+    T.bottomRightCorner<3, 3>() = R;
+    const Eigen::Matrix<double, 6, 6> Q = T * Mb * T.transpose();
+    const Eigen::VectorXd f = param.series_basis(a);
+    const Eigen::MatrixXd ff = f * f.transpose();
+    for (int k = 0; k < 6; ++k) {
+      for (int l = 0; l < 6; ++l) M.block(k * nb, l * nb, nb, nb) += Q(k, l) * ff;
+    }
+  }
+  const Eigen::VectorXd c = M.diagonal().cwiseSqrt();
+  if (!(c.minCoeff() > 1e-12 * c.maxCoeff())) return std::nullopt;
+  const Eigen::VectorXd ci = c.cwiseInverse();
+  const Eigen::MatrixXd Ms = ci.asDiagonal() * M * ci.asDiagonal();
+  const Eigen::LLT<Eigen::MatrixXd> llt(Ms);
+  if (llt.info() != Eigen::Success) return std::nullopt;
+  const Eigen::MatrixXd C = llt.solve(Eigen::MatrixXd::Identity(p, p));
+  if (!(p * C.trace() <= 1e10)) return std::nullopt;
+  WorstCase wc;
+  double worst = -1;
+  for (int st = 0; st < param.n_stations(); ++st) {
+    const Eigen::VectorXd f = param.series_basis(param.station_angle_deg(st));
+    for (int k = 0; k < 6; ++k) {
+      const Eigen::VectorXd g = f.cwiseProduct(ci.segment(k * nb, nb));
+      const double var = g.dot(C.block(k * nb, k * nb, nb, nb) * g);
+      const double sd = std::sqrt(std::max(0.0, var));
+      const double u = k < 3 ? sd : 1e-3 * reference_length_mm * sd;
+      if (u > worst) {
+        worst = u;
+        wc.at_angle_deg = param.station_angle_deg(st);
+        wc.at_error = k;
+      }
+    }
+  }
+  wc.worst_std_um = worst;
+  wc.worst_determined_std_um = worst;
+  return wc;
+}
+
 }  // namespace
 
 std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm) {
@@ -108,7 +172,8 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   // body-frame row turned by T = diag(R(g), R(g)): s (R u, 1e-3 R P x R u) = s (R u, 1e-3 R (P x u)).
   // So the information of one angle is T Mb T' with Mb the body-frame information, and a
   // station met n times has the covariance T Mb^-1 T' / n: one 6 x 6 inverse serves every angle.
-  if (design.errors.kind != ErrorModel::Kind::PerAngle || design.installations.empty()) return std::nullopt;
+  if (design.installations.empty()) return std::nullopt;
+  if (design.errors.kind != ErrorModel::Kind::PerAngle) return fast_worst_case_series(design, reference_length_mm);
   const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
   double Mb[6][6] = {};
   for (const Installation& in : design.installations) {

@@ -64,8 +64,7 @@ class ChoiceSearch {
     Candidate probe = make_candidate(kit_, choice_, generic);
     score_candidate(kit_, criterion_, probe);
     generic_undetermined_ = probe.n_undetermined;
-    fast_only_ = criterion_ == Criterion::Worst && kit_.errors.kind == ErrorModel::Kind::PerAngle &&
-                 generic_undetermined_ == 0 && fast_worst_case(probe.design, kit_.reference_length_mm).has_value();
+    fast_only_ = criterion_ == Criterion::Worst && generic_undetermined_ == 0 && fast_worst_case(probe.design, kit_.reference_length_mm).has_value();
   }
 
   long evaluations() const { return evaluations_; }

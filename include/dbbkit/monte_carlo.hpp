@@ -13,6 +13,7 @@
 // linear result is validated when both are <= delta.
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,8 @@ struct MonteCarloOptions {
   long max_trials = 2000000;     // the adaptive procedure stops here, not converged
   bool adaptive = true;          // false: exactly max_trials trials
   int significant_digits = 2;    // n_dig of the numerical tolerance
+  // Called after each batch with the trials so far (from the calling thread).
+  std::function<void(long trials)> progress;
 };
 
 struct MonteCarloValue {

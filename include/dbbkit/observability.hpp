@@ -51,13 +51,15 @@ struct WorstCase {
 };
 WorstCase worst_case(const std::vector<ErrorsAtAngle>& errors, double reference_length_mm);
 
-// The worst case of a per-angle design without assembling the stacked model.
-// Every installation is read at every angle, so each angle's information is the
-// body-frame information turned by the axis rotation: one 6 x 6 Cholesky inverse
-// serves every angle. Used only when the design is far from rank loss (a bound
-// on the equilibrated condition number <= 1e5, against the rank tolerance of
-// 1e9); otherwise, and for series models, it is absent and evaluate_design
-// answers. Same numbers as evaluate_design's worst case up to rounding (tested).
+// The worst case of a design without assembling the stacked model. Every
+// installation is read at every angle, so each angle's information is the
+// body-frame information turned by the axis rotation: for a per-angle model one
+// 6 x 6 Cholesky inverse serves every angle; for a series model the p x p
+// information is summed from 6 x 6 blocks and inverted once. Used only when the
+// design is far from rank loss (a bound on the equilibrated condition number
+// <= 1e5, against the rank tolerance of 1e9); otherwise it is absent and
+// evaluate_design answers. Same numbers as evaluate_design's worst case up to
+// rounding (tested).
 std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm);
 
 // fast_worst_case when it applies, else evaluate_design's.

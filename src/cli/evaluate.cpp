@@ -64,7 +64,10 @@ Runner add_evaluate(CLI::App& app) {
     }
     const std::vector<CandidateStatus> effects = effect_detectability(design, nominal);
     std::optional<MonteCarloResult> mc;
-    if (unc->monte_carlo) mc = monte_carlo_a_priori(design, unc->coverage, unc->mc);
+    if (unc->monte_carlo) {
+      report_progress(unc->mc, rep->quiet);
+      mc = monte_carlo_a_priori(design, unc->coverage, unc->mc);
+    }
     if (!args->out.empty()) {
       nlohmann::json j = io::evaluate_to_json(design, ev, args->design, mc ? &*mc : nullptr);
       if (!variables.empty()) j["sweep"] = io::sweep_to_json(variables, map);

@@ -45,6 +45,7 @@ Runner add_identify(CLI::App& app) {
     const IdentifyResult result = identify(design, readings, options);
     std::optional<MonteCarloResult> mc;
     if (unc->monte_carlo) {
+      report_progress(unc->mc, rep->quiet);
       mc = monte_carlo(design, result.param, result.model, result.solver, result.estimate, result.budget, unc->mc);
     }
     const nlohmann::json j =

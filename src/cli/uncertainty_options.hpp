@@ -2,6 +2,8 @@
 // Options shared by the commands that report uncertainty.
 
 #include <CLI/CLI.hpp>
+#include <chrono>
+#include <iostream>
 #include <memory>
 
 #include "dbbkit/monte_carlo.hpp"
@@ -28,6 +30,19 @@ inline void add_uncertainty_options(CLI::App* sub, const std::shared_ptr<Uncerta
                   "Significant digits of u that set the numerical tolerance")
       ->check(CLI::Range(1, 4))
       ->capture_default_str();
+}
+
+// Progress of a Monte Carlo run on stderr, once a second after the first second.
+inline void report_progress(MonteCarloOptions& mc, bool quiet) {
+  if (quiet) return;
+  const auto start = std::chrono::steady_clock::now();
+  auto last = std::make_shared<double>(0.0);
+  mc.progress = [start, last](long trials) {
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (t < 1.0 || t - *last < 1.0) return;
+    *last = t;
+    std::cerr << "monte carlo: " << trials << " trials, " << static_cast<int>(t) << " s\n";
+  };
 }
 
 }  // namespace dbbkit::cli
