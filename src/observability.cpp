@@ -102,7 +102,32 @@ bool inverse6(const double (&M)[6][6], double (&inv)[6][6]) {
   return true;
 }
 
-// The body-frame information of one reading of every installation, 6 x 6.
+// The largest standard uncertainty over the values offered, angular errors in um at the reference length.
+class WorstTracker {
+ public:
+  explicit WorstTracker(double reference_length_mm) : ref_(reference_length_mm) {}
+  void add(double angle_deg, int error, double variance) {
+    const double sd = std::sqrt(std::max(0.0, variance));
+    const double u = error < 3 ? sd : 1e-3 * ref_ * sd;
+    if (u > worst_) {
+      worst_ = u;
+      wc_.at_angle_deg = angle_deg;
+      wc_.at_error = error;
+    }
+  }
+  WorstCase result() {
+    wc_.worst_std_um = worst_;
+    wc_.worst_determined_std_um = worst_;
+    return wc_;
+  }
+
+ private:
+  double ref_;
+  double worst_ = -1;
+  WorstCase wc_;
+};
+
+// The body-frame information of one reading of every installation, 6 x 6 (the sign squares away).
 Eigen::Matrix<double, 6, 6> body_information(const Design& design) {
   Eigen::Matrix<double, 6, 6> Mb = Eigen::Matrix<double, 6, 6>::Zero();
   const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
@@ -144,25 +169,15 @@ std::optional<WorstCase> fast_worst_case_series(const Design& design, double ref
   if (llt.info() != Eigen::Success) return std::nullopt;
   const Eigen::MatrixXd C = llt.solve(Eigen::MatrixXd::Identity(p, p));
   if (!(p * C.trace() <= 1e10)) return std::nullopt;
-  WorstCase wc;
-  double worst = -1;
+  WorstTracker worst(reference_length_mm);
   for (int st = 0; st < param.n_stations(); ++st) {
     const Eigen::VectorXd f = param.series_basis(param.station_angle_deg(st));
     for (int k = 0; k < 6; ++k) {
       const Eigen::VectorXd g = f.cwiseProduct(ci.segment(k * nb, nb));
-      const double var = g.dot(C.block(k * nb, k * nb, nb, nb) * g);
-      const double sd = std::sqrt(std::max(0.0, var));
-      const double u = k < 3 ? sd : 1e-3 * reference_length_mm * sd;
-      if (u > worst) {
-        worst = u;
-        wc.at_angle_deg = param.station_angle_deg(st);
-        wc.at_error = k;
-      }
+      worst.add(param.station_angle_deg(st), k, g.dot(C.block(k * nb, k * nb, nb, nb) * g));
     }
   }
-  wc.worst_std_um = worst;
-  wc.worst_determined_std_um = worst;
-  return wc;
+  return worst.result();
 }
 
 }  // namespace
@@ -174,15 +189,10 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   // station met n times has the covariance T Mb^-1 T' / n: one 6 x 6 inverse serves every angle.
   if (design.installations.empty()) return std::nullopt;
   if (design.errors.kind != ErrorModel::Kind::PerAngle) return fast_worst_case_series(design, reference_length_mm);
-  const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
-  double Mb[6][6] = {};
-  for (const Installation& in : design.installations) {
-    const Eigen::Vector3d u = in.direction.body;
-    const Eigen::Vector3d q = 1e-3 * ball_body_mm(design.axis, in).cross(u);
-    const double r[6] = {u(0), u(1), u(2), q(0), q(1), q(2)};  // the sign squares away
-    for (int j = 0; j < 6; ++j) {
-      for (int k = 0; k < 6; ++k) Mb[j][k] += w * r[j] * r[k];
-    }
+  const Eigen::Matrix<double, 6, 6> Mbm = body_information(design);
+  double Mb[6][6];
+  for (int j = 0; j < 6; ++j) {
+    for (int k = 0; k < 6; ++k) Mb[j][k] = Mbm(j, k);
   }
   // Scale the translation and the rotation block each by one number, a scaling that
   // commutes with T: with A = S Mb S, every angle's equilibrated Jacobian has
@@ -211,24 +221,13 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   const Parameterisation param(design);
   std::vector<int> count(param.n_stations(), 0);
   for (double a : design.angles_deg) ++count[param.station_of(a)];
-  WorstCase wc;
-  double worst = -1;
+  WorstTracker worst(reference_length_mm);
   for (int st = 0; st < param.n_stations(); ++st) {
     const Eigen::Matrix3d R = axis_rotation(design.axis, param.station_angle_deg(st));
     const Eigen::Vector3d vt = (R * Ct * R.transpose()).diagonal(), vr = (R * Cr * R.transpose()).diagonal();
-    for (int k = 0; k < 6; ++k) {
-      const double sd = std::sqrt(std::max(0.0, k < 3 ? vt(k) : vr(k - 3)) / count[st]);
-      const double u = k < 3 ? sd : 1e-3 * reference_length_mm * sd;
-      if (u > worst) {
-        worst = u;
-        wc.at_angle_deg = param.station_angle_deg(st);
-        wc.at_error = k;
-      }
-    }
+    for (int k = 0; k < 6; ++k) worst.add(param.station_angle_deg(st), k, (k < 3 ? vt(k) : vr(k - 3)) / count[st]);
   }
-  wc.worst_std_um = worst;
-  wc.worst_determined_std_um = worst;
-  return wc;
+  return worst.result();
 }
 
 WorstCase design_worst_case(const Design& design, double reference_length_mm) {
