@@ -33,7 +33,7 @@ ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:ha
 echo "== fuzzing (libFuzzer, 30 s per reader)"
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDBBKIT_BUILD_FUZZERS=ON \
   -DDBBKIT_SANITIZE=address,undefined -DDBBKIT_BUILD_TESTS=OFF -DDBBKIT_BUILD_BENCHMARKS=OFF >/dev/null
-cmake --build build-fuzz -j "$jobs"
+cmake --build build-fuzz -j "$jobs" --target fuzz_design fuzz_measurement fuzz_truth fuzz_kit
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 passed=0
