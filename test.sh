@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds everything and runs the whole test suite:
 #   1. the unit and property tests (ctest), then the design gate (`dbbkit bench`);
-#   2. the same suite built with AddressSanitizer and UndefinedBehaviorSanitizer (less
-#      the long statistical studies of stage 1);
+#   2. the same suite built by clang with AddressSanitizer and UndefinedBehaviorSanitizer
+#      (less the long statistical studies of stage 1);
 #   3. a short libFuzzer run of every file reader (design, measurement, truth, kit; 30 s each,
 #      on a copy of the committed corpus).
 # DBBKIT_QUICK=1 runs stage 1 only (for quick local iterations; CI runs all three).
@@ -18,22 +18,21 @@ echo "== design gate: every committed design against benchmarks/designs-baseline
 ./build/dbbkit bench designs/*.json --baseline benchmarks/designs-baseline.json
 [ "${DBBKIT_QUICK:-0}" = 1 ] && exit 0
 
-echo "== AddressSanitizer + UndefinedBehaviorSanitizer"
-cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDBBKIT_SANITIZE=address,undefined \
-  -DDBBKIT_BUILD_TESTS=ON -DDBBKIT_BUILD_BENCHMARKS=OFF >/dev/null
-cmake --build build-asan -j "$jobs"
+# Stages 2 and 3 share one clang build: AddressSanitizer + UndefinedBehaviorSanitizer
+# everywhere, and libFuzzer coverage instrumentation of the library for the fuzz targets.
+echo "== AddressSanitizer + UndefinedBehaviorSanitizer (clang)"
+CC=clang CXX=clang++ cmake -S . -B build-san -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDBBKIT_SANITIZE=address,undefined \
+  -DDBBKIT_BUILD_TESTS=ON -DDBBKIT_BUILD_FUZZERS=ON -DDBBKIT_BUILD_BENCHMARKS=OFF >/dev/null
+cmake --build build-san -j "$jobs"
 # The statistical studies (thousands of repeated identifications) and the exhaustive
 # enumerations ran in stage 1; here every code path they use is exercised by the other
 # tests, at a fraction of the time. The installed-package test builds an uninstrumented
 # consumer, which cannot link a sanitized library; it ran in stage 1.
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-  ctest --test-dir build-asan --output-on-failure -j "$jobs" \
+  ctest --test-dir build-san --output-on-failure -j "$jobs" \
   -E 'Coverage|FindsEffect|CleanDataAddsNothing|Exhaustive|ConsumerOfInstalledPackage'
 
 echo "== fuzzing (libFuzzer, 30 s per reader)"
-CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDBBKIT_BUILD_FUZZERS=ON \
-  -DDBBKIT_SANITIZE=address,undefined -DDBBKIT_BUILD_TESTS=OFF -DDBBKIT_BUILD_BENCHMARKS=OFF >/dev/null
-cmake --build build-fuzz -j "$jobs" --target fuzz_design fuzz_measurement fuzz_truth fuzz_kit
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 passed=0
@@ -41,7 +40,7 @@ failed=0
 for target in design measurement truth kit; do
   mkdir -p "$work/$target"
   cp tests/fuzz/corpus/"$target"/* "$work/$target/"
-  if ./build-fuzz/tests/fuzz/fuzz_"$target" -max_total_time=30 -timeout=10 -rss_limit_mb=2048 \
+  if ./build-san/tests/fuzz/fuzz_"$target" -max_total_time=30 -timeout=10 -rss_limit_mb=2048 \
       -artifact_prefix="$work/" "$work/$target" >"$work/$target.log" 2>&1; then
     passed=$((passed + 1))
     echo "fuzz_$target: $(grep -E '^Done [0-9]+ runs' "$work/$target.log")"

@@ -23,7 +23,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // drawn only then.
 class Page {
  public:
-  Page(ReportFormat f, const std::string& title) : format_(f) {
+  Page(ReportFormat f, const std::string& title) {
     if (f == ReportFormat::Html) {
       html_ = std::make_unique<HtmlReport>(title);
     } else {
@@ -45,7 +45,6 @@ class Page {
   std::string str() const { return html_ ? html_->str() : md_->str(); }
 
  private:
-  ReportFormat format_;
   std::unique_ptr<HtmlReport> html_;
   std::unique_ptr<MarkdownSummary> md_;
 };
