@@ -45,26 +45,49 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
   return c;
 }
 
+namespace {
+
+// The largest standard uncertainty over the values offered, angular errors in um
+// at the reference length; worst_std_um only when no value was undetermined.
+class WorstTracker {
+ public:
+  explicit WorstTracker(double reference_length_mm) : ref_(reference_length_mm) {}
+  void add(double angle_deg, int error, double variance) {
+    const double sd = std::sqrt(std::max(0.0, variance));
+    const double u = error < 3 ? sd : 1e-3 * ref_ * sd;
+    if (u > worst_) {
+      worst_ = u;
+      wc_.at_angle_deg = angle_deg;
+      wc_.at_error = error;
+    }
+  }
+  void undetermined() { ++wc_.n_undetermined; }
+  WorstCase result() {
+    if (worst_ >= 0) wc_.worst_determined_std_um = worst_;
+    if (worst_ >= 0 && wc_.n_undetermined == 0) wc_.worst_std_um = worst_;
+    return wc_;
+  }
+
+ private:
+  double ref_;
+  double worst_ = -1;
+  WorstCase wc_;
+};
+
+}  // namespace
+
 WorstCase worst_case(const std::vector<ErrorsAtAngle>& errors, double reference_length_mm) {
-  WorstCase w;
-  double worst = -1;
+  WorstTracker worst(reference_length_mm);
   for (const ErrorsAtAngle& ea : errors) {
     for (int k = 0; k < 6; ++k) {
-      if (!ea.errors[k].determined) {
-        ++w.n_undetermined;
-        continue;
-      }
-      const double u = k < 3 ? ea.errors[k].std : 1e-3 * reference_length_mm * ea.errors[k].std;
-      if (u > worst) {
-        worst = u;
-        w.at_angle_deg = ea.angle_deg;
-        w.at_error = k;
+      if (ea.errors[k].determined) {
+        worst.add(ea.angle_deg, k, ea.errors[k].std * ea.errors[k].std);
+      } else {
+        worst.undetermined();
       }
     }
   }
-  if (worst >= 0) w.worst_determined_std_um = worst;
-  if (worst >= 0 && w.n_undetermined == 0) w.worst_std_um = worst;
-  return w;
+  return worst.result();
 }
 
 namespace {
@@ -101,31 +124,6 @@ bool inverse6(const double (&M)[6][6], double (&inv)[6][6]) {
   }
   return true;
 }
-
-// The largest standard uncertainty over the values offered, angular errors in um at the reference length.
-class WorstTracker {
- public:
-  explicit WorstTracker(double reference_length_mm) : ref_(reference_length_mm) {}
-  void add(double angle_deg, int error, double variance) {
-    const double sd = std::sqrt(std::max(0.0, variance));
-    const double u = error < 3 ? sd : 1e-3 * ref_ * sd;
-    if (u > worst_) {
-      worst_ = u;
-      wc_.at_angle_deg = angle_deg;
-      wc_.at_error = error;
-    }
-  }
-  WorstCase result() {
-    wc_.worst_std_um = worst_;
-    wc_.worst_determined_std_um = worst_;
-    return wc_;
-  }
-
- private:
-  double ref_;
-  double worst_ = -1;
-  WorstCase wc_;
-};
 
 // The body-frame information of one reading of every installation, 6 x 6 (the sign squares away).
 Eigen::Matrix<double, 6, 6> body_information(const Design& design) {
