@@ -28,11 +28,12 @@ std::string slurp(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-CliRun run_cli(const std::string& args) {
+// Runs a shell command line, capturing its stdout and stderr.
+CliRun run_cli_shell(const std::string& command) {
   const auto dir = std::filesystem::temp_directory_path();
   const std::string out = (dir / ("dbbkit_cli_out_" + std::to_string(::getpid()))).string();
   const std::string err = out + ".err";
-  const std::string cmd = std::string(DBBKIT_CLI) + " " + args + " > " + out + " 2> " + err;
+  const std::string cmd = command + " > " + out + " 2> " + err;
   const int raw = std::system(cmd.c_str());
   CliRun r;
   r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
@@ -42,6 +43,8 @@ CliRun run_cli(const std::string& args) {
   std::filesystem::remove(err);
   return r;
 }
+
+CliRun run_cli(const std::string& args) { return run_cli_shell(std::string(DBBKIT_CLI) + " " + args); }
 
 std::string bad(const std::string& name) { return test::source_path("tests/data/bad/" + name); }
 const std::string kDesignC = test::source_path("designs/paper-c-turntable.json");
@@ -320,6 +323,21 @@ TEST(Cli, DesignGatePassesTheCommittedDesignsAndFailsADegradedOne) {
   EXPECT_EQ(r.status, 1) << r.out << r.err;
   EXPECT_NE(r.out.find("rank deficiency 0 -> 18"), std::string::npos) << r.out;
   std::filesystem::remove_all(dir);
+}
+
+TEST(Cli, ATerminalGetsTablesAPipeGetsJson) {
+  // script(1) (util-linux, in every Debian) runs the command on a pseudo-terminal.
+  const std::string cmd = "identify --design " + kDesignC + " --data " + kDataC;
+  const CliRun tty = run_cli_shell("script -qec '" + std::string(DBBKIT_CLI) + " " + cmd + "' /dev/null");
+  ASSERT_EQ(tty.status, 0) << tty.err;
+  EXPECT_NE(tty.out.find("full rank: 108 unknowns from 133 readings"), std::string::npos) << tty.out.substr(0, 500);
+  EXPECT_EQ(tty.out.find("\"format\""), std::string::npos) << "no JSON on a terminal without --out";
+  const CliRun pipe = run_cli(cmd);
+  ASSERT_EQ(pipe.status, 0) << pipe.err;
+  EXPECT_EQ(nlohmann::json::parse(pipe.out)["format"], "dbbkit.identify/1");
+  const CliRun quiet = run_cli_shell("script -qec '" + std::string(DBBKIT_CLI) + " " + cmd + " --quiet' /dev/null");
+  ASSERT_EQ(quiet.status, 0) << quiet.err;
+  EXPECT_EQ(quiet.out.find("full rank"), std::string::npos) << quiet.out;
 }
 
 TEST(Report, Sha256KnownVectors) {
