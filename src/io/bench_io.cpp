@@ -6,6 +6,8 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/io/report.hpp"
+#include "dbbkit/io/result_io.hpp"
 
 namespace dbbkit::io {
 
@@ -13,12 +15,7 @@ using nlohmann::json;
 
 namespace {
 
-std::string num(const std::optional<double>& v, int digits = 5) {
-  if (!v) return "--";
-  std::ostringstream s;
-  s << std::setprecision(digits) << *v;
-  return s.str();
-}
+std::string num(const std::optional<double>& v) { return fmt_opt(v, 5); }
 
 std::optional<double> optional_value(ObjectReader& r, const std::string& key) {
   const json* v = r.optional(key);
@@ -27,8 +24,6 @@ std::optional<double> optional_value(ObjectReader& r, const std::string& key) {
   if (!(x > 0)) r.fail(key, "must be a positive number of um or null");
   return x;
 }
-
-json opt(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
 
 }  // namespace
 
@@ -67,8 +62,8 @@ json baseline_to_json(const Baseline& b) {
   for (const auto& [key, f] : b.designs) {
     d[key] = {{"rank", f.rank},
               {"n_unknowns", f.n_unknowns},
-              {"worst_std_um", opt(f.worst_std_um)},
-              {"worst_determined_std_um", opt(f.worst_determined_std_um)}};
+              {"worst_std_um", optional_number(f.worst_std_um)},
+              {"worst_determined_std_um", optional_number(f.worst_determined_std_um)}};
   }
   j["designs"] = d;
   return j;
@@ -138,12 +133,13 @@ std::string bench_table(const std::vector<BenchRow>& rows, double tol) {
     // A rank-deficient design shows its worst determined value in brackets.
     auto worst = [](const BenchFigures& f) {
       if (f.worst_std_um) return num(f.worst_std_um);
+      if (!f.worst_determined_std_um) return std::string("--");
       std::ostringstream t;
-      t << (f.worst_determined_std_um ? "(" + num(f.worst_determined_std_um).append(")") : "--");
+      t << "(" << num(f.worst_determined_std_um) << ")";
       return t.str();
     };
     s << std::setw(14) << worst(r.now) << std::setw(14) << (r.baseline ? worst(*r.baseline) : "--") << std::setw(12)
-      << num(r.condition_number, 4) << std::setw(10) << r.status << "\n";
+      << fmt_opt(r.condition_number, 4) << std::setw(10) << r.status << "\n";
     if (!r.detail.empty()) s << "    " << r.detail << "\n";
   }
   s << "(worst: worst_std_um, angular errors at each design's reference length; in brackets the worst determined "

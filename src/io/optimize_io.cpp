@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/report.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/kinematics.hpp"
 
@@ -14,17 +15,9 @@ using nlohmann::json;
 
 namespace {
 
-std::string num(double x, int digits = 4) {
-  std::ostringstream s;
-  s << std::setprecision(digits) << x;
-  return s.str();
-}
-
-json opt(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
-
 std::string where(const WorstCase& w) {
   if (w.at_error < 0) return "";
-  return std::string(" (") + kErrorNames[w.at_error] + " at " + num(w.at_angle_deg, 6) + " deg)";
+  return std::string(" (") + kErrorNames[w.at_error] + " at " + fmt_num(w.at_angle_deg, 6) + " deg)";
 }
 
 json candidate_json(const Kit& kit, const Candidate& c) {
@@ -34,8 +27,8 @@ json candidate_json(const Kit& kit, const Candidate& c) {
   j["n_installations"] = c.design.installations.size();
   j["n_angles"] = c.design.angles_deg.size();
   j["time_s"] = c.time_s;
-  j["worst_std_um"] = opt(c.worst.worst_std_um);
-  j["worst_determined_std_um"] = opt(c.worst.worst_determined_std_um);
+  j["worst_std_um"] = optional_number(c.worst.worst_std_um);
+  j["worst_determined_std_um"] = optional_number(c.worst.worst_determined_std_um);
   j["n_undetermined"] = c.n_undetermined;
   j["objective"] = c.objective_defined ? json(c.objective) : json(nullptr);
   const PatternSpace space = pattern_space(kit, c.choice);
@@ -82,8 +75,8 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
     json b = candidate_json(kit, *res.best);
     b["design"] = design_to_json(optimized_design(kit, res, kit_file));
     add_rank_block(b, ev.prior);
-    b["worst_std_um"] = opt(ev.worst.worst_std_um);
-    b["worst_determined_std_um"] = opt(ev.worst.worst_determined_std_um);
+    b["worst_std_um"] = optional_number(ev.worst.worst_std_um);
+    b["worst_determined_std_um"] = optional_number(ev.worst.worst_determined_std_um);
     b["errors"] = errors_to_json(ev.errors, false);
     b["unidentifiable"] = unidentifiable_to_json(ev.unidentifiable);
     j["best"] = b;
@@ -102,8 +95,8 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   j["pareto"] = front;
   if (reference) {
     json r = {{"file", reference->file},
-              {"worst_std_um", opt(reference->worst.worst_std_um)},
-              {"worst_determined_std_um", opt(reference->worst.worst_determined_std_um)},
+              {"worst_std_um", optional_number(reference->worst.worst_std_um)},
+              {"worst_determined_std_um", optional_number(reference->worst.worst_determined_std_um)},
               {"rank", reference->rank},
               {"n_unknowns", reference->n_unknowns}};
     if (res.best && res.best_evaluation.worst.worst_std_um && reference->worst.worst_std_um) {
@@ -124,7 +117,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   s << "kit " << kit_file << ": axis " << axis_name(kit.axis) << ", pattern " << pattern_name(kit.pattern)
     << ", " << kit.errors.describe() << ", noise " << kit.noise.describe() << "\n";
   s << "criterion " << criterion_name(res.criterion) << "; " << res.choices.size() << " discrete choices, "
-    << searched << " feasible; " << res.evaluations << " designs scored in " << num(seconds, 3) << " s\n";
+    << searched << " feasible; " << res.evaluations << " designs scored in " << fmt_num(seconds, 3) << " s\n";
   if (!res.note.empty()) s << "note: " << res.note << "\n";
   if (!res.best) {
     s << "\nno design fits the kit:\n";
@@ -145,31 +138,31 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
     s.unsetf(std::ios::fixed);
   }
   const size_t n_inst = b.design.installations.size(), n_ang = b.design.angles_deg.size();
-  s << "time " << num(b.time_s, 6) << " s = " << n_inst << " installations x " << num(kit.time_per_installation_s)
-    << " s + " << n_inst * n_ang << " readings x " << num(kit.time_per_reading_s) << " s";
-  if (kit.time_budget_s) s << " (budget " << num(*kit.time_budget_s, 6) << " s)";
+  s << "time " << fmt_num(b.time_s, 6) << " s = " << n_inst << " installations x " << fmt_num(kit.time_per_installation_s)
+    << " s + " << n_inst * n_ang << " readings x " << fmt_num(kit.time_per_reading_s) << " s";
+  if (kit.time_budget_s) s << " (budget " << fmt_num(*kit.time_budget_s, 6) << " s)";
   s << "\n";
   s << "rank " << ev.prior.rank << " of " << ev.prior.n_unknowns;
-  if (ev.prior.condition_number) s << ", condition number " << num(*ev.prior.condition_number);
+  if (ev.prior.condition_number) s << ", condition number " << fmt_num(*ev.prior.condition_number);
   s << "\n";
   if (ev.worst.worst_std_um) {
-    s << "worst_std_um " << num(*ev.worst.worst_std_um) << " um" << where(ev.worst) << ", angular errors at "
-      << num(kit.reference_length_mm) << " mm\n";
+    s << "worst_std_um " << fmt_num(*ev.worst.worst_std_um) << " um" << where(ev.worst) << ", angular errors at "
+      << fmt_num(kit.reference_length_mm) << " mm\n";
   } else if (ev.worst.worst_determined_std_um) {
     s << "worst_std_um: none (" << ev.worst.n_undetermined << " errors at angles not determined); worst determined "
-      << num(*ev.worst.worst_determined_std_um) << " um" << where(ev.worst) << "\n";
+      << fmt_num(*ev.worst.worst_determined_std_um) << " um" << where(ev.worst) << "\n";
   }
   if (res.criterion != Criterion::Worst && b.objective_defined) {
-    s << criterion_name(res.criterion) << " objective " << num(b.objective, 6) << "\n";
+    s << criterion_name(res.criterion) << " objective " << fmt_num(b.objective, 6) << "\n";
   }
   s << unidentifiable_text(ev.unidentifiable);
   s << "\npredicted standard uncertainty (k = 1) at each angle:\n" << errors_table(ev.errors, false);
   if (reference) {
     s << "\nreference " << reference->file << ": rank " << reference->rank << " of " << reference->n_unknowns;
     if (reference->worst.worst_std_um) {
-      s << ", worst_std_um " << num(*reference->worst.worst_std_um) << " um" << where(reference->worst);
+      s << ", worst_std_um " << fmt_num(*reference->worst.worst_std_um) << " um" << where(reference->worst);
       if (ev.worst.worst_std_um) {
-        s << "\nratio optimised / reference: " << num(*ev.worst.worst_std_um / *reference->worst.worst_std_um, 3);
+        s << "\nratio optimised / reference: " << fmt_num(*ev.worst.worst_std_um / *reference->worst.worst_std_um, 3);
       }
     } else {
       s << ", worst_std_um: none (not every error determined)";
@@ -187,9 +180,9 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
     s << std::setw(10) << "time [s]" << std::setw(15) << "installations" << std::setw(8) << "angles" << std::setw(12)
       << "step [deg]" << std::setw(14) << criterion_name(res.criterion) << "\n";
     for (const Candidate& c : res.pareto) {
-      s << std::setw(10) << num(c.time_s, 6) << std::setw(15) << c.design.installations.size() << std::setw(8)
-        << c.design.angles_deg.size() << std::setw(12) << num(c.choice.step_deg) << std::setw(14)
-        << num(c.objective, 5) << "\n";
+      s << std::setw(10) << fmt_num(c.time_s, 6) << std::setw(15) << c.design.installations.size() << std::setw(8)
+        << c.design.angles_deg.size() << std::setw(12) << fmt_num(c.choice.step_deg) << std::setw(14)
+        << fmt_num(c.objective, 5) << "\n";
     }
   }
   return s.str();

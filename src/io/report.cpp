@@ -388,6 +388,8 @@ std::string fmt_num(double x, int digits) {
   return s.str();
 }
 
+std::string fmt_opt(const std::optional<double>& x, int digits) { return x ? fmt_num(*x, digits) : "--"; }
+
 std::vector<std::string> errors_header(bool values) {
   std::vector<std::string> h = {"angle [deg]"};
   for (int e = 0; e < 6; ++e) {

@@ -49,8 +49,6 @@ class Page {
   std::unique_ptr<MarkdownSummary> md_;
 };
 
-std::string opt_num(const std::optional<double>& v, int digits = 4) { return v ? fmt_num(*v, digits) : "--"; }
-
 std::vector<std::vector<std::string>> installation_rows(const Design& d) {
   std::vector<std::vector<std::string>> rows;
   for (const Installation& in : d.installations) {
@@ -209,7 +207,7 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
   p.paragraph(s);
   p.table({"O1", "O2", "O3", "O4", "O5", "D = log det M", "A = trace M^-1", "E = min eig M", "G = max leverage"},
           {{fmt_num(ev.indices.O1), fmt_num(ev.indices.O2), fmt_num(ev.indices.O3), fmt_num(ev.indices.O4),
-            fmt_num(ev.indices.O5), opt_num(ev.criteria.D_logdet), opt_num(ev.criteria.A_trace),
+            fmt_num(ev.indices.O5), fmt_opt(ev.criteria.D_logdet), fmt_opt(ev.criteria.A_trace),
             fmt_num(ev.criteria.E_min_eigenvalue), fmt_num(ev.criteria.G_max_leverage)}});
   design_section(p, design);
   p.heading("Uncertainty before measuring");
@@ -231,8 +229,8 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
     for (const SweepPoint& pt : map) {
       std::vector<std::string> r;
       for (double v : pt.values) r.push_back(fmt_num(v, 6));
-      r.insert(r.end(), {std::to_string(pt.rank) + "/" + std::to_string(pt.n_unknowns), opt_num(pt.condition_number),
-                         opt_num(pt.worst_std_um)});
+      r.insert(r.end(), {std::to_string(pt.rank) + "/" + std::to_string(pt.n_unknowns), fmt_opt(pt.condition_number),
+                         fmt_opt(pt.worst_std_um)});
       rows.push_back(r);
     }
     if (variables.size() == 2) {
@@ -283,11 +281,11 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
       {"choice", choice_label(kit, b.choice)},
       {"time", fmt_num(b.time_s, 6) + " s" + (kit.time_budget_s ? " of " + fmt_num(*kit.time_budget_s, 6) + " s" : "")},
       {"rank", std::to_string(ev.prior.rank) + " of " + std::to_string(ev.prior.n_unknowns)},
-      {"condition number", opt_num(ev.prior.condition_number)},
-      {"worst_std_um", opt_num(ev.worst.worst_std_um) + " um"},
-      {"worst determined", opt_num(ev.worst.worst_determined_std_um) + " um"}};
+      {"condition number", fmt_opt(ev.prior.condition_number)},
+      {"worst_std_um", fmt_opt(ev.worst.worst_std_um) + " um"},
+      {"worst determined", fmt_opt(ev.worst.worst_determined_std_um) + " um"}};
   if (reference) {
-    summary.push_back({"reference " + reference->file, opt_num(reference->worst.worst_std_um) + " um"});
+    summary.push_back({"reference " + reference->file, fmt_opt(reference->worst.worst_std_um) + " um"});
     if (ev.worst.worst_std_um && reference->worst.worst_std_um) {
       summary.push_back({"ratio optimised / reference", fmt_num(*ev.worst.worst_std_um / *reference->worst.worst_std_um, 3)});
     }
@@ -333,9 +331,9 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
   p.paragraph(r.verdict);
   p.table({"", "rms [um]", "chi2", "dof", "p"},
           {{"before", fmt_num(r.before.rms_um), fmt_num(r.before.chi2), std::to_string(r.before.dof),
-            opt_num(r.before.p_value, 3)},
+            fmt_opt(r.before.p_value, 3)},
            {"after", fmt_num(r.after.rms_um), fmt_num(r.after.chi2), std::to_string(r.after.dof),
-            opt_num(r.after.p_value, 3)}});
+            fmt_opt(r.after.p_value, 3)}});
   p.heading("Effects added");
   if (r.added.empty()) {
     p.paragraph("None: no effect of the library explains the residual significantly better.");

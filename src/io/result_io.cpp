@@ -21,9 +21,9 @@ double r6(double x) { return std::round(x * 1e6) / 1e6; }
 const char* kConditionScaling =
     "singular values of Sigma^-1/2 J S, S scaling every column to unit Euclidean norm";
 
-json optional_number(const std::optional<double>& x) { return x ? json(*x) : json(nullptr); }
-
 }  // namespace
+
+json optional_number(const std::optional<double>& x) { return x ? json(*x) : json(nullptr); }
 
 
 

@@ -85,7 +85,8 @@ class MarkdownSummary {
 std::vector<std::vector<std::string>> errors_rows(const std::vector<ErrorsAtAngle>& errors, bool values, double k);
 std::vector<std::string> errors_header(bool values);
 
-// Formats a number with `digits` significant digits.
+// Formats a number with `digits` significant digits; fmt_opt gives "--" when absent.
 std::string fmt_num(double x, int digits = 4);
+std::string fmt_opt(const std::optional<double>& x, int digits = 4);
 
 }  // namespace dbbkit::io

@@ -33,6 +33,8 @@ nlohmann::json budget_to_json(const Design& design, const Budget& budget);
 nlohmann::json monte_carlo_to_json(const MonteCarloResult& mc);
 std::string monte_carlo_summary(const MonteCarloResult& mc);
 
+// A number, or null when absent (a value that cannot be computed is never a number).
+nlohmann::json optional_number(const std::optional<double>& x);
 // The residual block {rms_um, chi2, dof, p_value}.
 nlohmann::json residual_to_json(const Estimate& est);
 
