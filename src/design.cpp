@@ -1,10 +1,12 @@
 #include "dbbkit/design.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 
 namespace dbbkit {
 
@@ -99,16 +101,26 @@ void require(bool ok, const std::string& source, const std::string& key, const s
 
 bool finite(double x) { return std::isfinite(x); }
 
+// A length [mm] within the documented limit (limits.hpp).
+bool length_ok(double x) { return std::isfinite(x) && std::abs(x) <= limits::kMaxLength_mm; }
+const std::string kLengthLimit = "must be a finite length within +-10000 mm (README, \"Limits\")";
+
+bool noise_ok(double x) { return std::isfinite(x) && x >= limits::kMinNoise_um && x <= limits::kMaxNoise_um; }
+
 }  // namespace
+
+bool length_within_limits(double x_mm) { return length_ok(x_mm); }
 
 void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axis, const std::string& source) {
   if (n.distribution == NoiseModel::Distribution::Uniform) {
-    require(finite(n.half_width_um) && n.half_width_um > 0, source, "noise.accuracy_um",
-            "must be a positive number of um");
+    require(noise_ok(n.half_width_um), source, "noise.accuracy_um",
+            "must be a number of um in [1e-4, 1e4] (README, \"Limits\")");
   } else {
-    require(finite(n.std_um) && n.std_um > 0, source, "noise.std_um", "must be a positive number of um");
+    require(noise_ok(n.std_um), source, "noise.std_um", "must be a number of um in [1e-4, 1e4] (README, \"Limits\")");
   }
   require(m.order >= 0, source, "errors.order", "must be a non-negative integer");
+  require(m.order <= limits::kMaxSeriesOrder, source, "errors.order",
+          "must be at most " + std::to_string(limits::kMaxSeriesOrder) + " (README, \"Limits\")");
   if (m.kind == ErrorModel::Kind::Fourier) {
     require(axis == Axis::C, source, "errors.model",
             "a Fourier series is for the full-turn axis C; use \"legendre\" for the swinging head B");
@@ -121,6 +133,8 @@ void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axi
 
 void validate_design(const Design& d, const std::string& source) {
   require(!d.angles_deg.empty(), source, "angles_deg", "no angles");
+  require(d.angles_deg.size() <= limits::kMaxAngles, source, "angles_deg",
+          "more than " + std::to_string(limits::kMaxAngles) + " angles (README, \"Limits\")");
   for (size_t i = 0; i < d.angles_deg.size(); ++i) {
     const std::string key = "angles_deg[" + std::to_string(i) + "]";
     const double a = d.angles_deg[i];
@@ -128,10 +142,22 @@ void validate_design(const Design& d, const std::string& source) {
     if (d.axis == Axis::B) {
       require(a >= -180.0 && a <= 180.0, source, key,
               "angle " + std::to_string(a) + " deg is outside [-180, 180] deg, the most a swinging head B can reach");
+    } else {
+      require(std::abs(a) <= 3600.0, source, key, "angle " + std::to_string(a) + " deg is beyond +-10 turns");
     }
-    for (size_t j = 0; j < i; ++j) {
-      require(std::abs(d.angles_deg[j] - a) >= kAngleTolerance_deg, source, key,
-              "angle repeats angles_deg[" + std::to_string(j) + "]");
+  }
+  {
+    // Repeats: neighbours in sorted order (O(n log n); a design may have 1e5 angles).
+    std::vector<std::pair<double, size_t>> sorted;
+    for (size_t i = 0; i < d.angles_deg.size(); ++i) sorted.emplace_back(d.angles_deg[i], i);
+    std::sort(sorted.begin(), sorted.end());
+    for (size_t k = 1; k < sorted.size(); ++k) {
+      if (std::abs(sorted[k].first - sorted[k - 1].first) < kAngleTolerance_deg) {
+        const size_t i = std::max(sorted[k].second, sorted[k - 1].second);
+        const size_t j = std::min(sorted[k].second, sorted[k - 1].second);
+        throw InputError(source, "angles_deg[" + std::to_string(i) + "]",
+                         "angle repeats angles_deg[" + std::to_string(j) + "]");
+      }
     }
   }
 
@@ -145,19 +171,21 @@ void validate_design(const Design& d, const std::string& source) {
     }
   }
   if (d.reference_length_mm) {
-    require(finite(*d.reference_length_mm) && *d.reference_length_mm > 0, source,
-            "reference_length_mm", "must be a positive length in mm");
+    require(length_ok(*d.reference_length_mm) && *d.reference_length_mm > 0, source,
+            "reference_length_mm", "must be a positive length in mm, at most 10000 mm");
   }
 
   for (const auto& [key, u] : {std::pair<const char*, double>{"L", d.setup_std.L_mm}, {"D", d.setup_std.D_mm},
                                {"H", d.setup_std.H_mm}}) {
-    require(std::isfinite(u) && u >= 0, source, std::string("setup_std_mm.") + key,
-            "must be a standard uncertainty >= 0 mm");
+    require(std::isfinite(u) && u >= 0 && u <= limits::kMaxSetupStd_mm, source, std::string("setup_std_mm.") + key,
+            "must be a standard uncertainty in [0, 100] mm");
   }
   if (d.axis == Axis::B) {
     require(d.setup_std.H_mm == 0, source, "setup_std_mm.H", "H is not used for the swinging head B");
   }
   require(!d.installations.empty(), source, "installations", "no installations");
+  require(d.installations.size() <= limits::kMaxInstallations, source, "installations",
+          "more than " + std::to_string(limits::kMaxInstallations) + " installations (README, \"Limits\")");
   std::set<std::string> ids;
   for (size_t i = 0; i < d.installations.size(); ++i) {
     const Installation& in = d.installations[i];
@@ -168,9 +196,9 @@ void validate_design(const Design& d, const std::string& source) {
               key + ".id", "id '" + in.id + "' contains a comma, quote or white space");
     }
     require(ids.insert(in.id).second, source, key + ".id", "duplicate installation id '" + in.id + "'");
-    require(finite(in.L_mm), source, key + ".ball_mm.L", "not a finite number");
-    require(finite(in.D_mm), source, key + ".ball_mm.D", "not a finite number");
-    require(finite(in.H_mm), source, key + ".ball_mm.H", "not a finite number");
+    require(length_ok(in.L_mm), source, key + ".ball_mm.L", kLengthLimit);
+    require(length_ok(in.D_mm), source, key + ".ball_mm.D", kLengthLimit);
+    require(length_ok(in.H_mm), source, key + ".ball_mm.H", kLengthLimit);
     if (d.axis == Axis::C) {
       require(in.L_mm >= 0, source, key + ".ball_mm.L",
               "the radial distance L of a turntable ball must be >= 0 mm");
@@ -183,7 +211,8 @@ void validate_design(const Design& d, const std::string& source) {
             "an explicit direction must be a unit vector (|v| = " + std::to_string(norm) + ")");
     require(in.sign == 1 || in.sign == -1, source, key + ".sign", "must be +1 or -1");
     if (in.bar_mm) {
-      require(finite(*in.bar_mm) && *in.bar_mm > 0, source, key + ".bar_mm", "must be a positive length in mm");
+      require(length_ok(*in.bar_mm) && *in.bar_mm > 0, source, key + ".bar_mm",
+              "must be a positive length in mm, at most 10000 mm");
     }
   }
 }

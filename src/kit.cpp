@@ -6,6 +6,7 @@
 #include <map>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/kinematics.hpp"
 
 namespace dbbkit {
@@ -58,10 +59,14 @@ void validate_kit(const Kit& k, const std::string& source) {
   require(finite(k.reference_length_mm) && k.reference_length_mm > 0, source, "reference_length_mm",
           "must be a positive length in mm (it converts angular uncertainty to um)");
 
-  require(finite(k.L_mm.min) && finite(k.L_mm.max), source, "L_mm", "min and max must be finite numbers of mm");
+  require(finite(k.reference_length_mm) && k.reference_length_mm <= limits::kMaxLength_mm, source,
+          "reference_length_mm", "must be at most 10000 mm");
+  require(length_within_limits(k.L_mm.min) && length_within_limits(k.L_mm.max), source, "L_mm",
+          "min and max must be finite numbers of mm within +-10000 mm");
   require(k.L_mm.min >= 0, source, "L_mm.min", "must be >= 0 mm");
   require(k.L_mm.min <= k.L_mm.max, source, "L_mm", "min is larger than max");
-  require(finite(k.D_mm.min) && finite(k.D_mm.max), source, "D_mm", "min and max must be finite numbers of mm");
+  require(length_within_limits(k.D_mm.min) && length_within_limits(k.D_mm.max), source, "D_mm",
+          "min and max must be finite numbers of mm within +-10000 mm");
   require(k.D_mm.min <= k.D_mm.max, source, "D_mm", "min is larger than max");
   if (k.axis == Axis::B) {
     require(k.D_mm.contains(0.0), source, "D_mm",
@@ -69,10 +74,11 @@ void validate_kit(const Kit& k, const std::string& source) {
   }
 
   if (k.axis == Axis::C) {
-    require(finite(k.H_base_mm) && k.H_base_mm >= 0, source, "H_mm.base", "must be a height >= 0 mm");
+    require(length_within_limits(k.H_base_mm) && k.H_base_mm >= 0, source, "H_mm.base",
+            "must be a height in [0, 10000] mm");
     require(k.blocks_mm.size() <= kMaxBlocks, source, "H_mm.blocks", "more than 16 blocks");
     for (size_t i = 0; i < k.blocks_mm.size(); ++i) {
-      require(finite(k.blocks_mm[i]) && k.blocks_mm[i] > 0, source, "H_mm.blocks[" + std::to_string(i) + "]",
+      require(length_within_limits(k.blocks_mm[i]) && k.blocks_mm[i] > 0, source, "H_mm.blocks[" + std::to_string(i) + "]",
               "must be a positive height in mm");
     }
     require(k.max_stack >= 0, source, "H_mm.max_stack", "must be an integer >= 0");
@@ -81,17 +87,17 @@ void validate_kit(const Kit& k, const std::string& source) {
   }
   require(!k.bars_mm.empty(), source, "bars_mm", "no bars");
   for (size_t i = 0; i < k.bars_mm.size(); ++i) {
-    require(finite(k.bars_mm[i]) && k.bars_mm[i] > 0, source, "bars_mm[" + std::to_string(i) + "]",
-            "must be a positive length in mm");
+    require(length_within_limits(k.bars_mm[i]) && k.bars_mm[i] > 0, source, "bars_mm[" + std::to_string(i) + "]",
+            "must be a positive length in mm, at most 10000 mm");
   }
   const char* xyz[] = {"x", "y", "z"};
   for (int i = 0; i < 3; ++i) {
     const Interval& t = k.travel_mm[i];
-    require(finite(t.min) && finite(t.max) && t.min < t.max, source, std::string("travel_mm.") + xyz[i],
-            "must be [min, max] with min < max, in mm");
+    require(length_within_limits(t.min) && length_within_limits(t.max) && t.min < t.max, source,
+            std::string("travel_mm.") + xyz[i], "must be [min, max] with min < max, in mm, within +-10000 mm");
   }
-  require(finite(k.min_separation_mm) && k.min_separation_mm >= 0, source, "min_separation_mm",
-          "must be a distance >= 0 mm");
+  require(length_within_limits(k.min_separation_mm) && k.min_separation_mm >= 0, source, "min_separation_mm",
+          "must be a distance in [0, 10000] mm");
 
   const Interval& r = k.angle_range_deg;
   require(finite(r.min) && finite(r.max) && r.min < r.max, source, "angles_deg.range",

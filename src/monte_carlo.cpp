@@ -77,6 +77,17 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     res.message = "no determined value to propagate";
     return res;
   }
+  {
+    const double bytes = static_cast<double>(options.max_trials) * n_out * sizeof(float);
+    if (bytes > static_cast<double>(options.max_sample_bytes)) {
+      const long fits = static_cast<long>(static_cast<double>(options.max_sample_bytes) / (n_out * sizeof(float)));
+      throw InputError("Monte Carlo", "max_trials",
+                       std::to_string(options.max_trials) + " trials of " + std::to_string(n_out) + " values would keep " +
+                           std::to_string(static_cast<long long>(bytes / (1 << 20))) + " MiB of samples, beyond the " +
+                           std::to_string(options.max_sample_bytes >> 20) + " MiB limit: at most " +
+                           std::to_string(fits / kChunk * kChunk) + " trials for this design (--mc-max-trials)");
+    }
+  }
 
   // Outputs: values = C theta; A = C G maps readings to values.
   Eigen::MatrixXd C(n_out, param.n_parameters());

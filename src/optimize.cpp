@@ -68,6 +68,8 @@ class ChoiceSearch {
   }
 
   long evaluations() const { return evaluations_; }
+  void set_max_evaluations(long n) { max_evaluations_ = n; }
+  bool budget_exhausted() const { return budget_exhausted_; }
   const std::optional<Candidate>& best() const { return best_; }
   int n_free() const { return static_cast<int>(free_.size()); }
 
@@ -90,6 +92,10 @@ class ChoiceSearch {
   // Scores the point (cached for the constraint calls at the same point).
   const Candidate& at(const std::vector<double>& x) {
     if (last_ && last_->x == x) return *last_;
+    if (max_evaluations_ > 0 && evaluations_ >= max_evaluations_) {
+      budget_exhausted_ = true;
+      throw nlopt::forced_stop();  // caught by the stage that is running: its best point is kept
+    }
     Candidate c = make_candidate(kit_, choice_, x);
     if (fast_only_) {
       // A choice whose generic point is full rank: a point the fast path declines is within
@@ -120,6 +126,7 @@ class ChoiceSearch {
 
   void run(const OptimizeOptions& options) {
     const int n = n_free();
+    max_evaluations_ = options.max_evaluations_per_choice;
     if (n == 0) {
       at(full({}));
       return;
@@ -205,6 +212,8 @@ class ChoiceSearch {
   int generic_undetermined_ = 0;
   bool fast_only_ = false;
   long evaluations_ = 0;
+  long max_evaluations_ = 0;
+  bool budget_exhausted_ = false;
   std::optional<Candidate> best_, last_;
 };
 
@@ -232,6 +241,7 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
       search_one(s);
       evaluations += s.evaluations();
       cr.best = s.best();
+      cr.budget_exhausted = s.budget_exhausted();
       if (cr.best) describe_installations(kit, *cr.best);
       if (cr.best && cr.best->feasible) {
         cr.status = "searched";

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/parameterisation.hpp"
 
 namespace dbbkit {
@@ -36,6 +37,62 @@ Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std
 
 void validate_truth(const Truth& truth, const Design& design, const std::string& source) {
   if (truth.repeats < 1) throw InputError(source, "repeats", "must be an integer >= 1");
+  if (truth.model.order > limits::kMaxSeriesOrder) {
+    throw InputError(source, "errors.order", "must be at most " + std::to_string(limits::kMaxSeriesOrder));
+  }
+  if (truth.noise) validate_noise_and_model(*truth.noise, ErrorModel{}, design.axis, source);
+  // Every error value (um or urad) within +-1e6: a larger one leaves the first-order model.
+  auto check_value = [&](double v, const std::string& key) {
+    if (!std::isfinite(v) || std::abs(v) > 1e6) throw InputError(source, key, "must be a finite value within +-1e6 (um or urad)");
+  };
+  for (size_t i = 0; i < truth.per_angle.size(); ++i) {
+    for (int k = 0; k < 6; ++k) {
+      check_value(truth.per_angle[i].second(k), "errors.values[" + std::to_string(i) + "]." + kErrorNames[k]);
+    }
+  }
+  for (int k = 0; k < 6; ++k) {
+    for (size_t i = 0; i < truth.coefficients[k].size(); ++i) {
+      check_value(truth.coefficients[k][i],
+                  std::string("errors.coefficients.") + kErrorNames[k] + "[" + std::to_string(i) + "]");
+    }
+  }
+  {
+    // One value per position: an angle given twice (C: modulo 360) is ambiguous.
+    std::vector<std::pair<double, size_t>> keys;
+    for (size_t i = 0; i < truth.per_angle.size(); ++i) {
+      double a = truth.per_angle[i].first;
+      if (design.axis == Axis::C) a = std::fmod(std::fmod(a, 360.0) + 360.0, 360.0);
+      keys.emplace_back(a, i);
+    }
+    std::sort(keys.begin(), keys.end());
+    for (size_t k = 0; k < keys.size(); ++k) {
+      const size_t j = k == 0 ? keys.size() - 1 : k - 1;
+      const auto& a = truth.per_angle[keys[k].second];
+      const auto& b = truth.per_angle[keys[j].second];
+      if (keys.size() > 1 && j != k && same_position(design.axis, a.first, b.first) && a.second != b.second) {
+        const size_t hi = std::max(keys[k].second, keys[j].second), lo = std::min(keys[k].second, keys[j].second);
+        throw InputError(source, "errors.values[" + std::to_string(hi) + "].angle_deg",
+                         "the same position as errors.values[" + std::to_string(lo) + "] with other values");
+      }
+    }
+  }
+  if (truth.schedule) {
+    const std::vector<Sweep>& sw = truth.schedule->sweeps;
+    if (sw.size() > 100) throw InputError(source, "schedule.sweeps", "more than 100 sweeps per installation");
+    if (!std::isfinite(truth.schedule->per_reading_s) || !std::isfinite(truth.schedule->per_installation_s) ||
+        truth.schedule->per_reading_s > 1e6 || truth.schedule->per_installation_s > 1e6) {
+      throw InputError(source, "schedule", "times must be finite, at most 1e6 s");
+    }
+  }
+  {
+    const double sweeps = truth.schedule ? static_cast<double>(truth.schedule->sweeps.size()) : 1.0;
+    const double n = static_cast<double>(design.installations.size()) * static_cast<double>(design.angles_deg.size()) *
+                     sweeps * truth.repeats;
+    if (n > static_cast<double>(limits::kMaxReadings)) {
+      throw InputError(source, "repeats", "the simulation would make more than " +
+                                              std::to_string(limits::kMaxReadings) + " readings (README, \"Limits\")");
+    }
+  }
   for (std::size_t i = 0; i < truth.effects.size(); ++i) {
     const TruthEffect& e = truth.effects[i];
     const std::string key = "effects[" + std::to_string(i) + "]";

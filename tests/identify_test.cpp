@@ -35,7 +35,7 @@ Truth random_truth(const Design& d, std::mt19937_64& rng) {
     for (double a : d.angles_deg) {
       Vector6d e;
       for (int k = 0; k < 6; ++k) e(k) = (k < 3 ? 10.0 : 30.0) * n01(rng);
-      t.per_angle.emplace_back(a, e);
+      test::add_truth_value(t, d.axis, a, e);
     }
   } else {
     const int m = d.errors.kind == ErrorModel::Kind::Fourier ? 2 * d.errors.order + 1 : d.errors.order + 1;

@@ -9,6 +9,8 @@
 
 #include "dbbkit/design.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/parameterisation.hpp"
+#include "dbbkit/simulate.hpp"
 
 namespace dbbkit::test {
 
@@ -29,6 +31,18 @@ inline ::testing::AssertionResult near(const Eigen::MatrixXd& a, const Eigen::Ma
     }
   }
   return ::testing::AssertionSuccess();
+}
+
+// Adds the errors of one angle to a per-angle truth; an angle at the position of one
+// already given (C: 360 repeats 0) takes that one's values, as the axis is one body.
+inline void add_truth_value(Truth& t, Axis axis, double angle_deg, const Vector6d& e) {
+  for (const auto& [a, v] : t.per_angle) {
+    if (same_position(axis, a, angle_deg)) {
+      t.per_angle.emplace_back(angle_deg, v);
+      return;
+    }
+  }
+  t.per_angle.emplace_back(angle_deg, e);
 }
 
 inline std::string source_path(const std::string& relative) { return std::string(DBBKIT_SOURCE_DIR) + "/" + relative; }

@@ -17,7 +17,7 @@ namespace {
 Truth constant_truth(const Design& d, const Vector6d& e) {
   Truth t;
   t.model.kind = ErrorModel::Kind::PerAngle;
-  for (double a : d.angles_deg) t.per_angle.emplace_back(a, e);
+  for (double a : d.angles_deg) test::add_truth_value(t, d.axis, a, e);
   return t;
 }
 
@@ -200,7 +200,7 @@ TEST_P(Coverage95, IntervalsContainTheTruth) {
       for (double a : d.angles_deg) {
         Vector6d e;
         for (int k = 0; k < 6; ++k) e(k) = 20 * n01(rng);
-        t.per_angle.emplace_back(a, e);
+        test::add_truth_value(t, d.axis, a, e);
       }
     }
     const IdentifyResult r = identify(d, simulate(d, t, 1000 + s));

@@ -99,6 +99,9 @@ struct Design {
 void validate_noise_and_model(const NoiseModel& noise, const ErrorModel& errors, Axis axis,
                               const std::string& source);
 
+// A finite length within +-limits::kMaxLength_mm.
+bool length_within_limits(double x_mm);
+
 // Checks a design built in code or read from a file; throws InputError with
 // `source` and the key of the first problem.
 void validate_design(const Design& design, const std::string& source = "design");

@@ -32,6 +32,10 @@ struct MonteCarloOptions {
   long max_trials = 2000000;     // the adaptive procedure stops here, not converged
   bool adaptive = true;          // false: exactly max_trials trials
   int significant_digits = 2;    // n_dig of the numerical tolerance
+  // The trials are kept for the quantiles (4 bytes per value and trial): a run whose
+  // max_trials x values x 4 exceeds this is refused before it starts, naming the
+  // largest max_trials that fits (an InputError, key "max_trials").
+  std::size_t max_sample_bytes = std::size_t{1} << 30;
   // Called after each batch with the trials so far (from the calling thread).
   std::function<void(long trials)> progress;
 };

@@ -67,6 +67,10 @@ struct OptimizeOptions {
   int threads = 1;
   int global_evaluations_per_variable = 100;  // DIRECT-L budget: this x (variables + 1)
   int local_evaluations = 300;                // COBYLA budget per start
+  // The most designs scored for one discrete choice (0: no limit beyond the two stage budgets
+  // above). A choice whose search reaches it stops there and keeps its best point so far; its
+  // ChoiceResult says so. The bound is per choice, so the result does not depend on the threads.
+  long max_evaluations_per_choice = 0;
   // Called after each discrete choice is searched (from the worker threads, serialised).
   std::function<void(int done, int total, const Candidate* best_so_far)> progress;
 };
@@ -76,6 +80,7 @@ struct ChoiceResult {
   std::string label;   // e.g. "H1 = 45 mm, H3 = 145 mm (blocks 100), step 20 deg"
   std::string status;  // "searched", or why the choice was skipped (time budget, travel)
   std::optional<Candidate> best;
+  bool budget_exhausted = false;  // the search stopped at max_evaluations_per_choice
 };
 
 struct OptimizeResult {

@@ -3,6 +3,7 @@
 #include <memory>
 #include <set>
 
+#include "checks.hpp"
 #include "commands.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/bench_io.hpp"
@@ -27,10 +28,16 @@ Runner add_bench(CLI::App& app) {
   sub->add_option("designs", args->designs, "Design files (dbbkit.design/1)")->required();
   sub->add_option("--baseline", args->baseline, "Baseline file (dbbkit.designs-baseline/1)");
   sub->add_option("--tolerance", args->tolerance,
-                  "Relative change of worst_std_um allowed (default: the baseline's tolerance_relative)");
+                  "Relative change of worst_std_um allowed (default: the baseline's tolerance_relative)")
+      ->check(finite_in(0, 0.999999));
   sub->add_option("--write-baseline", args->write_baseline,
                   "Write the present figures as a new baseline file (with --tolerance, default 0.001)");
   return [args]() {
+    std::vector<io::OutputTarget> targets;
+    if (!args->write_baseline.empty()) targets.push_back({"--write-baseline", args->write_baseline});
+    std::vector<std::string> inputs = args->designs;
+    inputs.push_back(args->baseline);
+    io::OutputSet outputs(targets, inputs);
     io::Baseline baseline;
     if (!args->baseline.empty()) baseline = io::read_baseline_file(args->baseline);
     double tol = args->tolerance.value_or(args->baseline.empty() ? 0.001 : baseline.tolerance_relative);
@@ -68,7 +75,8 @@ Runner add_bench(CLI::App& app) {
       io::Baseline out;
       out.tolerance_relative = tol;
       for (const io::BenchRow& r : rows) out.designs[r.key] = r.now;
-      io::write_output(args->write_baseline, io::baseline_to_json(out).dump(2) + "\n", args->designs);
+      outputs.stage("--write-baseline", io::baseline_to_json(out).dump(2) + "\n");
+      outputs.commit();
     }
     std::cout << rows.size() << " designs, " << worse << " worse than the baseline\n";
     return worse ? 1 : 0;

@@ -2,6 +2,7 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "checks.hpp"
 #include "report_options.hpp"
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/diagnose.hpp"
@@ -33,10 +34,13 @@ Runner add_diagnose(CLI::App& app) {
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
   sub->add_option("--level", args->level, "Family-wise significance level of each selection step")
-      ->check(CLI::Range(1e-6, 0.2))
+      ->check(finite_in(1e-6, 0.2))
       ->capture_default_str();
-  sub->add_option("--max-effects", args->max_effects, "Most effects added")->check(CLI::Range(0, 100))->capture_default_str();
+  sub->add_option("--max-effects", args->max_effects, "Most effects added")->check(integer_in(0, 100))->capture_default_str();
   return [args, rep]() {
+    const std::vector<std::string> in = {args->design, args->data};
+    const std::string json_out = json_to_stdout(args->out) ? "-" : args->out;
+    io::OutputSet outputs(output_targets(json_out, *rep), in);
     const Design design = io::read_design_file(args->design);
     const std::vector<Reading> readings = io::read_measurement_file(args->data, design);
     DiagnoseOptions options;
@@ -44,18 +48,15 @@ Runner add_diagnose(CLI::App& app) {
     options.max_effects = args->max_effects;
     const DiagnoseResult result = diagnose(design, readings, options);
     const io::InputFiles inputs{args->design, args->data};
-    const std::vector<std::string> in = {args->design, args->data};
     const io::RunContext run{command_line(), in};
     if (!rep->report.empty()) {
-      io::write_output(rep->report, io::diagnose_report(io::ReportFormat::Html, run, design, readings, result), in);
+      outputs.stage("--report", io::diagnose_report(io::ReportFormat::Html, run, design, readings, result));
     }
     if (!rep->summary.empty()) {
-      io::write_output(rep->summary, io::diagnose_report(io::ReportFormat::Markdown, run, design, readings, result),
-                       in);
+      outputs.stage("--summary", io::diagnose_report(io::ReportFormat::Markdown, run, design, readings, result));
     }
-    if (!args->out.empty() || json_to_stdout(args->out)) {
-      io::write_output(args->out, io::diagnose_to_json(design, result, inputs).dump(2) + "\n", in);
-    }
+    if (!json_out.empty()) outputs.stage("--out", io::diagnose_to_json(design, result, inputs).dump(2) + "\n");
+    outputs.commit();
     if (tables_to_stdout(args->out, rep->quiet)) std::cout << io::diagnose_summary(design, result);
     return 0;
   };

@@ -3,7 +3,9 @@
 #include <optional>
 #include <vector>
 
+#include "checks.hpp"
 #include "commands.hpp"
+#include "dbbkit/limits.hpp"
 #include "report_options.hpp"
 #include "uncertainty_options.hpp"
 #include "dbbkit/diagnose.hpp"
@@ -31,7 +33,8 @@ Runner add_evaluate(CLI::App& app) {
   CLI::App* sub = app.add_subcommand("evaluate", "What a design can identify, and how well, before measuring");
   sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
   sub->add_option("--reference-length-mm", args->reference_length_mm,
-                  "Lever arm converting angular uncertainty to um (default: the design's reference_length_mm)");
+                  "Lever arm converting angular uncertainty to um (default: the design's reference_length_mm)")
+      ->check(finite_in(1e-3, limits::kMaxLength_mm));
   sub->add_option("--out", args->out, "Result JSON (dbbkit.evaluate/1); '-': stdout. The summary goes to stdout otherwise");
   sub->add_option("--sweep", args->sweeps,
                   "Design map: NAME=start:stop:step with NAME = L|D|H and an installation-id prefix (L2: L of "
@@ -42,6 +45,7 @@ Runner add_evaluate(CLI::App& app) {
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
   return [args, unc, rep]() {
+    io::OutputSet outputs(output_targets(args->out, *rep, {{"--map-csv", args->map_csv}}), {args->design});
     const Design design = io::read_design_file(args->design);
     const std::optional<double> ref = args->reference_length_mm ? args->reference_length_mm : design.reference_length_mm;
     if (!ref || !(*ref > 0)) {
@@ -74,17 +78,17 @@ Runner add_evaluate(CLI::App& app) {
       nlohmann::json e = nlohmann::json::array();
       for (const CandidateStatus& c : effects) e.push_back({{"label", c.label}, {"status", c.status}, {"detail", c.detail}});
       j["effects"] = e;
-      io::write_output(args->out, j.dump(2) + "\n", {args->design});
+      outputs.stage("--out", j.dump(2) + "\n");
     }
-    if (!args->map_csv.empty()) io::write_output(args->map_csv, io::sweep_csv(variables, map), {args->design});
+    if (!args->map_csv.empty()) outputs.stage("--map-csv", io::sweep_csv(variables, map));
     const io::RunContext run{command_line(), {args->design}};
-    for (const auto& [file, format] : {std::pair{rep->report, io::ReportFormat::Html},
-                                       std::pair{rep->summary, io::ReportFormat::Markdown}}) {
+    for (const auto& [option, file, format] : {std::tuple{"--report", rep->report, io::ReportFormat::Html},
+                                               std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {
       if (!file.empty()) {
-        io::write_output(file, io::evaluate_report(format, run, design, ev, variables, map, mc ? &*mc : nullptr),
-                         {args->design});
+        outputs.stage(option, io::evaluate_report(format, run, design, ev, variables, map, mc ? &*mc : nullptr));
       }
     }
+    outputs.commit();
     if (args->out != "-" && !rep->quiet) {
       std::cout << io::evaluate_summary(design, ev);
       std::cout << "\neffects this design can tell from the axis errors (" << design.errors.describe() << "):\n";

@@ -37,6 +37,9 @@ Runner add_identify(CLI::App& app) {
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
   return [args, unc, rep]() {
+    const std::vector<std::string> inputs = {args->design, args->data};
+    const std::string json_out = json_to_stdout(args->out) ? "-" : args->out;
+    io::OutputSet outputs(output_targets(json_out, *rep), inputs);
     const Design design = io::read_design_file(args->design);
     const std::vector<Reading> readings = io::read_measurement_file(args->data, design);
     IdentifyOptions options;
@@ -50,20 +53,17 @@ Runner add_identify(CLI::App& app) {
     }
     const nlohmann::json j =
         io::identify_to_json(design, readings, result, {args->design, args->data}, mc ? &*mc : nullptr);
-    const std::vector<std::string> inputs = {args->design, args->data};
     const io::RunContext run{command_line(), inputs};
     if (!rep->report.empty()) {
-      io::write_output(rep->report,
-                       io::identify_report(io::ReportFormat::Html, run, design, readings, result, mc ? &*mc : nullptr),
-                       inputs);
+      outputs.stage("--report",
+                    io::identify_report(io::ReportFormat::Html, run, design, readings, result, mc ? &*mc : nullptr));
     }
     if (!rep->summary.empty()) {
-      io::write_output(rep->summary,
-                       io::identify_report(io::ReportFormat::Markdown, run, design, readings, result,
-                                           mc ? &*mc : nullptr),
-                       inputs);
+      outputs.stage("--summary", io::identify_report(io::ReportFormat::Markdown, run, design, readings, result,
+                                                     mc ? &*mc : nullptr));
     }
-    if (!args->out.empty() || json_to_stdout(args->out)) io::write_output(args->out, j.dump(2) + "\n", inputs);
+    if (!json_out.empty()) outputs.stage("--out", j.dump(2) + "\n");
+    outputs.commit();
     if (tables_to_stdout(args->out, rep->quiet)) {
       std::cout << io::identify_summary(design, result);
       if (mc) std::cout << io::monte_carlo_summary(*mc);

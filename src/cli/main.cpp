@@ -1,7 +1,12 @@
 #include <iostream>
 #include <vector>
 
+#include <set>
+#include <string>
+
+#include "checks.hpp"
 #include "commands.hpp"
+#include "dbbkit/io/output.hpp"
 #include "report_options.hpp"
 #include "dbbkit/error.hpp"
 
@@ -33,6 +38,18 @@ int main(int argc, char** argv) {
   add(dbbkit::cli::add_diagnose);
   add(dbbkit::cli::add_optimize);
   add(dbbkit::cli::add_bench);
+  // Every option that names a file: an empty path is refused where it is read.
+  const std::set<std::string> path_options = {"--design", "--data",   "--out",       "--report",         "--summary",
+                                              "--kit",    "--result", "--reference", "--pareto-csv",     "--map-csv",
+                                              "--truth",  "--baseline", "--write-baseline", "designs"};
+  for (auto& [sub, run] : commands) {
+    for (CLI::Option* opt : sub->get_options()) {
+      if (path_options.count(opt->get_name()) || path_options.count(opt->get_single_name())) {
+        opt->check(dbbkit::cli::path_value());
+      }
+    }
+  }
+  dbbkit::io::install_cleanup_handlers();
 
   try {
     app.parse(argc, argv);
@@ -42,7 +59,11 @@ int main(int argc, char** argv) {
   }
   try {
     for (auto& [sub, run] : commands) {
-      if (sub->parsed()) return run();
+      if (sub->parsed()) {
+        const int status = run();
+        dbbkit::io::finish_stdout();
+        return status;
+      }
     }
   } catch (const dbbkit::InputError& e) {
     std::cerr << "dbbkit: error: " << e.what() << "\n";

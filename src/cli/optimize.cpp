@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "checks.hpp"
 #include "report_options.hpp"
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/error.hpp"
@@ -47,11 +48,16 @@ Runner add_optimize(CLI::App& app) {
                   "A design to compare with (same noise and error model as the kit): ratio of worst_std_um");
   sub->add_flag("--pareto", args->pareto, "Print the front of the criterion against measurement time");
   sub->add_option("--pareto-csv", args->pareto_csv, "Write the Pareto front as CSV");
-  sub->add_option("--threads", args->threads, "Worker threads (0: all cores); the result does not depend on it");
+  sub->add_option("--threads", args->threads, "Worker threads (0: all cores); the result does not depend on it")
+      ->check(thread_count());
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
   return [args, rep]() {
     args->quiet = rep->quiet;
+    const std::vector<std::string> inputs = {args->kit, args->reference};
+    io::OutputSet outputs(output_targets(args->out.empty() ? "-" : args->out, *rep,
+                                         {{"--result", args->result}, {"--pareto-csv", args->pareto_csv}}),
+                          inputs);
     const Criterion criterion = parse_criterion(args->criterion);
     const Kit kit = io::read_kit_file(args->kit);
     std::optional<io::Reference> reference;
@@ -97,22 +103,19 @@ Runner add_optimize(CLI::App& app) {
     const OptimizeResult res = optimize_kit(kit, options);
     const double seconds = elapsed();
     if (!args->result.empty()) {
-      io::write_output(args->result, io::optimize_to_json(kit, res, args->kit, seconds, reference).dump(2) + "\n",
-                       {args->kit, args->reference});
+      outputs.stage("--result", io::optimize_to_json(kit, res, args->kit, seconds, reference).dump(2) + "\n");
     }
-    if (!args->pareto_csv.empty()) io::write_output(args->pareto_csv, io::pareto_csv(res), {args->kit, args->reference});
-    const io::RunContext run{command_line(), {args->kit, args->reference}};
-    for (const auto& [file, format] : {std::pair{rep->report, io::ReportFormat::Html},
-                                       std::pair{rep->summary, io::ReportFormat::Markdown}}) {
-      if (!file.empty()) {
-        io::write_output(file, io::optimize_report(format, run, kit, res, reference, seconds),
-                         {args->kit, args->reference});
-      }
+    if (!args->pareto_csv.empty()) outputs.stage("--pareto-csv", io::pareto_csv(res));
+    const io::RunContext run{command_line(), inputs};
+    for (const auto& [option, file, format] : {std::tuple{"--report", rep->report, io::ReportFormat::Html},
+                                               std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {
+      if (!file.empty()) outputs.stage(option, io::optimize_report(format, run, kit, res, reference, seconds));
     }
     if (res.best) {
       const Design d = io::optimized_design(kit, res, args->kit);
-      io::write_output(args->out, io::design_to_json(d).dump(2) + "\n", {args->kit, args->reference});
+      outputs.stage("--out", io::design_to_json(d).dump(2) + "\n");
     }
+    outputs.commit();
     if (!args->quiet && !args->out.empty() && args->out != "-") {
       std::cout << io::optimize_summary(kit, res, args->kit, seconds, reference, args->pareto);
     } else if (!res.best && !args->quiet) {

@@ -9,6 +9,9 @@
 #include <memory>
 #include <string>
 #include <unistd.h>
+#include <vector>
+
+#include "dbbkit/io/output.hpp"
 
 namespace dbbkit::cli {
 
@@ -31,6 +34,21 @@ inline bool json_to_stdout(const std::string& out) { return out == "-" || (out.e
 // The human tables go to stdout.
 inline bool tables_to_stdout(const std::string& out, bool quiet) {
   return !quiet && out != "-" && (!out.empty() || stdout_is_terminal());
+}
+
+// The outputs of a command: --out when JSON goes to a file or to stdout (json_out:
+// the --out value, "-" when it is stdout by default), --report and --summary when
+// given, and the command's own others. Checked before any work is done (output.hpp).
+inline std::vector<io::OutputTarget> output_targets(const std::string& json_out, const ReportArgs& rep,
+                                                    std::vector<io::OutputTarget> others = {}) {
+  std::vector<io::OutputTarget> t;
+  if (!json_out.empty()) t.push_back({"--out", json_out});
+  if (!rep.report.empty()) t.push_back({"--report", rep.report});
+  if (!rep.summary.empty()) t.push_back({"--summary", rep.summary});
+  for (io::OutputTarget& o : others) {
+    if (!o.path.empty()) t.push_back(std::move(o));
+  }
+  return t;
 }
 
 // The command line as given, for the conditions of a report.

@@ -2,6 +2,7 @@
 #include <optional>
 #include <sstream>
 
+#include "checks.hpp"
 #include "commands.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
@@ -24,9 +25,11 @@ Runner add_simulate(CLI::App& app) {
   CLI::App* sub = app.add_subcommand("simulate", "Synthetic readings of a design from a declared truth");
   sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
   sub->add_option("--truth", args->truth, "Truth file (dbbkit.truth/1)")->required();
-  sub->add_option("--seed", args->seed, "Seed of the noise generator (overrides the truth file's seed)");
+  sub->add_option("--seed", args->seed, "Seed of the noise generator (overrides the truth file's seed)")
+      ->check(seed_value());
   sub->add_option("--out", args->out, "Measurement CSV; '-' or absent: stdout");
   return [args]() {
+    io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}}, {args->design, args->truth});
     const Design design = io::read_design_file(args->design);
     const Truth truth = io::read_truth_file(args->truth);
     validate_truth(truth, design, args->truth);
@@ -36,7 +39,8 @@ Runner add_simulate(CLI::App& app) {
     }
     std::ostringstream csv;
     io::write_measurements_csv(csv, simulate(design, truth, seed.value_or(0)));
-    io::write_output(args->out, csv.str(), {args->design, args->truth});
+    outputs.stage("--out", csv.str());
+    outputs.commit();
     return 0;
   };
 }

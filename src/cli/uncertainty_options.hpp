@@ -6,6 +6,7 @@
 #include <iostream>
 #include <memory>
 
+#include "checks.hpp"
 #include "dbbkit/monte_carlo.hpp"
 
 namespace dbbkit::cli {
@@ -18,17 +19,22 @@ struct UncertaintyArgs {
 
 inline void add_uncertainty_options(CLI::App* sub, const std::shared_ptr<UncertaintyArgs>& args) {
   sub->add_option("--coverage", args->coverage, "Coverage probability of the expanded uncertainty")
-      ->check(CLI::Range(0.5, 0.9999))
+      ->check(finite_in(0.5, 0.9999))
       ->capture_default_str();
   sub->add_flag("--monte-carlo", args->monte_carlo, "Check the linear result by Monte Carlo (JCGM 101)");
-  sub->add_option("--mc-seed", args->mc.seed, "Monte Carlo seed")->capture_default_str();
-  sub->add_option("--mc-threads", args->mc.threads, "Monte Carlo threads (0: all)")->capture_default_str();
-  sub->add_option("--mc-max-trials", args->mc.max_trials, "Most Monte Carlo trials")->capture_default_str();
+  sub->add_option("--mc-seed", args->mc.seed, "Monte Carlo seed")->check(seed_value())->capture_default_str();
+  sub->add_option("--mc-threads", args->mc.threads, "Monte Carlo threads (0: all)")
+      ->check(thread_count())
+      ->capture_default_str();
+  sub->add_option("--mc-max-trials", args->mc.max_trials, "Most Monte Carlo trials")
+      ->check(integer_in(1000, 1000000000))
+      ->capture_default_str();
   sub->add_option("--mc-batch", args->mc.batch_trials, "Trials per adaptive batch (a multiple of 1000)")
+      ->check(integer_in(1000, 100000000))
       ->capture_default_str();
   sub->add_option("--mc-digits", args->mc.significant_digits,
                   "Significant digits of u that set the numerical tolerance")
-      ->check(CLI::Range(1, 4))
+      ->check(integer_in(1, 4))
       ->capture_default_str();
 }
 

@@ -1,7 +1,10 @@
 #include "dbbkit/io/json_reader.hpp"
 
 #include <algorithm>
+#include <array>
+#include <filesystem>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -9,18 +12,58 @@
 #include <vector>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 
 namespace dbbkit::io {
 
 using nlohmann::json;
 
 std::string read_text_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path, "", "is a directory, not a file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open the file for reading");
-  std::ostringstream s;
-  s << in.rdbuf();
+  // Read in pieces and stop at the limit: a FIFO or a device such as /dev/zero never ends.
+  std::string text;
+  std::array<char, 1 << 16> buf;
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    text.append(buf.data(), static_cast<size_t>(in.gcount()));
+    if (text.size() > limits::kMaxInputBytes) {
+      throw InputError(path, "", "longer than " + std::to_string(limits::kMaxInputBytes >> 20) +
+                                     " MiB, the most dbbkit reads from one input (README, \"Limits\")");
+    }
+  }
   if (in.bad()) throw InputError(path, "", "error while reading the file");
-  return s.str();
+  return text;
+}
+
+bool parse_decimal(const std::string& text, double& out) {
+  size_t i = 0;
+  const size_t n = text.size();
+  auto digits = [&]() {
+    const size_t start = i;
+    while (i < n && text[i] >= '0' && text[i] <= '9') ++i;
+    return i - start;
+  };
+  if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
+  size_t mantissa = digits();
+  if (i < n && text[i] == '.') {
+    ++i;
+    mantissa += digits();
+  }
+  if (mantissa == 0) return false;
+  if (i < n && (text[i] == 'e' || text[i] == 'E')) {
+    ++i;
+    if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
+    if (digits() == 0) return false;
+  }
+  if (i != n) return false;
+  errno = 0;
+  const double x = std::strtod(text.c_str(), nullptr);
+  if (errno == ERANGE || !std::isfinite(x)) return false;
+  out = x;
+  return true;
 }
 
 namespace {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/io/json_reader.hpp"
 
 namespace dbbkit::io {
@@ -41,11 +42,12 @@ struct Cell {
   }
   double number() const {
     if (text.empty()) fail("empty value");
-    char* end = nullptr;
-    errno = 0;
-    const double x = std::strtod(text.c_str(), &end);
-    if (end != text.c_str() + text.size() || errno == ERANGE) fail("'" + text + "' is not a number");
-    if (!std::isfinite(x)) fail("'" + text + "' is not a finite number");
+    double x = 0;
+    if (!parse_decimal(text, x)) {
+      const bool spelled_number = text.find_first_of("0123456789") != std::string::npos || text == "nan" ||
+                                  text == "NaN" || text == "inf" || text == "-inf" || text == "+inf";
+      fail("'" + text + "' is not " + (spelled_number ? "a finite number in decimal notation" : "a number"));
+    }
     return x;
   }
   int integer() const {
@@ -132,6 +134,10 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
       }
     }
     if (present("repeat")) r.repeat = cell("repeat").integer();
+    if (readings.size() >= limits::kMaxReadings) {
+      throw InputError(source, where, "more than " + std::to_string(limits::kMaxReadings) +
+                                          " readings, the most one file may hold (README, \"Limits\")");
+    }
     readings.push_back(r);
   }
   if (header.empty()) throw InputError(source, "", "the file is empty (no header line)");

@@ -87,6 +87,7 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   for (const ChoiceResult& cr : res.choices) {
     json c = cr.best ? candidate_json(kit, *cr.best) : json{{"choice", cr.label}};
     c["status"] = cr.status;
+    c["budget_exhausted"] = cr.budget_exhausted;
     choices.push_back(c);
   }
   j["choices"] = choices;

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/io/json_reader.hpp"
 
 namespace dbbkit::io {
 
@@ -15,12 +16,8 @@ namespace {
 constexpr double kMaxSweepValues = 10000;
 
 double parse_number(const std::string& text, const std::string& spec) {
-  char* end = nullptr;
-  errno = 0;
-  const double x = std::strtod(text.c_str(), &end);
-  if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(x)) {
-    throw InputError("--sweep", spec, "'" + text + "' is not a number");
-  }
+  double x = 0;
+  if (!parse_decimal(text, x)) throw InputError("--sweep", spec, "'" + text + "' is not a finite decimal number");
   return x;
 }
 

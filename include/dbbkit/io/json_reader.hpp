@@ -12,6 +12,11 @@ namespace dbbkit::io {
 // Reads a whole file; throws InputError(path, "", ...) when it cannot be read.
 std::string read_text_file(const std::string& path);
 
+// A decimal number as people write it: optional sign, digits with an optional
+// point, an optional exponent (1.5, -0.2, 3e-3). No hexadecimal, no "inf" or "nan",
+// no white space. Sets `out` and returns true when `text` is one and finite.
+bool parse_decimal(const std::string& text, double& out);
+
 // Parses JSON; a syntax error or a repeated key throws InputError naming the line.
 nlohmann::json parse_json(const std::string& text, const std::string& source);
 

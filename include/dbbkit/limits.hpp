@@ -1,0 +1,32 @@
+#pragma once
+// The documented limits of what dbbkit accepts. A value beyond one is bad input
+// (InputError naming the file and key, or the option; exit status 2), never a
+// silent overflow, a loss of rank from round-off or an exhausted memory. Each limit
+// is far beyond any real double ball bar test; README, "Limits", lists them.
+
+#include <cstddef>
+
+namespace dbbkit::limits {
+
+// |L|, |D|, |H| of a ball, a bar length, the reference length, a travel bound [mm]:
+// 10 m. Beyond it the lever arms (1e-3 * e[urad] * P[mm]) leave the range in which
+// the equilibrated Jacobian keeps its rank in double precision.
+constexpr double kMaxLength_mm = 10000.0;
+// Standard uncertainty or half-width of the reading noise [um]: 1e-4 um (far below
+// any instrument's resolution) to 1e4 um (10 mm, the range of a ballbar).
+constexpr double kMinNoise_um = 1e-4;
+constexpr double kMaxNoise_um = 1e4;
+// Order K of a series model (Fourier: 2K + 1 coefficients per error).
+constexpr int kMaxSeriesOrder = 100;
+// Measured angles of one design, installations of one design.
+constexpr std::size_t kMaxAngles = 100000;
+constexpr std::size_t kMaxInstallations = 10000;
+// Readings of one measurement file or one simulation.
+constexpr std::size_t kMaxReadings = 10000000;
+// Bytes of one input file (design, kit, truth, measurement, baseline); a longer or
+// endless input (a FIFO, /dev/zero) is refused once this much has been read.
+constexpr std::size_t kMaxInputBytes = std::size_t{512} << 20;
+// Set-up standard uncertainty of a ball coordinate [mm].
+constexpr double kMaxSetupStd_mm = 100.0;
+
+}  // namespace dbbkit::limits
