@@ -3,8 +3,8 @@
 #   1. the unit and property tests (ctest), then the design gate (`dbbkit bench`);
 #   2. the same suite built by clang with AddressSanitizer and UndefinedBehaviorSanitizer
 #      (less the long statistical studies of stage 1);
-#   3. a short libFuzzer run of every file reader (design, measurement, truth, kit; 30 s each,
-#      on a copy of the committed corpus).
+#   3. a short libFuzzer run of every file reader (design, measurement, truth, kit) and of the
+#      command line's options (cli); 30 s each, on a copy of the committed corpus.
 # DBBKIT_QUICK=1 runs stage 1 only (for quick local iterations; CI runs all three).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -32,12 +32,12 @@ ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:ha
   ctest --test-dir build-san --output-on-failure -j "$jobs" \
   -E 'Coverage|FindsEffect|CleanDataAddsNothing|Exhaustive|ConsumerOfInstalledPackage'
 
-echo "== fuzzing (libFuzzer, 30 s per reader)"
+echo "== fuzzing (libFuzzer, 30 s per target)"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 passed=0
 failed=0
-for target in design measurement truth kit; do
+for target in design measurement truth kit cli; do
   mkdir -p "$work/$target"
   cp tests/fuzz/corpus/"$target"/* "$work/$target/"
   if ./build-san/tests/fuzz/fuzz_"$target" -max_total_time=30 -timeout=10 -rss_limit_mb=2048 \

@@ -13,38 +13,11 @@
 #include <string>
 
 #include "dbbkit/io/report.hpp"
+#include "cli_util.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
 namespace {
-
-struct CliRun {
-  int status = -1;
-  std::string out, err;
-};
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-// Runs a shell command line, capturing its stdout and stderr.
-CliRun run_cli_shell(const std::string& command) {
-  const auto dir = std::filesystem::temp_directory_path();
-  const std::string out = (dir / ("dbbkit_cli_out_" + std::to_string(::getpid()))).string();
-  const std::string err = out + ".err";
-  const std::string cmd = command + " > " + out + " 2> " + err;
-  const int raw = std::system(cmd.c_str());
-  CliRun r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  std::filesystem::remove(out);
-  std::filesystem::remove(err);
-  return r;
-}
-
-CliRun run_cli(const std::string& args) { return run_cli_shell(std::string(DBBKIT_CLI) + " " + args); }
 
 std::string bad(const std::string& name) { return test::source_path("tests/data/bad/" + name); }
 const std::string kDesignC = test::source_path("designs/paper-c-turntable.json");
@@ -146,6 +119,16 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"kit_missing_reference_length.json", kOptimize, "reference_length_mm", "required key is missing"},
         BadCase{"kit_range_over_a_turn.json", kOptimize, "angles_deg.range", "more than one turn"},
         BadCase{"kit_syntax_error.json", kOptimize, "line 5", "not valid JSON"},
+        // Absurd values (README, "Limits"): refused where read, never a silent loss of rank or an abort.
+        BadCase{"design_ball_L_huge.json", kIdentifyDesign, "installations[0].ball_mm.L", "within +-10000 mm"},
+        BadCase{"design_noise_huge.json", kIdentifyDesign, "noise.std_um", "[1e-4, 1e4]"},
+        BadCase{"design_noise_tiny.json", kIdentifyDesign, "noise.std_um", "[1e-4, 1e4]"},
+        BadCase{"design_order_huge.json", kIdentifyDesign, "errors.order", "at most 100"},
+        BadCase{"design_too_many_angles.json", kIdentifyDesign, "angles_deg.step", "more than 100000 angles"},
+        BadCase{"data_hex_float.csv", kIdentifyDataC, "line 2, column reading_mm", "decimal notation"},
+        BadCase{"truth_angle_twice.json", kSimulateC, "errors.values[18].angle_deg", "with other values"},
+        BadCase{"truth_many_sweeps.json", kSimulateC, "schedule.sweeps", "more than 100 sweeps"},
+        BadCase{"truth_too_many_repeats.json", kSimulateC, "repeats", "more than 10000000 readings"},
         BadCase{"baseline_bad_tolerance.json", kBench, "tolerance_relative", "fraction"},
         BadCase{"baseline_unknown_key.json", kBench, "designs.paper-c-turntable.json.worst_std", "unknown key"}),
     [](const auto& info) {

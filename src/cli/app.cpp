@@ -1,0 +1,54 @@
+#include "app.hpp"
+
+#include <set>
+#include <string>
+
+#include "checks.hpp"
+#include "report_options.hpp"
+
+namespace dbbkit::cli {
+
+namespace {
+std::string g_command_line;
+}
+
+const std::string& command_line() { return g_command_line; }
+
+void set_command_line(int argc, const char* const* argv) {
+  std::string line = "dbbkit";
+  for (int i = 1; i < argc; ++i) line += std::string(" ") + argv[i];
+  g_command_line = line;
+}
+
+std::unique_ptr<CommandLine> make_command_line() {
+  auto cl = std::make_unique<CommandLine>();
+  CLI::App& app = cl->app;
+  app.set_version_flag("--version", std::string(DBBKIT_VERSION));
+  app.require_subcommand(1);
+  auto add = [&](Runner (*adder)(CLI::App&)) {
+    const size_t before = app.get_subcommands({}).size();
+    Runner run = adder(app);
+    cl->commands.emplace_back(app.get_subcommands({}).at(before), run);
+  };
+  add(add_identify);
+  add(add_simulate);
+  add(add_evaluate);
+  add(add_diagnose);
+  add(add_optimize);
+  add(add_bench);
+  // Every option that names a file: an empty path is refused where it is read.
+  const std::set<std::string> path_options = {"--design", "--data",     "--out",          "--report",  "--summary",
+                                              "--kit",    "--result",   "--reference",    "--pareto-csv",
+                                              "--map-csv", "--truth",   "--baseline",     "--write-baseline",
+                                              "designs"};
+  for (auto& [sub, run] : cl->commands) {
+    for (CLI::Option* opt : sub->get_options()) {
+      if (path_options.count(opt->get_name()) || path_options.count(opt->get_single_name())) {
+        opt->check(path_value());
+      }
+    }
+  }
+  return cl;
+}
+
+}  // namespace dbbkit::cli

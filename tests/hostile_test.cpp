@@ -1,0 +1,220 @@
+// Hostile paths, options and interruptions: every case asserts the exit status, the
+// message naming the file or option, and that nothing outside the requested outputs
+// was touched or left behind (output.hpp, README "Limits"). The absurd values of the
+// input files are in the bad-input catalogue of cli_test.cpp.
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "cli_util.hpp"
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kDesignC = test::source_path("designs/paper-c-turntable.json");
+const std::string kDataC = test::source_path("tests/data/paper/paper_c_turntable.csv");
+
+// A fresh directory per test, removed at the end.
+class Hostile : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string t = (fs::temp_directory_path() / "dbbkit-hostile-XXXXXX").string();
+    ASSERT_NE(::mkdtemp(t.data()), nullptr);
+    dir_ = t;
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::permissions(dir_, fs::perms::owner_all, ec);
+    fs::remove_all(dir_, ec);
+  }
+  std::string path(const std::string& name) const { return (fs::path(dir_) / name).string(); }
+  void write(const std::string& name, const std::string& content) const { std::ofstream(path(name)) << content; }
+  // Names in the directory, sorted.
+  std::vector<std::string> listing() const {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir_)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  }
+  // No temporary of an output (".NAME.dbbkit-XXXXXX") is left in the directory.
+  bool no_temporaries() const {
+    for (const std::string& n : listing()) {
+      if (n.find(".dbbkit-") != std::string::npos) return false;
+    }
+    return true;
+  }
+  std::string dir_;
+};
+
+TEST_F(Hostile, AnInputAtTheTemporaryNameIsNeitherReadAsOutputNorDestroyed) {
+  fs::copy_file(kDesignC, path("x.json.tmp"));
+  const CliRun r = run_cli("evaluate --quiet --design " + path("x.json.tmp") + " --out " + path("x.json"));
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(slurp(path("x.json.tmp")), slurp(kDesignC));
+  EXPECT_NO_THROW((void)nlohmann::json::parse(slurp(path("x.json"))));
+  EXPECT_TRUE(no_temporaries());
+}
+
+TEST_F(Hostile, ASymlinkPlantedAtTheOldTemporaryNameIsNotWrittenThrough) {
+  write("victim", "keep me\n");
+  fs::create_symlink(path("victim"), path("x.json.tmp"));
+  const CliRun r = run_cli("evaluate --quiet --design " + kDesignC + " --out " + path("x.json"));
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(slurp(path("victim")), "keep me\n");
+  EXPECT_TRUE(fs::is_symlink(path("x.json.tmp")));
+  EXPECT_TRUE(no_temporaries());
+}
+
+TEST_F(Hostile, AFifoTargetIsRefusedAndStaysAFifo) {
+  ASSERT_EQ(::mkfifo(path("f").c_str(), 0600), 0);
+  const CliRun r = run_cli("evaluate --quiet --design " + kDesignC + " --out " + path("f"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--out: exists and is not a regular file"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::is_fifo(path("f")));
+  EXPECT_TRUE(no_temporaries());
+}
+
+TEST_F(Hostile, ADeviceTargetIsRefusedAndStaysADevice) {
+  const CliRun r = run_cli("evaluate --quiet --design " + kDesignC + " --report /dev/null");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("/dev/null: --report: exists and is not a regular file"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+}
+
+TEST_F(Hostile, ADirectoryTargetAndAMissingDirectoryAreRefused) {
+  CliRun r = run_cli("evaluate --quiet --design " + kDesignC + " --out " + dir_);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("is a directory"), std::string::npos) << r.err;
+  r = run_cli("evaluate --quiet --design " + kDesignC + " --out " + path("no/such/dir/x.json"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
+  EXPECT_TRUE(listing().empty());
+}
+
+TEST_F(Hostile, AReadOnlyDirectoryFailsAndLeavesNothing) {
+  // Permissions do not bind root: as root, the command runs as the user nobody (setpriv).
+  std::string prefix;
+  if (::geteuid() == 0) {
+    if (std::system("command -v setpriv > /dev/null") != 0) GTEST_SKIP() << "root without setpriv";
+    prefix = "setpriv --reuid=65534 --regid=65534 --clear-groups ";
+  }
+  fs::permissions(dir_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                            fs::perms::others_read | fs::perms::others_exec);
+  fs::create_directory(path("ro"));
+  fs::permissions(path("ro"), fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                                  fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+  const CliRun r = run_cli_shell(prefix + std::string(DBBKIT_CLI) + " evaluate --quiet --design " + kDesignC +
+                                 " --out " + path("ro/x.json"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("cannot create a file in"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::is_empty(path("ro")));
+}
+
+TEST_F(Hostile, AFullStandardOutputIsAnError) {
+  for (const std::string& cmd : {"evaluate --design " + kDesignC + " --out -",
+                                 "identify --design " + kDesignC + " --data " + kDataC}) {
+    const CliRun r = run_cli_shell("(" + std::string(DBBKIT_CLI) + " " + cmd + " > /dev/full)");
+    EXPECT_EQ(r.status, 2) << cmd;
+    EXPECT_NE(r.err.find("standard output: cannot write"), std::string::npos) << r.err;
+  }
+}
+
+TEST_F(Hostile, OneFileForTwoOutputsAndAnEmptyPathAreRefused) {
+  CliRun r = run_cli("evaluate --design " + kDesignC + " --out " + path("x") + " --report " + path("x"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("the same file is the target of two outputs"), std::string::npos) << r.err;
+  r = run_cli("evaluate --design " + kDesignC + " --out ''");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--out: an empty path"), std::string::npos) << r.err;
+  r = run_cli("identify --design '' --data " + kDataC);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--design: an empty path"), std::string::npos) << r.err;
+  EXPECT_TRUE(listing().empty());
+}
+
+TEST_F(Hostile, AReportThatFailsLateLeavesNoOutputAndTheOldFileIntact) {
+  // gnuplot not on PATH: the report fails after the result is computed. The JSON asked
+  // for beside it must not be written, and the file it would replace must stay as it was.
+  write("x.json", "old\n");
+  const CliRun r = run_cli_shell("PATH=/nonexistent " + std::string(DBBKIT_CLI) + " identify --quiet --design " +
+                                 kDesignC + " --data " + kDataC + " --out " + path("x.json") + " --summary " +
+                                 path("s.md") + " --report " + path("r.html"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("gnuplot"), std::string::npos) << r.err;
+  EXPECT_EQ(slurp(path("x.json")), "old\n");
+  EXPECT_EQ(listing(), std::vector<std::string>{"x.json"});
+}
+
+TEST_F(Hostile, AnInterruptedRunLeavesNoTemporaryAnywhere) {
+  // TERM at several moments of a run that computes, draws plots (gnuplot temporaries)
+  // and writes three outputs. Whatever the moment, no temporary is left in the output
+  // directory or in TMPDIR, and an output that exists is complete.
+  fs::create_directory(path("tmp"));
+  fs::create_directory(path("out"));
+  for (const char* delay : {"0.05", "0.3", "0.6", "1.0", "1.5"}) {
+    const std::string cmd = "TMPDIR=" + path("tmp") + " " + std::string(DBBKIT_CLI) + " evaluate --quiet --design " +
+                            kDesignC + " --monte-carlo --mc-max-trials 400000 --mc-threads 1 --out " +
+                            path("out/e.json") + " --report " + path("out/e.html") + " --summary " +
+                            path("out/e.md") + " & p=$!; sleep " + delay + "; kill -TERM $p 2>/dev/null; wait $p";
+    run_cli_shell(cmd);
+    EXPECT_TRUE(fs::is_empty(path("tmp"))) << "after " << delay << " s";
+    for (const auto& e : fs::directory_iterator(path("out"))) {
+      const std::string n = e.path().filename().string();
+      EXPECT_EQ(n.find(".dbbkit-"), std::string::npos) << n << " after " << delay << " s";
+      if (n == "e.json") EXPECT_NO_THROW((void)nlohmann::json::parse(slurp(e.path().string())));
+    }
+  }
+}
+
+struct OptionCase {
+  std::string args;
+  std::string message;
+};
+
+class HostileOption : public ::testing::TestWithParam<OptionCase> {};
+
+TEST_P(HostileOption, ExitsTwoNamingTheOption) {
+  std::string args = GetParam().args;
+  for (const auto& [key, value] : {std::pair<std::string, std::string>{"{C}", kDesignC}, {"{data}", kDataC},
+                                   {"{kit}", test::source_path("tests/fuzz/corpus/kit/small_c.json")}}) {
+    for (size_t at; (at = args.find(key)) != std::string::npos;) args.replace(at, key.size(), value);
+  }
+  const CliRun r = run_cli(args);
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find(GetParam().message), std::string::npos) << r.err;
+  EXPECT_TRUE(r.out.empty());
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Catalogue, HostileOption,
+    ::testing::Values(OptionCase{"optimize --kit {kit} --threads 100000", "--threads: '100000' is outside [0, 256]"},
+                      OptionCase{"optimize --kit {kit} --threads -3", "--threads: '-3' is outside"},
+                      OptionCase{"evaluate --design {C} --monte-carlo --mc-threads 100000", "--mc-threads"},
+                      OptionCase{"diagnose --design {C} --data {data} --level nan", "--level: 'nan' is not a number"},
+                      OptionCase{"diagnose --design {C} --data {data} --level 0.5", "--level: '0.5' is outside"},
+                      OptionCase{"diagnose --design {C} --data {data} --max-effects 1e3", "--max-effects"},
+                      OptionCase{"evaluate --design {C} --reference-length-mm inf", "--reference-length-mm"},
+                      OptionCase{"evaluate --design {C} --reference-length-mm -5", "--reference-length-mm"},
+                      OptionCase{"evaluate --design {C} --coverage 1.5", "--coverage"},
+                      OptionCase{"evaluate --design {C} --coverage nan", "--coverage"},
+                      OptionCase{"simulate --design {C} --truth {C} --seed -1", "--seed: '-1' is not a seed"},
+                      OptionCase{"evaluate --design {C} --monte-carlo --mc-seed 0x10", "--mc-seed"},
+                      OptionCase{"evaluate --design {C} --monte-carlo --mc-max-trials 1000000000",
+                                 "max_trials: 1000000000 trials of 108 values would keep"},
+                      OptionCase{"evaluate --design {C} --monte-carlo --mc-batch 0", "--mc-batch"},
+                      OptionCase{"bench {C} --tolerance inf", "--tolerance"},
+                      OptionCase{"evaluate --design /dev/zero", "/dev/zero: longer than 512 MiB"},
+                      OptionCase{"evaluate --design /tmp", "/tmp: is a directory"}));
+
+}  // namespace
+}  // namespace dbbkit
