@@ -93,6 +93,13 @@ int Design::find_installation(const std::string& id) const {
   return -1;
 }
 
+std::unordered_map<std::string, int> Design::installation_index() const {
+  std::unordered_map<std::string, int> index;
+  index.reserve(installations.size());
+  for (size_t i = 0; i < installations.size(); ++i) index.emplace(installations[i].id, static_cast<int>(i));
+  return index;
+}
+
 namespace {
 
 void require(bool ok, const std::string& source, const std::string& key, const std::string& what) {

@@ -367,7 +367,7 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
 std::vector<CandidateStatus> effect_detectability(const Design& design, const std::vector<Reading>& readings) {
   const Parameterisation param(design);
   const LinearModel model = build_linear_model(design, param, readings);
-  const int rank = WlsSolver(model.J, model.sigma_um).a_priori().rank;
+  const WlsSolver solver(model.J, model.sigma_um);
   std::vector<CandidateStatus> out;
   for (const EffectBlock& b : candidate_effects(design, readings)) {
     if (!b.not_applicable.empty()) {
@@ -375,10 +375,10 @@ std::vector<CandidateStatus> effect_detectability(const Design& design, const st
       continue;
     }
     const int q = static_cast<int>(b.X.cols());
-    const int r = WlsSolver(append(model.J, b.X), model.sigma_um).a_priori().rank;
-    if (confounded(rank, r, q)) {
+    const int added = added_rank(solver, b.X);
+    if (added < q) {
       out.push_back({b.label, "confounded",
-                     "raises the rank by " + std::to_string(r - rank) + " of " + std::to_string(q) +
+                     "raises the rank by " + std::to_string(added) + " of " + std::to_string(q) +
                          ": indistinguishable from the axis errors of the " + design.errors.describe() + " model"});
     } else {
       out.push_back({b.label, "detectable", ""});

@@ -65,15 +65,20 @@ std::string EffectCandidate::label(const Design& design) const {
 
 std::vector<double> installation_start_times(const Design& design, const std::vector<Reading>& readings) {
   std::vector<double> t0(design.installations.size(), std::numeric_limits<double>::quiet_NaN());
+  const auto index = design.installation_index();
   for (const Reading& r : readings) {
-    const int i = design.find_installation(r.installation);
+    const auto it = index.find(r.installation);
+    const int i = it == index.end() ? -1 : it->second;
     if (i >= 0 && r.time_s && !(t0[i] <= *r.time_s)) t0[i] = *r.time_s;
   }
   return t0;
 }
 
 Eigen::VectorXd effect_row(const Design& design, const Reading& r, double t0_s, const EffectCandidate& e) {
-  const int inst = design.find_installation(r.installation);
+  return effect_row(design, r, design.find_installation(r.installation), t0_s, e);
+}
+
+Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, double t0_s, const EffectCandidate& e) {
   const std::size_t n = effect_parameter_names(e.kind).size();
   Eigen::VectorXd row = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n));
   if (e.installation >= 0 && e.installation != inst) return row;
@@ -123,9 +128,10 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
   const std::vector<double> t0 = installation_start_times(design, readings);
   Eigen::MatrixXd full(static_cast<Eigen::Index>(readings.size()), static_cast<Eigen::Index>(names.size()));
   bool time_missing = false, cw = false, ccw = false, bar_missing = false;
+  const auto index = design.installation_index();
   for (std::size_t i = 0; i < readings.size(); ++i) {
     const Reading& r = readings[i];
-    const int inst = design.find_installation(r.installation);
+    const int inst = index.at(r.installation);
     const bool applies = e.installation < 0 || e.installation == inst;
     if (applies) {
       time_missing = time_missing || !r.time_s;
@@ -133,7 +139,7 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
       ccw = ccw || (r.sweep && *r.sweep == Sweep::CCW);
       bar_missing = bar_missing || !design.installations[inst].bar_mm;
     }
-    full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, t0[inst], e).transpose();
+    full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, t0[inst], e).transpose();
   }
   if (e.kind == EffectKind::Drift && time_missing) b.not_applicable = "needs time_s on every reading it applies to";
   if (e.kind == EffectKind::Reversal && !(cw && ccw)) b.not_applicable = "needs readings of both sweeps (cw and ccw)";

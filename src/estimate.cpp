@@ -184,6 +184,26 @@ Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options) 
   return WlsSolver(model.J, model.sigma_um, options).solve(model.y_um);
 }
 
+int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X, const EstimateOptions& options) {
+  const int q = static_cast<int>(X.cols());
+  if (q == 0 || X.rows() == 0) return 0;
+  const Eigen::VectorXd w = solver.sigma_um().cwiseInverse();
+  Eigen::MatrixXd R = w.asDiagonal() * (X - solver.J() * (solver.gain() * X));
+  const Eigen::VectorXd norms = (w.asDiagonal() * X).colwise().norm().transpose();
+  for (int j = 0; j < q; ++j) {
+    if (norms(j) > 0) {
+      R.col(j) /= norms(j);
+    } else {
+      R.col(j).setZero();
+    }
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(R);
+  const double tol = std::sqrt(options.min_relative_singular_value);
+  int r = 0;
+  for (int k = 0; k < svd.singularValues().size(); ++k) r += svd.singularValues()(k) > tol;
+  return r;
+}
+
 namespace {
 // The nonzero entries of c: values at one angle touch few unknowns.
 std::vector<int> support(const Eigen::VectorXd& c) {

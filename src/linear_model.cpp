@@ -2,6 +2,12 @@
 
 #include "dbbkit/kinematics.hpp"
 
+#include <cmath>
+#include <string>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
+
 namespace dbbkit {
 
 namespace {
@@ -16,6 +22,20 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
                      const std::vector<RowSpec>& rows) {
   const int n = static_cast<int>(rows.size());
   const int p = param.n_parameters();
+  const double dense_bytes = 8.0 * (4.0 * n * p + 3.0 * static_cast<double>(p) * p);
+  if (dense_bytes > limits::kMaxDenseBytes) {
+    const double per_angle = p > 0 && design.angles_deg.size() > 0
+                                 ? static_cast<double>(design.angles_deg.size()) *
+                                       std::sqrt(limits::kMaxDenseBytes / dense_bytes)
+                                 : 0;
+    throw InputError(design.name.empty() ? "design" : design.name, "angles_deg",
+                     std::to_string(n) + " readings of " + std::to_string(p) + " unknowns need " +
+                         std::to_string(static_cast<long long>(dense_bytes / (1 << 20))) +
+                         " MiB in the dense solver, beyond its " +
+                         std::to_string(static_cast<long long>(limits::kMaxDenseBytes) >> 20) +
+                         " MiB limit (README, \"Limits\"): about " + std::to_string(static_cast<long>(per_angle)) +
+                         " angles fit for this design");
+  }
   LinearModel m;
   m.J = Eigen::MatrixXd::Zero(n, p);
   m.y_um.resize(n);
@@ -45,8 +65,9 @@ LinearModel build_linear_model(const Design& design, const Parameterisation& par
                                const std::vector<Reading>& readings) {
   std::vector<RowSpec> rows;
   rows.reserve(readings.size());
+  const auto index = design.installation_index();
   for (const Reading& r : readings) {
-    rows.push_back({design.find_installation(r.installation), r.angle_deg, r.reading_um});
+    rows.push_back({index.at(r.installation), r.angle_deg, r.reading_um});
   }
   return assemble(design, param, rows);
 }

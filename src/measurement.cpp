@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <unordered_map>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/parameterisation.hpp"
@@ -14,10 +15,11 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
   if (readings.empty()) throw InputError(source, "", "no readings");
   const Parameterisation positions(design);
   const auto [lo, hi] = std::minmax_element(design.angles_deg.begin(), design.angles_deg.end());
+  const std::unordered_map<std::string, int> index = design.installation_index();
   for (size_t i = 0; i < readings.size(); ++i) {
     const Reading& r = readings[i];
     const std::string where = r.line > 0 ? "line " + std::to_string(r.line) : "reading " + std::to_string(i);
-    if (design.find_installation(r.installation) < 0) {
+    if (!index.count(r.installation)) {
       throw InputError(source, where, "installation '" + r.installation + "' is not in the design");
     }
     if (!std::isfinite(r.angle_deg)) throw InputError(source, where, "angle is not a finite number");

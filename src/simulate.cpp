@@ -180,14 +180,15 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
     if (truth.schedule) t += truth.schedule->per_installation_s;
   }
   const std::vector<double> t0 = installation_start_times(design, out);
+  const auto index = design.installation_index();
   for (Reading& reading : out) {
-    const int i = design.find_installation(reading.installation);
+    const int i = index.at(reading.installation);
     double value = J_reading_error(design.axis, design.installations[i], reading.angle_deg) *
                    truth_errors(truth, design.axis, reading.angle_deg);
     for (const TruthEffect& e : truth.effects) {
       EffectCandidate c = e.effect;
       c.installation = e.installation.empty() ? -1 : design.find_installation(e.installation);
-      value += effect_row(design, reading, t0[i], c).dot(e.value);
+      value += effect_row(design, reading, i, t0[i], c).dot(e.value);
     }
     reading.reading_um = value + draw();
   }

@@ -7,6 +7,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace dbbkit {
@@ -93,6 +94,9 @@ struct Design {
 
   // Index of the installation with this id, or -1.
   int find_installation(const std::string& id) const;
+  // The index of each id in one pass (hash map): for loops over many readings,
+  // where find_installation per reading would be quadratic in the installations.
+  std::unordered_map<std::string, int> installation_index() const;
 };
 
 // The noise is positive and finite; a series suits the axis (Fourier: C, Legendre: B).

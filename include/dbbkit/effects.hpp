@@ -43,6 +43,9 @@ struct EffectCandidate {
 
 // Per reading, the full-length row of the effect; `t0_s` the first time of the reading's installation.
 Eigen::VectorXd effect_row(const Design& design, const Reading& reading, double t0_s, const EffectCandidate& effect);
+// The same, with the reading's installation index already known (loops over readings).
+Eigen::VectorXd effect_row(const Design& design, const Reading& reading, int installation, double t0_s,
+                           const EffectCandidate& effect);
 
 // First time_s of every installation (NaN when it has no time).
 std::vector<double> installation_start_times(const Design& design, const std::vector<Reading>& readings);

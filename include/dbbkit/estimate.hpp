@@ -94,4 +94,18 @@ class WlsSolver {
 
 Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options = {});
 
+// The rank that extra columns X (n x q, um per unit) add to the model of `solver`,
+// without factorising [J X] (Frisch-Waugh-Lovell): with G the solver's gain, J G is
+// the projector onto what J can reproduce, so the new directions are those of
+//   R = Sigma^-1/2 (X - J G X),
+// each column divided by |Sigma^-1/2 X_j| (a column the model reproduces exactly has
+// |R_j| at rounding level). A singular value s of R counts when
+//   s > sqrt(min_relative_singular_value),
+// i.e. when more than 1e-4.5 of the column (in norm) is out of reach of J: the square
+// root because R is a difference of two nearly equal vectors, whose rounding error is
+// of the order of sqrt(eps)-relative for a J of condition number up to 1e8. The work
+// is that of G X: linear in the readings for a per-angle model, where the factorised
+// [J X] couples every station into one block.
+int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X, const EstimateOptions& options = {});
+
 }  // namespace dbbkit

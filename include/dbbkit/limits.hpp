@@ -26,6 +26,12 @@ constexpr std::size_t kMaxReadings = 10000000;
 // Bytes of one input file (design, kit, truth, measurement, baseline); a longer or
 // endless input (a FIFO, /dev/zero) is refused once this much has been read.
 constexpr std::size_t kMaxInputBytes = std::size_t{512} << 20;
+// Memory of the dense solver for one model: the Jacobian and its whitened copy
+// (n x p each), the gain (p x n) and the covariance (p x p, twice), 8 bytes each:
+//   8 (4 n p + 3 p^2) <= kMaxDenseBytes.
+// A larger model is refused before any allocation, naming the size. For a per-angle
+// C design of 7 installations this allows about 1,390 angles (a 0.26 deg step).
+constexpr double kMaxDenseBytes = 4.0 * (1 << 30);
 // Set-up standard uncertainty of a ball coordinate [mm].
 constexpr double kMaxSetupStd_mm = 100.0;
 
