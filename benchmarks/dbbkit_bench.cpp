@@ -16,6 +16,7 @@
 #include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/simulate.hpp"
+#include "dbbkit/diagnose.hpp"
 
 namespace {
 
@@ -112,5 +113,60 @@ BENCHMARK(BM_IdentifyFourier)
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace
+
+// Growth with the size of the design (issue of linear time and memory): the paper's C
+// design at step 360/a deg (a angles, per angle), evaluate_design plus the effect
+// detectability that `evaluate` reports; and a C design of k installations at 20 deg.
+// The complexity fit is printed beside the times; RESULTS.md keeps the growth tables.
+Design scaled_c(int angles, int installations) {
+  Design d = paper_c();
+  if (angles > 0) {
+    d.angles_deg.clear();
+    for (int i = 0; i <= angles; ++i) d.angles_deg.push_back(360.0 * i / angles);
+  }
+  if (installations > 0) {
+    const std::vector<Installation> base = d.installations;
+    d.installations.clear();
+    for (int k = 0; k < installations; ++k) {
+      Installation in = base[k % base.size()];
+      in.id = "i" + std::to_string(k);
+      if (in.L_mm > 0) in.L_mm += 0.4 * k;
+      d.installations.push_back(in);
+    }
+  }
+  return d;
+}
+
+std::vector<Reading> nominal_readings(const Design& d) {
+  std::vector<Reading> r;
+  for (const Installation& in : d.installations) {
+    for (double a : d.angles_deg) r.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
+  }
+  return r;
+}
+
+void BM_EvaluateGrowthAngles(benchmark::State& state) {
+  const Design d = scaled_c(static_cast<int>(state.range(0)), 0);
+  const std::vector<Reading> r = nominal_readings(d);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(evaluate_design(d, 100.0).worst.worst_std_um);
+    benchmark::DoNotOptimize(effect_detectability(d, r).size());
+  }
+  state.SetComplexityN(state.range(0));
+}
+BENCHMARK(BM_EvaluateGrowthAngles)->Arg(18)->Arg(36)->Arg(72)->Arg(144)->Arg(288)->Arg(576)->Complexity()
+    ->Unit(benchmark::kMillisecond);
+
+void BM_EvaluateGrowthInstallations(benchmark::State& state) {
+  const Design d = scaled_c(0, static_cast<int>(state.range(0)));
+  const std::vector<Reading> r = nominal_readings(d);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(evaluate_design(d, 100.0).worst.worst_std_um);
+    benchmark::DoNotOptimize(effect_detectability(d, r).size());
+  }
+  state.SetComplexityN(state.range(0));
+}
+BENCHMARK(BM_EvaluateGrowthInstallations)->Arg(7)->Arg(28)->Arg(112)->Arg(500)->Complexity()
+    ->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

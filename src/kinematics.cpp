@@ -85,4 +85,21 @@ double exact_reading_um(Axis axis, const Installation& inst, double angle_deg, c
   return 1e3 * ((P_actual - F).norm() - (P - F).norm());
 }
 
+double exact_setup_reading_um(Axis axis, const Installation& inst, double angle_deg, const Vector6d& e6,
+                              double bar_mm, const SetupError& setup) {
+  Installation placed = inst;
+  placed.L_mm += setup.ball_mm(0);
+  placed.D_mm += setup.ball_mm(1);
+  if (axis == Axis::C) placed.H_mm += setup.ball_mm(2);
+  const Eigen::Vector3d P_nominal = ball_position_mm(axis, inst, angle_deg);
+  const Eigen::Vector3d u = direction_machine(axis, inst, angle_deg);
+  const Eigen::Vector3d F = P_nominal - inst.sign * bar_mm * u + 1e-3 * setup.centring_um;
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(1e-6 * e6(3), Eigen::Vector3d::UnitX()) *
+                             Eigen::AngleAxisd(1e-6 * e6(4), Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(1e-6 * e6(5), Eigen::Vector3d::UnitZ()))
+                                .toRotationMatrix();
+  const Eigen::Vector3d P = R * ball_position_mm(axis, placed, angle_deg) + 1e-3 * e6.head<3>();
+  return 1e3 * ((P - F).norm() - bar_mm) + setup.length_offset_um;
+}
+
 }  // namespace dbbkit

@@ -37,6 +37,29 @@ Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std
 
 void validate_truth(const Truth& truth, const Design& design, const std::string& source) {
   if (truth.repeats < 1) throw InputError(source, "repeats", "must be an integer >= 1");
+  if (truth.exact) {
+    if (truth.bar_mm && !(length_within_limits(*truth.bar_mm) && *truth.bar_mm > 0)) {
+      throw InputError(source, "bar_mm", "must be a positive length in mm, at most 10000 mm");
+    }
+    for (size_t i = 0; i < design.installations.size(); ++i) {
+      if (!design.installations[i].bar_mm && !truth.bar_mm) {
+        throw InputError(source, "geometry", "the exact geometry needs the bar: installation '" +
+                                                 design.installations[i].id +
+                                                 "' of the design has no bar_mm, and the truth gives no bar_mm");
+      }
+    }
+  } else if (!truth.setup_given.empty() || truth.setup_draw.length_offset_um > 0 || truth.setup_draw.centring_um > 0 ||
+             (truth.setup_draw.ball_mm.array() != 0).any()) {
+    throw InputError(source, "setup", "set-up errors need \"geometry\": \"exact\"");
+  }
+  for (const auto& [id, given] : truth.setup_given) {
+    if (design.find_installation(id) < 0) {
+      throw InputError(source, "setup.installations." + id, "installation '" + id + "' is not in the design");
+    }
+    if (design.axis == Axis::B && given.ball_mm(2) != 0) {
+      throw InputError(source, "setup.installations." + id + ".ball_mm.H", "H is not used for the swinging head B");
+    }
+  }
   if (truth.model.order > limits::kMaxSeriesOrder) {
     throw InputError(source, "errors.order", "must be at most " + std::to_string(limits::kMaxSeriesOrder));
   }
@@ -144,6 +167,25 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
   }
 }
 
+std::vector<SetupError> simulated_setup_errors(const Design& design, const Truth& truth, std::uint64_t seed) {
+  std::vector<SetupError> out(design.installations.size());
+  if (!truth.exact) return out;
+  std::mt19937_64 rng(seed ^ 0x5e7a9ull);  // a stream of its own: the noise draws stay as without set-up
+  std::normal_distribution<double> n01;
+  const Truth::SetupDraw& s = truth.setup_draw;
+  for (SetupError& e : out) {
+    e.length_offset_um = s.length_offset_um * n01(rng);
+    for (int k = 0; k < 3; ++k) e.centring_um(k) = s.centring_um * n01(rng);
+    for (int k = 0; k < 3; ++k) e.ball_mm(k) = s.ball_mm(k) * n01(rng);
+    if (design.axis == Axis::B) e.ball_mm(2) = 0;
+  }
+  for (const auto& [id, given] : truth.setup_given) {
+    const int i = design.find_installation(id);
+    if (i >= 0) out[static_cast<size_t>(i)] = given;
+  }
+  return out;
+}
+
 std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uint64_t seed) {
   validate_truth(truth, design);
   std::mt19937_64 rng(seed);
@@ -181,10 +223,18 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
   }
   const std::vector<double> t0 = installation_start_times(design, out);
   const auto index = design.installation_index();
+  const std::vector<SetupError> setup = simulated_setup_errors(design, truth, seed);
   for (Reading& reading : out) {
     const int i = index.at(reading.installation);
-    double value = J_reading_error(design.axis, design.installations[i], reading.angle_deg) *
-                   truth_errors(truth, design.axis, reading.angle_deg);
+    const Installation& inst = design.installations[i];
+    const Vector6d e = truth_errors(truth, design.axis, reading.angle_deg);
+    double value = 0;
+    if (truth.exact) {
+      value = exact_setup_reading_um(design.axis, inst, reading.angle_deg, e, inst.bar_mm.value_or(*truth.bar_mm),
+                                     setup[i]);
+    } else {
+      value = J_reading_error(design.axis, inst, reading.angle_deg) * e;
+    }
     for (const TruthEffect& e : truth.effects) {
       EffectCandidate c = e.effect;
       c.installation = e.installation.empty() ? -1 : design.find_installation(e.installation);

@@ -359,3 +359,42 @@ TEST(Report, IdentifyWritesHtmlWithPlotsAndAMarkdownSummary) {
 
 }  // namespace
 }  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+TEST(Cli, SimulateExactGeometryWritesTheSetUpErrorsUsed) {
+  const auto dir = std::filesystem::temp_directory_path();
+  const std::string csv = (dir / ("dbbkit_exact_" + std::to_string(::getpid()) + ".csv")).string();
+  const std::string setup = csv + ".setup.json";
+  const CliRun r = run_cli("simulate --design " + test::source_path("designs/paper-c-turntable.json") + " --truth " +
+                           test::source_path("tests/data/truth_exact_setup.json") + " --out " + csv +
+                           " --setup-out " + setup);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json s = nlohmann::json::parse(slurp(setup));
+  EXPECT_EQ(s["format"], "dbbkit.setup-errors/1");
+  ASSERT_EQ(s["installations"].size(), 7u);
+  int drawn_nonzero = 0;
+  for (const auto& in : s["installations"]) {
+    if (in["id"] == "3r") {
+      EXPECT_EQ(in["centring_um"], nlohmann::json({6.0, -3.0, 0.0}));
+      EXPECT_EQ(in["length_offset_um"], 0.0);
+    } else {
+      drawn_nonzero += in["length_offset_um"].get<double>() != 0.0;
+    }
+  }
+  EXPECT_EQ(drawn_nonzero, 6);
+  // A first-order truth has no set-up errors to write: refused, and no file is left.
+  std::filesystem::remove(csv);
+  std::filesystem::remove(setup);
+  const CliRun bad = run_cli("simulate --design " + test::source_path("designs/paper-c-turntable.json") + " --truth " +
+                             test::source_path("tests/data/truth_c_per_angle.json") + " --out " + csv +
+                             " --setup-out " + setup);
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.err.find("--setup-out"), std::string::npos) << bad.err;
+  EXPECT_FALSE(std::filesystem::exists(csv));
+  EXPECT_FALSE(std::filesystem::exists(setup));
+}
+
+}  // namespace
+}  // namespace dbbkit

@@ -47,4 +47,21 @@ RowVector6d J_reading_error(Axis axis, const Installation& inst, double angle_de
 double exact_reading_um(Axis axis, const Installation& inst, double angle_deg, const Vector6d& e6,
                         double bar_mm);
 
+// The set-up of one installation as it really is, against the design.
+struct SetupError {
+  double length_offset_um = 0;                              // zero (length) error of the bar as mounted
+  Eigen::Vector3d centring_um = Eigen::Vector3d::Zero();    // offset of the following ball's path centre, machine frame
+  Eigen::Vector3d ball_mm = Eigen::Vector3d::Zero();        // ball as placed minus as designed: (dL, dD, dH)
+};
+
+// The exact two-ball reading with a real set-up, no linearisation anywhere:
+//   B0 = ball_body(L + dL, D + dD, H + dH)     the ball as placed (body frame),
+//   P  = Trans(d) Rx(ex) Ry(ey) Rz(ez) R(angle) B0   where it really is,
+//   F  = R(angle) ball_body(L, D, H) - s bar u + c   the following ball, on the nominal
+//        path the machine was programmed for, shifted by the centring c,
+//   reading = |P - F| - bar + length_offset   [um].
+// With a zero set-up and zero errors it reads 0 exactly.
+double exact_setup_reading_um(Axis axis, const Installation& inst, double angle_deg, const Vector6d& e6,
+                              double bar_mm, const SetupError& setup);
+
 }  // namespace dbbkit

@@ -1,7 +1,10 @@
 #pragma once
 // Synthetic readings from a declared truth: the errors of the axis (per angle
 // or as a series), the instrument noise and a seed. Readings follow the
-// first-order model of model.md §2: reading = s u.dP + noise.
+// first-order model of model.md §2, reading = s u.dP + noise, or, with
+// geometry "exact", the exact two-ball geometry with a real set-up
+// (exact_setup_reading_um): so that a test of the model is not checked by the
+// model it tests.
 
 #include <array>
 #include <cstdint>
@@ -43,7 +46,24 @@ struct Truth {
   std::optional<std::uint64_t> seed;
   std::vector<TruthEffect> effects;
   std::optional<Schedule> schedule;  // absent: no time_s and no sweep in the readings
+
+  // Exact two-ball geometry (exact_setup_reading_um) instead of the first-order rows.
+  bool exact = false;
+  std::optional<double> bar_mm;  // exact: bar of the installations without bar_mm in the design
+  // Set-up errors (exact geometry only): drawn per installation from normal
+  // distributions of these standard uncertainties, or given per installation id.
+  struct SetupDraw {
+    double length_offset_um = 0;
+    double centring_um = 0;  // per machine axis of the following ball's path centre
+    Eigen::Vector3d ball_mm = Eigen::Vector3d::Zero();  // L, D, H
+  } setup_draw;
+  std::vector<std::pair<std::string, SetupError>> setup_given;
 };
+
+// The set-up error of every installation of a simulation (design order): given,
+// or drawn from setup_draw with a generator of its own seeded by `seed` (the noise
+// draws do not depend on it). Zero for a first-order truth.
+std::vector<SetupError> simulated_setup_errors(const Design& design, const Truth& truth, std::uint64_t seed);
 
 // The true errors at an angle. Throws InputError when a per-angle truth has no
 // value at that position.

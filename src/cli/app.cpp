@@ -39,7 +39,7 @@ std::unique_ptr<CommandLine> make_command_line() {
   // Every option that names a file: an empty path is refused where it is read.
   const std::set<std::string> path_options = {"--design", "--data",     "--out",          "--report",  "--summary",
                                               "--kit",    "--result",   "--reference",    "--pareto-csv",
-                                              "--map-csv", "--truth",   "--baseline",     "--write-baseline",
+                                              "--map-csv", "--truth", "--setup-out",   "--baseline",     "--write-baseline",
                                               "designs"};
   for (auto& [sub, run] : cl->commands) {
     for (CLI::Option* opt : sub->get_options()) {

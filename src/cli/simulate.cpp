@@ -15,7 +15,7 @@ namespace dbbkit::cli {
 
 namespace {
 struct SimulateArgs {
-  std::string design, truth, out;
+  std::string design, truth, out, setup_out;
   std::optional<std::uint64_t> seed;
 };
 }  // namespace
@@ -28,8 +28,12 @@ Runner add_simulate(CLI::App& app) {
   sub->add_option("--seed", args->seed, "Seed of the noise generator (overrides the truth file's seed)")
       ->check(seed_value());
   sub->add_option("--out", args->out, "Measurement CSV; '-' or absent: stdout");
+  sub->add_option("--setup-out", args->setup_out,
+                  "The set-up errors used (dbbkit.setup-errors/1 JSON; exact geometry), drawn or given");
   return [args]() {
-    io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}}, {args->design, args->truth});
+    std::vector<io::OutputTarget> targets = {{"--out", args->out.empty() ? "-" : args->out}};
+    if (!args->setup_out.empty()) targets.push_back({"--setup-out", args->setup_out});
+    io::OutputSet outputs(targets, {args->design, args->truth});
     const Design design = io::read_design_file(args->design);
     const Truth truth = io::read_truth_file(args->truth);
     validate_truth(truth, design, args->truth);
@@ -40,6 +44,12 @@ Runner add_simulate(CLI::App& app) {
     std::ostringstream csv;
     io::write_measurements_csv(csv, simulate(design, truth, seed.value_or(0)));
     outputs.stage("--out", csv.str());
+    if (!args->setup_out.empty()) {
+      if (!truth.exact) throw InputError("--setup-out", "", "set-up errors are simulated with \"geometry\": \"exact\" only");
+      outputs.stage("--setup-out",
+                    io::setup_errors_to_json(design, simulated_setup_errors(design, truth, seed.value_or(0))).dump(2) +
+                        "\n");
+    }
     outputs.commit();
     return 0;
   };

@@ -1,5 +1,7 @@
 #include "dbbkit/io/truth_io.hpp"
 
+#include <cmath>
+
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
@@ -115,6 +117,67 @@ Truth truth_from_json(const json& j, const std::string& source) {
     o.finish();
     t.schedule = s;
   }
+  if (const auto g = top.optional_string("geometry")) {
+    if (*g != "first_order" && *g != "exact") top.fail("geometry", "'" + *g + "' is not a geometry (first_order or exact)");
+    t.exact = *g == "exact";
+  }
+  t.bar_mm = top.optional_number("bar_mm");
+  if (const json* su = top.optional("setup")) {
+    ObjectReader s(*su, source, "setup");
+    // A size in um or mm: finite, >= 0 for a standard uncertainty, within the documented limits.
+    auto size = [&](ObjectReader& o, const std::string& key, double limit, bool signed_value) -> double {
+      const double x = o.number(key);
+      if (!std::isfinite(x) || std::abs(x) > limit || (!signed_value && x < 0)) {
+        o.fail(key, signed_value ? "must be a finite number within +-" + std::to_string(limit)
+                                 : "must be a standard uncertainty in [0, " + std::to_string(limit) + "]");
+      }
+      return x;
+    };
+    auto ball = [&](ObjectReader& o, bool signed_value) {
+      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      if (const json* bm = o.optional("ball_mm")) {
+        ObjectReader r(*bm, source, o.key_path("ball_mm"));
+        const char* names[] = {"L", "D", "H"};
+        for (int k = 0; k < 3; ++k) {
+          if (r.has(names[k])) b(k) = size(r, names[k], 100.0, signed_value);
+        }
+        r.finish();
+      }
+      return b;
+    };
+    if (const json* d = s.optional("draw")) {
+      ObjectReader r(*d, source, "setup.draw");
+      if (r.has("length_offset_um")) t.setup_draw.length_offset_um = size(r, "length_offset_um", 1e4, false);
+      if (r.has("centring_um")) t.setup_draw.centring_um = size(r, "centring_um", 1e4, false);
+      t.setup_draw.ball_mm = ball(r, false);
+      r.finish();
+    }
+    if (const json* given = s.optional("installations")) {
+      if (!given->is_object()) s.fail("installations", "expected {\"<id>\": {length_offset_um, centring_um, ball_mm}}");
+      for (auto it = given->begin(); it != given->end(); ++it) {
+        ObjectReader r(it.value(), source, "setup.installations." + it.key());
+        SetupError e;
+        if (r.has("length_offset_um")) e.length_offset_um = size(r, "length_offset_um", 1e4, true);
+        if (const json* c = r.optional("centring_um")) {
+          const std::string path = r.key_path("centring_um");
+          if (!c->is_array() || c->size() < 2 || c->size() > 3) {
+            throw InputError(source, path, "expected [cx, cy] or [cx, cy, cz] in um");
+          }
+          for (std::size_t k = 0; k < c->size(); ++k) {
+            const double x = as_number((*c)[k], source, path + "[" + std::to_string(k) + "]");
+            if (!std::isfinite(x) || std::abs(x) > 1e4) {
+              throw InputError(source, path + "[" + std::to_string(k) + "]", "must be within +-1e4 um");
+            }
+            e.centring_um(static_cast<Eigen::Index>(k)) = x;
+          }
+        }
+        e.ball_mm = ball(r, true);
+        r.finish();
+        t.setup_given.emplace_back(it.key(), e);
+      }
+    }
+    s.finish();
+  }
   t.repeats = top.optional_integer("repeats").value_or(1);
   if (t.repeats < 1) top.fail("repeats", "must be an integer >= 1");
   if (const json* s = top.optional("seed")) {
@@ -123,6 +186,18 @@ Truth truth_from_json(const json& j, const std::string& source) {
   }
   top.finish();
   return t;
+}
+
+nlohmann::json setup_errors_to_json(const Design& design, const std::vector<SetupError>& setup) {
+  json list = json::array();
+  for (size_t i = 0; i < setup.size() && i < design.installations.size(); ++i) {
+    const SetupError& e = setup[i];
+    list.push_back({{"id", design.installations[i].id},
+                    {"length_offset_um", e.length_offset_um},
+                    {"centring_um", {e.centring_um(0), e.centring_um(1), e.centring_um(2)}},
+                    {"ball_mm", {{"L", e.ball_mm(0)}, {"D", e.ball_mm(1)}, {"H", e.ball_mm(2)}}}});
+  }
+  return {{"format", "dbbkit.setup-errors/1"}, {"installations", list}};
 }
 
 Truth read_truth_file(const std::string& path) { return truth_from_json(parse_json(read_text_file(path), path), path); }

@@ -25,7 +25,7 @@ bool number_in(const std::string& s, double lo, double hi) {
 void check(const CLI::App& sub) {
   static const std::set<std::string> paths = {"--design", "--data", "--out", "--report", "--summary",
                                               "--kit",    "--result", "--reference", "--pareto-csv",
-                                              "--map-csv", "--truth", "--baseline", "--write-baseline"};
+                                              "--map-csv", "--truth", "--setup-out", "--baseline", "--write-baseline"};
   for (const CLI::Option* opt : sub.get_options()) {
     if (opt->count() == 0) continue;
     const std::string name = opt->get_name();
