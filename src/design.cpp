@@ -86,6 +86,25 @@ std::string ErrorModel::describe() const {
   return "";
 }
 
+SetupUncertainty SetupOverride::over(const SetupUncertainty& base) const {
+  SetupUncertainty u = base;
+  if (length_offset_um) u.length_offset_um = *length_offset_um;
+  if (centring_um) u.centring_um = *centring_um;
+  if (L_mm) u.L_mm = *L_mm;
+  if (D_mm) u.D_mm = *D_mm;
+  if (H_mm) u.H_mm = *H_mm;
+  return u;
+}
+
+SetupUncertainty Design::setup_of(int i) const { return installations[i].setup_std.over(setup_std); }
+
+bool Design::setup_nuisance_declared() const {
+  for (size_t i = 0; i < installations.size(); ++i) {
+    if (setup_of(static_cast<int>(i)).nuisance()) return true;
+  }
+  return false;
+}
+
 int Design::find_installation(const std::string& id) const {
   for (size_t i = 0; i < installations.size(); ++i) {
     if (installations[i].id == id) return static_cast<int>(i);
@@ -113,6 +132,19 @@ bool length_ok(double x) { return std::isfinite(x) && std::abs(x) <= limits::kMa
 const std::string kLengthLimit = "must be a finite length within +-10000 mm (README, \"Limits\")";
 
 bool noise_ok(double x) { return std::isfinite(x) && x >= limits::kMinNoise_um && x <= limits::kMaxNoise_um; }
+
+void validate_setup(const SetupUncertainty& u, Axis axis, const std::string& source, const std::string& key) {
+  for (const auto& [name, x] : {std::pair<const char*, double>{"length_offset_um", u.length_offset_um},
+                                {"centring_um", u.centring_um}}) {
+    require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_um, source, key + "." + name,
+            "must be a standard uncertainty in [0, 10000] um (README, \"Limits\")");
+  }
+  for (const auto& [name, x] : {std::pair<const char*, double>{"L_mm", u.L_mm}, {"D_mm", u.D_mm}, {"H_mm", u.H_mm}}) {
+    require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_mm, source, key + "." + name,
+            "must be a standard uncertainty in [0, 100] mm (README, \"Limits\")");
+  }
+  if (axis == Axis::B) require(u.H_mm == 0, source, key + ".H_mm", "H is not used for the swinging head B");
+}
 
 }  // namespace
 
@@ -182,14 +214,7 @@ void validate_design(const Design& d, const std::string& source) {
             "reference_length_mm", "must be a positive length in mm, at most 10000 mm");
   }
 
-  for (const auto& [key, u] : {std::pair<const char*, double>{"L", d.setup_std.L_mm}, {"D", d.setup_std.D_mm},
-                               {"H", d.setup_std.H_mm}}) {
-    require(std::isfinite(u) && u >= 0 && u <= limits::kMaxSetupStd_mm, source, std::string("setup_std_mm.") + key,
-            "must be a standard uncertainty in [0, 100] mm");
-  }
-  if (d.axis == Axis::B) {
-    require(d.setup_std.H_mm == 0, source, "setup_std_mm.H", "H is not used for the swinging head B");
-  }
+  validate_setup(d.setup_std, d.axis, source, "setup_std");
   require(!d.installations.empty(), source, "installations", "no installations");
   require(d.installations.size() <= limits::kMaxInstallations, source, "installations",
           "more than " + std::to_string(limits::kMaxInstallations) + " installations (README, \"Limits\")");
@@ -198,6 +223,7 @@ void validate_design(const Design& d, const std::string& source) {
     const Installation& in = d.installations[i];
     const std::string key = "installations[" + std::to_string(i) + "]";
     require(!in.id.empty(), source, key + ".id", "empty id");
+    validate_setup(in.setup_std.over(SetupUncertainty{}), d.axis, source, key + ".setup_std");
     for (char c : in.id) {
       require(c != ',' && c != '"' && !std::isspace(static_cast<unsigned char>(c)), source,
               key + ".id", "id '" + in.id + "' contains a comma, quote or white space");

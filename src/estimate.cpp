@@ -237,6 +237,11 @@ Determined Estimate::evaluate(const Eigen::VectorXd& c) const {
     if (theta.size() > 0) d.value += c(a) * theta(a);
     for (int b : idx) var += c(a) * covariance(a, b) * c(b);
   }
+  if (covariance_K.cols() > 0) {
+    Eigen::VectorXd kc = Eigen::VectorXd::Zero(covariance_K.cols());
+    for (int a : idx) kc += c(a) * covariance_K.row(a).transpose();
+    var += kc.dot(covariance_S * kc);
+  }
   d.std = std::sqrt(std::max(0.0, var));
   return d;
 }

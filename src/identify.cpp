@@ -8,6 +8,7 @@
 
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
+#include "dbbkit/setup.hpp"
 
 namespace dbbkit {
 
@@ -135,14 +136,52 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                         const IdentifyOptions& options) {
   Parameterisation param(design);
   LinearModel model = build_linear_model(design, param, readings);
-  WlsSolver solver(model.J, model.sigma_um, options.estimate);
-  Estimate estimate = solver.solve(model.y_um);
-  Budget budget = uncertainty_budget(design, param, model, solver, estimate, options.budget);
-  std::vector<ErrorsAtAngle> errors = errors_at_stations(param, estimate);
-  for (const ValueBudget& v : budget.values) errors[v.station].errors[v.error].std = v.u_c;
-  std::vector<Unidentifiable> unidentifiable = describe_null_space(design, param, estimate);
-  return {std::move(param),  std::move(model),  std::move(solver),        std::move(estimate),
-          std::move(budget), std::move(errors), std::move(unidentifiable)};
+  IdentifyResult res{std::move(param), std::move(model), WlsSolver(Eigen::MatrixXd(0, 0), Eigen::VectorXd(0))};
+  res.solver = WlsSolver(res.model.J, res.model.sigma_um, options.estimate);
+  // The set-up solver refers to res.solver, which stays in place until the return.
+  const std::vector<SetupEffect> declared = setup_effects(design, res.model, true);
+  const SetupSolver setup(res.solver, declared);
+  res.estimate = setup.solve(res.model.y_um);
+  res.budget = uncertainty_budget(design, res.param, res.model, res.solver, res.estimate, options.budget, &setup);
+  res.errors = errors_at_stations(res.param, res.estimate);
+  for (const ValueBudget& v : res.budget.values) res.errors[v.station].errors[v.error].std = v.u_c;
+  res.unidentifiable = describe_null_space(design, res.param, res.estimate);
+  res.setup_included = setup.any();
+  res.first_order = first_order_check(design, res.param, res.estimate.theta);
+  if (res.first_order.computed && !res.budget.values.empty()) {
+    Eigen::MatrixXd C(static_cast<Eigen::Index>(res.budget.values.size()), res.param.n_parameters());
+    for (std::size_t v = 0; v < res.budget.values.size(); ++v) {
+      C.row(static_cast<Eigen::Index>(v)) = res.param.error_map(res.budget.values[v].station).row(res.budget.values[v].error);
+    }
+    const Eigen::MatrixXd A = setup.left_gain(C);
+    double worst = -1;
+    for (std::size_t v = 0; v < res.budget.values.size(); ++v) {
+      const ValueBudget& vb = res.budget.values[v];
+      if (!(vb.u_c > 0)) continue;
+      const double ratio = res.first_order.largest_term_um * A.row(static_cast<Eigen::Index>(v)).lpNorm<1>() / vb.u_c;
+      if (ratio > worst) {
+        worst = ratio;
+        res.first_order.bias_bound_std = ratio;
+        res.first_order.bias_error = vb.error;
+        res.first_order.bias_angle_deg = vb.angle_deg;
+      }
+    }
+  }
+  if (setup.any()) {
+    res.setup_note = "the errors' uncertainties include the declared length offset and centring tolerances: the "
+                     "set-up effects are estimated with their prior (what the readings see is estimated, the rest "
+                     "is propagated at its declared size)";
+    const Eigen::VectorXd b = setup.beta(res.model.y_um);
+    for (int j = 0; j < setup.n_columns(); ++j) {
+      const auto [e, c] = setup.column_of()[j];
+      res.setup_estimates.push_back({declared[e].label, declared[e].parameters[c], b(j),
+                                     std::sqrt(setup.beta_covariance()(j, j)), declared[e].std_um});
+    }
+  } else {
+    res.setup_note = "set-up uncertainty of the length offsets and centrings is not included: the design declares no "
+                     "such tolerance (setup_std)";
+  }
+  return res;
 }
 
 }  // namespace dbbkit

@@ -82,8 +82,9 @@ LinearModel design_model(const Design& design, const Parameterisation& param) {
 
 std::vector<SetupInput> setup_inputs(const Design& design) {
   std::vector<SetupInput> out;
-  const double u[3] = {design.setup_std.L_mm, design.setup_std.D_mm, design.setup_std.H_mm};
   for (size_t i = 0; i < design.installations.size(); ++i) {
+    const SetupUncertainty s = design.setup_of(static_cast<int>(i));
+    const double u[3] = {s.L_mm, s.D_mm, s.H_mm};
     for (int c = 0; c < 3; ++c) {
       if (u[c] > 0) out.push_back({static_cast<int>(i), c, u[c]});
     }

@@ -1,4 +1,5 @@
 #include "dbbkit/monte_carlo.hpp"
+#include "dbbkit/setup.hpp"
 
 #include <Eigen/SparseCore>
 #include <algorithm>
@@ -56,7 +57,7 @@ double numerical_tolerance(double u, int significant_digits) {
 
 MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param,
                              const LinearModel& model, const WlsSolver& solver, const Estimate& est,
-                             const Budget& budget, const MonteCarloOptions& options) {
+                             const Budget& budget, const MonteCarloOptions& options, const SetupSolver* setup) {
   if (options.batch_trials < kChunk || options.batch_trials % kChunk != 0) {
     throw InputError("options", "batch_trials", "must be a positive multiple of 1000");
   }
@@ -93,7 +94,9 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   Eigen::MatrixXd C(n_out, param.n_parameters());
   for (int v = 0; v < n_out; ++v)
     C.row(v) = param.error_map(budget.values[v].station).row(budget.values[v].error);
-  const Eigen::MatrixXd A = C * solver.gain();
+  const bool nuisance = setup && setup->any();
+  const Eigen::MatrixXd A = nuisance ? setup->left_gain(C) : Eigen::MatrixXd(C * solver.gain());
+  const Eigen::MatrixXd AS = nuisance ? setup->setup_draw_map(C) : Eigen::MatrixXd();  // per N(0, 1) set-up draw
   // Per-angle values read a handful of the readings: a sparse A saves most of the products.
   const Eigen::SparseMatrix<double> A_sparse = A.sparseView(1.0, 1e-300);
   const bool sparse = A_sparse.nonZeros() < A.size() / 4;
@@ -101,6 +104,7 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   const std::vector<SetupInput> inputs = setup_inputs(design);
   Eigen::MatrixXd AD;
   if (!inputs.empty()) AD = A * setup_sensitivity(design, param, model, inputs, est.theta);
+  const int q_setup = static_cast<int>(AS.cols());
 
   const bool type_a = budget.type_a_scale.has_value();
   const NoiseModel& noise = design.noise;
@@ -138,6 +142,13 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
             Q(static_cast<Eigen::Index>(j), t) = inputs[j].std_mm * n01(rng);
         }
         out.noalias() += AD * Q;
+      }
+      if (q_setup > 0) {
+        Q.resize(q_setup, kChunk);
+        for (long t = 0; t < kChunk; ++t) {
+          for (int j = 0; j < q_setup; ++j) Q(j, t) = n01(rng);
+        }
+        out.noalias() += AS * Q;
       }
       const long at = offset + c * kChunk;
       for (int v = 0; v < n_out; ++v) {
@@ -227,13 +238,17 @@ MonteCarloResult monte_carlo_a_priori(const Design& design, double coverage_prob
   const Parameterisation param(design);
   const LinearModel model = design_model(design, param);
   const WlsSolver solver(model.J, model.sigma_um);
-  const Estimate est = solver.solve(model.y_um);
   BudgetOptions b;
   b.coverage_probability = coverage_probability;
-  Design no_setup = design;  // at zero errors the set-up inputs change no reading
-  no_setup.setup_std = {};
-  const Budget budget = uncertainty_budget(no_setup, param, model, solver, est, b);
-  return monte_carlo(no_setup, param, model, solver, est, budget, options);
+  // At zero errors the ball placement (L, D, H) changes no reading; the length offsets
+  // and centrings do, and stay.
+  Design no_placement = design;
+  no_placement.setup_std.L_mm = no_placement.setup_std.D_mm = no_placement.setup_std.H_mm = 0;
+  for (Installation& in : no_placement.installations) in.setup_std.L_mm = in.setup_std.D_mm = in.setup_std.H_mm = std::nullopt;
+  const SetupSolver setup(solver, setup_effects(no_placement, model, true));
+  const Estimate est = setup.solve(model.y_um);
+  const Budget budget = uncertainty_budget(no_placement, param, model, solver, est, b, &setup);
+  return monte_carlo(no_placement, param, model, solver, est, budget, options, &setup);
 }
 
 }  // namespace dbbkit

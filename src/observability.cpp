@@ -233,7 +233,8 @@ WorstCase design_worst_case(const Design& design, double reference_length_mm) {
   return evaluate_design(design, reference_length_mm).worst;
 }
 
-Evaluation evaluate_design(const Design& design, double reference_length_mm, const EstimateOptions& options) {
+Evaluation evaluate_design(const Design& design, double reference_length_mm, const EstimateOptions& options,
+                           const DetectionSettings& detection) {
   const Parameterisation param(design);
   const LinearModel model = design_model(design, param);
   const WlsSolver solver(model.J, model.sigma_um, options);
@@ -243,8 +244,30 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm, con
   ev.indices = observability_indices(ev.prior.singular_values, ev.prior.rank, ev.prior.n_unknowns, ev.prior.n_readings);
   ev.criteria = design_criteria(solver);
   ev.prior.theta = Eigen::VectorXd::Zero(ev.prior.n_unknowns);
-  ev.errors = errors_at_stations(param, ev.prior);
   ev.unidentifiable = describe_null_space(design, param, ev.prior);
+  ev.detection = detection;
+
+  const std::vector<SetupEffect> all = setup_effects(design, model, false);
+  std::vector<SetupEffect> declared;
+  for (const SetupEffect& e : all) {
+    if (e.std_um > 0) declared.push_back(e);
+  }
+  const SetupSolver setup(solver, declared);
+  ev.setup_checks = check_setup_effects(param, setup, all, detection, reference_length_mm);
+  if (setup.any()) {
+    ErrorParts parts = error_parts(param, setup);
+    ev.setup_included = true;
+    ev.errors = std::move(parts.noise);
+    ev.setup_errors = std::move(parts.setup);
+    ev.total_errors = std::move(parts.total);
+    ev.worst_total = worst_case(ev.total_errors, reference_length_mm);
+    ev.setup_note = "the uncertainties include the declared length offset and centring tolerances (total = noise and "
+                    "set-up); the ball placement (L, D, H) is propagated at the identified errors by identify";
+  } else {
+    ev.errors = errors_at_stations(param, ev.prior);
+    ev.setup_note = "set-up uncertainty is not included: the design declares no length offset or centring tolerance "
+                    "(setup_std)";
+  }
   ev.worst = worst_case(ev.errors, reference_length_mm);
   return ev;
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/setup.hpp"
 
 namespace dbbkit {
 
@@ -25,7 +26,8 @@ std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& co
 }
 
 Budget uncertainty_budget(const Design& design, const Parameterisation& param, const LinearModel& model,
-                          const WlsSolver& solver, const Estimate& est, const BudgetOptions& options) {
+                          const WlsSolver& solver, const Estimate& est, const BudgetOptions& options,
+                          const SetupSolver* setup) {
   if (!(options.coverage_probability > 0 && options.coverage_probability < 1)) {
     throw InputError("options", "coverage_probability", "must lie strictly between 0 and 1");
   }
@@ -47,7 +49,11 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
 
   const std::vector<SetupInput> inputs = setup_inputs(design);
   Eigen::MatrixXd GD;  // d(theta_hat)/d(input) [theta units per mm]
-  if (!inputs.empty()) GD = solver.gain() * setup_sensitivity(design, param, model, inputs, est.theta);
+  if (!inputs.empty()) {
+    const Eigen::MatrixXd D = setup_sensitivity(design, param, model, inputs, est.theta);
+    GD = setup ? setup->gain_times(D) : Eigen::MatrixXd(solver.gain() * D);
+  }
+  const bool nuisance = setup && setup->any();
   static const char* kSetupNames[3] = {"set-up L", "set-up D", "set-up H"};
 
   for (int s = 0; s < param.n_stations(); ++s) {
@@ -61,7 +67,18 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
       v.angle_deg = param.station_angle_deg(s);
       v.error = k;
       v.value = d.value;
-      v.components.push_back({"reading noise", options.type_a ? "A" : "B", d.std * noise_scale, noise_dof});
+      if (nuisance) {
+        const SetupSolver::Parts parts = setup->parts(c);
+        v.components.push_back({"reading noise", options.type_a ? "A" : "B", std::sqrt(parts.noise) * noise_scale, noise_dof});
+        double u2[2] = {0, 0};  // length offset, centring
+        for (int j = 0; j < setup->n_columns(); ++j) {
+          u2[setup->column_kind(j) == EffectKind::LengthOffset ? 0 : 1] += parts.setup_by_column(j);
+        }
+        if (u2[0] > 0) v.components.push_back({"set-up length offset", "B", std::sqrt(u2[0]), std::nullopt});
+        if (u2[1] > 0) v.components.push_back({"set-up centring", "B", std::sqrt(u2[1]), std::nullopt});
+      } else {
+        v.components.push_back({"reading noise", options.type_a ? "A" : "B", d.std * noise_scale, noise_dof});
+      }
       if (!inputs.empty()) {
         double u2[3] = {0, 0, 0};
         const Eigen::VectorXd sens = GD.transpose() * c;  // d(value)/d(input)

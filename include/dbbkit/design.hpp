@@ -32,6 +32,32 @@ struct Direction {
   std::string label() const;  // "radial", ..., or "[x, y, z]"
 };
 
+// Declared standard uncertainties of the set-up of one installation,
+// independent between installations and between components; 0 = exact:
+//   length_offset_um  the bar's absolute length as installed (a constant on every
+//                     reading of the installation),
+//   centring_um       each component (x, y, z, machine frame) of the offset of the
+//                     following ball's path centre from the axis,
+//   L_mm, D_mm, H_mm  the ball as placed.
+// The first two are nuisance effects of the linear model (columns of the effect
+// library with a zero-mean prior, setup.hpp); the ball placement changes a row of
+// J only in proportion to the errors and is propagated at the identified errors
+// (uncertainty.hpp).
+struct SetupUncertainty {
+  double length_offset_um = 0, centring_um = 0;
+  double L_mm = 0, D_mm = 0, H_mm = 0;
+  bool placement() const { return L_mm > 0 || D_mm > 0 || H_mm > 0; }
+  bool nuisance() const { return length_offset_um > 0 || centring_um > 0; }
+  bool any() const { return placement() || nuisance(); }
+};
+
+// Per installation: the keys given replace the design's default.
+struct SetupOverride {
+  std::optional<double> length_offset_um, centring_um, L_mm, D_mm, H_mm;
+  bool any() const { return length_offset_um || centring_um || L_mm || D_mm || H_mm; }
+  SetupUncertainty over(const SetupUncertainty& base) const;
+};
+
 struct Installation {
   std::string id;
   double L_mm = 0.0;  // C: radial distance from the axis; B: distance along the tool axis
@@ -41,6 +67,7 @@ struct Installation {
   int sign = +1;                 // s of model.md §2: reading = s * u . dP
   std::optional<double> bar_mm;  // bar length, when declared
   std::string description;       // free text for the person setting it up
+  SetupOverride setup_std;       // this installation's set-up tolerances, over the design's default
 };
 
 // Instrument noise of one reading. Uniform: +-half_width (the instrument's
@@ -64,12 +91,6 @@ struct ErrorModel {
   std::string describe() const;
 };
 
-// Standard uncertainty of the set-up inputs of every installation (the ball
-// position L, D, H as set), independent between installations; 0 = exact.
-struct SetupUncertainty {
-  double L_mm = 0, D_mm = 0, H_mm = 0;
-  bool any() const { return L_mm > 0 || D_mm > 0 || H_mm > 0; }
-};
 
 // What `optimize` predicted for a design it wrote (informative; `evaluate` recomputes it).
 struct Prediction {
@@ -88,9 +109,15 @@ struct Design {
   NoiseModel noise;
   ErrorModel errors;
   std::optional<double> reference_length_mm;
-  SetupUncertainty setup_std;
+  SetupUncertainty setup_std;  // default for every installation
   std::vector<Installation> installations;
   std::optional<Prediction> predicted;
+
+  // The set-up tolerances of installation i (its override over the default).
+  SetupUncertainty setup_of(int i) const;
+  // Whether any installation declares a length offset or centring tolerance
+  // (the set-up enters the model as nuisance effects).
+  bool setup_nuisance_declared() const;
 
   // Index of the installation with this id, or -1.
   int find_installation(const std::string& id) const;

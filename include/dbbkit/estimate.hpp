@@ -48,6 +48,10 @@ struct Estimate {
 
   Eigen::VectorXd theta;            // minimum-norm solution (in the scaled unknowns)
   Eigen::MatrixXd covariance;       // pseudo-inverse covariance; meaningful only for determined functions
+  // A low-rank term of the covariance, K S K' (p x q, q x q; empty when absent): the
+  // set-up effects a prior makes part of the model (setup.hpp). The covariance of a
+  // function is c'(covariance + K S K')c.
+  Eigen::MatrixXd covariance_K, covariance_S;
   Eigen::VectorXd column_scale;     // |column j of Sigma^-1/2 J|, 1 for a negligible column
   Eigen::VectorXd singular_values;  // of Js, descending
   std::optional<double> condition_number;  // sigma_max / sigma_rank of Js

@@ -40,6 +40,35 @@ struct IdentifyOptions {
   BudgetOptions budget;
 };
 
+// A set-up effect estimated with its prior (setup.hpp): the posterior value and
+// standard uncertainty beside the declared one. A posterior equal to the prior
+// means the readings say nothing of it.
+struct SetupEstimate {
+  std::string label;      // "centring[3r]"
+  std::string parameter;  // "value", "cx", ...
+  double value_um = 0, std_um = 0, declared_std_um = 0;
+};
+
+// The first-order validity check of the reading model: the largest second-order
+// term |D_perp|^2 / (2 bar) of any reading, with D_perp the relative displacement of
+// the two balls perpendicular to the bar from the identified errors plus the set-up
+// at 3 standard uncertainties (ball placement L/D/H and centring).
+struct FirstOrderCheck {
+  bool computed = false;
+  std::string reason;  // why not computed (no bar length)
+  double largest_term_um = 0;
+  std::string installation;
+  double angle_deg = 0;
+  double noise_sigma_um = 0;
+  bool warn = false;  // largest_term > 0.25 sigma
+  // A bound on the bias of every identified error, should every reading carry the
+  // largest term t: |c'G delta| <= t |c'G|_1 (G the estimate's gain), as a multiple of
+  // the error's standard uncertainty, the largest over the errors and where.
+  std::optional<double> bias_bound_std;
+  int bias_error = -1;
+  double bias_angle_deg = 0;
+};
+
 // `errors` carry the combined standard uncertainty of the budget as their std.
 struct IdentifyResult {
   Parameterisation param;
@@ -49,6 +78,12 @@ struct IdentifyResult {
   Budget budget;
   std::vector<ErrorsAtAngle> errors;
   std::vector<Unidentifiable> unidentifiable;
+  // Set-up: whether declared length offset and centring tolerances are part of the
+  // model (then `estimate` is that of setup.hpp), in words, and the estimated effects.
+  bool setup_included = false;
+  std::string setup_note;
+  std::vector<SetupEstimate> setup_estimates;
+  FirstOrderCheck first_order;
 };
 
 // The errors at every station of the parameterisation from an estimate (whose

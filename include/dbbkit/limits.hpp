@@ -34,5 +34,7 @@ constexpr std::size_t kMaxInputBytes = std::size_t{512} << 20;
 constexpr double kMaxDenseBytes = 4.0 * (1 << 30);
 // Set-up standard uncertainty of a ball coordinate [mm].
 constexpr double kMaxSetupStd_mm = 100.0;
+// Standard uncertainty of a length offset or a centring component [um].
+constexpr double kMaxSetupStd_um = 1e4;
 
 }  // namespace dbbkit::limits

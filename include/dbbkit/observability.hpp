@@ -11,6 +11,7 @@
 #include "dbbkit/design.hpp"
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/identify.hpp"
+#include "dbbkit/setup.hpp"
 
 namespace dbbkit {
 
@@ -66,17 +67,35 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
 WorstCase design_worst_case(const Design& design, double reference_length_mm);
 
 struct Evaluation {
-  Estimate prior;  // rank, singular values, condition number, covariance
+  Estimate prior;  // rank, singular values, condition number, covariance (of J alone)
   ObservabilityIndices indices;
   DesignCriteria criteria;
-  std::vector<ErrorsAtAngle> errors;  // std only (the value is not meaningful without data)
+  // std only (the value is not meaningful without data): the reading-noise part of
+  // the estimate's uncertainty (with declared set-up tolerances, that of the
+  // estimate which carries them, setup.hpp).
+  std::vector<ErrorsAtAngle> errors;
   std::vector<Unidentifiable> unidentifiable;
-  WorstCase worst;
+  WorstCase worst;  // of the noise part
   double reference_length_mm = 0;
+
+  // Set-up (setup.hpp). setup_included: the design declares length offset or
+  // centring tolerances, and setup_errors / total_errors / worst_total hold the
+  // set-up part and the total (noise and set-up) of every error. setup_checks:
+  // every per-installation length offset and centring, declared or not, with
+  // whether the design can detect it, its detection limit and the bias it causes.
+  bool setup_included = false;
+  std::string setup_note;  // what the uncertainties include and what not, in words
+  std::vector<ErrorsAtAngle> setup_errors, total_errors;
+  std::optional<WorstCase> worst_total;
+  std::vector<SetupEffectCheck> setup_checks;
+  DetectionSettings detection;
 };
 
 // The design as it would be measured: one reading per installation and angle.
-Evaluation evaluate_design(const Design& design, double reference_length_mm, const EstimateOptions& options = {});
+// `detection`: the test the set-up detection limits refer to (diagnose's level, and
+// the number of candidates it tests at once).
+Evaluation evaluate_design(const Design& design, double reference_length_mm, const EstimateOptions& options = {},
+                           const DetectionSettings& detection = {});
 
 // A design map: one set-up coordinate (0 = L, 1 = D, 2 = H) of some installations
 // set to each of a list of values.

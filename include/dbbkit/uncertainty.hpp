@@ -3,6 +3,8 @@
 //   reading noise, Type B from the declared instrument (rectangular +-a ->
 //   a/sqrt(3), infinite degrees of freedom) or, on request, Type A from the
 //   residual (u scaled by sqrt(chi2 / nu), nu = n - rank degrees of freedom);
+//   set-up length offsets and centrings (Type B, declared tolerances): the set-up
+//   part of the estimate that carries them (setup.hpp), split per group;
 //   set-up inputs L, D, H of every installation (Type B, design.setup_std),
 //   propagated through the model at the identified errors;
 //   u_c^2 = sum u_i^2, nu_eff by Welch-Satterthwaite, U = k u_c with k the
@@ -25,7 +27,7 @@ struct BudgetOptions {
 };
 
 struct BudgetComponent {
-  std::string name;  // "reading noise", "set-up L", "set-up D", "set-up H"
+  std::string name;  // "reading noise", "set-up length offset", "set-up centring", "set-up L", "set-up D", "set-up H"
   std::string type;  // "A" or "B"
   double u = 0;      // standard uncertainty contribution, in the value's unit
   std::optional<double> dof;  // absent: infinite
@@ -56,8 +58,13 @@ double coverage_factor(std::optional<double> nu, double p);
 // nu_eff = u_c^4 / sum(u_i^4 / nu_i) over components with finite nu (Welch-Satterthwaite).
 std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& components);
 
+class SetupSolver;
+
 // Throws InputError when Type A is asked for and the residual has no degrees of freedom.
+// With `setup` (declared length offset and centring tolerances), `est` is its estimate
+// and the noise and set-up parts are its own.
 Budget uncertainty_budget(const Design& design, const Parameterisation& param, const LinearModel& model,
-                          const WlsSolver& solver, const Estimate& est, const BudgetOptions& options);
+                          const WlsSolver& solver, const Estimate& est, const BudgetOptions& options,
+                          const SetupSolver* setup = nullptr);
 
 }  // namespace dbbkit

@@ -6,6 +6,7 @@
 #include "report_options.hpp"
 #include "uncertainty_options.hpp"
 #include "dbbkit/identify.hpp"
+#include "dbbkit/setup.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/output.hpp"
@@ -49,7 +50,9 @@ Runner add_identify(CLI::App& app) {
     std::optional<MonteCarloResult> mc;
     if (unc->monte_carlo) {
       report_progress(unc->mc, rep->quiet);
-      mc = monte_carlo(design, result.param, result.model, result.solver, result.estimate, result.budget, unc->mc);
+      const SetupSolver setup(result.solver, setup_effects(design, result.model, true));
+      mc = monte_carlo(design, result.param, result.model, result.solver, result.estimate, result.budget, unc->mc,
+                       &setup);
     }
     const nlohmann::json j =
         io::identify_to_json(design, readings, result, {args->design, args->data}, mc ? &*mc : nullptr);

@@ -112,6 +112,33 @@ ErrorModel read_error_model(ObjectReader errors) {
   return m;
 }
 
+// {"length_offset_um", "centring_um", "L_mm", "D_mm", "H_mm"}: each optional.
+SetupOverride read_setup_override(ObjectReader r) {
+  SetupOverride o;
+  o.length_offset_um = r.optional_number("length_offset_um");
+  o.centring_um = r.optional_number("centring_um");
+  o.L_mm = r.optional_number("L_mm");
+  o.D_mm = r.optional_number("D_mm");
+  o.H_mm = r.optional_number("H_mm");
+  r.finish();
+  return o;
+}
+
+json setup_to_json(const SetupUncertainty& u, Axis axis) {
+  json j = {{"length_offset_um", u.length_offset_um}, {"centring_um", u.centring_um}, {"L_mm", u.L_mm}, {"D_mm", u.D_mm}};
+  if (axis == Axis::C) j["H_mm"] = u.H_mm;
+  return j;
+}
+
+json setup_override_to_json(const SetupOverride& o) {
+  json j = json::object();
+  for (const auto& [key, v] : {std::pair{"length_offset_um", &o.length_offset_um}, {"centring_um", &o.centring_um},
+                               {"L_mm", &o.L_mm}, {"D_mm", &o.D_mm}, {"H_mm", &o.H_mm}}) {
+    if (*v) j[key] = **v;
+  }
+  return j;
+}
+
 json noise_to_json(const NoiseModel& noise) {
   if (noise.distribution == NoiseModel::Distribution::Uniform) {
     return {{"distribution", "uniform"}, {"accuracy_um", noise.half_width_um}};
@@ -138,12 +165,15 @@ Design design_from_json(const json& j, const std::string& source) {
   if (const json* e = top.optional("errors")) d.errors = read_error_model(ObjectReader(*e, source, "errors"));
   d.reference_length_mm = top.optional_number("reference_length_mm");
   if (const json* u = top.optional("setup_std_mm")) {
+    // The short form of the ball placement alone: {"L": u, "D": u, "H": u} [mm].
+    if (top.has("setup_std")) top.fail("setup_std_mm", "give the ball placement in setup_std (L_mm, D_mm, H_mm) or here, not both");
     ObjectReader setup(*u, source, "setup_std_mm");
     d.setup_std.L_mm = setup.optional_number("L").value_or(0.0);
     d.setup_std.D_mm = setup.optional_number("D").value_or(0.0);
     d.setup_std.H_mm = setup.optional_number("H").value_or(0.0);
     setup.finish();
   }
+  if (const json* u = top.optional("setup_std")) d.setup_std = read_setup_override(ObjectReader(*u, source, "setup_std")).over({});
 
   const json& list = top.required("installations");
   if (!list.is_array()) top.fail("installations", "expected a list of installations");
@@ -166,6 +196,7 @@ Design design_from_json(const json& j, const std::string& source) {
     if (inst.sign != 1 && inst.sign != -1) in.fail("sign", "must be +1 or -1");
     inst.bar_mm = in.optional_number("bar_mm");
     inst.description = in.optional_string("description").value_or("");
+    if (const json* u = in.optional("setup_std")) inst.setup_std = read_setup_override(ObjectReader(*u, source, path + ".setup_std"));
     in.finish();
     d.installations.push_back(inst);
   }
@@ -208,7 +239,9 @@ json design_to_json(const Design& d) {
   }
   j["errors"] = errors;
   if (d.reference_length_mm) j["reference_length_mm"] = *d.reference_length_mm;
-  if (d.setup_std.any()) {
+  if (d.setup_std.nuisance()) {
+    j["setup_std"] = setup_to_json(d.setup_std, d.axis);
+  } else if (d.setup_std.any()) {
     j["setup_std_mm"] = {{"L", d.setup_std.L_mm}, {"D", d.setup_std.D_mm}};
     if (d.axis == Axis::C) j["setup_std_mm"]["H"] = d.setup_std.H_mm;
   }
@@ -228,6 +261,7 @@ json design_to_json(const Design& d) {
     if (in.sign != 1) i["sign"] = in.sign;
     if (in.bar_mm) i["bar_mm"] = *in.bar_mm;
     if (!in.description.empty()) i["description"] = in.description;
+    if (in.setup_std.any()) i["setup_std"] = setup_override_to_json(in.setup_std);
     list.push_back(i);
   }
   j["installations"] = list;

@@ -185,6 +185,49 @@ std::string monte_carlo_summary(const MonteCarloResult& mc) {
   return s.str();
 }
 
+json first_order_to_json(const FirstOrderCheck& f) {
+  if (!f.computed) return {{"computed", false}, {"reason", f.reason}};
+  json j = {{"computed", true},
+            {"largest_term_um", r6(f.largest_term_um)},
+            {"at", {{"installation", f.installation}, {"angle_deg", f.angle_deg}}},
+            {"threshold_um", r6(0.25 * f.noise_sigma_um)},
+            {"warning", f.warn},
+            {"term", "|D_perp|^2 / (2 bar), D_perp: the balls' relative displacement across the bar from the "
+                     "identified errors and the set-up at 3 standard uncertainties"}};
+  j["bias_bound_std"] = optional_number(f.bias_bound_std);
+  if (f.bias_error >= 0) j["bias_bound_at"] = {{"error", kErrorNames[f.bias_error]}, {"angle_deg", f.bias_angle_deg}};
+  return j;
+}
+
+std::string first_order_text(const FirstOrderCheck& f) {
+  std::ostringstream s;
+  s << "first-order check: ";
+  if (!f.computed) return s.str() + "not computed: " + f.reason + "\n";
+  s << std::setprecision(3) << "largest second-order term " << f.largest_term_um << " um (" << f.installation << " at "
+    << f.angle_deg << " deg), " << (f.warn ? "ABOVE" : "below") << " 0.25 sigma = " << 0.25 * f.noise_sigma_um << " um";
+  if (f.bias_bound_std) {
+    s << "; it can bias an error by at most " << *f.bias_bound_std << " standard uncertainties ("
+      << kErrorNames[f.bias_error] << " at " << f.bias_angle_deg << " deg)";
+  }
+  if (f.warn && f.bias_bound_std && *f.bias_bound_std >= 1) {
+    s << ": more than the stated uncertainty, the first-order reading model is not adequate for this set-up";
+  }
+  return s.str() + "\n";
+}
+
+json identify_setup_to_json(const Design& design, const IdentifyResult& result) {
+  json setup = {{"included", result.setup_included}, {"note", result.setup_note},
+                {"tolerances", setup_tolerances_to_json(design)}};
+  json est = json::array();
+  for (const SetupEstimate& e : result.setup_estimates) {
+    est.push_back({{"effect", e.label}, {"parameter", e.parameter}, {"value_um", r6(e.value_um)},
+                   {"std_um", r6(e.std_um)}, {"declared_std_um", e.declared_std_um}});
+  }
+  setup["estimates"] = est;
+  setup["first_order_check"] = first_order_to_json(result.first_order);
+  return setup;
+}
+
 json identify_to_json(const Design& design, const std::vector<Reading>& readings, const IdentifyResult& result,
                       const InputFiles& inputs, const MonteCarloResult* mc) {
   const Estimate& est = result.estimate;
@@ -202,6 +245,7 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
   j["units"] = {{"dx", "um"}, {"dy", "um"}, {"dz", "um"}, {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
   j["unidentifiable"] = unidentifiable_to_json(result.unidentifiable);
   j["residual"] = residual_to_json(est);
+  j["setup"] = identify_setup_to_json(design, result);
 
   if (design.errors.kind != ErrorModel::Kind::PerAngle) {
     const Parameterisation param(design);
@@ -244,10 +288,11 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
   s << "residual: " << residual_text(est);
   const Budget& b = result.budget;
   s << "\nuncertainty: reading noise " << b.noise_evaluation;
-  if (design.setup_std.any()) {
+  if (design.setup_std.placement()) {
     s << "; set-up L, D, H +- " << design.setup_std.L_mm << ", " << design.setup_std.D_mm << ", " << design.setup_std.H_mm
       << " mm (standard)";
   }
+  s << "\nset-up: " << result.setup_note;
   if (!b.values.empty()) {
     double kmin = b.values[0].k, kmax = kmin;
     for (const ValueBudget& v : b.values) kmin = std::min(kmin, v.k), kmax = std::max(kmax, v.k);
@@ -257,6 +302,15 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
   s << "\n\nvalue +- combined standard uncertainty u_c (k = 1); '--' = not determined by the data\n";
   s << errors_table(result.errors, true);
   s << unidentifiable_text(result.unidentifiable);
+  if (!result.setup_estimates.empty()) {
+    s << "\nset-up effects estimated with their prior (value +- posterior standard uncertainty; declared):\n";
+    for (const SetupEstimate& e : result.setup_estimates) {
+      s << "  " << std::left << std::setw(22) << (e.label + (e.parameter == "value" ? "" : "." + e.parameter))
+        << std::right << std::fixed << std::setprecision(2) << std::setw(9) << e.value_um << " +- " << e.std_um
+        << " um  (declared " << e.declared_std_um << ")" << std::defaultfloat << "\n";
+    }
+  }
+  s << "\n" << first_order_text(result.first_order);
   return s.str();
 }
 
@@ -291,9 +345,32 @@ std::string evaluate_summary(const Design& design, const Evaluation& ev) {
     }
     s << "\n";
   }
-  s << "\na-priori standard uncertainty (k = 1); '--' = not determined by the design\n";
-  s << errors_table(ev.errors, false);
+  if (ev.worst_total) {
+    const WorstCase& t = *ev.worst_total;
+    s << "worst total standard uncertainty (noise and set-up): ";
+    if (t.worst_std_um) {
+      s << *t.worst_std_um << " um (" << kErrorNames[t.at_error] << " at " << t.at_angle_deg << " deg)\n";
+    } else if (t.worst_determined_std_um) {
+      s << "over the determined errors " << *t.worst_determined_std_um << " um (" << kErrorNames[t.at_error] << " at "
+        << t.at_angle_deg << " deg)\n";
+    } else {
+      s << "undefined\n";
+    }
+  }
+  s << "set-up: " << ev.setup_note << "\n";
+  if (ev.setup_included) {
+    s << "\na-priori standard uncertainty (k = 1), reading-noise part; '--' = not determined by the design\n";
+    s << errors_table(ev.errors, false);
+    s << "\nset-up part (declared length offset and centring tolerances)\n";
+    s << errors_table(ev.setup_errors, false);
+    s << "\ntotal\n";
+    s << errors_table(ev.total_errors, false);
+  } else {
+    s << "\na-priori standard uncertainty (k = 1); '--' = not determined by the design\n";
+    s << errors_table(ev.errors, false);
+  }
   s << unidentifiable_text(ev.unidentifiable);
+  s << setup_checks_text(ev.setup_checks, ev.detection);
   return s.str();
 }
 
@@ -336,6 +413,64 @@ std::string unidentifiable_text(const std::vector<Unidentifiable>& list) {
   return s.str();
 }
 
+json setup_tolerances_to_json(const Design& design) {
+  json list = json::array();
+  for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
+    const SetupUncertainty u = design.setup_of(i);
+    json e = {{"installation", design.installations[i].id}, {"length_offset_um", u.length_offset_um},
+              {"centring_um", u.centring_um}, {"L_mm", u.L_mm}, {"D_mm", u.D_mm}};
+    if (design.axis == Axis::C) e["H_mm"] = u.H_mm;
+    list.push_back(e);
+  }
+  return list;
+}
+
+json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks, double reference_length_mm) {
+  json list = json::array();
+  for (const SetupEffectCheck& c : checks) {
+    json e = {{"effect", c.label},
+              {"declared_std_um", c.declared_std_um > 0 ? json(c.declared_std_um) : json(nullptr)},
+              {"detectable", c.detectable},
+              {"detection_limit_um", optional_number(c.detection_limit_um)}};
+    if (c.bias_per_um) {
+      e["largest_bias_per_um"] = {{"error", kErrorNames[c.bias_error]},
+                                  {"angle_deg", c.bias_angle_deg},
+                                  {"value", r6(*c.bias_per_um)},
+                                  {"unit", std::string(kErrorUnits[c.bias_error]) + " per um"},
+                                  {"um_per_um_at_reference_length", r6(*c.bias_um_per_um)},
+                                  {"reference_length_mm", reference_length_mm}};
+    } else {
+      e["largest_bias_per_um"] = nullptr;
+    }
+    list.push_back(e);
+  }
+  return list;
+}
+
+std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks, const DetectionSettings& detection) {
+  std::ostringstream s;
+  s << "\nset-up effects (detection limit: smallest size the nested F test finds at level " << detection.level;
+  if (detection.n_tests > 1) s << " / " << detection.n_tests << " candidates";
+  s << " with power " << detection.power << "; bias: the largest change of an error per um of the effect):\n";
+  for (const SetupEffectCheck& c : checks) {
+    std::ostringstream line;
+    line << "  " << std::left << std::setw(22) << c.label << std::right;
+    if (c.declared_std_um > 0) line << " declared " << std::setprecision(3) << c.declared_std_um << " um;";
+    if (c.detectable) {
+      line << " detectable";
+      if (c.detection_limit_um) line << ", limit " << std::setprecision(3) << *c.detection_limit_um << " um";
+    } else {
+      line << " NOT detectable";
+    }
+    if (c.bias_per_um) {
+      line << "; 1 um moves " << kErrorNames[c.bias_error] << " at " << c.bias_angle_deg << " deg by "
+           << std::setprecision(3) << *c.bias_per_um << " " << kErrorUnits[c.bias_error];
+    }
+    s << line.str() << "\n";
+  }
+  return s.str();
+}
+
 json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file,
                       const MonteCarloResult* mc) {
   const Estimate& est = ev.prior;
@@ -358,7 +493,25 @@ json evaluate_to_json(const Design& design, const Evaluation& ev, const std::str
   j["worst_determined_std_um"] = optional_number(w.worst_determined_std_um);
   j["n_undetermined"] = w.n_undetermined;
   if (w.at_error >= 0) j["worst_at"] = {{"angle_deg", w.at_angle_deg}, {"error", kErrorNames[w.at_error]}};
+  j["worst_total_std_um"] = ev.worst_total ? optional_number(ev.worst_total->worst_std_um) : json(nullptr);
   j["errors"] = errors_to_json(ev.errors, false);
+  if (ev.setup_included) {
+    for (std::size_t i = 0; i < ev.errors.size(); ++i) {
+      j["errors"][i]["setup_std"] = errors_to_json({ev.setup_errors[i]}, false)[0]["std"];
+      j["errors"][i]["total_std"] = errors_to_json({ev.total_errors[i]}, false)[0]["std"];
+    }
+  }
+  json setup = {{"included", ev.setup_included}, {"note", ev.setup_note}, {"tolerances", setup_tolerances_to_json(design)}};
+  if (ev.worst_total) {
+    const WorstCase& t = *ev.worst_total;
+    setup["worst_total_std_um"] = optional_number(t.worst_std_um);
+    setup["worst_total_determined_std_um"] = optional_number(t.worst_determined_std_um);
+    if (t.at_error >= 0) setup["worst_total_at"] = {{"angle_deg", t.at_angle_deg}, {"error", kErrorNames[t.at_error]}};
+  }
+  setup["detection"] = {{"level", ev.detection.level}, {"n_tests", ev.detection.n_tests}, {"power", ev.detection.power},
+                        {"test", "nested F test of the effect against the axis errors (diagnose)"}};
+  setup["effects"] = setup_checks_to_json(ev.setup_checks, ev.reference_length_mm);
+  j["setup"] = setup;
   j["unidentifiable"] = unidentifiable_to_json(ev.unidentifiable);
   if (mc) j["monte_carlo"] = monte_carlo_to_json(*mc);
   return j;

@@ -22,6 +22,12 @@ nlohmann::json design_to_json(const Design& design);
 std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none);
 nlohmann::json noise_to_json(const NoiseModel& noise);
 
+// Set-up tolerances {"length_offset_um", "centring_um", "L_mm", "D_mm", "H_mm"}, each
+// optional: a design's default (`setup_std`) or one installation's override.
+SetupOverride read_setup_override(ObjectReader r);
+nlohmann::json setup_to_json(const SetupUncertainty& u, Axis axis);
+nlohmann::json setup_override_to_json(const SetupOverride& o);
+
 // "axis": "C" or "B".
 Axis read_axis(ObjectReader& top);
 

@@ -39,6 +39,12 @@ nlohmann::json optional_number(const std::optional<double>& x);
 nlohmann::json residual_to_json(const Estimate& est);
 
 // `dbbkit.evaluate/1`.
+// The set-up tolerances of every installation; what the design can tell of each set-up
+// effect (setup.hpp) as JSON and as text.
+nlohmann::json setup_tolerances_to_json(const Design& design);
+nlohmann::json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks, double reference_length_mm);
+std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks, const DetectionSettings& detection);
+
 nlohmann::json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file,
                                 const MonteCarloResult* mc = nullptr);
 std::string evaluate_summary(const Design& design, const Evaluation& ev);

@@ -1,0 +1,154 @@
+#pragma once
+// Set-up errors as nuisance effects of the one linear model.
+//
+// The declared length offset and centring tolerances of each installation
+// (design.hpp, SetupUncertainty) become columns X (n x q) of the effect library
+// (effects.hpp: length_offset 1, centring -s u.c per component) with a zero-mean
+// prior beta ~ N(0, P), P = diag(u_j^2):
+//   y = J theta + X beta + v,   v ~ N(0, Sigma),  W = Sigma^-1.
+// The estimate is generalised least squares with V = Sigma + X P X', i.e. the
+// augmented problem [J X; 0 P^-1/2] theta, beta = [y; 0], solved without forming it
+// through the q x q Schur complement. With G0 and C0 the gain and covariance of the
+// weighted least squares of J alone (WlsSolver; block-diagonal for a per-angle model):
+//   R = W^1/2 (X - J G0 X)      n x q: the part of X the axis errors cannot reproduce
+//   K = G0 X                    p x q: how X moves the estimate of J alone
+//   S = R'R + P^-1              q x q: Schur complement of the augmented normal equations
+//   beta_hat  = S^-1 R' W^1/2 (y - J G0 y)
+//   theta_hat = G0 (y - X beta_hat) = G y,   G = G0 - K S^-1 R' W^1/2 (I - J G0)
+// For a function c.theta the data determine, the error of c.theta_hat is c'G (X beta + v):
+//   noise part    c'G Sigma G'c = c'C0 c + c'K S^-1 R'R S^-1 K'c
+//   set-up part   c'G X P X'G'c = c'K S^-1 P^-1 S^-1 K'c      (G X = K S^-1 P^-1)
+//   total         c'C0 c + c'K S^-1 K'c  = c'(J' V^-1 J)^+ c
+// (the cross terms vanish because (I - J G0) J C0 = 0; setup.cpp). What the design's
+// redundancy sees (R_j != 0) is estimated and shrinks below its prior; what it cannot
+// see (R_j = 0) stays at its declared size: S_jj = 1 / u_j^2 and the set-up part is
+// u_j^2 (c'K_j)^2. The null space of theta is that of J (a prior on beta adds no
+// information on theta), so determinability is unchanged.
+//   chi2 = |W^1/2 (y - J theta_hat - X beta_hat)|^2 + beta_hat' P^-1 beta_hat,
+// chi-squared with n - rank(J) degrees of freedom when the model holds; the
+// posterior covariance of beta is S^-1.
+// With no tolerance declared q = 0 and everything reduces to the weighted least
+// squares of J alone.
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/effects.hpp"
+#include "dbbkit/estimate.hpp"
+#include "dbbkit/identify.hpp"
+#include "dbbkit/linear_model.hpp"
+#include "dbbkit/parameterisation.hpp"
+
+namespace dbbkit {
+
+// One set-up effect of one installation (length_offset or centring), with the
+// columns it has on the model's rows (all-zero components dropped).
+struct SetupEffect {
+  EffectKind kind = EffectKind::LengthOffset;
+  int installation = 0;
+  std::string label;                    // "centring[3r]"
+  std::vector<std::string> parameters;  // "value" or "cx", "cy", "cz"
+  Eigen::MatrixXd X;                    // n x parameters [um per um]
+  double std_um = 0;                    // declared standard uncertainty per column (0: none declared)
+};
+
+// Every per-installation length offset and centring the rows can show; with
+// only_declared, only those with a declared tolerance.
+std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& model, bool only_declared);
+
+class SetupSolver {
+ public:
+  // `base` must outlive the solver.
+  SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& declared);
+
+  int n_columns() const { return static_cast<int>(prior_std_.size()); }
+  bool any() const { return n_columns() > 0; }
+  // Everything that does not depend on the readings: rank and null space of J,
+  // covariance = the total (in low-rank form, Estimate::covariance_K/S).
+  const Estimate& a_priori() const { return prior_; }
+  // theta_hat, residual, chi2 (with the prior term) and p-value.
+  Estimate solve(const Eigen::VectorXd& y_um) const;
+  // beta_hat for the readings, and its posterior covariance S^-1.
+  Eigen::VectorXd beta(const Eigen::VectorXd& y_um) const;
+  const Eigen::MatrixXd& beta_covariance() const { return S_inv_; }
+  // Column j: which effect (index into the effects given), which of its parameters, and its kind.
+  const std::vector<std::pair<int, int>>& column_of() const { return column_of_; }
+  EffectKind column_kind(int j) const { return column_kind_[j]; }
+  double column_prior_std(int j) const { return prior_std_(j); }
+
+  // G M: the estimate's response to readings M (n x m), e.g. the columns of an effect.
+  Eigen::MatrixXd gain_times(const Eigen::MatrixXd& M) const;
+  // C G: the map from readings to the functions C theta (rows of C), without forming G:
+  //   C G = C G0 - T W^1/2 + (T W^1/2 J) G0,  T = C K S^-1 R'.
+  Eigen::MatrixXd left_gain(const Eigen::MatrixXd& C) const;
+  // C G X diag(u): the change of C theta_hat per standard-normal draw of every set-up
+  // column (beta = u z): C K S^-1 diag(1 / u).
+  Eigen::MatrixXd setup_draw_map(const Eigen::MatrixXd& C) const;
+
+  // Variances of c.theta_hat: noise part, set-up part, and the set-up part split per column.
+  struct Parts {
+    double noise = 0, setup = 0;
+    Eigen::VectorXd setup_by_column;
+  };
+  Parts parts(const Eigen::VectorXd& c) const;
+
+  const WlsSolver& base() const { return *base_; }
+
+ private:
+  const WlsSolver* base_;
+  Eigen::VectorXd prior_std_;
+  std::vector<std::pair<int, int>> column_of_;
+  std::vector<EffectKind> column_kind_;
+  Eigen::MatrixXd X_, R_, K_, S_inv_, RtR_;
+  Estimate prior_;
+};
+
+// The errors at every station with the noise part, the set-up part and the total.
+struct ErrorParts {
+  std::vector<ErrorsAtAngle> noise, setup, total;
+};
+ErrorParts error_parts(const Parameterisation& param, const SetupSolver& solver);
+
+// What the design can tell of one set-up effect, on its own against the axis errors.
+//   detectable: every direction of the effect changes what the axis errors leave
+//   (added_rank). Detection limit: with r the smallest singular value of
+//   R_e = W^1/2 (X_e - J G0 X_e) (whitened readings per um, the least favourable
+//   direction of a multi-column effect), an effect of size a gives the nested F test
+//   of diagnose the noncentrality lambda = (a r)^2 with q_e and n - rank - q_e degrees
+//   of freedom; the limit is the a at which the test at level alpha has power 0.9.
+//   Bias: the largest |c'G X_e v| over unit directions v (the norm of c'G X_e), over
+//   every determined error at every station, per um of the effect.
+struct SetupEffectCheck {
+  std::string label;
+  int installation = 0;
+  EffectKind kind = EffectKind::LengthOffset;
+  double declared_std_um = 0;  // 0: none declared
+  bool detectable = false;
+  std::optional<double> detection_limit_um;  // absent when not detectable or no degrees of freedom
+  // Largest bias per um of the effect (absent when it moves no determined error).
+  std::optional<double> bias_per_um;     // in the error's unit (um or urad) per um
+  std::optional<double> bias_um_per_um;  // the same at the reference length, um per um
+  int bias_error = -1;
+  double bias_angle_deg = 0;
+};
+
+struct DetectionSettings {
+  double level = 0.01;  // diagnose's family-wise level
+  int n_tests = 1;      // candidates tested at once (Bonferroni: alpha = level / n_tests)
+  double power = 0.9;
+};
+
+// The noncentrality at which an F(q, dof) test at level alpha has the given power.
+double noncentrality_for_power(int q, int dof, double alpha, double power);
+
+std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param, const SetupSolver& solver,
+                                                  const std::vector<SetupEffect>& effects,
+                                                  const DetectionSettings& settings, double reference_length_mm);
+
+// The first-order validity check (FirstOrderCheck, identify.hpp) at the errors theta.
+FirstOrderCheck first_order_check(const Design& design, const Parameterisation& param, const Eigen::VectorXd& theta);
+
+}  // namespace dbbkit

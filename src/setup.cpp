@@ -1,0 +1,299 @@
+#include "dbbkit/setup.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/fisher_f.hpp>
+#include <boost/math/distributions/non_central_f.hpp>
+#include <cmath>
+
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit {
+
+std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& model, bool only_declared) {
+  std::vector<SetupEffect> out;
+  const int n = static_cast<int>(model.J.rows());
+  for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
+    const Installation& in = design.installations[i];
+    const SetupUncertainty u = design.setup_of(i);
+    for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Centring}) {
+      const double std_um = kind == EffectKind::LengthOffset ? u.length_offset_um : u.centring_um;
+      if (only_declared && !(std_um > 0)) continue;
+      const std::vector<std::string> names = effect_parameter_names(kind);
+      Eigen::MatrixXd full = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(names.size()));
+      // The columns of effects.hpp: length_offset 1; centring -s u (machine frame).
+      for (int r = 0; r < n; ++r) {
+        if (model.row_installation[r] != i) continue;
+        if (kind == EffectKind::LengthOffset) {
+          full(r, 0) = 1.0;
+        } else {
+          full.row(r) = -in.sign * direction_machine(design.axis, in, model.row_angle_deg[r]).transpose();
+        }
+      }
+      SetupEffect e;
+      e.kind = kind;
+      e.installation = i;
+      e.label = EffectCandidate{kind, i}.label(design);
+      e.std_um = std_um;
+      std::vector<int> keep;
+      for (int j = 0; j < full.cols(); ++j) {
+        if (full.col(j).cwiseAbs().maxCoeff() > 1e-12) keep.push_back(j);
+      }
+      if (keep.empty()) continue;  // changes no reading of these rows
+      e.X.resize(n, static_cast<Eigen::Index>(keep.size()));
+      for (std::size_t j = 0; j < keep.size(); ++j) {
+        e.X.col(static_cast<Eigen::Index>(j)) = full.col(keep[j]);
+        e.parameters.push_back(names[keep[j]]);
+      }
+      out.push_back(std::move(e));
+    }
+  }
+  return out;
+}
+
+SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& declared) : base_(&base) {
+  prior_ = base.a_priori();
+  const int n = static_cast<int>(base.J().rows());
+  int q = 0;
+  for (const SetupEffect& e : declared) {
+    if (e.std_um > 0) q += static_cast<int>(e.X.cols());
+  }
+  X_.resize(n, q);
+  prior_std_.resize(q);
+  int j = 0;
+  for (std::size_t k = 0; k < declared.size(); ++k) {
+    const SetupEffect& e = declared[k];
+    if (!(e.std_um > 0)) continue;
+    for (int c = 0; c < e.X.cols(); ++c, ++j) {
+      X_.col(j) = e.X.col(c);
+      prior_std_(j) = e.std_um;
+      column_of_.emplace_back(static_cast<int>(k), c);
+      column_kind_.push_back(e.kind);
+    }
+  }
+  if (q == 0 || n == 0) return;
+  const Eigen::VectorXd w = base.sigma_um().cwiseInverse();
+  K_ = base.gain() * X_;
+  R_ = w.asDiagonal() * (X_ - base.J() * K_);
+  RtR_ = R_.transpose() * R_;
+  Eigen::MatrixXd S = RtR_;
+  S.diagonal() += prior_std_.cwiseAbs2().cwiseInverse();
+  // S is symmetric positive definite (P^-1 > 0): LDLT is exact enough and cheap (q x q).
+  S_inv_ = S.ldlt().solve(Eigen::MatrixXd::Identity(q, q));
+  S_inv_ = 0.5 * (S_inv_ + S_inv_.transpose());
+  prior_.covariance_K = K_;
+  prior_.covariance_S = S_inv_;
+}
+
+Eigen::VectorXd SetupSolver::beta(const Eigen::VectorXd& y_um) const {
+  if (!any()) return Eigen::VectorXd(0);
+  const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
+  const Eigen::VectorXd e = w.cwiseProduct(y_um - base_->J() * (base_->gain() * y_um));
+  return S_inv_ * (R_.transpose() * e);
+}
+
+Estimate SetupSolver::solve(const Eigen::VectorXd& y_um) const {
+  if (!any()) return base_->solve(y_um);
+  Estimate est = prior_;
+  if (est.status == EstimateStatus::kNoReadings) return est;
+  const Eigen::VectorXd b = beta(y_um);
+  est.theta = base_->gain() * (y_um - X_ * b);
+  est.residual_um = y_um - base_->J() * est.theta - X_ * b;
+  est.rms_um = std::sqrt(est.residual_um.squaredNorm() / est.n_readings);
+  est.chi2 = est.residual_um.cwiseQuotient(base_->sigma_um()).squaredNorm() +
+             b.cwiseQuotient(prior_std_).squaredNorm();
+  if (est.dof > 0) {
+    boost::math::chi_squared dist(est.dof);
+    est.p_value = boost::math::cdf(boost::math::complement(dist, est.chi2));
+  }
+  return est;
+}
+
+Eigen::MatrixXd SetupSolver::gain_times(const Eigen::MatrixXd& M) const {
+  Eigen::MatrixXd GM = base_->gain() * M;
+  if (!any()) return GM;
+  const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
+  const Eigen::MatrixXd RM = w.asDiagonal() * (M - base_->J() * GM);
+  GM -= K_ * (S_inv_ * (R_.transpose() * RM));
+  return GM;
+}
+
+Eigen::MatrixXd SetupSolver::left_gain(const Eigen::MatrixXd& C) const {
+  Eigen::MatrixXd A = C * base_->gain();
+  if (!any()) return A;
+  const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
+  const Eigen::MatrixXd TW = ((C * K_) * S_inv_ * R_.transpose()) * w.asDiagonal();  // n_out x n
+  A -= TW;
+  A += (TW * base_->J()) * base_->gain();
+  return A;
+}
+
+Eigen::MatrixXd SetupSolver::setup_draw_map(const Eigen::MatrixXd& C) const {
+  if (!any()) return Eigen::MatrixXd::Zero(C.rows(), 0);
+  return (C * K_) * S_inv_ * prior_std_.cwiseInverse().asDiagonal();
+}
+
+SetupSolver::Parts SetupSolver::parts(const Eigen::VectorXd& c) const {
+  Parts p;
+  // The noise-only covariance C0 on the support of c (per-angle: six entries).
+  double c0 = 0;
+  std::vector<int> idx;
+  for (int j = 0; j < c.size(); ++j) {
+    if (c(j) != 0.0) idx.push_back(j);
+  }
+  const Eigen::MatrixXd& C0 = prior_.covariance;
+  for (int a : idx) {
+    for (int b : idx) c0 += c(a) * C0(a, b) * c(b);
+  }
+  p.noise = std::max(0.0, c0);
+  p.setup_by_column = Eigen::VectorXd::Zero(n_columns());
+  if (!any()) return p;
+  Eigen::VectorXd kc = Eigen::VectorXd::Zero(n_columns());
+  for (int a : idx) kc += c(a) * K_.row(a).transpose();
+  const Eigen::VectorXd v = S_inv_ * kc;  // S^-1 K'c
+  p.noise += v.dot(RtR_ * v);
+  // set-up part per column: (S^-1 K'c)_j^2 / P_jj
+  p.setup_by_column = v.cwiseQuotient(prior_std_).cwiseAbs2();
+  p.setup = p.setup_by_column.sum();
+  return p;
+}
+
+ErrorParts error_parts(const Parameterisation& param, const SetupSolver& solver) {
+  ErrorParts out;
+  const Estimate& est = solver.a_priori();
+  for (int s = 0; s < param.n_stations(); ++s) {
+    ErrorsAtAngle noise, setup, total;
+    noise.station = setup.station = total.station = s;
+    noise.angle_deg = setup.angle_deg = total.angle_deg = param.station_angle_deg(s);
+    const Eigen::MatrixXd E = param.error_map(s);
+    for (int k = 0; k < 6; ++k) {
+      Eigen::VectorXd c = Eigen::VectorXd::Zero(std::max<Eigen::Index>(est.n_unknowns, E.cols()));
+      c.head(E.cols()) = E.row(k).transpose();
+      if (!est.determined(c)) continue;
+      const SetupSolver::Parts p = solver.parts(c);
+      noise.errors[k] = {true, 0.0, std::sqrt(p.noise)};
+      setup.errors[k] = {true, 0.0, std::sqrt(p.setup)};
+      total.errors[k] = {true, 0.0, std::sqrt(p.noise + p.setup)};
+    }
+    out.noise.push_back(noise);
+    out.setup.push_back(setup);
+    out.total.push_back(total);
+  }
+  return out;
+}
+
+double noncentrality_for_power(int q, int dof, double alpha, double power) {
+  namespace bm = boost::math;
+  const double f_crit = bm::quantile(bm::complement(bm::fisher_f(q, dof), alpha));
+  auto power_at = [&](double lambda) {
+    if (lambda <= 0) return alpha;
+    return bm::cdf(bm::complement(bm::non_central_f(q, dof, lambda), f_crit));
+  };
+  double lo = 0, hi = 1;
+  while (power_at(hi) < power && hi < 1e8) hi *= 2;
+  for (int it = 0; it < 200 && hi - lo > 1e-9 * hi; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (power_at(mid) < power ? lo : hi) = mid;
+  }
+  return hi;
+}
+
+std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param, const SetupSolver& solver,
+                                                  const std::vector<SetupEffect>& effects,
+                                                  const DetectionSettings& settings, double reference_length_mm) {
+  std::vector<SetupEffectCheck> out;
+  const WlsSolver& base = solver.base();
+  const Estimate& est = solver.a_priori();
+  const Eigen::VectorXd w = base.sigma_um().cwiseInverse();
+  // The determined error functions, once.
+  struct Fn {
+    int station, error;
+    Eigen::VectorXd c;
+  };
+  std::vector<Fn> fns;
+  for (int s = 0; s < param.n_stations(); ++s) {
+    const Eigen::MatrixXd E = param.error_map(s);
+    for (int k = 0; k < 6; ++k) {
+      Eigen::VectorXd c = E.row(k).transpose();
+      if (est.determined(c)) fns.push_back({s, k, std::move(c)});
+    }
+  }
+  for (const SetupEffect& e : effects) {
+    SetupEffectCheck ch;
+    ch.label = e.label;
+    ch.installation = e.installation;
+    ch.kind = e.kind;
+    ch.declared_std_um = e.std_um;
+    const int q = static_cast<int>(e.X.cols());
+    ch.detectable = added_rank(base, e.X) == q;
+    if (ch.detectable) {
+      const Eigen::MatrixXd Re = w.asDiagonal() * (e.X - base.J() * (base.gain() * e.X));
+      const Eigen::JacobiSVD<Eigen::MatrixXd> svd(Re);
+      const double r = svd.singularValues()(q - 1);
+      const int dof = est.n_readings - est.rank - q;
+      if (dof > 0 && r > 0) {
+        const double alpha = settings.level / std::max(1, settings.n_tests);
+        ch.detection_limit_um = std::sqrt(noncentrality_for_power(q, dof, alpha, settings.power)) / r;
+      }
+    }
+    const Eigen::MatrixXd GX = solver.gain_times(e.X);  // p x q: the estimate per um of the effect
+    double best = -1;
+    for (const Fn& f : fns) {
+      const double b = (f.c.transpose() * GX).norm();
+      const double b_um = f.error >= 3 ? 1e-3 * reference_length_mm * b : b;
+      if (b_um > best) {
+        best = b_um;
+        ch.bias_per_um = b;
+        ch.bias_um_per_um = b_um;
+        ch.bias_error = f.error;
+        ch.bias_angle_deg = param.station_angle_deg(f.station);
+      }
+    }
+    if (best <= 1e-12) {
+      ch.bias_per_um.reset();
+      ch.bias_um_per_um.reset();
+      ch.bias_error = -1;
+    }
+    out.push_back(ch);
+  }
+  return out;
+}
+
+FirstOrderCheck first_order_check(const Design& design, const Parameterisation& param, const Eigen::VectorXd& theta) {
+  FirstOrderCheck fc;
+  fc.noise_sigma_um = design.noise.sigma_um();
+  for (const Installation& in : design.installations) {
+    if (!in.bar_mm) {
+      fc.reason = "needs bar_mm on every installation (installation " + in.id + " has none)";
+      return fc;
+    }
+  }
+  fc.computed = true;
+  for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
+    const Installation& in = design.installations[i];
+    const SetupUncertainty u = design.setup_of(i);
+    // 3 standard uncertainties of the ball placement [um] and of the centring (each component) [um]:
+    // bounds on their perpendicular parts, added to the errors' relative displacement.
+    const double placement_um = 3e3 * std::sqrt(u.L_mm * u.L_mm + u.D_mm * u.D_mm + u.H_mm * u.H_mm);
+    const double centring_um = 3.0 * u.centring_um * std::sqrt(3.0);
+    for (double a : design.angles_deg) {
+      const Eigen::Vector3d P = ball_position_mm(design.axis, in, a);
+      const Eigen::Vector3d dir = direction_machine(design.axis, in, a);
+      Eigen::Matrix<double, 6, 1> e6 = param.error_map_at_angle(a) * theta;
+      const Eigen::Vector3d dP = e6.head<3>() + 1e-3 * e6.tail<3>().cross(P);  // um
+      const double perp = (dP - dP.dot(dir) * dir).norm() + placement_um + centring_um;
+      const double term = perp * perp / (2.0 * *in.bar_mm * 1e3);
+      if (term > fc.largest_term_um) {
+        fc.largest_term_um = term;
+        fc.installation = in.id;
+        fc.angle_deg = a;
+      }
+    }
+  }
+  fc.warn = fc.largest_term_um > 0.25 * fc.noise_sigma_um;
+  return fc;
+}
+
+}  // namespace dbbkit
