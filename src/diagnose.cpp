@@ -1,4 +1,5 @@
 #include "dbbkit/diagnose.hpp"
+#include "dbbkit/setup.hpp"
 
 #include <Eigen/QR>
 #include <boost/math/distributions/chi_squared.hpp>
@@ -8,6 +9,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 
@@ -113,6 +115,82 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
   }
   return sig;
 }
+
+namespace {
+
+// The set-up effects the final model [J, added effects] cannot detect (added_rank
+// below their columns) and the bias each causes in the errors after, relative to
+// their stated uncertainty.
+std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation& param, const LinearModel& model,
+                                   const Eigen::MatrixXd& J_final, const DiagnoseOptions& options,
+                                   const std::vector<AddedEffect>& added, const std::vector<ErrorsAtAngle>& after) {
+  std::vector<SetupRisk> out;
+  const WlsSolver solver(J_final, model.sigma_um, options.estimate);
+  const int p_ext = static_cast<int>(J_final.cols());
+  for (const SetupEffect& e : setup_effects(design, model, false)) {
+    bool in_model = false;
+    for (const AddedEffect& a : added) in_model = in_model || a.block.label == e.label;
+    if (in_model || added_rank(solver, e.X, options.estimate) == e.X.cols()) continue;
+    const Eigen::MatrixXd GX = solver.gain() * e.X;
+    SetupRisk worst;
+    bool any = false;
+    for (int s = 0; s < param.n_stations(); ++s) {
+      const Eigen::MatrixXd E = param.error_map(s);
+      for (int k = 0; k < 6; ++k) {
+        const Determined& d = after[s].errors[k];
+        if (!d.determined || !(d.std > 0)) continue;
+        Eigen::VectorXd c = Eigen::VectorXd::Zero(p_ext);
+        c.head(E.cols()) = E.row(k).transpose();
+        const double b = (c.transpose() * GX).norm();
+        if (!(b > 1e-12)) continue;
+        const double threshold = d.std / b;
+        if (!any || threshold < worst.threshold_um) {
+          any = true;
+          worst.error = k;
+          worst.angle_deg = after[s].angle_deg;
+          worst.bias_per_um = b;
+          worst.stated_std = d.std;
+          worst.threshold_um = threshold;
+        }
+      }
+    }
+    if (!any) continue;
+    worst.label = e.label;
+    worst.declared_std_um = e.std_um;
+    if (e.std_um > 0) {
+      worst.at_declared = e.std_um * worst.bias_per_um;
+      worst.exceeds = *worst.at_declared > worst.stated_std;
+    }
+    out.push_back(worst);
+  }
+  std::sort(out.begin(), out.end(), [](const SetupRisk& a, const SetupRisk& b) { return a.threshold_um < b.threshold_um; });
+  return out;
+}
+
+std::string setup_risk_text(const Design& design, const std::vector<SetupRisk>& risks) {
+  std::ostringstream v;
+  const bool declared = design.setup_nuisance_declared();
+  v << "But " << risks.size() << " set-up effect(s) cannot be detected by this design, and they move the errors "
+    << "without leaving a residual";
+  if (!declared) v << " (no set-up tolerance is declared: the stated uncertainties assume a perfect set-up)";
+  v << ". The most dangerous:";
+  const std::size_t shown = std::min<std::size_t>(3, risks.size());
+  for (std::size_t i = 0; i < shown; ++i) {
+    const SetupRisk& r = risks[i];
+    v << (i ? ";" : "") << " " << r.label << " of " << fmt(r.threshold_um, 3) << " um moves " << kErrorNames[r.error]
+      << " at " << fmt(r.angle_deg) << " deg by its standard uncertainty " << fmt(r.stated_std, 3) << " "
+      << kErrorUnits[r.error] << " (" << fmt(r.bias_per_um, 3) << " " << kErrorUnits[r.error] << " per um)";
+    if (r.at_declared) {
+      v << ", at its declared " << fmt(r.declared_std_um, 3) << " um by " << fmt(*r.at_declared, 3) << " "
+        << kErrorUnits[r.error];
+    }
+  }
+  v << ". Declare set-up tolerances (setup_std) to carry them in the uncertainties, or measure installations that "
+       "make them detectable (evaluate lists them).";
+  return v.str();
+}
+
+}  // namespace
 
 DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readings, const DiagnoseOptions& options) {
   DiagnoseResult res;
@@ -304,6 +382,8 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   res.significant_after = current.p_value && *current.p_value < options.level;
   res.candidates = status;
 
+  res.setup_risks = setup_risks(design, param, model, J, options, res.added, res.errors_after);
+
   std::ostringstream v;
   auto chi = [](const Estimate& e) {
     std::ostringstream s;
@@ -320,7 +400,8 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   if (!res.before.p_value) {
     v << "The design leaves no redundant reading: nothing can be tested.";
   } else if (!res.significant_before && res.added.empty()) {
-    v << "The residual is consistent with the declared noise (" << chi(res.before) << "): nothing to explain.";
+    v << "The residual is consistent with the declared noise (" << chi(res.before) << "): nothing to explain"
+      << (res.setup_risks.empty() ? "." : " in the residual.");
   } else {
     v << "Before: " << chi(res.before) << ". ";
     if (res.added.empty()) {
@@ -360,6 +441,7 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
         << "(identify --type-a) would state them from the data.";
     }
   }
+  if (!res.setup_risks.empty()) v << " " << setup_risk_text(design, res.setup_risks);
   res.verdict = v.str();
   return res;
 }

@@ -86,6 +86,24 @@ struct ResidualSignature {
   std::string dominant;  // the largest feature, in words
 };
 
+// A set-up effect (per-installation length offset or centring, not added) that the
+// final model cannot detect, and what it does to the errors after: the error it moves
+// most relative to that error's stated standard uncertainty u, by b per um of the
+// effect (the largest over the effect's directions). threshold_um = u / b: the size
+// at which it moves the error by u. With a declared tolerance, at_declared = its
+// standard uncertainty times b, and exceeds when that is more than u.
+struct SetupRisk {
+  std::string label;
+  int error = 0;
+  double angle_deg = 0;
+  double bias_per_um = 0;  // error unit per um
+  double stated_std = 0;   // error unit
+  double threshold_um = 0;
+  double declared_std_um = 0;  // 0: none declared
+  std::optional<double> at_declared;
+  bool exceeds = false;
+};
+
 struct DiagnoseResult {
   double level = 0.01;
   Estimate before, after;
@@ -96,6 +114,7 @@ struct DiagnoseResult {
   ResidualSignature signature_before, signature_after;
   bool significant_before = false, significant_after = false;
   std::optional<double> p_lower_after;  // P(chi2_dof <= chi2 after): small when the residual is too small
+  std::vector<SetupRisk> setup_risks;  // most dangerous first (smallest threshold)
   std::string verdict;
 };
 

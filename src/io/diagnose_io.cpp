@@ -116,6 +116,20 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
   json cands = json::array();
   for (const CandidateStatus& c : r.candidates) cands.push_back({{"label", c.label}, {"status", c.status}, {"detail", c.detail}});
   j["candidates"] = cands;
+  json risks = json::array();
+  for (const SetupRisk& k : r.setup_risks) {
+    risks.push_back({{"effect", k.label},
+                     {"error", kErrorNames[k.error]},
+                     {"angle_deg", k.angle_deg},
+                     {"bias_per_um", r6(k.bias_per_um)},
+                     {"unit", std::string(kErrorUnits[k.error]) + " per um"},
+                     {"stated_std", r6(k.stated_std)},
+                     {"threshold_um", r6(k.threshold_um)},
+                     {"declared_std_um", k.declared_std_um > 0 ? json(k.declared_std_um) : json(nullptr)},
+                     {"bias_at_declared", k.at_declared ? json(r6(*k.at_declared)) : json(nullptr)},
+                     {"exceeds_stated_std", k.exceeds}});
+  }
+  j["undetectable_setup_effects"] = risks;
   j["errors"] = errors_to_json(r.errors_after, true);
   j["errors_before"] = errors_to_json(r.errors_before, true);
   json change = json::object();
