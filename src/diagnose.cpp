@@ -185,8 +185,14 @@ std::string setup_risk_text(const Design& design, const std::vector<SetupRisk>& 
         << kErrorUnits[r.error];
     }
   }
-  v << ". Declare set-up tolerances (setup_std) to carry them in the uncertainties, or measure installations that "
-       "make them detectable (evaluate lists them).";
+  if (declared) {
+    v << ". The errors here are stated for the readings' noise; identify and evaluate carry the declared set-up "
+         "tolerances in their total uncertainties. Installations that make these effects detectable remove the "
+         "doubt (evaluate lists them).";
+  } else {
+    v << ". Declare set-up tolerances (setup_std) to carry them in the uncertainties, or measure installations that "
+         "make them detectable (evaluate lists them).";
+  }
   return v.str();
 }
 

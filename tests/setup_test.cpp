@@ -377,3 +377,36 @@ TEST(SetupCoverage, TotalIntervalsCoverWhereNoiseOnlyIntervalsDoNot) {
 
 }  // namespace
 }  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+TEST(SetupFormat, ToleranceDefaultAndOverridesSurviveTheDesignFile) {
+  Design d = test::paper_design('C');
+  d.setup_std.length_offset_um = 10;
+  d.setup_std.centring_um = 5;
+  d.setup_std.L_mm = 0.1;
+  d.installations[5].setup_std.centring_um = 8;
+  d.installations[1].setup_std.H_mm = 0.5;
+  const Design back = io::design_from_json(io::design_to_json(d), "round trip");
+  for (int i = 0; i < static_cast<int>(d.installations.size()); ++i) {
+    const SetupUncertainty a = d.setup_of(i), b = back.setup_of(i);
+    EXPECT_EQ(a.length_offset_um, b.length_offset_um) << i;
+    EXPECT_EQ(a.centring_um, b.centring_um) << i;
+    EXPECT_EQ(a.L_mm, b.L_mm) << i;
+    EXPECT_EQ(a.H_mm, b.H_mm) << i;
+  }
+  EXPECT_EQ(back.setup_of(5).centring_um, 8);
+  EXPECT_EQ(back.setup_of(4).centring_um, 5);
+  EXPECT_TRUE(back.setup_nuisance_declared());
+  // The short form of the ball placement alone is still read, and declares no nuisance effect.
+  const Design legacy = io::design_from_json(
+      nlohmann::json::parse(R"({"format": "dbbkit.design/1", "axis": "C", "angles_deg": [0, 90, 180, 270],
+        "setup_std_mm": {"L": 0.2}, "installations": [{"id": "r", "ball_mm": {"L": 100, "H": 50}, "direction": "radial"}]})"),
+      "legacy");
+  EXPECT_EQ(legacy.setup_of(0).L_mm, 0.2);
+  EXPECT_FALSE(legacy.setup_nuisance_declared());
+}
+
+}  // namespace
+}  // namespace dbbkit

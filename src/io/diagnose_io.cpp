@@ -178,6 +178,17 @@ std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
   }
   s << "candidates: " << r.candidates.size() << " (" << confounded << " confounded with the model, " << na
     << " not applicable to these readings; see the JSON)\n";
+  if (!r.setup_risks.empty()) {
+    s << "\nset-up effects this design cannot detect (size that moves the error by its standard uncertainty; "
+         "bias per um; at the declared size):\n";
+    for (const SetupRisk& k : r.setup_risks) {
+      s << "  " << std::left << std::setw(22) << k.label << std::right << std::setprecision(3) << std::setw(8)
+        << k.threshold_um << " um  " << kErrorNames[k.error] << " at " << k.angle_deg << " deg, u = " << k.stated_std
+        << " " << kErrorUnits[k.error] << ", " << k.bias_per_um << " " << kErrorUnits[k.error] << " per um";
+      if (k.at_declared) s << ", " << *k.at_declared << " " << kErrorUnits[k.error] << (k.exceeds ? " (exceeds u)" : "");
+      s << "\n";
+    }
+  }
   s << "\nresidual signature before [um]:\n" << signature_text(r.signature_before, design.axis);
   s << "\nresidual signature after [um]:\n" << signature_text(r.signature_after, design.axis);
   s << "\nerrors after (value +- standard uncertainty, k = 1); '--' = not determined\n";
