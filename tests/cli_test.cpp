@@ -309,6 +309,26 @@ TEST(Cli, DesignGatePassesTheCommittedDesignsAndFailsADegradedOne) {
   r = run_cli("bench " + degraded + " --baseline " + baseline);
   EXPECT_EQ(r.status, 1) << r.out << r.err;
   EXPECT_NE(r.out.find("rank deficiency 0 -> 18"), std::string::npos) << r.out;
+  // The total with declared set-up tolerances is guarded too: a larger centring
+  // tolerance on 3r leaves worst_std_um alone and raises worst_total_std_um.
+  const std::string with_setup = test::source_path("designs/c-turntable-kit-optimized-with-setup.json");
+  nlohmann::json t = nlohmann::json::parse(slurp(with_setup));
+  for (auto& in : t["installations"]) {
+    if (in["id"] == "3r") in["setup_std"] = {{"centring_um", 20}};
+  }
+  const std::string degraded_total = (dir / "c-turntable-kit-optimized-with-setup.json").string();
+  std::ofstream(degraded_total) << t.dump(2);
+  r = run_cli("bench " + degraded_total + " --baseline " + baseline);
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("worst_total_std_um 12.362 ->"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("worst_std_um 0.79629 ->"), std::string::npos) << r.out;
+  // Removing the tolerances does not slip through either.
+  t.erase("setup_std");
+  for (auto& in : t["installations"]) in.erase("setup_std");
+  std::ofstream(degraded_total) << t.dump(2);
+  r = run_cli("bench " + degraded_total + " --baseline " + baseline);
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("declares no set-up tolerance"), std::string::npos) << r.out;
   std::filesystem::remove_all(dir);
 }
 

@@ -59,7 +59,12 @@ Runner add_bench(CLI::App& app) {
       row.name = d.name;
       row.axis = axis_name(d.axis);
       row.model = d.errors.describe();
-      row.now = {ev.prior.rank, ev.prior.n_unknowns, ev.worst.worst_std_um, ev.worst.worst_determined_std_um};
+      row.now = {ev.prior.rank, ev.prior.n_unknowns, ev.worst.worst_std_um, ev.worst.worst_determined_std_um,
+                 std::nullopt, std::nullopt};
+      if (ev.worst_total) {
+        row.now.worst_total_std_um = ev.worst_total->worst_std_um;
+        row.now.worst_total_determined_std_um = ev.worst_total->worst_determined_std_um;
+      }
       row.condition_number = ev.prior.condition_number;
       if (auto it = baseline.designs.find(row.key); it != baseline.designs.end()) row.baseline = it->second;
       io::judge(row, tol);

@@ -47,6 +47,8 @@ Baseline read_baseline_file(const std::string& path) {
     if (f.rank < 0 || f.n_unknowns < f.rank) d.fail("rank", "must be between 0 and n_unknowns");
     f.worst_std_um = optional_value(d, "worst_std_um");
     f.worst_determined_std_um = optional_value(d, "worst_determined_std_um");
+    f.worst_total_std_um = optional_value(d, "worst_total_std_um");
+    f.worst_total_determined_std_um = optional_value(d, "worst_total_determined_std_um");
     d.finish();
     b.designs[it.key()] = f;
   }
@@ -64,6 +66,10 @@ json baseline_to_json(const Baseline& b) {
               {"n_unknowns", f.n_unknowns},
               {"worst_std_um", optional_number(f.worst_std_um)},
               {"worst_determined_std_um", optional_number(f.worst_determined_std_um)}};
+    if (f.worst_total_std_um || f.worst_total_determined_std_um) {
+      d[key]["worst_total_std_um"] = optional_number(f.worst_total_std_um);
+      d[key]["worst_total_determined_std_um"] = optional_number(f.worst_total_determined_std_um);
+    }
   }
   j["designs"] = d;
   return j;
@@ -99,6 +105,20 @@ void judge(BenchRow& row, double tol) {
   compare("worst_std_um", b.worst_std_um, n.worst_std_um);
   if (!b.worst_std_um && !n.worst_std_um) {
     compare("worst_determined_std_um", b.worst_determined_std_um, n.worst_determined_std_um);
+  }
+  // The total with declared set-up tolerances: a design that now declares them needs a
+  // baseline figure (the gate must guard what the design claims).
+  const bool total_now = n.worst_total_std_um || n.worst_total_determined_std_um;
+  const bool total_before = b.worst_total_std_um || b.worst_total_determined_std_um;
+  if (total_now && !total_before) {
+    worse.push_back("worst_total_std_um has no baseline (declared set-up tolerances): write the baseline");
+  } else if (!total_now && total_before) {
+    worse.push_back("worst_total_std_um in the baseline but the design declares no set-up tolerance");
+  } else if (total_now) {
+    compare("worst_total_std_um", b.worst_total_std_um, n.worst_total_std_um);
+    if (!b.worst_total_std_um && !n.worst_total_std_um) {
+      compare("worst_total_determined_std_um", b.worst_total_determined_std_um, n.worst_total_determined_std_um);
+    }
   }
   auto join = [](const std::vector<std::string>& v) {
     std::string s;
@@ -140,6 +160,17 @@ std::string bench_table(const std::vector<BenchRow>& rows, double tol) {
     };
     s << std::setw(14) << worst(r.now) << std::setw(14) << (r.baseline ? worst(*r.baseline) : "--") << std::setw(12)
       << fmt_opt(r.condition_number, 4) << std::setw(10) << r.status << "\n";
+    if (r.now.worst_total_std_um || r.now.worst_total_determined_std_um) {
+      s << "    total (noise and declared set-up): " << num(r.now.worst_total_std_um ? r.now.worst_total_std_um
+                                                                                   : r.now.worst_total_determined_std_um)
+        << " um";
+      if (r.baseline && (r.baseline->worst_total_std_um || r.baseline->worst_total_determined_std_um)) {
+        s << ", baseline "
+          << num(r.baseline->worst_total_std_um ? r.baseline->worst_total_std_um : r.baseline->worst_total_determined_std_um)
+          << " um";
+      }
+      s << "\n";
+    }
     if (!r.detail.empty()) s << "    " << r.detail << "\n";
   }
   s << "(worst: worst_std_um, angular errors at each design's reference length; in brackets the worst determined "

@@ -188,6 +188,27 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
   return p.str();
 }
 
+// Every set-up effect: declared size, detectable, detection limit, largest bias per um.
+void setup_checks_section(Page& p, const Evaluation& ev) {
+  if (ev.setup_checks.empty()) return;
+  p.heading("Set-up effects");
+  p.paragraph("Detection limit: the smallest size the nested F test of diagnose finds at level " +
+              fmt_num(ev.detection.level) + (ev.detection.n_tests > 1 ? " / " + std::to_string(ev.detection.n_tests) : "") +
+              " with power " + fmt_num(ev.detection.power) +
+              " (least favourable direction). Bias: the largest change of an error per um of the effect.");
+  std::vector<std::vector<std::string>> rows;
+  for (const SetupEffectCheck& c : ev.setup_checks) {
+    std::string bias = "none";
+    if (c.bias_per_um) {
+      bias = fmt_num(*c.bias_per_um) + " " + kErrorUnits[c.bias_error] + " per um (" + kErrorNames[c.bias_error] +
+             " at " + fmt_num(c.bias_angle_deg, 6) + " deg)";
+    }
+    rows.push_back({c.label, c.declared_std_um > 0 ? fmt_num(c.declared_std_um) : "not declared",
+                    c.detectable ? "yes" : "NO", fmt_opt(c.detection_limit_um), bias});
+  }
+  p.table({"effect", "declared std [um]", "detectable", "detection limit [um]", "largest bias"}, rows);
+}
+
 std::string evaluate_report(ReportFormat f, const RunContext& run, const Design& design, const Evaluation& ev,
                             const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& map,
                             const MonteCarloResult* mc) {
@@ -204,6 +225,10 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
   } else {
     s += "worst_std_um: none, " + std::to_string(ev.worst.n_undetermined) + " errors at angles are not determined.";
   }
+  if (ev.worst_total && ev.worst_total->worst_std_um) {
+    s += " With the declared set-up tolerances, worst_total_std_um " + fmt_num(*ev.worst_total->worst_std_um) + " um (" +
+         kErrorNames[ev.worst_total->at_error] + " at " + fmt_num(ev.worst_total->at_angle_deg, 6) + " deg).";
+  }
   p.paragraph(s);
   p.table({"O1", "O2", "O3", "O4", "O5", "D = log det M", "A = trace M^-1", "E = min eig M", "G = max leverage"},
           {{fmt_num(ev.indices.O1), fmt_num(ev.indices.O2), fmt_num(ev.indices.O3), fmt_num(ev.indices.O4),
@@ -213,8 +238,16 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
   p.heading("Uncertainty before measuring");
   p.paragraph("Reading noise Type B: " + design.noise.describe() + "; U = " + fmt_num(k) +
               " u (95 %, infinite degrees of freedom).");
-  errors_section(p, with_expanded(ev.errors, nullptr, k), false, "a-priori expanded uncertainty of " + design.name);
+  if (ev.setup_included) {
+    p.paragraph("Set-up: " + ev.setup_note + ". The plot and table show the total (noise and set-up).");
+    errors_section(p, with_expanded(ev.total_errors, nullptr, k), false,
+                   "a-priori expanded total uncertainty of " + design.name);
+  } else {
+    p.paragraph("Set-up: " + ev.setup_note + ".");
+    errors_section(p, with_expanded(ev.errors, nullptr, k), false, "a-priori expanded uncertainty of " + design.name);
+  }
   unidentifiable_section(p, ev.unidentifiable);
+  setup_checks_section(p, ev);
   if (mc) {
     p.heading("Monte Carlo check (JCGM 101)");
     p.paragraph(std::to_string(mc->trials) + " trials; " + std::to_string(mc->n_validated) + " of " +

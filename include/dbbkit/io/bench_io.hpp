@@ -1,7 +1,8 @@
 #pragma once
 // The design gate: every design evaluated and compared with a baseline file
-// (`dbbkit.designs-baseline/1`); a design whose rank or worst_std_um got worse
-// than its baseline by more than the tolerance fails.
+// (`dbbkit.designs-baseline/1`); a design whose rank, worst_std_um or (with
+// declared set-up tolerances) worst_total_std_um got worse than its baseline by
+// more than the tolerance fails; a total without a baseline figure fails too.
 
 #include <map>
 #include <optional>
@@ -17,6 +18,8 @@ inline constexpr const char* kBaselineFormat = "dbbkit.designs-baseline/1";
 struct BenchFigures {
   int rank = 0, n_unknowns = 0;
   std::optional<double> worst_std_um, worst_determined_std_um;
+  // With declared set-up tolerances (absent otherwise): the total (noise and set-up).
+  std::optional<double> worst_total_std_um, worst_total_determined_std_um;
 };
 
 struct Baseline {
