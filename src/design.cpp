@@ -133,7 +133,7 @@ const std::string kLengthLimit = "must be a finite length within +-10000 mm (REA
 
 bool noise_ok(double x) { return std::isfinite(x) && x >= limits::kMinNoise_um && x <= limits::kMaxNoise_um; }
 
-void validate_setup(const SetupUncertainty& u, Axis axis, const std::string& source, const std::string& key) {
+void validate_setup_impl(const SetupUncertainty& u, Axis axis, const std::string& source, const std::string& key) {
   for (const auto& [name, x] : {std::pair<const char*, double>{"length_offset_um", u.length_offset_um},
                                 {"centring_um", u.centring_um}}) {
     require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_um, source, key + "." + name,
@@ -147,6 +147,10 @@ void validate_setup(const SetupUncertainty& u, Axis axis, const std::string& sou
 }
 
 }  // namespace
+
+void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std::string& source, const std::string& key) {
+  validate_setup_impl(u, axis, source, key);
+}
 
 bool length_within_limits(double x_mm) { return length_ok(x_mm); }
 
@@ -214,7 +218,7 @@ void validate_design(const Design& d, const std::string& source) {
             "reference_length_mm", "must be a positive length in mm, at most 10000 mm");
   }
 
-  validate_setup(d.setup_std, d.axis, source, "setup_std");
+  validate_setup_uncertainty(d.setup_std, d.axis, source, "setup_std");
   require(!d.installations.empty(), source, "installations", "no installations");
   require(d.installations.size() <= limits::kMaxInstallations, source, "installations",
           "more than " + std::to_string(limits::kMaxInstallations) + " installations (README, \"Limits\")");
@@ -223,7 +227,7 @@ void validate_design(const Design& d, const std::string& source) {
     const Installation& in = d.installations[i];
     const std::string key = "installations[" + std::to_string(i) + "]";
     require(!in.id.empty(), source, key + ".id", "empty id");
-    validate_setup(in.setup_std.over(SetupUncertainty{}), d.axis, source, key + ".setup_std");
+    validate_setup_uncertainty(in.setup_std.over(SetupUncertainty{}), d.axis, source, key + ".setup_std");
     for (char c : in.id) {
       require(c != ',' && c != '"' && !std::isspace(static_cast<unsigned char>(c)), source,
               key + ".id", "id '" + in.id + "' contains a comma, quote or white space");

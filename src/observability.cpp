@@ -228,6 +228,23 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   return worst.result();
 }
 
+TotalWorstCase design_worst_total(const Design& design, double reference_length_mm) {
+  const Parameterisation param(design);
+  const LinearModel model = design_model(design, param);
+  const WlsSolver solver(model.J, model.sigma_um);
+  const SetupSolver setup(solver, setup_effects(design, model, true));
+  TotalWorstCase out;
+  if (!setup.any()) {
+    Estimate prior = solver.a_priori();
+    out.noise = out.total = worst_case(errors_at_stations(param, prior), reference_length_mm);
+    return out;
+  }
+  const ErrorParts parts = error_parts(param, setup);
+  out.noise = worst_case(parts.noise, reference_length_mm);
+  out.total = worst_case(parts.total, reference_length_mm);
+  return out;
+}
+
 WorstCase design_worst_case(const Design& design, double reference_length_mm) {
   if (std::optional<WorstCase> w = fast_worst_case(design, reference_length_mm)) return *w;
   return evaluate_design(design, reference_length_mm).worst;

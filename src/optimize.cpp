@@ -310,6 +310,8 @@ const char* criterion_name(Criterion c) {
       return "E";
     case Criterion::Condition:
       return "condition";
+    case Criterion::WorstTotal:
+      return "worst_total_std_um";
   }
   return "?";
 }
@@ -379,6 +381,7 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std:
   d.noise = kit.noise;
   d.errors = kit.errors;
   d.reference_length_mm = kit.reference_length_mm;
+  d.setup_std = kit.setup_std;
   using K = Direction::Kind;
   std::vector<Position> positions;
   if (kit.axis == Axis::C) {
@@ -452,6 +455,15 @@ void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
     c.objective = v.value_or(0.0);
     return;
   }
+  if (criterion == Criterion::WorstTotal) {
+    const TotalWorstCase t = design_worst_total(c.design, kit.reference_length_mm);
+    c.worst = t.noise;
+    c.n_undetermined = t.total.n_undetermined;
+    const std::optional<double> v = t.total.worst_std_um ? t.total.worst_std_um : t.total.worst_determined_std_um;
+    c.objective_defined = v.has_value();
+    c.objective = v.value_or(0.0);
+    return;
+  }
   const Evaluation ev = evaluate_design(c.design, kit.reference_length_mm);
   c.worst = ev.worst;
   c.n_undetermined = ev.worst.n_undetermined;
@@ -470,6 +482,7 @@ void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
       if (ev.prior.rank == ev.prior.n_unknowns) v = ev.prior.condition_number;
       break;
     case Criterion::Worst:
+    case Criterion::WorstTotal:
       break;
   }
   c.objective_defined = v.has_value();

@@ -332,6 +332,15 @@ TEST(Cli, DesignGatePassesTheCommittedDesignsAndFailsADegradedOne) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(Cli, TheTotalCriterionNeedsDeclaredTolerances) {
+  const CliRun r = run_cli("optimize --quiet --kit " + test::source_path("designs/kits/c-turntable-kit.json") +
+                           " --criterion worst_total");
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("setup_std"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("needs a length offset or centring tolerance"), std::string::npos) << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;
+}
+
 TEST(Cli, ATerminalGetsTablesAPipeGetsJson) {
   // script(1) (util-linux, in every Debian) runs the command on a pseudo-terminal.
   const std::string cmd = "identify --design " + kDesignC + " --data " + kDataC;

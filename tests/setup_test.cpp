@@ -410,3 +410,26 @@ TEST(SetupFormat, ToleranceDefaultAndOverridesSurviveTheDesignFile) {
 
 }  // namespace
 }  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+TEST(SetupSearch, TheSearchCriterionEqualsEvaluatesWorstTotal) {
+  // optimize's worst_total_std_um (design_worst_total) is evaluate's worst_total, and
+  // without declared tolerances it is the noise-only worst case.
+  const Design d = io::read_design_file(test::source_path("designs/c-turntable-kit-optimized-with-setup.json"));
+  const Evaluation ev = evaluate_design(d, 100);
+  const TotalWorstCase t = design_worst_total(d, 100);
+  ASSERT_TRUE(ev.worst_total && ev.worst_total->worst_std_um && t.total.worst_std_um);
+  EXPECT_DOUBLE_EQ(*t.total.worst_std_um, *ev.worst_total->worst_std_um);
+  EXPECT_DOUBLE_EQ(*t.noise.worst_std_um, *ev.worst.worst_std_um);
+  EXPECT_GT(*t.total.worst_std_um, 10 * *t.noise.worst_std_um);
+  Design plain = d;
+  plain.setup_std = {};
+  const TotalWorstCase p = design_worst_total(plain, 100);
+  EXPECT_DOUBLE_EQ(*p.total.worst_std_um, *p.noise.worst_std_um);
+  EXPECT_NEAR(*p.noise.worst_std_um, *design_worst_case(plain, 100).worst_std_um, 1e-12);
+}
+
+}  // namespace
+}  // namespace dbbkit

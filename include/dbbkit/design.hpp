@@ -130,6 +130,9 @@ struct Design {
 void validate_noise_and_model(const NoiseModel& noise, const ErrorModel& errors, Axis axis,
                               const std::string& source);
 
+// Set-up tolerances within the documented limits; throws InputError(source, key.<name>).
+void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std::string& source, const std::string& key);
+
 // A finite length within +-limits::kMaxLength_mm.
 bool length_within_limits(double x_mm);
 

@@ -28,6 +28,9 @@ struct Kit {
   NoiseModel noise;
   ErrorModel errors;
   double reference_length_mm = 0;
+  // Set-up tolerances of every installation of the designs (design.hpp); with a length
+  // offset or centring declared, the default criterion is worst_total_std_um.
+  SetupUncertainty setup_std;
   Interval L_mm;
   Interval D_mm;                  // {0, 0}: no lateral offset
   double H_base_mm = 0;           // C: height of the ball cup standing on the table

@@ -63,6 +63,14 @@ WorstCase worst_case(const std::vector<ErrorsAtAngle>& errors, double reference_
 // rounding (tested).
 std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm);
 
+// The worst case of the noise part and of the total (noise and declared set-up,
+// setup.hpp) of a design, without the rest of evaluate_design; without declared
+// length offset or centring tolerances the total is the noise-only worst case.
+struct TotalWorstCase {
+  WorstCase noise, total;
+};
+TotalWorstCase design_worst_total(const Design& design, double reference_length_mm);
+
 // fast_worst_case when it applies, else evaluate_design's.
 WorstCase design_worst_case(const Design& design, double reference_length_mm);
 

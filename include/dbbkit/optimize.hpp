@@ -22,7 +22,9 @@ namespace dbbkit {
 // M^-1; E: -(smallest eigenvalue of M); Condition: condition number of the
 // equilibrated whitened Jacobian. Designs that leave more undetermined always
 // rank behind designs that leave less, whatever the criterion.
-enum class Criterion { Worst, D, A, E, Condition };
+// WorstTotal: worst_total_std_um, the worst case of the total (noise and the kit's
+// declared set-up tolerances, setup.hpp).
+enum class Criterion { Worst, D, A, E, Condition, WorstTotal };
 const char* criterion_name(Criterion c);
 
 // One discrete choice of the three_position pattern.

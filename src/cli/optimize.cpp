@@ -19,7 +19,7 @@ namespace dbbkit::cli {
 
 namespace {
 struct OptimizeArgs {
-  std::string kit, out, result, reference, pareto_csv, criterion = "worst";
+  std::string kit, out, result, reference, pareto_csv, criterion;
   bool pareto = false, quiet = false;
   int threads = 0;
 };
@@ -30,7 +30,9 @@ Criterion parse_criterion(const std::string& s) {
   if (s == "A") return Criterion::A;
   if (s == "E") return Criterion::E;
   if (s == "condition") return Criterion::Condition;
-  throw InputError("--criterion", "", "unknown criterion '" + s + "' (expected worst, D, A, E or condition)");
+  if (s == "worst_total") return Criterion::WorstTotal;
+  throw InputError("--criterion", "",
+                   "unknown criterion '" + s + "' (expected worst, worst_total, D, A, E or condition)");
 }
 }  // namespace
 
@@ -42,8 +44,9 @@ Runner add_optimize(CLI::App& app) {
                   "The best design (dbbkit.design/1), which identify accepts as it is; '-' or absent: stdout");
   sub->add_option("--result", args->result, "Search result JSON (dbbkit.optimize/1): every choice, the Pareto front");
   sub->add_option("--criterion", args->criterion,
-                  "worst (worst_std_um, default), D (max log det M), A (min trace M^-1), E (max smallest "
-                  "eigenvalue), condition (min condition number)");
+                  "worst (worst_std_um; the default without set-up tolerances), worst_total (worst_total_std_um: "
+                  "noise and the kit's setup_std; the default with them), D (max log det M), A (min trace M^-1), E "
+                  "(max smallest eigenvalue), condition (min condition number)");
   sub->add_option("--reference", args->reference,
                   "A design to compare with (same noise and error model as the kit): ratio of worst_std_um");
   sub->add_flag("--pareto", args->pareto, "Print the front of the criterion against measurement time");
@@ -58,8 +61,13 @@ Runner add_optimize(CLI::App& app) {
     io::OutputSet outputs(output_targets(args->out.empty() ? "-" : args->out, *rep,
                                          {{"--result", args->result}, {"--pareto-csv", args->pareto_csv}}),
                           inputs);
-    const Criterion criterion = parse_criterion(args->criterion);
     const Kit kit = io::read_kit_file(args->kit);
+    const Criterion criterion = parse_criterion(
+        !args->criterion.empty() ? args->criterion : kit.setup_std.nuisance() ? "worst_total" : "worst");
+    if (criterion == Criterion::WorstTotal && !kit.setup_std.nuisance()) {
+      throw InputError(args->kit, "setup_std",
+                       "--criterion worst_total needs a length offset or centring tolerance declared in the kit");
+    }
     std::optional<io::Reference> reference;
     if (!args->reference.empty()) {
       io::Reference r;
@@ -80,6 +88,11 @@ Runner add_optimize(CLI::App& app) {
       }
       const Evaluation ev = evaluate_design(r.design, kit.reference_length_mm);
       r.worst = ev.worst;
+      if (kit.setup_std.nuisance()) {
+        Design with = r.design;
+        if (!with.setup_nuisance_declared()) with.setup_std = kit.setup_std;
+        r.worst_total = design_worst_total(with, kit.reference_length_mm).total;
+      }
       r.rank = ev.prior.rank;
       r.n_unknowns = ev.prior.n_unknowns;
       reference = r;

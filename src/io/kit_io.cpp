@@ -52,6 +52,10 @@ Kit kit_from_json(const json& j, const std::string& source) {
   if (const json* n = top.optional("noise")) k.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
   if (const json* e = top.optional("errors")) k.errors = read_error_model(ObjectReader(*e, source, "errors"));
   k.reference_length_mm = top.number("reference_length_mm");
+  if (const json* u = top.optional("setup_std")) {
+    k.setup_std = read_setup_override(ObjectReader(*u, source, "setup_std")).over({});
+    validate_setup_uncertainty(k.setup_std, k.axis, source, "setup_std");
+  }
   k.L_mm = read_min_max(top.object("L_mm"));
   if (top.has("D_mm")) k.D_mm = read_min_max(top.object("D_mm"));
   if (k.axis == Axis::C) {

@@ -77,6 +77,8 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
     add_rank_block(b, ev.prior);
     b["worst_std_um"] = optional_number(ev.worst.worst_std_um);
     b["worst_determined_std_um"] = optional_number(ev.worst.worst_determined_std_um);
+    b["worst_total_std_um"] = ev.worst_total ? optional_number(ev.worst_total->worst_std_um) : json(nullptr);
+    b["setup_note"] = ev.setup_note;
     b["errors"] = errors_to_json(ev.errors, false);
     b["unidentifiable"] = unidentifiable_to_json(ev.unidentifiable);
     j["best"] = b;
@@ -104,6 +106,13 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
       r["ratio_worst_std_um"] = *res.best_evaluation.worst.worst_std_um / *reference->worst.worst_std_um;
     } else {
       r["ratio_worst_std_um"] = nullptr;
+    }
+    if (reference->worst_total) {
+      r["worst_total_std_um"] = optional_number(reference->worst_total->worst_std_um);
+      const std::optional<WorstCase>& bt = res.best_evaluation.worst_total;
+      r["ratio_worst_total_std_um"] = res.best && bt && bt->worst_std_um && reference->worst_total->worst_std_um
+                                          ? json(*bt->worst_std_um / *reference->worst_total->worst_std_um)
+                                          : json(nullptr);
     }
     j["reference"] = r;
   }
@@ -167,6 +176,14 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
       }
     } else {
       s << ", worst_std_um: none (not every error determined)";
+    }
+    if (reference->worst_total && reference->worst_total->worst_std_um) {
+      s << "\nreference with the same set-up tolerances: worst_total_std_um "
+        << fmt_num(*reference->worst_total->worst_std_um) << " um";
+      if (ev.worst_total && ev.worst_total->worst_std_um) {
+        s << "; optimised " << fmt_num(*ev.worst_total->worst_std_um) << " um, ratio "
+          << fmt_num(*ev.worst_total->worst_std_um / *reference->worst_total->worst_std_um, 3);
+      }
     }
     s << "\n";
   }

@@ -21,6 +21,9 @@ struct Reference {
   Design design;
   WorstCase worst;
   int rank = 0, n_unknowns = 0;
+  // With set-up tolerances in the kit: the reference's total worst case under the same
+  // tolerances (its own when it declares some, else the kit's).
+  std::optional<WorstCase> worst_total;
 };
 
 nlohmann::json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
