@@ -186,6 +186,8 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   // So the information of one angle is T Mb T' with Mb the body-frame information, and a
   // station met n times has the covariance T Mb^-1 T' / n: one 6 x 6 inverse serves every angle.
   if (design.installations.empty()) return std::nullopt;
+  // Declared set-up tolerances change the estimate (setup.hpp): the general path answers.
+  if (design.setup_nuisance_declared()) return std::nullopt;
   if (design.errors.kind != ErrorModel::Kind::PerAngle) return fast_worst_case_series(design, reference_length_mm);
   const Eigen::Matrix<double, 6, 6> Mbm = body_information(design);
   double Mb[6][6];
@@ -247,7 +249,8 @@ TotalWorstCase design_worst_total(const Design& design, double reference_length_
 
 WorstCase design_worst_case(const Design& design, double reference_length_mm) {
   if (std::optional<WorstCase> w = fast_worst_case(design, reference_length_mm)) return *w;
-  return evaluate_design(design, reference_length_mm).worst;
+  // The worst case alone: without the indices, criteria and set-up checks of evaluate_design.
+  return design_worst_total(design, reference_length_mm).noise;
 }
 
 Evaluation evaluate_design(const Design& design, double reference_length_mm, const EstimateOptions& options,

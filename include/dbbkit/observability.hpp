@@ -71,7 +71,8 @@ struct TotalWorstCase {
 };
 TotalWorstCase design_worst_total(const Design& design, double reference_length_mm);
 
-// fast_worst_case when it applies, else evaluate_design's.
+// fast_worst_case when it applies (no declared set-up tolerances), else the worst
+// case of evaluate_design (computed alone, design_worst_total).
 WorstCase design_worst_case(const Design& design, double reference_length_mm);
 
 struct Evaluation {
