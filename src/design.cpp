@@ -133,7 +133,9 @@ const std::string kLengthLimit = "must be a finite length within +-10000 mm (REA
 
 bool noise_ok(double x) { return std::isfinite(x) && x >= limits::kMinNoise_um && x <= limits::kMaxNoise_um; }
 
-void validate_setup_impl(const SetupUncertainty& u, Axis axis, const std::string& source, const std::string& key) {
+}  // namespace
+
+void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std::string& source, const std::string& key) {
   for (const auto& [name, x] : {std::pair<const char*, double>{"length_offset_um", u.length_offset_um},
                                 {"centring_um", u.centring_um}}) {
     require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_um, source, key + "." + name,
@@ -144,12 +146,6 @@ void validate_setup_impl(const SetupUncertainty& u, Axis axis, const std::string
             "must be a standard uncertainty in [0, 100] mm (README, \"Limits\")");
   }
   if (axis == Axis::B) require(u.H_mm == 0, source, key + ".H_mm", "H is not used for the swinging head B");
-}
-
-}  // namespace
-
-void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std::string& source, const std::string& key) {
-  validate_setup_impl(u, axis, source, key);
 }
 
 bool length_within_limits(double x_mm) { return length_ok(x_mm); }

@@ -135,13 +135,11 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
     SetupRisk worst;
     bool any = false;
     for (int s = 0; s < param.n_stations(); ++s) {
-      const Eigen::MatrixXd E = param.error_map(s);
+      const Eigen::MatrixXd C = error_functions(param, s, p_ext);
       for (int k = 0; k < 6; ++k) {
         const Determined& d = after[s].errors[k];
         if (!d.determined || !(d.std > 0)) continue;
-        Eigen::VectorXd c = Eigen::VectorXd::Zero(p_ext);
-        c.head(E.cols()) = E.row(k).transpose();
-        const double b = (c.transpose() * GX).norm();
+        const double b = (C.col(k).transpose() * GX).norm();
         if (!(b > 1e-12)) continue;
         const double threshold = d.std / b;
         if (!any || threshold < worst.threshold_um) {

@@ -184,12 +184,24 @@ Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options) 
   return WlsSolver(model.J, model.sigma_um, options).solve(model.y_um);
 }
 
+Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M, const Eigen::MatrixXd& GM) {
+  return solver.sigma_um().cwiseInverse().asDiagonal() * (M - solver.J() * GM);
+}
+
+Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M) {
+  return unexplained(solver, M, solver.gain() * M);
+}
+
 int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X, const EstimateOptions& options) {
-  const int q = static_cast<int>(X.cols());
-  if (q == 0 || X.rows() == 0) return 0;
-  const Eigen::VectorXd w = solver.sigma_um().cwiseInverse();
-  Eigen::MatrixXd R = w.asDiagonal() * (X - solver.J() * (solver.gain() * X));
-  const Eigen::VectorXd norms = (w.asDiagonal() * X).colwise().norm().transpose();
+  if (X.cols() == 0 || X.rows() == 0) return 0;
+  const Eigen::VectorXd norms = (solver.sigma_um().cwiseInverse().asDiagonal() * X).colwise().norm().transpose();
+  return added_rank(unexplained(solver, X), norms, options);
+}
+
+int added_rank(const Eigen::MatrixXd& unexplained_part, const Eigen::VectorXd& norms, const EstimateOptions& options) {
+  const int q = static_cast<int>(unexplained_part.cols());
+  if (q == 0 || unexplained_part.rows() == 0) return 0;
+  Eigen::MatrixXd R = unexplained_part;
   for (int j = 0; j < q; ++j) {
     if (norms(j) > 0) {
       R.col(j) /= norms(j);

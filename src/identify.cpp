@@ -80,18 +80,21 @@ std::string interpret_rigid_motion(const Design& design, double angle_deg, const
 
 }  // namespace
 
+Eigen::MatrixXd error_functions(const Parameterisation& param, int station, Eigen::Index n_unknowns) {
+  const Eigen::MatrixXd E = param.error_map(station);
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(std::max<Eigen::Index>(n_unknowns, E.cols()), 6);
+  C.topRows(E.cols()) = E.transpose();
+  return C;
+}
+
 std::vector<ErrorsAtAngle> errors_at_stations(const Parameterisation& param, const Estimate& est) {
   std::vector<ErrorsAtAngle> out;
   for (int s = 0; s < param.n_stations(); ++s) {
     ErrorsAtAngle ea;
     ea.station = s;
     ea.angle_deg = param.station_angle_deg(s);
-    const Eigen::MatrixXd E = param.error_map(s);
-    for (int k = 0; k < 6; ++k) {
-      Eigen::VectorXd c = Eigen::VectorXd::Zero(std::max<Eigen::Index>(est.n_unknowns, E.cols()));
-      c.head(E.cols()) = E.row(k).transpose();  // unknowns beyond the axis errors (effects) get 0
-      ea.errors[k] = est.evaluate(c);
-    }
+    const Eigen::MatrixXd C = error_functions(param, s, est.n_unknowns);
+    for (int k = 0; k < 6; ++k) ea.errors[k] = est.evaluate(C.col(k));
     out.push_back(ea);
   }
   return out;
@@ -148,25 +151,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   res.unidentifiable = describe_null_space(design, res.param, res.estimate);
   res.setup_included = setup.any();
   res.first_order = first_order_check(design, res.param, res.estimate.theta);
-  if (res.first_order.computed && !res.budget.values.empty()) {
-    Eigen::MatrixXd C(static_cast<Eigen::Index>(res.budget.values.size()), res.param.n_parameters());
-    for (std::size_t v = 0; v < res.budget.values.size(); ++v) {
-      C.row(static_cast<Eigen::Index>(v)) = res.param.error_map(res.budget.values[v].station).row(res.budget.values[v].error);
-    }
-    const Eigen::MatrixXd A = setup.left_gain(C);
-    double worst = -1;
-    for (std::size_t v = 0; v < res.budget.values.size(); ++v) {
-      const ValueBudget& vb = res.budget.values[v];
-      if (!(vb.u_c > 0)) continue;
-      const double ratio = res.first_order.largest_term_um * A.row(static_cast<Eigen::Index>(v)).lpNorm<1>() / vb.u_c;
-      if (ratio > worst) {
-        worst = ratio;
-        res.first_order.bias_bound_std = ratio;
-        res.first_order.bias_error = vb.error;
-        res.first_order.bias_angle_deg = vb.angle_deg;
-      }
-    }
-  }
+  bound_first_order_bias(res.first_order, setup, res.param, res.budget);
   if (setup.any()) {
     res.setup_note = "the errors' uncertainties include the declared length offset and centring tolerances: the "
                      "set-up effects are estimated with their prior (what the readings see is estimated, the rest "

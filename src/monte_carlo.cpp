@@ -91,12 +91,9 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   }
 
   // Outputs: values = C theta; A = C G maps readings to values.
-  Eigen::MatrixXd C(n_out, param.n_parameters());
-  for (int v = 0; v < n_out; ++v)
-    C.row(v) = param.error_map(budget.values[v].station).row(budget.values[v].error);
-  const bool nuisance = setup && setup->any();
-  const Eigen::MatrixXd A = nuisance ? setup->left_gain(C) : Eigen::MatrixXd(C * solver.gain());
-  const Eigen::MatrixXd AS = nuisance ? setup->setup_draw_map(C) : Eigen::MatrixXd();  // per N(0, 1) set-up draw
+  const Eigen::MatrixXd C = budget_functions(param, budget);
+  const Eigen::MatrixXd A = setup ? setup->left_gain(C) : Eigen::MatrixXd(C * solver.gain());
+  const Eigen::MatrixXd AS = setup ? setup->setup_draw_map(C) : Eigen::MatrixXd();  // per N(0, 1) set-up draw
   // Per-angle values read a handful of the readings: a sparse A saves most of the products.
   const Eigen::SparseMatrix<double> A_sparse = A.sparseView(1.0, 1e-300);
   const bool sparse = A_sparse.nonZeros() < A.size() / 4;

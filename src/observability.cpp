@@ -236,12 +236,7 @@ TotalWorstCase design_worst_total(const Design& design, double reference_length_
   const WlsSolver solver(model.J, model.sigma_um);
   const SetupSolver setup(solver, setup_effects(design, model, true));
   TotalWorstCase out;
-  if (!setup.any()) {
-    Estimate prior = solver.a_priori();
-    out.noise = out.total = worst_case(errors_at_stations(param, prior), reference_length_mm);
-    return out;
-  }
-  const ErrorParts parts = error_parts(param, setup);
+  const ErrorParts parts = error_parts(param, setup);  // without declared tolerances: total = noise
   out.noise = worst_case(parts.noise, reference_length_mm);
   out.total = worst_case(parts.total, reference_length_mm);
   return out;
@@ -267,24 +262,21 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm, con
   ev.unidentifiable = describe_null_space(design, param, ev.prior);
   ev.detection = detection;
 
+  // Every per-installation set-up effect is checked; those with a declared tolerance
+  // (and only those: SetupSolver passes over the others) enter the estimate.
   const std::vector<SetupEffect> all = setup_effects(design, model, false);
-  std::vector<SetupEffect> declared;
-  for (const SetupEffect& e : all) {
-    if (e.std_um > 0) declared.push_back(e);
-  }
-  const SetupSolver setup(solver, declared);
+  const SetupSolver setup(solver, all);
   ev.setup_checks = check_setup_effects(param, setup, all, detection, reference_length_mm);
+  ErrorParts parts = error_parts(param, setup);
+  ev.errors = std::move(parts.noise);
   if (setup.any()) {
-    ErrorParts parts = error_parts(param, setup);
     ev.setup_included = true;
-    ev.errors = std::move(parts.noise);
     ev.setup_errors = std::move(parts.setup);
     ev.total_errors = std::move(parts.total);
     ev.worst_total = worst_case(ev.total_errors, reference_length_mm);
     ev.setup_note = "the uncertainties include the declared length offset and centring tolerances (total = noise and "
                     "set-up); the ball placement (L, D, H) is propagated at the identified errors by identify";
   } else {
-    ev.errors = errors_at_stations(param, ev.prior);
     ev.setup_note = "set-up uncertainty is not included: the design declares no length offset or centring tolerance "
                     "(setup_std)";
   }

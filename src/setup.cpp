@@ -13,41 +13,22 @@
 namespace dbbkit {
 
 std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& model, bool only_declared) {
+  // The model's rows as readings, so that the columns are the effect library's own (effect_block).
+  std::vector<Reading> rows;
+  rows.reserve(model.row_installation.size());
+  for (std::size_t r = 0; r < model.row_installation.size(); ++r) {
+    rows.push_back({design.installations[model.row_installation[r]].id, model.row_angle_deg[r], 0.0, std::nullopt,
+                    std::nullopt, std::nullopt, 0});
+  }
   std::vector<SetupEffect> out;
-  const int n = static_cast<int>(model.J.rows());
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
-    const Installation& in = design.installations[i];
     const SetupUncertainty u = design.setup_of(i);
     for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Centring}) {
       const double std_um = kind == EffectKind::LengthOffset ? u.length_offset_um : u.centring_um;
       if (only_declared && !(std_um > 0)) continue;
-      const std::vector<std::string> names = effect_parameter_names(kind);
-      Eigen::MatrixXd full = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(names.size()));
-      // The columns of effects.hpp: length_offset 1; centring -s u (machine frame).
-      for (int r = 0; r < n; ++r) {
-        if (model.row_installation[r] != i) continue;
-        if (kind == EffectKind::LengthOffset) {
-          full(r, 0) = 1.0;
-        } else {
-          full.row(r) = -in.sign * direction_machine(design.axis, in, model.row_angle_deg[r]).transpose();
-        }
-      }
-      SetupEffect e;
-      e.kind = kind;
-      e.installation = i;
-      e.label = EffectCandidate{kind, i}.label(design);
-      e.std_um = std_um;
-      std::vector<int> keep;
-      for (int j = 0; j < full.cols(); ++j) {
-        if (full.col(j).cwiseAbs().maxCoeff() > 1e-12) keep.push_back(j);
-      }
-      if (keep.empty()) continue;  // changes no reading of these rows
-      e.X.resize(n, static_cast<Eigen::Index>(keep.size()));
-      for (std::size_t j = 0; j < keep.size(); ++j) {
-        e.X.col(static_cast<Eigen::Index>(j)) = full.col(keep[j]);
-        e.parameters.push_back(names[keep[j]]);
-      }
-      out.push_back(std::move(e));
+      EffectBlock block = effect_block(design, rows, {kind, i});
+      if (!block.not_applicable.empty()) continue;  // changes no reading of these rows
+      out.push_back({kind, i, std::move(block.label), std::move(block.parameters), std::move(block.X), std_um});
     }
   }
   return out;
@@ -74,9 +55,8 @@ SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& 
     }
   }
   if (q == 0 || n == 0) return;
-  const Eigen::VectorXd w = base.sigma_um().cwiseInverse();
   K_ = base.gain() * X_;
-  R_ = w.asDiagonal() * (X_ - base.J() * K_);
+  R_ = unexplained(base, X_, K_);
   RtR_ = R_.transpose() * R_;
   Eigen::MatrixXd S = RtR_;
   S.diagonal() += prior_std_.cwiseAbs2().cwiseInverse();
@@ -89,9 +69,7 @@ SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& 
 
 Eigen::VectorXd SetupSolver::beta(const Eigen::VectorXd& y_um) const {
   if (!any()) return Eigen::VectorXd(0);
-  const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
-  const Eigen::VectorXd e = w.cwiseProduct(y_um - base_->J() * (base_->gain() * y_um));
-  return S_inv_ * (R_.transpose() * e);
+  return S_inv_ * (R_.transpose() * unexplained(*base_, y_um));
 }
 
 Estimate SetupSolver::solve(const Eigen::VectorXd& y_um) const {
@@ -114,9 +92,7 @@ Estimate SetupSolver::solve(const Eigen::VectorXd& y_um) const {
 Eigen::MatrixXd SetupSolver::gain_times(const Eigen::MatrixXd& M) const {
   Eigen::MatrixXd GM = base_->gain() * M;
   if (!any()) return GM;
-  const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
-  const Eigen::MatrixXd RM = w.asDiagonal() * (M - base_->J() * GM);
-  GM -= K_ * (S_inv_ * (R_.transpose() * RM));
+  GM -= K_ * (S_inv_ * (R_.transpose() * unexplained(*base_, M, GM)));
   return GM;
 }
 
@@ -167,12 +143,10 @@ ErrorParts error_parts(const Parameterisation& param, const SetupSolver& solver)
     ErrorsAtAngle noise, setup, total;
     noise.station = setup.station = total.station = s;
     noise.angle_deg = setup.angle_deg = total.angle_deg = param.station_angle_deg(s);
-    const Eigen::MatrixXd E = param.error_map(s);
+    const Eigen::MatrixXd C = error_functions(param, s, est.n_unknowns);
     for (int k = 0; k < 6; ++k) {
-      Eigen::VectorXd c = Eigen::VectorXd::Zero(std::max<Eigen::Index>(est.n_unknowns, E.cols()));
-      c.head(E.cols()) = E.row(k).transpose();
-      if (!est.determined(c)) continue;
-      const SetupSolver::Parts p = solver.parts(c);
+      if (!est.determined(C.col(k))) continue;
+      const SetupSolver::Parts p = solver.parts(C.col(k));
       noise.errors[k] = {true, 0.0, std::sqrt(p.noise)};
       setup.errors[k] = {true, 0.0, std::sqrt(p.setup)};
       total.errors[k] = {true, 0.0, std::sqrt(p.noise + p.setup)};
@@ -214,10 +188,9 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
   };
   std::vector<Fn> fns;
   for (int s = 0; s < param.n_stations(); ++s) {
-    const Eigen::MatrixXd E = param.error_map(s);
+    const Eigen::MatrixXd C = error_functions(param, s, est.n_unknowns);
     for (int k = 0; k < 6; ++k) {
-      Eigen::VectorXd c = E.row(k).transpose();
-      if (est.determined(c)) fns.push_back({s, k, std::move(c)});
+      if (est.determined(C.col(k))) fns.push_back({s, k, C.col(k)});
     }
   }
   for (const SetupEffect& e : effects) {
@@ -227,9 +200,9 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
     ch.kind = e.kind;
     ch.declared_std_um = e.std_um;
     const int q = static_cast<int>(e.X.cols());
-    ch.detectable = added_rank(base, e.X) == q;
+    const Eigen::MatrixXd Re = unexplained(base, e.X);
+    ch.detectable = added_rank(Re, (w.asDiagonal() * e.X).colwise().norm().transpose()) == q;
     if (ch.detectable) {
-      const Eigen::MatrixXd Re = w.asDiagonal() * (e.X - base.J() * (base.gain() * e.X));
       const Eigen::JacobiSVD<Eigen::MatrixXd> svd(Re);
       const double r = svd.singularValues()(q - 1);
       const int dof = est.n_readings - est.rank - q;
@@ -294,6 +267,24 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
   }
   fc.warn = fc.largest_term_um > 0.25 * fc.noise_sigma_um;
   return fc;
+}
+
+void bound_first_order_bias(FirstOrderCheck& check, const SetupSolver& solver, const Parameterisation& param,
+                            const Budget& budget) {
+  if (!check.computed || budget.values.empty()) return;
+  const Eigen::MatrixXd A = solver.left_gain(budget_functions(param, budget));
+  double worst = -1;
+  for (std::size_t v = 0; v < budget.values.size(); ++v) {
+    const ValueBudget& vb = budget.values[v];
+    if (!(vb.u_c > 0)) continue;
+    const double ratio = check.largest_term_um * A.row(static_cast<Eigen::Index>(v)).lpNorm<1>() / vb.u_c;
+    if (ratio > worst) {
+      worst = ratio;
+      check.bias_bound_std = ratio;
+      check.bias_error = vb.error;
+      check.bias_angle_deg = vb.angle_deg;
+    }
+  }
 }
 
 }  // namespace dbbkit

@@ -227,13 +227,13 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
   for (Reading& reading : out) {
     const int i = index.at(reading.installation);
     const Installation& inst = design.installations[i];
-    const Vector6d e = truth_errors(truth, design.axis, reading.angle_deg);
+    const Vector6d errors = truth_errors(truth, design.axis, reading.angle_deg);
     double value = 0;
     if (truth.exact) {
-      value = exact_setup_reading_um(design.axis, inst, reading.angle_deg, e, inst.bar_mm.value_or(*truth.bar_mm),
-                                     setup[i]);
+      value = exact_setup_reading_um(design.axis, inst, reading.angle_deg, errors,
+                                     inst.bar_mm.value_or(*truth.bar_mm), setup[i]);
     } else {
-      value = J_reading_error(design.axis, inst, reading.angle_deg) * e;
+      value = J_reading_error(design.axis, inst, reading.angle_deg) * errors;
     }
     for (const TruthEffect& e : truth.effects) {
       EffectCandidate c = e.effect;

@@ -25,6 +25,14 @@ std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& co
   return uc2 * uc2 / denom;
 }
 
+Eigen::MatrixXd budget_functions(const Parameterisation& param, const Budget& budget) {
+  Eigen::MatrixXd C(static_cast<Eigen::Index>(budget.values.size()), param.n_parameters());
+  for (std::size_t v = 0; v < budget.values.size(); ++v) {
+    C.row(static_cast<Eigen::Index>(v)) = param.error_map(budget.values[v].station).row(budget.values[v].error);
+  }
+  return C;
+}
+
 Budget uncertainty_budget(const Design& design, const Parameterisation& param, const LinearModel& model,
                           const WlsSolver& solver, const Estimate& est, const BudgetOptions& options,
                           const SetupSolver* setup) {

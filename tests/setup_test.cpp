@@ -314,20 +314,11 @@ TEST(SetupCoverage, TotalIntervalsCoverWhereNoiseOnlyIntervalsDoNot) {
   // Asserted on the error most exposed to the set-up (largest set-up part against its
   // noise part) within binomial bounds, and pooled over every error; the noise-only
   // intervals of the same data (no tolerance declared) must under-cover.
-  const Design plain = io::read_design_file(test::source_path("designs/c-turntable-kit-optimized.json"));
+  const Design plain = optimised_c();
   Design declared = plain;
   declared.setup_std.length_offset_um = 10;
   declared.setup_std.centring_um = 5;
-  Truth t;
-  t.model = {ErrorModel::Kind::PerAngle, 0};
-  for (double a : plain.angles_deg) {
-    Vector6d e;
-    const double r = a * M_PI / 180;
-    e << 3 * std::cos(r), -2 * std::sin(r), 1.5, 8 * std::sin(2 * r), -5 + 6 * std::cos(r), 4;
-    test::add_truth_value(t, plain.axis, a, e);
-  }
-  t.exact = true;
-  t.bar_mm = 150;
+  Truth t = exact_truth_with_errors(plain);
   t.setup_draw.length_offset_um = 10;
   t.setup_draw.centring_um = 5;
 

@@ -112,4 +112,13 @@ Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options =
 // [J X] couples every station into one block.
 int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X, const EstimateOptions& options = {});
 
+// R = Sigma^-1/2 (M - J G M): the whitened part of readings M (n x m) that the model of
+// `solver` cannot reproduce. `GM` = solver.gain() * M when the caller has it already.
+Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M);
+Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M, const Eigen::MatrixXd& GM);
+
+// added_rank from R = unexplained(solver, X) already formed, with the whitened column
+// norms |Sigma^-1/2 X_j| (the same rule).
+int added_rank(const Eigen::MatrixXd& R, const Eigen::VectorXd& whitened_norms, const EstimateOptions& options = {});
+
 }  // namespace dbbkit

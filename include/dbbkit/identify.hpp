@@ -86,6 +86,11 @@ struct IdentifyResult {
   FirstOrderCheck first_order;
 };
 
+// The six functions c.theta that are the errors dx..ez at `station`: column k is
+// error k over n_unknowns >= param.n_parameters() unknowns (those beyond the axis
+// errors, e.g. effects appended to J, get 0).
+Eigen::MatrixXd error_functions(const Parameterisation& param, int station, Eigen::Index n_unknowns);
+
 // The errors at every station of the parameterisation from an estimate (whose
 // unknowns may extend beyond the axis errors, e.g. by effects appended to J).
 std::vector<ErrorsAtAngle> errors_at_stations(const Parameterisation& param, const Estimate& est);

@@ -106,7 +106,8 @@ class SetupSolver {
   Estimate prior_;
 };
 
-// The errors at every station with the noise part, the set-up part and the total.
+// The errors at every station with the noise part, the set-up part and the total
+// (std only; with no declared tolerance the set-up part is 0 and total = noise).
 struct ErrorParts {
   std::vector<ErrorsAtAngle> noise, setup, total;
 };
@@ -150,5 +151,8 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
 
 // The first-order validity check (FirstOrderCheck, identify.hpp) at the errors theta.
 FirstOrderCheck first_order_check(const Design& design, const Parameterisation& param, const Eigen::VectorXd& theta);
+// Its bias bound (bias_bound_std and where) for the values of a budget of the estimate of `solver`.
+void bound_first_order_bias(FirstOrderCheck& check, const SetupSolver& solver, const Parameterisation& param,
+                            const Budget& budget);
 
 }  // namespace dbbkit

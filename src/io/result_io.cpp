@@ -496,9 +496,10 @@ json evaluate_to_json(const Design& design, const Evaluation& ev, const std::str
   j["worst_total_std_um"] = ev.worst_total ? optional_number(ev.worst_total->worst_std_um) : json(nullptr);
   j["errors"] = errors_to_json(ev.errors, false);
   if (ev.setup_included) {
+    const json setup_part = errors_to_json(ev.setup_errors, false), total = errors_to_json(ev.total_errors, false);
     for (std::size_t i = 0; i < ev.errors.size(); ++i) {
-      j["errors"][i]["setup_std"] = errors_to_json({ev.setup_errors[i]}, false)[0]["std"];
-      j["errors"][i]["total_std"] = errors_to_json({ev.total_errors[i]}, false)[0]["std"];
+      j["errors"][i]["setup_std"] = setup_part[i]["std"];
+      j["errors"][i]["total_std"] = total[i]["std"];
     }
   }
   json setup = {{"included", ev.setup_included}, {"note", ev.setup_note}, {"tolerances", setup_tolerances_to_json(design)}};
