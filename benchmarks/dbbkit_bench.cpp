@@ -48,6 +48,29 @@ void BM_WorstCasePaperCGeneralSolver(benchmark::State& state) {
 }
 BENCHMARK(BM_WorstCasePaperCGeneralSolver)->Unit(benchmark::kMicrosecond);
 
+// The criterion of a search under declared set-up tolerances (10 um length offset, 5 um
+// centring on every installation): the worst case of the total, by the per-angle path
+// (fast_worst_total) and through the stacked model (dense_worst_total). Target: the fast
+// total within 3x of the noise-only worst case above.
+Design paper_c_with_setup() {
+  Design d = paper_c();
+  d.setup_std.length_offset_um = 10;
+  d.setup_std.centring_um = 5;
+  return d;
+}
+void BM_WorstTotalPaperC(benchmark::State& state) {
+  const Design d = paper_c_with_setup();
+  for (auto _ : state) benchmark::DoNotOptimize(fast_worst_total(d, 100.0)->total.worst_std_um);
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_WorstTotalPaperC)->Unit(benchmark::kMicrosecond);
+void BM_WorstTotalPaperCGeneralSolver(benchmark::State& state) {
+  const Design d = paper_c_with_setup();
+  for (auto _ : state) benchmark::DoNotOptimize(dense_worst_total(d, 100.0).total.worst_std_um);
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_WorstTotalPaperCGeneralSolver)->Unit(benchmark::kMicrosecond);
+
 // The whole search over the kit of formats.md, on 1 and 2 threads.
 void BM_OptimizeFormatsKit(benchmark::State& state) {
   const Kit kit = io::read_kit_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/kits/c-turntable-kit.json");

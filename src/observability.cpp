@@ -180,15 +180,16 @@ std::optional<WorstCase> fast_worst_case_series(const Design& design, double ref
 
 }  // namespace
 
-std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm) {
-  // Every installation is read at every angle, and the row of a reading at angle g is the
-  // body-frame row turned by T = diag(R(g), R(g)): s (R u, 1e-3 R P x R u) = s (R u, 1e-3 R (P x u)).
-  // So the information of one angle is T Mb T' with Mb the body-frame information, and a
-  // station met n times has the covariance T Mb^-1 T' / n: one 6 x 6 inverse serves every angle.
-  if (design.installations.empty()) return std::nullopt;
-  // Declared set-up tolerances change the estimate (setup.hpp): the general path answers.
-  if (design.setup_nuisance_declared()) return std::nullopt;
-  if (design.errors.kind != ErrorModel::Kind::PerAngle) return fast_worst_case_series(design, reference_length_mm);
+namespace {
+
+// Mb^-1, the covariance of the six errors at an angle met once, for a per-angle model
+// whose every installation is read at every angle: the row of a reading at angle g is
+// the body-frame row turned by T = diag(R(g), R(g)): s (R u, 1e-3 R P x R u) = s (R u,
+// 1e-3 R (P x u)). So the information of one angle is T Mb T' with Mb the body-frame
+// information, and a station met n times has the covariance T Mb^-1 T' / n: one 6 x 6
+// inverse serves every angle. Absent when the design is near rank loss (below).
+std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Design& design) {
+  if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::PerAngle) return std::nullopt;
   const Eigen::Matrix<double, 6, 6> Mbm = body_information(design);
   double Mb[6][6];
   for (int j = 0; j < 6; ++j) {
@@ -211,13 +212,31 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   if (!inverse6(A, Ai)) return std::nullopt;
   for (int j = 0; j < 6; ++j) trace_Ai += Ai[j][j];
   if (!(std::sqrt(6.0 * trace_A * trace_Ai) <= 1e5)) return std::nullopt;  // cond(Js) <= 1e5 << 1e9
-  Eigen::Matrix3d Ct, Cr;  // Mb^-1 blocks: translation and rotation
-  for (int j = 0; j < 3; ++j) {
-    for (int k = 0; k < 3; ++k) {
-      Ct(j, k) = sc[j] * Ai[j][k] * sc[k];
-      Cr(j, k) = sc[j + 3] * Ai[j + 3][k + 3] * sc[k + 3];
-    }
+  Eigen::Matrix<double, 6, 6> C;
+  for (int j = 0; j < 6; ++j) {
+    for (int k = 0; k < 6; ++k) C(j, k) = sc[j] * Ai[j][k] * sc[k];
   }
+  return C;
+}
+
+Eigen::Matrix<double, 6, 6> turned(Axis axis, double angle_deg, const Eigen::Matrix<double, 6, 6>& Cb) {
+  Eigen::Matrix<double, 6, 6> T = Eigen::Matrix<double, 6, 6>::Zero();
+  const Eigen::Matrix3d R = axis_rotation(axis, angle_deg);
+  T.topLeftCorner<3, 3>() = R;
+  T.bottomRightCorner<3, 3>() = R;
+  return T * Cb * T.transpose();
+}
+
+}  // namespace
+
+std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm) {
+  if (design.installations.empty()) return std::nullopt;
+  // Declared set-up tolerances change the estimate (setup.hpp): fast_worst_total answers.
+  if (design.setup_nuisance_declared()) return std::nullopt;
+  if (design.errors.kind != ErrorModel::Kind::PerAngle) return fast_worst_case_series(design, reference_length_mm);
+  const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design);
+  if (!Cb) return std::nullopt;
+  const Eigen::Matrix3d Ct = Cb->topLeftCorner<3, 3>(), Cr = Cb->bottomRightCorner<3, 3>();
   const Parameterisation param(design);
   std::vector<int> count(param.n_stations(), 0);
   for (double a : design.angles_deg) ++count[param.station_of(a)];
@@ -230,7 +249,117 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   return worst.result();
 }
 
+std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm) {
+  if (!design.setup_nuisance_declared()) {
+    const std::optional<WorstCase> w = fast_worst_case(design, reference_length_mm);
+    if (!w) return std::nullopt;
+    return TotalWorstCase{*w, *w};
+  }
+  // setup.hpp's quantities angle by angle. For a per-angle model the gain of J alone is
+  // block-diagonal: the estimate at station s is C0_s J_s' W y_s with C0_s = T Mb^-1 T' / n_s
+  // and J_s the rows of the angles of s. With B_s = J_s' W X_s (6 x q):
+  //   K_s = C0_s B_s                        (the rows of K for station s)
+  //   R'R = sum_a (X_a - J_a K_s)' W (X_a - J_a K_s)
+  //   S = R'R + P^-1                        (q x q, the only coupling of the angles)
+  // and for error k at station s, with V_s = S^-1 K_s' (q x 6):
+  //   total = C0_s(k,k) + K_s(k,:) V_s(:,k),  set-up part = sum_j V_s(j,k)^2 / u_j^2,
+  //   noise = total - set-up part           (K S^-1 R'R S^-1 K' = K S^-1 K' - K S^-1 P^-1 S^-1 K').
+  // The columns are the effect library's (effects.cpp: a length offset is 1 on every
+  // reading of its installation, a centring component -s u_c; components that change no
+  // reading are dropped as effect_block drops them); a column touches one installation,
+  // so B_s is summed reading by reading. Tested against dense_worst_total.
+  const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design);
+  if (!Cb) return std::nullopt;
+  const Parameterisation param(design);
+  const int m = static_cast<int>(design.installations.size());
+  const int n_angles = static_cast<int>(design.angles_deg.size());
+  const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
+  // J rows and directions of every reading, angle-major.
+  std::vector<RowVector6d> rows(static_cast<size_t>(n_angles) * m);
+  std::vector<Eigen::Vector3d> su(static_cast<size_t>(n_angles) * m);  // s u in the machine frame
+  for (int a = 0; a < n_angles; ++a) {
+    for (int i = 0; i < m; ++i) {
+      const Installation& in = design.installations[i];
+      rows[a * m + i] = J_reading_error(design.axis, in, design.angles_deg[a]);
+      su[a * m + i] = in.sign * direction_machine(design.axis, in, design.angles_deg[a]);
+    }
+  }
+  struct Column {
+    int installation;
+    int component;  // -1: length offset; 0..2: centring x, y, z
+    double precision;
+  };
+  std::vector<Column> cols;
+  for (int i = 0; i < m; ++i) {
+    const SetupUncertainty u = design.setup_of(i);
+    if (u.length_offset_um > 0) cols.push_back({i, -1, 1.0 / (u.length_offset_um * u.length_offset_um)});
+    if (!(u.centring_um > 0)) continue;
+    for (int c = 0; c < 3; ++c) {
+      double largest = 0;
+      for (int a = 0; a < n_angles; ++a) largest = std::max(largest, std::abs(su[a * m + i](c)));
+      if (largest > 1e-12) cols.push_back({i, c, 1.0 / (u.centring_um * u.centring_um)});
+    }
+  }
+  const int q = static_cast<int>(cols.size());
+  const int n_st = param.n_stations();
+  std::vector<int> count(n_st, 0);
+  std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>> B(n_st, Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, q));
+  std::vector<double> x(q);
+  for (int a = 0; a < n_angles; ++a) {
+    const int st = param.station_of(design.angles_deg[a]);
+    ++count[st];
+    for (int j = 0; j < q; ++j) {
+      const int r = a * m + cols[j].installation;
+      x[j] = cols[j].component < 0 ? 1.0 : -su[r](cols[j].component);
+      B[st].col(j) += (w * x[j]) * rows[r].transpose();
+    }
+  }
+  std::vector<Eigen::Matrix<double, 6, 6>> C0(n_st);
+  std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>> K(n_st);
+  for (int st = 0; st < n_st; ++st) {
+    C0[st] = turned(design.axis, param.station_angle_deg(st), *Cb) / count[st];
+    K[st] = C0[st] * B[st];
+  }
+  // R'R from R itself, angle by angle (X'WX - sum B'C0B is cheaper but loses the
+  // digits of the effects the design barely sees).
+  Eigen::MatrixXd RtR = Eigen::MatrixXd::Zero(q, q);
+  Eigen::MatrixXd Ra(m, q);
+  Eigen::Matrix<double, Eigen::Dynamic, 6> Ja(m, 6);
+  for (int a = 0; a < n_angles; ++a) {
+    const int st = param.station_of(design.angles_deg[a]);
+    for (int i = 0; i < m; ++i) Ja.row(i) = rows[a * m + i];
+    Ra.noalias() = -Ja * K[st];
+    for (int j = 0; j < q; ++j) {
+      const int r = a * m + cols[j].installation;
+      Ra(cols[j].installation, j) += cols[j].component < 0 ? 1.0 : -su[r](cols[j].component);
+    }
+    RtR.noalias() += w * Ra.transpose() * Ra;
+  }
+  Eigen::MatrixXd S = RtR;
+  for (int j = 0; j < q; ++j) S(j, j) += cols[j].precision;
+  const Eigen::LLT<Eigen::MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) return std::nullopt;  // rounding spoilt S (not seen): the general path answers
+  WorstTracker noise(reference_length_mm), total(reference_length_mm);
+  Eigen::VectorXd p(q);
+  for (int j = 0; j < q; ++j) p(j) = cols[j].precision;
+  for (int st = 0; st < n_st; ++st) {
+    const Eigen::Matrix<double, Eigen::Dynamic, 6> V = llt.solve(K[st].transpose());
+    const double angle = param.station_angle_deg(st);
+    for (int k = 0; k < 6; ++k) {
+      const double t = C0[st](k, k) + K[st].row(k).dot(V.col(k));
+      total.add(angle, k, t);
+      noise.add(angle, k, t - V.col(k).cwiseAbs2().dot(p));
+    }
+  }
+  return TotalWorstCase{noise.result(), total.result()};
+}
+
 TotalWorstCase design_worst_total(const Design& design, double reference_length_mm) {
+  if (std::optional<TotalWorstCase> t = fast_worst_total(design, reference_length_mm)) return *t;
+  return dense_worst_total(design, reference_length_mm);
+}
+
+TotalWorstCase dense_worst_total(const Design& design, double reference_length_mm) {
   const Parameterisation param(design);
   const LinearModel model = design_model(design, param);
   const WlsSolver solver(model.J, model.sigma_um);

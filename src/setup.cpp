@@ -20,6 +20,10 @@ std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& 
     rows.push_back({design.installations[model.row_installation[r]].id, model.row_angle_deg[r], 0.0, std::nullopt,
                     std::nullopt, std::nullopt, 0});
   }
+  return setup_effects(design, rows, only_declared);
+}
+
+std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<Reading>& rows, bool only_declared) {
   std::vector<SetupEffect> out;
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
     const SetupUncertainty u = design.setup_of(i);

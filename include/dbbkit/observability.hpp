@@ -69,7 +69,16 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
 struct TotalWorstCase {
   WorstCase noise, total;
 };
+// fast_worst_total when it applies, else dense_worst_total.
 TotalWorstCase design_worst_total(const Design& design, double reference_length_mm);
+// The same through the stacked model and SetupSolver (the reference of the fast path).
+TotalWorstCase dense_worst_total(const Design& design, double reference_length_mm);
+// The same without the stacked model, for a per-angle model far from rank loss (as
+// fast_worst_case): the set-up effects couple the angles only through the q x q Schur
+// complement S of setup.hpp, so the work is per angle plus one q x q inverse. Absent
+// where fast_worst_case would be (series model, near rank loss); without declared
+// tolerances the total is fast_worst_case's.
+std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm);
 
 // fast_worst_case when it applies (no declared set-up tolerances), else the worst
 // case of evaluate_design (computed alone, design_worst_total).

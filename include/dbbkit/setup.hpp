@@ -58,6 +58,8 @@ struct SetupEffect {
 // Every per-installation length offset and centring the rows can show; with
 // only_declared, only those with a declared tolerance.
 std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& model, bool only_declared);
+// The same on the rows given (installation and angle of each; the values are not used).
+std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<Reading>& rows, bool only_declared);
 
 class SetupSolver {
  public:
