@@ -52,7 +52,137 @@ std::pair<double, double> arc_extent(double a, double b, double c, double lo_deg
 
 }  // namespace
 
-const char* pattern_name(Kit::Pattern) { return "three_position"; }
+std::optional<Pattern> builtin_pattern(const std::string& name, Axis axis) {
+  if (name != "three_position") return std::nullopt;
+  using K = Direction::Kind;
+  auto var = [](const char* v) { return PatternCoordinate{v, 0}; };
+  const PatternCoordinate zero{};
+  Pattern p;
+  p.name = name;
+  p.builtin = true;
+  if (axis == Axis::C) {
+    // Balls at (L1, D1, H1), (L2, D2, H1), (L3, D3, H3) read radially and tangentially, the
+    // axial reading on the axis at H1; H1 != H3.
+    p.positions = {
+        {"1", var("L1"), var("D1"), var("H1"), {K::Radial, K::Tangential}, true, false, false},
+        {"1", zero, zero, var("H1"), {K::Axial}, false, false, false},
+        {"2", var("L2"), var("D2"), var("H1"), {K::Radial, K::Tangential}, true, false, false},
+        {"3", var("L3"), var("D3"), var("H3"), {K::Radial, K::Tangential}, true, false, false},
+    };
+    p.distinct = {{"H1", "H3"}};
+  } else {
+    // Balls at L1 and L2 on the tool axis read in all three directions; where D_mm allows,
+    // a third at (L3, D3) off the axis, radial and tangential (without it, rank 5 at every angle).
+    p.positions = {
+        {"1", var("L1"), zero, zero, {K::Radial, K::Tangential, K::Axial}, true, false, false},
+        {"2", var("L2"), zero, zero, {K::Radial, K::Tangential, K::Axial}, true, false, false},
+        {"3", var("L3"), var("D3"), zero, {K::Radial, K::Tangential}, true, true, true},
+    };
+  }
+  return p;
+}
+
+std::string installation_id(const PatternPosition& position, Direction::Kind kind) {
+  switch (kind) {
+    case Direction::Kind::Radial:
+      return position.id + "r";
+    case Direction::Kind::Tangential:
+      return position.id + "t";
+    case Direction::Kind::Axial:
+      return position.id + "a";
+    case Direction::Kind::Vector:
+      break;
+  }
+  return position.id + "v";
+}
+
+std::vector<int> offered_optional_positions(const Kit& kit) {
+  const bool offset = kit.D_mm.min < 0 || kit.D_mm.max > 0;
+  std::vector<int> out;
+  for (int i = 0; i < static_cast<int>(kit.pattern.positions.size()); ++i) {
+    const PatternPosition& p = kit.pattern.positions[i];
+    if (p.optional && (offset || !p.needs_offset)) out.push_back(i);
+  }
+  return out;
+}
+
+int max_installations(const Kit& kit) {
+  int n = 0;
+  for (const PatternPosition& p : kit.pattern.positions) n += static_cast<int>(p.directions.size());
+  return n;
+}
+
+namespace {
+
+// The most optional positions, variables and discrete choices a pattern may have: the
+// search's work grows with each.
+constexpr size_t kMaxPositions = 16;
+constexpr size_t kMaxHeightVariables = 4;
+constexpr double kMaxChoices = 20000;
+
+void validate_pattern(const Kit& k, const std::string& source) {
+  const Pattern& p = k.pattern;
+  require(!p.positions.empty(), source, "pattern.positions", "no positions");
+  require(p.positions.size() <= kMaxPositions, source, "pattern.positions", "more than 16 positions");
+  std::map<std::string, char> role;  // variable -> 'L', 'D' or 'H'
+  std::vector<std::string> ids;
+  std::vector<std::string> heights;
+  bool any_required = false;
+  for (size_t i = 0; i < p.positions.size(); ++i) {
+    const PatternPosition& pos = p.positions[i];
+    const int own = static_cast<int>(i) - p.inherited_positions;  // index in the file's list
+    const std::string key = own >= 0 ? "pattern.positions[" + std::to_string(own) + "]" : "pattern.extends";
+    any_required = any_required || !pos.optional;
+    require(!pos.id.empty(), source, key + ".id", "is empty");
+    require(!pos.directions.empty(), source, key + ".directions", "no directions");
+    for (Direction::Kind d : pos.directions) {
+      require(d != Direction::Kind::Vector, source, key + ".directions", "must be radial, tangential or axial");
+      const std::string id = installation_id(pos, d);
+      require(std::find(ids.begin(), ids.end(), id) == ids.end(), source, key + ".directions",
+              "installation '" + id + "' appears twice in the pattern");
+      ids.push_back(id);
+    }
+    const std::pair<const PatternCoordinate*, char> coords[] = {{&pos.L, 'L'}, {&pos.D, 'D'}, {&pos.H, 'H'}};
+    for (const auto& [c, name] : coords) {
+      const std::string ckey = key + "." + std::string(1, name);
+      if (!c->is_variable()) {
+        require(length_within_limits(c->value), source, ckey, "must be a length in mm within +-10000 mm");
+        continue;
+      }
+      auto [it, fresh] = role.emplace(c->variable, name);
+      require(it->second == name, source, ckey,
+              "variable '" + c->variable + "' is used as " + std::string(1, it->second) + " and as " +
+                  std::string(1, name));
+      if (name == 'H' && fresh) heights.push_back(c->variable);
+    }
+    if (k.axis == Axis::B) {
+      require(!pos.H.is_variable() && pos.H.value == 0, source, key + ".H",
+              "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
+    }
+  }
+  require(any_required, source, "pattern.positions", "every position is optional: at least one must be required");
+  require(heights.size() <= kMaxHeightVariables, source, "pattern.positions", "more than 4 height variables");
+  const size_t n_stacks = k.axis == Axis::C ? block_stacks(k).size() : 0;
+  for (size_t g = 0; g < p.distinct.size(); ++g) {
+    const std::string key = "pattern.distinct[" + std::to_string(g) + "]";
+    for (const std::string& v : p.distinct[g]) {
+      const auto it = role.find(v);
+      require(it != role.end() && it->second == 'H', source, key, "'" + v + "' is not a height variable of the pattern");
+    }
+    require(n_stacks >= p.distinct[g].size(), source, p.builtin ? "H_mm" : key,
+            "needs " + std::to_string(p.distinct[g].size()) + " different heights, the blocks give " +
+                std::to_string(n_stacks) + (p.builtin ? " (the three_position pattern needs two heights, H3 != H1: "
+                                                        "at least one block and max_stack >= 1)"
+                                                      : ""));
+  }
+  const double choices = static_cast<double>(k.angle_steps_deg.size()) *
+                         std::pow(static_cast<double>(std::max<size_t>(n_stacks, 1)), static_cast<double>(heights.size())) *
+                         static_cast<double>(offered_optional_positions(k).size() + 1);
+  require(choices <= kMaxChoices, source, "pattern",
+          "gives more than 20000 discrete choices (angle steps x heights^height variables x optional positions)");
+}
+
+}  // namespace
 
 void validate_kit(const Kit& k, const std::string& source) {
   validate_noise_and_model(k.noise, k.errors, k.axis, source);
@@ -82,8 +212,6 @@ void validate_kit(const Kit& k, const std::string& source) {
               "must be a positive height in mm");
     }
     require(k.max_stack >= 0, source, "H_mm.max_stack", "must be an integer >= 0");
-    require(block_stacks(k).size() >= 2, source, "H_mm",
-            "the three_position pattern needs two heights (H3 != H1): at least one block and max_stack >= 1");
   }
   require(!k.bars_mm.empty(), source, "bars_mm", "no bars");
   for (size_t i = 0; i < k.bars_mm.size(); ++i) {
@@ -129,6 +257,7 @@ void validate_kit(const Kit& k, const std::string& source) {
   if (k.time_budget_s) {
     require(finite(*k.time_budget_s) && *k.time_budget_s > 0, source, "time_s.budget", "must be a positive time in s");
   }
+  validate_pattern(k, source);
 }
 
 std::vector<Stack> block_stacks(const Kit& kit) {

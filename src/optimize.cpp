@@ -34,18 +34,21 @@ std::string stack_text(const Kit& kit, const Stack& s) {
 
 bool has_offset(const Kit& kit) { return kit.D_mm.min < 0 || kit.D_mm.max > 0; }
 
-struct Position {
-  double L, D, H;
-};
+// The positions of a choice: the required ones and the first n_optional offered, in pattern order.
+std::vector<int> included_positions(const Kit& kit, int n_optional) {
+  const std::vector<int> offered = offered_optional_positions(kit);
+  std::vector<int> out;
+  for (int i = 0; i < static_cast<int>(kit.pattern.positions.size()); ++i) {
+    const bool optional = kit.pattern.positions[i].optional;
+    const auto it = std::find(offered.begin(), offered.end(), i);
+    if (!optional || (it != offered.end() && it - offered.begin() < n_optional)) out.push_back(i);
+  }
+  return out;
+}
 
-Installation make_installation(Axis axis, const char* id, const Position& p, Direction::Kind kind) {
-  Installation in;
-  in.id = id;
-  in.L_mm = p.L;
-  in.D_mm = p.D;
-  in.H_mm = axis == Axis::C ? p.H : 0.0;
-  in.direction = Direction::named(axis, kind);
-  return in;
+// A position off the B tool axis: D a variable over a range that allows an offset, or fixed != 0.
+bool off_axis(const Kit& kit, const PatternPosition& p) {
+  return p.D.is_variable() ? has_offset(kit) : p.D.value != 0;
 }
 
 // The search over one choice: DIRECT-L, then COBYLA from the best point found
@@ -64,7 +67,7 @@ class ChoiceSearch {
     Candidate probe = make_candidate(kit_, choice_, generic);
     score_candidate(kit_, criterion_, probe);
     generic_undetermined_ = probe.n_undetermined;
-    fast_only_ = criterion_ == Criterion::Worst && generic_undetermined_ == 0 && fast_worst_case(probe.design, kit_.reference_length_mm).has_value();
+    fast_only_ = generic_undetermined_ == 0 && fast_score(probe);
   }
 
   long evaluations() const { return evaluations_; }
@@ -101,11 +104,7 @@ class ChoiceSearch {
       // A choice whose generic point is full rank: a point the fast path declines is within
       // a factor 1e4 of rank loss (or at it, e.g. two balls at one position) and is penalised
       // instead of being evaluated in full; such a point is never the best.
-      if (std::optional<WorstCase> w = fast_worst_case(c.design, kit_.reference_length_mm)) {
-        c.worst = *w;
-        c.objective = *w->worst_std_um;
-        c.objective_defined = true;
-      } else {
+      if (!fast_score(c)) {
         c.objective_defined = false;
         c.n_undetermined = kNearRankLoss;
       }
@@ -116,6 +115,27 @@ class ChoiceSearch {
     if (!best_ || better(c, *best_)) best_ = c;
     last_ = std::move(c);
     return *last_;
+  }
+
+  // The worst case (noise only, or the total) without the stacked model, when the fast path
+  // applies (observability.hpp); false for the other criteria and where it declines.
+  bool fast_score(Candidate& c) const {
+    if (criterion_ == Criterion::Worst) {
+      const std::optional<WorstCase> w = fast_worst_case(c.design, kit_.reference_length_mm);
+      if (!w) return false;
+      c.worst = *w;
+      c.objective = *w->worst_std_um;
+    } else if (criterion_ == Criterion::WorstTotal) {
+      const std::optional<TotalWorstCase> t = fast_worst_total(c.design, kit_.reference_length_mm);
+      if (!t) return false;
+      c.worst = t->noise;
+      c.objective = *t->total.worst_std_um;
+    } else {
+      return false;
+    }
+    c.n_undetermined = 0;
+    c.objective_defined = true;
+    return true;
   }
 
   double objective(const std::vector<double>& xf) {
@@ -283,12 +303,18 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
       }
     }
   }
+  bool can_be_off_axis = false;
+  for (const PatternPosition& p : kit.pattern.positions) can_be_off_axis = can_be_off_axis || off_axis(kit, p);
+  bool best_off_axis = false;
+  if (res.best) {
+    for (int i : res.best->installation_position) best_off_axis = best_off_axis || off_axis(kit, kit.pattern.positions[i]);
+  }
   if (kit.axis == Axis::B) {
-    if (!has_offset(kit)) {
+    if (!can_be_off_axis) {
       res.note = "the kit allows no lateral offset (D_mm = [" + mm(kit.D_mm.min) + ", " + mm(kit.D_mm.max) +
                  "]): every ball lies on the tool axis, so a rotation about that axis is unobservable (rank 5 "
                  "of 6 at every angle); the search minimises what is identifiable";
-    } else if (!res.best || !res.best->choice.offset) {
+    } else if (!res.best || !best_off_axis) {
       res.note = "no design with the off-axis position fits the kit (time budget or travel): rank 5 of 6 at "
                  "every angle; the search minimises what is identifiable";
     }
@@ -318,21 +344,40 @@ const char* criterion_name(Criterion c) {
 
 std::vector<PatternChoice> pattern_choices(const Kit& kit) {
   std::vector<PatternChoice> out;
-  if (kit.axis == Axis::C) {
-    const std::vector<Stack> stacks = block_stacks(kit);
-    const size_t n = stacks.size();
-    for (size_t i = 0; i < n; ++i) {
-      for (size_t j = 0; j < n; ++j) {
-        if (i == j) continue;
-        for (double step : kit.angle_steps_deg) {
-          out.push_back({step, static_cast<int>(i), static_cast<int>(j), false, stacks[i].height_mm, stacks[j].height_mm});
+  const std::vector<Stack> stacks = kit.axis == Axis::C ? block_stacks(kit) : std::vector<Stack>{};
+  const int n_offered = static_cast<int>(offered_optional_positions(kit).size());
+  for (int n_opt = 0; n_opt <= n_offered; ++n_opt) {
+    // The height variables of the positions included, in the order they first appear.
+    std::vector<std::string> vars;
+    for (int i : included_positions(kit, n_opt)) {
+      const PatternCoordinate& h = kit.pattern.positions[i].H;
+      if (h.is_variable() && std::find(vars.begin(), vars.end(), h.variable) == vars.end()) vars.push_back(h.variable);
+    }
+    // Every assignment of a stack to each variable (the first variable outermost), less
+    // those that give two variables of a distinct group the same height.
+    std::vector<int> idx(vars.size(), 0);
+    while (true) {
+      bool ok = true;
+      for (const std::vector<std::string>& group : kit.pattern.distinct) {
+        for (size_t a = 0; a < group.size() && ok; ++a) {
+          for (size_t b = 0; b < a && ok; ++b) {
+            const auto ia = std::find(vars.begin(), vars.end(), group[a]), ib = std::find(vars.begin(), vars.end(), group[b]);
+            if (ia != vars.end() && ib != vars.end() && idx[ia - vars.begin()] == idx[ib - vars.begin()]) ok = false;
+          }
         }
       }
-    }
-  } else {
-    for (double step : kit.angle_steps_deg) {
-      out.push_back({step, -1, -1, false});
-      if (has_offset(kit)) out.push_back({step, -1, -1, true});
+      if (ok) {
+        for (double step : kit.angle_steps_deg) {
+          PatternChoice c;
+          c.step_deg = step;
+          c.n_optional = n_opt;
+          for (size_t v = 0; v < vars.size(); ++v) c.heights.push_back({vars[v], idx[v], stacks[idx[v]].height_mm});
+          out.push_back(std::move(c));
+        }
+      }
+      int k = static_cast<int>(vars.size()) - 1;
+      while (k >= 0 && ++idx[k] == static_cast<int>(stacks.size())) idx[k--] = 0;
+      if (k < 0) break;
     }
   }
   return out;
@@ -342,29 +387,32 @@ std::string choice_label(const Kit& kit, const PatternChoice& c) {
   std::string t;
   if (kit.axis == Axis::C) {
     const std::vector<Stack> stacks = block_stacks(kit);
-    t = "H1 = " + stack_text(kit, stacks[c.h1]) + ", H3 = " + stack_text(kit, stacks[c.h3]) + ", ";
-  } else {
-    t = c.offset ? "with the off-axis position, " : "tool axis only, ";
+    for (const PatternChoice::Height& h : c.heights) t += h.variable + " = " + stack_text(kit, stacks[h.stack]) + ", ";
   }
-  return t + "step " + mm(c.step_deg) + " deg";
+  t += "step " + mm(c.step_deg) + " deg";
+  const std::vector<int> offered = offered_optional_positions(kit);
+  if (c.n_optional > 0) {
+    t += ", adds";
+    for (int k = 0; k < c.n_optional; ++k) {
+      const PatternPosition& p = kit.pattern.positions[offered[k]];
+      for (Direction::Kind d : p.directions) t += " " + installation_id(p, d);
+    }
+  }
+  return t;
 }
 
 PatternSpace pattern_space(const Kit& kit, const PatternChoice& c) {
   PatternSpace s;
-  auto add = [&](const std::string& name, const Interval& r) {
-    s.names.push_back(name);
-    s.lower.push_back(r.min);
-    s.upper.push_back(r.max);
-  };
-  if (kit.axis == Axis::C) {
-    for (const char* n : {"L1", "L2", "L3"}) add(n, kit.L_mm);
-    for (const char* n : {"D1", "D2", "D3"}) add(n, kit.D_mm);
-  } else {
-    add("L1", kit.L_mm);
-    add("L2", kit.L_mm);
-    if (c.offset) {
-      add("L3", kit.L_mm);
-      add("D3", kit.D_mm);
+  // The L variables first, then the D variables, each in the order they first appear.
+  for (const char which : {'L', 'D'}) {
+    for (int i : included_positions(kit, c.n_optional)) {
+      const PatternPosition& p = kit.pattern.positions[i];
+      const PatternCoordinate& co = which == 'L' ? p.L : p.D;
+      if (!co.is_variable() || std::find(s.names.begin(), s.names.end(), co.variable) != s.names.end()) continue;
+      const Interval& r = which == 'L' ? kit.L_mm : kit.D_mm;
+      s.names.push_back(co.variable);
+      s.lower.push_back(r.min);
+      s.upper.push_back(r.max);
     }
   }
   return s;
@@ -382,34 +430,35 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std:
   d.errors = kit.errors;
   d.reference_length_mm = kit.reference_length_mm;
   d.setup_std = kit.setup_std;
-  using K = Direction::Kind;
-  std::vector<Position> positions;
-  if (kit.axis == Axis::C) {
-    const double H1 = choice.H1_mm, H3 = choice.H3_mm;
-    positions = {{x[0], x[3], H1}, {x[1], x[4], H1}, {x[2], x[5], H3}};
-    d.installations = {
-        make_installation(Axis::C, "1r", positions[0], K::Radial),
-        make_installation(Axis::C, "1t", positions[0], K::Tangential),
-        make_installation(Axis::C, "1a", {0, 0, H1}, K::Axial),
-        make_installation(Axis::C, "2r", positions[1], K::Radial),
-        make_installation(Axis::C, "2t", positions[1], K::Tangential),
-        make_installation(Axis::C, "3r", positions[2], K::Radial),
-        make_installation(Axis::C, "3t", positions[2], K::Tangential),
-    };
-  } else {
-    positions = {{x[0], 0, 0}, {x[1], 0, 0}};
-    d.installations = {
-        make_installation(Axis::B, "1r", positions[0], K::Radial),
-        make_installation(Axis::B, "1t", positions[0], K::Tangential),
-        make_installation(Axis::B, "1a", positions[0], K::Axial),
-        make_installation(Axis::B, "2r", positions[1], K::Radial),
-        make_installation(Axis::B, "2t", positions[1], K::Tangential),
-        make_installation(Axis::B, "2a", positions[1], K::Axial),
-    };
-    if (choice.offset) {
-      positions.push_back({x[2], x[3], 0});
-      d.installations.push_back(make_installation(Axis::B, "3r", positions[2], K::Radial));
-      d.installations.push_back(make_installation(Axis::B, "3t", positions[2], K::Tangential));
+  const PatternSpace space = pattern_space(kit, choice);
+  auto value = [&](const PatternCoordinate& co, bool height) {
+    if (!co.is_variable()) return co.value;
+    if (height) {
+      for (const PatternChoice::Height& h : choice.heights) {
+        if (h.variable == co.variable) return h.height_mm;
+      }
+      return 0.0;  // not reached: every height variable of an included position has a height
+    }
+    const auto it = std::find(space.names.begin(), space.names.end(), co.variable);
+    return x[it - space.names.begin()];
+  };
+  struct Placed {
+    double L, D, H;
+  };
+  std::vector<Placed> separated;
+  for (int i : included_positions(kit, choice.n_optional)) {
+    const PatternPosition& p = kit.pattern.positions[i];
+    const Placed at{value(p.L, false), value(p.D, false), kit.axis == Axis::C ? value(p.H, true) : 0.0};
+    if (p.separated) separated.push_back(at);
+    for (Direction::Kind kind : p.directions) {
+      Installation in;
+      in.id = installation_id(p, kind);
+      in.L_mm = at.L;
+      in.D_mm = at.D;
+      in.H_mm = at.H;
+      in.direction = Direction::named(kit.axis, kind);
+      d.installations.push_back(std::move(in));
+      c.installation_position.push_back(i);
     }
   }
   c.travel_violation_mm = -std::numeric_limits<double>::infinity();
@@ -417,10 +466,10 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std:
     c.travel_violation_mm = std::max(c.travel_violation_mm, fit_bar(kit, kit.axis, in, d.angles_deg));
   }
   c.separation_violation_mm = -std::numeric_limits<double>::infinity();
-  for (size_t i = 0; i < positions.size(); ++i) {
+  for (size_t i = 0; i < separated.size(); ++i) {
     for (size_t j = 0; j < i; ++j) {
-      const double dist = std::hypot(positions[i].L - positions[j].L, positions[i].D - positions[j].D,
-                                     positions[i].H - positions[j].H);
+      const double dist = std::hypot(separated[i].L - separated[j].L, separated[i].D - separated[j].D,
+                                     separated[i].H - separated[j].H);
       c.separation_violation_mm = std::max(c.separation_violation_mm, kit.min_separation_mm - dist);
     }
   }
@@ -433,17 +482,32 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std:
 void describe_installations(const Kit& kit, Candidate& c) {
   std::vector<Stack> stacks;
   if (kit.axis == Axis::C) stacks = block_stacks(kit);
-  for (Installation& in : c.design.installations) {
+  for (size_t k = 0; k < c.design.installations.size(); ++k) {
+    Installation& in = c.design.installations[k];
+    const PatternPosition& p = kit.pattern.positions[c.installation_position[k]];
     std::string t;
     if (kit.axis == Axis::C) {
-      const bool third = in.id[0] == '3';
-      t = std::string(third ? "H3 = " : "H1 = ") + stack_text(kit, stacks[third ? c.choice.h3 : c.choice.h1]);
-      if (in.id == "1a") t += ", on the axis";
+      if (p.H.is_variable()) {
+        for (const PatternChoice::Height& h : c.choice.heights) {
+          if (h.variable == p.H.variable) t = h.variable + " = " + stack_text(kit, stacks[h.stack]);
+        }
+      } else {
+        t = "H = " + mm(p.H.value) + " mm (fixed by the pattern)";
+      }
+      if (!p.L.is_variable() && !p.D.is_variable() && p.L.value == 0 && p.D.value == 0) t += ", on the axis";
     } else {
-      t = in.id[0] == '3' ? "off the tool axis" : "on the tool axis";
+      t = off_axis(kit, p) ? "off the tool axis" : "on the tool axis";
     }
     in.description = t + ", bar " + mm(*in.bar_mm) + " mm";
   }
+}
+
+std::string added_installations(const Kit& kit, const Candidate& c) {
+  std::string t;
+  for (size_t k = 0; k < c.design.installations.size(); ++k) {
+    if (kit.pattern.positions[c.installation_position[k]].optional) t += (t.empty() ? "" : " ") + c.design.installations[k].id;
+  }
+  return t.empty() ? "-" : t;
 }
 
 void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {

@@ -111,6 +111,13 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"kit_unknown_key.json", kOptimize, "bars_mm", "misspelling"},
         BadCase{"kit_free_pattern.json", kOptimize, "pattern", "\"free\" is not supported"},
         BadCase{"kit_L_min_above_max.json", kOptimize, "L_mm", "min is larger than max"},
+        BadCase{"kit_pattern_bad_direction.json", kOptimize, "pattern.positions[0].directions[1]", "unknown direction 'sideways'"},
+        BadCase{"kit_pattern_variable_two_roles.json", kOptimize, "pattern.positions[0].D", "is used as L and as D"},
+        BadCase{"kit_pattern_all_optional.json", kOptimize, "pattern.positions", "at least one must be required"},
+        BadCase{"kit_pattern_duplicate_id.json", kOptimize, "pattern.positions[0].directions", "installation '3r' appears twice"},
+        BadCase{"kit_pattern_distinct_not_height.json", kOptimize, "pattern.distinct[0]", "'L1' is not a height variable"},
+        BadCase{"kit_pattern_height_on_b.json", kOptimize, "pattern.positions[0].H", "H is not used for the swinging head B"},
+        BadCase{"kit_pattern_too_many_choices.json", kOptimize, "pattern", "more than 20000 discrete choices"},
         BadCase{"kit_negative_block.json", kOptimize, "H_mm.blocks[1]", "positive height"},
         BadCase{"kit_one_height.json", kOptimize, "H_mm", "needs two heights"},
         BadCase{"kit_no_bars.json", kOptimize, "bars_mm", "no bars"},
@@ -241,7 +248,10 @@ TEST(Cli, OptimizeWritesADesignThatEvaluateAndIdentifyAccept) {
               res["best"]["worst_std_um"].get<double>() / res["reference"]["worst_std_um"].get<double>(), 1e-12);
   EXPECT_EQ(res["choices"].size(), 252u);  // 7 heights x 6 other heights x 6 steps
   EXPECT_FALSE(res["pareto"].empty());
-  EXPECT_EQ(slurp(front).substr(0, 54), "time_s,n_installations,n_angles,step_deg,worst_std_um\n");
+  const std::string front_csv = slurp(front);
+  EXPECT_EQ(front_csv.substr(0, front_csv.find('\n') + 1),
+            "time_s,n_installations,n_angles,step_deg,worst_std_um,added_installations\n");
+  EXPECT_NE(front_csv.find(",-\n"), std::string::npos);  // the three_position pattern adds nothing
   // The design file: evaluate recomputes the prediction it carries.
   const nlohmann::json design = nlohmann::json::parse(slurp(best));
   r = run_cli("evaluate --design " + best + " --out -");

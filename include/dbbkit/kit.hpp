@@ -19,12 +19,44 @@ struct Interval {
   double width() const { return max - min; }
 };
 
-struct Kit {
-  enum class Pattern { ThreePosition };
+// A pattern is data (formats.md "Kit file"): a list of ball positions, each with its
+// coordinates (a variable of the search or a fixed value) and the installations read
+// there. A new pattern is a kit entry, not a new branch of the search.
+//   L and D variables are continuous, over the kit's L_mm and D_mm; the same name at
+//   two positions ties them. H variables (C) are discrete: a height of block_stacks.
+//   Optional positions are added in the order listed: the search tries the required
+//   ones plus the first 0, 1, ... of the optional ones (what each extra position buys
+//   is the Pareto front of the result).
+struct PatternCoordinate {
+  std::string variable;  // empty: fixed at value
+  double value = 0;      // mm
+  bool is_variable() const { return !variable.empty(); }
+};
 
+struct PatternPosition {
+  std::string id;  // installation ids: id + r, t or a (radial, tangential, axial)
+  PatternCoordinate L, D, H;
+  std::vector<Direction::Kind> directions;
+  bool separated = true;      // at least min_separation_mm from the other separated positions
+  bool optional = false;      // the search may leave it out
+  bool needs_offset = false;  // offered only when the kit's D_mm allows an offset (D != 0)
+};
+
+struct Pattern {
+  std::string name;
+  std::vector<PatternPosition> positions;
+  std::vector<std::vector<std::string>> distinct;  // groups of H variables that must take different heights
+  bool builtin = false;  // a named pattern of dbbkit (written by name)
+  int inherited_positions = 0;  // the first positions come from the built-in pattern it extends
+};
+
+// The built-in patterns by name ("three_position"); absent for an unknown name.
+std::optional<Pattern> builtin_pattern(const std::string& name, Axis axis);
+
+struct Kit {
   std::string name;
   Axis axis = Axis::C;
-  Pattern pattern = Pattern::ThreePosition;
+  Pattern pattern;
   NoiseModel noise;
   ErrorModel errors;
   double reference_length_mm = 0;
@@ -46,7 +78,12 @@ struct Kit {
   std::optional<double> time_budget_s;  // absent: no limit
 };
 
-const char* pattern_name(Kit::Pattern pattern);
+// The installation id of a direction at a position: id + "r", "t" or "a".
+std::string installation_id(const PatternPosition& position, Direction::Kind kind);
+// The optional positions the kit offers (needs_offset ones dropped when D_mm is {0, 0}), in order.
+std::vector<int> offered_optional_positions(const Kit& kit);
+// The most installations a design of the kit can have.
+int max_installations(const Kit& kit);
 
 // Throws InputError with `source` and the key of the first problem.
 void validate_kit(const Kit& kit, const std::string& source = "kit");

@@ -27,17 +27,23 @@ namespace dbbkit {
 enum class Criterion { Worst, D, A, E, Condition, WorstTotal };
 const char* criterion_name(Criterion c);
 
-// One discrete choice of the three_position pattern.
-//   C: balls at (L1, D1, H1), (L2, D2, H1), (L3, D3, H3), radial + tangential
-//      readings at each, the axial reading at (0, 0, H1); H1, H3 from the block stacks.
-//   B: balls at (L1, 0) and (L2, 0) on the tool axis with radial, tangential and
-//      axial readings; with `offset`, a third at (L3, D3) off the axis with
+// One discrete choice of the kit's pattern (kit.hpp, Pattern): the angle step, how many
+// of the optional positions are added (the first n_optional offered, in order), and a
+// height for each height variable of the positions included (C).
+//   three_position, C: balls at (L1, D1, H1), (L2, D2, H1), (L3, D3, H3), radial +
+//      tangential readings at each, the axial reading at (0, 0, H1); H1 != H3.
+//   three_position, B: balls at (L1, 0) and (L2, 0) on the tool axis with radial,
+//      tangential and axial readings; optionally a third at (L3, D3) off the axis with
 //      radial + tangential (model.md §4: without it, rank 5 at every angle).
 struct PatternChoice {
   double step_deg = 0;
-  int h1 = -1, h3 = -1;  // C: indices into block_stacks(kit)
-  bool offset = false;   // B
-  double H1_mm = 0, H3_mm = 0;  // C: the heights of those stacks
+  int n_optional = 0;
+  struct Height {
+    std::string variable;
+    int stack = -1;         // index into block_stacks(kit)
+    double height_mm = 0;
+  };
+  std::vector<Height> heights;  // in the order the variables first appear
 };
 
 // The continuous variables of a choice: names ("L1", "D3", ...) and bounds in mm.
@@ -51,6 +57,7 @@ struct Candidate {
   PatternChoice choice;
   std::vector<double> x;  // the continuous variables
   Design design;          // bars and signs fitted to the travel
+  std::vector<int> installation_position;  // per installation: its position in kit.pattern.positions
   double travel_violation_mm = 0;      // <= 0: the following ball stays inside travel
   double separation_violation_mm = 0;  // <= 0: ball positions at least min_separation apart
   double time_s = 0;
@@ -103,6 +110,8 @@ PatternSpace pattern_space(const Kit& kit, const PatternChoice& choice);
 Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std::vector<double>& x);
 // Sets each installation's description (cup height and blocks, bar) for the person setting it up.
 void describe_installations(const Kit& kit, Candidate& c);
+// The installations of a candidate that come from optional positions of the pattern ("4a 5r 5t"; "-": none).
+std::string added_installations(const Kit& kit, const Candidate& c);
 // Scores a candidate (its design evaluated for the criterion).
 void score_candidate(const Kit& kit, Criterion criterion, Candidate& c);
 // True when a is better than b: feasible first, then fewer undetermined, then

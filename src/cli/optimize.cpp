@@ -118,7 +118,7 @@ Runner add_optimize(CLI::App& app) {
     if (!args->result.empty()) {
       outputs.stage("--result", io::optimize_to_json(kit, res, args->kit, seconds, reference).dump(2) + "\n");
     }
-    if (!args->pareto_csv.empty()) outputs.stage("--pareto-csv", io::pareto_csv(res));
+    if (!args->pareto_csv.empty()) outputs.stage("--pareto-csv", io::pareto_csv(kit, res));
     const io::RunContext run{command_line(), inputs};
     for (const auto& [option, file, format] : {std::tuple{"--report", rep->report, io::ReportFormat::Html},
                                                std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {

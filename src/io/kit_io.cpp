@@ -31,6 +31,99 @@ std::vector<double> read_numbers(const json& v, const std::string& source, const
   return out;
 }
 
+bool read_flag(ObjectReader& r, const std::string& key, bool fallback) {
+  const json* v = r.optional(key);
+  if (!v) return fallback;
+  if (!v->is_boolean()) r.fail(key, "expected true or false");
+  return v->get<bool>();
+}
+
+// A coordinate: a number (fixed, mm) or the name of a variable; absent = fixed 0.
+PatternCoordinate read_coordinate(ObjectReader& r, const std::string& key) {
+  const json* v = r.optional(key);
+  if (!v) return {};
+  if (v->is_string()) {
+    const std::string name = v->get<std::string>();
+    if (name.empty()) r.fail(key, "a variable needs a name");
+    return {name, 0};
+  }
+  return {"", as_number(*v, r.source(), r.key_path(key))};
+}
+
+PatternPosition read_position(ObjectReader r, Axis axis) {
+  PatternPosition p;
+  p.id = r.string("id");
+  p.L = read_coordinate(r, "L");
+  p.D = read_coordinate(r, "D");
+  p.H = read_coordinate(r, "H");
+  const json& dirs = r.required("directions");
+  if (!dirs.is_array()) r.fail("directions", "expected a list of \"radial\", \"tangential\", \"axial\"");
+  for (size_t i = 0; i < dirs.size(); ++i) {
+    const std::string path = r.key_path("directions") + "[" + std::to_string(i) + "]";
+    const std::string d = as_string(dirs[i], r.source(), path);
+    if (d == "radial") {
+      p.directions.push_back(Direction::Kind::Radial);
+    } else if (d == "tangential") {
+      p.directions.push_back(Direction::Kind::Tangential);
+    } else if (d == "axial") {
+      p.directions.push_back(Direction::Kind::Axial);
+    } else {
+      throw InputError(r.source(), path, "unknown direction '" + d + "' (expected radial, tangential or axial)");
+    }
+  }
+  p.separated = read_flag(r, "separated", true);
+  p.optional = read_flag(r, "optional", false);
+  p.needs_offset = read_flag(r, "needs_offset", false);
+  (void)axis;
+  r.finish();
+  return p;
+}
+
+// "pattern": a built-in name, or {name, extends, positions, distinct}.
+Pattern read_pattern(ObjectReader& top, Axis axis) {
+  const json& v = top.required("pattern");
+  const std::string& source = top.source();
+  auto named = [&](const std::string& name, const std::string& key) {
+    if (std::optional<Pattern> p = builtin_pattern(name, axis)) return *p;
+    if (name == "free") {
+      throw InputError(source, key,
+                       "\"free\" is not supported by this version of dbbkit: write the pattern as data, e.g. "
+                       "{\"extends\": \"three_position\", \"positions\": [...optional positions...]} (README, Kit file)");
+    }
+    throw InputError(source, key, "unknown pattern '" + name + "' (expected \"three_position\" or a pattern object)");
+  };
+  if (v.is_string()) return named(v.get<std::string>(), "pattern");
+  ObjectReader r = top.object("pattern");
+  Pattern p;
+  if (r.has("extends")) {
+    p = named(r.string("extends"), r.key_path("extends"));
+    p.builtin = false;
+    p.inherited_positions = static_cast<int>(p.positions.size());
+  }
+  p.name = r.optional_string("name").value_or(p.name.empty() ? "custom" : p.name + "+");
+  if (const json* positions = r.optional("positions")) {
+    if (!positions->is_array()) r.fail("positions", "expected a list of positions");
+    for (size_t i = 0; i < positions->size(); ++i) {
+      p.positions.push_back(
+          read_position(ObjectReader((*positions)[i], source, r.key_path("positions") + "[" + std::to_string(i) + "]"), axis));
+    }
+  }
+  if (const json* distinct = r.optional("distinct")) {
+    if (!distinct->is_array()) r.fail("distinct", "expected a list of lists of height variables");
+    for (size_t g = 0; g < distinct->size(); ++g) {
+      const std::string path = r.key_path("distinct") + "[" + std::to_string(g) + "]";
+      if (!(*distinct)[g].is_array()) throw InputError(source, path, "expected a list of height variables");
+      std::vector<std::string> group;
+      for (size_t i = 0; i < (*distinct)[g].size(); ++i) {
+        group.push_back(as_string((*distinct)[g][i], source, path + "[" + std::to_string(i) + "]"));
+      }
+      p.distinct.push_back(std::move(group));
+    }
+  }
+  r.finish();
+  return p;
+}
+
 }  // namespace
 
 Kit kit_from_json(const json& j, const std::string& source) {
@@ -41,14 +134,7 @@ Kit kit_from_json(const json& j, const std::string& source) {
   k.name = top.optional_string("name").value_or("");
   top.optional_string("description");
   k.axis = read_axis(top);
-  const std::string pattern = top.string("pattern");
-  if (pattern == "three_position") {
-    k.pattern = Kit::Pattern::ThreePosition;
-  } else if (pattern == "free") {
-    top.fail("pattern", "\"free\" is not supported by this version of dbbkit (supported: \"three_position\")");
-  } else {
-    top.fail("pattern", "unknown pattern '" + pattern + "' (expected \"three_position\")");
-  }
+  k.pattern = read_pattern(top, k.axis);
   if (const json* n = top.optional("noise")) k.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
   if (const json* e = top.optional("errors")) k.errors = read_error_model(ObjectReader(*e, source, "errors"));
   k.reference_length_mm = top.number("reference_length_mm");

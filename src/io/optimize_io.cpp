@@ -25,6 +25,7 @@ json candidate_json(const Kit& kit, const Candidate& c) {
   j["choice"] = choice_label(kit, c.choice);
   j["step_deg"] = c.choice.step_deg;
   j["n_installations"] = c.design.installations.size();
+  j["added_installations"] = added_installations(kit, c);
   j["n_angles"] = c.design.angles_deg.size();
   j["time_s"] = c.time_s;
   j["worst_std_um"] = optional_number(c.worst.worst_std_um);
@@ -63,7 +64,7 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   j["dbbkit_version"] = DBBKIT_VERSION;
   j["kit_file"] = kit_file;
   j["axis"] = axis_name(kit.axis);
-  j["pattern"] = pattern_name(kit.pattern);
+  j["pattern"] = kit.pattern.name;
   j["criterion"] = criterion_name(res.criterion);
   j["reference_length_mm"] = kit.reference_length_mm;
   j["noise"] = noise_to_json(kit.noise);
@@ -124,7 +125,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   std::ostringstream s;
   int searched = 0;
   for (const ChoiceResult& cr : res.choices) searched += cr.status == "searched";
-  s << "kit " << kit_file << ": axis " << axis_name(kit.axis) << ", pattern " << pattern_name(kit.pattern)
+  s << "kit " << kit_file << ": axis " << axis_name(kit.axis) << ", pattern " << kit.pattern.name
     << ", " << kit.errors.describe() << ", noise " << kit.noise.describe() << "\n";
   s << "criterion " << criterion_name(res.criterion) << "; " << res.choices.size() << " discrete choices, "
     << searched << " feasible; " << res.evaluations << " designs scored in " << fmt_num(seconds, 3) << " s\n";
@@ -196,23 +197,23 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
     s << "\nPareto front, " << criterion_name(res.criterion) << " against time (designs that determine as much as "
       << "the best; each the best of its angle step and installations):\n";
     s << std::setw(10) << "time [s]" << std::setw(15) << "installations" << std::setw(8) << "angles" << std::setw(12)
-      << "step [deg]" << std::setw(14) << criterion_name(res.criterion) << "\n";
+      << "step [deg]" << std::setw(20) << criterion_name(res.criterion) << "  added (optional positions)\n";
     for (const Candidate& c : res.pareto) {
       s << std::setw(10) << fmt_num(c.time_s, 6) << std::setw(15) << c.design.installations.size() << std::setw(8)
-        << c.design.angles_deg.size() << std::setw(12) << fmt_num(c.choice.step_deg) << std::setw(14)
-        << fmt_num(c.objective, 5) << "\n";
+        << c.design.angles_deg.size() << std::setw(12) << fmt_num(c.choice.step_deg) << std::setw(20)
+        << fmt_num(c.objective, 5) << "  " << added_installations(kit, c) << "\n";
     }
   }
   return s.str();
 }
 
-std::string pareto_csv(const OptimizeResult& res) {
+std::string pareto_csv(const Kit& kit, const OptimizeResult& res) {
   std::ostringstream s;
-  s << "time_s,n_installations,n_angles,step_deg," << criterion_name(res.criterion) << "\n";
+  s << "time_s,n_installations,n_angles,step_deg," << criterion_name(res.criterion) << ",added_installations\n";
   s << std::setprecision(10);
   for (const Candidate& c : res.pareto) {
     s << c.time_s << "," << c.design.installations.size() << "," << c.design.angles_deg.size() << ","
-      << c.choice.step_deg << "," << c.objective << "\n";
+      << c.choice.step_deg << "," << c.objective << "," << added_installations(kit, c) << "\n";
   }
   return s.str();
 }

@@ -295,7 +295,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   int feasible = 0;
   for (const ChoiceResult& c : res.choices) feasible += c.status == "searched";
   p.heading("Search");
-  p.paragraph("Axis " + std::string(axis_name(kit.axis)) + ", pattern " + pattern_name(kit.pattern) + ", criterion " +
+  p.paragraph("Axis " + std::string(axis_name(kit.axis)) + ", pattern " + kit.pattern.name + ", criterion " +
               criterion_name(res.criterion) + "; " + std::to_string(res.choices.size()) + " discrete choices, " +
               std::to_string(feasible) + " feasible; " + std::to_string(res.evaluations) + " designs scored in " +
               fmt_num(seconds, 3) + " s." + (res.note.empty() ? "" : " " + res.note + "."));
@@ -317,10 +317,18 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
       {"condition number", fmt_opt(ev.prior.condition_number)},
       {"worst_std_um", fmt_opt(ev.worst.worst_std_um) + " um"},
       {"worst determined", fmt_opt(ev.worst.worst_determined_std_um) + " um"}};
+  if (ev.worst_total) summary.push_back({"worst_total_std_um (noise and set-up)", fmt_opt(ev.worst_total->worst_std_um) + " um"});
   if (reference) {
     summary.push_back({"reference " + reference->file, fmt_opt(reference->worst.worst_std_um) + " um"});
     if (ev.worst.worst_std_um && reference->worst.worst_std_um) {
       summary.push_back({"ratio optimised / reference", fmt_num(*ev.worst.worst_std_um / *reference->worst.worst_std_um, 3)});
+    }
+    if (reference->worst_total && ev.worst_total) {
+      summary.push_back({"reference worst_total_std_um, same set-up tolerances", fmt_opt(reference->worst_total->worst_std_um) + " um"});
+      if (ev.worst_total->worst_std_um && reference->worst_total->worst_std_um) {
+        summary.push_back({"total ratio optimised / reference",
+                           fmt_num(*ev.worst_total->worst_std_um / *reference->worst_total->worst_std_um, 3)});
+      }
     }
   }
   p.table({"best design", ""}, summary);
@@ -350,9 +358,11 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   std::vector<std::vector<std::string>> front;
   for (const Candidate& c : res.pareto) {
     front.push_back({fmt_num(c.time_s, 6), std::to_string(c.design.installations.size()),
-                     std::to_string(c.design.angles_deg.size()), fmt_num(c.choice.step_deg), fmt_num(c.objective, 5)});
+                     std::to_string(c.design.angles_deg.size()), fmt_num(c.choice.step_deg), fmt_num(c.objective, 5),
+                     added_installations(kit, c)});
   }
-  p.table({"time [s]", "installations", "angles", "step [deg]", criterion_name(res.criterion)}, front);
+  p.table({"time [s]", "installations", "angles", "step [deg]", criterion_name(res.criterion), "added (optional positions)"},
+          front);
   p.conditions(run, &d);
   return p.str();
 }

@@ -6,7 +6,8 @@
 //   at most kMaxChoices discrete choices, each searched for at most kMaxEvaluations designs
 //   (OptimizeOptions::max_evaluations_per_choice), and for each design a solver work
 //   n_readings * n_unknowns^2 <= kMaxWork (series models; a per-angle model is solved per
-//   station, n_readings * 36).
+//   station, n_readings * 36), with n_readings from the most installations the kit's
+//   pattern can give.
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -21,7 +22,6 @@ namespace {
 constexpr size_t kMaxChoices = 8;
 constexpr long kMaxEvaluations = 40;
 constexpr double kMaxWork = 2e5;
-constexpr int kMaxInstallations = 7;  // three_position: 7 for C, at most 8 for B
 
 bool bounded(const dbbkit::Kit& kit) {
   if (dbbkit::pattern_choices(kit).size() > kMaxChoices) return false;
@@ -29,7 +29,7 @@ bool bounded(const dbbkit::Kit& kit) {
   for (double step : kit.angle_steps_deg) {
     const double angles = kit.angle_range_deg.width() / step + 1;
     if (!(angles <= 40)) return false;
-    const double readings = (kMaxInstallations + 1) * angles;
+    const double readings = dbbkit::max_installations(kit) * angles;
     const double unknowns = kit.errors.kind == dbbkit::ErrorModel::Kind::PerAngle ? 6.0 : 6.0 * per_error;
     if (!(readings * unknowns * unknowns <= kMaxWork)) return false;
   }

@@ -30,6 +30,6 @@ nlohmann::json optimize_to_json(const Kit& kit, const OptimizeResult& res, const
                                 double seconds, const std::optional<Reference>& reference);
 std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
                              double seconds, const std::optional<Reference>& reference, bool pareto);
-std::string pareto_csv(const OptimizeResult& res);
+std::string pareto_csv(const Kit& kit, const OptimizeResult& res);
 
 }  // namespace dbbkit::io
