@@ -27,4 +27,15 @@ done
   --out reports/c-turntable-kit-optimized.json --result reports/c-turntable-kit-optimize.json \
   --report reports/c-turntable-kit-optimize.html --summary reports/c-turntable-kit-optimize.md --pareto --quiet
 echo "== C kit of formats.md: $(grep -m1 'ratio' reports/c-turntable-kit-optimize.md || true)"
+# The same kit with set-up tolerances (10 um length offset, 5 um centring) and optional
+# installations: the total it minimises, what each extra installation buys (Pareto front),
+# and the detection limits of the set-up effects in the design it finds.
+./build/dbbkit optimize --kit designs/kits/c-turntable-kit-setup.json \
+  --reference designs/c-turntable-kit-optimized-with-setup.json \
+  --out reports/c-turntable-kit-setup-optimized.json --result reports/c-turntable-kit-setup-optimize.json \
+  --report reports/c-turntable-kit-setup-optimize.html --summary reports/c-turntable-kit-setup-optimize.md --pareto --quiet
+./build/dbbkit evaluate --design reports/c-turntable-kit-setup-optimized.json --quiet \
+  --out reports/c-turntable-kit-setup-evaluate.json --report reports/c-turntable-kit-setup-evaluate.html \
+  --summary reports/c-turntable-kit-setup-evaluate.md
+echo "== C kit with set-up tolerances and optional installations: $(grep -m1 'total ratio' reports/c-turntable-kit-setup-optimize.md || true)"
 echo "reports written under reports/"
