@@ -239,19 +239,32 @@ bool Estimate::determined(const Eigen::VectorXd& c) const {
   return proj.norm() <= estimable_tolerance * std::sqrt(norm2);
 }
 
+double Estimate::base_variance(const Eigen::VectorXd& c) const {
+  const std::vector<int> idx = support(c);
+  double var = 0;
+  for (int a : idx) {
+    for (int b : idx) var += c(a) * covariance(a, b) * c(b);
+  }
+  return var;
+}
+
+Eigen::VectorXd Estimate::low_rank_coordinates(const Eigen::VectorXd& c) const {
+  Eigen::VectorXd kc = Eigen::VectorXd::Zero(covariance_K.cols());
+  if (covariance_K.cols() == 0) return kc;
+  for (int a : support(c)) kc += c(a) * covariance_K.row(a).transpose();
+  return kc;
+}
+
 Determined Estimate::evaluate(const Eigen::VectorXd& c) const {
   Determined d;
   if (!determined(c)) return d;
-  const std::vector<int> idx = support(c);
   d.determined = true;
-  double var = 0;
-  for (int a : idx) {
-    if (theta.size() > 0) d.value += c(a) * theta(a);
-    for (int b : idx) var += c(a) * covariance(a, b) * c(b);
+  if (theta.size() > 0) {
+    for (int a : support(c)) d.value += c(a) * theta(a);
   }
+  double var = base_variance(c);
   if (covariance_K.cols() > 0) {
-    Eigen::VectorXd kc = Eigen::VectorXd::Zero(covariance_K.cols());
-    for (int a : idx) kc += c(a) * covariance_K.row(a).transpose();
+    const Eigen::VectorXd kc = low_rank_coordinates(c);
     var += kc.dot(covariance_S * kc);
   }
   d.std = std::sqrt(std::max(0.0, var));

@@ -139,8 +139,8 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                         const IdentifyOptions& options) {
   Parameterisation param(design);
   LinearModel model = build_linear_model(design, param, readings);
-  IdentifyResult res{std::move(param), std::move(model), WlsSolver(Eigen::MatrixXd(0, 0), Eigen::VectorXd(0))};
-  res.solver = WlsSolver(res.model.J, res.model.sigma_um, options.estimate);
+  WlsSolver solver(model.J, model.sigma_um, options.estimate);
+  IdentifyResult res{std::move(param), std::move(model), std::move(solver), {}, {}, {}, {}, false, {}, {}, {}};
   // The set-up solver refers to res.solver, which stays in place until the return.
   const std::vector<SetupEffect> declared = setup_effects(design, res.model, true);
   const SetupSolver setup(res.solver, declared);

@@ -96,8 +96,10 @@ std::string installation_id(const PatternPosition& position, Direction::Kind kin
   return position.id + "v";
 }
 
+bool allows_offset(const Kit& kit) { return kit.D_mm.min < 0 || kit.D_mm.max > 0; }
+
 std::vector<int> offered_optional_positions(const Kit& kit) {
-  const bool offset = kit.D_mm.min < 0 || kit.D_mm.max > 0;
+  const bool offset = allows_offset(kit);
   std::vector<int> out;
   for (int i = 0; i < static_cast<int>(kit.pattern.positions.size()); ++i) {
     const PatternPosition& p = kit.pattern.positions[i];

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <cmath>
+#include <limits>
 
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
@@ -264,9 +265,7 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   // and for error k at station s, with V_s = S^-1 K_s' (q x 6):
   //   total = C0_s(k,k) + K_s(k,:) V_s(:,k),  set-up part = sum_j V_s(j,k)^2 / u_j^2,
   //   noise = total - set-up part           (K S^-1 R'R S^-1 K' = K S^-1 K' - K S^-1 P^-1 S^-1 K').
-  // The columns are the effect library's (effects.cpp: a length offset is 1 on every
-  // reading of its installation, a centring component -s u_c; components that change no
-  // reading are dropped as effect_block drops them); a column touches one installation,
+  // The columns are the effect library's (effect_row); a column touches one installation,
   // so B_s is summed reading by reading. Tested against dense_worst_total.
   const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design);
   if (!Cb) return std::nullopt;
@@ -274,45 +273,50 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   const int m = static_cast<int>(design.installations.size());
   const int n_angles = static_cast<int>(design.angles_deg.size());
   const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
-  // J rows and directions of every reading, angle-major.
+  // J rows and the set-up rows of every reading, angle-major: the effect library's own
+  // rows (effect_row), a 1-vector for the length offset, 3 components for the centring.
   std::vector<RowVector6d> rows(static_cast<size_t>(n_angles) * m);
-  std::vector<Eigen::Vector3d> su(static_cast<size_t>(n_angles) * m);  // s u in the machine frame
+  std::vector<Eigen::Vector4d> setup_rows(static_cast<size_t>(n_angles) * m);  // offset, cx, cy, cz
+  const double no_start = std::numeric_limits<double>::quiet_NaN();  // neither effect uses the time
   for (int a = 0; a < n_angles; ++a) {
+    const Reading reading{"", design.angles_deg[a], 0.0, std::nullopt, std::nullopt, std::nullopt, 0};
     for (int i = 0; i < m; ++i) {
-      const Installation& in = design.installations[i];
-      rows[a * m + i] = J_reading_error(design.axis, in, design.angles_deg[a]);
-      su[a * m + i] = in.sign * direction_machine(design.axis, in, design.angles_deg[a]);
+      rows[a * m + i] = J_reading_error(design.axis, design.installations[i], design.angles_deg[a]);
+      setup_rows[a * m + i] << effect_row(design, reading, i, no_start, {EffectKind::LengthOffset, i}),
+          effect_row(design, reading, i, no_start, {EffectKind::Centring, i});
     }
   }
+  // The declared columns; a centring component that changes no reading is dropped (as
+  // effect_block drops it).
   struct Column {
     int installation;
-    int component;  // -1: length offset; 0..2: centring x, y, z
+    int row_entry;  // into setup_rows: 0 length offset, 1..3 centring x, y, z
     double precision;
   };
   std::vector<Column> cols;
   for (int i = 0; i < m; ++i) {
     const SetupUncertainty u = design.setup_of(i);
-    if (u.length_offset_um > 0) cols.push_back({i, -1, 1.0 / (u.length_offset_um * u.length_offset_um)});
+    if (u.length_offset_um > 0) cols.push_back({i, 0, 1.0 / (u.length_offset_um * u.length_offset_um)});
     if (!(u.centring_um > 0)) continue;
-    for (int c = 0; c < 3; ++c) {
+    for (int c = 1; c <= 3; ++c) {
       double largest = 0;
-      for (int a = 0; a < n_angles; ++a) largest = std::max(largest, std::abs(su[a * m + i](c)));
+      for (int a = 0; a < n_angles; ++a) largest = std::max(largest, std::abs(setup_rows[a * m + i](c)));
       if (largest > 1e-12) cols.push_back({i, c, 1.0 / (u.centring_um * u.centring_um)});
     }
   }
   const int q = static_cast<int>(cols.size());
-  const int n_st = param.n_stations();
-  std::vector<int> count(n_st, 0);
-  std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>> B(n_st, Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, q));
-  std::vector<double> x(q);
+  // X_a: each column is nonzero on one reading of the angle, that of its installation.
+  Eigen::MatrixXd x(n_angles, q);
   for (int a = 0; a < n_angles; ++a) {
-    const int st = param.station_of(design.angles_deg[a]);
-    ++count[st];
-    for (int j = 0; j < q; ++j) {
-      const int r = a * m + cols[j].installation;
-      x[j] = cols[j].component < 0 ? 1.0 : -su[r](cols[j].component);
-      B[st].col(j) += (w * x[j]) * rows[r].transpose();
-    }
+    for (int j = 0; j < q; ++j) x(a, j) = setup_rows[a * m + cols[j].installation](cols[j].row_entry);
+  }
+  const int n_st = param.n_stations();
+  std::vector<int> station(n_angles), count(n_st, 0);
+  std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>> B(n_st, Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, q));
+  for (int a = 0; a < n_angles; ++a) {
+    station[a] = param.station_of(design.angles_deg[a]);
+    ++count[station[a]];
+    for (int j = 0; j < q; ++j) B[station[a]].col(j) += (w * x(a, j)) * rows[a * m + cols[j].installation].transpose();
   }
   std::vector<Eigen::Matrix<double, 6, 6>> C0(n_st);
   std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>> K(n_st);
@@ -326,13 +330,9 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   Eigen::MatrixXd Ra(m, q);
   Eigen::Matrix<double, Eigen::Dynamic, 6> Ja(m, 6);
   for (int a = 0; a < n_angles; ++a) {
-    const int st = param.station_of(design.angles_deg[a]);
     for (int i = 0; i < m; ++i) Ja.row(i) = rows[a * m + i];
-    Ra.noalias() = -Ja * K[st];
-    for (int j = 0; j < q; ++j) {
-      const int r = a * m + cols[j].installation;
-      Ra(cols[j].installation, j) += cols[j].component < 0 ? 1.0 : -su[r](cols[j].component);
-    }
+    Ra.noalias() = -Ja * K[station[a]];
+    for (int j = 0; j < q; ++j) Ra(cols[j].installation, j) += x(a, j);
     RtR.noalias() += w * Ra.transpose() * Ra;
   }
   Eigen::MatrixXd S = RtR;

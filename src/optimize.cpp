@@ -32,8 +32,6 @@ std::string stack_text(const Kit& kit, const Stack& s) {
   return t + " mm)";
 }
 
-bool has_offset(const Kit& kit) { return kit.D_mm.min < 0 || kit.D_mm.max > 0; }
-
 // The positions of a choice: the required ones and the first n_optional offered, in pattern order.
 std::vector<int> included_positions(const Kit& kit, int n_optional) {
   const std::vector<int> offered = offered_optional_positions(kit);
@@ -48,7 +46,7 @@ std::vector<int> included_positions(const Kit& kit, int n_optional) {
 
 // A position off the B tool axis: D a variable over a range that allows an offset, or fixed != 0.
 bool off_axis(const Kit& kit, const PatternPosition& p) {
-  return p.D.is_variable() ? has_offset(kit) : p.D.value != 0;
+  return p.D.is_variable() ? allows_offset(kit) : p.D.value != 0;
 }
 
 // The search over one choice: DIRECT-L, then COBYLA from the best point found
@@ -56,7 +54,7 @@ bool off_axis(const Kit& kit, const PatternPosition& p) {
 class ChoiceSearch {
  public:
   ChoiceSearch(const Kit& kit, const PatternChoice& choice, Criterion criterion)
-      : kit_(kit), choice_(choice), criterion_(criterion), space_(pattern_space(kit, choice)) {
+      : kit_(kit), choice_(choice), criterion_(criterion), space_(choice.space) {
     for (size_t i = 0; i < space_.names.size(); ++i) {
       if (space_.upper[i] > space_.lower[i]) free_.push_back(static_cast<int>(i));
     }
@@ -253,7 +251,7 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
     ChoiceResult& cr = res.choices[i];
     cr.choice = choices[i];
     cr.label = choice_label(kit, choices[i]);
-    const Candidate probe = make_candidate(kit, choices[i], pattern_space(kit, choices[i]).lower);
+    const Candidate probe = make_candidate(kit, choices[i], choices[i].space.lower);
     if (kit.time_budget_s && probe.time_s > *kit.time_budget_s) {
       cr.status = "over the time budget (" + mm(probe.time_s) + " s > " + mm(*kit.time_budget_s) + " s)";
     } else {
@@ -342,6 +340,34 @@ const char* criterion_name(Criterion c) {
   return "?";
 }
 
+namespace {
+
+// Fills the choice's placements and continuous space from the pattern (PatternChoice).
+void resolve(const Kit& kit, PatternChoice& c) {
+  const std::vector<int> included = included_positions(kit, c.n_optional);
+  auto variable = [&](const PatternCoordinate& co, const Interval& range) {
+    if (!co.is_variable()) return -1;
+    const auto it = std::find(c.space.names.begin(), c.space.names.end(), co.variable);
+    if (it != c.space.names.end()) return static_cast<int>(it - c.space.names.begin());
+    c.space.names.push_back(co.variable);
+    c.space.lower.push_back(range.min);
+    c.space.upper.push_back(range.max);
+    return static_cast<int>(c.space.names.size()) - 1;
+  };
+  for (int i : included) c.placements.push_back({i, variable(kit.pattern.positions[i].L, kit.L_mm), -1, 0.0});
+  for (PatternChoice::Placement& pl : c.placements) {
+    const PatternPosition& p = kit.pattern.positions[pl.position];
+    pl.D = variable(p.D, kit.D_mm);
+    if (kit.axis != Axis::C) continue;
+    pl.H_mm = p.H.value;
+    for (const PatternChoice::Height& h : c.heights) {
+      if (p.H.is_variable() && h.variable == p.H.variable) pl.H_mm = h.height_mm;
+    }
+  }
+}
+
+}  // namespace
+
 std::vector<PatternChoice> pattern_choices(const Kit& kit) {
   std::vector<PatternChoice> out;
   const std::vector<Stack> stacks = kit.axis == Axis::C ? block_stacks(kit) : std::vector<Stack>{};
@@ -367,12 +393,13 @@ std::vector<PatternChoice> pattern_choices(const Kit& kit) {
         }
       }
       if (ok) {
+        PatternChoice c;
+        c.n_optional = n_opt;
+        for (size_t v = 0; v < vars.size(); ++v) c.heights.push_back({vars[v], idx[v], stacks[idx[v]].height_mm});
+        resolve(kit, c);
         for (double step : kit.angle_steps_deg) {
-          PatternChoice c;
           c.step_deg = step;
-          c.n_optional = n_opt;
-          for (size_t v = 0; v < vars.size(); ++v) c.heights.push_back({vars[v], idx[v], stacks[idx[v]].height_mm});
-          out.push_back(std::move(c));
+          out.push_back(c);
         }
       }
       int k = static_cast<int>(vars.size()) - 1;
@@ -401,23 +428,6 @@ std::string choice_label(const Kit& kit, const PatternChoice& c) {
   return t;
 }
 
-PatternSpace pattern_space(const Kit& kit, const PatternChoice& c) {
-  PatternSpace s;
-  // The L variables first, then the D variables, each in the order they first appear.
-  for (const char which : {'L', 'D'}) {
-    for (int i : included_positions(kit, c.n_optional)) {
-      const PatternPosition& p = kit.pattern.positions[i];
-      const PatternCoordinate& co = which == 'L' ? p.L : p.D;
-      if (!co.is_variable() || std::find(s.names.begin(), s.names.end(), co.variable) != s.names.end()) continue;
-      const Interval& r = which == 'L' ? kit.L_mm : kit.D_mm;
-      s.names.push_back(co.variable);
-      s.lower.push_back(r.min);
-      s.upper.push_back(r.max);
-    }
-  }
-  return s;
-}
-
 Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std::vector<double>& x) {
   Candidate c;
   c.choice = choice;
@@ -430,25 +440,13 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std:
   d.errors = kit.errors;
   d.reference_length_mm = kit.reference_length_mm;
   d.setup_std = kit.setup_std;
-  const PatternSpace space = pattern_space(kit, choice);
-  auto value = [&](const PatternCoordinate& co, bool height) {
-    if (!co.is_variable()) return co.value;
-    if (height) {
-      for (const PatternChoice::Height& h : choice.heights) {
-        if (h.variable == co.variable) return h.height_mm;
-      }
-      return 0.0;  // not reached: every height variable of an included position has a height
-    }
-    const auto it = std::find(space.names.begin(), space.names.end(), co.variable);
-    return x[it - space.names.begin()];
-  };
   struct Placed {
     double L, D, H;
   };
   std::vector<Placed> separated;
-  for (int i : included_positions(kit, choice.n_optional)) {
-    const PatternPosition& p = kit.pattern.positions[i];
-    const Placed at{value(p.L, false), value(p.D, false), kit.axis == Axis::C ? value(p.H, true) : 0.0};
+  for (const PatternChoice::Placement& pl : choice.placements) {
+    const PatternPosition& p = kit.pattern.positions[pl.position];
+    const Placed at{pl.L >= 0 ? x[pl.L] : p.L.value, pl.D >= 0 ? x[pl.D] : p.D.value, pl.H_mm};
     if (p.separated) separated.push_back(at);
     for (Direction::Kind kind : p.directions) {
       Installation in;
@@ -458,7 +456,7 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std:
       in.H_mm = at.H;
       in.direction = Direction::named(kit.axis, kind);
       d.installations.push_back(std::move(in));
-      c.installation_position.push_back(i);
+      c.installation_position.push_back(pl.position);
     }
   }
   c.travel_violation_mm = -std::numeric_limits<double>::infinity();

@@ -117,22 +117,10 @@ Eigen::MatrixXd SetupSolver::setup_draw_map(const Eigen::MatrixXd& C) const {
 
 SetupSolver::Parts SetupSolver::parts(const Eigen::VectorXd& c) const {
   Parts p;
-  // The noise-only covariance C0 on the support of c (per-angle: six entries).
-  double c0 = 0;
-  std::vector<int> idx;
-  for (int j = 0; j < c.size(); ++j) {
-    if (c(j) != 0.0) idx.push_back(j);
-  }
-  const Eigen::MatrixXd& C0 = prior_.covariance;
-  for (int a : idx) {
-    for (int b : idx) c0 += c(a) * C0(a, b) * c(b);
-  }
-  p.noise = std::max(0.0, c0);
+  p.noise = std::max(0.0, prior_.base_variance(c));  // c'C0c
   p.setup_by_column = Eigen::VectorXd::Zero(n_columns());
   if (!any()) return p;
-  Eigen::VectorXd kc = Eigen::VectorXd::Zero(n_columns());
-  for (int a : idx) kc += c(a) * K_.row(a).transpose();
-  const Eigen::VectorXd v = S_inv_ * kc;  // S^-1 K'c
+  const Eigen::VectorXd v = S_inv_ * prior_.low_rank_coordinates(c);  // S^-1 K'c (prior_.covariance_K = K)
   p.noise += v.dot(RtR_ * v);
   // set-up part per column: (S^-1 K'c)_j^2 / P_jj
   p.setup_by_column = v.cwiseQuotient(prior_std_).cwiseAbs2();

@@ -67,6 +67,10 @@ struct Estimate {
 
   // The function c.theta (c in theta units).
   Determined evaluate(const Eigen::VectorXd& c) const;
+  // The two terms of its variance, on the support of c (values at one angle touch few
+  // unknowns): c' covariance c, and K'c (empty without the low-rank term).
+  double base_variance(const Eigen::VectorXd& c) const;
+  Eigen::VectorXd low_rank_coordinates(const Eigen::VectorXd& c) const;
   bool determined(const Eigen::VectorXd& c) const;
   // A basis of the undetermined directions of theta (columns, theta units), as
   // sparse as row reduction makes it, each normalised to unit length with its

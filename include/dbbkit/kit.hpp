@@ -80,6 +80,8 @@ struct Kit {
 
 // The installation id of a direction at a position: id + "r", "t" or "a".
 std::string installation_id(const PatternPosition& position, Direction::Kind kind);
+// D_mm allows a lateral offset (D != 0).
+bool allows_offset(const Kit& kit);
 // The optional positions the kit offers (needs_offset ones dropped when D_mm is {0, 0}), in order.
 std::vector<int> offered_optional_positions(const Kit& kit);
 // The most installations a design of the kit can have.

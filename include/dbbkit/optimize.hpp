@@ -27,6 +27,12 @@ namespace dbbkit {
 enum class Criterion { Worst, D, A, E, Condition, WorstTotal };
 const char* criterion_name(Criterion c);
 
+// The continuous variables of a choice: names ("L1", "D3", ...) and bounds in mm.
+struct PatternSpace {
+  std::vector<std::string> names;
+  std::vector<double> lower, upper;
+};
+
 // One discrete choice of the kit's pattern (kit.hpp, Pattern): the angle step, how many
 // of the optional positions are added (the first n_optional offered, in order), and a
 // height for each height variable of the positions included (C).
@@ -44,12 +50,18 @@ struct PatternChoice {
     double height_mm = 0;
   };
   std::vector<Height> heights;  // in the order the variables first appear
-};
-
-// The continuous variables of a choice: names ("L1", "D3", ...) and bounds in mm.
-struct PatternSpace {
-  std::vector<std::string> names;
-  std::vector<double> lower, upper;
+  // Resolved once from the pattern (pattern_choices), so that a design is built without
+  // looking names up: each position included, in pattern order, where its L and D come
+  // from (an index into space, or -1: the position's fixed value) and its height; and
+  // the continuous variables (the L variables first, then the D variables, each in the
+  // order they first appear).
+  struct Placement {
+    int position = 0;  // index into kit.pattern.positions
+    int L = -1, D = -1;
+    double H_mm = 0;
+  };
+  std::vector<Placement> placements;
+  PatternSpace space;
 };
 
 // A candidate design and how it scores.
@@ -102,11 +114,10 @@ struct OptimizeResult {
   std::string note;               // e.g. why a B design stays at rank 5
 };
 
-// The discrete choices of a kit, its continuous space for a choice, and the
+// The discrete choices of a kit (each resolved: placements and continuous space), and the
 // design for a choice and a point (bars and signs fitted; violations set).
 std::vector<PatternChoice> pattern_choices(const Kit& kit);
 std::string choice_label(const Kit& kit, const PatternChoice& choice);
-PatternSpace pattern_space(const Kit& kit, const PatternChoice& choice);
 Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std::vector<double>& x);
 // Sets each installation's description (cup height and blocks, bar) for the person setting it up.
 void describe_installations(const Kit& kit, Candidate& c);

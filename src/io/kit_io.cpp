@@ -50,7 +50,7 @@ PatternCoordinate read_coordinate(ObjectReader& r, const std::string& key) {
   return {"", as_number(*v, r.source(), r.key_path(key))};
 }
 
-PatternPosition read_position(ObjectReader r, Axis axis) {
+PatternPosition read_position(ObjectReader r) {
   PatternPosition p;
   p.id = r.string("id");
   p.L = read_coordinate(r, "L");
@@ -74,7 +74,6 @@ PatternPosition read_position(ObjectReader r, Axis axis) {
   p.separated = read_flag(r, "separated", true);
   p.optional = read_flag(r, "optional", false);
   p.needs_offset = read_flag(r, "needs_offset", false);
-  (void)axis;
   r.finish();
   return p;
 }
@@ -105,7 +104,7 @@ Pattern read_pattern(ObjectReader& top, Axis axis) {
     if (!positions->is_array()) r.fail("positions", "expected a list of positions");
     for (size_t i = 0; i < positions->size(); ++i) {
       p.positions.push_back(
-          read_position(ObjectReader((*positions)[i], source, r.key_path("positions") + "[" + std::to_string(i) + "]"), axis));
+          read_position(ObjectReader((*positions)[i], source, r.key_path("positions") + "[" + std::to_string(i) + "]")));
     }
   }
   if (const json* distinct = r.optional("distinct")) {

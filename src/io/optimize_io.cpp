@@ -32,7 +32,7 @@ json candidate_json(const Kit& kit, const Candidate& c) {
   j["worst_determined_std_um"] = optional_number(c.worst.worst_determined_std_um);
   j["n_undetermined"] = c.n_undetermined;
   j["objective"] = c.objective_defined ? json(c.objective) : json(nullptr);
-  const PatternSpace space = pattern_space(kit, c.choice);
+  const PatternSpace& space = c.choice.space;
   json vars = json::object();
   for (size_t i = 0; i < space.names.size(); ++i) vars[space.names[i]] = c.x[i];
   j["variables_mm"] = vars;
