@@ -42,6 +42,13 @@ EffectKind effect_kind(const std::string& name, const std::string& source, const
                        "' (expected length_offset, centring, drift, reversal, scale, squareness or periodic)");
 }
 
+namespace {
+// Parameters of an effect: three components for the vector effects, else one.
+int effect_parameter_count(EffectKind kind) {
+  return kind == EffectKind::Centring || kind == EffectKind::Scale || kind == EffectKind::Squareness ? 3 : 1;
+}
+}  // namespace
+
 std::vector<std::string> effect_parameter_names(EffectKind kind) {
   switch (kind) {
     case EffectKind::Centring:
@@ -74,22 +81,25 @@ std::vector<double> installation_start_times(const Design& design, const std::ve
   return t0;
 }
 
+Eigen::Vector3d centring_row(Axis axis, const Installation& in, double angle_deg) {
+  return -in.sign * direction_machine(axis, in, angle_deg);
+}
+
 Eigen::VectorXd effect_row(const Design& design, const Reading& r, double t0_s, const EffectCandidate& e) {
   return effect_row(design, r, design.find_installation(r.installation), t0_s, e);
 }
 
 Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, double t0_s, const EffectCandidate& e) {
-  const std::size_t n = effect_parameter_names(e.kind).size();
-  Eigen::VectorXd row = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n));
+  Eigen::VectorXd row = Eigen::VectorXd::Zero(effect_parameter_count(e.kind));
   if (e.installation >= 0 && e.installation != inst) return row;
   const Installation& in = design.installations[inst];
   const Eigen::Vector3d u = direction_machine(design.axis, in, r.angle_deg);
   switch (e.kind) {
     case EffectKind::LengthOffset:
-      row(0) = 1.0;
+      row(0) = kLengthOffsetRow;
       break;
     case EffectKind::Centring:
-      row = -in.sign * u;
+      row = centring_row(design.axis, in, r.angle_deg);
       break;
     case EffectKind::Drift:
       if (r.time_s && std::isfinite(t0_s)) row(0) = (*r.time_s - t0_s) / 60.0;

@@ -15,7 +15,7 @@ void sincos_deg(double angle_deg, double& s, double& c) {
   if (a < 0) a += 360.0;
   const int quadrant = static_cast<int>(std::lround(a / 90.0)) % 4;
   const double r = rad(a - 90.0 * std::lround(a / 90.0));  // |r| <= 45 deg
-  const double sr = std::sin(r), cr = std::cos(r);
+  const double sr = r == 0 ? 0.0 : std::sin(r), cr = r == 0 ? 1.0 : std::cos(r);
   switch (quadrant) {
     case 0:
       s = sr, c = cr;

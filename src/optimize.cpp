@@ -110,6 +110,9 @@ class ChoiceSearch {
       score_candidate(kit_, criterion_, c);
     }
     ++evaluations_;
+    if (global_stage_ && c.feasible && c.objective_defined && c.n_undetermined <= generic_undetermined_) {
+      global_points_.emplace_back(c.objective, x);
+    }
     if (!best_ || better(c, *best_)) best_ = c;
     last_ = std::move(c);
     return *last_;
@@ -124,9 +127,11 @@ class ChoiceSearch {
       c.worst = *w;
       c.objective = *w->worst_std_um;
     } else if (criterion_ == Criterion::WorstTotal) {
-      const std::optional<TotalWorstCase> t = fast_worst_total(c.design, kit_.reference_length_mm);
+      // The total alone (one triangular solve); the noise part of each choice's best is
+      // formed once the choice is searched (search_all).
+      const std::optional<TotalWorstCase> t = fast_worst_total(c.design, kit_.reference_length_mm, false);
       if (!t) return false;
-      c.worst = t->noise;
+      c.worst = WorstCase{};
       c.objective = *t->total.worst_std_um;
     } else {
       return false;
@@ -171,6 +176,7 @@ class ChoiceSearch {
     };
     // Global stage.
     {
+      global_stage_ = true;
       nlopt::opt o(nlopt::GN_ORIG_DIRECT_L, n);
       setup(o);
       o.set_maxeval(options.global_evaluations_per_variable * (n + 1));
@@ -182,9 +188,26 @@ class ChoiceSearch {
         // A stage that stops early (round-off, forced stop) leaves its best point in best_.
       }
     }
-    // Local polish from the best point so far and from the centre.
+    global_stage_ = false;
+    // Local polish from the best point so far, from the next best points of the global stage
+    // that lie apart from it (another basin: a flat criterion such as a set-up floor has
+    // several), and from the centre.
     std::vector<std::vector<double>> starts;
     if (best_) starts.push_back(free_part(best_->x));
+    std::stable_sort(global_points_.begin(), global_points_.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [objective, x] : global_points_) {
+      if (starts.size() >= 1 + kExtraLocalStarts) break;
+      const std::vector<double> xf = free_part(x);
+      bool apart = true;
+      for (const std::vector<double>& y : starts) {
+        double d = 0;
+        for (int k = 0; k < n; ++k) d = std::max(d, std::abs(xf[k] - y[k]) / std::max(ub[k] - lb[k], 1e-12));
+        apart = apart && d > 0.05;
+      }
+      if (apart) starts.push_back(xf);
+    }
+    global_points_.clear();
     starts.push_back(centre_free());
     for (std::vector<double> x : starts) {
       nlopt::opt o(nlopt::LN_COBYLA, n);
@@ -233,6 +256,10 @@ class ChoiceSearch {
   long max_evaluations_ = 0;
   bool budget_exhausted_ = false;
   std::optional<Candidate> best_, last_;
+  // The points of the global stage (objective, x), for the extra starts of the local stage.
+  static constexpr size_t kExtraLocalStarts = 4;
+  bool global_stage_ = false;
+  std::vector<std::pair<double, std::vector<double>>> global_points_;
 };
 
 // Runs `search_one` over every choice in parallel and assembles the result.
@@ -259,6 +286,9 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
       search_one(s);
       evaluations += s.evaluations();
       cr.best = s.best();
+      if (cr.best && criterion == Criterion::WorstTotal) {
+        cr.best->worst = *design_worst_total(cr.best->design, kit.reference_length_mm).noise;
+      }
       cr.budget_exhausted = s.budget_exhausted();
       if (cr.best) describe_installations(kit, *cr.best);
       if (cr.best && cr.best->feasible) {
@@ -519,7 +549,7 @@ void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
   }
   if (criterion == Criterion::WorstTotal) {
     const TotalWorstCase t = design_worst_total(c.design, kit.reference_length_mm);
-    c.worst = t.noise;
+    c.worst = *t.noise;
     c.n_undetermined = t.total.n_undetermined;
     const std::optional<double> v = t.total.worst_std_um ? t.total.worst_std_um : t.total.worst_determined_std_um;
     c.objective_defined = v.has_value();

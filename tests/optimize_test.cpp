@@ -90,12 +90,23 @@ TEST(FastWorstTotal, MatchesTheStackedSetupSolver) {
     // several angles, and rounding picks one.
     EXPECT_NEAR(*f->total.worst_std_um, *ref.total.worst_std_um, 1e-9 * *ref.total.worst_std_um) << t;
     worst_total_rel = std::max(worst_total_rel, std::abs(*f->total.worst_std_um / *ref.total.worst_std_um - 1));
-    worst_noise_rel = std::max(worst_noise_rel, std::abs(*f->noise.worst_std_um - *ref.noise.worst_std_um) / *ref.total.worst_std_um);
-    EXPECT_NEAR(*f->noise.worst_std_um, *ref.noise.worst_std_um, 1e-9 * *ref.total.worst_std_um) << t;
-    EXPECT_GT(*f->total.worst_std_um, *f->noise.worst_std_um);  // a declared tolerance adds
+    worst_noise_rel = std::max(worst_noise_rel, std::abs(*f->noise->worst_std_um - *ref.noise->worst_std_um) / *ref.total.worst_std_um);
+    EXPECT_NEAR(*f->noise->worst_std_um, *ref.noise->worst_std_um, 1e-9 * *ref.total.worst_std_um) << t;
+    EXPECT_GT(*f->total.worst_std_um, *f->noise->worst_std_um);  // a declared tolerance adds
   }
   EXPECT_GT(fast, 60);
   std::cout << "fast_worst_total against the stacked path over " << fast << " designs: largest relative difference " << worst_total_rel << " (total), " << worst_noise_rel << " (noise part, relative to the total)\n";
+  // At the limits of a declared tolerance (README, "Limits"): a prior far above what the
+  // readings leave (10 mm, the total near the prior) and far below (1 nm, the total near
+  // the noise part) give the stacked path's total.
+  for (double u : {1e4, 1e-3}) {
+    Design e = test::paper_design('C');
+    e.setup_std.length_offset_um = e.setup_std.centring_um = u;
+    const std::optional<TotalWorstCase> f = fast_worst_total(e, 100.0);
+    ASSERT_TRUE(f) << u;
+    const TotalWorstCase ref = dense_worst_total(e, 100.0);
+    EXPECT_NEAR(*f->total.worst_std_um, *ref.total.worst_std_um, 1e-9 * *ref.total.worst_std_um) << u;
+  }
   // Without tolerances the total is the noise-only fast worst case; a series model declines.
   Design c = test::paper_design('C');
   ASSERT_TRUE(fast_worst_total(c, 100));

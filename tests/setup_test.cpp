@@ -415,13 +415,13 @@ TEST(SetupSearch, TheSearchCriterionEqualsEvaluatesWorstTotal) {
   // The search's figure comes from the per-angle path (fast_worst_total), evaluate's from the
   // stacked model: equal up to rounding.
   EXPECT_NEAR(*t.total.worst_std_um, *ev.worst_total->worst_std_um, 1e-9 * *t.total.worst_std_um);
-  EXPECT_NEAR(*t.noise.worst_std_um, *ev.worst.worst_std_um, 1e-9 * *t.total.worst_std_um);
-  EXPECT_GT(*t.total.worst_std_um, 10 * *t.noise.worst_std_um);
+  EXPECT_NEAR(*t.noise->worst_std_um, *ev.worst.worst_std_um, 1e-9 * *t.total.worst_std_um);
+  EXPECT_GT(*t.total.worst_std_um, 10 * *t.noise->worst_std_um);
   Design plain = d;
   plain.setup_std = {};
   const TotalWorstCase p = design_worst_total(plain, 100);
-  EXPECT_DOUBLE_EQ(*p.total.worst_std_um, *p.noise.worst_std_um);
-  EXPECT_NEAR(*p.noise.worst_std_um, *design_worst_case(plain, 100).worst_std_um, 1e-12);
+  EXPECT_DOUBLE_EQ(*p.total.worst_std_um, *p.noise->worst_std_um);
+  EXPECT_NEAR(*p.noise->worst_std_um, *design_worst_case(plain, 100).worst_std_um, 1e-12);
 }
 
 }  // namespace

@@ -47,6 +47,12 @@ Eigen::VectorXd effect_row(const Design& design, const Reading& reading, double 
 Eigen::VectorXd effect_row(const Design& design, const Reading& reading, int installation, double t0_s,
                            const EffectCandidate& effect);
 
+// The set-up rows of the library without a Reading (the fast paths of observability.cpp):
+// the length offset's row is 1 at every angle; the centring's is -s u(angle) (3 components).
+// effect_row answers with these.
+inline constexpr double kLengthOffsetRow = 1.0;
+Eigen::Vector3d centring_row(Axis axis, const Installation& installation, double angle_deg);
+
 // First time_s of every installation (NaN when it has no time).
 std::vector<double> installation_start_times(const Design& design, const std::vector<Reading>& readings);
 

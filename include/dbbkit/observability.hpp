@@ -66,19 +66,25 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
 // The worst case of the noise part and of the total (noise and declared set-up,
 // setup.hpp) of a design, without the rest of evaluate_design; without declared
 // length offset or centring tolerances the total is the noise-only worst case.
+// The noise part is absent only where it was not asked for (fast_worst_total).
 struct TotalWorstCase {
-  WorstCase noise, total;
+  std::optional<WorstCase> noise;
+  WorstCase total;
 };
 // fast_worst_total when it applies, else dense_worst_total.
 TotalWorstCase design_worst_total(const Design& design, double reference_length_mm);
 // The same through the stacked model and SetupSolver (the reference of the fast path).
 TotalWorstCase dense_worst_total(const Design& design, double reference_length_mm);
 // The same without the stacked model, for a per-angle model far from rank loss (as
-// fast_worst_case): the set-up effects couple the angles only through the q x q Schur
-// complement S of setup.hpp, so the work is per angle plus one q x q inverse. Absent
-// where fast_worst_case would be (series model, near rank loss); without declared
-// tolerances the total is fast_worst_case's.
-std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm);
+// fast_worst_case): the rows turn with the angle as harmonics of order 1, so every
+// station's variances are polynomials in (cos, sin) whose coefficients come from one
+// r x r Cholesky in the space of the installations, r = 3 (m - 6) (Woodbury; the
+// mathematics in observability.cpp). Absent where fast_worst_case would be (series
+// model, near rank loss) and for a prior so large that rounding would show; without
+// declared tolerances the total is fast_worst_case's. Without with_noise_part the noise
+// part is not formed (the search scores the total alone).
+std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm,
+                                               bool with_noise_part = true);
 
 // fast_worst_case when it applies (no declared set-up tolerances), else the worst
 // case of evaluate_design (computed alone, design_worst_total).
