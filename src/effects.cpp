@@ -93,7 +93,6 @@ Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, dou
   Eigen::VectorXd row = Eigen::VectorXd::Zero(effect_parameter_count(e.kind));
   if (e.installation >= 0 && e.installation != inst) return row;
   const Installation& in = design.installations[inst];
-  const Eigen::Vector3d u = direction_machine(design.axis, in, r.angle_deg);
   switch (e.kind) {
     case EffectKind::LengthOffset:
       row(0) = kLengthOffsetRow;
@@ -110,6 +109,7 @@ Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, dou
     case EffectKind::Scale:
     case EffectKind::Squareness: {
       if (!in.bar_mm) break;
+      const Eigen::Vector3d u = direction_machine(design.axis, in, r.angle_deg);
       const Eigen::Vector3d F = ball_position_mm(design.axis, in, r.angle_deg) - in.sign * *in.bar_mm * u;
       const Eigen::Vector3d w = -in.sign * 1e-3 * u;  // reading per um of following-ball motion, per mm of F
       if (e.kind == EffectKind::Scale) {
