@@ -84,6 +84,20 @@ void BM_WorstTotalSetupKitDesign(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_WorstTotalSetupKitDesign)->Unit(benchmark::kMicrosecond);
+// What the readings keep of each declared set-up effect (the search's detection requirement):
+// closed form and, beside it, the stacked model's SVD per effect.
+void BM_SetupInformationSetupKitDesign(benchmark::State& state) {
+  const Design d = setup_kit_design();
+  for (auto _ : state) benchmark::DoNotOptimize(fast_setup_information(d)->effects.size());
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_SetupInformationSetupKitDesign)->Unit(benchmark::kMicrosecond);
+void BM_SetupInformationSetupKitDesignGeneralSolver(benchmark::State& state) {
+  const Design d = setup_kit_design();
+  for (auto _ : state) benchmark::DoNotOptimize(dense_setup_information(d).effects.size());
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_SetupInformationSetupKitDesignGeneralSolver)->Unit(benchmark::kMicrosecond);
 void BM_WorstTotalWithNoisePartPaperC(benchmark::State& state) {
   const Design d = paper_c_with_setup();
   for (auto _ : state) benchmark::DoNotOptimize(fast_worst_total(d, 100.0, true)->noise->worst_std_um);

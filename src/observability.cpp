@@ -526,6 +526,91 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   return TotalWorstCase{noise.result(), total.result()};
 }
 
+std::optional<SetupInformation> fast_setup_information(const Design& design) {
+  // fast_worst_total's notation. An effect of installation i has the columns phi(g)' x_k on
+  // that installation's readings (x_k the harmonic coefficients of its column k, X = [x_k]),
+  // and R'R = sum_hl Phi_hl X_h' W N X_l reduces to w N_ii X' Phi X: the axis errors take the
+  // share h_i of it at every angle, whatever the angle. Its columns' own norms^2 are the
+  // diagonal of w X' Phi X, so added_rank's test is on the eigenvalues of N_ii D^-1/2 X' Phi X
+  // D^-1/2 (D that diagonal): every one above min_relative_singular_value.
+  if (!per_angle_body_covariance(design)) return std::nullopt;
+  const Parameterisation param(design);
+  const int m = static_cast<int>(design.installations.size());
+  const int n_st = param.n_stations();
+  const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
+  std::vector<int> count(n_st, 0);
+  for (double a : design.angles_deg) ++count[param.station_of(a)];
+  std::vector<Eigen::Vector3d> phi(n_st);
+  Eigen::Matrix3d Phi = Eigen::Matrix3d::Zero();
+  for (int st = 0; st < n_st; ++st) {
+    double sn = 0, cs = 1;
+    sincos_deg(param.station_angle_deg(st), sn, cs);
+    phi[st] = Eigen::Vector3d(1.0, cs, sn);
+    Phi.noalias() += count[st] * phi[st] * phi[st].transpose();
+  }
+  const Eigen::Matrix3d R0 = axis_rotation(design.axis, 0.0), R90 = axis_rotation(design.axis, 90.0);
+  const Eigen::Matrix3d R180 = axis_rotation(design.axis, 180.0);
+  const Eigen::Matrix3d A0 = 0.5 * (R0 + R180), A1 = 0.5 * (R0 - R180), A2 = R90 - A0;
+  Eigen::Matrix<double, Eigen::Dynamic, 6> Jb(m, 6);
+  for (int i = 0; i < m; ++i) Jb.row(i) = J_reading_error(design.axis, design.installations[i], 0.0);
+  Eigen::VectorXd share = Eigen::VectorXd::Zero(m);  // N_ii
+  if (m > 6) share = orthonormal_complement(Jb).rowwise().squaredNorm();
+  const double tol = EstimateOptions{}.min_relative_singular_value;
+  SetupInformation out;
+  out.n_readings = m * static_cast<int>(design.angles_deg.size());
+  out.rank = 6 * n_st;
+  for (int i = 0; i < m; ++i) {
+    const SetupUncertainty u = design.setup_of(i);
+    for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Centring}) {
+      const double std_um = kind == EffectKind::LengthOffset ? u.length_offset_um : u.centring_um;
+      if (!(std_um > 0)) continue;
+      Eigen::Matrix3d X = Eigen::Matrix3d::Zero();  // (h, k)
+      int q_full = 1;
+      if (kind == EffectKind::LengthOffset) {
+        X(0, 0) = kLengthOffsetRow;
+      } else {
+        const Eigen::Vector3d c = centring_row(design.axis, design.installations[i], 0.0);
+        X << (A0 * c).transpose(), (A1 * c).transpose(), (A2 * c).transpose();
+        q_full = 3;
+      }
+      // The columns a reading sees (effect_block's rule: a value above 1e-12 at some angle).
+      std::vector<int> seen;
+      for (int k = 0; k < q_full; ++k) {
+        double largest = 0;
+        for (int st = 0; st < n_st; ++st) largest = std::max(largest, std::abs(phi[st].dot(X.col(k))));
+        if (largest > 1e-12) seen.push_back(k);
+      }
+      if (seen.empty()) continue;  // changes no reading: not an effect of this design (setup_effects)
+      // At most 3 x 3: fixed-capacity matrices, no allocation.
+      using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>;
+      const int q = static_cast<int>(seen.size());
+      Small Xs(3, q);
+      for (int k = 0; k < q; ++k) Xs.col(k) = X.col(seen[k]);
+      const Small G = w * Xs.transpose() * Phi * Xs;  // the columns' Gram (q x q)
+      const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 3, 1> d = G.diagonal().cwiseSqrt().cwiseInverse();
+      const Small normalised = share(i) * d.asDiagonal() * G * d.asDiagonal();
+      SetupEffectInformation info;
+      info.kind = kind;
+      info.installation = i;
+      info.declared_std_um = std_um;
+      info.q = q;
+      info.detectable = Eigen::SelfAdjointEigenSolver<Small>(normalised, Eigen::EigenvaluesOnly).eigenvalues()(0) > tol;
+      if (info.detectable) {
+        const Small information = share(i) * G;
+        info.min_information =
+            std::max(0.0, Eigen::SelfAdjointEigenSolver<Small>(information, Eigen::EigenvaluesOnly).eigenvalues()(0));
+      }
+      out.effects.push_back(info);
+    }
+  }
+  return out;
+}
+
+SetupInformation design_setup_information(const Design& design) {
+  if (std::optional<SetupInformation> f = fast_setup_information(design)) return *f;
+  return dense_setup_information(design);
+}
+
 TotalWorstCase design_worst_total(const Design& design, double reference_length_mm) {
   if (std::optional<TotalWorstCase> t = fast_worst_total(design, reference_length_mm)) return *t;
   return dense_worst_total(design, reference_length_mm);

@@ -4,10 +4,13 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <nlopt.hpp>
 #include <sstream>
 
+#include "dbbkit/diagnose.hpp"
+#include "dbbkit/effects.hpp"
 #include "dbbkit/parallel.hpp"
 
 namespace dbbkit {
@@ -49,6 +52,78 @@ bool off_axis(const Kit& kit, const PatternPosition& p) {
   return p.D.is_variable() ? allows_offset(kit) : p.D.value != 0;
 }
 
+// The kit's requirement that diagnose detect every declared set-up effect at its declared
+// size, for the designs of one choice. The test: diagnose's level over every candidate
+// effect applicable to the choice's readings (Bonferroni; diagnose tests the detectable
+// ones, never more), power 0.9. The noncentrality depends only on (q, dof), so it is
+// formed once per pair.
+class DetectionRequirement {
+ public:
+  explicit DetectionRequirement(const Design& probe) {
+    std::vector<Reading> nominal;
+    for (const Installation& in : probe.installations) {
+      for (double a : probe.angles_deg) nominal.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
+    }
+    settings_.level = DiagnoseOptions{}.level;
+    settings_.n_tests = 0;
+    for (const EffectBlock& b : candidate_effects(probe, nominal)) settings_.n_tests += b.not_applicable.empty();
+    settings_.n_tests = std::max(1, settings_.n_tests);
+  }
+
+  // fast_only: a choice scored on the fast path alone, where a point it declines (near rank
+  // loss, penalised) is not scored either.
+  void score(Candidate& c, bool fast_only) {
+    Candidate::Detection d;
+    d.settings = settings_;
+    d.ratio = -std::numeric_limits<double>::infinity();
+    std::optional<SetupInformation> fast;
+    if (fast_only) {
+      fast = fast_setup_information(c.design);
+      if (!fast) {
+        d.ratio = std::numeric_limits<double>::infinity();
+        d.effect = "near rank loss, not scored";
+        c.feasible = false;
+        c.detection = std::move(d);
+        return;
+      }
+    }
+    const SetupInformation info = fast ? std::move(*fast) : design_setup_information(c.design);
+    for (const SetupEffectInformation& e : info.effects) {
+      const int dof = info.n_readings - info.rank - e.q;
+      std::optional<double> limit;
+      if (e.detectable && dof > 0 && e.min_information > 0) limit = std::sqrt(lambda(e.q, dof) / e.min_information);
+      const double ratio = limit ? *limit / e.declared_std_um : std::numeric_limits<double>::infinity();
+      if (!limit) d.undetectable.push_back(EffectCandidate{e.kind, e.installation}.label(c.design));
+      if (ratio > d.ratio) {
+        d.ratio = ratio;
+        d.effect = EffectCandidate{e.kind, e.installation}.label(c.design);
+        d.limit_um = limit;
+        d.declared_std_um = e.declared_std_um;
+      }
+    }
+    if (info.effects.empty()) d.ratio = 0;
+    c.feasible = c.feasible && d.ratio <= 1.0;
+    c.detection = std::move(d);
+  }
+
+ private:
+  double lambda(int q, int dof) {
+    const auto key = std::make_pair(q, dof);
+    const auto it = cache_.find(key);
+    if (it != cache_.end()) return it->second;
+    const double alpha = settings_.level / settings_.n_tests;
+    return cache_[key] = noncentrality_for_power(q, dof, alpha, settings_.power);
+  }
+
+  DetectionSettings settings_;
+  std::map<std::pair<int, int>, double> cache_;
+};
+
+// The constraint NLopt sees: ratio - 1 <= 0 (finite where the axis errors take an effect).
+double detection_violation(const Candidate& c) {
+  return c.detection ? std::min(c.detection->ratio, 1e6) - 1.0 : -1.0;
+}
+
 // The search over one choice: DIRECT-L, then COBYLA from the best point found
 // and from the centre. Every scored point is kept if it is the best so far.
 class ChoiceSearch {
@@ -66,11 +141,21 @@ class ChoiceSearch {
     score_candidate(kit_, criterion_, probe);
     generic_undetermined_ = probe.n_undetermined;
     fast_only_ = generic_undetermined_ == 0 && fast_score(probe);
+    if (kit_.require_setup_detection) {
+      // An effect the axis errors take at a generic point is taken at every point of the
+      // choice (a special point can only lose rank): the choice is not searched.
+      detection_.emplace(probe.design);
+      detection_->score(probe, false);
+      if (std::isinf(probe.detection->ratio)) generic_probe_ = generic;
+    }
   }
 
   long evaluations() const { return evaluations_; }
   void set_max_evaluations(long n) { max_evaluations_ = n; }
   bool budget_exhausted() const { return budget_exhausted_; }
+  // A declared set-up effect no position of the choice detects (not searched; best() is the
+  // generic point that shows it).
+  bool undetectable_everywhere() const { return generic_probe_.has_value(); }
   const std::optional<Candidate>& best() const { return best_; }
   int n_free() const { return static_cast<int>(free_.size()); }
 
@@ -109,6 +194,7 @@ class ChoiceSearch {
     } else {
       score_candidate(kit_, criterion_, c);
     }
+    if (detection_) detection_->score(c, fast_only_);
     ++evaluations_;
     if (global_stage_ && c.feasible && c.objective_defined && c.n_undetermined <= generic_undetermined_) {
       global_points_.emplace_back(c.objective, x);
@@ -150,6 +236,10 @@ class ChoiceSearch {
   void run(const OptimizeOptions& options) {
     const int n = n_free();
     max_evaluations_ = options.max_evaluations_per_choice;
+    if (generic_probe_) {  // a set-up effect no position of the choice detects
+      at(*generic_probe_);
+      return;
+    }
     if (n == 0) {
       at(full({}));
       return;
@@ -167,12 +257,17 @@ class ChoiceSearch {
       auto* s = static_cast<ChoiceSearch*>(self);
       return s->at(s->full(x)).separation_violation_mm;
     };
+    auto detection = [](const std::vector<double>& x, std::vector<double>&, void* self) {
+      auto* s = static_cast<ChoiceSearch*>(self);
+      return detection_violation(s->at(s->full(x)));
+    };
     auto setup = [&](nlopt::opt& o) {
       o.set_lower_bounds(lb);
       o.set_upper_bounds(ub);
       o.set_min_objective(f, this);
       o.add_inequality_constraint(travel, this, 1e-9);
       o.add_inequality_constraint(separation, this, 1e-9);
+      if (detection_) o.add_inequality_constraint(detection, this, 0.0);
     };
     // Global stage.
     {
@@ -252,6 +347,8 @@ class ChoiceSearch {
   std::vector<int> free_;
   int generic_undetermined_ = 0;
   bool fast_only_ = false;
+  std::optional<DetectionRequirement> detection_;  // kit.require_setup_detection
+  std::optional<std::vector<double>> generic_probe_;  // set when no position meets it
   long evaluations_ = 0;
   long max_evaluations_ = 0;
   bool budget_exhausted_ = false;
@@ -261,6 +358,20 @@ class ChoiceSearch {
   bool global_stage_ = false;
   std::vector<std::pair<double, std::vector<double>>> global_points_;
 };
+
+// Between discrete choices (different measurements), objectives closer than this (relative:
+// below the fourth significant digit the outputs print) are equal, and the shorter
+// measurement is the better; the Pareto front takes a longer one only beyond it.
+constexpr double kObjectiveTie = 1e-4;
+
+bool better_choice(const Candidate& a, const Candidate& b) {
+  if (a.feasible && b.feasible && a.n_undetermined == b.n_undetermined && a.objective_defined && b.objective_defined &&
+      std::abs(a.objective - b.objective) <= kObjectiveTie * std::max(std::abs(a.objective), std::abs(b.objective)) &&
+      a.time_s != b.time_s) {
+    return a.time_s < b.time_s;
+  }
+  return better(a, b);
+}
 
 // Runs `search_one` over every choice in parallel and assembles the result.
 template <typename SearchOne>
@@ -291,23 +402,35 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
       }
       cr.budget_exhausted = s.budget_exhausted();
       if (cr.best) describe_installations(kit, *cr.best);
-      if (cr.best && cr.best->feasible) {
+      if (s.undetectable_everywhere()) {
+        std::string list;
+        for (const std::string& e : cr.best->detection->undetectable) list += (list.empty() ? "" : ", ") + e;
+        cr.status = "no position lets diagnose detect every declared set-up effect: the axis errors take " + list +
+                    " at every position of this choice";
+      } else if (cr.best && cr.best->feasible) {
         cr.status = "searched";
-      } else if (cr.best && cr.best->travel_violation_mm > 0) {
+      } else if (cr.best && cr.best->travel_violation_mm > 1e-9) {
         cr.status = "no position keeps the following ball inside travel (least excursion " +
                     mm(cr.best->travel_violation_mm) + " mm)";
-      } else {
+      } else if (cr.best && cr.best->separation_violation_mm > 1e-9) {
         cr.status = "no position keeps the balls min_separation_mm apart";
+      } else if (cr.best && cr.best->detection) {
+        const Candidate::Detection& d = *cr.best->detection;
+        cr.status = "no position lets diagnose detect every declared set-up effect at its declared size: " + d.effect +
+                    (d.limit_um ? " is detected from " + mm(*d.limit_um) + " um (declared " + mm(d.declared_std_um) + " um)"
+                                : " cannot be told from the axis errors");
+      } else {
+        cr.status = "no feasible position";
       }
     }
     std::lock_guard<std::mutex> lock(mutex);
     ++done;
-    if (cr.best && cr.best->feasible && (!best_so_far || better(*cr.best, *best_so_far))) best_so_far = cr.best;
+    if (cr.best && cr.best->feasible && (!best_so_far || better_choice(*cr.best, *best_so_far))) best_so_far = cr.best;
     if (progress) progress(done, static_cast<int>(choices.size()), best_so_far ? &*best_so_far : nullptr);
   });
   res.evaluations = evaluations;
   for (const ChoiceResult& cr : res.choices) {
-    if (cr.best && cr.best->feasible && (!res.best || better(*cr.best, *res.best))) res.best = cr.best;
+    if (cr.best && cr.best->feasible && (!res.best || better_choice(*cr.best, *res.best))) res.best = cr.best;
   }
   if (res.best) {
     res.best_evaluation = evaluate_design(res.best->design, kit.reference_length_mm);
@@ -324,7 +447,7 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
     });
     double running = std::numeric_limits<double>::infinity();
     for (const Candidate& c : pool) {
-      if (c.objective < running * (1 - 1e-12)) {
+      if (c.objective < running * (1 - kObjectiveTie)) {
         if (!res.pareto.empty() && res.pareto.back().time_s == c.time_s) res.pareto.pop_back();
         res.pareto.push_back(c);
         running = c.objective;
@@ -583,9 +706,11 @@ void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
 
 bool better(const Candidate& a, const Candidate& b) {
   if (a.feasible != b.feasible) return a.feasible;
-  if (!a.feasible) {  // the less infeasible
-    return std::max(a.travel_violation_mm, a.separation_violation_mm) <
-           std::max(b.travel_violation_mm, b.separation_violation_mm);
+  if (!a.feasible) {  // the less infeasible: in geometry (mm), then in detection
+    const double ga = std::max({a.travel_violation_mm, a.separation_violation_mm, 0.0});
+    const double gb = std::max({b.travel_violation_mm, b.separation_violation_mm, 0.0});
+    if (ga != gb) return ga < gb;
+    return detection_violation(a) < detection_violation(b);
   }
   if (a.n_undetermined != b.n_undetermined) return a.n_undetermined < b.n_undetermined;
   if (a.objective_defined != b.objective_defined) return a.objective_defined;

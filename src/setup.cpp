@@ -166,6 +166,45 @@ double noncentrality_for_power(int q, int dof, double alpha, double power) {
   return hi;
 }
 
+std::optional<double> detection_limit_um(int q, bool detectable, double min_information, int dof,
+                                         const DetectionSettings& settings) {
+  if (!detectable || q <= 0 || dof <= 0 || !(min_information > 0)) return std::nullopt;
+  const double alpha = settings.level / std::max(1, settings.n_tests);
+  return std::sqrt(noncentrality_for_power(q, dof, alpha, settings.power) / min_information);
+}
+
+namespace {
+
+// R_e = unexplained(base, X_e) (whitened), its smallest singular value squared and added_rank.
+SetupEffectInformation effect_information(const WlsSolver& base, const Eigen::VectorXd& w, const SetupEffect& e) {
+  SetupEffectInformation info;
+  info.kind = e.kind;
+  info.installation = e.installation;
+  info.declared_std_um = e.std_um;
+  info.q = static_cast<int>(e.X.cols());
+  const Eigen::MatrixXd Re = unexplained(base, e.X);
+  info.detectable = added_rank(Re, (w.asDiagonal() * e.X).colwise().norm().transpose()) == info.q;
+  if (info.detectable) {
+    const double r = Eigen::JacobiSVD<Eigen::MatrixXd>(Re).singularValues()(info.q - 1);
+    info.min_information = r * r;
+  }
+  return info;
+}
+
+}  // namespace
+
+SetupInformation dense_setup_information(const Design& design) {
+  const Parameterisation param(design);
+  const LinearModel model = design_model(design, param);
+  const WlsSolver base(model.J, model.sigma_um);
+  SetupInformation out;
+  out.n_readings = base.a_priori().n_readings;
+  out.rank = base.a_priori().rank;
+  const Eigen::VectorXd w = base.sigma_um().cwiseInverse();
+  for (const SetupEffect& e : setup_effects(design, model, true)) out.effects.push_back(effect_information(base, w, e));
+  return out;
+}
+
 std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param, const SetupSolver& solver,
                                                   const std::vector<SetupEffect>& effects,
                                                   const DetectionSettings& settings, double reference_length_mm) {
@@ -191,18 +230,10 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
     ch.installation = e.installation;
     ch.kind = e.kind;
     ch.declared_std_um = e.std_um;
-    const int q = static_cast<int>(e.X.cols());
-    const Eigen::MatrixXd Re = unexplained(base, e.X);
-    ch.detectable = added_rank(Re, (w.asDiagonal() * e.X).colwise().norm().transpose()) == q;
-    if (ch.detectable) {
-      const Eigen::JacobiSVD<Eigen::MatrixXd> svd(Re);
-      const double r = svd.singularValues()(q - 1);
-      const int dof = est.n_readings - est.rank - q;
-      if (dof > 0 && r > 0) {
-        const double alpha = settings.level / std::max(1, settings.n_tests);
-        ch.detection_limit_um = std::sqrt(noncentrality_for_power(q, dof, alpha, settings.power)) / r;
-      }
-    }
+    const SetupEffectInformation info = effect_information(base, w, e);
+    ch.detectable = info.detectable;
+    ch.detection_limit_um =
+        detection_limit_um(info.q, info.detectable, info.min_information, est.n_readings - est.rank - info.q, settings);
     const Eigen::MatrixXd GX = solver.gain_times(e.X);  // p x q: the estimate per um of the effect
     double best = -1;
     for (const Fn& f : fns) {

@@ -251,6 +251,77 @@ Truth exact_truth_with_errors(const Design& d) {
   return t;
 }
 
+TEST(SetupDetection, AFiveMicrometreCentringOnAnyInstallationOfTheSetupKitDesignIsFound) {
+  // The design of the kit with set-up tolerances and require_setup_detection (12
+  // installations at 10 deg): evaluate states every declared length offset and centring
+  // detected at its declared size (the limit of each <= 10 um and 5 um). Then, not from the
+  // model under test: the exact two-ball readings of a 5 um centring on the installation
+  // with the largest limit, in its least favourable direction, plus axis errors and the
+  // declared instrument, tested as diagnose's first step tests it (nested F test of [J]
+  // against [J X_e], level 0.01 over the candidates it tests). It must be found in at least
+  // 9 data sets of 10 (binomial bounds); at the limit itself, in 9 of 10.
+  const Design d = io::read_design_file(test::source_path("designs/c-turntable-kit-setup-optimized.json"));
+  ASSERT_EQ(d.setup_std.centring_um, 5);
+  ASSERT_EQ(d.setup_std.length_offset_um, 10);
+  std::vector<Reading> nominal;
+  for (const Installation& in : d.installations) {
+    for (double a : d.angles_deg) nominal.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
+  }
+  DetectionSettings settings;
+  settings.level = DiagnoseOptions{}.level;
+  settings.n_tests = 0;
+  for (const CandidateStatus& c : effect_detectability(d, nominal)) settings.n_tests += c.status == "detectable";
+  const Evaluation ev = evaluate_design(d, 100, {}, settings);
+  const SetupEffectCheck* worst = nullptr;
+  for (const SetupEffectCheck& c : ev.setup_checks) {
+    ASSERT_TRUE(c.detection_limit_um) << c.label;
+    EXPECT_LE(*c.detection_limit_um, c.declared_std_um) << c.label;
+    if (c.kind == EffectKind::Centring && (!worst || *c.detection_limit_um > *worst->detection_limit_um)) worst = &c;
+  }
+  ASSERT_NE(worst, nullptr);
+
+  Truth t = exact_truth_with_errors(d);
+  const std::vector<Reading> first = simulate(d, t, 1);
+  const Parameterisation param(d);
+  const LinearModel model = build_linear_model(d, param, first);
+  const EffectBlock block = effect_block(d, first, {EffectKind::Centring, worst->installation});
+  const int q = static_cast<int>(block.X.cols());
+  ASSERT_EQ(q, 2) << "a radial or tangential reading sees the centring in the plane of the table";
+  const WlsSolver s0(model.J, model.sigma_um);
+  Eigen::MatrixXd Jx(model.J.rows(), model.J.cols() + q);
+  Jx << model.J, block.X;
+  const WlsSolver s1(Jx, model.sigma_um);
+  // The least favourable direction: the right singular vector of the smallest singular value.
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(unexplained(s0, block.X), Eigen::ComputeThinV);
+  const Eigen::VectorXd v = svd.matrixV().col(q - 1);
+  const int dof1 = static_cast<int>(model.J.rows()) - s1.a_priori().rank;
+  const double f_crit = boost::math::quantile(
+      boost::math::complement(boost::math::fisher_f(q, dof1), settings.level / settings.n_tests));
+  const int trials = 400;
+  for (const double size : {*worst->detection_limit_um, 5.0}) {
+    SetupError centring;
+    for (int k = 0; k < q; ++k) {
+      centring.centring_um(block.parameters[k] == "cx" ? 0 : block.parameters[k] == "cy" ? 1 : 2) = size * v(k);
+    }
+    t.setup_given = {{d.installations[worst->installation].id, centring}};
+    int found = 0;
+    for (int k = 0; k < trials; ++k) {
+      const std::vector<Reading> readings = simulate(d, t, 100 + k);
+      const LinearModel m = build_linear_model(d, param, readings);
+      const double c0 = s0.solve(m.y_um).chi2, c1 = s1.solve(m.y_um).chi2;
+      found += ((c0 - c1) / q) / (c1 / dof1) > f_crit;
+    }
+    std::printf("%s (detection limit %.3f um): a centring of %.3f um in its least favourable direction found in %d "
+                "of %d data sets (exact two-ball readings)\n",
+                worst->label.c_str(), *worst->detection_limit_um, size, found, trials);
+    if (size == 5.0) {
+      EXPECT_GE(found, 0.9 * trials - 3 * std::sqrt(0.9 * 0.1 * trials)) << found << " of " << trials;
+    } else {
+      EXPECT_TRUE(test::within_binomial(found, trials, 0.9, 3.5)) << found << " of " << trials;
+    }
+  }
+}
+
 TEST(SetupCase, CentringOnAnUndetectableInstallationIsNamedByDiagnoseAndCoveredByTheTotal) {
   // The case of a new user: an optimised design, a centring of (6, -3) um on its 3r,
   // well within any real set-up. The readings fit (3r's centring is confounded with

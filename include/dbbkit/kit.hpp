@@ -63,6 +63,10 @@ struct Kit {
   // Set-up tolerances of every installation of the designs (design.hpp); with a length
   // offset or centring declared, the default criterion is worst_total_std_um.
   SetupUncertainty setup_std;
+  // Every declared set-up effect must be one diagnose detects at its declared standard
+  // uncertainty (detection limit <= declared size, setup.hpp): designs that leave one
+  // below its limit are infeasible for the search.
+  bool require_setup_detection = false;
   Interval L_mm;
   Interval D_mm;                  // {0, 0}: no lateral offset
   double H_base_mm = 0;           // C: height of the ball cup standing on the table

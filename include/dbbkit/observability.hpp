@@ -86,6 +86,15 @@ TotalWorstCase dense_worst_total(const Design& design, double reference_length_m
 std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm,
                                                bool with_noise_part = true);
 
+// setup.hpp's SetupInformation of the declared set-up effects without the stacked model,
+// where fast_worst_total's closed form applies (a per-angle model far from rank loss):
+// the residual of an effect of installation i keeps the share N_ii = 1 - h_i (h_i the
+// leverage of its body-frame row) at every angle, so r^2 is the smallest eigenvalue of
+// w N_ii X' Phi X (X its harmonic coefficients, Phi = sum over the readings of phi phi').
+std::optional<SetupInformation> fast_setup_information(const Design& design);
+// fast_setup_information when it applies, else dense_setup_information.
+SetupInformation design_setup_information(const Design& design);
+
 // fast_worst_case when it applies (no declared set-up tolerances), else the worst
 // case of evaluate_design (computed alone, design_worst_total).
 WorstCase design_worst_case(const Design& design, double reference_length_mm);

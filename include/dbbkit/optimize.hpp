@@ -78,6 +78,20 @@ struct Candidate {
   int n_undetermined = 0;   // errors at angles the design cannot determine
   double objective = 0;     // of the criterion (smaller is better)
   bool objective_defined = false;
+  // With kit.require_setup_detection (feasible only if every declared set-up effect is
+  // detected at its declared size): the test the limits refer to (diagnose's level over
+  // every candidate effect it could test on these readings, at least as many as it tests,
+  // so evaluate's limits are at most these), and the effect with the largest ratio of its
+  // detection limit to its declared standard uncertainty (infinity: the axis errors take it).
+  struct Detection {
+    DetectionSettings settings;
+    double ratio = 0;
+    std::string effect;               // its label, e.g. "centring[3t]"
+    std::optional<double> limit_um;  // its detection limit
+    double declared_std_um = 0;
+    std::vector<std::string> undetectable;  // the effects the axis errors take
+  };
+  std::optional<Detection> detection;
 };
 
 // Searches the kit's discrete choices, the continuous positions of each, and
@@ -107,7 +121,9 @@ struct ChoiceResult {
 struct OptimizeResult {
   Criterion criterion = Criterion::Worst;
   std::vector<ChoiceResult> choices;
-  std::optional<Candidate> best;  // absent when no choice is feasible
+  // Absent when no choice is feasible. Between choices, objectives within 1e-4 (relative)
+  // count as equal and the shorter measurement is taken; the Pareto front likewise.
+  std::optional<Candidate> best;
   Evaluation best_evaluation;     // evaluate_design of the best
   std::vector<Candidate> pareto;  // non-dominated (time, objective) among the best's determination class
   long evaluations = 0;           // designs scored

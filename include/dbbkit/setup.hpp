@@ -147,6 +147,32 @@ struct DetectionSettings {
 // The noncentrality at which an F(q, dof) test at level alpha has the given power.
 double noncentrality_for_power(int q, int dof, double alpha, double power);
 
+// What the readings keep of one set-up effect once the axis errors have taken their
+// share: r^2 = the smallest eigenvalue of R_e'R_e (whitened readings^2 per um^2, the
+// least favourable direction), q_e its directions the readings see, and whether every
+// direction is told from the axis errors (added_rank). Of a design's declared effects,
+// with the readings and the rank of the axis errors' model (the F test's degrees of
+// freedom are n - rank - q_e).
+struct SetupEffectInformation {
+  EffectKind kind = EffectKind::LengthOffset;
+  int installation = 0;
+  double declared_std_um = 0;
+  int q = 0;
+  bool detectable = false;
+  double min_information = 0;  // r^2
+};
+struct SetupInformation {
+  int n_readings = 0, rank = 0;
+  std::vector<SetupEffectInformation> effects;
+};
+// The same, through the stacked model (the fast path is observability.hpp's).
+SetupInformation dense_setup_information(const Design& design);
+// The detection limit of an effect [um]: sqrt(lambda) / r with lambda the noncentrality
+// at which the F(q_e, dof) test at level / n_tests has the power (SetupEffectCheck);
+// absent when not detectable or without degrees of freedom.
+std::optional<double> detection_limit_um(int q, bool detectable, double min_information, int dof,
+                                         const DetectionSettings& settings);
+
 std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param, const SetupSolver& solver,
                                                   const std::vector<SetupEffect>& effects,
                                                   const DetectionSettings& settings, double reference_length_mm);

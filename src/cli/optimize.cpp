@@ -20,7 +20,7 @@ namespace dbbkit::cli {
 namespace {
 struct OptimizeArgs {
   std::string kit, out, result, reference, pareto_csv, criterion;
-  bool pareto = false, quiet = false;
+  bool pareto = false, quiet = false, require_detection = false;
   int threads = 0;
 };
 
@@ -49,6 +49,9 @@ Runner add_optimize(CLI::App& app) {
                   "(max smallest eigenvalue), condition (min condition number)");
   sub->add_option("--reference", args->reference,
                   "A design to compare with (same noise and error model as the kit): ratio of worst_std_um");
+  sub->add_flag("--require-setup-detection", args->require_detection,
+                "Only designs in which diagnose detects every declared set-up effect at its declared size "
+                "(the kit's require_setup_detection)");
   sub->add_flag("--pareto", args->pareto, "Print the front of the criterion against measurement time");
   sub->add_option("--pareto-csv", args->pareto_csv, "Write the Pareto front as CSV");
   sub->add_option("--threads", args->threads, "Worker threads (0: all cores); the result does not depend on it")
@@ -61,7 +64,14 @@ Runner add_optimize(CLI::App& app) {
     io::OutputSet outputs(output_targets(args->out.empty() ? "-" : args->out, *rep,
                                          {{"--result", args->result}, {"--pareto-csv", args->pareto_csv}}),
                           inputs);
-    const Kit kit = io::read_kit_file(args->kit);
+    Kit kit = io::read_kit_file(args->kit);
+    if (args->require_detection) {
+      if (!kit.setup_std.nuisance()) {
+        throw InputError(args->kit, "setup_std",
+                         "--require-setup-detection needs a length offset or centring tolerance declared in the kit");
+      }
+      kit.require_setup_detection = true;
+    }
     const Criterion criterion = parse_criterion(
         !args->criterion.empty() ? args->criterion : kit.setup_std.nuisance() ? "worst_total" : "worst");
     if (criterion == Criterion::WorstTotal && !kit.setup_std.nuisance()) {
@@ -127,6 +137,8 @@ Runner add_optimize(CLI::App& app) {
     if (res.best) {
       const Design d = io::optimized_design(kit, res, args->kit);
       outputs.stage("--out", io::design_to_json(d).dump(2) + "\n");
+    } else {
+      outputs.withhold("--out");  // no design: the file given is left as it is
     }
     outputs.commit();
     if (!args->quiet && !args->out.empty() && args->out != "-") {

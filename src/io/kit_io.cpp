@@ -141,6 +141,10 @@ Kit kit_from_json(const json& j, const std::string& source) {
     k.setup_std = read_setup_override(ObjectReader(*u, source, "setup_std")).over({});
     validate_setup_uncertainty(k.setup_std, k.axis, source, "setup_std");
   }
+  k.require_setup_detection = read_flag(top, "require_setup_detection", false);
+  if (k.require_setup_detection && !k.setup_std.nuisance()) {
+    top.fail("require_setup_detection", "needs a length offset or centring tolerance declared in setup_std");
+  }
   k.L_mm = read_min_max(top.object("L_mm"));
   if (top.has("D_mm")) k.D_mm = read_min_max(top.object("D_mm"));
   if (k.axis == Axis::C) {

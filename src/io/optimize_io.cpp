@@ -1,5 +1,6 @@
 #include "dbbkit/io/optimize_io.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -36,10 +37,36 @@ json candidate_json(const Kit& kit, const Candidate& c) {
   json vars = json::object();
   for (size_t i = 0; i < space.names.size(); ++i) vars[space.names[i]] = c.x[i];
   j["variables_mm"] = vars;
+  if (c.detection) {
+    const Candidate::Detection& d = *c.detection;
+    j["setup_detection"] = {{"level", d.settings.level},
+                            {"n_tests", d.settings.n_tests},
+                            {"power", d.settings.power},
+                            {"largest_ratio", std::isfinite(d.ratio) ? json(d.ratio) : json(nullptr)},
+                            {"effect", d.effect},
+                            {"detection_limit_um", optional_number(d.limit_um)},
+                            {"declared_std_um", d.declared_std_um},
+                            {"met", d.ratio <= 1.0}};
+  }
   return j;
 }
 
 }  // namespace
+
+std::string detection_text(const Candidate::Detection& d) {
+  std::string t = "required of every declared effect (found by diagnose at its declared size, power " +
+                  fmt_num(d.settings.power) + " at level " + fmt_num(d.settings.level) +
+                  (d.settings.n_tests > 1 ? " / " + std::to_string(d.settings.n_tests) + " candidates" : "") + "): ";
+  if (d.effect.empty()) return t + "no declared effect changes a reading";
+  t += d.ratio <= 1.0 ? "met; the closest is " : "not met; ";
+  t += d.effect;
+  if (d.limit_um) {
+    t += ", detected from " + fmt_num(*d.limit_um, 4) + " um (declared " + fmt_num(d.declared_std_um, 4) + " um)";
+  } else {
+    t += ", which the axis errors take (not detectable)";
+  }
+  return t;
+}
 
 Design optimized_design(const Kit& kit, const OptimizeResult& res, const std::string& kit_file) {
   Design d = res.best->design;
@@ -131,8 +158,24 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
     << searched << " feasible; " << res.evaluations << " designs scored in " << fmt_num(seconds, 3) << " s\n";
   if (!res.note.empty()) s << "note: " << res.note << "\n";
   if (!res.best) {
+    // One line per distinct reason (a pattern that cannot meet a requirement fails every choice alike).
     s << "\nno design fits the kit:\n";
-    for (const ChoiceResult& cr : res.choices) s << "  " << cr.label << ": " << cr.status << "\n";
+    std::vector<std::pair<std::string, std::vector<const ChoiceResult*>>> reasons;
+    for (const ChoiceResult& cr : res.choices) {
+      auto it = std::find_if(reasons.begin(), reasons.end(), [&](const auto& r) { return r.first == cr.status; });
+      if (it == reasons.end()) {
+        reasons.push_back({cr.status, {&cr}});
+      } else {
+        it->second.push_back(&cr);
+      }
+    }
+    for (const auto& [status, choices] : reasons) {
+      if (choices.size() == 1) {
+        s << "  " << choices.front()->label << ": " << status << "\n";
+      } else {
+        s << "  " << choices.size() << " choices (" << choices.front()->label << ", ...): " << status << "\n";
+      }
+    }
     return s.str();
   }
   const Candidate& b = *res.best;
@@ -166,8 +209,16 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   if (res.criterion != Criterion::Worst && b.objective_defined) {
     s << criterion_name(res.criterion) << " objective " << fmt_num(b.objective, 6) << "\n";
   }
+  if (b.detection) s << "set-up detection " << detection_text(*b.detection) << "\n";
   s << unidentifiable_text(ev.unidentifiable);
-  s << "\npredicted standard uncertainty (k = 1) at each angle:\n" << errors_table(ev.errors, false);
+  if (ev.setup_included) {
+    s << "\npredicted standard uncertainty (k = 1) at each angle, total (noise and the declared set-up "
+         "tolerances):\n"
+      << errors_table(ev.total_errors, false);
+  } else {
+    s << "\npredicted standard uncertainty (k = 1) at each angle (" << ev.setup_note << "):\n"
+      << errors_table(ev.errors, false);
+  }
   if (reference) {
     s << "\nreference " << reference->file << ": rank " << reference->rank << " of " << reference->n_unknowns;
     if (reference->worst.worst_std_um) {

@@ -260,6 +260,15 @@ void OutputSet::stage(const std::string& option, const std::string& content) {
   e.staged = true;
 }
 
+void OutputSet::withhold(const std::string& option) {
+  for (auto it = entries_.begin(); it != entries_.end(); ++it) {
+    if ((*it)->target.option != option) continue;
+    if (!(*it)->temporary.empty()) remove_temporary((*it)->slot, (*it)->temporary);
+    entries_.erase(it);
+    return;
+  }
+}
+
 void OutputSet::commit() {
   if (committed_) return;
   for (auto& e : entries_) {

@@ -1,6 +1,7 @@
 #include "dbbkit/io/reports.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -8,6 +9,7 @@
 #include <memory>
 
 #include "dbbkit/io/diagnose_io.hpp"
+#include "dbbkit/io/optimize_io.hpp"
 #include "dbbkit/io/report.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/kinematics.hpp"
@@ -243,7 +245,9 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
     errors_section(p, with_expanded(ev.total_errors, nullptr, k), false,
                    "a-priori expanded total uncertainty of " + design.name);
   } else {
-    p.paragraph("Set-up: " + ev.setup_note + ".");
+    std::string note = ev.setup_note;
+    if (!note.empty()) note[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(note[0])));
+    p.paragraph(note + ".");
     errors_section(p, with_expanded(ev.errors, nullptr, k), false, "a-priori expanded uncertainty of " + design.name);
   }
   unidentifiable_section(p, ev.unidentifiable);
@@ -318,6 +322,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
       {"worst_std_um", fmt_opt(ev.worst.worst_std_um) + " um"},
       {"worst determined", fmt_opt(ev.worst.worst_determined_std_um) + " um"}};
   if (ev.worst_total) summary.push_back({"worst_total_std_um (noise and set-up)", fmt_opt(ev.worst_total->worst_std_um) + " um"});
+  if (b.detection) summary.push_back({"set-up detection", detection_text(*b.detection)});
   if (reference) {
     summary.push_back({"reference " + reference->file, fmt_opt(reference->worst.worst_std_um) + " um"});
     if (ev.worst.worst_std_um && reference->worst.worst_std_um) {
@@ -335,7 +340,15 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   const Design d = optimized_design(kit, res, run.inputs.empty() ? "" : run.inputs.front());
   design_section(p, d);
   p.heading("Predicted uncertainty");
-  errors_section(p, with_expanded(ev.errors, nullptr, k), false, "predicted expanded uncertainty, best design");
+  if (ev.setup_included) {
+    errors_section(p, with_expanded(ev.total_errors, nullptr, k), false,
+                   "predicted expanded uncertainty, best design, total (noise and the declared set-up tolerances)");
+  } else {
+    std::string note = ev.setup_note;
+    if (!note.empty()) note[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(note[0])));
+    p.paragraph(note + ".");
+    errors_section(p, with_expanded(ev.errors, nullptr, k), false, "predicted expanded uncertainty, best design");
+  }
   unidentifiable_section(p, ev.unidentifiable);
   p.heading("Trade-off against time");
   p.figure([&] {

@@ -31,5 +31,7 @@ nlohmann::json optimize_to_json(const Kit& kit, const OptimizeResult& res, const
 std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
                              double seconds, const std::optional<Reference>& reference, bool pareto);
 std::string pareto_csv(const Kit& kit, const OptimizeResult& res);
+// The kit's set-up detection requirement as met by a candidate, in words (one sentence).
+std::string detection_text(const Candidate::Detection& d);
 
 }  // namespace dbbkit::io

@@ -41,6 +41,9 @@ class OutputSet {
   // Writes the content of the target given by `option` to its temporary (or keeps
   // it for standard output). A target absent from the set is a programming error.
   void stage(const std::string& option, const std::string& content);
+  // Leaves the target of `option` as it is (nothing to write, e.g. no design found):
+  // commit passes over it.
+  void withhold(const std::string& option);
   // Moves every staged output into place; throws InputError when one cannot be.
   void commit();
 
