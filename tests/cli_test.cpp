@@ -180,6 +180,39 @@ TEST(Cli, AFailedRunLeavesNoFile) {
   EXPECT_FALSE(std::filesystem::exists(out + ".tmp"));
 }
 
+TEST(Cli, OptimizeWithoutADesignLeavesOutAsItIsAndSaysWhy) {
+  // The three-position kit with set-up tolerances cannot let diagnose detect them at any
+  // position: exit 1, the reason once for every choice, --out untouched, --result written.
+  const auto dir = std::filesystem::temp_directory_path();
+  const std::string out = (dir / "dbbkit_optimize_kept.json").string();
+  const std::string result = (dir / "dbbkit_optimize_result.json").string();
+  { std::ofstream(out) << "kept\n"; }
+  std::filesystem::remove(result);
+  const std::string kit = test::source_path("designs/kits/c-turntable-kit-tolerances.json");
+  const CliRun r = run_cli("optimize --kit " + kit + " --require-setup-detection --out " + out + " --result " + result);
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("252 choices"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("the axis errors take length_offset[1t]"), std::string::npos) << r.err;
+  std::ifstream kept(out);
+  std::string line;
+  std::getline(kept, line);
+  EXPECT_EQ(line, "kept");
+  ASSERT_TRUE(std::filesystem::exists(result));
+  std::ifstream rj(result);
+  const nlohmann::json j = nlohmann::json::parse(rj);
+  EXPECT_TRUE(j["best"].is_null());
+  EXPECT_EQ(j["choices"].size(), 252u);
+  EXPECT_EQ(j["choices"][0]["setup_detection"]["met"], false);
+  std::filesystem::remove(out);
+  std::filesystem::remove(result);
+  // The flag without a tolerance to detect is refused (exit 2, the key named).
+  const CliRun plain = run_cli("optimize --kit " + test::source_path("designs/kits/c-turntable-kit.json") +
+                               " --require-setup-detection --out " + out);
+  EXPECT_EQ(plain.status, 2);
+  EXPECT_NE(plain.err.find("setup_std"), std::string::npos) << plain.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
 TEST(Cli, IdentifyPaperBReportsNullsAndTheCombination) {
   const CliRun r = run_cli("identify --design " + kDesignB + " --data " + test::source_path("tests/data/paper/paper_b_head.csv"));
   ASSERT_EQ(r.status, 0) << r.err;

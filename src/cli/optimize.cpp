@@ -141,10 +141,10 @@ Runner add_optimize(CLI::App& app) {
       outputs.withhold("--out");  // no design: the file given is left as it is
     }
     outputs.commit();
-    if (!args->quiet && !args->out.empty() && args->out != "-") {
-      std::cout << io::optimize_summary(kit, res, args->kit, seconds, reference, args->pareto);
-    } else if (!res.best && !args->quiet) {
+    if (!res.best && !args->quiet) {  // no design: why, on the error stream (exit 1)
       std::cerr << io::optimize_summary(kit, res, args->kit, seconds, reference, args->pareto);
+    } else if (!args->quiet && !args->out.empty() && args->out != "-") {
+      std::cout << io::optimize_summary(kit, res, args->kit, seconds, reference, args->pareto);
     }
     return res.best ? 0 : 1;
   };
