@@ -190,6 +190,14 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
   return p.str();
 }
 
+namespace {
+// A clause as a sentence: capital first letter, full stop.
+std::string as_sentence(std::string text) {
+  if (!text.empty()) text[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(text[0])));
+  return text + ".";
+}
+}  // namespace
+
 // Every set-up effect: declared size, detectable, detection limit, largest bias per um.
 void setup_checks_section(Page& p, const Evaluation& ev) {
   if (ev.setup_checks.empty()) return;
@@ -245,9 +253,7 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
     errors_section(p, with_expanded(ev.total_errors, nullptr, k), false,
                    "a-priori expanded total uncertainty of " + design.name);
   } else {
-    std::string note = ev.setup_note;
-    if (!note.empty()) note[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(note[0])));
-    p.paragraph(note + ".");
+    p.paragraph(as_sentence(ev.setup_note));
     errors_section(p, with_expanded(ev.errors, nullptr, k), false, "a-priori expanded uncertainty of " + design.name);
   }
   unidentifiable_section(p, ev.unidentifiable);
@@ -344,9 +350,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
     errors_section(p, with_expanded(ev.total_errors, nullptr, k), false,
                    "predicted expanded uncertainty, best design, total (noise and the declared set-up tolerances)");
   } else {
-    std::string note = ev.setup_note;
-    if (!note.empty()) note[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(note[0])));
-    p.paragraph(note + ".");
+    p.paragraph(as_sentence(ev.setup_note));
     errors_section(p, with_expanded(ev.errors, nullptr, k), false, "predicted expanded uncertainty, best design");
   }
   unidentifiable_section(p, ev.unidentifiable);
