@@ -3,6 +3,7 @@
 # Runs as root, or through sudo when available. Does nothing when all are present.
 #   ./setup.sh            the build, the tests, the reports (gnuplot)
 #   ./setup.sh --browser  also Chromium, for the browser test of the HTML reports
+#   ./setup.sh --peers    also NumPy and OpenBLAS, for the benchmarks' peer programs (benchmarks/*.py)
 set -euo pipefail
 
 packages=(
@@ -11,9 +12,13 @@ packages=(
   libgtest-dev libbenchmark-dev libcli11-dev gnuplot-nox
   clang libclang-rt-14-dev
 )
-if [ "${1:-}" = "--browser" ]; then
-  packages+=(chromium)
-fi
+for option in "$@"; do
+  case "$option" in
+    --browser) packages+=(chromium) ;;
+    --peers) packages+=(python3-numpy libopenblas0-pthread) ;;
+    *) echo "setup: unknown option $option (--browser, --peers)" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

@@ -143,7 +143,7 @@ void BM_MonteCarloPaperC(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(monte_carlo_a_priori(d, 0.95, o).trials);
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
-BENCHMARK(BM_MonteCarloPaperC)->Args({1000000, 2})->Args({1000000, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_MonteCarloPaperC)->Args({100000, 2})->Args({1000000, 2})->Args({1000000, 1})->Args({10000000, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // A large series model: `angles` angles over a full turn, 12 installations, Fourier order `order`.
 void BM_IdentifyFourier(benchmark::State& state) {

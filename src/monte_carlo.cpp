@@ -4,6 +4,9 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
 #include <random>
 
 #include "dbbkit/error.hpp"
@@ -13,8 +16,8 @@ namespace dbbkit {
 
 namespace {
 
-constexpr long kChunk =
-    1000;  // trials per random stream; streams are independent of the thread count
+constexpr long kChunk = 1000;  // trials per random stream; streams are independent of the thread count
+constexpr int kBins = 4096;    // bins of a quantile window
 
 std::uint64_t splitmix64(std::uint64_t x) {
   x += 0x9E3779B97F4A7C15ULL;
@@ -23,13 +26,50 @@ std::uint64_t splitmix64(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
+// xoshiro256++ (Blackman and Vigna, 2019): a UniformRandomBitGenerator of period 2^256 - 1,
+// its state filled from a splitmix64 sequence (as its authors advise).
+class Xoshiro256pp {
+ public:
+  using result_type = std::uint64_t;
+  explicit Xoshiro256pp(std::uint64_t seed) {
+    for (int i = 0; i < 4; ++i) s_[i] = splitmix64(seed + static_cast<std::uint64_t>(i) * 0x9E3779B97F4A7C15ULL);
+  }
+  static constexpr result_type min() { return 0; }
+  static constexpr result_type max() { return ~result_type{0}; }
+  result_type operator()() {
+    const std::uint64_t result = rotl(s_[0] + s_[3], 23) + s_[0];
+    const std::uint64_t t = s_[1] << 17;
+    s_[2] ^= s_[0];
+    s_[3] ^= s_[1];
+    s_[1] ^= s_[2];
+    s_[0] ^= s_[3];
+    s_[2] ^= t;
+    s_[3] = rotl(s_[3], 45);
+    return result;
+  }
+  // Uniform on [0, 1) with 53 random bits (every double k 2^-53).
+  double uniform01() { return static_cast<double>(operator()() >> 11) * 0x1.0p-53; }
+
+ private:
+  static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
+  std::uint64_t s_[4];
+};
+
 struct Stats {
   double mean = 0, std = 0, low = 0, high = 0;
 };
 
-// Mean, standard deviation and the probabilistically symmetric p-interval of a sample (JCGM 101
-// §7.7).
-Stats stats_of(std::vector<float> x, double p) {
+// The ranks (0-based, in ascending order) of the probabilistically symmetric p-interval's
+// endpoints among M trials (JCGM 101 §7.7): q = floor(p M + 1/2), r = (M - q) / 2.
+std::pair<long, long> interval_ranks(long M, double p) {
+  long q = static_cast<long>(std::floor(p * M + 0.5));
+  q = std::min(q, M - 1);
+  const long r = std::max(0L, (M - q) / 2);
+  return {r, std::min(r + q, M - 1)};
+}
+
+// Exact statistics of one batch (the adaptive rule's batch estimates, JCGM 101 §7.9).
+Stats batch_stats(std::vector<float> x, double p) {
   Stats s;
   const long M = static_cast<long>(x.size());
   double sum = 0, sum2 = 0;
@@ -37,14 +77,109 @@ Stats stats_of(std::vector<float> x, double p) {
   s.mean = sum / M;
   for (float v : x) sum2 += (v - s.mean) * (v - s.mean);
   s.std = std::sqrt(sum2 / (M - 1));
-  long q = static_cast<long>(std::floor(p * M + 0.5));
-  q = std::min(q, M - 1);
-  const long r = std::max(0L, (M - q) / 2);
-  std::nth_element(x.begin(), x.begin() + r, x.end());
-  s.low = x[r];
-  std::nth_element(x.begin(), x.begin() + std::min(r + q, M - 1), x.end());
-  s.high = x[std::min(r + q, M - 1)];
+  const auto [lo, hi] = interval_ranks(M, p);
+  std::nth_element(x.begin(), x.begin() + lo, x.end());
+  s.low = x[lo];
+  std::nth_element(x.begin() + lo, x.begin() + hi, x.end());  // hi >= lo: the rest is above x[lo]
+  s.high = x[hi];
   return s;
+}
+
+// A histogram over [a, a + kBins w) with the counts below and above it: where an
+// interval endpoint lies, to within w, without keeping the trials.
+struct Window {
+  double a = 0, w = 0, inv_w = 0;
+  std::uint64_t below = 0, above = 0;
+  std::vector<std::uint32_t> counts;
+  void reset(double lo, double hi) {
+    a = lo;
+    w = (hi - lo) / kBins;
+    inv_w = 1.0 / w;
+    below = above = 0;
+    counts.assign(kBins, 0);
+  }
+  void add(double x) {
+    const double t = (x - a) * inv_w;
+    if (t < 0) {
+      ++below;
+    } else if (t >= kBins) {
+      ++above;
+    } else {
+      ++counts[std::min(kBins - 1, static_cast<int>(t))];
+    }
+  }
+  // The value of rank k (0-based) when it falls inside, by linear interpolation within its
+  // bin (the order statistic lies in that bin: the error is below w).
+  std::optional<double> locate(std::uint64_t k, std::pair<double, double>* bin = nullptr) const {
+    if (k < below) return std::nullopt;
+    std::uint64_t before = below;
+    for (int b = 0; b < kBins; ++b) {
+      if (k < before + counts[b]) {
+        if (bin) *bin = {a + b * w, a + (b + 1) * w};
+        return a + w * (b + (static_cast<double>(k - before) + 0.5) / counts[b]);
+      }
+      before += counts[b];
+    }
+    return std::nullopt;
+  }
+};
+
+// Everything kept of one value: moments merged batch by batch (Chan, Golub and LeVeque),
+// the range seen, and a window around each endpoint.
+struct Accumulator {
+  std::uint64_t n = 0;
+  double mean = 0, m2 = 0;
+  double min = std::numeric_limits<double>::infinity(), max = -std::numeric_limits<double>::infinity();
+  Window low, high;
+
+  void add_batch(const float* x, long m) {
+    // One pass: the moments about the first sample (four partial sums in a fixed order),
+    // the range, and each window's counts (the few trials inside binned, branch rarely taken).
+    const double shift = x[0];
+    double s1[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0};
+    double lo = x[0], hi = x[0];
+    std::uint64_t low_below = 0, high_below = 0, low_above = 0, high_above = 0;
+    const double la = low.a, li = low.inv_w, ha = high.a, hi_w = high.inv_w;
+    const double kb = kBins;
+    for (long t = 0; t < m; ++t) {
+      const double v = x[t];
+      const double d = v - shift;
+      s1[t & 3] += d;
+      s2[t & 3] += d * d;
+      lo = v < lo ? v : lo;
+      hi = v > hi ? v : hi;
+      const double tl = (v - la) * li, th = (v - ha) * hi_w;
+      low_below += tl < 0;
+      low_above += tl >= kb;
+      high_below += th < 0;
+      high_above += th >= kb;
+      if (tl >= 0 && tl < kb) ++low.counts[std::min(kBins - 1, static_cast<int>(tl))];
+      if (th >= 0 && th < kb) ++high.counts[std::min(kBins - 1, static_cast<int>(th))];
+    }
+    low.below += low_below;
+    low.above += low_above;
+    high.below += high_below;
+    high.above += high_above;
+    min = std::min(min, lo);
+    max = std::max(max, hi);
+    const double sum = (s1[0] + s1[1]) + (s1[2] + s1[3]), sum2 = (s2[0] + s2[1]) + (s2[2] + s2[3]);
+    const double bm = shift + sum / m;
+    const double bm2 = std::max(0.0, sum2 - sum * sum / m);
+    const double n1 = static_cast<double>(n), n2 = static_cast<double>(m), nt = n1 + n2;
+    const double delta = bm - mean;
+    mean += delta * n2 / nt;
+    m2 += bm2 + delta * delta * n1 * n2 / nt;
+    n += static_cast<std::uint64_t>(m);
+  }
+};
+
+// The half-width of a window around an endpoint first estimated from the first batch: the
+// estimate's own scatter is about sqrt(p (1 - p) / M) / f, a few hundredths of a standard
+// deviation for M = 10^4; half a standard deviation keeps the endpoint inside in practice,
+// and when it does not, a refinement pass finds it (below).
+double window_half_width(double std, double mean) {
+  const double h = 0.5 * std;
+  return h > 0 ? h : std::max(1e-12 * std::abs(mean), 1e-300);
 }
 
 }  // namespace
@@ -78,15 +213,18 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     res.message = "no determined value to propagate";
     return res;
   }
+  // The trials of one batch are kept (4 bytes per value and trial), never more: the memory
+  // does not grow with the number of trials.
   {
-    const double bytes = static_cast<double>(options.max_trials) * n_out * sizeof(float);
+    const double bytes = static_cast<double>(options.batch_trials) * n_out * sizeof(float);
     if (bytes > static_cast<double>(options.max_sample_bytes)) {
       const long fits = static_cast<long>(static_cast<double>(options.max_sample_bytes) / (n_out * sizeof(float)));
-      throw InputError("Monte Carlo", "max_trials",
-                       std::to_string(options.max_trials) + " trials of " + std::to_string(n_out) + " values would keep " +
-                           std::to_string(static_cast<long long>(bytes / (1 << 20))) + " MiB of samples, beyond the " +
-                           std::to_string(options.max_sample_bytes >> 20) + " MiB limit: at most " +
-                           std::to_string(fits / kChunk * kChunk) + " trials for this design (--mc-max-trials)");
+      throw InputError("Monte Carlo", "batch_trials",
+                       std::to_string(options.batch_trials) + " trials per batch of " + std::to_string(n_out) +
+                           " values would keep " + std::to_string(static_cast<long long>(bytes / (1 << 20))) +
+                           " MiB of samples, beyond the " + std::to_string(options.max_sample_bytes >> 20) +
+                           " MiB limit: at most " + std::to_string(fits / kChunk * kChunk) +
+                           " trials per batch for this design (--mc-batch)");
     }
   }
 
@@ -95,7 +233,7 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   const Eigen::MatrixXd A = setup ? setup->left_gain(C) : Eigen::MatrixXd(C * solver.gain());
   const Eigen::MatrixXd AS = setup ? setup->setup_draw_map(C) : Eigen::MatrixXd();  // per N(0, 1) set-up draw
   // Per-angle values read a handful of the readings: a sparse A saves most of the products.
-  const Eigen::SparseMatrix<double> A_sparse = A.sparseView(1.0, 1e-300);
+  const Eigen::SparseMatrix<double, Eigen::RowMajor> A_sparse = A.sparseView(1.0, 1e-300);
   const bool sparse = A_sparse.nonZeros() < A.size() / 4;
   const Eigen::VectorXd base = A * (model.J * est.theta);
   const std::vector<SetupInput> inputs = setup_inputs(design);
@@ -107,25 +245,30 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   const NoiseModel& noise = design.noise;
   const double nu = type_a ? static_cast<double>(est.dof) : 0.0;
 
-  std::vector<std::vector<float>> samples(n_out);
-  auto run_chunks = [&](long first_chunk, long n_chunks, long offset) {
+  // Trials [first_chunk, first_chunk + n_chunks) x kChunk, each chunk from its own stream,
+  // into buffer (n_out x n_chunks kChunk, value-major).
+  const long M = options.batch_trials;
+  std::vector<float> buffer(static_cast<std::size_t>(n_out) * static_cast<std::size_t>(M));
+  auto run_chunks = [&](long first_chunk, long n_chunks) {
+    const long width = n_chunks * kChunk;
     parallel_for(n_chunks, res.threads, [&](long c) {
       thread_local Eigen::MatrixXd V, Q, out;  // per-thread buffers, reused across chunks
       V.resize(n, kChunk);
-      std::mt19937_64 rng(
-          splitmix64(options.seed ^ splitmix64(static_cast<std::uint64_t>(first_chunk + c))));
-      std::uniform_real_distribution<double> uni(-noise.half_width_um, noise.half_width_um);
+      Xoshiro256pp rng(splitmix64(options.seed ^ splitmix64(static_cast<std::uint64_t>(first_chunk + c))));
       std::normal_distribution<double> n01;
       std::chi_squared_distribution<double> chi2(nu > 0 ? nu : 1.0);
-      for (long t = 0; t < kChunk; ++t) {
-        if (type_a) {
+      if (type_a) {
+        for (long t = 0; t < kChunk; ++t) {
           const double scale = noise.sigma_um() * *budget.type_a_scale * std::sqrt(nu / chi2(rng));
           for (int i = 0; i < n; ++i) V(i, t) = scale * n01(rng);
-        } else if (noise.distribution == NoiseModel::Distribution::Uniform) {
-          for (int i = 0; i < n; ++i) V(i, t) = uni(rng);
-        } else {
-          for (int i = 0; i < n; ++i) V(i, t) = noise.std_um * n01(rng);
         }
+      } else if (noise.distribution == NoiseModel::Distribution::Uniform) {
+        const double a2 = 2.0 * noise.half_width_um, a = noise.half_width_um;
+        double* v = V.data();
+        for (long k = 0; k < n * kChunk; ++k) v[k] = a2 * rng.uniform01() - a;
+      } else {
+        double* v = V.data();
+        for (long k = 0; k < n * kChunk; ++k) v[k] = noise.std_um * n01(rng);
       }
       if (sparse) {
         out.noalias() = A_sparse * V;
@@ -147,29 +290,38 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
         }
         out.noalias() += AS * Q;
       }
-      const long at = offset + c * kChunk;
       for (int v = 0; v < n_out; ++v) {
-        float* dst = samples[v].data() + at;
+        float* dst = buffer.data() + static_cast<std::size_t>(v) * width + c * kChunk;
         for (long t = 0; t < kChunk; ++t) dst[t] = static_cast<float>(base(v) + out(v, t));
       }
     });
   };
 
-  const long M = options.batch_trials;
   const double p = budget.coverage_probability;
+  std::vector<Accumulator> acc(n_out);
   std::vector<std::vector<Stats>> history(n_out);
   long total = 0;
   while (total < options.max_trials) {
-    const long batch = options.adaptive ? M : options.max_trials;
-    for (auto& s : samples) s.resize(total + batch);
-    run_chunks(total / kChunk, batch / kChunk, total);
+    const long batch = std::min(M, options.max_trials - total) / kChunk * kChunk;
+    if (batch <= 0) break;
+    run_chunks(total / kChunk, batch / kChunk);
+    const bool first = total == 0;
+    parallel_for(n_out, res.threads, [&](long v) {
+      const float* x = buffer.data() + static_cast<std::size_t>(v) * batch;
+      if (first || options.adaptive) {
+        const Stats s = batch_stats(std::vector<float>(x, x + batch), p);
+        if (options.adaptive) history[v].push_back(s);
+        if (first) {  // the windows, around the first batch's endpoints
+          const double h = window_half_width(s.std, s.mean);
+          acc[v].low.reset(s.low - h, s.low + h);
+          acc[v].high.reset(s.high - h, s.high + h);
+        }
+      }
+      acc[v].add_batch(x, batch);
+    });
     total += batch;
     if (options.progress) options.progress(total);
-    if (!options.adaptive) break;
-    for (int v = 0; v < n_out; ++v) {
-      history[v].push_back(
-          stats_of(std::vector<float>(samples[v].end() - batch, samples[v].end()), p));
-    }
+    if (!options.adaptive) continue;
     const long h = static_cast<long>(history[0].size());
     if (h < 2) continue;
     bool stable = true;
@@ -194,30 +346,95 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   }
   res.trials = total;
 
-  // Final statistics per value, in parallel over values.
-  std::vector<Stats> final_stats(n_out);
-  parallel_for(n_out, res.threads, [&](long v) {
-    final_stats[v] = stats_of(std::move(samples[v]), p);
-    std::vector<float>().swap(samples[v]);
-  });
+  // The endpoints: the order statistics of ranks r and r + q among all the trials, found in
+  // their windows to within the bin width. Where one lies outside its window, or the bin is
+  // wider than a tenth of the numerical tolerance, the trials are replayed (each chunk's
+  // stream again) into a window over the bin or the range that holds it, until it is found
+  // that finely: the memory stays that of one batch and the windows whatever the trials.
+  const auto [rank_low, rank_high] = interval_ranks(total, p);
+  struct Endpoint {
+    double value = 0;
+    bool found = false;
+  };
+  std::vector<Endpoint> low(n_out), high(n_out);
+  std::vector<double> resolution(n_out);
+  for (int v = 0; v < n_out; ++v) {
+    const double sd = acc[v].n > 1 ? std::sqrt(acc[v].m2 / (acc[v].n - 1)) : 0.0;
+    const double tol = std::min(numerical_tolerance(sd, options.significant_digits),
+                                numerical_tolerance(budget.values[v].u_c, options.significant_digits));
+    resolution[v] = tol > 0 ? 0.1 * tol : 0.0;
+  }
+  // Where endpoint e (0 low, 1 high) of value v stands: found, or the interval to replay.
+  auto settle = [&](int v, int e, std::vector<std::pair<double, double>>& replay) {
+    const Window& w = e == 0 ? acc[v].low : acc[v].high;
+    const std::uint64_t k = static_cast<std::uint64_t>(e == 0 ? rank_low : rank_high);
+    Endpoint& out = e == 0 ? low[v] : high[v];
+    std::pair<double, double> bin;
+    if (const std::optional<double> x = w.locate(k, &bin)) {
+      if (w.w <= resolution[v] || acc[v].min == acc[v].max) {
+        out = {*x, true};
+        return;
+      }
+      replay[2 * v + e] = bin;
+    } else if (k < w.below) {
+      replay[2 * v + e] = {acc[v].min, w.a};
+    } else {
+      replay[2 * v + e] = {w.a + kBins * w.w, std::nextafter(acc[v].max, std::numeric_limits<double>::infinity())};
+    }
+  };
+  for (int pass = 0; pass < 8; ++pass) {
+    std::vector<std::pair<double, double>> replay(2 * n_out, {0.0, 0.0});
+    bool any = false;
+    for (int v = 0; v < n_out; ++v) {
+      for (int e = 0; e < 2; ++e) {
+        if ((e == 0 ? low[v] : high[v]).found) continue;
+        settle(v, e, replay);
+        any = any || !(e == 0 ? low[v] : high[v]).found;
+      }
+    }
+    if (!any) break;
+    // Replay: windows over the intervals to refine (the others left as they are).
+    for (int v = 0; v < n_out; ++v) {
+      for (int e = 0; e < 2; ++e) {
+        if ((e == 0 ? low[v] : high[v]).found) continue;
+        const auto [lo, hi] = replay[2 * v + e];
+        (e == 0 ? acc[v].low : acc[v].high).reset(lo, hi > lo ? hi : std::nextafter(lo, hi + 1.0));
+      }
+    }
+    for (long done = 0; done < total;) {
+      const long batch = std::min(M, total - done);
+      run_chunks(done / kChunk, batch / kChunk);
+      parallel_for(n_out, res.threads, [&](long v) {
+        const float* x = buffer.data() + static_cast<std::size_t>(v) * batch;
+        for (int e = 0; e < 2; ++e) {
+          if ((e == 0 ? low[v] : high[v]).found) continue;
+          Window& w = e == 0 ? acc[v].low : acc[v].high;
+          for (long t = 0; t < batch; ++t) w.add(x[t]);
+        }
+      });
+      done += batch;
+    }
+    ++res.refinement_passes;
+  }
+  std::vector<float>().swap(buffer);
+
   for (int v = 0; v < n_out; ++v) {
     const ValueBudget& b = budget.values[v];
-    const Stats& s = final_stats[v];
     MonteCarloValue mv;
     mv.station = b.station;
     mv.angle_deg = b.angle_deg;
     mv.error = b.error;
-    mv.mean = s.mean;
-    mv.std = s.std;
-    mv.low = s.low;
-    mv.high = s.high;
+    mv.mean = acc[v].mean;
+    mv.std = acc[v].n > 1 ? std::sqrt(acc[v].m2 / (acc[v].n - 1)) : 0.0;
+    mv.low = low[v].value;
+    mv.high = high[v].value;
     mv.linear_value = b.value;
     mv.linear_u = b.u_c;
     mv.linear_U = b.U;
     mv.delta = numerical_tolerance(b.u_c, options.significant_digits);
-    mv.d_low = std::abs(b.value - b.U - s.low);
-    mv.d_high = std::abs(b.value + b.U - s.high);
-    mv.validated = mv.d_low <= mv.delta && mv.d_high <= mv.delta;
+    mv.d_low = std::abs(b.value - b.U - mv.low);
+    mv.d_high = std::abs(b.value + b.U - mv.high);
+    mv.validated = low[v].found && high[v].found && mv.d_low <= mv.delta && mv.d_high <= mv.delta;
     res.n_validated += mv.validated;
     res.values.push_back(mv);
   }
@@ -226,6 +443,12 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
                 "numerical tolerance";
   if (options.adaptive && !res.converged) {
     res.message += "; the adaptive procedure stopped at max_trials before its tolerance was met";
+  }
+  int unplaced = 0;
+  for (int v = 0; v < n_out; ++v) unplaced += !low[v].found + !high[v].found;
+  if (unplaced > 0) {
+    res.message += "; " + std::to_string(unplaced) + " interval endpoint(s) could not be placed within a tenth of the "
+                   "numerical tolerance (not validated)";
   }
   return res;
 }

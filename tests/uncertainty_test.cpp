@@ -160,6 +160,41 @@ TEST(MonteCarlo, ReproducibleForASeedWhateverTheThreads) {
   EXPECT_TRUE(differs);
 }
 
+TEST(MonteCarlo, EndpointsDoNotDependOnTheBatchingAndAreFoundToATenthOfTheTolerance) {
+  // The trials are the same whatever the batch size (one stream per chunk of 1000), so
+  // one batch of 200,000 and twenty of 10,000 give the same mean and standard deviation
+  // (to rounding) and endpoints within the resolution each is placed to (a tenth of the
+  // numerical tolerance). With four significant digits the tolerance is a hundred times
+  // finer: the endpoints are found by replaying the trials into narrower windows, and the
+  // two-digit endpoints lie within their resolution of them.
+  const Design d = test::paper_design('C');
+  MonteCarloOptions o;
+  o.adaptive = false;
+  o.max_trials = 200000;
+  o.batch_trials = 200000;
+  o.threads = 2;
+  const MonteCarloResult one = monte_carlo_a_priori(d, 0.95, o);
+  o.batch_trials = 10000;
+  const MonteCarloResult many = monte_carlo_a_priori(d, 0.95, o);
+  o.significant_digits = 4;
+  const MonteCarloResult fine = monte_carlo_a_priori(d, 0.95, o);
+  EXPECT_EQ(one.refinement_passes, 0);
+  EXPECT_GT(fine.refinement_passes, 0);
+  ASSERT_EQ(one.values.size(), many.values.size());
+  ASSERT_EQ(one.values.size(), fine.values.size());
+  for (size_t v = 0; v < one.values.size(); ++v) {
+    const MonteCarloValue &a = one.values[v], &b = many.values[v], &f = fine.values[v];
+    EXPECT_NEAR(a.mean, b.mean, 1e-12 + 1e-9 * a.std) << v;
+    EXPECT_NEAR(a.std, b.std, 1e-9 * a.std) << v;
+    const double res2 = 0.1 * std::min(numerical_tolerance(a.std, 2), a.delta);
+    const double res4 = 0.1 * std::min(numerical_tolerance(f.std, 4), f.delta);
+    EXPECT_NEAR(a.low, b.low, 2 * res2) << v;
+    EXPECT_NEAR(a.high, b.high, 2 * res2) << v;
+    EXPECT_NEAR(a.low, f.low, res2 + res4) << v;
+    EXPECT_NEAR(a.high, f.high, res2 + res4) << v;
+  }
+}
+
 // Coverage: over 2000 simulated data sets the reported 95% intervals (linear where
 // Monte Carlo validates it, Monte Carlo otherwise) contain the truth 95% of the time,
 // within the binomial tolerance, per value and pooled.

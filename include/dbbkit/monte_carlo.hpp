@@ -34,9 +34,11 @@ struct MonteCarloOptions {
   long max_trials = 2000000;     // the adaptive procedure stops here, not converged
   bool adaptive = true;          // false: exactly max_trials trials
   int significant_digits = 2;    // n_dig of the numerical tolerance
-  // The trials are kept for the quantiles (4 bytes per value and trial): a run whose
-  // max_trials x values x 4 exceeds this is refused before it starts, naming the
-  // largest max_trials that fits (an InputError, key "max_trials").
+  // The trials of one batch are kept (4 bytes per value and trial), never more: the
+  // interval endpoints over all trials come from histograms around them (monte_carlo.cpp),
+  // so memory does not grow with max_trials. A batch whose batch_trials x values x 4
+  // exceeds this is refused before it starts, naming the largest batch that fits (an
+  // InputError, key "batch_trials").
   std::size_t max_sample_bytes = std::size_t{1} << 30;
   // Called after each batch with the trials so far (from the calling thread).
   std::function<void(long trials)> progress;
@@ -64,6 +66,7 @@ struct MonteCarloResult {
   double coverage_probability = 0.95;
   int significant_digits = 2;
   int n_validated = 0;
+  int refinement_passes = 0;  // replays of the trials to place an interval endpoint finely enough
   std::vector<MonteCarloValue> values;  // in the order of budget.values
   std::string message;
 };
