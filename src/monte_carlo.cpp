@@ -351,7 +351,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   // wider than a tenth of the numerical tolerance, the trials are replayed (each chunk's
   // stream again) into a window over the bin or the range that holds it, until it is found
   // that finely: the memory stays that of one batch and the windows whatever the trials.
-  const auto [rank_low, rank_high] = interval_ranks(total, p);
+  const std::pair<long, long> ranks = interval_ranks(total, p);
+  const long rank_low = ranks.first, rank_high = ranks.second;  // captured below (C++17: no structured binding)
   struct Endpoint {
     double value = 0;
     bool found = false;
