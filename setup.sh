@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages dbbkit needs that are missing on this machine.
 # Runs as root, or through sudo when available. Does nothing when all are present.
-#   ./setup.sh            the build, the tests, the reports (gnuplot)
+#   ./setup.sh            the build, the tests (junitparser reads the gate's JUnit XML), the reports (gnuplot)
 #   ./setup.sh --browser  also Chromium, for the browser test of the HTML reports
 #   ./setup.sh --peers    also NumPy and OpenBLAS, for the benchmarks' peer programs (benchmarks/*.py)
 set -euo pipefail
@@ -11,6 +11,7 @@ packages=(
   libeigen3-dev libnlopt-cxx-dev libboost-math-dev nlohmann-json3-dev
   libgtest-dev libbenchmark-dev libcli11-dev gnuplot-nox
   clang libclang-rt-14-dev
+  python3-junitparser
 )
 for option in "$@"; do
   case "$option" in

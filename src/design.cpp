@@ -7,6 +7,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/limits.hpp"
+#include "dbbkit/measurement.hpp"
 
 namespace dbbkit {
 
@@ -171,6 +172,9 @@ void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axi
 }
 
 void validate_design(const Design& d, const std::string& source) {
+  require(std::isfinite(d.instrument_range_mm) && d.instrument_range_mm > 0 &&
+              d.instrument_range_mm * 1000.0 <= kMaxAbsReading_um,
+          source, "instrument.range_mm", "must be a positive number of mm, at most 10 mm");
   require(!d.angles_deg.empty(), source, "angles_deg", "no angles");
   require(d.angles_deg.size() <= limits::kMaxAngles, source, "angles_deg",
           "more than " + std::to_string(limits::kMaxAngles) + " angles (README, \"Limits\")");

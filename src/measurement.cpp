@@ -32,10 +32,16 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
       throw InputError(source, where, s.str());
     }
     if (!std::isfinite(r.reading_um)) throw InputError(source, where, "reading is not a finite number");
-    if (std::abs(r.reading_um) > kMaxAbsReading_um) {
+    if (std::abs(r.reading_um) > 1000.0 * design.instrument_range_mm) {
       std::ostringstream s;
-      s << "reading " << r.reading_um << " um exceeds " << kMaxAbsReading_um
-        << " um in magnitude, more than any DBB measures: is the column's unit right?";
+      if (r.in_mm) {
+        s << "reading_mm " << r.reading_um / 1000.0 << " is beyond the instrument's range of +-"
+          << design.instrument_range_mm << " mm: are the readings in um? (give them in a reading_um column)";
+      } else {
+        s << "reading " << r.reading_um << " um is beyond the instrument's range of +-" << design.instrument_range_mm
+          << " mm";
+      }
+      s << "; the range is the design's instrument.range_mm (default " << kDefaultInstrumentRange_mm << " mm)";
       throw InputError(source, where, s.str());
     }
     if (r.time_s && (!std::isfinite(*r.time_s) || *r.time_s < 0)) {

@@ -97,7 +97,11 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"data_both_units.csv", kIdentifyDataC, "line 1", "both reading_mm and reading_um"},
         BadCase{"data_bad_sweep.csv", kIdentifyDataC, "line 3, column sweep", "'clockwise' is not a sweep"},
         BadCase{"data_header_only.csv", kIdentifyDataC, "", "no readings"},
-        BadCase{"data_unit_mixup.csv", kIdentifyDataC, "line 3", "is the column's unit right?"},
+        BadCase{"data_unit_mixup.csv", kIdentifyDataC, "line 3",
+                "reading_mm 52.2 is beyond the instrument's range of +-1 mm: are the readings in um?"},
+        BadCase{"data_um_beyond_range.csv", kIdentifyDataC, "line 3",
+                "reading 2500 um is beyond the instrument's range of +-1 mm; the range is the design's "
+                "instrument.range_mm"},
         BadCase{"data_negative_time.csv", kIdentifyDataC, "line 3", "time_s"},
         BadCase{"data_repeat_not_integer.csv", kIdentifyDataC, "line 3, column repeat", "not an integer"},
         BadCase{"data_empty_id.csv", kIdentifyDataC, "line 3, column installation", "empty installation id"},
@@ -134,6 +138,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"design_ball_L_huge.json", kIdentifyDesign, "installations[0].ball_mm.L", "within +-10000 mm"},
         BadCase{"design_noise_huge.json", kIdentifyDesign, "noise.std_um", "[1e-4, 1e4]"},
         BadCase{"design_noise_tiny.json", kIdentifyDesign, "noise.std_um", "[1e-4, 1e4]"},
+        BadCase{"design_instrument_range_huge.json", kIdentifyDesign, "instrument.range_mm", "at most 10 mm"},
         BadCase{"design_order_huge.json", kIdentifyDesign, "errors.order", "at most 100"},
         BadCase{"design_too_many_angles.json", kIdentifyDesign, "angles_deg.step", "more than 100000 angles"},
         BadCase{"data_hex_float.csv", kIdentifyDataC, "line 2, column reading_mm", "decimal notation"},
@@ -372,6 +377,68 @@ TEST(Cli, DesignGatePassesTheCommittedDesignsAndFailsADegradedOne) {
   r = run_cli("bench " + degraded_total + " --baseline " + baseline);
   EXPECT_EQ(r.status, 1) << r.out << r.err;
   EXPECT_NE(r.out.find("declares no set-up tolerance"), std::string::npos) << r.out;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Cli, DesignGateFailsNewDesignsAndLimitsAndWritesSummaryAndJUnit) {
+  const std::string baseline = test::source_path("benchmarks/designs-baseline.json");
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_gate_checks";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  // A design the baseline does not know fails, unless --allow-new.
+  const std::string fresh = (dir / "fresh-design.json").string();
+  std::filesystem::copy_file(kDesignC, fresh);
+  CliRun r = run_cli("bench " + fresh + " --baseline " + baseline);
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("no baseline for this design"), std::string::npos) << r.out;
+  r = run_cli("bench " + fresh + " --baseline " + baseline + " --allow-new");
+  EXPECT_EQ(r.status, 0) << r.out << r.err;
+  // Absolute limits: the paper's C design has worst_std_um 2.0565 um, no set-up tolerance
+  // and no predicted time; the optimised kit design states its time (1869 s).
+  const std::string optimised = test::source_path("designs/c-turntable-kit-optimized.json");
+  r = run_cli("bench " + kDesignC + " --baseline " + baseline + " --max-worst-std-um 2.1");
+  EXPECT_EQ(r.status, 0) << r.out << r.err;
+  r = run_cli("bench " + kDesignC + " --baseline " + baseline + " --max-worst-std-um 2.0");
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("FAIL max_worst_std_um: 2.0565 um > 2 um"), std::string::npos) << r.out;
+  r = run_cli("bench " + kDesignC + " --baseline " + baseline + " --max-worst-total-std-um 50");
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("declares no set-up tolerance"), std::string::npos) << r.out;
+  r = run_cli("bench " + optimised + " --baseline " + baseline + " --max-time-s 2000");
+  EXPECT_EQ(r.status, 0) << r.out << r.err;
+  r = run_cli("bench " + kDesignC + " --baseline " + baseline + " --max-time-s 2000");
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("states no measurement time"), std::string::npos) << r.out;
+  // The Markdown summary and the JUnit XML, read back by a JUnit consumer (junitparser):
+  // two designs, the baseline and two limit checks each; the paper's design fails the time.
+  const std::string md = (dir / "gate.md").string(), xml = (dir / "gate.xml").string();
+  r = run_cli("bench " + kDesignC + " " + optimised + " --baseline " + baseline +
+              " --max-worst-std-um 2.1 --max-time-s 2000 --summary " + md + " --junit " + xml);
+  EXPECT_EQ(r.status, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("wrote --junit " + xml), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("wrote --summary " + md), std::string::npos) << r.out;
+  const std::string summary = slurp(md);
+  EXPECT_NE(summary.find("| paper-c-turntable.json | C |"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("FAIL: max_time_s"), std::string::npos) << summary;
+  const std::string script = (dir / "read.py").string();
+  std::ofstream(script) << "import sys\n"
+                           "from junitparser import JUnitXml, Failure\n"
+                           "xml = JUnitXml.fromfile(sys.argv[1])\n"
+                           "for suite in xml:\n"
+                           "    print('suite', suite.name, suite.tests, suite.failures)\n"
+                           "    for case in suite:\n"
+                           "        failed = [r for r in case.result if isinstance(r, Failure)]\n"
+                           "        print('case', case.classname, case.name, 'FAIL' if failed else 'pass',\n"
+                           "              failed[0].message if failed else '')\n";
+  const CliRun parsed = run_cli_shell("/usr/bin/python3 " + script + " " + xml);
+  ASSERT_EQ(parsed.status, 0) << parsed.err;
+  EXPECT_NE(parsed.out.find("suite dbbkit bench 6 1"), std::string::npos) << parsed.out;
+  EXPECT_NE(parsed.out.find("case bench.paper-c-turntable.json max_time_s FAIL the design states no measurement time"),
+            std::string::npos)
+      << parsed.out;
+  EXPECT_NE(parsed.out.find("case bench.c-turntable-kit-optimized.json max_time_s pass"), std::string::npos)
+      << parsed.out;
+  EXPECT_NE(parsed.out.find("case bench.paper-c-turntable.json baseline pass"), std::string::npos) << parsed.out;
   std::filesystem::remove_all(dir);
 }
 

@@ -100,6 +100,8 @@ struct Prediction {
   std::optional<double> time_s;
 };
 
+inline constexpr double kDefaultInstrumentRange_mm = 1.0;
+
 struct Design {
   std::string name;
   std::string description;
@@ -109,6 +111,10 @@ struct Design {
   NoiseModel noise;
   ErrorModel errors;
   std::optional<double> reference_length_mm;
+  // The instrument's measuring range: a reading beyond +-range_mm is refused (a ballbar of
+  // the QC20-W class reads within about +-1 mm; larger values are almost always a unit
+  // mix-up, um in a mm column). Design key instrument.range_mm, at most 10 mm.
+  double instrument_range_mm = kDefaultInstrumentRange_mm;
   SetupUncertainty setup_std;  // default for every installation
   std::vector<Installation> installations;
   std::optional<Prediction> predicted;

@@ -19,14 +19,16 @@ struct Reading {
   std::optional<Sweep> sweep;
   std::optional<int> repeat;
   int line = 0;  // line in the source file (0: not from a file)
+  bool in_mm = false;  // read from a reading_mm column (for the message of a unit mix-up)
 };
 
-// Largest |reading| accepted, a plausibility bound: no DBB reads a length
-// change of 10 mm; larger values are almost always a unit mix-up (um in a mm column).
+// The largest instrument range a design may declare (instrument.range_mm): no DBB
+// reads a length change of 10 mm.
 inline constexpr double kMaxAbsReading_um = 10000.0;
 
 // Checks readings against a design: the installation exists, the angle is a
-// position of the design, values are finite. Throws InputError(source, "line N", ...).
+// position of the design, values are finite and within the instrument's range
+// (design.instrument_range_mm). Throws InputError(source, "line N", ...).
 void validate_readings(const Design& design, const std::vector<Reading>& readings,
                        const std::string& source);
 

@@ -16,8 +16,9 @@ namespace dbbkit::cli {
 namespace {
 struct BenchArgs {
   std::vector<std::string> designs;
-  std::string baseline, write_baseline;
+  std::string baseline, write_baseline, summary, junit;
   std::optional<double> tolerance;
+  io::BenchLimits limits;
 };
 }  // namespace
 
@@ -31,10 +32,28 @@ Runner add_bench(CLI::App& app) {
                   "Relative change of worst_std_um allowed (default: the baseline's tolerance_relative)")
       ->check(finite_in(0, 0.999999));
   sub->add_option("--write-baseline", args->write_baseline,
-                  "Write the present figures as a new baseline file (with --tolerance, default 0.001)");
+                  "Write the present figures as a new baseline file (with --tolerance, default 0.001); the "
+                  "designs it records need no baseline of their own");
+  sub->add_flag("--allow-new", args->limits.allow_new, "A design without a baseline passes (it fails otherwise)");
+  sub->add_option("--max-worst-std-um", args->limits.max_worst_std_um,
+                  "Fail a design whose worst_std_um [um] is above this (or undetermined)")
+      ->check(finite_in(1e-12, 1e12));
+  sub->add_option("--max-worst-total-std-um", args->limits.max_worst_total_std_um,
+                  "Fail a design whose worst_total_std_um [um] (noise and declared set-up) is above this, or "
+                  "that declares no set-up tolerance")
+      ->check(finite_in(1e-12, 1e12));
+  sub->add_option("--max-time-s", args->limits.max_time_s,
+                  "Fail a design whose predicted measurement time [s] is above this, or that states none")
+      ->check(finite_in(1e-12, 1e12));
+  sub->add_option("--summary", args->summary, "A Markdown summary of the gate (for CI logs)");
+  sub->add_option("--junit", args->junit, "JUnit XML: one test case per design and check, for CI systems");
   return [args]() {
     std::vector<io::OutputTarget> targets;
     if (!args->write_baseline.empty()) targets.push_back({"--write-baseline", args->write_baseline});
+    if (!args->summary.empty()) targets.push_back({"--summary", args->summary});
+    if (!args->junit.empty()) targets.push_back({"--junit", args->junit});
+    io::BenchLimits limits = args->limits;
+    if (!args->write_baseline.empty()) limits.allow_new = true;  // the baseline being written records them
     std::vector<std::string> inputs = args->designs;
     inputs.push_back(args->baseline);
     io::OutputSet outputs(targets, inputs);
@@ -66,25 +85,33 @@ Runner add_bench(CLI::App& app) {
         row.now.worst_total_determined_std_um = ev.worst_total->worst_determined_std_um;
       }
       row.condition_number = ev.prior.condition_number;
+      if (d.predicted) row.time_s = d.predicted->time_s;
       if (auto it = baseline.designs.find(row.key); it != baseline.designs.end()) row.baseline = it->second;
       io::judge(row, tol);
+      io::check_row(row, limits);
       rows.push_back(row);
     }
     std::cout << io::bench_table(rows, tol);
     for (const auto& [key, f] : baseline.designs) {
       if (!keys.count(key)) std::cout << "note: " << key << " is in the baseline but was not given\n";
     }
-    int worse = 0;
-    for (const io::BenchRow& r : rows) worse += r.status == "worse";
+    int worse = 0, failed = 0;
+    for (const io::BenchRow& r : rows) worse += r.status == "worse", failed += !r.passed();
     if (!args->write_baseline.empty()) {
       io::Baseline out;
       out.tolerance_relative = tol;
       for (const io::BenchRow& r : rows) out.designs[r.key] = r.now;
       outputs.stage("--write-baseline", io::baseline_to_json(out).dump(2) + "\n");
-      outputs.commit();
     }
-    std::cout << rows.size() << " designs, " << worse << " worse than the baseline\n";
-    return worse ? 1 : 0;
+    if (!args->summary.empty()) outputs.stage("--summary", io::bench_markdown(rows, tol, limits));
+    if (!args->junit.empty()) outputs.stage("--junit", io::bench_junit(rows));
+    outputs.commit();
+    std::cout << rows.size() << " designs, " << worse << " worse than the baseline, " << failed << " failed\n";
+    for (const auto& [option, file] : {std::pair{"--write-baseline", args->write_baseline},
+                                       std::pair{"--summary", args->summary}, std::pair{"--junit", args->junit}}) {
+      if (!file.empty()) std::cout << "wrote " << option << " " << file << "\n";
+    }
+    return failed ? 1 : 0;
   };
 }
 

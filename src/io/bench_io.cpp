@@ -139,6 +139,138 @@ void judge(BenchRow& row, double tol) {
   }
 }
 
+bool BenchRow::passed() const {
+  for (const BenchCheck& c : checks) {
+    if (!c.passed) return false;
+  }
+  return true;
+}
+
+void check_row(BenchRow& row, const BenchLimits& limits) {
+  row.checks.clear();
+  {
+    BenchCheck c{"baseline", true, ""};
+    if (row.status == "worse") {
+      c.passed = false;
+      c.message = "worse than the baseline: " + row.detail;
+    } else if (row.status == "new") {
+      c.passed = limits.allow_new;
+      c.message = limits.allow_new ? "no baseline (allowed: --allow-new)"
+                                   : "no baseline for this design: add it to the baseline, or pass --allow-new";
+    } else {
+      c.message = row.status + (row.detail.empty() ? "" : ": " + row.detail);
+    }
+    row.checks.push_back(c);
+  }
+  auto at_most = [&](const char* name, const std::optional<double>& limit, const std::optional<double>& value,
+                     const std::string& unit, const std::string& absent) {
+    if (!limit) return;
+    BenchCheck c{name, true, ""};
+    if (!value) {
+      c.passed = false;
+      c.message = absent;
+    } else {
+      c.passed = *value <= *limit;
+      c.message = num(value) + " " + unit + (c.passed ? " <= " : " > ") + num(limit) + " " + unit;
+    }
+    row.checks.push_back(c);
+  };
+  at_most("max_worst_std_um", limits.max_worst_std_um, row.now.worst_std_um, "um",
+          "no worst_std_um: the design leaves errors undetermined");
+  const bool declares = row.now.worst_total_std_um || row.now.worst_total_determined_std_um;
+  at_most("max_worst_total_std_um", limits.max_worst_total_std_um, row.now.worst_total_std_um, "um",
+          declares ? "no worst_total_std_um: the design leaves errors undetermined"
+                   : "no worst_total_std_um: the design declares no set-up tolerance (setup_std)");
+  at_most("max_time_s", limits.max_time_s, row.time_s, "s",
+          "the design states no measurement time (predicted.time_s, written by optimize)");
+}
+
+namespace {
+
+std::string xml_escape(const std::string& text) {
+  std::string out;
+  for (char ch : text) {
+    switch (ch) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&apos;"; break;
+      default:
+        // Control characters other than tab, newline and carriage return are not XML 1.0.
+        if (static_cast<unsigned char>(ch) >= 0x20 || ch == '\t' || ch == '\n' || ch == '\r') out += ch;
+    }
+  }
+  return out;
+}
+
+// A Markdown table cell: no pipe, no line break.
+std::string cell(std::string text) {
+  for (char& ch : text) {
+    if (ch == '|' || ch == '\n') ch = ' ';
+  }
+  return text;
+}
+
+}  // namespace
+
+std::string bench_junit(const std::vector<BenchRow>& rows) {
+  int tests = 0, failures = 0;
+  for (const BenchRow& r : rows) {
+    for (const BenchCheck& c : r.checks) tests += 1, failures += !c.passed;
+  }
+  std::ostringstream s;
+  s << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
+  s << "<testsuites name=\"dbbkit bench\" tests=\"" << tests << "\" failures=\"" << failures << "\" errors=\"0\">\n";
+  s << "  <testsuite name=\"dbbkit bench\" tests=\"" << tests << "\" failures=\"" << failures
+    << "\" errors=\"0\" skipped=\"0\">\n";
+  for (const BenchRow& r : rows) {
+    for (const BenchCheck& c : r.checks) {
+      s << "    <testcase classname=\"" << xml_escape("bench." + r.key) << "\" name=\"" << xml_escape(c.name)
+        << "\" file=\"" << xml_escape(r.file) << "\"";
+      if (c.passed) {
+        s << ">\n      <system-out>" << xml_escape(c.message) << "</system-out>\n    </testcase>\n";
+      } else {
+        s << ">\n      <failure message=\"" << xml_escape(c.message) << "\" type=\"" << xml_escape(c.name) << "\">"
+          << xml_escape(r.file + ": " + c.message) << "</failure>\n    </testcase>\n";
+      }
+    }
+  }
+  s << "  </testsuite>\n</testsuites>\n";
+  return s.str();
+}
+
+std::string bench_markdown(const std::vector<BenchRow>& rows, double tol, const BenchLimits& limits) {
+  int failed = 0, designs_failed = 0;
+  for (const BenchRow& r : rows) {
+    for (const BenchCheck& c : r.checks) failed += !c.passed;
+    designs_failed += !r.passed();
+  }
+  std::ostringstream s;
+  s << "# dbbkit bench: the design gate\n\n";
+  s << rows.size() << " designs, " << designs_failed << " failed (" << failed << " failed checks). Tolerance against "
+    << "the baseline " << tol * 100 << " %";
+  if (limits.allow_new) s << "; designs without a baseline allowed";
+  if (limits.max_worst_std_um) s << "; worst_std_um at most " << num(limits.max_worst_std_um) << " um";
+  if (limits.max_worst_total_std_um) s << "; worst_total_std_um at most " << num(limits.max_worst_total_std_um) << " um";
+  if (limits.max_time_s) s << "; time at most " << num(limits.max_time_s) << " s";
+  s << ".\n\n";
+  s << "| design | axis | model | rank | worst_std_um [um] | baseline [um] | worst_total_std_um [um] | result |\n";
+  s << "|---|---|---|---:|---:|---:|---:|---|\n";
+  for (const BenchRow& r : rows) {
+    std::string result;
+    for (const BenchCheck& c : r.checks) {
+      if (!c.passed) result += (result.empty() ? "" : "; ") + c.name + ": " + c.message;
+    }
+    s << "| " << cell(r.key) << " | " << r.axis << " | " << cell(r.model) << " | " << r.now.rank << "/"
+      << r.now.n_unknowns << " | " << num(r.now.worst_std_um) << " | "
+      << (r.baseline ? num(r.baseline->worst_std_um) : std::string("--")) << " | "
+      << (r.now.worst_total_std_um ? num(r.now.worst_total_std_um) : std::string("--")) << " | "
+      << cell(result.empty() ? "pass (" + r.status + ")" : "FAIL: " + result) << " |\n";
+  }
+  return s.str();
+}
+
 std::string bench_table(const std::vector<BenchRow>& rows, double tol) {
   std::ostringstream s;
   size_t w = 6;
@@ -159,7 +291,7 @@ std::string bench_table(const std::vector<BenchRow>& rows, double tol) {
       return t.str();
     };
     s << std::setw(14) << worst(r.now) << std::setw(14) << (r.baseline ? worst(*r.baseline) : "--") << std::setw(12)
-      << fmt_opt(r.condition_number, 4) << std::setw(10) << r.status << "\n";
+      << fmt_opt(r.condition_number, 4) << std::setw(10) << (r.passed() ? r.status : "FAIL") << "\n";
     if (r.now.worst_total_std_um || r.now.worst_total_determined_std_um) {
       s << "    total (noise and declared set-up): " << num(r.now.worst_total_std_um ? r.now.worst_total_std_um
                                                                                    : r.now.worst_total_determined_std_um)
@@ -172,6 +304,10 @@ std::string bench_table(const std::vector<BenchRow>& rows, double tol) {
       s << "\n";
     }
     if (!r.detail.empty()) s << "    " << r.detail << "\n";
+    for (const BenchCheck& c : r.checks) {
+      if (!c.passed && c.name != "baseline") s << "    FAIL " << c.name << ": " << c.message << "\n";
+      if (!c.passed && c.name == "baseline" && r.status == "new") s << "    FAIL baseline: " << c.message << "\n";
+    }
   }
   s << "(worst: worst_std_um, angular errors at each design's reference length; in brackets the worst determined "
        "value of a rank-deficient design; tolerance "

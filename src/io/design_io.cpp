@@ -164,6 +164,11 @@ Design design_from_json(const json& j, const std::string& source) {
   if (const json* n = top.optional("noise")) d.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
   if (const json* e = top.optional("errors")) d.errors = read_error_model(ObjectReader(*e, source, "errors"));
   d.reference_length_mm = top.optional_number("reference_length_mm");
+  if (const json* inst = top.optional("instrument")) {
+    ObjectReader r(*inst, source, "instrument");
+    d.instrument_range_mm = r.number("range_mm");
+    r.finish();
+  }
   if (const json* u = top.optional("setup_std_mm")) {
     // The short form of the ball placement alone: {"L": u, "D": u, "H": u} [mm].
     if (top.has("setup_std")) top.fail("setup_std_mm", "give the ball placement in setup_std (L_mm, D_mm, H_mm) or here, not both");
@@ -239,6 +244,7 @@ json design_to_json(const Design& d) {
   }
   j["errors"] = errors;
   if (d.reference_length_mm) j["reference_length_mm"] = *d.reference_length_mm;
+  if (d.instrument_range_mm != kDefaultInstrumentRange_mm) j["instrument"] = {{"range_mm", d.instrument_range_mm}};
   if (d.setup_std.nuisance()) {
     j["setup_std"] = setup_to_json(d.setup_std, d.axis);
   } else if (d.setup_std.any()) {

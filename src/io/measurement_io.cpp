@@ -119,6 +119,7 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
     r.angle_deg = cell("angle_deg").number();
     if (col.count("reading_mm")) {
       r.reading_um = 1000.0 * cell("reading_mm").number();
+      r.in_mm = true;
     } else {
       r.reading_um = cell("reading_um").number();
     }

@@ -30,18 +30,41 @@ struct Baseline {
 Baseline read_baseline_file(const std::string& path);
 nlohmann::json baseline_to_json(const Baseline& b);
 
+// One check of a design, as a CI system reports it (a JUnit test case): "baseline" (the
+// comparison with the baseline file) and each absolute limit given.
+struct BenchCheck {
+  std::string name;     // "baseline", "max_worst_std_um", "max_worst_total_std_um", "max_time_s"
+  bool passed = true;
+  std::string message;  // what was compared, and why it failed
+};
+
 struct BenchRow {
   std::string key, file, name, axis, model;
   BenchFigures now;
   std::optional<double> condition_number;
+  std::optional<double> time_s;  // the design's predicted measurement time, when it states one
   std::optional<BenchFigures> baseline;
   std::string status;  // "ok", "improved", "worse", "new"
   std::string detail;
+  std::vector<BenchCheck> checks;
+  bool passed() const;
 };
 
 // Compares one design's figures with its baseline: status and what changed.
 void judge(BenchRow& row, double tolerance_relative);
 
+// The gate's checks of one judged row: the baseline (a design without one fails unless
+// allow_new) and the absolute limits given.
+struct BenchLimits {
+  bool allow_new = false;
+  std::optional<double> max_worst_std_um, max_worst_total_std_um, max_time_s;
+};
+void check_row(BenchRow& row, const BenchLimits& limits);
+
 std::string bench_table(const std::vector<BenchRow>& rows, double tolerance_relative);
+// The same as a Markdown summary, and as JUnit XML (one test suite, one test case per
+// design and check; a failed check carries a <failure> with its message).
+std::string bench_markdown(const std::vector<BenchRow>& rows, double tolerance_relative, const BenchLimits& limits);
+std::string bench_junit(const std::vector<BenchRow>& rows);
 
 }  // namespace dbbkit::io

@@ -1,0 +1,47 @@
+// Readings against their design: the instrument's range catches a unit mix-up, and a
+// design may declare a wider range.
+
+#include "dbbkit/measurement.hpp"
+
+#include <gtest/gtest.h>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/measurement_io.hpp"
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace {
+
+std::string message_of(const Design& d, const std::string& csv) {
+  try {
+    validate_readings(d, io::parse_measurements(csv, "M.csv"), "M.csv");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Readings, TheInstrumentRangeCatchesUmInAMmColumnAndCanBeWidened) {
+  Design d = test::paper_design('C');
+  ASSERT_EQ(d.instrument_range_mm, 1.0);  // the default: a QC20-W class ballbar
+  // 0.9 mm is a reading; 2.5 in a mm column is beyond +-1 mm, most likely um.
+  EXPECT_EQ(message_of(d, "installation,angle_deg,reading_mm\n1r,0,0.9\n"), "");
+  const std::string mm = message_of(d, "installation,angle_deg,reading_mm\n1r,0,0.9\n1r,20,2.5\n");
+  EXPECT_NE(mm.find("line 3"), std::string::npos) << mm;
+  EXPECT_NE(mm.find("reading_mm 2.5 is beyond the instrument's range of +-1 mm: are the readings in um?"),
+            std::string::npos)
+      << mm;
+  const std::string um = message_of(d, "installation,angle_deg,reading_um\n1r,0,-1000.5\n");
+  EXPECT_NE(um.find("reading -1000.5 um is beyond the instrument's range of +-1 mm"), std::string::npos) << um;
+  // A design declaring a range of 5 mm accepts 2.5 mm, and says so in its file.
+  d.instrument_range_mm = 5.0;
+  EXPECT_EQ(message_of(d, "installation,angle_deg,reading_mm\n1r,20,2.5\n"), "");
+  const Design back = io::design_from_json(io::design_to_json(d), "round trip");
+  EXPECT_EQ(back.instrument_range_mm, 5.0);
+  d.instrument_range_mm = 12.0;  // beyond any DBB
+  EXPECT_THROW(validate_design(d), InputError);
+}
+
+}  // namespace
+}  // namespace dbbkit
