@@ -191,14 +191,9 @@ std::string plot_series(const std::string& title, const std::string& xlabel, con
 }
 
 std::string plot_design(const Design& design) {
-  // Group installations by ball position, so that each position is labelled once.
-  struct Pos {
-    Eigen::Vector3d P;
-    std::string ids;
-  };
-  std::vector<Pos> positions;
   std::ostringstream bars;
   bars << "$bars << EOD\n";
+  std::vector<std::pair<Eigen::Vector3d, std::string>> balls;  // ball position, installation id
   for (const Installation& in : design.installations) {
     const Eigen::Vector3d P = ball_body_mm(design.axis, in);
     const double length = in.bar_mm ? *in.bar_mm : 40.0;
@@ -206,38 +201,66 @@ std::string plot_design(const Design& design) {
                                         : Eigen::Vector3d(P + length * in.direction.body);
     bars << num(P.x()) << " " << num(P.y()) << " " << num(P.z()) << " " << num(F.x() - P.x()) << " "
          << num(F.y() - P.y()) << " " << num(F.z() - P.z()) << "\n";
-    bool found = false;
-    for (Pos& p : positions) {
-      if ((p.P - P).norm() < 1e-6) {
-        p.ids += "," + in.id;
-        found = true;
-      }
-    }
-    if (!found) positions.push_back({P, in.id});
-  }
-  bars << "EOD\n$balls << EOD\n";
-  for (const Pos& p : positions) {
-    bars << num(p.P.x()) << " " << num(p.P.y()) << " " << num(p.P.z()) << " \"" << p.ids << "\"\n";
+    balls.emplace_back(P, in.id);
   }
   bars << "EOD\n";
+  // The labels of each view: installations whose balls project to one point share a label
+  // (e.g. two axial readings on the axis at different heights, seen from above); along the
+  // view's horizontal axis, neighbouring labels alternate above and below their point, so
+  // that balls close together keep readable labels.
+  auto labels = [&](const std::string& name, int h, int v) {
+    struct Point {
+      double x, y;
+      std::string ids;
+    };
+    std::vector<Point> points;
+    for (const auto& [P, id] : balls) {
+      bool found = false;
+      for (Point& q : points) {
+        if (std::abs(q.x - P(h)) < 1e-6 && std::abs(q.y - P(v)) < 1e-6) {
+          if (("," + q.ids + ",").find("," + id + ",") == std::string::npos) q.ids += "," + id;
+          found = true;
+        }
+      }
+      if (!found) points.push_back({P(h), P(v), id});
+    }
+    // Along each level of the view's vertical coordinate, by the horizontal one: $<name>0
+    // holds every other point from the first (labels above), $<name>1 the rest (below).
+    std::stable_sort(points.begin(), points.end(),
+                     [](const Point& a, const Point& b) { return a.y < b.y || (a.y == b.y && a.x < b.x); });
+    std::array<std::vector<const Point*>, 2> sets;
+    for (size_t i = 0, k = 0; i < points.size(); ++i) {
+      k = i > 0 && std::abs(points[i].y - points[i - 1].y) < 1e-6 ? k + 1 : 0;
+      sets[k % 2].push_back(&points[i]);
+    }
+    std::ostringstream d, plot;
+    for (size_t parity = 0; parity < 2; ++parity) {
+      if (sets[parity].empty()) continue;
+      d << "$" << name << parity << " << EOD\n";
+      for (const Point* q : sets[parity]) d << num(q->x) << " " << num(q->y) << " \"" << q->ids << "\"\n";
+      d << "EOD\n";
+      plot << ", $" << name << parity << " using 1:2 with points pt 7 ps 1.2 lc rgb '#d62728', $" << name << parity
+           << " using 1:2:3 with labels offset 0," << (parity == 0 ? "1" : "-1") << " font 'sans,9'";
+    }
+    return std::make_pair(d.str(), plot.str());
+  };
   const bool c = design.axis == Axis::C;
   const std::string what = design.installations.front().bar_mm ? "bar to the following ball" : "reading direction";
+  const auto [top_data, top_plot] = labels("top", 0, 1);
+  const auto [side_data, side_plot] = labels("side", 0, 2);
   std::ostringstream s;
-  s << bars.str() << "set multiplot layout 1,2 title " << gq("design " + design.name + " (axis " + axis_name(design.axis) +
-                                                              ", body frame = machine frame at angle 0; lines: " + what + ")")
+  s << bars.str() << top_data << side_data << "set multiplot layout 1,2 title "
+    << gq("design " + design.name + " (axis " + axis_name(design.axis) +
+          ", body frame = machine frame at angle 0; lines: " + what + ")")
     << "\nset size ratio -1\nset grid\nset key off\nset offsets graph 0.08, graph 0.08, graph 0.08, graph 0.08\n";
   // Top view x, y; side view x, z. The axis of rotation is drawn: C about z, B about y.
   s << "set title 'top view (x, y) [mm]'\nset xlabel 'x [mm]'\nset ylabel 'y [mm]'\n";
   if (!c) s << "set arrow 1 from 0,graph 0 to 0,graph 1 nohead dt 2 lc rgb '#888888'\n";
-  s << "plot $bars using 1:2:4:5 with vectors nohead lw 2 lc rgb '#1f77b4', "
-       "$balls using 1:2 with points pt 7 ps 1.2 lc rgb '#d62728', "
-       "$balls using 1:2:4 with labels offset 1,1 font 'sans,9'"
+  s << "plot $bars using 1:2:4:5 with vectors nohead lw 2 lc rgb '#1f77b4'" << top_plot
     << (c ? ", '+' using (0):(0) with points pt 2 ps 2 lc rgb '#888888'" : "") << "\n";
   s << "unset arrow 1\nset title 'side view (x, z) [mm]'\nset xlabel 'x [mm]'\nset ylabel 'z [mm]'\n";
   if (c) s << "set arrow 1 from 0,graph 0 to 0,graph 1 nohead dt 2 lc rgb '#888888'\n";
-  s << "plot $bars using 1:3:4:6 with vectors nohead lw 2 lc rgb '#1f77b4', "
-       "$balls using 1:3 with points pt 7 ps 1.2 lc rgb '#d62728', "
-       "$balls using 1:3:4 with labels offset 1,1 font 'sans,9'"
+  s << "plot $bars using 1:3:4:6 with vectors nohead lw 2 lc rgb '#1f77b4'" << side_plot
     << (c ? "" : ", '+' using (0):(0) with points pt 2 ps 2 lc rgb '#888888'") << "\n";
   s << "unset multiplot\n";
   return gnuplot_svg(s.str(), 900, 420);
