@@ -140,7 +140,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   Parameterisation param(design);
   LinearModel model = build_linear_model(design, param, readings);
   WlsSolver solver(model.J, model.sigma_um, options.estimate);
-  IdentifyResult res{std::move(param), std::move(model), std::move(solver), {}, {}, {}, {}, false, {}, {}, {}};
+  IdentifyResult res{std::move(param), std::move(model), std::move(solver), {}, {}, {}, {}, false, {}, {}, {}, {}, {}};
   // The set-up solver refers to res.solver, which stays in place until the return.
   const std::vector<SetupEffect> declared = setup_effects(design, res.model, true);
   const SetupSolver setup(res.solver, declared);
@@ -150,6 +150,11 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   for (const ValueBudget& v : res.budget.values) res.errors[v.station].errors[v.error].std = v.u_c;
   res.unidentifiable = describe_null_space(design, res.param, res.estimate);
   res.setup_included = setup.any();
+  res.iso = iso230_quantities(design, res.param, res.estimate, res.budget.type_a_scale.value_or(1.0));
+  res.iso_note = std::string("standard uncertainty (k = 1) from the estimate's covariance: reading noise (") +
+                 res.budget.noise_evaluation + ")" +
+                 (setup.any() ? " and the declared length offset and centring tolerances" : "") +
+                 (design.setup_std.placement() ? "; the ball placement (L, D, H) is not propagated into them" : "");
   res.first_order = first_order_check(design, res.param, res.estimate.theta);
   bound_first_order_bias(res.first_order, setup, res.param, res.budget);
   if (setup.any()) {

@@ -162,7 +162,7 @@ TEST(MonteCarlo, ReproducibleForASeedWhateverTheThreads) {
 
 TEST(MonteCarlo, EndpointsDoNotDependOnTheBatchingAndAreFoundToATenthOfTheTolerance) {
   // The trials are the same whatever the batch size (one stream per chunk of 1000), so
-  // one batch of 200,000 and twenty of 10,000 give the same mean and standard deviation
+  // one batch of 100,000 and ten of 10,000 give the same mean and standard deviation
   // (to rounding) and endpoints within the resolution each is placed to (a tenth of the
   // numerical tolerance). With four significant digits the tolerance is a hundred times
   // finer: the endpoints are found by replaying the trials into narrower windows, and the
@@ -170,8 +170,8 @@ TEST(MonteCarlo, EndpointsDoNotDependOnTheBatchingAndAreFoundToATenthOfTheTolera
   const Design d = test::paper_design('C');
   MonteCarloOptions o;
   o.adaptive = false;
-  o.max_trials = 200000;
-  o.batch_trials = 200000;
+  o.max_trials = 100000;
+  o.batch_trials = 100000;
   o.threads = 2;
   const MonteCarloResult one = monte_carlo_a_priori(d, 0.95, o);
   o.batch_trials = 10000;

@@ -11,6 +11,7 @@
 
 #include "dbbkit/design.hpp"
 #include "dbbkit/estimate.hpp"
+#include "dbbkit/iso230.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
@@ -84,6 +85,9 @@ struct IdentifyResult {
   std::string setup_note;
   std::vector<SetupEstimate> setup_estimates;
   FirstOrderCheck first_order;
+  // ISO 230-7 location errors, constant parts and component error motions (iso230.hpp).
+  IsoResult iso;
+  std::string iso_note;  // what their uncertainties include
 };
 
 // The six functions c.theta that are the errors dx..ez at `station`: column k is

@@ -130,6 +130,43 @@ void errors_section(Page& p, const std::vector<ErrorsAtAngle>& expanded, bool va
 
 }  // namespace
 
+namespace {
+// A clause as a sentence: capital first letter, full stop.
+std::string as_sentence(std::string text) {
+  if (!text.empty()) text[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(text[0])));
+  return text + ".";
+}
+
+// The ISO 230-7 quantities (iso230.hpp): location errors and constant parts with u (k = 1),
+// then the component error motions.
+void iso230_section(Page& p, const IdentifyResult& r) {
+  const IsoResult& iso = r.iso;
+  p.heading("In ISO 230-7 terms");
+  p.paragraph("First order. Location errors of the axis average line and the constant parts, fitted by least squares "
+              "to the determined values; the component error motions are what remains. " +
+              as_sentence(r.iso_note));
+  std::vector<std::vector<std::string>> rows;
+  for (const auto* list : {&iso.location, &iso.constants}) {
+    for (const IsoQuantity& q : *list) {
+      rows.push_back({q.name, q.value.determined ? fmt_num(q.value.value) : "--",
+                      q.value.determined ? fmt_num(q.value.std) : "--", q.unit});
+    }
+  }
+  p.table({"quantity", "value", "u (k = 1)", "unit"}, rows);
+  std::vector<std::string> header = {"angle [deg]"};
+  for (int e = 0; e < 6; ++e) header.push_back(iso.component_names[e] + (e < 3 ? " [um]" : " [urad]"));
+  std::vector<std::vector<std::string>> comp;
+  for (const IsoComponentsAtAngle& a : iso.components) {
+    std::vector<std::string> row = {fmt_num(a.angle_deg)};
+    for (const Determined& m : a.motions) row.push_back(m.determined ? fmt_num(m.value) + " ± " + fmt_num(m.std) : "--");
+    comp.push_back(row);
+  }
+  p.table(header, comp);
+  if (!iso.note.empty()) p.paragraph(as_sentence(iso.note));
+}
+
+}  // namespace
+
 std::string identify_report(ReportFormat f, const RunContext& run, const Design& design,
                             const std::vector<Reading>& readings, const IdentifyResult& r, const MonteCarloResult* mc) {
   Page p(f, "dbbkit identify: " + design.name);
@@ -144,6 +181,7 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
   p.heading("Errors");
   errors_section(p, with_expanded(r.errors, &r.budget, 0), true, "identified errors of " + design.name);
   unidentifiable_section(p, r.unidentifiable);
+  iso230_section(p, r);
   p.heading("Residuals");
   p.figure([&] {
     return plot_series("residual per installation", "angle [deg]", "reading - model [um]",
@@ -190,13 +228,6 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
   return p.str();
 }
 
-namespace {
-// A clause as a sentence: capital first letter, full stop.
-std::string as_sentence(std::string text) {
-  if (!text.empty()) text[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(text[0])));
-  return text + ".";
-}
-}  // namespace
 
 // Every set-up effect: declared size, detectable, detection limit, largest bias per um.
 void setup_checks_section(Page& p, const Evaluation& ev) {

@@ -241,6 +241,7 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
   }
   for (const ValueBudget& v : result.budget.values) j["errors"][v.station]["U"][kErrorNames[v.error]] = r6(v.U);
   j["budget"] = budget_to_json(design, result.budget);
+  j["iso230"] = iso230_to_json(result);
   if (mc) j["monte_carlo"] = monte_carlo_to_json(*mc);
   j["units"] = {{"dx", "um"}, {"dy", "um"}, {"dz", "um"}, {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
   j["unidentifiable"] = unidentifiable_to_json(result.unidentifiable);
@@ -310,7 +311,75 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
         << " um  (declared " << e.declared_std_um << ")" << std::defaultfloat << "\n";
     }
   }
+  s << iso230_text(design, result);
   s << "\n" << first_order_text(result.first_order);
+  return s.str();
+}
+
+nlohmann::json iso230_to_json(const IdentifyResult& result) {
+  const IsoResult& iso = result.iso;
+  auto quantity = [](const IsoQuantity& q) {
+    return json{{"name", q.name}, {"unit", q.unit}, {"value", q.value.determined ? json(r6(q.value.value)) : json(nullptr)},
+                {"std", q.value.determined ? json(r6(q.value.std)) : json(nullptr)}};
+  };
+  json j;
+  j["standard"] = "ISO 230-1 / ISO 230-7, first order: location errors of the axis average line (least squares over the "
+                  "determined values), constant parts, component error motions";
+  j["uncertainty"] = result.iso_note;
+  json loc = json::array(), con = json::array(), comp = json::array();
+  for (const IsoQuantity& q : iso.location) loc.push_back(quantity(q));
+  for (const IsoQuantity& q : iso.constants) con.push_back(quantity(q));
+  for (const IsoComponentsAtAngle& a : iso.components) {
+    json row{{"angle_deg", a.angle_deg}};
+    for (int e = 0; e < 6; ++e) {
+      const Determined& m = a.motions[e];
+      row[iso.component_names[e]] = {{"value", m.determined ? json(r6(m.value)) : json(nullptr)},
+                                     {"std", m.determined ? json(r6(m.std)) : json(nullptr)},
+                                     {"unit", e < 3 ? "um" : "urad"}};
+    }
+    comp.push_back(row);
+  }
+  j["location"] = loc;
+  j["constant_parts"] = con;
+  j["components"] = comp;
+  if (!iso.note.empty()) j["note"] = iso.note;
+  return j;
+}
+
+std::string iso230_text(const Design& design, const IdentifyResult& result) {
+  const IsoResult& iso = result.iso;
+  std::ostringstream s;
+  s << "\nISO 230-7 (first order; " << result.iso_note << "):\n";
+  s << "  location errors of the axis average line (value +- u, k = 1):\n";
+  auto line = [&](const IsoQuantity& q) {
+    s << "    " << std::left << std::setw(22) << q.name << std::right;
+    if (q.value.determined) {
+      s << std::fixed << std::setprecision(3) << std::setw(10) << q.value.value << " +- " << q.value.std << " "
+        << q.unit << std::defaultfloat << "\n";
+    } else {
+      s << "        -- (not determined)\n";
+    }
+  };
+  for (const IsoQuantity& q : iso.location) line(q);
+  s << "  constant parts (where the readings' zero was taken; not location errors):\n";
+  for (const IsoQuantity& q : iso.constants) line(q);
+  s << "  component error motions (value; the location errors and constant parts removed):\n";
+  s << "    " << std::setw(9) << "angle_deg";
+  for (const std::string& n : iso.component_names) s << std::setw(12) << (n + (n[1] == 'X' || n[1] == 'Y' || n[1] == 'Z' ? " [um]" : " [urad]"));
+  s << "\n";
+  for (const IsoComponentsAtAngle& a : iso.components) {
+    s << "    " << std::setw(9) << a.angle_deg;
+    for (const Determined& m : a.motions) {
+      if (m.determined) {
+        s << std::fixed << std::setprecision(3) << std::setw(12) << m.value << std::defaultfloat;
+      } else {
+        s << std::setw(12) << "--";
+      }
+    }
+    s << "\n";
+  }
+  if (!iso.note.empty()) s << "  " << iso.note << "\n";
+  (void)design;
   return s.str();
 }
 

@@ -61,5 +61,8 @@ std::string residual_text(const Estimate& est);
 std::string errors_table(const std::vector<ErrorsAtAngle>& errors, bool values);
 std::string unidentifiable_text(const std::vector<Unidentifiable>& list);
 std::string identify_summary(const Design& design, const IdentifyResult& result);
+// The ISO 230-7 quantities of an identification (iso230.hpp): JSON and the terminal's text.
+nlohmann::json iso230_to_json(const IdentifyResult& result);
+std::string iso230_text(const Design& design, const IdentifyResult& result);
 
 }  // namespace dbbkit::io
