@@ -151,10 +151,12 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   res.unidentifiable = describe_null_space(design, res.param, res.estimate);
   res.setup_included = setup.any();
   res.iso = iso230_quantities(design, res.param, res.estimate, res.budget.type_a_scale.value_or(1.0));
+  bool placement = false;
+  for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) placement = placement || design.setup_of(i).placement();
   res.iso_note = std::string("standard uncertainty (k = 1) from the estimate's covariance: reading noise (") +
                  res.budget.noise_evaluation + ")" +
                  (setup.any() ? " and the declared length offset and centring tolerances" : "") +
-                 (design.setup_std.placement() ? "; the ball placement (L, D, H) is not propagated into them" : "");
+                 (placement ? "; the ball placement (L, D, H) is not propagated into them" : "");
   res.first_order = first_order_check(design, res.param, res.estimate.theta);
   bound_first_order_bias(res.first_order, setup, res.param, res.budget);
   if (setup.any()) {
