@@ -439,6 +439,11 @@ TEST(Cli, DesignGateFailsNewDesignsAndLimitsAndWritesSummaryAndJUnit) {
   EXPECT_NE(parsed.out.find("case bench.c-turntable-kit-optimized.json max_time_s pass"), std::string::npos)
       << parsed.out;
   EXPECT_NE(parsed.out.find("case bench.paper-c-turntable.json baseline pass"), std::string::npos) << parsed.out;
+  // --junit -: standard output holds the XML alone (the table goes to the error stream).
+  r = run_cli("bench " + kDesignC + " --baseline " + baseline + " --junit -");
+  EXPECT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_EQ(r.out.rfind("<?xml", 0), 0u) << r.out;
+  EXPECT_NE(r.err.find("1 designs, 0 worse than the baseline, 0 failed"), std::string::npos) << r.err;
   std::filesystem::remove_all(dir);
 }
 

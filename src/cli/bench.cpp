@@ -91,9 +91,13 @@ Runner add_bench(CLI::App& app) {
       io::check_row(row, limits);
       rows.push_back(row);
     }
-    std::cout << io::bench_table(rows, tol);
+    // With an output on standard output ('-'), the table goes to the error stream, so that
+    // what a pipe reads is that output alone.
+    const bool stdout_taken = args->write_baseline == "-" || args->summary == "-" || args->junit == "-";
+    std::ostream& text = stdout_taken ? std::cerr : std::cout;
+    text << io::bench_table(rows, tol);
     for (const auto& [key, f] : baseline.designs) {
-      if (!keys.count(key)) std::cout << "note: " << key << " is in the baseline but was not given\n";
+      if (!keys.count(key)) text << "note: " << key << " is in the baseline but was not given\n";
     }
     int worse = 0, failed = 0;
     for (const io::BenchRow& r : rows) worse += r.status == "worse", failed += !r.passed();
@@ -106,10 +110,10 @@ Runner add_bench(CLI::App& app) {
     if (!args->summary.empty()) outputs.stage("--summary", io::bench_markdown(rows, tol, limits));
     if (!args->junit.empty()) outputs.stage("--junit", io::bench_junit(rows));
     outputs.commit();
-    std::cout << rows.size() << " designs, " << worse << " worse than the baseline, " << failed << " failed\n";
+    text << rows.size() << " designs, " << worse << " worse than the baseline, " << failed << " failed\n";
     for (const auto& [option, file] : {std::pair{"--write-baseline", args->write_baseline},
                                        std::pair{"--summary", args->summary}, std::pair{"--junit", args->junit}}) {
-      if (!file.empty()) std::cout << "wrote " << option << " " << file << "\n";
+      if (!file.empty() && file != "-") text << "wrote " << option << " " << file << "\n";
     }
     return failed ? 1 : 0;
   };
