@@ -301,6 +301,54 @@ void block_grams(const Rhs18& A, std::array<Eigen::Matrix<double, 9, 9>, 2>& out
   }
 }
 
+// What the closed forms of a per-angle design with set-up columns (fast_worst_total,
+// fast_setup_information) start from: the stations, how often each is met and its
+// harmonics phi = (1, cos g, sin g) with Phi = sum over the readings of phi phi'; the
+// rotation as R(g) = A0 + cos g A1 + sin g A2 (a rotation about a fixed axis); the
+// body-frame rows Jb and the weight w of the one noise.
+struct PerAngleHarmonics {
+  Parameterisation param;
+  int m = 0, n_st = 0;
+  double w = 0;
+  std::vector<int> count;
+  std::vector<Eigen::Vector3d> phi;
+  Eigen::Matrix3d Phi = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d A0, A1, A2;
+  Eigen::Matrix<double, Eigen::Dynamic, 6> Jb;
+
+  explicit PerAngleHarmonics(const Design& design)
+      : param(design),
+        m(static_cast<int>(design.installations.size())),
+        n_st(param.n_stations()),
+        w(1.0 / (design.noise.sigma_um() * design.noise.sigma_um())),
+        count(n_st, 0),
+        phi(n_st),
+        Jb(m, 6) {
+    for (double a : design.angles_deg) ++count[param.station_of(a)];
+    for (int st = 0; st < n_st; ++st) {
+      double sn = 0, cs = 1;
+      sincos_deg(param.station_angle_deg(st), sn, cs);
+      phi[st] = Eigen::Vector3d(1.0, cs, sn);
+      Phi.noalias() += count[st] * phi[st] * phi[st].transpose();
+    }
+    const Eigen::Matrix3d R0 = axis_rotation(design.axis, 0.0), R90 = axis_rotation(design.axis, 90.0);
+    const Eigen::Matrix3d R180 = axis_rotation(design.axis, 180.0);
+    A0 = 0.5 * (R0 + R180);
+    A1 = 0.5 * (R0 - R180);
+    A2 = R90 - A0;
+    for (int i = 0; i < m; ++i) Jb.row(i) = J_reading_error(design.axis, design.installations[i], 0.0);
+  }
+
+  // The centring row of installation i as harmonics: C = [A0 c, A1 c, A2 c] (component k,
+  // harmonic h), c its row at angle 0 (effects.hpp), so its value at g is C phi(g).
+  Eigen::Matrix3d centring_harmonics(const Design& design, int i) const {
+    const Eigen::Vector3d c = centring_row(design.axis, design.installations[i], 0.0);
+    Eigen::Matrix3d C;
+    C << A0 * c, A1 * c, A2 * c;
+    return C;
+  }
+};
+
 }  // namespace
 
 std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm) {
@@ -361,31 +409,21 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   // set-up columns are effect_row's at every angle.
   const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design);
   if (!Cb) return std::nullopt;
-  const Parameterisation param(design);
-  const int m = static_cast<int>(design.installations.size());
-  const int n_st = param.n_stations();
-  const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
-  std::vector<int> count(n_st, 0);
-  for (double a : design.angles_deg) ++count[param.station_of(a)];
-  std::vector<double> cs(n_st), sn(n_st);
-  for (int st = 0; st < n_st; ++st) sincos_deg(param.station_angle_deg(st), sn[st], cs[st]);
-  const Eigen::Matrix3d R0 = axis_rotation(design.axis, 0.0), R90 = axis_rotation(design.axis, 90.0);
-  const Eigen::Matrix3d R180 = axis_rotation(design.axis, 180.0);
-  const Eigen::Matrix3d A0 = 0.5 * (R0 + R180), A1 = 0.5 * (R0 - R180), A2 = R90 - A0;
-  // Jb and, per installation, Pi_i: the length offset's x = (1, 0, 0), the centring's three
+  const PerAngleHarmonics h(design);
+  const Parameterisation& param = h.param;
+  const int m = h.m, n_st = h.n_st;
+  const double w = h.w;
+  const std::vector<int>& count = h.count;
+  const Eigen::Matrix<double, Eigen::Dynamic, 6>& Jb = h.Jb;
+  // Per installation, Pi_i: the length offset's x = (1, 0, 0), the centring's three
   // components x = ((A0 c)_k, (A1 c)_k, (A2 c)_k), so sum_k x x' = C'C with C = [A0 c, A1 c, A2 c].
-  Eigen::Matrix<double, Eigen::Dynamic, 6> Jb(m, 6);
   std::vector<Eigen::Matrix3d> Pi(m);
   for (int i = 0; i < m; ++i) {
-    const Installation& in = design.installations[i];
-    Jb.row(i) = J_reading_error(design.axis, in, 0.0);
     const SetupUncertainty u = design.setup_of(i);
     Pi[i].setZero();
     Pi[i](0, 0) = u.length_offset_um * u.length_offset_um * kLengthOffsetRow * kLengthOffsetRow;
     if (u.centring_um > 0) {
-      const Eigen::Vector3d c = centring_row(design.axis, in, 0.0);
-      Eigen::Matrix3d C;
-      C << A0 * c, A1 * c, A2 * c;
+      const Eigen::Matrix3d C = h.centring_harmonics(design, i);
       Pi[i].noalias() += (u.centring_um * u.centring_um) * C.transpose() * C;
     }
   }
@@ -404,12 +442,7 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
     }
   }
   if (m > 6) {
-    Eigen::Matrix3d Phi = Eigen::Matrix3d::Zero();
-    for (int st = 0; st < n_st; ++st) {
-      const Eigen::Vector3d phi(1.0, cs[st], sn[st]);
-      Phi.noalias() += count[st] * phi * phi.transpose();
-    }
-    const Eigen::LDLT<Eigen::Matrix3d> ldlt(Phi);
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(h.Phi);
     // Lp = P' L sqrt(D); D >= 0 up to rounding (Phi is singular below 3 distinct angles).
     const Eigen::Matrix3d Lp = ldlt.transpositionsP().transpose() * Eigen::Matrix3d(ldlt.matrixL()) *
                                ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal();
@@ -468,7 +501,7 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
       for (int k = 0; k < 6; ++k) mono4[al][be][k] = mono_of({al, be, pairs[k][0], pairs[k][1]});
     }
   }
-  const Eigen::Matrix3d* A[3] = {&A0, &A1, &A2};
+  const Eigen::Matrix3d* A[3] = {&h.A0, &h.A1, &h.A2};
   // Coefficients [monomial][error], so that a station's six values are one vector sum.
   double coef_t[15][6] = {}, coef_n[15][6] = {}, coef_c[6][6] = {};
   for (int e = 0; e < 6; ++e) {
@@ -491,7 +524,7 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   WorstTracker noise(reference_length_mm), total(reference_length_mm);
   double largest_total[2] = {0, 0};
   for (int st = 0; st < n_st; ++st) {
-    const double c = cs[st], s = sn[st];
+    const double c = h.phi[st](1), s = h.phi[st](2);
     double mono[15];
     mono[0] = 1.0;
     for (int d = 1; d <= 4; ++d) {  // degree d from degree d - 1: c times each, then s times the last
@@ -534,27 +567,10 @@ std::optional<SetupInformation> fast_setup_information(const Design& design) {
   // diagonal of w X' Phi X, so added_rank's test is on the eigenvalues of N_ii D^-1/2 X' Phi X
   // D^-1/2 (D that diagonal): every one above min_relative_singular_value.
   if (!per_angle_body_covariance(design)) return std::nullopt;
-  const Parameterisation param(design);
-  const int m = static_cast<int>(design.installations.size());
-  const int n_st = param.n_stations();
-  const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
-  std::vector<int> count(n_st, 0);
-  for (double a : design.angles_deg) ++count[param.station_of(a)];
-  std::vector<Eigen::Vector3d> phi(n_st);
-  Eigen::Matrix3d Phi = Eigen::Matrix3d::Zero();
-  for (int st = 0; st < n_st; ++st) {
-    double sn = 0, cs = 1;
-    sincos_deg(param.station_angle_deg(st), sn, cs);
-    phi[st] = Eigen::Vector3d(1.0, cs, sn);
-    Phi.noalias() += count[st] * phi[st] * phi[st].transpose();
-  }
-  const Eigen::Matrix3d R0 = axis_rotation(design.axis, 0.0), R90 = axis_rotation(design.axis, 90.0);
-  const Eigen::Matrix3d R180 = axis_rotation(design.axis, 180.0);
-  const Eigen::Matrix3d A0 = 0.5 * (R0 + R180), A1 = 0.5 * (R0 - R180), A2 = R90 - A0;
-  Eigen::Matrix<double, Eigen::Dynamic, 6> Jb(m, 6);
-  for (int i = 0; i < m; ++i) Jb.row(i) = J_reading_error(design.axis, design.installations[i], 0.0);
+  const PerAngleHarmonics h(design);
+  const int m = h.m, n_st = h.n_st;
   Eigen::VectorXd share = Eigen::VectorXd::Zero(m);  // N_ii
-  if (m > 6) share = orthonormal_complement(Jb).rowwise().squaredNorm();
+  if (m > 6) share = orthonormal_complement(h.Jb).rowwise().squaredNorm();
   const double tol = EstimateOptions{}.min_relative_singular_value;
   SetupInformation out;
   out.n_readings = m * static_cast<int>(design.angles_deg.size());
@@ -564,20 +580,19 @@ std::optional<SetupInformation> fast_setup_information(const Design& design) {
     for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Centring}) {
       const double std_um = kind == EffectKind::LengthOffset ? u.length_offset_um : u.centring_um;
       if (!(std_um > 0)) continue;
-      Eigen::Matrix3d X = Eigen::Matrix3d::Zero();  // (h, k)
+      Eigen::Matrix3d X = Eigen::Matrix3d::Zero();  // (harmonic, column)
       int q_full = 1;
       if (kind == EffectKind::LengthOffset) {
         X(0, 0) = kLengthOffsetRow;
       } else {
-        const Eigen::Vector3d c = centring_row(design.axis, design.installations[i], 0.0);
-        X << (A0 * c).transpose(), (A1 * c).transpose(), (A2 * c).transpose();
+        X = h.centring_harmonics(design, i).transpose();
         q_full = 3;
       }
       // The columns a reading sees (effect_block's rule: a value above 1e-12 at some angle).
       std::vector<int> seen;
       for (int k = 0; k < q_full; ++k) {
         double largest = 0;
-        for (int st = 0; st < n_st; ++st) largest = std::max(largest, std::abs(phi[st].dot(X.col(k))));
+        for (int st = 0; st < n_st; ++st) largest = std::max(largest, std::abs(h.phi[st].dot(X.col(k))));
         if (largest > 1e-12) seen.push_back(k);
       }
       if (seen.empty()) continue;  // changes no reading: not an effect of this design (setup_effects)
@@ -586,7 +601,7 @@ std::optional<SetupInformation> fast_setup_information(const Design& design) {
       const int q = static_cast<int>(seen.size());
       Small Xs(3, q);
       for (int k = 0; k < q; ++k) Xs.col(k) = X.col(seen[k]);
-      const Small G = w * Xs.transpose() * Phi * Xs;  // the columns' Gram (q x q)
+      const Small G = h.w * Xs.transpose() * h.Phi * Xs;  // the columns' Gram (q x q)
       const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 3, 1> d = G.diagonal().cwiseSqrt().cwiseInverse();
       const Small normalised = share(i) * d.asDiagonal() * G * d.asDiagonal();
       SetupEffectInformation info;
