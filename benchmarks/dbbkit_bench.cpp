@@ -200,14 +200,6 @@ Design scaled_c(int angles, int installations) {
   return d;
 }
 
-std::vector<Reading> nominal_readings(const Design& d) {
-  std::vector<Reading> r;
-  for (const Installation& in : d.installations) {
-    for (double a : d.angles_deg) r.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
-  }
-  return r;
-}
-
 void BM_EvaluateGrowthAngles(benchmark::State& state) {
   const Design d = scaled_c(static_cast<int>(state.range(0)), 0);
   const std::vector<Reading> r = nominal_readings(d);

@@ -450,6 +450,16 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   return res;
 }
 
+DetectionSettings diagnose_detection_settings(const std::vector<CandidateStatus>& candidates,
+                                              const DiagnoseOptions& options) {
+  DetectionSettings detection;
+  detection.level = options.level;
+  detection.n_tests = 0;
+  for (const CandidateStatus& c : candidates) detection.n_tests += c.status == "detectable";
+  detection.n_tests = std::max(1, detection.n_tests);
+  return detection;
+}
+
 std::vector<CandidateStatus> effect_detectability(const Design& design, const std::vector<Reading>& readings) {
   const Parameterisation param(design);
   const LinearModel model = build_linear_model(design, param, readings);

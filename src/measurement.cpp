@@ -10,6 +10,15 @@
 
 namespace dbbkit {
 
+std::vector<Reading> nominal_readings(const Design& design) {
+  std::vector<Reading> out;
+  out.reserve(design.installations.size() * design.angles_deg.size());
+  for (const Installation& in : design.installations) {
+    for (double a : design.angles_deg) out.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
+  }
+  return out;
+}
+
 void validate_readings(const Design& design, const std::vector<Reading>& readings,
                        const std::string& source) {
   if (readings.empty()) throw InputError(source, "", "no readings");

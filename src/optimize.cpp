@@ -60,13 +60,9 @@ bool off_axis(const Kit& kit, const PatternPosition& p) {
 class DetectionRequirement {
  public:
   explicit DetectionRequirement(const Design& probe) {
-    std::vector<Reading> nominal;
-    for (const Installation& in : probe.installations) {
-      for (double a : probe.angles_deg) nominal.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
-    }
     settings_.level = DiagnoseOptions{}.level;
     settings_.n_tests = 0;
-    for (const EffectBlock& b : candidate_effects(probe, nominal)) settings_.n_tests += b.not_applicable.empty();
+    for (const EffectBlock& b : candidate_effects(probe, nominal_readings(probe))) settings_.n_tests += b.not_applicable.empty();
     settings_.n_tests = std::max(1, settings_.n_tests);
   }
 

@@ -481,14 +481,8 @@ TEST(Pattern, RequiredSetupDetectionIsMetByTheDesignFoundAndNamedWhereNoPosition
   k.blocks_mm = {150};
   k.max_stack = 1;
   auto evaluated_ratio = [&](const Design& d) {
-    std::vector<Reading> nominal;
-    for (const Installation& in : d.installations) {
-      for (double a : d.angles_deg) nominal.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
-    }
-    DetectionSettings settings;
-    settings.n_tests = 0;
-    for (const CandidateStatus& c : effect_detectability(d, nominal)) settings.n_tests += c.status == "detectable";
     double ratio = 0;
+    const DetectionSettings settings = diagnose_detection_settings(effect_detectability(d, nominal_readings(d)));
     for (const SetupEffectCheck& c : evaluate_design(d, k.reference_length_mm, {}, settings).setup_checks) {
       ratio = std::max(ratio, c.detection_limit_um ? *c.detection_limit_um / c.declared_std_um : 1e300);
     }

@@ -263,14 +263,7 @@ TEST(SetupDetection, AFiveMicrometreCentringOnAnyInstallationOfTheSetupKitDesign
   const Design d = io::read_design_file(test::source_path("designs/c-turntable-kit-setup-optimized.json"));
   ASSERT_EQ(d.setup_std.centring_um, 5);
   ASSERT_EQ(d.setup_std.length_offset_um, 10);
-  std::vector<Reading> nominal;
-  for (const Installation& in : d.installations) {
-    for (double a : d.angles_deg) nominal.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
-  }
-  DetectionSettings settings;
-  settings.level = DiagnoseOptions{}.level;
-  settings.n_tests = 0;
-  for (const CandidateStatus& c : effect_detectability(d, nominal)) settings.n_tests += c.status == "detectable";
+  const DetectionSettings settings = diagnose_detection_settings(effect_detectability(d, nominal_readings(d)));
   const Evaluation ev = evaluate_design(d, 100, {}, settings);
   const SetupEffectCheck* worst = nullptr;
   for (const SetupEffectCheck& c : ev.setup_checks) {

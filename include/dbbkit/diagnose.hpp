@@ -30,6 +30,7 @@
 #include "dbbkit/effects.hpp"
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/identify.hpp"
+#include "dbbkit/setup.hpp"
 
 namespace dbbkit {
 
@@ -127,5 +128,11 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
 // Which effects of the library a design (with its error model) can tell from the
 // axis errors, one at a time: "detectable", "confounded" or "not applicable".
 std::vector<CandidateStatus> effect_detectability(const Design& design, const std::vector<Reading>& readings);
+
+// The test set-up detection limits refer to (setup.hpp): diagnose's first step, at its
+// level over the candidates it would test at once (the detectable ones of `candidates`,
+// effect_detectability on the readings the limits are for).
+DetectionSettings diagnose_detection_settings(const std::vector<CandidateStatus>& candidates,
+                                              const DiagnoseOptions& options = {});
 
 }  // namespace dbbkit

@@ -26,6 +26,10 @@ struct Reading {
 // reads a length change of 10 mm.
 inline constexpr double kMaxAbsReading_um = 10000.0;
 
+// The readings a design would take: one per installation and angle, no time, sweep or
+// repeat (so drift and reversal need real data).
+std::vector<Reading> nominal_readings(const Design& design);
+
 // Checks readings against a design: the installation exists, the angle is a
 // position of the design, values are finite and within the instrument's range
 // (design.instrument_range_mm). Throws InputError(source, "line N", ...).

@@ -57,21 +57,9 @@ Runner add_evaluate(CLI::App& app) {
     }
     std::vector<SweepVariable> variables;
     for (const std::string& spec : args->sweeps) variables.push_back(io::parse_sweep(design, spec));
-    // Which effects the design could tell from the axis errors, on the readings it would take
-    // (one per installation and angle: no times and no sweeps, so drift and reversal need data).
-    std::vector<Reading> nominal;
-    for (const Installation& in : design.installations) {
-      for (double a : design.angles_deg) nominal.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
-    }
-    const std::vector<CandidateStatus> effects = effect_detectability(design, nominal);
-    // The set-up detection limits refer to diagnose's first step: its level, over the
-    // candidates it would test at once (the detectable ones).
-    DetectionSettings detection;
-    detection.level = DiagnoseOptions{}.level;
-    detection.n_tests = 0;
-    for (const CandidateStatus& c : effects) detection.n_tests += c.status == "detectable";
-    detection.n_tests = std::max(1, detection.n_tests);
-    const Evaluation ev = evaluate_design(design, *ref, {}, detection);
+    // Which effects the design could tell from the axis errors, on the readings it would take.
+    const std::vector<CandidateStatus> effects = effect_detectability(design, nominal_readings(design));
+    const Evaluation ev = evaluate_design(design, *ref, {}, diagnose_detection_settings(effects));
     std::vector<SweepPoint> map;
     if (!variables.empty()) map = sweep_design(design, variables, *ref);
     std::optional<MonteCarloResult> mc;
