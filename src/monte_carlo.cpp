@@ -3,6 +3,7 @@
 
 #include <Eigen/SparseCore>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -85,26 +86,24 @@ Stats batch_stats(std::vector<float> x, double p) {
   return s;
 }
 
-// A histogram over [a, a + kBins w) with the counts below and above it: where an
-// interval endpoint lies, to within w, without keeping the trials.
+// A histogram over [a, a + kBins w) with the count below it: where an interval endpoint
+// lies, to within w, without keeping the trials.
 struct Window {
   double a = 0, w = 0, inv_w = 0;
-  std::uint64_t below = 0, above = 0;
+  std::uint64_t below = 0;
   std::vector<std::uint32_t> counts;
   void reset(double lo, double hi) {
     a = lo;
     w = (hi - lo) / kBins;
     inv_w = 1.0 / w;
-    below = above = 0;
+    below = 0;
     counts.assign(kBins, 0);
   }
   void add(double x) {
     const double t = (x - a) * inv_w;
     if (t < 0) {
       ++below;
-    } else if (t >= kBins) {
-      ++above;
-    } else {
+    } else if (t < kBins) {
       ++counts[std::min(kBins - 1, static_cast<int>(t))];
     }
   }
@@ -125,12 +124,12 @@ struct Window {
 };
 
 // Everything kept of one value: moments merged batch by batch (Chan, Golub and LeVeque),
-// the range seen, and a window around each endpoint.
+// the range seen, and a window around each endpoint (0: low, 1: high).
 struct Accumulator {
   std::uint64_t n = 0;
   double mean = 0, m2 = 0;
   double min = std::numeric_limits<double>::infinity(), max = -std::numeric_limits<double>::infinity();
-  Window low, high;
+  std::array<Window, 2> windows;
 
   void add_batch(const float* x, long m) {
     // One pass: the moments about the first sample (four partial sums in a fixed order),
@@ -138,7 +137,8 @@ struct Accumulator {
     const double shift = x[0];
     double s1[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0};
     double lo = x[0], hi = x[0];
-    std::uint64_t low_below = 0, high_below = 0, low_above = 0, high_above = 0;
+    Window &low = windows[0], &high = windows[1];
+    std::uint64_t low_below = 0, high_below = 0;
     const double la = low.a, li = low.inv_w, ha = high.a, hi_w = high.inv_w;
     const double kb = kBins;
     for (long t = 0; t < m; ++t) {
@@ -150,16 +150,12 @@ struct Accumulator {
       hi = v > hi ? v : hi;
       const double tl = (v - la) * li, th = (v - ha) * hi_w;
       low_below += tl < 0;
-      low_above += tl >= kb;
       high_below += th < 0;
-      high_above += th >= kb;
       if (tl >= 0 && tl < kb) ++low.counts[std::min(kBins - 1, static_cast<int>(tl))];
       if (th >= 0 && th < kb) ++high.counts[std::min(kBins - 1, static_cast<int>(th))];
     }
     low.below += low_below;
-    low.above += low_above;
     high.below += high_below;
-    high.above += high_above;
     min = std::min(min, lo);
     max = std::max(max, hi);
     const double sum = (s1[0] + s1[1]) + (s1[2] + s1[3]), sum2 = (s2[0] + s2[1]) + (s2[2] + s2[3]);
@@ -313,8 +309,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
         if (options.adaptive) history[v].push_back(s);
         if (first) {  // the windows, around the first batch's endpoints
           const double h = window_half_width(s.std, s.mean);
-          acc[v].low.reset(s.low - h, s.low + h);
-          acc[v].high.reset(s.high - h, s.high + h);
+          acc[v].windows[0].reset(s.low - h, s.low + h);
+          acc[v].windows[1].reset(s.high - h, s.high + h);
         }
       }
       acc[v].add_batch(x, batch);
@@ -352,12 +348,13 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   // stream again) into a window over the bin or the range that holds it, until it is found
   // that finely: the memory stays that of one batch and the windows whatever the trials.
   const std::pair<long, long> ranks = interval_ranks(total, p);
-  const long rank_low = ranks.first, rank_high = ranks.second;  // captured below (C++17: no structured binding)
+  const std::array<std::uint64_t, 2> rank = {static_cast<std::uint64_t>(ranks.first),
+                                             static_cast<std::uint64_t>(ranks.second)};
   struct Endpoint {
     double value = 0;
     bool found = false;
   };
-  std::vector<Endpoint> low(n_out), high(n_out);
+  std::vector<std::array<Endpoint, 2>> endpoint(n_out);  // per value: low, high
   std::vector<double> resolution(n_out);
   for (int v = 0; v < n_out; ++v) {
     const double sd = acc[v].n > 1 ? std::sqrt(acc[v].m2 / (acc[v].n - 1)) : 0.0;
@@ -367,9 +364,9 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   }
   // Where endpoint e (0 low, 1 high) of value v stands: found, or the interval to replay.
   auto settle = [&](int v, int e, std::vector<std::pair<double, double>>& replay) {
-    const Window& w = e == 0 ? acc[v].low : acc[v].high;
-    const std::uint64_t k = static_cast<std::uint64_t>(e == 0 ? rank_low : rank_high);
-    Endpoint& out = e == 0 ? low[v] : high[v];
+    const Window& w = acc[v].windows[e];
+    const std::uint64_t k = rank[e];
+    Endpoint& out = endpoint[v][e];
     std::pair<double, double> bin;
     if (const std::optional<double> x = w.locate(k, &bin)) {
       if (w.w <= resolution[v] || acc[v].min == acc[v].max) {
@@ -388,18 +385,18 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     bool any = false;
     for (int v = 0; v < n_out; ++v) {
       for (int e = 0; e < 2; ++e) {
-        if ((e == 0 ? low[v] : high[v]).found) continue;
+        if (endpoint[v][e].found) continue;
         settle(v, e, replay);
-        any = any || !(e == 0 ? low[v] : high[v]).found;
+        any = any || !endpoint[v][e].found;
       }
     }
     if (!any) break;
     // Replay: windows over the intervals to refine (the others left as they are).
     for (int v = 0; v < n_out; ++v) {
       for (int e = 0; e < 2; ++e) {
-        if ((e == 0 ? low[v] : high[v]).found) continue;
+        if (endpoint[v][e].found) continue;
         const auto [lo, hi] = replay[2 * v + e];
-        (e == 0 ? acc[v].low : acc[v].high).reset(lo, hi > lo ? hi : std::nextafter(lo, hi + 1.0));
+        acc[v].windows[e].reset(lo, hi > lo ? hi : std::nextafter(lo, hi + 1.0));
       }
     }
     for (long done = 0; done < total;) {
@@ -408,9 +405,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
       parallel_for(n_out, res.threads, [&](long v) {
         const float* x = buffer.data() + static_cast<std::size_t>(v) * batch;
         for (int e = 0; e < 2; ++e) {
-          if ((e == 0 ? low[v] : high[v]).found) continue;
-          Window& w = e == 0 ? acc[v].low : acc[v].high;
-          for (long t = 0; t < batch; ++t) w.add(x[t]);
+          if (endpoint[v][e].found) continue;
+          for (long t = 0; t < batch; ++t) acc[v].windows[e].add(x[t]);
         }
       });
       done += batch;
@@ -427,15 +423,15 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     mv.error = b.error;
     mv.mean = acc[v].mean;
     mv.std = acc[v].n > 1 ? std::sqrt(acc[v].m2 / (acc[v].n - 1)) : 0.0;
-    mv.low = low[v].value;
-    mv.high = high[v].value;
+    mv.low = endpoint[v][0].value;
+    mv.high = endpoint[v][1].value;
     mv.linear_value = b.value;
     mv.linear_u = b.u_c;
     mv.linear_U = b.U;
     mv.delta = numerical_tolerance(b.u_c, options.significant_digits);
     mv.d_low = std::abs(b.value - b.U - mv.low);
     mv.d_high = std::abs(b.value + b.U - mv.high);
-    mv.validated = low[v].found && high[v].found && mv.d_low <= mv.delta && mv.d_high <= mv.delta;
+    mv.validated = endpoint[v][0].found && endpoint[v][1].found && mv.d_low <= mv.delta && mv.d_high <= mv.delta;
     res.n_validated += mv.validated;
     res.values.push_back(mv);
   }
@@ -446,7 +442,7 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     res.message += "; the adaptive procedure stopped at max_trials before its tolerance was met";
   }
   int unplaced = 0;
-  for (int v = 0; v < n_out; ++v) unplaced += !low[v].found + !high[v].found;
+  for (int v = 0; v < n_out; ++v) unplaced += !endpoint[v][0].found + !endpoint[v][1].found;
   if (unplaced > 0) {
     res.message += "; " + std::to_string(unplaced) + " interval endpoint(s) could not be placed within a tenth of the "
                    "numerical tolerance (not validated)";
