@@ -20,6 +20,22 @@ struct Row {
   Eigen::Matrix<double, 1, 5> x;  // its row of the location model
 };
 
+// The row of the location model for component k of block b (0: d0 and o, 1: e0, c0 and
+// alpha) at an angle whose I - R is IR; ia, ip1, ip2 index the axis and its two normals.
+Eigen::Matrix<double, 1, 5> location_row(int b, int k, const Eigen::Matrix3d& IR, int ia, int ip1, int ip2) {
+  Eigen::Matrix<double, 1, 5> x = Eigen::Matrix<double, 1, 5>::Zero();
+  if (b == 0) {  // d0 (x, y, z), then o along p1 and p2
+    x(k) = 1.0;
+  } else {  // e0 along p1 and p2, c0 along a, then alpha along p1 and p2
+    if (k == ip1) x(0) = 1.0;
+    if (k == ip2) x(1) = 1.0;
+    if (k == ia) x(2) = 1.0;
+  }
+  x(3) = IR(k, ip1);
+  x(4) = IR(k, ip2);
+  return x;
+}
+
 }  // namespace
 
 IsoResult iso230_quantities(const Design& design, const Parameterisation& param, const Estimate& est,
@@ -55,18 +71,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
         r.station = st;
         r.error = 3 * b + k;
         r.c = c;
-        r.x.setZero();
-        if (b == 0) {  // d0 (x, y, z), then o along p1 and p2
-          r.x(k) = 1.0;
-          r.x(3) = IR(k, ip1);
-          r.x(4) = IR(k, ip2);
-        } else {  // e0 along p1 and p2, c0 along a, then alpha along p1 and p2
-          if (k == ip1) r.x(0) = 1.0;
-          if (k == ip2) r.x(1) = 1.0;
-          if (k == ia) r.x(2) = 1.0;
-          r.x(3) = IR(k, ip1);
-          r.x(4) = IR(k, ip2);
-        }
+        r.x = location_row(b, k, IR, ia, ip1, ip2);
         rows.push_back(r);
       }
     }
@@ -133,16 +138,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       const int b = e / 3, k = e % 3;
       const Eigen::VectorXd c = C.col(e);
       if (!fitted[b] || !est.determined(c)) continue;
-      Eigen::Matrix<double, 5, 1> x = Eigen::Matrix<double, 5, 1>::Zero();
-      if (b == 0) {
-        x(k) = 1.0;
-      } else {
-        if (k == ip1) x(0) = 1.0;
-        if (k == ip2) x(1) = 1.0;
-        if (k == ia) x(2) = 1.0;
-      }
-      x(3) = IR(k, ip1);
-      x(4) = IR(k, ip2);
+      const Eigen::Matrix<double, 5, 1> x = location_row(b, k, IR, ia, ip1, ip2).transpose();
       // var(c - Q x) = var(c) - 2 cov(c, Q x) + x' QSQ x, cov(c, Q x) on the support of c.
       Determined d = est.evaluate(c);
       Eigen::Matrix<double, 1, 5> cSQ = Eigen::Matrix<double, 1, 5>::Zero();
