@@ -150,7 +150,10 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   for (const ValueBudget& v : res.budget.values) res.errors[v.station].errors[v.error].std = v.u_c;
   res.unidentifiable = describe_null_space(design, res.param, res.estimate);
   res.setup_included = setup.any();
-  res.iso = iso230_quantities(design, res.param, res.estimate, res.budget.type_a_scale.value_or(1.0));
+  IsoMotionOptions motion = options.iso_motion;
+  motion.coverage_probability = options.budget.coverage_probability;
+  motion.dof = res.budget.type_a_scale ? std::optional<double>(res.estimate.dof) : std::nullopt;
+  res.iso = iso230_quantities(design, res.param, res.estimate, res.budget.type_a_scale.value_or(1.0), motion);
   bool placement = false;
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) placement = placement || design.setup_of(i).placement();
   res.iso_note = std::string("standard uncertainty (k = 1) from the estimate's covariance: reading noise (") +

@@ -1,10 +1,15 @@
 #include "dbbkit/iso230.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
+#include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "dbbkit/identify.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/monte_carlo.hpp"
+#include "random.hpp"
 
 namespace dbbkit {
 
@@ -36,10 +41,92 @@ Eigen::Matrix<double, 1, 5> location_row(int b, int k, const Eigen::Matrix3d& IR
   return x;
 }
 
+// The names of the error motion values of the six components (C: a = z; B: a = y).
+std::array<std::string, 6> motion_value_names(bool c_axis) {
+  if (c_axis) {
+    return {"radial error motion value, X", "radial error motion value, Y", "axial error motion value",
+            "tilt error motion value, about X", "tilt error motion value, about Y",
+            "range of the angular positioning error motion"};
+  }
+  return {"radial error motion value, X", "axial error motion value", "radial error motion value, Z",
+          "tilt error motion value, about X", "range of the angular positioning error motion",
+          "tilt error motion value, about Z"};
+}
+
+// One component's values at its angles: the estimate and a factor L of their covariance
+// (Cov = L L'), L with as many columns as the covariance has positive eigenvalues.
+struct ComponentDraw {
+  Eigen::VectorXd value;
+  Eigen::MatrixXd L;
+};
+
+double range_of(const Eigen::Ref<const Eigen::VectorXd>& v) { return v.maxCoeff() - v.minCoeff(); }
+
+// The p-quantile of range(eps) of every component by adaptive Monte Carlo (iso230.hpp);
+// one trial draws every component's errors, each component's quantile is its own output.
+void range_monte_carlo(const std::vector<ComponentDraw>& draws, std::vector<IsoMotionValue*> outputs,
+                       const IsoMotionOptions& o, IsoMotionValues& res) {
+  const int n_out = static_cast<int>(draws.size());
+  if (n_out == 0) return;
+  const long M = std::max(1000L, o.batch_trials);
+  const long max_trials = std::max(M, o.max_trials);
+  const double p = o.coverage_probability;
+  // The p-quantile of x (reordered): the order statistic of rank floor(p m + 1/2) (JCGM 101 §7.7).
+  auto quantile = [p](std::vector<float>& x) {
+    const long m = static_cast<long>(x.size());
+    const long r = std::min(m - 1, static_cast<long>(std::floor(p * m + 0.5)));
+    std::nth_element(x.begin(), x.begin() + r, x.end());
+    return static_cast<double>(x[r]);
+  };
+  std::vector<std::vector<float>> trials(n_out);
+  std::vector<std::vector<double>> history(n_out);
+  detail::Xoshiro256pp rng(detail::splitmix64(o.seed));
+  std::normal_distribution<double> n01;
+  std::chi_squared_distribution<double> chi2(o.dof.value_or(1.0));
+  long total = 0;
+  Eigen::MatrixXd Z, V;
+  Eigen::VectorXd scale(M);
+  while (total < max_trials) {
+    const long batch = std::min(M, max_trials - total);
+    for (long t = 0; t < batch; ++t) scale(t) = o.dof ? std::sqrt(*o.dof / chi2(rng)) : 1.0;
+    for (int v = 0; v < n_out; ++v) {
+      const ComponentDraw& d = draws[v];
+      Z.resize(d.L.cols(), batch);
+      for (Eigen::Index k = 0; k < Z.size(); ++k) Z.data()[k] = n01(rng);
+      V.noalias() = d.L * Z;
+      std::vector<float> x(static_cast<std::size_t>(batch));
+      for (long t = 0; t < batch; ++t) x[t] = static_cast<float>(scale(t) * range_of(V.col(t)));
+      trials[v].insert(trials[v].end(), x.begin(), x.end());
+      history[v].push_back(quantile(x));
+    }
+    total += batch;
+    const long h = static_cast<long>(history[0].size());
+    if (h < 2) continue;
+    bool stable = true;
+    for (int v = 0; v < n_out && stable; ++v) {
+      double m = 0, ss = 0;
+      for (double q : history[v]) m += q / h;
+      for (double q : history[v]) ss += (q - m) * (q - m);
+      stable = 2.0 * std::sqrt(ss / (h * (h - 1.0))) <= numerical_tolerance(m, o.significant_digits);
+    }
+    if (stable) {
+      res.converged = true;
+      break;
+    }
+  }
+  res.trials = total;
+  for (int v = 0; v < n_out; ++v) {
+    IsoMotionValue& out = *outputs[v];
+    out.U = quantile(trials[v]);
+    out.low = std::max(0.0, out.value - out.U);
+    out.high = out.value + out.U;
+  }
+}
+
 }  // namespace
 
 IsoResult iso230_quantities(const Design& design, const Parameterisation& param, const Estimate& est,
-                            double uncertainty_scale) {
+                            double uncertainty_scale, const IsoMotionOptions& motion) {
   IsoResult out;
   const bool c_axis = design.axis == Axis::C;
   // The nominal axis a and the two directions p1, p2 perpendicular to it (machine frame).
@@ -155,6 +242,100 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     out.components.push_back(at);
   }
   for (const std::string& n : notes) out.note += (out.note.empty() ? "" : "; ") + n;
+  if (motion.enabled) {
+    // The error motion values: per component, the covariance of its values at the angles
+    // where it is determined, Cov(i, j) = a_i' Sigma a_j (+ the low-rank part) with
+    // a_i = c_i - Q x_i; c_i has the support of one station's errors, so Sigma c_j and
+    // c_i' Sigma c_j cost the supports, not p^2.
+    IsoMotionValues& mv = out.motion_values;
+    mv.seed = motion.seed;
+    mv.coverage_probability = motion.coverage_probability;
+    const std::array<std::string, 6> names = motion_value_names(c_axis);
+    std::vector<ComponentDraw> draws;
+    std::vector<int> drawn;
+    mv.values.resize(6);
+    for (int e = 0; e < 6; ++e) {
+      IsoMotionValue& v = mv.values[e];
+      v.name = names[e];
+      v.component = out.component_names[e];
+      v.unit = e < 3 ? um : urad;
+      const int b = e / 3, k = e % 3;
+      std::vector<int> at;
+      for (const IsoComponentsAtAngle& a : out.components) {
+        if (a.motions[e].determined) at.push_back(a.station);
+      }
+      const int n_at = static_cast<int>(at.size());
+      v.angles = n_at;
+      if (!fitted[b]) {
+        v.reason = std::string("the ") + (b == 0 ? "translations" : "rotations") + " do not determine the location errors";
+        continue;
+      }
+      if (n_at < 2 || n_at < static_cast<int>(out.components.size())) {
+        v.reason = std::to_string(n_at) + " of the " + std::to_string(out.components.size()) +
+                   " measured angles determine " + v.component + ": its range over the measured angles is not known";
+        continue;
+      }
+      if (n_at > motion.max_angles) {
+        v.reason = std::to_string(n_at) + " angles: more than the " + std::to_string(motion.max_angles) +
+                   " whose joint covariance is drawn";
+        continue;
+      }
+      std::vector<Eigen::VectorXd> c(n_at), sc(n_at), g(n_at);
+      std::vector<std::vector<Eigen::Index>> support(n_at);
+      Eigen::MatrixXd X(n_at, 5), cSQ(n_at, 5);
+      ComponentDraw d;
+      d.value.resize(n_at);
+      for (int i = 0; i < n_at; ++i) {
+        const int st = at[i];
+        c[i] = error_functions(param, st, est.n_unknowns).col(e);
+        const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(design.axis, param.station_angle_deg(st));
+        X.row(i) = location_row(b, k, IR, ia, ip1, ip2);
+        sc[i] = Eigen::VectorXd::Zero(est.n_unknowns);
+        cSQ.row(i).setZero();
+        for (Eigen::Index a = 0; a < c[i].size(); ++a) {
+          if (c[i](a) == 0.0) continue;
+          support[i].push_back(a);
+          sc[i] += c[i](a) * est.covariance.col(a);
+          cSQ.row(i) += c[i](a) * SQ[b].row(a);
+        }
+        if (low_rank) g[i] = est.low_rank_coordinates(c[i]) - KQ[b] * X.row(i).transpose();
+        d.value(i) = out.components[st].motions[e].value;
+      }
+      Eigen::MatrixXd cov(n_at, n_at);
+      const Eigen::MatrixXd XQX = X * QSQ[b] * X.transpose();
+      const Eigen::MatrixXd cross = cSQ * X.transpose();  // (i, j): c_i' Sigma Q x_j
+      for (int i = 0; i < n_at; ++i) {
+        for (int j = 0; j <= i; ++j) {
+          double cc = 0;
+          for (Eigen::Index a : support[i]) cc += c[i](a) * sc[j](a);
+          double v2 = cc - cross(i, j) - cross(j, i) + XQX(i, j);
+          if (low_rank) v2 += g[i].dot(est.covariance_S * g[j]);
+          cov(i, j) = cov(j, i) = v2 * uncertainty_scale * uncertainty_scale;
+        }
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(cov);
+      const double top = std::max(0.0, eig.eigenvalues().maxCoeff());
+      int r = 0;
+      for (Eigen::Index i = 0; i < n_at; ++i) r += eig.eigenvalues()(i) > 1e-12 * top;
+      d.L = eig.eigenvectors().rightCols(r) * eig.eigenvalues().tail(r).cwiseSqrt().asDiagonal();
+      v.computed = true;
+      v.value = range_of(d.value);  // before the draw: range_monte_carlo sets U and the interval from it
+      draws.push_back(std::move(d));
+      drawn.push_back(e);
+    }
+    std::vector<IsoMotionValue*> outputs;
+    for (int e : drawn) outputs.push_back(&mv.values[e]);
+    range_monte_carlo(draws, outputs, motion, mv);
+    const std::string pct = std::to_string(static_cast<int>(std::lround(100 * motion.coverage_probability)));
+    mv.note = "range (peak-to-valley) of each component error motion over the measured angles (fixed sensitive "
+              "direction); the range of estimated values is biased upward, so the interval is value +- U with U the " +
+              pct + " % quantile of the range of the estimation errors (|range(estimate) - range(true)| <= range(errors)"
+              ": coverage probability at least " + pct + " %), U by Monte Carlo (JCGM 101) from the joint " +
+              (motion.dof ? "t distribution (" + std::to_string(static_cast<int>(*motion.dof)) + " degrees of freedom)"
+                          : std::string("Gaussian")) +
+              " of the component values: " + std::to_string(mv.trials) + " trials, seed " +
+              std::to_string(motion.seed) + (mv.converged ? "" : ", not converged");
+  }
   return out;
 }
 

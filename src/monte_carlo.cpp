@@ -12,62 +12,22 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/parallel.hpp"
+#include "random.hpp"
 
 namespace dbbkit {
 
 namespace {
 
+using detail::interval_ranks;
+using detail::splitmix64;
+using detail::Xoshiro256pp;
+
 constexpr long kChunk = 1000;  // trials per random stream; streams are independent of the thread count
 constexpr int kBins = 4096;    // bins of a quantile window
-
-std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9E3779B97F4A7C15ULL;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
-  return x ^ (x >> 31);
-}
-
-// xoshiro256++ (Blackman and Vigna, 2019): a UniformRandomBitGenerator of period 2^256 - 1,
-// its state filled from a splitmix64 sequence (as its authors advise).
-class Xoshiro256pp {
- public:
-  using result_type = std::uint64_t;
-  explicit Xoshiro256pp(std::uint64_t seed) {
-    for (int i = 0; i < 4; ++i) s_[i] = splitmix64(seed + static_cast<std::uint64_t>(i) * 0x9E3779B97F4A7C15ULL);
-  }
-  static constexpr result_type min() { return 0; }
-  static constexpr result_type max() { return ~result_type{0}; }
-  result_type operator()() {
-    const std::uint64_t result = rotl(s_[0] + s_[3], 23) + s_[0];
-    const std::uint64_t t = s_[1] << 17;
-    s_[2] ^= s_[0];
-    s_[3] ^= s_[1];
-    s_[1] ^= s_[2];
-    s_[0] ^= s_[3];
-    s_[2] ^= t;
-    s_[3] = rotl(s_[3], 45);
-    return result;
-  }
-  // Uniform on [0, 1) with 53 random bits (every double k 2^-53).
-  double uniform01() { return static_cast<double>(operator()() >> 11) * 0x1.0p-53; }
-
- private:
-  static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
-  std::uint64_t s_[4];
-};
 
 struct Stats {
   double mean = 0, std = 0, low = 0, high = 0;
 };
-
-// The ranks (0-based, in ascending order) of the probabilistically symmetric p-interval's
-// endpoints among M trials (JCGM 101 §7.7): q = floor(p M + 1/2), r = (M - q) / 2.
-std::pair<long, long> interval_ranks(long M, double p) {
-  long q = static_cast<long>(std::floor(p * M + 0.5));
-  q = std::min(q, M - 1);
-  const long r = std::max(0L, (M - q) / 2);
-  return {r, std::min(r + q, M - 1)};
-}
 
 // Exact statistics of one batch (the adaptive rule's batch estimates, JCGM 101 §7.9).
 Stats batch_stats(std::vector<float> x, double p) {

@@ -30,12 +30,65 @@ struct AxisTruth {
   std::array<double, 24> phases{};
 };
 
+// The component motions of the truth at angles g (deg): harmonics 2 and 3 of every error;
+// for C also the once-per-turn term turning against the axis (u cos g + v sin g,
+// v cos g - u sin g for the two perpendicular errors of a block). Neither is a location
+// pattern over a whole turn. Over B's part of a turn they are not orthogonal to the
+// location patterns: there their least-squares part on the constants and the location
+// patterns (the docs' derivation: d0 + (I - R) o, e0 + c0 a + (I - R) alpha) is removed,
+// as the axis average line is the least-squares line (ISO 230-7).
+std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t, const std::vector<double>& g_deg) {
+  const int n = static_cast<int>(g_deg.size());
+  std::vector<Vector6d> out(n, Vector6d::Zero());
+  for (int i = 0; i < n; ++i) {
+    const double g = g_deg[i] * M_PI / 180.0;
+    for (int k = 0; k < 6; ++k) {
+      const double amp = k < 3 ? t.component_um : t.component_urad;
+      out[i](k) += amp * (std::cos(2 * g + t.phases[k]) + 0.5 * std::sin(3 * g + t.phases[6 + k]));
+    }
+    if (axis == Axis::C) {
+      for (int b = 0; b < 2; ++b) {
+        const double amp = b == 0 ? t.component_um : t.component_urad;
+        const double u = amp * std::cos(t.phases[12 + b]), v = amp * std::sin(t.phases[12 + b]);
+        out[i](3 * b) += u * std::cos(g) + v * std::sin(g);
+        out[i](3 * b + 1) += v * std::cos(g) - u * std::sin(g);
+      }
+    }
+  }
+  if (axis == Axis::B) {
+    for (int b = 0; b < 2; ++b) {
+      Eigen::MatrixXd X = Eigen::MatrixXd::Zero(3 * n, 5);
+      Eigen::VectorXd y(3 * n);
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(Axis::B, g_deg[i]);
+        for (int k = 0; k < 3; ++k) {
+          const int r = 3 * i + k;
+          if (b == 0) {
+            X(r, k) = 1;  // d0
+          } else {
+            X(r, 0) = k == 0;  // e0 about x
+            X(r, 1) = k == 2;  // e0 about z
+            X(r, 2) = k == 1;  // c0 about the axis y
+          }
+          X(r, 3) = IR(k, 0);  // o or alpha along x
+          X(r, 4) = IR(k, 2);  // along z
+          y(r) = out[i](3 * b + k);
+        }
+      }
+      const Eigen::VectorXd fit = X * X.colPivHouseholderQr().solve(y);
+      for (int i = 0; i < n; ++i) {
+        for (int k = 0; k < 3; ++k) out[i](3 * b + k) -= fit(3 * i + k);
+      }
+    }
+  }
+  return out;
+}
+
 // The error motion (d [um], e [urad] as the XYZ angles of exact_reading_um) of the real
 // axis at commanded angle g: P = o + Q (P0 - o), Q the rotation by g + c0 about the
 // tilted axis, against the nominal R(g) P0: R_err = Q R', d_err = (I - Q) o. Then the
-// constant parts and the component motions: harmonics 2 and 3 of every error, and the
-// once-per-turn term turning against the axis (neither is a location pattern).
-Vector6d error_motion(Axis axis, const AxisTruth& t, double g_deg) {
+// constant parts and the component motions.
+Vector6d error_motion(Axis axis, const AxisTruth& t, double g_deg, const Vector6d& component) {
   const Eigen::Vector3d a = axis == Axis::C ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
   const Eigen::Vector3d alpha = 1e-6 * t.alpha;
   const Eigen::Matrix3d tilt = alpha.norm() > 0 ? Eigen::AngleAxisd(alpha.norm(), alpha.normalized()).toRotationMatrix()
@@ -50,22 +103,7 @@ Vector6d error_motion(Axis axis, const AxisTruth& t, double g_deg) {
   Vector6d out;
   out.head<3>() = (Eigen::Matrix3d::Identity() - Q) * t.o;
   out.tail<3>() = 1e6 * e;
-  out += t.constant;
-  // Components: for C the counter-rotating pair (x, y) is u cos g + v sin g, v cos g - u sin g;
-  // for B, over its part of a turn, harmonics 2 and 3 only.
-  for (int k = 0; k < 6; ++k) {
-    const double amp = k < 3 ? t.component_um : t.component_urad;
-    out(k) += amp * (std::cos(2 * g + t.phases[k]) + 0.5 * std::sin(3 * g + t.phases[6 + k]));
-  }
-  if (axis == Axis::C) {
-    for (int b = 0; b < 2; ++b) {
-      const double amp = b == 0 ? t.component_um : t.component_urad;
-      const double u = amp * std::cos(t.phases[12 + b]), v = amp * std::sin(t.phases[12 + b]);
-      out(3 * b) += u * std::cos(g) + v * std::sin(g);
-      out(3 * b + 1) += v * std::cos(g) - u * std::sin(g);
-    }
-  }
-  return out;
+  return out + t.constant + component;
 }
 
 AxisTruth random_truth(Axis axis, std::mt19937_64& rng, bool components) {
@@ -89,13 +127,19 @@ AxisTruth random_truth(Axis axis, std::mt19937_64& rng, bool components) {
   return t;
 }
 
+// The measured positions of d (360 is the position 0).
+std::vector<double> positions(const Design& d) {
+  std::vector<double> g;
+  for (double a : d.angles_deg) g.push_back(d.axis == Axis::C ? std::fmod(a, 360.0) : a);
+  return g;
+}
+
 Truth exact_truth(const Design& d, const AxisTruth& at) {
   Truth t;
   t.model = {ErrorModel::Kind::PerAngle, 0};
-  for (double a : d.angles_deg) {
-    const double g = d.axis == Axis::C ? std::fmod(a, 360.0) : a;  // 360 is the position 0
-    test::add_truth_value(t, d.axis, a, error_motion(d.axis, at, g));
-  }
+  const std::vector<double> g = positions(d);
+  const std::vector<Vector6d> comp = component_motions(d.axis, at, g);
+  for (size_t i = 0; i < g.size(); ++i) test::add_truth_value(t, d.axis, d.angles_deg[i], error_motion(d.axis, at, g[i], comp[i]));
   t.exact = true;
   t.bar_mm = 150;
   return t;
@@ -107,18 +151,30 @@ std::array<double, 5> location_of(Axis axis, const AxisTruth& t) {
 }
 
 // Over `cases` random axes on design d: the share of location errors whose interval
-// value +- 3 u holds the truth, and of component motions of a pure location error that
-// hold 0; both asserted >= 0.99. Also a noise-free case: first order only.
-void check_recovery(const Design& d, int cases, bool components, std::uint64_t seed) {
+// value +- 3 u holds the truth, and of component motions (zero for a pure location error)
+// likewise; both asserted >= 0.99. With component motions, on the first `range_cases`
+// axes, the share of error motion values whose interval holds the true range (asserted
+// >= the coverage probability 0.95: the interval's coverage is at least that). Also a
+// noise-free case: first order only.
+void check_recovery(const Design& d, int cases, bool components, std::uint64_t seed, int range_cases = 0) {
   std::mt19937_64 rng(seed);
   const Parameterisation param(d);
-  int held = 0, held1 = 0, checked = 0, comp_held = 0, comp_checked = 0;
-  double worst_noise_free = 0;
+  int held = 0, held1 = 0, checked = 0, comp_held = 0, comp_checked = 0, range_held = 0, range_checked = 0;
+  double worst_noise_free = 0, width = 0;
+  IdentifyOptions no_ranges;
+  no_ranges.iso_motion.enabled = false;
+  IsoMotionOptions ranges;
+  ranges.enabled = false;
+  std::vector<double> g;  // the stations' angles (C: 360 is the station 0)
+  for (int st = 0; st < param.n_stations(); ++st) g.push_back(param.station_angle_deg(st));
   for (int c = 0; c < cases; ++c) {
     const AxisTruth at = random_truth(d.axis, rng, components);
     const Truth truth = exact_truth(d, at);
-    const IdentifyResult r = identify(d, simulate(d, truth, 500 + c));
-    const IsoResult iso = iso230_quantities(d, r.param, r.estimate);
+    const std::vector<Vector6d> comp = component_motions(d.axis, at, g);
+    const IdentifyResult r = identify(d, simulate(d, truth, 500 + c), no_ranges);
+    ranges.enabled = c < range_cases;
+    ranges.seed = 100 + c;
+    const IsoResult iso = iso230_quantities(d, r.param, r.estimate, 1.0, ranges);
     ASSERT_TRUE(iso.note.empty()) << iso.note;
     const std::array<double, 5> want = location_of(d.axis, at);
     for (int j = 0; j < 5; ++j) {
@@ -127,43 +183,60 @@ void check_recovery(const Design& d, int cases, bool components, std::uint64_t s
       held += std::abs(iso.location[j].value.value - want[j]) <= 3 * iso.location[j].value.std;
       held1 += std::abs(iso.location[j].value.value - want[j]) <= iso.location[j].value.std;
     }
-    if (!components) {
-      for (const IsoComponentsAtAngle& a : iso.components) {
-        for (const Determined& m : a.motions) {
-          if (!m.determined) continue;
-          ++comp_checked;
-          comp_held += std::abs(m.value) <= 3 * m.std;
-        }
+    ASSERT_EQ(iso.components.size(), g.size());
+    for (size_t i = 0; i < g.size(); ++i) {
+      for (int e = 0; e < 6; ++e) {
+        const Determined& m = iso.components[i].motions[e];
+        if (!m.determined) continue;
+        ++comp_checked;
+        comp_held += std::abs(m.value - comp[i](e)) <= 3 * m.std;
       }
+    }
+    for (int e = 0; e < 6 && ranges.enabled; ++e) {
+      const IsoMotionValue& v = iso.motion_values.values[e];
+      ASSERT_TRUE(v.computed) << v.component << ": " << v.reason;
+      double lo = comp[0](e), hi = comp[0](e);
+      for (const Vector6d& x : comp) {
+        lo = std::min(lo, x(e));
+        hi = std::max(hi, x(e));
+      }
+      ++range_checked;
+      range_held += v.low <= hi - lo && hi - lo <= v.high;
+      width += v.U / v.value;
     }
     if (c == 0) {  // the same axis without noise: the mapping is exact to first order
       Truth quiet = truth;
       quiet.noiseless = true;
-      const IdentifyResult q = identify(d, simulate(d, quiet, 1));
-      const IsoResult qi = iso230_quantities(d, q.param, q.estimate);
+      const IdentifyResult q = identify(d, simulate(d, quiet, 1), no_ranges);
+      const IsoResult qi = iso230_quantities(d, q.param, q.estimate, 1.0, IsoMotionOptions{false});
       for (int j = 0; j < 5; ++j) worst_noise_free = std::max(worst_noise_free, std::abs(qi.location[j].value.value - want[j]));
     }
   }
-  std::printf("%s design %s, %d axes%s: %d of %d location errors within 3 u (%d within 1 u); components of a "
-              "pure location error within 3 u of 0: %d of %d; noise-free: largest difference %.2e (um, urad)\n",
+  std::printf("%s design %s, %d axes%s: %d of %d location errors within 3 u (%d within 1 u); component motions "
+              "within 3 u: %d of %d; error motion values held by their interval: %d of %d (U / value %.2f on "
+              "average); noise-free: largest difference %.2e (um, urad)\n",
               d.axis == Axis::C ? "C" : "B", d.name.c_str(), cases, components ? " with component motions" : "", held,
-              checked, held1, comp_held, comp_checked, worst_noise_free);
+              checked, held1, comp_held, comp_checked, range_held, range_checked,
+              range_checked ? width / range_checked : 0.0, worst_noise_free);
   // The uncertainty is the right size, not only large enough: about 68 % within 1 u.
   EXPECT_NEAR(static_cast<double>(held1) / checked, 0.6827, 0.09) << held1 << " of " << checked;
   EXPECT_GE(held, 0.99 * checked) << held << " of " << checked;
-  if (!components) EXPECT_GE(comp_held, 0.99 * comp_checked) << comp_held << " of " << comp_checked;
+  EXPECT_GE(comp_held, 0.99 * comp_checked) << comp_held << " of " << comp_checked;
+  EXPECT_GE(range_held, 0.95 * range_checked) << range_held << " of " << range_checked;
   EXPECT_LT(worst_noise_free, 0.02);
 }
 
 TEST(Iso230, LocationErrorsOfARealCAxisComeBackWithinTheirUncertainty) {
-  check_recovery(test::paper_design('C'), 100, true, 11);
+  check_recovery(test::paper_design('C'), 100, true, 11, 40);
   check_recovery(test::paper_design('C'), 60, false, 12);
 }
 
 TEST(Iso230, LocationErrorsOfARealBAxisComeBackWithinTheirUncertainty) {
   // The optimised B design with its off-axis position (every error determined), over its
-  // part of a turn: pure location errors and constant parts.
+  // part of a turn: location errors, constant parts and component motions, then pure
+  // location errors and constant parts.
   const Design b = io::read_design_file(test::source_path("designs/b-head-kit-optimized.json"));
+  check_recovery(b, 100, true, 14, 40);
   check_recovery(b, 60, false, 13);
 }
 

@@ -39,6 +39,9 @@ struct Unidentifiable {
 struct IdentifyOptions {
   EstimateOptions estimate;
   BudgetOptions budget;
+  // The ISO 230-7 error motion values (iso230.hpp; a Monte Carlo); their coverage
+  // probability and, with a Type A budget, degrees of freedom follow the budget.
+  IsoMotionOptions iso_motion;
 };
 
 // A set-up effect estimated with its prior (setup.hpp): the posterior value and

@@ -18,10 +18,26 @@
 // of that difference.
 //   C (a = z): XOC, YOC [um]; AOC, BOC, C0C [urad]; components EXC, EYC, EZC, EAC, EBC, ECC
 //   B (a = y): XOB, ZOB [um]; AOB, COB, B0B [urad]; components EXB, EYB, EZB, EAB, EBB, ECB
+// Error motion values (ISO 230-7, fixed sensitive direction): the range (peak-to-valley)
+// of each component error motion over the measured angles: radial (the two translations
+// perpendicular to the axis), axial (along it), tilt (the two rotations perpendicular to
+// it), and the range of the angular positioning error motion. A range is not linear in
+// the readings, and the range of estimated values is biased upward by their errors, so
+// neither value +- k u nor the Monte Carlo distribution of range(estimate + error) (which
+// can lie wholly above the estimate) is a coverage interval for it. What holds for every
+// true motion v: with the estimate v^ = v + eps,
+//   |range(v^) - range(v)| <= range(eps),
+// so [range(v^) - q, range(v^) + q] (its low end at least 0), q the p-quantile of
+// range(eps), covers range(v) with probability at least p. q comes from Monte Carlo
+// (JCGM 101): eps at every measured angle drawn jointly from the Gaussian of the
+// component values' covariance (a multivariate t with the residual's degrees of freedom
+// when the noise is Type A), in batches until twice the standard deviation of the batch
+// quantiles over sqrt(batches) is below the numerical tolerance of q (JCGM 101 §7.9).
 // A block whose fit is not determined by the determined values (too few angles, or the
 // errors it needs undetermined) is reported as not determined, with the reason.
 
 #include <array>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -44,16 +60,50 @@ struct IsoComponentsAtAngle {
   std::array<Determined, 6> motions;  // in the order of the names (translations, then rotations)
 };
 
+struct IsoMotionValue {
+  std::string name;       // e.g. "radial error motion value, X"
+  std::string component;  // e.g. "EXC"
+  std::string unit;       // "um" or "urad"
+  bool computed = false;
+  std::string reason;     // why not computed
+  int angles = 0;         // the measured angles the range is taken over
+  double value = 0;       // the range of the estimated component motion
+  double U = 0;           // q: the p-quantile of the range of the estimation errors
+  double low = 0, high = 0;  // max(0, value - U), value + U: coverage probability at least p
+};
+
+struct IsoMotionOptions {
+  bool enabled = true;
+  std::uint64_t seed = 1;
+  double coverage_probability = 0.95;
+  long batch_trials = 10000;
+  long max_trials = 1000000;  // at most 24 MB of trials (4 bytes x 6 values)
+  int significant_digits = 2;
+  int max_angles = 2000;       // beyond: not computed (the covariance of the values is angles^2)
+  std::optional<double> dof;   // Type A: degrees of freedom of the multivariate t; absent: Gaussian
+};
+
+struct IsoMotionValues {
+  std::vector<IsoMotionValue> values;  // in the order of the component names
+  long trials = 0;
+  bool converged = false;
+  std::uint64_t seed = 0;
+  double coverage_probability = 0.95;
+  std::string note;  // how they were computed
+};
+
 struct IsoResult {
   std::vector<IsoQuantity> location;  // 5: two positions, two orientations, the zero position
   std::vector<IsoQuantity> constants;  // 5: d0 (3 components) and e0 (the two perpendicular to a)
   std::array<std::string, 6> component_names;
   std::vector<IsoComponentsAtAngle> components;
+  IsoMotionValues motion_values;  // empty when not asked for
   std::string note;  // what a block could not determine, or ""
 };
 
 // `uncertainty_scale` multiplies every standard uncertainty (the budget's Type A scale, 1 for Type B).
+// Error motion values with `motion.enabled`.
 IsoResult iso230_quantities(const Design& design, const Parameterisation& param, const Estimate& est,
-                            double uncertainty_scale = 1.0);
+                            double uncertainty_scale = 1.0, const IsoMotionOptions& motion = {});
 
 }  // namespace dbbkit

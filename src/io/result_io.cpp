@@ -342,6 +342,28 @@ nlohmann::json iso230_to_json(const IdentifyResult& result) {
   j["location"] = loc;
   j["constant_parts"] = con;
   j["components"] = comp;
+  const IsoMotionValues& mv = iso.motion_values;
+  if (!mv.values.empty()) {
+    json vals = json::array();
+    for (const IsoMotionValue& v : mv.values) {
+      json row{{"name", v.name}, {"component", v.component}, {"unit", v.unit}, {"angles", v.angles}};
+      if (v.computed) {
+        row["value"] = r6(v.value);
+        row["U"] = r6(v.U);
+        row["interval"] = {r6(v.low), r6(v.high)};
+      } else {
+        row["value"] = nullptr;
+        row["reason"] = v.reason;
+      }
+      vals.push_back(row);
+    }
+    j["error_motion_values"] = {{"values", vals},
+                                {"coverage_probability", mv.coverage_probability},
+                                {"trials", mv.trials},
+                                {"converged", mv.converged},
+                                {"seed", mv.seed},
+                                {"method", mv.note}};
+  }
   if (!iso.note.empty()) j["note"] = iso.note;
   return j;
 }
@@ -377,6 +399,21 @@ std::string iso230_text(const Design& design, const IdentifyResult& result) {
       }
     }
     s << "\n";
+  }
+  const IsoMotionValues& mv = iso.motion_values;
+  if (!mv.values.empty()) {
+    s << "  error motion values (range over the measured angles; interval value +- U of coverage probability at least "
+      << 100 * mv.coverage_probability << " %, U by Monte Carlo, " << mv.trials << " trials"
+      << (mv.converged ? "" : ", not converged") << "):\n";
+    for (const IsoMotionValue& v : mv.values) {
+      s << "    " << std::left << std::setw(48) << (v.name + " (" + v.component + ")") << std::right;
+      if (v.computed) {
+        s << std::fixed << std::setprecision(3) << std::setw(9) << v.value << " " << std::setw(4) << v.unit << "  U "
+          << v.U << "  [" << v.low << ", " << v.high << "]" << std::defaultfloat << "\n";
+      } else {
+        s << "  -- (" << v.reason << ")\n";
+      }
+    }
   }
   if (!iso.note.empty()) s << "  " << iso.note << "\n";
   (void)design;

@@ -14,7 +14,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     const auto readings = dbbkit::io::parse_measurements(text, "fuzz");
     dbbkit::validate_readings(design, readings, "fuzz");
-    const dbbkit::IdentifyResult r = dbbkit::identify(design, readings);
+    dbbkit::IdentifyOptions options;  // the error motion values' Monte Carlo, bounded for the fuzzer's time limit
+    options.iso_motion.max_trials = 20000;
+    const dbbkit::IdentifyResult r = dbbkit::identify(design, readings, options);
     if (!(r.estimate.chi2 >= 0)) __builtin_trap();
   } catch (const dbbkit::InputError&) {
   }
