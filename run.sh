@@ -22,6 +22,16 @@ for axis in c-turntable b-head; do
   echo "== ${axis}"
   sed -n '3,4p' "reports/paper-${axis}-diagnose.txt"
 done
+# The C table in ISO 230-7 terms against an example acceptance (ISO 14253-1 decisions,
+# Type A: the residual contradicts the declared noise). Exit code 1 means "does not
+# conform", a result, not a failure of the run.
+status=0
+./build/dbbkit identify --design designs/paper-c-turntable.json --data tests/data/paper/paper_c_turntable.csv \
+  --type-a --tolerances designs/tolerances/c-turntable-acceptance.json \
+  --out reports/paper-c-turntable-conformance.json --report reports/paper-c-turntable-conformance.html \
+  --summary reports/paper-c-turntable-conformance.md > reports/paper-c-turntable-conformance.txt || status=$?
+if [ "$status" -gt 1 ]; then exit "$status"; fi
+echo "== C table against designs/tolerances/c-turntable-acceptance.json: $(grep -m1 'verdict' reports/paper-c-turntable-conformance.txt | sed 's/^ *//')"
 # What the kit of formats.md allows, against the paper-like design.
 ./build/dbbkit optimize --kit designs/kits/c-turntable-kit.json --reference designs/paper-c-turntable.json \
   --out reports/c-turntable-kit-optimized.json --result reports/c-turntable-kit-optimize.json \

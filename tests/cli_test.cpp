@@ -54,6 +54,7 @@ const std::string kIdentifyDataB = "identify --design " + kDesignB + " --data {}
 const std::string kSimulateC = "simulate --design " + kDesignC + " --truth {}";
 const std::string kOptimize = "optimize --quiet --kit {}";
 const std::string kBench = "bench " + kDesignC + " --baseline {}";
+const std::string kTolerancesC = "identify --design " + kDesignC + " --data " + kDataC + " --tolerances {}";
 
 INSTANTIATE_TEST_SUITE_P(
     Catalogue, BadInput,
@@ -146,7 +147,15 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"truth_many_sweeps.json", kSimulateC, "schedule.sweeps", "more than 100 sweeps"},
         BadCase{"truth_too_many_repeats.json", kSimulateC, "repeats", "more than 10000000 readings"},
         BadCase{"baseline_bad_tolerance.json", kBench, "tolerance_relative", "fraction"},
-        BadCase{"baseline_unknown_key.json", kBench, "designs.paper-c-turntable.json.worst_std", "unknown key"}),
+        BadCase{"baseline_unknown_key.json", kBench, "designs.paper-c-turntable.json.worst_std", "unknown key"},
+        BadCase{"tolerances_quantity_of_b.json", kTolerancesC, "limits[0].quantity", "'XOB' is not a quantity of a C axis"},
+        BadCase{"tolerances_wrong_dimension.json", kTolerancesC, "limits[0].unit", "XOC is a length (um)"},
+        BadCase{"tolerances_unknown_unit.json", kTolerancesC, "limits[0].unit", "unknown unit 'microns'"},
+        BadCase{"tolerances_both_forms.json", kTolerancesC, "limits[0].max_abs", "either max_abs or lower/upper"},
+        BadCase{"tolerances_duplicate.json", kTolerancesC, "limits[1].quantity", "has a limit already (limits[0])"},
+        BadCase{"tolerances_no_limit.json", kTolerancesC, "limits[0].upper", "needs max_abs, lower or upper"},
+        BadCase{"tolerances_reversed.json", kTolerancesC, "limits[0].upper", "must exceed lower"},
+        BadCase{"tolerances_unknown_key.json", kTolerancesC, "limits[0].level", "unknown key"}),
     [](const auto& info) {
       std::string name = info.param.file;
       for (char& ch : name) {

@@ -5,19 +5,21 @@
 #include "commands.hpp"
 #include "report_options.hpp"
 #include "uncertainty_options.hpp"
+#include "dbbkit/conformance.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/setup.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/reports.hpp"
+#include "dbbkit/io/tolerances_io.hpp"
 #include "dbbkit/io/result_io.hpp"
 
 namespace dbbkit::cli {
 
 namespace {
 struct IdentifyArgs {
-  std::string design, data, out;
+  std::string design, data, out, tolerances;
   bool type_a = false;
 };
 }  // namespace
@@ -33,20 +35,32 @@ Runner add_identify(CLI::App& app) {
   sub->add_flag("--type-a", args->type_a,
                 "Evaluate the reading noise from the residual (Type A, n - rank degrees of freedom) "
                 "instead of the declared instrument accuracy");
+  sub->add_option("--tolerances", args->tolerances,
+                  "Tolerance file (dbbkit.tolerances/1): decide conformance after ISO 14253-1; exit code 1 when a "
+                  "quantity does not conform");
   auto unc = std::make_shared<UncertaintyArgs>();
   add_uncertainty_options(sub, unc);
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
   return [args, unc, rep]() {
-    const std::vector<std::string> inputs = {args->design, args->data};
+    std::vector<std::string> inputs = {args->design, args->data};
+    if (!args->tolerances.empty()) inputs.push_back(args->tolerances);
     const std::string json_out = json_to_stdout(args->out) ? "-" : args->out;
     io::OutputSet outputs(output_targets(json_out, *rep), inputs);
     const Design design = io::read_design_file(args->design);
     const std::vector<Reading> readings = io::read_measurement_file(args->data, design);
+    std::vector<Tolerance> tolerances;
+    if (!args->tolerances.empty()) {
+      tolerances = io::read_tolerances_file(args->tolerances);
+      for (const Tolerance& t : tolerances) tolerance_unit(design.axis, t, args->tolerances);  // before the work
+    }
     IdentifyOptions options;
     options.budget.type_a = args->type_a;
     options.budget.coverage_probability = unc->coverage;
+    options.iso_motion.seed = unc->mc.seed;
     const IdentifyResult result = identify(design, readings, options);
+    std::optional<ConformanceReport> conformance;
+    if (!tolerances.empty()) conformance = decide_conformance(design, result, tolerances, args->tolerances);
     std::optional<MonteCarloResult> mc;
     if (unc->monte_carlo) {
       report_progress(unc->mc, rep->quiet);
@@ -54,24 +68,30 @@ Runner add_identify(CLI::App& app) {
       mc = monte_carlo(design, result.param, result.model, result.solver, result.estimate, result.budget, unc->mc,
                        &setup);
     }
-    const nlohmann::json j =
-        io::identify_to_json(design, readings, result, {args->design, args->data}, mc ? &*mc : nullptr);
+    nlohmann::json j = io::identify_to_json(design, readings, result, {args->design, args->data}, mc ? &*mc : nullptr);
+    if (conformance) j["conformance"] = io::conformance_to_json(*conformance, args->tolerances);
     const io::RunContext run{command_line(), inputs};
     if (!rep->report.empty()) {
       outputs.stage("--report",
-                    io::identify_report(io::ReportFormat::Html, run, design, readings, result, mc ? &*mc : nullptr));
+                    io::identify_report(io::ReportFormat::Html, run, design, readings, result, mc ? &*mc : nullptr,
+                                        conformance ? &*conformance : nullptr));
     }
     if (!rep->summary.empty()) {
       outputs.stage("--summary", io::identify_report(io::ReportFormat::Markdown, run, design, readings, result,
-                                                     mc ? &*mc : nullptr));
+                                                     mc ? &*mc : nullptr, conformance ? &*conformance : nullptr));
     }
     if (!json_out.empty()) outputs.stage("--out", j.dump(2) + "\n");
     outputs.commit();
     if (tables_to_stdout(args->out, rep->quiet)) {
       std::cout << io::identify_summary(design, result);
       if (mc) std::cout << io::monte_carlo_summary(*mc);
+      if (conformance) std::cout << io::conformance_text(*conformance);
+    } else if (conformance && !rep->quiet) {
+      std::cerr << "conformance: "
+                << (conformance->any_nonconforming() ? "does not conform" : "no nonconformity proven") << " ("
+                << args->tolerances << "; the decisions in the JSON)\n";
     }
-    return 0;
+    return conformance && conformance->any_nonconforming() ? 1 : 0;
   };
 }
 

@@ -162,13 +162,64 @@ void iso230_section(Page& p, const IdentifyResult& r) {
     comp.push_back(row);
   }
   p.table(header, comp);
+  const IsoMotionValues& mv = iso.motion_values;
+  if (!mv.values.empty()) {
+    std::vector<std::vector<std::string>> vals;
+    for (const IsoMotionValue& v : mv.values) {
+      if (v.computed) {
+        vals.push_back({v.name, v.component, fmt_num(v.value), fmt_num(v.U),
+                        "[" + fmt_num(v.low) + ", " + fmt_num(v.high) + "]", v.unit});
+      } else {
+        vals.push_back({v.name, v.component, "--", "--", v.reason, v.unit});
+      }
+    }
+    p.paragraph("Error motion values (ISO 230-7, fixed sensitive direction). " + as_sentence(mv.note));
+    p.table({"quantity", "component", "value", "U", "interval (at least " + fmt_num(100 * mv.coverage_probability) + " %)",
+             "unit"},
+            vals);
+  }
   if (!iso.note.empty()) p.paragraph(as_sentence(iso.note));
+}
+
+// The conformance decisions (conformance.hpp): the rule, then one row per tolerance.
+void conformance_section(Page& p, const ConformanceReport& c) {
+  p.heading("Conformance");
+  p.paragraph(std::string("Verdict: ") +
+              (c.any_nonconforming() ? "DOES NOT CONFORM (exit code 1)." : "no nonconformity proven.") + " " +
+              as_sentence(c.rule));
+  for (const std::string& w : c.warnings) p.paragraph("Warning: " + as_sentence(w));
+  bool sets = false;  // a quantity at every angle: its counts get a column
+  for (const ConformanceResult& r : c.results) sets = sets || r.values > 1;
+  std::vector<std::vector<std::string>> rows;
+  for (const ConformanceResult& r : c.results) {
+    std::string zone = r.lower && r.upper ? "[" + fmt_num(*r.lower) + ", " + fmt_num(*r.upper) + "]"
+                       : r.upper          ? "≤ " + fmt_num(*r.upper)
+                                          : "≥ " + fmt_num(*r.lower);
+    std::string deciding = "--";
+    if (r.value) {
+      deciding = fmt_num(*r.value) + " [" + fmt_num(*r.low) + ", " + fmt_num(*r.high) + "]";
+      if (r.angle_deg) deciding += " at " + fmt_num(*r.angle_deg) + "°";
+    }
+    std::vector<std::string> row = {r.quantity, zone + " " + r.unit, decision_name(r.decision), deciding};
+    if (sets) {
+      row.push_back(r.values > 1 ? std::to_string(r.conforming) + " / " + std::to_string(r.nonconforming) + " / " +
+                                       std::to_string(r.not_proven + r.undetermined)
+                                 : "");
+    }
+    row.push_back(r.basis);
+    rows.push_back(row);
+  }
+  std::vector<std::string> header = {"quantity", "tolerance zone", "decision", "deciding value [interval]"};
+  if (sets) header.push_back("conform / do not / not proven");
+  header.push_back("interval");
+  p.table(header, rows);
 }
 
 }  // namespace
 
 std::string identify_report(ReportFormat f, const RunContext& run, const Design& design,
-                            const std::vector<Reading>& readings, const IdentifyResult& r, const MonteCarloResult* mc) {
+                            const std::vector<Reading>& readings, const IdentifyResult& r, const MonteCarloResult* mc,
+                            const ConformanceReport* conformance) {
   Page p(f, "dbbkit identify: " + design.name);
   const Estimate& est = r.estimate;
   p.heading("Result");
@@ -182,6 +233,7 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
   errors_section(p, with_expanded(r.errors, &r.budget, 0), true, "identified errors of " + design.name);
   unidentifiable_section(p, r.unidentifiable);
   iso230_section(p, r);
+  if (conformance) conformance_section(p, *conformance);
   p.heading("Residuals");
   p.figure([&] {
     return plot_series("residual per installation", "angle [deg]", "reading - model [um]",

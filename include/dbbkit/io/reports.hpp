@@ -4,6 +4,8 @@
 
 #include <optional>
 #include <string>
+
+#include "dbbkit/conformance.hpp"
 #include <vector>
 
 #include "dbbkit/design.hpp"
@@ -27,7 +29,7 @@ struct RunContext {
 
 std::string identify_report(ReportFormat f, const RunContext& run, const Design& design,
                             const std::vector<Reading>& readings, const IdentifyResult& result,
-                            const MonteCarloResult* mc);
+                            const MonteCarloResult* mc, const ConformanceReport* conformance = nullptr);
 std::string evaluate_report(ReportFormat f, const RunContext& run, const Design& design, const Evaluation& ev,
                             const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& map,
                             const MonteCarloResult* mc);

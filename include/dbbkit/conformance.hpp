@@ -1,0 +1,78 @@
+#pragma once
+// Conformance decisions after ISO 14253-1:2017 (its default rule, simple acceptance
+// and rejection with the expanded uncertainty as guard band): for a tolerance zone
+// [lower, upper] and a measured value y with the interval [y - U, y + U],
+//   conforms            lower <= y - U and y + U <= upper   (conformity proven)
+//   does not conform    y + U < lower  or  y - U > upper     (nonconformity proven)
+//   not proven          otherwise (the interval straddles a limit)
+// A quantity with a value at every measured angle (dx, EXC, ...) conforms when every
+// value conforms and does not conform when one does not; a value the data do not
+// determine cannot prove conformity (not proven, said so).
+//
+// The quantities and their intervals:
+//   ISO location errors (XOC ...) and component error motions (EXC ... at every angle):
+//     y +- k u, u from iso230.hpp, k the coverage factor at the budget's coverage
+//     probability (normal, or Student's t at the residual's degrees of freedom with
+//     a Type A budget);
+//   error motion values ("EXC range" ...): [max(0, range - U), range + U] of iso230.hpp
+//     (coverage probability at least p);
+//   the identified errors dx ... ez at every angle: y +- U of the budget (uncertainty.hpp,
+//     which also carries the ball placement L, D, H).
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/identify.hpp"
+
+namespace dbbkit {
+
+// One tolerance zone, in the quantity's unit (um or urad); at least one limit.
+struct Tolerance {
+  std::string quantity;  // "XOC", "EXC", "EZC range", "dx", ...
+  std::optional<double> lower, upper;
+  std::string unit;   // the limits' unit, "um" or "urad"; it must be the quantity's
+  std::string where;  // where it was declared (e.g. "limits.XOC"), for messages
+};
+
+enum class Decision { kConforms, kDoesNotConform, kNotProven };
+
+// "conforms", "does not conform", "not proven".
+const char* decision_name(Decision d);
+
+struct ConformanceResult {
+  std::string quantity;
+  std::string unit;
+  std::optional<double> lower, upper;
+  Decision decision = Decision::kNotProven;
+  int values = 0;  // values decided (1, or the measured angles)
+  int conforming = 0, nonconforming = 0, not_proven = 0, undetermined = 0;
+  // The deciding value: the one farthest outside (does not conform), nearest the limit
+  // (conforms) or straddling it (not proven); absent when no value is determined.
+  std::optional<double> value, low, high;
+  std::optional<double> angle_deg;  // where, for a quantity at every angle
+  std::string basis;  // "value +- k u (k = 1.96)", "value +- U of the budget", ...
+};
+
+struct ConformanceReport {
+  std::string rule;
+  double coverage_probability = 0.95;
+  std::vector<ConformanceResult> results;  // in the order of the tolerances
+  // What the decisions rest on that the data or the design put in doubt: the residual
+  // contradicting the declared noise; no declared set-up tolerances.
+  std::vector<std::string> warnings;
+  bool any_nonconforming() const;
+};
+
+// The quantities a tolerance can name for `axis`, for messages and documentation.
+std::vector<std::string> tolerance_quantities(Axis axis);
+
+// The unit of a quantity ("um" or "urad"); throws InputError(source, t.where) when the
+// quantity is not one of tolerance_quantities(axis) or its limits are in the other unit.
+std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& source);
+
+// Decides every tolerance against an identification. Throws InputError as tolerance_unit.
+ConformanceReport decide_conformance(const Design& design, const IdentifyResult& result,
+                                     const std::vector<Tolerance>& tolerances, const std::string& source);
+
+}  // namespace dbbkit

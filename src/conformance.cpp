@@ -1,0 +1,236 @@
+#include "dbbkit/conformance.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+#include "dbbkit/error.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+const char* kErrorLabel[6] = {"dx", "dy", "dz", "ex", "ey", "ez"};
+
+std::string fixed(double x, int digits) {
+  std::ostringstream s;
+  s << std::setprecision(digits) << x;
+  return s.str();
+}
+
+// One value's interval against the zone: its decision and its margin (the smallest
+// distance of the interval inside the zone; negative when it reaches outside).
+struct Judged {
+  Decision decision = Decision::kNotProven;
+  double margin = 0;
+};
+
+Judged judge(double low, double high, const std::optional<double>& lower, const std::optional<double>& upper) {
+  Judged j;
+  j.margin = std::numeric_limits<double>::infinity();
+  if (lower) j.margin = std::min(j.margin, low - *lower);
+  if (upper) j.margin = std::min(j.margin, *upper - high);
+  const bool outside = (lower && high < *lower) || (upper && low > *upper);
+  if (outside) {
+    j.decision = Decision::kDoesNotConform;
+  } else if (j.margin >= 0) {
+    j.decision = Decision::kConforms;
+  }
+  return j;
+}
+
+// Collects the values of one quantity and decides the set.
+class SetDecision {
+ public:
+  explicit SetDecision(ConformanceResult& r) : r_(r) {}
+  void undetermined() { ++r_.undetermined, ++r_.values; }
+  void add(double value, double low, double high, std::optional<double> angle) {
+    const Judged j = judge(low, high, r_.lower, r_.upper);
+    ++r_.values;
+    (j.decision == Decision::kConforms ? r_.conforming
+                                       : j.decision == Decision::kDoesNotConform ? r_.nonconforming : r_.not_proven)++;
+    // The deciding value: of the worst decision so far, the smallest margin.
+    const int rank = j.decision == Decision::kDoesNotConform ? 2 : j.decision == Decision::kNotProven ? 1 : 0;
+    if (!r_.value || rank > rank_ || (rank == rank_ && j.margin < margin_)) {
+      rank_ = rank;
+      margin_ = j.margin;
+      r_.value = value;
+      r_.low = low;
+      r_.high = high;
+      r_.angle_deg = angle;
+    }
+  }
+  void finish() {
+    if (r_.nonconforming > 0) {
+      r_.decision = Decision::kDoesNotConform;
+    } else if (r_.not_proven > 0 || r_.undetermined > 0 || r_.conforming == 0) {
+      r_.decision = Decision::kNotProven;
+    } else {
+      r_.decision = Decision::kConforms;
+    }
+  }
+
+ private:
+  ConformanceResult& r_;
+  int rank_ = -1;
+  double margin_ = 0;
+};
+
+}  // namespace
+
+const char* decision_name(Decision d) {
+  switch (d) {
+    case Decision::kConforms:
+      return "conforms";
+    case Decision::kDoesNotConform:
+      return "does not conform";
+    case Decision::kNotProven:
+      return "not proven";
+  }
+  return "";
+}
+
+bool ConformanceReport::any_nonconforming() const {
+  return std::any_of(results.begin(), results.end(),
+                     [](const ConformanceResult& r) { return r.decision == Decision::kDoesNotConform; });
+}
+
+std::vector<std::string> tolerance_quantities(Axis axis) {
+  const std::string s = axis == Axis::C ? "C" : "B";
+  std::vector<std::string> q = {"XO" + s, (axis == Axis::C ? "YO" : "ZO") + s, "AO" + s,
+                                (axis == Axis::C ? "BO" : "CO") + s, s + "0" + s};
+  for (const char* c : {"X", "Y", "Z", "A", "B", "C"}) q.push_back(std::string("E") + c + s);
+  for (const char* c : {"X", "Y", "Z", "A", "B", "C"}) q.push_back(std::string("E") + c + s + " range");
+  for (const char* e : kErrorLabel) q.push_back(e);
+  return q;
+}
+
+std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& source) {
+  const std::vector<std::string> q = tolerance_quantities(axis);
+  const auto it = std::find(q.begin(), q.end(), t.quantity);
+  if (it == q.end()) {
+    std::string list;
+    for (const std::string& n : q) list += (list.empty() ? "" : ", ") + n;
+    throw InputError(source, t.where + ".quantity",
+                     "'" + t.quantity + "' is not a quantity of a" + std::string(axis == Axis::C ? " C" : " B") +
+                         " axis; a tolerance names one of: " + list);
+  }
+  const int i = static_cast<int>(it - q.begin());
+  // Location: XO., YO./ZO. in um, the rest in urad; components and ranges: X, Y, Z in um;
+  // errors: dx, dy, dz in um.
+  bool length = false;
+  if (i < 5) {
+    length = i < 2;
+  } else if (i < 17) {
+    length = (i - 5) % 6 < 3;
+  } else {
+    length = i - 17 < 3;
+  }
+  const std::string unit = length ? "um" : "urad";
+  if (!t.unit.empty() && t.unit != unit) {
+    throw InputError(source, t.where + ".unit",
+                     t.quantity + " is " + (length ? "a length (um)" : "an angle (urad)") + "; its limits are " +
+                         (length ? "an angle" : "a length"));
+  }
+  return unit;
+}
+
+ConformanceReport decide_conformance(const Design& design, const IdentifyResult& result,
+                                     const std::vector<Tolerance>& tolerances, const std::string& source) {
+  ConformanceReport rep;
+  const double p = result.budget.coverage_probability;
+  rep.coverage_probability = p;
+  const std::string pct = fixed(100 * p, 4) + " %";
+  rep.rule = "ISO 14253-1:2017 default decision rule: conformity is proven when the interval (value +- U, coverage "
+             "probability " + pct + ") lies inside the tolerance zone, nonconformity when it lies wholly outside; "
+             "otherwise neither is proven. A quantity at every measured angle conforms when every value does and "
+             "does not conform when one does not; an undetermined value proves nothing";
+  const Estimate& est = result.estimate;
+  const bool type_a = result.budget.type_a_scale.has_value();
+  // k of the ISO quantities: their u carries the Type A scale, with the residual's
+  // degrees of freedom; Type B: infinite.
+  const double k_iso = coverage_factor(type_a ? std::optional<double>(est.dof) : std::nullopt, p);
+  const std::string iso_basis = "value +- k u, k = " + fixed(k_iso, 4) +
+                                (type_a ? " (Student's t, " + std::to_string(est.dof) + " degrees of freedom)"
+                                        : std::string(" (normal)"));
+  if (!type_a && est.p_value && *est.p_value < 0.01) {
+    rep.warnings.push_back("the residual contradicts the declared reading noise (chi2 p " +
+                  (*est.p_value > 0 ? "= " + fixed(*est.p_value, 2) : std::string("< 1e-300")) +
+                  "): the intervals rest on an uncertainty the data do not support; state it from the residual "
+                  "(--type-a) or find what the model lacks (diagnose) before relying on these decisions");
+  }
+  if (!result.setup_included) {
+    rep.warnings.push_back(
+        "the design declares no set-up tolerances (setup_std): the intervals leave out where the balls were set, "
+        "and a centring error of the balls moves the location errors (XOC, YOC ...) by as much as itself");
+  }
+  const IsoResult& iso = result.iso;
+  for (const Tolerance& t : tolerances) {
+    ConformanceResult r;
+    r.quantity = t.quantity;
+    r.unit = tolerance_unit(design.axis, t, source);
+    r.lower = t.lower;
+    r.upper = t.upper;
+    SetDecision set(r);
+    const std::vector<std::string> q = tolerance_quantities(design.axis);
+    const int i = static_cast<int>(std::find(q.begin(), q.end(), t.quantity) - q.begin());
+    if (i < 5) {  // a location error
+      const Determined& d = iso.location[i].value;
+      r.basis = iso_basis;
+      if (d.determined) {
+        set.add(d.value, d.value - k_iso * d.std, d.value + k_iso * d.std, std::nullopt);
+      } else {
+        set.undetermined();
+      }
+    } else if (i < 11) {  // a component error motion at every angle
+      r.basis = iso_basis + ", at every measured angle";
+      for (const IsoComponentsAtAngle& a : iso.components) {
+        const Determined& d = a.motions[i - 5];
+        if (d.determined) {
+          set.add(d.value, d.value - k_iso * d.std, d.value + k_iso * d.std, a.angle_deg);
+        } else {
+          set.undetermined();
+        }
+      }
+    } else if (i < 17) {  // an error motion value
+      const IsoMotionValues& mv = iso.motion_values;
+      r.basis = "[max(0, range - U), range + U], coverage probability at least " + pct + " (error motion values)";
+      if (mv.values.empty()) {
+        set.undetermined();
+        r.basis += "; not computed";
+      } else {
+        const IsoMotionValue& v = mv.values[i - 11];
+        if (v.computed) {
+          set.add(v.value, v.low, v.high, std::nullopt);
+        } else {
+          set.undetermined();
+          r.basis += "; " + v.reason;
+        }
+      }
+    } else {  // an identified error at every angle, with the budget's U
+      const int e = i - 17;
+      r.basis = "value +- U of the uncertainty budget (k at each value's effective degrees of freedom), at every "
+                "measured angle";
+      for (const ErrorsAtAngle& a : result.errors) {
+        if (!a.errors[e].determined) {
+          set.undetermined();
+          continue;
+        }
+        const auto b = std::find_if(result.budget.values.begin(), result.budget.values.end(),
+                                    [&](const ValueBudget& v) { return v.station == a.station && v.error == e; });
+        if (b == result.budget.values.end()) {
+          set.undetermined();
+          continue;
+        }
+        set.add(b->value, b->value - b->U, b->value + b->U, a.angle_deg);
+      }
+    }
+    set.finish();
+    rep.results.push_back(r);
+  }
+  return rep;
+}
+
+}  // namespace dbbkit

@@ -1,0 +1,152 @@
+#include "dbbkit/io/tolerances_io.hpp"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/json_reader.hpp"
+
+namespace dbbkit::io {
+
+using nlohmann::json;
+
+namespace {
+
+// A unit of the limits: its dimension ("um" or "urad") and the factor to it.
+bool unit_of(const std::string& u, std::string& dimension, double& factor) {
+  if (u == "um") {
+    dimension = "um", factor = 1.0;
+  } else if (u == "mm") {
+    dimension = "um", factor = 1000.0;
+  } else if (u == "urad") {
+    dimension = "urad", factor = 1.0;
+  } else if (u == "mrad") {
+    dimension = "urad", factor = 1000.0;
+  } else if (u == "arcsec") {
+    dimension = "urad", factor = M_PI / (180.0 * 3600.0) * 1e6;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+double r6(double x) { return std::round(x * 1e6) / 1e6; }
+
+}  // namespace
+
+std::vector<Tolerance> tolerances_from_json(const json& j, const std::string& source) {
+  ObjectReader top(j, source, "");
+  const std::string format = top.string("format");
+  if (format != kTolerancesFormat) {
+    top.fail("format", "expected \"" + std::string(kTolerancesFormat) + "\", found \"" + format + "\"");
+  }
+  top.optional_string("description");
+  const json& limits = top.required("limits");
+  if (!limits.is_array() || limits.empty()) {
+    top.fail("limits", "expected a non-empty list of {quantity, unit, max_abs | lower and/or upper}");
+  }
+  std::vector<Tolerance> out;
+  for (size_t i = 0; i < limits.size(); ++i) {
+    const std::string where = "limits[" + std::to_string(i) + "]";
+    ObjectReader r(limits[i], source, where);
+    Tolerance t;
+    t.quantity = r.string("quantity");
+    t.where = where;
+    for (const Tolerance& o : out) {
+      if (o.quantity == t.quantity) r.fail("quantity", "'" + t.quantity + "' has a limit already (" + o.where + ")");
+    }
+    const std::string unit = r.string("unit");
+    double factor = 1.0;
+    if (!unit_of(unit, t.unit, factor)) r.fail("unit", "unknown unit '" + unit + "' (um, mm, urad, mrad or arcsec)");
+    const std::optional<double> max_abs = r.optional_number("max_abs");
+    const std::optional<double> lower = r.optional_number("lower");
+    const std::optional<double> upper = r.optional_number("upper");
+    if (max_abs) {
+      if (lower || upper) r.fail("max_abs", "give either max_abs or lower/upper, not both");
+      if (!(*max_abs > 0)) r.fail("max_abs", "must be > 0");
+      t.lower = -*max_abs * factor;
+      t.upper = *max_abs * factor;
+    } else {
+      if (!lower && !upper) r.fail("upper", "a limit needs max_abs, lower or upper");
+      if (lower) t.lower = *lower * factor;
+      if (upper) t.upper = *upper * factor;
+      if (lower && upper && !(*upper > *lower)) r.fail("upper", "must exceed lower");
+    }
+    r.finish();
+    out.push_back(t);
+  }
+  top.finish();
+  return out;
+}
+
+std::vector<Tolerance> read_tolerances_file(const std::string& path) {
+  return tolerances_from_json(parse_json(read_text_file(path), path), path);
+}
+
+json conformance_to_json(const ConformanceReport& report, const std::string& tolerances_path) {
+  json rows = json::array();
+  for (const ConformanceResult& r : report.results) {
+    json row{{"quantity", r.quantity},
+             {"unit", r.unit},
+             {"lower", r.lower ? json(r6(*r.lower)) : json(nullptr)},
+             {"upper", r.upper ? json(r6(*r.upper)) : json(nullptr)},
+             {"decision", decision_name(r.decision)},
+             {"basis", r.basis},
+             {"values", r.values},
+             {"conforming", r.conforming},
+             {"nonconforming", r.nonconforming},
+             {"not_proven", r.not_proven},
+             {"undetermined", r.undetermined}};
+    if (r.value) row["deciding_value"] = {{"value", r6(*r.value)}, {"interval", {r6(*r.low), r6(*r.high)}}};
+    if (r.value && r.angle_deg) row["deciding_value"]["angle_deg"] = *r.angle_deg;
+    rows.push_back(row);
+  }
+  json j{{"tolerances", tolerances_path},
+         {"rule", report.rule},
+         {"coverage_probability", report.coverage_probability},
+         {"results", rows},
+         {"verdict", report.any_nonconforming() ? "does not conform" : "no nonconformity proven"}};
+  j["warnings"] = report.warnings;
+  return j;
+}
+
+std::string conformance_text(const ConformanceReport& report) {
+  std::ostringstream s;
+  s << "\nconformance (" << report.rule << "):\n";
+  for (const std::string& w : report.warnings) s << "  WARNING: " << w << "\n";
+  s << "  " << std::left << std::setw(12) << "quantity" << std::setw(22) << "tolerance zone" << std::setw(18)
+    << "decision" << "deciding value [interval]\n";
+  for (const ConformanceResult& r : report.results) {
+    std::ostringstream zone;
+    zone << std::setprecision(4);
+    if (r.lower && r.upper) {
+      zone << "[" << *r.lower << ", " << *r.upper << "]";
+    } else if (r.upper) {
+      zone << "<= " << *r.upper;
+    } else {
+      zone << ">= " << *r.lower;
+    }
+    zone << " " << r.unit;
+    s << "  " << std::setw(12) << r.quantity << std::setw(22) << zone.str() << std::setw(18)
+      << decision_name(r.decision) << std::right;
+    if (r.value) {
+      s << std::fixed << std::setprecision(3) << *r.value << " [" << *r.low << ", " << *r.high << "]"
+        << std::defaultfloat;
+      if (r.angle_deg) s << " at " << *r.angle_deg << " deg";
+    } else {
+      s << "-- (not determined)";
+    }
+    if (r.values > 1) {
+      s << "  (" << r.values << " values: " << r.conforming << " conform, " << r.nonconforming << " do not, "
+        << r.not_proven << " not proven" << (r.undetermined ? ", " + std::to_string(r.undetermined) + " undetermined" : "")
+        << ")";
+    }
+    s << std::left << "\n";
+  }
+  s << "  verdict: " << (report.any_nonconforming() ? "DOES NOT CONFORM (exit code 1)" : "no nonconformity proven")
+    << "\n";
+  return s.str();
+}
+
+}  // namespace dbbkit::io
