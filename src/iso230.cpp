@@ -245,8 +245,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   if (motion.enabled) {
     // The error motion values: per component, the covariance of its values at the angles
     // where it is determined, Cov(i, j) = a_i' Sigma a_j (+ the low-rank part) with
-    // a_i = c_i - Q x_i; c_i has the support of one station's errors, so Sigma c_j and
-    // c_i' Sigma c_j cost the supports, not p^2.
+    // a_i = c_i - Q x_i; c_i' Sigma c_j costs the supports of c_i and c_j, not p^2.
     IsoMotionValues& mv = out.motion_values;
     mv.seed = motion.seed;
     mv.coverage_probability = motion.coverage_probability;
@@ -280,7 +279,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
                    " whose joint covariance is drawn";
         continue;
       }
-      std::vector<Eigen::VectorXd> c(n_at), sc(n_at), g(n_at);
+      std::vector<Eigen::VectorXd> c(n_at), g(n_at);
       std::vector<std::vector<Eigen::Index>> support(n_at);
       Eigen::MatrixXd X(n_at, 5), cSQ(n_at, 5);
       ComponentDraw d;
@@ -290,12 +289,10 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
         c[i] = error_functions(param, st, est.n_unknowns).col(e);
         const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(design.axis, param.station_angle_deg(st));
         X.row(i) = location_row(b, k, IR, ia, ip1, ip2);
-        sc[i] = Eigen::VectorXd::Zero(est.n_unknowns);
         cSQ.row(i).setZero();
         for (Eigen::Index a = 0; a < c[i].size(); ++a) {
           if (c[i](a) == 0.0) continue;
           support[i].push_back(a);
-          sc[i] += c[i](a) * est.covariance.col(a);
           cSQ.row(i) += c[i](a) * SQ[b].row(a);
         }
         if (low_rank) g[i] = est.low_rank_coordinates(c[i]) - KQ[b] * X.row(i).transpose();
@@ -306,8 +303,10 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       const Eigen::MatrixXd cross = cSQ * X.transpose();  // (i, j): c_i' Sigma Q x_j
       for (int i = 0; i < n_at; ++i) {
         for (int j = 0; j <= i; ++j) {
-          double cc = 0;
-          for (Eigen::Index a : support[i]) cc += c[i](a) * sc[j](a);
+          double cc = 0;  // c_i' Sigma c_j over the two supports
+          for (Eigen::Index a : support[i]) {
+            for (Eigen::Index q : support[j]) cc += c[i](a) * est.covariance(a, q) * c[j](q);
+          }
           double v2 = cc - cross(i, j) - cross(j, i) + XQX(i, j);
           if (low_rank) v2 += g[i].dot(est.covariance_S * g[j]);
           cov(i, j) = cov(j, i) = v2 * uncertainty_scale * uncertainty_scale;
