@@ -214,38 +214,68 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
                    {"constant part of dz", um, quantity(0, 2)},
                    {std::string("constant part of ") + kErrorLabel[3 + ip1], urad, quantity(1, 0)},
                    {std::string("constant part of ") + kErrorLabel[3 + ip2], urad, quantity(1, 1)}};
-  // Components: each value less its fitted location and constant part.
+  // Components: each value c'theta less its fitted location and constant part x'Q'theta.
+  // A component's term: c on its support, x, c' Sigma Q and K'c; the covariance of two
+  // components of block b (the variance when they are one),
+  //   (c_i - Q x_i)' (Sigma + K S K') (c_j - Q x_j)
+  //     = c_i' Sigma c_j - c_i' Sigma Q x_j - x_i' Q' Sigma c_j + x_i' QSQ x_j
+  //       + (K'c_i)' S (K'c_j) - (K'c_i)' S KQ x_j - x_i' KQ' S (K'c_j),
+  // with QSQ = Q' (Sigma + K S K') Q; c_i' Sigma c_j costs the two supports, not p^2.
+  struct Term {
+    int b = 0;
+    std::vector<std::pair<Eigen::Index, double>> c;  // (index, coefficient) of the nonzeros
+    Eigen::Matrix<double, 1, 5> x, cSQ;
+    Eigen::VectorXd Kc;  // K'c; empty without a low-rank part
+  };
+  auto covariance = [&](const Term& i, const Term& j) {
+    double v = 0;
+    for (const auto& [a, ca] : i.c) {
+      for (const auto& [q, cq] : j.c) v += ca * est.covariance(a, q) * cq;
+    }
+    v += -i.cSQ.dot(j.x) - j.cSQ.dot(i.x) + (i.x * QSQ[i.b] * j.x.transpose())(0);
+    if (low_rank) {
+      v += i.Kc.dot(est.covariance_S * j.Kc) - i.Kc.dot(est.covariance_S * (KQ[i.b] * j.x.transpose())) -
+           j.Kc.dot(est.covariance_S * (KQ[i.b] * i.x.transpose()));
+    }
+    return v * uncertainty_scale * uncertainty_scale;
+  };
+  std::vector<std::array<Term, 6>> terms;  // per station, for the error motion values
   for (int st = 0; st < param.n_stations(); ++st) {
     IsoComponentsAtAngle at;
     at.station = st;
     at.angle_deg = param.station_angle_deg(st);
     const Eigen::MatrixXd C = error_functions(param, st, est.n_unknowns);
     const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(design.axis, at.angle_deg);
+    std::array<Term, 6> station_terms;
     for (int e = 0; e < 6; ++e) {
       const int b = e / 3, k = e % 3;
       const Eigen::VectorXd c = C.col(e);
       if (!fitted[b] || !est.determined(c)) continue;
-      const Eigen::Matrix<double, 5, 1> x = location_row(b, k, IR, ia, ip1, ip2).transpose();
-      // var(c - Q x) = var(c) - 2 cov(c, Q x) + x' QSQ x, cov(c, Q x) on the support of c.
-      Determined d = est.evaluate(c);
-      Eigen::Matrix<double, 1, 5> cSQ = Eigen::Matrix<double, 1, 5>::Zero();
+      Term& t = station_terms[e];
+      t.b = b;
+      t.x = location_row(b, k, IR, ia, ip1, ip2);
+      t.cSQ.setZero();
+      double value = 0;
       for (Eigen::Index a = 0; a < c.size(); ++a) {
-        if (c(a) != 0.0) cSQ += c(a) * SQ[b].row(a);
+        if (c(a) == 0.0) continue;
+        t.c.emplace_back(a, c(a));
+        t.cSQ += c(a) * SQ[b].row(a);
+        value += c(a) * est.theta(a);
       }
-      double cross = cSQ * x;
-      if (low_rank) cross += (est.low_rank_coordinates(c).transpose() * est.covariance_S * KQ[b] * x)(0);
-      const double var = d.std * d.std - 2 * cross + x.dot(QSQ[b] * x);
-      d.value -= Qtheta[b].dot(x);
-      d.std = std::sqrt(std::max(0.0, var));
-      at.motions[e] = scaled(d);
+      if (low_rank) t.Kc = est.low_rank_coordinates(c);
+      Determined d;
+      d.determined = true;
+      d.value = value - Qtheta[b].dot(t.x);
+      d.std = std::sqrt(std::max(0.0, covariance(t, t)));
+      at.motions[e] = d;
     }
     out.components.push_back(at);
+    if (motion.enabled) terms.push_back(std::move(station_terms));
   }
   for (const std::string& n : notes) out.note += (out.note.empty() ? "" : "; ") + n;
   if (motion.enabled) {
-    // The error motion values: per component, the covariance of its values at the angles
-    // where it is determined, Cov(i, j) = a_i' Sigma a_j (+ the low-rank part) with
-    // a_i = c_i - Q x_i; c_i' Sigma c_j costs the supports of c_i and c_j, not p^2.
+    // The error motion values: per component, the joint covariance of its values at the
+    // angles where it is determined (the same covariance as each value's own uncertainty).
     IsoMotionValues& mv = out.motion_values;
     mv.seed = motion.seed;
     mv.coverage_probability = motion.coverage_probability;
@@ -258,7 +288,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       v.name = names[e];
       v.component = out.component_names[e];
       v.unit = e < 3 ? um : urad;
-      const int b = e / 3, k = e % 3;
+      const int b = e / 3;
       std::vector<int> at;
       for (const IsoComponentsAtAngle& a : out.components) {
         if (a.motions[e].determined) at.push_back(a.station);
@@ -279,38 +309,12 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
                    " whose joint covariance is drawn";
         continue;
       }
-      std::vector<Eigen::VectorXd> c(n_at), g(n_at);
-      std::vector<std::vector<Eigen::Index>> support(n_at);
-      Eigen::MatrixXd X(n_at, 5), cSQ(n_at, 5);
       ComponentDraw d;
       d.value.resize(n_at);
-      for (int i = 0; i < n_at; ++i) {
-        const int st = at[i];
-        c[i] = error_functions(param, st, est.n_unknowns).col(e);
-        const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(design.axis, param.station_angle_deg(st));
-        X.row(i) = location_row(b, k, IR, ia, ip1, ip2);
-        cSQ.row(i).setZero();
-        for (Eigen::Index a = 0; a < c[i].size(); ++a) {
-          if (c[i](a) == 0.0) continue;
-          support[i].push_back(a);
-          cSQ.row(i) += c[i](a) * SQ[b].row(a);
-        }
-        if (low_rank) g[i] = est.low_rank_coordinates(c[i]) - KQ[b] * X.row(i).transpose();
-        d.value(i) = out.components[st].motions[e].value;
-      }
       Eigen::MatrixXd cov(n_at, n_at);
-      const Eigen::MatrixXd XQX = X * QSQ[b] * X.transpose();
-      const Eigen::MatrixXd cross = cSQ * X.transpose();  // (i, j): c_i' Sigma Q x_j
       for (int i = 0; i < n_at; ++i) {
-        for (int j = 0; j <= i; ++j) {
-          double cc = 0;  // c_i' Sigma c_j over the two supports
-          for (Eigen::Index a : support[i]) {
-            for (Eigen::Index q : support[j]) cc += c[i](a) * est.covariance(a, q) * c[j](q);
-          }
-          double v2 = cc - cross(i, j) - cross(j, i) + XQX(i, j);
-          if (low_rank) v2 += g[i].dot(est.covariance_S * g[j]);
-          cov(i, j) = cov(j, i) = v2 * uncertainty_scale * uncertainty_scale;
-        }
+        d.value(i) = out.components[at[i]].motions[e].value;
+        for (int j = 0; j <= i; ++j) cov(i, j) = cov(j, i) = covariance(terms[at[i]][e], terms[at[j]][e]);
       }
       const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(cov);
       const double top = std::max(0.0, eig.eigenvalues().maxCoeff());

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <boost/math/distributions/normal.hpp>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -238,6 +239,39 @@ TEST(Iso230, LocationErrorsOfARealBAxisComeBackWithinTheirUncertainty) {
   const Design b = io::read_design_file(test::source_path("designs/b-head-kit-optimized.json"));
   check_recovery(b, 100, true, 14, 40);
   check_recovery(b, 60, false, 13);
+}
+
+// An upper bound on U that needs no correlation: range(eps) <= 2 max_i |eps_i|, and
+// P(max_i |eps_i| > t) <= sum_i P(|eps_i| > t) (Bonferroni), so with t solving
+// sum_i 2 (1 - Phi(t / u_i)) = 1 - p, the p-quantile of range(eps) is at most 2 t. Checked
+// with the components' own stated u on a design without and one with declared set-up
+// tolerances (the low-rank part of the covariance).
+TEST(Iso230, ErrorMotionValueUIsBoundedByTheComponentsUncertainties) {
+  for (const char* file : {"designs/paper-c-turntable.json", "designs/c-turntable-kit-optimized-with-setup.json"}) {
+    const Design d = io::read_design_file(test::source_path(file));
+    const Truth truth = exact_truth(d, AxisTruth{});
+    const IdentifyResult r = identify(d, simulate(d, truth, 21));
+    ASSERT_EQ(std::string(file).find("with-setup") != std::string::npos, r.setup_included) << file;
+    for (int e = 0; e < 6; ++e) {
+      const IsoMotionValue& v = r.iso.motion_values.values[e];
+      ASSERT_TRUE(v.computed) << file << " " << v.component << ": " << v.reason;
+      std::vector<double> u;
+      for (const IsoComponentsAtAngle& a : r.iso.components) u.push_back(a.motions[e].std);
+      const boost::math::normal n01;
+      auto tail = [&](double t) {
+        double s = 0;
+        for (double ui : u) s += 2 * boost::math::cdf(boost::math::complement(n01, t / ui));
+        return s;
+      };
+      double lo = 0, hi = 100 * *std::max_element(u.begin(), u.end());
+      for (int it = 0; it < 200; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (tail(mid) > 1 - r.iso.motion_values.coverage_probability ? lo : hi) = mid;
+      }
+      EXPECT_LE(v.U, 2 * hi) << file << " " << v.component;
+      EXPECT_GT(v.U, 0.0) << file << " " << v.component;
+    }
+  }
 }
 
 TEST(Iso230, NamesAndUndeterminedBlocks) {
