@@ -7,12 +7,11 @@
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/kinematics.hpp"
 
 namespace dbbkit {
 
 namespace {
-
-const char* kErrorLabel[6] = {"dx", "dy", "dz", "ex", "ey", "ez"};
 
 std::string fixed(double x, int digits) {
   std::ostringstream s;
@@ -98,17 +97,20 @@ bool ConformanceReport::any_nonconforming() const {
 }
 
 std::vector<std::string> tolerance_quantities(Axis axis) {
-  const std::string s = axis == Axis::C ? "C" : "B";
-  std::vector<std::string> q = {"XO" + s, (axis == Axis::C ? "YO" : "ZO") + s, "AO" + s,
-                                (axis == Axis::C ? "BO" : "CO") + s, s + "0" + s};
-  for (const char* c : {"X", "Y", "Z", "A", "B", "C"}) q.push_back(std::string("E") + c + s);
-  for (const char* c : {"X", "Y", "Z", "A", "B", "C"}) q.push_back(std::string("E") + c + s + " range");
-  for (const char* e : kErrorLabel) q.push_back(e);
+  const IsoNames names = iso230_names(axis);
+  std::vector<std::string> q(names.location.begin(), names.location.end());
+  for (const std::string& c : names.components) q.push_back(c);
+  for (const std::string& c : names.components) q.push_back(c + " range");
+  for (const char* e : kErrorNames) q.push_back(e);
   return q;
 }
 
-std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& source) {
-  const std::vector<std::string> q = tolerance_quantities(axis);
+namespace {
+
+// The index of t's quantity among q (tolerance_quantities(axis)) and its unit, checked
+// against the limits' unit; throws as tolerance_unit.
+int quantity_index(Axis axis, const std::vector<std::string>& q, const Tolerance& t, const std::string& source,
+                   std::string& unit) {
   const auto it = std::find(q.begin(), q.end(), t.quantity);
   if (it == q.end()) {
     std::string list;
@@ -128,12 +130,20 @@ std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& sou
   } else {
     length = i - 17 < 3;
   }
-  const std::string unit = length ? "um" : "urad";
+  unit = length ? "um" : "urad";
   if (!t.unit.empty() && t.unit != unit) {
     throw InputError(source, t.where + ".unit",
                      t.quantity + " is " + (length ? "a length (um)" : "an angle (urad)") + "; its limits are " +
                          (length ? "an angle" : "a length"));
   }
+  return i;
+}
+
+}  // namespace
+
+std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& source) {
+  std::string unit;
+  quantity_index(axis, tolerance_quantities(axis), t, source, unit);
   return unit;
 }
 
@@ -167,15 +177,17 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
         "and a centring error of the balls moves the location errors (XOC, YOC ...) by as much as itself");
   }
   const IsoResult& iso = result.iso;
+  const std::vector<std::string> q = tolerance_quantities(design.axis);
+  // The budget's value of each determined error, by station and error (station-major).
+  std::vector<const ValueBudget*> budget_of(result.errors.size() * 6, nullptr);
+  for (const ValueBudget& v : result.budget.values) budget_of[6 * v.station + v.error] = &v;
   for (const Tolerance& t : tolerances) {
     ConformanceResult r;
     r.quantity = t.quantity;
-    r.unit = tolerance_unit(design.axis, t, source);
+    const int i = quantity_index(design.axis, q, t, source, r.unit);
     r.lower = t.lower;
     r.upper = t.upper;
     SetDecision set(r);
-    const std::vector<std::string> q = tolerance_quantities(design.axis);
-    const int i = static_cast<int>(std::find(q.begin(), q.end(), t.quantity) - q.begin());
     if (i < 5) {  // a location error
       const Determined& d = iso.location[i].value;
       r.basis = iso_basis;
@@ -214,17 +226,12 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
       r.basis = "value +- U of the uncertainty budget (k at each value's effective degrees of freedom), at every "
                 "measured angle";
       for (const ErrorsAtAngle& a : result.errors) {
-        if (!a.errors[e].determined) {
+        const ValueBudget* b = a.errors[e].determined ? budget_of[6 * a.station + e] : nullptr;
+        if (b) {
+          set.add(b->value, b->value - b->U, b->value + b->U, a.angle_deg);
+        } else {
           set.undetermined();
-          continue;
         }
-        const auto b = std::find_if(result.budget.values.begin(), result.budget.values.end(),
-                                    [&](const ValueBudget& v) { return v.station == a.station && v.error == e; });
-        if (b == result.budget.values.end()) {
-          set.undetermined();
-          continue;
-        }
-        set.add(b->value, b->value - b->U, b->value + b->U, a.angle_deg);
       }
     }
     set.finish();

@@ -15,8 +15,6 @@ namespace dbbkit {
 
 namespace {
 
-const char* kErrorLabel[6] = {"dx", "dy", "dz", "ex", "ey", "ez"};
-
 // One block (translations or rotations): the rows of the determined values and the
 // five unknowns' columns at each.
 struct Row {
@@ -104,10 +102,8 @@ void range_monte_carlo(const std::vector<ComponentDraw>& draws, std::vector<IsoM
     if (h < 2) continue;
     bool stable = true;
     for (int v = 0; v < n_out && stable; ++v) {
-      double m = 0, ss = 0;
-      for (double q : history[v]) m += q / h;
-      for (double q : history[v]) ss += (q - m) * (q - m);
-      stable = 2.0 * std::sqrt(ss / (h * (h - 1.0))) <= numerical_tolerance(m, o.significant_digits);
+      const detail::BatchSpread q = detail::batch_spread(history[v], [](double x) { return x; });
+      stable = q.spread <= numerical_tolerance(q.mean, o.significant_digits);
     }
     if (stable) {
       res.converged = true;
@@ -125,16 +121,21 @@ void range_monte_carlo(const std::vector<ComponentDraw>& draws, std::vector<IsoM
 
 }  // namespace
 
+IsoNames iso230_names(Axis axis) {
+  const std::string s = axis == Axis::C ? "C" : "B";
+  return {{"XO" + s, (axis == Axis::C ? "YO" : "ZO") + s, "AO" + s, (axis == Axis::C ? "BO" : "CO") + s, s + "0" + s},
+          {"EX" + s, "EY" + s, "EZ" + s, "EA" + s, "EB" + s, "EC" + s}};
+}
+
 IsoResult iso230_quantities(const Design& design, const Parameterisation& param, const Estimate& est,
                             double uncertainty_scale, const IsoMotionOptions& motion) {
   IsoResult out;
   const bool c_axis = design.axis == Axis::C;
   // The nominal axis a and the two directions p1, p2 perpendicular to it (machine frame).
   const int ia = c_axis ? 2 : 1, ip1 = 0, ip2 = c_axis ? 1 : 2;
-  const std::string s = c_axis ? "C" : "B";
-  const std::array<std::string, 5> location_names = {
-      "X" + std::string("O") + s, (c_axis ? "YO" : "ZO") + s, "AO" + s, (c_axis ? "BO" : "CO") + s, s + "0" + s};
-  out.component_names = {"EX" + s, "EY" + s, "EZ" + s, "EA" + s, "EB" + s, "EC" + s};
+  const IsoNames names = iso230_names(design.axis);
+  const std::array<std::string, 5>& location_names = names.location;
+  out.component_names = names.components;
 
   auto scaled = [&](Determined d) {
     d.std *= uncertainty_scale;
@@ -212,8 +213,8 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   out.constants = {{"constant part of dx", um, quantity(0, 0)},
                    {"constant part of dy", um, quantity(0, 1)},
                    {"constant part of dz", um, quantity(0, 2)},
-                   {std::string("constant part of ") + kErrorLabel[3 + ip1], urad, quantity(1, 0)},
-                   {std::string("constant part of ") + kErrorLabel[3 + ip2], urad, quantity(1, 1)}};
+                   {std::string("constant part of ") + kErrorNames[3 + ip1], urad, quantity(1, 0)},
+                   {std::string("constant part of ") + kErrorNames[3 + ip2], urad, quantity(1, 1)}};
   // Components: each value c'theta less its fitted location and constant part x'Q'theta.
   // A component's term: c on its support, x, c' Sigma Q and K'c; the covariance of two
   // components of block b (the variance when they are one),
@@ -279,13 +280,13 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     IsoMotionValues& mv = out.motion_values;
     mv.seed = motion.seed;
     mv.coverage_probability = motion.coverage_probability;
-    const std::array<std::string, 6> names = motion_value_names(c_axis);
+    const std::array<std::string, 6> value_names = motion_value_names(c_axis);
     std::vector<ComponentDraw> draws;
     std::vector<int> drawn;
     mv.values.resize(6);
     for (int e = 0; e < 6; ++e) {
       IsoMotionValue& v = mv.values[e];
-      v.name = names[e];
+      v.name = value_names[e];
       v.component = out.component_names[e];
       v.unit = e < 3 ? um : urad;
       const int b = e / 3;

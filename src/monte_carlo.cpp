@@ -282,18 +282,12 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     if (h < 2) continue;
     bool stable = true;
     for (int v = 0; v < n_out && stable; ++v) {
-      double m[4] = {0, 0, 0, 0}, ss[4] = {0, 0, 0, 0};
-      for (const Stats& s : history[v]) {
-        const double q[4] = {s.mean, s.std, s.low, s.high};
-        for (int i = 0; i < 4; ++i) m[i] += q[i] / h;
+      const double delta =
+          numerical_tolerance(detail::batch_spread(history[v], [](const Stats& s) { return s.std; }).mean,
+                              options.significant_digits);
+      for (double Stats::*q : {&Stats::mean, &Stats::std, &Stats::low, &Stats::high}) {
+        stable = stable && detail::batch_spread(history[v], [q](const Stats& s) { return s.*q; }).spread <= delta;
       }
-      for (const Stats& s : history[v]) {
-        const double q[4] = {s.mean, s.std, s.low, s.high};
-        for (int i = 0; i < 4; ++i) ss[i] += (q[i] - m[i]) * (q[i] - m[i]);
-      }
-      const double delta = numerical_tolerance(m[1], options.significant_digits);
-      for (int i = 0; i < 4; ++i)
-        stable = stable && 2.0 * std::sqrt(ss[i] / (h * (h - 1.0))) <= delta;
     }
     if (stable) {
       res.converged = true;

@@ -1,11 +1,13 @@
 #pragma once
-// Random numbers and order statistics shared by the Monte Carlo propagations
+// Random numbers, order statistics and the adaptive stopping rule shared by the Monte Carlo
+// propagations
 // (monte_carlo.cpp, iso230.cpp): internal to the library.
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <utility>
+#include <vector>
 
 namespace dbbkit::detail {
 
@@ -52,6 +54,22 @@ inline std::pair<long, long> interval_ranks(long M, double p) {
   q = std::min(q, M - 1);
   const long r = std::max(0L, (M - q) / 2);
   return {r, std::min(r + q, M - 1)};
+}
+
+// The adaptive rule's test (JCGM 101 §7.9.4) on one output quantity: the mean of its h >= 2
+// batch estimates get(b) and twice the standard deviation of that mean, 2 s / sqrt(h).
+struct BatchSpread {
+  double mean = 0, spread = 0;
+};
+template <class Batch, class Get>
+BatchSpread batch_spread(const std::vector<Batch>& batches, Get get) {
+  const double h = static_cast<double>(batches.size());
+  BatchSpread r;
+  for (const Batch& b : batches) r.mean += get(b) / h;
+  double ss = 0;
+  for (const Batch& b : batches) ss += (get(b) - r.mean) * (get(b) - r.mean);
+  r.spread = 2.0 * std::sqrt(ss / (h * (h - 1.0)));
+  return r;
 }
 
 }  // namespace dbbkit::detail

@@ -103,6 +103,14 @@ struct IsoResult {
   std::string note;  // what a block could not determine, or ""
 };
 
+// The ISO names of an axis: its location errors (two positions, two orientations, the zero
+// position) and its component error motions (translations, then rotations).
+struct IsoNames {
+  std::array<std::string, 5> location;
+  std::array<std::string, 6> components;
+};
+IsoNames iso230_names(Axis axis);
+
 // `uncertainty_scale` multiplies every standard uncertainty (the budget's Type A scale, 1 for Type B).
 // Error motion values with `motion.enabled`.
 IsoResult iso230_quantities(const Design& design, const Parameterisation& param, const Estimate& est,
