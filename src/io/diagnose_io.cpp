@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/result_io.hpp"
 #include "dbbkit/kinematics.hpp"
 
 namespace dbbkit::io {
@@ -12,8 +13,6 @@ namespace dbbkit::io {
 using nlohmann::json;
 
 namespace {
-
-double r6(double x) { return std::round(x * 1e6) / 1e6; }
 
 json signature_to_json(const ResidualSignature& s) {
   json list = json::array();

@@ -15,9 +15,6 @@ using nlohmann::json;
 
 namespace {
 
-// Values are written to 1e-6 of their unit (pm, prad): far below any uncertainty.
-double r6(double x) { return std::round(x * 1e6) / 1e6; }
-
 const char* kConditionScaling =
     "singular values of Sigma^-1/2 J S, S scaling every column to unit Euclidean norm";
 

@@ -6,6 +6,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/io/result_io.hpp"
 
 namespace dbbkit::io {
 
@@ -30,8 +31,6 @@ bool unit_of(const std::string& u, std::string& dimension, double& factor) {
   }
   return true;
 }
-
-double r6(double x) { return std::round(x * 1e6) / 1e6; }
 
 }  // namespace
 

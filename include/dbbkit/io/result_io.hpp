@@ -2,6 +2,7 @@
 // Result JSON (formats.md "Keys every result JSON carries") and the
 // human-readable summaries printed on the terminal.
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -32,6 +33,10 @@ nlohmann::json identify_to_json(const Design& design, const std::vector<Reading>
 nlohmann::json budget_to_json(const Design& design, const Budget& budget);
 nlohmann::json monte_carlo_to_json(const MonteCarloResult& mc);
 std::string monte_carlo_summary(const MonteCarloResult& mc);
+
+// A value as written to the result files: to 1e-6 of its unit (pm, prad), far below any
+// uncertainty.
+inline double r6(double x) { return std::round(x * 1e6) / 1e6; }
 
 // A number, or null when absent (a value that cannot be computed is never a number).
 nlohmann::json optional_number(const std::optional<double>& x);
