@@ -179,4 +179,9 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   return res;
 }
 
+Eigen::MatrixXd budget_covariance(const Design& design, const IdentifyResult& result) {
+  const SetupSolver setup(result.solver, setup_effects(design, result.model, true));
+  return budget_covariance(design, result.param, result.model, result.solver, result.estimate, result.budget, &setup);
+}
+
 }  // namespace dbbkit

@@ -128,6 +128,20 @@ SetupSolver::Parts SetupSolver::parts(const Eigen::VectorXd& c) const {
   return p;
 }
 
+SetupSolver::JointParts SetupSolver::joint_parts(const Eigen::MatrixXd& C) const {
+  JointParts p;
+  p.noise = C.transpose() * prior_.covariance * C;  // C'C0C
+  if (!any()) {
+    p.setup = Eigen::MatrixXd::Zero(C.cols(), C.cols());
+    return p;
+  }
+  const Eigen::MatrixXd V = S_inv_ * (prior_.covariance_K.transpose() * C);  // S^-1 K'C, q x m
+  p.noise += V.transpose() * RtR_ * V;
+  const Eigen::MatrixXd Vp = prior_std_.cwiseInverse().asDiagonal() * V;  // P^-1/2 S^-1 K'C
+  p.setup = Vp.transpose() * Vp;
+  return p;
+}
+
 ErrorParts error_parts(const Parameterisation& param, const SetupSolver& solver) {
   ErrorParts out;
   const Estimate& est = solver.a_priori();

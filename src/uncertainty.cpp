@@ -33,6 +33,17 @@ Eigen::MatrixXd budget_functions(const Parameterisation& param, const Budget& bu
   return C;
 }
 
+namespace {
+// d(theta_hat)/d(input) [theta units per mm] for the set-up inputs L, D, H (p x inputs).
+Eigen::MatrixXd input_gain(const Design& design, const Parameterisation& param, const LinearModel& model,
+                           const WlsSolver& solver, const Estimate& est, const SetupSolver* setup,
+                           const std::vector<SetupInput>& inputs) {
+  if (inputs.empty()) return {};
+  const Eigen::MatrixXd D = setup_sensitivity(design, param, model, inputs, est.theta);
+  return setup ? setup->gain_times(D) : Eigen::MatrixXd(solver.gain() * D);
+}
+}  // namespace
+
 Budget uncertainty_budget(const Design& design, const Parameterisation& param, const LinearModel& model,
                           const WlsSolver& solver, const Estimate& est, const BudgetOptions& options,
                           const SetupSolver* setup) {
@@ -56,11 +67,7 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
   }
 
   const std::vector<SetupInput> inputs = setup_inputs(design);
-  Eigen::MatrixXd GD;  // d(theta_hat)/d(input) [theta units per mm]
-  if (!inputs.empty()) {
-    const Eigen::MatrixXd D = setup_sensitivity(design, param, model, inputs, est.theta);
-    GD = setup ? setup->gain_times(D) : Eigen::MatrixXd(solver.gain() * D);
-  }
+  const Eigen::MatrixXd GD = input_gain(design, param, model, solver, est, setup, inputs);
   const bool nuisance = setup && setup->any();
   static const char* kSetupNames[3] = {"set-up L", "set-up D", "set-up H"};
 
@@ -105,6 +112,29 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
     }
   }
   return b;
+}
+
+Eigen::MatrixXd budget_covariance(const Design& design, const Parameterisation& param, const LinearModel& model,
+                                  const WlsSolver& solver, const Estimate& est, const Budget& budget,
+                                  const SetupSolver* setup) {
+  const Eigen::MatrixXd C = budget_functions(param, budget).transpose();  // p x values
+  const double scale2 = budget.type_a_scale ? *budget.type_a_scale * *budget.type_a_scale : 1.0;
+  Eigen::MatrixXd cov;
+  if (setup && setup->any()) {
+    const SetupSolver::JointParts parts = setup->joint_parts(C);
+    cov = scale2 * parts.noise + parts.setup;
+  } else {
+    cov = scale2 * (C.transpose() * est.covariance * C);
+  }
+  const std::vector<SetupInput> inputs = setup_inputs(design);
+  if (!inputs.empty()) {
+    Eigen::VectorXd u(static_cast<Eigen::Index>(inputs.size()));
+    for (size_t j = 0; j < inputs.size(); ++j) u(static_cast<Eigen::Index>(j)) = inputs[j].std_mm;
+    // d(value)/d(input) times the input's u: one column per input
+    const Eigen::MatrixXd A = C.transpose() * input_gain(design, param, model, solver, est, setup, inputs) * u.asDiagonal();
+    cov += A * A.transpose();
+  }
+  return cov;
 }
 
 }  // namespace dbbkit

@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <Eigen/Eigenvalues>
 #include <random>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/monte_carlo.hpp"
+#include "dbbkit/setup.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
 
@@ -106,6 +108,101 @@ TEST(Budget, SetupUncertaintyMatchesFiniteDifference) {
     checked += expected2 > 1e-6;
   }
   EXPECT_GT(checked, 30);  // the set-up matters for many values, not a vacuous check
+}
+
+// The joint covariance of the values. Its L part against finite differences of the
+// identification (the exact simulator moved by dL per installation), off the diagonal too:
+// with independent inputs Cov_L(v, w) = sum_i (dv/dL_i)(dw/dL_i) u_L^2.
+TEST(BudgetCovariance, PlacementPartMatchesFiniteDifferences) {
+  Design d = test::paper_design('C');
+  Vector6d e;
+  e << 5, -4, 3, 40, -30, 60;
+  Truth t = constant_truth(d, e);
+  t.noiseless = true;
+  const std::vector<Reading> readings = simulate(d, t, 0);
+  const IdentifyResult plain = identify(d, readings);
+  const double uL = 0.2;
+  Design with = d;
+  with.setup_std.L_mm = uL;
+  const IdentifyResult placed = identify(with, readings);
+  ASSERT_EQ(plain.budget.values.size(), placed.budget.values.size());
+  const Eigen::Index m = static_cast<Eigen::Index>(plain.budget.values.size());
+  Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(m, m);
+  const double dL = 0.5;
+  for (size_t i = 0; i < d.installations.size(); ++i) {
+    Design moved = d;
+    moved.installations[i].L_mm += dL;
+    const IdentifyResult r = identify(d, simulate(moved, t, 0));
+    Eigen::VectorXd s(m);
+    for (Eigen::Index v = 0; v < m; ++v) s(v) = (r.budget.values[v].value - plain.budget.values[v].value) / dL;
+    expected += s * s.transpose() * uL * uL;
+  }
+  const Eigen::MatrixXd got = budget_covariance(with, placed) - budget_covariance(d, plain);
+  EXPECT_GT(expected.cwiseAbs().maxCoeff(), 0.01);  // (um^2, urad^2) the placement matters: not a vacuous check
+  EXPECT_TRUE(test::near(got, expected, 1e-6 * expected.cwiseAbs().maxCoeff()));
+}
+
+// The noise part against the gain (theta_hat = G y, so Cov = C G diag(sigma^2) G' C', a formula
+// other than the pseudo-inverse covariance), scaled by the Type A factor; the diagonal is u_c^2.
+TEST(BudgetCovariance, NoisePartIsThatOfTheGainAndScalesWithTypeA) {
+  const Design d = test::paper_design('C');
+  Truth t = constant_truth(d, Vector6d::Constant(2.0));
+  t.repeats = 2;
+  const std::vector<Reading> readings = simulate(d, t, 5);
+  for (bool type_a : {false, true}) {
+    IdentifyOptions opt;
+    opt.budget.type_a = type_a;
+    const IdentifyResult r = identify(d, readings, opt);
+    const Eigen::MatrixXd C = budget_functions(r.param, r.budget);
+    const Eigen::MatrixXd CG = C * r.solver.gain();
+    const double s2 = type_a ? *r.budget.type_a_scale * *r.budget.type_a_scale : 1.0;
+    const Eigen::MatrixXd expected = s2 * CG * r.solver.sigma_um().cwiseAbs2().asDiagonal() * CG.transpose();
+    const Eigen::MatrixXd cov = budget_covariance(d, r);
+    EXPECT_TRUE(test::near(cov, expected, 1e-9 * expected.cwiseAbs().maxCoeff())) << type_a;
+    for (size_t v = 0; v < r.budget.values.size(); ++v) {
+      EXPECT_NEAR(std::sqrt(cov(v, v)), r.budget.values[v].u_c, 1e-9 * r.budget.values[v].u_c) << v;
+    }
+  }
+}
+
+// With declared length offset and centring tolerances (and L, D, H): the diagonal is u_c^2, and
+// every pair agrees with the variance of the sum, Var(a + b) = Var(a) + Var(b) + 2 Cov(a, b),
+// where Var(a + b) comes from the per-function form (SetupSolver::parts and the budget's
+// sensitivities) of the function c_a + c_b.
+TEST(BudgetCovariance, SetupPartAgreesWithTheVarianceOfSums) {
+  Design d = test::paper_design('C');
+  d.setup_std.length_offset_um = 10;
+  d.setup_std.centring_um = 5;
+  d.setup_std.D_mm = 0.1;
+  Truth t = constant_truth(d, Vector6d::Constant(2.0));
+  const std::vector<Reading> readings = simulate(d, t, 9);
+  const IdentifyResult r = identify(d, readings);
+  ASSERT_TRUE(r.setup_included);
+  const Eigen::MatrixXd cov = budget_covariance(d, r);
+  const Eigen::Index m = cov.rows();
+  ASSERT_EQ(m, static_cast<Eigen::Index>(r.budget.values.size()));
+  for (Eigen::Index v = 0; v < m; ++v) EXPECT_NEAR(std::sqrt(cov(v, v)), r.budget.values[v].u_c, 1e-9 * r.budget.values[v].u_c);
+  const SetupSolver setup(r.solver, setup_effects(d, r.model, true));
+  const std::vector<SetupInput> inputs = setup_inputs(d);
+  const Eigen::MatrixXd GD = setup.gain_times(setup_sensitivity(d, r.param, r.model, inputs, r.estimate.theta));
+  const Eigen::MatrixXd C = budget_functions(r.param, r.budget);
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<Eigen::Index> pick(0, m - 1);
+  double largest_correlation = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const Eigen::Index a = pick(rng), b = pick(rng);
+    const Eigen::VectorXd c = (C.row(a) + C.row(b)).transpose();
+    const SetupSolver::Parts parts = setup.parts(c);
+    double var = parts.noise + parts.setup;
+    const Eigen::VectorXd sens = GD.transpose() * c;
+    for (size_t j = 0; j < inputs.size(); ++j) var += std::pow(sens(j) * inputs[j].std_mm, 2);
+    const double sum = cov(a, a) + cov(b, b) + 2 * cov(a, b);
+    EXPECT_NEAR(sum, var, 1e-9 * var) << a << " " << b;
+    if (a != b) largest_correlation = std::max(largest_correlation, std::abs(cov(a, b)) / std::sqrt(cov(a, a) * cov(b, b)));
+  }
+  EXPECT_GT(largest_correlation, 0.3);  // the off-diagonal terms matter
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(cov);
+  EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-9 * eig.eigenvalues().maxCoeff());  // a covariance
 }
 
 TEST(MonteCarlo, AgreesWithTheLinearResultForNormalNoise) {

@@ -110,4 +110,8 @@ std::vector<Unidentifiable> describe_null_space(const Design& design, const Para
 IdentifyResult identify(const Design& design, const std::vector<Reading>& readings,
                         const IdentifyOptions& options = {});
 
+// The joint covariance of the identified values (uncertainty.hpp budget_covariance), in the
+// order of result.budget.values; the set-up solver is rebuilt when the set-up is included.
+Eigen::MatrixXd budget_covariance(const Design& design, const IdentifyResult& result);
+
 }  // namespace dbbkit

@@ -96,6 +96,13 @@ class SetupSolver {
     Eigen::VectorXd setup_by_column;
   };
   Parts parts(const Eigen::VectorXd& c) const;
+  // The joint form of parts() for the functions C theta (C: p x m, one function per
+  // column): the m x m covariances of their noise parts and of their set-up parts;
+  // the diagonals are parts().noise and parts().setup of every column.
+  struct JointParts {
+    Eigen::MatrixXd noise, setup;
+  };
+  JointParts joint_parts(const Eigen::MatrixXd& C) const;
 
   const WlsSolver& base() const { return *base_; }
 

@@ -70,4 +70,13 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
                           const WlsSolver& solver, const Estimate& est, const BudgetOptions& options,
                           const SetupSolver* setup = nullptr);
 
+// The joint covariance of the budget's values (values x values, in the order of
+// budget.values, each in its unit): the components of every u_c with the correlations
+// between values, i.e. reading noise (times the Type A factor squared), the set-up
+// length offsets and centrings (with `setup`) and the set-up inputs L, D, H (through
+// the same sensitivities as the budget). Its diagonal is u_c^2. Dense: values^2 doubles.
+Eigen::MatrixXd budget_covariance(const Design& design, const Parameterisation& param, const LinearModel& model,
+                                  const WlsSolver& solver, const Estimate& est, const Budget& budget,
+                                  const SetupSolver* setup = nullptr);
+
 }  // namespace dbbkit
