@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Installs the Debian packages dbbkit needs that are missing on this machine.
 # Runs as root, or through sudo when available. Does nothing when all are present.
-#   ./setup.sh            the build, the tests (junitparser reads the gate's JUnit XML), the reports (gnuplot)
+#   ./setup.sh            the build, the tests (junitparser reads the gate's JUnit XML), the reports (gnuplot),
+#                         the Python module (pybind11, NumPy, the Python headers)
 #   ./setup.sh --browser  also Chromium, for the browser test of the HTML reports
-#   ./setup.sh --peers    also NumPy and OpenBLAS, for the benchmarks' peer programs (benchmarks/*.py)
+#   ./setup.sh --peers    also OpenBLAS, for the benchmarks' peer programs (benchmarks/*.py; NumPy is in the default set)
 set -euo pipefail
 
 packages=(
@@ -12,11 +13,12 @@ packages=(
   libgtest-dev libbenchmark-dev libcli11-dev gnuplot-nox
   clang libclang-rt-14-dev
   python3-junitparser
+  pybind11-dev python3-numpy python3-dev
 )
 for option in "$@"; do
   case "$option" in
     --browser) packages+=(chromium) ;;
-    --peers) packages+=(python3-numpy libopenblas0-pthread) ;;
+    --peers) packages+=(libopenblas0-pthread) ;;
     *) echo "setup: unknown option $option (--browser, --peers)" >&2; exit 2 ;;
   esac
 done

@@ -11,6 +11,7 @@
 
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/effects.hpp"
+#include "dbbkit/error.hpp"
 #include "dbbkit/parallel.hpp"
 
 namespace dbbkit {
@@ -470,6 +471,17 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
 }
 
 }  // namespace
+
+Criterion criterion_from_name(const std::string& name, const std::string& source) {
+  if (name == "worst") return Criterion::Worst;
+  if (name == "D") return Criterion::D;
+  if (name == "A") return Criterion::A;
+  if (name == "E") return Criterion::E;
+  if (name == "condition") return Criterion::Condition;
+  if (name == "worst_total") return Criterion::WorstTotal;
+  throw InputError(source, "",
+                   "unknown criterion '" + name + "' (expected worst, worst_total, D, A, E or condition)");
+}
 
 const char* criterion_name(Criterion c) {
   switch (c) {

@@ -26,6 +26,9 @@ namespace dbbkit {
 // declared set-up tolerances, setup.hpp).
 enum class Criterion { Worst, D, A, E, Condition, WorstTotal };
 const char* criterion_name(Criterion c);
+// The criterion a command line or script names: worst, worst_total, D, A, E, condition.
+// Throws InputError(source, "", ...) for any other name.
+Criterion criterion_from_name(const std::string& name, const std::string& source);
 
 // The continuous variables of a choice: names ("L1", "D3", ...) and bounds in mm.
 struct PatternSpace {

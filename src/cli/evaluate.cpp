@@ -70,9 +70,7 @@ Runner add_evaluate(CLI::App& app) {
     if (!args->out.empty()) {
       nlohmann::json j = io::evaluate_to_json(design, ev, args->design, mc ? &*mc : nullptr);
       if (!variables.empty()) j["sweep"] = io::sweep_to_json(variables, map);
-      nlohmann::json e = nlohmann::json::array();
-      for (const CandidateStatus& c : effects) e.push_back({{"label", c.label}, {"status", c.status}, {"detail", c.detail}});
-      j["effects"] = e;
+      j["effects"] = io::effects_to_json(effects);
       outputs.stage("--out", j.dump(2) + "\n");
     }
     if (!args->map_csv.empty()) outputs.stage("--map-csv", io::sweep_csv(variables, map));

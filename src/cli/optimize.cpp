@@ -24,16 +24,6 @@ struct OptimizeArgs {
   int threads = 0;
 };
 
-Criterion parse_criterion(const std::string& s) {
-  if (s == "worst") return Criterion::Worst;
-  if (s == "D") return Criterion::D;
-  if (s == "A") return Criterion::A;
-  if (s == "E") return Criterion::E;
-  if (s == "condition") return Criterion::Condition;
-  if (s == "worst_total") return Criterion::WorstTotal;
-  throw InputError("--criterion", "",
-                   "unknown criterion '" + s + "' (expected worst, worst_total, D, A, E or condition)");
-}
 }  // namespace
 
 Runner add_optimize(CLI::App& app) {
@@ -72,40 +62,15 @@ Runner add_optimize(CLI::App& app) {
       }
       kit.require_setup_detection = true;
     }
-    const Criterion criterion = parse_criterion(
-        !args->criterion.empty() ? args->criterion : kit.setup_std.nuisance() ? "worst_total" : "worst");
+    const Criterion criterion = criterion_from_name(
+        !args->criterion.empty() ? args->criterion : kit.setup_std.nuisance() ? "worst_total" : "worst", "--criterion");
     if (criterion == Criterion::WorstTotal && !kit.setup_std.nuisance()) {
       throw InputError(args->kit, "setup_std",
                        "--criterion worst_total needs a length offset or centring tolerance declared in the kit");
     }
     std::optional<io::Reference> reference;
     if (!args->reference.empty()) {
-      io::Reference r;
-      r.file = args->reference;
-      r.design = io::read_design_file(args->reference);
-      if (r.design.axis != kit.axis) {
-        throw InputError(args->reference, "axis", "the reference is for axis " + std::string(axis_name(r.design.axis)) +
-                                                      ", the kit for axis " + axis_name(kit.axis));
-      }
-      if (std::abs(r.design.noise.sigma_um() - kit.noise.sigma_um()) > 1e-12 * kit.noise.sigma_um()) {
-        throw InputError(args->reference, "noise",
-                         "declares " + r.design.noise.describe() + ", the kit " + kit.noise.describe() +
-                             ": the ratio would compare instruments, not designs");
-      }
-      if (r.design.errors.kind != kit.errors.kind || r.design.errors.order != kit.errors.order) {
-        throw InputError(args->reference, "errors",
-                         "the reference uses " + r.design.errors.describe() + ", the kit " + kit.errors.describe());
-      }
-      const Evaluation ev = evaluate_design(r.design, kit.reference_length_mm);
-      r.worst = ev.worst;
-      if (kit.setup_std.nuisance()) {
-        Design with = r.design;
-        if (!with.setup_nuisance_declared()) with.setup_std = kit.setup_std;
-        r.worst_total = design_worst_total(with, kit.reference_length_mm).total;
-      }
-      r.rank = ev.prior.rank;
-      r.n_unknowns = ev.prior.n_unknowns;
-      reference = r;
+      reference = io::make_reference(kit, io::read_design_file(args->reference), args->reference);
     }
     OptimizeOptions options;
     options.criterion = criterion;

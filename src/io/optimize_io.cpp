@@ -5,7 +5,9 @@
 #include <iomanip>
 #include <sstream>
 
+#include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/observability.hpp"
 #include "dbbkit/io/report.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/kinematics.hpp"
@@ -82,6 +84,35 @@ Design optimized_design(const Kit& kit, const OptimizeResult& res, const std::st
   p.time_s = res.best->time_s;
   d.predicted = p;
   return d;
+}
+
+Reference make_reference(const Kit& kit, Design design, const std::string& file) {
+  Reference r;
+  r.file = file;
+  r.design = std::move(design);
+  if (r.design.axis != kit.axis) {
+    throw InputError(file, "axis", "the reference is for axis " + std::string(axis_name(r.design.axis)) +
+                                       ", the kit for axis " + axis_name(kit.axis));
+  }
+  if (std::abs(r.design.noise.sigma_um() - kit.noise.sigma_um()) > 1e-12 * kit.noise.sigma_um()) {
+    throw InputError(file, "noise",
+                     "declares " + r.design.noise.describe() + ", the kit " + kit.noise.describe() +
+                         ": the ratio would compare instruments, not designs");
+  }
+  if (r.design.errors.kind != kit.errors.kind || r.design.errors.order != kit.errors.order) {
+    throw InputError(file, "errors",
+                     "the reference uses " + r.design.errors.describe() + ", the kit " + kit.errors.describe());
+  }
+  const Evaluation ev = evaluate_design(r.design, kit.reference_length_mm);
+  r.worst = ev.worst;
+  if (kit.setup_std.nuisance()) {
+    Design with = r.design;
+    if (!with.setup_nuisance_declared()) with.setup_std = kit.setup_std;
+    r.worst_total = design_worst_total(with, kit.reference_length_mm).total;
+  }
+  r.rank = ev.prior.rank;
+  r.n_unknowns = ev.prior.n_unknowns;
+  return r;
 }
 
 json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::string& kit_file, double seconds,

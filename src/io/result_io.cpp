@@ -417,6 +417,12 @@ std::string iso230_text(const Design& design, const IdentifyResult& result) {
   return s.str();
 }
 
+json effects_to_json(const std::vector<CandidateStatus>& effects) {
+  json e = json::array();
+  for (const CandidateStatus& c : effects) e.push_back({{"label", c.label}, {"status", c.status}, {"detail", c.detail}});
+  return e;
+}
+
 std::string evaluate_summary(const Design& design, const Evaluation& ev) {
   const Estimate& est = ev.prior;
   std::ostringstream s;

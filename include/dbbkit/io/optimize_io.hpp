@@ -26,6 +26,11 @@ struct Reference {
   std::optional<WorstCase> worst_total;
 };
 
+// The reference for a kit: the design evaluated with the kit's reference length (and,
+// with set-up tolerances in the kit, its total worst case). Throws InputError(file, key)
+// when it is for another axis, another noise or another error model than the kit.
+Reference make_reference(const Kit& kit, Design design, const std::string& file);
+
 nlohmann::json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
                                 double seconds, const std::optional<Reference>& reference);
 std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "dbbkit/design.hpp"
+#include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/monte_carlo.hpp"
@@ -53,6 +54,8 @@ std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks, const
 nlohmann::json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file,
                                 const MonteCarloResult* mc = nullptr);
 std::string evaluate_summary(const Design& design, const Evaluation& ev);
+// The effects a design can tell from the axis errors (effect_detectability): label, status, detail.
+nlohmann::json effects_to_json(const std::vector<CandidateStatus>& effects);
 
 // The errors block (value and std per angle, null where not determined); with
 // values = false only the std is written (a-priori evaluation).

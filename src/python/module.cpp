@@ -1,0 +1,876 @@
+// The Python module `dbbkit`: designs, kits and readings read by the library's own
+// readers (bad input raises dbbkit.InputError naming the file or key), the library's
+// operations, and results whose arrays are NumPy arrays and whose `json` is the dict
+// the command line writes. Long runs release the GIL; optimize and Monte Carlo look for
+// Ctrl-C between choices and batches.
+
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "dbbkit/conformance.hpp"
+#include "dbbkit/diagnose.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/identify.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/diagnose_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/io/kit_io.hpp"
+#include "dbbkit/io/measurement_io.hpp"
+#include "dbbkit/io/optimize_io.hpp"
+#include "dbbkit/io/reports.hpp"
+#include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/tolerances_io.hpp"
+#include "dbbkit/io/truth_io.hpp"
+#include "dbbkit/kinematics.hpp"
+#include "dbbkit/limits.hpp"
+#include "dbbkit/monte_carlo.hpp"
+#include "dbbkit/observability.hpp"
+#include "dbbkit/optimize.hpp"
+#include "dbbkit/parallel.hpp"
+#include "dbbkit/setup.hpp"
+#include "dbbkit/simulate.hpp"
+
+namespace py = pybind11;
+
+namespace dbbkit::python {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// ---------------------------------------------------------------- JSON <-> Python
+
+py::object to_python(const nlohmann::json& j) {
+  switch (j.type()) {
+    case nlohmann::json::value_t::null:
+      return py::none();
+    case nlohmann::json::value_t::boolean:
+      return py::bool_(j.get<bool>());
+    case nlohmann::json::value_t::number_integer:
+      return py::int_(j.get<long long>());
+    case nlohmann::json::value_t::number_unsigned:
+      return py::int_(j.get<unsigned long long>());
+    case nlohmann::json::value_t::number_float:
+      return py::float_(j.get<double>());
+    case nlohmann::json::value_t::string:
+      return py::str(j.get_ref<const std::string&>());
+    case nlohmann::json::value_t::array: {
+      py::list l;
+      for (const nlohmann::json& e : j) l.append(to_python(e));
+      return l;
+    }
+    case nlohmann::json::value_t::object: {
+      py::dict d;
+      for (auto it = j.begin(); it != j.end(); ++it) d[py::str(it.key())] = to_python(it.value());
+      return d;
+    }
+    default:
+      return py::none();
+  }
+}
+
+std::string child(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
+
+// A dict, list, str, number, bool or None (and NumPy scalars and arrays, through tolist())
+// as the JSON the readers take; anything else, or a non-finite number, is an InputError
+// at its key (`source`: "design", "kit", ...).
+nlohmann::json from_python(py::handle h, const std::string& source, const std::string& path) {
+  if (h.is_none()) return nullptr;
+  if (py::isinstance<py::bool_>(h)) return h.cast<bool>();
+  if (py::isinstance<py::int_>(h)) {
+    try {  // as the JSON parser reads a literal: unsigned when not negative
+      if (h.cast<py::int_>() >= py::int_(0)) return h.cast<unsigned long long>();
+      return h.cast<long long>();
+    } catch (const py::cast_error&) {
+      throw InputError(source, path, "the integer " + py::str(h).cast<std::string>() + " is out of range");
+    }
+  }
+  if (py::isinstance<py::float_>(h)) {
+    const double x = h.cast<double>();
+    if (!std::isfinite(x)) throw InputError(source, path, "not a finite number (" + py::repr(h).cast<std::string>() + ")");
+    return x;
+  }
+  if (py::isinstance<py::str>(h)) return h.cast<std::string>();
+  if (py::isinstance<py::dict>(h)) {
+    nlohmann::json j = nlohmann::json::object();
+    for (auto item : py::reinterpret_borrow<py::dict>(h)) {
+      if (!py::isinstance<py::str>(item.first)) {
+        throw InputError(source, path, "a key that is not a string (" + py::repr(item.first).cast<std::string>() + ")");
+      }
+      const std::string key = item.first.cast<std::string>();
+      j[key] = from_python(item.second, source, child(path, key));
+    }
+    return j;
+  }
+  if (py::isinstance<py::list>(h) || py::isinstance<py::tuple>(h)) {
+    nlohmann::json j = nlohmann::json::array();
+    long i = 0;
+    for (py::handle e : h) j.push_back(from_python(e, source, path + "[" + std::to_string(i++) + "]"));
+    return j;
+  }
+  if (py::hasattr(h, "tolist")) return from_python(h.attr("tolist")(), source, path);  // NumPy
+  throw InputError(source, path,
+                   "a value of type " + py::str(h.get_type().attr("__name__")).cast<std::string>() +
+                       " (expected a dict, list, str, number, bool or None)");
+}
+
+// A path given as str or os.PathLike; nullopt for anything else.
+std::optional<std::string> as_path(py::handle h) {
+  if (py::isinstance<py::str>(h)) return h.cast<std::string>();
+  if (py::hasattr(h, "__fspath__")) return h.attr("__fspath__")().cast<std::string>();
+  return std::nullopt;
+}
+
+// ---------------------------------------------------------------- argument checks
+
+void check_finite_in(const char* name, double x, double lo, double hi) {
+  if (!std::isfinite(x) || !(x >= lo && x <= hi)) {
+    std::ostringstream m;
+    m << x << " is outside [" << lo << ", " << hi << "]";
+    throw InputError("argument", name, m.str());
+  }
+}
+
+void check_integer_in(const char* name, long long x, long long lo, long long hi) {
+  if (x < lo || x > hi) {
+    throw InputError("argument", name,
+                     std::to_string(x) + " is outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  }
+}
+
+int thread_count(const char* name, int threads) {
+  check_integer_in(name, threads, 0, kMaxThreads);
+  return threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+// ---------------------------------------------------------------- Ctrl-C
+
+// Called by the library's progress callbacks with the GIL released: on the thread that
+// called into the module (the one Python delivers signals to), runs Python's signal
+// handlers; a KeyboardInterrupt (or any error they raise) stops the run and is raised.
+class SignalCheck {
+ public:
+  SignalCheck() : caller_(std::this_thread::get_id()) {}
+  void operator()() const {
+    if (std::this_thread::get_id() != caller_) return;
+    py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+  }
+
+ private:
+  std::thread::id caller_;
+};
+
+// ---------------------------------------------------------------- inputs
+
+// An input read by the library's reader: from a path (str or os.PathLike) or from a dict
+// (then `source` is its kind: "design", "kit", "truth", "tolerances").
+template <typename T>
+struct Input {
+  T value;
+  std::string source;
+  bool from_file = false;
+};
+
+template <typename T>
+Input<T> read_input(py::handle given, const char* kind, T (*from_file)(const std::string&),
+                    T (*from_json)(const nlohmann::json&, const std::string&)) {
+  if (const auto path = as_path(given)) return {from_file(*path), *path, true};
+  return {from_json(from_python(given, kind, ""), kind), kind, false};
+}
+
+using PyDesign = Input<Design>;
+using PyKit = Input<Kit>;
+
+struct PyMeasurements {
+  std::vector<Reading> readings;
+  std::string source;
+  bool from_file = false;
+};
+
+PyDesign make_design(py::handle source) {
+  return read_input<Design>(source, "design", &io::read_design_file, &io::design_from_json);
+}
+
+PyKit make_kit(py::handle source) { return read_input<Kit>(source, "kit", &io::read_kit_file, &io::kit_from_json); }
+
+// validate_readings names "line N"; readings given as arrays are named by index.
+void validate_rows(const Design& design, const std::vector<Reading>& readings, const std::string& source) {
+  try {
+    validate_readings(design, readings, source);
+  } catch (const InputError& e) {
+    if (e.where().rfind("line ", 0) == 0) {
+      const long line = std::stol(e.where().substr(5));
+      throw InputError(source, "index " + std::to_string(line - 1), e.detail());
+    }
+    throw;
+  }
+}
+
+PyMeasurements measurements_from_arrays(const PyDesign& d, const std::vector<std::string>& installation,
+                                        const std::vector<double>& angle_deg, const std::vector<double>& reading_um,
+                                        const std::optional<std::vector<double>>& time_s,
+                                        const std::optional<std::vector<std::optional<std::string>>>& sweep,
+                                        const std::optional<std::vector<int>>& repeat) {
+  const size_t n = installation.size();
+  auto same_length = [n](const char* name, size_t m) {
+    if (m != n) {
+      throw InputError("measurements", name,
+                       std::to_string(m) + " values for " + std::to_string(n) + " installations (one per reading)");
+    }
+  };
+  same_length("angle_deg", angle_deg.size());
+  same_length("reading_um", reading_um.size());
+  if (time_s) same_length("time_s", time_s->size());
+  if (sweep) same_length("sweep", sweep->size());
+  if (repeat) same_length("repeat", repeat->size());
+  PyMeasurements m;
+  m.source = "measurements";
+  m.readings.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    Reading& r = m.readings[i];
+    r.installation = installation[i];
+    r.angle_deg = angle_deg[i];
+    r.reading_um = reading_um[i];
+    r.line = static_cast<int>(i + 1);
+    if (time_s && !std::isnan((*time_s)[i])) r.time_s = (*time_s)[i];
+    if (sweep && (*sweep)[i]) {
+      const std::string& s = *(*sweep)[i];
+      if (s == "cw") {
+        r.sweep = Sweep::CW;
+      } else if (s == "ccw") {
+        r.sweep = Sweep::CCW;
+      } else {
+        throw InputError("measurements", "sweep[" + std::to_string(i) + "]", "'" + s + "' (expected cw, ccw or None)");
+      }
+    }
+    if (repeat) r.repeat = (*repeat)[i];
+  }
+  validate_rows(d.value, m.readings, m.source);
+  return m;
+}
+
+// Readings from a CSV file or text, checked against the design.
+PyMeasurements measurements_from_file(const std::string& path, const PyDesign& d) {
+  PyMeasurements m;
+  m.readings = io::read_measurement_file(path, d.value);
+  m.source = path;
+  m.from_file = true;
+  return m;
+}
+
+// ---------------------------------------------------------------- arrays
+
+// (stations, 6): values or std, NaN where the error is not determined.
+Eigen::MatrixXd errors_array(const std::vector<ErrorsAtAngle>& errors, bool values) {
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(errors.size()), 6);
+  for (size_t s = 0; s < errors.size(); ++s) {
+    for (int k = 0; k < 6; ++k) {
+      const Determined& d = errors[s].errors[k];
+      a(static_cast<Eigen::Index>(s), k) = d.determined ? (values ? d.value : d.std) : kNaN;
+    }
+  }
+  return a;
+}
+
+Eigen::VectorXd angles_array(const std::vector<ErrorsAtAngle>& errors) {
+  Eigen::VectorXd a(static_cast<Eigen::Index>(errors.size()));
+  for (size_t s = 0; s < errors.size(); ++s) a(static_cast<Eigen::Index>(s)) = errors[s].angle_deg;
+  return a;
+}
+
+py::array_t<bool> determined_array(const std::vector<ErrorsAtAngle>& errors) {
+  py::array_t<bool> a({static_cast<py::ssize_t>(errors.size()), py::ssize_t{6}});
+  auto m = a.mutable_unchecked<2>();
+  for (size_t s = 0; s < errors.size(); ++s) {
+    for (int k = 0; k < 6; ++k) m(static_cast<py::ssize_t>(s), k) = errors[s].errors[k].determined;
+  }
+  return a;
+}
+
+std::string iframe(const std::string& html) {
+  std::string escaped;
+  for (char c : html) {
+    if (c == '&') {
+      escaped += "&amp;";
+    } else if (c == '"') {
+      escaped += "&quot;";
+    } else {
+      escaped += c;
+    }
+  }
+  return "<iframe style=\"width: 100%; height: 900px; border: 1px solid #ccc\" srcdoc=\"" + escaped + "\"></iframe>";
+}
+
+io::ReportFormat report_format(const std::string& format) {
+  if (format == "html") return io::ReportFormat::Html;
+  if (format == "markdown") return io::ReportFormat::Markdown;
+  throw InputError("argument", "format", "'" + format + "' (expected html or markdown)");
+}
+
+// ---------------------------------------------------------------- Monte Carlo
+
+MonteCarloOptions mc_options(std::uint64_t seed, int threads, long max_trials, long batch, int digits) {
+  check_integer_in("mc_max_trials", max_trials, 1000, 1000000000);
+  check_integer_in("mc_batch", batch, 1000, 100000000);
+  check_integer_in("mc_digits", digits, 1, 4);
+  MonteCarloOptions o;
+  o.seed = seed;
+  o.threads = thread_count("mc_threads", threads);
+  o.max_trials = max_trials;
+  o.batch_trials = batch;
+  o.significant_digits = digits;
+  return o;
+}
+
+struct PyMonteCarlo {
+  MonteCarloResult mc;
+};
+
+// ---------------------------------------------------------------- results
+
+struct PyEvaluateResult {
+  std::shared_ptr<const PyDesign> design;
+  Evaluation ev;
+  std::vector<CandidateStatus> effects;
+  std::optional<MonteCarloResult> mc;
+  nlohmann::json json;
+  std::string report(const std::string& format) const {
+    const io::RunContext run{"dbbkit.evaluate (Python)", design->from_file ? std::vector<std::string>{design->source}
+                                                                           : std::vector<std::string>{}};
+    return io::evaluate_report(report_format(format), run, design->value, ev, {}, {}, mc ? &*mc : nullptr);
+  }
+};
+
+struct PyIdentifyResult {
+  std::shared_ptr<const PyDesign> design;
+  std::shared_ptr<const PyMeasurements> data;
+  std::shared_ptr<const IdentifyResult> held;
+  const IdentifyResult& result() const { return *held; }
+  std::optional<MonteCarloResult> mc;
+  std::optional<ConformanceReport> conformance;
+  std::string tolerances_source;
+  nlohmann::json json;
+  std::vector<std::string> input_files() const {
+    std::vector<std::string> f;
+    if (design->from_file) f.push_back(design->source);
+    if (data->from_file) f.push_back(data->source);
+    return f;
+  }
+  std::string report(const std::string& format) const {
+    const io::RunContext run{"dbbkit.identify (Python)", input_files()};
+    return io::identify_report(report_format(format), run, design->value, data->readings, result(),
+                               mc ? &*mc : nullptr, conformance ? &*conformance : nullptr);
+  }
+  // (stations, 6) of the budget's U and its k, NaN where not determined.
+  Eigen::MatrixXd budget_array(bool expanded) const {
+    Eigen::MatrixXd a = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(result().errors.size()), 6, kNaN);
+    for (const ValueBudget& v : result().budget.values) a(v.station, v.error) = expanded ? v.U : v.k;
+    return a;
+  }
+  // (6 stations, 6 stations): row 6 s + k is error k at station s; NaN where not determined.
+  Eigen::MatrixXd covariance() const {
+    const Eigen::MatrixXd c = budget_covariance(design->value, result());
+    const Eigen::Index n = 6 * static_cast<Eigen::Index>(result().errors.size());
+    Eigen::MatrixXd full = Eigen::MatrixXd::Constant(n, n, kNaN);
+    const std::vector<ValueBudget>& v = result().budget.values;
+    for (size_t a = 0; a < v.size(); ++a) {
+      for (size_t b = 0; b < v.size(); ++b) {
+        full(6 * v[a].station + v[a].error, 6 * v[b].station + v[b].error) =
+            c(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+      }
+    }
+    return full;
+  }
+};
+
+struct PyDiagnoseResult {
+  std::shared_ptr<const PyDesign> design;
+  std::shared_ptr<const PyMeasurements> data;
+  DiagnoseResult result;
+  nlohmann::json json;
+  std::string report(const std::string& format) const {
+    std::vector<std::string> f;
+    if (design->from_file) f.push_back(design->source);
+    if (data->from_file) f.push_back(data->source);
+    return io::diagnose_report(report_format(format), io::RunContext{"dbbkit.diagnose (Python)", f}, design->value,
+                               data->readings, result);
+  }
+};
+
+struct PyOptimizeResult {
+  std::shared_ptr<const PyKit> kit;
+  OptimizeResult result;
+  std::optional<io::Reference> reference;
+  double seconds = 0;
+  nlohmann::json json;
+  std::string report(const std::string& format) const {
+    std::vector<std::string> f;
+    if (kit->from_file) f.push_back(kit->source);
+    if (reference) f.push_back(reference->file);
+    return io::optimize_report(report_format(format), io::RunContext{"dbbkit.optimize (Python)", f}, kit->value, result,
+                               reference, seconds);
+  }
+};
+
+// ---------------------------------------------------------------- operations
+
+PyEvaluateResult run_evaluate(const PyDesign& d, std::optional<double> reference_length_mm, bool monte_carlo,
+                          double coverage, std::uint64_t mc_seed, int mc_threads, long mc_max_trials, long mc_batch,
+                          int mc_digits) {
+  if (reference_length_mm) check_finite_in("reference_length_mm", *reference_length_mm, 1e-3, limits::kMaxLength_mm);
+  check_finite_in("coverage", coverage, 0.5, 0.9999);
+  MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
+  const std::optional<double> ref = reference_length_mm ? reference_length_mm : d.value.reference_length_mm;
+  if (!ref || !(*ref > 0)) {
+    throw InputError(d.source, "reference_length_mm",
+                     "needed to express angular uncertainty in um (or give reference_length_mm=)");
+  }
+  PyEvaluateResult r;
+  r.design = std::make_shared<const PyDesign>(d);
+  const SignalCheck check;
+  mc.progress = [&check](long) { check(); };
+  {
+    py::gil_scoped_release release;
+    r.effects = effect_detectability(d.value, nominal_readings(d.value));
+    r.ev = evaluate_design(d.value, *ref, {}, diagnose_detection_settings(r.effects));
+    if (monte_carlo) r.mc = monte_carlo_a_priori(d.value, coverage, mc);
+  }
+  r.json = io::evaluate_to_json(d.value, r.ev, d.source, r.mc ? &*r.mc : nullptr);
+  r.json["effects"] = io::effects_to_json(r.effects);
+  return r;
+}
+
+PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool type_a, double coverage,
+                          py::object tolerances, bool monte_carlo, std::uint64_t mc_seed, int mc_threads,
+                          long mc_max_trials, long mc_batch, int mc_digits) {
+  check_finite_in("coverage", coverage, 0.5, 0.9999);
+  MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
+  validate_rows(d.value, m.readings, m.source);  // the design may not be the one they were read with
+  std::vector<Tolerance> tols;
+  std::string tol_source;
+  if (!tolerances.is_none()) {
+    Input<std::vector<Tolerance>> in = read_input<std::vector<Tolerance>>(
+        tolerances, "tolerances", &io::read_tolerances_file, &io::tolerances_from_json);
+    tols = std::move(in.value);
+    tol_source = in.source;
+    for (const Tolerance& t : tols) tolerance_unit(d.value.axis, t, tol_source);  // before the work
+  }
+  PyIdentifyResult r;
+  r.design = std::make_shared<const PyDesign>(d);
+  r.data = std::make_shared<const PyMeasurements>(m);
+  r.tolerances_source = tol_source;
+  const SignalCheck check;
+  mc.progress = [&check](long) { check(); };
+  {
+    py::gil_scoped_release release;
+    IdentifyOptions options;
+    options.budget.type_a = type_a;
+    options.budget.coverage_probability = coverage;
+    options.iso_motion.seed = mc_seed;
+    r.held = std::make_shared<const IdentifyResult>(identify(d.value, m.readings, options));
+    if (!tols.empty()) r.conformance = decide_conformance(d.value, r.result(), tols, tol_source);
+    if (monte_carlo) {
+      const SetupSolver setup(r.result().solver, setup_effects(d.value, r.result().model, true));
+      r.mc = dbbkit::monte_carlo(d.value, r.result().param, r.result().model, r.result().solver, r.result().estimate,
+                                 r.result().budget, mc, &setup);
+    }
+  }
+  r.json = io::identify_to_json(d.value, m.readings, r.result(), {d.source, m.source}, r.mc ? &*r.mc : nullptr);
+  if (r.conformance) r.json["conformance"] = io::conformance_to_json(*r.conformance, tol_source);
+  return r;
+}
+
+PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double level, int max_effects) {
+  check_finite_in("level", level, 1e-6, 0.2);
+  check_integer_in("max_effects", max_effects, 0, 100);
+  validate_rows(d.value, m.readings, m.source);
+  PyDiagnoseResult r;
+  r.design = std::make_shared<const PyDesign>(d);
+  r.data = std::make_shared<const PyMeasurements>(m);
+  {
+    py::gil_scoped_release release;
+    DiagnoseOptions options;
+    options.level = level;
+    options.max_effects = max_effects;
+    r.result = dbbkit::diagnose(d.value, m.readings, options);
+  }
+  r.json = io::diagnose_to_json(d.value, r.result, {d.source, m.source});
+  return r;
+}
+
+PyOptimizeResult run_optimize(const PyKit& k, std::optional<std::string> criterion, int threads,
+                          bool require_setup_detection, std::optional<PyDesign> reference) {
+  Kit kit = k.value;
+  if (require_setup_detection) {
+    if (!kit.setup_std.nuisance()) {
+      throw InputError(k.source, "setup_std",
+                       "require_setup_detection needs a length offset or centring tolerance declared in the kit");
+    }
+    kit.require_setup_detection = true;
+  }
+  const Criterion c =
+      criterion_from_name(criterion ? *criterion : kit.setup_std.nuisance() ? "worst_total" : "worst", "criterion");
+  if (c == Criterion::WorstTotal && !kit.setup_std.nuisance()) {
+    throw InputError(k.source, "setup_std",
+                     "criterion worst_total needs a length offset or centring tolerance declared in the kit");
+  }
+  OptimizeOptions options;
+  options.criterion = c;
+  options.threads = thread_count("threads", threads);
+  const SignalCheck check;
+  options.progress = [&check](int, int, const Candidate*) { check(); };
+  PyOptimizeResult r;
+  r.kit = std::make_shared<const PyKit>(PyKit{kit, k.source, k.from_file});
+  {
+    py::gil_scoped_release release;
+    if (reference) r.reference = io::make_reference(kit, reference->value, reference->source);
+    const auto start = std::chrono::steady_clock::now();
+    r.result = optimize_kit(kit, options);
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  r.json = io::optimize_to_json(kit, r.result, k.source, r.seconds, r.reference);
+  return r;
+}
+
+PyMeasurements run_simulate(const PyDesign& d, py::handle truth, std::optional<std::uint64_t> seed) {
+  const Input<Truth> in = read_input<Truth>(truth, "truth", &io::read_truth_file, &io::truth_from_json);
+  const Truth& t = in.value;
+  const std::string& source = in.source;
+  validate_truth(t, d.value, source);
+  const std::optional<std::uint64_t> s = seed ? seed : t.seed;
+  if (!s && !t.noiseless) throw InputError(source, "seed", "no seed: give seed= or \"seed\" in the truth");
+  PyMeasurements m;
+  m.source = "simulated";
+  {
+    py::gil_scoped_release release;
+    m.readings = dbbkit::simulate(d.value, t, s.value_or(0));
+  }
+  return m;
+}
+
+// ---------------------------------------------------------------- Monte Carlo arrays
+
+py::dict monte_carlo_arrays(const MonteCarloResult& mc) {
+  const Eigen::Index n = static_cast<Eigen::Index>(mc.values.size());
+  Eigen::VectorXd angle(n), mean(n), std(n), low(n), high(n), value(n), u(n), U(n);
+  Eigen::VectorXi station(n), error(n);
+  py::array_t<bool> validated(n);
+  auto vm = validated.mutable_unchecked<1>();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const MonteCarloValue& v = mc.values[static_cast<size_t>(i)];
+    station(i) = v.station;
+    error(i) = v.error;
+    angle(i) = v.angle_deg;
+    mean(i) = v.mean;
+    std(i) = v.std;
+    low(i) = v.low;
+    high(i) = v.high;
+    value(i) = v.linear_value;
+    u(i) = v.linear_u;
+    U(i) = v.linear_U;
+    vm(i) = v.validated;
+  }
+  py::dict d;
+  d["station"] = station;
+  d["error"] = error;
+  d["angle_deg"] = angle;
+  d["mean"] = mean;
+  d["std"] = std;
+  d["low"] = low;
+  d["high"] = high;
+  d["linear_value"] = value;
+  d["linear_u"] = u;
+  d["linear_U"] = U;
+  d["validated"] = validated;
+  return d;
+}
+
+}  // namespace
+}  // namespace dbbkit::python
+
+PYBIND11_MODULE(dbbkit, m) {
+  using namespace dbbkit;
+  using namespace dbbkit::python;
+  m.doc() =
+      "dbbkit: the geometric errors of a rotary axis from double ball bar readings, their uncertainty, the "
+      "design of the measurement and the closed loop on real data. Units: dx, dy, dz in um; ex, ey, ez in urad; "
+      "angles in degrees; lengths in mm. Uncertainties are standard (k = 1) unless named U (expanded, k stated).";
+  m.attr("__version__") = DBBKIT_VERSION;
+  m.attr("ERROR_NAMES") = py::make_tuple("dx", "dy", "dz", "ex", "ey", "ez");
+  m.attr("ERROR_UNITS") = py::make_tuple("um", "um", "um", "urad", "urad", "urad");
+
+  static py::exception<InputError> input_error(m, "InputError", PyExc_ValueError);
+  input_error.doc() =
+      "Bad input: source (the file, or 'design', 'kit', 'measurements', 'truth', 'tolerances', 'argument'), "
+      "where (the line or key), detail (what is wrong).";
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const InputError& e) {
+      py::object instance = py::handle(input_error.ptr())(py::str(e.what()));
+      instance.attr("source") = e.source();
+      instance.attr("where") = e.where();
+      instance.attr("detail") = e.detail();
+      PyErr_SetObject(input_error.ptr(), instance.ptr());
+    }
+  });
+
+  py::class_<PyDesign>(m, "Design", "A measurement design (dbbkit.design/1), from a file path or a dict")
+      .def(py::init([](py::handle source) { return make_design(source); }), py::arg("source"),
+           "Design(path) reads a design file; Design(dict) takes the same keys. Raises InputError naming the key.")
+      .def_property_readonly("source", [](const PyDesign& d) { return d.source; })
+      .def_property_readonly("name", [](const PyDesign& d) { return d.value.name; })
+      .def_property_readonly("axis", [](const PyDesign& d) { return std::string(axis_name(d.value.axis)); })
+      .def_property_readonly("angles_deg",
+                             [](const PyDesign& d) {
+                               return Eigen::Map<const Eigen::VectorXd>(d.value.angles_deg.data(),
+                                                                        static_cast<Eigen::Index>(d.value.angles_deg.size()));
+                             })
+      .def_property_readonly("installations",
+                             [](const PyDesign& d) {
+                               std::vector<std::string> ids;
+                               for (const Installation& i : d.value.installations) ids.push_back(i.id);
+                               return ids;
+                             })
+      .def("to_dict", [](const PyDesign& d) { return to_python(io::design_to_json(d.value)); },
+           "The design as the dict a design file holds")
+      .def("__repr__", [](const PyDesign& d) {
+        return "<dbbkit.Design '" + d.value.name + "' axis " + axis_name(d.value.axis) + ", " +
+               std::to_string(d.value.installations.size()) + " installations, " +
+               std::to_string(d.value.angles_deg.size()) + " angles, " + d.value.errors.describe() + ">";
+      });
+
+  py::class_<PyKit>(m, "Kit", "A kit to search (dbbkit.kit/1), from a file path or a dict")
+      .def(py::init([](py::handle source) { return make_kit(source); }), py::arg("source"))
+      .def_property_readonly("source", [](const PyKit& k) { return k.source; })
+      .def_property_readonly("name", [](const PyKit& k) { return k.value.name; })
+      .def_property_readonly("axis", [](const PyKit& k) { return std::string(axis_name(k.value.axis)); })
+      .def("__repr__", [](const PyKit& k) {
+        return "<dbbkit.Kit '" + k.value.name + "' axis " + axis_name(k.value.axis) + ">";
+      });
+
+  py::class_<PyMeasurements>(m, "Measurements", "DBB readings checked against a design")
+      .def(py::init([](py::handle path, const PyDesign& design) {
+             const auto p = as_path(path);
+             if (!p) throw InputError("argument", "path", "a measurement file path (str or os.PathLike)");
+             return measurements_from_file(*p, design);
+           }),
+           py::arg("path"), py::arg("design"), "Measurements(path, design): a measurement CSV (formats.md)")
+      .def_static("from_csv",
+                  [](const std::string& text, const PyDesign& design, const std::string& source) {
+                    PyMeasurements mm;
+                    mm.readings = io::parse_measurements(text, source);
+                    validate_readings(design.value, mm.readings, source);
+                    mm.source = source;
+                    return mm;
+                  },
+                  py::arg("text"), py::arg("design"), py::arg("source") = "csv", "The readings of CSV text")
+      .def_static("from_arrays", &measurements_from_arrays, py::arg("design"), py::arg("installation"),
+                  py::arg("angle_deg"), py::arg("reading_um"), py::arg("time_s") = py::none(),
+                  py::arg("sweep") = py::none(), py::arg("repeat") = py::none(),
+                  "One reading per index: installation id, angle [deg], reading [um]; optional time [s] (NaN: "
+                  "not recorded), sweep ('cw', 'ccw' or None) and repeat")
+      .def_property_readonly("source", [](const PyMeasurements& mm) { return mm.source; })
+      .def("__len__", [](const PyMeasurements& mm) { return mm.readings.size(); })
+      .def_property_readonly("installation",
+                             [](const PyMeasurements& mm) {
+                               std::vector<std::string> v;
+                               for (const Reading& r : mm.readings) v.push_back(r.installation);
+                               return v;
+                             })
+      .def_property_readonly("angle_deg",
+                             [](const PyMeasurements& mm) {
+                               Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
+                               for (size_t i = 0; i < mm.readings.size(); ++i) v(static_cast<Eigen::Index>(i)) = mm.readings[i].angle_deg;
+                               return v;
+                             })
+      .def_property_readonly("reading_um",
+                             [](const PyMeasurements& mm) {
+                               Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
+                               for (size_t i = 0; i < mm.readings.size(); ++i) v(static_cast<Eigen::Index>(i)) = mm.readings[i].reading_um;
+                               return v;
+                             })
+      .def_property_readonly("time_s",
+                             [](const PyMeasurements& mm) {
+                               Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
+                               for (size_t i = 0; i < mm.readings.size(); ++i) {
+                                 v(static_cast<Eigen::Index>(i)) = mm.readings[i].time_s.value_or(kNaN);
+                               }
+                               return v;
+                             })
+      .def("to_csv",
+           [](const PyMeasurements& mm) {
+             std::ostringstream out;
+             io::write_measurements_csv(out, mm.readings);
+             return out.str();
+           },
+           "The readings as a measurement CSV")
+      .def("__repr__", [](const PyMeasurements& mm) {
+        return "<dbbkit.Measurements " + std::to_string(mm.readings.size()) + " readings from " + mm.source + ">";
+      });
+
+  py::class_<PyMonteCarlo>(m, "MonteCarloResult", "JCGM 101 propagation of distributions, per identified value")
+      .def_property_readonly("json", [](const PyMonteCarlo& r) { return to_python(io::monte_carlo_to_json(r.mc)); })
+      .def_property_readonly("trials", [](const PyMonteCarlo& r) { return r.mc.trials; })
+      .def_property_readonly("converged", [](const PyMonteCarlo& r) { return r.mc.converged; })
+      .def_property_readonly("n_validated", [](const PyMonteCarlo& r) { return r.mc.n_validated; })
+      .def_property_readonly("arrays", [](const PyMonteCarlo& r) { return monte_carlo_arrays(r.mc); },
+                             "Per value: station, error (0..5), angle_deg, mean, std, low, high (the probabilistically "
+                             "symmetric interval), linear_value, linear_u, linear_U, validated")
+      .def("summary", [](const PyMonteCarlo& r) { return io::monte_carlo_summary(r.mc); });
+
+  py::class_<PyEvaluateResult>(m, "EvaluateResult", "What a design can identify, and how well, before measuring")
+      .def_property_readonly("json", [](const PyEvaluateResult& r) { return to_python(r.json); },
+                             "The dict `dbbkit evaluate --out` writes")
+      .def_property_readonly("angles_deg", [](const PyEvaluateResult& r) { return angles_array(r.ev.errors); })
+      .def_property_readonly("std", [](const PyEvaluateResult& r) { return errors_array(r.ev.errors, false); },
+                             "(stations, 6): the reading-noise standard uncertainty (k = 1) of dx..ez [um, urad]; "
+                             "NaN where not determined")
+      .def_property_readonly("std_total",
+                             [](const PyEvaluateResult& r) -> py::object {
+                               if (!r.ev.setup_included) return py::none();
+                               return py::cast(errors_array(r.ev.total_errors, false));
+                             },
+                             "(stations, 6): noise and declared set-up tolerances; None when none are declared")
+      .def_property_readonly("worst_std_um",
+                             [](const PyEvaluateResult& r) -> py::object {
+                               return r.json.contains("worst_std_um") ? to_python(r.json.at("worst_std_um")) : py::none();
+                             })
+      .def_property_readonly("singular_values", [](const PyEvaluateResult& r) { return r.ev.prior.singular_values; })
+      .def_property_readonly("rank", [](const PyEvaluateResult& r) { return r.ev.prior.rank; })
+      .def_property_readonly("n_unknowns", [](const PyEvaluateResult& r) { return r.ev.prior.n_unknowns; })
+      .def_property_readonly("monte_carlo",
+                             [](const PyEvaluateResult& r) -> py::object {
+                               return r.mc ? py::cast(PyMonteCarlo{*r.mc}) : py::none();
+                             })
+      .def("summary", [](const PyEvaluateResult& r) { return io::evaluate_summary(r.design->value, r.ev); })
+      .def("report", &PyEvaluateResult::report, py::arg("format") = "html")
+      .def("_repr_html_", [](const PyEvaluateResult& r) { return iframe(r.report("html")); });
+
+  py::class_<PyIdentifyResult>(m, "IdentifyResult", "The identified errors with their uncertainty budget")
+      .def_property_readonly("json", [](const PyIdentifyResult& r) { return to_python(r.json); },
+                             "The dict `dbbkit identify --out` writes")
+      .def_property_readonly("angles_deg", [](const PyIdentifyResult& r) { return angles_array(r.result().errors); })
+      .def_property_readonly("values", [](const PyIdentifyResult& r) { return errors_array(r.result().errors, true); },
+                             "(stations, 6): dx, dy, dz [um], ex, ey, ez [urad]; NaN where not determined")
+      .def_property_readonly("std", [](const PyIdentifyResult& r) { return errors_array(r.result().errors, false); },
+                             "(stations, 6): combined standard uncertainty u_c (k = 1) of the budget")
+      .def_property_readonly("U", [](const PyIdentifyResult& r) { return r.budget_array(true); },
+                             "(stations, 6): expanded uncertainty k u_c at the coverage probability")
+      .def_property_readonly("k", [](const PyIdentifyResult& r) { return r.budget_array(false); },
+                             "(stations, 6): the coverage factor of each value (Student t at nu_eff)")
+      .def_property_readonly("coverage_probability",
+                             [](const PyIdentifyResult& r) { return r.result().budget.coverage_probability; })
+      .def_property_readonly("determined", [](const PyIdentifyResult& r) { return determined_array(r.result().errors); })
+      .def("covariance", &PyIdentifyResult::covariance,
+           "(6 stations, 6 stations): the joint covariance of the values (row 6 s + k: error k at station s), with "
+           "every component of u_c and their correlations; its diagonal is std**2; NaN where not determined")
+      .def_property_readonly("residuals_um", [](const PyIdentifyResult& r) { return r.result().estimate.residual_um; },
+                             "Reading minus the model's reading [um], in the order of the measurements")
+      .def_property_readonly("singular_values",
+                             [](const PyIdentifyResult& r) { return r.result().estimate.singular_values; },
+                             "Of the column-equilibrated whitened Jacobian, descending")
+      .def_property_readonly("rank", [](const PyIdentifyResult& r) { return r.result().estimate.rank; })
+      .def_property_readonly("n_unknowns", [](const PyIdentifyResult& r) { return r.result().estimate.n_unknowns; })
+      .def_property_readonly("n_readings", [](const PyIdentifyResult& r) { return r.result().estimate.n_readings; })
+      .def_property_readonly("chi2", [](const PyIdentifyResult& r) { return r.result().estimate.chi2; })
+      .def_property_readonly("dof", [](const PyIdentifyResult& r) { return r.result().estimate.dof; })
+      .def_property_readonly("p_value", [](const PyIdentifyResult& r) { return r.result().estimate.p_value; })
+      .def_property_readonly("budget", [](const PyIdentifyResult& r) { return to_python(r.json.at("budget")); },
+                             "The JCGM 100 budget of every value (components, u_c, nu_eff, k, U)")
+      .def_property_readonly("monte_carlo",
+                             [](const PyIdentifyResult& r) -> py::object {
+                               return r.mc ? py::cast(PyMonteCarlo{*r.mc}) : py::none();
+                             })
+      .def_property_readonly("conforms",
+                             [](const PyIdentifyResult& r) -> py::object {
+                               if (!r.conformance) return py::none();
+                               return py::bool_(!r.conformance->any_nonconforming());
+                             },
+                             "With tolerances: False when a quantity does not conform (ISO 14253-1), else True; "
+                             "None without tolerances")
+      .def("summary",
+           [](const PyIdentifyResult& r) {
+             std::string s = io::identify_summary(r.design->value, r.result());
+             if (r.mc) s += io::monte_carlo_summary(*r.mc);
+             if (r.conformance) s += io::conformance_text(*r.conformance);
+             return s;
+           },
+           "The tables `dbbkit identify` prints")
+      .def("report", &PyIdentifyResult::report, py::arg("format") = "html")
+      .def("_repr_html_", [](const PyIdentifyResult& r) { return iframe(r.report("html")); });
+
+  py::class_<PyDiagnoseResult>(m, "DiagnoseResult", "What the model does not explain, the effects added, before/after")
+      .def_property_readonly("json", [](const PyDiagnoseResult& r) { return to_python(r.json); },
+                             "The dict `dbbkit diagnose --out` writes")
+      .def_property_readonly("angles_deg", [](const PyDiagnoseResult& r) { return angles_array(r.result.errors_before); })
+      .def_property_readonly("values_before",
+                             [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_before, true); })
+      .def_property_readonly("std_before",
+                             [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_before, false); })
+      .def_property_readonly("values_after",
+                             [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_after, true); })
+      .def_property_readonly("std_after",
+                             [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_after, false); })
+      .def_property_readonly("residuals_before_um", [](const PyDiagnoseResult& r) { return r.result.before.residual_um; })
+      .def_property_readonly("residuals_after_um", [](const PyDiagnoseResult& r) { return r.result.after.residual_um; })
+      .def_property_readonly("rms_before_um", [](const PyDiagnoseResult& r) { return r.result.before.rms_um; })
+      .def_property_readonly("rms_after_um", [](const PyDiagnoseResult& r) { return r.result.after.rms_um; })
+      .def_property_readonly("added", [](const PyDiagnoseResult& r) { return to_python(r.json.at("added_effects")); },
+                             "The effects added, with values and evidence (as in the JSON)")
+      .def_property_readonly("verdict", [](const PyDiagnoseResult& r) { return r.result.verdict; })
+      .def("summary", [](const PyDiagnoseResult& r) { return io::diagnose_summary(r.design->value, r.result); },
+           "The tables `dbbkit diagnose` prints")
+      .def("report", &PyDiagnoseResult::report, py::arg("format") = "html")
+      .def("_repr_html_", [](const PyDiagnoseResult& r) { return iframe(r.report("html")); });
+
+  py::class_<PyOptimizeResult>(m, "OptimizeResult", "The search of a kit: the best design, every choice, the front")
+      .def_property_readonly("json", [](const PyOptimizeResult& r) { return to_python(r.json); },
+                             "The dict `dbbkit optimize --result` writes")
+      .def_property_readonly("design",
+                             [](const PyOptimizeResult& r) -> py::object {
+                               if (!r.result.best) return py::none();
+                               return py::cast(PyDesign{io::optimized_design(r.kit->value, r.result, r.kit->source),
+                                                        "optimized design", false});
+                             },
+                             "The best design (what `dbbkit optimize --out` writes); None when no choice is feasible")
+      .def_property_readonly("seconds", [](const PyOptimizeResult& r) { return r.seconds; })
+      .def("summary",
+           [](const PyOptimizeResult& r, bool pareto) {
+             return io::optimize_summary(r.kit->value, r.result, r.kit->source, r.seconds, r.reference, pareto);
+           },
+           py::arg("pareto") = false)
+      .def("report", &PyOptimizeResult::report, py::arg("format") = "html")
+      .def("_repr_html_", [](const PyOptimizeResult& r) { return iframe(r.report("html")); });
+
+  constexpr std::uint64_t kSeed = 1;
+  m.def("evaluate", &run_evaluate, py::arg("design"), py::arg("reference_length_mm") = py::none(),
+        py::arg("monte_carlo") = false, py::arg("coverage") = 0.95, py::arg("mc_seed") = kSeed,
+        py::arg("mc_threads") = 1, py::arg("mc_max_trials") = 2000000L, py::arg("mc_batch") = 10000L,
+        py::arg("mc_digits") = 2, "`dbbkit evaluate`: the a-priori uncertainty of a design (no readings)");
+  m.def("identify", &run_identify, py::arg("design"), py::arg("measurements"), py::arg("type_a") = false,
+        py::arg("coverage") = 0.95, py::arg("tolerances") = py::none(), py::arg("monte_carlo") = false,
+        py::arg("mc_seed") = kSeed, py::arg("mc_threads") = 1, py::arg("mc_max_trials") = 2000000L,
+        py::arg("mc_batch") = 10000L, py::arg("mc_digits") = 2,
+        "`dbbkit identify`: the six errors from the readings, their budget (JCGM 100), ISO 230-7 terms, and with "
+        "tolerances (a path or dict, dbbkit.tolerances/1) the conformance decisions");
+  m.def("diagnose", &run_diagnose, py::arg("design"), py::arg("measurements"), py::arg("level") = 0.01,
+        py::arg("max_effects") = 12, "`dbbkit diagnose`: the closed loop, before and after");
+  m.def("optimize", &run_optimize, py::arg("kit"), py::arg("criterion") = py::none(), py::arg("threads") = 0,
+        py::arg("require_setup_detection") = false, py::arg("reference") = py::none(),
+        "`dbbkit optimize`: the design of the kit with the smallest worst-case uncertainty (criterion: worst, "
+        "worst_total, D, A, E, condition); the result does not depend on threads");
+  m.def("simulate", &run_simulate, py::arg("design"), py::arg("truth"), py::arg("seed") = py::none(),
+        "`dbbkit simulate`: synthetic readings from a truth (a path or dict, dbbkit.truth/1)");
+}

@@ -1,0 +1,383 @@
+"""Tests of the Python module dbbkit, run by ctest (the standard unittest runner).
+
+The module's JSON is compared with the command line's on the committed designs and the
+paper's data; its arrays with that JSON (shapes, units, NaN where not determined); bad
+input must raise dbbkit.InputError naming the file or key; Ctrl-C must stop a long run.
+
+Environment (set by ctest): DBBKIT_SOURCE_DIR, DBBKIT_CLI, PYTHONPATH with the module.
+"""
+
+import glob
+import json
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import unittest
+
+import numpy as np
+
+import dbbkit
+
+SOURCE = os.environ["DBBKIT_SOURCE_DIR"]
+CLI = os.environ["DBBKIT_CLI"]
+PAPER_C = "designs/paper-c-turntable.json"
+PAPER_B = "designs/paper-b-head.json"
+DATA_C = "tests/data/paper/paper_c_turntable.csv"
+DATA_B = "tests/data/paper/paper_b_head.csv"
+NAMES = ("dx", "dy", "dz", "ex", "ey", "ez")
+
+
+def cli_json(*args):
+    """The JSON the command line writes with --out (paths relative to the source tree)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "out.json")
+        run = subprocess.run([CLI, *args, "--out", out, "--quiet"], cwd=SOURCE, capture_output=True, text=True)
+        if run.returncode not in (0, 1):
+            raise AssertionError(f"{args}: exit {run.returncode}: {run.stderr}")
+        with open(out) as f:
+            return json.load(f)
+
+
+def cli_text(*args):
+    return subprocess.run([CLI, *args], cwd=SOURCE, capture_output=True, text=True, check=True).stdout
+
+
+class InSource(unittest.TestCase):
+    def setUp(self):
+        self._cwd = os.getcwd()
+        os.chdir(SOURCE)
+
+    def tearDown(self):
+        os.chdir(self._cwd)
+
+
+class RoundTrips(InSource):
+    """The same inputs give the same JSON as the command line, to the last digit."""
+
+    def test_identify_on_the_papers_data(self):
+        for design, data in ((PAPER_C, DATA_C), (PAPER_B, DATA_B)):
+            d = dbbkit.Design(design)
+            r = dbbkit.identify(d, dbbkit.Measurements(data, d))
+            self.assertEqual(r.json, cli_json("identify", "--design", design, "--data", data), design)
+
+    def test_identify_with_tolerances_type_a_and_coverage(self):
+        tol = "designs/tolerances/c-turntable-acceptance.json"
+        d = dbbkit.Design(PAPER_C)
+        r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d), type_a=True, coverage=0.99, tolerances=tol)
+        expected = cli_json("identify", "--design", PAPER_C, "--data", DATA_C, "--type-a", "--coverage", "0.99",
+                            "--tolerances", tol)
+        self.assertEqual(r.json, expected)
+        verdict = expected["conformance"]["verdict"]
+        cli = subprocess.run([CLI, "identify", "--design", PAPER_C, "--data", DATA_C, "--type-a", "--coverage",
+                              "0.99", "--tolerances", tol, "--quiet", "--out", "-"], cwd=SOURCE, capture_output=True)
+        self.assertEqual(r.conforms, cli.returncode == 0, verdict)  # exit 1: does not conform
+
+    def test_identify_with_monte_carlo(self):
+        d = dbbkit.Design(PAPER_C)
+        r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d), monte_carlo=True, mc_seed=7, mc_threads=2)
+        self.assertEqual(r.json, cli_json("identify", "--design", PAPER_C, "--data", DATA_C, "--monte-carlo",
+                                          "--mc-seed", "7", "--mc-threads", "2"))
+        a = r.monte_carlo.arrays
+        self.assertEqual(len(a["mean"]), len(r.json["monte_carlo"]["values"]))
+        self.assertGreaterEqual(r.monte_carlo.trials, 10000)
+
+    def test_diagnose_on_the_papers_data(self):
+        for design, data in ((PAPER_C, DATA_C), (PAPER_B, DATA_B)):
+            d = dbbkit.Design(design)
+            r = dbbkit.diagnose(d, dbbkit.Measurements(data, d))
+            self.assertEqual(r.json, cli_json("diagnose", "--design", design, "--data", data), design)
+
+    def test_evaluate_every_committed_design(self):
+        designs = sorted(glob.glob("designs/*.json"))
+        self.assertGreaterEqual(len(designs), 8)
+        for design in designs:
+            r = dbbkit.evaluate(dbbkit.Design(design))
+            self.assertEqual(r.json, cli_json("evaluate", "--design", design), design)
+
+    def test_optimize_the_formats_kit(self):
+        kit = "designs/kits/c-turntable-kit.json"
+        r = dbbkit.optimize(dbbkit.Kit(kit), reference=dbbkit.Design(PAPER_C))
+        with tempfile.TemporaryDirectory() as tmp:
+            design_out, result_out = os.path.join(tmp, "d.json"), os.path.join(tmp, "r.json")
+            subprocess.run([CLI, "optimize", "--kit", kit, "--reference", PAPER_C, "--out", design_out,
+                            "--result", result_out, "--quiet"], cwd=SOURCE, check=True)
+            with open(result_out) as f:
+                expected = json.load(f)
+            with open(design_out) as f:
+                expected_design = json.load(f)
+        got = r.json
+        for j in (got, expected):
+            del j["seconds"]  # the search's own time
+        self.assertEqual(got, expected)
+        self.assertEqual(r.design.to_dict(), expected_design)
+
+    def test_simulate(self):
+        truth = "tests/data/truth_c_per_angle.json"
+        d = dbbkit.Design(PAPER_C)
+        m = dbbkit.simulate(d, truth, seed=11)
+        self.assertEqual(m.to_csv(), cli_text("simulate", "--design", PAPER_C, "--truth", truth, "--seed", "11"))
+        with open(truth) as f:
+            as_dict = json.load(f)
+        self.assertEqual(dbbkit.simulate(d, as_dict, seed=11).to_csv(), m.to_csv())
+
+    def test_design_from_a_dict(self):
+        d = dbbkit.Design(PAPER_C)
+        again = dbbkit.Design(d.to_dict())
+        self.assertEqual(again.to_dict(), d.to_dict())
+        with open(PAPER_C) as f:
+            raw = json.load(f)
+        m = dbbkit.Measurements(DATA_C, d)
+        from_dict = dbbkit.identify(dbbkit.Design(raw), m).json
+        from_file = dbbkit.identify(d, m).json
+        self.assertEqual(from_dict["inputs"]["design"], "design")
+        from_dict["inputs"] = from_file["inputs"]
+        self.assertEqual(from_dict, from_file)
+
+    def test_measurements_from_arrays_and_csv(self):
+        d = dbbkit.Design(PAPER_C)
+        m = dbbkit.Measurements(DATA_C, d)
+        arrays = dbbkit.Measurements.from_arrays(d, m.installation, m.angle_deg, m.reading_um, time_s=m.time_s)
+        with open(DATA_C) as f:
+            text = dbbkit.Measurements.from_csv(f.read(), d)
+        for other in (arrays, text):
+            np.testing.assert_array_equal(dbbkit.identify(d, other).values, dbbkit.identify(d, m).values)
+
+
+class Arrays(InSource):
+    """NumPy arrays of the right shape and units, equal to the JSON's values."""
+
+    @classmethod
+    def setUpClass(cls):
+        d = dbbkit.Design(os.path.join(SOURCE, PAPER_C))
+        cls.m = dbbkit.Measurements(os.path.join(SOURCE, DATA_C), d)
+        cls.r = dbbkit.identify(d, cls.m)
+
+    def test_errors_per_angle(self):
+        r = self.r
+        stations = len(r.json["errors"])
+        self.assertEqual(stations, 18)  # 0..340 deg; 360 is 0
+        for name in ("values", "std", "U", "k"):
+            self.assertEqual(getattr(r, name).shape, (stations, 6), name)
+            self.assertEqual(getattr(r, name).dtype, np.float64, name)
+        self.assertEqual(r.determined.dtype, np.bool_)
+        np.testing.assert_array_equal(r.angles_deg, [e["angle_deg"] for e in r.json["errors"]])
+        self.assertEqual(r.json["units"], dict(zip(NAMES, dbbkit.ERROR_UNITS)))
+        for s, e in enumerate(r.json["errors"]):
+            for k, name in enumerate(NAMES):
+                for array, key in ((r.values, "value"), (r.std, "std"), (r.U, "U")):
+                    if e[key][name] is None:
+                        self.assertTrue(math.isnan(array[s, k]))
+                        self.assertFalse(r.determined[s, k])
+                    else:
+                        self.assertAlmostEqual(array[s, k], e[key][name], delta=1e-6)
+
+    def test_covariance(self):
+        r = self.r
+        c = r.covariance()
+        self.assertEqual(c.shape, (6 * 18, 6 * 18))
+        np.testing.assert_allclose(np.sqrt(np.diag(c)), r.std.ravel(), rtol=1e-9)
+        self.assertTrue(np.allclose(c, c.T))
+        self.assertGreater(np.linalg.eigvalsh(c).min(), -1e-9 * np.abs(c).max())
+
+    def test_residuals_and_singular_values(self):
+        r = self.r
+        self.assertEqual(r.residuals_um.shape, (len(self.m),))
+        self.assertAlmostEqual(math.sqrt(np.mean(r.residuals_um ** 2)), r.json["residual"]["rms_um"], delta=1e-6)
+        self.assertEqual(r.singular_values.shape, (r.n_unknowns,))
+        self.assertTrue(np.all(np.diff(r.singular_values) <= 0))
+        self.assertEqual(r.rank, r.json["rank"])
+        self.assertEqual((r.chi2 > 0, r.dof), (True, r.json["residual"]["dof"]))
+
+    def test_diagnose_before_and_after(self):
+        d = dbbkit.Design(os.path.join(SOURCE, PAPER_C))
+        g = dbbkit.diagnose(d, self.m)
+        self.assertEqual(g.values_before.shape, g.values_after.shape)
+        self.assertEqual(g.residuals_after_um.shape, (len(self.m),))
+        self.assertAlmostEqual(g.rms_before_um, g.json["before"]["rms_um"], delta=1e-6)
+        self.assertEqual([a["label"] for a in g.added], ["length_offset[2r]", "centring[2r]"])
+
+    def test_evaluate_arrays(self):
+        e = dbbkit.evaluate(dbbkit.Design(os.path.join(SOURCE, PAPER_C)))
+        self.assertEqual(e.std.shape, (18, 6))
+        self.assertAlmostEqual(np.nanmax(e.std[:, :3]), e.json["worst_std_um"], delta=1e-6)
+        self.assertIsNone(e.std_total)
+        self.assertEqual(e.singular_values.shape, (e.n_unknowns,))
+
+
+class BadInput(InSource):
+    """The readers' errors, as dbbkit.InputError (a ValueError) naming the file or key."""
+
+    def assertInputError(self, call, source=None, where=None, detail=None):
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            call()
+        e = ctx.exception
+        self.assertIsInstance(e, ValueError)
+        if source is not None:
+            self.assertEqual(e.source, source)
+        if where is not None:
+            self.assertEqual(e.where, where)
+        if detail is not None:
+            self.assertRegex(e.detail, detail)
+        return e
+
+    def test_design_dict(self):
+        with open(PAPER_C) as f:
+            raw = json.load(f)
+        raw["installations"][3]["direction"] = "sideways"
+        self.assertInputError(lambda: dbbkit.Design(raw), "design", "installations[3].direction")
+        raw = json.loads(json.dumps(raw).replace('"sideways"', '"radial"'))
+        raw["noise"]["half_width_um"] = float("nan")
+        self.assertInputError(lambda: dbbkit.Design(raw), "design", "noise.half_width_um", "finite")
+        raw["noise"]["half_width_um"] = object()
+        self.assertInputError(lambda: dbbkit.Design(raw), "design", "noise.half_width_um", "object")
+
+    def test_design_file(self):
+        self.assertInputError(lambda: dbbkit.Design("no/such/design.json"), "no/such/design.json")
+        bad = sorted(glob.glob("tests/data/bad/design_*.json"))
+        self.assertGreater(len(bad), 5)
+        for path in bad:
+            e = self.assertInputError(lambda: dbbkit.Design(path), path)
+            run = subprocess.run([CLI, "evaluate", "--design", path], capture_output=True, text=True)
+            self.assertEqual(run.returncode, 2, path)
+            self.assertIn(str(e), run.stderr, path)  # the same message as the command line
+
+    def test_measurements(self):
+        d = dbbkit.Design(PAPER_C)
+        m = dbbkit.Measurements(DATA_C, d)
+        ids = list(m.installation)
+        ids[5] = "9z"
+        self.assertInputError(lambda: dbbkit.Measurements.from_arrays(d, ids, m.angle_deg, m.reading_um),
+                              "measurements", "index 5", "9z")
+        self.assertInputError(lambda: dbbkit.Measurements.from_arrays(d, m.installation, m.angle_deg[:-1],
+                                                                      m.reading_um), "measurements", "angle_deg")
+        self.assertInputError(lambda: dbbkit.Measurements.from_csv("installation,angle_deg,reading_um\n1r,0,x\n", d),
+                              "csv", "line 2, column reading_um")
+        self.assertInputError(lambda: dbbkit.identify(dbbkit.Design(PAPER_B), m), DATA_C)  # readings of another design
+
+    def test_arguments(self):
+        d = dbbkit.Design(PAPER_C)
+        m = dbbkit.Measurements(DATA_C, d)
+        self.assertInputError(lambda: dbbkit.identify(d, m, coverage=1.5), "argument", "coverage")
+        self.assertInputError(lambda: dbbkit.identify(d, m, coverage=float("nan")), "argument", "coverage")
+        self.assertInputError(lambda: dbbkit.identify(d, m, mc_threads=100000), "argument", "mc_threads")
+        self.assertInputError(lambda: dbbkit.diagnose(d, m, level=0.5), "argument", "level")
+        self.assertInputError(lambda: dbbkit.evaluate(d, reference_length_mm=float("inf")), "argument",
+                              "reference_length_mm")
+        kit = dbbkit.Kit("designs/kits/c-turntable-kit.json")
+        self.assertInputError(lambda: dbbkit.optimize(kit, criterion="best"), "criterion", None, "unknown criterion")
+        self.assertInputError(lambda: dbbkit.optimize(kit, threads=-1), "argument", "threads")
+        self.assertInputError(lambda: dbbkit.identify(d, m, tolerances={"format": "dbbkit.tolerances/1",
+                                                                        "limits": [{"quantity": "XOC"}]}),
+                              "tolerances", None)
+        with self.assertRaises(TypeError):
+            dbbkit.identify(d, "tests/data/paper/paper_c_turntable.csv")  # a path is not readings
+
+
+class Interaction(InSource):
+    def test_gil_is_released_during_a_long_run(self):
+        kit = dbbkit.Kit("designs/kits/c-turntable-kit.json")
+        done = threading.Event()
+        ticks = 0
+
+        def work():
+            dbbkit.optimize(kit, threads=1)
+            done.set()
+
+        t = threading.Thread(target=work)
+        t.start()
+        while not done.is_set():
+            ticks += 1
+            time.sleep(0.001)
+        t.join()
+        self.assertGreater(ticks, 100)  # the interpreter ran beside the search
+
+    def test_ctrl_c_stops_monte_carlo_and_optimize(self):
+        script = (
+            "import sys, time, dbbkit\n"
+            "d = dbbkit.Design(sys.argv[1])\n"
+            "k = dbbkit.Kit(sys.argv[2])\n"
+            "print('ready', flush=True)\n"
+            "t = time.time()\n"
+            "try:\n"
+            "    if sys.argv[3] == 'mc':\n"
+            "        dbbkit.evaluate(d, monte_carlo=True, mc_digits=4, mc_max_trials=1000000000)\n"
+            "    else:\n"
+            "        dbbkit.optimize(k, threads=2)\n"
+            "    print('finished', time.time() - t)\n"
+            "except KeyboardInterrupt:\n"
+            "    print('interrupted', time.time() - t)\n")
+        for what in ("mc", "optimize"):
+            p = subprocess.Popen([sys.executable, "-c", script, PAPER_C, "designs/kits/c-turntable-kit-setup.json",
+                                  what], stdout=subprocess.PIPE, text=True, env=os.environ)
+            self.assertEqual(p.stdout.readline().strip(), "ready")
+            time.sleep(1.0)
+            p.send_signal(signal.SIGINT)
+            out, _ = p.communicate(timeout=60)
+            words = out.split()
+            self.assertEqual(words[0], "interrupted", what)
+            self.assertLess(float(words[1]), 10.0, what)  # the run would take minutes
+
+    def test_repr_html_is_the_report(self):
+        d = dbbkit.Design(PAPER_C)
+        r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d))
+        html = r._repr_html_()
+        self.assertTrue(html.startswith("<iframe"))
+        self.assertIn("<svg", html)
+        report = r.report()
+        for heading in re.findall(r"<h2[^>]*>([^<]+)</h2>", report):
+            self.assertIn(heading.replace("&", "&amp;"), html)
+        self.assertIn("## ", r.report("markdown"))
+
+
+class ReadmeExample(unittest.TestCase):
+    """The README's Python example prints what the README shows, and its figures are the CLI's."""
+
+    def test_readme_example(self):
+        with open(os.path.join(SOURCE, "README.md")) as f:
+            readme = f.read()
+        m = re.search(r"<!-- python-example -->\s*```python\n(.*?)```\s*```text\n(.*?)```", readme, re.S)
+        self.assertIsNotNone(m, "the README's Python example (marked <!-- python-example -->)")
+        code, shown = m.group(1), m.group(2)
+        run = subprocess.run([sys.executable, "-c", code], cwd=SOURCE, capture_output=True, text=True,
+                             env=os.environ)
+        self.assertEqual(run.returncode, 0, run.stderr)
+        self.assertEqual(run.stdout, shown)
+        # Every figure it prints against the command line's JSON on the same inputs.
+        g = cli_json("diagnose", "--design", PAPER_C, "--data", DATA_C)
+        r = cli_json("identify", "--design", PAPER_C, "--data", DATA_C)
+        lines = run.stdout.splitlines()
+        for line, when in zip(lines[:2], ("before", "after")):
+            rms, chi2, dof = re.match(r"\w+: +rms (\S+) um, chi2 (\S+) on (\d+) dof", line).groups()
+            self.assertEqual(float(rms), float(f"{g[when]['rms_um']:.6g}"))
+            self.assertEqual(float(chi2), float(f"{g[when]['chi2']:.6g}"))
+            self.assertEqual(int(dof), g[when]["dof"])
+        for line, e in zip(lines[2:4], g["added_effects"]):
+            self.assertTrue(line.startswith(f"added {e['label']}: "), line)
+            for p, v, u in re.findall(r"(\w+) = (\S+) \+- ([0-9.]+)", line):
+                self.assertEqual((float(v), float(u)), (round(e["value"][p], 3), round(e["std"][p], 3)))
+        rows = [l.split() for l in lines[5:11]]
+        self.assertEqual(len(rows), 6)
+        for row in rows:
+            s = int(float(row[0])) // 20
+            before, after = g["errors_before"][s]["value"], g["errors"][s]["value"]
+            self.assertEqual([float(x) for x in row[1:]],
+                             [round(before["dx"], 3), round(after["dx"], 3), round(before["ey"], 3),
+                              round(after["ey"], 3)])
+        change = dict(re.findall(r"(\w+) ([0-9.]+)", lines[11].split(":", 1)[1]))
+        self.assertEqual({k: float(v) for k, v in change.items()},
+                         {k: round(v, 1) for k, v in g["largest_change_of_errors"].items() if v})
+        value, u, U, k = re.match(r"dx at 0 deg = (\S+) um, u_c = (\S+) um, U = (\S+) um \(k = (\S+)\)",
+                                  lines[12]).groups()
+        e0 = r["errors"][0]
+        self.assertEqual((float(value), float(u), float(U)),
+                         (round(e0["value"]["dx"], 3), round(e0["std"]["dx"], 3), round(e0["U"]["dx"], 3)))
+        self.assertEqual(float(k), round(r["budget"]["values"][0]["k"], 2))
+
+if __name__ == "__main__":
+    unittest.main()
