@@ -110,6 +110,27 @@ Eigen::MatrixXd SetupSolver::left_gain(const Eigen::MatrixXd& C) const {
   return A;
 }
 
+Eigen::VectorXd SetupSolver::left_gain_l1(const Eigen::MatrixXd& C) const {
+  const Eigen::MatrixXd Gt = base_->gain().transpose();  // readings x unknowns: row j of G0 contiguous
+  Eigen::MatrixXd Dt;                                    // D', readings x set-up columns
+  if (any()) {
+    const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
+    const Eigen::MatrixXd M = (S_inv_ * R_.transpose()) * w.asDiagonal();  // S^-1 R' W^1/2, q x n
+    Dt = ((M * base_->J()) * base_->gain() - M).transpose();
+  }
+  Eigen::VectorXd out(C.rows());
+  Eigen::VectorXd a(Gt.rows());
+  for (Eigen::Index i = 0; i < C.rows(); ++i) {
+    a.setZero();
+    for (Eigen::Index j = 0; j < C.cols(); ++j) {
+      if (C(i, j) != 0.0) a.noalias() += C(i, j) * Gt.col(j);
+    }
+    if (any()) a.noalias() += Dt * (K_.transpose() * C.row(i).transpose());
+    out(i) = a.lpNorm<1>();
+  }
+  return out;
+}
+
 Eigen::MatrixXd SetupSolver::setup_draw_map(const Eigen::MatrixXd& C) const {
   if (!any()) return Eigen::MatrixXd::Zero(C.rows(), 0);
   return (C * K_) * S_inv_ * prior_std_.cwiseInverse().asDiagonal();
@@ -309,12 +330,12 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
 void bound_first_order_bias(FirstOrderCheck& check, const SetupSolver& solver, const Parameterisation& param,
                             const Budget& budget) {
   if (!check.computed || budget.values.empty()) return;
-  const Eigen::MatrixXd A = solver.left_gain(budget_functions(param, budget));
+  const Eigen::VectorXd l1 = solver.left_gain_l1(budget_functions(param, budget));  // |c'G|_1 per value
   double worst = -1;
   for (std::size_t v = 0; v < budget.values.size(); ++v) {
     const ValueBudget& vb = budget.values[v];
     if (!(vb.u_c > 0)) continue;
-    const double ratio = check.largest_term_um * A.row(static_cast<Eigen::Index>(v)).lpNorm<1>() / vb.u_c;
+    const double ratio = check.largest_term_um * l1(static_cast<Eigen::Index>(v)) / vb.u_c;
     if (ratio > worst) {
       worst = ratio;
       check.bias_bound_std = ratio;

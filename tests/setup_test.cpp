@@ -490,3 +490,39 @@ TEST(SetupSearch, TheSearchCriterionEqualsEvaluatesWorstTotal) {
 
 }  // namespace
 }  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// left_gain: C theta_hat = left_gain(C) y for any readings y (the estimate the set-up solver
+// returns), and left_gain_l1 the 1-norms of its rows without forming it; with and without
+// declared tolerances, on a per-angle and a Fourier design.
+TEST(LeftGain, IsTheEstimatesResponseAndItsRowNormsAreFormedWithoutIt) {
+  Design fourier = test::paper_design('C');
+  fourier.errors = {ErrorModel::Kind::Fourier, 3};
+  for (const Design& base : {test::paper_design('C'), fourier}) {
+    for (const bool tolerances : {false, true}) {
+      const Design d = tolerances ? with_setup(base, 10, 5) : base;
+      const Parameterisation param(d);
+      const LinearModel model = build_linear_model(d, param, nominal_readings(d));
+      const WlsSolver solver(model.J, model.sigma_um);
+      const SetupSolver setup(solver, setup_effects(d, model, true));
+      ASSERT_EQ(setup.any(), tolerances);
+      Eigen::MatrixXd C(6 * param.n_stations(), param.n_parameters());
+      for (int s = 0; s < param.n_stations(); ++s) C.middleRows(6 * s, 6) = param.error_map(s);
+      const Eigen::MatrixXd A = setup.left_gain(C);
+      std::mt19937 rng(4);
+      std::normal_distribution<double> z(0.0, 3.0);
+      Eigen::VectorXd y(model.J.rows());
+      for (Eigen::Index i = 0; i < y.size(); ++i) y(i) = z(rng);
+      const Eigen::VectorXd response = C * setup.solve(y).theta;
+      EXPECT_TRUE(test::near(A * y, response, 1e-9 * response.cwiseAbs().maxCoeff())) << tolerances;
+      const Eigen::VectorXd l1 = setup.left_gain_l1(C);
+      const Eigen::VectorXd expected = A.rowwise().lpNorm<1>();
+      EXPECT_TRUE(test::near(l1, expected, 1e-12 * expected.maxCoeff(), 1e-10)) << tolerances;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace dbbkit
