@@ -1,10 +1,13 @@
 #include "dbbkit/estimate.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <boost/math/distributions/chi_squared.hpp>
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
+#include <optional>
 #include <vector>
 
 namespace dbbkit {
@@ -93,26 +96,69 @@ WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, 
   // JacobiSVD, not BDCSVD: Eigen 3.4.0's divide-and-conquer SVD fails (an index
   // assertion in debug builds, NaNs in release builds) on some rank-deficient
   // matrices such as the B head augmented with centring columns.
+  // A block through its normal equations (EstimateOptions::normal_equations_tolerance):
+  // V and s from the eigen-decomposition of sub' sub, no U (the gain comes from the
+  // covariance); `sub` kept for it.
   struct BlockSvd {
     Eigen::MatrixXd U, V;
     Eigen::VectorXd s;
+    bool normal = false;
+    Eigen::MatrixXd sub;
   };
-  std::vector<BlockSvd> svds(n_blocks);
-  double s_max = 0;
-  for (int b = 0; b < n_blocks; ++b) {
+  auto block_matrix = [&](int b) {
     Eigen::MatrixXd sub(rows[b].size(), cols[b].size());
     for (std::size_t r = 0; r < rows[b].size(); ++r) {
       for (std::size_t c = 0; c < cols[b].size(); ++c) sub(r, c) = Js(rows[b][r], cols[b][c]);
     }
+    return sub;
+  };
+  auto block_svd = [](const Eigen::MatrixXd& sub) {
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(sub, Eigen::ComputeThinU | Eigen::ComputeFullV);
+    return BlockSvd{svd.matrixU(), svd.matrixV(), svd.singularValues(), false, {}};
+  };
+  // The normal equations when the condition bound holds; nullopt otherwise.
+  auto block_normal = [&](Eigen::MatrixXd sub) -> std::optional<BlockSvd> {
+    const Eigen::Index c = sub.cols();
+    if (!(options.normal_equations_tolerance > 0) || c < options.normal_equations_min_columns || sub.rows() < c) {
+      return std::nullopt;
+    }
+    Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(c, c);
+    gram.selfadjointView<Eigen::Lower>().rankUpdate(sub.transpose());
+    gram = gram.selfadjointView<Eigen::Lower>();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(gram);
+    if (eig.info() != Eigen::Success) return std::nullopt;
+    const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
+    const double kappa2 = lambda(c - 1) / lambda(0);
+    const double bound = kappa2 * static_cast<double>(sub.rows()) * std::numeric_limits<double>::epsilon();
+    if (!(lambda(0) > 0) || !(bound <= options.normal_equations_tolerance)) return std::nullopt;
+    BlockSvd d;
+    d.s = lambda.reverse().cwiseSqrt();
+    d.V = eig.eigenvectors().rowwise().reverse();
+    d.normal = true;
+    d.sub = std::move(sub);
+    return d;
+  };
+  std::vector<BlockSvd> svds(n_blocks);
+  double s_max = 0;
+  for (int b = 0; b < n_blocks; ++b) {
+    Eigen::MatrixXd sub = block_matrix(b);
     if (sub.rows() == 0) {
       svds[b].V = Eigen::MatrixXd::Identity(sub.cols(), sub.cols());
       svds[b].U = Eigen::MatrixXd(0, 0);
       svds[b].s = Eigen::VectorXd(0);
       continue;
     }
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(sub, Eigen::ComputeThinU | Eigen::ComputeFullV);
-    svds[b] = {svd.matrixU(), svd.matrixV(), svd.singularValues()};
+    std::optional<BlockSvd> normal = block_normal(sub);
+    svds[b] = normal ? std::move(*normal) : block_svd(sub);
     if (svds[b].s.size() > 0) s_max = std::max(s_max, svds[b].s(0));
+  }
+  // The normal equations resolve no singular value near the rank tolerance: a block with
+  // one below it (against the largest of the whole matrix) is factorised by SVD after all.
+  for (int b = 0; b < n_blocks; ++b) {
+    if (svds[b].normal && !(svds[b].s.minCoeff() > options.min_relative_singular_value * s_max)) {
+      svds[b] = block_svd(svds[b].sub);
+    }
+    est.normal_equation_blocks += svds[b].normal;
   }
 
   const Eigen::VectorXd unscale = est.column_scale.cwiseInverse();
@@ -131,8 +177,9 @@ WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, 
     rank += r;
     const Eigen::MatrixXd Vr = d.V.leftCols(r);
     const Eigen::VectorXd inv_s = d.s.head(r).cwiseInverse();
-    const Eigen::MatrixXd g = Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose();  // scaled, whitened
     const Eigen::MatrixXd c = Vr * inv_s.cwiseAbs2().asDiagonal() * Vr.transpose();
+    const Eigen::MatrixXd g = d.normal ? Eigen::MatrixXd(c * d.sub.transpose())  // scaled, whitened
+                                       : Eigen::MatrixXd(Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose());
     for (std::size_t a = 0; a < cols[b].size(); ++a) {
       const int ja = cols[b][a];
       for (std::size_t rr = 0; rr < rows[b].size(); ++rr) {

@@ -7,6 +7,7 @@
 #include <boost/math/distributions/fisher_f.hpp>
 #include <boost/math/distributions/non_central_f.hpp>
 #include <cmath>
+#include <map>
 
 #include "dbbkit/kinematics.hpp"
 
@@ -111,22 +112,44 @@ Eigen::MatrixXd SetupSolver::left_gain(const Eigen::MatrixXd& C) const {
 }
 
 Eigen::VectorXd SetupSolver::left_gain_l1(const Eigen::MatrixXd& C) const {
-  const Eigen::MatrixXd Gt = base_->gain().transpose();  // readings x unknowns: row j of G0 contiguous
-  Eigen::MatrixXd Dt;                                    // D', readings x set-up columns
+  const Eigen::MatrixXd Gt = base_->gain().transpose();  // n x p: row j of G0 contiguous
+  Eigen::MatrixXd Dt;                                    // D', n x q
   if (any()) {
     const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
     const Eigen::MatrixXd M = (S_inv_ * R_.transpose()) * w.asDiagonal();  // S^-1 R' W^1/2, q x n
     Dt = ((M * base_->J()) * base_->gain() - M).transpose();
   }
-  Eigen::VectorXd out(C.rows());
-  Eigen::VectorXd a(Gt.rows());
+  // Rows with the same support (a series: one error's coefficients; per angle: one station)
+  // go together through one dense product on that support, at most kChunk rows at a time,
+  // formed transposed so that each row's values are contiguous.
+  std::map<std::vector<Eigen::Index>, std::vector<Eigen::Index>> groups;
   for (Eigen::Index i = 0; i < C.rows(); ++i) {
-    a.setZero();
+    std::vector<Eigen::Index> support;
     for (Eigen::Index j = 0; j < C.cols(); ++j) {
-      if (C(i, j) != 0.0) a.noalias() += C(i, j) * Gt.col(j);
+      if (C(i, j) != 0.0) support.push_back(j);
     }
-    if (any()) a.noalias() += Dt * (K_.transpose() * C.row(i).transpose());
-    out(i) = a.lpNorm<1>();
+    groups[support].push_back(i);
+  }
+  constexpr std::size_t kChunk = 256;
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(C.rows());
+  for (const auto& [support, rows] : groups) {
+    const Eigen::Index k = static_cast<Eigen::Index>(support.size());
+    Eigen::MatrixXd GsT(Gt.rows(), k);  // (the rows of G0 on the support)'
+    for (Eigen::Index j = 0; j < k; ++j) GsT.col(j) = Gt.col(support[j]);
+    for (std::size_t first = 0; first < rows.size(); first += kChunk) {
+      const Eigen::Index m = static_cast<Eigen::Index>(std::min(kChunk, rows.size() - first));
+      Eigen::MatrixXd CsT(k, m);
+      for (Eigen::Index r = 0; r < m; ++r) {
+        for (Eigen::Index j = 0; j < k; ++j) CsT(j, r) = C(rows[first + r], support[j]);
+      }
+      Eigen::MatrixXd At = GsT * CsT;  // n x m: column r is row r of C G0
+      if (any()) {
+        Eigen::MatrixXd KC(K_.cols(), m);
+        for (Eigen::Index r = 0; r < m; ++r) KC.col(r) = K_.transpose() * C.row(rows[first + r]).transpose();
+        At.noalias() += Dt * KC;
+      }
+      for (Eigen::Index r = 0; r < m; ++r) out(rows[first + r]) = At.col(r).lpNorm<1>();
+    }
   }
   return out;
 }

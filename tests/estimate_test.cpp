@@ -6,6 +6,9 @@
 #include <cmath>
 #include <random>
 
+#include "dbbkit/linear_model.hpp"
+#include "dbbkit/measurement.hpp"
+#include "dbbkit/parameterisation.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -138,6 +141,72 @@ TEST(Estimate, NoReadingsGivesNoNumbers) {
   EXPECT_EQ(est.status, EstimateStatus::kNoReadings);
   EXPECT_FALSE(est.evaluate(Eigen::Vector3d(1, 0, 0)).determined);
   EXPECT_FALSE(est.p_value.has_value());
+}
+
+}  // namespace
+}  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// The normal-equations path (a series block of >= 32 columns whose condition bound holds)
+// against the SVD of the same block (the path turned off): singular values, covariance,
+// gain and the estimate agree; a block past the bound, or rank-deficient, takes the SVD.
+TEST(Estimate, NormalEquationsPathAgreesWithTheSvd) {
+  std::mt19937 rng(8);
+  std::normal_distribution<double> z;
+  const int n = 400, p = 40;
+  EstimateOptions svd_only;
+  svd_only.normal_equations_tolerance = 0;
+  for (const double kappa : {10.0, 1e3, 1e6}) {
+    // J = Q1 diag(s) Q2' with singular values from 1 down to 1/kappa (before equilibration).
+    Eigen::MatrixXd A(n, p), B(p, p);
+    for (Eigen::Index i = 0; i < A.size(); ++i) A.data()[i] = z(rng);
+    for (Eigen::Index i = 0; i < B.size(); ++i) B.data()[i] = z(rng);
+    const Eigen::MatrixXd Q1 = Eigen::HouseholderQR<Eigen::MatrixXd>(A).householderQ() * Eigen::MatrixXd::Identity(n, p);
+    const Eigen::MatrixXd Q2 = Eigen::HouseholderQR<Eigen::MatrixXd>(B).householderQ();
+    Eigen::VectorXd s(p);
+    for (int k = 0; k < p; ++k) s(k) = std::pow(kappa, -static_cast<double>(k) / (p - 1));
+    const Eigen::MatrixXd J = Q1 * s.asDiagonal() * Q2.transpose();
+    Eigen::VectorXd sigma(n), y(n);
+    for (int i = 0; i < n; ++i) sigma(i) = 0.5 + 0.01 * (i % 7), y(i) = z(rng);
+    const WlsSolver normal(J, sigma), svd(J, sigma, svd_only);
+    EXPECT_EQ(svd.a_priori().normal_equation_blocks, 0);
+    // kappa^2 n eps <= 1e-6 holds for the equilibrated block up to kappa ~ 2e3
+    EXPECT_EQ(normal.a_priori().normal_equation_blocks, kappa < 1e4 ? 1 : 0) << kappa;
+    const Estimate a = normal.solve(y), b = svd.solve(y);
+    EXPECT_TRUE(test::near(a.singular_values, b.singular_values, 0, 1e-9)) << kappa;
+    const double tol = 1e-9 * std::max(1.0, kappa * kappa * 1e-6);  // the bound's own allowance
+    EXPECT_TRUE(test::near(a.covariance, b.covariance, tol * b.covariance.cwiseAbs().maxCoeff())) << kappa;
+    EXPECT_TRUE(test::near(normal.gain(), svd.gain(), tol * svd.gain().cwiseAbs().maxCoeff())) << kappa;
+    EXPECT_TRUE(test::near(a.theta, b.theta, tol * b.theta.cwiseAbs().maxCoeff())) << kappa;
+    EXPECT_EQ(a.rank, p);
+  }
+  // Rank-deficient: two equal columns. The eigenvalue 0 fails the bound; the SVD answers.
+  Eigen::MatrixXd J(n, p);
+  for (Eigen::Index i = 0; i < J.size(); ++i) J.data()[i] = z(rng);
+  J.col(p - 1) = J.col(0);
+  const WlsSolver deficient(J, Eigen::VectorXd::Ones(n));
+  EXPECT_EQ(deficient.a_priori().normal_equation_blocks, 0);
+  EXPECT_EQ(deficient.a_priori().rank, p - 1);
+}
+
+// A Fourier identification (order 20, 246 unknowns) takes the normal equations and gives
+// the SVD's values and uncertainties.
+TEST(Estimate, FourierIdentificationTakesTheNormalEquations) {
+  Design d = test::paper_design('C');
+  d.angles_deg.clear();
+  for (int i = 0; i < 72; ++i) d.angles_deg.push_back(5.0 * i);
+  d.errors = {ErrorModel::Kind::Fourier, 20};
+  const Parameterisation param(d);
+  const LinearModel model = build_linear_model(d, param, nominal_readings(d));
+  EstimateOptions svd_only;
+  svd_only.normal_equations_tolerance = 0;
+  const WlsSolver normal(model.J, model.sigma_um), svd(model.J, model.sigma_um, svd_only);
+  EXPECT_GT(normal.a_priori().normal_equation_blocks, 0);  // the model splits into independent blocks
+  EXPECT_TRUE(test::near(normal.a_priori().covariance, svd.a_priori().covariance,
+                         1e-9 * svd.a_priori().covariance.cwiseAbs().maxCoeff()));
+  EXPECT_TRUE(test::near(normal.gain(), svd.gain(), 1e-9 * svd.gain().cwiseAbs().maxCoeff()));
 }
 
 }  // namespace

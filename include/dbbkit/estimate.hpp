@@ -25,6 +25,16 @@ struct EstimateOptions {
   // Column j of Sigma^-1/2 J is treated as zero when
   //   |column j| <= negligible_column * max_k |column k|.
   double negligible_column = 1e-12;
+  // An independent block of at least normal_equations_min_columns columns and as many rows
+  // (a series model) is factorised through its normal equations: the eigen-decomposition of
+  // Js_b' Js_b instead of an SVD of the tall block, and the gain from the covariance
+  // (G = (Js_b' Js_b)^-1 Js_b', no U). Taken only when the block's condition number kappa
+  // (from those eigenvalues) satisfies
+  //   kappa^2 * rows * epsilon <= normal_equations_tolerance,
+  // a bound on the relative error the squaring adds to the covariance, and when every
+  // singular value counts toward the rank; otherwise (and with a tolerance of 0) the SVD.
+  double normal_equations_tolerance = 1e-6;
+  int normal_equations_min_columns = 32;
 };
 
 enum class EstimateStatus { kFullRank, kRankDeficient, kNoReadings };
@@ -64,6 +74,7 @@ struct Estimate {
   std::optional<double> p_value;  // P(chi2_dof >= chi2); absent when dof = 0
 
   double estimable_tolerance = 0.0;
+  int normal_equation_blocks = 0;  // blocks factorised through the normal equations (EstimateOptions)
 
   // The function c.theta (c in theta units).
   Determined evaluate(const Eigen::VectorXd& c) const;

@@ -87,8 +87,9 @@ class SetupSolver {
   //   C G = C G0 - T W^1/2 + (T W^1/2 J) G0,  T = C K S^-1 R'.
   Eigen::MatrixXd left_gain(const Eigen::MatrixXd& C) const;
   // The 1-norm of every row of left_gain(C), without forming it: each row is c'G0 from the
-  // rows of G0 that c touches, plus (K'c)' D with D = S^-1 R' W^1/2 (J G0 - I) formed once
-  // (memory: the readings times the unknowns and the set-up columns, not rows(C) x readings).
+  // rows of G0 that c touches (rows of C with one support in one product), plus (K'c)' D
+  // with D = S^-1 R' W^1/2 (J G0 - I) formed once (memory: the readings times the unknowns
+  // and the set-up columns, and 256 rows of C at a time, not rows(C) x readings).
   Eigen::VectorXd left_gain_l1(const Eigen::MatrixXd& C) const;
   // C G X diag(u): the change of C theta_hat per standard-normal draw of every set-up
   // column (beta = u z): C K S^-1 diag(1 / u).
