@@ -37,4 +37,21 @@ constexpr double kMaxSetupStd_mm = 100.0;
 // Standard uncertainty of a length offset or a centring component [um].
 constexpr double kMaxSetupStd_um = 1e4;
 
+// Ranges of the run options (command-line options and the Python module's arguments).
+// Coverage probability of an expanded uncertainty.
+constexpr double kMinCoverage = 0.5;
+constexpr double kMaxCoverage = 0.9999;
+// The reference length that turns angular uncertainty into um [mm] (up to kMaxLength_mm).
+constexpr double kMinReferenceLength_mm = 1e-3;
+// diagnose: the family-wise level of each selection step, and the most effects added.
+constexpr double kMinLevel = 1e-6;
+constexpr double kMaxLevel = 0.2;
+constexpr int kMaxEffects = 100;
+// Monte Carlo: most trials, trials per adaptive batch, significant digits of u.
+constexpr long kMinMonteCarloTrials = 1000;
+constexpr long kMaxMonteCarloTrials = 1000000000;
+constexpr long kMaxMonteCarloBatch = 100000000;
+constexpr int kMinSignificantDigits = 1;
+constexpr int kMaxSignificantDigits = 4;
+
 }  // namespace dbbkit::limits

@@ -7,6 +7,7 @@
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
@@ -34,9 +35,9 @@ Runner add_diagnose(CLI::App& app) {
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
   sub->add_option("--level", args->level, "Family-wise significance level of each selection step")
-      ->check(finite_in(1e-6, 0.2))
+      ->check(finite_in(limits::kMinLevel, limits::kMaxLevel))
       ->capture_default_str();
-  sub->add_option("--max-effects", args->max_effects, "Most effects added")->check(integer_in(0, 100))->capture_default_str();
+  sub->add_option("--max-effects", args->max_effects, "Most effects added")->check(integer_in(0, limits::kMaxEffects))->capture_default_str();
   return [args, rep]() {
     const std::vector<std::string> in = {args->design, args->data};
     const std::string json_out = json_to_stdout(args->out) ? "-" : args->out;

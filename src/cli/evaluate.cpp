@@ -34,7 +34,7 @@ Runner add_evaluate(CLI::App& app) {
   sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
   sub->add_option("--reference-length-mm", args->reference_length_mm,
                   "Lever arm converting angular uncertainty to um (default: the design's reference_length_mm)")
-      ->check(finite_in(1e-3, limits::kMaxLength_mm));
+      ->check(finite_in(limits::kMinReferenceLength_mm, limits::kMaxLength_mm));
   sub->add_option("--out", args->out, "Result JSON (dbbkit.evaluate/1); '-': stdout. The summary goes to stdout otherwise");
   sub->add_option("--sweep", args->sweeps,
                   "Design map: NAME=start:stop:step with NAME = L|D|H and an installation-id prefix (L2: L of "

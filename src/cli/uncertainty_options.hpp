@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "checks.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/monte_carlo.hpp"
 
 namespace dbbkit::cli {
@@ -19,7 +20,7 @@ struct UncertaintyArgs {
 
 inline void add_uncertainty_options(CLI::App* sub, const std::shared_ptr<UncertaintyArgs>& args) {
   sub->add_option("--coverage", args->coverage, "Coverage probability of the expanded uncertainty")
-      ->check(finite_in(0.5, 0.9999))
+      ->check(finite_in(limits::kMinCoverage, limits::kMaxCoverage))
       ->capture_default_str();
   sub->add_flag("--monte-carlo", args->monte_carlo, "Check the linear result by Monte Carlo (JCGM 101)");
   sub->add_option("--mc-seed", args->mc.seed, "Monte Carlo seed")->check(seed_value())->capture_default_str();
@@ -27,14 +28,14 @@ inline void add_uncertainty_options(CLI::App* sub, const std::shared_ptr<Uncerta
       ->check(thread_count())
       ->capture_default_str();
   sub->add_option("--mc-max-trials", args->mc.max_trials, "Most Monte Carlo trials")
-      ->check(integer_in(1000, 1000000000))
+      ->check(integer_in(limits::kMinMonteCarloTrials, limits::kMaxMonteCarloTrials))
       ->capture_default_str();
   sub->add_option("--mc-batch", args->mc.batch_trials, "Trials per adaptive batch (a multiple of 1000)")
-      ->check(integer_in(1000, 100000000))
+      ->check(integer_in(limits::kMinMonteCarloTrials, limits::kMaxMonteCarloBatch))
       ->capture_default_str();
   sub->add_option("--mc-digits", args->mc.significant_digits,
                   "Significant digits of u that set the numerical tolerance")
-      ->check(integer_in(1, 4))
+      ->check(integer_in(limits::kMinSignificantDigits, limits::kMaxSignificantDigits))
       ->capture_default_str();
 }
 

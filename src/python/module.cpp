@@ -321,9 +321,9 @@ io::ReportFormat report_format(const std::string& format) {
 // ---------------------------------------------------------------- Monte Carlo
 
 MonteCarloOptions mc_options(std::uint64_t seed, int threads, long max_trials, long batch, int digits) {
-  check_integer_in("mc_max_trials", max_trials, 1000, 1000000000);
-  check_integer_in("mc_batch", batch, 1000, 100000000);
-  check_integer_in("mc_digits", digits, 1, 4);
+  check_integer_in("mc_max_trials", max_trials, limits::kMinMonteCarloTrials, limits::kMaxMonteCarloTrials);
+  check_integer_in("mc_batch", batch, limits::kMinMonteCarloTrials, limits::kMaxMonteCarloBatch);
+  check_integer_in("mc_digits", digits, limits::kMinSignificantDigits, limits::kMaxSignificantDigits);
   MonteCarloOptions o;
   o.seed = seed;
   o.threads = thread_count("mc_threads", threads);
@@ -428,8 +428,8 @@ struct PyOptimizeResult {
 PyEvaluateResult run_evaluate(const PyDesign& d, std::optional<double> reference_length_mm, bool monte_carlo,
                           double coverage, std::uint64_t mc_seed, int mc_threads, long mc_max_trials, long mc_batch,
                           int mc_digits) {
-  if (reference_length_mm) check_finite_in("reference_length_mm", *reference_length_mm, 1e-3, limits::kMaxLength_mm);
-  check_finite_in("coverage", coverage, 0.5, 0.9999);
+  if (reference_length_mm) check_finite_in("reference_length_mm", *reference_length_mm, limits::kMinReferenceLength_mm, limits::kMaxLength_mm);
+  check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
   MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
   const std::optional<double> ref = reference_length_mm ? reference_length_mm : d.value.reference_length_mm;
   if (!ref || !(*ref > 0)) {
@@ -454,7 +454,7 @@ PyEvaluateResult run_evaluate(const PyDesign& d, std::optional<double> reference
 PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool type_a, double coverage,
                           py::object tolerances, bool monte_carlo, std::uint64_t mc_seed, int mc_threads,
                           long mc_max_trials, long mc_batch, int mc_digits) {
-  check_finite_in("coverage", coverage, 0.5, 0.9999);
+  check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
   MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
   validate_rows(d.value, m.readings, m.source);  // the design may not be the one they were read with
   std::vector<Tolerance> tols;
@@ -492,8 +492,8 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
 }
 
 PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double level, int max_effects) {
-  check_finite_in("level", level, 1e-6, 0.2);
-  check_integer_in("max_effects", max_effects, 0, 100);
+  check_finite_in("level", level, limits::kMinLevel, limits::kMaxLevel);
+  check_integer_in("max_effects", max_effects, 0, limits::kMaxEffects);
   validate_rows(d.value, m.readings, m.source);
   PyDiagnoseResult r;
   r.design = std::make_shared<const PyDesign>(d);
