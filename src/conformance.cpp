@@ -147,6 +147,10 @@ std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& sou
   return unit;
 }
 
+void check_tolerances(Axis axis, const std::vector<Tolerance>& tolerances, const std::string& source) {
+  for (const Tolerance& t : tolerances) tolerance_unit(axis, t, source);
+}
+
 ConformanceReport decide_conformance(const Design& design, const IdentifyResult& result,
                                      const std::vector<Tolerance>& tolerances, const std::string& source) {
   ConformanceReport rep;

@@ -483,4 +483,11 @@ std::vector<CandidateStatus> effect_detectability(const Design& design, const st
   return out;
 }
 
+DesignAssessment assess_design(const Design& design, double reference_length_mm) {
+  DesignAssessment a;
+  a.effects = effect_detectability(design, nominal_readings(design));
+  a.evaluation = evaluate_design(design, reference_length_mm, {}, diagnose_detection_settings(a.effects));
+  return a;
+}
+
 }  // namespace dbbkit

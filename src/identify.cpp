@@ -184,4 +184,10 @@ Eigen::MatrixXd budget_covariance(const Design& design, const IdentifyResult& re
   return budget_covariance(design, result.param, result.model, result.solver, result.estimate, result.budget, &setup);
 }
 
+MonteCarloResult monte_carlo(const Design& design, const IdentifyResult& result, const MonteCarloOptions& options) {
+  const SetupSolver setup(result.solver, setup_effects(design, result.model, true));
+  return monte_carlo(design, result.param, result.model, result.solver, result.estimate, result.budget, options,
+                     &setup);
+}
+
 }  // namespace dbbkit

@@ -71,6 +71,9 @@ std::vector<std::string> tolerance_quantities(Axis axis);
 // quantity is not one of tolerance_quantities(axis) or its limits are in the other unit.
 std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& source);
 
+// tolerance_unit of every tolerance: the quantities and units checked before any work.
+void check_tolerances(Axis axis, const std::vector<Tolerance>& tolerances, const std::string& source);
+
 // Decides every tolerance against an identification. Throws InputError as tolerance_unit.
 ConformanceReport decide_conformance(const Design& design, const IdentifyResult& result,
                                      const std::vector<Tolerance>& tolerances, const std::string& source);

@@ -30,6 +30,7 @@
 #include "dbbkit/effects.hpp"
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/identify.hpp"
+#include "dbbkit/observability.hpp"
 #include "dbbkit/setup.hpp"
 
 namespace dbbkit {
@@ -134,5 +135,14 @@ std::vector<CandidateStatus> effect_detectability(const Design& design, const st
 // effect_detectability on the readings the limits are for).
 DetectionSettings diagnose_detection_settings(const std::vector<CandidateStatus>& candidates,
                                               const DiagnoseOptions& options = {});
+
+// What `evaluate` reports of a design before measuring: which library effects it can
+// tell from the axis errors on the readings it would take (effect_detectability), and
+// evaluate_design with the set-up detection limits referred to diagnose's test on them.
+struct DesignAssessment {
+  Evaluation evaluation;
+  std::vector<CandidateStatus> effects;
+};
+DesignAssessment assess_design(const Design& design, double reference_length_mm);
 
 }  // namespace dbbkit

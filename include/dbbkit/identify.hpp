@@ -13,6 +13,7 @@
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/measurement.hpp"
+#include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/uncertainty.hpp"
@@ -113,5 +114,9 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
 // The joint covariance of the identified values (uncertainty.hpp budget_covariance), in the
 // order of result.budget.values; the set-up solver is rebuilt when the set-up is included.
 Eigen::MatrixXd budget_covariance(const Design& design, const IdentifyResult& result);
+
+// The JCGM 101 check of an identification's budget (monte_carlo.hpp), with the set-up
+// solver of its declared tolerances rebuilt when the set-up is included.
+MonteCarloResult monte_carlo(const Design& design, const IdentifyResult& result, const MonteCarloOptions& options);
 
 }  // namespace dbbkit

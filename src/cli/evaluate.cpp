@@ -57,9 +57,9 @@ Runner add_evaluate(CLI::App& app) {
     }
     std::vector<SweepVariable> variables;
     for (const std::string& spec : args->sweeps) variables.push_back(io::parse_sweep(design, spec));
-    // Which effects the design could tell from the axis errors, on the readings it would take.
-    const std::vector<CandidateStatus> effects = effect_detectability(design, nominal_readings(design));
-    const Evaluation ev = evaluate_design(design, *ref, {}, diagnose_detection_settings(effects));
+    const DesignAssessment assessed = assess_design(design, *ref);
+    const Evaluation& ev = assessed.evaluation;
+    const std::vector<CandidateStatus>& effects = assessed.effects;
     std::vector<SweepPoint> map;
     if (!variables.empty()) map = sweep_design(design, variables, *ref);
     std::optional<MonteCarloResult> mc;

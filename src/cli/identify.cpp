@@ -52,7 +52,7 @@ Runner add_identify(CLI::App& app) {
     std::vector<Tolerance> tolerances;
     if (!args->tolerances.empty()) {
       tolerances = io::read_tolerances_file(args->tolerances);
-      for (const Tolerance& t : tolerances) tolerance_unit(design.axis, t, args->tolerances);  // before the work
+      check_tolerances(design.axis, tolerances, args->tolerances);  // before the work
     }
     IdentifyOptions options;
     options.budget.type_a = args->type_a;
@@ -64,9 +64,7 @@ Runner add_identify(CLI::App& app) {
     std::optional<MonteCarloResult> mc;
     if (unc->monte_carlo) {
       report_progress(unc->mc, rep->quiet);
-      const SetupSolver setup(result.solver, setup_effects(design, result.model, true));
-      mc = monte_carlo(design, result.param, result.model, result.solver, result.estimate, result.budget, unc->mc,
-                       &setup);
+      mc = monte_carlo(design, result, unc->mc);
     }
     nlohmann::json j = io::identify_to_json(design, readings, result, {args->design, args->data}, mc ? &*mc : nullptr);
     if (conformance) j["conformance"] = io::conformance_to_json(*conformance, args->tolerances);

@@ -442,8 +442,9 @@ PyEvaluateResult run_evaluate(const PyDesign& d, std::optional<double> reference
   mc.progress = [&check](long) { check(); };
   {
     py::gil_scoped_release release;
-    r.effects = effect_detectability(d.value, nominal_readings(d.value));
-    r.ev = evaluate_design(d.value, *ref, {}, diagnose_detection_settings(r.effects));
+    DesignAssessment assessed = assess_design(d.value, *ref);
+    r.ev = std::move(assessed.evaluation);
+    r.effects = std::move(assessed.effects);
     if (monte_carlo) r.mc = monte_carlo_a_priori(d.value, coverage, mc);
   }
   r.json = io::evaluate_to_json(d.value, r.ev, d.source, r.mc ? &*r.mc : nullptr);
@@ -464,7 +465,7 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
         tolerances, "tolerances", &io::read_tolerances_file, &io::tolerances_from_json);
     tols = std::move(in.value);
     tol_source = in.source;
-    for (const Tolerance& t : tols) tolerance_unit(d.value.axis, t, tol_source);  // before the work
+    check_tolerances(d.value.axis, tols, tol_source);  // before the work
   }
   PyIdentifyResult r;
   r.design = std::make_shared<const PyDesign>(d);
@@ -480,11 +481,7 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
     options.iso_motion.seed = mc_seed;
     r.held = std::make_shared<const IdentifyResult>(identify(d.value, m.readings, options));
     if (!tols.empty()) r.conformance = decide_conformance(d.value, r.result(), tols, tol_source);
-    if (monte_carlo) {
-      const SetupSolver setup(r.result().solver, setup_effects(d.value, r.result().model, true));
-      r.mc = dbbkit::monte_carlo(d.value, r.result().param, r.result().model, r.result().solver, r.result().estimate,
-                                 r.result().budget, mc, &setup);
-    }
+    if (monte_carlo) r.mc = dbbkit::monte_carlo(d.value, r.result(), mc);
   }
   r.json = io::identify_to_json(d.value, m.readings, r.result(), {d.source, m.source}, r.mc ? &*r.mc : nullptr);
   if (r.conformance) r.json["conformance"] = io::conformance_to_json(*r.conformance, tol_source);
