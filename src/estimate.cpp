@@ -116,8 +116,9 @@ WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, 
     Eigen::JacobiSVD<Eigen::MatrixXd> svd(sub, Eigen::ComputeThinU | Eigen::ComputeFullV);
     return BlockSvd{svd.matrixU(), svd.matrixV(), svd.singularValues(), false, {}};
   };
-  // The normal equations when the condition bound holds; nullopt otherwise.
-  auto block_normal = [&](Eigen::MatrixXd sub) -> std::optional<BlockSvd> {
+  // The normal equations when the condition bound holds (`sub` then moves into the
+  // result); nullopt otherwise, `sub` untouched.
+  auto block_normal = [&](Eigen::MatrixXd& sub) -> std::optional<BlockSvd> {
     const Eigen::Index c = sub.cols();
     if (!(options.normal_equations_tolerance > 0) || c < options.normal_equations_min_columns || sub.rows() < c) {
       return std::nullopt;

@@ -339,6 +339,14 @@ struct PyMonteCarlo {
 
 // ---------------------------------------------------------------- results
 
+// The files a result was computed from (a report hashes them); inputs given as dicts have none.
+template <class... Inputs>
+std::vector<std::string> files_of(const Inputs&... inputs) {
+  std::vector<std::string> f;
+  ((inputs.from_file ? f.push_back(inputs.source) : void()), ...);
+  return f;
+}
+
 struct PyEvaluateResult {
   std::shared_ptr<const PyDesign> design;
   Evaluation ev;
@@ -346,8 +354,7 @@ struct PyEvaluateResult {
   std::optional<MonteCarloResult> mc;
   nlohmann::json json;
   std::string report(const std::string& format) const {
-    const io::RunContext run{"dbbkit.evaluate (Python)", design->from_file ? std::vector<std::string>{design->source}
-                                                                           : std::vector<std::string>{}};
+    const io::RunContext run{"dbbkit.evaluate (Python)", files_of(*design)};
     return io::evaluate_report(report_format(format), run, design->value, ev, {}, {}, mc ? &*mc : nullptr);
   }
 };
@@ -359,16 +366,12 @@ struct PyIdentifyResult {
   const IdentifyResult& result() const { return *held; }
   std::optional<MonteCarloResult> mc;
   std::optional<ConformanceReport> conformance;
-  std::string tolerances_source;
+  std::vector<std::string> tolerance_files;  // the tolerance file, when read from one
   nlohmann::json json;
-  std::vector<std::string> input_files() const {
-    std::vector<std::string> f;
-    if (design->from_file) f.push_back(design->source);
-    if (data->from_file) f.push_back(data->source);
-    return f;
-  }
   std::string report(const std::string& format) const {
-    const io::RunContext run{"dbbkit.identify (Python)", input_files()};
+    std::vector<std::string> files = files_of(*design, *data);
+    files.insert(files.end(), tolerance_files.begin(), tolerance_files.end());
+    const io::RunContext run{"dbbkit.identify (Python)", files};
     return io::identify_report(report_format(format), run, design->value, data->readings, result(),
                                mc ? &*mc : nullptr, conformance ? &*conformance : nullptr);
   }
@@ -400,10 +403,8 @@ struct PyDiagnoseResult {
   DiagnoseResult result;
   nlohmann::json json;
   std::string report(const std::string& format) const {
-    std::vector<std::string> f;
-    if (design->from_file) f.push_back(design->source);
-    if (data->from_file) f.push_back(data->source);
-    return io::diagnose_report(report_format(format), io::RunContext{"dbbkit.diagnose (Python)", f}, design->value,
+    return io::diagnose_report(report_format(format), io::RunContext{"dbbkit.diagnose (Python)", files_of(*design, *data)},
+                               design->value,
                                data->readings, result);
   }
 };
@@ -415,8 +416,7 @@ struct PyOptimizeResult {
   double seconds = 0;
   nlohmann::json json;
   std::string report(const std::string& format) const {
-    std::vector<std::string> f;
-    if (kit->from_file) f.push_back(kit->source);
+    std::vector<std::string> f = files_of(*kit);
     if (reference) f.push_back(reference->file);
     return io::optimize_report(report_format(format), io::RunContext{"dbbkit.optimize (Python)", f}, kit->value, result,
                                reference, seconds);
@@ -458,6 +458,7 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
   check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
   MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
   validate_rows(d.value, m.readings, m.source);  // the design may not be the one they were read with
+  PyIdentifyResult r;
   std::vector<Tolerance> tols;
   std::string tol_source;
   if (!tolerances.is_none()) {
@@ -466,11 +467,10 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
     tols = std::move(in.value);
     tol_source = in.source;
     check_tolerances(d.value.axis, tols, tol_source);  // before the work
+    if (in.from_file) r.tolerance_files.push_back(in.source);
   }
-  PyIdentifyResult r;
   r.design = std::make_shared<const PyDesign>(d);
   r.data = std::make_shared<const PyMeasurements>(m);
-  r.tolerances_source = tol_source;
   const SignalCheck check;
   mc.progress = [&check](long) { check(); };
   {

@@ -77,6 +77,7 @@ class RoundTrips(InSource):
         cli = subprocess.run([CLI, "identify", "--design", PAPER_C, "--data", DATA_C, "--type-a", "--coverage",
                               "0.99", "--tolerances", tol, "--quiet", "--out", "-"], cwd=SOURCE, capture_output=True)
         self.assertEqual(r.conforms, cli.returncode == 0, verdict)  # exit 1: does not conform
+        self.assertIn(tol, r.report("markdown"))  # the conditions name (and hash) the tolerance file, as the CLI's
 
     def test_identify_with_monte_carlo(self):
         d = dbbkit.Design(PAPER_C)

@@ -4,10 +4,9 @@
 
 #include <optional>
 #include <string>
-
-#include "dbbkit/conformance.hpp"
 #include <vector>
 
+#include "dbbkit/conformance.hpp"
 #include "dbbkit/design.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
