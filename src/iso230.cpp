@@ -4,7 +4,6 @@
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
-#include <random>
 
 #include "dbbkit/identify.hpp"
 #include "dbbkit/kinematics.hpp"
@@ -79,8 +78,8 @@ void range_monte_carlo(const std::vector<ComponentDraw>& draws, std::vector<IsoM
   std::vector<std::vector<float>> trials(n_out);
   std::vector<std::vector<double>> history(n_out);
   detail::Xoshiro256pp rng(detail::splitmix64(o.seed));
-  std::normal_distribution<double> n01;
-  std::chi_squared_distribution<double> chi2(o.dof.value_or(1.0));
+  const detail::NormalZiggurat n01;
+  const detail::ChiSquared chi2(o.dof.value_or(1.0));
   long total = 0;
   Eigen::MatrixXd Z, V;
   Eigen::VectorXd scale(M);
@@ -90,7 +89,9 @@ void range_monte_carlo(const std::vector<ComponentDraw>& draws, std::vector<IsoM
     for (int v = 0; v < n_out; ++v) {
       const ComponentDraw& d = draws[v];
       Z.resize(d.L.cols(), batch);
-      for (Eigen::Index k = 0; k < Z.size(); ++k) Z.data()[k] = n01(rng);
+      detail::Xoshiro256pp local = rng;  // a local copy stays in registers while Z is written
+      for (Eigen::Index k = 0; k < Z.size(); ++k) Z.data()[k] = n01(local);
+      rng = local;
       V.noalias() = d.L * Z;
       std::vector<float> x(static_cast<std::size_t>(batch));
       for (long t = 0; t < batch; ++t) x[t] = static_cast<float>(scale(t) * range_of(V.col(t)));

@@ -8,7 +8,6 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
-#include <random>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/parallel.hpp"
@@ -211,8 +210,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
       thread_local Eigen::MatrixXd V, Q, out;  // per-thread buffers, reused across chunks
       V.resize(n, kChunk);
       Xoshiro256pp rng(splitmix64(options.seed ^ splitmix64(static_cast<std::uint64_t>(first_chunk + c))));
-      std::normal_distribution<double> n01;
-      std::chi_squared_distribution<double> chi2(nu > 0 ? nu : 1.0);
+      const detail::NormalZiggurat n01;
+      const detail::ChiSquared chi2(nu > 0 ? nu : 1.0);
       if (type_a) {
         for (long t = 0; t < kChunk; ++t) {
           const double scale = noise.sigma_um() * *budget.type_a_scale * std::sqrt(nu / chi2(rng));

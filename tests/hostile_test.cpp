@@ -61,7 +61,7 @@ TEST_F(Hostile, AnInputAtTheTemporaryNameIsNeitherReadAsOutputNorDestroyed) {
   const CliRun r = run_cli("evaluate --quiet --design " + path("x.json.tmp") + " --out " + path("x.json"));
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(slurp(path("x.json.tmp")), slurp(kDesignC));
-  EXPECT_NO_THROW((void)nlohmann::json::parse(slurp(path("x.json"))));
+  EXPECT_TRUE(nlohmann::json::parse(slurp(path("x.json"))).is_object());
   EXPECT_TRUE(no_temporaries());
 }
 
@@ -171,7 +171,7 @@ TEST_F(Hostile, AnInterruptedRunLeavesNoTemporaryAnywhere) {
     for (const auto& e : fs::directory_iterator(path("out"))) {
       const std::string n = e.path().filename().string();
       EXPECT_EQ(n.find(".dbbkit-"), std::string::npos) << n << " after " << delay << " s";
-      if (n == "e.json") EXPECT_NO_THROW((void)nlohmann::json::parse(slurp(e.path().string())));
+      if (n == "e.json") EXPECT_TRUE(nlohmann::json::parse(slurp(e.path().string())).is_object());
     }
   }
 }
