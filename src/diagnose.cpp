@@ -3,7 +3,6 @@
 
 #include <Eigen/QR>
 #include <boost/math/distributions/chi_squared.hpp>
-#include <boost/math/distributions/fisher_f.hpp>
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
@@ -22,20 +21,6 @@ std::string fmt(double x, int digits = 3) {
   s << std::setprecision(digits) << x;
   return s.str();
 }
-
-Eigen::MatrixXd append(const Eigen::MatrixXd& J, const Eigen::MatrixXd& X) {
-  Eigen::MatrixXd out(J.rows(), J.cols() + X.cols());
-  out << J, X;
-  return out;
-}
-
-double bic(const Estimate& e) {
-  const double n = e.n_readings;
-  return n * std::log(std::max(e.chi2, 1e-300) / n) + e.rank * std::log(n);
-}
-
-// Rank of [J X] against J: does X add q independent columns?
-bool confounded(int rank_before, int rank_after, int q) { return rank_after - rank_before < q; }
 
 }  // namespace
 
@@ -201,178 +186,21 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   res.level = options.level;
   const Parameterisation param(design);
   const LinearModel model = build_linear_model(design, param, readings);
-  Eigen::MatrixXd J = model.J;
-  Estimate current = WlsSolver(J, model.sigma_um, options.estimate).solve(model.y_um);
-  res.before = current;
-  res.errors_before = errors_at_stations(param, current);
-  res.signature_before = residual_signature(design, readings, current.residual_um);
-  res.significant_before = current.p_value && *current.p_value < options.level;
-
-  std::vector<EffectBlock> pool = candidate_effects(design, readings);
-  std::vector<bool> used(pool.size(), false);
-  std::vector<CandidateStatus> status(pool.size());
-  for (std::size_t i = 0; i < pool.size(); ++i) {
-    status[i].label = pool[i].label;
-    if (!pool[i].not_applicable.empty()) {
-      status[i] = {pool[i].label, "not applicable", pool[i].not_applicable};
-      used[i] = true;
-    }
-  }
-
-  int step = 0;
-  for (bool changed = true; changed;) {
-  changed = false;
-  while (static_cast<int>(res.added.size()) < options.max_effects) {
-    ++step;
-    int best = -1, tested = 0;
-    Estimate best_est;
-    std::vector<double> trial_chi2(pool.size(), -1.0);
-    double best_p = 2, best_F = 0;
-    for (std::size_t i = 0; i < pool.size(); ++i) {
-      if (used[i]) continue;
-      const int q = static_cast<int>(pool[i].X.cols());
-      const Estimate trial = WlsSolver(append(J, pool[i].X), model.sigma_um, options.estimate).solve(model.y_um);
-      if (confounded(current.rank, trial.rank, q)) {
-        status[i] = {pool[i].label, "confounded",
-                     "its " + std::to_string(q) + " column(s) raise the rank by " +
-                         std::to_string(trial.rank - current.rank) +
-                         ": its size cannot be told from the axis errors" +
-                         (res.added.empty() ? std::string() : " and the effects already added")};
-        continue;
-      }
-      if (trial.dof <= 0) {
-        status[i] = {pool[i].label, "not significant", "no residual degrees of freedom left to test it"};
-        continue;
-      }
-      ++tested;
-      trial_chi2[i] = trial.chi2;
-      const double F = ((current.chi2 - trial.chi2) / q) / (trial.chi2 / trial.dof);
-      const double p = F > 0 ? boost::math::cdf(boost::math::complement(boost::math::fisher_f(q, trial.dof), F)) : 1.0;
-      status[i] = {pool[i].label, "not significant", "F = " + fmt(F) + ", p = " + fmt(p)};
-      if (p < best_p) best = static_cast<int>(i), best_p = p, best_F = F, best_est = trial;
-    }
-    if (best < 0) break;
-    const double threshold = options.level / tested;
-    const double dbic = bic(best_est) - bic(current);
-    if (!(best_p < threshold && dbic < 0)) {
-      status[best].detail += " (the best candidate at step " + std::to_string(step) + "; needs p < " + fmt(threshold) +
-                             " and a lower BIC, change " + fmt(dbic) + ")";
-      break;
-    }
-    // Equivalent alternatives: each spans the other modulo the current model.
-    std::vector<int> equivalent;
-    const Eigen::MatrixXd J_best = append(J, pool[best].X);
-    for (std::size_t i = 0; i < pool.size(); ++i) {
-      if (used[i] || static_cast<int>(i) == best || status[i].status == "confounded") continue;
-      if (pool[i].X.cols() != pool[best].X.cols()) continue;
-      const int r_both = WlsSolver(append(J_best, pool[i].X), model.sigma_um, options.estimate).a_priori().rank;
-      if (r_both == best_est.rank) equivalent.push_back(static_cast<int>(i));
-    }
-    if (!equivalent.empty()) {
-      // Convention: the latest installation carries the effect, the earlier is the reference.
-      int chosen = best;
-      for (int i : equivalent) {
-        if (pool[i].effect.installation > pool[chosen].effect.installation) chosen = i;
-      }
-      if (chosen != best) {
-        equivalent.erase(std::find(equivalent.begin(), equivalent.end(), chosen));
-        equivalent.push_back(best);
-        best_est = WlsSolver(append(J, pool[chosen].X), model.sigma_um, options.estimate).solve(model.y_um);
-        best = chosen;
-      }
-    }
-    AddedEffect a;
-    a.block = pool[best];
-    for (std::size_t i = 0; i < pool.size(); ++i) {
-      if (static_cast<int>(i) == best || trial_chi2[i] < 0 || pool[i].X.cols() != pool[best].X.cols()) continue;
-      if (std::find(equivalent.begin(), equivalent.end(), static_cast<int>(i)) != equivalent.end()) continue;
-      if (trial_chi2[i] - best_est.chi2 < 4.0 * best_est.chi2 / best_est.dof) a.close_alternatives.push_back(pool[i].label);
-    }
-    for (int i : equivalent) {
-      a.equivalent_to.push_back(pool[i].label);
-      used[i] = true;
-      status[i] = {pool[i].label, "equivalent",
-                   "explains the data exactly as " + pool[best].label +
-                       " does (only their difference is determined); by convention the later installation carries it"};
-    }
-    a.evidence = {step,  best_F,      static_cast<int>(pool[best].X.cols()), best_est.dof, best_p, threshold, tested,
-                  dbic,  current.chi2, best_est.chi2};
-    res.added.push_back(a);
-    used[best] = true;
-    status[best] = {pool[best].label, "added", "step " + std::to_string(step) + ": F = " + fmt(best_F) + ", p = " +
-                                                   fmt(best_p) + " < " + fmt(threshold) + ", BIC change " + fmt(dbic)};
-    J = append(J, pool[best].X);
-    current = best_est;
-    }
-  // Exchange: replace an added effect by another candidate when that lowers chi2
-  // (forward selection alone cannot undo an early choice that noise favoured).
-  std::vector<int> chosen_idx;
-  for (const AddedEffect& a : res.added) {
-    for (std::size_t i = 0; i < pool.size(); ++i) {
-      if (pool[i].label == a.block.label) chosen_idx.push_back(static_cast<int>(i));
-    }
-  }
-  double best_chi2 = current.chi2 * (1 - 1e-9);
-  int swap_out = -1, swap_in = -1;
-  Estimate swapped;
-  for (std::size_t a = 0; a < res.added.size(); ++a) {
-    Eigen::MatrixXd base = model.J;
-    for (std::size_t b = 0; b < res.added.size(); ++b) {
-      if (b != a) base = append(base, res.added[b].block.X);
-    }
-    const int base_rank = WlsSolver(base, model.sigma_um, options.estimate).a_priori().rank;
-    for (std::size_t i = 0; i < pool.size(); ++i) {
-      if (used[i] || status[i].status == "confounded" || status[i].status == "equivalent") continue;
-      if (pool[i].X.cols() != res.added[a].block.X.cols()) continue;
-      const Estimate trial = WlsSolver(append(base, pool[i].X), model.sigma_um, options.estimate).solve(model.y_um);
-      if (trial.rank - base_rank < pool[i].X.cols()) continue;
-      if (trial.chi2 < best_chi2) best_chi2 = trial.chi2, swap_out = static_cast<int>(a), swap_in = static_cast<int>(i), swapped = trial;
-    }
-  }
-  if (swap_out >= 0) {
-    const int out_idx = chosen_idx[swap_out];
-    used[out_idx] = false;
-    status[out_idx] = {pool[out_idx].label, "not significant",
-                       "exchanged for " + pool[swap_in].label + ", which explains the data better"};
-    used[swap_in] = true;
-    status[swap_in] = {pool[swap_in].label, "added", "exchanged in for " + pool[out_idx].label};
-    res.added[swap_out].block = pool[swap_in];
-    res.added[swap_out].equivalent_to.clear();
-    res.added[swap_out].close_alternatives = {pool[out_idx].label};
-    J = model.J;
-    for (const AddedEffect& a : res.added) J = append(J, a.block.X);
-    current = swapped;
-    changed = true;
-  }
-  }
-
-  // Evidence of every added effect in the final model: the F-test of dropping it.
-  for (std::size_t a = 0; a < res.added.size(); ++a) {
-    Eigen::MatrixXd without = model.J;
-    for (std::size_t b = 0; b < res.added.size(); ++b) {
-      if (b != a) without = append(without, res.added[b].block.X);
-    }
-    const Estimate reduced = WlsSolver(without, model.sigma_um, options.estimate).solve(model.y_um);
-    EffectEvidence& e = res.added[a].evidence;
-    e.q = static_cast<int>(res.added[a].block.X.cols());
-    e.dof = current.dof;
-    e.chi2_before = reduced.chi2;
-    e.chi2_after = current.chi2;
-    e.F = current.dof > 0 ? ((reduced.chi2 - current.chi2) / e.q) / (current.chi2 / current.dof) : 0.0;
-    e.p_value = e.F > 0 ? boost::math::cdf(boost::math::complement(boost::math::fisher_f(e.q, current.dof), e.F)) : 1.0;
-    e.bic_change = bic(current) - bic(reduced);
-  }
+  SelectionOptions so;
+  so.level = options.level;
+  so.max_effects = options.max_effects;
+  so.estimate = options.estimate;
+  Selection sel = select_effects(model.J, model.sigma_um, model.y_um, candidate_effects(design, readings), so);
+  res.before = sel.before;
+  res.errors_before = errors_at_stations(param, res.before);
+  res.signature_before = residual_signature(design, readings, res.before.residual_um);
+  res.significant_before = res.before.p_value && *res.before.p_value < options.level;
+  const Estimate& current = sel.after;
+  const Eigen::MatrixXd& J = sel.J_final;
+  res.added = std::move(sel.added);
+  res.structures = std::move(sel.structures);
   res.after = current;
   res.errors_after = errors_at_stations(param, current);
-  // The effects' values from the final model.
-  int col = param.n_parameters();
-  for (AddedEffect& a : res.added) {
-    for (int j = 0; j < a.block.X.cols(); ++j, ++col) {
-      Eigen::VectorXd c = Eigen::VectorXd::Zero(current.n_unknowns);
-      c(col) = 1.0;
-      a.values.push_back(current.evaluate(c));
-    }
-  }
   {
     // Null space of the final model over the axis-error unknowns (effects are all determined when added).
     Estimate axis_only = current;
@@ -384,7 +212,7 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   }
   res.signature_after = residual_signature(design, readings, current.residual_um);
   res.significant_after = current.p_value && *current.p_value < options.level;
-  res.candidates = status;
+  res.candidates = std::move(sel.candidates);
 
   res.setup_risks = setup_risks(design, param, model, J, options, res.added, res.errors_after);
 
@@ -427,6 +255,19 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
              "installation, and the errors after are conditional on that choice. ";
       }
     }
+    for (const StructureComparison& c : res.structures) {
+      auto list = [](const std::vector<std::string>& labels) {
+        std::string out;
+        for (const std::string& l : labels) out += (out.empty() ? "" : " ") + l;
+        return out;
+      };
+      v << (c.chosen.size() == 1 ? "One " + c.kind + " for the whole test (" + list(c.chosen) + ")"
+                                 : "A " + c.kind + " per installation (" + list(c.chosen) + ")")
+        << " was preferred to "
+        << (c.rejected.size() == 1 ? "one for the whole test (" + list(c.rejected) + ")"
+                                   : "one per installation (" + list(c.rejected) + ")")
+        << ": BIC " << fmt(c.bic_chosen, 6) << " against " << fmt(c.bic_rejected, 6) << ". ";
+    }
     if (res.significant_after) {
       v << "A significant residual remains that no effect of the library explains; its largest feature is "
         << res.signature_after.dominant << ".";
@@ -455,7 +296,7 @@ DetectionSettings diagnose_detection_settings(const std::vector<CandidateStatus>
   DetectionSettings detection;
   detection.level = options.level;
   detection.n_tests = 0;
-  for (const CandidateStatus& c : candidates) detection.n_tests += c.status == "detectable";
+  for (const CandidateStatus& c : candidates) detection.n_tests += c.state == CandidateState::kDetectable;
   detection.n_tests = std::max(1, detection.n_tests);
   return detection;
 }
@@ -467,17 +308,17 @@ std::vector<CandidateStatus> effect_detectability(const Design& design, const st
   std::vector<CandidateStatus> out;
   for (const EffectBlock& b : candidate_effects(design, readings)) {
     if (!b.not_applicable.empty()) {
-      out.push_back({b.label, "not applicable", b.not_applicable});
+      out.push_back({b.label, CandidateState::kNotApplicable, b.not_applicable});
       continue;
     }
     const int q = static_cast<int>(b.X.cols());
     const int added = added_rank(solver, b.X);
     if (added < q) {
-      out.push_back({b.label, "confounded",
+      out.push_back({b.label, CandidateState::kConfounded,
                      "raises the rank by " + std::to_string(added) + " of " + std::to_string(q) +
                          ": indistinguishable from the axis errors of the " + design.errors.describe() + " model"});
     } else {
-      out.push_back({b.label, "detectable", ""});
+      out.push_back({b.label, CandidateState::kDetectable, ""});
     }
   }
   return out;

@@ -32,6 +32,9 @@ const KindInfo& info(EffectKind k) {
 const char* effect_name(EffectKind kind) { return info(kind).name; }
 const char* effect_unit(EffectKind kind) { return info(kind).unit; }
 bool effect_is_shared(EffectKind kind) { return info(kind).shared; }
+bool effect_has_whole_test_form(EffectKind kind) {
+  return kind == EffectKind::LengthOffset || kind == EffectKind::Drift || kind == EffectKind::Reversal;
+}
 
 EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key) {
   for (const KindInfo& i : kKinds) {
@@ -66,6 +69,7 @@ std::string EffectCandidate::label(const Design& design) const {
   std::string s = effect_name(kind);
   if (component >= 0) s += "." + effect_parameter_names(kind)[component];
   if (installation >= 0) s += "[" + design.installations[installation].id + "]";
+  if (installation < 0 && effect_has_whole_test_form(kind)) s += "[all]";
   if (kind == EffectKind::Periodic) s += "(" + std::to_string(harmonic) + "/turn)";
   return s;
 }
@@ -77,6 +81,14 @@ std::vector<double> installation_start_times(const Design& design, const std::ve
     const auto it = index.find(r.installation);
     const int i = it == index.end() ? -1 : it->second;
     if (i >= 0 && r.time_s && !(t0[i] <= *r.time_s)) t0[i] = *r.time_s;
+  }
+  return t0;
+}
+
+double test_start_time(const std::vector<Reading>& readings) {
+  double t0 = std::numeric_limits<double>::quiet_NaN();
+  for (const Reading& r : readings) {
+    if (r.time_s && !(t0 <= *r.time_s)) t0 = *r.time_s;
   }
   return t0;
 }
@@ -136,6 +148,7 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
   b.unit = effect_unit(e.kind);
   const std::vector<std::string> names = effect_parameter_names(e.kind);
   const std::vector<double> t0 = installation_start_times(design, readings);
+  const double t_test = test_start_time(readings);
   Eigen::MatrixXd full(static_cast<Eigen::Index>(readings.size()), static_cast<Eigen::Index>(names.size()));
   bool time_missing = false, cw = false, ccw = false, bar_missing = false;
   const auto index = design.installation_index();
@@ -149,7 +162,8 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
       ccw = ccw || (r.sweep && *r.sweep == Sweep::CCW);
       bar_missing = bar_missing || !design.installations[inst].bar_mm;
     }
-    full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, t0[inst], e).transpose();
+    const double start = e.installation < 0 ? t_test : t0[inst];
+    full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, start, e).transpose();
   }
   if (e.kind == EffectKind::Drift && time_missing) b.not_applicable = "needs time_s on every reading it applies to";
   if (e.kind == EffectKind::Reversal && !(cw && ccw)) b.not_applicable = "needs readings of both sweeps (cw and ccw)";
@@ -175,6 +189,9 @@ std::vector<EffectBlock> candidate_effects(const Design& design, const std::vect
     for (std::size_t i = 0; i < design.installations.size(); ++i) {
       out.push_back(effect_block(design, readings, {k, static_cast<int>(i)}));
     }
+    // The same effect once for the whole test: a length change common to every reading (the
+    // bar's own length), one drift on the test's clock, one reversal of every installation.
+    if (effect_has_whole_test_form(k)) out.push_back(effect_block(design, readings, {k, -1}));
   }
   // Shared effects one parameter at a time: part of a scale or squareness can be
   // confounded (an isotropic scale is a length offset) while the rest is not.

@@ -119,10 +119,11 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
   for (std::size_t i = 0; i < truth.effects.size(); ++i) {
     const TruthEffect& e = truth.effects[i];
     const std::string key = "effects[" + std::to_string(i) + "]";
-    if (effect_is_shared(e.effect.kind) != e.installation.empty()) {
-      throw InputError(source, key + ".installation",
-                       effect_is_shared(e.effect.kind) ? "a shared effect applies to every installation: no installation"
-                                                       : "this effect needs the installation it applies to");
+    if (effect_is_shared(e.effect.kind) && !e.installation.empty()) {
+      throw InputError(source, key + ".installation", "a shared effect applies to every installation: no installation");
+    }
+    if (!effect_is_shared(e.effect.kind) && !effect_has_whole_test_form(e.effect.kind) && e.installation.empty()) {
+      throw InputError(source, key + ".installation", "this effect needs the installation it applies to");
     }
     if (!e.installation.empty() && design.find_installation(e.installation) < 0) {
       throw InputError(source, key + ".installation", "installation '" + e.installation + "' is not in the design");
@@ -222,6 +223,7 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
     if (truth.schedule) t += truth.schedule->per_installation_s;
   }
   const std::vector<double> t0 = installation_start_times(design, out);
+  const double t_test = test_start_time(out);
   const auto index = design.installation_index();
   const std::vector<SetupError> setup = simulated_setup_errors(design, truth, seed);
   for (Reading& reading : out) {
@@ -238,7 +240,7 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
     for (const TruthEffect& e : truth.effects) {
       EffectCandidate c = e.effect;
       c.installation = e.installation.empty() ? -1 : design.find_installation(e.installation);
-      value += effect_row(design, reading, i, t0[i], c).dot(e.value);
+      value += effect_row(design, reading, i, c.installation < 0 ? t_test : t0[i], c).dot(e.value);
     }
     reading.reading_um = value + draw();
   }

@@ -1,27 +1,9 @@
 #pragma once
 // Closing the loop (model.md §6): find what the model does not explain, trace
-// it to an effect of the library, add the effect, report before and after.
-//
-// Forward selection: at each step every candidate effect not yet in the model
-// is appended to J. A candidate whose columns do not raise the rank by their
-// number is confounded with the model (axis errors + effects already added) and
-// is not added: its size cannot be told from the data. For the others, the
-// nested F-test
-//   F = ((chi2_cur - chi2_try) / q) / (chi2_try / (n - rank_try))
-// gives p = P(F_{q, n - rank_try} >= F). The best candidate is added when
-//   p < level / m   (Bonferroni over the m candidates tested at that step)
-// and the Bayesian information criterion n ln(chi2/n) + rank ln n decreases.
-// Selection stops when no candidate passes; then an exchange pass replaces an
-// added effect by another candidate when that lowers chi2 (noise can favour a
-// wrong candidate early), and forward selection resumes.
-//
-// Candidates can be equivalent: each alone is identifiable, but each lies in the
-// span of the model plus the other (a length offset of 1r or of 2r, when both
-// radial readings measure the same combination: only their difference is
-// determined). The choice is then fixed by a declared convention: the candidate
-// of the latest installation in the design is chosen, the earlier installation
-// being the reference (shared effects count as earliest); the alternatives are
-// reported, and the errors after are conditional on that convention.
+// it to an effect of the library, add the effect, report before and after. Which
+// effects are added, and the evidence for each, is model selection
+// (selection.hpp); diagnose describes the residual before and after, the set-up
+// effects the final model cannot see, and gives the verdict.
 
 #include <optional>
 #include <string>
@@ -31,6 +13,7 @@
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/observability.hpp"
+#include "dbbkit/selection.hpp"
 #include "dbbkit/setup.hpp"
 
 namespace dbbkit {
@@ -39,39 +22,6 @@ struct DiagnoseOptions {
   double level = 0.01;  // family-wise significance level of each step
   int max_effects = 12;
   EstimateOptions estimate;
-};
-
-// F, p, chi2 and BIC change: the test of dropping the effect from the final
-// model; step, p_threshold and n_tested: the selection step that added it.
-struct EffectEvidence {
-  int step = 0;
-  double F = 0;
-  int q = 0;    // columns added
-  int dof = 0;  // n - rank after
-  double p_value = 1;
-  double p_threshold = 0;  // level / candidates tested at that step
-  int n_tested = 0;
-  double bic_change = 0;
-  double chi2_before = 0, chi2_after = 0;
-};
-
-struct AddedEffect {
-  EffectBlock block;
-  std::vector<std::string> equivalent_to;  // labels of equivalent alternatives not chosen
-  // Candidates that fit almost as well when the effect was chosen:
-  //   chi2_other - chi2_chosen < 4 chi2_chosen / dof  (within two residual standard deviations);
-  // the readings cannot tell them apart reliably (e.g. drift and reversal of one installation
-  // measured ccw then cw).
-  std::vector<std::string> close_alternatives;
-  std::vector<Determined> values;  // one per column, in block.parameters order
-  EffectEvidence evidence;
-};
-
-// The last word on every candidate: "added", "not significant", "confounded", "not applicable".
-struct CandidateStatus {
-  std::string label;
-  std::string status;
-  std::string detail;
 };
 
 struct ResidualSignature {
@@ -113,6 +63,7 @@ struct DiagnoseResult {
   std::vector<Unidentifiable> unidentifiable_after;
   std::vector<AddedEffect> added;
   std::vector<CandidateStatus> candidates;
+  std::vector<StructureComparison> structures;  // whole-test against per-installation terms
   ResidualSignature signature_before, signature_after;
   bool significant_before = false, significant_after = false;
   std::optional<double> p_lower_after;  // P(chi2_dof <= chi2 after): small when the residual is too small

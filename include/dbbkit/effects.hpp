@@ -7,6 +7,9 @@
 //                                               following ball's path (machine frame)
 //   drift (per installation, um/min):           (t - t0) / 60, t0 the installation's first reading
 //   reversal (per installation, um):            +1/2 on cw sweeps, -1/2 on ccw: value = cw - ccw
+//   length_offset, drift, reversal [all]:       the same with one value for the whole test
+//                                               (installation -1); the drift's t0 is then the
+//                                               test's first reading (one clock through the test)
 //   scale (shared, um/m):                       -s u . dF, dF_k = 1e-3 k_k F_k
 //   squareness (shared, urad):                  -s u . dF, dF = 1e-3 (S_xy F_y, S_yz F_z, S_zx F_x)
 // with F = P - s bar u the following ball (mm, needs bar_mm). Outside the library,
@@ -28,6 +31,8 @@ const char* effect_name(EffectKind kind);
 // Throws InputError(source, key, ...) for an unknown name.
 EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key);
 bool effect_is_shared(EffectKind kind);
+// Length offset, drift and reversal also exist once for the whole test (installation -1, label "[all]").
+bool effect_has_whole_test_form(EffectKind kind);
 const char* effect_unit(EffectKind kind);
 // Names of the full parameter vector of an effect (before unseen columns are dropped).
 std::vector<std::string> effect_parameter_names(EffectKind kind);
@@ -41,7 +46,8 @@ struct EffectCandidate {
   std::string label(const Design& design) const;  // e.g. "centring[2r]", "squareness.xy"
 };
 
-// Per reading, the full-length row of the effect; `t0_s` the first time of the reading's installation.
+// Per reading, the full-length row of the effect; `t0_s` the first time of the readings the effect
+// spans: the reading's installation, or the whole test for a whole-test drift (test_start_time).
 Eigen::VectorXd effect_row(const Design& design, const Reading& reading, double t0_s, const EffectCandidate& effect);
 // The same, with the reading's installation index already known (loops over readings).
 Eigen::VectorXd effect_row(const Design& design, const Reading& reading, int installation, double t0_s,
@@ -55,6 +61,8 @@ Eigen::Vector3d centring_row(Axis axis, const Installation& installation, double
 
 // First time_s of every installation (NaN when it has no time).
 std::vector<double> installation_start_times(const Design& design, const std::vector<Reading>& readings);
+// First time_s of the whole test (NaN when no reading has a time).
+double test_start_time(const std::vector<Reading>& readings);
 
 struct EffectBlock {
   EffectCandidate effect;

@@ -85,10 +85,11 @@ Runner add_evaluate(CLI::App& app) {
     if (args->out != "-" && !rep->quiet) {
       std::cout << io::evaluate_summary(design, ev);
       std::cout << "\neffects this design can tell from the axis errors (" << design.errors.describe() << "):\n";
-      for (const char* st : {"detectable", "confounded", "not applicable"}) {
-        std::cout << "  " << st << ":";
+      for (CandidateState st : {CandidateState::kDetectable, CandidateState::kConfounded,
+                                CandidateState::kNotApplicable}) {
+        std::cout << "  " << candidate_state_name(st) << ":";
         for (const CandidateStatus& c : effects) {
-          if (c.status == st) std::cout << " " << c.label;
+          if (c.state == st) std::cout << " " << c.label;
         }
         std::cout << "\n";
       }

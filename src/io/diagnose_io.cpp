@@ -112,8 +112,17 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
                        {"chi2_after", e.chi2_after}}}});
   }
   j["added_effects"] = added;
+  json structures = json::array();
+  for (const StructureComparison& c : r.structures) {
+    structures.push_back({{"effect", c.kind},
+                          {"chosen", c.chosen},
+                          {"rejected", c.rejected},
+                          {"bic_chosen", c.bic_chosen},
+                          {"bic_rejected", c.bic_rejected}});
+  }
+  j["structures"] = structures;
   json cands = json::array();
-  for (const CandidateStatus& c : r.candidates) cands.push_back({{"label", c.label}, {"status", c.status}, {"detail", c.detail}});
+  for (const CandidateStatus& c : r.candidates) cands.push_back({{"label", c.label}, {"status", candidate_state_name(c.state)}, {"detail", c.detail}});
   j["candidates"] = cands;
   json risks = json::array();
   for (const SetupRisk& k : r.setup_risks) {
@@ -172,8 +181,8 @@ std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
   }
   int confounded = 0, na = 0;
   for (const CandidateStatus& c : r.candidates) {
-    confounded += c.status == "confounded";
-    na += c.status == "not applicable";
+    confounded += c.state == CandidateState::kConfounded;
+    na += c.state == CandidateState::kNotApplicable;
   }
   s << "candidates: " << r.candidates.size() << " (" << confounded << " confounded with the model, " << na
     << " not applicable to these readings; see the JSON)\n";

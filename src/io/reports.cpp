@@ -509,7 +509,7 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
   p.heading("Details");
   p.preformatted(diagnose_summary(design, r));
   std::vector<std::vector<std::string>> cand;
-  for (const CandidateStatus& c : r.candidates) cand.push_back({c.label, c.status, c.detail});
+  for (const CandidateStatus& c : r.candidates) cand.push_back({c.label, candidate_state_name(c.state), c.detail});
   p.table({"candidate", "status", "why"}, cand);
   p.conditions(run, &design);
   return p.str();

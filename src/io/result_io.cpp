@@ -419,7 +419,7 @@ std::string iso230_text(const Design& design, const IdentifyResult& result) {
 
 json effects_to_json(const std::vector<CandidateStatus>& effects) {
   json e = json::array();
-  for (const CandidateStatus& c : effects) e.push_back({{"label", c.label}, {"status", c.status}, {"detail", c.detail}});
+  for (const CandidateStatus& c : effects) e.push_back({{"label", c.label}, {"status", candidate_state_name(c.state)}, {"detail", c.detail}});
   return e;
 }
 

@@ -1,0 +1,123 @@
+#pragma once
+// Model selection (model.md §6): which candidate effects to append to the axis
+// errors' columns J, and with what evidence.
+//
+// Forward selection: at each step every candidate effect not yet in the model
+// is appended to J. A candidate whose columns do not raise the rank by their
+// number is confounded with the model (axis errors + effects already added) and
+// is not added: its size cannot be told from the data. For the others, the
+// nested F-test
+//   F = ((chi2_cur - chi2_try) / q) / (chi2_try / (n - rank_try))
+// gives p = P(F_{q, n - rank_try} >= F). The best candidate is added when
+//   p < level / m   (Bonferroni over the m candidates tested at that step)
+// and the Bayesian information criterion n ln(chi2/n) + rank ln n decreases.
+// Selection stops when no candidate passes; then an exchange pass replaces an
+// added effect by another candidate when that lowers chi2 (noise can favour a
+// wrong candidate early), and forward selection resumes. Then an added effect
+// whose F-test of dropping it from the model as it stands gives p >= level is
+// dropped (later effects can make an early one redundant), and forward selection
+// resumes; a dropped effect cannot re-enter at once, since entry needs p < level / m.
+//
+// Candidates can be equivalent: each alone is identifiable, but each lies in the
+// span of the model plus the other (a length offset of 1r or of 2r, when both
+// radial readings measure the same combination: only their difference is
+// determined). The choice is then fixed by a declared convention: the candidate
+// of the latest installation in the design is chosen, the earlier installation
+// being the reference (effects of the whole test count as earliest); the
+// alternatives are reported, and the errors after are conditional on that
+// convention.
+//
+// Structures: an effect of the whole test (one drift on the test's clock, one
+// reversal or length change common to every installation) and the same effect
+// per installation are alternatives that need not be nested. After selection,
+// each is compared with the other by BIC (the model with the one replaced by the
+// other, every other added effect kept), and the alternative is reported with
+// both BICs. Nothing is replaced after selection: the F-tests with the BIC
+// condition decide what enters, and when one whole-test term fits better than
+// the first per-installation term it enters first (the same columns' count, so
+// the lower chi2 is the lower BIC).
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "dbbkit/effects.hpp"
+#include "dbbkit/estimate.hpp"
+
+namespace dbbkit {
+
+struct SelectionOptions {
+  double level = 0.01;  // family-wise significance level of each step
+  int max_effects = 12;
+  EstimateOptions estimate;
+};
+
+// F, p, chi2 and BIC change: the test of dropping the effect from the final
+// model; step, p_threshold and n_tested: the selection step that added it.
+struct EffectEvidence {
+  int step = 0;
+  double F = 0;
+  int q = 0;    // columns added
+  int dof = 0;  // n - rank after
+  double p_value = 1;
+  double p_threshold = 0;  // level / candidates tested at that step
+  int n_tested = 0;
+  double bic_change = 0;
+  double chi2_before = 0, chi2_after = 0;
+};
+
+struct AddedEffect {
+  EffectBlock block;
+  std::vector<std::string> equivalent_to;  // labels of equivalent alternatives not chosen
+  // Candidates that fit almost as well when the effect was chosen:
+  //   chi2_other - chi2_chosen < 4 chi2_chosen / dof  (within two residual standard deviations);
+  // the readings cannot tell them apart reliably (e.g. drift and reversal of one installation
+  // measured ccw then cw).
+  std::vector<std::string> close_alternatives;
+  std::vector<Determined> values;  // one per column, in block.parameters order
+  EffectEvidence evidence;
+};
+
+// The last word on a candidate effect.
+enum class CandidateState {
+  kAdded,           // in the final model
+  kNotSignificant,  // tested and not added (or exchanged out)
+  kConfounded,      // its columns do not raise the rank by their number: its size cannot be told
+  kNotApplicable,   // its kind does not apply to this design (e.g. a reversal with one sweep direction)
+  kEquivalent,      // explains the data exactly as an added effect does; only their difference is determined
+  kDetectable,      // a design's a-priori answer (effect_detectability): it would raise the rank by its number
+};
+
+// "added", "not significant", "confounded", "not applicable", "equivalent", "detectable".
+const char* candidate_state_name(CandidateState s);
+
+struct CandidateStatus {
+  std::string label;
+  CandidateState state = CandidateState::kNotSignificant;
+  std::string detail;
+};
+
+// One whole-test effect against the same effect per installation (the structures
+// paragraph above): the labels and parameters of each, their BIC, which was kept.
+struct StructureComparison {
+  std::string kind;                      // effect name, e.g. "drift"
+  std::vector<std::string> chosen;       // labels in the final model
+  std::vector<std::string> rejected;     // labels of the alternative
+  double bic_chosen = 0, bic_rejected = 0;
+};
+
+struct Selection {
+  Estimate before, after;
+  std::vector<AddedEffect> added;
+  std::vector<CandidateStatus> candidates;
+  std::vector<StructureComparison> structures;
+  Eigen::MatrixXd J_final;  // [J, added effects' columns]
+};
+
+// Bayesian information criterion of an estimate: n ln(chi2 / n) + rank ln n.
+double bic(const Estimate& e);
+
+Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
+                         const std::vector<EffectBlock>& pool, const SelectionOptions& options = {});
+
+}  // namespace dbbkit

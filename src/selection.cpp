@@ -1,0 +1,374 @@
+#include "dbbkit/selection.hpp"
+
+#include <algorithm>
+#include <boost/math/distributions/fisher_f.hpp>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+namespace dbbkit {
+
+namespace {
+
+std::string fmt(double x, int digits = 3) {
+  std::ostringstream s;
+  s << std::setprecision(digits) << x;
+  return s.str();
+}
+
+Eigen::MatrixXd append(const Eigen::MatrixXd& J, const Eigen::MatrixXd& X) {
+  Eigen::MatrixXd out(J.rows(), J.cols() + X.cols());
+  out << J, X;
+  return out;
+}
+
+// Rank of [J X] against J: does X add q independent columns?
+bool confounded(int rank_before, int rank_after, int q) { return rank_after - rank_before < q; }
+
+double f_upper(int q, int dof, double F) {
+  return F > 0 ? boost::math::cdf(boost::math::complement(boost::math::fisher_f(q, dof), F)) : 1.0;
+}
+
+// The kinds that exist both per installation and for the whole test.
+bool has_whole_test_form(EffectKind k) {
+  return k == EffectKind::LengthOffset || k == EffectKind::Drift || k == EffectKind::Reversal;
+}
+
+class Selector {
+ public:
+  Selector(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma, const Eigen::VectorXd& y,
+           const std::vector<EffectBlock>& pool, const SelectionOptions& o)
+      : J0_(J), sigma_(sigma), y_(y), pool_(pool), o_(o), used_(pool.size(), false), status_(pool.size()) {}
+
+  Selection run() {
+    Selection res;
+    J_ = J0_;
+    current_ = solve(J_);
+    res.before = current_;
+    for (std::size_t i = 0; i < pool_.size(); ++i) {
+      status_[i].label = pool_[i].label;
+      if (!pool_[i].not_applicable.empty()) {
+        status_[i] = {pool_[i].label, CandidateState::kNotApplicable, pool_[i].not_applicable};
+        used_[i] = true;
+      }
+    }
+    for (bool changed = true; changed;) {
+      forward();
+      changed = exchange() || backward();
+    }
+    compare_structures();
+    final_evidence();
+    res.after = current_;
+    res.added = added_;
+    res.candidates = status_;
+    res.structures = structures_;
+    res.J_final = J_;
+    return res;
+  }
+
+ private:
+  Estimate solve(const Eigen::MatrixXd& J) const { return WlsSolver(J, sigma_, o_.estimate).solve(y_); }
+  int rank_of(const Eigen::MatrixXd& J) const { return WlsSolver(J, sigma_, o_.estimate).a_priori().rank; }
+
+  // [J0, the added effects' columns], leaving out added effect `skip`.
+  Eigen::MatrixXd model_without(int skip) const {
+    Eigen::MatrixXd J = J0_;
+    for (std::size_t b = 0; b < added_.size(); ++b) {
+      if (static_cast<int>(b) != skip) J = append(J, added_[b].block.X);
+    }
+    return J;
+  }
+  void rebuild() { J_ = model_without(-1); }
+
+  int index_of(const std::string& label) const {
+    for (std::size_t i = 0; i < pool_.size(); ++i) {
+      if (pool_[i].label == label) return static_cast<int>(i);
+    }
+    return -1;
+  }
+
+  void forward() {
+    while (static_cast<int>(added_.size()) < o_.max_effects) {
+      ++step_;
+      int best = -1, tested = 0;
+      Estimate best_est;
+      std::vector<double> trial_chi2(pool_.size(), -1.0);
+      double best_p = 2, best_F = 0;
+      for (std::size_t i = 0; i < pool_.size(); ++i) {
+        if (used_[i]) continue;
+        const int q = static_cast<int>(pool_[i].X.cols());
+        const Estimate trial = solve(append(J_, pool_[i].X));
+        if (confounded(current_.rank, trial.rank, q)) {
+          status_[i] = {pool_[i].label, CandidateState::kConfounded,
+                        "its " + std::to_string(q) + " column(s) raise the rank by " +
+                            std::to_string(trial.rank - current_.rank) +
+                            ": its size cannot be told from the axis errors" +
+                            (added_.empty() ? std::string() : " and the effects already added")};
+          continue;
+        }
+        if (trial.dof <= 0) {
+          status_[i] = {pool_[i].label, CandidateState::kNotSignificant, "no residual degrees of freedom left to test it"};
+          continue;
+        }
+        ++tested;
+        trial_chi2[i] = trial.chi2;
+        const double F = ((current_.chi2 - trial.chi2) / q) / (trial.chi2 / trial.dof);
+        const double p = f_upper(q, trial.dof, F);
+        status_[i] = {pool_[i].label, CandidateState::kNotSignificant, "F = " + fmt(F) + ", p = " + fmt(p)};
+        if (p < best_p) best = static_cast<int>(i), best_p = p, best_F = F, best_est = trial;
+      }
+      if (best < 0) return;
+      const double threshold = o_.level / tested;
+      const double dbic = bic(best_est) - bic(current_);
+      if (!(best_p < threshold && dbic < 0)) {
+        status_[best].detail += " (the best candidate at step " + std::to_string(step_) + "; needs p < " +
+                                fmt(threshold) + " and a lower BIC, change " + fmt(dbic) + ")";
+        return;
+      }
+      // Equivalent alternatives: each spans the other modulo the current model.
+      std::vector<int> equivalent;
+      const Eigen::MatrixXd J_best = append(J_, pool_[best].X);
+      for (std::size_t i = 0; i < pool_.size(); ++i) {
+        if (used_[i] || static_cast<int>(i) == best || status_[i].state == CandidateState::kConfounded) continue;
+        if (pool_[i].X.cols() != pool_[best].X.cols()) continue;
+        if (rank_of(append(J_best, pool_[i].X)) == best_est.rank) equivalent.push_back(static_cast<int>(i));
+      }
+      if (!equivalent.empty()) {
+        // Convention: the latest installation carries the effect, the earlier is the reference.
+        int chosen = best;
+        for (int i : equivalent) {
+          if (pool_[i].effect.installation > pool_[chosen].effect.installation) chosen = i;
+        }
+        if (chosen != best) {
+          equivalent.erase(std::find(equivalent.begin(), equivalent.end(), chosen));
+          equivalent.push_back(best);
+          best_est = solve(append(J_, pool_[chosen].X));
+          best = chosen;
+        }
+      }
+      AddedEffect a;
+      a.block = pool_[best];
+      for (std::size_t i = 0; i < pool_.size(); ++i) {
+        if (static_cast<int>(i) == best || trial_chi2[i] < 0 || pool_[i].X.cols() != pool_[best].X.cols()) continue;
+        if (std::find(equivalent.begin(), equivalent.end(), static_cast<int>(i)) != equivalent.end()) continue;
+        if (trial_chi2[i] - best_est.chi2 < 4.0 * best_est.chi2 / best_est.dof) {
+          a.close_alternatives.push_back(pool_[i].label);
+        }
+      }
+      for (int i : equivalent) {
+        a.equivalent_to.push_back(pool_[i].label);
+        used_[i] = true;
+        status_[i] = {pool_[i].label, CandidateState::kEquivalent,
+                      "explains the data exactly as " + pool_[best].label +
+                          " does (only their difference is determined); by convention the later installation "
+                          "carries it"};
+      }
+      a.evidence = {step_, best_F,       static_cast<int>(pool_[best].X.cols()), best_est.dof, best_p, threshold,
+                    tested, dbic,        current_.chi2,                          best_est.chi2};
+      added_.push_back(a);
+      used_[best] = true;
+      status_[best] = {pool_[best].label, CandidateState::kAdded,
+                       "step " + std::to_string(step_) + ": F = " + fmt(best_F) + ", p = " + fmt(best_p) + " < " +
+                           fmt(threshold) + ", BIC change " + fmt(dbic)};
+      J_ = append(J_, pool_[best].X);
+      current_ = best_est;
+    }
+  }
+
+  // Replace an added effect by another candidate when that lowers chi2 (forward
+  // selection alone cannot undo an early choice that noise favoured). True when it did.
+  bool exchange() {
+    double best_chi2 = current_.chi2 * (1 - 1e-9);
+    int swap_out = -1, swap_in = -1;
+    Estimate swapped;
+    for (std::size_t a = 0; a < added_.size(); ++a) {
+      const Eigen::MatrixXd base = model_without(static_cast<int>(a));
+      const int base_rank = rank_of(base);
+      for (std::size_t i = 0; i < pool_.size(); ++i) {
+        if (used_[i] || status_[i].state == CandidateState::kConfounded || status_[i].state == CandidateState::kEquivalent) continue;
+        if (pool_[i].X.cols() != added_[a].block.X.cols()) continue;
+        const Estimate trial = solve(append(base, pool_[i].X));
+        if (trial.rank - base_rank < pool_[i].X.cols()) continue;
+        if (trial.chi2 < best_chi2) {
+          best_chi2 = trial.chi2, swap_out = static_cast<int>(a), swap_in = static_cast<int>(i), swapped = trial;
+        }
+      }
+    }
+    if (swap_out < 0) return false;
+    const int out_idx = index_of(added_[swap_out].block.label);
+    used_[out_idx] = false;
+    status_[out_idx] = {pool_[out_idx].label, CandidateState::kNotSignificant,
+                        "exchanged for " + pool_[swap_in].label + ", which explains the data better"};
+    used_[swap_in] = true;
+    status_[swap_in] = {pool_[swap_in].label, CandidateState::kAdded, "exchanged in for " + pool_[out_idx].label};
+    added_[swap_out].block = pool_[swap_in];
+    added_[swap_out].equivalent_to.clear();
+    added_[swap_out].close_alternatives = {pool_[out_idx].label};
+    rebuild();
+    current_ = swapped;
+    return true;
+  }
+
+  // Drop the added effect least significant in the model as it now stands when its
+  // F-test of dropping gives p >= level (an effect added early can be made redundant
+  // by later ones). Entry needs p < level / m, so a dropped effect cannot re-enter at
+  // once. True when one was dropped.
+  bool backward() {
+    int worst = -1;
+    double worst_p = -1, worst_F = 0;
+    for (std::size_t a = 0; a < added_.size(); ++a) {
+      const Estimate reduced = solve(model_without(static_cast<int>(a)));
+      const int q = static_cast<int>(added_[a].block.X.cols());
+      if (current_.dof <= 0) return false;
+      const double F = ((reduced.chi2 - current_.chi2) / q) / (current_.chi2 / current_.dof);
+      const double p = f_upper(q, current_.dof, F);
+      if (p > worst_p) worst = static_cast<int>(a), worst_p = p, worst_F = F;
+    }
+    if (worst < 0 || worst_p < o_.level) return false;
+    const int idx = index_of(added_[worst].block.label);
+    used_[idx] = false;
+    std::string others;
+    for (std::size_t a = 0; a < added_.size(); ++a) {
+      if (static_cast<int>(a) != worst) others += (others.empty() ? "" : ", ") + added_[a].block.label;
+    }
+    status_[idx] = {pool_[idx].label, CandidateState::kNotSignificant,
+                    "dropped: no longer significant once " + others + " were in the model (F = " + fmt(worst_F) +
+                        ", p = " + fmt(worst_p) + " >= " + fmt(o_.level) + ")"};
+    added_.erase(added_.begin() + worst);
+    rebuild();
+    current_ = solve(J_);
+    return true;
+  }
+
+  // One whole-test term against the same effect per installation, for each kind that has both.
+  void compare_structures() {
+    for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Drift, EffectKind::Reversal}) {
+      if (!has_whole_test_form(kind)) continue;
+      int whole = -1;  // pool index of the whole-test candidate
+      for (std::size_t i = 0; i < pool_.size(); ++i) {
+        if (pool_[i].effect.kind == kind && pool_[i].effect.installation < 0 && pool_[i].not_applicable.empty()) {
+          whole = static_cast<int>(i);
+        }
+      }
+      if (whole < 0) continue;
+      std::vector<int> per_added;  // indices into added_ of per-installation effects of this kind
+      int whole_added = -1;
+      for (std::size_t a = 0; a < added_.size(); ++a) {
+        if (added_[a].block.effect.kind != kind) continue;
+        if (added_[a].block.effect.installation < 0) {
+          whole_added = static_cast<int>(a);
+        } else {
+          per_added.push_back(static_cast<int>(a));
+        }
+      }
+      StructureComparison c;
+      c.kind = effect_name(kind);
+      if (whole_added >= 0) {
+        // The rejected alternative: every per-installation term of the kind that the model
+        // without the whole-test term can take (rank-raising), in its place.
+        Eigen::MatrixXd alt = model_without(whole_added);
+        int rank = rank_of(alt);
+        for (std::size_t i = 0; i < pool_.size(); ++i) {
+          const EffectBlock& b = pool_[i];
+          if (b.effect.kind != kind || b.effect.installation < 0 || !b.not_applicable.empty() || used_[i]) continue;
+          const Eigen::MatrixXd trial = append(alt, b.X);
+          const int r = rank_of(trial);
+          if (r - rank < b.X.cols()) continue;
+          alt = trial, rank = r;
+          c.rejected.push_back(b.label);
+        }
+        if (c.rejected.size() < 2) continue;  // a single term is a nested alternative the F-tests decided
+        c.chosen = {added_[whole_added].block.label};
+        c.bic_chosen = bic(current_);
+        c.bic_rejected = bic(solve(alt));
+        structures_.push_back(c);
+      } else if (per_added.size() >= 2 && !used_[whole]) {
+        Eigen::MatrixXd alt = J0_;
+        for (std::size_t a = 0; a < added_.size(); ++a) {
+          if (std::find(per_added.begin(), per_added.end(), static_cast<int>(a)) == per_added.end()) {
+            alt = append(alt, added_[a].block.X);
+          }
+        }
+        const int base_rank = rank_of(alt);
+        alt = append(alt, pool_[whole].X);
+        const Estimate alt_est = solve(alt);
+        if (alt_est.rank - base_rank < pool_[whole].X.cols()) continue;  // confounded with what remains
+        for (int a : per_added) c.chosen.push_back(added_[a].block.label);
+        c.rejected = {pool_[whole].label};
+        c.bic_chosen = bic(current_);
+        c.bic_rejected = bic(alt_est);
+        structures_.push_back(c);
+      }
+    }
+  }
+
+  // Evidence of every added effect in the final model: the F-test of dropping it.
+  void final_evidence() {
+    for (std::size_t a = 0; a < added_.size(); ++a) {
+      const Estimate reduced = solve(model_without(static_cast<int>(a)));
+      EffectEvidence& e = added_[a].evidence;
+      e.q = static_cast<int>(added_[a].block.X.cols());
+      e.dof = current_.dof;
+      e.chi2_before = reduced.chi2;
+      e.chi2_after = current_.chi2;
+      e.F = current_.dof > 0 ? ((reduced.chi2 - current_.chi2) / e.q) / (current_.chi2 / current_.dof) : 0.0;
+      e.p_value = f_upper(e.q, current_.dof, e.F);
+      e.bic_change = bic(current_) - bic(reduced);
+    }
+    // The effects' values from the final model.
+    int col = static_cast<int>(J0_.cols());
+    for (AddedEffect& a : added_) {
+      a.values.clear();
+      for (int j = 0; j < a.block.X.cols(); ++j, ++col) {
+        Eigen::VectorXd c = Eigen::VectorXd::Zero(current_.n_unknowns);
+        c(col) = 1.0;
+        a.values.push_back(current_.evaluate(c));
+      }
+    }
+  }
+
+  const Eigen::MatrixXd& J0_;
+  const Eigen::VectorXd& sigma_;
+  const Eigen::VectorXd& y_;
+  const std::vector<EffectBlock>& pool_;
+  const SelectionOptions& o_;
+  std::vector<bool> used_;
+  std::vector<CandidateStatus> status_;
+  std::vector<AddedEffect> added_;
+  std::vector<StructureComparison> structures_;
+  Eigen::MatrixXd J_;
+  Estimate current_;
+  int step_ = 0;
+};
+
+}  // namespace
+
+const char* candidate_state_name(CandidateState s) {
+  switch (s) {
+    case CandidateState::kAdded:
+      return "added";
+    case CandidateState::kNotSignificant:
+      return "not significant";
+    case CandidateState::kConfounded:
+      return "confounded";
+    case CandidateState::kNotApplicable:
+      return "not applicable";
+    case CandidateState::kEquivalent:
+      return "equivalent";
+    case CandidateState::kDetectable:
+      return "detectable";
+  }
+  return "unknown";
+}
+
+double bic(const Estimate& e) {
+  const double n = e.n_readings;
+  return n * std::log(std::max(e.chi2, 1e-300) / n) + e.rank * std::log(n);
+}
+
+Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
+                         const std::vector<EffectBlock>& pool, const SelectionOptions& options) {
+  return Selector(J, sigma_um, y_um, pool, options).run();
+}
+
+}  // namespace dbbkit
