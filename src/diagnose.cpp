@@ -1,6 +1,7 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/setup.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <boost/math/distributions/chi_squared.hpp>
 #include <algorithm>
@@ -27,7 +28,6 @@ std::string fmt(double x, int digits = 3) {
 ResidualSignature residual_signature(const Design& design, const std::vector<Reading>& readings,
                                      const Eigen::VectorXd& r) {
   ResidualSignature sig;
-  double best = -1;
   for (std::size_t i = 0; i < design.installations.size(); ++i) {
     ResidualSignature::Installation s;
     s.id = design.installations[i].id;
@@ -44,13 +44,6 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
     for (int j = 0; j < s.n; ++j) ri(j) = r(rows[j]);
     s.mean_um = ri.mean();
     s.rms_um = std::sqrt(ri.squaredNorm() / s.n);
-    auto consider = [&](double size, const std::string& what) {
-      if (size > best) {
-        best = size;
-        sig.dominant = what;
-      }
-    };
-    consider(std::abs(s.mean_um), "a mean residual of " + fmt(s.mean_um) + " um in installation " + s.id);
     if (design.axis == Axis::C) {
       // Distinct positions bound the harmonics that can be told apart: 2K + 1 <= positions.
       std::vector<double> positions;
@@ -67,8 +60,6 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
         const Eigen::VectorXd coef = A.colPivHouseholderQr().solve(ri);
         for (int k = 1; k <= K; ++k) {
           s.harmonic_um.push_back(std::hypot(coef(2 * k - 1), coef(2 * k)));
-          consider(s.harmonic_um.back(), "a " + std::to_string(k) + "-per-turn term of amplitude " +
-                                             fmt(s.harmonic_um.back()) + " um in installation " + s.id);
         }
       }
     }
@@ -88,13 +79,9 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
     if (nt == s.n && nt > 2 && t_max > t_min) {
       const double tm = t_sum / nt;
       s.slope_um_per_min = (tr - tm * ri.sum()) / (t2 - nt * tm * tm);
-      consider(std::abs(*s.slope_um_per_min) * (t_max - t_min),
-               "a drift of " + fmt(*s.slope_um_per_min) + " um/min in installation " + s.id);
     }
     if (ncw > 0 && nccw > 0) {
       s.cw_minus_ccw_um = cw_sum / ncw - ccw_sum / nccw;
-      consider(std::abs(*s.cw_minus_ccw_um),
-               "a difference cw - ccw of " + fmt(*s.cw_minus_ccw_um) + " um in installation " + s.id);
     }
     sig.installations.push_back(s);
   }
@@ -181,7 +168,55 @@ std::string setup_risk_text(const Design& design, const std::vector<SetupRisk>& 
 
 }  // namespace
 
-DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readings, const DiagnoseOptions& options) {
+namespace {
+
+// The most significant feature (smallest p) in words, or empty.
+std::string most_significant(const Design& design, const std::vector<Reading>& readings,
+                             const std::vector<ResidualFeature>& features) {
+  const ResidualFeature* top = nullptr;
+  for (const ResidualFeature& f : features) {
+    if (!top || f.p < top->p || (f.p == top->p && f.test.F > top->test.F)) top = &f;
+  }
+  return top ? describe_feature(design, readings, *top) : std::string();
+}
+
+std::string p_text(double p) { return p < 1e-300 ? "< 1e-300" : "= " + fmt(p); }
+
+std::string reading_text(const Design& design, const Reading& r) {
+  (void)design;
+  std::string s = "installation " + r.installation + " at " + fmt(r.angle_deg, 6) + " deg";
+  if (r.sweep) s += *r.sweep == Sweep::CW ? " cw" : " ccw";
+  if (r.time_s) s += ", t = " + fmt(*r.time_s, 6) + " s";
+  if (r.line > 0) s += ", line " + std::to_string(r.line);
+  return s;
+}
+
+std::vector<DetectionLimit> detection_limits(const Design& design, const LinearModel& model,
+                                             const std::vector<EffectBlock>& pool, int n_tests,
+                                             const DiagnoseOptions& options) {
+  std::vector<DetectionLimit> out;
+  const WlsSolver solver(model.J, model.sigma_um, options.estimate);
+  const Estimate& prior = solver.a_priori();
+  DetectionSettings settings;
+  settings.level = options.level;
+  settings.n_tests = std::max(1, n_tests);
+  for (const EffectBlock& b : pool) {
+    if (!b.not_applicable.empty()) continue;
+    const Eigen::MatrixXd R = unexplained(solver, b.X);
+    const Eigen::VectorXd norms =
+        (model.sigma_um.cwiseInverse().asDiagonal() * b.X).colwise().norm().transpose();
+    const int q = added_rank(R, norms, options.estimate);
+    if (q < b.X.cols()) continue;  // confounded: no size would be found
+    const double info = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(R.transpose() * R).eigenvalues()(0);
+    const int dof = static_cast<int>(model.J.rows()) - prior.rank - q;
+    out.push_back({b.label, b.unit, detection_limit_um(q, true, info, dof, settings)});
+  }
+  (void)design;
+  return out;
+}
+
+DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& readings,
+                             const DiagnoseOptions& options) {
   DiagnoseResult res;
   res.level = options.level;
   const Parameterisation param(design);
@@ -190,7 +225,9 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   so.level = options.level;
   so.max_effects = options.max_effects;
   so.estimate = options.estimate;
-  Selection sel = select_effects(model.J, model.sigma_um, model.y_um, candidate_effects(design, readings), so);
+  const std::vector<EffectBlock> pool = candidate_effects(design, readings);
+  const std::vector<ScanFamily> families = scan_families(design, readings);
+  Selection sel = select_effects(model.J, model.sigma_um, model.y_um, pool, families, design, readings, so);
   res.before = sel.before;
   res.errors_before = errors_at_stations(param, res.before);
   res.signature_before = residual_signature(design, readings, res.before.residual_um);
@@ -216,6 +253,36 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
 
   res.setup_risks = setup_risks(design, param, model, J, options, res.added, res.errors_after);
 
+  // Checks outside the library, each a test at the level.
+  res.stopped_at_step = sel.stopped_at_reading >= 0 ? sel.stopped_at_step : 0;
+  if (res.after.dof > 1) {
+    res.gross = gross_readings(J, model.sigma_um, model.y_um, options.level, options.max_gross, options.estimate);
+    for (GrossReading& g : res.gross) g.reading = readings[static_cast<std::size_t>(g.row)];
+    res.features_after = residual_features(design, readings, J, model.sigma_um, model.y_um, options.estimate);
+    res.signature_after.dominant = most_significant(design, readings, res.features_after);
+  }
+  if (res.before.dof > 1 && res.significant_before) {
+    res.features_before = residual_features(design, readings, model.J, model.sigma_um, model.y_um, options.estimate);
+    res.signature_before.dominant = most_significant(design, readings, res.features_before);
+  }
+  double feature_p = 1;
+  for (const ResidualFeature& f : res.features_after) feature_p = std::min(feature_p, f.p);
+  const double feature_p_all = std::min(1.0, feature_p * static_cast<double>(std::max<std::size_t>(1, res.features_after.size())));
+  if (res.significant_after) {
+    res.order = model_order_check(design, readings, J, model.sigma_um, model.y_um, options.estimate);
+    res.noise = noise_scale(res.after.chi2, res.after.dof);
+    const bool order_explains = res.order && res.order->p < options.level;
+    res.noise_larger_than_declared = !(feature_p_all < options.level) && !order_explains && res.gross.empty();
+  }
+  // Detection limits, with the declared noise: only when that noise explains the residual.
+  if (res.added.empty() && res.stopped_at_step == 0 && res.after.p_value && !res.significant_after) {
+    int tested = 0;
+    for (const CandidateStatus& c : res.candidates) {
+      tested += c.state != CandidateState::kConfounded && c.state != CandidateState::kNotApplicable;
+    }
+    res.detection_limits = detection_limits(design, model, pool, tested + 1, options);
+  }
+
   std::ostringstream v;
   auto chi = [](const Estimate& e) {
     std::ostringstream s;
@@ -236,7 +303,9 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
       << (res.setup_risks.empty() ? "." : " in the residual.");
   } else {
     v << "Before: " << chi(res.before) << ". ";
-    if (res.added.empty()) {
+    if (res.added.empty() && res.stopped_at_step > 0) {
+      v << "No effect of the library was added before selection stopped. ";
+    } else if (res.added.empty()) {
       v << "No effect of the library is justified. ";
     } else {
       v << "Added:";
@@ -268,9 +337,44 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
                                    : "one per installation (" + list(c.rejected) + ")")
         << ": BIC " << fmt(c.bic_chosen, 6) << " against " << fmt(c.bic_rejected, 6) << ". ";
     }
+    if (res.stopped_at_step > 0 && !res.gross.empty()) {
+      v << "Selection stopped at step " << res.stopped_at_step
+        << ", where one reading alone was the best candidate: no effect is added to explain part of it away. ";
+    }
+    if (!res.gross.empty()) {
+      v << res.gross.size() << " gross reading(s), each tested alone against the rest (externally studentised "
+        << "residual, Bonferroni over the readings):";
+      for (std::size_t g = 0; g < res.gross.size(); ++g) {
+        const GrossReading& gr = res.gross[g];
+        v << (g ? ";" : "") << " " << reading_text(design, readings[gr.row]) << ", off by " << fmt(gr.value_um, 4)
+          << " +- " << fmt(gr.std_um, 2) << " um (t = " << fmt(gr.t, 4) << ", p " << p_text(gr.p_scan) << " over "
+          << gr.tested << " readings)";
+      }
+      v << ". Check them at the machine; dbbkit diagnose --exclude-gross refits without them and says so. ";
+    }
     if (res.significant_after) {
-      v << "A significant residual remains that no effect of the library explains; its largest feature is "
-        << res.signature_after.dominant << ".";
+      v << "A significant residual remains that no effect of the library explains";
+      if (feature_p_all < options.level) {
+        v << "; its most significant feature is " << res.signature_after.dominant << ". ";
+      } else {
+        v << ". ";
+      }
+      if (res.order && res.order->p < options.level) {
+        const OrderCheck& o = *res.order;
+        v << "The error model's order looks too low: order " << o.suggested << " instead of " << o.order
+          << " explains " << fmt(o.test.delta_chi2, 4) << " of chi2 (F = " << fmt(o.test.F, 4) << ", p "
+          << p_text(o.p) << " over " << o.tried << " orders); with it chi2 " << fmt(o.chi2_with, 4) << " on "
+          << o.dof_with << " dof" << (o.p_value_with ? ", p " + p_text(*o.p_value_with) : std::string())
+          << ". Set errors.order to " << o.suggested << " in the design. ";
+      }
+      if (res.noise_larger_than_declared && res.noise) {
+        const NoiseScale& ns = *res.noise;
+        v << "No feature of the residual stands out against its own scatter (the most significant, "
+          << res.signature_after.dominant << ", has p " << p_text(feature_p_all) << " over "
+          << res.features_after.size() << " features): the readings scatter " << fmt(ns.ratio, 3) << " times (95 % interval " << fmt(ns.low, 3)
+          << " to " << fmt(ns.high, 3) << ") more than the declared noise, evenly. The declared accuracy looks too "
+          << "small; identify --type-a states the uncertainties from the data's own scatter. ";
+      }
     } else {
       v << "No significant residual remains.";
     }
@@ -286,8 +390,119 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
         << "(identify --type-a) would state them from the data.";
     }
   }
-  if (!res.setup_risks.empty()) v << " " << setup_risk_text(design, res.setup_risks);
+  if (!res.setup_risks.empty()) {
+    if (v.str().empty() || v.str().back() != ' ') v << " ";
+    v << setup_risk_text(design, res.setup_risks);
+  }
+  if (!res.detection_limits.empty()) {
+    // Per kind, the range over its candidates of the size found with power 0.9.
+    v << " Nothing was added; with the declared noise, these would have been found with power 0.9 at this level:";
+    std::vector<std::string> kinds;
+    for (const DetectionLimit& d : res.detection_limits) {
+      const std::string k = d.label.substr(0, d.label.find('['));
+      if (std::find(kinds.begin(), kinds.end(), k) == kinds.end()) kinds.push_back(k);
+    }
+    bool first = true;
+    for (const std::string& k : kinds) {
+      double lo = 1e300, hi = 0;
+      std::string lo_label, unit;
+      for (const DetectionLimit& d : res.detection_limits) {
+        if (d.label.substr(0, d.label.find('[')) != k || !d.limit) continue;
+        if (*d.limit < lo) lo = *d.limit, lo_label = d.label;
+        hi = std::max(hi, *d.limit), unit = d.unit;
+      }
+      if (lo_label.empty()) continue;
+      v << (first ? " " : "; ") << k << " of " << fmt(lo, 2) << " " << unit
+        << (hi > lo * 1.005 ? " (" + lo_label + ") to " + fmt(hi, 2) + " " + unit : std::string()) << " or more";
+      first = false;
+    }
+    v << " (every candidate in the JSON).";
+  }
   res.verdict = v.str();
+  return res;
+}
+
+}  // namespace
+
+std::string describe_feature(const Design& design, const std::vector<Reading>& readings, const ResidualFeature& f) {
+  std::ostringstream s;
+  const std::string inst = f.installation >= 0 ? design.installations[f.installation].id : std::string("all");
+  auto pm = [&](const char* unit) { return fmt(f.value, 4) + " +- " + fmt(f.std, 2) + " " + unit; };
+  switch (f.kind) {
+    case FeatureKind::kMean:
+      s << "a mean residual of " << pm("um") << " in installation " << inst;
+      break;
+    case FeatureKind::kHarmonic:
+      s << "a " << f.harmonic << "-per-turn term of amplitude " << fmt(f.value, 4) << " um in installation " << inst;
+      break;
+    case FeatureKind::kDrift:
+      s << "a drift of " << pm("um/min") << " in installation " << inst;
+      break;
+    case FeatureKind::kReversal:
+      s << "a difference cw - ccw of " << pm("um") << " in installation " << inst;
+      break;
+    case FeatureKind::kStep:
+      s << "a step of " << pm("um") << " in installation " << inst << " from the reading "
+        << reading_text(design, readings[f.row]);
+      break;
+    case FeatureKind::kReading:
+      s << "one reading off by " << pm("um") << ": " << reading_text(design, readings[f.row]);
+      break;
+  }
+  s << " (F = " << fmt(f.test.F, 4) << ", p " << p_text(f.test.p);
+  if (f.tested > 1) s << ", times " << f.tested << " positions scanned: " << p_text(f.p).substr(f.p < 1e-300 ? 0 : 2);
+  s << ")";
+  if (!f.difference_with.empty()) {
+    s << "; only its difference from installation";
+    for (int j : f.difference_with) s << " " << design.installations[j].id;
+    s << " is determined";
+  }
+  return s.str();
+}
+
+DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readings, const DiagnoseOptions& options) {
+  DiagnoseResult res = diagnose_once(design, readings, options);
+  if (!options.exclude_gross || res.gross.empty()) return res;
+  // Refit without the gross readings, in passes (one may mask another), as asked.
+  std::vector<int> kept(readings.size());
+  for (std::size_t j = 0; j < kept.size(); ++j) kept[j] = static_cast<int>(j);
+  std::vector<GrossReading> excluded;
+  while (!res.gross.empty() && static_cast<int>(excluded.size()) < options.max_gross) {
+    std::vector<int> drop;
+    for (const GrossReading& g : res.gross) {
+      if (static_cast<int>(excluded.size()) >= options.max_gross) break;
+      GrossReading e = g;
+      e.row = kept[static_cast<std::size_t>(g.row)];
+      excluded.push_back(e);
+      drop.push_back(g.row);
+    }
+    std::sort(drop.rbegin(), drop.rend());
+    for (int r : drop) kept.erase(kept.begin() + r);
+    std::vector<Reading> subset;
+    for (int r : kept) subset.push_back(readings[static_cast<std::size_t>(r)]);
+    res = diagnose_once(design, subset, options);
+  }
+  std::vector<int> rows;
+  for (const GrossReading& g : excluded) rows.push_back(g.row);
+  std::sort(rows.begin(), rows.end());
+  res.excluded_rows = rows;
+  res.excluded = excluded;
+  std::ostringstream v;
+  v << "Refit without " << excluded.size() << " gross reading(s), as asked (--exclude-gross):";
+  for (std::size_t g = 0; g < excluded.size(); ++g) {
+    v << (g ? ";" : "") << " " << reading_text(design, readings[static_cast<std::size_t>(excluded[g].row)])
+      << ", off by " << fmt(excluded[g].value_um, 4) << " +- " << fmt(excluded[g].std_um, 2) << " um (t = "
+      << fmt(excluded[g].t, 4) << ")";
+  }
+  v << ". " << res.verdict;
+  res.verdict = v.str();
+  // Rows of the gross readings still found (max_gross reached) refer to the readings given.
+  for (GrossReading& g : res.gross) g.row = kept[static_cast<std::size_t>(g.row)];
+  for (std::vector<ResidualFeature>* fs : {&res.features_before, &res.features_after}) {
+    for (ResidualFeature& f : *fs) {
+      if (f.row >= 0) f.row = kept[static_cast<std::size_t>(f.row)];
+    }
+  }
   return res;
 }
 

@@ -1,6 +1,9 @@
 #include "dbbkit/effects.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <limits>
 
 #include "dbbkit/error.hpp"
@@ -19,7 +22,8 @@ constexpr KindInfo kKinds[] = {
     {EffectKind::LengthOffset, "length_offset", "um", false}, {EffectKind::Centring, "centring", "um", false},
     {EffectKind::Drift, "drift", "um/min", false},            {EffectKind::Reversal, "reversal", "um", false},
     {EffectKind::Scale, "scale", "um/m", true},               {EffectKind::Squareness, "squareness", "urad", true},
-    {EffectKind::Periodic, "periodic", "um", false},
+    {EffectKind::Periodic, "periodic", "um", false},          {EffectKind::Step, "step", "um", false},
+    {EffectKind::Thermal, "thermal", "um", false},
 };
 const KindInfo& info(EffectKind k) {
   for (const KindInfo& i : kKinds) {
@@ -33,7 +37,8 @@ const char* effect_name(EffectKind kind) { return info(kind).name; }
 const char* effect_unit(EffectKind kind) { return info(kind).unit; }
 bool effect_is_shared(EffectKind kind) { return info(kind).shared; }
 bool effect_has_whole_test_form(EffectKind kind) {
-  return kind == EffectKind::LengthOffset || kind == EffectKind::Drift || kind == EffectKind::Reversal;
+  return kind == EffectKind::LengthOffset || kind == EffectKind::Drift || kind == EffectKind::Reversal ||
+         kind == EffectKind::Thermal;
 }
 
 EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key) {
@@ -42,10 +47,17 @@ EffectKind effect_kind(const std::string& name, const std::string& source, const
   }
   throw InputError(source, key,
                    "unknown effect '" + name +
-                       "' (expected length_offset, centring, drift, reversal, scale, squareness or periodic)");
+                       "' (expected length_offset, centring, drift, reversal, step, thermal, scale, squareness or periodic)");
 }
 
 namespace {
+// A position in a label: up to 6 significant digits.
+std::string short_number(double x) {
+  std::ostringstream o;
+  o << std::setprecision(6) << x;
+  return o.str();
+}
+
 // Parameters of an effect: three components for the vector effects, else one.
 int effect_parameter_count(EffectKind kind) {
   return kind == EffectKind::Centring || kind == EffectKind::Scale || kind == EffectKind::Squareness ? 3 : 1;
@@ -71,6 +83,8 @@ std::string EffectCandidate::label(const Design& design) const {
   if (installation >= 0) s += "[" + design.installations[installation].id + "]";
   if (installation < 0 && effect_has_whole_test_form(kind)) s += "[all]";
   if (kind == EffectKind::Periodic) s += "(" + std::to_string(harmonic) + "/turn)";
+  if (kind == EffectKind::Step && std::isfinite(at_s)) s += "(t=" + short_number(at_s) + "s)";
+  if (kind == EffectKind::Thermal) s += "(tau=" + short_number(tau_min) + "min)";
   return s;
 }
 
@@ -131,6 +145,12 @@ Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, dou
       }
       break;
     }
+    case EffectKind::Step:
+      if (r.time_s && *r.time_s >= e.at_s) row(0) = 1.0;
+      break;
+    case EffectKind::Thermal:
+      if (r.time_s && std::isfinite(t0_s) && e.tau_min > 0) row(0) = -std::expm1(-(*r.time_s - t0_s) / (60.0 * e.tau_min));
+      break;
     case EffectKind::Periodic: {
       double s, c;
       sincos_deg(e.harmonic * r.angle_deg - e.phase_deg, s, c);
@@ -165,7 +185,7 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
     const double start = e.installation < 0 ? t_test : t0[inst];
     full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, start, e).transpose();
   }
-  if (e.kind == EffectKind::Drift && time_missing) b.not_applicable = "needs time_s on every reading it applies to";
+  if ((e.kind == EffectKind::Drift || e.kind == EffectKind::Thermal) && time_missing) b.not_applicable = "needs time_s on every reading it applies to";
   if (e.kind == EffectKind::Reversal && !(cw && ccw)) b.not_applicable = "needs readings of both sweeps (cw and ccw)";
   if ((e.kind == EffectKind::Scale || e.kind == EffectKind::Squareness) && bar_missing) {
     b.not_applicable = "needs bar_mm on every installation (the following ball's position)";
@@ -198,6 +218,70 @@ std::vector<EffectBlock> candidate_effects(const Design& design, const std::vect
   for (EffectKind k : {EffectKind::Scale, EffectKind::Squareness}) {
     for (int c = 0; c < 3; ++c) out.push_back(effect_block(design, readings, {k, -1, c}));
   }
+  return out;
+}
+
+EffectBlock ScanFamily::alternative(const Design& design, const std::vector<Reading>& readings, int k) const {
+  if (effect.kind != EffectKind::Step) return alternatives.at(static_cast<std::size_t>(k));
+  EffectBlock b;
+  b.effect = effect;
+  const Reading& first = readings.at(static_cast<std::size_t>(rows.at(static_cast<std::size_t>(k))));
+  if (timed) b.effect.at_s = *first.time_s;
+  b.label = b.effect.label(design);
+  if (!timed) b.label += "(from reading " + std::to_string(k + 1) + " of " + std::to_string(rows.size()) + ")";
+  b.unit = effect_unit(effect.kind);
+  b.parameters = {"value"};
+  b.X = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(readings.size()), 1);
+  for (std::size_t j = static_cast<std::size_t>(k); j < rows.size(); ++j) b.X(rows[j], 0) = 1.0;
+  return b;
+}
+
+std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Reading>& readings) {
+  std::vector<ScanFamily> out;
+  const auto index = design.installation_index();
+  std::vector<std::vector<int>> rows(design.installations.size());
+  for (std::size_t j = 0; j < readings.size(); ++j) rows[index.at(readings[j].installation)].push_back(static_cast<int>(j));
+  for (std::size_t i = 0; i < design.installations.size(); ++i) {
+    ScanFamily f;
+    f.effect.kind = EffectKind::Step;
+    f.effect.installation = static_cast<int>(i);
+    f.label = f.effect.label(design);
+    f.rows = rows[i];
+    f.timed = !f.rows.empty() && std::all_of(f.rows.begin(), f.rows.end(), [&](int j) { return readings[j].time_s.has_value(); });
+    if (f.timed) {
+      std::stable_sort(f.rows.begin(), f.rows.end(), [&](int a, int b) { return *readings[a].time_s < *readings[b].time_s; });
+    }
+    if (static_cast<int>(f.rows.size()) < 2 * f.min_segment) {
+      f.not_applicable = "needs at least " + std::to_string(2 * f.min_segment) + " readings of the installation";
+    }
+    out.push_back(f);
+  }
+  ScanFamily th;
+  th.effect.kind = EffectKind::Thermal;
+  th.label = th.effect.label(design);
+  th.label = th.label.substr(0, th.label.find('('));
+  double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;
+  bool all_timed = !readings.empty();
+  for (const Reading& r : readings) {
+    if (!r.time_s) {
+      all_timed = false;
+      break;
+    }
+    t0 = std::min(t0, *r.time_s), t1 = std::max(t1, *r.time_s);
+  }
+  if (!all_timed) {
+    th.not_applicable = "needs time_s on every reading";
+  } else if (!(t1 > t0)) {
+    th.not_applicable = "needs readings at more than one time";
+  } else {
+    const double T_min = (t1 - t0) / 60.0;
+    for (int k = 0; k < kThermalTaus; ++k) {
+      EffectCandidate c = th.effect;
+      c.tau_min = T_min / 20.0 * std::pow(40.0, k / double(kThermalTaus - 1));
+      th.alternatives.push_back(effect_block(design, readings, c));
+    }
+  }
+  out.push_back(th);
   return out;
 }
 

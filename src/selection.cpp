@@ -1,5 +1,7 @@
 #include "dbbkit/selection.hpp"
 
+#include "dbbkit/residual_checks.hpp"
+
 #include <algorithm>
 #include <boost/math/distributions/fisher_f.hpp>
 #include <cmath>
@@ -29,16 +31,24 @@ double f_upper(int q, int dof, double F) {
   return F > 0 ? boost::math::cdf(boost::math::complement(boost::math::fisher_f(q, dof), F)) : 1.0;
 }
 
-// The kinds that exist both per installation and for the whole test.
-bool has_whole_test_form(EffectKind k) {
-  return k == EffectKind::LengthOffset || k == EffectKind::Drift || k == EffectKind::Reversal;
-}
-
 class Selector {
  public:
   Selector(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma, const Eigen::VectorXd& y,
-           const std::vector<EffectBlock>& pool, const SelectionOptions& o)
-      : J0_(J), sigma_(sigma), y_(y), pool_(pool), o_(o), used_(pool.size(), false), status_(pool.size()) {}
+           const std::vector<EffectBlock>& pool, const SelectionOptions& o,
+           const std::vector<ScanFamily>& families = {}, const Design* design = nullptr,
+           const std::vector<Reading>* readings = nullptr)
+      : J0_(J),
+        sigma_(sigma),
+        y_(y),
+        pool_(pool),
+        o_(o),
+        used_(pool.size(), false),
+        status_(pool.size()),
+        families_(families),
+        design_(design),
+        readings_(readings),
+        family_used_(families.size(), false),
+        family_status_(families.size()) {}
 
   Selection run() {
     Selection res;
@@ -52,8 +62,18 @@ class Selector {
         used_[i] = true;
       }
     }
+    for (std::size_t f = 0; f < families_.size(); ++f) {
+      family_status_[f].label = families_[f].label;
+      if (!families_[f].not_applicable.empty()) {
+        family_status_[f] = {families_[f].label, CandidateState::kNotApplicable, families_[f].not_applicable};
+        family_used_[f] = true;
+      }
+    }
+    all_rows_.resize(static_cast<std::size_t>(y_.size()));
+    for (std::size_t i = 0; i < all_rows_.size(); ++i) all_rows_[i] = static_cast<int>(i);
     for (bool changed = true; changed;) {
       forward();
+      if (stopped_at_reading_ >= 0) break;
       changed = exchange() || backward();
     }
     compare_structures();
@@ -61,8 +81,12 @@ class Selector {
     res.after = current_;
     res.added = added_;
     res.candidates = status_;
+    res.candidates.insert(res.candidates.end(), family_status_.begin(), family_status_.end());
     res.structures = structures_;
     res.J_final = J_;
+    res.stopped_at_reading = stopped_at_reading_;
+    res.stopped_at_step = stopped_at_step_;
+    res.gross = gross_;
     return res;
   }
 
@@ -116,6 +140,60 @@ class Selector {
         const double p = f_upper(q, trial.dof, F);
         status_[i] = {pool_[i].label, CandidateState::kNotSignificant, "F = " + fmt(F) + ", p = " + fmt(p)};
         if (p < best_p) best = static_cast<int>(i), best_p = p, best_F = F, best_est = trial;
+      }
+      // Scanned candidates: the best alternative of each, p multiplied by the alternatives tested.
+      int best_family = -1, best_alt = -1, best_scanned = 0;
+      if (!families_.empty()) {
+        const WlsSolver solver(J_, sigma_, o_.estimate);
+        const ColumnTester tester(solver, current_, o_.estimate);
+        for (std::size_t f = 0; f < families_.size(); ++f) {
+          if (family_used_[f]) continue;
+          const ScanFamily& fam = families_[f];
+          ScanTest st;
+          if (fam.effect.kind == EffectKind::Step) {
+            st = tester.scan_steps(fam.rows, fam.min_segment);
+          } else {
+            for (std::size_t k = 0; k < fam.alternatives.size(); ++k) {
+              const ColumnTest t = tester.test(fam.alternatives[k].X);
+              if (t.added_rank < 1 || t.dof <= 0) continue;
+              ++st.tested;
+              if (st.best < 0 || t.p < st.test.p || (t.p == st.test.p && t.F > st.test.F)) st.best = static_cast<int>(k), st.test = t;
+            }
+            if (st.best >= 0) st.p_scan = std::min(1.0, st.tested * st.test.p);
+          }
+          if (st.best < 0) {
+            family_status_[f] = {fam.label, CandidateState::kConfounded,
+                                 "no alternative raises the rank: its size cannot be told from the model"};
+            continue;
+          }
+          ++tested;
+          const std::string where = fam.alternative(*design_, *readings_, st.best).label;
+          family_status_[f] = {fam.label, CandidateState::kNotSignificant,
+                               "best " + where + ": F = " + fmt(st.test.F) + ", p = " + fmt(st.test.p) + " times " +
+                                   std::to_string(st.tested) + " alternatives = " + fmt(st.p_scan)};
+          if (st.p_scan < best_p || (best_family >= 0 && st.p_scan == best_p && st.test.F > best_F)) {
+            best = -1, best_family = static_cast<int>(f), best_alt = st.best, best_p = st.p_scan, best_F = st.test.F;
+            best_scanned = st.tested;
+          }
+        }
+      }
+      if (o_.stop_at_gross_reading) {
+        // One reading on its own, counted as one more candidate of the step.
+        const WlsSolver solver(J_, sigma_, o_.estimate);
+        const ScanTest g = ColumnTester(solver, current_, o_.estimate).scan_readings(all_rows_);
+        if (g.best >= 0) {
+          ++tested;
+          if (g.p_scan < best_p && g.p_scan < o_.level / tested) {
+            stopped_at_reading_ = g.best;
+            stopped_at_step_ = step_;
+            gross_ = g;
+            return;
+          }
+        }
+      }
+      if (best_family >= 0) {
+        if (!add_scanned(best_family, best_alt, best_p, best_F, best_scanned, tested, trial_chi2)) return;
+        continue;
       }
       if (best < 0) return;
       const double threshold = o_.level / tested;
@@ -175,6 +253,104 @@ class Selector {
     }
   }
 
+  // Adds alternative k of scanned family f when it passes (p < level / tested and the BIC,
+  // with the position counted, falls). True when added.
+  bool add_scanned(int f, int k, double p, double F, int scanned, int tested, const std::vector<double>& trial_chi2) {
+    const ScanFamily& fam = families_[f];
+    EffectBlock block = fam.alternative(*design_, *readings_, k);
+    const Estimate trial = solve(append(J_, block.X));
+    const double threshold = o_.level / tested;
+    const double dbic = bic(trial) - bic(current_) + std::log(static_cast<double>(current_.n_readings));
+    if (!(p < threshold && dbic < 0)) {
+      family_status_[f].detail += " (the best candidate at step " + std::to_string(step_) + "; needs p < " +
+                                  fmt(threshold) + " and a lower BIC, change " + fmt(dbic) + " with its position)";
+      return false;
+    }
+    AddedEffect a;
+    a.evidence = {step_, F, 1, trial.dof, p, threshold, tested, dbic, current_.chi2, trial.chi2};
+    a.evidence.scanned = scanned;
+    // Library candidates of one column that fit almost as well (as in forward()).
+    for (std::size_t i = 0; i < pool_.size(); ++i) {
+      if (trial_chi2[i] < 0 || pool_[i].X.cols() != 1) continue;
+      if (trial_chi2[i] - trial.chi2 < 4.0 * trial.chi2 / trial.dof) a.close_alternatives.push_back(pool_[i].label);
+    }
+    Estimate after = trial;
+    if (fam.effect.kind == EffectKind::Thermal) block = refine_thermal(fam, k, after);
+    family_status_[f] = {fam.label, CandidateState::kAdded,
+                         "step " + std::to_string(step_) + ": " + block.label + ", F = " + fmt(F) + ", p = " + fmt(p) +
+                             " (over " + std::to_string(scanned) + " alternatives) < " + fmt(threshold) +
+                             ", BIC change " + fmt(dbic) + " with its position"};
+    a.block = std::move(block);
+    added_.push_back(a);
+    family_used_[f] = true;
+    J_ = append(J_, added_.back().block.X);
+    current_ = after;
+    return true;
+  }
+
+  // The time constant of a warm-up between the grid's neighbours of alternative k, by
+  // golden-section search on chi2; then the block linearised there (Gauss-Newton):
+  // [f(tau), a df/dtau] with f = 1 - exp(-(t - t0) / tau) and a the plateau, so that the
+  // second column's coefficient is a correction to tau (0 at the minimum) whose
+  // uncertainty is that of tau, carried into the axis errors. `fit` becomes the fit with it.
+  EffectBlock refine_thermal(const ScanFamily& fam, int k, Estimate& fit) const {
+    const std::size_t m = fam.alternatives.size();
+    const double lo = fam.alternatives[k > 0 ? k - 1 : 0].effect.tau_min / (k > 0 ? 1.0 : 1.5);
+    const double hi = fam.alternatives[std::min<std::size_t>(k + 1, m - 1)].effect.tau_min *
+                      (static_cast<std::size_t>(k) + 1 < m ? 1.0 : 1.5);
+    auto block_at = [&](double tau) {
+      EffectCandidate c = fam.effect;
+      c.tau_min = tau;
+      return effect_block(*design_, *readings_, c);
+    };
+    auto chi2_at = [&](double log_tau) { return solve(append(J_, block_at(std::exp(log_tau)).X)).chi2; };
+    const double g = (std::sqrt(5.0) - 1) / 2;
+    double a = std::log(lo), b = std::log(hi);
+    double c = b - g * (b - a), d = a + g * (b - a), fc = chi2_at(c), fd = chi2_at(d);
+    for (int it = 0; it < 40 && b - a > 1e-6; ++it) {
+      if (fc < fd) {
+        b = d, d = c, fd = fc, c = b - g * (b - a), fc = chi2_at(c);
+      } else {
+        a = c, c = d, fc = fd, d = a + g * (b - a), fd = chi2_at(d);
+      }
+    }
+    const double tau = std::exp((a + b) / 2);
+    EffectBlock f = block_at(tau);
+    const Estimate one = solve(append(J_, f.X));
+    Eigen::VectorXd unit = Eigen::VectorXd::Zero(one.n_unknowns);
+    unit(one.n_unknowns - 1) = 1.0;
+    const double plateau = one.evaluate(unit).value;
+    // df/dtau = -exp(-dt / tau) dt / tau^2 = -(1 - f) dt / tau^2, dt in min.
+    Eigen::VectorXd deriv = Eigen::VectorXd::Zero(f.X.rows());
+    const double t0 = test_start_time(*readings_);
+    for (Eigen::Index i = 0; i < f.X.rows(); ++i) {
+      const double dt = (*(*readings_)[static_cast<std::size_t>(i)].time_s - t0) / 60.0;
+      deriv(i) = -plateau * (1.0 - f.X(i, 0)) * dt / (tau * tau);
+    }
+    EffectBlock two = f;
+    two.X.conservativeResize(Eigen::NoChange, 2);
+    two.X.col(1) = deriv;
+    const Estimate with_tau = solve(append(J_, two.X));
+    if (with_tau.rank - one.rank < 1) {  // tau not determined (a plateau of zero): the one-column block
+      fit = one;
+      return f;
+    }
+    two.parameters = {"value", "tau_min"};
+    fit = with_tau;
+    return two;
+  }
+
+  // The scanned family an added block came from, or -1.
+  int family_of(const EffectBlock& b) const {
+    if (b.effect.kind != EffectKind::Step && b.effect.kind != EffectKind::Thermal) return -1;
+    for (std::size_t f = 0; f < families_.size(); ++f) {
+      if (families_[f].effect.kind == b.effect.kind && families_[f].effect.installation == b.effect.installation) {
+        return static_cast<int>(f);
+      }
+    }
+    return -1;
+  }
+
   // Replace an added effect by another candidate when that lowers chi2 (forward
   // selection alone cannot undo an early choice that noise favoured). True when it did.
   bool exchange() {
@@ -182,6 +358,7 @@ class Selector {
     int swap_out = -1, swap_in = -1;
     Estimate swapped;
     for (std::size_t a = 0; a < added_.size(); ++a) {
+      if (family_of(added_[a].block) >= 0) continue;  // a scanned effect keeps its place; backward() may drop it
       const Eigen::MatrixXd base = model_without(static_cast<int>(a));
       const int base_rank = rank_of(base);
       for (std::size_t i = 0; i < pool_.size(); ++i) {
@@ -225,15 +402,22 @@ class Selector {
       if (p > worst_p) worst = static_cast<int>(a), worst_p = p, worst_F = F;
     }
     if (worst < 0 || worst_p < o_.level) return false;
-    const int idx = index_of(added_[worst].block.label);
-    used_[idx] = false;
     std::string others;
     for (std::size_t a = 0; a < added_.size(); ++a) {
       if (static_cast<int>(a) != worst) others += (others.empty() ? "" : ", ") + added_[a].block.label;
     }
-    status_[idx] = {pool_[idx].label, CandidateState::kNotSignificant,
-                    "dropped: no longer significant once " + others + " were in the model (F = " + fmt(worst_F) +
-                        ", p = " + fmt(worst_p) + " >= " + fmt(o_.level) + ")"};
+    const CandidateStatus dropped{added_[worst].block.label, CandidateState::kNotSignificant,
+                                  "dropped: no longer significant once " + others + " were in the model (F = " +
+                                      fmt(worst_F) + ", p = " + fmt(worst_p) + " >= " + fmt(o_.level) + ")"};
+    if (const int f = family_of(added_[worst].block); f >= 0) {
+      family_used_[f] = false;
+      family_status_[f] = dropped;
+      family_status_[f].label = families_[f].label;
+    } else {
+      const int idx = index_of(added_[worst].block.label);
+      used_[idx] = false;
+      status_[idx] = dropped;
+    }
     added_.erase(added_.begin() + worst);
     rebuild();
     current_ = solve(J_);
@@ -243,7 +427,6 @@ class Selector {
   // One whole-test term against the same effect per installation, for each kind that has both.
   void compare_structures() {
     for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Drift, EffectKind::Reversal}) {
-      if (!has_whole_test_form(kind)) continue;
       int whole = -1;  // pool index of the whole-test candidate
       for (std::size_t i = 0; i < pool_.size(); ++i) {
         if (pool_[i].effect.kind == kind && pool_[i].effect.installation < 0 && pool_[i].not_applicable.empty()) {
@@ -323,6 +506,8 @@ class Selector {
         Eigen::VectorXd c = Eigen::VectorXd::Zero(current_.n_unknowns);
         c(col) = 1.0;
         a.values.push_back(current_.evaluate(c));
+        // A warm-up's second column is the correction to the time constant it was linearised at.
+        if (a.block.parameters[j] == "tau_min") a.values.back().value += a.block.effect.tau_min;
       }
     }
   }
@@ -334,6 +519,14 @@ class Selector {
   const SelectionOptions& o_;
   std::vector<bool> used_;
   std::vector<CandidateStatus> status_;
+  const std::vector<ScanFamily>& families_;
+  const Design* design_;
+  const std::vector<Reading>* readings_;
+  std::vector<bool> family_used_;
+  std::vector<CandidateStatus> family_status_;
+  std::vector<int> all_rows_;
+  int stopped_at_reading_ = -1, stopped_at_step_ = 0;
+  ScanTest gross_;
   std::vector<AddedEffect> added_;
   std::vector<StructureComparison> structures_;
   Eigen::MatrixXd J_;
@@ -369,6 +562,12 @@ double bic(const Estimate& e) {
 Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
                          const std::vector<EffectBlock>& pool, const SelectionOptions& options) {
   return Selector(J, sigma_um, y_um, pool, options).run();
+}
+
+Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
+                         const std::vector<EffectBlock>& pool, const std::vector<ScanFamily>& families,
+                         const Design& design, const std::vector<Reading>& readings, const SelectionOptions& options) {
+  return Selector(J, sigma_um, y_um, pool, options, families, &design, &readings).run();
 }
 
 }  // namespace dbbkit

@@ -133,8 +133,16 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
         if (!in.bar_mm) throw InputError(source, key, std::string(effect_name(e.effect.kind)) + " needs bar_mm on every installation of the design");
       }
     }
-    if ((e.effect.kind == EffectKind::Drift && !truth.schedule)) {
-      throw InputError(source, key, "drift needs a schedule (the readings' times)");
+    if ((e.effect.kind == EffectKind::Drift || e.effect.kind == EffectKind::Step ||
+         e.effect.kind == EffectKind::Thermal) &&
+        !truth.schedule) {
+      throw InputError(source, key, std::string(effect_name(e.effect.kind)) + " needs a schedule (the readings' times)");
+    }
+    if (e.effect.kind == EffectKind::Thermal && !e.installation.empty()) {
+      throw InputError(source, key + ".installation", "thermal is one warm-up of the whole test: no installation");
+    }
+    if (e.effect.kind == EffectKind::Step && !std::isfinite(e.effect.at_s)) {
+      throw InputError(source, key + ".value.at_s", "a step needs the time it happens (s, the test's clock)");
     }
     if (e.effect.kind == EffectKind::Reversal && (!truth.schedule || truth.schedule->sweeps.size() < 2)) {
       throw InputError(source, key, "reversal needs a schedule with both sweeps");

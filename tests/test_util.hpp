@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <random>
 #include <string>
 
 #include "dbbkit/design.hpp"
@@ -55,6 +56,23 @@ inline Design paper_design(char axis) {
 // probability p lies within p n +- z sqrt(n p (1 - p)).
 inline bool within_binomial(double successes, double n, double p, double z) {
   return std::abs(successes - p * n) <= z * std::sqrt(n * p * (1 - p));
+}
+
+// The paper's C installations with 150 mm bars and a Fourier order-2 error model,
+// swept ccw, cw, ccw, 10 s per reading (tests/data/c_fourier2_bar150.json): the
+// redundancy diagnosis needs.
+inline Design fourier_design() { return io::read_design_file(source_path("tests/data/c_fourier2_bar150.json")); }
+
+// Random order-2 Fourier errors for it (10 um, 30 urad) with that schedule.
+inline Truth random_fourier_truth(const Design& d, std::mt19937_64& rng) {
+  std::normal_distribution<double> n01;
+  Truth t;
+  t.model = d.errors;
+  for (int k = 0; k < 6; ++k) {
+    for (int c = 0; c < 5; ++c) t.coefficients[k].push_back((k < 3 ? 10.0 : 30.0) * n01(rng));
+  }
+  t.schedule = Schedule{10, 240, {Sweep::CCW, Sweep::CW, Sweep::CCW}};
+  return t;
 }
 
 }  // namespace dbbkit::test

@@ -13,6 +13,7 @@
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/observability.hpp"
+#include "dbbkit/residual_checks.hpp"
 #include "dbbkit/selection.hpp"
 #include "dbbkit/setup.hpp"
 
@@ -21,7 +22,20 @@ namespace dbbkit {
 struct DiagnoseOptions {
   double level = 0.01;  // family-wise significance level of each step
   int max_effects = 12;
+  // Refit without the gross readings found (at most max_gross, in passes until none is
+  // found): the user's explicit choice, reported in the result and the verdict.
+  bool exclude_gross = false;
+  int max_gross = 10;
   EstimateOptions estimate;
+};
+
+// The size of a library effect that diagnose's first step would find with the given power
+// (setup.hpp's detection limit: the F-test at level / candidates tested, least favourable
+// direction), with the declared noise.
+struct DetectionLimit {
+  std::string label;
+  std::string unit;
+  std::optional<double> limit;  // absent without degrees of freedom
 };
 
 struct ResidualSignature {
@@ -68,8 +82,22 @@ struct DiagnoseResult {
   bool significant_before = false, significant_after = false;
   std::optional<double> p_lower_after;  // P(chi2_dof <= chi2 after): small when the residual is too small
   std::vector<SetupRisk> setup_risks;  // most dangerous first (smallest threshold)
+  // Checks of the residual outside the library (residual_checks.hpp), on the final model.
+  std::vector<ResidualFeature> features_before, features_after;  // features_before: on the axis errors alone
+  std::vector<GrossReading> gross;         // rows index the readings fitted
+  int stopped_at_step = 0;                 // selection stopped at a gross reading (0: it did not)
+  std::optional<OrderCheck> order;         // series models
+  std::optional<NoiseScale> noise;         // when the residual after is significant
+  bool noise_larger_than_declared = false;  // significant after, no feature or check explains it
+  std::vector<DetectionLimit> detection_limits;  // when nothing was added
+  // Readings left out by exclude_gross: indices into the readings given, and their tests.
+  std::vector<int> excluded_rows;
+  std::vector<GrossReading> excluded;  // rows index the readings given
   std::string verdict;
 };
+
+// A feature in words, with its test: "a step of 5.02 um in installation 2t at t = 1234 s (F = ...)".
+std::string describe_feature(const Design& design, const std::vector<Reading>& readings, const ResidualFeature& f);
 
 ResidualSignature residual_signature(const Design& design, const std::vector<Reading>& readings,
                                      const Eigen::VectorXd& residual_um);

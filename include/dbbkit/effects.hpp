@@ -10,6 +10,12 @@
 //   length_offset, drift, reversal [all]:       the same with one value for the whole test
 //                                               (installation -1); the drift's t0 is then the
 //                                               test's first reading (one clock through the test)
+//   step (per installation, um):               1 from the reading at which the installation's
+//                                               readings jump on (a knock, a slipped magnet);
+//                                               its position is scanned (selection.hpp)
+//   thermal[all] (um):                          1 - exp(-(t - t0) / tau), t0 the test's first
+//                                               reading: a warm-up approaching a plateau of the
+//                                               value; tau is scanned (selection.hpp)
 //   scale (shared, um/m):                       -s u . dF, dF_k = 1e-3 k_k F_k
 //   squareness (shared, urad):                  -s u . dF, dF = 1e-3 (S_xy F_y, S_yz F_z, S_zx F_x)
 // with F = P - s bar u the following ball (mm, needs bar_mm). Outside the library,
@@ -17,6 +23,7 @@
 //   periodic (per installation, um):            cos(k a - phase) times the amplitude
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -25,13 +32,14 @@
 
 namespace dbbkit {
 
-enum class EffectKind { LengthOffset, Centring, Drift, Reversal, Scale, Squareness, Periodic };
+enum class EffectKind { LengthOffset, Centring, Drift, Reversal, Scale, Squareness, Periodic, Step, Thermal };
 
 const char* effect_name(EffectKind kind);
 // Throws InputError(source, key, ...) for an unknown name.
 EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key);
 bool effect_is_shared(EffectKind kind);
-// Length offset, drift and reversal also exist once for the whole test (installation -1, label "[all]").
+// Length offset, drift and reversal also exist once for the whole test (installation -1, label "[all]");
+// thermal exists only for the whole test.
 bool effect_has_whole_test_form(EffectKind kind);
 const char* effect_unit(EffectKind kind);
 // Names of the full parameter vector of an effect (before unseen columns are dropped).
@@ -43,6 +51,10 @@ struct EffectCandidate {
   int component = -1;     // one parameter of a multi-parameter effect (e.g. scale.x); -1: all
   int harmonic = 0;       // Periodic only
   double phase_deg = 0;   // Periodic only
+  // Step: the readings of the installation from the time at_s on (the test's clock, as
+  // time_s) are offset; a step found in data without times is placed by reading order.
+  double at_s = std::numeric_limits<double>::quiet_NaN();
+  double tau_min = 0;  // Thermal only: the time constant
   std::string label(const Design& design) const;  // e.g. "centring[2r]", "squareness.xy"
 };
 
@@ -78,5 +90,26 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
 
 // Every effect of the library that the readings could show (applicable or not, with the reason).
 std::vector<EffectBlock> candidate_effects(const Design& design, const std::vector<Reading>& readings);
+
+// An effect with a free position, one column per alternative (selection.hpp scans them):
+//   step[i]: a step between two consecutive readings of installation i, in time order
+//     (file order when a reading of i has no time), at least kStepMinSegment readings from
+//     either end;
+//   thermal[all]: the warm-up 1 - exp(-(t - t0) / tau) for tau on a geometric grid of
+//     kThermalTaus values from T / 20 to 2 T, T the test's duration.
+inline constexpr int kStepMinSegment = 3;
+inline constexpr int kThermalTaus = 12;
+struct ScanFamily {
+  EffectCandidate effect;     // the kind and installation; the position is the alternative's
+  std::string label;          // e.g. "step[2r]", "thermal[all]"
+  std::vector<int> rows;      // step: the installation's readings in order
+  bool timed = false;         // step: ordered by time_s
+  int min_segment = kStepMinSegment;
+  std::vector<EffectBlock> alternatives;  // thermal: one block per tau
+  std::string not_applicable;
+  // The block of alternative k (step: the first reading after the step is rows[k]).
+  EffectBlock alternative(const Design& design, const std::vector<Reading>& readings, int k) const;
+};
+std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Reading>& readings);
 
 }  // namespace dbbkit

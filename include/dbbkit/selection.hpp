@@ -27,6 +27,19 @@
 // alternatives are reported, and the errors after are conditional on that
 // convention.
 //
+// Scanned candidates (effects.hpp ScanFamily: a step at an unknown reading, a
+// warm-up with an unknown time constant) take part in each step as one candidate
+// each: the best alternative against the current model (residual_checks.hpp), with
+// p the smallest over the m alternatives times m (Bonferroni over the scan), and a
+// BIC that counts the position as one more parameter. So a step competes with the
+// drift and centring that would otherwise explain it away.
+//
+// A single reading is a candidate as well (its indicator column, scanned over every
+// reading): when a gross reading is the best candidate of a step and passes the
+// step's test, selection stops (stop_at_gross_reading) rather than add effects that
+// would explain part of it away; diagnose names it, and a re-fit without it is the
+// user's explicit choice.
+//
 // Structures: an effect of the whole test (one drift on the test's clock, one
 // reversal or length change common to every installation) and the same effect
 // per installation are alternatives that need not be nested. After selection,
@@ -43,12 +56,17 @@
 
 #include "dbbkit/effects.hpp"
 #include "dbbkit/estimate.hpp"
+#include "dbbkit/residual_checks.hpp"
 
 namespace dbbkit {
 
 struct SelectionOptions {
   double level = 0.01;  // family-wise significance level of each step
   int max_effects = 12;
+  // Each reading on its own is a candidate too (a gross reading, residual_checks.hpp): when it
+  // is the best candidate of a step and passes, selection stops there, so that no effect of
+  // the library is added to explain it away. Removing it is the caller's explicit choice.
+  bool stop_at_gross_reading = true;
   EstimateOptions estimate;
 };
 
@@ -62,6 +80,7 @@ struct EffectEvidence {
   double p_value = 1;
   double p_threshold = 0;  // level / candidates tested at that step
   int n_tested = 0;
+  int scanned = 0;  // a scanned candidate: the alternatives tested (its p at entry was min p times this)
   double bic_change = 0;
   double chi2_before = 0, chi2_after = 0;
 };
@@ -112,6 +131,11 @@ struct Selection {
   std::vector<CandidateStatus> candidates;
   std::vector<StructureComparison> structures;
   Eigen::MatrixXd J_final;  // [J, added effects' columns]
+  // Selection stopped at this step because a single reading was the best candidate
+  // (stop_at_gross_reading): its row and test; -1 when it did not.
+  int stopped_at_reading = -1;
+  int stopped_at_step = 0;
+  ScanTest gross;
 };
 
 // Bayesian information criterion of an estimate: n ln(chi2 / n) + rank ln n.
@@ -119,5 +143,10 @@ double bic(const Estimate& e);
 
 Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
                          const std::vector<EffectBlock>& pool, const SelectionOptions& options = {});
+// With scanned candidates; `design` and `readings` build their alternatives.
+Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
+                         const std::vector<EffectBlock>& pool, const std::vector<ScanFamily>& families,
+                         const Design& design, const std::vector<Reading>& readings,
+                         const SelectionOptions& options = {});
 
 }  // namespace dbbkit

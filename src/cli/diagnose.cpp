@@ -20,6 +20,7 @@ struct DiagnoseArgs {
   std::string design, data, out;
   double level = 0.01;
   int max_effects = 12;
+  bool exclude_gross = false;
 };
 }  // namespace
 
@@ -38,6 +39,8 @@ Runner add_diagnose(CLI::App& app) {
       ->check(finite_in(limits::kMinLevel, limits::kMaxLevel))
       ->capture_default_str();
   sub->add_option("--max-effects", args->max_effects, "Most effects added")->check(integer_in(0, limits::kMaxEffects))->capture_default_str();
+  sub->add_flag("--exclude-gross", args->exclude_gross,
+                "Refit without the gross readings found (at most 10), and say so in the verdict and the JSON");
   return [args, rep]() {
     const std::vector<std::string> in = {args->design, args->data};
     const std::string json_out = json_to_stdout(args->out) ? "-" : args->out;
@@ -47,6 +50,7 @@ Runner add_diagnose(CLI::App& app) {
     DiagnoseOptions options;
     options.level = args->level;
     options.max_effects = args->max_effects;
+    options.exclude_gross = args->exclude_gross;
     const DiagnoseResult result = diagnose(design, readings, options);
     const io::InputFiles inputs{args->design, args->data};
     const io::RunContext run{command_line(), in};

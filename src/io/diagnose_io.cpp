@@ -28,6 +28,56 @@ json signature_to_json(const ResidualSignature& s) {
   return {{"installations", list}, {"dominant", s.dominant}};
 }
 
+json reading_to_json(const Reading& r) {
+  json j = {{"installation", r.installation}, {"angle_deg", r.angle_deg}, {"reading_um", r6(r.reading_um)}};
+  j["time_s"] = r.time_s ? json(*r.time_s) : json(nullptr);
+  j["sweep"] = r.sweep ? json(*r.sweep == Sweep::CW ? "cw" : "ccw") : json(nullptr);
+  j["line"] = r.line > 0 ? json(r.line) : json(nullptr);
+  return j;
+}
+
+json column_test_to_json(const ColumnTest& t) {
+  return {{"columns", t.q}, {"added_rank", t.added_rank}, {"delta_chi2", r6(t.delta_chi2)}, {"F", r6(t.F)},
+          {"dof", t.dof}, {"p_value", t.p}};
+}
+
+json features_to_json(const Design& d, const std::vector<ResidualFeature>& fs) {
+  json out = json::array();
+  for (const ResidualFeature& f : fs) {
+    json j = {{"kind", feature_kind_name(f.kind)},
+              {"installation", f.installation >= 0 ? json(d.installations[f.installation].id) : json(nullptr)},
+              {"test", column_test_to_json(f.test)},
+              {"alternatives_scanned", f.tested},
+              {"p_value", f.p}};
+    if (f.kind == FeatureKind::kHarmonic) {
+      j["harmonic"] = f.harmonic;
+      j["amplitude_um"] = r6(f.value);
+    } else {
+      j["value"] = r6(f.value);
+      j["std"] = r6(f.std);
+      j["unit"] = f.kind == FeatureKind::kDrift ? "um/min" : "um";
+    }
+    if (f.reading) j["reading"] = reading_to_json(*f.reading);
+    json diff = json::array();
+    for (int i : f.difference_with) diff.push_back(d.installations[i].id);
+    j["only_difference_determined_with"] = diff;
+    out.push_back(j);
+  }
+  return out;
+}
+
+json gross_to_json(const std::vector<GrossReading>& gs) {
+  json out = json::array();
+  for (const GrossReading& g : gs) {
+    json j = {{"residual_um", r6(g.residual_um)}, {"offset_um", r6(g.value_um)}, {"offset_std_um", r6(g.std_um)},
+              {"studentised", r6(g.t)}, {"p_value", g.p},
+              {"p_value_over_readings", g.p_scan}, {"readings_tested", g.tested}};
+    if (g.reading) j["reading"] = reading_to_json(*g.reading);
+    out.push_back(j);
+  }
+  return out;
+}
+
 std::vector<std::string> installations_of(const Design& d, const EffectCandidate& e) {
   std::vector<std::string> ids;
   for (std::size_t i = 0; i < d.installations.size(); ++i) {
@@ -61,7 +111,7 @@ std::string signature_text(const ResidualSignature& s, Axis axis) {
     if (i.cw_minus_ccw_um) o << std::setprecision(2) << *i.cw_minus_ccw_um; else o << "--";
     o << std::defaultfloat << "\n";
   }
-  o << "largest feature: " << s.dominant << "\n";
+  o << "most significant feature: " << (s.dominant.empty() ? "(not tested)" : s.dominant) << "\n";
   return o.str();
 }
 
@@ -153,6 +203,40 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
   j["largest_change_of_errors"] = change;
   j["units"] = {{"dx", "um"}, {"dy", "um"}, {"dz", "um"}, {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
   j["unidentifiable"] = unidentifiable_to_json(r.unidentifiable_after);
+  json checks = {{"level", r.level},
+                 {"method",
+                  "each feature is the F-test of appending its columns to the final model (scale-free: referred to "
+                  "the residual's own scatter); a scan (a step at any reading of an installation, one reading alone) "
+                  "takes its best position, its p times the positions scanned (Bonferroni)"},
+                 {"features_after", features_to_json(design, r.features_after)},
+                 {"features_before", features_to_json(design, r.features_before)},
+                 {"gross_readings", gross_to_json(r.gross)},
+                 {"selection_stopped_at_gross_reading_step", r.stopped_at_step > 0 ? json(r.stopped_at_step) : json(nullptr)},
+                 {"excluded_readings", gross_to_json(r.excluded)},
+                 {"noise_larger_than_declared", r.noise_larger_than_declared}};
+  if (r.noise) {
+    checks["noise_scale"] = {{"ratio", r6(r.noise->ratio)}, {"low_95", r6(r.noise->low)}, {"high_95", r6(r.noise->high)}};
+  } else {
+    checks["noise_scale"] = nullptr;
+  }
+  if (r.order) {
+    checks["model_order"] = {{"order", r.order->order},
+                             {"suggested", r.order->suggested},
+                             {"orders_tried", r.order->tried},
+                             {"test", column_test_to_json(r.order->test)},
+                             {"p_value_over_orders", r.order->p},
+                             {"chi2_with", r6(r.order->chi2_with)},
+                             {"dof_with", r.order->dof_with},
+                             {"p_value_with", r.order->p_value_with ? json(*r.order->p_value_with) : json(nullptr)}};
+  } else {
+    checks["model_order"] = nullptr;
+  }
+  json limits = json::array();
+  for (const DetectionLimit& d : r.detection_limits) {
+    limits.push_back({{"effect", d.label}, {"unit", d.unit}, {"size_found_with_power_0_9", d.limit ? json(r6(*d.limit)) : json(nullptr)}});
+  }
+  checks["detection_limits"] = limits;
+  j["residual_checks"] = checks;
   j["signature_before"] = signature_to_json(r.signature_before);
   j["signature_after"] = signature_to_json(r.signature_after);
   return j;

@@ -468,7 +468,12 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
 }
 
 std::string diagnose_report(ReportFormat f, const RunContext& run, const Design& design,
-                            const std::vector<Reading>& readings, const DiagnoseResult& r) {
+                            const std::vector<Reading>& given, const DiagnoseResult& r) {
+  // The readings fitted: those given, less any the user asked to exclude (--exclude-gross).
+  std::vector<Reading> readings;
+  for (std::size_t j = 0; j < given.size(); ++j) {
+    if (!std::binary_search(r.excluded_rows.begin(), r.excluded_rows.end(), static_cast<int>(j))) readings.push_back(given[j]);
+  }
   Page p(f, "dbbkit diagnose: " + design.name);
   p.heading("Verdict");
   p.paragraph(r.verdict);
@@ -491,6 +496,24 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
       }
     }
     p.table({"effect", "parameter", "value", "u", "unit", "p (F-test)", "BIC change"}, rows);
+  }
+  p.heading("Checks of the residual");
+  {
+    std::vector<std::vector<std::string>> rows;
+    std::vector<const ResidualFeature*> sorted;
+    for (const ResidualFeature& x : r.features_after) sorted.push_back(&x);
+    std::sort(sorted.begin(), sorted.end(), [](const ResidualFeature* a, const ResidualFeature* b) { return a->p < b->p; });
+    for (std::size_t i = 0; i < std::min<std::size_t>(5, sorted.size()); ++i) {
+      rows.push_back({describe_feature(design, readings, *sorted[i]), fmt_num(sorted[i]->p, 3)});
+    }
+    if (rows.empty()) {
+      p.paragraph("No residual degrees of freedom left to test features of the residual.");
+    } else {
+      p.paragraph("The five most significant features of the residual after, each tested against the residual's own "
+                  "scatter (F-test of appending it to the final model; a scan's p times the positions scanned), at "
+                  "the level " + fmt_num(r.level, 3) + ". Every feature is in the JSON (residual_checks).");
+      p.table({"feature", "p"}, rows);
+    }
   }
   design_section(p, design);
   p.heading("Residuals before and after");

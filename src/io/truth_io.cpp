@@ -93,6 +93,21 @@ Truth truth_from_json(const json& j, const std::string& source) {
           o.finish();
           break;
         }
+        case EffectKind::Step: {
+          ObjectReader o(v, source, vpath);
+          te.effect.at_s = o.number("at_s");
+          te.value(0) = o.number("size_um");
+          o.finish();
+          break;
+        }
+        case EffectKind::Thermal: {
+          ObjectReader o(v, source, vpath);
+          te.effect.tau_min = o.number("tau_min");
+          if (!(te.effect.tau_min > 0) || !std::isfinite(te.effect.tau_min)) o.fail("tau_min", "must be a finite time > 0 min");
+          te.value(0) = o.number("plateau_um");
+          o.finish();
+          break;
+        }
         default:
           te.value(0) = as_number(v, source, vpath);
       }

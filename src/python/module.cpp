@@ -488,7 +488,8 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
   return r;
 }
 
-PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double level, int max_effects) {
+PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double level, int max_effects,
+                              bool exclude_gross) {
   check_finite_in("level", level, limits::kMinLevel, limits::kMaxLevel);
   check_integer_in("max_effects", max_effects, 0, limits::kMaxEffects);
   validate_rows(d.value, m.readings, m.source);
@@ -500,6 +501,7 @@ PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double
     DiagnoseOptions options;
     options.level = level;
     options.max_effects = max_effects;
+    options.exclude_gross = exclude_gross;
     r.result = dbbkit::diagnose(d.value, m.readings, options);
   }
   r.json = io::diagnose_to_json(d.value, r.result, {d.source, m.source});
@@ -863,7 +865,9 @@ PYBIND11_MODULE(dbbkit, m) {
         "`dbbkit identify`: the six errors from the readings, their budget (JCGM 100), ISO 230-7 terms, and with "
         "tolerances (a path or dict, dbbkit.tolerances/1) the conformance decisions");
   m.def("diagnose", &run_diagnose, py::arg("design"), py::arg("measurements"), py::arg("level") = 0.01,
-        py::arg("max_effects") = 12, "`dbbkit diagnose`: the closed loop, before and after");
+        py::arg("max_effects") = 12, py::arg("exclude_gross") = false,
+        "`dbbkit diagnose`: the closed loop, before and after (exclude_gross: refit without the gross readings "
+        "found, and say so)");
   m.def("optimize", &run_optimize, py::arg("kit"), py::arg("criterion") = py::none(), py::arg("threads") = 0,
         py::arg("require_setup_detection") = false, py::arg("reference") = py::none(),
         "`dbbkit optimize`: the design of the kit with the smallest worst-case uncertainty (criterion: worst, "
