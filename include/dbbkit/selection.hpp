@@ -80,9 +80,9 @@ struct EffectEvidence {
   double p_value = 1;
   double p_threshold = 0;  // level / candidates tested at that step
   int n_tested = 0;
-  int scanned = 0;  // a scanned candidate: the alternatives tested (its p at entry was min p times this)
   double bic_change = 0;
   double chi2_before = 0, chi2_after = 0;
+  int scanned = 0;  // a scanned candidate: the alternatives tested (its p at entry was min p times this)
 };
 
 struct AddedEffect {

@@ -157,6 +157,7 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
                        {"p_value", e.p_value},
                        {"p_threshold", e.p_threshold},
                        {"candidates_tested", e.n_tested},
+                       {"alternatives_scanned", e.scanned > 0 ? json(e.scanned) : json(nullptr)},
                        {"bic_change", e.bic_change},
                        {"chi2_before", e.chi2_before},
                        {"chi2_after", e.chi2_after}}}});
