@@ -356,7 +356,6 @@ class Selector {
   bool exchange() {
     double best_chi2 = current_.chi2 * (1 - 1e-9);
     int swap_out = -1, swap_in = -1;
-    Estimate swapped;
     for (std::size_t a = 0; a < added_.size(); ++a) {
       if (family_of(added_[a].block) >= 0) continue;  // a scanned effect keeps its place; backward() may drop it
       const Eigen::MatrixXd base = model_without(static_cast<int>(a));
@@ -367,7 +366,7 @@ class Selector {
         const Estimate trial = solve(append(base, pool_[i].X));
         if (trial.rank - base_rank < pool_[i].X.cols()) continue;
         if (trial.chi2 < best_chi2) {
-          best_chi2 = trial.chi2, swap_out = static_cast<int>(a), swap_in = static_cast<int>(i), swapped = trial;
+          best_chi2 = trial.chi2, swap_out = static_cast<int>(a), swap_in = static_cast<int>(i);
         }
       }
     }
@@ -382,7 +381,9 @@ class Selector {
     added_[swap_out].equivalent_to.clear();
     added_[swap_out].close_alternatives = {pool_[out_idx].label};
     rebuild();
-    current_ = swapped;
+    // Solved again on J_ as rebuilt: `swapped` has the new columns last, J_ has them in the
+    // exchanged effect's place, and final_evidence reads the values in J_'s order.
+    current_ = solve(J_);
     return true;
   }
 

@@ -237,6 +237,12 @@ TEST(Selection, ExchangeUndoesAnEarlyChoiceThatFitsWorse) {
   EXPECT_NE(find_added(s, "b"), nullptr);
   EXPECT_NE(status_of(s, "b").detail.find("exchanged in for c"), std::string::npos) << status_of(s, "b").detail;
   EXPECT_EQ(status_of(s, "c").state, CandidateState::kNotSignificant);
+  // The values are those of least squares on [1, a, b], each under its own label.
+  Eigen::MatrixXd A(n, 3);
+  A << J, a, b;
+  const Eigen::VectorXd theta = A.colPivHouseholderQr().solve(y);
+  EXPECT_NEAR(find_added(s, "a")->values.at(0).value, theta(1), 1e-9);
+  EXPECT_NEAR(find_added(s, "b")->values.at(0).value, theta(2), 1e-9);
 }
 
 }  // namespace
