@@ -94,11 +94,10 @@ namespace {
 // below their columns) and the bias each causes in the errors after, relative to
 // their stated uncertainty.
 std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation& param, const LinearModel& model,
-                                   const Eigen::MatrixXd& J_final, const DiagnoseOptions& options,
+                                   const WlsSolver& solver, const DiagnoseOptions& options,
                                    const std::vector<AddedEffect>& added, const std::vector<ErrorsAtAngle>& after) {
   std::vector<SetupRisk> out;
-  const WlsSolver solver(J_final, model.sigma_um, options.estimate);
-  const int p_ext = static_cast<int>(J_final.cols());
+  const int p_ext = static_cast<int>(solver.J().cols());
   for (const SetupEffect& e : setup_effects(design, model, false)) {
     bool in_model = false;
     for (const AddedEffect& a : added) in_model = in_model || a.block.label == e.label;
@@ -175,15 +174,14 @@ std::string most_significant(const Design& design, const std::vector<Reading>& r
                              const std::vector<ResidualFeature>& features) {
   const ResidualFeature* top = nullptr;
   for (const ResidualFeature& f : features) {
-    if (!top || f.p < top->p || (f.p == top->p && f.test.F > top->test.F)) top = &f;
+    if (!top || more_significant(f.p, f.test.F, top->p, top->test.F)) top = &f;
   }
   return top ? describe_feature(design, readings, *top) : std::string();
 }
 
 std::string p_text(double p) { return p < 1e-300 ? "< 1e-300" : "= " + fmt(p); }
 
-std::string reading_text(const Design& design, const Reading& r) {
-  (void)design;
+std::string reading_text(const Reading& r) {
   std::string s = "installation " + r.installation + " at " + fmt(r.angle_deg, 6) + " deg";
   if (r.sweep) s += *r.sweep == Sweep::CW ? " cw" : " ccw";
   if (r.time_s) s += ", t = " + fmt(*r.time_s, 6) + " s";
@@ -191,11 +189,10 @@ std::string reading_text(const Design& design, const Reading& r) {
   return s;
 }
 
-std::vector<DetectionLimit> detection_limits(const Design& design, const LinearModel& model,
-                                             const std::vector<EffectBlock>& pool, int n_tests,
-                                             const DiagnoseOptions& options) {
+// `solver`: the axis errors' model alone (diagnose's first step).
+std::vector<DetectionLimit> detection_limits(const WlsSolver& solver, const std::vector<EffectBlock>& pool,
+                                             int n_tests, const DiagnoseOptions& options) {
   std::vector<DetectionLimit> out;
-  const WlsSolver solver(model.J, model.sigma_um, options.estimate);
   const Estimate& prior = solver.a_priori();
   DetectionSettings settings;
   settings.level = options.level;
@@ -204,14 +201,13 @@ std::vector<DetectionLimit> detection_limits(const Design& design, const LinearM
     if (!b.not_applicable.empty()) continue;
     const Eigen::MatrixXd R = unexplained(solver, b.X);
     const Eigen::VectorXd norms =
-        (model.sigma_um.cwiseInverse().asDiagonal() * b.X).colwise().norm().transpose();
+        (solver.sigma_um().cwiseInverse().asDiagonal() * b.X).colwise().norm().transpose();
     const int q = added_rank(R, norms, options.estimate);
     if (q < b.X.cols()) continue;  // confounded: no size would be found
     const double info = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(R.transpose() * R).eigenvalues()(0);
-    const int dof = static_cast<int>(model.J.rows()) - prior.rank - q;
+    const int dof = static_cast<int>(solver.J().rows()) - prior.rank - q;
     out.push_back({b.label, b.unit, detection_limit_um(q, true, info, dof, settings)});
   }
-  (void)design;
   return out;
 }
 
@@ -251,25 +247,34 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.significant_after = current.p_value && *current.p_value < options.level;
   res.candidates = std::move(sel.candidates);
 
-  res.setup_risks = setup_risks(design, param, model, J, options, res.added, res.errors_after);
+  // The final model [J, added effects], factorised once for the set-up risks and the checks.
+  const WlsSolver final_solver(J, model.sigma_um, options.estimate);
+  const Estimate final_fit = final_solver.solve(model.y_um);
+  res.setup_risks = setup_risks(design, param, model, final_solver, options, res.added, res.errors_after);
 
   // Checks outside the library, each a test at the level.
   res.stopped_at_step = sel.stopped_at_reading >= 0 ? sel.stopped_at_step : 0;
   if (res.after.dof > 1) {
     res.gross = gross_readings(J, model.sigma_um, model.y_um, options.level, options.max_gross, options.estimate);
     for (GrossReading& g : res.gross) g.reading = readings[static_cast<std::size_t>(g.row)];
-    res.features_after = residual_features(design, readings, J, model.sigma_um, model.y_um, options.estimate);
+    res.features_after = residual_features(design, readings, final_solver, final_fit, options.estimate);
     res.signature_after.dominant = most_significant(design, readings, res.features_after);
   }
+  // The axis errors' model alone, factorised when a check needs it.
+  std::optional<WlsSolver> first_solver;
+  auto first = [&]() -> const WlsSolver& {
+    if (!first_solver) first_solver.emplace(model.J, model.sigma_um, options.estimate);
+    return *first_solver;
+  };
   if (res.before.dof > 1 && res.significant_before) {
-    res.features_before = residual_features(design, readings, model.J, model.sigma_um, model.y_um, options.estimate);
+    res.features_before = residual_features(design, readings, first(), res.before, options.estimate);
     res.signature_before.dominant = most_significant(design, readings, res.features_before);
   }
   double feature_p = 1;
   for (const ResidualFeature& f : res.features_after) feature_p = std::min(feature_p, f.p);
   const double feature_p_all = std::min(1.0, feature_p * static_cast<double>(std::max<std::size_t>(1, res.features_after.size())));
   if (res.significant_after) {
-    res.order = model_order_check(design, readings, J, model.sigma_um, model.y_um, options.estimate);
+    res.order = model_order_check(design, readings, final_solver, final_fit, options.estimate);
     res.noise = noise_scale(res.after.chi2, res.after.dof);
     const bool order_explains = res.order && res.order->p < options.level;
     res.noise_larger_than_declared = !(feature_p_all < options.level) && !order_explains && res.gross.empty();
@@ -280,7 +285,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
     for (const CandidateStatus& c : res.candidates) {
       tested += c.state != CandidateState::kConfounded && c.state != CandidateState::kNotApplicable;
     }
-    res.detection_limits = detection_limits(design, model, pool, tested + 1, options);
+    res.detection_limits = detection_limits(first(), pool, tested + 1, options);
   }
 
   std::ostringstream v;
@@ -346,7 +351,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
         << "residual, Bonferroni over the readings):";
       for (std::size_t g = 0; g < res.gross.size(); ++g) {
         const GrossReading& gr = res.gross[g];
-        v << (g ? ";" : "") << " " << reading_text(design, readings[gr.row]) << ", off by " << fmt(gr.value_um, 4)
+        v << (g ? ";" : "") << " " << reading_text(readings[gr.row]) << ", off by " << fmt(gr.value_um, 4)
           << " +- " << fmt(gr.std_um, 2) << " um (t = " << fmt(gr.t, 4) << ", p " << p_text(gr.p_scan) << " over "
           << gr.tested << " readings)";
       }
@@ -443,10 +448,10 @@ std::string describe_feature(const Design& design, const std::vector<Reading>& r
       break;
     case FeatureKind::kStep:
       s << "a step of " << pm("um") << " in installation " << inst << " from the reading "
-        << reading_text(design, readings[f.row]);
+        << reading_text(readings[f.row]);
       break;
     case FeatureKind::kReading:
-      s << "one reading off by " << pm("um") << ": " << reading_text(design, readings[f.row]);
+      s << "one reading off by " << pm("um") << ": " << reading_text(readings[f.row]);
       break;
   }
   s << " (F = " << fmt(f.test.F, 4) << ", p " << p_text(f.test.p);
@@ -490,7 +495,7 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   std::ostringstream v;
   v << "Refit without " << excluded.size() << " gross reading(s), as asked (--exclude-gross):";
   for (std::size_t g = 0; g < excluded.size(); ++g) {
-    v << (g ? ";" : "") << " " << reading_text(design, readings[static_cast<std::size_t>(excluded[g].row)])
+    v << (g ? ";" : "") << " " << reading_text(readings[static_cast<std::size_t>(excluded[g].row)])
       << ", off by " << fmt(excluded[g].value_um, 4) << " +- " << fmt(excluded[g].std_um, 2) << " um (t = "
       << fmt(excluded[g].t, 4) << ")";
   }

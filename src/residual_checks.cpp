@@ -5,18 +5,31 @@
 #include <boost/math/distributions/chi_squared.hpp>
 #include <boost/math/distributions/fisher_f.hpp>
 #include <cmath>
-#include <set>
 
+#include "dbbkit/effects.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 
 namespace dbbkit {
 
-namespace {
-
-double f_upper(int q, int dof, double F) {
+double f_test_p(int q, int dof, double F) {
   if (!(F > 0) || q <= 0 || dof <= 0) return 1.0;
   return boost::math::cdf(boost::math::complement(boost::math::fisher_f(q, dof), F));
+}
+
+namespace {
+
+// The distinct positions of the readings `rows` (all when null).
+int distinct_positions(Axis axis, const std::vector<Reading>& readings, const std::vector<int>* rows) {
+  std::vector<double> positions;
+  const std::size_t n = rows ? rows->size() : readings.size();
+  for (std::size_t j = 0; j < n; ++j) {
+    const double a = readings[rows ? static_cast<std::size_t>((*rows)[j]) : j].angle_deg;
+    if (std::none_of(positions.begin(), positions.end(), [&](double b) { return same_position(axis, b, a); })) {
+      positions.push_back(a);
+    }
+  }
+  return static_cast<int>(positions.size());
 }
 
 }  // namespace
@@ -37,7 +50,7 @@ ColumnTest ColumnTester::one_column(double xWr, double xWx, double R2) const {
   if (t.dof <= 0) return t;
   const double rest = fit_.chi2 - t.delta_chi2;
   t.F = rest > 0 ? t.delta_chi2 / (rest / t.dof) : std::numeric_limits<double>::infinity();
-  t.p = std::isinf(t.F) ? 0.0 : f_upper(1, t.dof, t.F);
+  t.p = std::isinf(t.F) ? 0.0 : f_test_p(1, t.dof, t.F);
   return t;
 }
 
@@ -66,7 +79,7 @@ ColumnTest ColumnTester::test(const Eigen::MatrixXd& X) const {
   if (t.dof <= 0) return t;
   const double rest = fit_.chi2 - t.delta_chi2;
   t.F = rest > 0 ? (t.delta_chi2 / r) / (rest / t.dof) : std::numeric_limits<double>::infinity();
-  t.p = std::isinf(t.F) ? 0.0 : f_upper(r, t.dof, t.F);
+  t.p = std::isinf(t.F) ? 0.0 : f_test_p(r, t.dof, t.F);
   return t;
 }
 
@@ -87,12 +100,8 @@ ScanTest ColumnTester::scan_steps(const std::vector<int>& rows, int min_segment)
     JWx += w_(i) * J.row(i).transpose();
     Gx += G.col(i);
     if (m - k < min_segment) continue;
-    const ColumnTest t = one_column(xWr, xWx, xWx - JWx.dot(Gx));
-    if (t.added_rank == 0 || t.dof <= 0) continue;
-    ++s.tested;
-    if (s.best < 0 || t.p < s.test.p || (t.p == s.test.p && t.F > s.test.F)) s.best = k, s.test = t;
+    s.consider(k, one_column(xWr, xWx, xWx - JWx.dot(Gx)));
   }
-  if (s.best >= 0) s.p_scan = std::min(1.0, s.tested * s.test.p);
   return s;
 }
 
@@ -102,12 +111,8 @@ ScanTest ColumnTester::scan_readings(const std::vector<int>& rows) const {
   const Eigen::MatrixXd& G = solver_.gain();
   for (int i : rows) {
     const double h = J.row(i).dot(G.col(i));  // leverage
-    const ColumnTest t = one_column(w_(i) * fit_.residual_um(i), w_(i), w_(i) * (1.0 - h));
-    if (t.added_rank == 0 || t.dof <= 0) continue;
-    ++s.tested;
-    if (s.best < 0 || t.p < s.test.p || (t.p == s.test.p && t.F > s.test.F)) s.best = i, s.test = t;
+    s.consider(i, one_column(w_(i) * fit_.residual_um(i), w_(i), w_(i) * (1.0 - h)));
   }
-  if (s.best >= 0) s.p_scan = std::min(1.0, s.tested * s.test.p);
   return s;
 }
 
@@ -130,52 +135,75 @@ const char* feature_kind_name(FeatureKind k) {
 }
 
 std::vector<ResidualFeature> residual_features(const Design& design, const std::vector<Reading>& readings,
-                                               const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um,
-                                               const Eigen::VectorXd& y_um, const EstimateOptions& options) {
+                                               const WlsSolver& solver, const Estimate& fit,
+                                               const EstimateOptions& options) {
   std::vector<ResidualFeature> out;
-  const WlsSolver solver(J, sigma_um, options);
-  const Estimate fit = solver.solve(y_um);
   if (fit.dof <= 1) return out;
   const ColumnTester tester(solver, fit, options);
   const Eigen::Index n = static_cast<Eigen::Index>(readings.size());
   const auto index = design.installation_index();
   std::vector<std::vector<int>> rows(design.installations.size());
   for (std::size_t j = 0; j < readings.size(); ++j) rows[index.at(readings[j].installation)].push_back(static_cast<int>(j));
+  auto timed = [&](int inst) {
+    return std::all_of(rows[inst].begin(), rows[inst].end(), [&](int j) { return readings[j].time_s.has_value(); });
+  };
+  // The column of a one-column feature of an installation; empty when its readings cannot show it
+  // (a drift needs every time, cw - ccw both sweeps).
+  auto column = [&](FeatureKind kind, int inst) {
+    const std::vector<int>& r = rows[inst];
+    Eigen::MatrixXd c = Eigen::MatrixXd::Zero(n, 1);
+    if (kind == FeatureKind::kMean) {
+      for (int j : r) c(j, 0) = 1.0;
+    } else if (kind == FeatureKind::kDrift) {
+      if (!timed(inst)) return Eigen::MatrixXd();
+      double t0 = *readings[r[0]].time_s;
+      for (int j : r) t0 = std::min(t0, *readings[j].time_s);
+      for (int j : r) c(j, 0) = (*readings[j].time_s - t0) / 60.0;
+    } else {
+      bool cw = false, ccw = false;
+      for (int j : r) {
+        if (!readings[j].sweep) continue;
+        const bool is_cw = *readings[j].sweep == Sweep::CW;
+        cw = cw || is_cw, ccw = ccw || !is_cw;
+        c(j, 0) = is_cw ? 0.5 : -0.5;
+      }
+      if (!(cw && ccw)) return Eigen::MatrixXd();
+    }
+    return c;
+  };
   auto add = [&](ResidualFeature f, const Eigen::MatrixXd& X) {
+    if (X.cols() == 0) return;
     f.test = tester.test(X);
     if (f.test.added_rank == 0 || f.test.dof <= 0) return;
     f.p = f.test.p;
     if (X.cols() == 1) f.value = f.test.value, f.std = f.test.std;
     out.push_back(f);
   };
+  auto add_scan = [&](ResidualFeature f, const ScanTest& st, int row) {
+    if (st.best < 0) return;
+    f.row = row;
+    f.reading = readings[static_cast<std::size_t>(row)];
+    f.test = st.test, f.tested = st.tested, f.p = st.p_scan, f.value = st.test.value, f.std = st.test.std;
+    out.push_back(f);
+  };
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const std::vector<int>& r = rows[i];
     if (r.empty()) continue;
     const int inst = static_cast<int>(i);
-    Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n, 1);
-    for (int j : r) x(j, 0) = 1.0;
-    ResidualFeature mean;
-    mean.kind = FeatureKind::kMean, mean.installation = inst;
-    add(mean, x);
+    add({FeatureKind::kMean, inst}, column(FeatureKind::kMean, inst));
     if (design.axis == Axis::C) {
-      std::vector<double> positions;
-      for (int j : r) {
-        bool seen = false;
-        for (double a : positions) seen = seen || same_position(Axis::C, a, readings[j].angle_deg);
-        if (!seen) positions.push_back(readings[j].angle_deg);
-      }
-      const int K = std::min(4, (static_cast<int>(positions.size()) - 1) / 2);
+      const int K = std::min(4, (distinct_positions(Axis::C, readings, &r) - 1) / 2);
       for (int k = 1; k <= K; ++k) {
         Eigen::MatrixXd h = Eigen::MatrixXd::Zero(n, 2);
         for (int j : r) {
           const double a = k * readings[j].angle_deg * M_PI / 180.0;
           h(j, 0) = std::cos(a), h(j, 1) = std::sin(a);
         }
+        const std::size_t before = out.size();
         ResidualFeature f;
         f.kind = FeatureKind::kHarmonic, f.installation = inst, f.harmonic = k;
         add(f, h);
-        if (!out.empty() && out.back().kind == FeatureKind::kHarmonic && out.back().installation == inst &&
-            out.back().harmonic == k) {
+        if (out.size() > before) {
           // The amplitude of the harmonic in the residual, on the installation's readings.
           Eigen::MatrixXd A(static_cast<Eigen::Index>(r.size()), 2);
           Eigen::VectorXd e(static_cast<Eigen::Index>(r.size()));
@@ -185,78 +213,33 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
         }
       }
     }
-    const bool timed = std::all_of(r.begin(), r.end(), [&](int j) { return readings[j].time_s.has_value(); });
+    add({FeatureKind::kDrift, inst}, column(FeatureKind::kDrift, inst));
+    add({FeatureKind::kReversal, inst}, column(FeatureKind::kReversal, inst));
     std::vector<int> ordered = r;
-    if (timed) {
-      double t0 = *readings[r[0]].time_s;
-      for (int j : r) t0 = std::min(t0, *readings[j].time_s);
-      Eigen::MatrixXd d = Eigen::MatrixXd::Zero(n, 1);
-      for (int j : r) d(j, 0) = (*readings[j].time_s - t0) / 60.0;
-      ResidualFeature f;
-      f.kind = FeatureKind::kDrift, f.installation = inst;
-      add(f, d);
+    if (timed(inst)) {
       std::stable_sort(ordered.begin(), ordered.end(), [&](int a, int b) { return *readings[a].time_s < *readings[b].time_s; });
     }
-    bool cw = false, ccw = false;
-    Eigen::MatrixXd v = Eigen::MatrixXd::Zero(n, 1);
-    for (int j : r) {
-      if (!readings[j].sweep) continue;
-      const bool is_cw = *readings[j].sweep == Sweep::CW;
-      cw = cw || is_cw, ccw = ccw || !is_cw;
-      v(j, 0) = is_cw ? 0.5 : -0.5;
-    }
-    if (cw && ccw) {
-      ResidualFeature f;
-      f.kind = FeatureKind::kReversal, f.installation = inst;
-      add(f, v);
-    }
-    const ScanTest st = tester.scan_steps(ordered, 3);
-    if (st.best >= 0) {
-      ResidualFeature f;
-      f.kind = FeatureKind::kStep, f.installation = inst, f.row = ordered[static_cast<std::size_t>(st.best)];
-      f.reading = readings[f.row];
-      f.test = st.test, f.tested = st.tested, f.p = st.p_scan, f.value = st.test.value, f.std = st.test.std;
-      out.push_back(f);
-    }
+    const ScanTest st = tester.scan_steps(ordered, kStepMinSegment);
+    add_scan({FeatureKind::kStep, inst}, st, st.best >= 0 ? ordered[static_cast<std::size_t>(st.best)] : -1);
   }
   std::vector<int> all(readings.size());
   for (std::size_t j = 0; j < all.size(); ++j) all[j] = static_cast<int>(j);
   const ScanTest g = tester.scan_readings(all);
-  if (g.best >= 0) {
-    ResidualFeature f;
-    f.kind = FeatureKind::kReading, f.installation = index.at(readings[g.best].installation), f.row = g.best;
-    f.reading = readings[g.best];
-    f.test = g.test, f.tested = g.tested, f.p = g.p_scan, f.value = g.test.value, f.std = g.test.std;
-    out.push_back(f);
-  }
+  if (g.best >= 0) add_scan({FeatureKind::kReading, index.at(readings[g.best].installation)}, g, g.best);
   // Only a difference determined: one-column features of one kind that the most significant of
   // that kind makes confounded (a mean of 1r against that of 2r).
   for (FeatureKind kind : {FeatureKind::kMean, FeatureKind::kDrift, FeatureKind::kReversal}) {
     ResidualFeature* top = nullptr;
     for (ResidualFeature& f : out) {
-      if (f.kind == kind && (!top || f.p < top->p || (f.p == top->p && f.test.F > top->test.F))) top = &f;
+      if (f.kind == kind && (!top || more_significant(f.p, f.test.F, top->p, top->test.F))) top = &f;
     }
     if (!top) continue;
-    auto column = [&](const ResidualFeature& f) {
-      Eigen::MatrixXd c = Eigen::MatrixXd::Zero(n, 1);
-      double t0 = 0;
-      if (kind == FeatureKind::kDrift) {
-        t0 = *readings[rows[f.installation][0]].time_s;
-        for (int j : rows[f.installation]) t0 = std::min(t0, *readings[j].time_s);
-      }
-      for (int j : rows[f.installation]) {
-        c(j, 0) = kind == FeatureKind::kMean    ? 1.0
-                  : kind == FeatureKind::kDrift ? (*readings[j].time_s - t0) / 60.0
-                                                : (*readings[j].sweep == Sweep::CW ? 0.5 : -0.5);
-      }
-      return c;
-    };
-    Eigen::MatrixXd Jt(J.rows(), J.cols() + 1);
-    Jt << J, column(*top);
-    const WlsSolver with_top(Jt, sigma_um, options);
+    Eigen::MatrixXd Jt(solver.J().rows(), solver.J().cols() + 1);
+    Jt << solver.J(), column(kind, top->installation);
+    const WlsSolver with_top(Jt, solver.sigma_um(), options);
     for (const ResidualFeature& f : out) {
       if (f.kind != kind || &f == top) continue;
-      if (added_rank(with_top, column(f), options) == 0) top->difference_with.push_back(f.installation);
+      if (added_rank(with_top, column(kind, f.installation), options) == 0) top->difference_with.push_back(f.installation);
     }
   }
   return out;
@@ -293,21 +276,13 @@ std::vector<GrossReading> gross_readings(const Eigen::MatrixXd& J, const Eigen::
 }
 
 std::optional<OrderCheck> model_order_check(const Design& design, const std::vector<Reading>& readings,
-                                            const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um,
-                                            const Eigen::VectorXd& y_um, const EstimateOptions& options) {
+                                            const WlsSolver& solver, const Estimate& fit,
+                                            const EstimateOptions& options) {
   const ErrorModel::Kind kind = design.errors.kind;
   if (kind == ErrorModel::Kind::PerAngle) return std::nullopt;
-  std::vector<double> positions;
-  for (const Reading& r : readings) {
-    bool seen = false;
-    for (double a : positions) seen = seen || same_position(design.axis, a, r.angle_deg);
-    if (!seen) positions.push_back(r.angle_deg);
-  }
-  const int P = static_cast<int>(positions.size());
+  const int P = distinct_positions(design.axis, readings, nullptr);
   const int K = design.errors.order;
   const int K_max = kind == ErrorModel::Kind::Fourier ? (P - 1) / 2 : P - 1;
-  const WlsSolver solver(J, sigma_um, options);
-  const Estimate fit = solver.solve(y_um);
   const ColumnTester tester(solver, fit, options);
   const double n = static_cast<double>(readings.size());
   OrderCheck best;

@@ -3,8 +3,8 @@
 #include "dbbkit/residual_checks.hpp"
 
 #include <algorithm>
-#include <boost/math/distributions/fisher_f.hpp>
 #include <cmath>
+#include <optional>
 #include <iomanip>
 #include <sstream>
 
@@ -26,10 +26,6 @@ Eigen::MatrixXd append(const Eigen::MatrixXd& J, const Eigen::MatrixXd& X) {
 
 // Rank of [J X] against J: does X add q independent columns?
 bool confounded(int rank_before, int rank_after, int q) { return rank_after - rank_before < q; }
-
-double f_upper(int q, int dof, double F) {
-  return F > 0 ? boost::math::cdf(boost::math::complement(boost::math::fisher_f(q, dof), F)) : 1.0;
-}
 
 class Selector {
  public:
@@ -137,15 +133,17 @@ class Selector {
         ++tested;
         trial_chi2[i] = trial.chi2;
         const double F = ((current_.chi2 - trial.chi2) / q) / (trial.chi2 / trial.dof);
-        const double p = f_upper(q, trial.dof, F);
+        const double p = f_test_p(q, trial.dof, F);
         status_[i] = {pool_[i].label, CandidateState::kNotSignificant, "F = " + fmt(F) + ", p = " + fmt(p)};
         if (p < best_p) best = static_cast<int>(i), best_p = p, best_F = F, best_est = trial;
       }
+      // The current model factorised once for the scans below.
+      std::optional<WlsSolver> solver;
+      if (!families_.empty() || o_.stop_at_gross_reading) solver.emplace(J_, sigma_, o_.estimate);
       // Scanned candidates: the best alternative of each, p multiplied by the alternatives tested.
       int best_family = -1, best_alt = -1, best_scanned = 0;
       if (!families_.empty()) {
-        const WlsSolver solver(J_, sigma_, o_.estimate);
-        const ColumnTester tester(solver, current_, o_.estimate);
+        const ColumnTester tester(*solver, current_, o_.estimate);
         for (std::size_t f = 0; f < families_.size(); ++f) {
           if (family_used_[f]) continue;
           const ScanFamily& fam = families_[f];
@@ -154,12 +152,8 @@ class Selector {
             st = tester.scan_steps(fam.rows, fam.min_segment);
           } else {
             for (std::size_t k = 0; k < fam.alternatives.size(); ++k) {
-              const ColumnTest t = tester.test(fam.alternatives[k].X);
-              if (t.added_rank < 1 || t.dof <= 0) continue;
-              ++st.tested;
-              if (st.best < 0 || t.p < st.test.p || (t.p == st.test.p && t.F > st.test.F)) st.best = static_cast<int>(k), st.test = t;
+              st.consider(static_cast<int>(k), tester.test(fam.alternatives[k].X));
             }
-            if (st.best >= 0) st.p_scan = std::min(1.0, st.tested * st.test.p);
           }
           if (st.best < 0) {
             family_status_[f] = {fam.label, CandidateState::kConfounded,
@@ -171,7 +165,7 @@ class Selector {
           family_status_[f] = {fam.label, CandidateState::kNotSignificant,
                                "best " + where + ": F = " + fmt(st.test.F) + ", p = " + fmt(st.test.p) + " times " +
                                    std::to_string(st.tested) + " alternatives = " + fmt(st.p_scan)};
-          if (st.p_scan < best_p || (best_family >= 0 && st.p_scan == best_p && st.test.F > best_F)) {
+          if (st.p_scan < best_p || (best_family >= 0 && more_significant(st.p_scan, st.test.F, best_p, best_F))) {
             best = -1, best_family = static_cast<int>(f), best_alt = st.best, best_p = st.p_scan, best_F = st.test.F;
             best_scanned = st.tested;
           }
@@ -179,8 +173,7 @@ class Selector {
       }
       if (o_.stop_at_gross_reading) {
         // One reading on its own, counted as one more candidate of the step.
-        const WlsSolver solver(J_, sigma_, o_.estimate);
-        const ScanTest g = ColumnTester(solver, current_, o_.estimate).scan_readings(all_rows_);
+        const ScanTest g = ColumnTester(*solver, current_, o_.estimate).scan_readings(all_rows_);
         if (g.best >= 0) {
           ++tested;
           if (g.p_scan < best_p && g.p_scan < o_.level / tested) {
@@ -303,7 +296,10 @@ class Selector {
       c.tau_min = tau;
       return effect_block(*design_, *readings_, c);
     };
-    auto chi2_at = [&](double log_tau) { return solve(append(J_, block_at(std::exp(log_tau)).X)).chi2; };
+    // chi2 with the block appended: the current chi2 less the fall its column brings (residual_checks.hpp).
+    const WlsSolver solver(J_, sigma_, o_.estimate);
+    const ColumnTester tester(solver, current_, o_.estimate);
+    auto chi2_at = [&](double log_tau) { return current_.chi2 - tester.test(block_at(std::exp(log_tau)).X).delta_chi2; };
     const double g = (std::sqrt(5.0) - 1) / 2;
     double a = std::log(lo), b = std::log(hi);
     double c = b - g * (b - a), d = a + g * (b - a), fc = chi2_at(c), fd = chi2_at(d);
@@ -399,7 +395,7 @@ class Selector {
       const int q = static_cast<int>(added_[a].block.X.cols());
       if (current_.dof <= 0) return false;
       const double F = ((reduced.chi2 - current_.chi2) / q) / (current_.chi2 / current_.dof);
-      const double p = f_upper(q, current_.dof, F);
+      const double p = f_test_p(q, current_.dof, F);
       if (p > worst_p) worst = static_cast<int>(a), worst_p = p, worst_F = F;
     }
     if (worst < 0 || worst_p < o_.level) return false;
@@ -496,7 +492,7 @@ class Selector {
       e.chi2_before = reduced.chi2;
       e.chi2_after = current_.chi2;
       e.F = current_.dof > 0 ? ((reduced.chi2 - current_.chi2) / e.q) / (current_.chi2 / current_.dof) : 0.0;
-      e.p_value = f_upper(e.q, current_.dof, e.F);
+      e.p_value = f_test_p(e.q, current_.dof, e.F);
       e.bic_change = bic(current_) - bic(reduced);
     }
     // The effects' values from the final model.

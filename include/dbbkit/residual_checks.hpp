@@ -42,12 +42,29 @@ struct ColumnTest {
   double value = 0, std = 0;  // one column only: its coefficient and standard uncertainty (declared noise)
 };
 
+// P(F(q, dof) >= F); 1 when F <= 0 or there is nothing to test.
+double f_test_p(int q, int dof, double F);
+
+// The order of significance: the smaller p; where p ties (both below the smallest double), the larger F.
+inline bool more_significant(double p_a, double F_a, double p_b, double F_b) {
+  return p_a < p_b || (p_a == p_b && F_a > F_b);
+}
+
 struct ScanTest {
   int best = -1;   // the alternative chosen (steps: index in `rows` of the first reading after the step;
                    // readings: the row); -1 when none could be tested
   int tested = 0;  // alternatives tested (m)
   ColumnTest test;  // of the best alternative
   double p_scan = 1;  // min(1, m p): the scan's p-value
+
+  // Counts alternative `alt` when it can be tested (it adds rank and leaves degrees of freedom),
+  // and keeps it when it is the most significant so far.
+  void consider(int alt, const ColumnTest& t) {
+    if (t.added_rank == 0 || t.dof <= 0) return;
+    ++tested;
+    if (best < 0 || more_significant(t.p, t.F, test.p, test.F)) best = alt, test = t;
+    p_scan = tested * test.p < 1.0 ? tested * test.p : 1.0;
+  }
 };
 
 class ColumnTester {
@@ -106,10 +123,11 @@ struct ResidualFeature {
   std::vector<int> difference_with;
 };
 
-// Every feature of every installation; `readings` as validated against `design`.
+// Every feature of every installation, against the model of `solver` fitted to the readings
+// (`fit` = solver.solve(y)); `readings` as validated against `design`.
 std::vector<ResidualFeature> residual_features(const Design& design, const std::vector<Reading>& readings,
-                                               const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um,
-                                               const Eigen::VectorXd& y_um, const EstimateOptions& options = {});
+                                               const WlsSolver& solver, const Estimate& fit,
+                                               const EstimateOptions& options = {});
 
 // Gross readings, one at a time: the reading whose indicator column gives the smallest
 // scan p (the externally studentised residual, Bonferroni over the readings) is flagged
@@ -131,7 +149,7 @@ std::vector<GrossReading> gross_readings(const Eigen::MatrixXd& J, const Eigen::
 
 // The model's order (Fourier or Legendre errors): the errors' columns of order K' = K+1 ..
 // K+4 (as far as the positions allow: 2K'+1 for Fourier, K'+1 for Legendre) appended to J
-// (which holds those of order K and the effects added); the K' of lowest BIC is suggested when
+// (the solver's, which holds those of order K and the effects added); the K' of lowest BIC is suggested when
 // its F-test p times the orders tried is below the level. The fit with it: chi2 and dof.
 struct OrderCheck {
   int order = 0;      // the design's
@@ -144,8 +162,8 @@ struct OrderCheck {
   std::optional<double> p_value_with;  // P(chi2_dof >= chi2) with K'
 };
 std::optional<OrderCheck> model_order_check(const Design& design, const std::vector<Reading>& readings,
-                                            const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um,
-                                            const Eigen::VectorXd& y_um, const EstimateOptions& options = {});
+                                            const WlsSolver& solver, const Estimate& fit,
+                                            const EstimateOptions& options = {});
 
 // The scale of the noise: the readings scatter k = sqrt(chi2 / dof) times the declared
 // noise, with the 95 % interval [sqrt(chi2 / q_0.975), sqrt(chi2 / q_0.025)] (q the
