@@ -483,7 +483,10 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
            {"after", fmt_num(r.after.rms_um), fmt_num(r.after.chi2), std::to_string(r.after.dof),
             fmt_opt(r.after.p_value, 3)}});
   p.heading("Effects added");
-  if (r.added.empty()) {
+  if (r.added.empty() && r.stopped_at_step > 0) {
+    p.paragraph("None: selection stopped at step " + std::to_string(r.stopped_at_step) +
+                ", where one reading alone was the best candidate (see the verdict and the checks below).");
+  } else if (r.added.empty()) {
     p.paragraph("None: no effect of the library explains the residual significantly better.");
   } else {
     std::vector<std::vector<std::string>> rows;
