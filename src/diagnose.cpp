@@ -211,6 +211,68 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver, const std:
   return out;
 }
 
+// The attribution uncertainty of the errors after (Attribution). Each added effect's close
+// alternatives (from the pool; scanned positions have their own) are swapped in, one at a
+// time, into the final model; those that still fit almost as well count. The largest change
+// of each error at each position over an effect's alternatives is that effect's half-width;
+// the half-widths of several effects combine in quadrature, u^2 += w^2 / 3.
+std::vector<Attribution> attribute(const Parameterisation& param, const LinearModel& model,
+                                   const std::vector<EffectBlock>& pool, const std::vector<AddedEffect>& added,
+                                   const Estimate& after, std::vector<ErrorsAtAngle>& errors,
+                                   const EstimateOptions& options) {
+  std::vector<Attribution> out;
+  if (after.dof < 1) return out;
+  std::vector<std::array<double, 6>> w2(errors.size(), std::array<double, 6>{});
+  for (std::size_t i = 0; i < added.size(); ++i) {
+    if (added[i].close_alternatives.empty()) continue;
+    Attribution at;
+    at.effect = added[i].block.label;
+    std::vector<std::array<double, 6>> w(errors.size(), std::array<double, 6>{});
+    for (const std::string& label : added[i].close_alternatives) {
+      const auto alt = std::find_if(pool.begin(), pool.end(), [&](const EffectBlock& b) { return b.label == label; });
+      if (alt == pool.end()) continue;
+      bool in_model = false;
+      for (const AddedEffect& a : added) in_model = in_model || a.block.label == label;
+      if (in_model) continue;
+      Eigen::Index cols = model.J.cols();
+      for (std::size_t j = 0; j < added.size(); ++j) cols += j == i ? alt->X.cols() : added[j].block.X.cols();
+      Eigen::MatrixXd A(model.J.rows(), cols);
+      A.leftCols(model.J.cols()) = model.J;
+      Eigen::Index c = model.J.cols();
+      for (std::size_t j = 0; j < added.size(); ++j) {
+        const Eigen::MatrixXd& X = j == i ? alt->X : added[j].block.X;
+        A.middleCols(c, X.cols()) = X;
+        c += X.cols();
+      }
+      const Estimate fit = WlsSolver(A, model.sigma_um, options).solve(model.y_um);
+      const auto full = after.rank - added[i].block.X.cols() + alt->X.cols();
+      if (fit.rank != full || !fits_almost_as_well(fit.chi2, after)) continue;
+      const std::vector<ErrorsAtAngle> e = errors_at_stations(param, fit);
+      for (std::size_t s = 0; s < errors.size() && s < e.size(); ++s) {
+        for (int k = 0; k < 6; ++k) {
+          if (!errors[s].errors[k].determined || !e[s].errors[k].determined) continue;
+          const double d = std::abs(e[s].errors[k].value - errors[s].errors[k].value);
+          w[s][k] = std::max(w[s][k], d);
+          at.largest_change[k] = std::max(at.largest_change[k], d);
+        }
+      }
+      at.alternatives.push_back(label);
+    }
+    if (at.alternatives.empty()) continue;
+    for (std::size_t s = 0; s < errors.size(); ++s) {
+      for (int k = 0; k < 6; ++k) w2[s][k] += w[s][k] * w[s][k];
+    }
+    out.push_back(std::move(at));
+  }
+  for (std::size_t s = 0; s < errors.size(); ++s) {
+    for (int k = 0; k < 6; ++k) {
+      Determined& d = errors[s].errors[k];
+      if (d.determined) d.std = std::sqrt(d.std * d.std + w2[s][k] / 3.0);
+    }
+  }
+  return out;
+}
+
 DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& readings,
                              const DiagnoseOptions& options) {
   DiagnoseResult res;
@@ -234,6 +296,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.structures = std::move(sel.structures);
   res.after = current;
   res.errors_after = errors_at_stations(param, current);
+  res.attributions = attribute(param, model, pool, res.added, current, res.errors_after, options.estimate);
   {
     // Null space of the final model over the axis-error unknowns (effects are all determined when added).
     Estimate axis_only = current;
@@ -321,6 +384,15 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
           v << a.block.label << " was chosen over";
           for (const std::string& l : a.close_alternatives) v << " " << l;
           v << ", which fit almost as well: these readings cannot tell them apart reliably. ";
+          for (const Attribution& at : res.attributions) {
+            if (at.effect != a.block.label) continue;
+            const double um = *std::max_element(at.largest_change.begin(), at.largest_change.begin() + 3);
+            const double urad = *std::max_element(at.largest_change.begin() + 3, at.largest_change.end());
+            v << "The errors after carry the change should";
+            for (const std::string& l : at.alternatives) v << " " << l;
+            v << " be the true one (up to " << fmt(um) << " um, " << fmt(urad)
+              << " urad) in their uncertainties (rectangular). ";
+          }
         }
         if (a.equivalent_to.empty()) continue;
         v << a.block.label << " is equivalent to";

@@ -24,9 +24,6 @@ Eigen::MatrixXd append(const Eigen::MatrixXd& J, const Eigen::MatrixXd& X) {
   return out;
 }
 
-// Rank of [J X] against J: does X add q independent columns?
-bool confounded(int rank_before, int rank_after, int q) { return rank_after - rank_before < q; }
-
 class Selector {
  public:
   Selector(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma, const Eigen::VectorXd& y,
@@ -73,6 +70,7 @@ class Selector {
       changed = exchange() || backward();
     }
     compare_structures();
+    final_alternatives();
     final_evidence();
     res.after = current_;
     res.added = added_;
@@ -114,15 +112,17 @@ class Selector {
       Estimate best_est;
       std::vector<double> trial_chi2(pool_.size(), -1.0);
       double best_p = 2, best_F = 0;
+      // The current model factorised once: every candidate and scan is a column test on it.
+      const WlsSolver solver(J_, sigma_, o_.estimate);
+      const ColumnTester tester(solver, current_, o_.estimate);
       for (std::size_t i = 0; i < pool_.size(); ++i) {
         if (used_[i]) continue;
         const int q = static_cast<int>(pool_[i].X.cols());
-        const Estimate trial = solve(append(J_, pool_[i].X));
-        if (confounded(current_.rank, trial.rank, q)) {
+        const ColumnTest trial = tester.test(pool_[i].X);
+        if (trial.added_rank < q) {
           status_[i] = {pool_[i].label, CandidateState::kConfounded,
                         "its " + std::to_string(q) + " column(s) raise the rank by " +
-                            std::to_string(trial.rank - current_.rank) +
-                            ": its size cannot be told from the axis errors" +
+                            std::to_string(trial.added_rank) + ": its size cannot be told from the axis errors" +
                             (added_.empty() ? std::string() : " and the effects already added")};
           continue;
         }
@@ -131,19 +131,13 @@ class Selector {
           continue;
         }
         ++tested;
-        trial_chi2[i] = trial.chi2;
-        const double F = ((current_.chi2 - trial.chi2) / q) / (trial.chi2 / trial.dof);
-        const double p = f_test_p(q, trial.dof, F);
-        status_[i] = {pool_[i].label, CandidateState::kNotSignificant, "F = " + fmt(F) + ", p = " + fmt(p)};
-        if (p < best_p) best = static_cast<int>(i), best_p = p, best_F = F, best_est = trial;
+        trial_chi2[i] = current_.chi2 - trial.delta_chi2;
+        status_[i] = {pool_[i].label, CandidateState::kNotSignificant, "F = " + fmt(trial.F) + ", p = " + fmt(trial.p)};
+        if (trial.p < best_p) best = static_cast<int>(i), best_p = trial.p, best_F = trial.F;
       }
-      // The current model factorised once for the scans below.
-      std::optional<WlsSolver> solver;
-      if (!families_.empty() || o_.stop_at_gross_reading) solver.emplace(J_, sigma_, o_.estimate);
       // Scanned candidates: the best alternative of each, p multiplied by the alternatives tested.
       int best_family = -1, best_alt = -1, best_scanned = 0;
       if (!families_.empty()) {
-        const ColumnTester tester(*solver, current_, o_.estimate);
         for (std::size_t f = 0; f < families_.size(); ++f) {
           if (family_used_[f]) continue;
           const ScanFamily& fam = families_[f];
@@ -173,7 +167,7 @@ class Selector {
       }
       if (o_.stop_at_gross_reading) {
         // One reading on its own, counted as one more candidate of the step.
-        const ScanTest g = ColumnTester(*solver, current_, o_.estimate).scan_readings(all_rows_);
+        const ScanTest g = tester.scan_readings(all_rows_);
         if (g.best >= 0) {
           ++tested;
           if (g.p_scan < best_p && g.p_scan < o_.level / tested) {
@@ -189,6 +183,7 @@ class Selector {
         continue;
       }
       if (best < 0) return;
+      best_est = solve(append(J_, pool_[best].X));
       const double threshold = o_.level / tested;
       const double dbic = bic(best_est) - bic(current_);
       if (!(best_p < threshold && dbic < 0)) {
@@ -198,11 +193,13 @@ class Selector {
       }
       // Equivalent alternatives: each spans the other modulo the current model.
       std::vector<int> equivalent;
-      const Eigen::MatrixXd J_best = append(J_, pool_[best].X);
-      for (std::size_t i = 0; i < pool_.size(); ++i) {
-        if (used_[i] || static_cast<int>(i) == best || status_[i].state == CandidateState::kConfounded) continue;
-        if (pool_[i].X.cols() != pool_[best].X.cols()) continue;
-        if (rank_of(append(J_best, pool_[i].X)) == best_est.rank) equivalent.push_back(static_cast<int>(i));
+      {
+        const WlsSolver with_best(append(J_, pool_[best].X), sigma_, o_.estimate);
+        for (std::size_t i = 0; i < pool_.size(); ++i) {
+          if (used_[i] || static_cast<int>(i) == best || status_[i].state == CandidateState::kConfounded) continue;
+          if (pool_[i].X.cols() != pool_[best].X.cols()) continue;
+          if (added_rank(with_best, pool_[i].X, o_.estimate) == 0) equivalent.push_back(static_cast<int>(i));
+        }
       }
       if (!equivalent.empty()) {
         // Convention: the latest installation carries the effect, the earlier is the reference.
@@ -222,7 +219,7 @@ class Selector {
       for (std::size_t i = 0; i < pool_.size(); ++i) {
         if (static_cast<int>(i) == best || trial_chi2[i] < 0 || pool_[i].X.cols() != pool_[best].X.cols()) continue;
         if (std::find(equivalent.begin(), equivalent.end(), static_cast<int>(i)) != equivalent.end()) continue;
-        if (trial_chi2[i] - best_est.chi2 < 4.0 * best_est.chi2 / best_est.dof) {
+        if (fits_almost_as_well(trial_chi2[i], best_est)) {
           a.close_alternatives.push_back(pool_[i].label);
         }
       }
@@ -265,7 +262,7 @@ class Selector {
     // Library candidates of one column that fit almost as well (as in forward()).
     for (std::size_t i = 0; i < pool_.size(); ++i) {
       if (trial_chi2[i] < 0 || pool_[i].X.cols() != 1) continue;
-      if (trial_chi2[i] - trial.chi2 < 4.0 * trial.chi2 / trial.dof) a.close_alternatives.push_back(pool_[i].label);
+      if (fits_almost_as_well(trial_chi2[i], trial)) a.close_alternatives.push_back(pool_[i].label);
     }
     Estimate after = trial;
     if (fam.effect.kind == EffectKind::Thermal) block = refine_thermal(fam, k, after);
@@ -347,6 +344,24 @@ class Selector {
     return -1;
   }
 
+  // chi2 of the model with added effect `a` replaced by each candidate of the pool (of as many
+  // columns when same_columns; not in the model, not confounded or equivalent, raising the rank by its columns);
+  // -1 where not tried. One factorisation of the model without `a`, then a column test each.
+  std::vector<double> swapped_chi2(int a, bool same_columns = true) const {
+    std::vector<double> chi2(pool_.size(), -1.0);
+    const WlsSolver base(model_without(a), sigma_, o_.estimate);
+    const Estimate fit = base.solve(y_);
+    const ColumnTester tester(base, fit, o_.estimate);
+    for (std::size_t i = 0; i < pool_.size(); ++i) {
+      if (used_[i] || status_[i].state == CandidateState::kConfounded || status_[i].state == CandidateState::kEquivalent) continue;
+      if (same_columns && pool_[i].X.cols() != added_[a].block.X.cols()) continue;
+      const ColumnTest t = tester.test(pool_[i].X);
+      if (t.added_rank < pool_[i].X.cols()) continue;
+      chi2[i] = fit.chi2 - t.delta_chi2;
+    }
+    return chi2;
+  }
+
   // Replace an added effect by another candidate when that lowers chi2 (forward
   // selection alone cannot undo an early choice that noise favoured). True when it did.
   bool exchange() {
@@ -354,16 +369,9 @@ class Selector {
     int swap_out = -1, swap_in = -1;
     for (std::size_t a = 0; a < added_.size(); ++a) {
       if (family_of(added_[a].block) >= 0) continue;  // a scanned effect keeps its place; backward() may drop it
-      const Eigen::MatrixXd base = model_without(static_cast<int>(a));
-      const int base_rank = rank_of(base);
+      const std::vector<double> chi2 = swapped_chi2(static_cast<int>(a));
       for (std::size_t i = 0; i < pool_.size(); ++i) {
-        if (used_[i] || status_[i].state == CandidateState::kConfounded || status_[i].state == CandidateState::kEquivalent) continue;
-        if (pool_[i].X.cols() != added_[a].block.X.cols()) continue;
-        const Estimate trial = solve(append(base, pool_[i].X));
-        if (trial.rank - base_rank < pool_[i].X.cols()) continue;
-        if (trial.chi2 < best_chi2) {
-          best_chi2 = trial.chi2, swap_out = static_cast<int>(a), swap_in = static_cast<int>(i);
-        }
+        if (chi2[i] >= 0 && chi2[i] < best_chi2) best_chi2 = chi2[i], swap_out = static_cast<int>(a), swap_in = static_cast<int>(i);
       }
     }
     if (swap_out < 0) return false;
@@ -483,6 +491,22 @@ class Selector {
   }
 
   // Evidence of every added effect in the final model: the F-test of dropping it.
+  // Close alternatives in the final model as well as when each effect was added: a candidate
+  // of the pool that, in an added effect's place, fits almost as well as the final model, with
+  // as many columns or not (a centring's two columns against one of a scale; a warm-up against
+  // a linear drift). Later effects can make two candidates indistinguishable that were not when
+  // the first was chosen.
+  void final_alternatives() {
+    for (std::size_t a = 0; a < added_.size(); ++a) {
+      const std::vector<double> chi2 = swapped_chi2(static_cast<int>(a), false);
+      std::vector<std::string>& close = added_[a].close_alternatives;
+      for (std::size_t i = 0; i < pool_.size(); ++i) {
+        if (chi2[i] < 0 || !fits_almost_as_well(chi2[i], current_)) continue;
+        if (std::find(close.begin(), close.end(), pool_[i].label) == close.end()) close.push_back(pool_[i].label);
+      }
+    }
+  }
+
   void final_evidence() {
     for (std::size_t a = 0; a < added_.size(); ++a) {
       const Estimate reduced = solve(model_without(static_cast<int>(a)));

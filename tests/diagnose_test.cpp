@@ -8,6 +8,7 @@
 
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/simulate.hpp"
+#include "diagnose_util.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -19,61 +20,17 @@ namespace {
 using test::fourier_design;
 Truth random_truth(const Design& d, std::mt19937_64& rng) { return test::random_fourier_truth(d, rng); }
 
-TruthEffect effect(EffectKind kind, const std::string& inst, std::vector<double> value, int harmonic = 0) {
-  TruthEffect e;
-  e.effect.kind = kind;
-  e.effect.harmonic = harmonic;
-  e.installation = inst;
-  e.value = Eigen::Map<Eigen::VectorXd>(value.data(), static_cast<Eigen::Index>(value.size()));
-  return e;
-}
-
-// An added effect of that label; a scanned one (step, thermal) whatever its position: "step[2t]"
-// matches "step[2t](t=1234s)".
-bool has(const DiagnoseResult& r, const std::string& label) {
-  return std::any_of(r.added.begin(), r.added.end(), [&](const AddedEffect& a) {
-    return a.block.label == label || a.block.label.rfind(label + "(", 0) == 0;
-  });
-}
-
-TruthEffect step(const std::string& inst, double size_um, double at_s = std::nan("")) {
-  TruthEffect e = effect(EffectKind::Step, inst, {size_um});
-  e.effect.at_s = at_s;
-  return e;
-}
-
-TruthEffect thermal(double plateau_um, double tau_min) {
-  TruthEffect e = effect(EffectKind::Thermal, "", {plateau_um});
-  e.effect.tau_min = tau_min;
-  return e;
-}
-
-// A step without a time is placed halfway through its installation's readings (by time).
-std::vector<TruthEffect> placed(const Design& d, const Truth& t, std::vector<TruthEffect> effects) {
-  for (TruthEffect& e : effects) {
-    if (e.effect.kind != EffectKind::Step || std::isfinite(e.effect.at_s)) continue;
-    Truth quiet = t;
-    quiet.effects.clear();
-    std::vector<double> times;
-    for (const Reading& r : simulate(d, quiet, 1)) {
-      if (r.installation == e.installation) times.push_back(*r.time_s);
-    }
-    std::sort(times.begin(), times.end());
-    e.effect.at_s = times.at(times.size() / 2);
-  }
-  return effects;
-}
+using test::effect;
+using test::has;
+using test::placed;
+using test::step;
+using test::thermal;
 
 TEST(Diagnose, CleanDataAddsNothing) {
   const Design d = fourier_design();
   std::mt19937_64 rng(1);
   const int seeds = 500;
-  int clean = 0, flagged = 0;
-  for (int s = 0; s < seeds; ++s) {
-    const DiagnoseResult r = diagnose(d, simulate(d, random_truth(d, rng), 5000 + s));
-    clean += r.added.empty();
-    flagged += r.significant_after;
-  }
+  const auto [clean, flagged] = test::clean_runs(d, random_truth, rng, seeds, 5000);
   EXPECT_GE(clean, 0.97 * seeds) << clean << " of " << seeds;
   EXPECT_LE(flagged, 0.03 * seeds);
 }
@@ -109,14 +66,7 @@ TEST_P(FindsEffect, AddsItAndExplainsTheResidual) {
     }
     found += all;
     consistent += r.after.p_value && *r.after.p_value > 0.01;
-    for (const ErrorsAtAngle& ea : r.errors_after) {
-      const Vector6d truth = truth_errors(t, d.axis, ea.angle_deg);
-      for (int k = 0; k < 6; ++k) {
-        if (!ea.errors[k].determined) continue;
-        inside += std::abs(ea.errors[k].value - truth(k)) <= 3 * ea.errors[k].std;
-        ++total;
-      }
-    }
+    test::count_errors_within_3u(r, t, d.axis, inside, total);
     // The added effect's value against the truth, component by component.
     for (const AddedEffect& a : r.added) {
       for (const TruthEffect& te : t.effects) {

@@ -5,6 +5,7 @@
 // (selection.hpp); diagnose describes the residual before and after, the set-up
 // effects the final model cannot see, and gives the verdict.
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -70,10 +71,22 @@ struct SetupRisk {
   bool exceeds = false;
 };
 
+// An added effect that one or more candidates still fit almost as well in the final model
+// (fits_almost_as_well, as close_alternatives): the errors refitted with each of them in
+// its place. largest_change[k]: the largest change of error k (dx..ez) over the positions
+// and the alternatives; its half-width enters every error's standard uncertainty as a
+// rectangular component, change / sqrt(3), so that the errors hold whichever is true.
+struct Attribution {
+  std::string effect;
+  std::vector<std::string> alternatives;
+  std::array<double, 6> largest_change{};  // um, urad
+};
+
 struct DiagnoseResult {
   double level = 0.01;
   Estimate before, after;
-  std::vector<ErrorsAtAngle> errors_before, errors_after;
+  std::vector<ErrorsAtAngle> errors_before, errors_after;  // errors_after: with attributions' share
+  std::vector<Attribution> attributions;
   std::vector<Unidentifiable> unidentifiable_after;
   std::vector<AddedEffect> added;
   std::vector<CandidateStatus> candidates;

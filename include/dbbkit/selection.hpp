@@ -85,12 +85,17 @@ struct EffectEvidence {
   int scanned = 0;  // a scanned candidate: the alternatives tested (its p at entry was min p times this)
 };
 
+// A candidate whose fit (chi2_other) is within two residual standard deviations of the
+// chosen model's: chi2_other - chi2 < 4 chi2 / dof. The readings cannot tell them apart reliably.
+inline bool fits_almost_as_well(double chi2_other, const Estimate& chosen) {
+  return chosen.dof > 0 && chi2_other - chosen.chi2 < 4.0 * chosen.chi2 / chosen.dof;
+}
+
 struct AddedEffect {
   EffectBlock block;
   std::vector<std::string> equivalent_to;  // labels of equivalent alternatives not chosen
-  // Candidates that fit almost as well when the effect was chosen:
-  //   chi2_other - chi2_chosen < 4 chi2_chosen / dof  (within two residual standard deviations);
-  // the readings cannot tell them apart reliably (e.g. drift and reversal of one installation
+  // Candidates that fit almost as well (fits_almost_as_well) when the effect was chosen or in
+  // its place in the final model; the readings cannot tell them apart reliably (e.g. drift and reversal of one installation
   // measured ccw then cw).
   std::vector<std::string> close_alternatives;
   std::vector<Determined> values;  // one per column, in block.parameters order

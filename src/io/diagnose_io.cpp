@@ -172,6 +172,16 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
                           {"bic_rejected", c.bic_rejected}});
   }
   j["structures"] = structures;
+  json attributions = json::array();
+  for (const Attribution& at : r.attributions) {
+    json change = json::object();
+    for (int k = 0; k < 6; ++k) change[kErrorNames[k]] = r6(at.largest_change[k]);
+    attributions.push_back({{"effect", at.effect},
+                            {"alternatives", at.alternatives},
+                            {"largest_change", change},
+                            {"distribution", "rectangular, half-width the change, in the errors' std"}});
+  }
+  j["attributions"] = attributions;
   json cands = json::array();
   for (const CandidateStatus& c : r.candidates) cands.push_back({{"label", c.label}, {"status", candidate_state_name(c.state)}, {"detail", c.detail}});
   j["candidates"] = cands;
