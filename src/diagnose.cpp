@@ -211,42 +211,35 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver, const std:
   return out;
 }
 
-// The attribution uncertainty of the errors after (Attribution). Each added effect's close
-// alternatives (from the pool; scanned positions have their own) are swapped in, one at a
-// time, into the final model; those that still fit almost as well count. The largest change
-// of each error at each position over an effect's alternatives is that effect's half-width;
-// the half-widths of several effects combine in quadrature, u^2 += w^2 / 3.
+// The attribution uncertainty of the errors after (Attribution). Each added effect's
+// alternatives that still fit almost as well in its place in the final model (close_in_final)
+// are swapped in, one at a time. The largest change of each error at each position over an
+// effect's alternatives is that effect's half-width; the half-widths of several effects combine
+// in quadrature, u^2 += w^2 / 3.
 std::vector<Attribution> attribute(const Parameterisation& param, const LinearModel& model,
-                                   const std::vector<EffectBlock>& pool, const std::vector<AddedEffect>& added,
-                                   const Estimate& after, std::vector<ErrorsAtAngle>& errors,
-                                   const EstimateOptions& options) {
+                                   const std::vector<AddedEffect>& added, const Estimate& after,
+                                   std::vector<ErrorsAtAngle>& errors, const EstimateOptions& options) {
   std::vector<Attribution> out;
   if (after.dof < 1) return out;
   std::vector<std::array<double, 6>> w2(errors.size(), std::array<double, 6>{});
   for (std::size_t i = 0; i < added.size(); ++i) {
-    if (added[i].close_alternatives.empty()) continue;
+    if (added[i].close_in_final.empty()) continue;
     Attribution at;
     at.effect = added[i].block.label;
     std::vector<std::array<double, 6>> w(errors.size(), std::array<double, 6>{});
-    for (const std::string& label : added[i].close_alternatives) {
-      const auto alt = std::find_if(pool.begin(), pool.end(), [&](const EffectBlock& b) { return b.label == label; });
-      if (alt == pool.end()) continue;
-      bool in_model = false;
-      for (const AddedEffect& a : added) in_model = in_model || a.block.label == label;
-      if (in_model) continue;
+    for (const EffectBlock& alt : added[i].close_in_final) {
       Eigen::Index cols = model.J.cols();
-      for (std::size_t j = 0; j < added.size(); ++j) cols += j == i ? alt->X.cols() : added[j].block.X.cols();
+      for (std::size_t j = 0; j < added.size(); ++j) cols += j == i ? alt.X.cols() : added[j].block.X.cols();
       Eigen::MatrixXd A(model.J.rows(), cols);
       A.leftCols(model.J.cols()) = model.J;
       Eigen::Index c = model.J.cols();
       for (std::size_t j = 0; j < added.size(); ++j) {
-        const Eigen::MatrixXd& X = j == i ? alt->X : added[j].block.X;
+        const Eigen::MatrixXd& X = j == i ? alt.X : added[j].block.X;
         A.middleCols(c, X.cols()) = X;
         c += X.cols();
       }
       const Estimate fit = WlsSolver(A, model.sigma_um, options).solve(model.y_um);
-      const auto full = after.rank - added[i].block.X.cols() + alt->X.cols();
-      if (fit.rank != full || !fits_almost_as_well(fit.chi2, after)) continue;
+      if (fit.rank != after.rank - added[i].block.X.cols() + alt.X.cols()) continue;
       const std::vector<ErrorsAtAngle> e = errors_at_stations(param, fit);
       for (std::size_t s = 0; s < errors.size() && s < e.size(); ++s) {
         for (int k = 0; k < 6; ++k) {
@@ -256,7 +249,7 @@ std::vector<Attribution> attribute(const Parameterisation& param, const LinearMo
           at.largest_change[k] = std::max(at.largest_change[k], d);
         }
       }
-      at.alternatives.push_back(label);
+      at.alternatives.push_back(alt.label);
     }
     if (at.alternatives.empty()) continue;
     for (std::size_t s = 0; s < errors.size(); ++s) {
@@ -296,7 +289,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.structures = std::move(sel.structures);
   res.after = current;
   res.errors_after = errors_at_stations(param, current);
-  res.attributions = attribute(param, model, pool, res.added, current, res.errors_after, options.estimate);
+  res.attributions = attribute(param, model, res.added, current, res.errors_after, options.estimate);
   {
     // Null space of the final model over the axis-error unknowns (effects are all determined when added).
     Estimate axis_only = current;

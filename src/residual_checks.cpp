@@ -171,6 +171,11 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
     }
     return c;
   };
+  auto feature = [](FeatureKind kind, int installation, int harmonic = 0) {
+    ResidualFeature f;
+    f.kind = kind, f.installation = installation, f.harmonic = harmonic;
+    return f;
+  };
   auto add = [&](ResidualFeature f, const Eigen::MatrixXd& X) {
     if (X.cols() == 0) return;
     f.test = tester.test(X);
@@ -190,7 +195,7 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
     const std::vector<int>& r = rows[i];
     if (r.empty()) continue;
     const int inst = static_cast<int>(i);
-    add({FeatureKind::kMean, inst}, column(FeatureKind::kMean, inst));
+    add(feature(FeatureKind::kMean, inst), column(FeatureKind::kMean, inst));
     if (design.axis == Axis::C) {
       const int K = std::min(4, (distinct_positions(Axis::C, readings, &r) - 1) / 2);
       for (int k = 1; k <= K; ++k) {
@@ -200,9 +205,7 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
           h(j, 0) = std::cos(a), h(j, 1) = std::sin(a);
         }
         const std::size_t before = out.size();
-        ResidualFeature f;
-        f.kind = FeatureKind::kHarmonic, f.installation = inst, f.harmonic = k;
-        add(f, h);
+        add(feature(FeatureKind::kHarmonic, inst, k), h);
         if (out.size() > before) {
           // The amplitude of the harmonic in the residual, on the installation's readings.
           Eigen::MatrixXd A(static_cast<Eigen::Index>(r.size()), 2);
@@ -213,19 +216,19 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
         }
       }
     }
-    add({FeatureKind::kDrift, inst}, column(FeatureKind::kDrift, inst));
-    add({FeatureKind::kReversal, inst}, column(FeatureKind::kReversal, inst));
+    add(feature(FeatureKind::kDrift, inst), column(FeatureKind::kDrift, inst));
+    add(feature(FeatureKind::kReversal, inst), column(FeatureKind::kReversal, inst));
     std::vector<int> ordered = r;
     if (timed(inst)) {
       std::stable_sort(ordered.begin(), ordered.end(), [&](int a, int b) { return *readings[a].time_s < *readings[b].time_s; });
     }
     const ScanTest st = tester.scan_steps(ordered, kStepMinSegment);
-    add_scan({FeatureKind::kStep, inst}, st, st.best >= 0 ? ordered[static_cast<std::size_t>(st.best)] : -1);
+    add_scan(feature(FeatureKind::kStep, inst), st, st.best >= 0 ? ordered[static_cast<std::size_t>(st.best)] : -1);
   }
   std::vector<int> all(readings.size());
   for (std::size_t j = 0; j < all.size(); ++j) all[j] = static_cast<int>(j);
   const ScanTest g = tester.scan_readings(all);
-  if (g.best >= 0) add_scan({FeatureKind::kReading, index.at(readings[g.best].installation)}, g, g.best);
+  if (g.best >= 0) add_scan(feature(FeatureKind::kReading, index.at(readings[g.best].installation)), g, g.best);
   // Only a difference determined: one-column features of one kind that the most significant of
   // that kind makes confounded (a mean of 1r against that of 2r).
   for (FeatureKind kind : {FeatureKind::kMean, FeatureKind::kDrift, FeatureKind::kReversal}) {

@@ -344,17 +344,17 @@ class Selector {
     return -1;
   }
 
-  // chi2 of the model with added effect `a` replaced by each candidate of the pool (of as many
-  // columns when same_columns; not in the model, not confounded or equivalent, raising the rank by its columns);
+  // chi2 of the model with added effect `a` replaced by each candidate of the pool of as many
+  // columns (not in the model, not confounded or equivalent, raising the rank by its columns);
   // -1 where not tried. One factorisation of the model without `a`, then a column test each.
-  std::vector<double> swapped_chi2(int a, bool same_columns = true) const {
+  std::vector<double> swapped_chi2(int a) const {
     std::vector<double> chi2(pool_.size(), -1.0);
     const WlsSolver base(model_without(a), sigma_, o_.estimate);
     const Estimate fit = base.solve(y_);
     const ColumnTester tester(base, fit, o_.estimate);
     for (std::size_t i = 0; i < pool_.size(); ++i) {
       if (used_[i] || status_[i].state == CandidateState::kConfounded || status_[i].state == CandidateState::kEquivalent) continue;
-      if (same_columns && pool_[i].X.cols() != added_[a].block.X.cols()) continue;
+      if (pool_[i].X.cols() != added_[a].block.X.cols()) continue;
       const ColumnTest t = tester.test(pool_[i].X);
       if (t.added_rank < pool_[i].X.cols()) continue;
       chi2[i] = fit.chi2 - t.delta_chi2;
@@ -492,17 +492,42 @@ class Selector {
 
   // Evidence of every added effect in the final model: the F-test of dropping it.
   // Close alternatives in the final model as well as when each effect was added: a candidate
-  // of the pool that, in an added effect's place, fits almost as well as the final model, with
-  // as many columns or not (a centring's two columns against one of a scale; a warm-up against
-  // a linear drift). Later effects can make two candidates indistinguishable that were not when
-  // the first was chosen.
+  // that, in an added effect's place, fits almost as well as the final model, with as many
+  // columns or not (a centring's two columns against one of a scale); of the pool, or a scanned
+  // step or warm-up at its best position (a warm-up against a linear drift). Later effects can
+  // make two candidates indistinguishable that were not when the first was chosen.
   void final_alternatives() {
     for (std::size_t a = 0; a < added_.size(); ++a) {
-      const std::vector<double> chi2 = swapped_chi2(static_cast<int>(a), false);
-      std::vector<std::string>& close = added_[a].close_alternatives;
+      AddedEffect& effect = added_[a];
+      const WlsSolver base(model_without(static_cast<int>(a)), sigma_, o_.estimate);
+      const Estimate fit = base.solve(y_);
+      const ColumnTester tester(base, fit, o_.estimate);
+      auto consider = [&](const EffectBlock& b, const ColumnTest& t) {
+        if (t.added_rank < b.X.cols() || !fits_almost_as_well(fit.chi2 - t.delta_chi2, current_)) return;
+        std::vector<std::string>& close = effect.close_alternatives;
+        if (std::find(close.begin(), close.end(), b.label) == close.end()) close.push_back(b.label);
+        effect.close_in_final.push_back(b);
+      };
       for (std::size_t i = 0; i < pool_.size(); ++i) {
-        if (chi2[i] < 0 || !fits_almost_as_well(chi2[i], current_)) continue;
-        if (std::find(close.begin(), close.end(), pool_[i].label) == close.end()) close.push_back(pool_[i].label);
+        if (used_[i] || status_[i].state == CandidateState::kConfounded || status_[i].state == CandidateState::kEquivalent) continue;
+        consider(pool_[i], tester.test(pool_[i].X));
+      }
+      if (!design_ || !readings_) continue;
+      for (std::size_t f = 0; f < families_.size(); ++f) {
+        if (family_used_[f]) continue;
+        const ScanFamily& fam = families_[f];
+        int best = -1;
+        ColumnTest best_test;
+        if (fam.effect.kind == EffectKind::Step) {
+          const ScanTest st = tester.scan_steps(fam.rows, fam.min_segment);
+          best = st.best, best_test = st.test;
+        } else {
+          for (std::size_t k = 0; k < fam.alternatives.size(); ++k) {
+            const ColumnTest t = tester.test(fam.alternatives[k].X);
+            if (t.added_rank > 0 && (best < 0 || t.delta_chi2 > best_test.delta_chi2)) best = static_cast<int>(k), best_test = t;
+          }
+        }
+        if (best >= 0) consider(fam.alternative(*design_, *readings_, best), best_test);
       }
     }
   }

@@ -98,6 +98,9 @@ struct AddedEffect {
   // its place in the final model; the readings cannot tell them apart reliably (e.g. drift and reversal of one installation
   // measured ccw then cw).
   std::vector<std::string> close_alternatives;
+  // The candidates that still fit almost as well in the effect's place in the final model (of
+  // the pool, or a scanned step or warm-up at its best position), with their columns.
+  std::vector<EffectBlock> close_in_final;
   std::vector<Determined> values;  // one per column, in block.parameters order
   EffectEvidence evidence;
 };
