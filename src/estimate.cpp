@@ -240,6 +240,10 @@ Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M) {
   return unexplained(solver, M, solver.gain() * M);
 }
 
+double bic(double n, double chi2, int parameters) {
+  return n * std::log(std::max(chi2, 1e-300) / n) + parameters * std::log(n);
+}
+
 int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X, const EstimateOptions& options) {
   if (X.cols() == 0 || X.rows() == 0) return 0;
   const Eigen::VectorXd norms = (solver.sigma_um().cwiseInverse().asDiagonal() * X).colwise().norm().transpose();

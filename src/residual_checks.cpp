@@ -300,7 +300,7 @@ std::optional<OrderCheck> model_order_check(const Design& design, const std::vec
     if (t.added_rank == 0 || t.dof <= 0) continue;
     ++best.tried;
     const double chi2 = fit.chi2 - t.delta_chi2;
-    const double b = n * std::log(std::max(chi2, 1e-300) / n) + (fit.rank + t.added_rank) * std::log(n);
+    const double b = bic(n, chi2, fit.rank + t.added_rank);
     if (best.suggested == 0 || b < best_bic) {
       best_bic = b, best.suggested = k, best.test = t;
     }

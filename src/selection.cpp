@@ -600,10 +600,7 @@ const char* candidate_state_name(CandidateState s) {
   return "unknown";
 }
 
-double bic(const Estimate& e) {
-  const double n = e.n_readings;
-  return n * std::log(std::max(e.chi2, 1e-300) / n) + e.rank * std::log(n);
-}
+double bic(const Estimate& e) { return bic(static_cast<double>(e.n_readings), e.chi2, e.rank); }
 
 Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
                          const std::vector<EffectBlock>& pool, const SelectionOptions& options) {

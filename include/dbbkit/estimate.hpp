@@ -136,4 +136,8 @@ Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M, c
 // norms |Sigma^-1/2 X_j| (the same rule).
 int added_rank(const Eigen::MatrixXd& R, const Eigen::VectorXd& whitened_norms, const EstimateOptions& options = {});
 
+// Bayesian information criterion of a least-squares fit of n readings with `parameters`
+// determined: n ln(chi2 / n) + parameters ln n (chi2 floored at 1e-300).
+double bic(double n, double chi2, int parameters);
+
 }  // namespace dbbkit
