@@ -15,6 +15,10 @@ double coverage_factor(std::optional<double> nu, double p) {
   return boost::math::quantile(boost::math::students_t(*nu), q);
 }
 
+Expansion a_priori_expansion(double coverage_probability) {
+  return {coverage_probability, coverage_factor(std::nullopt, coverage_probability)};
+}
+
 std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& components) {
   double uc2 = 0, denom = 0;
   for (const BudgetComponent& c : components) {

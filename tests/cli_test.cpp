@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <boost/math/distributions/normal.hpp>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -551,6 +552,34 @@ TEST(Cli, SimulateExactGeometryWritesTheSetUpErrorsUsed) {
   EXPECT_NE(bad.err.find("--setup-out"), std::string::npos) << bad.err;
   EXPECT_FALSE(std::filesystem::exists(csv));
   EXPECT_FALSE(std::filesystem::exists(setup));
+}
+
+}  // namespace
+}  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// evaluate --coverage p states U = k u with k the normal quantile for p (Boost here), in the
+// sentence and in every value of the table, at 0.95 and 0.99 alike.
+TEST(Report, EvaluateStatesTheCoverageAskedFor) {
+  const auto dir = std::filesystem::temp_directory_path();
+  const std::string md = (dir / "dbbkit_coverage.md").string();
+  for (double p : {0.95, 0.99}) {
+    char arg[32];
+    std::snprintf(arg, sizeof arg, "%g", p);
+    const CliRun r = run_cli("evaluate --design " + kDesignC + " --coverage " + arg + " --out - --summary " + md);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const double u_dx0 = nlohmann::json::parse(r.out)["errors"][0]["std"]["dx"];
+    const double k = boost::math::quantile(boost::math::normal(), 0.5 * (1 + p));
+    char sentence[64], row[64];
+    std::snprintf(sentence, sizeof sentence, "U = %.4g u (%g %%, infinite", k, 100 * p);
+    std::snprintf(row, sizeof row, "| 0 | %.2f |", k * u_dx0);
+    const std::string m = slurp(md);
+    EXPECT_NE(m.find(sentence), std::string::npos) << sentence;
+    EXPECT_NE(m.find(row), std::string::npos) << row;
+  }
+  std::filesystem::remove(md);
 }
 
 }  // namespace

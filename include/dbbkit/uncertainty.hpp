@@ -55,6 +55,15 @@ struct Budget {
 // k such that P(|T_nu| <= k) = p; the normal quantile when nu is absent (infinite).
 double coverage_factor(std::optional<double> nu, double p);
 
+// The expansion of uncertainties stated before or without a Type A evaluation (declared
+// noise and set-up tolerances: infinite degrees of freedom): U = k u, k the normal quantile
+// for the coverage probability.
+struct Expansion {
+  double coverage_probability = 0.95;
+  double k = 0;
+};
+Expansion a_priori_expansion(double coverage_probability = BudgetOptions{}.coverage_probability);
+
 // nu_eff = u_c^4 / sum(u_i^4 / nu_i) over components with finite nu (Welch-Satterthwaite).
 std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& components);
 

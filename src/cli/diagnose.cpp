@@ -55,10 +55,10 @@ Runner add_diagnose(CLI::App& app) {
     const io::InputFiles inputs{args->design, args->data};
     const io::RunContext run{command_line(), in};
     if (!rep->report.empty()) {
-      outputs.stage("--report", io::diagnose_report(io::ReportFormat::Html, run, design, readings, result));
+      outputs.stage("--report", io::diagnose_report(io::ReportFormat::Html, run, design, readings, result, a_priori_expansion()));
     }
     if (!rep->summary.empty()) {
-      outputs.stage("--summary", io::diagnose_report(io::ReportFormat::Markdown, run, design, readings, result));
+      outputs.stage("--summary", io::diagnose_report(io::ReportFormat::Markdown, run, design, readings, result, a_priori_expansion()));
     }
     if (!json_out.empty()) outputs.stage("--out", io::diagnose_to_json(design, result, inputs).dump(2) + "\n");
     outputs.commit();

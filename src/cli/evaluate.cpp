@@ -78,7 +78,8 @@ Runner add_evaluate(CLI::App& app) {
     for (const auto& [option, file, format] : {std::tuple{"--report", rep->report, io::ReportFormat::Html},
                                                std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {
       if (!file.empty()) {
-        outputs.stage(option, io::evaluate_report(format, run, design, ev, variables, map, mc ? &*mc : nullptr));
+        outputs.stage(option, io::evaluate_report(format, run, design, ev, variables, map, mc ? &*mc : nullptr,
+                                                          a_priori_expansion(unc->coverage)));
       }
     }
     outputs.commit();

@@ -97,7 +97,7 @@ Runner add_optimize(CLI::App& app) {
     const io::RunContext run{command_line(), inputs};
     for (const auto& [option, file, format] : {std::tuple{"--report", rep->report, io::ReportFormat::Html},
                                                std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {
-      if (!file.empty()) outputs.stage(option, io::optimize_report(format, run, kit, res, reference, seconds));
+      if (!file.empty()) outputs.stage(option, io::optimize_report(format, run, kit, res, reference, seconds, a_priori_expansion()));
     }
     if (res.best) {
       const Design d = io::optimized_design(kit, res, args->kit);

@@ -121,10 +121,13 @@ std::vector<ErrorsAtAngle> with_expanded(const std::vector<ErrorsAtAngle>& error
   return out;
 }
 
-void errors_section(Page& p, const std::vector<ErrorsAtAngle>& expanded, bool values, const std::string& what) {
+// `coverage`: the coverage probability of U.
+void errors_section(Page& p, const std::vector<ErrorsAtAngle>& expanded, bool values, const std::string& what,
+                    double coverage) {
+  const std::string at = "U (" + fmt_num(100 * coverage) + " %)";
   p.figure([&] { return plot_errors(expanded, values, 1.0, what); },
-           values ? "The six errors against angle; the band is the expanded uncertainty U (95 %)."
-                  : "Expanded uncertainty U (95 %) of each error at each angle, before any reading is taken.");
+           values ? "The six errors against angle; the band is the expanded uncertainty " + at + "."
+                  : "Expanded uncertainty " + at + " of each error at each angle, before any reading is taken.");
   p.table(errors_header(values), errors_rows(expanded, values, 1.0));
 }
 
@@ -230,7 +233,8 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
               " % coverage (k from Student's t at the effective degrees of freedom).");
   design_section(p, design);
   p.heading("Errors");
-  errors_section(p, with_expanded(r.errors, &r.budget, 0), true, "identified errors of " + design.name);
+  errors_section(p, with_expanded(r.errors, &r.budget, 0), true, "identified errors of " + design.name,
+                 r.budget.coverage_probability);
   unidentifiable_section(p, r.unidentifiable);
   iso230_section(p, r);
   if (conformance) conformance_section(p, *conformance);
@@ -304,10 +308,10 @@ void setup_checks_section(Page& p, const Evaluation& ev) {
 
 std::string evaluate_report(ReportFormat f, const RunContext& run, const Design& design, const Evaluation& ev,
                             const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& map,
-                            const MonteCarloResult* mc) {
+                            const MonteCarloResult* mc, const Expansion& expansion) {
   Page p(f, "dbbkit evaluate: " + design.name);
   const Estimate& est = ev.prior;
-  const double k = coverage_factor(std::nullopt, 0.95);
+  const double k = expansion.k, coverage = expansion.coverage_probability;
   p.heading("What the design can identify");
   std::string s = std::to_string(est.n_readings) + " readings (one per installation and angle), " +
                   std::to_string(est.n_unknowns) + " unknowns, rank " + std::to_string(est.rank) + ". ";
@@ -329,15 +333,16 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
             fmt_num(ev.criteria.E_min_eigenvalue), fmt_num(ev.criteria.G_max_leverage)}});
   design_section(p, design);
   p.heading("Uncertainty before measuring");
-  p.paragraph("Reading noise Type B: " + design.noise.describe() + "; U = " + fmt_num(k) +
-              " u (95 %, infinite degrees of freedom).");
+  p.paragraph("Reading noise Type B: " + design.noise.describe() + "; U = " + fmt_num(k) + " u (" +
+              fmt_num(100 * coverage) + " %, infinite degrees of freedom).");
   if (ev.setup_included) {
     p.paragraph("Set-up: " + ev.setup_note + ". The plot and table show the total (noise and set-up).");
     errors_section(p, with_expanded(ev.total_errors, nullptr, k), false,
-                   "a-priori expanded total uncertainty of " + design.name);
+                   "a-priori expanded total uncertainty of " + design.name, coverage);
   } else {
     p.paragraph(as_sentence(ev.setup_note));
-    errors_section(p, with_expanded(ev.errors, nullptr, k), false, "a-priori expanded uncertainty of " + design.name);
+    errors_section(p, with_expanded(ev.errors, nullptr, k), false, "a-priori expanded uncertainty of " + design.name,
+                   coverage);
   }
   unidentifiable_section(p, ev.unidentifiable);
   setup_checks_section(p, ev);
@@ -383,7 +388,7 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
 }
 
 std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& kit, const OptimizeResult& res,
-                            const std::optional<Reference>& reference, double seconds) {
+                            const std::optional<Reference>& reference, double seconds, const Expansion& expansion) {
   Page p(f, "dbbkit optimize: " + (kit.name.empty() ? std::string("kit") : kit.name));
   int feasible = 0;
   for (const ChoiceResult& c : res.choices) feasible += c.status == "searched";
@@ -402,7 +407,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   }
   const Candidate& b = *res.best;
   const Evaluation& ev = res.best_evaluation;
-  const double k = coverage_factor(std::nullopt, 0.95);
+  const double k = expansion.k, coverage = expansion.coverage_probability;
   std::vector<std::vector<std::string>> summary = {
       {"choice", choice_label(kit, b.choice)},
       {"time", fmt_num(b.time_s, 6) + " s" + (kit.time_budget_s ? " of " + fmt_num(*kit.time_budget_s, 6) + " s" : "")},
@@ -431,10 +436,12 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   p.heading("Predicted uncertainty");
   if (ev.setup_included) {
     errors_section(p, with_expanded(ev.total_errors, nullptr, k), false,
-                   "predicted expanded uncertainty, best design, total (noise and the declared set-up tolerances)");
+                   "predicted expanded uncertainty, best design, total (noise and the declared set-up tolerances)",
+                   coverage);
   } else {
     p.paragraph(as_sentence(ev.setup_note));
-    errors_section(p, with_expanded(ev.errors, nullptr, k), false, "predicted expanded uncertainty, best design");
+    errors_section(p, with_expanded(ev.errors, nullptr, k), false, "predicted expanded uncertainty, best design",
+                   coverage);
   }
   unidentifiable_section(p, ev.unidentifiable);
   p.heading("Trade-off against time");
@@ -468,7 +475,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
 }
 
 std::string diagnose_report(ReportFormat f, const RunContext& run, const Design& design,
-                            const std::vector<Reading>& given, const DiagnoseResult& r) {
+                            const std::vector<Reading>& given, const DiagnoseResult& r, const Expansion& expansion) {
   // The readings fitted: those given, less any the user asked to exclude (--exclude-gross).
   std::vector<Reading> readings;
   for (std::size_t j = 0; j < given.size(); ++j) {
@@ -529,8 +536,8 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
                        residual_series(design, readings, r.after.residual_um));
   }, "Residual per installation with the effects added.");
   p.heading("Errors after");
-  const double k = coverage_factor(std::nullopt, 0.95);
-  errors_section(p, with_expanded(r.errors_after, nullptr, k), true, "errors with the effects added, " + design.name);
+  errors_section(p, with_expanded(r.errors_after, nullptr, expansion.k), true,
+                 "errors with the effects added, " + design.name, expansion.coverage_probability);
   unidentifiable_section(p, r.unidentifiable_after);
   p.heading("Details");
   p.preformatted(diagnose_summary(design, r));

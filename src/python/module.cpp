@@ -352,10 +352,11 @@ struct PyEvaluateResult {
   Evaluation ev;
   std::vector<CandidateStatus> effects;
   std::optional<MonteCarloResult> mc;
+  Expansion expansion;  // of the coverage asked for
   nlohmann::json json;
   std::string report(const std::string& format) const {
     const io::RunContext run{"dbbkit.evaluate (Python)", files_of(*design)};
-    return io::evaluate_report(report_format(format), run, design->value, ev, {}, {}, mc ? &*mc : nullptr);
+    return io::evaluate_report(report_format(format), run, design->value, ev, {}, {}, mc ? &*mc : nullptr, expansion);
   }
 };
 
@@ -405,7 +406,7 @@ struct PyDiagnoseResult {
   std::string report(const std::string& format) const {
     return io::diagnose_report(report_format(format), io::RunContext{"dbbkit.diagnose (Python)", files_of(*design, *data)},
                                design->value,
-                               data->readings, result);
+                               data->readings, result, a_priori_expansion());
   }
 };
 
@@ -419,7 +420,7 @@ struct PyOptimizeResult {
     std::vector<std::string> f = files_of(*kit);
     if (reference) f.push_back(reference->file);
     return io::optimize_report(report_format(format), io::RunContext{"dbbkit.optimize (Python)", f}, kit->value, result,
-                               reference, seconds);
+                               reference, seconds, a_priori_expansion());
   }
 };
 
@@ -438,6 +439,7 @@ PyEvaluateResult run_evaluate(const PyDesign& d, std::optional<double> reference
   }
   PyEvaluateResult r;
   r.design = std::make_shared<const PyDesign>(d);
+  r.expansion = a_priori_expansion(coverage);
   const SignalCheck check;
   mc.progress = [&check](long) { check(); };
   {
