@@ -44,25 +44,7 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
     for (int j = 0; j < s.n; ++j) ri(j) = r(rows[j]);
     s.mean_um = ri.mean();
     s.rms_um = std::sqrt(ri.squaredNorm() / s.n);
-    if (design.axis == Axis::C) {
-      // Distinct positions bound the harmonics that can be told apart: 2K + 1 <= positions.
-      std::vector<double> positions;
-      for (int j : rows) {
-        const double a = readings[j].angle_deg;
-        bool seen = false;
-        for (double p : positions) seen = seen || same_position(Axis::C, p, a);
-        if (!seen) positions.push_back(a);
-      }
-      const int K = std::min(4, (static_cast<int>(positions.size()) - 1) / 2);
-      if (K >= 1) {
-        Eigen::MatrixXd A(s.n, 2 * K + 1);
-        for (int j = 0; j < s.n; ++j) A.row(j) = fourier_basis(K, readings[rows[j]].angle_deg).transpose();
-        const Eigen::VectorXd coef = A.colPivHouseholderQr().solve(ri);
-        for (int k = 1; k <= K; ++k) {
-          s.harmonic_um.push_back(std::hypot(coef(2 * k - 1), coef(2 * k)));
-        }
-      }
-    }
+    if (design.axis == Axis::C) s.harmonic_um = residual_harmonics(readings, rows, r);
     double t_sum = 0, t2 = 0, tr = 0, t_min = 1e300, t_max = -1e300;
     int nt = 0;
     double cw_sum = 0, ccw_sum = 0;
@@ -211,51 +193,83 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver, const std:
   return out;
 }
 
+// "a + b" for a set of effects.
+std::string joined(const std::vector<std::string>& labels) {
+  std::string out;
+  for (const std::string& l : labels) out += (out.empty() ? "" : " + ") + l;
+  return out;
+}
+
 // The attribution uncertainty of the errors after (Attribution). Each added effect's
-// alternatives that still fit almost as well in its place in the final model (close_in_final)
-// are swapped in, one at a time. The largest change of each error at each position over an
-// effect's alternatives is that effect's half-width; the half-widths of several effects combine
-// in quadrature, u^2 += w^2 / 3.
+// alternatives that still fit almost as well in its place in the final model (close_in_final),
+// and each substitution, are put in place of what they replace, one at a time. The largest change
+// of each error at each position over one effect's (or substitution's) alternatives is its
+// half-width; the half-widths combine in quadrature, u^2 += w^2 / 3.
 std::vector<Attribution> attribute(const Parameterisation& param, const LinearModel& model,
-                                   const std::vector<AddedEffect>& added, const Estimate& after,
+                                   const std::vector<AddedEffect>& added,
+                                   const std::vector<Substitution>& substitutions, const Estimate& after,
                                    std::vector<ErrorsAtAngle>& errors, const EstimateOptions& options) {
   std::vector<Attribution> out;
   if (after.dof < 1) return out;
   std::vector<std::array<double, 6>> w2(errors.size(), std::array<double, 6>{});
-  for (std::size_t i = 0; i < added.size(); ++i) {
-    if (added[i].close_in_final.empty()) continue;
-    Attribution at;
-    at.effect = added[i].block.label;
-    std::vector<std::array<double, 6>> w(errors.size(), std::array<double, 6>{});
-    for (const EffectBlock& alt : added[i].close_in_final) {
-      Eigen::Index cols = model.J.cols();
-      for (std::size_t j = 0; j < added.size(); ++j) cols += j == i ? alt.X.cols() : added[j].block.X.cols();
-      Eigen::MatrixXd A(model.J.rows(), cols);
-      A.leftCols(model.J.cols()) = model.J;
-      Eigen::Index c = model.J.cols();
-      for (std::size_t j = 0; j < added.size(); ++j) {
-        const Eigen::MatrixXd& X = j == i ? alt.X : added[j].block.X;
-        A.middleCols(c, X.cols()) = X;
-        c += X.cols();
+  // The errors with the added effects `out_labels` replaced by `in`; nullopt when that model
+  // does not have the rank the swap should give.
+  auto refit = [&](const std::vector<std::string>& out_labels,
+                   const std::vector<const EffectBlock*>& in) -> std::optional<std::vector<ErrorsAtAngle>> {
+    std::vector<const Eigen::MatrixXd*> blocks;
+    Eigen::Index cols = model.J.cols(), removed = 0, inserted = 0;
+    for (const AddedEffect& a : added) {
+      if (std::find(out_labels.begin(), out_labels.end(), a.block.label) != out_labels.end()) {
+        removed += a.block.X.cols();
+        continue;
       }
-      const Estimate fit = WlsSolver(A, model.sigma_um, options).solve(model.y_um);
-      if (fit.rank != after.rank - added[i].block.X.cols() + alt.X.cols()) continue;
-      const std::vector<ErrorsAtAngle> e = errors_at_stations(param, fit);
-      for (std::size_t s = 0; s < errors.size() && s < e.size(); ++s) {
+      blocks.push_back(&a.block.X);
+    }
+    for (const EffectBlock* b : in) blocks.push_back(&b->X), inserted += b->X.cols();
+    for (const Eigen::MatrixXd* X : blocks) cols += X->cols();
+    Eigen::MatrixXd A(model.J.rows(), cols);
+    A.leftCols(model.J.cols()) = model.J;
+    Eigen::Index c = model.J.cols();
+    for (const Eigen::MatrixXd* X : blocks) A.middleCols(c, X->cols()) = *X, c += X->cols();
+    const Estimate fit = WlsSolver(A, model.sigma_um, options).solve(model.y_um);
+    if (fit.rank != after.rank - removed + inserted) return std::nullopt;
+    return errors_at_stations(param, fit);
+  };
+  auto attribution = [&](const std::vector<std::string>& out_labels,
+                         const std::vector<std::vector<const EffectBlock*>>& alternatives) {
+    Attribution at;
+    at.effect = joined(out_labels);
+    std::vector<std::array<double, 6>> w(errors.size(), std::array<double, 6>{});
+    for (const std::vector<const EffectBlock*>& in : alternatives) {
+      const std::optional<std::vector<ErrorsAtAngle>> e = refit(out_labels, in);
+      if (!e) continue;
+      for (std::size_t s = 0; s < errors.size() && s < e->size(); ++s) {
         for (int k = 0; k < 6; ++k) {
-          if (!errors[s].errors[k].determined || !e[s].errors[k].determined) continue;
-          const double d = std::abs(e[s].errors[k].value - errors[s].errors[k].value);
+          if (!errors[s].errors[k].determined || !(*e)[s].errors[k].determined) continue;
+          const double d = std::abs((*e)[s].errors[k].value - errors[s].errors[k].value);
           w[s][k] = std::max(w[s][k], d);
           at.largest_change[k] = std::max(at.largest_change[k], d);
         }
       }
-      at.alternatives.push_back(alt.label);
+      std::vector<std::string> labels;
+      for (const EffectBlock* b : in) labels.push_back(b->label);
+      at.alternatives.push_back(joined(labels));
     }
-    if (at.alternatives.empty()) continue;
+    if (at.alternatives.empty()) return;
     for (std::size_t s = 0; s < errors.size(); ++s) {
       for (int k = 0; k < 6; ++k) w2[s][k] += w[s][k] * w[s][k];
     }
     out.push_back(std::move(at));
+  };
+  for (const AddedEffect& a : added) {
+    std::vector<std::vector<const EffectBlock*>> alternatives;
+    for (const EffectBlock& b : a.close_in_final) alternatives.push_back({&b});
+    if (!alternatives.empty()) attribution({a.block.label}, alternatives);
+  }
+  for (const Substitution& s : substitutions) {
+    std::vector<const EffectBlock*> in;
+    for (const EffectBlock& b : s.by) in.push_back(&b);
+    attribution(s.replaced, {in});
   }
   for (std::size_t s = 0; s < errors.size(); ++s) {
     for (int k = 0; k < 6; ++k) {
@@ -289,7 +303,9 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.structures = std::move(sel.structures);
   res.after = current;
   res.errors_after = errors_at_stations(param, current);
-  res.attributions = attribute(param, model, res.added, current, res.errors_after, options.estimate);
+  res.substitutions = std::move(sel.substitutions);
+  res.attributions =
+      attribute(param, model, res.added, res.substitutions, current, res.errors_after, options.estimate);
   {
     // Null space of the final model over the axis-error unknowns (effects are all determined when added).
     Estimate axis_only = current;
@@ -369,29 +385,40 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
     } else if (res.added.empty()) {
       v << "No effect of the library is justified. ";
     } else {
+      // The change of the errors should the alternatives of `effect` be the true ones.
+      auto attribution_sentence = [&](const std::string& effect) {
+        for (const Attribution& at : res.attributions) {
+          if (at.effect != effect) continue;
+          const double um = *std::max_element(at.largest_change.begin(), at.largest_change.begin() + 3);
+          const double urad = *std::max_element(at.largest_change.begin() + 3, at.largest_change.end());
+          v << "The errors after carry the change should";
+          for (std::size_t i = 0; i < at.alternatives.size(); ++i) v << (i ? " or " : " ") << at.alternatives[i];
+          v << " be the true one (up to " << fmt(um) << " um, " << fmt(urad)
+            << " urad) in their uncertainties (rectangular). ";
+        }
+      };
       v << "Added:";
       for (const AddedEffect& a : res.added) v << " " << a.block.label;
       v << ". After: " << chi(res.after) << ". ";
       for (const AddedEffect& a : res.added) {
         if (!a.close_alternatives.empty()) {
           v << a.block.label << " was chosen over";
-          for (const std::string& l : a.close_alternatives) v << " " << l;
+          for (std::size_t i = 0; i < a.close_alternatives.size(); ++i) v << (i ? " or " : " ") << a.close_alternatives[i];
           v << ", which fit almost as well: these readings cannot tell them apart reliably. ";
-          for (const Attribution& at : res.attributions) {
-            if (at.effect != a.block.label) continue;
-            const double um = *std::max_element(at.largest_change.begin(), at.largest_change.begin() + 3);
-            const double urad = *std::max_element(at.largest_change.begin() + 3, at.largest_change.end());
-            v << "The errors after carry the change should";
-            for (const std::string& l : at.alternatives) v << " " << l;
-            v << " be the true one (up to " << fmt(um) << " um, " << fmt(urad)
-              << " urad) in their uncertainties (rectangular). ";
-          }
+          attribution_sentence(a.block.label);
         }
         if (a.equivalent_to.empty()) continue;
         v << a.block.label << " is equivalent to";
         for (const std::string& l : a.equivalent_to) v << " " << l;
         v << ": the data determine only their difference, so it is attributed by convention to the later "
              "installation, and the errors after are conditional on that choice. ";
+      }
+      for (const Substitution& sub : res.substitutions) {
+        std::vector<std::string> by;
+        for (const EffectBlock& b : sub.by) by.push_back(b.label);
+        v << joined(by) << " in place of " << joined(sub.replaced)
+          << " fit" << (by.size() == 1 ? "s" : "") << " almost as well: these readings cannot tell the two explanations apart reliably. ";
+        attribution_sentence(joined(sub.replaced));
       }
     }
     for (const StructureComparison& c : res.structures) {

@@ -1,5 +1,6 @@
 #include "dbbkit/residual_checks.hpp"
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <boost/math/distributions/chi_squared.hpp>
@@ -33,6 +34,24 @@ int distinct_positions(Axis axis, const std::vector<Reading>& readings, const st
 }
 
 }  // namespace
+
+std::vector<double> residual_harmonics(const std::vector<Reading>& readings, const std::vector<int>& rows,
+                                       const Eigen::VectorXd& residual_um) {
+  std::vector<double> amplitude;
+  const int K = std::min(4, (distinct_positions(Axis::C, readings, &rows) - 1) / 2);
+  if (K < 1) return amplitude;
+  const Eigen::Index n = static_cast<Eigen::Index>(rows.size());
+  Eigen::MatrixXd A(n, 2 * K + 1);
+  Eigen::VectorXd e(n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const std::size_t row = static_cast<std::size_t>(rows[static_cast<std::size_t>(j)]);
+    A.row(j) = fourier_basis(K, readings[row].angle_deg).transpose();
+    e(j) = residual_um(static_cast<Eigen::Index>(row));
+  }
+  const Eigen::VectorXd coef = A.colPivHouseholderQr().solve(e);
+  for (int k = 1; k <= K; ++k) amplitude.push_back(std::hypot(coef(2 * k - 1), coef(2 * k)));
+  return amplitude;
+}
 
 ColumnTester::ColumnTester(const WlsSolver& solver, const Estimate& fit, const EstimateOptions& options)
     : solver_(solver), fit_(fit), options_(options), w_(solver.sigma_um().array().square().inverse()) {}
@@ -197,8 +216,8 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
     const int inst = static_cast<int>(i);
     add(feature(FeatureKind::kMean, inst), column(FeatureKind::kMean, inst));
     if (design.axis == Axis::C) {
-      const int K = std::min(4, (distinct_positions(Axis::C, readings, &r) - 1) / 2);
-      for (int k = 1; k <= K; ++k) {
+      const std::vector<double> amplitude = residual_harmonics(readings, r, fit.residual_um);
+      for (int k = 1; k <= static_cast<int>(amplitude.size()); ++k) {
         Eigen::MatrixXd h = Eigen::MatrixXd::Zero(n, 2);
         for (int j : r) {
           const double a = k * readings[j].angle_deg * M_PI / 180.0;
@@ -206,14 +225,7 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
         }
         const std::size_t before = out.size();
         add(feature(FeatureKind::kHarmonic, inst, k), h);
-        if (out.size() > before) {
-          // The amplitude of the harmonic in the residual, on the installation's readings.
-          Eigen::MatrixXd A(static_cast<Eigen::Index>(r.size()), 2);
-          Eigen::VectorXd e(static_cast<Eigen::Index>(r.size()));
-          for (std::size_t j = 0; j < r.size(); ++j) A.row(static_cast<Eigen::Index>(j)) = h.row(r[j]), e(static_cast<Eigen::Index>(j)) = fit.residual_um(r[j]);
-          const Eigen::Vector2d c = A.colPivHouseholderQr().solve(e);
-          out.back().value = c.norm();
-        }
+        if (out.size() > before) out.back().value = amplitude[static_cast<std::size_t>(k - 1)];
       }
     }
     add(feature(FeatureKind::kDrift, inst), column(FeatureKind::kDrift, inst));

@@ -71,9 +71,11 @@ class Selector {
     }
     compare_structures();
     final_alternatives();
+    final_substitutions();
     final_evidence();
     res.after = current_;
     res.added = added_;
+    res.substitutions = substitutions_;
     res.candidates = status_;
     res.candidates.insert(res.candidates.end(), family_status_.begin(), family_status_.end());
     res.structures = structures_;
@@ -89,10 +91,12 @@ class Selector {
   int rank_of(const Eigen::MatrixXd& J) const { return WlsSolver(J, sigma_, o_.estimate).a_priori().rank; }
 
   // [J0, the added effects' columns], leaving out added effect `skip`.
-  Eigen::MatrixXd model_without(int skip) const {
+  Eigen::MatrixXd model_without(int skip) const { return model_without(std::vector<int>{skip}); }
+  // [J0, the added effects' columns], leaving out the added effects `skip`.
+  Eigen::MatrixXd model_without(const std::vector<int>& skip) const {
     Eigen::MatrixXd J = J0_;
     for (std::size_t b = 0; b < added_.size(); ++b) {
-      if (static_cast<int>(b) != skip) J = append(J, added_[b].block.X);
+      if (std::find(skip.begin(), skip.end(), static_cast<int>(b)) == skip.end()) J = append(J, added_[b].block.X);
     }
     return J;
   }
@@ -103,6 +107,51 @@ class Selector {
       if (pool_[i].label == label) return static_cast<int>(i);
     }
     return -1;
+  }
+
+  // Candidates equivalent to pool candidate `best` on the model `base` (which does not hold it):
+  // each spans the other modulo the model, so only their difference is determined. By the
+  // declared convention the latest installation's is chosen; returns it and the others.
+  std::pair<int, std::vector<int>> equivalents(int best, const Eigen::MatrixXd& base) const {
+    std::vector<int> equivalent;
+    const WlsSolver with_best(append(base, pool_[best].X), sigma_, o_.estimate);
+    for (std::size_t i = 0; i < pool_.size(); ++i) {
+      if (used_[i] || static_cast<int>(i) == best || status_[i].state == CandidateState::kConfounded) continue;
+      if (pool_[i].X.cols() != pool_[best].X.cols()) continue;
+      if (added_rank(with_best, pool_[i].X, o_.estimate) == 0) equivalent.push_back(static_cast<int>(i));
+    }
+    int chosen = best;
+    for (int i : equivalent) {
+      if (pool_[i].effect.installation > pool_[chosen].effect.installation) chosen = i;
+    }
+    if (chosen != best) {
+      equivalent.erase(std::find(equivalent.begin(), equivalent.end(), chosen));
+      equivalent.push_back(best);
+    }
+    return {chosen, equivalent};
+  }
+
+  // Pool candidates `equivalent` to the added effect `a` (pool index `chosen`) leave the pool.
+  void mark_equivalent(AddedEffect& a, int chosen, const std::vector<int>& equivalent) {
+    a.equivalent_to.clear();
+    for (int i : equivalent) {
+      a.equivalent_to.push_back(pool_[i].label);
+      used_[i] = true;
+      status_[i] = {pool_[i].label, CandidateState::kEquivalent,
+                    "explains the data exactly as " + pool_[chosen].label +
+                        " does (only their difference is determined); by convention the later installation "
+                        "carries it"};
+    }
+  }
+
+  // An added effect leaves the model: the candidates equivalent to it return to the pool.
+  void release_equivalents(const AddedEffect& a) {
+    for (const std::string& l : a.equivalent_to) {
+      const int i = index_of(l);
+      if (i < 0) continue;
+      used_[i] = false;
+      status_[i] = {l, CandidateState::kNotSignificant, "equivalent to " + a.block.label + ", which left the model"};
+    }
   }
 
   void forward() {
@@ -192,28 +241,8 @@ class Selector {
         return;
       }
       // Equivalent alternatives: each spans the other modulo the current model.
-      std::vector<int> equivalent;
-      {
-        const WlsSolver with_best(append(J_, pool_[best].X), sigma_, o_.estimate);
-        for (std::size_t i = 0; i < pool_.size(); ++i) {
-          if (used_[i] || static_cast<int>(i) == best || status_[i].state == CandidateState::kConfounded) continue;
-          if (pool_[i].X.cols() != pool_[best].X.cols()) continue;
-          if (added_rank(with_best, pool_[i].X, o_.estimate) == 0) equivalent.push_back(static_cast<int>(i));
-        }
-      }
-      if (!equivalent.empty()) {
-        // Convention: the latest installation carries the effect, the earlier is the reference.
-        int chosen = best;
-        for (int i : equivalent) {
-          if (pool_[i].effect.installation > pool_[chosen].effect.installation) chosen = i;
-        }
-        if (chosen != best) {
-          equivalent.erase(std::find(equivalent.begin(), equivalent.end(), chosen));
-          equivalent.push_back(best);
-          best_est = solve(append(J_, pool_[chosen].X));
-          best = chosen;
-        }
-      }
+      const auto [chosen, equivalent] = equivalents(best, J_);
+      if (chosen != best) best_est = solve(append(J_, pool_[chosen].X)), best = chosen;
       AddedEffect a;
       a.block = pool_[best];
       for (std::size_t i = 0; i < pool_.size(); ++i) {
@@ -223,14 +252,7 @@ class Selector {
           a.close_alternatives.push_back(pool_[i].label);
         }
       }
-      for (int i : equivalent) {
-        a.equivalent_to.push_back(pool_[i].label);
-        used_[i] = true;
-        status_[i] = {pool_[i].label, CandidateState::kEquivalent,
-                      "explains the data exactly as " + pool_[best].label +
-                          " does (only their difference is determined); by convention the later installation "
-                          "carries it"};
-      }
+      mark_equivalent(a, best, equivalent);
       a.evidence = {step_, best_F,       static_cast<int>(pool_[best].X.cols()), best_est.dof, best_p, threshold,
                     tested, dbic,        current_.chi2,                          best_est.chi2};
       added_.push_back(a);
@@ -283,31 +305,39 @@ class Selector {
   // [f(tau), a df/dtau] with f = 1 - exp(-(t - t0) / tau) and a the plateau, so that the
   // second column's coefficient is a correction to tau (0 at the minimum) whose
   // uncertainty is that of tau, carried into the axis errors. `fit` becomes the fit with it.
-  EffectBlock refine_thermal(const ScanFamily& fam, int k, Estimate& fit) const {
+  // The time constant of a warm-up between the grid's neighbours of alternative k, by
+  // golden-section search on the chi2 of the model `tester` tests against with the warm-up's
+  // column appended (residual_checks.hpp: its chi2 less the fall the column brings).
+  double refined_tau(const ScanFamily& fam, int k, const ColumnTester& tester) const {
     const std::size_t m = fam.alternatives.size();
     const double lo = fam.alternatives[k > 0 ? k - 1 : 0].effect.tau_min / (k > 0 ? 1.0 : 1.5);
     const double hi = fam.alternatives[std::min<std::size_t>(k + 1, m - 1)].effect.tau_min *
                       (static_cast<std::size_t>(k) + 1 < m ? 1.0 : 1.5);
-    auto block_at = [&](double tau) {
-      EffectCandidate c = fam.effect;
-      c.tau_min = tau;
-      return effect_block(*design_, *readings_, c);
-    };
-    // chi2 with the block appended: the current chi2 less the fall its column brings (residual_checks.hpp).
-    const WlsSolver solver(J_, sigma_, o_.estimate);
-    const ColumnTester tester(solver, current_, o_.estimate);
-    auto chi2_at = [&](double log_tau) { return current_.chi2 - tester.test(block_at(std::exp(log_tau)).X).delta_chi2; };
+    auto fall_at = [&](double log_tau) { return -tester.test(thermal_block(fam, std::exp(log_tau)).X).delta_chi2; };
     const double g = (std::sqrt(5.0) - 1) / 2;
     double a = std::log(lo), b = std::log(hi);
-    double c = b - g * (b - a), d = a + g * (b - a), fc = chi2_at(c), fd = chi2_at(d);
+    double c = b - g * (b - a), d = a + g * (b - a), fc = fall_at(c), fd = fall_at(d);
     for (int it = 0; it < 40 && b - a > 1e-6; ++it) {
       if (fc < fd) {
-        b = d, d = c, fd = fc, c = b - g * (b - a), fc = chi2_at(c);
+        b = d, d = c, fd = fc, c = b - g * (b - a), fc = fall_at(c);
       } else {
-        a = c, c = d, fc = fd, d = a + g * (b - a), fd = chi2_at(d);
+        a = c, c = d, fc = fd, d = a + g * (b - a), fd = fall_at(d);
       }
     }
-    const double tau = std::exp((a + b) / 2);
+    return std::exp((a + b) / 2);
+  }
+
+  EffectBlock thermal_block(const ScanFamily& fam, double tau) const {
+    EffectCandidate c = fam.effect;
+    c.tau_min = tau;
+    return effect_block(*design_, *readings_, c);
+  }
+
+  EffectBlock refine_thermal(const ScanFamily& fam, int k, Estimate& fit) const {
+    const WlsSolver solver(J_, sigma_, o_.estimate);
+    const ColumnTester tester(solver, current_, o_.estimate);
+    const double tau = refined_tau(fam, k, tester);
+    auto block_at = [&](double t) { return thermal_block(fam, t); };
     EffectBlock f = block_at(tau);
     const Estimate one = solve(append(J_, f.X));
     Eigen::VectorXd unit = Eigen::VectorXd::Zero(one.n_unknowns);
@@ -376,13 +406,16 @@ class Selector {
     }
     if (swap_out < 0) return false;
     const int out_idx = index_of(added_[swap_out].block.label);
+    release_equivalents(added_[swap_out]);
+    const auto [chosen, equivalent] = equivalents(swap_in, model_without(swap_out));
+    swap_in = chosen;
     used_[out_idx] = false;
     status_[out_idx] = {pool_[out_idx].label, CandidateState::kNotSignificant,
                         "exchanged for " + pool_[swap_in].label + ", which explains the data better"};
     used_[swap_in] = true;
     status_[swap_in] = {pool_[swap_in].label, CandidateState::kAdded, "exchanged in for " + pool_[out_idx].label};
     added_[swap_out].block = pool_[swap_in];
-    added_[swap_out].equivalent_to.clear();
+    mark_equivalent(added_[swap_out], swap_in, equivalent);
     added_[swap_out].close_alternatives = {pool_[out_idx].label};
     rebuild();
     // Solved again on J_ as rebuilt: `swapped` has the new columns last, J_ has them in the
@@ -422,6 +455,7 @@ class Selector {
       const int idx = index_of(added_[worst].block.label);
       used_[idx] = false;
       status_[idx] = dropped;
+      release_equivalents(added_[worst]);
     }
     added_.erase(added_.begin() + worst);
     rebuild();
@@ -503,7 +537,8 @@ class Selector {
       const Estimate fit = base.solve(y_);
       const ColumnTester tester(base, fit, o_.estimate);
       auto consider = [&](const EffectBlock& b, const ColumnTest& t) {
-        if (t.added_rank < b.X.cols() || !fits_almost_as_well(fit.chi2 - t.delta_chi2, current_)) return;
+        const double extra = cost(b) - cost(effect.block);
+        if (t.added_rank < b.X.cols() || !fits_almost_as_well(fit.chi2 - t.delta_chi2, current_, extra)) return;
         std::vector<std::string>& close = effect.close_alternatives;
         if (std::find(close.begin(), close.end(), b.label) == close.end()) close.push_back(b.label);
         effect.close_in_final.push_back(b);
@@ -515,19 +550,128 @@ class Selector {
       if (!design_ || !readings_) continue;
       for (std::size_t f = 0; f < families_.size(); ++f) {
         if (family_used_[f]) continue;
-        const ScanFamily& fam = families_[f];
-        int best = -1;
-        ColumnTest best_test;
-        if (fam.effect.kind == EffectKind::Step) {
-          const ScanTest st = tester.scan_steps(fam.rows, fam.min_segment);
-          best = st.best, best_test = st.test;
-        } else {
-          for (std::size_t k = 0; k < fam.alternatives.size(); ++k) {
-            const ColumnTest t = tester.test(fam.alternatives[k].X);
-            if (t.added_rank > 0 && (best < 0 || t.delta_chi2 > best_test.delta_chi2)) best = static_cast<int>(k), best_test = t;
-          }
+        const auto b = best_of_family(families_[f], tester);
+        if (!b) continue;
+        consider(b->first, b->second);
+        // A warm-up's time constant is poorly determined where a drift fits almost as well: every
+        // time constant of the grid that fits almost as well is an alternative too.
+        if (families_[f].effect.kind != EffectKind::Thermal || effect.close_in_final.empty() ||
+            effect.close_in_final.back().label != b->first.label) {
+          continue;
         }
-        if (best >= 0) consider(fam.alternative(*design_, *readings_, best), best_test);
+        for (const EffectBlock& alt : families_[f].alternatives) {
+          const ColumnTest t = tester.test(alt.X);
+          const double extra = cost(alt) - cost(effect.block);
+          if (t.added_rank < alt.X.cols() || !fits_almost_as_well(fit.chi2 - t.delta_chi2, current_, extra)) continue;
+          effect.close_in_final.push_back(alt);
+        }
+      }
+    }
+  }
+
+  // The candidate (of the pool not in the model, or a scanned family not in the model at its
+  // best position) whose columns lower chi2 most when appended to the model `tester` tests
+  // against, raising the rank by their number; skipping the labels in `skip`. Of candidates that
+  // explain the data alike (equivalent), the latest installation's, as in forward().
+  std::optional<std::pair<EffectBlock, ColumnTest>> best_appended(const ColumnTester& tester,
+                                                                 const std::vector<EffectBlock>& skip) const {
+    std::optional<std::pair<EffectBlock, ColumnTest>> best;
+    auto skipped = [&](const std::string& label) {
+      return std::any_of(skip.begin(), skip.end(), [&](const EffectBlock& b) { return b.label == label; });
+    };
+    auto consider = [&](const EffectBlock& b, const ColumnTest& t) {
+      if (t.added_rank < b.X.cols() || skipped(b.label)) return;
+      if (best) {
+        const double d = t.delta_chi2 - best->second.delta_chi2;
+        const bool tie = std::abs(d) <= 1e-9 * (1.0 + std::abs(t.delta_chi2));
+        if (tie ? b.effect.installation <= best->first.effect.installation : d < 0) return;
+      }
+      best = std::make_pair(b, t);
+    };
+    for (std::size_t i = 0; i < pool_.size(); ++i) {
+      if (used_[i] || status_[i].state == CandidateState::kConfounded) continue;
+      consider(pool_[i], tester.test(pool_[i].X));
+    }
+    if (!design_ || !readings_) return best;
+    for (std::size_t f = 0; f < families_.size(); ++f) {
+      if (family_used_[f]) continue;
+      if (const auto b = best_of_family(families_[f], tester)) consider(b->first, b->second);
+    }
+    return best;
+  }
+
+  // A scanned family's alternative that lowers chi2 most on the model `tester` tests against:
+  // a step at its best reading, a warm-up at its time constant refined between the grid's
+  // (refined_tau). None when no alternative raises the rank.
+  std::optional<std::pair<EffectBlock, ColumnTest>> best_of_family(const ScanFamily& fam,
+                                                                   const ColumnTester& tester) const {
+    if (fam.effect.kind == EffectKind::Step) {
+      const ScanTest st = tester.scan_steps(fam.rows, fam.min_segment);
+      if (st.best < 0) return std::nullopt;
+      return std::make_pair(fam.alternative(*design_, *readings_, st.best), st.test);
+    }
+    int k = -1;
+    ColumnTest t;
+    for (std::size_t a = 0; a < fam.alternatives.size(); ++a) {
+      const ColumnTest ta = tester.test(fam.alternatives[a].X);
+      if (ta.added_rank > 0 && (k < 0 || ta.delta_chi2 > t.delta_chi2)) k = static_cast<int>(a), t = ta;
+    }
+    if (k < 0) return std::nullopt;
+    if (fam.effect.kind != EffectKind::Thermal) return std::make_pair(fam.alternative(*design_, *readings_, k), t);
+    EffectBlock b = thermal_block(fam, refined_tau(fam, k, tester));
+    const ColumnTest tb = tester.test(b.X);
+    if (tb.added_rank < 1 || tb.delta_chi2 < t.delta_chi2) return std::make_pair(fam.alternative(*design_, *readings_, k), t);
+    return std::make_pair(std::move(b), tb);
+  }
+
+  // parameter_cost with the alternatives of the effect's scanned family (a step's positions, a
+  // warm-up's time constants).
+  double cost(const EffectBlock& b) const {
+    const int f = family_of(b);
+    int m = 0;
+    if (f >= 0) {
+      const ScanFamily& fam = families_[f];
+      m = static_cast<int>(fam.effect.kind == EffectKind::Step ? fam.rows.size() : fam.alternatives.size());
+    }
+    return parameter_cost(b, m);
+  }
+
+  // Substitutions (selection.hpp): for every added effect and every pair of them, the model
+  // without them takes the candidate that lowers chi2 most, then the next (greedy); the first
+  // set that fits almost as well as the final model is recorded, unless it is one candidate for
+  // one effect (final_alternatives) or its effects are already part of a recorded substitution.
+  void final_substitutions() {
+    if (current_.dof < 1) return;
+    std::vector<std::vector<int>> sets;
+    for (std::size_t a = 0; a < added_.size(); ++a) sets.push_back({static_cast<int>(a)});
+    for (std::size_t a = 0; a < added_.size(); ++a) {
+      for (std::size_t b = a + 1; b < added_.size(); ++b) sets.push_back({static_cast<int>(a), static_cast<int>(b)});
+    }
+    std::vector<bool> in_substitution(added_.size(), false);
+    for (const std::vector<int>& out : sets) {
+      if (std::any_of(out.begin(), out.end(), [&](int a) { return in_substitution[a]; })) continue;
+      Eigen::MatrixXd M = model_without(out);
+      std::vector<EffectBlock> by;
+      for (int k = 0; k < 2; ++k) {
+        const WlsSolver base(M, sigma_, o_.estimate);
+        const Estimate fit = base.solve(y_);
+        const ColumnTester tester(base, fit, o_.estimate);
+        const auto best = best_appended(tester, by);
+        if (!best) break;
+        by.push_back(best->first);
+        M = append(M, best->first.X);
+        const double chi2 = fit.chi2 - best->second.delta_chi2;
+        double extra = 0;
+        for (const EffectBlock& b : by) extra += cost(b);
+        for (int a : out) extra -= cost(added_[a].block);
+        if (!fits_almost_as_well(chi2, current_, extra)) continue;
+        if (out.size() == 1 && by.size() == 1) break;  // one for one: a close alternative already
+        Substitution s;
+        for (int a : out) s.replaced.push_back(added_[a].block.label), in_substitution[a] = true;
+        s.by = by;
+        s.chi2 = chi2;
+        substitutions_.push_back(std::move(s));
+        break;
       }
     }
   }
@@ -575,6 +719,7 @@ class Selector {
   ScanTest gross_;
   std::vector<AddedEffect> added_;
   std::vector<StructureComparison> structures_;
+  std::vector<Substitution> substitutions_;
   Eigen::MatrixXd J_;
   Estimate current_;
   int step_ = 0;
@@ -601,6 +746,13 @@ const char* candidate_state_name(CandidateState s) {
 }
 
 double bic(const Estimate& e) { return bic(static_cast<double>(e.n_readings), e.chi2, e.rank); }
+
+double parameter_cost(const EffectBlock& b, int scanned_alternatives) {
+  double cost = 2.0 * static_cast<double>(b.X.cols());
+  const bool scanned = b.effect.kind == EffectKind::Step || (b.effect.kind == EffectKind::Thermal && b.X.cols() == 1);
+  if (scanned && scanned_alternatives > 1) cost += 2.0 * std::log(static_cast<double>(scanned_alternatives));
+  return cost;
+}
 
 Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
                          const std::vector<EffectBlock>& pool, const SelectionOptions& options) {

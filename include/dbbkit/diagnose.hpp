@@ -72,13 +72,14 @@ struct SetupRisk {
 };
 
 // An added effect that one or more candidates still fit almost as well in the final model
-// (fits_almost_as_well, as close_alternatives): the errors refitted with each of them in
-// its place. largest_change[k]: the largest change of error k (dx..ez) over the positions
-// and the alternatives; its half-width enters every error's standard uncertainty as a
-// rectangular component, change / sqrt(3), so that the errors hold whichever is true.
+// (fits_almost_as_well, as close_alternatives), or a substitution (selection.hpp): the errors
+// refitted with each alternative in its place. largest_change[k]: the largest change of error k
+// (dx..ez) over the positions and the alternatives; its half-width enters every error's
+// standard uncertainty as a rectangular component, change / sqrt(3), so that the errors hold
+// whichever is true. Several attributions combine in quadrature.
 struct Attribution {
-  std::string effect;
-  std::vector<std::string> alternatives;
+  std::string effect;                     // an added effect, or "a + b" for a substitution's
+  std::vector<std::string> alternatives;  // labels, or "c + d" for a substitution's
   std::array<double, 6> largest_change{};  // um, urad
 };
 
@@ -89,6 +90,7 @@ struct DiagnoseResult {
   std::vector<Attribution> attributions;
   std::vector<Unidentifiable> unidentifiable_after;
   std::vector<AddedEffect> added;
+  std::vector<Substitution> substitutions;  // added effects that other candidates together replace
   std::vector<CandidateStatus> candidates;
   std::vector<StructureComparison> structures;  // whole-test against per-installation terms
   ResidualSignature signature_before, signature_after;

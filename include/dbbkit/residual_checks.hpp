@@ -123,6 +123,13 @@ struct ResidualFeature {
   std::vector<int> difference_with;
 };
 
+// The amplitudes sqrt(a_k^2 + b_k^2) of the harmonics k = 1..K of a turntable's residual on the
+// readings `rows` (least squares of mean + a_k cos k g + b_k sin k g jointly), K = min(4,
+// (P - 1) / 2) for P distinct positions; empty when K < 1. Both the residual signature and the
+// harmonic features of residual_features state these.
+std::vector<double> residual_harmonics(const std::vector<Reading>& readings, const std::vector<int>& rows,
+                                       const Eigen::VectorXd& residual_um);
+
 // Every feature of every installation, against the model of `solver` fitted to the readings
 // (`fit` = solver.solve(y)); `readings` as validated against `design`.
 std::vector<ResidualFeature> residual_features(const Design& design, const std::vector<Reading>& readings,

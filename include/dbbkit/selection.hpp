@@ -51,6 +51,8 @@
 // the lower chi2 is the lower BIC).
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -85,10 +87,20 @@ struct EffectEvidence {
   int scanned = 0;  // a scanned candidate: the alternatives tested (its p at entry was min p times this)
 };
 
-// A candidate whose fit (chi2_other) is within two residual standard deviations of the
-// chosen model's: chi2_other - chi2 < 4 chi2 / dof. The readings cannot tell them apart reliably.
-inline bool fits_almost_as_well(double chi2_other, const Estimate& chosen) {
-  return chosen.dof > 0 && chi2_other - chosen.chi2 < 4.0 * chosen.chi2 / chosen.dof;
+// Another explanation (chi2_other, whose parameters cost extra_cost more than the chosen
+// model's in Akaike's units, parameter_cost) that the readings cannot reject beside the chosen
+// one: the evidence ratio of the chosen model to it below 20 by the Akaike weights (Burnham and
+// Anderson 2002), exp(dAIC / 2) < 20, with chi2 in units of the chosen model's residual
+// variance chi2 / dof:
+//   (chi2_other - chi2) / (chi2 / dof) + max(0, extra_cost) < 2 ln 20 (= 5.99).
+// With as many parameters, a chi2 within about 2.4 residual standard deviations. Akaike's
+// weights rather than the BIC that selection uses: the alternatives are for the coverage of
+// the errors after (the attribution), where the BIC's ln n per parameter would dismiss a true
+// effect of two columns beside one of one column that fits nearly as well.
+inline bool fits_almost_as_well(double chi2_other, const Estimate& chosen, double extra_cost = 0) {
+  if (chosen.dof <= 0 || !(chosen.chi2 > 0)) return false;
+  const double scale = chosen.chi2 / chosen.dof;
+  return (chi2_other - chosen.chi2) / scale + std::max(0.0, extra_cost) < 2.0 * std::log(20.0);
 }
 
 struct AddedEffect {
@@ -133,9 +145,23 @@ struct StructureComparison {
   double bic_chosen = 0, bic_rejected = 0;
 };
 
+// Added effects that other candidates together replace almost as well in the final model
+// (fits_almost_as_well), where no swap of one candidate for one effect does: a warm-up of the
+// whole test in place of a drift of the whole test and one installation's length offset, or a
+// length offset in place of a warm-up and a step. One or two added effects out, one or two
+// candidates in (not one for one: that is AddedEffect::close_in_final). Their parameters are
+// compared by their cost (fits_almost_as_well): a substitution that only fits the noise better
+// is not named.
+struct Substitution {
+  std::vector<std::string> replaced;  // labels of the added effects taken out
+  std::vector<EffectBlock> by;        // the candidates in their place
+  double chi2 = 0;                    // of the final model with the substitution
+};
+
 struct Selection {
   Estimate before, after;
   std::vector<AddedEffect> added;
+  std::vector<Substitution> substitutions;
   std::vector<CandidateStatus> candidates;
   std::vector<StructureComparison> structures;
   Eigen::MatrixXd J_final;  // [J, added effects' columns]
@@ -148,6 +174,13 @@ struct Selection {
 
 // Bayesian information criterion of an estimate: n ln(chi2 / n) + rank ln n.
 double bic(const Estimate& e);
+
+// The cost in Akaike's units of the parameters an effect takes from the readings: 2 per column,
+// and for a scanned parameter (a step's position, a warm-up's time constant not linearised in a
+// column of its own) chosen as the best of m alternatives, 2 ln m: the expected largest of m
+// chi2 falls of one column each grows as 2 ln m, so that a scanned effect does not pass for an
+// explanation by fitting the noise at its best position.
+double parameter_cost(const EffectBlock& b, int scanned_alternatives);
 
 Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
                          const std::vector<EffectBlock>& pool, const SelectionOptions& options = {});

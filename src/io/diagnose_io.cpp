@@ -172,6 +172,13 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
                           {"bic_rejected", c.bic_rejected}});
   }
   j["structures"] = structures;
+  json substitutions = json::array();
+  for (const Substitution& sub : r.substitutions) {
+    std::vector<std::string> by;
+    for (const EffectBlock& b : sub.by) by.push_back(b.label);
+    substitutions.push_back({{"replaced", sub.replaced}, {"by", by}, {"chi2", sub.chi2}});
+  }
+  j["substitutions"] = substitutions;
   json attributions = json::array();
   for (const Attribution& at : r.attributions) {
     json change = json::object();
