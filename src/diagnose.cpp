@@ -25,6 +25,18 @@ std::string fmt(double x, int digits = 3) {
 
 }  // namespace
 
+const char* selection_stop_name(SelectionStop s) {
+  switch (s) {
+    case SelectionStop::kNone:
+      return "none";
+    case SelectionStop::kGrossReading:
+      return "gross reading";
+    case SelectionStop::kModelOrder:
+      return "model order";
+  }
+  return "unknown";
+}
+
 ResidualSignature residual_signature(const Design& design, const std::vector<Reading>& readings,
                                      const Eigen::VectorXd& r) {
   ResidualSignature sig;
@@ -325,7 +337,11 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.setup_risks = setup_risks(design, param, model, final_solver, options, res.added, res.errors_after);
 
   // Checks outside the library, each a test at the level.
-  res.stopped_at_step = sel.stopped_at_reading >= 0 ? sel.stopped_at_step : 0;
+  res.stopped_at_step = sel.stopped_at_reading >= 0 || sel.stopped_at_order ? sel.stopped_at_step : 0;
+  res.stopped_because = sel.stopped_at_order     ? SelectionStop::kModelOrder
+                        : sel.stopped_at_reading >= 0 ? SelectionStop::kGrossReading
+                                                      : SelectionStop::kNone;
+  const bool stopped_at_order = res.stopped_because == SelectionStop::kModelOrder;
   if (res.after.dof > 1) {
     res.gross = gross_readings(J, model.sigma_um, model.y_um, options.level, options.max_gross, options.estimate);
     for (GrossReading& g : res.gross) g.reading = readings[static_cast<std::size_t>(g.row)];
@@ -434,7 +450,12 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
                                    : "one per installation (" + list(c.rejected) + ")")
         << ": BIC " << fmt(c.bic_chosen, 6) << " against " << fmt(c.bic_rejected, 6) << ". ";
     }
-    if (res.stopped_at_step > 0 && !res.gross.empty()) {
+    if (res.stopped_at_step > 0 && stopped_at_order) {
+      v << "Selection stopped at step " << res.stopped_at_step
+        << ", where a higher order of the error model was the best candidate: no effect is added to explain part "
+           "of a motion the model's order cannot follow. ";
+    }
+    if (res.stopped_at_step > 0 && !stopped_at_order && !res.gross.empty()) {
       v << "Selection stopped at step " << res.stopped_at_step
         << ", where one reading alone was the best candidate: no effect is added to explain part of it away. ";
     }

@@ -290,25 +290,31 @@ std::vector<GrossReading> gross_readings(const Eigen::MatrixXd& J, const Eigen::
   return out;
 }
 
-std::optional<OrderCheck> model_order_check(const Design& design, const std::vector<Reading>& readings,
-                                            const WlsSolver& solver, const Estimate& fit,
-                                            const EstimateOptions& options) {
+std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(const Design& design,
+                                                                  const std::vector<Reading>& readings) {
+  std::vector<std::pair<int, Eigen::MatrixXd>> out;
   const ErrorModel::Kind kind = design.errors.kind;
-  if (kind == ErrorModel::Kind::PerAngle) return std::nullopt;
+  if (kind == ErrorModel::Kind::PerAngle) return out;
   const int P = distinct_positions(design.axis, readings, nullptr);
   const int K = design.errors.order;
   const int K_max = kind == ErrorModel::Kind::Fourier ? (P - 1) / 2 : P - 1;
-  const ColumnTester tester(solver, fit, options);
-  const double n = static_cast<double>(readings.size());
-  OrderCheck best;
-  best.order = K;
-  double best_bic = 0;
   for (int k = K + 1; k <= std::min(K + 4, K_max); ++k) {
     Design higher = design;
     higher.errors.order = k;
     const Parameterisation param(higher);
-    const LinearModel m = build_linear_model(higher, param, readings);
-    const ColumnTest t = tester.test(m.J);
+    out.emplace_back(k, build_linear_model(higher, param, readings).J);
+  }
+  return out;
+}
+
+std::optional<OrderCheck> model_order_check(int order, const std::vector<std::pair<int, Eigen::MatrixXd>>& higher,
+                                            const ColumnTester& tester, const Estimate& fit) {
+  const double n = static_cast<double>(fit.n_readings);
+  OrderCheck best;
+  best.order = order;
+  double best_bic = 0;
+  for (const auto& [k, J] : higher) {
+    const ColumnTest t = tester.test(J);
     if (t.added_rank == 0 || t.dof <= 0) continue;
     ++best.tried;
     const double chi2 = fit.chi2 - t.delta_chi2;
@@ -325,6 +331,14 @@ std::optional<OrderCheck> model_order_check(const Design& design, const std::vec
     best.p_value_with = boost::math::cdf(boost::math::complement(boost::math::chi_squared(best.dof_with), best.chi2_with));
   }
   return best;
+}
+
+std::optional<OrderCheck> model_order_check(const Design& design, const std::vector<Reading>& readings,
+                                            const WlsSolver& solver, const Estimate& fit,
+                                            const EstimateOptions& options) {
+  const auto higher = higher_order_columns(design, readings);
+  if (higher.empty()) return std::nullopt;
+  return model_order_check(design.errors.order, higher, ColumnTester(solver, fit, options), fit);
 }
 
 NoiseScale noise_scale(double chi2, int dof) {

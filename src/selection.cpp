@@ -62,11 +62,12 @@ class Selector {
         family_used_[f] = true;
       }
     }
+    if (o_.stop_at_model_order && design_ && readings_) higher_ = higher_order_columns(*design_, *readings_);
     all_rows_.resize(static_cast<std::size_t>(y_.size()));
     for (std::size_t i = 0; i < all_rows_.size(); ++i) all_rows_[i] = static_cast<int>(i);
     for (bool changed = true; changed;) {
       forward();
-      if (stopped_at_reading_ >= 0) break;
+      if (stopped_at_reading_ >= 0 || stopped_at_order_) break;
       changed = exchange() || backward();
     }
     compare_structures();
@@ -81,6 +82,7 @@ class Selector {
     res.structures = structures_;
     res.J_final = J_;
     res.stopped_at_reading = stopped_at_reading_;
+    res.stopped_at_order = stopped_at_order_;
     res.stopped_at_step = stopped_at_step_;
     res.gross = gross_;
     return res;
@@ -223,6 +225,18 @@ class Selector {
             stopped_at_reading_ = g.best;
             stopped_at_step_ = step_;
             gross_ = g;
+            return;
+          }
+        }
+      }
+      if (!higher_.empty()) {
+        // A higher order of the error model, counted as one more candidate of the step.
+        const std::optional<OrderCheck> order = model_order_check(design_->errors.order, higher_, tester, current_);
+        if (order) {
+          ++tested;
+          if (order->p < best_p && order->p < o_.level / tested) {
+            stopped_at_order_ = order;
+            stopped_at_step_ = step_;
             return;
           }
         }
@@ -716,6 +730,8 @@ class Selector {
   std::vector<CandidateStatus> family_status_;
   std::vector<int> all_rows_;
   int stopped_at_reading_ = -1, stopped_at_step_ = 0;
+  std::optional<OrderCheck> stopped_at_order_;
+  std::vector<std::pair<int, Eigen::MatrixXd>> higher_;
   ScanTest gross_;
   std::vector<AddedEffect> added_;
   std::vector<StructureComparison> structures_;

@@ -83,6 +83,15 @@ struct Attribution {
   std::array<double, 6> largest_change{};  // um, urad
 };
 
+// Why forward selection stopped before no candidate passed (selection.hpp).
+enum class SelectionStop {
+  kNone,
+  kGrossReading,  // one reading alone was the best candidate of a step
+  kModelOrder,    // a higher order of the series error model was the best candidate
+};
+// "none", "gross reading", "model order".
+const char* selection_stop_name(SelectionStop s);
+
 struct DiagnoseResult {
   double level = 0.01;
   Estimate before, after;
@@ -100,7 +109,8 @@ struct DiagnoseResult {
   // Checks of the residual outside the library (residual_checks.hpp), on the final model.
   std::vector<ResidualFeature> features_before, features_after;  // features_before: on the axis errors alone
   std::vector<GrossReading> gross;         // rows index the readings fitted
-  int stopped_at_step = 0;                 // selection stopped at a gross reading (0: it did not)
+  int stopped_at_step = 0;                 // selection stopped at this step (0: it did not), for
+  SelectionStop stopped_because = SelectionStop::kNone;  // this reason
   std::optional<OrderCheck> order;         // series models
   std::optional<NoiseScale> noise;         // when the residual after is significant
   bool noise_larger_than_declared = false;  // significant after, no feature or check explains it

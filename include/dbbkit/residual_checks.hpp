@@ -158,6 +158,12 @@ std::vector<GrossReading> gross_readings(const Eigen::MatrixXd& J, const Eigen::
 // K+4 (as far as the positions allow: 2K'+1 for Fourier, K'+1 for Legendre) appended to J
 // (the solver's, which holds those of order K and the effects added); the K' of lowest BIC is suggested when
 // its F-test p times the orders tried is below the level. The fit with it: chi2 and dof.
+// The errors' columns of each order K' = K+1 .. K+4 that the positions allow (2K'+1 <= P for
+// Fourier, K'+1 <= P for Legendre), each the whole J of that order, with K'; empty for a
+// per-angle model. ColumnTester::test takes the part the model of order K does not span.
+std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(const Design& design,
+                                                                  const std::vector<Reading>& readings);
+
 struct OrderCheck {
   int order = 0;      // the design's
   int suggested = 0;  // K' of lowest BIC
@@ -171,6 +177,10 @@ struct OrderCheck {
 std::optional<OrderCheck> model_order_check(const Design& design, const std::vector<Reading>& readings,
                                             const WlsSolver& solver, const Estimate& fit,
                                             const EstimateOptions& options = {});
+// The same on columns already built (higher_order_columns), tested against the model `tester`
+// holds, whose fit is `fit`; `order` the design's.
+std::optional<OrderCheck> model_order_check(int order, const std::vector<std::pair<int, Eigen::MatrixXd>>& higher,
+                                            const ColumnTester& tester, const Estimate& fit);
 
 // The scale of the noise: the readings scatter k = sqrt(chi2 / dof) times the declared
 // noise, with the 95 % interval [sqrt(chi2 / q_0.975), sqrt(chi2 / q_0.025)] (q the

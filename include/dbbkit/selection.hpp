@@ -53,6 +53,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -69,6 +70,11 @@ struct SelectionOptions {
   // is the best candidate of a step and passes, selection stops there, so that no effect of
   // the library is added to explain it away. Removing it is the caller's explicit choice.
   bool stop_at_gross_reading = true;
+  // For a series model, the errors' columns of a higher order (residual_checks.hpp
+  // model_order_check, K+1..K+4, p times the orders tried) are a candidate too: when they are the
+  // best candidate of a step and pass, selection stops there, so that no effect of the library
+  // is added to explain part of a motion the model's order cannot follow. Needs the design.
+  bool stop_at_model_order = true;
   EstimateOptions estimate;
 };
 
@@ -168,6 +174,9 @@ struct Selection {
   // Selection stopped at this step because a single reading was the best candidate
   // (stop_at_gross_reading): its row and test; -1 when it did not.
   int stopped_at_reading = -1;
+  // Selection stopped at this step because a higher order of the error model was the best
+  // candidate (stop_at_model_order): its check.
+  std::optional<OrderCheck> stopped_at_order;
   int stopped_at_step = 0;
   ScanTest gross;
 };

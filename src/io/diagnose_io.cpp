@@ -229,7 +229,10 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
                  {"features_after", features_to_json(design, r.features_after)},
                  {"features_before", features_to_json(design, r.features_before)},
                  {"gross_readings", gross_to_json(r.gross)},
-                 {"selection_stopped_at_gross_reading_step", r.stopped_at_step > 0 ? json(r.stopped_at_step) : json(nullptr)},
+                 {"selection_stopped_at_gross_reading_step",
+                  r.stopped_because == SelectionStop::kGrossReading ? json(r.stopped_at_step) : json(nullptr)},
+                 {"selection_stopped_at_model_order_step",
+                  r.stopped_because == SelectionStop::kModelOrder ? json(r.stopped_at_step) : json(nullptr)},
                  {"excluded_readings", gross_to_json(r.excluded)},
                  {"noise_larger_than_declared", r.noise_larger_than_declared}};
   if (r.noise) {

@@ -492,7 +492,9 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
   p.heading("Effects added");
   if (r.added.empty() && r.stopped_at_step > 0) {
     p.paragraph("None: selection stopped at step " + std::to_string(r.stopped_at_step) +
-                ", where one reading alone was the best candidate (see the verdict and the checks below).");
+                (r.stopped_because == SelectionStop::kModelOrder
+                     ? ", where a higher order of the error model was the best candidate (see the verdict)."
+                     : ", where one reading alone was the best candidate (see the verdict and the checks below)."));
   } else if (r.added.empty()) {
     p.paragraph("None: no effect of the library explains the residual significantly better.");
   } else {
