@@ -1,5 +1,6 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/setup.hpp"
+#include "tolerances.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
@@ -105,7 +106,7 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
         const Determined& d = after[s].errors[k];
         if (!d.determined || !(d.std > 0)) continue;
         const double b = (C.col(k).transpose() * GX).norm();
-        if (!(b > 1e-12)) continue;
+        if (!(b > tol::kSeenValue)) continue;  // the effect moves this error by nothing but rounding
         const double threshold = d.std / b;
         if (!any || threshold < worst.threshold_um) {
           any = true;

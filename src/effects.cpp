@@ -1,4 +1,5 @@
 #include "dbbkit/effects.hpp"
+#include "tolerances.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -192,7 +193,7 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
   }
   std::vector<int> keep;
   for (int j = 0; j < full.cols(); ++j) {
-    if ((e.component < 0 || e.component == j) && full.col(j).cwiseAbs().maxCoeff() > 1e-12) keep.push_back(j);
+    if ((e.component < 0 || e.component == j) && full.col(j).cwiseAbs().maxCoeff() > tol::kSeenValue) keep.push_back(j);
   }
   if (keep.empty() && b.not_applicable.empty()) b.not_applicable = "changes no reading of this design";
   b.X.resize(full.rows(), static_cast<Eigen::Index>(keep.size()));

@@ -1,4 +1,5 @@
 #include "dbbkit/observability.hpp"
+#include "tolerances.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -163,13 +164,13 @@ std::optional<WorstCase> fast_worst_case_series(const Design& design, double ref
     }
   }
   const Eigen::VectorXd c = M.diagonal().cwiseSqrt();
-  if (!(c.minCoeff() > 1e-12 * c.maxCoeff())) return std::nullopt;
+  if (!(c.minCoeff() > tol::kMinColumnScale * c.maxCoeff())) return std::nullopt;
   const Eigen::VectorXd ci = c.cwiseInverse();
   const Eigen::MatrixXd Ms = ci.asDiagonal() * M * ci.asDiagonal();
   const Eigen::LLT<Eigen::MatrixXd> llt(Ms);
   if (llt.info() != Eigen::Success) return std::nullopt;
   const Eigen::MatrixXd C = llt.solve(Eigen::MatrixXd::Identity(p, p));
-  if (!(p * C.trace() <= 1e10)) return std::nullopt;
+  if (!(p * C.trace() <= tol::kFastSeriesCondition)) return std::nullopt;
   WorstTracker worst(reference_length_mm);
   for (int st = 0; st < param.n_stations(); ++st) {
     const Eigen::VectorXd f = param.series_basis(param.station_angle_deg(st));
@@ -214,7 +215,7 @@ std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Desig
   }
   if (!inverse6(A, Ai)) return std::nullopt;
   for (int j = 0; j < 6; ++j) trace_Ai += Ai[j][j];
-  if (!(std::sqrt(6.0 * trace_A * trace_Ai) <= 1e5)) return std::nullopt;  // cond(Js) <= 1e5 << 1e9
+  if (!(std::sqrt(6.0 * trace_A * trace_Ai) <= tol::kFastPerAngleCondition)) return std::nullopt;
   Eigen::Matrix<double, 6, 6> C;
   for (int j = 0; j < 6; ++j) {
     for (int k = 0; k < 6; ++k) C(j, k) = sc[j] * Ai[j][k] * sc[k];
@@ -588,12 +589,12 @@ std::optional<SetupInformation> fast_setup_information(const Design& design) {
         X = h.centring_harmonics(design, i).transpose();
         q_full = 3;
       }
-      // The columns a reading sees (effect_block's rule: a value above 1e-12 at some angle).
+      // The columns a reading sees (effect_block's rule, tol::kSeenValue).
       std::vector<int> seen;
       for (int k = 0; k < q_full; ++k) {
         double largest = 0;
         for (int st = 0; st < n_st; ++st) largest = std::max(largest, std::abs(h.phi[st].dot(X.col(k))));
-        if (largest > 1e-12) seen.push_back(k);
+        if (largest > tol::kSeenValue) seen.push_back(k);
       }
       if (seen.empty()) continue;  // changes no reading: not an effect of this design (setup_effects)
       // At most 3 x 3: fixed-capacity matrices, no allocation.

@@ -19,6 +19,12 @@ namespace dbbkit {
 namespace {
 
 constexpr double kPenalty = 1e12;  // objective of a point the criterion cannot score
+// A geometric constraint holds when its violation v [mm] (travel excursion, separation shortfall)
+// satisfies v <= kGeometryTolerance_mm; NLopt's constraint tolerance is the same.
+constexpr double kGeometryTolerance_mm = 1e-9;
+// Within one choice, two feasible candidates tie when |f_a - f_b| <= kCandidateTie max(|f_a|, |f_b|)
+// (the shorter measurement is then better).
+constexpr double kCandidateTie = 1e-9;
 constexpr int kNearRankLoss = 1 << 20;  // n_undetermined of a point the fast path declined
 
 std::string mm(double x) {
@@ -262,8 +268,8 @@ class ChoiceSearch {
       o.set_lower_bounds(lb);
       o.set_upper_bounds(ub);
       o.set_min_objective(f, this);
-      o.add_inequality_constraint(travel, this, 1e-9);
-      o.add_inequality_constraint(separation, this, 1e-9);
+      o.add_inequality_constraint(travel, this, kGeometryTolerance_mm);
+      o.add_inequality_constraint(separation, this, kGeometryTolerance_mm);
       if (detection_) o.add_inequality_constraint(detection, this, 0.0);
     };
     // Global stage.
@@ -387,8 +393,9 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
     cr.choice = choices[i];
     cr.label = choice_label(kit, choices[i]);
     const Candidate probe = make_candidate(kit, choices[i], choices[i].space.lower);
+    cr.time_s = probe.time_s;
     if (kit.time_budget_s && probe.time_s > *kit.time_budget_s) {
-      cr.status = "over the time budget (" + mm(probe.time_s) + " s > " + mm(*kit.time_budget_s) + " s)";
+      cr.state = ChoiceState::kOverTimeBudget;
     } else {
       ChoiceSearch s(kit, choices[i], criterion);
       search_one(s);
@@ -400,24 +407,17 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
       cr.budget_exhausted = s.budget_exhausted();
       if (cr.best) describe_installations(kit, *cr.best);
       if (s.undetectable_everywhere()) {
-        std::string list;
-        for (const std::string& e : cr.best->detection->undetectable) list += (list.empty() ? "" : ", ") + e;
-        cr.status = "no position lets diagnose detect every declared set-up effect: the axis errors take " + list +
-                    " at every position of this choice";
+        cr.state = ChoiceState::kUndetectableEverywhere;
       } else if (cr.best && cr.best->feasible) {
-        cr.status = "searched";
-      } else if (cr.best && cr.best->travel_violation_mm > 1e-9) {
-        cr.status = "no position keeps the following ball inside travel (least excursion " +
-                    mm(cr.best->travel_violation_mm) + " mm)";
-      } else if (cr.best && cr.best->separation_violation_mm > 1e-9) {
-        cr.status = "no position keeps the balls min_separation_mm apart";
+        cr.state = ChoiceState::kSearched;
+      } else if (cr.best && cr.best->travel_violation_mm > kGeometryTolerance_mm) {
+        cr.state = ChoiceState::kOutsideTravel;
+      } else if (cr.best && cr.best->separation_violation_mm > kGeometryTolerance_mm) {
+        cr.state = ChoiceState::kTooClose;
       } else if (cr.best && cr.best->detection) {
-        const Candidate::Detection& d = *cr.best->detection;
-        cr.status = "no position lets diagnose detect every declared set-up effect at its declared size: " + d.effect +
-                    (d.limit_um ? " is detected from " + mm(*d.limit_um) + " um (declared " + mm(d.declared_std_um) + " um)"
-                                : " cannot be told from the axis errors");
+        cr.state = ChoiceState::kSetupNotDetected;
       } else {
-        cr.status = "no feasible position";
+        cr.state = ChoiceState::kNoFeasiblePosition;
       }
     }
     std::lock_guard<std::mutex> lock(mutex);
@@ -633,7 +633,7 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std:
     }
   }
   c.time_s = design_time_s(kit, d);
-  c.feasible = c.travel_violation_mm <= 1e-9 && c.separation_violation_mm <= 1e-9 &&
+  c.feasible = c.travel_violation_mm <= kGeometryTolerance_mm && c.separation_violation_mm <= kGeometryTolerance_mm &&
                (!kit.time_budget_s || c.time_s <= *kit.time_budget_s);
   return c;
 }
@@ -722,11 +722,31 @@ bool better(const Candidate& a, const Candidate& b) {
   }
   if (a.n_undetermined != b.n_undetermined) return a.n_undetermined < b.n_undetermined;
   if (a.objective_defined != b.objective_defined) return a.objective_defined;
-  // Objectives equal to 1e-9 (relative): the shorter measurement is better.
-  if (std::abs(a.objective - b.objective) > 1e-9 * std::max(std::abs(a.objective), std::abs(b.objective))) {
+  // Objectives that tie (kCandidateTie): the shorter measurement is better.
+  if (std::abs(a.objective - b.objective) > kCandidateTie * std::max(std::abs(a.objective), std::abs(b.objective))) {
     return a.objective < b.objective;
   }
   return a.time_s < b.time_s;
+}
+
+const char* choice_state_name(ChoiceState s) {
+  switch (s) {
+    case ChoiceState::kSearched:
+      return "searched";
+    case ChoiceState::kOverTimeBudget:
+      return "over time budget";
+    case ChoiceState::kUndetectableEverywhere:
+      return "undetectable everywhere";
+    case ChoiceState::kOutsideTravel:
+      return "outside travel";
+    case ChoiceState::kTooClose:
+      return "too close";
+    case ChoiceState::kSetupNotDetected:
+      return "set-up not detected";
+    case ChoiceState::kNoFeasiblePosition:
+      return "no feasible position";
+  }
+  return "unknown";
 }
 
 OptimizeResult optimize_kit(const Kit& kit, const OptimizeOptions& options) {

@@ -12,6 +12,16 @@ namespace dbbkit {
 
 namespace {
 
+// An exchange replaces an added effect when the model with the other candidate in its place has
+// chi2_new < chi2 (1 - kExchangeGain): a fall of rounding size is not a better explanation.
+constexpr double kExchangeGain = 1e-9;
+// Two candidates explain the data alike (a tie, broken by the latest installation) when their
+// chi2 falls d1, d2 satisfy |d1 - d2| <= kTie (1 + |d1|).
+constexpr double kTie = 1e-9;
+// The golden-section search of a warm-up's time constant stops when its bracket in ln(tau) is
+// narrower than kLogTauBracket.
+constexpr double kLogTauBracket = 1e-6;
+
 std::string fmt(double x, int digits = 3) {
   std::ostringstream s;
   s << std::setprecision(digits) << x;
@@ -331,7 +341,7 @@ class Selector {
     const double g = (std::sqrt(5.0) - 1) / 2;
     double a = std::log(lo), b = std::log(hi);
     double c = b - g * (b - a), d = a + g * (b - a), fc = fall_at(c), fd = fall_at(d);
-    for (int it = 0; it < 40 && b - a > 1e-6; ++it) {
+    for (int it = 0; it < 40 && b - a > kLogTauBracket; ++it) {
       if (fc < fd) {
         b = d, d = c, fd = fc, c = b - g * (b - a), fc = fall_at(c);
       } else {
@@ -409,7 +419,7 @@ class Selector {
   // Replace an added effect by another candidate when that lowers chi2 (forward
   // selection alone cannot undo an early choice that noise favoured). True when it did.
   bool exchange() {
-    double best_chi2 = current_.chi2 * (1 - 1e-9);
+    double best_chi2 = current_.chi2 * (1 - kExchangeGain);
     int swap_out = -1, swap_in = -1;
     for (std::size_t a = 0; a < added_.size(); ++a) {
       if (family_of(added_[a].block) >= 0) continue;  // a scanned effect keeps its place; backward() may drop it
@@ -597,7 +607,7 @@ class Selector {
       if (t.added_rank < b.X.cols() || skipped(b.label)) return;
       if (best) {
         const double d = t.delta_chi2 - best->second.delta_chi2;
-        const bool tie = std::abs(d) <= 1e-9 * (1.0 + std::abs(t.delta_chi2));
+        const bool tie = std::abs(d) <= kTie * (1.0 + std::abs(t.delta_chi2));
         if (tie ? b.effect.installation <= best->first.effect.installation : d < 0) return;
       }
       best = std::make_pair(b, t);

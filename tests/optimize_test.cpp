@@ -12,6 +12,7 @@
 
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/io/kit_io.hpp"
+#include "dbbkit/io/optimize_io.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "test_util.hpp"
 
@@ -369,7 +370,7 @@ TEST(Optimize, TimeBudgetExcludesChoices) {
   EXPECT_EQ(r.best->choice.step_deg, 30);
   EXPECT_DOUBLE_EQ(r.best->time_s, 1953);
   int over = 0;
-  for (const ChoiceResult& c : r.choices) over += c.status.find("over the time budget") != std::string::npos;
+  for (const ChoiceResult& c : r.choices) over += c.state == ChoiceState::kOverTimeBudget;
   EXPECT_EQ(over, 2);  // step 10 for both height orders
 }
 
@@ -507,7 +508,7 @@ TEST(Pattern, RequiredSetupDetectionIsMetByTheDesignFoundAndNamedWhereNoPosition
   // installations is named with the effects the axis errors take at every position.
   for (const ChoiceResult& c : r.choices) {
     ASSERT_TRUE(c.best && c.best->detection) << c.label;
-    if (c.status == "searched") EXPECT_LE(c.best->detection->ratio, 1.0) << c.label;
+    if (c.state == ChoiceState::kSearched) EXPECT_LE(c.best->detection->ratio, 1.0) << c.label;
   }
   // The three_position pattern alone: per angle its three tangential readings determine
   // the tangential translation, ez and the tilt about the radius with nothing to spare, so
@@ -518,8 +519,10 @@ TEST(Pattern, RequiredSetupDetectionIsMetByTheDesignFoundAndNamedWhereNoPosition
   const OptimizeResult none = optimize_kit(plain, {Criterion::WorstTotal, 2});
   EXPECT_FALSE(none.best);
   for (const ChoiceResult& c : none.choices) {
-    EXPECT_NE(c.status.find("length_offset[1t], centring[1t]"), std::string::npos) << c.status;
-    EXPECT_NE(c.status.find("at every position of this choice"), std::string::npos) << c.status;
+    EXPECT_EQ(c.state, ChoiceState::kUndetectableEverywhere) << c.label;
+    const std::string status = io::choice_status_text(plain, c);
+    EXPECT_NE(status.find("length_offset[1t], centring[1t]"), std::string::npos) << status;
+    EXPECT_NE(status.find("at every position of this choice"), std::string::npos) << status;
   }
 }
 

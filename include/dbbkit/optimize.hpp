@@ -113,10 +113,28 @@ struct OptimizeOptions {
   std::function<void(int done, int total, const Candidate* best_so_far)> progress;
 };
 
+// What became of a discrete choice. Only kSearched choices compete for the best; the others say
+// which constraint binds, with the figures in ChoiceResult (io::choice_status_text in words).
+enum class ChoiceState {
+  kSearched,                // best: its best feasible design
+  kOverTimeBudget,          // its shortest measurement (time_s) exceeds the kit's time budget
+  kUndetectableEverywhere,  // the axis errors take a declared set-up effect at every position
+                            // (best->detection->undetectable)
+  kOutsideTravel,           // no position keeps the following ball inside travel (best->travel_violation_mm)
+  kTooClose,                // no position keeps the balls min_separation_mm apart
+  kSetupNotDetected,        // no position detects every declared set-up effect at its size (best->detection)
+  kNoFeasiblePosition,      // none of the above, and no feasible position
+};
+
+// "searched", "over time budget", "undetectable everywhere", "outside travel", "too close",
+// "set-up not detected", "no feasible position".
+const char* choice_state_name(ChoiceState s);
+
 struct ChoiceResult {
   PatternChoice choice;
   std::string label;   // e.g. "H1 = 45 mm, H3 = 145 mm (blocks 100), step 20 deg"
-  std::string status;  // "searched", or why the choice was skipped (time budget, travel)
+  ChoiceState state = ChoiceState::kNoFeasiblePosition;
+  double time_s = 0;   // the measurement time of the choice at its lower bounds [s] (kOverTimeBudget)
   std::optional<Candidate> best;
   bool budget_exhausted = false;  // the search stopped at max_evaluations_per_choice
 };

@@ -100,7 +100,7 @@ Runner add_bench(CLI::App& app) {
       if (!keys.count(key)) text << "note: " << key << " is in the baseline but was not given\n";
     }
     int worse = 0, failed = 0;
-    for (const io::BenchRow& r : rows) worse += r.status == "worse", failed += !r.passed();
+    for (const io::BenchRow& r : rows) worse += r.state == io::BenchState::kWorse, failed += !r.passed();
     if (!args->write_baseline.empty()) {
       io::Baseline out;
       out.tolerance_relative = tol;

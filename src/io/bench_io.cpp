@@ -27,6 +27,20 @@ std::optional<double> optional_value(ObjectReader& r, const std::string& key) {
 
 }  // namespace
 
+const char* bench_state_name(BenchState s) {
+  switch (s) {
+    case BenchState::kOk:
+      return "ok";
+    case BenchState::kImproved:
+      return "improved";
+    case BenchState::kWorse:
+      return "worse";
+    case BenchState::kNew:
+      return "new";
+  }
+  return "unknown";
+}
+
 Baseline read_baseline_file(const std::string& path) {
   const json j = parse_json(read_text_file(path), path);
   ObjectReader top(j, path, "");
@@ -77,7 +91,7 @@ json baseline_to_json(const Baseline& b) {
 
 void judge(BenchRow& row, double tol) {
   if (!row.baseline) {
-    row.status = "new";
+    row.state = BenchState::kNew;
     row.detail = "no baseline";
     return;
   }
@@ -129,13 +143,13 @@ void judge(BenchRow& row, double tol) {
     return s;
   };
   if (!worse.empty()) {
-    row.status = "worse";
+    row.state = BenchState::kWorse;
     row.detail = join(worse);
   } else if (!better.empty()) {
-    row.status = "improved";
+    row.state = BenchState::kImproved;
     row.detail = join(better) + " (update the baseline)";
   } else {
-    row.status = "ok";
+    row.state = BenchState::kOk;
   }
 }
 
@@ -150,15 +164,15 @@ void check_row(BenchRow& row, const BenchLimits& limits) {
   row.checks.clear();
   {
     BenchCheck c{"baseline", true, ""};
-    if (row.status == "worse") {
+    if (row.state == BenchState::kWorse) {
       c.passed = false;
       c.message = "worse than the baseline: " + row.detail;
-    } else if (row.status == "new") {
+    } else if (row.state == BenchState::kNew) {
       c.passed = limits.allow_new;
       c.message = limits.allow_new ? "no baseline (allowed: --allow-new)"
                                    : "no baseline for this design: add it to the baseline, or pass --allow-new";
     } else {
-      c.message = row.status + (row.detail.empty() ? "" : ": " + row.detail);
+      c.message = bench_state_name(row.state) + (row.detail.empty() ? "" : ": " + row.detail);
     }
     row.checks.push_back(c);
   }
@@ -266,7 +280,7 @@ std::string bench_markdown(const std::vector<BenchRow>& rows, double tol, const 
       << r.now.n_unknowns << " | " << num(r.now.worst_std_um) << " | "
       << (r.baseline ? num(r.baseline->worst_std_um) : std::string("--")) << " | "
       << (r.now.worst_total_std_um ? num(r.now.worst_total_std_um) : std::string("--")) << " | "
-      << cell(result.empty() ? "pass (" + r.status + ")" : "FAIL: " + result) << " |\n";
+      << cell(result.empty() ? "pass (" + std::string(bench_state_name(r.state)) + ")" : "FAIL: " + result) << " |\n";
   }
   return s.str();
 }
@@ -291,7 +305,7 @@ std::string bench_table(const std::vector<BenchRow>& rows, double tol) {
       return t.str();
     };
     s << std::setw(14) << worst(r.now) << std::setw(14) << (r.baseline ? worst(*r.baseline) : "--") << std::setw(12)
-      << fmt_opt(r.condition_number, 4) << std::setw(10) << (r.passed() ? r.status : "FAIL") << "\n";
+      << fmt_opt(r.condition_number, 4) << std::setw(10) << (r.passed() ? bench_state_name(r.state) : "FAIL") << "\n";
     if (r.now.worst_total_std_um || r.now.worst_total_determined_std_um) {
       s << "    total (noise and declared set-up): " << num(r.now.worst_total_std_um ? r.now.worst_total_std_um
                                                                                    : r.now.worst_total_determined_std_um)
@@ -306,7 +320,7 @@ std::string bench_table(const std::vector<BenchRow>& rows, double tol) {
     if (!r.detail.empty()) s << "    " << r.detail << "\n";
     for (const BenchCheck& c : r.checks) {
       if (!c.passed && c.name != "baseline") s << "    FAIL " << c.name << ": " << c.message << "\n";
-      if (!c.passed && c.name == "baseline" && r.status == "new") s << "    FAIL baseline: " << c.message << "\n";
+      if (!c.passed && c.name == "baseline" && r.state == BenchState::kNew) s << "    FAIL baseline: " << c.message << "\n";
     }
   }
   s << "(worst: worst_std_um, angular errors at each design's reference length; in brackets the worst determined "

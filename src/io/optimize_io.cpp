@@ -115,6 +115,43 @@ Reference make_reference(const Kit& kit, Design design, const std::string& file)
   return r;
 }
 
+std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
+  auto mm = [](double x) {
+    std::ostringstream os;
+    os << std::round(x * 1000.0) / 1000.0;
+    return os.str();
+  };
+  switch (cr.state) {
+    case ChoiceState::kSearched:
+      return "searched";
+    case ChoiceState::kOverTimeBudget:
+      return "over the time budget (" + mm(cr.time_s) + " s > " + mm(kit.time_budget_s.value_or(0.0)) + " s)";
+    case ChoiceState::kUndetectableEverywhere: {
+      std::string list;
+      if (cr.best && cr.best->detection) {
+        for (const std::string& e : cr.best->detection->undetectable) list += (list.empty() ? "" : ", ") + e;
+      }
+      return "no position lets diagnose detect every declared set-up effect: the axis errors take " + list +
+             " at every position of this choice";
+    }
+    case ChoiceState::kOutsideTravel:
+      return "no position keeps the following ball inside travel (least excursion " +
+             mm(cr.best ? cr.best->travel_violation_mm : 0.0) + " mm)";
+    case ChoiceState::kTooClose:
+      return "no position keeps the balls min_separation_mm apart";
+    case ChoiceState::kSetupNotDetected: {
+      if (!cr.best || !cr.best->detection) break;
+      const Candidate::Detection& d = *cr.best->detection;
+      return "no position lets diagnose detect every declared set-up effect at its declared size: " + d.effect +
+             (d.limit_um ? " is detected from " + mm(*d.limit_um) + " um (declared " + mm(d.declared_std_um) + " um)"
+                         : " cannot be told from the axis errors");
+    }
+    case ChoiceState::kNoFeasiblePosition:
+      break;
+  }
+  return "no feasible position";
+}
+
 json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::string& kit_file, double seconds,
                       const std::optional<Reference>& reference) {
   json j;
@@ -147,7 +184,8 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   json choices = json::array();
   for (const ChoiceResult& cr : res.choices) {
     json c = cr.best ? candidate_json(kit, *cr.best) : json{{"choice", cr.label}};
-    c["status"] = cr.status;
+    c["status"] = choice_status_text(kit, cr);
+    c["state"] = choice_state_name(cr.state);
     c["budget_exhausted"] = cr.budget_exhausted;
     choices.push_back(c);
   }
@@ -182,7 +220,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
                              double seconds, const std::optional<Reference>& reference, bool pareto) {
   std::ostringstream s;
   int searched = 0;
-  for (const ChoiceResult& cr : res.choices) searched += cr.status == "searched";
+  for (const ChoiceResult& cr : res.choices) searched += cr.state == ChoiceState::kSearched;
   s << "kit " << kit_file << ": axis " << axis_name(kit.axis) << ", pattern " << kit.pattern.name
     << ", " << kit.errors.describe() << ", noise " << kit.noise.describe() << "\n";
   s << "criterion " << criterion_name(res.criterion) << "; " << res.choices.size() << " discrete choices, "
@@ -193,9 +231,10 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
     s << "\nno design fits the kit:\n";
     std::vector<std::pair<std::string, std::vector<const ChoiceResult*>>> reasons;
     for (const ChoiceResult& cr : res.choices) {
-      auto it = std::find_if(reasons.begin(), reasons.end(), [&](const auto& r) { return r.first == cr.status; });
+      const std::string status = choice_status_text(kit, cr);
+      auto it = std::find_if(reasons.begin(), reasons.end(), [&](const auto& r) { return r.first == status; });
       if (it == reasons.end()) {
-        reasons.push_back({cr.status, {&cr}});
+        reasons.push_back({status, {&cr}});
       } else {
         it->second.push_back(&cr);
       }

@@ -391,7 +391,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
                             const std::optional<Reference>& reference, double seconds, const Expansion& expansion) {
   Page p(f, "dbbkit optimize: " + (kit.name.empty() ? std::string("kit") : kit.name));
   int feasible = 0;
-  for (const ChoiceResult& c : res.choices) feasible += c.status == "searched";
+  for (const ChoiceResult& c : res.choices) feasible += c.state == ChoiceState::kSearched;
   p.heading("Search");
   p.paragraph("Axis " + std::string(axis_name(kit.axis)) + ", pattern " + kit.pattern.name + ", criterion " +
               criterion_name(res.criterion) + "; " + std::to_string(res.choices.size()) + " discrete choices, " +
@@ -400,7 +400,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   if (!res.best) {
     p.paragraph("No design fits the kit.");
     std::vector<std::vector<std::string>> rows;
-    for (const ChoiceResult& c : res.choices) rows.push_back({c.label, c.status});
+    for (const ChoiceResult& c : res.choices) rows.push_back({c.label, choice_status_text(kit, c)});
     p.table({"choice", "status"}, rows);
     p.conditions(run, nullptr);
     return p.str();

@@ -38,13 +38,19 @@ struct BenchCheck {
   std::string message;  // what was compared, and why it failed
 };
 
+// A design's figures against its baseline (judge): within the tolerance, better, worse, or no
+// baseline recorded.
+enum class BenchState { kOk, kImproved, kWorse, kNew };
+// "ok", "improved", "worse", "new".
+const char* bench_state_name(BenchState s);
+
 struct BenchRow {
   std::string key, file, name, axis, model;
   BenchFigures now;
   std::optional<double> condition_number;
   std::optional<double> time_s;  // the design's predicted measurement time, when it states one
   std::optional<BenchFigures> baseline;
-  std::string status;  // "ok", "improved", "worse", "new"
+  BenchState state = BenchState::kNew;
   std::string detail;
   std::vector<BenchCheck> checks;
   bool passed() const;

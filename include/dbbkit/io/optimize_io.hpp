@@ -36,6 +36,9 @@ nlohmann::json optimize_to_json(const Kit& kit, const OptimizeResult& res, const
 std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
                              double seconds, const std::optional<Reference>& reference, bool pareto);
 std::string pareto_csv(const Kit& kit, const OptimizeResult& res);
+// What became of a choice, in words: "searched", or which constraint binds with its figures
+// ("over the time budget (2100 s > 1800 s)").
+std::string choice_status_text(const Kit& kit, const ChoiceResult& cr);
 // The kit's set-up detection requirement as met by a candidate, in words (one sentence).
 std::string detection_text(const Candidate::Detection& d);
 

@@ -1,0 +1,23 @@
+#pragma once
+// Fixed numerical tolerances shared by more than one source file, each named once and
+// documented by the inequality it tests. Tolerances a caller may change are in the Options
+// of their operation (EstimateOptions::min_relative_singular_value, ...); tolerances used by
+// one file only are named at the top of that file.
+
+namespace dbbkit::tol {
+
+// A reading sees a column x of an effect when |x_i| > kSeenValue at some reading i (um per
+// unit of the effect): smaller values are the rounding of a zero lever arm. effect_block
+// (effects.cpp) and the closed-form set-up information (observability.cpp) apply it alike.
+constexpr double kSeenValue = 1e-12;
+
+// The fast worst case (observability.cpp) answers only where its bound on the condition
+// number of the equilibrated problem holds, far inside the solver's rank tolerance (1e9):
+//   per angle:  sqrt(6 tr(A) tr(A^-1)) <= kFastPerAngleCondition   (A the 6 x 6 information)
+//   series:     p tr(Ms^-1) <= kFastSeriesCondition                 (Ms the p x p information)
+// and every column scale c_j > kMinColumnScale max_k c_k; otherwise the general solver answers.
+constexpr double kFastPerAngleCondition = 1e5;
+constexpr double kFastSeriesCondition = 1e10;
+constexpr double kMinColumnScale = 1e-12;
+
+}  // namespace dbbkit::tol
