@@ -34,6 +34,23 @@ Eigen::MatrixXd append(const Eigen::MatrixXd& J, const Eigen::MatrixXd& X) {
   return out;
 }
 
+// Of candidates appended to one model, the one whose columns lower chi2 most, raising the rank
+// by their number; of candidates that explain the data alike (a tie, kTie: equivalent ones), the
+// latest installation's, as in forward().
+struct BestAppended {
+  std::optional<EffectBlock> block;
+  ColumnTest test;
+  void consider(const EffectBlock& b, const ColumnTest& t) {
+    if (t.added_rank < b.X.cols()) return;
+    if (block) {
+      const double d = t.delta_chi2 - test.delta_chi2;
+      const bool tie = std::abs(d) <= kTie * (1.0 + std::abs(t.delta_chi2));
+      if (tie ? b.effect.installation <= block->effect.installation : d < 0) return;
+    }
+    block = b, test = t;
+  }
+};
+
 class Selector {
  public:
   Selector(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma, const Eigen::VectorXd& y,
@@ -361,8 +378,7 @@ class Selector {
     const WlsSolver solver(J_, sigma_, o_.estimate);
     const ColumnTester tester(solver, current_, o_.estimate);
     const double tau = refined_tau(fam, k, tester);
-    auto block_at = [&](double t) { return thermal_block(fam, t); };
-    EffectBlock f = block_at(tau);
+    EffectBlock f = thermal_block(fam, tau);
     const Estimate one = solve(append(J_, f.X));
     Eigen::VectorXd unit = Eigen::VectorXd::Zero(one.n_unknowns);
     unit(one.n_unknowns - 1) = 1.0;
@@ -548,46 +564,46 @@ class Selector {
     }
   }
 
-  // Evidence of every added effect in the final model: the F-test of dropping it.
   // Close alternatives in the final model as well as when each effect was added: a candidate
   // that, in an added effect's place, fits almost as well as the final model, with as many
   // columns or not (a centring's two columns against one of a scale); of the pool, or a scanned
   // step or warm-up at its best position (a warm-up against a linear drift). Later effects can
-  // make two candidates indistinguishable that were not when the first was chosen.
+  // make two candidates indistinguishable that were not when the first was chosen. Each added
+  // effect's single best replacement is kept on the way (single_: what best_appended would
+  // return on the model without it), where final_substitutions starts.
   void final_alternatives() {
+    single_.assign(added_.size(), {});
     for (std::size_t a = 0; a < added_.size(); ++a) {
       AddedEffect& effect = added_[a];
       const WlsSolver base(model_without(static_cast<int>(a)), sigma_, o_.estimate);
       const Estimate fit = base.solve(y_);
       const ColumnTester tester(base, fit, o_.estimate);
+      single_[a].chi2_without = fit.chi2;
+      auto fits = [&](const EffectBlock& b, const ColumnTest& t) {
+        return t.added_rank >= b.X.cols() &&
+               fits_almost_as_well(fit.chi2 - t.delta_chi2, current_, cost(b) - cost(effect.block));
+      };
       auto consider = [&](const EffectBlock& b, const ColumnTest& t) {
-        const double extra = cost(b) - cost(effect.block);
-        if (t.added_rank < b.X.cols() || !fits_almost_as_well(fit.chi2 - t.delta_chi2, current_, extra)) return;
+        single_[a].best.consider(b, t);
+        if (!fits(b, t)) return false;
         std::vector<std::string>& close = effect.close_alternatives;
         if (std::find(close.begin(), close.end(), b.label) == close.end()) close.push_back(b.label);
         effect.close_in_final.push_back(b);
+        return true;
       };
       for (std::size_t i = 0; i < pool_.size(); ++i) {
-        if (used_[i] || status_[i].state == CandidateState::kConfounded || status_[i].state == CandidateState::kEquivalent) continue;
+        if (used_[i] || status_[i].state == CandidateState::kConfounded) continue;
         consider(pool_[i], tester.test(pool_[i].X));
       }
       if (!design_ || !readings_) continue;
       for (std::size_t f = 0; f < families_.size(); ++f) {
         if (family_used_[f]) continue;
         const auto b = best_of_family(families_[f], tester);
-        if (!b) continue;
-        consider(b->first, b->second);
+        if (!b || !consider(b->first, b->second) || families_[f].effect.kind != EffectKind::Thermal) continue;
         // A warm-up's time constant is poorly determined where a drift fits almost as well: every
         // time constant of the grid that fits almost as well is an alternative too.
-        if (families_[f].effect.kind != EffectKind::Thermal || effect.close_in_final.empty() ||
-            effect.close_in_final.back().label != b->first.label) {
-          continue;
-        }
         for (const EffectBlock& alt : families_[f].alternatives) {
-          const ColumnTest t = tester.test(alt.X);
-          const double extra = cost(alt) - cost(effect.block);
-          if (t.added_rank < alt.X.cols() || !fits_almost_as_well(fit.chi2 - t.delta_chi2, current_, extra)) continue;
-          effect.close_in_final.push_back(alt);
+          if (alt.label != b->first.label && fits(alt, tester.test(alt.X))) effect.close_in_final.push_back(alt);
         }
       }
     }
@@ -597,20 +613,12 @@ class Selector {
   // best position) whose columns lower chi2 most when appended to the model `tester` tests
   // against, raising the rank by their number; skipping the labels in `skip`. Of candidates that
   // explain the data alike (equivalent), the latest installation's, as in forward().
-  std::optional<std::pair<EffectBlock, ColumnTest>> best_appended(const ColumnTester& tester,
-                                                                 const std::vector<EffectBlock>& skip) const {
-    std::optional<std::pair<EffectBlock, ColumnTest>> best;
-    auto skipped = [&](const std::string& label) {
-      return std::any_of(skip.begin(), skip.end(), [&](const EffectBlock& b) { return b.label == label; });
-    };
+  BestAppended best_appended(const ColumnTester& tester, const std::vector<EffectBlock>& skip) const {
+    BestAppended best;
     auto consider = [&](const EffectBlock& b, const ColumnTest& t) {
-      if (t.added_rank < b.X.cols() || skipped(b.label)) return;
-      if (best) {
-        const double d = t.delta_chi2 - best->second.delta_chi2;
-        const bool tie = std::abs(d) <= kTie * (1.0 + std::abs(t.delta_chi2));
-        if (tie ? b.effect.installation <= best->first.effect.installation : d < 0) return;
+      if (std::none_of(skip.begin(), skip.end(), [&](const EffectBlock& s) { return s.label == b.label; })) {
+        best.consider(b, t);
       }
-      best = std::make_pair(b, t);
     };
     for (std::size_t i = 0; i < pool_.size(); ++i) {
       if (used_[i] || status_[i].state == CandidateState::kConfounded) continue;
@@ -677,14 +685,21 @@ class Selector {
       Eigen::MatrixXd M = model_without(out);
       std::vector<EffectBlock> by;
       for (int k = 0; k < 2; ++k) {
-        const WlsSolver base(M, sigma_, o_.estimate);
-        const Estimate fit = base.solve(y_);
-        const ColumnTester tester(base, fit, o_.estimate);
-        const auto best = best_appended(tester, by);
-        if (!best) break;
-        by.push_back(best->first);
-        M = append(M, best->first.X);
-        const double chi2 = fit.chi2 - best->second.delta_chi2;
+        BestAppended best;
+        double chi2_before = 0;
+        if (k == 0 && out.size() == 1) {  // found by final_alternatives on the same model
+          best = single_[out[0]].best;
+          chi2_before = single_[out[0]].chi2_without;
+        } else {
+          const WlsSolver base(M, sigma_, o_.estimate);
+          const Estimate fit = base.solve(y_);
+          best = best_appended(ColumnTester(base, fit, o_.estimate), by);
+          chi2_before = fit.chi2;
+        }
+        if (!best.block) break;
+        by.push_back(*best.block);
+        M = append(M, best.block->X);
+        const double chi2 = chi2_before - best.test.delta_chi2;
         double extra = 0;
         for (const EffectBlock& b : by) extra += cost(b);
         for (int a : out) extra -= cost(added_[a].block);
@@ -700,6 +715,7 @@ class Selector {
     }
   }
 
+  // Evidence of every added effect in the final model: the F-test of dropping it.
   void final_evidence() {
     for (std::size_t a = 0; a < added_.size(); ++a) {
       const Estimate reduced = solve(model_without(static_cast<int>(a)));
@@ -746,6 +762,13 @@ class Selector {
   std::vector<AddedEffect> added_;
   std::vector<StructureComparison> structures_;
   std::vector<Substitution> substitutions_;
+  // Per added effect (final_alternatives): chi2 of the final model without it, and the candidate
+  // that lowers it most there.
+  struct Single {
+    double chi2_without = 0;
+    BestAppended best;
+  };
+  std::vector<Single> single_;
   Eigen::MatrixXd J_;
   Estimate current_;
   int step_ = 0;

@@ -154,16 +154,16 @@ std::vector<GrossReading> gross_readings(const Eigen::MatrixXd& J, const Eigen::
                                          const Eigen::VectorXd& y_um, double level, int max_count,
                                          const EstimateOptions& options = {});
 
-// The model's order (Fourier or Legendre errors): the errors' columns of order K' = K+1 ..
-// K+4 (as far as the positions allow: 2K'+1 for Fourier, K'+1 for Legendre) appended to J
-// (the solver's, which holds those of order K and the effects added); the K' of lowest BIC is suggested when
-// its F-test p times the orders tried is below the level. The fit with it: chi2 and dof.
 // The errors' columns of each order K' = K+1 .. K+4 that the positions allow (2K'+1 <= P for
 // Fourier, K'+1 <= P for Legendre), each the whole J of that order, with K'; empty for a
 // per-angle model. ColumnTester::test takes the part the model of order K does not span.
 std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(const Design& design,
                                                                   const std::vector<Reading>& readings);
 
+// The model's order (Fourier or Legendre errors): the errors' columns of order K' = K+1 ..
+// K+4 (as far as the positions allow: 2K'+1 for Fourier, K'+1 for Legendre) appended to J
+// (the solver's, which holds those of order K and the effects added); the K' of lowest BIC is suggested when
+// its F-test p times the orders tried is below the level. The fit with it: chi2 and dof.
 struct OrderCheck {
   int order = 0;      // the design's
   int suggested = 0;  // K' of lowest BIC
