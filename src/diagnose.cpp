@@ -230,7 +230,7 @@ std::vector<Attribution> attribute(const Parameterisation& param, const LinearMo
   auto refit = [&](const std::vector<std::string>& out_labels,
                    const std::vector<const EffectBlock*>& in) -> std::optional<std::vector<ErrorsAtAngle>> {
     std::vector<const Eigen::MatrixXd*> blocks;
-    Eigen::Index cols = model.J.cols(), removed = 0, inserted = 0;
+    Eigen::Index cols = 0, removed = 0, inserted = 0;
     for (const AddedEffect& a : added) {
       if (std::find(out_labels.begin(), out_labels.end(), a.block.label) != out_labels.end()) {
         removed += a.block.X.cols();
@@ -240,10 +240,10 @@ std::vector<Attribution> attribute(const Parameterisation& param, const LinearMo
     }
     for (const EffectBlock* b : in) blocks.push_back(&b->X), inserted += b->X.cols();
     for (const Eigen::MatrixXd* X : blocks) cols += X->cols();
-    Eigen::MatrixXd A(model.J.rows(), cols);
-    A.leftCols(model.J.cols()) = model.J;
-    Eigen::Index c = model.J.cols();
-    for (const Eigen::MatrixXd* X : blocks) A.middleCols(c, X->cols()) = *X, c += X->cols();
+    Eigen::MatrixXd X(model.J.rows(), cols);
+    Eigen::Index c = 0;
+    for (const Eigen::MatrixXd* B : blocks) X.middleCols(c, B->cols()) = *B, c += B->cols();
+    const Jacobian A = append_columns(model.J, X);
     const Estimate fit = WlsSolver(A, model.sigma_um, options).solve(model.y_um);
     if (fit.rank != after.rank - removed + inserted) return std::nullopt;
     return errors_at_stations(param, fit);
@@ -311,7 +311,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.signature_before = residual_signature(design, readings, res.before.residual_um);
   res.significant_before = res.before.p_value && *res.before.p_value < options.level;
   const Estimate& current = sel.after;
-  const Eigen::MatrixXd& J = sel.J_final;
+  const Jacobian& J = sel.J_final;
   res.added = std::move(sel.added);
   res.structures = std::move(sel.structures);
   res.after = current;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <optional>
 #include <vector>
 
@@ -25,34 +26,51 @@ const char* status_name(EstimateStatus status) {
 }
 
 WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options)
+    : WlsSolver(Jacobian(J.sparseView()), sigma_um, options) {}
+
+WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options)
     : J_(J), sigma_(sigma_um) {
+  J_.makeCompressed();
   Estimate& est = prior_;
   const int n = static_cast<int>(J.rows());
   const int p = static_cast<int>(J.cols());
   est.n_readings = n;
   est.n_unknowns = p;
   est.estimable_tolerance = options.estimable_tolerance;
+  est.covariance.resize(p, p);
+  est.null_space_scaled.resize(p, 0);
+  gain_.resize(p, n);
   if (n == 0) {
     est.status = EstimateStatus::kNoReadings;
     est.message = "no readings: nothing can be estimated";
-    gain_ = Eigen::MatrixXd::Zero(p, 0);
     return;
   }
 
   const Eigen::VectorXd w = sigma_um.cwiseInverse();
-  Eigen::MatrixXd Js = w.asDiagonal() * J;
-  est.column_scale = Js.colwise().norm().transpose();
+  Jacobian Js = w.asDiagonal() * J_;
+  est.column_scale = Eigen::VectorXd::Zero(p);
+  for (int i = 0; i < n; ++i) {
+    for (Jacobian::InnerIterator it(Js, i); it; ++it) est.column_scale(it.col()) += it.value() * it.value();
+  }
+  est.column_scale = est.column_scale.cwiseSqrt();
   // A column with |c_j| <= negligible_column * max_k |c_k| is rounding (e.g. a
   // lever arm times cos(90 deg) = 6e-17): scaling it to unit norm would turn
   // noise into information, so it is set to zero and the unknown is not seen.
   const double max_column = p > 0 ? est.column_scale.maxCoeff() : 0.0;
+  std::vector<char> negligible(p, 0);
   for (int j = 0; j < p; ++j) {
     if (est.column_scale(j) <= options.negligible_column * max_column || est.column_scale(j) == 0.0) {
       est.column_scale(j) = 1.0;
-      Js.col(j).setZero();
+      negligible[j] = 1;
     }
   }
-  Js = Js * est.column_scale.cwiseInverse().asDiagonal();
+  const Eigen::VectorXd unscale = est.column_scale.cwiseInverse();
+  for (int i = 0; i < n; ++i) {
+    for (Jacobian::InnerIterator it(Js, i); it; ++it) {
+      it.valueRef() = negligible[it.col()] ? 0.0 : it.value() * unscale(it.col());
+    }
+  }
+  Js.prune(0.0);
 
   // Independent blocks: columns linked through the rows they share (union-find).
   // A per-angle model splits into one small block per station; each block is
@@ -67,8 +85,8 @@ WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, 
   std::vector<int> row_block(n, -1);
   for (int i = 0; i < n; ++i) {
     int first = -1;
-    for (int j = 0; j < p; ++j) {
-      if (Js(i, j) == 0.0) continue;
+    for (Jacobian::InnerIterator it(Js, i); it; ++it) {
+      const int j = static_cast<int>(it.col());
       if (first < 0) {
         first = j;
       } else {
@@ -87,10 +105,15 @@ WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, 
     block_of_col[j] = block_of_col[r];
   }
   const int n_blocks = static_cast<int>(block_ids.size());
-  std::vector<std::vector<int>> cols(n_blocks), rows(n_blocks);
-  for (int j = 0; j < p; ++j) cols[block_of_col[j]].push_back(j);
+  blocks_.assign(n_blocks, Block{});
+  std::vector<int> local(p, -1);  // position of column j within its block
+  for (int j = 0; j < p; ++j) {
+    std::vector<int>& c = blocks_[block_of_col[j]].cols;
+    local[j] = static_cast<int>(c.size());
+    c.push_back(j);
+  }
   for (int i = 0; i < n; ++i) {
-    if (row_block[i] >= 0) rows[block_of_col[row_block[i]]].push_back(i);
+    if (row_block[i] >= 0) blocks_[block_of_col[row_block[i]]].rows.push_back(i);
   }
 
   // JacobiSVD, not BDCSVD: Eigen 3.4.0's divide-and-conquer SVD fails (an index
@@ -106,9 +129,11 @@ WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, 
     Eigen::MatrixXd sub;
   };
   auto block_matrix = [&](int b) {
-    Eigen::MatrixXd sub(rows[b].size(), cols[b].size());
-    for (std::size_t r = 0; r < rows[b].size(); ++r) {
-      for (std::size_t c = 0; c < cols[b].size(); ++c) sub(r, c) = Js(rows[b][r], cols[b][c]);
+    const Block& blk = blocks_[b];
+    Eigen::MatrixXd sub = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(blk.rows.size()),
+                                                static_cast<Eigen::Index>(blk.cols.size()));
+    for (std::size_t r = 0; r < blk.rows.size(); ++r) {
+      for (Jacobian::InnerIterator it(Js, blk.rows[r]); it; ++it) sub(static_cast<Eigen::Index>(r), local[it.col()]) = it.value();
     }
     return sub;
   };
@@ -162,45 +187,52 @@ WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, 
     est.normal_equation_blocks += svds[b].normal;
   }
 
-  const Eigen::VectorXd unscale = est.column_scale.cwiseInverse();
-  gain_ = Eigen::MatrixXd::Zero(p, n);
-  Eigen::MatrixXd cov_scaled = Eigen::MatrixXd::Zero(p, p);
-  std::vector<Eigen::VectorXd> null_vectors;
+  std::vector<Eigen::Triplet<double>> gain_entries, cov_entries, null_entries;
   std::vector<double> all_s;
-  int rank = 0;
+  all_s.reserve(static_cast<std::size_t>(p));
+  int rank = 0, n_null = 0;
   double s_min_kept = 0;
   for (int b = 0; b < n_blocks; ++b) {
     const BlockSvd& d = svds[b];
+    const Block& blk = blocks_[b];
     int r = 0;
     while (r < d.s.size() && d.s(r) > options.min_relative_singular_value * s_max) ++r;
     for (int k = 0; k < d.s.size(); ++k) all_s.push_back(d.s(k));
     if (r > 0) s_min_kept = s_min_kept == 0 ? d.s(r - 1) : std::min(s_min_kept, d.s(r - 1));
     rank += r;
-    const Eigen::MatrixXd Vr = d.V.leftCols(r);
-    const Eigen::VectorXd inv_s = d.s.head(r).cwiseInverse();
-    const Eigen::MatrixXd c = Vr * inv_s.cwiseAbs2().asDiagonal() * Vr.transpose();
-    const Eigen::MatrixXd g = d.normal ? Eigen::MatrixXd(c * d.sub.transpose())  // scaled, whitened
-                                       : Eigen::MatrixXd(Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose());
-    for (std::size_t a = 0; a < cols[b].size(); ++a) {
-      const int ja = cols[b][a];
-      for (std::size_t rr = 0; rr < rows[b].size(); ++rr) {
-        gain_(ja, rows[b][rr]) = unscale(ja) * g(a, rr) * w(rows[b][rr]);
+    if (r > 0) {
+      const Eigen::MatrixXd Vr = d.V.leftCols(r);
+      const Eigen::VectorXd inv_s = d.s.head(r).cwiseInverse();
+      const Eigen::MatrixXd c = Vr * inv_s.cwiseAbs2().asDiagonal() * Vr.transpose();
+      const Eigen::MatrixXd g = d.normal ? Eigen::MatrixXd(c * d.sub.transpose())  // scaled, whitened
+                                         : Eigen::MatrixXd(Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose());
+      for (std::size_t a = 0; a < blk.cols.size(); ++a) {
+        const int ja = blk.cols[a];
+        for (std::size_t rr = 0; rr < blk.rows.size(); ++rr) {
+          const double v = unscale(ja) * g(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(rr)) * w(blk.rows[rr]);
+          if (v != 0.0) gain_entries.emplace_back(ja, blk.rows[rr], v);
+        }
+        for (std::size_t c2 = 0; c2 < blk.cols.size(); ++c2) {
+          const double v = unscale(ja) * c(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(c2)) * unscale(blk.cols[c2]);
+          if (v != 0.0) cov_entries.emplace_back(ja, blk.cols[c2], v);
+        }
       }
-      for (std::size_t c2 = 0; c2 < cols[b].size(); ++c2) cov_scaled(ja, cols[b][c2]) = c(a, c2);
     }
-    for (int k = r; k < d.V.cols(); ++k) {
-      Eigen::VectorXd v = Eigen::VectorXd::Zero(p);
-      for (std::size_t a = 0; a < cols[b].size(); ++a) v(cols[b][a]) = d.V(a, k);
-      null_vectors.push_back(v);
+    for (int k = r; k < d.V.cols(); ++k, ++n_null) {
+      for (std::size_t a = 0; a < blk.cols.size(); ++a) {
+        const double v = d.V(static_cast<Eigen::Index>(a), k);
+        if (v != 0.0) null_entries.emplace_back(blk.cols[a], n_null, v);
+      }
     }
   }
+  gain_.setFromTriplets(gain_entries.begin(), gain_entries.end());
+  est.covariance.setFromTriplets(cov_entries.begin(), cov_entries.end());
+  est.null_space_scaled.resize(p, n_null);
+  est.null_space_scaled.setFromTriplets(null_entries.begin(), null_entries.end());
   std::sort(all_s.begin(), all_s.end(), std::greater<double>());
   est.singular_values = Eigen::Map<Eigen::VectorXd>(all_s.data(), static_cast<Eigen::Index>(all_s.size()));
   est.rank = rank;
   if (rank > 0) est.condition_number = s_max / s_min_kept;
-  est.covariance = unscale.asDiagonal() * cov_scaled * unscale.asDiagonal();
-  est.null_space_scaled.resize(p, static_cast<Eigen::Index>(null_vectors.size()));
-  for (std::size_t k = 0; k < null_vectors.size(); ++k) est.null_space_scaled.col(static_cast<Eigen::Index>(k)) = null_vectors[k];
   est.dof = n - rank;
 
   if (rank == p) {
@@ -268,51 +300,55 @@ int added_rank(const Eigen::MatrixXd& unexplained_part, const Eigen::VectorXd& n
   return r;
 }
 
-namespace {
-// The nonzero entries of c: values at one angle touch few unknowns.
-std::vector<int> support(const Eigen::VectorXd& c) {
-  std::vector<int> idx;
-  for (int j = 0; j < c.size(); ++j) {
-    if (c(j) != 0.0) idx.push_back(j);
-  }
-  return idx;
-}
-}  // namespace
-
-bool Estimate::determined(const Eigen::VectorXd& c) const {
+bool Estimate::determined(const Function& c) const {
   if (status == EstimateStatus::kNoReadings) return false;
-  const std::vector<int> idx = support(c);
   double norm2 = 0;
-  for (int j : idx) norm2 += std::pow(c(j) / column_scale(j), 2);
+  for (Function::InnerIterator it(c); it; ++it) norm2 += std::pow(it.value() / column_scale(it.index()), 2);
   if (norm2 == 0.0) return true;  // the zero function is known exactly
   if (null_space_scaled.cols() == 0) return true;
-  Eigen::VectorXd proj = Eigen::VectorXd::Zero(null_space_scaled.cols());
-  for (int j : idx) proj += (c(j) / column_scale(j)) * null_space_scaled.row(j).transpose();
-  return proj.norm() <= estimable_tolerance * std::sqrt(norm2);
+  // N'w on the null vectors the support touches (each lies in one block).
+  std::vector<std::pair<Eigen::Index, double>> terms;
+  for (Function::InnerIterator ct(c); ct; ++ct) {
+    const double wj = ct.value() / column_scale(ct.index());
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(null_space_scaled, ct.index()); it; ++it) {
+      terms.emplace_back(it.col(), wj * it.value());
+    }
+  }
+  std::sort(terms.begin(), terms.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  double proj2 = 0;
+  for (std::size_t t = 0; t < terms.size();) {
+    double v = 0;
+    const Eigen::Index k = terms[t].first;
+    for (; t < terms.size() && terms[t].first == k; ++t) v += terms[t].second;
+    proj2 += v * v;
+  }
+  return std::sqrt(proj2) <= estimable_tolerance * std::sqrt(norm2);
 }
 
-double Estimate::base_variance(const Eigen::VectorXd& c) const {
-  const std::vector<int> idx = support(c);
+double Estimate::base_variance(const Function& c) const {
   double var = 0;
-  for (int a : idx) {
-    for (int b : idx) var += c(a) * covariance(a, b) * c(b);
+  for (Function::InnerIterator a(c); a; ++a) {
+    for (Eigen::SparseMatrix<double>::InnerIterator it(covariance, a.index()); it; ++it) {
+      const double cb = c.coeff(it.row());
+      if (cb != 0.0) var += a.value() * it.value() * cb;
+    }
   }
   return var;
 }
 
-Eigen::VectorXd Estimate::low_rank_coordinates(const Eigen::VectorXd& c) const {
+Eigen::VectorXd Estimate::low_rank_coordinates(const Function& c) const {
   Eigen::VectorXd kc = Eigen::VectorXd::Zero(covariance_K.cols());
   if (covariance_K.cols() == 0) return kc;
-  for (int a : support(c)) kc += c(a) * covariance_K.row(a).transpose();
+  for (Function::InnerIterator a(c); a; ++a) kc += a.value() * covariance_K.row(a.index()).transpose();
   return kc;
 }
 
-Determined Estimate::evaluate(const Eigen::VectorXd& c) const {
+Determined Estimate::evaluate(const Function& c) const {
   Determined d;
   if (!determined(c)) return d;
   d.determined = true;
   if (theta.size() > 0) {
-    for (int a : support(c)) d.value += c(a) * theta(a);
+    for (Function::InnerIterator a(c); a; ++a) d.value += a.value() * theta(a.index());
   }
   double var = base_variance(c);
   if (covariance_K.cols() > 0) {
@@ -326,39 +362,83 @@ Determined Estimate::evaluate(const Eigen::VectorXd& c) const {
 Eigen::MatrixXd Estimate::null_directions() const {
   // Row-reduce N' (in theta units) with partial pivoting; the reduced echelon
   // form of a subspace is unique, so directions confined to one station come
-  // out confined to it.
-  Eigen::MatrixXd R = (column_scale.cwiseInverse().asDiagonal() * null_space_scaled).transpose();
-  const int k = static_cast<int>(R.rows());
-  const int p = static_cast<int>(R.cols());
+  // out confined to it. The null vectors fall into groups that share no unknown (one
+  // group per block of the model); the reduced form of the whole is that of each group,
+  // its rows ordered by their pivots, so each group is reduced alone on its support.
+  const int k = static_cast<int>(null_space_scaled.cols());
+  const int p = static_cast<int>(null_space_scaled.rows());
   if (k == 0) return Eigen::MatrixXd(p, 0);
-  const double scale = R.cwiseAbs().maxCoeff();
+  const Eigen::SparseMatrix<double> N = column_scale.cwiseInverse().asDiagonal() * null_space_scaled;
+  const double scale = N.coeffs().size() > 0 ? N.coeffs().cwiseAbs().maxCoeff() : 0.0;
   const double tiny = 1e-9 * scale;  // |entry| <= 1e-9 * max|entry| is rounding, not structure
-  int row = 0;
-  for (int col = 0; col < p && row < k; ++col) {
-    Eigen::Index piv;
-    const double best = R.col(col).segment(row, k - row).cwiseAbs().maxCoeff(&piv);
-    if (best <= tiny) continue;
-    R.row(row).swap(R.row(row + static_cast<int>(piv)));
-    const double pivot = R(row, col);  // a copy: R(row, col) changes while the row is divided
-    R.row(row) /= pivot;
-    for (int i = 0; i < k; ++i) {
-      const double factor = R(i, col);
-      if (i != row && factor != 0.0) R.row(i) -= factor * R.row(row);
-    }
-    ++row;
-  }
-  Eigen::MatrixXd out(p, k);
+  // Groups of null vectors linked through the unknowns they share (union-find).
+  std::vector<int> parent(k), owner(p, -1);
+  for (int i = 0; i < k; ++i) parent[i] = i;
+  auto root = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
   for (int i = 0; i < k; ++i) {
-    Eigen::VectorXd v = R.row(i).transpose();
-    for (int j = 0; j < p; ++j) {
-      if (std::abs(v(j)) <= tiny) v(j) = 0.0;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(N, i); it; ++it) {
+      const int j = static_cast<int>(it.row());
+      if (owner[j] < 0) {
+        owner[j] = i;
+      } else {
+        parent[root(i)] = root(owner[j]);
+      }
     }
-    v.normalize();
-    Eigen::Index big;
-    v.cwiseAbs().maxCoeff(&big);
-    if (v(big) < 0) v = -v;
-    out.col(i) = v;
   }
+  std::map<int, std::vector<int>> groups;
+  for (int i = 0; i < k; ++i) groups[root(i)].push_back(i);
+  std::vector<std::pair<int, Eigen::VectorXd>> reduced;  // (pivot, direction), sorted by pivot at the end
+  reduced.reserve(static_cast<std::size_t>(k));
+  for (const auto& [g, members] : groups) {
+    std::vector<int> support;
+    for (int i : members) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(N, i); it; ++it) support.push_back(static_cast<int>(it.row()));
+    }
+    std::sort(support.begin(), support.end());
+    support.erase(std::unique(support.begin(), support.end()), support.end());
+    const int rows = static_cast<int>(members.size()), cols = static_cast<int>(support.size());
+    Eigen::MatrixXd R = Eigen::MatrixXd::Zero(rows, cols);
+    for (int r = 0; r < rows; ++r) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(N, members[r]); it; ++it) {
+        const int c = static_cast<int>(std::lower_bound(support.begin(), support.end(), static_cast<int>(it.row())) -
+                                       support.begin());
+        R(r, c) = it.value();
+      }
+    }
+    std::vector<int> pivot_of_row(rows, -1);
+    int row = 0;
+    for (int col = 0; col < cols && row < rows; ++col) {
+      Eigen::Index piv;
+      const double best = R.col(col).segment(row, rows - row).cwiseAbs().maxCoeff(&piv);
+      if (best <= tiny) continue;
+      R.row(row).swap(R.row(row + static_cast<int>(piv)));
+      const double pivot = R(row, col);  // a copy: R(row, col) changes while the row is divided
+      R.row(row) /= pivot;
+      for (int i = 0; i < rows; ++i) {
+        const double factor = R(i, col);
+        if (i != row && factor != 0.0) R.row(i) -= factor * R.row(row);
+      }
+      pivot_of_row[row] = support[col];
+      ++row;
+    }
+    for (int i = 0; i < rows; ++i) {
+      Eigen::VectorXd v = Eigen::VectorXd::Zero(p);
+      for (int c = 0; c < cols; ++c) {
+        if (std::abs(R(i, c)) > tiny) v(support[c]) = R(i, c);
+      }
+      v.normalize();
+      Eigen::Index big;
+      v.cwiseAbs().maxCoeff(&big);
+      if (v(big) < 0) v = -v;
+      reduced.emplace_back(pivot_of_row[i] < 0 ? p : pivot_of_row[i], std::move(v));
+    }
+  }
+  std::stable_sort(reduced.begin(), reduced.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  Eigen::MatrixXd out(p, k);
+  for (int i = 0; i < k; ++i) out.col(i) = reduced[static_cast<std::size_t>(i)].second;
   return out;
 }
 

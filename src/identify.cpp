@@ -80,10 +80,22 @@ std::string interpret_rigid_motion(const Design& design, double angle_deg, const
 
 }  // namespace
 
-Eigen::MatrixXd error_functions(const Parameterisation& param, int station, Eigen::Index n_unknowns) {
-  const Eigen::MatrixXd E = param.error_map(station);
-  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(std::max<Eigen::Index>(n_unknowns, E.cols()), 6);
-  C.topRows(E.cols()) = E.transpose();
+Eigen::SparseMatrix<double> error_functions(const Parameterisation& param, int station, Eigen::Index n_unknowns) {
+  Eigen::SparseMatrix<double> C(std::max<Eigen::Index>(n_unknowns, param.n_parameters()), 6);
+  if (param.model().kind == ErrorModel::Kind::PerAngle) {
+    C.reserve(Eigen::VectorXi::Constant(6, 1));
+    for (int k = 0; k < 6; ++k) C.insert(6 * station + k, k) = 1.0;
+  } else {
+    const Eigen::VectorXd f = param.series_basis(param.station_angle_deg(station));
+    const int m = param.coefficients_per_error();
+    C.reserve(Eigen::VectorXi::Constant(6, m));
+    for (int k = 0; k < 6; ++k) {
+      for (int j = 0; j < m; ++j) {
+        if (f(j) != 0.0) C.insert(k * m + j, k) = f(j);
+      }
+    }
+  }
+  C.makeCompressed();
   return C;
 }
 
@@ -93,8 +105,8 @@ std::vector<ErrorsAtAngle> errors_at_stations(const Parameterisation& param, con
     ErrorsAtAngle ea;
     ea.station = s;
     ea.angle_deg = param.station_angle_deg(s);
-    const Eigen::MatrixXd C = error_functions(param, s, est.n_unknowns);
-    for (int k = 0; k < 6; ++k) ea.errors[k] = est.evaluate(C.col(k));
+    const Eigen::SparseMatrix<double> C = error_functions(param, s, est.n_unknowns);
+    for (int k = 0; k < 6; ++k) ea.errors[k] = est.evaluate(Estimate::Function(C.col(k)));
     out.push_back(ea);
   }
   return out;

@@ -18,7 +18,7 @@ namespace {
 // five unknowns' columns at each.
 struct Row {
   int station = 0, error = 0;
-  Eigen::VectorXd c;             // the value's function of theta
+  Estimate::Function c;          // the value's function of theta
   Eigen::Matrix<double, 1, 5> x;  // its row of the location model
 };
 
@@ -150,11 +150,11 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   for (int b = 0; b < 2; ++b) {
     std::vector<Row> rows;
     for (int st = 0; st < param.n_stations(); ++st) {
-      const Eigen::MatrixXd C = error_functions(param, st, est.n_unknowns);
+      const Eigen::SparseMatrix<double> C = error_functions(param, st, est.n_unknowns);
       const Eigen::Matrix3d R = axis_rotation(design.axis, param.station_angle_deg(st));
       const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - R;
       for (int k = 0; k < 3; ++k) {
-        const Eigen::VectorXd c = C.col(3 * b + k);
+        const Estimate::Function c = C.col(3 * b + k);
         if (!est.determined(c)) continue;
         Row r;
         r.station = st;
@@ -175,9 +175,16 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       continue;
     }
     // H = (X'X)^-1 X' (least squares); the fitted quantity j is sum_i H(j, i) c_i.
-    const Eigen::MatrixXd H = qr.solve(Eigen::MatrixXd::Identity(m, m));
+    // From the QR (X P = Q R): (X'X)^-1 = P R^-1 R^-T P', so H costs 5 x m, not m x m.
+    const Eigen::Matrix<double, 5, 5> Rinv = Eigen::Matrix<double, 5, 5>(
+        qr.matrixR().topLeftCorner(5, 5).template triangularView<Eigen::Upper>()).inverse();
+    const Eigen::Matrix<double, 5, 5> XtX_inv = qr.colsPermutation() * (Rinv * Rinv.transpose()) *
+                                                qr.colsPermutation().transpose();
+    const Eigen::MatrixXd H = XtX_inv * X.transpose();
     Q[b] = Eigen::MatrixXd::Zero(est.n_unknowns, 5);
-    for (int i = 0; i < m; ++i) Q[b] += rows[i].c * H.col(i).transpose();
+    for (int i = 0; i < m; ++i) {
+      for (Estimate::Function::InnerIterator it(rows[i].c); it; ++it) Q[b].row(it.index()) += it.value() * H.col(i).transpose();
+    }
     fitted[b] = true;
   }
   // Their covariance, once per block: Sigma Q and Q' (Sigma + K S K') Q (p x 5 and 5 x 5),
@@ -232,7 +239,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   auto covariance = [&](const Term& i, const Term& j) {
     double v = 0;
     for (const auto& [a, ca] : i.c) {
-      for (const auto& [q, cq] : j.c) v += ca * est.covariance(a, q) * cq;
+      for (const auto& [q, cq] : j.c) v += ca * est.covariance.coeff(a, q) * cq;
     }
     v += -i.cSQ.dot(j.x) - j.cSQ.dot(i.x) + (i.x * QSQ[i.b] * j.x.transpose())(0);
     if (low_rank) {
@@ -246,23 +253,24 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     IsoComponentsAtAngle at;
     at.station = st;
     at.angle_deg = param.station_angle_deg(st);
-    const Eigen::MatrixXd C = error_functions(param, st, est.n_unknowns);
+    const Eigen::SparseMatrix<double> C = error_functions(param, st, est.n_unknowns);
     const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(design.axis, at.angle_deg);
     std::array<Term, 6> station_terms;
     for (int e = 0; e < 6; ++e) {
       const int b = e / 3, k = e % 3;
-      const Eigen::VectorXd c = C.col(e);
+      const Estimate::Function c = C.col(e);
       if (!fitted[b] || !est.determined(c)) continue;
       Term& t = station_terms[e];
       t.b = b;
       t.x = location_row(b, k, IR, ia, ip1, ip2);
       t.cSQ.setZero();
       double value = 0;
-      for (Eigen::Index a = 0; a < c.size(); ++a) {
-        if (c(a) == 0.0) continue;
-        t.c.emplace_back(a, c(a));
-        t.cSQ += c(a) * SQ[b].row(a);
-        value += c(a) * est.theta(a);
+      for (Estimate::Function::InnerIterator it(c); it; ++it) {
+        const Eigen::Index a = it.index();
+        if (it.value() == 0.0) continue;
+        t.c.emplace_back(a, it.value());
+        t.cSQ += it.value() * SQ[b].row(a);
+        value += it.value() * est.theta(a);
       }
       if (low_rank) t.Kc = est.low_rank_coordinates(c);
       Determined d;

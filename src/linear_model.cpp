@@ -22,40 +22,55 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
                      const std::vector<RowSpec>& rows) {
   const int n = static_cast<int>(rows.size());
   const int p = param.n_parameters();
-  const double dense_bytes = 8.0 * (4.0 * n * p + 3.0 * static_cast<double>(p) * p);
+  const bool per_angle = param.model().kind == ErrorModel::Kind::PerAngle;
+  // A series model is one dense block (every reading sees every coefficient of the six
+  // errors): its factorisation holds n x p and p x p matrices. A per-angle model is one
+  // small block per station, linear in the readings whatever their number.
+  const double dense_bytes = per_angle ? 0.0 : 8.0 * (4.0 * n * p + 3.0 * static_cast<double>(p) * p);
   if (dense_bytes > limits::kMaxDenseBytes) {
-    const double per_angle = p > 0 && design.angles_deg.size() > 0
-                                 ? static_cast<double>(design.angles_deg.size()) *
-                                       std::sqrt(limits::kMaxDenseBytes / dense_bytes)
-                                 : 0;
+    const double per_angle_count = p > 0 && design.angles_deg.size() > 0
+                                       ? static_cast<double>(design.angles_deg.size()) *
+                                             std::sqrt(limits::kMaxDenseBytes / dense_bytes)
+                                       : 0;
     throw InputError(design.name.empty() ? "design" : design.name, "angles_deg",
                      std::to_string(n) + " readings of " + std::to_string(p) + " unknowns need " +
                          std::to_string(static_cast<long long>(dense_bytes / (1 << 20))) +
-                         " MiB in the dense solver, beyond its " +
+                         " MiB in the dense solver of a series model, beyond its " +
                          std::to_string(static_cast<long long>(limits::kMaxDenseBytes) >> 20) +
-                         " MiB limit (README, \"Limits\"): about " + std::to_string(static_cast<long>(per_angle)) +
+                         " MiB limit (README, \"Limits\"): about " + std::to_string(static_cast<long>(per_angle_count)) +
                          " angles fit for this design");
   }
   LinearModel m;
-  m.J = Eigen::MatrixXd::Zero(n, p);
   m.y_um.resize(n);
   m.sigma_um = Eigen::VectorXd::Constant(n, design.noise.sigma_um());
-  const bool per_angle = param.model().kind == ErrorModel::Kind::PerAngle;
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(static_cast<std::size_t>(n) * (per_angle ? 6 : static_cast<std::size_t>(p)));
+  m.row_installation.reserve(static_cast<std::size_t>(n));
+  m.row_station.reserve(static_cast<std::size_t>(n));
+  m.row_angle_deg.reserve(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
     const RowSpec& r = rows[i];
     const Installation& inst = design.installations[r.installation];
     const RowVector6d g = J_reading_error(design.axis, inst, r.angle_deg);
     const int station = param.station_of(r.angle_deg);
     if (per_angle) {
-      m.J.block<1, 6>(i, 6 * station) = g;  // block-diagonal: the errors at this station only
+      // block-diagonal: the errors at this station only
+      for (int k = 0; k < 6; ++k) {
+        if (g(k) != 0.0) entries.emplace_back(i, 6 * station + k, g(k));
+      }
     } else {
-      m.J.row(i) = g * param.error_map_at_angle(r.angle_deg);
+      const Eigen::RowVectorXd row = g * param.error_map_at_angle(r.angle_deg);
+      for (int j = 0; j < p; ++j) {
+        if (row(j) != 0.0) entries.emplace_back(i, j, row(j));
+      }
     }
     m.y_um(i) = r.y_um;
     m.row_installation.push_back(r.installation);
     m.row_station.push_back(station);
     m.row_angle_deg.push_back(r.angle_deg);
   }
+  m.J.resize(n, p);
+  m.J.setFromTriplets(entries.begin(), entries.end());
   return m;
 }
 
@@ -78,6 +93,26 @@ LinearModel design_model(const Design& design, const Parameterisation& param) {
     for (double a : design.angles_deg) rows.push_back({static_cast<int>(k), a, 0.0});
   }
   return assemble(design, param, rows);
+}
+
+Jacobian append_columns(const Jacobian& J, const Eigen::MatrixXd& X) {
+  Jacobian out(J.rows(), J.cols() + X.cols());
+  Eigen::VectorXi per_row(J.rows());
+  for (Eigen::Index i = 0; i < J.rows(); ++i) {
+    int count = 0;
+    for (Jacobian::InnerIterator it(J, i); it; ++it) ++count;
+    for (Eigen::Index c = 0; c < X.cols(); ++c) count += X(i, c) != 0.0;
+    per_row(i) = count;
+  }
+  out.reserve(per_row);
+  for (Eigen::Index i = 0; i < J.rows(); ++i) {
+    for (Jacobian::InnerIterator it(J, i); it; ++it) out.insert(i, it.col()) = it.value();
+    for (Eigen::Index c = 0; c < X.cols(); ++c) {
+      if (X(i, c) != 0.0) out.insert(i, J.cols() + c) = X(i, c);
+    }
+  }
+  out.makeCompressed();
+  return out;
 }
 
 std::vector<SetupInput> setup_inputs(const Design& design) {

@@ -184,16 +184,25 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   }
 
   // Outputs: values = C theta; A = C G maps readings to values.
-  const Eigen::MatrixXd C = budget_functions(param, budget);
-  const Eigen::MatrixXd A = setup ? setup->left_gain(C) : Eigen::MatrixXd(C * solver.gain());
+  const SetupSolver::FunctionRows C = budget_functions(param, budget);
   const Eigen::MatrixXd AS = setup ? setup->setup_draw_map(C) : Eigen::MatrixXd();  // per N(0, 1) set-up draw
-  // Per-angle values read a handful of the readings: a sparse A saves most of the products.
-  const Eigen::SparseMatrix<double, Eigen::RowMajor> A_sparse = A.sparseView(1.0, 1e-300);
-  const bool sparse = A_sparse.nonZeros() < A.size() / 4;
-  const Eigen::VectorXd base = A * (model.J * est.theta);
+  // Per-angle values read a handful of the readings: a sparse A saves most of the products
+  // (and, without a set-up part, A is formed sparse: memory linear in the values).
+  Eigen::MatrixXd A;
+  Eigen::SparseMatrix<double, Eigen::RowMajor> A_sparse;
+  if (setup && setup->any()) {
+    A = setup->left_gain(C);
+    A_sparse = A.sparseView(1.0, 1e-300);
+  } else {
+    A_sparse = C * solver.gain();
+  }
+  const double a_size = static_cast<double>(n_out) * n;
+  const bool sparse = static_cast<double>(A_sparse.nonZeros()) < a_size / 4;
+  if (!sparse && A.size() == 0) A = Eigen::MatrixXd(A_sparse);
+  const Eigen::VectorXd base = A_sparse * (model.J * est.theta);
   const std::vector<SetupInput> inputs = setup_inputs(design);
   Eigen::MatrixXd AD;
-  if (!inputs.empty()) AD = A * setup_sensitivity(design, param, model, inputs, est.theta);
+  if (!inputs.empty()) AD = A_sparse * setup_sensitivity(design, param, model, inputs, est.theta);
   const int q_setup = static_cast<int>(AS.cols());
 
   const bool type_a = budget.type_a_scale.has_value();

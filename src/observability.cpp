@@ -39,13 +39,40 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
   if (est.rank == p) {
     // M = diag(c) Js' Js diag(c): log det M = 2 sum log s_i + 2 sum log c_j.
     c.D_logdet = 2.0 * est.singular_values.head(p).array().log().sum() + 2.0 * est.column_scale.array().log().sum();
-    c.A_trace = est.covariance.trace();
-    const Eigen::MatrixXd M =
-        solver.J().transpose() * solver.sigma_um().cwiseAbs2().cwiseInverse().asDiagonal() * solver.J();
-    c.E_min_eigenvalue = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly).eigenvalues()(0);
+    double trace = 0;
+    for (int j = 0; j < p; ++j) trace += est.covariance.coeff(j, j);
+    c.A_trace = trace;
+    // M = J' W J is block-diagonal over the solver's blocks: its smallest eigenvalue is the
+    // smallest of the blocks'.
+    const Eigen::VectorXd w = solver.sigma_um().cwiseAbs2().cwiseInverse();
+    std::optional<double> e_min;
+    std::vector<int> local(static_cast<std::size_t>(p), -1);
+    for (const WlsSolver::Block& b : solver.blocks()) {
+      const int m = static_cast<int>(b.cols.size());
+      for (int a = 0; a < m; ++a) local[static_cast<std::size_t>(b.cols[a])] = a;
+      Eigen::MatrixXd M = Eigen::MatrixXd::Zero(m, m);
+      for (int i : b.rows) {
+        for (Jacobian::InnerIterator x(solver.J(), i); x; ++x) {
+          for (Jacobian::InnerIterator y(solver.J(), i); y; ++y) {
+            M(local[x.col()], local[y.col()]) += w(i) * x.value() * y.value();
+          }
+        }
+      }
+      const double e = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly).eigenvalues()(0);
+      e_min = e_min ? std::min(*e_min, e) : e;
+    }
+    if (e_min) c.E_min_eigenvalue = *e_min;
   }
-  // Hat matrix H = J G (similar to the whitened one, same diagonal).
-  c.G_max_leverage = (solver.J() * solver.gain()).diagonal().maxCoeff();
+  // Hat matrix H = J G (similar to the whitened one, same diagonal): h_i = J_i . G_{:,i}.
+  double h_max = 0;
+  bool any = false;
+  for (int i = 0; i < static_cast<int>(solver.J().rows()); ++i) {
+    double h = 0;
+    for (Jacobian::InnerIterator x(solver.J(), i); x; ++x) h += x.value() * solver.gain().coeff(x.col(), i);
+    h_max = any ? std::max(h_max, h) : h;
+    any = true;
+  }
+  c.G_max_leverage = h_max;
   return c;
 }
 

@@ -107,8 +107,8 @@ ScanTest ColumnTester::scan_steps(const std::vector<int>& rows, int min_segment)
   const int m = static_cast<int>(rows.size());
   min_segment = std::max(1, min_segment);
   if (m < 2 * min_segment) return s;
-  const Eigen::MatrixXd& J = solver_.J();
-  const Eigen::MatrixXd& G = solver_.gain();
+  const Jacobian& J = solver_.J();
+  const WlsSolver::Gain& G = solver_.gain();
   Eigen::VectorXd JWx = Eigen::VectorXd::Zero(J.cols()), Gx = Eigen::VectorXd::Zero(G.rows());
   double xWr = 0, xWx = 0;
   // The step at k covers rows[k..m-1]: sums from the end.
@@ -126,8 +126,8 @@ ScanTest ColumnTester::scan_steps(const std::vector<int>& rows, int min_segment)
 
 ScanTest ColumnTester::scan_readings(const std::vector<int>& rows) const {
   ScanTest s;
-  const Eigen::MatrixXd& J = solver_.J();
-  const Eigen::MatrixXd& G = solver_.gain();
+  const Jacobian& J = solver_.J();
+  const WlsSolver::Gain& G = solver_.gain();
   for (int i : rows) {
     const double h = J.row(i).dot(G.col(i));  // leverage
     s.consider(i, one_column(w_(i) * fit_.residual_um(i), w_(i), w_(i) * (1.0 - h)));
@@ -249,9 +249,7 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
       if (f.kind == kind && (!top || more_significant(f.p, f.test.F, top->p, top->test.F))) top = &f;
     }
     if (!top) continue;
-    Eigen::MatrixXd Jt(solver.J().rows(), solver.J().cols() + 1);
-    Jt << solver.J(), column(kind, top->installation);
-    const WlsSolver with_top(Jt, solver.sigma_um(), options);
+    const WlsSolver with_top(append_columns(solver.J(), column(kind, top->installation)), solver.sigma_um(), options);
     for (const ResidualFeature& f : out) {
       if (f.kind != kind || &f == top) continue;
       if (added_rank(with_top, column(kind, f.installation), options) == 0) top->difference_with.push_back(f.installation);
@@ -260,11 +258,11 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
   return out;
 }
 
-std::vector<GrossReading> gross_readings(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um,
+std::vector<GrossReading> gross_readings(const Jacobian& J, const Eigen::VectorXd& sigma_um,
                                          const Eigen::VectorXd& y_um, double level, int max_count,
                                          const EstimateOptions& options) {
   std::vector<GrossReading> out;
-  Eigen::MatrixXd A = J;
+  Jacobian A = J;
   std::vector<int> rows(static_cast<std::size_t>(y_um.size()));
   for (std::size_t j = 0; j < rows.size(); ++j) rows[j] = static_cast<int>(j);
   while (static_cast<int>(out.size()) < max_count) {
@@ -283,9 +281,9 @@ std::vector<GrossReading> gross_readings(const Eigen::MatrixXd& J, const Eigen::
     r.tested = g.tested;
     out.push_back(r);
     rows.erase(std::find(rows.begin(), rows.end(), g.best));
-    A.conservativeResize(Eigen::NoChange, A.cols() + 1);
-    A.col(A.cols() - 1).setZero();
-    A(g.best, A.cols() - 1) = 1.0;
+    Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(A.rows(), 1);
+    unit(g.best, 0) = 1.0;
+    A = append_columns(A, unit);
   }
   return out;
 }
@@ -302,7 +300,7 @@ std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(const Design& 
     Design higher = design;
     higher.errors.order = k;
     const Parameterisation param(higher);
-    out.emplace_back(k, build_linear_model(higher, param, readings).J);
+    out.emplace_back(k, Eigen::MatrixXd(build_linear_model(higher, param, readings).J));
   }
   return out;
 }

@@ -28,11 +28,7 @@ std::string fmt(double x, int digits = 3) {
   return s.str();
 }
 
-Eigen::MatrixXd append(const Eigen::MatrixXd& J, const Eigen::MatrixXd& X) {
-  Eigen::MatrixXd out(J.rows(), J.cols() + X.cols());
-  out << J, X;
-  return out;
-}
+Jacobian append(const Jacobian& J, const Eigen::MatrixXd& X) { return append_columns(J, X); }
 
 // Of candidates appended to one model, the one whose columns lower chi2 most, raising the rank
 // by their number; of candidates that explain the data alike (a tie, kTie: equivalent ones), the
@@ -53,7 +49,7 @@ struct BestAppended {
 
 class Selector {
  public:
-  Selector(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma, const Eigen::VectorXd& y,
+  Selector(const Jacobian& J, const Eigen::VectorXd& sigma, const Eigen::VectorXd& y,
            const std::vector<EffectBlock>& pool, const SelectionOptions& o,
            const std::vector<ScanFamily>& families = {}, const Design* design = nullptr,
            const std::vector<Reading>* readings = nullptr)
@@ -116,14 +112,14 @@ class Selector {
   }
 
  private:
-  Estimate solve(const Eigen::MatrixXd& J) const { return WlsSolver(J, sigma_, o_.estimate).solve(y_); }
-  int rank_of(const Eigen::MatrixXd& J) const { return WlsSolver(J, sigma_, o_.estimate).a_priori().rank; }
+  Estimate solve(const Jacobian& J) const { return WlsSolver(J, sigma_, o_.estimate).solve(y_); }
+  int rank_of(const Jacobian& J) const { return WlsSolver(J, sigma_, o_.estimate).a_priori().rank; }
 
   // [J0, the added effects' columns], leaving out added effect `skip`.
-  Eigen::MatrixXd model_without(int skip) const { return model_without(std::vector<int>{skip}); }
+  Jacobian model_without(int skip) const { return model_without(std::vector<int>{skip}); }
   // [J0, the added effects' columns], leaving out the added effects `skip`.
-  Eigen::MatrixXd model_without(const std::vector<int>& skip) const {
-    Eigen::MatrixXd J = J0_;
+  Jacobian model_without(const std::vector<int>& skip) const {
+    Jacobian J = J0_;
     for (std::size_t b = 0; b < added_.size(); ++b) {
       if (std::find(skip.begin(), skip.end(), static_cast<int>(b)) == skip.end()) J = append(J, added_[b].block.X);
     }
@@ -141,7 +137,7 @@ class Selector {
   // Candidates equivalent to pool candidate `best` on the model `base` (which does not hold it):
   // each spans the other modulo the model, so only their difference is determined. By the
   // declared convention the latest installation's is chosen; returns it and the others.
-  std::pair<int, std::vector<int>> equivalents(int best, const Eigen::MatrixXd& base) const {
+  std::pair<int, std::vector<int>> equivalents(int best, const Jacobian& base) const {
     std::vector<int> equivalent;
     const WlsSolver with_best(append(base, pool_[best].X), sigma_, o_.estimate);
     for (std::size_t i = 0; i < pool_.size(); ++i) {
@@ -528,12 +524,12 @@ class Selector {
       if (whole_added >= 0) {
         // The rejected alternative: every per-installation term of the kind that the model
         // without the whole-test term can take (rank-raising), in its place.
-        Eigen::MatrixXd alt = model_without(whole_added);
+        Jacobian alt = model_without(whole_added);
         int rank = rank_of(alt);
         for (std::size_t i = 0; i < pool_.size(); ++i) {
           const EffectBlock& b = pool_[i];
           if (b.effect.kind != kind || b.effect.installation < 0 || !b.not_applicable.empty() || used_[i]) continue;
-          const Eigen::MatrixXd trial = append(alt, b.X);
+          const Jacobian trial = append(alt, b.X);
           const int r = rank_of(trial);
           if (r - rank < b.X.cols()) continue;
           alt = trial, rank = r;
@@ -545,7 +541,7 @@ class Selector {
         c.bic_rejected = bic(solve(alt));
         structures_.push_back(c);
       } else if (per_added.size() >= 2 && !used_[whole]) {
-        Eigen::MatrixXd alt = J0_;
+        Jacobian alt = J0_;
         for (std::size_t a = 0; a < added_.size(); ++a) {
           if (std::find(per_added.begin(), per_added.end(), static_cast<int>(a)) == per_added.end()) {
             alt = append(alt, added_[a].block.X);
@@ -682,7 +678,7 @@ class Selector {
     std::vector<bool> in_substitution(added_.size(), false);
     for (const std::vector<int>& out : sets) {
       if (std::any_of(out.begin(), out.end(), [&](int a) { return in_substitution[a]; })) continue;
-      Eigen::MatrixXd M = model_without(out);
+      Jacobian M = model_without(out);
       std::vector<EffectBlock> by;
       for (int k = 0; k < 2; ++k) {
         BestAppended best;
@@ -742,7 +738,7 @@ class Selector {
     }
   }
 
-  const Eigen::MatrixXd& J0_;
+  const Jacobian& J0_;
   const Eigen::VectorXd& sigma_;
   const Eigen::VectorXd& y_;
   const std::vector<EffectBlock>& pool_;
@@ -769,7 +765,7 @@ class Selector {
     BestAppended best;
   };
   std::vector<Single> single_;
-  Eigen::MatrixXd J_;
+  Jacobian J_;
   Estimate current_;
   int step_ = 0;
 };
@@ -803,12 +799,12 @@ double parameter_cost(const EffectBlock& b, int scanned_alternatives) {
   return cost;
 }
 
-Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
+Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
                          const std::vector<EffectBlock>& pool, const SelectionOptions& options) {
   return Selector(J, sigma_um, y_um, pool, options).run();
 }
 
-Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
+Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
                          const std::vector<EffectBlock>& pool, const std::vector<ScanFamily>& families,
                          const Design& design, const std::vector<Reading>& readings, const SelectionOptions& options) {
   return Selector(J, sigma_um, y_um, pool, options, families, &design, &readings).run();

@@ -101,7 +101,7 @@ Eigen::MatrixXd SetupSolver::gain_times(const Eigen::MatrixXd& M) const {
   return GM;
 }
 
-Eigen::MatrixXd SetupSolver::left_gain(const Eigen::MatrixXd& C) const {
+Eigen::MatrixXd SetupSolver::left_gain(const FunctionRows& C) const {
   Eigen::MatrixXd A = C * base_->gain();
   if (!any()) return A;
   const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
@@ -111,42 +111,61 @@ Eigen::MatrixXd SetupSolver::left_gain(const Eigen::MatrixXd& C) const {
   return A;
 }
 
-Eigen::VectorXd SetupSolver::left_gain_l1(const Eigen::MatrixXd& C) const {
-  const Eigen::MatrixXd Gt = base_->gain().transpose();  // n x p: row j of G0 contiguous
-  Eigen::MatrixXd Dt;                                    // D', n x q
+Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
+  const Eigen::SparseMatrix<double, Eigen::RowMajor> G0 = base_->gain();  // row j of G0 contiguous
+  const Eigen::Index n = G0.cols();
+  Eigen::MatrixXd Dt;  // D', n x q
   if (any()) {
     const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
     const Eigen::MatrixXd M = (S_inv_ * R_.transpose()) * w.asDiagonal();  // S^-1 R' W^1/2, q x n
     Dt = ((M * base_->J()) * base_->gain() - M).transpose();
   }
   // Rows with the same support (a series: one error's coefficients; per angle: one station)
-  // go together through one dense product on that support, at most kChunk rows at a time,
-  // formed transposed so that each row's values are contiguous.
+  // go together, at most kChunk rows at a time, formed transposed so that each row's values
+  // are contiguous. c'G0 is summed from the sparse rows of G0 on the support: without a
+  // set-up part, on the readings those rows touch alone.
   std::map<std::vector<Eigen::Index>, std::vector<Eigen::Index>> groups;
   for (Eigen::Index i = 0; i < C.rows(); ++i) {
     std::vector<Eigen::Index> support;
-    for (Eigen::Index j = 0; j < C.cols(); ++j) {
-      if (C(i, j) != 0.0) support.push_back(j);
+    for (FunctionRows::InnerIterator it(C, i); it; ++it) {
+      if (it.value() != 0.0) support.push_back(it.col());
     }
     groups[support].push_back(i);
   }
   constexpr std::size_t kChunk = 256;
   Eigen::VectorXd out = Eigen::VectorXd::Zero(C.rows());
+  std::vector<Eigen::Index> touched;
+  std::vector<char> seen(static_cast<std::size_t>(n), 0);
   for (const auto& [support, rows] : groups) {
     const Eigen::Index k = static_cast<Eigen::Index>(support.size());
-    Eigen::MatrixXd GsT(Gt.rows(), k);  // (the rows of G0 on the support)'
-    for (Eigen::Index j = 0; j < k; ++j) GsT.col(j) = Gt.col(support[j]);
+    touched.clear();
+    for (Eigen::Index j = 0; j < k; ++j) {
+      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(G0, support[j]); it; ++it) {
+        if (!seen[it.col()]) seen[it.col()] = 1, touched.push_back(it.col());
+      }
+    }
+    for (Eigen::Index t : touched) seen[t] = 0;
+    std::sort(touched.begin(), touched.end());
     for (std::size_t first = 0; first < rows.size(); first += kChunk) {
       const Eigen::Index m = static_cast<Eigen::Index>(std::min(kChunk, rows.size() - first));
-      Eigen::MatrixXd CsT(k, m);
-      for (Eigen::Index r = 0; r < m; ++r) {
-        for (Eigen::Index j = 0; j < k; ++j) CsT(j, r) = C(rows[first + r], support[j]);
-      }
-      Eigen::MatrixXd At = GsT * CsT;  // n x m: column r is row r of C G0
+      // Column r: row r of C G0 (+ (K'c)' D), on the touched readings, or on all with a set-up part.
+      Eigen::MatrixXd At;
       if (any()) {
         Eigen::MatrixXd KC(K_.cols(), m);
-        for (Eigen::Index r = 0; r < m; ++r) KC.col(r) = K_.transpose() * C.row(rows[first + r]).transpose();
-        At.noalias() += Dt * KC;
+        for (Eigen::Index r = 0; r < m; ++r) {
+          KC.col(r).setZero();
+          for (FunctionRows::InnerIterator it(C, rows[first + r]); it; ++it) KC.col(r) += it.value() * K_.row(it.col()).transpose();
+        }
+        At.noalias() = Dt * KC;
+      } else {
+        At = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(touched.size()), m);
+      }
+      for (Eigen::Index j = 0; j < k; ++j) {
+        for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(G0, support[j]); it; ++it) {
+          const Eigen::Index at = any() ? it.col()
+                                        : std::lower_bound(touched.begin(), touched.end(), it.col()) - touched.begin();
+          for (Eigen::Index r = 0; r < m; ++r) At(at, r) += C.coeff(rows[first + r], support[j]) * it.value();
+        }
       }
       for (Eigen::Index r = 0; r < m; ++r) out(rows[first + r]) = At.col(r).lpNorm<1>();
     }
@@ -154,12 +173,12 @@ Eigen::VectorXd SetupSolver::left_gain_l1(const Eigen::MatrixXd& C) const {
   return out;
 }
 
-Eigen::MatrixXd SetupSolver::setup_draw_map(const Eigen::MatrixXd& C) const {
+Eigen::MatrixXd SetupSolver::setup_draw_map(const FunctionRows& C) const {
   if (!any()) return Eigen::MatrixXd::Zero(C.rows(), 0);
   return (C * K_) * S_inv_ * prior_std_.cwiseInverse().asDiagonal();
 }
 
-SetupSolver::Parts SetupSolver::parts(const Eigen::VectorXd& c) const {
+SetupSolver::Parts SetupSolver::parts(const Estimate::Function& c) const {
   Parts p;
   p.noise = std::max(0.0, prior_.base_variance(c));  // c'C0c
   p.setup_by_column = Eigen::VectorXd::Zero(n_columns());
@@ -172,9 +191,9 @@ SetupSolver::Parts SetupSolver::parts(const Eigen::VectorXd& c) const {
   return p;
 }
 
-SetupSolver::JointParts SetupSolver::joint_parts(const Eigen::MatrixXd& C) const {
+SetupSolver::JointParts SetupSolver::joint_parts(const Eigen::SparseMatrix<double>& C) const {
   JointParts p;
-  p.noise = C.transpose() * prior_.covariance * C;  // C'C0C
+  p.noise = Eigen::MatrixXd(Eigen::SparseMatrix<double>(C.transpose() * prior_.covariance) * C);  // C'C0C
   if (!any()) {
     p.setup = Eigen::MatrixXd::Zero(C.cols(), C.cols());
     return p;
@@ -193,10 +212,11 @@ ErrorParts error_parts(const Parameterisation& param, const SetupSolver& solver)
     ErrorsAtAngle noise, setup, total;
     noise.station = setup.station = total.station = s;
     noise.angle_deg = setup.angle_deg = total.angle_deg = param.station_angle_deg(s);
-    const Eigen::MatrixXd C = error_functions(param, s, est.n_unknowns);
+    const Eigen::SparseMatrix<double> C = error_functions(param, s, est.n_unknowns);
     for (int k = 0; k < 6; ++k) {
-      if (!est.determined(C.col(k))) continue;
-      const SetupSolver::Parts p = solver.parts(C.col(k));
+      const Estimate::Function c = C.col(k);
+      if (!est.determined(c)) continue;
+      const SetupSolver::Parts p = solver.parts(c);
       noise.errors[k] = {true, 0.0, std::sqrt(p.noise)};
       setup.errors[k] = {true, 0.0, std::sqrt(p.setup)};
       total.errors[k] = {true, 0.0, std::sqrt(p.noise + p.setup)};
@@ -273,13 +293,14 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
   // The determined error functions, once.
   struct Fn {
     int station, error;
-    Eigen::VectorXd c;
+    Estimate::Function c;
   };
   std::vector<Fn> fns;
   for (int s = 0; s < param.n_stations(); ++s) {
-    const Eigen::MatrixXd C = error_functions(param, s, est.n_unknowns);
+    const Eigen::SparseMatrix<double> C = error_functions(param, s, est.n_unknowns);
     for (int k = 0; k < 6; ++k) {
-      if (est.determined(C.col(k))) fns.push_back({s, k, C.col(k)});
+      const Estimate::Function c = C.col(k);
+      if (est.determined(c)) fns.push_back({s, k, c});
     }
   }
   for (const SetupEffect& e : effects) {

@@ -29,11 +29,21 @@ std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& co
   return uc2 * uc2 / denom;
 }
 
-Eigen::MatrixXd budget_functions(const Parameterisation& param, const Budget& budget) {
-  Eigen::MatrixXd C(static_cast<Eigen::Index>(budget.values.size()), param.n_parameters());
+Eigen::SparseMatrix<double, Eigen::RowMajor> budget_functions(const Parameterisation& param, const Budget& budget) {
+  std::vector<Eigen::Triplet<double>> entries;
+  int station = -1;
+  Eigen::SparseMatrix<double> E;
   for (std::size_t v = 0; v < budget.values.size(); ++v) {
-    C.row(static_cast<Eigen::Index>(v)) = param.error_map(budget.values[v].station).row(budget.values[v].error);
+    if (budget.values[v].station != station) {
+      station = budget.values[v].station;
+      E = error_functions(param, station, param.n_parameters());
+    }
+    for (Eigen::SparseMatrix<double>::InnerIterator it(E, budget.values[v].error); it; ++it) {
+      entries.emplace_back(static_cast<int>(v), static_cast<int>(it.row()), it.value());
+    }
   }
+  Eigen::SparseMatrix<double, Eigen::RowMajor> C(static_cast<Eigen::Index>(budget.values.size()), param.n_parameters());
+  C.setFromTriplets(entries.begin(), entries.end());
   return C;
 }
 
@@ -76,9 +86,9 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
   static const char* kSetupNames[3] = {"set-up L", "set-up D", "set-up H"};
 
   for (int s = 0; s < param.n_stations(); ++s) {
-    const Eigen::MatrixXd E = param.error_map(s);
+    const Eigen::SparseMatrix<double> E = error_functions(param, s, param.n_parameters());
     for (int k = 0; k < 6; ++k) {
-      const Eigen::VectorXd c = E.row(k).transpose();
+      const Estimate::Function c = E.col(k);
       const Determined d = est.evaluate(c);
       if (!d.determined) continue;
       ValueBudget v;
@@ -121,14 +131,14 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
 Eigen::MatrixXd budget_covariance(const Design& design, const Parameterisation& param, const LinearModel& model,
                                   const WlsSolver& solver, const Estimate& est, const Budget& budget,
                                   const SetupSolver* setup) {
-  const Eigen::MatrixXd C = budget_functions(param, budget).transpose();  // p x values
+  const Eigen::SparseMatrix<double> C = budget_functions(param, budget).transpose();  // p x values
   const double scale2 = budget.type_a_scale ? *budget.type_a_scale * *budget.type_a_scale : 1.0;
   Eigen::MatrixXd cov;
   if (setup && setup->any()) {
     const SetupSolver::JointParts parts = setup->joint_parts(C);
     cov = scale2 * parts.noise + parts.setup;
   } else {
-    cov = scale2 * (C.transpose() * est.covariance * C);
+    cov = scale2 * Eigen::MatrixXd(Eigen::SparseMatrix<double>(C.transpose() * est.covariance) * C);
   }
   const std::vector<SetupInput> inputs = setup_inputs(design);
   if (!inputs.empty()) {

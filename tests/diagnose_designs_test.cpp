@@ -251,7 +251,7 @@ TEST(DiagnoseOnDesigns, AttributionEntersTheErrorsUncertainty) {
       const auto b = std::find_if(pool.begin(), pool.end(), [&](const EffectBlock& e) { return e.label == label; });
       EXPECT_NE(b, pool.end());
       Eigen::MatrixXd A(model.J.rows(), model.J.cols() + b->X.cols());
-      A << model.J, b->X;
+      A << test::dense(model.J), b->X;
       return errors_at_stations(param, WlsSolver(A, model.sigma_um).solve(model.y_um));
     };
     const std::vector<ErrorsAtAngle> chosen = fit_with(r.added[0].block.label);

@@ -276,7 +276,7 @@ TEST(Detectability, ProjectionAgreesWithTheAugmentedFactorisation) {
     for (const EffectBlock& b : candidate_effects(d, readings)) {
       if (!b.not_applicable.empty()) continue;
       Eigen::MatrixXd A(model.J.rows(), model.J.cols() + b.X.cols());
-      A << model.J, b.X;
+      A << test::dense(model.J), b.X;
       const int full = WlsSolver(A, model.sigma_um).a_priori().rank - rank;
       EXPECT_EQ(added_rank(solver, b.X), full) << d.name << " " << b.label;
       ++compared;

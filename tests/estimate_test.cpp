@@ -16,7 +16,7 @@ namespace {
 
 LinearModel model_of(const Eigen::MatrixXd& J, const Eigen::VectorXd& y, const Eigen::VectorXd& sigma) {
   LinearModel m;
-  m.J = J;
+  m.J = J.sparseView();
   m.y_um = y;
   m.sigma_um = sigma;
   return m;
@@ -128,7 +128,7 @@ TEST(Estimate, BlockDiagonalEqualsDense) {
   const Eigen::MatrixXd cov = (Js.transpose() * W * Js).inverse();
   const Eigen::VectorXd theta = cov * Js.transpose() * W * y;
   EXPECT_TRUE(test::near(est.theta.head(5), theta, 1e-10, 1e-9));
-  EXPECT_TRUE(test::near(est.covariance.topLeftCorner(5, 5), cov, 1e-10, 1e-9));
+  EXPECT_TRUE(test::near(test::dense(est.covariance).topLeftCorner(5, 5), cov, 1e-10, 1e-9));
   EXPECT_FALSE(est.evaluate(Eigen::VectorXd::Unit(6, 5)).determined);
   const Eigen::VectorXd r = y - Js * theta;
   EXPECT_NEAR(est.chi2, r.transpose() * W * r, 1e-10);
@@ -177,8 +177,8 @@ TEST(Estimate, NormalEquationsPathAgreesWithTheSvd) {
     const Estimate a = normal.solve(y), b = svd.solve(y);
     EXPECT_TRUE(test::near(a.singular_values, b.singular_values, 0, 1e-9)) << kappa;
     const double tol = 1e-9 * std::max(1.0, kappa * kappa * 1e-6);  // the bound's own allowance
-    EXPECT_TRUE(test::near(a.covariance, b.covariance, tol * b.covariance.cwiseAbs().maxCoeff())) << kappa;
-    EXPECT_TRUE(test::near(normal.gain(), svd.gain(), tol * svd.gain().cwiseAbs().maxCoeff())) << kappa;
+    EXPECT_TRUE(test::near(a.covariance, b.covariance, tol * test::dense(b.covariance).cwiseAbs().maxCoeff())) << kappa;
+    EXPECT_TRUE(test::near(normal.gain(), svd.gain(), tol * test::dense(svd.gain()).cwiseAbs().maxCoeff())) << kappa;
     EXPECT_TRUE(test::near(a.theta, b.theta, tol * b.theta.cwiseAbs().maxCoeff())) << kappa;
     EXPECT_EQ(a.rank, p);
   }
@@ -205,8 +205,8 @@ TEST(Estimate, FourierIdentificationTakesTheNormalEquations) {
   const WlsSolver normal(model.J, model.sigma_um), svd(model.J, model.sigma_um, svd_only);
   EXPECT_GT(normal.a_priori().normal_equation_blocks, 0);  // the model splits into independent blocks
   EXPECT_TRUE(test::near(normal.a_priori().covariance, svd.a_priori().covariance,
-                         1e-9 * svd.a_priori().covariance.cwiseAbs().maxCoeff()));
-  EXPECT_TRUE(test::near(normal.gain(), svd.gain(), 1e-9 * svd.gain().cwiseAbs().maxCoeff()));
+                         1e-9 * test::dense(svd.a_priori().covariance).cwiseAbs().maxCoeff()));
+  EXPECT_TRUE(test::near(normal.gain(), svd.gain(), 1e-9 * test::dense(svd.gain()).cwiseAbs().maxCoeff()));
 }
 
 }  // namespace

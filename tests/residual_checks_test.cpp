@@ -105,7 +105,7 @@ TEST(ColumnTester, ReadingScanIsTheExternallyStudentisedResidual) {
   e(17, 0) = 1;
   EXPECT_NEAR(s.test.F, refit_F(pr, e), 1e-7 * s.test.F);
   // Sequential flagging finds it and then nothing more at 1 %.
-  const std::vector<GrossReading> g = gross_readings(pr.J, pr.sigma, pr.y, 0.01, 5);
+  const std::vector<GrossReading> g = gross_readings(test::sparse(pr.J), pr.sigma, pr.y, 0.01, 5);
   ASSERT_GE(g.size(), 1u);
   EXPECT_EQ(g[0].row, 17);
   EXPECT_NEAR(g[0].value_um, 25.0 * pr.sigma(17), 6 * g[0].std_um);

@@ -2,6 +2,7 @@
 // checked against least squares solved here with Eigen's column-pivoting QR (not
 // the project's WLS solver).
 #include "dbbkit/selection.hpp"
+#include "test_util.hpp"
 
 #include <gtest/gtest.h>
 
@@ -85,7 +86,7 @@ TEST(Selection, BicIsTheTextbookFormula) {
   const TwoHalves h;
   std::mt19937_64 rng(3);
   const Eigen::VectorXd y = 2.0 + 5.0 * h.w.array() + h.noise(rng).array();
-  const Selection s = select_effects(h.J, h.sigma, y, h.pool());
+  const Selection s = select_effects(test::sparse(h.J), h.sigma, y, h.pool());
   const double n = h.n;
   EXPECT_NEAR(bic(s.before), n * std::log(rss(h.J, y) / n) + 1 * std::log(n), 1e-9);
 }
@@ -96,7 +97,7 @@ TEST(Selection, CleanDataAddsNothing) {
   std::mt19937_64 rng(11);
   int clean = 0;
   const int seeds = 300;
-  for (int s = 0; s < seeds; ++s) clean += select_effects(h.J, h.sigma, 1.0 + h.noise(rng).array(), h.pool()).added.empty();
+  for (int s = 0; s < seeds; ++s) clean += select_effects(test::sparse(h.J), h.sigma, 1.0 + h.noise(rng).array(), h.pool()).added.empty();
   EXPECT_GE(clean, 0.97 * seeds) << clean;
 }
 
@@ -107,7 +108,7 @@ TEST(Selection, WholeTestDriftIsOneTermWithTheRejectedPairReported) {
   const TwoHalves h;
   std::mt19937_64 rng(5);
   const Eigen::VectorXd y = 2.0 + 4.0 * h.w.array() + h.noise(rng).array();
-  const Selection s = select_effects(h.J, h.sigma, y, h.pool());
+  const Selection s = select_effects(test::sparse(h.J), h.sigma, y, h.pool());
   ASSERT_EQ(s.added.size(), 1u);
   const AddedEffect& d = s.added[0];
   EXPECT_EQ(d.block.label, "drift[all]");
@@ -142,7 +143,7 @@ TEST(Selection, DifferentDriftsPerInstallationKeepTwoTerms) {
   const int seeds = 100;
   for (int seed = 0; seed < seeds; ++seed) {
     const Eigen::VectorXd y = 2.0 + 12.0 * h.a.array() - 12.0 * h.b.array() + h.noise(rng).array();
-    const Selection s = select_effects(h.J, h.sigma, y, h.pool());
+    const Selection s = select_effects(test::sparse(h.J), h.sigma, y, h.pool());
     const bool both = find_added(s, "drift[0]") && find_added(s, "drift[1]") && !find_added(s, "drift[all]");
     const bool reported = s.structures.size() == 1 && s.structures[0].rejected == std::vector<std::string>{"drift[all]"} &&
                           s.structures[0].bic_chosen < s.structures[0].bic_rejected;
@@ -158,7 +159,7 @@ TEST(Selection, CandidateInTheSpanOfTheModelIsConfounded) {
   const Eigen::VectorXd y = 50.0 + h.noise(rng).array();
   std::vector<EffectBlock> pool = h.pool();
   pool.push_back(column(EffectKind::LengthOffset, -1, "length_offset[all]", Eigen::VectorXd::Constant(h.n, 1.0)));
-  const Selection s = select_effects(h.J, h.sigma, y, pool);
+  const Selection s = select_effects(test::sparse(h.J), h.sigma, y, pool);
   EXPECT_EQ(status_of(s, "length_offset[all]").state, CandidateState::kConfounded);
   EXPECT_EQ(find_added(s, "length_offset[all]"), nullptr);
 }
@@ -175,7 +176,7 @@ TEST(Selection, EquivalentCandidatesGoToTheLaterInstallation) {
   Eigen::MatrixXd J(h.n, 2);
   J << h.t, o0 + o1;  // the axis errors see only the common offset
   const Eigen::VectorXd y = 3.0 * h.t.array() + 6.0 * o0.array() + h.noise(rng).array();
-  const Selection s = select_effects(J, h.sigma, y,
+  const Selection s = select_effects(test::sparse(J), h.sigma, y,
                                      {column(EffectKind::LengthOffset, 0, "length_offset[0]", o0),
                                       column(EffectKind::LengthOffset, 1, "length_offset[1]", o1)});
   ASSERT_EQ(s.added.size(), 1u);
@@ -198,7 +199,7 @@ TEST(Selection, AnEarlyChoiceMadeRedundantIsDropped) {
   const Eigen::VectorXd c = a + b + 0.3 * Eigen::VectorXd::NullaryExpr(n, [&](Eigen::Index) { return n01(rng); });
   const Eigen::VectorXd y = 8.0 * a + 5.0 * b + noise;
   const Eigen::MatrixXd J = Eigen::MatrixXd::Ones(n, 1);
-  const Selection s = select_effects(J, Eigen::VectorXd::Constant(n, 0.05), y,
+  const Selection s = select_effects(test::sparse(J), Eigen::VectorXd::Constant(n, 0.05), y,
                                      {column(EffectKind::Periodic, 0, "a", a), column(EffectKind::Periodic, 0, "b", b),
                                       column(EffectKind::Periodic, 0, "c", c)});
   EXPECT_NE(find_added(s, "a"), nullptr);
@@ -228,7 +229,7 @@ TEST(Selection, ExchangeUndoesAnEarlyChoiceThatFitsWorse) {
   const Eigen::MatrixXd J = Eigen::MatrixXd::Ones(n, 1);
   SelectionOptions options;
   options.max_effects = 2;
-  const Selection s = select_effects(J, Eigen::VectorXd::Constant(n, 0.05), y,
+  const Selection s = select_effects(test::sparse(J), Eigen::VectorXd::Constant(n, 0.05), y,
                                      {column(EffectKind::Periodic, 0, "a", a), column(EffectKind::Periodic, 0, "b", b),
                                       column(EffectKind::Periodic, 0, "c", c)},
                                      options);

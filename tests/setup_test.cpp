@@ -209,7 +209,7 @@ TEST(Detection, AnEffectAtItsDetectionLimitIsFoundNineTimesInTen) {
   const int inst = d.find_installation("2r");
   for (int i = 0; i < n; ++i) x(i) = model.row_installation[i] == inst ? 1.0 : 0.0;
   Eigen::MatrixXd Jx(n, p + 1);
-  Jx << model.J, x;
+  Jx << test::dense(model.J), x;
   const WlsSolver s0(model.J, model.sigma_um), s1(Jx, model.sigma_um);
   const int dof1 = n - s1.a_priori().rank;
   boost::math::fisher_f fdist(1, dof1);
@@ -282,7 +282,7 @@ TEST(SetupDetection, AFiveMicrometreCentringOnAnyInstallationOfTheSetupKitDesign
   ASSERT_EQ(q, 2) << "a radial or tangential reading sees the centring in the plane of the table";
   const WlsSolver s0(model.J, model.sigma_um);
   Eigen::MatrixXd Jx(model.J.rows(), model.J.cols() + q);
-  Jx << model.J, block.X;
+  Jx << test::dense(model.J), block.X;
   const WlsSolver s1(Jx, model.sigma_um);
   // The least favourable direction: the right singular vector of the smallest singular value.
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(unexplained(s0, block.X), Eigen::ComputeThinV);
@@ -510,14 +510,14 @@ TEST(LeftGain, IsTheEstimatesResponseAndItsRowNormsAreFormedWithoutIt) {
       ASSERT_EQ(setup.any(), tolerances);
       Eigen::MatrixXd C(6 * param.n_stations(), param.n_parameters());
       for (int s = 0; s < param.n_stations(); ++s) C.middleRows(6 * s, 6) = param.error_map(s);
-      const Eigen::MatrixXd A = setup.left_gain(C);
+      const Eigen::MatrixXd A = setup.left_gain(SetupSolver::FunctionRows(C.sparseView()));
       std::mt19937 rng(4);
       std::normal_distribution<double> z(0.0, 3.0);
       Eigen::VectorXd y(model.J.rows());
       for (Eigen::Index i = 0; i < y.size(); ++i) y(i) = z(rng);
       const Eigen::VectorXd response = C * setup.solve(y).theta;
       EXPECT_TRUE(test::near(A * y, response, 1e-9 * response.cwiseAbs().maxCoeff())) << tolerances;
-      const Eigen::VectorXd l1 = setup.left_gain_l1(C);
+      const Eigen::VectorXd l1 = setup.left_gain_l1(SetupSolver::FunctionRows(C.sparseView()));
       const Eigen::VectorXd expected = A.rowwise().lpNorm<1>();
       EXPECT_TRUE(test::near(l1, expected, 1e-12 * expected.maxCoeff(), 1e-10)) << tolerances;
     }

@@ -4,12 +4,14 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <cmath>
 #include <random>
 #include <string>
 
 #include "dbbkit/design.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/simulate.hpp"
 
@@ -33,6 +35,15 @@ inline ::testing::AssertionResult near(const Eigen::MatrixXd& a, const Eigen::Ma
   }
   return ::testing::AssertionSuccess();
 }
+
+// A sparse (or any) matrix as a dense one, for comparisons.
+template <typename D>
+Eigen::MatrixXd dense(const Eigen::EigenBase<D>& x) {
+  return Eigen::MatrixXd(x.derived());
+}
+
+// A dense Jacobian as the library stores it (its exact zeros left out).
+inline Jacobian sparse(const Eigen::MatrixXd& J) { return Jacobian(J.sparseView()); }
 
 // Adds the errors of one angle to a per-angle truth; an angle at the position of one
 // already given (C: 360 repeats 0) takes that one's values, as the axis is one body.

@@ -7,8 +7,10 @@
 // that the data determine get a value and a standard uncertainty.
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "dbbkit/linear_model.hpp"
 
@@ -57,7 +59,10 @@ struct Estimate {
   int rank = 0;
 
   Eigen::VectorXd theta;            // minimum-norm solution (in the scaled unknowns)
-  Eigen::MatrixXd covariance;       // pseudo-inverse covariance; meaningful only for determined functions
+  // Pseudo-inverse covariance, meaningful only for determined functions: block-diagonal
+  // over the independent blocks of the model (one 6 x 6 block per station of a per-angle
+  // model), stored sparse.
+  Eigen::SparseMatrix<double> covariance;
   // A low-rank term of the covariance, K S K' (p x q, q x q; empty when absent): the
   // set-up effects a prior makes part of the model (setup.hpp). The covariance of a
   // function is c'(covariance + K S K')c.
@@ -65,7 +70,10 @@ struct Estimate {
   Eigen::VectorXd column_scale;     // |column j of Sigma^-1/2 J|, 1 for a negligible column
   Eigen::VectorXd singular_values;  // of Js, descending
   std::optional<double> condition_number;  // sigma_max / sigma_rank of Js
-  Eigen::MatrixXd null_space_scaled;       // orthonormal basis of the null space of Js (p x (p - rank))
+  // Orthonormal basis of the null space of Js (p x (p - rank)); each column lies in one
+  // independent block. Stored by rows, so that a function's projection reads only the rows
+  // of its support.
+  Eigen::SparseMatrix<double, Eigen::RowMajor> null_space_scaled;
 
   Eigen::VectorXd residual_um;  // y - J theta
   double rms_um = 0.0;          // sqrt(mean(residual^2))
@@ -76,13 +84,24 @@ struct Estimate {
   double estimable_tolerance = 0.0;
   int normal_equation_blocks = 0;  // blocks factorised through the normal equations (EstimateOptions)
 
-  // The function c.theta (c in theta units).
-  Determined evaluate(const Eigen::VectorXd& c) const;
-  // The two terms of its variance, on the support of c (values at one angle touch few
-  // unknowns): c' covariance c, and K'c (empty without the low-rank term).
-  double base_variance(const Eigen::VectorXd& c) const;
-  Eigen::VectorXd low_rank_coordinates(const Eigen::VectorXd& c) const;
-  bool determined(const Eigen::VectorXd& c) const;
+  // A linear function c.theta (c in theta units), sparse: values at one angle touch few
+  // unknowns. A dense c is taken through its nonzeros.
+  using Function = Eigen::SparseVector<double>;
+  // The function c.theta.
+  Determined evaluate(const Function& c) const;
+  template <typename D>
+  Determined evaluate(const Eigen::MatrixBase<D>& c) const {
+    return evaluate(Function(c.sparseView()));
+  }
+  // The two terms of its variance, on the support of c: c' covariance c, and K'c (empty
+  // without the low-rank term).
+  double base_variance(const Function& c) const;
+  Eigen::VectorXd low_rank_coordinates(const Function& c) const;
+  bool determined(const Function& c) const;
+  template <typename D>
+  bool determined(const Eigen::MatrixBase<D>& c) const {
+    return determined(Function(c.sparseView()));
+  }
   // A basis of the undetermined directions of theta (columns, theta units), as
   // sparse as row reduction makes it, each normalised to unit length with its
   // largest coefficient positive: theta and theta + t * column give the same readings.
@@ -91,24 +110,40 @@ struct Estimate {
 
 // The factorisation of a design's Jacobian, done once and reused for any
 // number of reading vectors (Monte Carlo, coverage studies, a-priori evaluation).
+//
+// The columns fall into independent blocks (linked through the rows they share); each
+// block is factorised alone, so that a per-angle model, one block of six columns per
+// station, costs time and memory linear in its readings: the Jacobian, the gain and the
+// covariance are stored sparse, block by block.
 class WlsSolver {
  public:
+  using Gain = Eigen::SparseMatrix<double>;  // p x n, by columns
+
+  WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options = {});
+  // A dense Jacobian (its exact zeros are the structure).
   WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options = {});
 
   // Everything that does not depend on the readings (theta and residual empty).
   const Estimate& a_priori() const { return prior_; }
   // theta_hat = gain() * y: the p x n map from readings to the minimum-norm estimate.
-  const Eigen::MatrixXd& gain() const { return gain_; }
-  const Eigen::MatrixXd& J() const { return J_; }
+  const Gain& gain() const { return gain_; }
+  const Jacobian& J() const { return J_; }
   const Eigen::VectorXd& sigma_um() const { return sigma_; }
+
+  // One independent block: its columns and its rows, ascending.
+  struct Block {
+    std::vector<int> cols, rows;
+  };
+  const std::vector<Block>& blocks() const { return blocks_; }
 
   Estimate solve(const Eigen::VectorXd& y_um) const;
 
  private:
-  Eigen::MatrixXd J_;
+  Jacobian J_;
   Eigen::VectorXd sigma_;
   Estimate prior_;
-  Eigen::MatrixXd gain_;
+  Gain gain_;
+  std::vector<Block> blocks_;
 };
 
 Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options = {});

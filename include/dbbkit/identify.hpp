@@ -97,7 +97,8 @@ struct IdentifyResult {
 // The six functions c.theta that are the errors dx..ez at `station`: column k is
 // error k over n_unknowns >= param.n_parameters() unknowns (those beyond the axis
 // errors, e.g. effects appended to J, get 0).
-Eigen::MatrixXd error_functions(const Parameterisation& param, int station, Eigen::Index n_unknowns);
+// Stored sparse: a per-angle model's have one entry each.
+Eigen::SparseMatrix<double> error_functions(const Parameterisation& param, int station, Eigen::Index n_unknowns);
 
 // The errors at every station of the parameterisation from an estimate (whose
 // unknowns may extend beyond the axis errors, e.g. by effects appended to J).

@@ -4,6 +4,7 @@
 // with standard deviation sigma per row (uncorrelated).
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <vector>
 
 #include "dbbkit/design.hpp"
@@ -12,14 +13,21 @@
 
 namespace dbbkit {
 
+// The Jacobian of the readings: one row per reading, stored by rows. A per-angle model
+// has six entries a row (its station's errors), a series model one per coefficient.
+using Jacobian = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+
 struct LinearModel {
-  Eigen::MatrixXd J;          // [um per unit of theta], n_readings x n_parameters
+  Jacobian J;                 // [um per unit of theta], n_readings x n_parameters
   Eigen::VectorXd y_um;       // readings (zero for a design model)
   Eigen::VectorXd sigma_um;   // standard deviation of each reading
   std::vector<int> row_installation;
   std::vector<int> row_station;
   std::vector<double> row_angle_deg;
 };
+
+// [J X]: the columns of X (n x q, dense) after those of J; exact zeros of X are left out.
+Jacobian append_columns(const Jacobian& J, const Eigen::MatrixXd& X);
 
 // Rows for the given readings (validated against the design beforehand).
 LinearModel build_linear_model(const Design& design, const Parameterisation& param,

@@ -150,7 +150,7 @@ struct GrossReading {
   double p_scan = 1;
   int tested = 0;
 };
-std::vector<GrossReading> gross_readings(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um,
+std::vector<GrossReading> gross_readings(const Jacobian& J, const Eigen::VectorXd& sigma_um,
                                          const Eigen::VectorXd& y_um, double level, int max_count,
                                          const EstimateOptions& options = {});
 

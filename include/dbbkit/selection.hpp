@@ -170,7 +170,7 @@ struct Selection {
   std::vector<Substitution> substitutions;
   std::vector<CandidateStatus> candidates;
   std::vector<StructureComparison> structures;
-  Eigen::MatrixXd J_final;  // [J, added effects' columns]
+  Jacobian J_final;  // [J, added effects' columns]
   // Selection stopped at this step because a single reading was the best candidate
   // (stop_at_gross_reading): its row and test; -1 when it did not.
   int stopped_at_reading = -1;
@@ -191,10 +191,10 @@ double bic(const Estimate& e);
 // explanation by fitting the noise at its best position.
 double parameter_cost(const EffectBlock& b, int scanned_alternatives);
 
-Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
+Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
                          const std::vector<EffectBlock>& pool, const SelectionOptions& options = {});
 // With scanned candidates; `design` and `readings` build their alternatives.
-Selection select_effects(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
+Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
                          const std::vector<EffectBlock>& pool, const std::vector<ScanFamily>& families,
                          const Design& design, const std::vector<Reading>& readings,
                          const SelectionOptions& options = {});

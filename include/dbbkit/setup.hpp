@@ -63,6 +63,8 @@ std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<R
 
 class SetupSolver {
  public:
+  // Functions of theta, one a row (values x unknowns), stored sparse.
+  using FunctionRows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
   // `base` must outlive the solver.
   SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& declared);
 
@@ -85,29 +87,33 @@ class SetupSolver {
   Eigen::MatrixXd gain_times(const Eigen::MatrixXd& M) const;
   // C G: the map from readings to the functions C theta (rows of C), without forming G:
   //   C G = C G0 - T W^1/2 + (T W^1/2 J) G0,  T = C K S^-1 R'.
-  Eigen::MatrixXd left_gain(const Eigen::MatrixXd& C) const;
+  Eigen::MatrixXd left_gain(const FunctionRows& C) const;
   // The 1-norm of every row of left_gain(C), without forming it: each row is c'G0 from the
   // rows of G0 that c touches (rows of C with one support in one product), plus (K'c)' D
   // with D = S^-1 R' W^1/2 (J G0 - I) formed once (memory: the readings times the unknowns
   // and the set-up columns, and 256 rows of C at a time, not rows(C) x readings).
-  Eigen::VectorXd left_gain_l1(const Eigen::MatrixXd& C) const;
+  Eigen::VectorXd left_gain_l1(const FunctionRows& C) const;
   // C G X diag(u): the change of C theta_hat per standard-normal draw of every set-up
   // column (beta = u z): C K S^-1 diag(1 / u).
-  Eigen::MatrixXd setup_draw_map(const Eigen::MatrixXd& C) const;
+  Eigen::MatrixXd setup_draw_map(const FunctionRows& C) const;
 
   // Variances of c.theta_hat: noise part, set-up part, and the set-up part split per column.
   struct Parts {
     double noise = 0, setup = 0;
     Eigen::VectorXd setup_by_column;
   };
-  Parts parts(const Eigen::VectorXd& c) const;
+  Parts parts(const Estimate::Function& c) const;
+  template <typename D>
+  Parts parts(const Eigen::MatrixBase<D>& c) const {
+    return parts(Estimate::Function(c.sparseView()));
+  }
   // The joint form of parts() for the functions C theta (C: p x m, one function per
   // column): the m x m covariances of their noise parts and of their set-up parts;
   // the diagonals are parts().noise and parts().setup of every column.
   struct JointParts {
     Eigen::MatrixXd noise, setup;
   };
-  JointParts joint_parts(const Eigen::MatrixXd& C) const;
+  JointParts joint_parts(const Eigen::SparseMatrix<double>& C) const;
 
   const WlsSolver& base() const { return *base_; }
 
