@@ -211,7 +211,19 @@ void BM_EvaluateGrowthAngles(benchmark::State& state) {
   }
   state.SetComplexityN(state.range(0));
 }
-BENCHMARK(BM_EvaluateGrowthAngles)->Arg(18)->Arg(36)->Arg(72)->Arg(144)->Arg(288)->Arg(576)->Complexity()
+BENCHMARK(BM_EvaluateGrowthAngles)->Arg(18)->Arg(36)->Arg(72)->Arg(144)->Arg(288)->Arg(576)->Arg(1152)->Arg(3600)
+    ->Complexity()->Unit(benchmark::kMillisecond);
+
+// identify of nominal readings (the estimate, its budget, ISO 230 quantities and the
+// first-order check) of the same designs: 3600 angles is a 0.1 deg step.
+void BM_IdentifyGrowthAngles(benchmark::State& state) {
+  const Design d = scaled_c(static_cast<int>(state.range(0)), 0);
+  const std::vector<Reading> r = nominal_readings(d);
+  const IdentifyOptions o;
+  for (auto _ : state) benchmark::DoNotOptimize(identify(d, r, o).estimate.chi2);
+  state.SetComplexityN(state.range(0));
+}
+BENCHMARK(BM_IdentifyGrowthAngles)->Arg(18)->Arg(144)->Arg(576)->Arg(1152)->Arg(3600)->Complexity()
     ->Unit(benchmark::kMillisecond);
 
 void BM_EvaluateGrowthInstallations(benchmark::State& state) {

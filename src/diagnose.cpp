@@ -500,7 +500,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   }
   if (res.after.dof > 0) {
     // The lower tail: a residual far smaller than the declared noise predicts.
-    const double lower = boost::math::cdf(boost::math::chi_squared(res.after.dof), res.after.chi2);
+    const double lower = chi2_lower_tail(res.after.dof, res.after.chi2);
     res.p_lower_after = lower;
     if (lower < options.level) {
       v << " The residual is smaller than the declared noise predicts (P(chi2 <= " << fmt(res.after.chi2, 4)

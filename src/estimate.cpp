@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <stdexcept>
 #include <vector>
 
 namespace dbbkit {
@@ -253,10 +254,7 @@ Estimate WlsSolver::solve(const Eigen::VectorXd& y_um) const {
   est.residual_um = y_um - J_ * est.theta;
   est.rms_um = std::sqrt(est.residual_um.squaredNorm() / n);
   est.chi2 = est.residual_um.cwiseQuotient(sigma_).squaredNorm();
-  if (est.dof > 0) {
-    boost::math::chi_squared dist(est.dof);
-    est.p_value = boost::math::cdf(boost::math::complement(dist, est.chi2));
-  }
+  if (est.dof > 0) est.p_value = chi2_upper_tail(est.dof, est.chi2);
   return est;
 }
 
@@ -270,6 +268,24 @@ Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M, c
 
 Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M) {
   return unexplained(solver, M, solver.gain() * M);
+}
+
+double chi2_upper_tail(int dof, double chi2) {
+  if (!(chi2 > 0)) return 1.0;
+  try {
+    return boost::math::cdf(boost::math::complement(boost::math::chi_squared(dof), chi2));
+  } catch (const std::overflow_error&) {
+    return chi2 < dof ? 1.0 : 0.0;  // only next to zero (far in the lower tail) does Boost overflow
+  }
+}
+
+double chi2_lower_tail(int dof, double chi2) {
+  if (!(chi2 > 0)) return 0.0;
+  try {
+    return boost::math::cdf(boost::math::chi_squared(dof), chi2);
+  } catch (const std::overflow_error&) {
+    return chi2 < dof ? 0.0 : 1.0;
+  }
 }
 
 double bic(double n, double chi2, int parameters) {

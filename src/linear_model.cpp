@@ -140,7 +140,7 @@ Eigen::MatrixXd setup_sensitivity(const Design& design, const Parameterisation& 
       const double a = model.row_angle_deg[i];
       const RowVector6d d_row =
           J_reading_error(design.axis, moved, a) - J_reading_error(design.axis, design.installations[in.installation], a);
-      D(i, static_cast<int>(j)) = d_row * (param.error_map_at_angle(a) * theta);
+      D(i, static_cast<int>(j)) = d_row * param.errors_at_angle(a, theta);
     }
   }
   return D;

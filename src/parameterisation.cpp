@@ -137,6 +137,21 @@ Eigen::MatrixXd Parameterisation::error_map_at_angle(double angle_deg) const {
   return E;
 }
 
+Eigen::Matrix<double, 6, 1> Parameterisation::errors_at_angle(double angle_deg, const Eigen::VectorXd& theta) const {
+  if (model_.kind == ErrorModel::Kind::PerAngle) {
+    const int s = station_of(angle_deg);
+    if (s < 0) {
+      throw InputError("parameterisation", "angle " + format_angle(angle_deg),
+                       "a per-angle model has no errors between its measured positions");
+    }
+    return theta.segment<6>(6 * s);
+  }
+  const Eigen::VectorXd f = series_basis(angle_deg);
+  Eigen::Matrix<double, 6, 1> e;
+  for (int k = 0; k < 6; ++k) e(k) = f.dot(theta.segment(k * per_error_, per_error_));
+  return e;
+}
+
 int Parameterisation::parameter_error(int j) const {
   return model_.kind == ErrorModel::Kind::PerAngle ? j % 6 : j / per_error_;
 }

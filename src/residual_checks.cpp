@@ -326,7 +326,7 @@ std::optional<OrderCheck> model_order_check(int order, const std::vector<std::pa
   best.chi2_with = fit.chi2 - best.test.delta_chi2;
   best.dof_with = best.test.dof;
   if (best.dof_with > 0) {
-    best.p_value_with = boost::math::cdf(boost::math::complement(boost::math::chi_squared(best.dof_with), best.chi2_with));
+    best.p_value_with = chi2_upper_tail(best.dof_with, best.chi2_with);
   }
   return best;
 }

@@ -87,10 +87,7 @@ Estimate SetupSolver::solve(const Eigen::VectorXd& y_um) const {
   est.rms_um = std::sqrt(est.residual_um.squaredNorm() / est.n_readings);
   est.chi2 = est.residual_um.cwiseQuotient(base_->sigma_um()).squaredNorm() +
              b.cwiseQuotient(prior_std_).squaredNorm();
-  if (est.dof > 0) {
-    boost::math::chi_squared dist(est.dof);
-    est.p_value = boost::math::cdf(boost::math::complement(dist, est.chi2));
-  }
+  if (est.dof > 0) est.p_value = chi2_upper_tail(est.dof, est.chi2);
   return est;
 }
 
@@ -356,7 +353,7 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
     for (double a : design.angles_deg) {
       const Eigen::Vector3d P = ball_position_mm(design.axis, in, a);
       const Eigen::Vector3d dir = direction_machine(design.axis, in, a);
-      Eigen::Matrix<double, 6, 1> e6 = param.error_map_at_angle(a) * theta;
+      Eigen::Matrix<double, 6, 1> e6 = param.errors_at_angle(a, theta);
       const Eigen::Vector3d dP = e6.head<3>() + 1e-3 * e6.tail<3>().cross(P);  // um
       const double perp = (dP - dP.dot(dir) * dir).norm() + placement_um + centring_um;
       const double term = perp * perp / (2.0 * *in.bar_mm * 1e3);

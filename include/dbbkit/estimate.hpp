@@ -171,6 +171,13 @@ Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M, c
 // norms |Sigma^-1/2 X_j| (the same rule).
 int added_rank(const Eigen::MatrixXd& R, const Eigen::VectorXd& whitened_norms, const EstimateOptions& options = {});
 
+// The tails of the chi-squared distribution with dof degrees of freedom at chi2:
+// P(X >= chi2) and P(X <= chi2). A residual of exactly (or next to) zero on many degrees of
+// freedom (readings a model reproduces exactly) is 1 and 0, where the incomplete gamma
+// function would overflow.
+double chi2_upper_tail(int dof, double chi2);
+double chi2_lower_tail(int dof, double chi2);
+
 // Bayesian information criterion of a least-squares fit of n readings with `parameters`
 // determined: n ln(chi2 / n) + parameters ln n (chi2 floored at 1e-300).
 double bic(double n, double chi2, int parameters);

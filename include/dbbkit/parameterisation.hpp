@@ -43,6 +43,9 @@ class Parameterisation {
   // (per_angle: the angle must be a station).
   Eigen::MatrixXd error_map(int station) const;
   Eigen::MatrixXd error_map_at_angle(double angle_deg) const;
+  // The six errors at an angle, error_map_at_angle(angle) * theta, on the coefficients that
+  // angle reads (a per-angle model: its station's six).
+  Eigen::Matrix<double, 6, 1> errors_at_angle(double angle_deg, const Eigen::VectorXd& theta) const;
 
   // Parameter j: which error (0..5 = dx..ez), which station (per_angle; else -1), name.
   int parameter_error(int j) const;
