@@ -344,10 +344,7 @@ bool Estimate::determined(const Function& c) const {
 double Estimate::base_variance(const Function& c) const {
   double var = 0;
   for (Function::InnerIterator a(c); a; ++a) {
-    for (Eigen::SparseMatrix<double>::InnerIterator it(covariance, a.index()); it; ++it) {
-      const double cb = c.coeff(it.row());
-      if (cb != 0.0) var += a.value() * it.value() * cb;
-    }
+    for (Function::InnerIterator b(c); b; ++b) var += a.value() * covariance.coeff(a.index(), b.index()) * b.value();
   }
   return var;
 }

@@ -143,26 +143,30 @@ Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
     }
     for (Eigen::Index t : touched) seen[t] = 0;
     std::sort(touched.begin(), touched.end());
+    const Eigen::Index nt = static_cast<Eigen::Index>(touched.size());
+    Eigen::MatrixXd GsT = Eigen::MatrixXd::Zero(nt, k);  // (the rows of G0 on the support)', touched readings
+    for (Eigen::Index j = 0; j < k; ++j) {
+      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(G0, support[j]); it; ++it) {
+        GsT(std::lower_bound(touched.begin(), touched.end(), it.col()) - touched.begin(), j) = it.value();
+      }
+    }
     for (std::size_t first = 0; first < rows.size(); first += kChunk) {
       const Eigen::Index m = static_cast<Eigen::Index>(std::min(kChunk, rows.size() - first));
-      // Column r: row r of C G0 (+ (K'c)' D), on the touched readings, or on all with a set-up part.
-      Eigen::MatrixXd At;
+      Eigen::MatrixXd CsT(k, m);
+      for (Eigen::Index r = 0; r < m; ++r) {
+        for (Eigen::Index j = 0; j < k; ++j) CsT(j, r) = C.coeff(rows[first + r], support[j]);
+      }
+      // Column r: row r of C G0 on the touched readings (+ (K'c)' D on all of them).
+      Eigen::MatrixXd At = GsT * CsT;
       if (any()) {
         Eigen::MatrixXd KC(K_.cols(), m);
         for (Eigen::Index r = 0; r < m; ++r) {
           KC.col(r).setZero();
           for (FunctionRows::InnerIterator it(C, rows[first + r]); it; ++it) KC.col(r) += it.value() * K_.row(it.col()).transpose();
         }
-        At.noalias() = Dt * KC;
-      } else {
-        At = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(touched.size()), m);
-      }
-      for (Eigen::Index j = 0; j < k; ++j) {
-        for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(G0, support[j]); it; ++it) {
-          const Eigen::Index at = any() ? it.col()
-                                        : std::lower_bound(touched.begin(), touched.end(), it.col()) - touched.begin();
-          for (Eigen::Index r = 0; r < m; ++r) At(at, r) += C.coeff(rows[first + r], support[j]) * it.value();
-        }
+        Eigen::MatrixXd full = Dt * KC;
+        for (Eigen::Index t = 0; t < nt; ++t) full.row(touched[static_cast<std::size_t>(t)]) += At.row(t);
+        At = std::move(full);
       }
       for (Eigen::Index r = 0; r < m; ++r) out(rows[first + r]) = At.col(r).lpNorm<1>();
     }
