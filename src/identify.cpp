@@ -81,21 +81,8 @@ std::string interpret_rigid_motion(const Design& design, double angle_deg, const
 }  // namespace
 
 Eigen::SparseMatrix<double> error_functions(const Parameterisation& param, int station, Eigen::Index n_unknowns) {
-  Eigen::SparseMatrix<double> C(std::max<Eigen::Index>(n_unknowns, param.n_parameters()), 6);
-  if (param.model().kind == ErrorModel::Kind::PerAngle) {
-    C.reserve(Eigen::VectorXi::Constant(6, 1));
-    for (int k = 0; k < 6; ++k) C.insert(6 * station + k, k) = 1.0;
-  } else {
-    const Eigen::VectorXd f = param.series_basis(param.station_angle_deg(station));
-    const int m = param.coefficients_per_error();
-    C.reserve(Eigen::VectorXi::Constant(6, m));
-    for (int k = 0; k < 6; ++k) {
-      for (int j = 0; j < m; ++j) {
-        if (f(j) != 0.0) C.insert(k * m + j, k) = f(j);
-      }
-    }
-  }
-  C.makeCompressed();
+  Eigen::SparseMatrix<double> C = param.error_functions(station);
+  if (n_unknowns > C.rows()) C.conservativeResize(n_unknowns, 6);
   return C;
 }
 

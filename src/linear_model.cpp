@@ -59,7 +59,7 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
         if (g(k) != 0.0) entries.emplace_back(i, 6 * station + k, g(k));
       }
     } else {
-      const Eigen::RowVectorXd row = g * param.error_map_at_angle(r.angle_deg);
+      const Eigen::VectorXd row = param.error_functions_at_angle(r.angle_deg) * g.transpose();
       for (int j = 0; j < p; ++j) {
         if (row(j) != 0.0) entries.emplace_back(i, j, row(j));
       }

@@ -113,43 +113,46 @@ Eigen::VectorXd Parameterisation::series_basis(double angle_deg) const {
   return Eigen::VectorXd::Ones(1);
 }
 
-Eigen::MatrixXd Parameterisation::error_map(int station) const {
-  if (model_.kind == ErrorModel::Kind::PerAngle) {
-    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(6, n_parameters_);
-    E.middleCols(6 * station, 6).setIdentity();
-    return E;
-  }
-  return error_map_at_angle(station_deg_[station]);
-}
-
-Eigen::MatrixXd Parameterisation::error_map_at_angle(double angle_deg) const {
-  if (model_.kind == ErrorModel::Kind::PerAngle) {
-    const int s = station_of(angle_deg);
-    if (s < 0) {
-      throw InputError("parameterisation", "angle " + format_angle(angle_deg),
-                       "a per-angle model has no errors between its measured positions");
-    }
-    return error_map(s);
-  }
-  const Eigen::VectorXd f = series_basis(angle_deg);
-  Eigen::MatrixXd E = Eigen::MatrixXd::Zero(6, n_parameters_);
-  for (int k = 0; k < 6; ++k) E.block(k, k * per_error_, 1, per_error_) = f.transpose();
+Eigen::SparseMatrix<double> Parameterisation::error_functions(int station) const {
+  if (model_.kind != ErrorModel::Kind::PerAngle) return error_functions_at_angle(station_deg_[station]);
+  Eigen::SparseMatrix<double> E(n_parameters_, 6);
+  E.reserve(Eigen::VectorXi::Constant(6, 1));
+  for (int k = 0; k < 6; ++k) E.insert(6 * station + k, k) = 1.0;
+  E.makeCompressed();
   return E;
 }
 
-Eigen::Matrix<double, 6, 1> Parameterisation::errors_at_angle(double angle_deg, const Eigen::VectorXd& theta) const {
+Eigen::SparseMatrix<double> Parameterisation::error_functions_at_angle(double angle_deg) const {
   if (model_.kind == ErrorModel::Kind::PerAngle) {
     const int s = station_of(angle_deg);
     if (s < 0) {
       throw InputError("parameterisation", "angle " + format_angle(angle_deg),
                        "a per-angle model has no errors between its measured positions");
     }
-    return theta.segment<6>(6 * s);
+    return error_functions(s);
   }
   const Eigen::VectorXd f = series_basis(angle_deg);
-  Eigen::Matrix<double, 6, 1> e;
-  for (int k = 0; k < 6; ++k) e(k) = f.dot(theta.segment(k * per_error_, per_error_));
-  return e;
+  Eigen::SparseMatrix<double> E(n_parameters_, 6);
+  E.reserve(Eigen::VectorXi::Constant(6, per_error_));
+  for (int k = 0; k < 6; ++k) {
+    for (int j = 0; j < per_error_; ++j) {
+      if (f(j) != 0.0) E.insert(k * per_error_ + j, k) = f(j);
+    }
+  }
+  E.makeCompressed();
+  return E;
+}
+
+Eigen::MatrixXd Parameterisation::error_map(int station) const {
+  return Eigen::MatrixXd(error_functions(station).transpose());
+}
+
+Eigen::MatrixXd Parameterisation::error_map_at_angle(double angle_deg) const {
+  return Eigen::MatrixXd(error_functions_at_angle(angle_deg).transpose());
+}
+
+Eigen::Matrix<double, 6, 1> Parameterisation::errors_at_angle(double angle_deg, const Eigen::VectorXd& theta) const {
+  return error_functions_at_angle(angle_deg).transpose() * theta;
 }
 
 int Parameterisation::parameter_error(int j) const {

@@ -36,7 +36,7 @@ Eigen::SparseMatrix<double, Eigen::RowMajor> budget_functions(const Parameterisa
   for (std::size_t v = 0; v < budget.values.size(); ++v) {
     if (budget.values[v].station != station) {
       station = budget.values[v].station;
-      E = error_functions(param, station, param.n_parameters());
+      E = param.error_functions(station);
     }
     for (Eigen::SparseMatrix<double>::InnerIterator it(E, budget.values[v].error); it; ++it) {
       entries.emplace_back(static_cast<int>(v), static_cast<int>(it.row()), it.value());
@@ -86,7 +86,7 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
   static const char* kSetupNames[3] = {"set-up L", "set-up D", "set-up H"};
 
   for (int s = 0; s < param.n_stations(); ++s) {
-    const Eigen::SparseMatrix<double> E = error_functions(param, s, param.n_parameters());
+    const Eigen::SparseMatrix<double> E = param.error_functions(s);
     for (int k = 0; k < 6; ++k) {
       const Estimate::Function c = E.col(k);
       const Determined d = est.evaluate(c);

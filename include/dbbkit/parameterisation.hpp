@@ -7,6 +7,7 @@
 // modulo 360 deg are one station (360 repeats 0).
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <string>
 #include <vector>
 
@@ -39,12 +40,15 @@ class Parameterisation {
   // The station of an angle, or -1 when the angle is no position of the design.
   int station_of(double angle_deg) const;
 
-  // e6 = E theta at a station (6 x n_parameters), and at any angle for a series
-  // (per_angle: the angle must be a station).
+  // The six errors at a station as functions of theta, sparse (n_parameters x 6, column k
+  // is error k, on the coefficients it reads: its station's one for a per-angle model), and
+  // at any angle for a series (per_angle: the angle must be a station).
+  Eigen::SparseMatrix<double> error_functions(int station) const;
+  Eigen::SparseMatrix<double> error_functions_at_angle(double angle_deg) const;
+  // The same as a dense map: e6 = E theta (6 x n_parameters).
   Eigen::MatrixXd error_map(int station) const;
   Eigen::MatrixXd error_map_at_angle(double angle_deg) const;
-  // The six errors at an angle, error_map_at_angle(angle) * theta, on the coefficients that
-  // angle reads (a per-angle model: its station's six).
+  // The six errors at an angle, e6 = E theta.
   Eigen::Matrix<double, 6, 1> errors_at_angle(double angle_deg, const Eigen::VectorXd& theta) const;
 
   // Parameter j: which error (0..5 = dx..ez), which station (per_angle; else -1), name.
