@@ -7,7 +7,6 @@
 #include <cmath>
 #include <functional>
 #include <limits>
-#include <map>
 #include <optional>
 #include <stdexcept>
 #include <vector>
@@ -25,6 +24,43 @@ const char* status_name(EstimateStatus status) {
   }
   return "";
 }
+
+namespace {
+
+// The connected components of the columns of A, linked through the rows they share
+// (union-find over the nonzeros, either storage order): the component of each column,
+// numbered in the order of each component's first column, and their count.
+template <typename Sparse>
+std::pair<std::vector<int>, int> column_components(const Sparse& A) {
+  const int cols = static_cast<int>(A.cols());
+  std::vector<int> parent(cols), owner(static_cast<std::size_t>(A.rows()), -1);
+  for (int j = 0; j < cols; ++j) parent[j] = j;
+  auto root = [&](int j) {
+    while (parent[j] != j) j = parent[j] = parent[parent[j]];
+    return j;
+  };
+  for (Eigen::Index outer = 0; outer < A.outerSize(); ++outer) {
+    for (typename Sparse::InnerIterator it(A, outer); it; ++it) {
+      const int j = static_cast<int>(it.col());
+      int& first = owner[static_cast<std::size_t>(it.row())];
+      if (first < 0) {
+        first = j;
+      } else {
+        parent[root(j)] = root(first);
+      }
+    }
+  }
+  std::vector<int> component(cols, -1), number(cols, -1);
+  int count = 0;
+  for (int j = 0; j < cols; ++j) {
+    int& c = number[root(j)];
+    if (c < 0) c = count++;
+    component[j] = c;
+  }
+  return {component, count};
+}
+
+}  // namespace
 
 WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options)
     : WlsSolver(Jacobian(J.sparseView()), sigma_um, options) {}
@@ -77,35 +113,7 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
   // A per-angle model splits into one small block per station; each block is
   // factorised alone and the pieces are assembled, with the rank tolerance taken
   // against the largest singular value of the whole matrix.
-  std::vector<int> parent(p);
-  for (int j = 0; j < p; ++j) parent[j] = j;
-  auto root = [&](int j) {
-    while (parent[j] != j) j = parent[j] = parent[parent[j]];
-    return j;
-  };
-  std::vector<int> row_block(n, -1);
-  for (int i = 0; i < n; ++i) {
-    int first = -1;
-    for (Jacobian::InnerIterator it(Js, i); it; ++it) {
-      const int j = static_cast<int>(it.col());
-      if (first < 0) {
-        first = j;
-      } else {
-        parent[root(j)] = root(first);
-      }
-    }
-    row_block[i] = first;
-  }
-  std::vector<int> block_of_col(p, -1), block_ids;
-  for (int j = 0; j < p; ++j) {
-    const int r = root(j);
-    if (block_of_col[r] < 0) {
-      block_of_col[r] = static_cast<int>(block_ids.size());
-      block_ids.push_back(r);
-    }
-    block_of_col[j] = block_of_col[r];
-  }
-  const int n_blocks = static_cast<int>(block_ids.size());
+  const auto [block_of_col, n_blocks] = column_components(Js);
   blocks_.assign(n_blocks, Block{});
   std::vector<int> local(p, -1);  // position of column j within its block
   for (int j = 0; j < p; ++j) {
@@ -114,7 +122,8 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
     c.push_back(j);
   }
   for (int i = 0; i < n; ++i) {
-    if (row_block[i] >= 0) blocks_[block_of_col[row_block[i]]].rows.push_back(i);
+    const Jacobian::InnerIterator first(Js, i);  // a row with no entry belongs to no block
+    if (first) blocks_[block_of_col[first.col()]].rows.push_back(i);
   }
 
   // JacobiSVD, not BDCSVD: Eigen 3.4.0's divide-and-conquer SVD fails (an index
@@ -384,28 +393,13 @@ Eigen::MatrixXd Estimate::null_directions() const {
   const Eigen::SparseMatrix<double> N = column_scale.cwiseInverse().asDiagonal() * null_space_scaled;
   const double scale = N.coeffs().size() > 0 ? N.coeffs().cwiseAbs().maxCoeff() : 0.0;
   const double tiny = 1e-9 * scale;  // |entry| <= 1e-9 * max|entry| is rounding, not structure
-  // Groups of null vectors linked through the unknowns they share (union-find).
-  std::vector<int> parent(k), owner(p, -1);
-  for (int i = 0; i < k; ++i) parent[i] = i;
-  auto root = [&](int i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
-  for (int i = 0; i < k; ++i) {
-    for (Eigen::SparseMatrix<double>::InnerIterator it(N, i); it; ++it) {
-      const int j = static_cast<int>(it.row());
-      if (owner[j] < 0) {
-        owner[j] = i;
-      } else {
-        parent[root(i)] = root(owner[j]);
-      }
-    }
-  }
-  std::map<int, std::vector<int>> groups;
-  for (int i = 0; i < k; ++i) groups[root(i)].push_back(i);
+  // Groups of null vectors linked through the unknowns they share.
+  const auto [group_of, n_groups] = column_components(N);
+  std::vector<std::vector<int>> groups(static_cast<std::size_t>(n_groups));
+  for (int i = 0; i < k; ++i) groups[static_cast<std::size_t>(group_of[i])].push_back(i);
   std::vector<std::pair<int, Eigen::VectorXd>> reduced;  // (pivot, direction), sorted by pivot at the end
   reduced.reserve(static_cast<std::size_t>(k));
-  for (const auto& [g, members] : groups) {
+  for (const std::vector<int>& members : groups) {
     std::vector<int> support;
     for (int i : members) {
       for (Eigen::SparseMatrix<double>::InnerIterator it(N, i); it; ++it) support.push_back(static_cast<int>(it.row()));
