@@ -99,10 +99,7 @@ Jacobian append_columns(const Jacobian& J, const Eigen::MatrixXd& X) {
   Jacobian out(J.rows(), J.cols() + X.cols());
   Eigen::VectorXi per_row(J.rows());
   for (Eigen::Index i = 0; i < J.rows(); ++i) {
-    int count = 0;
-    for (Jacobian::InnerIterator it(J, i); it; ++it) ++count;
-    for (Eigen::Index c = 0; c < X.cols(); ++c) count += X(i, c) != 0.0;
-    per_row(i) = count;
+    per_row(i) = static_cast<int>(J.row(i).nonZeros() + (X.row(i).array() != 0.0).count());
   }
   out.reserve(per_row);
   for (Eigen::Index i = 0; i < J.rows(); ++i) {

@@ -184,7 +184,7 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   }
 
   // Outputs: values = C theta; A = C G maps readings to values.
-  const SetupSolver::FunctionRows C = budget_functions(param, budget);
+  const FunctionRows C = budget_functions(param, budget);
   const Eigen::MatrixXd AS = setup ? setup->setup_draw_map(C) : Eigen::MatrixXd();  // per N(0, 1) set-up draw
   // Per-angle values read a handful of the readings: a sparse A saves most of the products
   // (and, without a set-up part, A is formed sparse: memory linear in the values).

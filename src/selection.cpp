@@ -28,8 +28,6 @@ std::string fmt(double x, int digits = 3) {
   return s.str();
 }
 
-Jacobian append(const Jacobian& J, const Eigen::MatrixXd& X) { return append_columns(J, X); }
-
 // Of candidates appended to one model, the one whose columns lower chi2 most, raising the rank
 // by their number; of candidates that explain the data alike (a tie, kTie: equivalent ones), the
 // latest installation's, as in forward().
@@ -121,7 +119,7 @@ class Selector {
   Jacobian model_without(const std::vector<int>& skip) const {
     Jacobian J = J0_;
     for (std::size_t b = 0; b < added_.size(); ++b) {
-      if (std::find(skip.begin(), skip.end(), static_cast<int>(b)) == skip.end()) J = append(J, added_[b].block.X);
+      if (std::find(skip.begin(), skip.end(), static_cast<int>(b)) == skip.end()) J = append_columns(J, added_[b].block.X);
     }
     return J;
   }
@@ -139,7 +137,7 @@ class Selector {
   // declared convention the latest installation's is chosen; returns it and the others.
   std::pair<int, std::vector<int>> equivalents(int best, const Jacobian& base) const {
     std::vector<int> equivalent;
-    const WlsSolver with_best(append(base, pool_[best].X), sigma_, o_.estimate);
+    const WlsSolver with_best(append_columns(base, pool_[best].X), sigma_, o_.estimate);
     for (std::size_t i = 0; i < pool_.size(); ++i) {
       if (used_[i] || static_cast<int>(i) == best || status_[i].state == CandidateState::kConfounded) continue;
       if (pool_[i].X.cols() != pool_[best].X.cols()) continue;
@@ -269,7 +267,7 @@ class Selector {
         continue;
       }
       if (best < 0) return;
-      best_est = solve(append(J_, pool_[best].X));
+      best_est = solve(append_columns(J_, pool_[best].X));
       const double threshold = o_.level / tested;
       const double dbic = bic(best_est) - bic(current_);
       if (!(best_p < threshold && dbic < 0)) {
@@ -279,7 +277,7 @@ class Selector {
       }
       // Equivalent alternatives: each spans the other modulo the current model.
       const auto [chosen, equivalent] = equivalents(best, J_);
-      if (chosen != best) best_est = solve(append(J_, pool_[chosen].X)), best = chosen;
+      if (chosen != best) best_est = solve(append_columns(J_, pool_[chosen].X)), best = chosen;
       AddedEffect a;
       a.block = pool_[best];
       for (std::size_t i = 0; i < pool_.size(); ++i) {
@@ -297,7 +295,7 @@ class Selector {
       status_[best] = {pool_[best].label, CandidateState::kAdded,
                        "step " + std::to_string(step_) + ": F = " + fmt(best_F) + ", p = " + fmt(best_p) + " < " +
                            fmt(threshold) + ", BIC change " + fmt(dbic)};
-      J_ = append(J_, pool_[best].X);
+      J_ = append_columns(J_, pool_[best].X);
       current_ = best_est;
     }
   }
@@ -307,7 +305,7 @@ class Selector {
   bool add_scanned(int f, int k, double p, double F, int scanned, int tested, const std::vector<double>& trial_chi2) {
     const ScanFamily& fam = families_[f];
     EffectBlock block = fam.alternative(*design_, *readings_, k);
-    const Estimate trial = solve(append(J_, block.X));
+    const Estimate trial = solve(append_columns(J_, block.X));
     const double threshold = o_.level / tested;
     const double dbic = bic(trial) - bic(current_) + std::log(static_cast<double>(current_.n_readings));
     if (!(p < threshold && dbic < 0)) {
@@ -332,7 +330,7 @@ class Selector {
     a.block = std::move(block);
     added_.push_back(a);
     family_used_[f] = true;
-    J_ = append(J_, added_.back().block.X);
+    J_ = append_columns(J_, added_.back().block.X);
     current_ = after;
     return true;
   }
@@ -375,7 +373,7 @@ class Selector {
     const ColumnTester tester(solver, current_, o_.estimate);
     const double tau = refined_tau(fam, k, tester);
     EffectBlock f = thermal_block(fam, tau);
-    const Estimate one = solve(append(J_, f.X));
+    const Estimate one = solve(append_columns(J_, f.X));
     Eigen::VectorXd unit = Eigen::VectorXd::Zero(one.n_unknowns);
     unit(one.n_unknowns - 1) = 1.0;
     const double plateau = one.evaluate(unit).value;
@@ -389,7 +387,7 @@ class Selector {
     EffectBlock two = f;
     two.X.conservativeResize(Eigen::NoChange, 2);
     two.X.col(1) = deriv;
-    const Estimate with_tau = solve(append(J_, two.X));
+    const Estimate with_tau = solve(append_columns(J_, two.X));
     if (with_tau.rank - one.rank < 1) {  // tau not determined (a plateau of zero): the one-column block
       fit = one;
       return f;
@@ -529,7 +527,7 @@ class Selector {
         for (std::size_t i = 0; i < pool_.size(); ++i) {
           const EffectBlock& b = pool_[i];
           if (b.effect.kind != kind || b.effect.installation < 0 || !b.not_applicable.empty() || used_[i]) continue;
-          const Jacobian trial = append(alt, b.X);
+          const Jacobian trial = append_columns(alt, b.X);
           const int r = rank_of(trial);
           if (r - rank < b.X.cols()) continue;
           alt = trial, rank = r;
@@ -544,11 +542,11 @@ class Selector {
         Jacobian alt = J0_;
         for (std::size_t a = 0; a < added_.size(); ++a) {
           if (std::find(per_added.begin(), per_added.end(), static_cast<int>(a)) == per_added.end()) {
-            alt = append(alt, added_[a].block.X);
+            alt = append_columns(alt, added_[a].block.X);
           }
         }
         const int base_rank = rank_of(alt);
-        alt = append(alt, pool_[whole].X);
+        alt = append_columns(alt, pool_[whole].X);
         const Estimate alt_est = solve(alt);
         if (alt_est.rank - base_rank < pool_[whole].X.cols()) continue;  // confounded with what remains
         for (int a : per_added) c.chosen.push_back(added_[a].block.label);
@@ -694,7 +692,7 @@ class Selector {
         }
         if (!best.block) break;
         by.push_back(*best.block);
-        M = append(M, best.block->X);
+        M = append_columns(M, best.block->X);
         const double chi2 = chi2_before - best.test.delta_chi2;
         double extra = 0;
         for (const EffectBlock& b : by) extra += cost(b);

@@ -118,9 +118,9 @@ Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
     Dt = ((M * base_->J()) * base_->gain() - M).transpose();
   }
   // Rows with the same support (a series: one error's coefficients; per angle: one station)
-  // go together, at most kChunk rows at a time, formed transposed so that each row's values
-  // are contiguous. c'G0 is summed from the sparse rows of G0 on the support: without a
-  // set-up part, on the readings those rows touch alone.
+  // go together through one dense product on that support and the readings its rows of G0
+  // touch, at most kChunk rows at a time, formed transposed so that each row's values are
+  // contiguous; with a set-up part, (K'c)' D adds a value at every reading.
   std::map<std::vector<Eigen::Index>, std::vector<Eigen::Index>> groups;
   for (Eigen::Index i = 0; i < C.rows(); ++i) {
     std::vector<Eigen::Index> support;
@@ -131,23 +131,20 @@ Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
   }
   constexpr std::size_t kChunk = 256;
   Eigen::VectorXd out = Eigen::VectorXd::Zero(C.rows());
-  std::vector<Eigen::Index> touched;
-  std::vector<char> seen(static_cast<std::size_t>(n), 0);
+  std::vector<Eigen::Index> touched;                    // the readings the support's rows of G0 touch
+  std::vector<Eigen::Index> at(static_cast<std::size_t>(n), -1);  // a reading's place among them
   for (const auto& [support, rows] : groups) {
     const Eigen::Index k = static_cast<Eigen::Index>(support.size());
-    touched.clear();
     for (Eigen::Index j = 0; j < k; ++j) {
       for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(G0, support[j]); it; ++it) {
-        if (!seen[it.col()]) seen[it.col()] = 1, touched.push_back(it.col());
+        if (at[it.col()] < 0) at[it.col()] = static_cast<Eigen::Index>(touched.size()), touched.push_back(it.col());
       }
     }
-    for (Eigen::Index t : touched) seen[t] = 0;
-    std::sort(touched.begin(), touched.end());
     const Eigen::Index nt = static_cast<Eigen::Index>(touched.size());
     Eigen::MatrixXd GsT = Eigen::MatrixXd::Zero(nt, k);  // (the rows of G0 on the support)', touched readings
     for (Eigen::Index j = 0; j < k; ++j) {
       for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(G0, support[j]); it; ++it) {
-        GsT(std::lower_bound(touched.begin(), touched.end(), it.col()) - touched.begin(), j) = it.value();
+        GsT(at[it.col()], j) = it.value();
       }
     }
     for (std::size_t first = 0; first < rows.size(); first += kChunk) {
@@ -170,6 +167,8 @@ Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
       }
       for (Eigen::Index r = 0; r < m; ++r) out(rows[first + r]) = At.col(r).lpNorm<1>();
     }
+    for (Eigen::Index t : touched) at[t] = -1;
+    touched.clear();
   }
   return out;
 }

@@ -29,7 +29,7 @@ std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& co
   return uc2 * uc2 / denom;
 }
 
-Eigen::SparseMatrix<double, Eigen::RowMajor> budget_functions(const Parameterisation& param, const Budget& budget) {
+FunctionRows budget_functions(const Parameterisation& param, const Budget& budget) {
   std::vector<Eigen::Triplet<double>> entries;
   int station = -1;
   Eigen::SparseMatrix<double> E;
@@ -42,7 +42,7 @@ Eigen::SparseMatrix<double, Eigen::RowMajor> budget_functions(const Parameterisa
       entries.emplace_back(static_cast<int>(v), static_cast<int>(it.row()), it.value());
     }
   }
-  Eigen::SparseMatrix<double, Eigen::RowMajor> C(static_cast<Eigen::Index>(budget.values.size()), param.n_parameters());
+  FunctionRows C(static_cast<Eigen::Index>(budget.values.size()), param.n_parameters());
   C.setFromTriplets(entries.begin(), entries.end());
   return C;
 }

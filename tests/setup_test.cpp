@@ -510,14 +510,14 @@ TEST(LeftGain, IsTheEstimatesResponseAndItsRowNormsAreFormedWithoutIt) {
       ASSERT_EQ(setup.any(), tolerances);
       Eigen::MatrixXd C(6 * param.n_stations(), param.n_parameters());
       for (int s = 0; s < param.n_stations(); ++s) C.middleRows(6 * s, 6) = param.error_map(s);
-      const Eigen::MatrixXd A = setup.left_gain(SetupSolver::FunctionRows(C.sparseView()));
+      const Eigen::MatrixXd A = setup.left_gain(FunctionRows(C.sparseView()));
       std::mt19937 rng(4);
       std::normal_distribution<double> z(0.0, 3.0);
       Eigen::VectorXd y(model.J.rows());
       for (Eigen::Index i = 0; i < y.size(); ++i) y(i) = z(rng);
       const Eigen::VectorXd response = C * setup.solve(y).theta;
       EXPECT_TRUE(test::near(A * y, response, 1e-9 * response.cwiseAbs().maxCoeff())) << tolerances;
-      const Eigen::VectorXd l1 = setup.left_gain_l1(SetupSolver::FunctionRows(C.sparseView()));
+      const Eigen::VectorXd l1 = setup.left_gain_l1(FunctionRows(C.sparseView()));
       const Eigen::VectorXd expected = A.rowwise().lpNorm<1>();
       EXPECT_TRUE(test::near(l1, expected, 1e-12 * expected.maxCoeff(), 1e-10)) << tolerances;
     }

@@ -108,6 +108,10 @@ struct Estimate {
   Eigen::MatrixXd null_directions() const;
 };
 
+// Linear functions of theta, one a row (values x unknowns), stored sparse: a budget's values,
+// the rows of a left gain.
+using FunctionRows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+
 // The factorisation of a design's Jacobian, done once and reused for any
 // number of reading vectors (Monte Carlo, coverage studies, a-priori evaluation).
 //

@@ -63,8 +63,6 @@ std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<R
 
 class SetupSolver {
  public:
-  // Functions of theta, one a row (values x unknowns), stored sparse.
-  using FunctionRows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
   // `base` must outlive the solver.
   SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& declared);
 

@@ -70,7 +70,7 @@ std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& co
 class SetupSolver;
 
 // The functions c.theta of the budget's values, one row each (values x parameters), sparse.
-Eigen::SparseMatrix<double, Eigen::RowMajor> budget_functions(const Parameterisation& param, const Budget& budget);
+FunctionRows budget_functions(const Parameterisation& param, const Budget& budget);
 
 // Throws InputError when Type A is asked for and the residual has no degrees of freedom.
 // With `setup` (declared length offset and centring tolerances), `est` is its estimate
