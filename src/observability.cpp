@@ -64,15 +64,11 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
     if (e_min) c.E_min_eigenvalue = *e_min;
   }
   // Hat matrix H = J G (similar to the whitened one, same diagonal): h_i = J_i . G_{:,i}.
-  double h_max = 0;
-  bool any = false;
-  for (int i = 0; i < static_cast<int>(solver.J().rows()); ++i) {
-    double h = 0;
-    for (Jacobian::InnerIterator x(solver.J(), i); x; ++x) h += x.value() * solver.gain().coeff(x.col(), i);
-    h_max = any ? std::max(h_max, h) : h;
-    any = true;
+  Eigen::VectorXd h = Eigen::VectorXd::Zero(solver.J().rows());  // n >= 1 past the early return
+  for (Eigen::Index i = 0; i < h.size(); ++i) {
+    for (Jacobian::InnerIterator x(solver.J(), i); x; ++x) h(i) += x.value() * solver.gain().coeff(x.col(), i);
   }
-  c.G_max_leverage = h_max;
+  c.G_max_leverage = h.maxCoeff();
   return c;
 }
 
