@@ -162,20 +162,29 @@ Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, dou
   return row;
 }
 
+ReadingLayout::ReadingLayout(const Design& design, const std::vector<Reading>& readings)
+    : start_s(installation_start_times(design, readings)), test_start_s(test_start_time(readings)) {
+  const auto index = design.installation_index();
+  installation.reserve(readings.size());
+  for (const Reading& r : readings) installation.push_back(index.at(r.installation));
+}
+
 EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings, const EffectCandidate& e) {
+  return effect_block(design, readings, ReadingLayout(design, readings), e);
+}
+
+EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings, const ReadingLayout& layout,
+                         const EffectCandidate& e) {
   EffectBlock b;
   b.effect = e;
   b.label = e.label(design);
   b.unit = effect_unit(e.kind);
   const std::vector<std::string> names = effect_parameter_names(e.kind);
-  const std::vector<double> t0 = installation_start_times(design, readings);
-  const double t_test = test_start_time(readings);
   Eigen::MatrixXd full(static_cast<Eigen::Index>(readings.size()), static_cast<Eigen::Index>(names.size()));
   bool time_missing = false, cw = false, ccw = false, bar_missing = false;
-  const auto index = design.installation_index();
   for (std::size_t i = 0; i < readings.size(); ++i) {
     const Reading& r = readings[i];
-    const int inst = index.at(r.installation);
+    const int inst = layout.installation[i];
     const bool applies = e.installation < 0 || e.installation == inst;
     if (applies) {
       time_missing = time_missing || !r.time_s;
@@ -183,7 +192,7 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
       ccw = ccw || (r.sweep && *r.sweep == Sweep::CCW);
       bar_missing = bar_missing || !design.installations[inst].bar_mm;
     }
-    const double start = e.installation < 0 ? t_test : t0[inst];
+    const double start = e.installation < 0 ? layout.test_start_s : layout.start_s[inst];
     full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, start, e).transpose();
   }
   if ((e.kind == EffectKind::Drift || e.kind == EffectKind::Thermal) && time_missing) b.not_applicable = "needs time_s on every reading it applies to";
@@ -206,18 +215,19 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
 
 std::vector<EffectBlock> candidate_effects(const Design& design, const std::vector<Reading>& readings) {
   std::vector<EffectBlock> out;
+  const ReadingLayout layout(design, readings);
   for (EffectKind k : {EffectKind::LengthOffset, EffectKind::Centring, EffectKind::Drift, EffectKind::Reversal}) {
     for (std::size_t i = 0; i < design.installations.size(); ++i) {
-      out.push_back(effect_block(design, readings, {k, static_cast<int>(i)}));
+      out.push_back(effect_block(design, readings, layout, {k, static_cast<int>(i)}));
     }
     // The same effect once for the whole test: a length change common to every reading (the
     // bar's own length), one drift on the test's clock, one reversal of every installation.
-    if (effect_has_whole_test_form(k)) out.push_back(effect_block(design, readings, {k, -1}));
+    if (effect_has_whole_test_form(k)) out.push_back(effect_block(design, readings, layout, {k, -1}));
   }
   // Shared effects one parameter at a time: part of a scale or squareness can be
   // confounded (an isotropic scale is a length offset) while the rest is not.
   for (EffectKind k : {EffectKind::Scale, EffectKind::Squareness}) {
-    for (int c = 0; c < 3; ++c) out.push_back(effect_block(design, readings, {k, -1, c}));
+    for (int c = 0; c < 3; ++c) out.push_back(effect_block(design, readings, layout, {k, -1, c}));
   }
   return out;
 }
@@ -276,10 +286,11 @@ std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Re
     th.not_applicable = "needs readings at more than one time";
   } else {
     const double T_min = (t1 - t0) / 60.0;
+    const ReadingLayout layout(design, readings);
     for (int k = 0; k < kThermalTaus; ++k) {
       EffectCandidate c = th.effect;
       c.tau_min = T_min / 20.0 * std::pow(40.0, k / double(kThermalTaus - 1));
-      th.alternatives.push_back(effect_block(design, readings, c));
+      th.alternatives.push_back(effect_block(design, readings, layout, c));
     }
   }
   out.push_back(th);

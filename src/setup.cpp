@@ -26,12 +26,13 @@ std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& 
 
 std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<Reading>& rows, bool only_declared) {
   std::vector<SetupEffect> out;
+  const ReadingLayout layout(design, rows);
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
     const SetupUncertainty u = design.setup_of(i);
     for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Centring}) {
       const double std_um = kind == EffectKind::LengthOffset ? u.length_offset_um : u.centring_um;
       if (only_declared && !(std_um > 0)) continue;
-      EffectBlock block = effect_block(design, rows, {kind, i});
+      EffectBlock block = effect_block(design, rows, layout, {kind, i});
       if (!block.not_applicable.empty()) continue;  // changes no reading of these rows
       out.push_back({kind, i, std::move(block.label), std::move(block.parameters), std::move(block.X), std_um});
     }

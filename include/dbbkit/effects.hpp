@@ -85,8 +85,20 @@ struct EffectBlock {
   std::string not_applicable;           // why the effect cannot be formed from these readings, or empty
 };
 
+// Where each reading belongs and when each installation and the test begin, found once for
+// the many effect blocks of one set of readings (one pass over the readings, so building a
+// block per installation stays linear in the readings per block).
+struct ReadingLayout {
+  ReadingLayout(const Design& design, const std::vector<Reading>& readings);
+  std::vector<int> installation;  // per reading, its installation's index
+  std::vector<double> start_s;    // per installation, installation_start_times
+  double test_start_s;            // test_start_time
+};
+
 // The columns of an effect over the readings; all-zero columns are dropped.
 EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings, const EffectCandidate& effect);
+EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings, const ReadingLayout& layout,
+                         const EffectCandidate& effect);
 
 // Every effect of the library that the readings could show (applicable or not, with the reason).
 std::vector<EffectBlock> candidate_effects(const Design& design, const std::vector<Reading>& readings);
