@@ -66,7 +66,8 @@ Runner add_identify(CLI::App& app) {
       report_progress(unc->mc, rep->quiet);
       mc = monte_carlo(design, result, unc->mc);
     }
-    nlohmann::json j = io::identify_to_json(design, readings, result, {args->design, args->data}, mc ? &*mc : nullptr);
+    nlohmann::json j =
+        io::identify_to_json(design, readings, result, {args->design, args->data}, mc ? &*mc : nullptr, false);
     if (conformance) j["conformance"] = io::conformance_to_json(*conformance, args->tolerances);
     const io::RunContext run{command_line(), inputs};
     if (!rep->report.empty()) {
@@ -78,7 +79,12 @@ Runner add_identify(CLI::App& app) {
       outputs.stage("--summary", io::identify_report(io::ReportFormat::Markdown, run, design, readings, result,
                                                      mc ? &*mc : nullptr, conformance ? &*conformance : nullptr));
     }
-    if (!json_out.empty()) outputs.stage("--out", j.dump(2) + "\n");
+    if (!json_out.empty()) {
+      const std::size_t rows = std::min(readings.size(), static_cast<std::size_t>(result.estimate.residual_um.size()));
+      outputs.stage("--out", io::json_text(j, "readings", rows, [&](std::size_t i) {
+                      return io::identify_reading_row(readings, result.estimate, i);
+                    }) + "\n");
+    }
     outputs.commit();
     if (tables_to_stdout(args->out, rep->quiet)) {
       std::cout << io::identify_summary(design, result);

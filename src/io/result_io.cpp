@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <sstream>
+#include <stdexcept>
 
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/kinematics.hpp"
@@ -226,7 +227,7 @@ json identify_setup_to_json(const Design& design, const IdentifyResult& result) 
 }
 
 json identify_to_json(const Design& design, const std::vector<Reading>& readings, const IdentifyResult& result,
-                      const InputFiles& inputs, const MonteCarloResult* mc) {
+                      const InputFiles& inputs, const MonteCarloResult* mc, bool with_readings) {
   const Estimate& est = result.estimate;
   json j = result_header("dbbkit.identify/1", design, inputs);
   j["uncertainty"] = "std: combined standard uncertainty u_c (k = 1); U: expanded uncertainty k u_c (see budget)";
@@ -260,17 +261,56 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
     j["parameters"] = params;
   }
 
-  json rows = json::array();
-  for (size_t i = 0; i < readings.size() && i < static_cast<size_t>(est.residual_um.size()); ++i) {
-    const Reading& r = readings[i];
-    rows.push_back({{"installation", r.installation},
-                    {"angle_deg", r.angle_deg},
-                    {"reading_um", r6(r.reading_um)},
-                    {"fitted_um", r6(r.reading_um - est.residual_um(i))},
-                    {"residual_um", r6(est.residual_um(i))}});
+  if (with_readings) {
+    json rows = json::array();
+    for (std::size_t i = 0; i < readings.size() && i < static_cast<std::size_t>(est.residual_um.size()); ++i) {
+      rows.push_back(identify_reading_row(readings, est, i));
+    }
+    j["readings"] = rows;
   }
-  j["readings"] = rows;
   return j;
+}
+
+json identify_reading_row(const std::vector<Reading>& readings, const Estimate& est, std::size_t i) {
+  const Reading& r = readings[i];
+  const Eigen::Index k = static_cast<Eigen::Index>(i);
+  return {{"installation", r.installation},
+          {"angle_deg", r.angle_deg},
+          {"reading_um", r6(r.reading_um)},
+          {"fitted_um", r6(r.reading_um - est.residual_um(k))},
+          {"residual_um", r6(est.residual_um(k))}};
+}
+
+std::string json_text(const json& j, const std::string& key, std::size_t count,
+                      const std::function<json(std::size_t)>& row) {
+  if (j.contains(key)) throw std::logic_error("json_text: the document holds \"" + key + "\" already");
+  // A placeholder no value of the document can spell (a control character is escaped in a
+  // dumped string), replaced by the array written row by row at the indent of a top-level key.
+  json doc = j;
+  const std::string mark = "\\u0001rows\\u0001";
+  doc[key] = "\x01rows\x01";
+  const std::string text = doc.dump(2);
+  const std::string slot = "\"" + mark + "\"";
+  const std::size_t at = text.find(slot);
+  if (at == std::string::npos) throw std::logic_error("json_text: placeholder not found");
+  std::string out = text.substr(0, at);
+  if (count == 0) {
+    out += "[]";
+  } else {
+    out += "[\n";
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::string r = row(i).dump(2);
+      out += "    ";
+      for (char c : r) {
+        out += c;
+        if (c == '\n') out += "    ";
+      }
+      out += i + 1 < count ? ",\n" : "\n";
+    }
+    out += "  ]";
+  }
+  out.append(text, at + slot.size(), std::string::npos);
+  return out;
 }
 
 std::string identify_summary(const Design& design, const IdentifyResult& result) {
