@@ -9,6 +9,7 @@
 #include <limits>
 #include <optional>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace dbbkit {
@@ -60,7 +61,103 @@ std::pair<std::vector<int>, int> column_components(const Sparse& A) {
   return {component, count};
 }
 
+// Js without the entries of the columns flagged.
+Jacobian without_columns(const Jacobian& Js, const std::vector<char>& drop) {
+  Jacobian out = Js;
+  for (Eigen::Index i = 0; i < out.outerSize(); ++i) {
+    for (Jacobian::InnerIterator it(out, i); it; ++it) {
+      if (drop[static_cast<std::size_t>(it.col())]) it.valueRef() = 0.0;
+    }
+  }
+  out.prune(0.0);
+  return out;
+}
+
+// The border columns of Js (EstimateOptions): ascending, or empty when the blocks are to be
+// factorised whole.
+std::vector<int> border_columns(const Jacobian& Js, const EstimateOptions& o) {
+  const int p = static_cast<int>(Js.cols());
+  if (o.border_min_columns <= 0 || p <= o.border_min_columns) return {};
+  const auto [component, count] = column_components(Js);
+  std::vector<std::vector<int>> members(static_cast<std::size_t>(count));
+  for (int j = 0; j < p; ++j) members[static_cast<std::size_t>(component[j])].push_back(j);
+  std::vector<int> nonzeros(static_cast<std::size_t>(p), 0);
+  for (Eigen::Index i = 0; i < Js.outerSize(); ++i) {
+    for (Jacobian::InnerIterator it(Js, i); it; ++it) ++nonzeros[static_cast<std::size_t>(it.col())];
+  }
+  std::vector<int> border;
+  for (const std::vector<int>& cols : members) {
+    if (static_cast<int>(cols.size()) <= o.border_min_columns) continue;
+    std::vector<int> counts;
+    counts.reserve(cols.size());
+    for (int j : cols) counts.push_back(nonzeros[static_cast<std::size_t>(j)]);
+    std::nth_element(counts.begin(), counts.begin() + static_cast<std::ptrdiff_t>(counts.size() / 2), counts.end());
+    const double median = counts[counts.size() / 2];
+    const double threshold = std::max(static_cast<double>(o.border_min_nonzeros), o.border_nonzeros_factor * median);
+    for (int j : cols) {
+      if (nonzeros[static_cast<std::size_t>(j)] > threshold) border.push_back(j);
+    }
+  }
+  if (border.empty() || static_cast<int>(border.size()) > o.border_max_columns) return {};
+  std::vector<char> drop(static_cast<std::size_t>(p), 0);
+  for (int j : border) drop[static_cast<std::size_t>(j)] = 1;
+  const auto [rest, rest_count] = column_components(without_columns(Js, drop));
+  std::vector<int> size(static_cast<std::size_t>(rest_count), 0);
+  for (int j = 0; j < p; ++j) {
+    if (!drop[static_cast<std::size_t>(j)]) ++size[static_cast<std::size_t>(rest[j])];
+  }
+  if (*std::max_element(size.begin(), size.end()) > o.border_min_columns / 2) return {};
+  std::sort(border.begin(), border.end());
+  return border;
+}
+
 }  // namespace
+
+Gain::Gain(Sparse sparse, Eigen::MatrixXd U, Eigen::MatrixXd V)
+    : sparse_(std::move(sparse)), U_(std::move(U)), V_(std::move(V)) {}
+
+Eigen::MatrixXd Gain::operator*(const Eigen::MatrixXd& M) const {
+  Eigen::MatrixXd out = sparse_ * M;
+  if (low_rank()) out.noalias() += U_ * (V_ * M);
+  return out;
+}
+
+Eigen::VectorXd Gain::operator*(const Eigen::VectorXd& y) const {
+  Eigen::VectorXd out = sparse_ * y;
+  if (low_rank()) out.noalias() += U_ * (V_ * y);
+  return out;
+}
+
+FunctionRows Gain::left(const FunctionRows& C) const {
+  FunctionRows out = C * sparse_;
+  if (low_rank()) {
+    const Eigen::MatrixXd dense = (C * U_) * V_;
+    out = out + FunctionRows(dense.sparseView(1.0, 0.0));
+  }
+  return out;
+}
+
+Eigen::MatrixXd Gain::left(const Eigen::MatrixXd& M) const {
+  Eigen::MatrixXd out = M * sparse_;
+  if (low_rank()) out.noalias() += (M * U_) * V_;
+  return out;
+}
+
+Eigen::VectorXd Gain::col(Eigen::Index i) const {
+  Eigen::VectorXd out = sparse_.col(i);
+  if (low_rank()) out.noalias() += U_ * V_.col(i);
+  return out;
+}
+
+double WlsSolver::leverage(Eigen::Index i) const {
+  double h = 0;
+  for (Jacobian::InnerIterator x(J_, i); x; ++x) {
+    double g = gain_.sparse().coeff(x.col(), i);
+    if (gain_.low_rank()) g += gain_.U().row(x.col()).dot(gain_.V().col(i));
+    h += x.value() * g;
+  }
+  return h;
+}
 
 WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options)
     : WlsSolver(Jacobian(J.sparseView()), sigma_um, options) {}
@@ -76,7 +173,7 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
   est.estimable_tolerance = options.estimable_tolerance;
   est.covariance.resize(p, p);
   est.null_space_scaled.resize(p, 0);
-  gain_.resize(p, n);
+  gain_ = Gain(Gain::Sparse(p, n), Eigen::MatrixXd(), Eigen::MatrixXd());
   if (n == 0) {
     est.status = EstimateStatus::kNoReadings;
     est.message = "no readings: nothing can be estimated";
@@ -113,16 +210,31 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
   // A per-angle model splits into one small block per station; each block is
   // factorised alone and the pieces are assembled, with the rank tolerance taken
   // against the largest singular value of the whole matrix.
-  const auto [block_of_col, n_blocks] = column_components(Js);
+  // Border columns (EstimateOptions) are set aside: the blocks are those of the rest (Jb).
+  border_ = border_columns(Js, options);
+  std::vector<char> is_border(static_cast<std::size_t>(p), 0);
+  for (int j : border_) is_border[static_cast<std::size_t>(j)] = 1;
+  const Jacobian Jb = border_.empty() ? Jacobian() : without_columns(Js, is_border);
+  const Jacobian& Jblocks = border_.empty() ? Js : Jb;
+  const auto [component_of_col, n_components] = column_components(Jblocks);
+  std::vector<int> block_of_col(static_cast<std::size_t>(p), -1), number(static_cast<std::size_t>(n_components), -1);
+  int n_blocks = 0;
+  for (int j = 0; j < p; ++j) {
+    if (is_border[static_cast<std::size_t>(j)]) continue;
+    int& b = number[static_cast<std::size_t>(component_of_col[j])];
+    if (b < 0) b = n_blocks++;
+    block_of_col[static_cast<std::size_t>(j)] = b;
+  }
   blocks_.assign(n_blocks, Block{});
   std::vector<int> local(p, -1);  // position of column j within its block
   for (int j = 0; j < p; ++j) {
+    if (is_border[static_cast<std::size_t>(j)]) continue;
     std::vector<int>& c = blocks_[block_of_col[j]].cols;
     local[j] = static_cast<int>(c.size());
     c.push_back(j);
   }
   for (int i = 0; i < n; ++i) {
-    const Jacobian::InnerIterator first(Js, i);  // a row with no entry belongs to no block
+    const Jacobian::InnerIterator first(Jblocks, i);  // a row with no entry belongs to no block
     if (first) blocks_[block_of_col[first.col()]].rows.push_back(i);
   }
 
@@ -143,7 +255,7 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
     Eigen::MatrixXd sub = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(blk.rows.size()),
                                                 static_cast<Eigen::Index>(blk.cols.size()));
     for (std::size_t r = 0; r < blk.rows.size(); ++r) {
-      for (Jacobian::InnerIterator it(Js, blk.rows[r]); it; ++it) sub(static_cast<Eigen::Index>(r), local[it.col()]) = it.value();
+      for (Jacobian::InnerIterator it(Jblocks, blk.rows[r]); it; ++it) sub(static_cast<Eigen::Index>(r), local[it.col()]) = it.value();
     }
     return sub;
   };
@@ -235,14 +347,74 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
       }
     }
   }
-  gain_.setFromTriplets(gain_entries.begin(), gain_entries.end());
+  Gain::Sparse G0(p, n);
+  G0.setFromTriplets(gain_entries.begin(), gain_entries.end());
   est.covariance.setFromTriplets(cov_entries.begin(), cov_entries.end());
+  if (border_.empty()) {
+    gain_ = Gain(std::move(G0), Eigen::MatrixXd(), Eigen::MatrixXd());
+  } else {
+    // The border X (n x q, original units) through what the blocks cannot reproduce:
+    //   K = G0 X,  R = W^1/2 (X - J0 K),  S = R'R,
+    //   beta = S^+ R' W^1/2 y,  theta0 = G0 (y - X beta),
+    // so G = G0 + U V with U = [-K; I] (the border's rows), V = S^+ R' W^1/2, and the
+    // covariance is that of the blocks plus U S^+ U'. S^+ from the eigen-decomposition of
+    // D S D, D = diag(1 / |W^1/2 X_j|), on the eigenvalues above min_relative_singular_value.
+    const int q = static_cast<int>(border_.size());
+    std::vector<int> position(static_cast<std::size_t>(p), -1);
+    for (int k = 0; k < q; ++k) position[static_cast<std::size_t>(border_[k])] = k;
+    Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, q);
+    for (int i = 0; i < n; ++i) {
+      for (Jacobian::InnerIterator it(J_, i); it; ++it) {
+        const int k = position[static_cast<std::size_t>(it.col())];
+        if (k >= 0) X(i, k) = it.value();
+      }
+    }
+    const Eigen::MatrixXd K = G0 * X;  // zero in the border's rows
+    const Eigen::MatrixXd R = w.asDiagonal() * (X - J_ * K);
+    Eigen::VectorXd d(q);
+    for (int k = 0; k < q; ++k) d(k) = 1.0 / est.column_scale(border_[k]);
+    const Eigen::MatrixXd Sn = d.asDiagonal() * (R.transpose() * R) * d.asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Sn);
+    const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
+    Eigen::MatrixXd S_plus = Eigen::MatrixXd::Zero(q, q);
+    std::vector<Eigen::VectorXd> border_null;
+    for (int k = 0; k < q; ++k) {
+      const Eigen::VectorXd z = eig.eigenvectors().col(k);
+      all_s.push_back(std::sqrt(std::max(0.0, lambda(k))));
+      if (lambda(k) > options.min_relative_singular_value) {
+        S_plus.noalias() += (d.asDiagonal() * z) * (d.asDiagonal() * z).transpose() / lambda(k);
+        ++rank;
+        continue;
+      }
+      // theta0 = -K v, beta = v with v = D z, in the scaled unknowns; orthogonal to the
+      // blocks' null space (K's columns lie in the row space of the blocks).
+      const Eigen::VectorXd v = d.asDiagonal() * z;
+      Eigen::VectorXd u = -(K * v);
+      for (int k2 = 0; k2 < q; ++k2) u(border_[k2]) = v(k2);
+      u = est.column_scale.cwiseProduct(u);
+      for (const Eigen::VectorXd& b : border_null) u -= b.dot(u) * b;
+      if (!(u.norm() > 0)) continue;
+      border_null.push_back(u / u.norm());
+    }
+    for (const Eigen::VectorXd& b : border_null) {
+      for (int j = 0; j < p; ++j) {
+        if (b(j) != 0.0) null_entries.emplace_back(j, n_null, b(j));
+      }
+      ++n_null;
+    }
+    Eigen::MatrixXd U = -K;
+    for (int k = 0; k < q; ++k) U(border_[k], k) = 1.0;
+    Eigen::MatrixXd V = S_plus * R.transpose() * w.asDiagonal();
+    est.covariance_K = U;
+    est.covariance_S = S_plus;
+    gain_ = Gain(std::move(G0), std::move(U), std::move(V));
+  }
   est.null_space_scaled.resize(p, n_null);
   est.null_space_scaled.setFromTriplets(null_entries.begin(), null_entries.end());
   std::sort(all_s.begin(), all_s.end(), std::greater<double>());
   est.singular_values = Eigen::Map<Eigen::VectorXd>(all_s.data(), static_cast<Eigen::Index>(all_s.size()));
   est.rank = rank;
-  if (rank > 0) est.condition_number = s_max / s_min_kept;
+  if (rank > 0 && border_.empty()) est.condition_number = s_max / s_min_kept;
   est.dof = n - rank;
 
   if (rank == p) {

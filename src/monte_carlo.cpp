@@ -22,6 +22,7 @@ using detail::splitmix64;
 using detail::Xoshiro256pp;
 
 constexpr long kChunk = 1000;  // trials per random stream; streams are independent of the thread count
+constexpr long kFactoredSlab = 50;  // trials per product when the gain is not formed
 constexpr int kBins = 4096;    // bins of a quantile window
 
 struct Stats {
@@ -188,21 +189,30 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   const Eigen::MatrixXd AS = setup ? setup->setup_draw_map(C) : Eigen::MatrixXd();  // per N(0, 1) set-up draw
   // Per-angle values read a handful of the readings: a sparse A saves most of the products
   // (and, without a set-up part, A is formed sparse: memory linear in the values).
-  Eigen::MatrixXd A;
+  // With a set-up part, A is dense (values x readings); beyond max_dense_gain_bytes it is
+  // not formed and A V is taken as a product (SetupSolver::left_gain_times).
+  Eigen::MatrixXd A, L;
   Eigen::SparseMatrix<double, Eigen::RowMajor> A_sparse;
-  if (setup && setup->any()) {
+  const double a_size = static_cast<double>(n_out) * n;
+  const bool factored = setup && setup->any() && a_size * sizeof(double) > static_cast<double>(options.max_dense_gain_bytes);
+  if (factored) {
+    L = setup->left_gain_setup(C);
+  } else if (setup && setup->any()) {
     A = setup->left_gain(C);
     A_sparse = A.sparseView(1.0, 1e-300);
   } else {
-    A_sparse = C * solver.gain();
+    A_sparse = solver.gain().left(C);
   }
-  const double a_size = static_cast<double>(n_out) * n;
-  const bool sparse = static_cast<double>(A_sparse.nonZeros()) < a_size / 4;
-  if (!sparse && A.size() == 0) A = Eigen::MatrixXd(A_sparse);
-  const Eigen::VectorXd base = A_sparse * (model.J * est.theta);
+  const bool sparse = !factored && static_cast<double>(A_sparse.nonZeros()) < a_size / 4;
+  if (!factored && !sparse && A.size() == 0) A = Eigen::MatrixXd(A_sparse);
+  const Eigen::VectorXd fitted = model.J * est.theta;
+  const Eigen::VectorXd base = factored ? Eigen::VectorXd(setup->left_gain_times(C, L, fitted)) : Eigen::VectorXd(A_sparse * fitted);
   const std::vector<SetupInput> inputs = setup_inputs(design);
   Eigen::MatrixXd AD;
-  if (!inputs.empty()) AD = A_sparse * setup_sensitivity(design, param, model, inputs, est.theta);
+  if (!inputs.empty()) {
+    const Eigen::MatrixXd D = setup_sensitivity(design, param, model, inputs, est.theta);
+    AD = factored ? setup->left_gain_times(C, L, D) : Eigen::MatrixXd(A_sparse * D);
+  }
   const int q_setup = static_cast<int>(AS.cols());
 
   const bool type_a = budget.type_a_scale.has_value();
@@ -234,7 +244,13 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
         double* v = V.data();
         for (long k = 0; k < n * kChunk; ++k) v[k] = noise.std_um * n01(rng);
       }
-      if (sparse) {
+      if (factored) {  // in slabs of trials: G0 V is unknowns x slab
+        out.resize(n_out, kChunk);
+        for (long t = 0; t < kChunk; t += kFactoredSlab) {
+          const long w = std::min(kFactoredSlab, kChunk - t);
+          out.middleCols(t, w) = setup->left_gain_times(C, L, V.middleCols(t, w));
+        }
+      } else if (sparse) {
         out.noalias() = A_sparse * V;
       } else {
         out.noalias() = A * V;

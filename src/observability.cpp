@@ -65,9 +65,7 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
   }
   // Hat matrix H = J G (similar to the whitened one, same diagonal): h_i = J_i . G_{:,i}.
   Eigen::VectorXd h = Eigen::VectorXd::Zero(solver.J().rows());  // n >= 1 past the early return
-  for (Eigen::Index i = 0; i < h.size(); ++i) {
-    for (Jacobian::InnerIterator x(solver.J(), i); x; ++x) h(i) += x.value() * solver.gain().coeff(x.col(), i);
-  }
+  for (Eigen::Index i = 0; i < h.size(); ++i) h(i) = solver.leverage(i);
   c.G_max_leverage = h.maxCoeff();
   return c;
 }

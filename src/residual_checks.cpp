@@ -110,6 +110,11 @@ ScanTest ColumnTester::scan_steps(const std::vector<int>& rows, int min_segment)
   const Jacobian& J = solver_.J();
   const WlsSolver::Gain& G = solver_.gain();
   Eigen::VectorXd JWx = Eigen::VectorXd::Zero(J.cols()), Gx = Eigen::VectorXd::Zero(G.rows());
+  // With a low-rank part U V: x'W J G x = JWx.(G0 x) + (U'J'W x).(V x), both q-vectors
+  // summed reading by reading (J U formed once).
+  const int q = static_cast<int>(G.U().cols());
+  const Eigen::MatrixXd JU = q > 0 ? Eigen::MatrixXd(J * G.U()) : Eigen::MatrixXd();
+  Eigen::VectorXd UJWx = Eigen::VectorXd::Zero(q), Vx = Eigen::VectorXd::Zero(q);
   double xWr = 0, xWx = 0;
   // The step at k covers rows[k..m-1]: sums from the end.
   for (int k = m - 1; k >= min_segment; --k) {
@@ -117,19 +122,21 @@ ScanTest ColumnTester::scan_steps(const std::vector<int>& rows, int min_segment)
     xWr += w_(i) * fit_.residual_um(i);
     xWx += w_(i);
     JWx += w_(i) * J.row(i).transpose();
-    Gx += G.col(i);
+    Gx += G.sparse().col(i);
+    if (q > 0) {
+      UJWx += w_(i) * JU.row(i).transpose();
+      Vx += G.V().col(i);
+    }
     if (m - k < min_segment) continue;
-    s.consider(k, one_column(xWr, xWx, xWx - JWx.dot(Gx)));
+    s.consider(k, one_column(xWr, xWx, xWx - JWx.dot(Gx) - (q > 0 ? UJWx.dot(Vx) : 0.0)));
   }
   return s;
 }
 
 ScanTest ColumnTester::scan_readings(const std::vector<int>& rows) const {
   ScanTest s;
-  const Jacobian& J = solver_.J();
-  const WlsSolver::Gain& G = solver_.gain();
   for (int i : rows) {
-    const double h = J.row(i).dot(G.col(i));  // leverage
+    const double h = solver_.leverage(i);
     s.consider(i, one_column(w_(i) * fit_.residual_um(i), w_(i), w_(i) * (1.0 - h)));
   }
   return s;

@@ -7,6 +7,7 @@
 #include <boost/math/distributions/fisher_f.hpp>
 #include <boost/math/distributions/non_central_f.hpp>
 #include <cmath>
+#include <stdexcept>
 #include <map>
 
 #include "dbbkit/kinematics.hpp"
@@ -61,6 +62,9 @@ SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& 
     }
   }
   if (q == 0 || n == 0) return;
+  // The covariance's low-rank term is the set-up part's alone: a base solved with border
+  // columns (which has its own) is not combined with set-up effects.
+  if (base.gain().low_rank()) throw std::logic_error("SetupSolver: a base solved with border columns");
   K_ = base.gain() * X_;
   R_ = unexplained(base, X_, K_);
   RtR_ = R_.transpose() * R_;
@@ -83,7 +87,7 @@ Estimate SetupSolver::solve(const Eigen::VectorXd& y_um) const {
   Estimate est = prior_;
   if (est.status == EstimateStatus::kNoReadings) return est;
   const Eigen::VectorXd b = beta(y_um);
-  est.theta = base_->gain() * (y_um - X_ * b);
+  est.theta = base_->gain() * Eigen::VectorXd(y_um - X_ * b);
   est.residual_um = y_um - base_->J() * est.theta - X_ * b;
   est.rms_um = std::sqrt(est.residual_um.squaredNorm() / est.n_readings);
   est.chi2 = est.residual_um.cwiseQuotient(base_->sigma_um()).squaredNorm() +
@@ -100,23 +104,36 @@ Eigen::MatrixXd SetupSolver::gain_times(const Eigen::MatrixXd& M) const {
 }
 
 Eigen::MatrixXd SetupSolver::left_gain(const FunctionRows& C) const {
-  Eigen::MatrixXd A = C * base_->gain();
+  Eigen::MatrixXd A = base_->gain().left(C);
   if (!any()) return A;
   const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
   const Eigen::MatrixXd TW = ((C * K_) * S_inv_ * R_.transpose()) * w.asDiagonal();  // n_out x n
   A -= TW;
-  A += (TW * base_->J()) * base_->gain();
+  A += base_->gain().left(Eigen::MatrixXd(TW * base_->J()));
   return A;
 }
 
+Eigen::MatrixXd SetupSolver::left_gain_setup(const FunctionRows& C) const {
+  if (!any()) return Eigen::MatrixXd::Zero(C.rows(), 0);
+  return (C * K_) * S_inv_;
+}
+
+Eigen::MatrixXd SetupSolver::left_gain_times(const FunctionRows& C, const Eigen::MatrixXd& L,
+                                             const Eigen::MatrixXd& V) const {
+  const Eigen::MatrixXd GV = base_->gain() * V;
+  Eigen::MatrixXd out = C * GV;
+  if (any()) out.noalias() -= L * (R_.transpose() * unexplained(*base_, V, GV));
+  return out;
+}
+
 Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
-  const Eigen::SparseMatrix<double, Eigen::RowMajor> G0 = base_->gain();  // row j of G0 contiguous
+  const Eigen::SparseMatrix<double, Eigen::RowMajor> G0 = base_->gain().sparse();  // row j of G0 contiguous
   const Eigen::Index n = G0.cols();
   Eigen::MatrixXd Dt;  // D', n x q
   if (any()) {
     const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
     const Eigen::MatrixXd M = (S_inv_ * R_.transpose()) * w.asDiagonal();  // S^-1 R' W^1/2, q x n
-    Dt = ((M * base_->J()) * base_->gain() - M).transpose();
+    Dt = (base_->gain().left(Eigen::MatrixXd(M * base_->J())) - M).transpose();
   }
   // Rows with the same support (a series: one error's coefficients; per angle: one station)
   // go together through one dense product on that support and the readings its rows of G0

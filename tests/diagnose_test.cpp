@@ -289,3 +289,53 @@ TEST(Detectability, ProjectionAgreesWithTheAugmentedFactorisation) {
 
 }  // namespace
 }  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// A per-angle design at 8 deg (46 angles, 276 unknowns) with a drift of installation 2r and a
+// reversal of the whole test: every candidate model solved bordered (the effects' columns set
+// aside, EstimateOptions; by default from 512 unknowns, here from 100) and as one whole block.
+// The same effects are added and the errors after agree to rounding.
+TEST(DiagnoseBordered, AgreesWithTheWholeBlock) {
+  Design d = test::paper_design('C');
+  d.angles_deg.clear();
+  for (int i = 0; i <= 45; ++i) d.angles_deg.push_back(8.0 * i);
+  Truth t;
+  t.model = d.errors;
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> n01;
+  for (double a : d.angles_deg) {
+    Vector6d e;
+    for (int k = 0; k < 6; ++k) e(k) = 3.0 * n01(rng);
+    test::add_truth_value(t, d.axis, a, e);
+  }
+  t.schedule = Schedule{5, 60, {Sweep::CCW, Sweep::CW}};
+  t.effects = {effect(EffectKind::Drift, "2r", {0.5}), effect(EffectKind::Reversal, "", {1.5})};
+  const std::vector<Reading> r = simulate(d, t, 31);
+  DiagnoseOptions whole_o, border_o;
+  whole_o.estimate.border_min_columns = 0;
+  border_o.estimate.border_min_columns = 100;
+  const DiagnoseResult bordered = diagnose(d, r, border_o), whole = diagnose(d, r, whole_o);
+  EXPECT_TRUE(has(bordered, "drift[2r]"));
+  EXPECT_TRUE(has(bordered, "reversal[all]"));
+  ASSERT_EQ(bordered.added.size(), whole.added.size());
+  for (std::size_t k = 0; k < whole.added.size(); ++k) EXPECT_EQ(bordered.added[k].block.label, whole.added[k].block.label);
+  EXPECT_FALSE(bordered.significant_after);
+  EXPECT_EQ(bordered.after.rank, whole.after.rank);
+  EXPECT_NEAR(bordered.after.chi2, whole.after.chi2, 1e-9 * whole.after.chi2);
+  ASSERT_EQ(bordered.errors_after.size(), whole.errors_after.size());
+  for (std::size_t s = 0; s < whole.errors_after.size(); ++s) {
+    for (int k = 0; k < 6; ++k) {
+      const Determined& a = whole.errors_after[s].errors[k];
+      const Determined& b = bordered.errors_after[s].errors[k];
+      ASSERT_EQ(a.determined, b.determined) << s << " " << k;
+      EXPECT_NEAR(a.value, b.value, 1e-8) << s << " " << k;
+      EXPECT_NEAR(a.std, b.std, 1e-8) << s << " " << k;
+    }
+  }
+  EXPECT_EQ(bordered.verdict, whole.verdict);
+}
+
+}  // namespace
+}  // namespace dbbkit

@@ -136,6 +136,79 @@ TEST(Estimate, BlockDiagonalEqualsDense) {
   EXPECT_TRUE(test::near(est.null_directions().col(0), Eigen::VectorXd::Unit(6, 5), 0.0));
 }
 
+// Border columns (EstimateOptions): a block-diagonal model of 120 stations plus three
+// columns seen at every station, one of them a combination of the others and the stations'
+// columns (a direction through two stations and the border that the data cannot determine). Solved bordered and as one whole
+// block, everything the data determine agrees: rank, residual, values and uncertainties of
+// determined functions, which functions are determined, leverages, the gain's products.
+TEST(Estimate, BorderedEqualsTheWholeBlock) {
+  std::mt19937_64 rng(21);
+  std::normal_distribution<double> n01;
+  const int stations = 120, rows = 4, cols = 3, q = 3;
+  const int n = stations * rows, p0 = stations * cols, p = p0 + q;
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(n, p);
+  for (int s = 0; s < stations; ++s) {
+    for (int i = 0; i < rows; ++i) {
+      for (int j = 0; j < cols; ++j) J(s * rows + i, s * cols + j) = n01(rng);
+    }
+  }
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(p0);  // the undetermined direction: stations 3 and 50 and the border
+  for (int j = 0; j < cols; ++j) v(3 * cols + j) = n01(rng), v(50 * cols + j) = n01(rng);
+  for (int i = 0; i < n; ++i) J(i, p0) = 1.0, J(i, p0 + 1) = std::sin(0.05 * i) * 30.0;
+  J.col(p0 + 2) = J.leftCols(p0) * v + 2.0 * J.col(p0);
+  Eigen::VectorXd y(n), sigma(n);
+  for (int i = 0; i < n; ++i) y(i) = 3.0 * n01(rng), sigma(i) = 0.5 + 0.01 * (i % 7);
+
+  EstimateOptions whole_o, border_o;
+  whole_o.border_min_columns = 0;
+  border_o.border_min_columns = 100;
+  const WlsSolver whole(test::sparse(J), sigma, whole_o), bordered(test::sparse(J), sigma, border_o);
+  EXPECT_TRUE(whole.border().empty());
+  EXPECT_EQ(bordered.border(), (std::vector<int>{p0, p0 + 1, p0 + 2}));
+  EXPECT_EQ(whole.blocks().size(), 1u);
+  EXPECT_EQ(bordered.blocks().size(), static_cast<std::size_t>(stations));
+  const Estimate a = whole.solve(y), b = bordered.solve(y);
+  EXPECT_EQ(a.rank, p - 1);
+  EXPECT_EQ(b.rank, a.rank);
+  EXPECT_EQ(b.dof, a.dof);
+  EXPECT_EQ(b.status, EstimateStatus::kRankDeficient);
+  EXPECT_NEAR(b.chi2, a.chi2, 1e-9 * a.chi2);
+  EXPECT_TRUE(test::near(b.residual_um, a.residual_um, 1e-9, 1e-9));
+  EXPECT_EQ(b.null_directions().cols(), 1);
+  EXPECT_FALSE(b.condition_number.has_value());  // not computed for a bordered model
+
+  // Unit functions and random combinations of a station's unknowns with the border's.
+  std::vector<Eigen::VectorXd> functions;
+  for (int j = 0; j < p; j += 7) functions.push_back(Eigen::VectorXd::Unit(p, j));
+  for (int j = p0; j < p; ++j) functions.push_back(Eigen::VectorXd::Unit(p, j));
+  for (int k = 0; k < 10; ++k) {
+    Eigen::VectorXd c = Eigen::VectorXd::Zero(p);
+    const int s = k == 0 ? 3 : k * 11;  // station 3's combinations are undetermined
+    for (int j = 0; j < cols; ++j) c(s * cols + j) = n01(rng);
+    c(p0 + k % q) = n01(rng);
+    functions.push_back(c);
+  }
+  functions.push_back(J.row(17).transpose());  // a reading's prediction: always determined
+  int determined = 0, undetermined = 0;
+  for (const Eigen::VectorXd& c : functions) {
+    const Determined da = a.evaluate(c), db = b.evaluate(c);
+    ASSERT_EQ(db.determined, da.determined) << c.transpose();
+    if (!da.determined) {
+      ++undetermined;
+      continue;
+    }
+    ++determined;
+    EXPECT_NEAR(db.value, da.value, 1e-8 * (1.0 + std::abs(da.value)));
+    EXPECT_NEAR(db.std, da.std, 1e-8 * da.std);
+  }
+  EXPECT_GT(determined, 10);
+  EXPECT_GT(undetermined, 3);  // the border's three unknowns and the station combinations with them
+  for (int i = 0; i < n; i += 13) EXPECT_NEAR(bordered.leverage(i), whole.leverage(i), 1e-10) << i;
+  // J G: the same projector either way (it does not depend on the minimum-norm choice).
+  const Eigen::MatrixXd Y = Eigen::MatrixXd::Random(n, 2);
+  EXPECT_TRUE(test::near(J * (bordered.gain() * Y), J * (whole.gain() * Y), 1e-9, 1e-9));
+}
+
 TEST(Estimate, NoReadingsGivesNoNumbers) {
   const Estimate est = estimate_wls(model_of(Eigen::MatrixXd(0, 3), Eigen::VectorXd(0), Eigen::VectorXd(0)));
   EXPECT_EQ(est.status, EstimateStatus::kNoReadings);
@@ -178,7 +251,7 @@ TEST(Estimate, NormalEquationsPathAgreesWithTheSvd) {
     EXPECT_TRUE(test::near(a.singular_values, b.singular_values, 0, 1e-9)) << kappa;
     const double tol = 1e-9 * std::max(1.0, kappa * kappa * 1e-6);  // the bound's own allowance
     EXPECT_TRUE(test::near(a.covariance, b.covariance, tol * test::dense(b.covariance).cwiseAbs().maxCoeff())) << kappa;
-    EXPECT_TRUE(test::near(normal.gain(), svd.gain(), tol * test::dense(svd.gain()).cwiseAbs().maxCoeff())) << kappa;
+    EXPECT_TRUE(test::near(normal.gain().sparse(), svd.gain().sparse(), tol * test::dense(svd.gain().sparse()).cwiseAbs().maxCoeff())) << kappa;
     EXPECT_TRUE(test::near(a.theta, b.theta, tol * b.theta.cwiseAbs().maxCoeff())) << kappa;
     EXPECT_EQ(a.rank, p);
   }
@@ -206,7 +279,7 @@ TEST(Estimate, FourierIdentificationTakesTheNormalEquations) {
   EXPECT_GT(normal.a_priori().normal_equation_blocks, 0);  // the model splits into independent blocks
   EXPECT_TRUE(test::near(normal.a_priori().covariance, svd.a_priori().covariance,
                          1e-9 * test::dense(svd.a_priori().covariance).cwiseAbs().maxCoeff()));
-  EXPECT_TRUE(test::near(normal.gain(), svd.gain(), 1e-9 * test::dense(svd.gain()).cwiseAbs().maxCoeff()));
+  EXPECT_TRUE(test::near(normal.gain().sparse(), svd.gain().sparse(), 1e-9 * test::dense(svd.gain().sparse()).cwiseAbs().maxCoeff()));
 }
 
 }  // namespace

@@ -111,6 +111,16 @@ TEST(SetupSolver, AgreesWithGeneralisedLeastSquaresOnTheFullCovariance) {
   // Response to an arbitrary reading pattern.
   const Eigen::MatrixXd Y = Eigen::MatrixXd::Random(n, 3);
   EXPECT_TRUE(test::near(solver.gain_times(Y), G * Y, 1e-9, 1e-7));
+  // Functions of theta (every third unknown, and a sum of two): the map formed and applied.
+  std::vector<Eigen::Triplet<double>> rows;
+  int m = 0;
+  for (int j = 0; j < M.rows(); j += 3) rows.emplace_back(m++, j, 1.0);
+  rows.emplace_back(m, 0, 1.0), rows.emplace_back(m++, 7, -2.0);
+  FunctionRows Cf(m, M.rows());
+  Cf.setFromTriplets(rows.begin(), rows.end());
+  const Eigen::MatrixXd CG = Eigen::MatrixXd(Cf) * G;
+  EXPECT_TRUE(test::near(solver.left_gain(Cf), CG, 1e-9, 1e-7));
+  EXPECT_TRUE(test::near(solver.left_gain_times(Cf, solver.left_gain_setup(Cf), Y), CG * Y, 1e-9, 1e-7));
   // Posterior covariance of beta: (X' (Sigma^-1 - Sigma^-1 J (J'Sigma^-1 J)^-1 J' Sigma^-1) X + P^-1)^-1.
   const Eigen::MatrixXd Wi = model.sigma_um.cwiseAbs2().cwiseInverse().asDiagonal();
   const Eigen::MatrixXd M0 = model.J.transpose() * Wi * model.J;

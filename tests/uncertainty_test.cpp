@@ -154,7 +154,7 @@ TEST(BudgetCovariance, NoisePartIsThatOfTheGainAndScalesWithTypeA) {
     opt.budget.type_a = type_a;
     const IdentifyResult r = identify(d, readings, opt);
     const Eigen::MatrixXd C = budget_functions(r.param, r.budget);
-    const Eigen::MatrixXd CG = C * r.solver.gain();
+    const Eigen::MatrixXd CG = C * r.solver.gain().sparse();
     const double s2 = type_a ? *r.budget.type_a_scale * *r.budget.type_a_scale : 1.0;
     const Eigen::MatrixXd expected = s2 * CG * r.solver.sigma_um().cwiseAbs2().asDiagonal() * CG.transpose();
     const Eigen::MatrixXd cov = budget_covariance(d, r);
@@ -233,6 +233,36 @@ TEST(MonteCarlo, DetectsANonGaussianOutput) {
     ++dz_checked;
   }
   EXPECT_EQ(dz_checked, 17);
+}
+
+// With set-up tolerances, the map from readings to values formed (values x readings) and
+// applied as a product (large designs, MonteCarloOptions::max_dense_gain_bytes) give the same
+// trials to rounding: the same intervals to far below their numerical tolerance.
+TEST(MonteCarlo, FactoredSetupGainAgreesWithTheFormedOne) {
+  Design d = test::paper_design('C');
+  d.setup_std.length_offset_um = 3;
+  d.setup_std.centring_um = 2;
+  MonteCarloOptions o;
+  o.adaptive = false;
+  o.max_trials = 20000;
+  o.seed = 11;
+  const MonteCarloResult formed = monte_carlo_a_priori(d, 0.95, o);
+  o.max_dense_gain_bytes = 0;
+  const MonteCarloResult product = monte_carlo_a_priori(d, 0.95, o);
+  ASSERT_EQ(formed.values.size(), product.values.size());
+  ASSERT_FALSE(formed.values.empty());
+  double largest_setup_share = 0;
+  for (size_t i = 0; i < formed.values.size(); ++i) {
+    const MonteCarloValue& a = formed.values[i];
+    const MonteCarloValue& b = product.values[i];
+    const double tol = 1e-5 * a.std;
+    EXPECT_NEAR(a.std, b.std, tol) << i;
+    EXPECT_NEAR(a.low, b.low, tol) << i;
+    EXPECT_NEAR(a.high, b.high, tol) << i;
+    largest_setup_share = std::max(largest_setup_share, a.linear_u / (1.25 / std::sqrt(3.0)));
+  }
+  // The set-up part is present: u exceeds that of one reading's noise somewhere.
+  EXPECT_GT(largest_setup_share, 1.0);
 }
 
 TEST(MonteCarlo, ReproducibleForASeedWhateverTheThreads) {

@@ -37,6 +37,21 @@ struct EstimateOptions {
   // singular value counts toward the rank; otherwise (and with a tolerance of 0) the SVD.
   double normal_equations_tolerance = 1e-6;
   int normal_equations_min_columns = 32;
+  // Border columns. In an independent block of more than border_min_columns columns, a
+  // column with more than border_nonzeros_factor times the block's median count of nonzeros
+  // (and more than border_min_nonzeros) is a border column: an effect of the whole test or
+  // of one installation, seen at every station, that would join every station's small block
+  // into one. When at most border_max_columns such columns leave only blocks of at most
+  // border_min_columns / 2 columns, the model is solved bordered (WlsSolver): the small
+  // blocks alone, and the border through the part of it they cannot reproduce,
+  //   R = Sigma^-1/2 (X - J0 G0 X),
+  // whose column-normalised Gram matrix counts an eigenvalue toward the rank when
+  //   sqrt(lambda) > sqrt(min_relative_singular_value)
+  // (the rule of added_rank). Otherwise the block is factorised whole.
+  int border_min_columns = 512;
+  double border_nonzeros_factor = 16;
+  int border_min_nonzeros = 64;
+  int border_max_columns = 512;
 };
 
 enum class EstimateStatus { kFullRank, kRankDeficient, kNoReadings };
@@ -112,16 +127,53 @@ struct Estimate {
 // the rows of a left gain.
 using FunctionRows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
+// The gain G (p x n): theta_hat = G y. Sparse, one piece per independent block, plus a
+// low-rank part U V (p x q times q x n) for a model solved with border columns; the
+// products below never form G densely.
+class Gain {
+ public:
+  using Sparse = Eigen::SparseMatrix<double>;  // by columns
+  Gain() = default;
+  Gain(Sparse sparse, Eigen::MatrixXd U, Eigen::MatrixXd V);
+
+  Eigen::Index rows() const { return sparse_.rows(); }
+  Eigen::Index cols() const { return sparse_.cols(); }
+  const Sparse& sparse() const { return sparse_; }
+  const Eigen::MatrixXd& U() const { return U_; }
+  const Eigen::MatrixXd& V() const { return V_; }
+  bool low_rank() const { return U_.cols() > 0; }
+
+  // G M and G y.
+  Eigen::MatrixXd operator*(const Eigen::MatrixXd& M) const;
+  Eigen::VectorXd operator*(const Eigen::VectorXd& y) const;
+  // C G for functions C (rows): sparse without a low-rank part, else with its dense rows.
+  FunctionRows left(const FunctionRows& C) const;
+  // M G for a dense M (rows x p).
+  Eigen::MatrixXd left(const Eigen::MatrixXd& M) const;
+  // Column i of G: the estimate's response to reading i (dense, p).
+  Eigen::VectorXd col(Eigen::Index i) const;
+
+ private:
+  Sparse sparse_;
+  Eigen::MatrixXd U_, V_;
+};
+
 // The factorisation of a design's Jacobian, done once and reused for any
 // number of reading vectors (Monte Carlo, coverage studies, a-priori evaluation).
 //
 // The columns fall into independent blocks (linked through the rows they share); each
 // block is factorised alone, so that a per-angle model, one block of six columns per
 // station, costs time and memory linear in its readings: the Jacobian, the gain and the
-// covariance are stored sparse, block by block.
+// covariance are stored sparse, block by block. Border columns (EstimateOptions) that would
+// join the stations' blocks into one are eliminated instead (Frisch-Waugh-Lovell): the
+// blocks are factorised without them, and the border enters the gain and the covariance as
+// a low-rank term (Gain, Estimate::covariance_K/S). Then the estimate of a determined
+// function is that of the whole block; an undetermined combination involving a border
+// column is minimum-norm in the blocks' unknowns only; the condition number is absent (the
+// singular values are the blocks' and those of the border's unexplained part).
 class WlsSolver {
  public:
-  using Gain = Eigen::SparseMatrix<double>;  // p x n, by columns
+  using Gain = dbbkit::Gain;
 
   WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options = {});
   // A dense Jacobian (its exact zeros are the structure).
@@ -131,10 +183,15 @@ class WlsSolver {
   const Estimate& a_priori() const { return prior_; }
   // theta_hat = gain() * y: the p x n map from readings to the minimum-norm estimate.
   const Gain& gain() const { return gain_; }
+  // The border columns (ascending; empty when the model is solved block by block alone).
+  const std::vector<int>& border() const { return border_; }
+  // h_i = J_i G e_i: the leverage of reading i.
   const Jacobian& J() const { return J_; }
   const Eigen::VectorXd& sigma_um() const { return sigma_; }
 
-  // One independent block: its columns and its rows, ascending.
+  double leverage(Eigen::Index i) const;
+
+  // One independent block: its columns and its rows, ascending (border columns in none).
   struct Block {
     std::vector<int> cols, rows;
   };
@@ -148,6 +205,7 @@ class WlsSolver {
   Estimate prior_;
   Gain gain_;
   std::vector<Block> blocks_;
+  std::vector<int> border_;
 };
 
 Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options = {});

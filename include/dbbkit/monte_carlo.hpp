@@ -40,6 +40,11 @@ struct MonteCarloOptions {
   // exceeds this is refused before it starts, naming the largest batch that fits (an
   // InputError, key "batch_trials").
   std::size_t max_sample_bytes = std::size_t{1} << 30;
+  // With set-up tolerances the map from readings to values, C G, is dense (values x
+  // readings). Up to this size it is formed once; beyond it each batch applies it as a
+  // product (SetupSolver::left_gain_times), so its memory stays linear in the design. The
+  // results agree to rounding (MonteCarlo.FactoredSetupGainAgreesWithTheFormedOne).
+  std::size_t max_dense_gain_bytes = std::size_t{256} << 20;
   // Called after each batch with the trials so far (from the calling thread).
   std::function<void(long trials)> progress;
 };

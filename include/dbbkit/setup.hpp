@@ -86,6 +86,12 @@ class SetupSolver {
   // C G: the map from readings to the functions C theta (rows of C), without forming G:
   //   C G = C G0 - T W^1/2 + (T W^1/2 J) G0,  T = C K S^-1 R'.
   Eigen::MatrixXd left_gain(const FunctionRows& C) const;
+  // The same map applied to readings V (n x m) without forming it (C G is values x readings,
+  // dense with a set-up part):
+  //   C G V = C (G0 V) - L R' W^1/2 (V - J G0 V),  L = C K S^-1 = left_gain_setup(C),
+  // formed once for many V; memory that of G0 V (unknowns x m).
+  Eigen::MatrixXd left_gain_setup(const FunctionRows& C) const;
+  Eigen::MatrixXd left_gain_times(const FunctionRows& C, const Eigen::MatrixXd& L, const Eigen::MatrixXd& V) const;
   // The 1-norm of every row of left_gain(C), without forming it: each row is c'G0 from the
   // rows of G0 that c touches (rows of C with one support in one product), plus (K'c)' D
   // with D = S^-1 R' W^1/2 (J G0 - I) formed once (memory: the readings times the unknowns
