@@ -101,7 +101,7 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
     SetupRisk worst;
     bool any = false;
     for (int s = 0; s < param.n_stations(); ++s) {
-      const Eigen::MatrixXd C = error_functions(param, s, p_ext);
+      const Eigen::SparseMatrix<double> C = error_functions(param, s, p_ext);
       for (int k = 0; k < 6; ++k) {
         const Determined& d = after[s].errors[k];
         if (!d.determined || !(d.std > 0)) continue;

@@ -21,16 +21,25 @@ double f_test_p(int q, int dof, double F) {
 namespace {
 
 // The distinct positions of the readings `rows` (all when null).
+// Sorted (a C angle taken into [0, 360)), a position is new when it is not the same as the one
+// before it; on C the last and the first may be one position across 0/360.
 int distinct_positions(Axis axis, const std::vector<Reading>& readings, const std::vector<int>* rows) {
-  std::vector<double> positions;
   const std::size_t n = rows ? rows->size() : readings.size();
+  std::vector<double> angles;
+  angles.reserve(n);
   for (std::size_t j = 0; j < n; ++j) {
-    const double a = readings[rows ? static_cast<std::size_t>((*rows)[j]) : j].angle_deg;
-    if (std::none_of(positions.begin(), positions.end(), [&](double b) { return same_position(axis, b, a); })) {
-      positions.push_back(a);
+    double a = readings[rows ? static_cast<std::size_t>((*rows)[j]) : j].angle_deg;
+    if (axis == Axis::C) {
+      a = std::fmod(a, 360.0);
+      if (a < 0) a += 360.0;
     }
+    angles.push_back(a);
   }
-  return static_cast<int>(positions.size());
+  std::sort(angles.begin(), angles.end());
+  int count = 0;
+  for (std::size_t j = 0; j < angles.size(); ++j) count += j == 0 || !same_position(axis, angles[j - 1], angles[j]);
+  if (axis == Axis::C && count > 1 && same_position(axis, angles.front(), angles.back())) --count;
+  return count;
 }
 
 }  // namespace
