@@ -238,4 +238,35 @@ void BM_EvaluateGrowthInstallations(benchmark::State& state) {
 BENCHMARK(BM_EvaluateGrowthInstallations)->Arg(7)->Arg(28)->Arg(112)->Arg(500)->Complexity()
     ->Unit(benchmark::kMillisecond);
 
+// identify of the 0.1 deg C design read k times over (25,207 k readings; k = 40 is about a
+// million readings): the solve, budget and checks on readings already in memory.
+void BM_IdentifyGrowthReadings(benchmark::State& state) {
+  const Design d = scaled_c(3600, 0);
+  const std::vector<Reading> once = nominal_readings(d);
+  std::vector<Reading> r;
+  r.reserve(once.size() * static_cast<std::size_t>(state.range(0)));
+  for (int k = 0; k < state.range(0); ++k) r.insert(r.end(), once.begin(), once.end());
+  const IdentifyOptions o;
+  for (auto _ : state) benchmark::DoNotOptimize(identify(d, r, o).estimate.chi2);
+  state.counters["readings"] = static_cast<double>(r.size());
+  state.SetComplexityN(static_cast<benchmark::IterationCount>(r.size()));
+}
+BENCHMARK(BM_IdentifyGrowthReadings)->Arg(1)->Arg(4)->Arg(10)->Arg(40)->Complexity()->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
+// diagnose of clean readings (the search that adds nothing) of the C design at 360/a deg:
+// the effect columns span every station and are solved as a border (EstimateOptions), so
+// the time stays near linear in the angles (3600: a 0.1 deg step).
+void BM_DiagnoseGrowthAngles(benchmark::State& state) {
+  const Design d = scaled_c(static_cast<int>(state.range(0)), 0);
+  Truth truth;  // no error: the residual is the declared noise alone
+  truth.model = d.errors;
+  for (double a : d.angles_deg) truth.per_angle.emplace_back(a, Vector6d::Zero());
+  const std::vector<Reading> r = simulate(d, truth, 5);
+  for (auto _ : state) benchmark::DoNotOptimize(diagnose(d, r).added.size());
+  state.SetComplexityN(state.range(0));
+}
+BENCHMARK(BM_DiagnoseGrowthAngles)->Arg(18)->Arg(72)->Arg(360)->Arg(1152)->Arg(3600)->Complexity()
+    ->Unit(benchmark::kMillisecond)->Iterations(1);
+
 BENCHMARK_MAIN();
