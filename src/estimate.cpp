@@ -73,9 +73,13 @@ Jacobian without_columns(const Jacobian& Js, const std::vector<char>& drop) {
   return out;
 }
 
-// The border columns of Js (EstimateOptions): ascending, or empty when the blocks are to be
-// factorised whole.
-std::vector<int> border_columns(const Jacobian& Js, const EstimateOptions& o) {
+// The border columns of Js (EstimateOptions), ascending, and Js without them; none (and no
+// matrix) when the blocks are to be factorised whole.
+struct Border {
+  std::vector<int> columns;
+  Jacobian rest;
+};
+Border border_columns(const Jacobian& Js, const EstimateOptions& o) {
   const int p = static_cast<int>(Js.cols());
   if (o.border_min_columns <= 0 || p <= o.border_min_columns) return {};
   const auto [component, count] = column_components(Js);
@@ -101,14 +105,15 @@ std::vector<int> border_columns(const Jacobian& Js, const EstimateOptions& o) {
   if (border.empty() || static_cast<int>(border.size()) > o.border_max_columns) return {};
   std::vector<char> drop(static_cast<std::size_t>(p), 0);
   for (int j : border) drop[static_cast<std::size_t>(j)] = 1;
-  const auto [rest, rest_count] = column_components(without_columns(Js, drop));
+  Jacobian rest = without_columns(Js, drop);
+  const auto [component_of, rest_count] = column_components(rest);
   std::vector<int> size(static_cast<std::size_t>(rest_count), 0);
   for (int j = 0; j < p; ++j) {
-    if (!drop[static_cast<std::size_t>(j)]) ++size[static_cast<std::size_t>(rest[j])];
+    if (!drop[static_cast<std::size_t>(j)]) ++size[static_cast<std::size_t>(component_of[j])];
   }
   if (*std::max_element(size.begin(), size.end()) > o.border_min_columns / 2) return {};
   std::sort(border.begin(), border.end());
-  return border;
+  return {std::move(border), std::move(rest)};
 }
 
 }  // namespace
@@ -211,11 +216,11 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
   // factorised alone and the pieces are assembled, with the rank tolerance taken
   // against the largest singular value of the whole matrix.
   // Border columns (EstimateOptions) are set aside: the blocks are those of the rest (Jb).
-  border_ = border_columns(Js, options);
+  Border border = border_columns(Js, options);
+  border_ = std::move(border.columns);
   std::vector<char> is_border(static_cast<std::size_t>(p), 0);
   for (int j : border_) is_border[static_cast<std::size_t>(j)] = 1;
-  const Jacobian Jb = border_.empty() ? Jacobian() : without_columns(Js, is_border);
-  const Jacobian& Jblocks = border_.empty() ? Js : Jb;
+  const Jacobian& Jblocks = border_.empty() ? Js : border.rest;
   const auto [component_of_col, n_components] = column_components(Jblocks);
   std::vector<int> block_of_col(static_cast<std::size_t>(p), -1), number(static_cast<std::size_t>(n_components), -1);
   int n_blocks = 0;
