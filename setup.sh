@@ -11,7 +11,7 @@ packages=(
   cmake g++ make
   libeigen3-dev libnlopt-cxx-dev libboost-math-dev nlohmann-json3-dev
   libgtest-dev libbenchmark-dev libcli11-dev gnuplot-nox
-  clang libclang-rt-14-dev
+  clang libclang-rt-14-dev clang-format
   python3-junitparser
   pybind11-dev python3-numpy python3-dev
 )

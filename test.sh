@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds everything and runs the whole test suite:
+#   0. the house format: every C++ file as clang-format (.clang-format) writes it;
 #   1. the unit and property tests (ctest), then the design gate (`dbbkit bench`);
 #   2. the same suite built by clang with AddressSanitizer and UndefinedBehaviorSanitizer
 #      (less the long statistical studies of stage 1);
@@ -10,6 +11,9 @@ set -euo pipefail
 cd "$(dirname "$0")"
 ./setup.sh
 jobs="$(nproc)"
+
+echo "== format: clang-format --dry-run --Werror (.clang-format)"
+find src include tests benchmarks -name '*.cpp' -o -name '*.hpp' | sort | xargs clang-format --dry-run --Werror
 
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DDBBKIT_BUILD_TESTS=ON -DDBBKIT_PYTHON=ON >/dev/null
 cmake --build build -j "$jobs"

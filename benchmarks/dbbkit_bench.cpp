@@ -8,21 +8,23 @@
 
 #include <string>
 
+#include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/kit_io.hpp"
-#include "dbbkit/optimize.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/observability.hpp"
+#include "dbbkit/optimize.hpp"
 #include "dbbkit/simulate.hpp"
-#include "dbbkit/diagnose.hpp"
 
 namespace {
 
 using namespace dbbkit;
 
-Design paper_c() { return io::read_design_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/paper-c-turntable.json"); }
+Design paper_c() {
+  return io::read_design_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/paper-c-turntable.json");
+}
 
 // What optimize needs of a design: the worst-case a-priori uncertainty (the fast path).
 void BM_WorstCasePaperC(benchmark::State& state) {
@@ -61,14 +63,16 @@ Design paper_c_with_setup() {
 }
 void BM_WorstTotalPaperC(benchmark::State& state) {
   const Design d = paper_c_with_setup();
-  for (auto _ : state) benchmark::DoNotOptimize(fast_worst_total(d, 100.0, false)->total.worst_std_um);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(fast_worst_total(d, 100.0, false)->total.worst_std_um);
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_WorstTotalPaperC)->Unit(benchmark::kMicrosecond);
 // The same pair on the design the search chose for the kit with set-up tolerances
 // (12 installations, 37 angles): the size the search scores.
 Design setup_kit_design() {
-  return io::read_design_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/c-turntable-kit-setup-optimized.json");
+  return io::read_design_file(std::string(DBBKIT_SOURCE_DIR) +
+                              "/designs/c-turntable-kit-setup-optimized.json");
 }
 void BM_WorstCaseSetupKitDesign(benchmark::State& state) {
   Design d = setup_kit_design();
@@ -80,7 +84,8 @@ void BM_WorstCaseSetupKitDesign(benchmark::State& state) {
 BENCHMARK(BM_WorstCaseSetupKitDesign)->Unit(benchmark::kMicrosecond);
 void BM_WorstTotalSetupKitDesign(benchmark::State& state) {
   const Design d = setup_kit_design();
-  for (auto _ : state) benchmark::DoNotOptimize(fast_worst_total(d, 100.0, false)->total.worst_std_um);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(fast_worst_total(d, 100.0, false)->total.worst_std_um);
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_WorstTotalSetupKitDesign)->Unit(benchmark::kMicrosecond);
@@ -100,7 +105,8 @@ void BM_SetupInformationSetupKitDesignGeneralSolver(benchmark::State& state) {
 BENCHMARK(BM_SetupInformationSetupKitDesignGeneralSolver)->Unit(benchmark::kMicrosecond);
 void BM_WorstTotalWithNoisePartPaperC(benchmark::State& state) {
   const Design d = paper_c_with_setup();
-  for (auto _ : state) benchmark::DoNotOptimize(fast_worst_total(d, 100.0, true)->noise->worst_std_um);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(fast_worst_total(d, 100.0, true)->noise->worst_std_um);
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_WorstTotalWithNoisePartPaperC)->Unit(benchmark::kMicrosecond);
@@ -113,7 +119,8 @@ BENCHMARK(BM_WorstTotalPaperCGeneralSolver)->Unit(benchmark::kMicrosecond);
 
 // The whole search over the kit of formats.md, on 1 and 2 threads.
 void BM_OptimizeFormatsKit(benchmark::State& state) {
-  const Kit kit = io::read_kit_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/kits/c-turntable-kit.json");
+  const Kit kit =
+      io::read_kit_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/kits/c-turntable-kit.json");
   OptimizeOptions o;
   o.threads = static_cast<int>(state.range(0));
   long evaluations = 0;
@@ -124,7 +131,12 @@ void BM_OptimizeFormatsKit(benchmark::State& state) {
   }
   state.counters["designs_scored"] = static_cast<double>(evaluations);
 }
-BENCHMARK(BM_OptimizeFormatsKit)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+BENCHMARK(BM_OptimizeFormatsKit)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(3);
 
 // The whole evaluate (indices, criteria, null-space description as well).
 void BM_EvaluatePaperC(benchmark::State& state) {
@@ -143,7 +155,13 @@ void BM_MonteCarloPaperC(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(monte_carlo_a_priori(d, 0.95, o).trials);
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
-BENCHMARK(BM_MonteCarloPaperC)->Args({100000, 2})->Args({1000000, 2})->Args({1000000, 1})->Args({10000000, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_MonteCarloPaperC)
+    ->Args({100000, 2})
+    ->Args({1000000, 2})
+    ->Args({1000000, 1})
+    ->Args({10000000, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // A large series model: `angles` angles over a full turn, 12 installations, Fourier order `order`.
 void BM_IdentifyFourier(benchmark::State& state) {
@@ -211,8 +229,17 @@ void BM_EvaluateGrowthAngles(benchmark::State& state) {
   }
   state.SetComplexityN(state.range(0));
 }
-BENCHMARK(BM_EvaluateGrowthAngles)->Arg(18)->Arg(36)->Arg(72)->Arg(144)->Arg(288)->Arg(576)->Arg(1152)->Arg(3600)
-    ->Complexity()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EvaluateGrowthAngles)
+    ->Arg(18)
+    ->Arg(36)
+    ->Arg(72)
+    ->Arg(144)
+    ->Arg(288)
+    ->Arg(576)
+    ->Arg(1152)
+    ->Arg(3600)
+    ->Complexity()
+    ->Unit(benchmark::kMillisecond);
 
 // identify of nominal readings (the estimate, its budget, ISO 230 quantities and the
 // first-order check) of the same designs: 3600 angles is a 0.1 deg step.
@@ -223,7 +250,13 @@ void BM_IdentifyGrowthAngles(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(identify(d, r, o).estimate.chi2);
   state.SetComplexityN(state.range(0));
 }
-BENCHMARK(BM_IdentifyGrowthAngles)->Arg(18)->Arg(144)->Arg(576)->Arg(1152)->Arg(3600)->Complexity()
+BENCHMARK(BM_IdentifyGrowthAngles)
+    ->Arg(18)
+    ->Arg(144)
+    ->Arg(576)
+    ->Arg(1152)
+    ->Arg(3600)
+    ->Complexity()
     ->Unit(benchmark::kMillisecond);
 
 void BM_EvaluateGrowthInstallations(benchmark::State& state) {
@@ -235,7 +268,12 @@ void BM_EvaluateGrowthInstallations(benchmark::State& state) {
   }
   state.SetComplexityN(state.range(0));
 }
-BENCHMARK(BM_EvaluateGrowthInstallations)->Arg(7)->Arg(28)->Arg(112)->Arg(500)->Complexity()
+BENCHMARK(BM_EvaluateGrowthInstallations)
+    ->Arg(7)
+    ->Arg(28)
+    ->Arg(112)
+    ->Arg(500)
+    ->Complexity()
     ->Unit(benchmark::kMillisecond);
 
 // identify of the 0.1 deg C design read k times over (25,207 k readings; k = 40 is about a
@@ -251,7 +289,13 @@ void BM_IdentifyGrowthReadings(benchmark::State& state) {
   state.counters["readings"] = static_cast<double>(r.size());
   state.SetComplexityN(static_cast<benchmark::IterationCount>(r.size()));
 }
-BENCHMARK(BM_IdentifyGrowthReadings)->Arg(1)->Arg(4)->Arg(10)->Arg(40)->Complexity()->Unit(benchmark::kMillisecond)
+BENCHMARK(BM_IdentifyGrowthReadings)
+    ->Arg(1)
+    ->Arg(4)
+    ->Arg(10)
+    ->Arg(40)
+    ->Complexity()
+    ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
 
 // diagnose of clean readings (the search that adds nothing) of the C design at 360/a deg:
@@ -266,7 +310,14 @@ void BM_DiagnoseGrowthAngles(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(diagnose(d, r).added.size());
   state.SetComplexityN(state.range(0));
 }
-BENCHMARK(BM_DiagnoseGrowthAngles)->Arg(18)->Arg(72)->Arg(360)->Arg(1152)->Arg(3600)->Complexity()
-    ->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_DiagnoseGrowthAngles)
+    ->Arg(18)
+    ->Arg(72)
+    ->Arg(360)
+    ->Arg(1152)
+    ->Arg(3600)
+    ->Complexity()
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 
 BENCHMARK_MAIN();

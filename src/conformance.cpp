@@ -26,7 +26,8 @@ struct Judged {
   double margin = 0;
 };
 
-Judged judge(double low, double high, const std::optional<double>& lower, const std::optional<double>& upper) {
+Judged judge(double low, double high, const std::optional<double>& lower,
+             const std::optional<double>& upper) {
   Judged j;
   j.margin = std::numeric_limits<double>::infinity();
   if (lower) j.margin = std::min(j.margin, low - *lower);
@@ -48,10 +49,13 @@ class SetDecision {
   void add(double value, double low, double high, std::optional<double> angle) {
     const Judged j = judge(low, high, r_.lower, r_.upper);
     ++r_.values;
-    (j.decision == Decision::kConforms ? r_.conforming
-                                       : j.decision == Decision::kDoesNotConform ? r_.nonconforming : r_.not_proven)++;
+    (j.decision == Decision::kConforms         ? r_.conforming
+     : j.decision == Decision::kDoesNotConform ? r_.nonconforming
+                                               : r_.not_proven)++;
     // The deciding value: of the worst decision so far, the smallest margin.
-    const int rank = j.decision == Decision::kDoesNotConform ? 2 : j.decision == Decision::kNotProven ? 1 : 0;
+    const int rank = j.decision == Decision::kDoesNotConform ? 2
+                     : j.decision == Decision::kNotProven    ? 1
+                                                             : 0;
     if (!r_.value || rank > rank_ || (rank == rank_ && j.margin < margin_)) {
       rank_ = rank;
       margin_ = j.margin;
@@ -92,8 +96,9 @@ const char* decision_name(Decision d) {
 }
 
 bool ConformanceReport::any_nonconforming() const {
-  return std::any_of(results.begin(), results.end(),
-                     [](const ConformanceResult& r) { return r.decision == Decision::kDoesNotConform; });
+  return std::any_of(results.begin(), results.end(), [](const ConformanceResult& r) {
+    return r.decision == Decision::kDoesNotConform;
+  });
 }
 
 std::vector<std::string> tolerance_quantities(Axis axis) {
@@ -109,14 +114,15 @@ namespace {
 
 // The index of t's quantity among q (tolerance_quantities(axis)) and its unit, checked
 // against the limits' unit; throws as tolerance_unit.
-int quantity_index(Axis axis, const std::vector<std::string>& q, const Tolerance& t, const std::string& source,
-                   std::string& unit) {
+int quantity_index(Axis axis, const std::vector<std::string>& q, const Tolerance& t,
+                   const std::string& source, std::string& unit) {
   const auto it = std::find(q.begin(), q.end(), t.quantity);
   if (it == q.end()) {
     std::string list;
     for (const std::string& n : q) list += (list.empty() ? "" : ", ") + n;
     throw InputError(source, t.where + ".quantity",
-                     "'" + t.quantity + "' is not a quantity of a" + std::string(axis == Axis::C ? " C" : " B") +
+                     "'" + t.quantity + "' is not a quantity of a" +
+                         std::string(axis == Axis::C ? " C" : " B") +
                          " axis; a tolerance names one of: " + list);
   }
   const int i = static_cast<int>(it - q.begin());
@@ -133,8 +139,8 @@ int quantity_index(Axis axis, const std::vector<std::string>& q, const Tolerance
   unit = length ? "um" : "urad";
   if (!t.unit.empty() && t.unit != unit) {
     throw InputError(source, t.where + ".unit",
-                     t.quantity + " is " + (length ? "a length (um)" : "an angle (urad)") + "; its limits are " +
-                         (length ? "an angle" : "a length"));
+                     t.quantity + " is " + (length ? "a length (um)" : "an angle (urad)") +
+                         "; its limits are " + (length ? "an angle" : "a length"));
   }
   return i;
 }
@@ -147,38 +153,50 @@ std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& sou
   return unit;
 }
 
-void check_tolerances(Axis axis, const std::vector<Tolerance>& tolerances, const std::string& source) {
+void check_tolerances(Axis axis, const std::vector<Tolerance>& tolerances,
+                      const std::string& source) {
   for (const Tolerance& t : tolerances) tolerance_unit(axis, t, source);
 }
 
 ConformanceReport decide_conformance(const Design& design, const IdentifyResult& result,
-                                     const std::vector<Tolerance>& tolerances, const std::string& source) {
+                                     const std::vector<Tolerance>& tolerances,
+                                     const std::string& source) {
   ConformanceReport rep;
   const double p = result.budget.coverage_probability;
   rep.coverage_probability = p;
   const std::string pct = fixed(100 * p, 4) + " %";
-  rep.rule = "ISO 14253-1:2017 default decision rule: conformity is proven when the interval (value +- U, coverage "
-             "probability " + pct + ") lies inside the tolerance zone, nonconformity when it lies wholly outside; "
-             "otherwise neither is proven. A quantity at every measured angle conforms when every value does and "
-             "does not conform when one does not; an undetermined value proves nothing";
+  rep.rule =
+      "ISO 14253-1:2017 default decision rule: conformity is proven when the interval (value +- U, "
+      "coverage "
+      "probability " +
+      pct +
+      ") lies inside the tolerance zone, nonconformity when it lies wholly outside; "
+      "otherwise neither is proven. A quantity at every measured angle conforms when every value "
+      "does and "
+      "does not conform when one does not; an undetermined value proves nothing";
   const Estimate& est = result.estimate;
   const bool type_a = result.budget.type_a_scale.has_value();
   // k of the ISO quantities: their u carries the Type A scale, with the residual's
   // degrees of freedom; Type B: infinite.
   const double k_iso = coverage_factor(type_a ? std::optional<double>(est.dof) : std::nullopt, p);
-  const std::string iso_basis = "value +- k u, k = " + fixed(k_iso, 4) +
-                                (type_a ? " (Student's t, " + std::to_string(est.dof) + " degrees of freedom)"
-                                        : std::string(" (normal)"));
+  const std::string iso_basis =
+      "value +- k u, k = " + fixed(k_iso, 4) +
+      (type_a ? " (Student's t, " + std::to_string(est.dof) + " degrees of freedom)"
+              : std::string(" (normal)"));
   if (!type_a && est.p_value && *est.p_value < 0.01) {
-    rep.warnings.push_back("the residual contradicts the declared reading noise (chi2 p " +
-                  (*est.p_value > 0 ? "= " + fixed(*est.p_value, 2) : std::string("< 1e-300")) +
-                  "): the intervals rest on an uncertainty the data do not support; state it from the residual "
-                  "(--type-a) or find what the model lacks (diagnose) before relying on these decisions");
+    rep.warnings.push_back(
+        "the residual contradicts the declared reading noise (chi2 p " +
+        (*est.p_value > 0 ? "= " + fixed(*est.p_value, 2) : std::string("< 1e-300")) +
+        "): the intervals rest on an uncertainty the data do not support; state it from the "
+        "residual "
+        "(--type-a) or find what the model lacks (diagnose) before relying on these decisions");
   }
   if (!result.setup_included) {
     rep.warnings.push_back(
-        "the design declares no set-up tolerances (setup_std): the intervals leave out where the balls were set, "
-        "and a centring error of the balls moves the location errors (XOC, YOC ...) by as much as itself");
+        "the design declares no set-up tolerances (setup_std): the intervals leave out where the "
+        "balls were set, "
+        "and a centring error of the balls moves the location errors (XOC, YOC ...) by as much as "
+        "itself");
   }
   const IsoResult& iso = result.iso;
   const std::vector<std::string> q = tolerance_quantities(design.axis);
@@ -212,7 +230,8 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
       }
     } else if (i < 17) {  // an error motion value
       const IsoMotionValues& mv = iso.motion_values;
-      r.basis = "[max(0, range - U), range + U], coverage probability at least " + pct + " (error motion values)";
+      r.basis = "[max(0, range - U), range + U], coverage probability at least " + pct +
+                " (error motion values)";
       if (mv.values.empty()) {
         set.undetermined();
         r.basis += "; not computed";
@@ -227,8 +246,10 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
       }
     } else {  // an identified error at every angle, with the budget's U
       const int e = i - 17;
-      r.basis = "value +- U of the uncertainty budget (k at each value's effective degrees of freedom), at every "
-                "measured angle";
+      r.basis =
+          "value +- U of the uncertainty budget (k at each value's effective degrees of freedom), "
+          "at every "
+          "measured angle";
       for (const ErrorsAtAngle& a : result.errors) {
         const ValueBudget* b = a.errors[e].determined ? budget_of[6 * a.station + e] : nullptr;
         if (b) {

@@ -97,7 +97,9 @@ SetupUncertainty SetupOverride::over(const SetupUncertainty& base) const {
   return u;
 }
 
-SetupUncertainty Design::setup_of(int i) const { return installations[i].setup_std.over(setup_std); }
+SetupUncertainty Design::setup_of(int i) const {
+  return installations[i].setup_std.over(setup_std);
+}
 
 bool Design::setup_nuisance_declared() const {
   for (size_t i = 0; i < installations.size(); ++i) {
@@ -116,7 +118,8 @@ int Design::find_installation(const std::string& id) const {
 std::unordered_map<std::string, int> Design::installation_index() const {
   std::unordered_map<std::string, int> index;
   index.reserve(installations.size());
-  for (size_t i = 0; i < installations.size(); ++i) index.emplace(installations[i].id, static_cast<int>(i));
+  for (size_t i = 0; i < installations.size(); ++i)
+    index.emplace(installations[i].id, static_cast<int>(i));
   return index;
 }
 
@@ -132,42 +135,52 @@ bool finite(double x) { return std::isfinite(x); }
 bool length_ok(double x) { return std::isfinite(x) && std::abs(x) <= limits::kMaxLength_mm; }
 const std::string kLengthLimit = "must be a finite length within +-10000 mm (README, \"Limits\")";
 
-bool noise_ok(double x) { return std::isfinite(x) && x >= limits::kMinNoise_um && x <= limits::kMaxNoise_um; }
+bool noise_ok(double x) {
+  return std::isfinite(x) && x >= limits::kMinNoise_um && x <= limits::kMaxNoise_um;
+}
 
 }  // namespace
 
-void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std::string& source, const std::string& key) {
-  for (const auto& [name, x] : {std::pair<const char*, double>{"length_offset_um", u.length_offset_um},
-                                {"centring_um", u.centring_um}}) {
+void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std::string& source,
+                                const std::string& key) {
+  for (const auto& [name, x] :
+       {std::pair<const char*, double>{"length_offset_um", u.length_offset_um},
+        {"centring_um", u.centring_um}}) {
     require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_um, source, key + "." + name,
             "must be a standard uncertainty in [0, 10000] um (README, \"Limits\")");
   }
-  for (const auto& [name, x] : {std::pair<const char*, double>{"L_mm", u.L_mm}, {"D_mm", u.D_mm}, {"H_mm", u.H_mm}}) {
+  for (const auto& [name, x] :
+       {std::pair<const char*, double>{"L_mm", u.L_mm}, {"D_mm", u.D_mm}, {"H_mm", u.H_mm}}) {
     require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_mm, source, key + "." + name,
             "must be a standard uncertainty in [0, 100] mm (README, \"Limits\")");
   }
-  if (axis == Axis::B) require(u.H_mm == 0, source, key + ".H_mm", "H is not used for the swinging head B");
+  if (axis == Axis::B)
+    require(u.H_mm == 0, source, key + ".H_mm", "H is not used for the swinging head B");
 }
 
 bool length_within_limits(double x_mm) { return length_ok(x_mm); }
 
-void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axis, const std::string& source) {
+void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axis,
+                              const std::string& source) {
   if (n.distribution == NoiseModel::Distribution::Uniform) {
     require(noise_ok(n.half_width_um), source, "noise.accuracy_um",
             "must be a number of um in [1e-4, 1e4] (README, \"Limits\")");
   } else {
-    require(noise_ok(n.std_um), source, "noise.std_um", "must be a number of um in [1e-4, 1e4] (README, \"Limits\")");
+    require(noise_ok(n.std_um), source, "noise.std_um",
+            "must be a number of um in [1e-4, 1e4] (README, \"Limits\")");
   }
   require(m.order >= 0, source, "errors.order", "must be a non-negative integer");
   require(m.order <= limits::kMaxSeriesOrder, source, "errors.order",
           "must be at most " + std::to_string(limits::kMaxSeriesOrder) + " (README, \"Limits\")");
   if (m.kind == ErrorModel::Kind::Fourier) {
-    require(axis == Axis::C, source, "errors.model",
-            "a Fourier series is for the full-turn axis C; use \"legendre\" for the swinging head B");
+    require(
+        axis == Axis::C, source, "errors.model",
+        "a Fourier series is for the full-turn axis C; use \"legendre\" for the swinging head B");
   }
   if (m.kind == ErrorModel::Kind::Legendre) {
-    require(axis == Axis::B, source, "errors.model",
-            "a Legendre series is for the partial-range axis B; use \"fourier\" for the turntable C");
+    require(
+        axis == Axis::B, source, "errors.model",
+        "a Legendre series is for the partial-range axis B; use \"fourier\" for the turntable C");
   }
 }
 
@@ -184,9 +197,11 @@ void validate_design(const Design& d, const std::string& source) {
     require(finite(a), source, key, "angle is not a finite number");
     if (d.axis == Axis::B) {
       require(a >= -180.0 && a <= 180.0, source, key,
-              "angle " + std::to_string(a) + " deg is outside [-180, 180] deg, the most a swinging head B can reach");
+              "angle " + std::to_string(a) +
+                  " deg is outside [-180, 180] deg, the most a swinging head B can reach");
     } else {
-      require(std::abs(a) <= 3600.0, source, key, "angle " + std::to_string(a) + " deg is beyond +-10 turns");
+      require(std::abs(a) <= 3600.0, source, key,
+              "angle " + std::to_string(a) + " deg is beyond +-10 turns");
     }
   }
   {
@@ -221,18 +236,21 @@ void validate_design(const Design& d, const std::string& source) {
   validate_setup_uncertainty(d.setup_std, d.axis, source, "setup_std");
   require(!d.installations.empty(), source, "installations", "no installations");
   require(d.installations.size() <= limits::kMaxInstallations, source, "installations",
-          "more than " + std::to_string(limits::kMaxInstallations) + " installations (README, \"Limits\")");
+          "more than " + std::to_string(limits::kMaxInstallations) +
+              " installations (README, \"Limits\")");
   std::set<std::string> ids;
   for (size_t i = 0; i < d.installations.size(); ++i) {
     const Installation& in = d.installations[i];
     const std::string key = "installations[" + std::to_string(i) + "]";
     require(!in.id.empty(), source, key + ".id", "empty id");
-    validate_setup_uncertainty(in.setup_std.over(SetupUncertainty{}), d.axis, source, key + ".setup_std");
+    validate_setup_uncertainty(in.setup_std.over(SetupUncertainty{}), d.axis, source,
+                               key + ".setup_std");
     for (char c : in.id) {
       require(c != ',' && c != '"' && !std::isspace(static_cast<unsigned char>(c)), source,
               key + ".id", "id '" + in.id + "' contains a comma, quote or white space");
     }
-    require(ids.insert(in.id).second, source, key + ".id", "duplicate installation id '" + in.id + "'");
+    require(ids.insert(in.id).second, source, key + ".id",
+            "duplicate installation id '" + in.id + "'");
     require(length_ok(in.L_mm), source, key + ".ball_mm.L", kLengthLimit);
     require(length_ok(in.D_mm), source, key + ".ball_mm.D", kLengthLimit);
     require(length_ok(in.H_mm), source, key + ".ball_mm.H", kLengthLimit);

@@ -1,11 +1,9 @@
 #include "dbbkit/diagnose.hpp"
-#include "dbbkit/setup.hpp"
-#include "tolerances.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
-#include <boost/math/distributions/chi_squared.hpp>
 #include <algorithm>
+#include <boost/math/distributions/chi_squared.hpp>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -13,6 +11,8 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
+#include "dbbkit/setup.hpp"
+#include "tolerances.hpp"
 
 namespace dbbkit {
 
@@ -69,7 +69,8 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
         t_sum += t, t2 += t * t, tr += t * ri(j), ++nt;
         t_min = std::min(t_min, t), t_max = std::max(t_max, t);
       }
-      if (rd.sweep) (*rd.sweep == Sweep::CW ? (cw_sum += ri(j), ++ncw) : (ccw_sum += ri(j), ++nccw));
+      if (rd.sweep)
+        (*rd.sweep == Sweep::CW ? (cw_sum += ri(j), ++ncw) : (ccw_sum += ri(j), ++nccw));
     }
     if (nt == s.n && nt > 2 && t_max > t_min) {
       const double tm = t_sum / nt;
@@ -88,9 +89,11 @@ namespace {
 // The set-up effects the final model [J, added effects] cannot detect (added_rank
 // below their columns) and the bias each causes in the errors after, relative to
 // their stated uncertainty.
-std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation& param, const LinearModel& model,
-                                   const WlsSolver& solver, const DiagnoseOptions& options,
-                                   const std::vector<AddedEffect>& added, const std::vector<ErrorsAtAngle>& after) {
+std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation& param,
+                                   const LinearModel& model, const WlsSolver& solver,
+                                   const DiagnoseOptions& options,
+                                   const std::vector<AddedEffect>& added,
+                                   const std::vector<ErrorsAtAngle>& after) {
   std::vector<SetupRisk> out;
   const int p_ext = static_cast<int>(solver.J().cols());
   for (const SetupEffect& e : setup_effects(design, model, false)) {
@@ -106,7 +109,8 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
         const Determined& d = after[s].errors[k];
         if (!d.determined || !(d.std > 0)) continue;
         const double b = (C.col(k).transpose() * GX).norm();
-        if (!(b > tol::kSeenValue)) continue;  // the effect moves this error by nothing but rounding
+        if (!(b > tol::kSeenValue))
+          continue;  // the effect moves this error by nothing but rounding
         const double threshold = d.std / b;
         if (!any || threshold < worst.threshold_um) {
           any = true;
@@ -127,34 +131,41 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
     }
     out.push_back(worst);
   }
-  std::sort(out.begin(), out.end(), [](const SetupRisk& a, const SetupRisk& b) { return a.threshold_um < b.threshold_um; });
+  std::sort(out.begin(), out.end(),
+            [](const SetupRisk& a, const SetupRisk& b) { return a.threshold_um < b.threshold_um; });
   return out;
 }
 
 std::string setup_risk_text(const Design& design, const std::vector<SetupRisk>& risks) {
   std::ostringstream v;
   const bool declared = design.setup_nuisance_declared();
-  v << "But " << risks.size() << " set-up effect(s) cannot be detected by this design, and they move the errors "
+  v << "But " << risks.size()
+    << " set-up effect(s) cannot be detected by this design, and they move the errors "
     << "without leaving a residual";
-  if (!declared) v << " (no set-up tolerance is declared: the stated uncertainties assume a perfect set-up)";
+  if (!declared)
+    v << " (no set-up tolerance is declared: the stated uncertainties assume a perfect set-up)";
   v << ". The most dangerous:";
   const std::size_t shown = std::min<std::size_t>(3, risks.size());
   for (std::size_t i = 0; i < shown; ++i) {
     const SetupRisk& r = risks[i];
-    v << (i ? ";" : "") << " " << r.label << " of " << fmt(r.threshold_um, 3) << " um moves " << kErrorNames[r.error]
-      << " at " << fmt(r.angle_deg) << " deg by its standard uncertainty " << fmt(r.stated_std, 3) << " "
-      << kErrorUnits[r.error] << " (" << fmt(r.bias_per_um, 3) << " " << kErrorUnits[r.error] << " per um)";
+    v << (i ? ";" : "") << " " << r.label << " of " << fmt(r.threshold_um, 3) << " um moves "
+      << kErrorNames[r.error] << " at " << fmt(r.angle_deg) << " deg by its standard uncertainty "
+      << fmt(r.stated_std, 3) << " " << kErrorUnits[r.error] << " (" << fmt(r.bias_per_um, 3) << " "
+      << kErrorUnits[r.error] << " per um)";
     if (r.at_declared) {
-      v << ", at its declared " << fmt(r.declared_std_um, 3) << " um by " << fmt(*r.at_declared, 3) << " "
-        << kErrorUnits[r.error];
+      v << ", at its declared " << fmt(r.declared_std_um, 3) << " um by " << fmt(*r.at_declared, 3)
+        << " " << kErrorUnits[r.error];
     }
   }
   if (declared) {
-    v << ". The errors here are stated for the readings' noise; identify and evaluate carry the declared set-up "
-         "tolerances in their total uncertainties. Installations that make these effects detectable remove the "
+    v << ". The errors here are stated for the readings' noise; identify and evaluate carry the "
+         "declared set-up "
+         "tolerances in their total uncertainties. Installations that make these effects "
+         "detectable remove the "
          "doubt (evaluate lists them).";
   } else {
-    v << ". Declare set-up tolerances (setup_std) to carry them in the uncertainties, or measure installations that "
+    v << ". Declare set-up tolerances (setup_std) to carry them in the uncertainties, or measure "
+         "installations that "
          "make them detectable (evaluate lists them).";
   }
   return v.str();
@@ -185,8 +196,9 @@ std::string reading_text(const Reading& r) {
 }
 
 // `solver`: the axis errors' model alone (diagnose's first step).
-std::vector<DetectionLimit> detection_limits(const WlsSolver& solver, const std::vector<EffectBlock>& pool,
-                                             int n_tests, const DiagnoseOptions& options) {
+std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
+                                             const std::vector<EffectBlock>& pool, int n_tests,
+                                             const DiagnoseOptions& options) {
   std::vector<DetectionLimit> out;
   const Estimate& prior = solver.a_priori();
   DetectionSettings settings;
@@ -199,7 +211,8 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver, const std:
         (solver.sigma_um().cwiseInverse().asDiagonal() * b.X).colwise().norm().transpose();
     const int q = added_rank(R, norms, options.estimate);
     if (q < b.X.cols()) continue;  // confounded: no size would be found
-    const double info = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(R.transpose() * R).eigenvalues()(0);
+    const double info =
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(R.transpose() * R).eigenvalues()(0);
     const int dof = static_cast<int>(solver.J().rows()) - prior.rank - q;
     out.push_back({b.label, b.unit, detection_limit_um(q, true, info, dof, settings)});
   }
@@ -220,15 +233,17 @@ std::string joined(const std::vector<std::string>& labels) {
 // half-width; the half-widths combine in quadrature, u^2 += w^2 / 3.
 std::vector<Attribution> attribute(const Parameterisation& param, const LinearModel& model,
                                    const std::vector<AddedEffect>& added,
-                                   const std::vector<Substitution>& substitutions, const Estimate& after,
-                                   std::vector<ErrorsAtAngle>& errors, const EstimateOptions& options) {
+                                   const std::vector<Substitution>& substitutions,
+                                   const Estimate& after, std::vector<ErrorsAtAngle>& errors,
+                                   const EstimateOptions& options) {
   std::vector<Attribution> out;
   if (after.dof < 1) return out;
   std::vector<std::array<double, 6>> w2(errors.size(), std::array<double, 6>{});
   // The errors with the added effects `out_labels` replaced by `in`; nullopt when that model
   // does not have the rank the swap should give.
-  auto refit = [&](const std::vector<std::string>& out_labels,
-                   const std::vector<const EffectBlock*>& in) -> std::optional<std::vector<ErrorsAtAngle>> {
+  auto refit =
+      [&](const std::vector<std::string>& out_labels,
+          const std::vector<const EffectBlock*>& in) -> std::optional<std::vector<ErrorsAtAngle>> {
     std::vector<const Eigen::MatrixXd*> blocks;
     Eigen::Index cols = 0, removed = 0, inserted = 0;
     for (const AddedEffect& a : added) {
@@ -305,7 +320,8 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   so.estimate = options.estimate;
   const std::vector<EffectBlock> pool = candidate_effects(design, readings);
   const std::vector<ScanFamily> families = scan_families(design, readings);
-  Selection sel = select_effects(model.J, model.sigma_um, model.y_um, pool, families, design, readings, so);
+  Selection sel =
+      select_effects(model.J, model.sigma_um, model.y_um, pool, families, design, readings, so);
   res.before = sel.before;
   res.errors_before = errors_at_stations(param, res.before);
   res.signature_before = residual_signature(design, readings, res.before.residual_um);
@@ -317,10 +333,11 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.after = current;
   res.errors_after = errors_at_stations(param, current);
   res.substitutions = std::move(sel.substitutions);
-  res.attributions =
-      attribute(param, model, res.added, res.substitutions, current, res.errors_after, options.estimate);
+  res.attributions = attribute(param, model, res.added, res.substitutions, current,
+                               res.errors_after, options.estimate);
   {
-    // Null space of the final model over the axis-error unknowns (effects are all determined when added).
+    // Null space of the final model over the axis-error unknowns (effects are all determined when
+    // added).
     Estimate axis_only = current;
     const int p = param.n_parameters();
     axis_only.null_space_scaled = current.null_space_scaled.topRows(p);
@@ -335,18 +352,22 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   // The final model [J, added effects], factorised once for the set-up risks and the checks.
   const WlsSolver final_solver(J, model.sigma_um, options.estimate);
   const Estimate final_fit = final_solver.solve(model.y_um);
-  res.setup_risks = setup_risks(design, param, model, final_solver, options, res.added, res.errors_after);
+  res.setup_risks =
+      setup_risks(design, param, model, final_solver, options, res.added, res.errors_after);
 
   // Checks outside the library, each a test at the level.
-  res.stopped_at_step = sel.stopped_at_reading >= 0 || sel.stopped_at_order ? sel.stopped_at_step : 0;
-  res.stopped_because = sel.stopped_at_order     ? SelectionStop::kModelOrder
+  res.stopped_at_step =
+      sel.stopped_at_reading >= 0 || sel.stopped_at_order ? sel.stopped_at_step : 0;
+  res.stopped_because = sel.stopped_at_order          ? SelectionStop::kModelOrder
                         : sel.stopped_at_reading >= 0 ? SelectionStop::kGrossReading
                                                       : SelectionStop::kNone;
   const bool stopped_at_order = res.stopped_because == SelectionStop::kModelOrder;
   if (res.after.dof > 1) {
-    res.gross = gross_readings(J, model.sigma_um, model.y_um, options.level, options.max_gross, options.estimate);
+    res.gross = gross_readings(J, model.sigma_um, model.y_um, options.level, options.max_gross,
+                               options.estimate);
     for (GrossReading& g : res.gross) g.reading = readings[static_cast<std::size_t>(g.row)];
-    res.features_after = residual_features(design, readings, final_solver, final_fit, options.estimate);
+    res.features_after =
+        residual_features(design, readings, final_solver, final_fit, options.estimate);
     res.signature_after.dominant = most_significant(design, readings, res.features_after);
   }
   // The axis errors' model alone, factorised when a check needs it.
@@ -356,20 +377,24 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
     return *first_solver;
   };
   if (res.before.dof > 1 && res.significant_before) {
-    res.features_before = residual_features(design, readings, first(), res.before, options.estimate);
+    res.features_before =
+        residual_features(design, readings, first(), res.before, options.estimate);
     res.signature_before.dominant = most_significant(design, readings, res.features_before);
   }
   double feature_p = 1;
   for (const ResidualFeature& f : res.features_after) feature_p = std::min(feature_p, f.p);
-  const double feature_p_all = std::min(1.0, feature_p * static_cast<double>(std::max<std::size_t>(1, res.features_after.size())));
+  const double feature_p_all = std::min(
+      1.0, feature_p * static_cast<double>(std::max<std::size_t>(1, res.features_after.size())));
   if (res.significant_after) {
     res.order = model_order_check(design, readings, final_solver, final_fit, options.estimate);
     res.noise = noise_scale(res.after.chi2, res.after.dof);
     const bool order_explains = res.order && res.order->p < options.level;
-    res.noise_larger_than_declared = !(feature_p_all < options.level) && !order_explains && res.gross.empty();
+    res.noise_larger_than_declared =
+        !(feature_p_all < options.level) && !order_explains && res.gross.empty();
   }
   // Detection limits, with the declared noise: only when that noise explains the residual.
-  if (res.added.empty() && res.stopped_at_step == 0 && res.after.p_value && !res.significant_after) {
+  if (res.added.empty() && res.stopped_at_step == 0 && res.after.p_value &&
+      !res.significant_after) {
     int tested = 0;
     for (const CandidateStatus& c : res.candidates) {
       tested += c.state != CandidateState::kConfounded && c.state != CandidateState::kNotApplicable;
@@ -393,8 +418,8 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   if (!res.before.p_value) {
     v << "The design leaves no redundant reading: nothing can be tested.";
   } else if (!res.significant_before && res.added.empty()) {
-    v << "The residual is consistent with the declared noise (" << chi(res.before) << "): nothing to explain"
-      << (res.setup_risks.empty() ? "." : " in the residual.");
+    v << "The residual is consistent with the declared noise (" << chi(res.before)
+      << "): nothing to explain" << (res.setup_risks.empty() ? "." : " in the residual.");
   } else {
     v << "Before: " << chi(res.before) << ". ";
     if (res.added.empty() && res.stopped_at_step > 0) {
@@ -406,10 +431,13 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
       auto attribution_sentence = [&](const std::string& effect) {
         for (const Attribution& at : res.attributions) {
           if (at.effect != effect) continue;
-          const double um = *std::max_element(at.largest_change.begin(), at.largest_change.begin() + 3);
-          const double urad = *std::max_element(at.largest_change.begin() + 3, at.largest_change.end());
+          const double um =
+              *std::max_element(at.largest_change.begin(), at.largest_change.begin() + 3);
+          const double urad =
+              *std::max_element(at.largest_change.begin() + 3, at.largest_change.end());
           v << "The errors after carry the change should";
-          for (std::size_t i = 0; i < at.alternatives.size(); ++i) v << (i ? " or " : " ") << at.alternatives[i];
+          for (std::size_t i = 0; i < at.alternatives.size(); ++i)
+            v << (i ? " or " : " ") << at.alternatives[i];
           v << " be the true one (up to " << fmt(um) << " um, " << fmt(urad)
             << " urad) in their uncertainties (rectangular). ";
         }
@@ -420,21 +448,24 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
       for (const AddedEffect& a : res.added) {
         if (!a.close_alternatives.empty()) {
           v << a.block.label << " was chosen over";
-          for (std::size_t i = 0; i < a.close_alternatives.size(); ++i) v << (i ? " or " : " ") << a.close_alternatives[i];
+          for (std::size_t i = 0; i < a.close_alternatives.size(); ++i)
+            v << (i ? " or " : " ") << a.close_alternatives[i];
           v << ", which fit almost as well: these readings cannot tell them apart reliably. ";
           attribution_sentence(a.block.label);
         }
         if (a.equivalent_to.empty()) continue;
         v << a.block.label << " is equivalent to";
         for (const std::string& l : a.equivalent_to) v << " " << l;
-        v << ": the data determine only their difference, so it is attributed by convention to the later "
+        v << ": the data determine only their difference, so it is attributed by convention to the "
+             "later "
              "installation, and the errors after are conditional on that choice. ";
       }
       for (const Substitution& sub : res.substitutions) {
         std::vector<std::string> by;
         for (const EffectBlock& b : sub.by) by.push_back(b.label);
-        v << joined(by) << " in place of " << joined(sub.replaced)
-          << " fit" << (by.size() == 1 ? "s" : "") << " almost as well: these readings cannot tell the two explanations apart reliably. ";
+        v << joined(by) << " in place of " << joined(sub.replaced) << " fit"
+          << (by.size() == 1 ? "s" : "")
+          << " almost as well: these readings cannot tell the two explanations apart reliably. ";
         attribution_sentence(joined(sub.replaced));
       }
     }
@@ -453,23 +484,27 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
     }
     if (res.stopped_at_step > 0 && stopped_at_order) {
       v << "Selection stopped at step " << res.stopped_at_step
-        << ", where a higher order of the error model was the best candidate: no effect is added to explain part "
+        << ", where a higher order of the error model was the best candidate: no effect is added "
+           "to explain part "
            "of a motion the model's order cannot follow. ";
     }
     if (res.stopped_at_step > 0 && !stopped_at_order && !res.gross.empty()) {
       v << "Selection stopped at step " << res.stopped_at_step
-        << ", where one reading alone was the best candidate: no effect is added to explain part of it away. ";
+        << ", where one reading alone was the best candidate: no effect is added to explain part "
+           "of it away. ";
     }
     if (!res.gross.empty()) {
-      v << res.gross.size() << " gross reading(s), each tested alone against the rest (externally studentised "
+      v << res.gross.size()
+        << " gross reading(s), each tested alone against the rest (externally studentised "
         << "residual, Bonferroni over the readings):";
       for (std::size_t g = 0; g < res.gross.size(); ++g) {
         const GrossReading& gr = res.gross[g];
-        v << (g ? ";" : "") << " " << reading_text(readings[gr.row]) << ", off by " << fmt(gr.value_um, 4)
-          << " +- " << fmt(gr.std_um, 2) << " um (t = " << fmt(gr.t, 4) << ", p " << p_text(gr.p_scan) << " over "
-          << gr.tested << " readings)";
+        v << (g ? ";" : "") << " " << reading_text(readings[gr.row]) << ", off by "
+          << fmt(gr.value_um, 4) << " +- " << fmt(gr.std_um, 2) << " um (t = " << fmt(gr.t, 4)
+          << ", p " << p_text(gr.p_scan) << " over " << gr.tested << " readings)";
       }
-      v << ". Check them at the machine; dbbkit diagnose --exclude-gross refits without them and says so. ";
+      v << ". Check them at the machine; dbbkit diagnose --exclude-gross refits without them and "
+           "says so. ";
     }
     if (res.significant_after) {
       v << "A significant residual remains that no effect of the library explains";
@@ -480,18 +515,20 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
       }
       if (res.order && res.order->p < options.level) {
         const OrderCheck& o = *res.order;
-        v << "The error model's order looks too low: order " << o.suggested << " instead of " << o.order
-          << " explains " << fmt(o.test.delta_chi2, 4) << " of chi2 (F = " << fmt(o.test.F, 4) << ", p "
-          << p_text(o.p) << " over " << o.tried << " orders); with it chi2 " << fmt(o.chi2_with, 4) << " on "
-          << o.dof_with << " dof" << (o.p_value_with ? ", p " + p_text(*o.p_value_with) : std::string())
+        v << "The error model's order looks too low: order " << o.suggested << " instead of "
+          << o.order << " explains " << fmt(o.test.delta_chi2, 4)
+          << " of chi2 (F = " << fmt(o.test.F, 4) << ", p " << p_text(o.p) << " over " << o.tried
+          << " orders); with it chi2 " << fmt(o.chi2_with, 4) << " on " << o.dof_with << " dof"
+          << (o.p_value_with ? ", p " + p_text(*o.p_value_with) : std::string())
           << ". Set errors.order to " << o.suggested << " in the design. ";
       }
       if (res.noise_larger_than_declared && res.noise) {
         const NoiseScale& ns = *res.noise;
         v << "No feature of the residual stands out against its own scatter (the most significant, "
           << res.signature_after.dominant << ", has p " << p_text(feature_p_all) << " over "
-          << res.features_after.size() << " features): the readings scatter " << fmt(ns.ratio, 3) << " times (95 % interval " << fmt(ns.low, 3)
-          << " to " << fmt(ns.high, 3) << ") more than the declared noise, evenly. The declared accuracy looks too "
+          << res.features_after.size() << " features): the readings scatter " << fmt(ns.ratio, 3)
+          << " times (95 % interval " << fmt(ns.low, 3) << " to " << fmt(ns.high, 3)
+          << ") more than the declared noise, evenly. The declared accuracy looks too "
           << "small; identify --type-a states the uncertainties from the data's own scatter. ";
       }
     } else {
@@ -503,9 +540,11 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
     const double lower = chi2_lower_tail(res.after.dof, res.after.chi2);
     res.p_lower_after = lower;
     if (lower < options.level) {
-      v << " The residual is smaller than the declared noise predicts (P(chi2 <= " << fmt(res.after.chi2, 4)
-        << ") = " << fmt(lower) << "): the declared instrument accuracy overstates the scatter of these readings "
-        << "(averaged readings?); the uncertainties stated from it are conservative, and a Type A evaluation "
+      v << " The residual is smaller than the declared noise predicts (P(chi2 <= "
+        << fmt(res.after.chi2, 4) << ") = " << fmt(lower)
+        << "): the declared instrument accuracy overstates the scatter of these readings "
+        << "(averaged readings?); the uncertainties stated from it are conservative, and a Type A "
+           "evaluation "
         << "(identify --type-a) would state them from the data.";
     }
   }
@@ -515,7 +554,8 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   }
   if (!res.detection_limits.empty()) {
     // Per kind, the range over its candidates of the size found with power 0.9.
-    v << " Nothing was added; with the declared noise, these would have been found with power 0.9 at this level:";
+    v << " Nothing was added; with the declared noise, these would have been found with power 0.9 "
+         "at this level:";
     std::vector<std::string> kinds;
     for (const DetectionLimit& d : res.detection_limits) {
       const std::string k = d.label.substr(0, d.label.find('['));
@@ -532,7 +572,8 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
       }
       if (lo_label.empty()) continue;
       v << (first ? " " : "; ") << k << " of " << fmt(lo, 2) << " " << unit
-        << (hi > lo * 1.005 ? " (" + lo_label + ") to " + fmt(hi, 2) + " " + unit : std::string()) << " or more";
+        << (hi > lo * 1.005 ? " (" + lo_label + ") to " + fmt(hi, 2) + " " + unit : std::string())
+        << " or more";
       first = false;
     }
     v << " (every candidate in the JSON).";
@@ -543,16 +584,19 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
 
 }  // namespace
 
-std::string describe_feature(const Design& design, const std::vector<Reading>& readings, const ResidualFeature& f) {
+std::string describe_feature(const Design& design, const std::vector<Reading>& readings,
+                             const ResidualFeature& f) {
   std::ostringstream s;
-  const std::string inst = f.installation >= 0 ? design.installations[f.installation].id : std::string("all");
+  const std::string inst =
+      f.installation >= 0 ? design.installations[f.installation].id : std::string("all");
   auto pm = [&](const char* unit) { return fmt(f.value, 4) + " +- " + fmt(f.std, 2) + " " + unit; };
   switch (f.kind) {
     case FeatureKind::kMean:
       s << "a mean residual of " << pm("um") << " in installation " << inst;
       break;
     case FeatureKind::kHarmonic:
-      s << "a " << f.harmonic << "-per-turn term of amplitude " << fmt(f.value, 4) << " um in installation " << inst;
+      s << "a " << f.harmonic << "-per-turn term of amplitude " << fmt(f.value, 4)
+        << " um in installation " << inst;
       break;
     case FeatureKind::kDrift:
       s << "a drift of " << pm("um/min") << " in installation " << inst;
@@ -569,7 +613,9 @@ std::string describe_feature(const Design& design, const std::vector<Reading>& r
       break;
   }
   s << " (F = " << fmt(f.test.F, 4) << ", p " << p_text(f.test.p);
-  if (f.tested > 1) s << ", times " << f.tested << " positions scanned: " << p_text(f.p).substr(f.p < 1e-300 ? 0 : 2);
+  if (f.tested > 1)
+    s << ", times " << f.tested
+      << " positions scanned: " << p_text(f.p).substr(f.p < 1e-300 ? 0 : 2);
   s << ")";
   if (!f.difference_with.empty()) {
     s << "; only its difference from installation";
@@ -579,7 +625,8 @@ std::string describe_feature(const Design& design, const std::vector<Reading>& r
   return s.str();
 }
 
-DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readings, const DiagnoseOptions& options) {
+DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readings,
+                        const DiagnoseOptions& options) {
   DiagnoseResult res = diagnose_once(design, readings, options);
   if (!options.exclude_gross || res.gross.empty()) return res;
   // Refit without the gross readings, in passes (one may mask another), as asked.
@@ -610,8 +657,8 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   v << "Refit without " << excluded.size() << " gross reading(s), as asked (--exclude-gross):";
   for (std::size_t g = 0; g < excluded.size(); ++g) {
     v << (g ? ";" : "") << " " << reading_text(readings[static_cast<std::size_t>(excluded[g].row)])
-      << ", off by " << fmt(excluded[g].value_um, 4) << " +- " << fmt(excluded[g].std_um, 2) << " um (t = "
-      << fmt(excluded[g].t, 4) << ")";
+      << ", off by " << fmt(excluded[g].value_um, 4) << " +- " << fmt(excluded[g].std_um, 2)
+      << " um (t = " << fmt(excluded[g].t, 4) << ")";
   }
   v << ". " << res.verdict;
   res.verdict = v.str();
@@ -630,12 +677,14 @@ DetectionSettings diagnose_detection_settings(const std::vector<CandidateStatus>
   DetectionSettings detection;
   detection.level = options.level;
   detection.n_tests = 0;
-  for (const CandidateStatus& c : candidates) detection.n_tests += c.state == CandidateState::kDetectable;
+  for (const CandidateStatus& c : candidates)
+    detection.n_tests += c.state == CandidateState::kDetectable;
   detection.n_tests = std::max(1, detection.n_tests);
   return detection;
 }
 
-std::vector<CandidateStatus> effect_detectability(const Design& design, const std::vector<Reading>& readings) {
+std::vector<CandidateStatus> effect_detectability(const Design& design,
+                                                  const std::vector<Reading>& readings) {
   const Parameterisation param(design);
   const LinearModel model = build_linear_model(design, param, readings);
   const WlsSolver solver(model.J, model.sigma_um);
@@ -650,7 +699,8 @@ std::vector<CandidateStatus> effect_detectability(const Design& design, const st
     if (added < q) {
       out.push_back({b.label, CandidateState::kConfounded,
                      "raises the rank by " + std::to_string(added) + " of " + std::to_string(q) +
-                         ": indistinguishable from the axis errors of the " + design.errors.describe() + " model"});
+                         ": indistinguishable from the axis errors of the " +
+                         design.errors.describe() + " model"});
     } else {
       out.push_back({b.label, CandidateState::kDetectable, ""});
     }
@@ -661,7 +711,8 @@ std::vector<CandidateStatus> effect_detectability(const Design& design, const st
 DesignAssessment assess_design(const Design& design, double reference_length_mm) {
   DesignAssessment a;
   a.effects = effect_detectability(design, nominal_readings(design));
-  a.evaluation = evaluate_design(design, reference_length_mm, {}, diagnose_detection_settings(a.effects));
+  a.evaluation =
+      evaluate_design(design, reference_length_mm, {}, diagnose_detection_settings(a.effects));
   return a;
 }
 

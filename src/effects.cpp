@@ -1,14 +1,14 @@
 #include "dbbkit/effects.hpp"
-#include "tolerances.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
-#include <sstream>
 #include <limits>
+#include <sstream>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "tolerances.hpp"
 
 namespace dbbkit {
 
@@ -20,10 +20,14 @@ struct KindInfo {
   bool shared;
 };
 constexpr KindInfo kKinds[] = {
-    {EffectKind::LengthOffset, "length_offset", "um", false}, {EffectKind::Centring, "centring", "um", false},
-    {EffectKind::Drift, "drift", "um/min", false},            {EffectKind::Reversal, "reversal", "um", false},
-    {EffectKind::Scale, "scale", "um/m", true},               {EffectKind::Squareness, "squareness", "urad", true},
-    {EffectKind::Periodic, "periodic", "um", false},          {EffectKind::Step, "step", "um", false},
+    {EffectKind::LengthOffset, "length_offset", "um", false},
+    {EffectKind::Centring, "centring", "um", false},
+    {EffectKind::Drift, "drift", "um/min", false},
+    {EffectKind::Reversal, "reversal", "um", false},
+    {EffectKind::Scale, "scale", "um/m", true},
+    {EffectKind::Squareness, "squareness", "urad", true},
+    {EffectKind::Periodic, "periodic", "um", false},
+    {EffectKind::Step, "step", "um", false},
     {EffectKind::Thermal, "thermal", "um", false},
 };
 const KindInfo& info(EffectKind k) {
@@ -38,8 +42,8 @@ const char* effect_name(EffectKind kind) { return info(kind).name; }
 const char* effect_unit(EffectKind kind) { return info(kind).unit; }
 bool effect_is_shared(EffectKind kind) { return info(kind).shared; }
 bool effect_has_whole_test_form(EffectKind kind) {
-  return kind == EffectKind::LengthOffset || kind == EffectKind::Drift || kind == EffectKind::Reversal ||
-         kind == EffectKind::Thermal;
+  return kind == EffectKind::LengthOffset || kind == EffectKind::Drift ||
+         kind == EffectKind::Reversal || kind == EffectKind::Thermal;
 }
 
 EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key) {
@@ -48,7 +52,8 @@ EffectKind effect_kind(const std::string& name, const std::string& source, const
   }
   throw InputError(source, key,
                    "unknown effect '" + name +
-                       "' (expected length_offset, centring, drift, reversal, step, thermal, scale, squareness or periodic)");
+                       "' (expected length_offset, centring, drift, reversal, step, thermal, "
+                       "scale, squareness or periodic)");
 }
 
 namespace {
@@ -61,7 +66,9 @@ std::string short_number(double x) {
 
 // Parameters of an effect: three components for the vector effects, else one.
 int effect_parameter_count(EffectKind kind) {
-  return kind == EffectKind::Centring || kind == EffectKind::Scale || kind == EffectKind::Squareness ? 3 : 1;
+  return kind == EffectKind::Centring || kind == EffectKind::Scale || kind == EffectKind::Squareness
+             ? 3
+             : 1;
 }
 }  // namespace
 
@@ -89,7 +96,8 @@ std::string EffectCandidate::label(const Design& design) const {
   return s;
 }
 
-std::vector<double> installation_start_times(const Design& design, const std::vector<Reading>& readings) {
+std::vector<double> installation_start_times(const Design& design,
+                                             const std::vector<Reading>& readings) {
   std::vector<double> t0(design.installations.size(), std::numeric_limits<double>::quiet_NaN());
   const auto index = design.installation_index();
   for (const Reading& r : readings) {
@@ -112,11 +120,13 @@ Eigen::Vector3d centring_row(Axis axis, const Installation& in, double angle_deg
   return -in.sign * direction_machine(axis, in, angle_deg);
 }
 
-Eigen::VectorXd effect_row(const Design& design, const Reading& r, double t0_s, const EffectCandidate& e) {
+Eigen::VectorXd effect_row(const Design& design, const Reading& r, double t0_s,
+                           const EffectCandidate& e) {
   return effect_row(design, r, design.find_installation(r.installation), t0_s, e);
 }
 
-Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, double t0_s, const EffectCandidate& e) {
+Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, double t0_s,
+                           const EffectCandidate& e) {
   Eigen::VectorXd row = Eigen::VectorXd::Zero(effect_parameter_count(e.kind));
   if (e.installation >= 0 && e.installation != inst) return row;
   const Installation& in = design.installations[inst];
@@ -137,8 +147,10 @@ Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, dou
     case EffectKind::Squareness: {
       if (!in.bar_mm) break;
       const Eigen::Vector3d u = direction_machine(design.axis, in, r.angle_deg);
-      const Eigen::Vector3d F = ball_position_mm(design.axis, in, r.angle_deg) - in.sign * *in.bar_mm * u;
-      const Eigen::Vector3d w = -in.sign * 1e-3 * u;  // reading per um of following-ball motion, per mm of F
+      const Eigen::Vector3d F =
+          ball_position_mm(design.axis, in, r.angle_deg) - in.sign * *in.bar_mm * u;
+      const Eigen::Vector3d w =
+          -in.sign * 1e-3 * u;  // reading per um of following-ball motion, per mm of F
       if (e.kind == EffectKind::Scale) {
         row = w.cwiseProduct(F);
       } else {
@@ -150,7 +162,8 @@ Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, dou
       if (r.time_s && *r.time_s >= e.at_s) row(0) = 1.0;
       break;
     case EffectKind::Thermal:
-      if (r.time_s && std::isfinite(t0_s) && e.tau_min > 0) row(0) = -std::expm1(-(*r.time_s - t0_s) / (60.0 * e.tau_min));
+      if (r.time_s && std::isfinite(t0_s) && e.tau_min > 0)
+        row(0) = -std::expm1(-(*r.time_s - t0_s) / (60.0 * e.tau_min));
       break;
     case EffectKind::Periodic: {
       double s, c;
@@ -169,18 +182,20 @@ ReadingLayout::ReadingLayout(const Design& design, const std::vector<Reading>& r
   for (const Reading& r : readings) installation.push_back(index.at(r.installation));
 }
 
-EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings, const EffectCandidate& e) {
+EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings,
+                         const EffectCandidate& e) {
   return effect_block(design, readings, ReadingLayout(design, readings), e);
 }
 
-EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings, const ReadingLayout& layout,
-                         const EffectCandidate& e) {
+EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings,
+                         const ReadingLayout& layout, const EffectCandidate& e) {
   EffectBlock b;
   b.effect = e;
   b.label = e.label(design);
   b.unit = effect_unit(e.kind);
   const std::vector<std::string> names = effect_parameter_names(e.kind);
-  Eigen::MatrixXd full(static_cast<Eigen::Index>(readings.size()), static_cast<Eigen::Index>(names.size()));
+  Eigen::MatrixXd full(static_cast<Eigen::Index>(readings.size()),
+                       static_cast<Eigen::Index>(names.size()));
   bool time_missing = false, cw = false, ccw = false, bar_missing = false;
   for (std::size_t i = 0; i < readings.size(); ++i) {
     const Reading& r = readings[i];
@@ -195,16 +210,21 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
     const double start = e.installation < 0 ? layout.test_start_s : layout.start_s[inst];
     full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, start, e).transpose();
   }
-  if ((e.kind == EffectKind::Drift || e.kind == EffectKind::Thermal) && time_missing) b.not_applicable = "needs time_s on every reading it applies to";
-  if (e.kind == EffectKind::Reversal && !(cw && ccw)) b.not_applicable = "needs readings of both sweeps (cw and ccw)";
+  if ((e.kind == EffectKind::Drift || e.kind == EffectKind::Thermal) && time_missing)
+    b.not_applicable = "needs time_s on every reading it applies to";
+  if (e.kind == EffectKind::Reversal && !(cw && ccw))
+    b.not_applicable = "needs readings of both sweeps (cw and ccw)";
   if ((e.kind == EffectKind::Scale || e.kind == EffectKind::Squareness) && bar_missing) {
     b.not_applicable = "needs bar_mm on every installation (the following ball's position)";
   }
   std::vector<int> keep;
   for (int j = 0; j < full.cols(); ++j) {
-    if ((e.component < 0 || e.component == j) && full.col(j).cwiseAbs().maxCoeff() > tol::kSeenValue) keep.push_back(j);
+    if ((e.component < 0 || e.component == j) &&
+        full.col(j).cwiseAbs().maxCoeff() > tol::kSeenValue)
+      keep.push_back(j);
   }
-  if (keep.empty() && b.not_applicable.empty()) b.not_applicable = "changes no reading of this design";
+  if (keep.empty() && b.not_applicable.empty())
+    b.not_applicable = "changes no reading of this design";
   b.X.resize(full.rows(), static_cast<Eigen::Index>(keep.size()));
   for (std::size_t j = 0; j < keep.size(); ++j) {
     b.X.col(static_cast<Eigen::Index>(j)) = full.col(keep[j]);
@@ -213,16 +233,19 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
   return b;
 }
 
-std::vector<EffectBlock> candidate_effects(const Design& design, const std::vector<Reading>& readings) {
+std::vector<EffectBlock> candidate_effects(const Design& design,
+                                           const std::vector<Reading>& readings) {
   std::vector<EffectBlock> out;
   const ReadingLayout layout(design, readings);
-  for (EffectKind k : {EffectKind::LengthOffset, EffectKind::Centring, EffectKind::Drift, EffectKind::Reversal}) {
+  for (EffectKind k :
+       {EffectKind::LengthOffset, EffectKind::Centring, EffectKind::Drift, EffectKind::Reversal}) {
     for (std::size_t i = 0; i < design.installations.size(); ++i) {
       out.push_back(effect_block(design, readings, layout, {k, static_cast<int>(i)}));
     }
     // The same effect once for the whole test: a length change common to every reading (the
     // bar's own length), one drift on the test's clock, one reversal of every installation.
-    if (effect_has_whole_test_form(k)) out.push_back(effect_block(design, readings, layout, {k, -1}));
+    if (effect_has_whole_test_form(k))
+      out.push_back(effect_block(design, readings, layout, {k, -1}));
   }
   // Shared effects one parameter at a time: part of a scale or squareness can be
   // confounded (an isotropic scale is a length offset) while the rest is not.
@@ -232,14 +255,18 @@ std::vector<EffectBlock> candidate_effects(const Design& design, const std::vect
   return out;
 }
 
-EffectBlock ScanFamily::alternative(const Design& design, const std::vector<Reading>& readings, int k) const {
+EffectBlock ScanFamily::alternative(const Design& design, const std::vector<Reading>& readings,
+                                    int k) const {
   if (effect.kind != EffectKind::Step) return alternatives.at(static_cast<std::size_t>(k));
   EffectBlock b;
   b.effect = effect;
-  const Reading& first = readings.at(static_cast<std::size_t>(rows.at(static_cast<std::size_t>(k))));
+  const Reading& first =
+      readings.at(static_cast<std::size_t>(rows.at(static_cast<std::size_t>(k))));
   if (timed) b.effect.at_s = *first.time_s;
   b.label = b.effect.label(design);
-  if (!timed) b.label += "(from reading " + std::to_string(k + 1) + " of " + std::to_string(rows.size()) + ")";
+  if (!timed)
+    b.label +=
+        "(from reading " + std::to_string(k + 1) + " of " + std::to_string(rows.size()) + ")";
   b.unit = effect_unit(effect.kind);
   b.parameters = {"value"};
   b.X = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(readings.size()), 1);
@@ -251,19 +278,23 @@ std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Re
   std::vector<ScanFamily> out;
   const auto index = design.installation_index();
   std::vector<std::vector<int>> rows(design.installations.size());
-  for (std::size_t j = 0; j < readings.size(); ++j) rows[index.at(readings[j].installation)].push_back(static_cast<int>(j));
+  for (std::size_t j = 0; j < readings.size(); ++j)
+    rows[index.at(readings[j].installation)].push_back(static_cast<int>(j));
   for (std::size_t i = 0; i < design.installations.size(); ++i) {
     ScanFamily f;
     f.effect.kind = EffectKind::Step;
     f.effect.installation = static_cast<int>(i);
     f.label = f.effect.label(design);
     f.rows = rows[i];
-    f.timed = !f.rows.empty() && std::all_of(f.rows.begin(), f.rows.end(), [&](int j) { return readings[j].time_s.has_value(); });
+    f.timed = !f.rows.empty() && std::all_of(f.rows.begin(), f.rows.end(),
+                                             [&](int j) { return readings[j].time_s.has_value(); });
     if (f.timed) {
-      std::stable_sort(f.rows.begin(), f.rows.end(), [&](int a, int b) { return *readings[a].time_s < *readings[b].time_s; });
+      std::stable_sort(f.rows.begin(), f.rows.end(),
+                       [&](int a, int b) { return *readings[a].time_s < *readings[b].time_s; });
     }
     if (static_cast<int>(f.rows.size()) < 2 * f.min_segment) {
-      f.not_applicable = "needs at least " + std::to_string(2 * f.min_segment) + " readings of the installation";
+      f.not_applicable =
+          "needs at least " + std::to_string(2 * f.min_segment) + " readings of the installation";
     }
     out.push_back(f);
   }

@@ -2,8 +2,8 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
-#include <boost/math/distributions/chi_squared.hpp>
 #include <algorithm>
+#include <boost/math/distributions/chi_squared.hpp>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -87,7 +87,8 @@ Border border_columns(const Jacobian& Js, const EstimateOptions& o) {
   for (int j = 0; j < p; ++j) members[static_cast<std::size_t>(component[j])].push_back(j);
   std::vector<int> nonzeros(static_cast<std::size_t>(p), 0);
   for (Eigen::Index i = 0; i < Js.outerSize(); ++i) {
-    for (Jacobian::InnerIterator it(Js, i); it; ++it) ++nonzeros[static_cast<std::size_t>(it.col())];
+    for (Jacobian::InnerIterator it(Js, i); it; ++it)
+      ++nonzeros[static_cast<std::size_t>(it.col())];
   }
   std::vector<int> border;
   for (const std::vector<int>& cols : members) {
@@ -95,9 +96,11 @@ Border border_columns(const Jacobian& Js, const EstimateOptions& o) {
     std::vector<int> counts;
     counts.reserve(cols.size());
     for (int j : cols) counts.push_back(nonzeros[static_cast<std::size_t>(j)]);
-    std::nth_element(counts.begin(), counts.begin() + static_cast<std::ptrdiff_t>(counts.size() / 2), counts.end());
+    std::nth_element(counts.begin(),
+                     counts.begin() + static_cast<std::ptrdiff_t>(counts.size() / 2), counts.end());
     const double median = counts[counts.size() / 2];
-    const double threshold = std::max(static_cast<double>(o.border_min_nonzeros), o.border_nonzeros_factor * median);
+    const double threshold =
+        std::max(static_cast<double>(o.border_min_nonzeros), o.border_nonzeros_factor * median);
     for (int j : cols) {
       if (nonzeros[static_cast<std::size_t>(j)] > threshold) border.push_back(j);
     }
@@ -164,10 +167,12 @@ double WlsSolver::leverage(Eigen::Index i) const {
   return h;
 }
 
-WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options)
+WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um,
+                     const EstimateOptions& options)
     : WlsSolver(Jacobian(J.sparseView()), sigma_um, options) {}
 
-WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options)
+WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
+                     const EstimateOptions& options)
     : J_(J), sigma_(sigma_um) {
   J_.makeCompressed();
   Estimate& est = prior_;
@@ -189,7 +194,8 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
   Jacobian Js = w.asDiagonal() * J_;
   est.column_scale = Eigen::VectorXd::Zero(p);
   for (int i = 0; i < n; ++i) {
-    for (Jacobian::InnerIterator it(Js, i); it; ++it) est.column_scale(it.col()) += it.value() * it.value();
+    for (Jacobian::InnerIterator it(Js, i); it; ++it)
+      est.column_scale(it.col()) += it.value() * it.value();
   }
   est.column_scale = est.column_scale.cwiseSqrt();
   // A column with |c_j| <= negligible_column * max_k |c_k| is rounding (e.g. a
@@ -198,7 +204,8 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
   const double max_column = p > 0 ? est.column_scale.maxCoeff() : 0.0;
   std::vector<char> negligible(p, 0);
   for (int j = 0; j < p; ++j) {
-    if (est.column_scale(j) <= options.negligible_column * max_column || est.column_scale(j) == 0.0) {
+    if (est.column_scale(j) <= options.negligible_column * max_column ||
+        est.column_scale(j) == 0.0) {
       est.column_scale(j) = 1.0;
       negligible[j] = 1;
     }
@@ -222,7 +229,8 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
   for (int j : border_) is_border[static_cast<std::size_t>(j)] = 1;
   const Jacobian& Jblocks = border_.empty() ? Js : border.rest;
   const auto [component_of_col, n_components] = column_components(Jblocks);
-  std::vector<int> block_of_col(static_cast<std::size_t>(p), -1), number(static_cast<std::size_t>(n_components), -1);
+  std::vector<int> block_of_col(static_cast<std::size_t>(p), -1),
+      number(static_cast<std::size_t>(n_components), -1);
   int n_blocks = 0;
   for (int j = 0; j < p; ++j) {
     if (is_border[static_cast<std::size_t>(j)]) continue;
@@ -260,7 +268,8 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
     Eigen::MatrixXd sub = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(blk.rows.size()),
                                                 static_cast<Eigen::Index>(blk.cols.size()));
     for (std::size_t r = 0; r < blk.rows.size(); ++r) {
-      for (Jacobian::InnerIterator it(Jblocks, blk.rows[r]); it; ++it) sub(static_cast<Eigen::Index>(r), local[it.col()]) = it.value();
+      for (Jacobian::InnerIterator it(Jblocks, blk.rows[r]); it; ++it)
+        sub(static_cast<Eigen::Index>(r), local[it.col()]) = it.value();
     }
     return sub;
   };
@@ -272,7 +281,8 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
   // result); nullopt otherwise, `sub` untouched.
   auto block_normal = [&](Eigen::MatrixXd& sub) -> std::optional<BlockSvd> {
     const Eigen::Index c = sub.cols();
-    if (!(options.normal_equations_tolerance > 0) || c < options.normal_equations_min_columns || sub.rows() < c) {
+    if (!(options.normal_equations_tolerance > 0) || c < options.normal_equations_min_columns ||
+        sub.rows() < c) {
       return std::nullopt;
     }
     Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(c, c);
@@ -282,7 +292,8 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
     if (eig.info() != Eigen::Success) return std::nullopt;
     const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
     const double kappa2 = lambda(c - 1) / lambda(0);
-    const double bound = kappa2 * static_cast<double>(sub.rows()) * std::numeric_limits<double>::epsilon();
+    const double bound =
+        kappa2 * static_cast<double>(sub.rows()) * std::numeric_limits<double>::epsilon();
     if (!(lambda(0) > 0) || !(bound <= options.normal_equations_tolerance)) return std::nullopt;
     BlockSvd d;
     d.s = lambda.reverse().cwiseSqrt();
@@ -331,16 +342,21 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
       const Eigen::MatrixXd Vr = d.V.leftCols(r);
       const Eigen::VectorXd inv_s = d.s.head(r).cwiseInverse();
       const Eigen::MatrixXd c = Vr * inv_s.cwiseAbs2().asDiagonal() * Vr.transpose();
-      const Eigen::MatrixXd g = d.normal ? Eigen::MatrixXd(c * d.sub.transpose())  // scaled, whitened
-                                         : Eigen::MatrixXd(Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose());
+      const Eigen::MatrixXd g =
+          d.normal ? Eigen::MatrixXd(c * d.sub.transpose())  // scaled, whitened
+                   : Eigen::MatrixXd(Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose());
       for (std::size_t a = 0; a < blk.cols.size(); ++a) {
         const int ja = blk.cols[a];
         for (std::size_t rr = 0; rr < blk.rows.size(); ++rr) {
-          const double v = unscale(ja) * g(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(rr)) * w(blk.rows[rr]);
+          const double v = unscale(ja) *
+                           g(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(rr)) *
+                           w(blk.rows[rr]);
           if (v != 0.0) gain_entries.emplace_back(ja, blk.rows[rr], v);
         }
         for (std::size_t c2 = 0; c2 < blk.cols.size(); ++c2) {
-          const double v = unscale(ja) * c(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(c2)) * unscale(blk.cols[c2]);
+          const double v = unscale(ja) *
+                           c(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(c2)) *
+                           unscale(blk.cols[c2]);
           if (v != 0.0) cov_entries.emplace_back(ja, blk.cols[c2], v);
         }
       }
@@ -417,18 +433,21 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const E
   est.null_space_scaled.resize(p, n_null);
   est.null_space_scaled.setFromTriplets(null_entries.begin(), null_entries.end());
   std::sort(all_s.begin(), all_s.end(), std::greater<double>());
-  est.singular_values = Eigen::Map<Eigen::VectorXd>(all_s.data(), static_cast<Eigen::Index>(all_s.size()));
+  est.singular_values =
+      Eigen::Map<Eigen::VectorXd>(all_s.data(), static_cast<Eigen::Index>(all_s.size()));
   est.rank = rank;
   if (rank > 0 && border_.empty()) est.condition_number = s_max / s_min_kept;
   est.dof = n - rank;
 
   if (rank == p) {
     est.status = EstimateStatus::kFullRank;
-    est.message = "full rank: " + std::to_string(p) + " unknowns from " + std::to_string(n) + " readings";
+    est.message =
+        "full rank: " + std::to_string(p) + " unknowns from " + std::to_string(n) + " readings";
   } else {
     est.status = EstimateStatus::kRankDeficient;
     est.message = "rank " + std::to_string(rank) + " of " + std::to_string(p) + ": " +
-                  std::to_string(p - rank) + " combination(s) of the unknowns are not determined by the data";
+                  std::to_string(p - rank) +
+                  " combination(s) of the unknowns are not determined by the data";
   }
 }
 
@@ -448,7 +467,8 @@ Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options) 
   return WlsSolver(model.J, model.sigma_um, options).solve(model.y_um);
 }
 
-Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M, const Eigen::MatrixXd& GM) {
+Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M,
+                            const Eigen::MatrixXd& GM) {
   return solver.sigma_um().cwiseInverse().asDiagonal() * (M - solver.J() * GM);
 }
 
@@ -480,11 +500,13 @@ double bic(double n, double chi2, int parameters) {
 
 int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X, const EstimateOptions& options) {
   if (X.cols() == 0 || X.rows() == 0) return 0;
-  const Eigen::VectorXd norms = (solver.sigma_um().cwiseInverse().asDiagonal() * X).colwise().norm().transpose();
+  const Eigen::VectorXd norms =
+      (solver.sigma_um().cwiseInverse().asDiagonal() * X).colwise().norm().transpose();
   return added_rank(unexplained(solver, X), norms, options);
 }
 
-int added_rank(const Eigen::MatrixXd& unexplained_part, const Eigen::VectorXd& norms, const EstimateOptions& options) {
+int added_rank(const Eigen::MatrixXd& unexplained_part, const Eigen::VectorXd& norms,
+               const EstimateOptions& options) {
   const int q = static_cast<int>(unexplained_part.cols());
   if (q == 0 || unexplained_part.rows() == 0) return 0;
   Eigen::MatrixXd R = unexplained_part;
@@ -505,18 +527,22 @@ int added_rank(const Eigen::MatrixXd& unexplained_part, const Eigen::VectorXd& n
 bool Estimate::determined(const Function& c) const {
   if (status == EstimateStatus::kNoReadings) return false;
   double norm2 = 0;
-  for (Function::InnerIterator it(c); it; ++it) norm2 += std::pow(it.value() / column_scale(it.index()), 2);
+  for (Function::InnerIterator it(c); it; ++it)
+    norm2 += std::pow(it.value() / column_scale(it.index()), 2);
   if (norm2 == 0.0) return true;  // the zero function is known exactly
   if (null_space_scaled.cols() == 0) return true;
   // N'w on the null vectors the support touches (each lies in one block).
   std::vector<std::pair<Eigen::Index, double>> terms;
   for (Function::InnerIterator ct(c); ct; ++ct) {
     const double wj = ct.value() / column_scale(ct.index());
-    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(null_space_scaled, ct.index()); it; ++it) {
+    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(null_space_scaled,
+                                                                        ct.index());
+         it; ++it) {
       terms.emplace_back(it.col(), wj * it.value());
     }
   }
-  std::sort(terms.begin(), terms.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::sort(terms.begin(), terms.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
   double proj2 = 0;
   for (std::size_t t = 0; t < terms.size();) {
     double v = 0;
@@ -530,7 +556,8 @@ bool Estimate::determined(const Function& c) const {
 double Estimate::base_variance(const Function& c) const {
   double var = 0;
   for (Function::InnerIterator a(c); a; ++a) {
-    for (Function::InnerIterator b(c); b; ++b) var += a.value() * covariance.coeff(a.index(), b.index()) * b.value();
+    for (Function::InnerIterator b(c); b; ++b)
+      var += a.value() * covariance.coeff(a.index(), b.index()) * b.value();
   }
   return var;
 }
@@ -538,7 +565,8 @@ double Estimate::base_variance(const Function& c) const {
 Eigen::VectorXd Estimate::low_rank_coordinates(const Function& c) const {
   Eigen::VectorXd kc = Eigen::VectorXd::Zero(covariance_K.cols());
   if (covariance_K.cols() == 0) return kc;
-  for (Function::InnerIterator a(c); a; ++a) kc += a.value() * covariance_K.row(a.index()).transpose();
+  for (Function::InnerIterator a(c); a; ++a)
+    kc += a.value() * covariance_K.row(a.index()).transpose();
   return kc;
 }
 
@@ -567,19 +595,22 @@ Eigen::MatrixXd Estimate::null_directions() const {
   const int k = static_cast<int>(null_space_scaled.cols());
   const int p = static_cast<int>(null_space_scaled.rows());
   if (k == 0) return Eigen::MatrixXd(p, 0);
-  const Eigen::SparseMatrix<double> N = column_scale.cwiseInverse().asDiagonal() * null_space_scaled;
+  const Eigen::SparseMatrix<double> N =
+      column_scale.cwiseInverse().asDiagonal() * null_space_scaled;
   const double scale = N.coeffs().size() > 0 ? N.coeffs().cwiseAbs().maxCoeff() : 0.0;
   const double tiny = 1e-9 * scale;  // |entry| <= 1e-9 * max|entry| is rounding, not structure
   // Groups of null vectors linked through the unknowns they share.
   const auto [group_of, n_groups] = column_components(N);
   std::vector<std::vector<int>> groups(static_cast<std::size_t>(n_groups));
   for (int i = 0; i < k; ++i) groups[static_cast<std::size_t>(group_of[i])].push_back(i);
-  std::vector<std::pair<int, Eigen::VectorXd>> reduced;  // (pivot, direction), sorted by pivot at the end
+  std::vector<std::pair<int, Eigen::VectorXd>>
+      reduced;  // (pivot, direction), sorted by pivot at the end
   reduced.reserve(static_cast<std::size_t>(k));
   for (const std::vector<int>& members : groups) {
     std::vector<int> support;
     for (int i : members) {
-      for (Eigen::SparseMatrix<double>::InnerIterator it(N, i); it; ++it) support.push_back(static_cast<int>(it.row()));
+      for (Eigen::SparseMatrix<double>::InnerIterator it(N, i); it; ++it)
+        support.push_back(static_cast<int>(it.row()));
     }
     std::sort(support.begin(), support.end());
     support.erase(std::unique(support.begin(), support.end()), support.end());
@@ -587,8 +618,9 @@ Eigen::MatrixXd Estimate::null_directions() const {
     Eigen::MatrixXd R = Eigen::MatrixXd::Zero(rows, cols);
     for (int r = 0; r < rows; ++r) {
       for (Eigen::SparseMatrix<double>::InnerIterator it(N, members[r]); it; ++it) {
-        const int c = static_cast<int>(std::lower_bound(support.begin(), support.end(), static_cast<int>(it.row())) -
-                                       support.begin());
+        const int c = static_cast<int>(
+            std::lower_bound(support.begin(), support.end(), static_cast<int>(it.row())) -
+            support.begin());
         R(r, c) = it.value();
       }
     }
@@ -620,7 +652,8 @@ Eigen::MatrixXd Estimate::null_directions() const {
       reduced.emplace_back(pivot_of_row[i] < 0 ? p : pivot_of_row[i], std::move(v));
     }
   }
-  std::stable_sort(reduced.begin(), reduced.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::stable_sort(reduced.begin(), reduced.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
   Eigen::MatrixXd out(p, k);
   for (int i = 0; i < k; ++i) out.col(i) = reduced[static_cast<std::size_t>(i)].second;
   return out;

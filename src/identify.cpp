@@ -80,7 +80,8 @@ std::string interpret_rigid_motion(const Design& design, double angle_deg, const
 
 }  // namespace
 
-Eigen::SparseMatrix<double> error_functions(const Parameterisation& param, int station, Eigen::Index n_unknowns) {
+Eigen::SparseMatrix<double> error_functions(const Parameterisation& param, int station,
+                                            Eigen::Index n_unknowns) {
   Eigen::SparseMatrix<double> C = param.error_functions(station);
   if (n_unknowns > C.rows()) C.conservativeResize(n_unknowns, 6);
   return C;
@@ -139,12 +140,25 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   Parameterisation param(design);
   LinearModel model = build_linear_model(design, param, readings);
   WlsSolver solver(model.J, model.sigma_um, options.estimate);
-  IdentifyResult res{std::move(param), std::move(model), std::move(solver), {}, {}, {}, {}, false, {}, {}, {}, {}, {}};
+  IdentifyResult res{std::move(param),
+                     std::move(model),
+                     std::move(solver),
+                     {},
+                     {},
+                     {},
+                     {},
+                     false,
+                     {},
+                     {},
+                     {},
+                     {},
+                     {}};
   // The set-up solver refers to res.solver, which stays in place until the return.
   const std::vector<SetupEffect> declared = setup_effects(design, res.model, true);
   const SetupSolver setup(res.solver, declared);
   res.estimate = setup.solve(res.model.y_um);
-  res.budget = uncertainty_budget(design, res.param, res.model, res.solver, res.estimate, options.budget, &setup);
+  res.budget = uncertainty_budget(design, res.param, res.model, res.solver, res.estimate,
+                                  options.budget, &setup);
   res.errors = errors_at_stations(res.param, res.estimate);
   for (const ValueBudget& v : res.budget.values) res.errors[v.station].errors[v.error].std = v.u_c;
   res.unidentifiable = describe_null_space(design, res.param, res.estimate);
@@ -152,19 +166,24 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   IsoMotionOptions motion = options.iso_motion;
   motion.coverage_probability = options.budget.coverage_probability;
   motion.dof = res.budget.type_a_scale ? std::optional<double>(res.estimate.dof) : std::nullopt;
-  res.iso = iso230_quantities(design, res.param, res.estimate, res.budget.type_a_scale.value_or(1.0), motion);
+  res.iso = iso230_quantities(design, res.param, res.estimate,
+                              res.budget.type_a_scale.value_or(1.0), motion);
   bool placement = false;
-  for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) placement = placement || design.setup_of(i).placement();
-  res.iso_note = std::string("standard uncertainty (k = 1) from the estimate's covariance: reading noise (") +
-                 res.budget.noise_evaluation + ")" +
-                 (setup.any() ? " and the declared length offset and centring tolerances" : "") +
-                 (placement ? "; the ball placement (L, D, H) is not propagated into them" : "");
+  for (int i = 0; i < static_cast<int>(design.installations.size()); ++i)
+    placement = placement || design.setup_of(i).placement();
+  res.iso_note =
+      std::string("standard uncertainty (k = 1) from the estimate's covariance: reading noise (") +
+      res.budget.noise_evaluation + ")" +
+      (setup.any() ? " and the declared length offset and centring tolerances" : "") +
+      (placement ? "; the ball placement (L, D, H) is not propagated into them" : "");
   res.first_order = first_order_check(design, res.param, res.estimate.theta);
   bound_first_order_bias(res.first_order, setup, res.param, res.budget);
   if (setup.any()) {
-    res.setup_note = "the errors' uncertainties include the declared length offset and centring tolerances: the "
-                     "set-up effects are estimated with their prior (what the readings see is estimated, the rest "
-                     "is propagated at its declared size)";
+    res.setup_note =
+        "the errors' uncertainties include the declared length offset and centring tolerances: the "
+        "set-up effects are estimated with their prior (what the readings see is estimated, the "
+        "rest "
+        "is propagated at its declared size)";
     const Eigen::VectorXd b = setup.beta(res.model.y_um);
     for (int j = 0; j < setup.n_columns(); ++j) {
       const auto [e, c] = setup.column_of()[j];
@@ -172,21 +191,25 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                                      std::sqrt(setup.beta_covariance()(j, j)), declared[e].std_um});
     }
   } else {
-    res.setup_note = "set-up uncertainty of the length offsets and centrings is not included: the design declares no "
-                     "such tolerance (setup_std)";
+    res.setup_note =
+        "set-up uncertainty of the length offsets and centrings is not included: the design "
+        "declares no "
+        "such tolerance (setup_std)";
   }
   return res;
 }
 
 Eigen::MatrixXd budget_covariance(const Design& design, const IdentifyResult& result) {
   const SetupSolver setup(result.solver, setup_effects(design, result.model, true));
-  return budget_covariance(design, result.param, result.model, result.solver, result.estimate, result.budget, &setup);
+  return budget_covariance(design, result.param, result.model, result.solver, result.estimate,
+                           result.budget, &setup);
 }
 
-MonteCarloResult monte_carlo(const Design& design, const IdentifyResult& result, const MonteCarloOptions& options) {
+MonteCarloResult monte_carlo(const Design& design, const IdentifyResult& result,
+                             const MonteCarloOptions& options) {
   const SetupSolver setup(result.solver, setup_effects(design, result.model, true));
-  return monte_carlo(design, result.param, result.model, result.solver, result.estimate, result.budget, options,
-                     &setup);
+  return monte_carlo(design, result.param, result.model, result.solver, result.estimate,
+                     result.budget, options, &setup);
 }
 
 }  // namespace dbbkit

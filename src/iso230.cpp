@@ -18,13 +18,14 @@ namespace {
 // five unknowns' columns at each.
 struct Row {
   int station = 0, error = 0;
-  Estimate::Function c;          // the value's function of theta
+  Estimate::Function c;           // the value's function of theta
   Eigen::Matrix<double, 1, 5> x;  // its row of the location model
 };
 
 // The row of the location model for component k of block b (0: d0 and o, 1: e0, c0 and
 // alpha) at an angle whose I - R is IR; ia, ip1, ip2 index the axis and its two normals.
-Eigen::Matrix<double, 1, 5> location_row(int b, int k, const Eigen::Matrix3d& IR, int ia, int ip1, int ip2) {
+Eigen::Matrix<double, 1, 5> location_row(int b, int k, const Eigen::Matrix3d& IR, int ia, int ip1,
+                                         int ip2) {
   Eigen::Matrix<double, 1, 5> x = Eigen::Matrix<double, 1, 5>::Zero();
   if (b == 0) {  // d0 (x, y, z), then o along p1 and p2
     x(k) = 1.0;
@@ -41,12 +42,15 @@ Eigen::Matrix<double, 1, 5> location_row(int b, int k, const Eigen::Matrix3d& IR
 // The names of the error motion values of the six components (C: a = z; B: a = y).
 std::array<std::string, 6> motion_value_names(bool c_axis) {
   if (c_axis) {
-    return {"radial error motion value, X", "radial error motion value, Y", "axial error motion value",
-            "tilt error motion value, about X", "tilt error motion value, about Y",
-            "range of the angular positioning error motion"};
+    return {"radial error motion value, X",     "radial error motion value, Y",
+            "axial error motion value",         "tilt error motion value, about X",
+            "tilt error motion value, about Y", "range of the angular positioning error motion"};
   }
-  return {"radial error motion value, X", "axial error motion value", "radial error motion value, Z",
-          "tilt error motion value, about X", "range of the angular positioning error motion",
+  return {"radial error motion value, X",
+          "axial error motion value",
+          "radial error motion value, Z",
+          "tilt error motion value, about X",
+          "range of the angular positioning error motion",
           "tilt error motion value, about Z"};
 }
 
@@ -61,8 +65,9 @@ double range_of(const Eigen::Ref<const Eigen::VectorXd>& v) { return v.maxCoeff(
 
 // The p-quantile of range(eps) of every component by adaptive Monte Carlo (iso230.hpp);
 // one trial draws every component's errors, each component's quantile is its own output.
-void range_monte_carlo(const std::vector<ComponentDraw>& draws, std::vector<IsoMotionValue*> outputs,
-                       const IsoMotionOptions& o, IsoMotionValues& res) {
+void range_monte_carlo(const std::vector<ComponentDraw>& draws,
+                       std::vector<IsoMotionValue*> outputs, const IsoMotionOptions& o,
+                       IsoMotionValues& res) {
   const int n_out = static_cast<int>(draws.size());
   if (n_out == 0) return;
   const long M = std::max(1000L, o.batch_trials);
@@ -124,12 +129,14 @@ void range_monte_carlo(const std::vector<ComponentDraw>& draws, std::vector<IsoM
 
 IsoNames iso230_names(Axis axis) {
   const std::string s = axis == Axis::C ? "C" : "B";
-  return {{"XO" + s, (axis == Axis::C ? "YO" : "ZO") + s, "AO" + s, (axis == Axis::C ? "BO" : "CO") + s, s + "0" + s},
+  return {{"XO" + s, (axis == Axis::C ? "YO" : "ZO") + s, "AO" + s,
+           (axis == Axis::C ? "BO" : "CO") + s, s + "0" + s},
           {"EX" + s, "EY" + s, "EZ" + s, "EA" + s, "EB" + s, "EC" + s}};
 }
 
-IsoResult iso230_quantities(const Design& design, const Parameterisation& param, const Estimate& est,
-                            double uncertainty_scale, const IsoMotionOptions& motion) {
+IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
+                            const Estimate& est, double uncertainty_scale,
+                            const IsoMotionOptions& motion) {
   IsoResult out;
   const bool c_axis = design.axis == Axis::C;
   // The nominal axis a and the two directions p1, p2 perpendicular to it (machine frame).
@@ -169,21 +176,25 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     for (int i = 0; i < m; ++i) X.row(i) = rows[i].x;
     const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(X);
     if (m < 5 || qr.rank() < 5) {
-      notes.push_back(std::string(b == 0 ? "translations" : "rotations") + ": the determined values (" +
-                      std::to_string(m) + ") do not determine the location errors and constant parts (rank " +
+      notes.push_back(std::string(b == 0 ? "translations" : "rotations") +
+                      ": the determined values (" + std::to_string(m) +
+                      ") do not determine the location errors and constant parts (rank " +
                       std::to_string(m == 0 ? 0 : static_cast<int>(qr.rank())) + " of 5)");
       continue;
     }
     // H = (X'X)^-1 X' (least squares); the fitted quantity j is sum_i H(j, i) c_i.
     // From the QR (X P = Q R): (X'X)^-1 = P R^-1 R^-T P', so H costs 5 x m, not m x m.
-    const Eigen::Matrix<double, 5, 5> Rinv = Eigen::Matrix<double, 5, 5>(
-        qr.matrixR().topLeftCorner(5, 5).template triangularView<Eigen::Upper>()).inverse();
-    const Eigen::Matrix<double, 5, 5> XtX_inv = qr.colsPermutation() * (Rinv * Rinv.transpose()) *
-                                                qr.colsPermutation().transpose();
+    const Eigen::Matrix<double, 5, 5> Rinv =
+        Eigen::Matrix<double, 5, 5>(
+            qr.matrixR().topLeftCorner(5, 5).template triangularView<Eigen::Upper>())
+            .inverse();
+    const Eigen::Matrix<double, 5, 5> XtX_inv =
+        qr.colsPermutation() * (Rinv * Rinv.transpose()) * qr.colsPermutation().transpose();
     const Eigen::MatrixXd H = XtX_inv * X.transpose();
     Q[b] = Eigen::MatrixXd::Zero(est.n_unknowns, 5);
     for (int i = 0; i < m; ++i) {
-      for (Estimate::Function::InnerIterator it(rows[i].c); it; ++it) Q[b].row(it.index()) += it.value() * H.col(i).transpose();
+      for (Estimate::Function::InnerIterator it(rows[i].c); it; ++it)
+        Q[b].row(it.index()) += it.value() * H.col(i).transpose();
     }
     fitted[b] = true;
   }
@@ -243,7 +254,8 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     }
     v += -i.cSQ.dot(j.x) - j.cSQ.dot(i.x) + (i.x * QSQ[i.b] * j.x.transpose())(0);
     if (low_rank) {
-      v += i.Kc.dot(est.covariance_S * j.Kc) - i.Kc.dot(est.covariance_S * (KQ[i.b] * j.x.transpose())) -
+      v += i.Kc.dot(est.covariance_S * j.Kc) -
+           i.Kc.dot(est.covariance_S * (KQ[i.b] * j.x.transpose())) -
            j.Kc.dot(est.covariance_S * (KQ[i.b] * i.x.transpose()));
     }
     return v * uncertainty_scale * uncertainty_scale;
@@ -254,7 +266,8 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     at.station = st;
     at.angle_deg = param.station_angle_deg(st);
     const Eigen::SparseMatrix<double> C = error_functions(param, st, est.n_unknowns);
-    const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(design.axis, at.angle_deg);
+    const Eigen::Matrix3d IR =
+        Eigen::Matrix3d::Identity() - axis_rotation(design.axis, at.angle_deg);
     std::array<Term, 6> station_terms;
     for (int e = 0; e < 6; ++e) {
       const int b = e / 3, k = e % 3;
@@ -306,17 +319,19 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       const int n_at = static_cast<int>(at.size());
       v.angles = n_at;
       if (!fitted[b]) {
-        v.reason = std::string("the ") + (b == 0 ? "translations" : "rotations") + " do not determine the location errors";
+        v.reason = std::string("the ") + (b == 0 ? "translations" : "rotations") +
+                   " do not determine the location errors";
         continue;
       }
       if (n_at < 2 || n_at < static_cast<int>(out.components.size())) {
         v.reason = std::to_string(n_at) + " of the " + std::to_string(out.components.size()) +
-                   " measured angles determine " + v.component + ": its range over the measured angles is not known";
+                   " measured angles determine " + v.component +
+                   ": its range over the measured angles is not known";
         continue;
       }
       if (n_at > motion.max_angles) {
-        v.reason = std::to_string(n_at) + " angles: more than the " + std::to_string(motion.max_angles) +
-                   " whose joint covariance is drawn";
+        v.reason = std::to_string(n_at) + " angles: more than the " +
+                   std::to_string(motion.max_angles) + " whose joint covariance is drawn";
         continue;
       }
       ComponentDraw d;
@@ -324,7 +339,8 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       Eigen::MatrixXd cov(n_at, n_at);
       for (int i = 0; i < n_at; ++i) {
         d.value(i) = out.components[at[i]].motions[e].value;
-        for (int j = 0; j <= i; ++j) cov(i, j) = cov(j, i) = covariance(terms[at[i]][e], terms[at[j]][e]);
+        for (int j = 0; j <= i; ++j)
+          cov(i, j) = cov(j, i) = covariance(terms[at[i]][e], terms[at[j]][e]);
       }
       const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(cov);
       const double top = std::max(0.0, eig.eigenvalues().maxCoeff());
@@ -332,22 +348,31 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       for (Eigen::Index i = 0; i < n_at; ++i) r += eig.eigenvalues()(i) > 1e-12 * top;
       d.L = eig.eigenvectors().rightCols(r) * eig.eigenvalues().tail(r).cwiseSqrt().asDiagonal();
       v.computed = true;
-      v.value = range_of(d.value);  // before the draw: range_monte_carlo sets U and the interval from it
+      v.value =
+          range_of(d.value);  // before the draw: range_monte_carlo sets U and the interval from it
       draws.push_back(std::move(d));
       drawn.push_back(e);
     }
     std::vector<IsoMotionValue*> outputs;
     for (int e : drawn) outputs.push_back(&mv.values[e]);
     range_monte_carlo(draws, outputs, motion, mv);
-    const std::string pct = std::to_string(static_cast<int>(std::lround(100 * motion.coverage_probability)));
-    mv.note = "range (peak-to-valley) of each component error motion over the measured angles (fixed sensitive "
-              "direction); the range of estimated values is biased upward, so the interval is value +- U with U the " +
-              pct + " % quantile of the range of the estimation errors (|range(estimate) - range(true)| <= range(errors)"
-              ": coverage probability at least " + pct + " %), U by Monte Carlo (JCGM 101) from the joint " +
-              (motion.dof ? "t distribution (" + std::to_string(static_cast<int>(*motion.dof)) + " degrees of freedom)"
-                          : std::string("Gaussian")) +
-              " of the component values: " + std::to_string(mv.trials) + " trials, seed " +
-              std::to_string(motion.seed) + (mv.converged ? "" : ", not converged");
+    const std::string pct =
+        std::to_string(static_cast<int>(std::lround(100 * motion.coverage_probability)));
+    mv.note =
+        "range (peak-to-valley) of each component error motion over the measured angles (fixed "
+        "sensitive "
+        "direction); the range of estimated values is biased upward, so the interval is value +- U "
+        "with U the " +
+        pct +
+        " % quantile of the range of the estimation errors (|range(estimate) - range(true)| <= "
+        "range(errors)"
+        ": coverage probability at least " +
+        pct + " %), U by Monte Carlo (JCGM 101) from the joint " +
+        (motion.dof ? "t distribution (" + std::to_string(static_cast<int>(*motion.dof)) +
+                          " degrees of freedom)"
+                    : std::string("Gaussian")) +
+        " of the component values: " + std::to_string(mv.trials) + " trials, seed " +
+        std::to_string(motion.seed) + (mv.converged ? "" : ", not converged");
   }
   return out;
 }

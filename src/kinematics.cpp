@@ -85,8 +85,8 @@ double exact_reading_um(Axis axis, const Installation& inst, double angle_deg, c
   return 1e3 * ((P_actual - F).norm() - (P - F).norm());
 }
 
-double exact_setup_reading_um(Axis axis, const Installation& inst, double angle_deg, const Vector6d& e6,
-                              double bar_mm, const SetupError& setup) {
+double exact_setup_reading_um(Axis axis, const Installation& inst, double angle_deg,
+                              const Vector6d& e6, double bar_mm, const SetupError& setup) {
   Installation placed = inst;
   placed.L_mm += setup.ball_mm(0);
   placed.D_mm += setup.ball_mm(1);

@@ -6,8 +6,8 @@
 #include <map>
 
 #include "dbbkit/error.hpp"
-#include "dbbkit/limits.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/limits.hpp"
 
 namespace dbbkit {
 
@@ -34,7 +34,8 @@ std::pair<double, double> arc_extent(double a, double b, double c, double lo_deg
   double mn = std::min(v0, v1), mx = std::max(v0, v1);
   const double amp = std::hypot(b, c);
   if (amp > 0) {
-    const double g_max = std::atan2(c, b) * 180.0 / 3.14159265358979323846;  // where the value is a + amp
+    const double g_max =
+        std::atan2(c, b) * 180.0 / 3.14159265358979323846;  // where the value is a + amp
     for (const double g : {g_max, g_max + 180.0}) {
       // Is g (modulo 360) inside [lo, hi]?
       const double k = std::ceil((lo_deg - g) / 360.0);
@@ -125,7 +126,8 @@ constexpr double kMaxChoices = 20000;
 void validate_pattern(const Kit& k, const std::string& source) {
   const Pattern& p = k.pattern;
   require(!p.positions.empty(), source, "pattern.positions", "no positions");
-  require(p.positions.size() <= kMaxPositions, source, "pattern.positions", "more than 16 positions");
+  require(p.positions.size() <= kMaxPositions, source, "pattern.positions",
+          "more than 16 positions");
   std::map<std::string, char> role;  // variable -> 'L', 'D' or 'H'
   std::vector<std::string> ids;
   std::vector<std::string> heights;
@@ -133,28 +135,32 @@ void validate_pattern(const Kit& k, const std::string& source) {
   for (size_t i = 0; i < p.positions.size(); ++i) {
     const PatternPosition& pos = p.positions[i];
     const int own = static_cast<int>(i) - p.inherited_positions;  // index in the file's list
-    const std::string key = own >= 0 ? "pattern.positions[" + std::to_string(own) + "]" : "pattern.extends";
+    const std::string key =
+        own >= 0 ? "pattern.positions[" + std::to_string(own) + "]" : "pattern.extends";
     any_required = any_required || !pos.optional;
     require(!pos.id.empty(), source, key + ".id", "is empty");
     require(!pos.directions.empty(), source, key + ".directions", "no directions");
     for (Direction::Kind d : pos.directions) {
-      require(d != Direction::Kind::Vector, source, key + ".directions", "must be radial, tangential or axial");
+      require(d != Direction::Kind::Vector, source, key + ".directions",
+              "must be radial, tangential or axial");
       const std::string id = installation_id(pos, d);
       require(std::find(ids.begin(), ids.end(), id) == ids.end(), source, key + ".directions",
               "installation '" + id + "' appears twice in the pattern");
       ids.push_back(id);
     }
-    const std::pair<const PatternCoordinate*, char> coords[] = {{&pos.L, 'L'}, {&pos.D, 'D'}, {&pos.H, 'H'}};
+    const std::pair<const PatternCoordinate*, char> coords[] = {
+        {&pos.L, 'L'}, {&pos.D, 'D'}, {&pos.H, 'H'}};
     for (const auto& [c, name] : coords) {
       const std::string ckey = key + "." + std::string(1, name);
       if (!c->is_variable()) {
-        require(length_within_limits(c->value), source, ckey, "must be a length in mm within +-10000 mm");
+        require(length_within_limits(c->value), source, ckey,
+                "must be a length in mm within +-10000 mm");
         continue;
       }
       auto [it, fresh] = role.emplace(c->variable, name);
       require(it->second == name, source, ckey,
-              "variable '" + c->variable + "' is used as " + std::string(1, it->second) + " and as " +
-                  std::string(1, name));
+              "variable '" + c->variable + "' is used as " + std::string(1, it->second) +
+                  " and as " + std::string(1, name));
       if (name == 'H' && fresh) heights.push_back(c->variable);
     }
     if (k.axis == Axis::B) {
@@ -162,26 +168,32 @@ void validate_pattern(const Kit& k, const std::string& source) {
               "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
     }
   }
-  require(any_required, source, "pattern.positions", "every position is optional: at least one must be required");
-  require(heights.size() <= kMaxHeightVariables, source, "pattern.positions", "more than 4 height variables");
+  require(any_required, source, "pattern.positions",
+          "every position is optional: at least one must be required");
+  require(heights.size() <= kMaxHeightVariables, source, "pattern.positions",
+          "more than 4 height variables");
   const size_t n_stacks = k.axis == Axis::C ? block_stacks(k).size() : 0;
   for (size_t g = 0; g < p.distinct.size(); ++g) {
     const std::string key = "pattern.distinct[" + std::to_string(g) + "]";
     for (const std::string& v : p.distinct[g]) {
       const auto it = role.find(v);
-      require(it != role.end() && it->second == 'H', source, key, "'" + v + "' is not a height variable of the pattern");
+      require(it != role.end() && it->second == 'H', source, key,
+              "'" + v + "' is not a height variable of the pattern");
     }
     require(n_stacks >= p.distinct[g].size(), source, p.builtin ? "H_mm" : key,
-            "needs " + std::to_string(p.distinct[g].size()) + " different heights, the blocks give " +
-                std::to_string(n_stacks) + (p.builtin ? " (the three_position pattern needs two heights, H3 != H1: "
-                                                        "at least one block and max_stack >= 1)"
-                                                      : ""));
+            "needs " + std::to_string(p.distinct[g].size()) +
+                " different heights, the blocks give " + std::to_string(n_stacks) +
+                (p.builtin ? " (the three_position pattern needs two heights, H3 != H1: "
+                             "at least one block and max_stack >= 1)"
+                           : ""));
   }
   const double choices = static_cast<double>(k.angle_steps_deg.size()) *
-                         std::pow(static_cast<double>(std::max<size_t>(n_stacks, 1)), static_cast<double>(heights.size())) *
+                         std::pow(static_cast<double>(std::max<size_t>(n_stacks, 1)),
+                                  static_cast<double>(heights.size())) *
                          static_cast<double>(offered_optional_positions(k).size() + 1);
   require(choices <= kMaxChoices, source, "pattern",
-          "gives more than 20000 discrete choices (angle steps x heights^height variables x optional positions)");
+          "gives more than 20000 discrete choices (angle steps x heights^height variables x "
+          "optional positions)");
 }
 
 }  // namespace
@@ -210,30 +222,33 @@ void validate_kit(const Kit& k, const std::string& source) {
             "must be a height in [0, 10000] mm");
     require(k.blocks_mm.size() <= kMaxBlocks, source, "H_mm.blocks", "more than 16 blocks");
     for (size_t i = 0; i < k.blocks_mm.size(); ++i) {
-      require(length_within_limits(k.blocks_mm[i]) && k.blocks_mm[i] > 0, source, "H_mm.blocks[" + std::to_string(i) + "]",
-              "must be a positive height in mm");
+      require(length_within_limits(k.blocks_mm[i]) && k.blocks_mm[i] > 0, source,
+              "H_mm.blocks[" + std::to_string(i) + "]", "must be a positive height in mm");
     }
     require(k.max_stack >= 0, source, "H_mm.max_stack", "must be an integer >= 0");
   }
   require(!k.bars_mm.empty(), source, "bars_mm", "no bars");
   for (size_t i = 0; i < k.bars_mm.size(); ++i) {
-    require(length_within_limits(k.bars_mm[i]) && k.bars_mm[i] > 0, source, "bars_mm[" + std::to_string(i) + "]",
+    require(length_within_limits(k.bars_mm[i]) && k.bars_mm[i] > 0, source,
+            "bars_mm[" + std::to_string(i) + "]",
             "must be a positive length in mm, at most 10000 mm");
   }
   const char* xyz[] = {"x", "y", "z"};
   for (int i = 0; i < 3; ++i) {
     const Interval& t = k.travel_mm[i];
     require(length_within_limits(t.min) && length_within_limits(t.max) && t.min < t.max, source,
-            std::string("travel_mm.") + xyz[i], "must be [min, max] with min < max, in mm, within +-10000 mm");
+            std::string("travel_mm.") + xyz[i],
+            "must be [min, max] with min < max, in mm, within +-10000 mm");
   }
-  require(length_within_limits(k.min_separation_mm) && k.min_separation_mm >= 0, source, "min_separation_mm",
-          "must be a distance in [0, 10000] mm");
+  require(length_within_limits(k.min_separation_mm) && k.min_separation_mm >= 0, source,
+          "min_separation_mm", "must be a distance in [0, 10000] mm");
 
   const Interval& r = k.angle_range_deg;
   require(finite(r.min) && finite(r.max) && r.min < r.max, source, "angles_deg.range",
           "must be [first, last] with first < last, in degrees");
   if (k.axis == Axis::C) {
-    require(r.width() <= 360.0 + kAngleTolerance_deg, source, "angles_deg.range", "spans more than one turn");
+    require(r.width() <= 360.0 + kAngleTolerance_deg, source, "angles_deg.range",
+            "spans more than one turn");
   } else {
     require(r.min >= -180.0 && r.max <= 180.0, source, "angles_deg.range",
             "is outside [-180, 180] deg, the most a swinging head B can reach");
@@ -254,10 +269,11 @@ void validate_kit(const Kit& k, const std::string& source) {
   }
   require(finite(k.time_per_reading_s) && k.time_per_reading_s >= 0, source, "time_s.per_reading",
           "must be a time >= 0 s");
-  require(finite(k.time_per_installation_s) && k.time_per_installation_s >= 0, source, "time_s.per_installation",
-          "must be a time >= 0 s");
+  require(finite(k.time_per_installation_s) && k.time_per_installation_s >= 0, source,
+          "time_s.per_installation", "must be a time >= 0 s");
   if (k.time_budget_s) {
-    require(finite(*k.time_budget_s) && *k.time_budget_s > 0, source, "time_s.budget", "must be a positive time in s");
+    require(finite(*k.time_budget_s) && *k.time_budget_s > 0, source, "time_s.budget",
+            "must be a positive time in s");
   }
   validate_pattern(k, source);
 }
@@ -288,7 +304,8 @@ std::vector<Stack> block_stacks(const Kit& kit) {
 std::vector<double> kit_angles(const Kit& kit, double step_deg) {
   const long m = std::lround(kit.angle_range_deg.width() / step_deg);
   std::vector<double> a;
-  for (long i = 0; i <= m; ++i) a.push_back(i == m ? kit.angle_range_deg.max : kit.angle_range_deg.min + i * step_deg);
+  for (long i = 0; i <= m; ++i)
+    a.push_back(i == m ? kit.angle_range_deg.max : kit.angle_range_deg.min + i * step_deg);
   return a;
 }
 
@@ -298,13 +315,16 @@ double design_time_s(const Kit& kit, const Design& design) {
          n_inst * static_cast<double>(design.angles_deg.size()) * kit.time_per_reading_s;
 }
 
-double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst, const std::vector<double>& angles_deg) {
+double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst,
+                           const std::vector<double>& angles_deg) {
   if (angles_deg.empty() || !inst.bar_mm) return 0.0;
   const auto [lo_it, hi_it] = std::minmax_element(angles_deg.begin(), angles_deg.end());
   // R(g) = M0 + cos g M1 + sin g M2 for a rotation about a fixed axis.
-  const Eigen::Matrix3d R0 = axis_rotation(axis, 0), R90 = axis_rotation(axis, 90), R180 = axis_rotation(axis, 180);
+  const Eigen::Matrix3d R0 = axis_rotation(axis, 0), R90 = axis_rotation(axis, 90),
+                        R180 = axis_rotation(axis, 180);
   const Eigen::Matrix3d M0 = 0.5 * (R0 + R180), M1 = 0.5 * (R0 - R180), M2 = R90 - M0;
-  const Eigen::Vector3d G = ball_body_mm(axis, inst) - inst.sign * *inst.bar_mm * inst.direction.body;
+  const Eigen::Vector3d G =
+      ball_body_mm(axis, inst) - inst.sign * *inst.bar_mm * inst.direction.body;
   const Eigen::Vector3d a = M0 * G, b = M1 * G, c = M2 * G;
   double worst = -std::numeric_limits<double>::infinity();
   for (int k = 0; k < 3; ++k) {
@@ -314,7 +334,8 @@ double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst, 
   return worst;
 }
 
-double fit_bar(const Kit& kit, Axis axis, Installation& inst, const std::vector<double>& angles_deg) {
+double fit_bar(const Kit& kit, Axis axis, Installation& inst,
+               const std::vector<double>& angles_deg) {
   std::vector<double> bars = kit.bars_mm;
   std::sort(bars.begin(), bars.end());
   double best = std::numeric_limits<double>::infinity();

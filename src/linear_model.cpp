@@ -1,11 +1,10 @@
 #include "dbbkit/linear_model.hpp"
 
-#include "dbbkit/kinematics.hpp"
-
 #include <cmath>
 #include <string>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
 
 namespace dbbkit {
@@ -26,7 +25,8 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
   // A series model is one dense block (every reading sees every coefficient of the six
   // errors): its factorisation holds n x p and p x p matrices. A per-angle model is one
   // small block per station, linear in the readings whatever their number.
-  const double dense_bytes = per_angle ? 0.0 : 8.0 * (4.0 * n * p + 3.0 * static_cast<double>(p) * p);
+  const double dense_bytes =
+      per_angle ? 0.0 : 8.0 * (4.0 * n * p + 3.0 * static_cast<double>(p) * p);
   if (dense_bytes > limits::kMaxDenseBytes) {
     const double per_angle_count = p > 0 && design.angles_deg.size() > 0
                                        ? static_cast<double>(design.angles_deg.size()) *
@@ -37,7 +37,8 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
                          std::to_string(static_cast<long long>(dense_bytes / (1 << 20))) +
                          " MiB in the dense solver of a series model, beyond its " +
                          std::to_string(static_cast<long long>(limits::kMaxDenseBytes) >> 20) +
-                         " MiB limit (README, \"Limits\"): about " + std::to_string(static_cast<long>(per_angle_count)) +
+                         " MiB limit (README, \"Limits\"): about " +
+                         std::to_string(static_cast<long>(per_angle_count)) +
                          " angles fit for this design");
   }
   LinearModel m;
@@ -124,8 +125,9 @@ std::vector<SetupInput> setup_inputs(const Design& design) {
   return out;
 }
 
-Eigen::MatrixXd setup_sensitivity(const Design& design, const Parameterisation& param, const LinearModel& model,
-                                  const std::vector<SetupInput>& inputs, const Eigen::VectorXd& theta) {
+Eigen::MatrixXd setup_sensitivity(const Design& design, const Parameterisation& param,
+                                  const LinearModel& model, const std::vector<SetupInput>& inputs,
+                                  const Eigen::VectorXd& theta) {
   const int n = static_cast<int>(model.J.rows());
   Eigen::MatrixXd D = Eigen::MatrixXd::Zero(n, static_cast<int>(inputs.size()));
   for (size_t j = 0; j < inputs.size(); ++j) {
@@ -136,7 +138,8 @@ Eigen::MatrixXd setup_sensitivity(const Design& design, const Parameterisation& 
       if (model.row_installation[i] != in.installation) continue;
       const double a = model.row_angle_deg[i];
       const RowVector6d d_row =
-          J_reading_error(design.axis, moved, a) - J_reading_error(design.axis, design.installations[in.installation], a);
+          J_reading_error(design.axis, moved, a) -
+          J_reading_error(design.axis, design.installations[in.installation], a);
       D(i, static_cast<int>(j)) = d_row * param.errors_at_angle(a, theta);
     }
   }

@@ -14,7 +14,8 @@ std::vector<Reading> nominal_readings(const Design& design) {
   std::vector<Reading> out;
   out.reserve(design.installations.size() * design.angles_deg.size());
   for (const Installation& in : design.installations) {
-    for (double a : design.angles_deg) out.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
+    for (double a : design.angles_deg)
+      out.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
   }
   return out;
 }
@@ -27,11 +28,13 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
   const std::unordered_map<std::string, int> index = design.installation_index();
   for (size_t i = 0; i < readings.size(); ++i) {
     const Reading& r = readings[i];
-    const std::string where = r.line > 0 ? "line " + std::to_string(r.line) : "reading " + std::to_string(i);
+    const std::string where =
+        r.line > 0 ? "line " + std::to_string(r.line) : "reading " + std::to_string(i);
     if (!index.count(r.installation)) {
       throw InputError(source, where, "installation '" + r.installation + "' is not in the design");
     }
-    if (!std::isfinite(r.angle_deg)) throw InputError(source, where, "angle is not a finite number");
+    if (!std::isfinite(r.angle_deg))
+      throw InputError(source, where, "angle is not a finite number");
     if (positions.station_of(r.angle_deg) < 0) {
       std::ostringstream s;
       s << "angle " << r.angle_deg << " deg is not a position of the design";
@@ -40,23 +43,27 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
       }
       throw InputError(source, where, s.str());
     }
-    if (!std::isfinite(r.reading_um)) throw InputError(source, where, "reading is not a finite number");
+    if (!std::isfinite(r.reading_um))
+      throw InputError(source, where, "reading is not a finite number");
     if (std::abs(r.reading_um) > 1000.0 * design.instrument_range_mm) {
       std::ostringstream s;
       if (r.in_mm) {
         s << "reading_mm " << r.reading_um / 1000.0 << " is beyond the instrument's range of +-"
-          << design.instrument_range_mm << " mm: are the readings in um? (give them in a reading_um column)";
+          << design.instrument_range_mm
+          << " mm: are the readings in um? (give them in a reading_um column)";
       } else {
-        s << "reading " << r.reading_um << " um is beyond the instrument's range of +-" << design.instrument_range_mm
-          << " mm";
+        s << "reading " << r.reading_um << " um is beyond the instrument's range of +-"
+          << design.instrument_range_mm << " mm";
       }
-      s << "; the range is the design's instrument.range_mm (default " << kDefaultInstrumentRange_mm << " mm)";
+      s << "; the range is the design's instrument.range_mm (default " << kDefaultInstrumentRange_mm
+        << " mm)";
       throw InputError(source, where, s.str());
     }
     if (r.time_s && (!std::isfinite(*r.time_s) || *r.time_s < 0)) {
       throw InputError(source, where, "time_s must be a finite number of seconds >= 0");
     }
-    if (r.repeat && *r.repeat < 0) throw InputError(source, where, "repeat must be an integer >= 0");
+    if (r.repeat && *r.repeat < 0)
+      throw InputError(source, where, "repeat must be an integer >= 0");
   }
 }
 

@@ -1,5 +1,4 @@
 #include "dbbkit/monte_carlo.hpp"
-#include "dbbkit/setup.hpp"
 
 #include <Eigen/SparseCore>
 #include <algorithm>
@@ -11,6 +10,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/parallel.hpp"
+#include "dbbkit/setup.hpp"
 #include "random.hpp"
 
 namespace dbbkit {
@@ -21,9 +21,10 @@ using detail::interval_ranks;
 using detail::splitmix64;
 using detail::Xoshiro256pp;
 
-constexpr long kChunk = 1000;  // trials per random stream; streams are independent of the thread count
+// Trials per random stream; the streams are independent of the thread count.
+constexpr long kChunk = 1000;
 constexpr long kFactoredSlab = 50;  // trials per product when the gain is not formed
-constexpr int kBins = 4096;    // bins of a quantile window
+constexpr int kBins = 4096;         // bins of a quantile window
 
 struct Stats {
   double mean = 0, std = 0, low = 0, high = 0;
@@ -88,7 +89,8 @@ struct Window {
 struct Accumulator {
   std::uint64_t n = 0;
   double mean = 0, m2 = 0;
-  double min = std::numeric_limits<double>::infinity(), max = -std::numeric_limits<double>::infinity();
+  double min = std::numeric_limits<double>::infinity(),
+         max = -std::numeric_limits<double>::infinity();
   std::array<Window, 2> windows;
 
   void add_batch(const float* x, long m) {
@@ -148,7 +150,8 @@ double numerical_tolerance(double u, int significant_digits) {
 
 MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param,
                              const LinearModel& model, const WlsSolver& solver, const Estimate& est,
-                             const Budget& budget, const MonteCarloOptions& options, const SetupSolver* setup) {
+                             const Budget& budget, const MonteCarloOptions& options,
+                             const SetupSolver* setup) {
   if (options.batch_trials < kChunk || options.batch_trials % kChunk != 0) {
     throw InputError("options", "batch_trials", "must be a positive multiple of 1000");
   }
@@ -174,19 +177,22 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   {
     const double bytes = static_cast<double>(options.batch_trials) * n_out * sizeof(float);
     if (bytes > static_cast<double>(options.max_sample_bytes)) {
-      const long fits = static_cast<long>(static_cast<double>(options.max_sample_bytes) / (n_out * sizeof(float)));
-      throw InputError("Monte Carlo", "batch_trials",
-                       std::to_string(options.batch_trials) + " trials per batch of " + std::to_string(n_out) +
-                           " values would keep " + std::to_string(static_cast<long long>(bytes / (1 << 20))) +
-                           " MiB of samples, beyond the " + std::to_string(options.max_sample_bytes >> 20) +
-                           " MiB limit: at most " + std::to_string(fits / kChunk * kChunk) +
-                           " trials per batch for this design (--mc-batch)");
+      const long fits = static_cast<long>(static_cast<double>(options.max_sample_bytes) /
+                                          (n_out * sizeof(float)));
+      throw InputError(
+          "Monte Carlo", "batch_trials",
+          std::to_string(options.batch_trials) + " trials per batch of " + std::to_string(n_out) +
+              " values would keep " + std::to_string(static_cast<long long>(bytes / (1 << 20))) +
+              " MiB of samples, beyond the " + std::to_string(options.max_sample_bytes >> 20) +
+              " MiB limit: at most " + std::to_string(fits / kChunk * kChunk) +
+              " trials per batch for this design (--mc-batch)");
     }
   }
 
   // Outputs: values = C theta; A = C G maps readings to values.
   const FunctionRows C = budget_functions(param, budget);
-  const Eigen::MatrixXd AS = setup ? setup->setup_draw_map(C) : Eigen::MatrixXd();  // per N(0, 1) set-up draw
+  const Eigen::MatrixXd AS =
+      setup ? setup->setup_draw_map(C) : Eigen::MatrixXd();  // per N(0, 1) set-up draw
   // Per-angle values read a handful of the readings: a sparse A saves most of the products
   // (and, without a set-up part, A is formed sparse: memory linear in the values).
   // With a set-up part, A is dense (values x readings); beyond max_dense_gain_bytes it is
@@ -194,7 +200,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   Eigen::MatrixXd A, L;
   Eigen::SparseMatrix<double, Eigen::RowMajor> A_sparse;
   const double a_size = static_cast<double>(n_out) * n;
-  const bool factored = setup && setup->any() && a_size * sizeof(double) > static_cast<double>(options.max_dense_gain_bytes);
+  const bool factored = setup && setup->any() &&
+                        a_size * sizeof(double) > static_cast<double>(options.max_dense_gain_bytes);
   if (factored) {
     L = setup->left_gain_setup(C);
   } else if (setup && setup->any()) {
@@ -206,7 +213,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   const bool sparse = !factored && static_cast<double>(A_sparse.nonZeros()) < a_size / 4;
   if (!factored && !sparse && A.size() == 0) A = Eigen::MatrixXd(A_sparse);
   const Eigen::VectorXd fitted = model.J * est.theta;
-  const Eigen::VectorXd base = factored ? Eigen::VectorXd(setup->left_gain_times(C, L, fitted)) : Eigen::VectorXd(A_sparse * fitted);
+  const Eigen::VectorXd base = factored ? Eigen::VectorXd(setup->left_gain_times(C, L, fitted))
+                                        : Eigen::VectorXd(A_sparse * fitted);
   const std::vector<SetupInput> inputs = setup_inputs(design);
   Eigen::MatrixXd AD;
   if (!inputs.empty()) {
@@ -228,7 +236,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     parallel_for(n_chunks, res.threads, [&](long c) {
       thread_local Eigen::MatrixXd V, Q, out;  // per-thread buffers, reused across chunks
       V.resize(n, kChunk);
-      Xoshiro256pp rng(splitmix64(options.seed ^ splitmix64(static_cast<std::uint64_t>(first_chunk + c))));
+      Xoshiro256pp rng(
+          splitmix64(options.seed ^ splitmix64(static_cast<std::uint64_t>(first_chunk + c))));
       const detail::NormalZiggurat n01;
       const detail::ChiSquared chi2(nu > 0 ? nu : 1.0);
       if (type_a) {
@@ -306,11 +315,13 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     if (h < 2) continue;
     bool stable = true;
     for (int v = 0; v < n_out && stable; ++v) {
-      const double delta =
-          numerical_tolerance(detail::batch_spread(history[v], [](const Stats& s) { return s.std; }).mean,
-                              options.significant_digits);
+      const double delta = numerical_tolerance(
+          detail::batch_spread(history[v], [](const Stats& s) { return s.std; }).mean,
+          options.significant_digits);
       for (double Stats::*q : {&Stats::mean, &Stats::std, &Stats::low, &Stats::high}) {
-        stable = stable && detail::batch_spread(history[v], [q](const Stats& s) { return s.*q; }).spread <= delta;
+        stable = stable && detail::batch_spread(history[v], [q](const Stats& s) {
+                             return s.*q;
+                           }).spread <= delta;
       }
     }
     if (stable) {
@@ -336,8 +347,9 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   std::vector<double> resolution(n_out);
   for (int v = 0; v < n_out; ++v) {
     const double sd = acc[v].n > 1 ? std::sqrt(acc[v].m2 / (acc[v].n - 1)) : 0.0;
-    const double tol = std::min(numerical_tolerance(sd, options.significant_digits),
-                                numerical_tolerance(budget.values[v].u_c, options.significant_digits));
+    const double tol =
+        std::min(numerical_tolerance(sd, options.significant_digits),
+                 numerical_tolerance(budget.values[v].u_c, options.significant_digits));
     resolution[v] = tol > 0 ? 0.1 * tol : 0.0;
   }
   // Where endpoint e (0 low, 1 high) of value v stands: found, or the interval to replay.
@@ -355,7 +367,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     } else if (k < w.below) {
       replay[2 * v + e] = {acc[v].min, w.a};
     } else {
-      replay[2 * v + e] = {w.a + kBins * w.w, std::nextafter(acc[v].max, std::numeric_limits<double>::infinity())};
+      replay[2 * v + e] = {w.a + kBins * w.w,
+                           std::nextafter(acc[v].max, std::numeric_limits<double>::infinity())};
     }
   };
   for (int pass = 0; pass < 8; ++pass) {
@@ -409,7 +422,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     mv.delta = numerical_tolerance(b.u_c, options.significant_digits);
     mv.d_low = std::abs(b.value - b.U - mv.low);
     mv.d_high = std::abs(b.value + b.U - mv.high);
-    mv.validated = endpoint[v][0].found && endpoint[v][1].found && mv.d_low <= mv.delta && mv.d_high <= mv.delta;
+    mv.validated = endpoint[v][0].found && endpoint[v][1].found && mv.d_low <= mv.delta &&
+                   mv.d_high <= mv.delta;
     res.n_validated += mv.validated;
     res.values.push_back(mv);
   }
@@ -422,7 +436,8 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   int unplaced = 0;
   for (int v = 0; v < n_out; ++v) unplaced += !endpoint[v][0].found + !endpoint[v][1].found;
   if (unplaced > 0) {
-    res.message += "; " + std::to_string(unplaced) + " interval endpoint(s) could not be placed within a tenth of the "
+    res.message += "; " + std::to_string(unplaced) +
+                   " interval endpoint(s) could not be placed within a tenth of the "
                    "numerical tolerance (not validated)";
   }
   return res;
@@ -439,7 +454,8 @@ MonteCarloResult monte_carlo_a_priori(const Design& design, double coverage_prob
   // and centrings do, and stay.
   Design no_placement = design;
   no_placement.setup_std.L_mm = no_placement.setup_std.D_mm = no_placement.setup_std.H_mm = 0;
-  for (Installation& in : no_placement.installations) in.setup_std.L_mm = in.setup_std.D_mm = in.setup_std.H_mm = std::nullopt;
+  for (Installation& in : no_placement.installations)
+    in.setup_std.L_mm = in.setup_std.D_mm = in.setup_std.H_mm = std::nullopt;
   const SetupSolver setup(solver, setup_effects(no_placement, model, true));
   const Estimate est = setup.solve(model.y_um);
   const Budget budget = uncertainty_budget(no_placement, param, model, solver, est, b, &setup);

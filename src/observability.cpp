@@ -1,5 +1,4 @@
 #include "dbbkit/observability.hpp"
-#include "tolerances.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -11,6 +10,7 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
+#include "tolerances.hpp"
 
 namespace dbbkit {
 
@@ -38,7 +38,8 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
   const int p = est.n_unknowns;
   if (est.rank == p) {
     // M = diag(c) Js' Js diag(c): log det M = 2 sum log s_i + 2 sum log c_j.
-    c.D_logdet = 2.0 * est.singular_values.head(p).array().log().sum() + 2.0 * est.column_scale.array().log().sum();
+    c.D_logdet = 2.0 * est.singular_values.head(p).array().log().sum() +
+                 2.0 * est.column_scale.array().log().sum();
     double trace = 0;
     for (int j = 0; j < p; ++j) trace += est.covariance.coeff(j, j);
     c.A_trace = trace;
@@ -58,7 +59,8 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
           }
         }
       }
-      const double e = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly).eigenvalues()(0);
+      const double e = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly)
+                           .eigenvalues()(0);
       e_min = e_min ? std::min(*e_min, e) : e;
     }
     if (e_min) c.E_min_eigenvalue = *e_min;
@@ -76,7 +78,8 @@ namespace {
 // at the reference length; worst_std_um only when no value was undetermined.
 class WorstTracker {
  public:
-  explicit WorstTracker(double reference_length_mm) : scale2_(1e-6 * reference_length_mm * reference_length_mm) {}
+  explicit WorstTracker(double reference_length_mm)
+      : scale2_(1e-6 * reference_length_mm * reference_length_mm) {}
   // Compared as squares [um^2]; one square root at the end.
   void add(double angle_deg, int error, double variance) {
     const double u2 = std::max(0.0, variance) * (error < 3 ? 1.0 : scale2_);
@@ -214,7 +217,8 @@ namespace {
 // information, and a station met n times has the covariance T Mb^-1 T' / n: one 6 x 6
 // inverse serves every angle. Absent when the design is near rank loss (below).
 std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Design& design) {
-  if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::PerAngle) return std::nullopt;
+  if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::PerAngle)
+    return std::nullopt;
   const Eigen::Matrix<double, 6, 6> Mbm = body_information(design);
   double Mb[6][6];
   for (int j = 0; j < 6; ++j) {
@@ -258,13 +262,15 @@ Eigen::MatrixXd orthonormal_complement(Eigen::Matrix<double, Eigen::Dynamic, 6> 
     x(0) -= alpha;  // v_k, kept in the column
     const double vv = x.squaredNorm();
     beta[k] = vv > 0 ? 2.0 / vv : 0.0;
-    for (int j = k + 1; j < 6; ++j) A.col(j).tail(m - k) -= (beta[k] * x.dot(A.col(j).tail(m - k))) * x;
+    for (int j = k + 1; j < 6; ++j)
+      A.col(j).tail(m - k) -= (beta[k] * x.dot(A.col(j).tail(m - k))) * x;
   }
   Eigen::MatrixXd U = Eigen::MatrixXd::Zero(m, m - 6);
   for (Eigen::Index r = 0; r < m - 6; ++r) U(6 + r, r) = 1.0;
   for (int k = 5; k >= 0; --k) {
     const auto v = A.col(k).tail(m - k);
-    for (Eigen::Index r = 0; r < m - 6; ++r) U.col(r).tail(m - k) -= (beta[k] * v.dot(U.col(r).tail(m - k))) * v;
+    for (Eigen::Index r = 0; r < m - 6; ++r)
+      U.col(r).tail(m - k) -= (beta[k] * v.dot(U.col(r).tail(m - k))) * v;
   }
   return U;
 }
@@ -353,12 +359,14 @@ struct PerAngleHarmonics {
       phi[st] = Eigen::Vector3d(1.0, cs, sn);
       Phi.noalias() += count[st] * phi[st] * phi[st].transpose();
     }
-    const Eigen::Matrix3d R0 = axis_rotation(design.axis, 0.0), R90 = axis_rotation(design.axis, 90.0);
+    const Eigen::Matrix3d R0 = axis_rotation(design.axis, 0.0),
+                          R90 = axis_rotation(design.axis, 90.0);
     const Eigen::Matrix3d R180 = axis_rotation(design.axis, 180.0);
     A0 = 0.5 * (R0 + R180);
     A1 = 0.5 * (R0 - R180);
     A2 = R90 - A0;
-    for (int i = 0; i < m; ++i) Jb.row(i) = J_reading_error(design.axis, design.installations[i], 0.0);
+    for (int i = 0; i < m; ++i)
+      Jb.row(i) = J_reading_error(design.axis, design.installations[i], 0.0);
   }
 
   // The centring row of installation i as harmonics: C = [A0 c, A1 c, A2 c] (component k,
@@ -377,7 +385,8 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   if (design.installations.empty()) return std::nullopt;
   // Declared set-up tolerances change the estimate (setup.hpp): fast_worst_total answers.
   if (design.setup_nuisance_declared()) return std::nullopt;
-  if (design.errors.kind != ErrorModel::Kind::PerAngle) return fast_worst_case_series(design, reference_length_mm);
+  if (design.errors.kind != ErrorModel::Kind::PerAngle)
+    return fast_worst_case_series(design, reference_length_mm);
   const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design);
   if (!Cb) return std::nullopt;
   const Eigen::Matrix3d Ct = Cb->topLeftCorner<3, 3>(), Cr = Cb->bottomRightCorner<3, 3>();
@@ -387,13 +396,16 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   WorstTracker worst(reference_length_mm);
   for (int st = 0; st < param.n_stations(); ++st) {
     const Eigen::Matrix3d R = axis_rotation(design.axis, param.station_angle_deg(st));
-    const Eigen::Vector3d vt = (R * Ct * R.transpose()).diagonal(), vr = (R * Cr * R.transpose()).diagonal();
-    for (int k = 0; k < 6; ++k) worst.add(param.station_angle_deg(st), k, (k < 3 ? vt(k) : vr(k - 3)) / count[st]);
+    const Eigen::Vector3d vt = (R * Ct * R.transpose()).diagonal(),
+                          vr = (R * Cr * R.transpose()).diagonal();
+    for (int k = 0; k < 6; ++k)
+      worst.add(param.station_angle_deg(st), k, (k < 3 ? vt(k) : vr(k - 3)) / count[st]);
   }
   return worst.result();
 }
 
-std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm, bool with_noise_part) {
+std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm,
+                                               bool with_noise_part) {
   if (!design.setup_nuisance_declared()) {
     const std::optional<WorstCase> w = fast_worst_case(design, reference_length_mm);
     if (!w) return std::nullopt;
@@ -466,7 +478,8 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   if (m > 6) {
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(h.Phi);
     // Lp = P' L sqrt(D); D >= 0 up to rounding (Phi is singular below 3 distinct angles).
-    const Eigen::Matrix3d Lp = ldlt.transpositionsP().transpose() * Eigen::Matrix3d(ldlt.matrixL()) *
+    const Eigen::Matrix3d Lp = ldlt.transpositionsP().transpose() *
+                               Eigen::Matrix3d(ldlt.matrixL()) *
                                ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal();
     const Eigen::MatrixXd U = orthonormal_complement(Jb);
     const int r = 3 * (m - 6);
@@ -475,13 +488,14 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
     const double sw = std::sqrt(w);
     for (int i = 0; i < m; ++i) {
       const Eigen::Matrix3d M = Lp.transpose() * Pi[i];  // (k, h)
-      const Eigen::Matrix3d MM = M * Lp;                  // (k, k')
-      Eigen::Matrix<double, 3, 18, Eigen::RowMajor> mg;    // (k, 6h + e) = M(k, h) g_i(e)
+      const Eigen::Matrix3d MM = M * Lp;                 // (k, k')
+      Eigen::Matrix<double, 3, 18, Eigen::RowMajor> mg;  // (k, 6h + e) = M(k, h) g_i(e)
       for (int h = 0; h < 3; ++h) mg.middleCols<6>(6 * h) = M.col(h) * G.col(i).transpose();
       for (int rho = 0; rho < m - 6; ++rho) {
         const double ui = U(i, rho);
         B.middleRows<3>(3 * rho) += (sw * ui) * mg;
-        for (int rho2 = 0; rho2 <= rho; ++rho2) A.block<3, 3>(3 * rho, 3 * rho2) += (w * ui * U(i, rho2)) * MM;
+        for (int rho2 = 0; rho2 <= rho; ++rho2)
+          A.block<3, 3>(3 * rho, 3 * rho2) += (w * ui * U(i, rho2)) * MM;
       }
     }
     if (!small_cholesky(A)) return std::nullopt;  // not seen (A >= I): the general path answers
@@ -531,7 +545,8 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
     Eigen::Vector3d a[3];
     for (int al = 0; al < 3; ++al) a[al] = A[al]->row(row).transpose();
     for (int al = 0; al < 3; ++al) {
-      for (int be = 0; be < 3; ++be) coef_c[mono_of({al, be})][e] += a[al].dot(Cb->block<3, 3>(3 * b, 3 * b) * a[be]);
+      for (int be = 0; be < 3; ++be)
+        coef_c[mono_of({al, be})][e] += a[al].dot(Cb->block<3, 3>(3 * b, 3 * b) * a[be]);
     }
     for (int k = 0; k < 6; ++k) {
       for (int be = 0; be < 3; ++be) {
@@ -549,7 +564,8 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
     const double c = h.phi[st](1), s = h.phi[st](2);
     double mono[15];
     mono[0] = 1.0;
-    for (int d = 1; d <= 4; ++d) {  // degree d from degree d - 1: c times each, then s times the last
+    for (int d = 1; d <= 4;
+         ++d) {  // degree d from degree d - 1: c times each, then s times the last
       for (int j = 0; j < d; ++j) mono[monomial(d - j, j)] = c * mono[monomial(d - 1 - j, j)];
       mono[monomial(0, d)] = s * mono[monomial(0, d - 1)];
     }
@@ -614,28 +630,33 @@ std::optional<SetupInformation> fast_setup_information(const Design& design) {
       std::vector<int> seen;
       for (int k = 0; k < q_full; ++k) {
         double largest = 0;
-        for (int st = 0; st < n_st; ++st) largest = std::max(largest, std::abs(h.phi[st].dot(X.col(k))));
+        for (int st = 0; st < n_st; ++st)
+          largest = std::max(largest, std::abs(h.phi[st].dot(X.col(k))));
         if (largest > tol::kSeenValue) seen.push_back(k);
       }
-      if (seen.empty()) continue;  // changes no reading: not an effect of this design (setup_effects)
+      if (seen.empty())
+        continue;  // changes no reading: not an effect of this design (setup_effects)
       // At most 3 x 3: fixed-capacity matrices, no allocation.
       using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>;
       const int q = static_cast<int>(seen.size());
       Small Xs(3, q);
       for (int k = 0; k < q; ++k) Xs.col(k) = X.col(seen[k]);
       const Small G = h.w * Xs.transpose() * h.Phi * Xs;  // the columns' Gram (q x q)
-      const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 3, 1> d = G.diagonal().cwiseSqrt().cwiseInverse();
+      const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 3, 1> d =
+          G.diagonal().cwiseSqrt().cwiseInverse();
       const Small normalised = share(i) * d.asDiagonal() * G * d.asDiagonal();
       SetupEffectInformation info;
       info.kind = kind;
       info.installation = i;
       info.declared_std_um = std_um;
       info.q = q;
-      info.detectable = Eigen::SelfAdjointEigenSolver<Small>(normalised, Eigen::EigenvaluesOnly).eigenvalues()(0) > tol;
+      info.detectable = Eigen::SelfAdjointEigenSolver<Small>(normalised, Eigen::EigenvaluesOnly)
+                            .eigenvalues()(0) > tol;
       if (info.detectable) {
         const Small information = share(i) * G;
         info.min_information =
-            std::max(0.0, Eigen::SelfAdjointEigenSolver<Small>(information, Eigen::EigenvaluesOnly).eigenvalues()(0));
+            std::max(0.0, Eigen::SelfAdjointEigenSolver<Small>(information, Eigen::EigenvaluesOnly)
+                              .eigenvalues()(0));
       }
       out.effects.push_back(info);
     }
@@ -671,15 +692,16 @@ WorstCase design_worst_case(const Design& design, double reference_length_mm) {
   return *design_worst_total(design, reference_length_mm).noise;
 }
 
-Evaluation evaluate_design(const Design& design, double reference_length_mm, const EstimateOptions& options,
-                           const DetectionSettings& detection) {
+Evaluation evaluate_design(const Design& design, double reference_length_mm,
+                           const EstimateOptions& options, const DetectionSettings& detection) {
   const Parameterisation param(design);
   const LinearModel model = design_model(design, param);
   const WlsSolver solver(model.J, model.sigma_um, options);
   Evaluation ev;
   ev.prior = solver.a_priori();
   ev.reference_length_mm = reference_length_mm;
-  ev.indices = observability_indices(ev.prior.singular_values, ev.prior.rank, ev.prior.n_unknowns, ev.prior.n_readings);
+  ev.indices = observability_indices(ev.prior.singular_values, ev.prior.rank, ev.prior.n_unknowns,
+                                     ev.prior.n_readings);
   ev.criteria = design_criteria(solver);
   ev.prior.theta = Eigen::VectorXd::Zero(ev.prior.n_unknowns);
   ev.unidentifiable = describe_null_space(design, param, ev.prior);
@@ -697,17 +719,22 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm, con
     ev.setup_errors = std::move(parts.setup);
     ev.total_errors = std::move(parts.total);
     ev.worst_total = worst_case(ev.total_errors, reference_length_mm);
-    ev.setup_note = "the uncertainties include the declared length offset and centring tolerances (total = noise and "
-                    "set-up); the ball placement (L, D, H) is propagated at the identified errors by identify";
+    ev.setup_note =
+        "the uncertainties include the declared length offset and centring tolerances (total = "
+        "noise and "
+        "set-up); the ball placement (L, D, H) is propagated at the identified errors by identify";
   } else {
-    ev.setup_note = "set-up uncertainty is not included: the design declares no length offset or centring tolerance "
-                    "(setup_std)";
+    ev.setup_note =
+        "set-up uncertainty is not included: the design declares no length offset or centring "
+        "tolerance "
+        "(setup_std)";
   }
   ev.worst = worst_case(ev.errors, reference_length_mm);
   return ev;
 }
 
-std::vector<SweepPoint> sweep_design(const Design& design, const std::vector<SweepVariable>& variables,
+std::vector<SweepPoint> sweep_design(const Design& design,
+                                     const std::vector<SweepVariable>& variables,
                                      double reference_length_mm) {
   std::vector<SweepPoint> out;
   std::vector<size_t> index(variables.size(), 0);

@@ -22,8 +22,8 @@ constexpr double kPenalty = 1e12;  // objective of a point the criterion cannot 
 // A geometric constraint holds when its violation v [mm] (travel excursion, separation shortfall)
 // satisfies v <= kGeometryTolerance_mm; NLopt's constraint tolerance is the same.
 constexpr double kGeometryTolerance_mm = 1e-9;
-// Within one choice, two feasible candidates tie when |f_a - f_b| <= kCandidateTie max(|f_a|, |f_b|)
-// (the shorter measurement is then better).
+// Within one choice, two feasible candidates tie when |f_a - f_b| <= kCandidateTie max(|f_a|,
+// |f_b|) (the shorter measurement is then better).
 constexpr double kCandidateTie = 1e-9;
 constexpr int kNearRankLoss = 1 << 20;  // n_undetermined of a point the fast path declined
 
@@ -69,7 +69,8 @@ class DetectionRequirement {
   explicit DetectionRequirement(const Design& probe) {
     settings_.level = DiagnoseOptions{}.level;
     settings_.n_tests = 0;
-    for (const EffectBlock& b : candidate_effects(probe, nominal_readings(probe))) settings_.n_tests += b.not_applicable.empty();
+    for (const EffectBlock& b : candidate_effects(probe, nominal_readings(probe)))
+      settings_.n_tests += b.not_applicable.empty();
     settings_.n_tests = std::max(1, settings_.n_tests);
   }
 
@@ -94,8 +95,10 @@ class DetectionRequirement {
     for (const SetupEffectInformation& e : info.effects) {
       const int dof = info.n_readings - info.rank - e.q;
       std::optional<double> limit;
-      if (e.detectable && dof > 0 && e.min_information > 0) limit = std::sqrt(lambda(e.q, dof) / e.min_information);
-      const double ratio = limit ? *limit / e.declared_std_um : std::numeric_limits<double>::infinity();
+      if (e.detectable && dof > 0 && e.min_information > 0)
+        limit = std::sqrt(lambda(e.q, dof) / e.min_information);
+      const double ratio =
+          limit ? *limit / e.declared_std_um : std::numeric_limits<double>::infinity();
       if (!limit) d.undetectable.push_back(EffectCandidate{e.kind, e.installation}.label(c.design));
       if (ratio > d.ratio) {
         d.ratio = ratio;
@@ -136,8 +139,9 @@ class ChoiceSearch {
     for (size_t i = 0; i < space_.names.size(); ++i) {
       if (space_.upper[i] > space_.lower[i]) free_.push_back(static_cast<int>(i));
     }
-    // The determination a generic point of this choice reaches: points that reach less are penalised.
-    // The centre may be degenerate (e.g. L1 = L2): a generic point is taken a third of the way in.
+    // The determination a generic point of this choice reaches: points that reach less are
+    // penalised. The centre may be degenerate (e.g. L1 = L2): a generic point is taken a third of
+    // the way in.
     std::vector<double> generic = space_.lower;
     for (int i : free_) generic[i] += (space_.upper[i] - space_.lower[i]) * (0.29 + 0.07 * i);
     Candidate probe = make_candidate(kit_, choice_, generic);
@@ -199,7 +203,8 @@ class ChoiceSearch {
     }
     if (detection_) detection_->score(c, fast_only_);
     ++evaluations_;
-    if (global_stage_ && c.feasible && c.objective_defined && c.n_undetermined <= generic_undetermined_) {
+    if (global_stage_ && c.feasible && c.objective_defined &&
+        c.n_undetermined <= generic_undetermined_) {
       global_points_.emplace_back(c.objective, x);
     }
     if (!best_ || better(c, *best_)) best_ = c;
@@ -218,7 +223,8 @@ class ChoiceSearch {
     } else if (criterion_ == Criterion::WorstTotal) {
       // The total alone (one triangular solve); the noise part of each choice's best is
       // formed once the choice is searched (search_all).
-      const std::optional<TotalWorstCase> t = fast_worst_total(c.design, kit_.reference_length_mm, false);
+      const std::optional<TotalWorstCase> t =
+          fast_worst_total(c.design, kit_.reference_length_mm, false);
       if (!t) return false;
       c.worst = WorstCase{};
       c.objective = *t->total.worst_std_um;
@@ -300,7 +306,8 @@ class ChoiceSearch {
       bool apart = true;
       for (const std::vector<double>& y : starts) {
         double d = 0;
-        for (int k = 0; k < n; ++k) d = std::max(d, std::abs(xf[k] - y[k]) / std::max(ub[k] - lb[k], 1e-12));
+        for (int k = 0; k < n; ++k)
+          d = std::max(d, std::abs(xf[k] - y[k]) / std::max(ub[k] - lb[k], 1e-12));
         apart = apart && d > 0.05;
       }
       if (apart) starts.push_back(xf);
@@ -329,7 +336,8 @@ class ChoiceSearch {
     for (int k = 0; k < n; ++k) {
       const double lo = space_.lower[free_[k]], hi = space_.upper[free_[k]];
       const long m = static_cast<long>(std::ceil((hi - lo) / h - 1e-9));
-      for (long i = 0; i <= m; ++i) axes[k].push_back(i == m ? hi : lo + static_cast<double>(i) * h);
+      for (long i = 0; i <= m; ++i)
+        axes[k].push_back(i == m ? hi : lo + static_cast<double>(i) * h);
     }
     std::vector<size_t> idx(n, 0);
     std::vector<double> xf(n);
@@ -350,7 +358,7 @@ class ChoiceSearch {
   std::vector<int> free_;
   int generic_undetermined_ = 0;
   bool fast_only_ = false;
-  std::optional<DetectionRequirement> detection_;  // kit.require_setup_detection
+  std::optional<DetectionRequirement> detection_;     // kit.require_setup_detection
   std::optional<std::vector<double>> generic_probe_;  // set when no position meets it
   long evaluations_ = 0;
   long max_evaluations_ = 0;
@@ -368,8 +376,10 @@ class ChoiceSearch {
 constexpr double kObjectiveTie = 1e-4;
 
 bool better_choice(const Candidate& a, const Candidate& b) {
-  if (a.feasible && b.feasible && a.n_undetermined == b.n_undetermined && a.objective_defined && b.objective_defined &&
-      std::abs(a.objective - b.objective) <= kObjectiveTie * std::max(std::abs(a.objective), std::abs(b.objective)) &&
+  if (a.feasible && b.feasible && a.n_undetermined == b.n_undetermined && a.objective_defined &&
+      b.objective_defined &&
+      std::abs(a.objective - b.objective) <=
+          kObjectiveTie * std::max(std::abs(a.objective), std::abs(b.objective)) &&
       a.time_s != b.time_s) {
     return a.time_s < b.time_s;
   }
@@ -422,12 +432,15 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
     }
     std::lock_guard<std::mutex> lock(mutex);
     ++done;
-    if (cr.best && cr.best->feasible && (!best_so_far || better_choice(*cr.best, *best_so_far))) best_so_far = cr.best;
-    if (progress) progress(done, static_cast<int>(choices.size()), best_so_far ? &*best_so_far : nullptr);
+    if (cr.best && cr.best->feasible && (!best_so_far || better_choice(*cr.best, *best_so_far)))
+      best_so_far = cr.best;
+    if (progress)
+      progress(done, static_cast<int>(choices.size()), best_so_far ? &*best_so_far : nullptr);
   });
   res.evaluations = evaluations;
   for (const ChoiceResult& cr : res.choices) {
-    if (cr.best && cr.best->feasible && (!res.best || better_choice(*cr.best, *res.best))) res.best = cr.best;
+    if (cr.best && cr.best->feasible && (!res.best || better_choice(*cr.best, *res.best)))
+      res.best = cr.best;
   }
   if (res.best) {
     res.best_evaluation = evaluate_design(res.best->design, kit.reference_length_mm);
@@ -452,19 +465,25 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
     }
   }
   bool can_be_off_axis = false;
-  for (const PatternPosition& p : kit.pattern.positions) can_be_off_axis = can_be_off_axis || off_axis(kit, p);
+  for (const PatternPosition& p : kit.pattern.positions)
+    can_be_off_axis = can_be_off_axis || off_axis(kit, p);
   bool best_off_axis = false;
   if (res.best) {
-    for (int i : res.best->installation_position) best_off_axis = best_off_axis || off_axis(kit, kit.pattern.positions[i]);
+    for (int i : res.best->installation_position)
+      best_off_axis = best_off_axis || off_axis(kit, kit.pattern.positions[i]);
   }
   if (kit.axis == Axis::B) {
     if (!can_be_off_axis) {
-      res.note = "the kit allows no lateral offset (D_mm = [" + mm(kit.D_mm.min) + ", " + mm(kit.D_mm.max) +
-                 "]): every ball lies on the tool axis, so a rotation about that axis is unobservable (rank 5 "
+      res.note = "the kit allows no lateral offset (D_mm = [" + mm(kit.D_mm.min) + ", " +
+                 mm(kit.D_mm.max) +
+                 "]): every ball lies on the tool axis, so a rotation about that axis is "
+                 "unobservable (rank 5 "
                  "of 6 at every angle); the search minimises what is identifiable";
     } else if (!res.best || !best_off_axis) {
-      res.note = "no design with the off-axis position fits the kit (time budget or travel): rank 5 of 6 at "
-                 "every angle; the search minimises what is identifiable";
+      res.note =
+          "no design with the off-axis position fits the kit (time budget or travel): rank 5 of 6 "
+          "at "
+          "every angle; the search minimises what is identifiable";
     }
   }
   return res;
@@ -479,8 +498,9 @@ Criterion criterion_from_name(const std::string& name, const std::string& source
   if (name == "E") return Criterion::E;
   if (name == "condition") return Criterion::Condition;
   if (name == "worst_total") return Criterion::WorstTotal;
-  throw InputError(source, "",
-                   "unknown criterion '" + name + "' (expected worst, worst_total, D, A, E or condition)");
+  throw InputError(
+      source, "",
+      "unknown criterion '" + name + "' (expected worst, worst_total, D, A, E or condition)");
 }
 
 const char* criterion_name(Criterion c) {
@@ -515,7 +535,8 @@ void resolve(const Kit& kit, PatternChoice& c) {
     c.space.upper.push_back(range.max);
     return static_cast<int>(c.space.names.size()) - 1;
   };
-  for (int i : included) c.placements.push_back({i, variable(kit.pattern.positions[i].L, kit.L_mm), -1, 0.0});
+  for (int i : included)
+    c.placements.push_back({i, variable(kit.pattern.positions[i].L, kit.L_mm), -1, 0.0});
   for (PatternChoice::Placement& pl : c.placements) {
     const PatternPosition& p = kit.pattern.positions[pl.position];
     pl.D = variable(p.D, kit.D_mm);
@@ -538,7 +559,8 @@ std::vector<PatternChoice> pattern_choices(const Kit& kit) {
     std::vector<std::string> vars;
     for (int i : included_positions(kit, n_opt)) {
       const PatternCoordinate& h = kit.pattern.positions[i].H;
-      if (h.is_variable() && std::find(vars.begin(), vars.end(), h.variable) == vars.end()) vars.push_back(h.variable);
+      if (h.is_variable() && std::find(vars.begin(), vars.end(), h.variable) == vars.end())
+        vars.push_back(h.variable);
     }
     // Every assignment of a stack to each variable (the first variable outermost), less
     // those that give two variables of a distinct group the same height.
@@ -548,15 +570,19 @@ std::vector<PatternChoice> pattern_choices(const Kit& kit) {
       for (const std::vector<std::string>& group : kit.pattern.distinct) {
         for (size_t a = 0; a < group.size() && ok; ++a) {
           for (size_t b = 0; b < a && ok; ++b) {
-            const auto ia = std::find(vars.begin(), vars.end(), group[a]), ib = std::find(vars.begin(), vars.end(), group[b]);
-            if (ia != vars.end() && ib != vars.end() && idx[ia - vars.begin()] == idx[ib - vars.begin()]) ok = false;
+            const auto ia = std::find(vars.begin(), vars.end(), group[a]),
+                       ib = std::find(vars.begin(), vars.end(), group[b]);
+            if (ia != vars.end() && ib != vars.end() &&
+                idx[ia - vars.begin()] == idx[ib - vars.begin()])
+              ok = false;
           }
         }
       }
       if (ok) {
         PatternChoice c;
         c.n_optional = n_opt;
-        for (size_t v = 0; v < vars.size(); ++v) c.heights.push_back({vars[v], idx[v], stacks[idx[v]].height_mm});
+        for (size_t v = 0; v < vars.size(); ++v)
+          c.heights.push_back({vars[v], idx[v], stacks[idx[v]].height_mm});
         resolve(kit, c);
         for (double step : kit.angle_steps_deg) {
           c.step_deg = step;
@@ -575,7 +601,8 @@ std::string choice_label(const Kit& kit, const PatternChoice& c) {
   std::string t;
   if (kit.axis == Axis::C) {
     const std::vector<Stack> stacks = block_stacks(kit);
-    for (const PatternChoice::Height& h : c.heights) t += h.variable + " = " + stack_text(kit, stacks[h.stack]) + ", ";
+    for (const PatternChoice::Height& h : c.heights)
+      t += h.variable + " = " + stack_text(kit, stacks[h.stack]) + ", ";
   }
   t += "step " + mm(c.step_deg) + " deg";
   const std::vector<int> offered = offered_optional_positions(kit);
@@ -589,7 +616,8 @@ std::string choice_label(const Kit& kit, const PatternChoice& c) {
   return t;
 }
 
-Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std::vector<double>& x) {
+Candidate make_candidate(const Kit& kit, const PatternChoice& choice,
+                         const std::vector<double>& x) {
   Candidate c;
   c.choice = choice;
   c.x = x;
@@ -622,18 +650,21 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std:
   }
   c.travel_violation_mm = -std::numeric_limits<double>::infinity();
   for (Installation& in : d.installations) {
-    c.travel_violation_mm = std::max(c.travel_violation_mm, fit_bar(kit, kit.axis, in, d.angles_deg));
+    c.travel_violation_mm =
+        std::max(c.travel_violation_mm, fit_bar(kit, kit.axis, in, d.angles_deg));
   }
   c.separation_violation_mm = -std::numeric_limits<double>::infinity();
   for (size_t i = 0; i < separated.size(); ++i) {
     for (size_t j = 0; j < i; ++j) {
-      const double dist = std::hypot(separated[i].L - separated[j].L, separated[i].D - separated[j].D,
-                                     separated[i].H - separated[j].H);
+      const double dist =
+          std::hypot(separated[i].L - separated[j].L, separated[i].D - separated[j].D,
+                     separated[i].H - separated[j].H);
       c.separation_violation_mm = std::max(c.separation_violation_mm, kit.min_separation_mm - dist);
     }
   }
   c.time_s = design_time_s(kit, d);
-  c.feasible = c.travel_violation_mm <= kGeometryTolerance_mm && c.separation_violation_mm <= kGeometryTolerance_mm &&
+  c.feasible = c.travel_violation_mm <= kGeometryTolerance_mm &&
+               c.separation_violation_mm <= kGeometryTolerance_mm &&
                (!kit.time_budget_s || c.time_s <= *kit.time_budget_s);
   return c;
 }
@@ -653,7 +684,8 @@ void describe_installations(const Kit& kit, Candidate& c) {
       } else {
         t = "H = " + mm(p.H.value) + " mm (fixed by the pattern)";
       }
-      if (!p.L.is_variable() && !p.D.is_variable() && p.L.value == 0 && p.D.value == 0) t += ", on the axis";
+      if (!p.L.is_variable() && !p.D.is_variable() && p.L.value == 0 && p.D.value == 0)
+        t += ", on the axis";
     } else {
       t = off_axis(kit, p) ? "off the tool axis" : "on the tool axis";
     }
@@ -664,7 +696,8 @@ void describe_installations(const Kit& kit, Candidate& c) {
 std::string added_installations(const Kit& kit, const Candidate& c) {
   std::string t;
   for (size_t k = 0; k < c.design.installations.size(); ++k) {
-    if (kit.pattern.positions[c.installation_position[k]].optional) t += (t.empty() ? "" : " ") + c.design.installations[k].id;
+    if (kit.pattern.positions[c.installation_position[k]].optional)
+      t += (t.empty() ? "" : " ") + c.design.installations[k].id;
   }
   return t.empty() ? "-" : t;
 }
@@ -673,7 +706,8 @@ void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
   if (criterion == Criterion::Worst) {
     c.worst = design_worst_case(c.design, kit.reference_length_mm);
     c.n_undetermined = c.worst.n_undetermined;
-    const std::optional<double> v = c.worst.worst_std_um ? c.worst.worst_std_um : c.worst.worst_determined_std_um;
+    const std::optional<double> v =
+        c.worst.worst_std_um ? c.worst.worst_std_um : c.worst.worst_determined_std_um;
     c.objective_defined = v.has_value();
     c.objective = v.value_or(0.0);
     return;
@@ -682,7 +716,8 @@ void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
     const TotalWorstCase t = design_worst_total(c.design, kit.reference_length_mm);
     c.worst = *t.noise;
     c.n_undetermined = t.total.n_undetermined;
-    const std::optional<double> v = t.total.worst_std_um ? t.total.worst_std_um : t.total.worst_determined_std_um;
+    const std::optional<double> v =
+        t.total.worst_std_um ? t.total.worst_std_um : t.total.worst_determined_std_um;
     c.objective_defined = v.has_value();
     c.objective = v.value_or(0.0);
     return;
@@ -723,7 +758,8 @@ bool better(const Candidate& a, const Candidate& b) {
   if (a.n_undetermined != b.n_undetermined) return a.n_undetermined < b.n_undetermined;
   if (a.objective_defined != b.objective_defined) return a.objective_defined;
   // Objectives that tie (kCandidateTie): the shorter measurement is better.
-  if (std::abs(a.objective - b.objective) > kCandidateTie * std::max(std::abs(a.objective), std::abs(b.objective))) {
+  if (std::abs(a.objective - b.objective) >
+      kCandidateTie * std::max(std::abs(a.objective), std::abs(b.objective))) {
     return a.objective < b.objective;
   }
   return a.time_s < b.time_s;
@@ -751,12 +787,12 @@ const char* choice_state_name(ChoiceState s) {
 
 OptimizeResult optimize_kit(const Kit& kit, const OptimizeOptions& options) {
   return search_all(
-      kit, options.criterion, options.threads, [&](ChoiceSearch& s) { s.run(options); }, options.progress);
+      kit, options.criterion, options.threads, [&](ChoiceSearch& s) { s.run(options); },
+      options.progress);
 }
 
 OptimizeResult exhaustive_search(const Kit& kit, Criterion criterion, double grid_mm, int threads) {
-  return search_all(
-      kit, criterion, threads, [&](ChoiceSearch& s) { s.grid(grid_mm); }, {});
+  return search_all(kit, criterion, threads, [&](ChoiceSearch& s) { s.grid(grid_mm); }, {});
 }
 
 }  // namespace dbbkit

@@ -39,7 +39,8 @@ std::string format_angle(double a) {
 }
 }  // namespace
 
-Parameterisation::Parameterisation(const Design& design) : axis_(design.axis), model_(design.errors) {
+Parameterisation::Parameterisation(const Design& design)
+    : axis_(design.axis), model_(design.errors) {
   for (double a : design.angles_deg) {
     if (station_of(a) < 0) {
       const double k = key_of(a);
@@ -69,7 +70,8 @@ int Parameterisation::station_of(double angle_deg) const {
   auto scan = [&](double lo, double hi) {
     for (auto it = std::lower_bound(index_.begin(), index_.end(), std::pair<double, int>(lo, -1));
          it != index_.end() && it->first <= hi; ++it) {
-      if ((found < 0 || it->second < found) && same_position(axis_, station_deg_[it->second], angle_deg)) {
+      if ((found < 0 || it->second < found) &&
+          same_position(axis_, station_deg_[it->second], angle_deg)) {
         found = it->second;
       }
     }
@@ -95,7 +97,8 @@ Eigen::VectorXd legendre_basis(int order, double x) {
   f(0) = 1.0;
   if (order > 0) f(1) = x;
   // Bonnet: (k+1) P_{k+1} = (2k+1) x P_k - k P_{k-1}
-  for (int k = 1; k < order; ++k) f(k + 1) = ((2.0 * k + 1.0) * x * f(k) - k * f(k - 1)) / (k + 1.0);
+  for (int k = 1; k < order; ++k)
+    f(k + 1) = ((2.0 * k + 1.0) * x * f(k) - k * f(k - 1)) / (k + 1.0);
   return f;
 }
 
@@ -104,9 +107,9 @@ Eigen::VectorXd Parameterisation::series_basis(double angle_deg) const {
     case ErrorModel::Kind::Fourier:
       return fourier_basis(model_.order, angle_deg);
     case ErrorModel::Kind::Legendre:
-      return legendre_basis(model_.order, hi_deg_ > lo_deg_
-                                              ? 2.0 * (angle_deg - lo_deg_) / (hi_deg_ - lo_deg_) - 1.0
-                                              : 0.0);
+      return legendre_basis(
+          model_.order,
+          hi_deg_ > lo_deg_ ? 2.0 * (angle_deg - lo_deg_) / (hi_deg_ - lo_deg_) - 1.0 : 0.0);
     case ErrorModel::Kind::PerAngle:
       break;
   }
@@ -114,7 +117,8 @@ Eigen::VectorXd Parameterisation::series_basis(double angle_deg) const {
 }
 
 Eigen::SparseMatrix<double> Parameterisation::error_functions(int station) const {
-  if (model_.kind != ErrorModel::Kind::PerAngle) return error_functions_at_angle(station_deg_[station]);
+  if (model_.kind != ErrorModel::Kind::PerAngle)
+    return error_functions_at_angle(station_deg_[station]);
   Eigen::SparseMatrix<double> E(n_parameters_, 6);
   E.reserve(Eigen::VectorXi::Constant(6, 1));
   for (int k = 0; k < 6; ++k) E.insert(6 * station + k, k) = 1.0;
@@ -151,7 +155,8 @@ Eigen::MatrixXd Parameterisation::error_map_at_angle(double angle_deg) const {
   return Eigen::MatrixXd(error_functions_at_angle(angle_deg).transpose());
 }
 
-Eigen::Matrix<double, 6, 1> Parameterisation::errors_at_angle(double angle_deg, const Eigen::VectorXd& theta) const {
+Eigen::Matrix<double, 6, 1> Parameterisation::errors_at_angle(double angle_deg,
+                                                              const Eigen::VectorXd& theta) const {
   return error_functions_at_angle(angle_deg).transpose() * theta;
 }
 

@@ -25,7 +25,8 @@ class Xoshiro256pp {
  public:
   using result_type = std::uint64_t;
   explicit Xoshiro256pp(std::uint64_t seed) {
-    for (int i = 0; i < 4; ++i) s_[i] = splitmix64(seed + static_cast<std::uint64_t>(i) * 0x9E3779B97F4A7C15ULL);
+    for (int i = 0; i < 4; ++i)
+      s_[i] = splitmix64(seed + static_cast<std::uint64_t>(i) * 0x9E3779B97F4A7C15ULL);
   }
   static constexpr result_type min() { return 0; }
   static constexpr result_type max() { return ~result_type{0}; }

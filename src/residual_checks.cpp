@@ -23,7 +23,8 @@ namespace {
 // The distinct positions of the readings `rows` (all when null).
 // Sorted (a C angle taken into [0, 360)), a position is new when it is not the same as the one
 // before it; on C the last and the first may be one position across 0/360.
-int distinct_positions(Axis axis, const std::vector<Reading>& readings, const std::vector<int>* rows) {
+int distinct_positions(Axis axis, const std::vector<Reading>& readings,
+                       const std::vector<int>* rows) {
   const std::size_t n = rows ? rows->size() : readings.size();
   std::vector<double> angles;
   angles.reserve(n);
@@ -37,14 +38,16 @@ int distinct_positions(Axis axis, const std::vector<Reading>& readings, const st
   }
   std::sort(angles.begin(), angles.end());
   int count = 0;
-  for (std::size_t j = 0; j < angles.size(); ++j) count += j == 0 || !same_position(axis, angles[j - 1], angles[j]);
+  for (std::size_t j = 0; j < angles.size(); ++j)
+    count += j == 0 || !same_position(axis, angles[j - 1], angles[j]);
   if (axis == Axis::C && count > 1 && same_position(axis, angles.front(), angles.back())) --count;
   return count;
 }
 
 }  // namespace
 
-std::vector<double> residual_harmonics(const std::vector<Reading>& readings, const std::vector<int>& rows,
+std::vector<double> residual_harmonics(const std::vector<Reading>& readings,
+                                       const std::vector<int>& rows,
                                        const Eigen::VectorXd& residual_um) {
   std::vector<double> amplitude;
   const int K = std::min(4, (distinct_positions(Axis::C, readings, &rows) - 1) / 2);
@@ -62,8 +65,12 @@ std::vector<double> residual_harmonics(const std::vector<Reading>& readings, con
   return amplitude;
 }
 
-ColumnTester::ColumnTester(const WlsSolver& solver, const Estimate& fit, const EstimateOptions& options)
-    : solver_(solver), fit_(fit), options_(options), w_(solver.sigma_um().array().square().inverse()) {}
+ColumnTester::ColumnTester(const WlsSolver& solver, const Estimate& fit,
+                           const EstimateOptions& options)
+    : solver_(solver),
+      fit_(fit),
+      options_(options),
+      w_(solver.sigma_um().array().square().inverse()) {}
 
 ColumnTest ColumnTester::one_column(double xWr, double xWx, double R2) const {
   ColumnTest t;
@@ -93,8 +100,11 @@ ColumnTest ColumnTester::test(const Eigen::MatrixXd& X) const {
   t.q = static_cast<int>(X.cols());
   if (X.cols() == 0) return t;
   Eigen::MatrixXd R = unexplained(solver_, X);
-  const Eigen::VectorXd norms = (solver_.sigma_um().cwiseInverse().asDiagonal() * X).colwise().norm().transpose();
-  for (int j = 0; j < R.cols(); ++j) R.col(j) = norms(j) > 0 ? Eigen::VectorXd(R.col(j) / norms(j)) : Eigen::VectorXd::Zero(R.rows());
+  const Eigen::VectorXd norms =
+      (solver_.sigma_um().cwiseInverse().asDiagonal() * X).colwise().norm().transpose();
+  for (int j = 0; j < R.cols(); ++j)
+    R.col(j) =
+        norms(j) > 0 ? Eigen::VectorXd(R.col(j) / norms(j)) : Eigen::VectorXd::Zero(R.rows());
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(R, Eigen::ComputeThinU);
   const double tol = std::sqrt(options_.min_relative_singular_value);
   int r = 0;
@@ -169,7 +179,8 @@ const char* feature_kind_name(FeatureKind k) {
   return "unknown";
 }
 
-std::vector<ResidualFeature> residual_features(const Design& design, const std::vector<Reading>& readings,
+std::vector<ResidualFeature> residual_features(const Design& design,
+                                               const std::vector<Reading>& readings,
                                                const WlsSolver& solver, const Estimate& fit,
                                                const EstimateOptions& options) {
   std::vector<ResidualFeature> out;
@@ -178,9 +189,11 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
   const Eigen::Index n = static_cast<Eigen::Index>(readings.size());
   const auto index = design.installation_index();
   std::vector<std::vector<int>> rows(design.installations.size());
-  for (std::size_t j = 0; j < readings.size(); ++j) rows[index.at(readings[j].installation)].push_back(static_cast<int>(j));
+  for (std::size_t j = 0; j < readings.size(); ++j)
+    rows[index.at(readings[j].installation)].push_back(static_cast<int>(j));
   auto timed = [&](int inst) {
-    return std::all_of(rows[inst].begin(), rows[inst].end(), [&](int j) { return readings[j].time_s.has_value(); });
+    return std::all_of(rows[inst].begin(), rows[inst].end(),
+                       [&](int j) { return readings[j].time_s.has_value(); });
   };
   // The column of a one-column feature of an installation; empty when its readings cannot show it
   // (a drift needs every time, cw - ccw both sweeps).
@@ -223,7 +236,8 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
     if (st.best < 0) return;
     f.row = row;
     f.reading = readings[static_cast<std::size_t>(row)];
-    f.test = st.test, f.tested = st.tested, f.p = st.p_scan, f.value = st.test.value, f.std = st.test.std;
+    f.test = st.test, f.tested = st.tested, f.p = st.p_scan, f.value = st.test.value,
+    f.std = st.test.std;
     out.push_back(f);
   };
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -248,27 +262,33 @@ std::vector<ResidualFeature> residual_features(const Design& design, const std::
     add(feature(FeatureKind::kReversal, inst), column(FeatureKind::kReversal, inst));
     std::vector<int> ordered = r;
     if (timed(inst)) {
-      std::stable_sort(ordered.begin(), ordered.end(), [&](int a, int b) { return *readings[a].time_s < *readings[b].time_s; });
+      std::stable_sort(ordered.begin(), ordered.end(),
+                       [&](int a, int b) { return *readings[a].time_s < *readings[b].time_s; });
     }
     const ScanTest st = tester.scan_steps(ordered, kStepMinSegment);
-    add_scan(feature(FeatureKind::kStep, inst), st, st.best >= 0 ? ordered[static_cast<std::size_t>(st.best)] : -1);
+    add_scan(feature(FeatureKind::kStep, inst), st,
+             st.best >= 0 ? ordered[static_cast<std::size_t>(st.best)] : -1);
   }
   std::vector<int> all(readings.size());
   for (std::size_t j = 0; j < all.size(); ++j) all[j] = static_cast<int>(j);
   const ScanTest g = tester.scan_readings(all);
-  if (g.best >= 0) add_scan(feature(FeatureKind::kReading, index.at(readings[g.best].installation)), g, g.best);
+  if (g.best >= 0)
+    add_scan(feature(FeatureKind::kReading, index.at(readings[g.best].installation)), g, g.best);
   // Only a difference determined: one-column features of one kind that the most significant of
   // that kind makes confounded (a mean of 1r against that of 2r).
   for (FeatureKind kind : {FeatureKind::kMean, FeatureKind::kDrift, FeatureKind::kReversal}) {
     ResidualFeature* top = nullptr;
     for (ResidualFeature& f : out) {
-      if (f.kind == kind && (!top || more_significant(f.p, f.test.F, top->p, top->test.F))) top = &f;
+      if (f.kind == kind && (!top || more_significant(f.p, f.test.F, top->p, top->test.F)))
+        top = &f;
     }
     if (!top) continue;
-    const WlsSolver with_top(append_columns(solver.J(), column(kind, top->installation)), solver.sigma_um(), options);
+    const WlsSolver with_top(append_columns(solver.J(), column(kind, top->installation)),
+                             solver.sigma_um(), options);
     for (const ResidualFeature& f : out) {
       if (f.kind != kind || &f == top) continue;
-      if (added_rank(with_top, column(kind, f.installation), options) == 0) top->difference_with.push_back(f.installation);
+      if (added_rank(with_top, column(kind, f.installation), options) == 0)
+        top->difference_with.push_back(f.installation);
     }
   }
   return out;
@@ -304,8 +324,8 @@ std::vector<GrossReading> gross_readings(const Jacobian& J, const Eigen::VectorX
   return out;
 }
 
-std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(const Design& design,
-                                                                  const std::vector<Reading>& readings) {
+std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(
+    const Design& design, const std::vector<Reading>& readings) {
   std::vector<std::pair<int, Eigen::MatrixXd>> out;
   const ErrorModel::Kind kind = design.errors.kind;
   if (kind == ErrorModel::Kind::PerAngle) return out;
@@ -321,8 +341,9 @@ std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(const Design& 
   return out;
 }
 
-std::optional<OrderCheck> model_order_check(int order, const std::vector<std::pair<int, Eigen::MatrixXd>>& higher,
-                                            const ColumnTester& tester, const Estimate& fit) {
+std::optional<OrderCheck> model_order_check(
+    int order, const std::vector<std::pair<int, Eigen::MatrixXd>>& higher,
+    const ColumnTester& tester, const Estimate& fit) {
   const double n = static_cast<double>(fit.n_readings);
   OrderCheck best;
   best.order = order;
@@ -347,7 +368,8 @@ std::optional<OrderCheck> model_order_check(int order, const std::vector<std::pa
   return best;
 }
 
-std::optional<OrderCheck> model_order_check(const Design& design, const std::vector<Reading>& readings,
+std::optional<OrderCheck> model_order_check(const Design& design,
+                                            const std::vector<Reading>& readings,
                                             const WlsSolver& solver, const Estimate& fit,
                                             const EstimateOptions& options) {
   const auto higher = higher_order_columns(design, readings);

@@ -1,12 +1,12 @@
 #include "dbbkit/selection.hpp"
 
-#include "dbbkit/residual_checks.hpp"
-
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <iomanip>
+#include <optional>
 #include <sstream>
+
+#include "dbbkit/residual_checks.hpp"
 
 namespace dbbkit {
 
@@ -79,11 +79,13 @@ class Selector {
     for (std::size_t f = 0; f < families_.size(); ++f) {
       family_status_[f].label = families_[f].label;
       if (!families_[f].not_applicable.empty()) {
-        family_status_[f] = {families_[f].label, CandidateState::kNotApplicable, families_[f].not_applicable};
+        family_status_[f] = {families_[f].label, CandidateState::kNotApplicable,
+                             families_[f].not_applicable};
         family_used_[f] = true;
       }
     }
-    if (o_.stop_at_model_order && design_ && readings_) higher_ = higher_order_columns(*design_, *readings_);
+    if (o_.stop_at_model_order && design_ && readings_)
+      higher_ = higher_order_columns(*design_, *readings_);
     all_rows_.resize(static_cast<std::size_t>(y_.size()));
     for (std::size_t i = 0; i < all_rows_.size(); ++i) all_rows_[i] = static_cast<int>(i);
     for (bool changed = true; changed;) {
@@ -119,7 +121,8 @@ class Selector {
   Jacobian model_without(const std::vector<int>& skip) const {
     Jacobian J = J0_;
     for (std::size_t b = 0; b < added_.size(); ++b) {
-      if (std::find(skip.begin(), skip.end(), static_cast<int>(b)) == skip.end()) J = append_columns(J, added_[b].block.X);
+      if (std::find(skip.begin(), skip.end(), static_cast<int>(b)) == skip.end())
+        J = append_columns(J, added_[b].block.X);
     }
     return J;
   }
@@ -139,9 +142,12 @@ class Selector {
     std::vector<int> equivalent;
     const WlsSolver with_best(append_columns(base, pool_[best].X), sigma_, o_.estimate);
     for (std::size_t i = 0; i < pool_.size(); ++i) {
-      if (used_[i] || static_cast<int>(i) == best || status_[i].state == CandidateState::kConfounded) continue;
+      if (used_[i] || static_cast<int>(i) == best ||
+          status_[i].state == CandidateState::kConfounded)
+        continue;
       if (pool_[i].X.cols() != pool_[best].X.cols()) continue;
-      if (added_rank(with_best, pool_[i].X, o_.estimate) == 0) equivalent.push_back(static_cast<int>(i));
+      if (added_rank(with_best, pool_[i].X, o_.estimate) == 0)
+        equivalent.push_back(static_cast<int>(i));
     }
     int chosen = best;
     for (int i : equivalent) {
@@ -160,10 +166,11 @@ class Selector {
     for (int i : equivalent) {
       a.equivalent_to.push_back(pool_[i].label);
       used_[i] = true;
-      status_[i] = {pool_[i].label, CandidateState::kEquivalent,
-                    "explains the data exactly as " + pool_[chosen].label +
-                        " does (only their difference is determined); by convention the later installation "
-                        "carries it"};
+      status_[i] = {
+          pool_[i].label, CandidateState::kEquivalent,
+          "explains the data exactly as " + pool_[chosen].label +
+              " does (only their difference is determined); by convention the later installation "
+              "carries it"};
     }
   }
 
@@ -173,7 +180,8 @@ class Selector {
       const int i = index_of(l);
       if (i < 0) continue;
       used_[i] = false;
-      status_[i] = {l, CandidateState::kNotSignificant, "equivalent to " + a.block.label + ", which left the model"};
+      status_[i] = {l, CandidateState::kNotSignificant,
+                    "equivalent to " + a.block.label + ", which left the model"};
     }
   }
 
@@ -194,17 +202,20 @@ class Selector {
         if (trial.added_rank < q) {
           status_[i] = {pool_[i].label, CandidateState::kConfounded,
                         "its " + std::to_string(q) + " column(s) raise the rank by " +
-                            std::to_string(trial.added_rank) + ": its size cannot be told from the axis errors" +
+                            std::to_string(trial.added_rank) +
+                            ": its size cannot be told from the axis errors" +
                             (added_.empty() ? std::string() : " and the effects already added")};
           continue;
         }
         if (trial.dof <= 0) {
-          status_[i] = {pool_[i].label, CandidateState::kNotSignificant, "no residual degrees of freedom left to test it"};
+          status_[i] = {pool_[i].label, CandidateState::kNotSignificant,
+                        "no residual degrees of freedom left to test it"};
           continue;
         }
         ++tested;
         trial_chi2[i] = current_.chi2 - trial.delta_chi2;
-        status_[i] = {pool_[i].label, CandidateState::kNotSignificant, "F = " + fmt(trial.F) + ", p = " + fmt(trial.p)};
+        status_[i] = {pool_[i].label, CandidateState::kNotSignificant,
+                      "F = " + fmt(trial.F) + ", p = " + fmt(trial.p)};
         if (trial.p < best_p) best = static_cast<int>(i), best_p = trial.p, best_F = trial.F;
       }
       // Scanned candidates: the best alternative of each, p multiplied by the alternatives tested.
@@ -222,17 +233,21 @@ class Selector {
             }
           }
           if (st.best < 0) {
-            family_status_[f] = {fam.label, CandidateState::kConfounded,
-                                 "no alternative raises the rank: its size cannot be told from the model"};
+            family_status_[f] = {
+                fam.label, CandidateState::kConfounded,
+                "no alternative raises the rank: its size cannot be told from the model"};
             continue;
           }
           ++tested;
           const std::string where = fam.alternative(*design_, *readings_, st.best).label;
           family_status_[f] = {fam.label, CandidateState::kNotSignificant,
-                               "best " + where + ": F = " + fmt(st.test.F) + ", p = " + fmt(st.test.p) + " times " +
+                               "best " + where + ": F = " + fmt(st.test.F) +
+                                   ", p = " + fmt(st.test.p) + " times " +
                                    std::to_string(st.tested) + " alternatives = " + fmt(st.p_scan)};
-          if (st.p_scan < best_p || (best_family >= 0 && more_significant(st.p_scan, st.test.F, best_p, best_F))) {
-            best = -1, best_family = static_cast<int>(f), best_alt = st.best, best_p = st.p_scan, best_F = st.test.F;
+          if (st.p_scan < best_p ||
+              (best_family >= 0 && more_significant(st.p_scan, st.test.F, best_p, best_F))) {
+            best = -1, best_family = static_cast<int>(f), best_alt = st.best, best_p = st.p_scan,
+            best_F = st.test.F;
             best_scanned = st.tested;
           }
         }
@@ -252,7 +267,8 @@ class Selector {
       }
       if (!higher_.empty()) {
         // A higher order of the error model, counted as one more candidate of the step.
-        const std::optional<OrderCheck> order = model_order_check(design_->errors.order, higher_, tester, current_);
+        const std::optional<OrderCheck> order =
+            model_order_check(design_->errors.order, higher_, tester, current_);
         if (order) {
           ++tested;
           if (order->p < best_p && order->p < o_.level / tested) {
@@ -263,7 +279,8 @@ class Selector {
         }
       }
       if (best_family >= 0) {
-        if (!add_scanned(best_family, best_alt, best_p, best_F, best_scanned, tested, trial_chi2)) return;
+        if (!add_scanned(best_family, best_alt, best_p, best_F, best_scanned, tested, trial_chi2))
+          return;
         continue;
       }
       if (best < 0) return;
@@ -271,8 +288,9 @@ class Selector {
       const double threshold = o_.level / tested;
       const double dbic = bic(best_est) - bic(current_);
       if (!(best_p < threshold && dbic < 0)) {
-        status_[best].detail += " (the best candidate at step " + std::to_string(step_) + "; needs p < " +
-                                fmt(threshold) + " and a lower BIC, change " + fmt(dbic) + ")";
+        status_[best].detail += " (the best candidate at step " + std::to_string(step_) +
+                                "; needs p < " + fmt(threshold) + " and a lower BIC, change " +
+                                fmt(dbic) + ")";
         return;
       }
       // Equivalent alternatives: each spans the other modulo the current model.
@@ -281,20 +299,26 @@ class Selector {
       AddedEffect a;
       a.block = pool_[best];
       for (std::size_t i = 0; i < pool_.size(); ++i) {
-        if (static_cast<int>(i) == best || trial_chi2[i] < 0 || pool_[i].X.cols() != pool_[best].X.cols()) continue;
-        if (std::find(equivalent.begin(), equivalent.end(), static_cast<int>(i)) != equivalent.end()) continue;
+        if (static_cast<int>(i) == best || trial_chi2[i] < 0 ||
+            pool_[i].X.cols() != pool_[best].X.cols())
+          continue;
+        if (std::find(equivalent.begin(), equivalent.end(), static_cast<int>(i)) !=
+            equivalent.end())
+          continue;
         if (fits_almost_as_well(trial_chi2[i], best_est)) {
           a.close_alternatives.push_back(pool_[i].label);
         }
       }
       mark_equivalent(a, best, equivalent);
-      a.evidence = {step_, best_F,       static_cast<int>(pool_[best].X.cols()), best_est.dof, best_p, threshold,
-                    tested, dbic,        current_.chi2,                          best_est.chi2};
+      a.evidence = {step_,        best_F, static_cast<int>(pool_[best].X.cols()),
+                    best_est.dof, best_p, threshold,
+                    tested,       dbic,   current_.chi2,
+                    best_est.chi2};
       added_.push_back(a);
       used_[best] = true;
       status_[best] = {pool_[best].label, CandidateState::kAdded,
-                       "step " + std::to_string(step_) + ": F = " + fmt(best_F) + ", p = " + fmt(best_p) + " < " +
-                           fmt(threshold) + ", BIC change " + fmt(dbic)};
+                       "step " + std::to_string(step_) + ": F = " + fmt(best_F) + ", p = " +
+                           fmt(best_p) + " < " + fmt(threshold) + ", BIC change " + fmt(dbic)};
       J_ = append_columns(J_, pool_[best].X);
       current_ = best_est;
     }
@@ -302,15 +326,18 @@ class Selector {
 
   // Adds alternative k of scanned family f when it passes (p < level / tested and the BIC,
   // with the position counted, falls). True when added.
-  bool add_scanned(int f, int k, double p, double F, int scanned, int tested, const std::vector<double>& trial_chi2) {
+  bool add_scanned(int f, int k, double p, double F, int scanned, int tested,
+                   const std::vector<double>& trial_chi2) {
     const ScanFamily& fam = families_[f];
     EffectBlock block = fam.alternative(*design_, *readings_, k);
     const Estimate trial = solve(append_columns(J_, block.X));
     const double threshold = o_.level / tested;
-    const double dbic = bic(trial) - bic(current_) + std::log(static_cast<double>(current_.n_readings));
+    const double dbic =
+        bic(trial) - bic(current_) + std::log(static_cast<double>(current_.n_readings));
     if (!(p < threshold && dbic < 0)) {
-      family_status_[f].detail += " (the best candidate at step " + std::to_string(step_) + "; needs p < " +
-                                  fmt(threshold) + " and a lower BIC, change " + fmt(dbic) + " with its position)";
+      family_status_[f].detail += " (the best candidate at step " + std::to_string(step_) +
+                                  "; needs p < " + fmt(threshold) + " and a lower BIC, change " +
+                                  fmt(dbic) + " with its position)";
       return false;
     }
     AddedEffect a;
@@ -324,9 +351,10 @@ class Selector {
     Estimate after = trial;
     if (fam.effect.kind == EffectKind::Thermal) block = refine_thermal(fam, k, after);
     family_status_[f] = {fam.label, CandidateState::kAdded,
-                         "step " + std::to_string(step_) + ": " + block.label + ", F = " + fmt(F) + ", p = " + fmt(p) +
-                             " (over " + std::to_string(scanned) + " alternatives) < " + fmt(threshold) +
-                             ", BIC change " + fmt(dbic) + " with its position"};
+                         "step " + std::to_string(step_) + ": " + block.label + ", F = " + fmt(F) +
+                             ", p = " + fmt(p) + " (over " + std::to_string(scanned) +
+                             " alternatives) < " + fmt(threshold) + ", BIC change " + fmt(dbic) +
+                             " with its position"};
     a.block = std::move(block);
     added_.push_back(a);
     family_used_[f] = true;
@@ -348,7 +376,9 @@ class Selector {
     const double lo = fam.alternatives[k > 0 ? k - 1 : 0].effect.tau_min / (k > 0 ? 1.0 : 1.5);
     const double hi = fam.alternatives[std::min<std::size_t>(k + 1, m - 1)].effect.tau_min *
                       (static_cast<std::size_t>(k) + 1 < m ? 1.0 : 1.5);
-    auto fall_at = [&](double log_tau) { return -tester.test(thermal_block(fam, std::exp(log_tau)).X).delta_chi2; };
+    auto fall_at = [&](double log_tau) {
+      return -tester.test(thermal_block(fam, std::exp(log_tau)).X).delta_chi2;
+    };
     const double g = (std::sqrt(5.0) - 1) / 2;
     double a = std::log(lo), b = std::log(hi);
     double c = b - g * (b - a), d = a + g * (b - a), fc = fall_at(c), fd = fall_at(d);
@@ -388,7 +418,8 @@ class Selector {
     two.X.conservativeResize(Eigen::NoChange, 2);
     two.X.col(1) = deriv;
     const Estimate with_tau = solve(append_columns(J_, two.X));
-    if (with_tau.rank - one.rank < 1) {  // tau not determined (a plateau of zero): the one-column block
+    if (with_tau.rank - one.rank <
+        1) {  // tau not determined (a plateau of zero): the one-column block
       fit = one;
       return f;
     }
@@ -401,7 +432,8 @@ class Selector {
   int family_of(const EffectBlock& b) const {
     if (b.effect.kind != EffectKind::Step && b.effect.kind != EffectKind::Thermal) return -1;
     for (std::size_t f = 0; f < families_.size(); ++f) {
-      if (families_[f].effect.kind == b.effect.kind && families_[f].effect.installation == b.effect.installation) {
+      if (families_[f].effect.kind == b.effect.kind &&
+          families_[f].effect.installation == b.effect.installation) {
         return static_cast<int>(f);
       }
     }
@@ -417,7 +449,9 @@ class Selector {
     const Estimate fit = base.solve(y_);
     const ColumnTester tester(base, fit, o_.estimate);
     for (std::size_t i = 0; i < pool_.size(); ++i) {
-      if (used_[i] || status_[i].state == CandidateState::kConfounded || status_[i].state == CandidateState::kEquivalent) continue;
+      if (used_[i] || status_[i].state == CandidateState::kConfounded ||
+          status_[i].state == CandidateState::kEquivalent)
+        continue;
       if (pool_[i].X.cols() != added_[a].block.X.cols()) continue;
       const ColumnTest t = tester.test(pool_[i].X);
       if (t.added_rank < pool_[i].X.cols()) continue;
@@ -432,10 +466,12 @@ class Selector {
     double best_chi2 = current_.chi2 * (1 - kExchangeGain);
     int swap_out = -1, swap_in = -1;
     for (std::size_t a = 0; a < added_.size(); ++a) {
-      if (family_of(added_[a].block) >= 0) continue;  // a scanned effect keeps its place; backward() may drop it
+      if (family_of(added_[a].block) >= 0)
+        continue;  // a scanned effect keeps its place; backward() may drop it
       const std::vector<double> chi2 = swapped_chi2(static_cast<int>(a));
       for (std::size_t i = 0; i < pool_.size(); ++i) {
-        if (chi2[i] >= 0 && chi2[i] < best_chi2) best_chi2 = chi2[i], swap_out = static_cast<int>(a), swap_in = static_cast<int>(i);
+        if (chi2[i] >= 0 && chi2[i] < best_chi2)
+          best_chi2 = chi2[i], swap_out = static_cast<int>(a), swap_in = static_cast<int>(i);
       }
     }
     if (swap_out < 0) return false;
@@ -444,10 +480,12 @@ class Selector {
     const auto [chosen, equivalent] = equivalents(swap_in, model_without(swap_out));
     swap_in = chosen;
     used_[out_idx] = false;
-    status_[out_idx] = {pool_[out_idx].label, CandidateState::kNotSignificant,
-                        "exchanged for " + pool_[swap_in].label + ", which explains the data better"};
+    status_[out_idx] = {
+        pool_[out_idx].label, CandidateState::kNotSignificant,
+        "exchanged for " + pool_[swap_in].label + ", which explains the data better"};
     used_[swap_in] = true;
-    status_[swap_in] = {pool_[swap_in].label, CandidateState::kAdded, "exchanged in for " + pool_[out_idx].label};
+    status_[swap_in] = {pool_[swap_in].label, CandidateState::kAdded,
+                        "exchanged in for " + pool_[out_idx].label};
     added_[swap_out].block = pool_[swap_in];
     mark_equivalent(added_[swap_out], swap_in, equivalent);
     added_[swap_out].close_alternatives = {pool_[out_idx].label};
@@ -476,11 +514,13 @@ class Selector {
     if (worst < 0 || worst_p < o_.level) return false;
     std::string others;
     for (std::size_t a = 0; a < added_.size(); ++a) {
-      if (static_cast<int>(a) != worst) others += (others.empty() ? "" : ", ") + added_[a].block.label;
+      if (static_cast<int>(a) != worst)
+        others += (others.empty() ? "" : ", ") + added_[a].block.label;
     }
     const CandidateStatus dropped{added_[worst].block.label, CandidateState::kNotSignificant,
-                                  "dropped: no longer significant once " + others + " were in the model (F = " +
-                                      fmt(worst_F) + ", p = " + fmt(worst_p) + " >= " + fmt(o_.level) + ")"};
+                                  "dropped: no longer significant once " + others +
+                                      " were in the model (F = " + fmt(worst_F) +
+                                      ", p = " + fmt(worst_p) + " >= " + fmt(o_.level) + ")"};
     if (const int f = family_of(added_[worst].block); f >= 0) {
       family_used_[f] = false;
       family_status_[f] = dropped;
@@ -502,7 +542,8 @@ class Selector {
     for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Drift, EffectKind::Reversal}) {
       int whole = -1;  // pool index of the whole-test candidate
       for (std::size_t i = 0; i < pool_.size(); ++i) {
-        if (pool_[i].effect.kind == kind && pool_[i].effect.installation < 0 && pool_[i].not_applicable.empty()) {
+        if (pool_[i].effect.kind == kind && pool_[i].effect.installation < 0 &&
+            pool_[i].not_applicable.empty()) {
           whole = static_cast<int>(i);
         }
       }
@@ -526,14 +567,17 @@ class Selector {
         int rank = rank_of(alt);
         for (std::size_t i = 0; i < pool_.size(); ++i) {
           const EffectBlock& b = pool_[i];
-          if (b.effect.kind != kind || b.effect.installation < 0 || !b.not_applicable.empty() || used_[i]) continue;
+          if (b.effect.kind != kind || b.effect.installation < 0 || !b.not_applicable.empty() ||
+              used_[i])
+            continue;
           const Jacobian trial = append_columns(alt, b.X);
           const int r = rank_of(trial);
           if (r - rank < b.X.cols()) continue;
           alt = trial, rank = r;
           c.rejected.push_back(b.label);
         }
-        if (c.rejected.size() < 2) continue;  // a single term is a nested alternative the F-tests decided
+        if (c.rejected.size() < 2)
+          continue;  // a single term is a nested alternative the F-tests decided
         c.chosen = {added_[whole_added].block.label};
         c.bic_chosen = bic(current_);
         c.bic_rejected = bic(solve(alt));
@@ -541,14 +585,16 @@ class Selector {
       } else if (per_added.size() >= 2 && !used_[whole]) {
         Jacobian alt = J0_;
         for (std::size_t a = 0; a < added_.size(); ++a) {
-          if (std::find(per_added.begin(), per_added.end(), static_cast<int>(a)) == per_added.end()) {
+          if (std::find(per_added.begin(), per_added.end(), static_cast<int>(a)) ==
+              per_added.end()) {
             alt = append_columns(alt, added_[a].block.X);
           }
         }
         const int base_rank = rank_of(alt);
         alt = append_columns(alt, pool_[whole].X);
         const Estimate alt_est = solve(alt);
-        if (alt_est.rank - base_rank < pool_[whole].X.cols()) continue;  // confounded with what remains
+        if (alt_est.rank - base_rank < pool_[whole].X.cols())
+          continue;  // confounded with what remains
         for (int a : per_added) c.chosen.push_back(added_[a].block.label);
         c.rejected = {pool_[whole].label};
         c.bic_chosen = bic(current_);
@@ -593,11 +639,13 @@ class Selector {
       for (std::size_t f = 0; f < families_.size(); ++f) {
         if (family_used_[f]) continue;
         const auto b = best_of_family(families_[f], tester);
-        if (!b || !consider(b->first, b->second) || families_[f].effect.kind != EffectKind::Thermal) continue;
+        if (!b || !consider(b->first, b->second) || families_[f].effect.kind != EffectKind::Thermal)
+          continue;
         // A warm-up's time constant is poorly determined where a drift fits almost as well: every
         // time constant of the grid that fits almost as well is an alternative too.
         for (const EffectBlock& alt : families_[f].alternatives) {
-          if (alt.label != b->first.label && fits(alt, tester.test(alt.X))) effect.close_in_final.push_back(alt);
+          if (alt.label != b->first.label && fits(alt, tester.test(alt.X)))
+            effect.close_in_final.push_back(alt);
         }
       }
     }
@@ -607,10 +655,12 @@ class Selector {
   // best position) whose columns lower chi2 most when appended to the model `tester` tests
   // against, raising the rank by their number; skipping the labels in `skip`. Of candidates that
   // explain the data alike (equivalent), the latest installation's, as in forward().
-  BestAppended best_appended(const ColumnTester& tester, const std::vector<EffectBlock>& skip) const {
+  BestAppended best_appended(const ColumnTester& tester,
+                             const std::vector<EffectBlock>& skip) const {
     BestAppended best;
     auto consider = [&](const EffectBlock& b, const ColumnTest& t) {
-      if (std::none_of(skip.begin(), skip.end(), [&](const EffectBlock& s) { return s.label == b.label; })) {
+      if (std::none_of(skip.begin(), skip.end(),
+                       [&](const EffectBlock& s) { return s.label == b.label; })) {
         best.consider(b, t);
       }
     };
@@ -629,8 +679,8 @@ class Selector {
   // A scanned family's alternative that lowers chi2 most on the model `tester` tests against:
   // a step at its best reading, a warm-up at its time constant refined between the grid's
   // (refined_tau). None when no alternative raises the rank.
-  std::optional<std::pair<EffectBlock, ColumnTest>> best_of_family(const ScanFamily& fam,
-                                                                   const ColumnTester& tester) const {
+  std::optional<std::pair<EffectBlock, ColumnTest>> best_of_family(
+      const ScanFamily& fam, const ColumnTester& tester) const {
     if (fam.effect.kind == EffectKind::Step) {
       const ScanTest st = tester.scan_steps(fam.rows, fam.min_segment);
       if (st.best < 0) return std::nullopt;
@@ -640,13 +690,16 @@ class Selector {
     ColumnTest t;
     for (std::size_t a = 0; a < fam.alternatives.size(); ++a) {
       const ColumnTest ta = tester.test(fam.alternatives[a].X);
-      if (ta.added_rank > 0 && (k < 0 || ta.delta_chi2 > t.delta_chi2)) k = static_cast<int>(a), t = ta;
+      if (ta.added_rank > 0 && (k < 0 || ta.delta_chi2 > t.delta_chi2))
+        k = static_cast<int>(a), t = ta;
     }
     if (k < 0) return std::nullopt;
-    if (fam.effect.kind != EffectKind::Thermal) return std::make_pair(fam.alternative(*design_, *readings_, k), t);
+    if (fam.effect.kind != EffectKind::Thermal)
+      return std::make_pair(fam.alternative(*design_, *readings_, k), t);
     EffectBlock b = thermal_block(fam, refined_tau(fam, k, tester));
     const ColumnTest tb = tester.test(b.X);
-    if (tb.added_rank < 1 || tb.delta_chi2 < t.delta_chi2) return std::make_pair(fam.alternative(*design_, *readings_, k), t);
+    if (tb.added_rank < 1 || tb.delta_chi2 < t.delta_chi2)
+      return std::make_pair(fam.alternative(*design_, *readings_, k), t);
     return std::make_pair(std::move(b), tb);
   }
 
@@ -657,7 +710,8 @@ class Selector {
     int m = 0;
     if (f >= 0) {
       const ScanFamily& fam = families_[f];
-      m = static_cast<int>(fam.effect.kind == EffectKind::Step ? fam.rows.size() : fam.alternatives.size());
+      m = static_cast<int>(fam.effect.kind == EffectKind::Step ? fam.rows.size()
+                                                               : fam.alternatives.size());
     }
     return parameter_cost(b, m);
   }
@@ -671,7 +725,8 @@ class Selector {
     std::vector<std::vector<int>> sets;
     for (std::size_t a = 0; a < added_.size(); ++a) sets.push_back({static_cast<int>(a)});
     for (std::size_t a = 0; a < added_.size(); ++a) {
-      for (std::size_t b = a + 1; b < added_.size(); ++b) sets.push_back({static_cast<int>(a), static_cast<int>(b)});
+      for (std::size_t b = a + 1; b < added_.size(); ++b)
+        sets.push_back({static_cast<int>(a), static_cast<int>(b)});
     }
     std::vector<bool> in_substitution(added_.size(), false);
     for (const std::vector<int>& out : sets) {
@@ -718,7 +773,9 @@ class Selector {
       e.dof = current_.dof;
       e.chi2_before = reduced.chi2;
       e.chi2_after = current_.chi2;
-      e.F = current_.dof > 0 ? ((reduced.chi2 - current_.chi2) / e.q) / (current_.chi2 / current_.dof) : 0.0;
+      e.F = current_.dof > 0
+                ? ((reduced.chi2 - current_.chi2) / e.q) / (current_.chi2 / current_.dof)
+                : 0.0;
       e.p_value = f_test_p(e.q, current_.dof, e.F);
       e.bic_change = bic(current_) - bic(reduced);
     }
@@ -792,19 +849,23 @@ double bic(const Estimate& e) { return bic(static_cast<double>(e.n_readings), e.
 
 double parameter_cost(const EffectBlock& b, int scanned_alternatives) {
   double cost = 2.0 * static_cast<double>(b.X.cols());
-  const bool scanned = b.effect.kind == EffectKind::Step || (b.effect.kind == EffectKind::Thermal && b.X.cols() == 1);
-  if (scanned && scanned_alternatives > 1) cost += 2.0 * std::log(static_cast<double>(scanned_alternatives));
+  const bool scanned = b.effect.kind == EffectKind::Step ||
+                       (b.effect.kind == EffectKind::Thermal && b.X.cols() == 1);
+  if (scanned && scanned_alternatives > 1)
+    cost += 2.0 * std::log(static_cast<double>(scanned_alternatives));
   return cost;
 }
 
-Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
-                         const std::vector<EffectBlock>& pool, const SelectionOptions& options) {
+Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um,
+                         const Eigen::VectorXd& y_um, const std::vector<EffectBlock>& pool,
+                         const SelectionOptions& options) {
   return Selector(J, sigma_um, y_um, pool, options).run();
 }
 
-Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
-                         const std::vector<EffectBlock>& pool, const std::vector<ScanFamily>& families,
-                         const Design& design, const std::vector<Reading>& readings, const SelectionOptions& options) {
+Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um,
+                         const Eigen::VectorXd& y_um, const std::vector<EffectBlock>& pool,
+                         const std::vector<ScanFamily>& families, const Design& design,
+                         const std::vector<Reading>& readings, const SelectionOptions& options) {
   return Selector(J, sigma_um, y_um, pool, options, families, &design, &readings).run();
 }
 

@@ -7,25 +7,27 @@
 #include <boost/math/distributions/fisher_f.hpp>
 #include <boost/math/distributions/non_central_f.hpp>
 #include <cmath>
-#include <stdexcept>
 #include <map>
+#include <stdexcept>
 
 #include "dbbkit/kinematics.hpp"
 
 namespace dbbkit {
 
-std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& model, bool only_declared) {
+std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& model,
+                                       bool only_declared) {
   // The model's rows as readings, so that the columns are the effect library's own (effect_block).
   std::vector<Reading> rows;
   rows.reserve(model.row_installation.size());
   for (std::size_t r = 0; r < model.row_installation.size(); ++r) {
-    rows.push_back({design.installations[model.row_installation[r]].id, model.row_angle_deg[r], 0.0, std::nullopt,
-                    std::nullopt, std::nullopt, 0});
+    rows.push_back({design.installations[model.row_installation[r]].id, model.row_angle_deg[r], 0.0,
+                    std::nullopt, std::nullopt, std::nullopt, 0});
   }
   return setup_effects(design, rows, only_declared);
 }
 
-std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<Reading>& rows, bool only_declared) {
+std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<Reading>& rows,
+                                       bool only_declared) {
   std::vector<SetupEffect> out;
   const ReadingLayout layout(design, rows);
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
@@ -35,13 +37,15 @@ std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<R
       if (only_declared && !(std_um > 0)) continue;
       EffectBlock block = effect_block(design, rows, layout, {kind, i});
       if (!block.not_applicable.empty()) continue;  // changes no reading of these rows
-      out.push_back({kind, i, std::move(block.label), std::move(block.parameters), std::move(block.X), std_um});
+      out.push_back({kind, i, std::move(block.label), std::move(block.parameters),
+                     std::move(block.X), std_um});
     }
   }
   return out;
 }
 
-SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& declared) : base_(&base) {
+SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& declared)
+    : base_(&base) {
   prior_ = base.a_priori();
   const int n = static_cast<int>(base.J().rows());
   int q = 0;
@@ -64,7 +68,8 @@ SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& 
   if (q == 0 || n == 0) return;
   // The covariance's low-rank term is the set-up part's alone: a base solved with border
   // columns (which has its own) is not combined with set-up effects.
-  if (base.gain().low_rank()) throw std::logic_error("SetupSolver: a base solved with border columns");
+  if (base.gain().low_rank())
+    throw std::logic_error("SetupSolver: a base solved with border columns");
   K_ = base.gain() * X_;
   R_ = unexplained(base, X_, K_);
   RtR_ = R_.transpose() * R_;
@@ -127,7 +132,8 @@ Eigen::MatrixXd SetupSolver::left_gain_times(const FunctionRows& C, const Eigen:
 }
 
 Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
-  const Eigen::SparseMatrix<double, Eigen::RowMajor> G0 = base_->gain().sparse();  // row j of G0 contiguous
+  const Eigen::SparseMatrix<double, Eigen::RowMajor> G0 =
+      base_->gain().sparse();  // row j of G0 contiguous
   const Eigen::Index n = G0.cols();
   Eigen::MatrixXd Dt;  // D', n x q
   if (any()) {
@@ -149,19 +155,23 @@ Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
   }
   constexpr std::size_t kChunk = 256;
   Eigen::VectorXd out = Eigen::VectorXd::Zero(C.rows());
-  std::vector<Eigen::Index> touched;                    // the readings the support's rows of G0 touch
+  std::vector<Eigen::Index> touched;  // the readings the support's rows of G0 touch
   std::vector<Eigen::Index> at(static_cast<std::size_t>(n), -1);  // a reading's place among them
   for (const auto& [support, rows] : groups) {
     const Eigen::Index k = static_cast<Eigen::Index>(support.size());
     for (Eigen::Index j = 0; j < k; ++j) {
-      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(G0, support[j]); it; ++it) {
-        if (at[it.col()] < 0) at[it.col()] = static_cast<Eigen::Index>(touched.size()), touched.push_back(it.col());
+      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(G0, support[j]); it;
+           ++it) {
+        if (at[it.col()] < 0)
+          at[it.col()] = static_cast<Eigen::Index>(touched.size()), touched.push_back(it.col());
       }
     }
     const Eigen::Index nt = static_cast<Eigen::Index>(touched.size());
-    Eigen::MatrixXd GsT = Eigen::MatrixXd::Zero(nt, k);  // (the rows of G0 on the support)', touched readings
+    Eigen::MatrixXd GsT =
+        Eigen::MatrixXd::Zero(nt, k);  // (the rows of G0 on the support)', touched readings
     for (Eigen::Index j = 0; j < k; ++j) {
-      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(G0, support[j]); it; ++it) {
+      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(G0, support[j]); it;
+           ++it) {
         GsT(at[it.col()], j) = it.value();
       }
     }
@@ -177,10 +187,12 @@ Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
         Eigen::MatrixXd KC(K_.cols(), m);
         for (Eigen::Index r = 0; r < m; ++r) {
           KC.col(r).setZero();
-          for (FunctionRows::InnerIterator it(C, rows[first + r]); it; ++it) KC.col(r) += it.value() * K_.row(it.col()).transpose();
+          for (FunctionRows::InnerIterator it(C, rows[first + r]); it; ++it)
+            KC.col(r) += it.value() * K_.row(it.col()).transpose();
         }
         Eigen::MatrixXd full = Dt * KC;
-        for (Eigen::Index t = 0; t < nt; ++t) full.row(touched[static_cast<std::size_t>(t)]) += At.row(t);
+        for (Eigen::Index t = 0; t < nt; ++t)
+          full.row(touched[static_cast<std::size_t>(t)]) += At.row(t);
         At = std::move(full);
       }
       for (Eigen::Index r = 0; r < m; ++r) out(rows[first + r]) = At.col(r).lpNorm<1>();
@@ -201,7 +213,8 @@ SetupSolver::Parts SetupSolver::parts(const Estimate::Function& c) const {
   p.noise = std::max(0.0, prior_.base_variance(c));  // c'C0c
   p.setup_by_column = Eigen::VectorXd::Zero(n_columns());
   if (!any()) return p;
-  const Eigen::VectorXd v = S_inv_ * prior_.low_rank_coordinates(c);  // S^-1 K'c (prior_.covariance_K = K)
+  const Eigen::VectorXd v =
+      S_inv_ * prior_.low_rank_coordinates(c);  // S^-1 K'c (prior_.covariance_K = K)
   p.noise += v.dot(RtR_ * v);
   // set-up part per column: (S^-1 K'c)_j^2 / P_jj
   p.setup_by_column = v.cwiseQuotient(prior_std_).cwiseAbs2();
@@ -211,7 +224,8 @@ SetupSolver::Parts SetupSolver::parts(const Estimate::Function& c) const {
 
 SetupSolver::JointParts SetupSolver::joint_parts(const Eigen::SparseMatrix<double>& C) const {
   JointParts p;
-  p.noise = Eigen::MatrixXd(Eigen::SparseMatrix<double>(C.transpose() * prior_.covariance) * C);  // C'C0C
+  p.noise =
+      Eigen::MatrixXd(Eigen::SparseMatrix<double>(C.transpose() * prior_.covariance) * C);  // C'C0C
   if (!any()) {
     p.setup = Eigen::MatrixXd::Zero(C.cols(), C.cols());
     return p;
@@ -272,7 +286,8 @@ std::optional<double> detection_limit_um(int q, bool detectable, double min_info
 namespace {
 
 // R_e = unexplained(base, X_e) (whitened), its smallest singular value squared and added_rank.
-SetupEffectInformation effect_information(const WlsSolver& base, const Eigen::VectorXd& w, const SetupEffect& e) {
+SetupEffectInformation effect_information(const WlsSolver& base, const Eigen::VectorXd& w,
+                                          const SetupEffect& e) {
   SetupEffectInformation info;
   info.kind = e.kind;
   info.installation = e.installation;
@@ -297,13 +312,16 @@ SetupInformation dense_setup_information(const Design& design) {
   out.n_readings = base.a_priori().n_readings;
   out.rank = base.a_priori().rank;
   const Eigen::VectorXd w = base.sigma_um().cwiseInverse();
-  for (const SetupEffect& e : setup_effects(design, model, true)) out.effects.push_back(effect_information(base, w, e));
+  for (const SetupEffect& e : setup_effects(design, model, true))
+    out.effects.push_back(effect_information(base, w, e));
   return out;
 }
 
-std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param, const SetupSolver& solver,
+std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
+                                                  const SetupSolver& solver,
                                                   const std::vector<SetupEffect>& effects,
-                                                  const DetectionSettings& settings, double reference_length_mm) {
+                                                  const DetectionSettings& settings,
+                                                  double reference_length_mm) {
   std::vector<SetupEffectCheck> out;
   const WlsSolver& base = solver.base();
   const Estimate& est = solver.a_priori();
@@ -329,8 +347,8 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
     ch.declared_std_um = e.std_um;
     const SetupEffectInformation info = effect_information(base, w, e);
     ch.detectable = info.detectable;
-    ch.detection_limit_um =
-        detection_limit_um(info.q, info.detectable, info.min_information, est.n_readings - est.rank - info.q, settings);
+    ch.detection_limit_um = detection_limit_um(info.q, info.detectable, info.min_information,
+                                               est.n_readings - est.rank - info.q, settings);
     const Eigen::MatrixXd GX = solver.gain_times(e.X);  // p x q: the estimate per um of the effect
     double best = -1;
     for (const Fn& f : fns) {
@@ -354,7 +372,8 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
   return out;
 }
 
-FirstOrderCheck first_order_check(const Design& design, const Parameterisation& param, const Eigen::VectorXd& theta) {
+FirstOrderCheck first_order_check(const Design& design, const Parameterisation& param,
+                                  const Eigen::VectorXd& theta) {
   FirstOrderCheck fc;
   fc.noise_sigma_um = design.noise.sigma_um();
   for (const Installation& in : design.installations) {
@@ -367,9 +386,10 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
     const Installation& in = design.installations[i];
     const SetupUncertainty u = design.setup_of(i);
-    // 3 standard uncertainties of the ball placement [um] and of the centring (each component) [um]:
-    // bounds on their perpendicular parts, added to the errors' relative displacement.
-    const double placement_um = 3e3 * std::sqrt(u.L_mm * u.L_mm + u.D_mm * u.D_mm + u.H_mm * u.H_mm);
+    // 3 standard uncertainties of the ball placement [um] and of the centring (each component)
+    // [um]: bounds on their perpendicular parts, added to the errors' relative displacement.
+    const double placement_um =
+        3e3 * std::sqrt(u.L_mm * u.L_mm + u.D_mm * u.D_mm + u.H_mm * u.H_mm);
     const double centring_um = 3.0 * u.centring_um * std::sqrt(3.0);
     for (double a : design.angles_deg) {
       const Eigen::Vector3d P = ball_position_mm(design.axis, in, a);
@@ -389,10 +409,11 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
   return fc;
 }
 
-void bound_first_order_bias(FirstOrderCheck& check, const SetupSolver& solver, const Parameterisation& param,
-                            const Budget& budget) {
+void bound_first_order_bias(FirstOrderCheck& check, const SetupSolver& solver,
+                            const Parameterisation& param, const Budget& budget) {
   if (!check.computed || budget.values.empty()) return;
-  const Eigen::VectorXd l1 = solver.left_gain_l1(budget_functions(param, budget));  // |c'G|_1 per value
+  const Eigen::VectorXd l1 =
+      solver.left_gain_l1(budget_functions(param, budget));  // |c'G|_1 per value
   double worst = -1;
   for (std::size_t v = 0; v < budget.values.size(); ++v) {
     const ValueBudget& vb = budget.values[v];

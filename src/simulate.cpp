@@ -11,7 +11,6 @@
 
 namespace dbbkit {
 
-
 Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std::string& source) {
   if (truth.model.kind == ErrorModel::Kind::PerAngle) {
     for (const auto& [a, e] : truth.per_angle) {
@@ -43,40 +42,46 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     }
     for (size_t i = 0; i < design.installations.size(); ++i) {
       if (!design.installations[i].bar_mm && !truth.bar_mm) {
-        throw InputError(source, "geometry", "the exact geometry needs the bar: installation '" +
-                                                 design.installations[i].id +
-                                                 "' of the design has no bar_mm, and the truth gives no bar_mm");
+        throw InputError(source, "geometry",
+                         "the exact geometry needs the bar: installation '" +
+                             design.installations[i].id +
+                             "' of the design has no bar_mm, and the truth gives no bar_mm");
       }
     }
-  } else if (!truth.setup_given.empty() || truth.setup_draw.length_offset_um > 0 || truth.setup_draw.centring_um > 0 ||
-             (truth.setup_draw.ball_mm.array() != 0).any()) {
+  } else if (!truth.setup_given.empty() || truth.setup_draw.length_offset_um > 0 ||
+             truth.setup_draw.centring_um > 0 || (truth.setup_draw.ball_mm.array() != 0).any()) {
     throw InputError(source, "setup", "set-up errors need \"geometry\": \"exact\"");
   }
   for (const auto& [id, given] : truth.setup_given) {
     if (design.find_installation(id) < 0) {
-      throw InputError(source, "setup.installations." + id, "installation '" + id + "' is not in the design");
+      throw InputError(source, "setup.installations." + id,
+                       "installation '" + id + "' is not in the design");
     }
     if (design.axis == Axis::B && given.ball_mm(2) != 0) {
-      throw InputError(source, "setup.installations." + id + ".ball_mm.H", "H is not used for the swinging head B");
+      throw InputError(source, "setup.installations." + id + ".ball_mm.H",
+                       "H is not used for the swinging head B");
     }
   }
   if (truth.model.order > limits::kMaxSeriesOrder) {
-    throw InputError(source, "errors.order", "must be at most " + std::to_string(limits::kMaxSeriesOrder));
+    throw InputError(source, "errors.order",
+                     "must be at most " + std::to_string(limits::kMaxSeriesOrder));
   }
   if (truth.noise) validate_noise_and_model(*truth.noise, ErrorModel{}, design.axis, source);
   // Every error value (um or urad) within +-1e6: a larger one leaves the first-order model.
   auto check_value = [&](double v, const std::string& key) {
-    if (!std::isfinite(v) || std::abs(v) > 1e6) throw InputError(source, key, "must be a finite value within +-1e6 (um or urad)");
+    if (!std::isfinite(v) || std::abs(v) > 1e6)
+      throw InputError(source, key, "must be a finite value within +-1e6 (um or urad)");
   };
   for (size_t i = 0; i < truth.per_angle.size(); ++i) {
     for (int k = 0; k < 6; ++k) {
-      check_value(truth.per_angle[i].second(k), "errors.values[" + std::to_string(i) + "]." + kErrorNames[k]);
+      check_value(truth.per_angle[i].second(k),
+                  "errors.values[" + std::to_string(i) + "]." + kErrorNames[k]);
     }
   }
   for (int k = 0; k < 6; ++k) {
     for (size_t i = 0; i < truth.coefficients[k].size(); ++i) {
-      check_value(truth.coefficients[k][i],
-                  std::string("errors.coefficients.") + kErrorNames[k] + "[" + std::to_string(i) + "]");
+      check_value(truth.coefficients[k][i], std::string("errors.coefficients.") + kErrorNames[k] +
+                                                "[" + std::to_string(i) + "]");
     }
   }
   {
@@ -92,59 +97,77 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
       const size_t j = k == 0 ? keys.size() - 1 : k - 1;
       const auto& a = truth.per_angle[keys[k].second];
       const auto& b = truth.per_angle[keys[j].second];
-      if (keys.size() > 1 && j != k && same_position(design.axis, a.first, b.first) && a.second != b.second) {
-        const size_t hi = std::max(keys[k].second, keys[j].second), lo = std::min(keys[k].second, keys[j].second);
-        throw InputError(source, "errors.values[" + std::to_string(hi) + "].angle_deg",
-                         "the same position as errors.values[" + std::to_string(lo) + "] with other values");
+      if (keys.size() > 1 && j != k && same_position(design.axis, a.first, b.first) &&
+          a.second != b.second) {
+        const size_t hi = std::max(keys[k].second, keys[j].second),
+                     lo = std::min(keys[k].second, keys[j].second);
+        throw InputError(
+            source, "errors.values[" + std::to_string(hi) + "].angle_deg",
+            "the same position as errors.values[" + std::to_string(lo) + "] with other values");
       }
     }
   }
   if (truth.schedule) {
     const std::vector<Sweep>& sw = truth.schedule->sweeps;
-    if (sw.size() > 100) throw InputError(source, "schedule.sweeps", "more than 100 sweeps per installation");
-    if (!std::isfinite(truth.schedule->per_reading_s) || !std::isfinite(truth.schedule->per_installation_s) ||
-        truth.schedule->per_reading_s > 1e6 || truth.schedule->per_installation_s > 1e6) {
+    if (sw.size() > 100)
+      throw InputError(source, "schedule.sweeps", "more than 100 sweeps per installation");
+    if (!std::isfinite(truth.schedule->per_reading_s) ||
+        !std::isfinite(truth.schedule->per_installation_s) || truth.schedule->per_reading_s > 1e6 ||
+        truth.schedule->per_installation_s > 1e6) {
       throw InputError(source, "schedule", "times must be finite, at most 1e6 s");
     }
   }
   {
     const double sweeps = truth.schedule ? static_cast<double>(truth.schedule->sweeps.size()) : 1.0;
-    const double n = static_cast<double>(design.installations.size()) * static_cast<double>(design.angles_deg.size()) *
-                     sweeps * truth.repeats;
+    const double n = static_cast<double>(design.installations.size()) *
+                     static_cast<double>(design.angles_deg.size()) * sweeps * truth.repeats;
     if (n > static_cast<double>(limits::kMaxReadings)) {
-      throw InputError(source, "repeats", "the simulation would make more than " +
-                                              std::to_string(limits::kMaxReadings) + " readings (README, \"Limits\")");
+      throw InputError(source, "repeats",
+                       "the simulation would make more than " +
+                           std::to_string(limits::kMaxReadings) + " readings (README, \"Limits\")");
     }
   }
   for (std::size_t i = 0; i < truth.effects.size(); ++i) {
     const TruthEffect& e = truth.effects[i];
     const std::string key = "effects[" + std::to_string(i) + "]";
     if (effect_is_shared(e.effect.kind) && !e.installation.empty()) {
-      throw InputError(source, key + ".installation", "a shared effect applies to every installation: no installation");
+      throw InputError(source, key + ".installation",
+                       "a shared effect applies to every installation: no installation");
     }
-    if (!effect_is_shared(e.effect.kind) && !effect_has_whole_test_form(e.effect.kind) && e.installation.empty()) {
-      throw InputError(source, key + ".installation", "this effect needs the installation it applies to");
+    if (!effect_is_shared(e.effect.kind) && !effect_has_whole_test_form(e.effect.kind) &&
+        e.installation.empty()) {
+      throw InputError(source, key + ".installation",
+                       "this effect needs the installation it applies to");
     }
     if (!e.installation.empty() && design.find_installation(e.installation) < 0) {
-      throw InputError(source, key + ".installation", "installation '" + e.installation + "' is not in the design");
+      throw InputError(source, key + ".installation",
+                       "installation '" + e.installation + "' is not in the design");
     }
     if ((e.effect.kind == EffectKind::Scale || e.effect.kind == EffectKind::Squareness)) {
       for (const Installation& in : design.installations) {
-        if (!in.bar_mm) throw InputError(source, key, std::string(effect_name(e.effect.kind)) + " needs bar_mm on every installation of the design");
+        if (!in.bar_mm)
+          throw InputError(source, key,
+                           std::string(effect_name(e.effect.kind)) +
+                               " needs bar_mm on every installation of the design");
       }
     }
     if ((e.effect.kind == EffectKind::Drift || e.effect.kind == EffectKind::Step ||
          e.effect.kind == EffectKind::Thermal) &&
         !truth.schedule) {
-      throw InputError(source, key, std::string(effect_name(e.effect.kind)) + " needs a schedule (the readings' times)");
+      throw InputError(
+          source, key,
+          std::string(effect_name(e.effect.kind)) + " needs a schedule (the readings' times)");
     }
     if (e.effect.kind == EffectKind::Thermal && !e.installation.empty()) {
-      throw InputError(source, key + ".installation", "thermal is one warm-up of the whole test: no installation");
+      throw InputError(source, key + ".installation",
+                       "thermal is one warm-up of the whole test: no installation");
     }
     if (e.effect.kind == EffectKind::Step && !std::isfinite(e.effect.at_s)) {
-      throw InputError(source, key + ".value.at_s", "a step needs the time it happens (s, the test's clock)");
+      throw InputError(source, key + ".value.at_s",
+                       "a step needs the time it happens (s, the test's clock)");
     }
-    if (e.effect.kind == EffectKind::Reversal && (!truth.schedule || truth.schedule->sweeps.size() < 2)) {
+    if (e.effect.kind == EffectKind::Reversal &&
+        (!truth.schedule || truth.schedule->sweeps.size() < 2)) {
       throw InputError(source, key, "reversal needs a schedule with both sweeps");
     }
   }
@@ -152,7 +175,8 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     if (!(truth.schedule->per_reading_s >= 0) || !(truth.schedule->per_installation_s >= 0)) {
       throw InputError(source, "schedule", "times must be >= 0 s");
     }
-    if (truth.schedule->sweeps.empty()) throw InputError(source, "schedule.sweeps", "needs at least one sweep");
+    if (truth.schedule->sweeps.empty())
+      throw InputError(source, "schedule.sweeps", "needs at least one sweep");
   }
   if (truth.model.kind == ErrorModel::Kind::PerAngle) {
     for (double a : design.angles_deg) truth_errors(truth, design.axis, a, source);
@@ -163,23 +187,27 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
   }
   if (truth.model.kind == ErrorModel::Kind::Legendre) {
     if (!truth.range_deg || !(truth.range_deg->second > truth.range_deg->first)) {
-      throw InputError(source, "errors.range_deg", "a Legendre truth needs its range [min, max] with max > min");
+      throw InputError(source, "errors.range_deg",
+                       "a Legendre truth needs its range [min, max] with max > min");
     }
   }
   const size_t m = static_cast<size_t>(coefficients_per_error(truth.model));
   for (int k = 0; k < 6; ++k) {
     if (truth.coefficients[k].size() != m) {
       throw InputError(source, std::string("errors.coefficients.") + kErrorNames[k],
-                       "expected " + std::to_string(m) + " coefficients for " + truth.model.describe() +
-                           ", got " + std::to_string(truth.coefficients[k].size()));
+                       "expected " + std::to_string(m) + " coefficients for " +
+                           truth.model.describe() + ", got " +
+                           std::to_string(truth.coefficients[k].size()));
     }
   }
 }
 
-std::vector<SetupError> simulated_setup_errors(const Design& design, const Truth& truth, std::uint64_t seed) {
+std::vector<SetupError> simulated_setup_errors(const Design& design, const Truth& truth,
+                                               std::uint64_t seed) {
   std::vector<SetupError> out(design.installations.size());
   if (!truth.exact) return out;
-  std::mt19937_64 rng(seed ^ 0x5e7a9ull);  // a stream of its own: the noise draws stay as without set-up
+  std::mt19937_64 rng(seed ^
+                      0x5e7a9ull);  // a stream of its own: the noise draws stay as without set-up
   std::normal_distribution<double> n01;
   const Truth::SetupDraw& s = truth.setup_draw;
   for (SetupError& e : out) {
@@ -208,7 +236,8 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
 
   std::vector<Reading> out;
   double t = 0;
-  const std::vector<Sweep> sweeps = truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::CCW};
+  const std::vector<Sweep> sweeps =
+      truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::CCW};
   for (const Installation& inst : design.installations) {
     for (Sweep sweep : sweeps) {
       std::vector<double> angles = design.angles_deg;

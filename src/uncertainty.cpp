@@ -49,18 +49,18 @@ FunctionRows budget_functions(const Parameterisation& param, const Budget& budge
 
 namespace {
 // d(theta_hat)/d(input) [theta units per mm] for the set-up inputs L, D, H (p x inputs).
-Eigen::MatrixXd input_gain(const Design& design, const Parameterisation& param, const LinearModel& model,
-                           const WlsSolver& solver, const Estimate& est, const SetupSolver* setup,
-                           const std::vector<SetupInput>& inputs) {
+Eigen::MatrixXd input_gain(const Design& design, const Parameterisation& param,
+                           const LinearModel& model, const WlsSolver& solver, const Estimate& est,
+                           const SetupSolver* setup, const std::vector<SetupInput>& inputs) {
   if (inputs.empty()) return {};
   const Eigen::MatrixXd D = setup_sensitivity(design, param, model, inputs, est.theta);
   return setup ? setup->gain_times(D) : Eigen::MatrixXd(solver.gain() * D);
 }
 }  // namespace
 
-Budget uncertainty_budget(const Design& design, const Parameterisation& param, const LinearModel& model,
-                          const WlsSolver& solver, const Estimate& est, const BudgetOptions& options,
-                          const SetupSolver* setup) {
+Budget uncertainty_budget(const Design& design, const Parameterisation& param,
+                          const LinearModel& model, const WlsSolver& solver, const Estimate& est,
+                          const BudgetOptions& options, const SetupSolver* setup) {
   if (!(options.coverage_probability > 0 && options.coverage_probability < 1)) {
     throw InputError("options", "coverage_probability", "must lie strictly between 0 and 1");
   }
@@ -70,7 +70,8 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
   std::optional<double> noise_dof;
   if (options.type_a) {
     if (est.dof <= 0) {
-      throw InputError("--type-a", "", "the residual has no degrees of freedom: a Type A evaluation is impossible");
+      throw InputError("--type-a", "",
+                       "the residual has no degrees of freedom: a Type A evaluation is impossible");
     }
     noise_scale = std::sqrt(est.chi2 / est.dof);
     noise_dof = est.dof;
@@ -98,22 +99,28 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
       v.value = d.value;
       if (nuisance) {
         const SetupSolver::Parts parts = setup->parts(c);
-        v.components.push_back({"reading noise", options.type_a ? "A" : "B", std::sqrt(parts.noise) * noise_scale, noise_dof});
+        v.components.push_back({"reading noise", options.type_a ? "A" : "B",
+                                std::sqrt(parts.noise) * noise_scale, noise_dof});
         double u2[2] = {0, 0};  // length offset, centring
         for (int j = 0; j < setup->n_columns(); ++j) {
           u2[setup->column_kind(j) == EffectKind::LengthOffset ? 0 : 1] += parts.setup_by_column(j);
         }
-        if (u2[0] > 0) v.components.push_back({"set-up length offset", "B", std::sqrt(u2[0]), std::nullopt});
-        if (u2[1] > 0) v.components.push_back({"set-up centring", "B", std::sqrt(u2[1]), std::nullopt});
+        if (u2[0] > 0)
+          v.components.push_back({"set-up length offset", "B", std::sqrt(u2[0]), std::nullopt});
+        if (u2[1] > 0)
+          v.components.push_back({"set-up centring", "B", std::sqrt(u2[1]), std::nullopt});
       } else {
-        v.components.push_back({"reading noise", options.type_a ? "A" : "B", d.std * noise_scale, noise_dof});
+        v.components.push_back(
+            {"reading noise", options.type_a ? "A" : "B", d.std * noise_scale, noise_dof});
       }
       if (!inputs.empty()) {
         double u2[3] = {0, 0, 0};
         const Eigen::VectorXd sens = GD.transpose() * c;  // d(value)/d(input)
-        for (size_t j = 0; j < inputs.size(); ++j) u2[inputs[j].coord] += std::pow(sens(j) * inputs[j].std_mm, 2);
+        for (size_t j = 0; j < inputs.size(); ++j)
+          u2[inputs[j].coord] += std::pow(sens(j) * inputs[j].std_mm, 2);
         for (int q = 0; q < 3; ++q) {
-          if (u2[q] > 0) v.components.push_back({kSetupNames[q], "B", std::sqrt(u2[q]), std::nullopt});
+          if (u2[q] > 0)
+            v.components.push_back({kSetupNames[q], "B", std::sqrt(u2[q]), std::nullopt});
         }
       }
       double uc2 = 0;
@@ -128,8 +135,9 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param, c
   return b;
 }
 
-Eigen::MatrixXd budget_covariance(const Design& design, const Parameterisation& param, const LinearModel& model,
-                                  const WlsSolver& solver, const Estimate& est, const Budget& budget,
+Eigen::MatrixXd budget_covariance(const Design& design, const Parameterisation& param,
+                                  const LinearModel& model, const WlsSolver& solver,
+                                  const Estimate& est, const Budget& budget,
                                   const SetupSolver* setup) {
   const Eigen::SparseMatrix<double> C = budget_functions(param, budget).transpose();  // p x values
   const double scale2 = budget.type_a_scale ? *budget.type_a_scale * *budget.type_a_scale : 1.0;
@@ -145,7 +153,9 @@ Eigen::MatrixXd budget_covariance(const Design& design, const Parameterisation& 
     Eigen::VectorXd u(static_cast<Eigen::Index>(inputs.size()));
     for (size_t j = 0; j < inputs.size(); ++j) u(static_cast<Eigen::Index>(j)) = inputs[j].std_mm;
     // d(value)/d(input) times the input's u: one column per input
-    const Eigen::MatrixXd A = C.transpose() * input_gain(design, param, model, solver, est, setup, inputs) * u.asDiagonal();
+    const Eigen::MatrixXd A = C.transpose() *
+                              input_gain(design, param, model, solver, est, setup, inputs) *
+                              u.asDiagonal();
     cov += A * A.transpose();
   }
   return cov;

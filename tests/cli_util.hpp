@@ -38,6 +38,8 @@ inline CliRun run_cli_shell(const std::string& command) {
   return r;
 }
 
-inline CliRun run_cli(const std::string& args) { return run_cli_shell(std::string(DBBKIT_CLI) + " " + args); }
+inline CliRun run_cli(const std::string& args) {
+  return run_cli_shell(std::string(DBBKIT_CLI) + " " + args);
+}
 
 }  // namespace dbbkit

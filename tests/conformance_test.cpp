@@ -66,15 +66,21 @@ TEST(Conformance, EveryOutcomeOfOneValueWithTheNormalCoverageFactor) {
   EXPECT_NEAR(*c.low, x.value - U, 1e-5);
   EXPECT_NEAR(*c.high, x.value + U, 1e-5);
   EXPECT_EQ(c.unit, "um");
-  EXPECT_EQ(decide(d, r, zone("XOC", x.value - U + eps, std::nullopt)).decision, Decision::kNotProven);
-  EXPECT_EQ(decide(d, r, zone("XOC", std::nullopt, x.value + U - eps)).decision, Decision::kNotProven);
-  EXPECT_EQ(decide(d, r, zone("XOC", std::nullopt, x.value - U - eps)).decision, Decision::kDoesNotConform);
-  EXPECT_EQ(decide(d, r, zone("XOC", x.value + U + eps, x.value + U + 10)).decision, Decision::kDoesNotConform);
+  EXPECT_EQ(decide(d, r, zone("XOC", x.value - U + eps, std::nullopt)).decision,
+            Decision::kNotProven);
+  EXPECT_EQ(decide(d, r, zone("XOC", std::nullopt, x.value + U - eps)).decision,
+            Decision::kNotProven);
+  EXPECT_EQ(decide(d, r, zone("XOC", std::nullopt, x.value - U - eps)).decision,
+            Decision::kDoesNotConform);
+  EXPECT_EQ(decide(d, r, zone("XOC", x.value + U + eps, x.value + U + 10)).decision,
+            Decision::kDoesNotConform);
   // The value itself outside but its interval reaching in: not proven either way.
-  EXPECT_EQ(decide(d, r, zone("XOC", std::nullopt, x.value - U + eps)).decision, Decision::kNotProven);
+  EXPECT_EQ(decide(d, r, zone("XOC", std::nullopt, x.value - U + eps)).decision,
+            Decision::kNotProven);
   // The residual agrees with the declared noise: no warning of it; the design declares no
   // set-up tolerances: that warning.
-  const std::vector<std::string> w = decide_conformance(d, r, {zone("XOC", -100, 100)}, "test").warnings;
+  const std::vector<std::string> w =
+      decide_conformance(d, r, {zone("XOC", -100, 100)}, "test").warnings;
   ASSERT_EQ(w.size(), 1u);
   EXPECT_NE(w[0].find("no set-up tolerances"), std::string::npos);
 }
@@ -133,23 +139,29 @@ TEST(Conformance, ErrorMotionValuesDecideOnTheirInterval) {
   const IsoMotionValue& v = r.iso.motion_values.values[2];  // EZC range
   ASSERT_TRUE(v.computed) << v.reason;
   ASSERT_EQ(v.component, "EZC");
-  EXPECT_EQ(decide(d, r, zone("EZC range", std::nullopt, v.high + 1e-3)).decision, Decision::kConforms);
-  EXPECT_EQ(decide(d, r, zone("EZC range", std::nullopt, 0.5 * (v.low + v.high))).decision, Decision::kNotProven);
+  EXPECT_EQ(decide(d, r, zone("EZC range", std::nullopt, v.high + 1e-3)).decision,
+            Decision::kConforms);
+  EXPECT_EQ(decide(d, r, zone("EZC range", std::nullopt, 0.5 * (v.low + v.high))).decision,
+            Decision::kNotProven);
   EXPECT_GT(v.low, 0.0);  // 3 cos 3g has a range of 6 um, above its U (about 3.5 um)
-  EXPECT_EQ(decide(d, r, zone("EZC range", std::nullopt, v.low - 1e-3)).decision, Decision::kDoesNotConform);
-  EXPECT_EQ(decide(d, r, zone("EZC range", v.high + 1e-3, std::nullopt)).decision, Decision::kDoesNotConform);
+  EXPECT_EQ(decide(d, r, zone("EZC range", std::nullopt, v.low - 1e-3)).decision,
+            Decision::kDoesNotConform);
+  EXPECT_EQ(decide(d, r, zone("EZC range", v.high + 1e-3, std::nullopt)).decision,
+            Decision::kDoesNotConform);
   // The radial value of a 9.4 um displacement is 0 here (the location errors are removed):
   // its interval starts at 0, so a limit below its high end is not proven, never violated.
   const IsoMotionValue& radial = r.iso.motion_values.values[0];
   EXPECT_EQ(radial.low, 0.0);
-  EXPECT_EQ(decide(d, r, zone("EXC range", std::nullopt, 0.5 * radial.high)).decision, Decision::kNotProven);
+  EXPECT_EQ(decide(d, r, zone("EXC range", std::nullopt, 0.5 * radial.high)).decision,
+            Decision::kNotProven);
 }
 
 TEST(Conformance, UndeterminedValuesProveNothing) {
   // The paper's B design reads on the tool axis only: the rotations about x and z are not
   // determined, so AOB has no value and EAB is missing at most angles.
   const Design b = test::paper_design('B');
-  const IdentifyResult r = identify(b, io::read_measurement_file(test::source_path("tests/data/paper/paper_b_head.csv"), b));
+  const IdentifyResult r = identify(
+      b, io::read_measurement_file(test::source_path("tests/data/paper/paper_b_head.csv"), b));
   ConformanceResult c = decide(b, r, zone("AOB", -1e6, 1e6));
   EXPECT_EQ(c.decision, Decision::kNotProven);
   EXPECT_EQ(c.undetermined, 1);
@@ -165,14 +177,16 @@ TEST(Conformance, TypeAUsesStudentsTAndTheWarningFollowsTheResidual) {
       io::read_measurement_file(test::source_path("tests/data/paper/paper_c_turntable.csv"), d);
   // Type B on the paper's data: the residual (chi2 7612 on 25 dof) contradicts the noise.
   const IdentifyResult b = identify(d, readings);
-  EXPECT_NE(decide_conformance(d, b, {zone("XOC", -100, 100)}, "test").warnings.at(0).find("contradicts"),
-            std::string::npos);
+  EXPECT_NE(
+      decide_conformance(d, b, {zone("XOC", -100, 100)}, "test").warnings.at(0).find("contradicts"),
+      std::string::npos);
   IdentifyOptions opt;
   opt.budget.type_a = true;
   const IdentifyResult a = identify(d, readings, opt);
   ASSERT_EQ(a.estimate.dof, 25);
   const ConformanceReport rep = decide_conformance(d, a, {zone("XOC", -100, 100)}, "test");
-  for (const std::string& w : rep.warnings) EXPECT_EQ(w.find("contradicts"), std::string::npos) << w;
+  for (const std::string& w : rep.warnings)
+    EXPECT_EQ(w.find("contradicts"), std::string::npos) << w;
   const Determined& x = a.iso.location[0].value;
   const double k = 2.059539;  // Student's t, 25 degrees of freedom, 97.5 % quantile (tables)
   EXPECT_NEAR(*rep.results[0].high - x.value, k * x.std, 1e-5 * x.std);
@@ -180,7 +194,8 @@ TEST(Conformance, TypeAUsesStudentsTAndTheWarningFollowsTheResidual) {
 }
 
 TEST(Conformance, ADesignWithSetUpTolerancesCarriesThem) {
-  const Design d = io::read_design_file(test::source_path("designs/c-turntable-kit-optimized-with-setup.json"));
+  const Design d =
+      io::read_design_file(test::source_path("designs/c-turntable-kit-optimized-with-setup.json"));
   Truth t;
   t.model = {ErrorModel::Kind::PerAngle, 0};
   for (double a : d.angles_deg) test::add_truth_value(t, d.axis, a, Vector6d::Zero());
@@ -205,8 +220,9 @@ TEST(Conformance, NamesAndUnitsAreChecked) {
     EXPECT_EQ(e.where(), "limits[0].unit");
   }
   // arcsec are converted to urad.
-  const nlohmann::json j = {{"format", "dbbkit.tolerances/1"},
-                            {"limits", {{{"quantity", "C0C"}, {"max_abs", 1}, {"unit", "arcsec"}}}}};
+  const nlohmann::json j = {
+      {"format", "dbbkit.tolerances/1"},
+      {"limits", {{{"quantity", "C0C"}, {"max_abs", 1}, {"unit", "arcsec"}}}}};
   const std::vector<Tolerance> read = io::tolerances_from_json(j, "t.json");
   ASSERT_EQ(read.size(), 1u);
   EXPECT_NEAR(*read[0].upper, 4.8481368, 1e-6);
@@ -216,15 +232,17 @@ TEST(Conformance, NamesAndUnitsAreChecked) {
 // The command line: exit 1 when something does not conform, 0 otherwise; the decisions
 // in the JSON.
 TEST(Conformance, CommandLineExitCodes) {
-  const auto dir = std::filesystem::temp_directory_path() / ("dbbkit_conformance_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("dbbkit_conformance_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string pass = (dir / "pass.json").string(), fail = (dir / "fail.json").string();
   std::ofstream(pass) << R"({"format": "dbbkit.tolerances/1", "limits": [
       {"quantity": "XOC", "max_abs": 100, "unit": "um"}, {"quantity": "YOC", "lower": -200, "upper": 0, "unit": "um"}]})";
   std::ofstream(fail) << R"({"format": "dbbkit.tolerances/1", "limits": [
       {"quantity": "XOC", "max_abs": 100, "unit": "um"}, {"quantity": "YOC", "max_abs": 0.1, "unit": "mm"}]})";
-  const std::string base = "identify --design " + test::source_path("designs/paper-c-turntable.json") + " --data " +
-                           test::source_path("tests/data/paper/paper_c_turntable.csv") + " --type-a --out -";
+  const std::string base =
+      "identify --design " + test::source_path("designs/paper-c-turntable.json") + " --data " +
+      test::source_path("tests/data/paper/paper_c_turntable.csv") + " --type-a --out -";
   CliRun r = run_cli(base + " --tolerances " + pass);
   ASSERT_EQ(r.status, 0) << r.err;
   nlohmann::json j = nlohmann::json::parse(r.out);
@@ -236,7 +254,7 @@ TEST(Conformance, CommandLineExitCodes) {
   j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["conformance"]["verdict"], "does not conform");
   EXPECT_EQ(j["conformance"]["results"][1]["decision"], "does not conform");  // YOC about -153 um
-  EXPECT_EQ(j["conformance"]["results"][1]["upper"], 100.0);                   // 0.1 mm in um
+  EXPECT_EQ(j["conformance"]["results"][1]["upper"], 100.0);                  // 0.1 mm in um
   std::filesystem::remove_all(dir);
 }
 

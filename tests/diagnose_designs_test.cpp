@@ -32,10 +32,14 @@ using test::thermal;
 // Named beside an added effect as close or equivalent (a scanned one whatever its position).
 bool named_alternative(const DiagnoseResult& r, const std::string& label) {
   auto in = [&](const std::vector<std::string>& v) {
-    return std::any_of(v.begin(), v.end(), [&](const std::string& l) { return l == label || l.rfind(label + "(", 0) == 0; });
+    return std::any_of(v.begin(), v.end(), [&](const std::string& l) {
+      return l == label || l.rfind(label + "(", 0) == 0;
+    });
   };
   return std::any_of(r.added.begin(), r.added.end(),
-                     [&](const AddedEffect& a) { return in(a.close_alternatives) || in(a.equivalent_to); }) ||
+                     [&](const AddedEffect& a) {
+                       return in(a.close_alternatives) || in(a.equivalent_to);
+                     }) ||
          std::any_of(r.substitutions.begin(), r.substitutions.end(), [&](const Substitution& s) {
            std::vector<std::string> by;
            for (const EffectBlock& b : s.by) by.push_back(b.label);
@@ -47,9 +51,12 @@ enum class Variant { CPerAngle, BPerAngle, BLegendre };
 
 const char* variant_name(Variant v) {
   switch (v) {
-    case Variant::CPerAngle: return "C_per_angle";
-    case Variant::BPerAngle: return "B_per_angle";
-    case Variant::BLegendre: return "B_legendre2";
+    case Variant::CPerAngle:
+      return "C_per_angle";
+    case Variant::BPerAngle:
+      return "B_per_angle";
+    case Variant::BLegendre:
+      return "B_legendre2";
   }
   return "";
 }
@@ -110,7 +117,8 @@ const std::map<std::string, double>& stated_limits(Variant v) {
 }
 
 std::string truth_label(const TruthEffect& e) {
-  return std::string(effect_name(e.effect.kind)) + "[" + (e.installation.empty() ? "all" : e.installation) + "]";
+  return std::string(effect_name(e.effect.kind)) + "[" +
+         (e.installation.empty() ? "all" : e.installation) + "]";
 }
 
 // How much larger an effect must be to be found beside the others than alone: the square root
@@ -118,8 +126,8 @@ std::string truth_label(const TruthEffect& e) {
 // information with the other effects' columns in the model too, along its direction v
 // (v' R' R v). 1 for an effect alone; large for nearly collinear ones (a length offset of one
 // installation is one stair of a drift of the whole test over the installations).
-double conditional_inflation(const Design& d, const std::vector<Reading>& readings, const TruthEffect& e,
-                             const std::vector<TruthEffect>& others) {
+double conditional_inflation(const Design& d, const std::vector<Reading>& readings,
+                             const TruthEffect& e, const std::vector<TruthEffect>& others) {
   const Parameterisation param(d);
   const LinearModel model = build_linear_model(d, param, readings);
   const std::vector<EffectBlock> pool = candidate_effects(d, readings);
@@ -151,7 +159,9 @@ std::vector<TruthEffect> sized(Variant v, std::vector<TruthEffect> effects, doub
   const Design d = variant_design(v);
   std::mt19937_64 rng(30);
   const std::vector<Reading> readings = simulate(d, random_truth(d, rng), 20000);
-  auto scanned = [](const TruthEffect& e) { return e.effect.kind == EffectKind::Step || e.effect.kind == EffectKind::Thermal; };
+  auto scanned = [](const TruthEffect& e) {
+    return e.effect.kind == EffectKind::Step || e.effect.kind == EffectKind::Thermal;
+  };
   const std::vector<TruthEffect> given = effects;
   for (TruthEffect& e : effects) {
     if (scanned(e)) continue;
@@ -194,7 +204,8 @@ TEST(DiagnoseOnDesigns, StatedDetectionLimitHasItsPower) {
         Truth t = random_truth(d, rng);
         t.effects = {effect(EffectKind::Drift, "1t", {factor * limit})};
         const DiagnoseResult r = diagnose(d, simulate(d, t, 23000 + s));
-        (factor == 1.0 ? at_limit : at_twice) += has(r, "drift[1t]") || named_alternative(r, "drift[1t]");
+        (factor == 1.0 ? at_limit : at_twice) +=
+            has(r, "drift[1t]") || named_alternative(r, "drift[1t]");
       }
     }
     // Binomial(100, 0.9): 80 to 97 holds with probability above 0.99.
@@ -239,16 +250,20 @@ TEST(DiagnoseOnDesigns, AttributionEntersTheErrorsUncertainty) {
     t.effects = sized(Variant::BLegendre, {effect(EffectKind::Centring, "2r", {1, 1})}, 3.0);
     const std::vector<Reading> readings = simulate(d, t, 24000 + s);
     const DiagnoseResult r = diagnose(d, readings);
-    if (r.attributions.size() != 1 || r.added.size() != 1 || r.attributions[0].alternatives.size() != 1) continue;
+    if (r.attributions.size() != 1 || r.added.size() != 1 ||
+        r.attributions[0].alternatives.size() != 1)
+      continue;
     const LinearModel model = build_linear_model(d, param, readings);
     const std::vector<EffectBlock> pool = candidate_effects(d, readings);
     // An alternative of the pool (not a scanned one, a warm-up at its fitted time constant).
-    if (std::none_of(pool.begin(), pool.end(),
-                     [&](const EffectBlock& e) { return e.label == r.attributions[0].alternatives[0]; })) {
+    if (std::none_of(pool.begin(), pool.end(), [&](const EffectBlock& e) {
+          return e.label == r.attributions[0].alternatives[0];
+        })) {
       continue;
     }
     auto fit_with = [&](const std::string& label) {
-      const auto b = std::find_if(pool.begin(), pool.end(), [&](const EffectBlock& e) { return e.label == label; });
+      const auto b = std::find_if(pool.begin(), pool.end(),
+                                  [&](const EffectBlock& e) { return e.label == label; });
       EXPECT_NE(b, pool.end());
       Eigen::MatrixXd A(model.J.rows(), model.J.cols() + b->X.cols());
       A << test::dense(model.J), b->X;
@@ -271,8 +286,9 @@ TEST(DiagnoseOnDesigns, SubstitutionEntersTheErrorsUncertainty) {
   const Design d = variant_design(Variant::CPerAngle);
   const Parameterisation param(d);
   std::mt19937_64 rng(35);
-  const std::vector<TruthEffect> effects = sized(
-      Variant::CPerAngle, {effect(EffectKind::LengthOffset, "2r", {1}), effect(EffectKind::Drift, "", {1})}, 3.0);
+  const std::vector<TruthEffect> effects =
+      sized(Variant::CPerAngle,
+            {effect(EffectKind::LengthOffset, "2r", {1}), effect(EffectKind::Drift, "", {1})}, 3.0);
   int checked = 0;
   for (int s = 0; s < 100 && checked < 2; ++s) {
     Truth t = random_truth(d, rng);
@@ -299,7 +315,8 @@ TEST(DiagnoseOnDesigns, SubstitutionEntersTheErrorsUncertainty) {
     std::vector<const Eigen::MatrixXd*> chosen_blocks, other_blocks;
     for (const AddedEffect& a : r.added) {
       chosen_blocks.push_back(&a.block.X);
-      if (std::find(sub.replaced.begin(), sub.replaced.end(), a.block.label) == sub.replaced.end()) {
+      if (std::find(sub.replaced.begin(), sub.replaced.end(), a.block.label) ==
+          sub.replaced.end()) {
         other_blocks.push_back(&a.block.X);
       }
     }
@@ -326,13 +343,15 @@ TEST(DiagnoseOnDesigns, GrossReadingAndNoiseScaleAreSaid) {
       const int row = static_cast<int>(rng() % rd.size());
       rd[row].reading_um += (s % 2 ? 30.0 : -30.0);
       const DiagnoseResult g = diagnose(d, rd);
-      named += !g.gross.empty() && g.gross[0].row == row && g.verdict.find("gross reading") != std::string::npos;
+      named += !g.gross.empty() && g.gross[0].row == row &&
+               g.verdict.find("gross reading") != std::string::npos;
       gross_nothing_added += g.added.empty();
       Truth t = random_truth(d, rng);
       t.noise = d.noise;
       t.noise->half_width_um *= 2.45;
       const DiagnoseResult r = diagnose(d, simulate(d, t, 27000 + s));
-      said += r.noise_larger_than_declared && r.verdict.find("more than the declared noise") != std::string::npos;
+      said += r.noise_larger_than_declared &&
+              r.verdict.find("more than the declared noise") != std::string::npos;
       noise_nothing_added += r.added.empty();
       covered += r.noise && r.noise->low <= 2.45 && 2.45 <= r.noise->high;
     }
@@ -378,7 +397,9 @@ struct DesignCase {
   double factor = 3;
 };
 
-void PrintTo(const DesignCase& c, std::ostream* os) { *os << variant_name(c.variant) << "/" << c.name; }
+void PrintTo(const DesignCase& c, std::ostream* os) {
+  *os << variant_name(c.variant) << "/" << c.name;
+}
 
 class FindsEffectOnDesign : public ::testing::TestWithParam<DesignCase> {};
 
@@ -400,7 +421,8 @@ TEST_P(FindsEffectOnDesign, AddsItAndExplainsTheResidual) {
     // (the errors after then carry the change between the two in their uncertainties).
     for (const std::string& l : c.labels) all = all && (has(r, l) || named_alternative(r, l));
     for (const AddedEffect& a : r.added) {
-      for (EffectKind k : c.not_per_installation) all = all && !(a.block.effect.kind == k && a.block.effect.installation >= 0);
+      for (EffectKind k : c.not_per_installation)
+        all = all && !(a.block.effect.kind == k && a.block.effect.installation >= 0);
     }
     found += all;
     if (!all && misses.size() < 2000) {
@@ -419,7 +441,8 @@ TEST_P(FindsEffectOnDesign, AddsItAndExplainsTheResidual) {
       }
       for (const CandidateStatus& cs : r.candidates) {
         for (const std::string& l : c.labels) {
-          if (cs.label == l && !has(r, l)) misses += " <" + l + ": " + candidate_state_name(cs.state) + " " + cs.detail + ">";
+          if (cs.label == l && !has(r, l))
+            misses += " <" + l + ": " + candidate_state_name(cs.state) + " " + cs.detail + ">";
         }
       }
       misses += "]";
@@ -446,8 +469,16 @@ std::vector<DesignCase> design_cases() {
         {v, "centring", {effect(EffectKind::Centring, "2r", {6, -4})}, {"centring[2r]"}},
         {v, "drift", {effect(EffectKind::Drift, "1t", {0.4})}, {"drift[1t]"}},
         {v, "reversal", {effect(EffectKind::Reversal, "2t", {3})}, {"reversal[2t]"}},
-        {v, "whole_test_drift", {effect(EffectKind::Drift, "", {0.3})}, {"drift[all]"}, {EffectKind::Drift}},
-        {v, "whole_test_reversal", {effect(EffectKind::Reversal, "", {4})}, {"reversal[all]"}, {EffectKind::Reversal}},
+        {v,
+         "whole_test_drift",
+         {effect(EffectKind::Drift, "", {0.3})},
+         {"drift[all]"},
+         {EffectKind::Drift}},
+        {v,
+         "whole_test_reversal",
+         {effect(EffectKind::Reversal, "", {4})},
+         {"reversal[all]"},
+         {EffectKind::Reversal}},
         {v, "step", {step("2t", 5)}, {"step[2t]"}, {EffectKind::Drift, EffectKind::Centring}},
         {v, "thermal", {thermal(8, 20)}, {"thermal[all]"}, {EffectKind::Drift}},
         {v,
@@ -461,7 +492,8 @@ std::vector<DesignCase> design_cases() {
          {EffectKind::Drift}},
         {v,
          "three_at_once",
-         {effect(EffectKind::Centring, "2r", {-5, 7}), step("1t", -5), effect(EffectKind::Reversal, "", {3})},
+         {effect(EffectKind::Centring, "2r", {-5, 7}), step("1t", -5),
+          effect(EffectKind::Reversal, "", {3})},
          {"centring[2r]", "step[1t]", "reversal[all]"},
          {EffectKind::Reversal}},
     };
@@ -474,7 +506,8 @@ std::string case_name(const ::testing::TestParamInfo<DesignCase>& info) {
   return std::string(variant_name(info.param.variant)) + "_" + info.param.name;
 }
 
-INSTANTIATE_TEST_SUITE_P(Designs, FindsEffectOnDesign, ::testing::ValuesIn(design_cases()), case_name);
+INSTANTIATE_TEST_SUITE_P(Designs, FindsEffectOnDesign, ::testing::ValuesIn(design_cases()),
+                         case_name);
 
 }  // namespace
 }  // namespace dbbkit

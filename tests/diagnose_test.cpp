@@ -18,7 +18,9 @@ namespace {
 // swept ccw, cw, ccw, 10 s per reading: the redundancy diagnosis needs (with ccw then cw
 // alone, a drift and a reversal of one installation are nearly collinear).
 using test::fourier_design;
-Truth random_truth(const Design& d, std::mt19937_64& rng) { return test::random_fourier_truth(d, rng); }
+Truth random_truth(const Design& d, std::mt19937_64& rng) {
+  return test::random_fourier_truth(d, rng);
+}
 
 using test::effect;
 using test::has;
@@ -62,7 +64,8 @@ TEST_P(FindsEffect, AddsItAndExplainsTheResidual) {
     bool all = true;
     for (const std::string& l : c.labels) all = all && has(r, l);
     for (const AddedEffect& a : r.added) {
-      for (EffectKind k : c.not_per_installation) all = all && !(a.block.effect.kind == k && a.block.effect.installation >= 0);
+      for (EffectKind k : c.not_per_installation)
+        all = all && !(a.block.effect.kind == k && a.block.effect.installation >= 0);
     }
     found += all;
     consistent += r.after.p_value && *r.after.p_value > 0.01;
@@ -71,7 +74,8 @@ TEST_P(FindsEffect, AddsItAndExplainsTheResidual) {
     for (const AddedEffect& a : r.added) {
       for (const TruthEffect& te : t.effects) {
         if (a.block.effect.kind != te.effect.kind) continue;
-        // A step found at another reading, a warm-up with another time constant: their sizes differ.
+        // A step found at another reading, a warm-up with another time constant: their sizes
+        // differ.
         if (te.effect.kind == EffectKind::Step && a.block.effect.at_s != te.effect.at_s) continue;
         if (te.effect.kind == EffectKind::Thermal) {  // the plateau and the fitted time constant
           ASSERT_EQ(a.values.size(), 2u);
@@ -82,7 +86,8 @@ TEST_P(FindsEffect, AddsItAndExplainsTheResidual) {
         }
         const std::vector<std::string> names = effect_parameter_names(te.effect.kind);
         for (std::size_t k = 0; k < a.block.parameters.size(); ++k) {
-          const auto at = std::find(names.begin(), names.end(), a.block.parameters[k]) - names.begin();
+          const auto at =
+              std::find(names.begin(), names.end(), a.block.parameters[k]) - names.begin();
           right_value += std::abs(a.values[k].value - te.value(at)) <= 3 * a.values[k].std;
           ++values;
         }
@@ -98,31 +103,42 @@ TEST_P(FindsEffect, AddsItAndExplainsTheResidual) {
 INSTANTIATE_TEST_SUITE_P(
     Library, FindsEffect,
     ::testing::Values(
-        EffectCase{"length_offset", {effect(EffectKind::LengthOffset, "2r", {10})}, {"length_offset[2r]"}},
+        EffectCase{
+            "length_offset", {effect(EffectKind::LengthOffset, "2r", {10})}, {"length_offset[2r]"}},
         EffectCase{"centring", {effect(EffectKind::Centring, "2r", {6, -4})}, {"centring[2r]"}},
         EffectCase{"drift", {effect(EffectKind::Drift, "1t", {0.4})}, {"drift[1t]"}},
         EffectCase{"reversal", {effect(EffectKind::Reversal, "3r", {3})}, {"reversal[3r]"}},
         EffectCase{"scale", {effect(EffectKind::Scale, "", {40, 0, 0})}, {"scale.x"}},
-        EffectCase{"squareness", {effect(EffectKind::Squareness, "", {25, 0, 0})}, {"squareness.xy"}},
-        EffectCase{"offset_and_drift",
-                   {effect(EffectKind::LengthOffset, "2r", {-8}), effect(EffectKind::Drift, "3t", {0.3})},
-                   {"length_offset[2r]", "drift[3t]"}},
-        EffectCase{"centring_and_reversal",
-                   {effect(EffectKind::Centring, "2r", {-5, 7}), effect(EffectKind::Reversal, "2t", {-4})},
-                   {"centring[2r]", "reversal[2t]"}},
+        EffectCase{
+            "squareness", {effect(EffectKind::Squareness, "", {25, 0, 0})}, {"squareness.xy"}},
+        EffectCase{
+            "offset_and_drift",
+            {effect(EffectKind::LengthOffset, "2r", {-8}), effect(EffectKind::Drift, "3t", {0.3})},
+            {"length_offset[2r]", "drift[3t]"}},
+        EffectCase{
+            "centring_and_reversal",
+            {effect(EffectKind::Centring, "2r", {-5, 7}), effect(EffectKind::Reversal, "2t", {-4})},
+            {"centring[2r]", "reversal[2t]"}},
         // Effects of the whole test: one drift on the test's clock (0.3 um/min), one reversal
         // common to every installation (a length change common to every reading, the bar's
         // own, is confounded on this design: WholeTestLengthIsConfoundedAndNeverAdded).
-        EffectCase{"whole_test_drift", {effect(EffectKind::Drift, "", {0.3})}, {"drift[all]"}, {EffectKind::Drift}},
-        EffectCase{"whole_test_reversal", {effect(EffectKind::Reversal, "", {4})}, {"reversal[all]"},
-                   {EffectKind::Reversal}},
-        EffectCase{"whole_test_drift_and_centring",
-                   {effect(EffectKind::Drift, "", {-0.2}), effect(EffectKind::Centring, "2r", {4, 5})},
-                   {"drift[all]", "centring[2r]"},
+        EffectCase{"whole_test_drift",
+                   {effect(EffectKind::Drift, "", {0.3})},
+                   {"drift[all]"},
                    {EffectKind::Drift}},
+        EffectCase{"whole_test_reversal",
+                   {effect(EffectKind::Reversal, "", {4})},
+                   {"reversal[all]"},
+                   {EffectKind::Reversal}},
+        EffectCase{
+            "whole_test_drift_and_centring",
+            {effect(EffectKind::Drift, "", {-0.2}), effect(EffectKind::Centring, "2r", {4, 5})},
+            {"drift[all]", "centring[2r]"},
+            {EffectKind::Drift}},
         // A 5 um jump halfway through one installation: a step, not that installation's drift
         // and centring.
-        EffectCase{"step", {step("2t", 5)}, {"step[2t]"}, {EffectKind::Drift, EffectKind::Centring}},
+        EffectCase{
+            "step", {step("2t", 5)}, {"step[2t]"}, {EffectKind::Drift, EffectKind::Centring}},
         EffectCase{"step_and_length_offset",
                    {step("1t", -4), effect(EffectKind::LengthOffset, "2r", {6})},
                    {"step[1t]", "length_offset[2r]"},
@@ -163,8 +179,9 @@ TEST(Diagnose, WholeTestLengthIsConfoundedAndNeverAdded) {
     t.effects = {effect(EffectKind::LengthOffset, "", {3})};
     const DiagnoseResult r = diagnose(d, simulate(d, t, 9500 + s));
     EXPECT_FALSE(has(r, "length_offset[all]"));
-    const auto c = std::find_if(r.candidates.begin(), r.candidates.end(),
-                                [](const CandidateStatus& cs) { return cs.label == "length_offset[all]"; });
+    const auto c =
+        std::find_if(r.candidates.begin(), r.candidates.end(),
+                     [](const CandidateStatus& cs) { return cs.label == "length_offset[all]"; });
     ASSERT_NE(c, r.candidates.end());
     EXPECT_EQ(c->state, CandidateState::kConfounded) << c->detail;
   }
@@ -184,7 +201,8 @@ TEST(Diagnose, PerInstallationDriftsAreKeptAgainstOneWholeTestDrift) {
     kept += has(r, "drift[1t]") && has(r, "drift[3r]") && !has(r, "drift[all]");
     for (const StructureComparison& c : r.structures) {
       reported += c.kind == "drift" && c.rejected == std::vector<std::string>{"drift[all]"} &&
-                  c.bic_chosen < c.bic_rejected && r.verdict.find("was preferred to one for the whole test") != std::string::npos;
+                  c.bic_chosen < c.bic_rejected &&
+                  r.verdict.find("was preferred to one for the whole test") != std::string::npos;
     }
   }
   // A step scanned over 3r's readings takes the place of its drift in 2 of these 20 seeds
@@ -228,8 +246,9 @@ TEST(Diagnose, ConfoundedEffectIsNeverAdded) {
   t.effects = {effect(EffectKind::LengthOffset, "1a", {15})};
   const DiagnoseResult r = diagnose(d, simulate(d, t, 1));
   EXPECT_FALSE(has(r, "length_offset[1a]"));
-  const auto it = std::find_if(r.candidates.begin(), r.candidates.end(),
-                               [](const CandidateStatus& c) { return c.label == "length_offset[1a]"; });
+  const auto it =
+      std::find_if(r.candidates.begin(), r.candidates.end(),
+                   [](const CandidateStatus& c) { return c.label == "length_offset[1a]"; });
   ASSERT_NE(it, r.candidates.end());
   EXPECT_EQ(it->state, CandidateState::kConfounded);
 }
@@ -238,7 +257,8 @@ TEST(Diagnose, PaperTurntableNeedsTheSecondRadialSetUp) {
   // Result on the paper's data (tests/data/paper): radial readings do not depend on L, so
   // 1r and 2r must agree at every angle; 2r carries a length offset and a centring offset.
   const Design d = test::paper_design('C');
-  const DiagnoseResult r = diagnose(d, io::read_measurement_file(test::source_path("tests/data/paper/paper_c_turntable.csv"), d));
+  const DiagnoseResult r = diagnose(
+      d, io::read_measurement_file(test::source_path("tests/data/paper/paper_c_turntable.csv"), d));
   EXPECT_TRUE(r.significant_before);
   EXPECT_TRUE(has(r, "length_offset[2r]"));
   EXPECT_TRUE(has(r, "centring[2r]"));
@@ -257,8 +277,10 @@ namespace {
 // Fourier test design, on readings with times and both sweeps (so that drift and
 // reversal apply): the two tests must agree on every effect.
 TEST(Detectability, ProjectionAgreesWithTheAugmentedFactorisation) {
-  std::vector<Design> designs = {fourier_design(), test::paper_design('C'), test::paper_design('B')};
-  for (const char* f : {"designs/c-turntable-kit-optimized.json", "designs/b-head-kit-optimized.json"}) {
+  std::vector<Design> designs = {fourier_design(), test::paper_design('C'),
+                                 test::paper_design('B')};
+  for (const char* f :
+       {"designs/c-turntable-kit-optimized.json", "designs/b-head-kit-optimized.json"}) {
     designs.push_back(io::read_design_file(test::source_path(f)));
   }
   int compared = 0, confounded = 0;
@@ -320,7 +342,8 @@ TEST(DiagnoseBordered, AgreesWithTheWholeBlock) {
   EXPECT_TRUE(has(bordered, "drift[2r]"));
   EXPECT_TRUE(has(bordered, "reversal[all]"));
   ASSERT_EQ(bordered.added.size(), whole.added.size());
-  for (std::size_t k = 0; k < whole.added.size(); ++k) EXPECT_EQ(bordered.added[k].block.label, whole.added[k].block.label);
+  for (std::size_t k = 0; k < whole.added.size(); ++k)
+    EXPECT_EQ(bordered.added[k].block.label, whole.added[k].block.label);
   EXPECT_FALSE(bordered.significant_after);
   EXPECT_EQ(bordered.after.rank, whole.after.rank);
   EXPECT_NEAR(bordered.after.chi2, whole.after.chi2, 1e-9 * whole.after.chi2);

@@ -14,7 +14,8 @@
 
 namespace dbbkit::test {
 
-inline TruthEffect effect(EffectKind kind, const std::string& inst, std::vector<double> value, int harmonic = 0) {
+inline TruthEffect effect(EffectKind kind, const std::string& inst, std::vector<double> value,
+                          int harmonic = 0) {
   TruthEffect e;
   e.effect.kind = kind;
   e.effect.harmonic = harmonic;
@@ -44,7 +45,8 @@ inline TruthEffect thermal(double plateau_um, double tau_min) {
 }
 
 // A step without a time is placed halfway through its installation's readings (by time).
-inline std::vector<TruthEffect> placed(const Design& d, const Truth& t, std::vector<TruthEffect> effects) {
+inline std::vector<TruthEffect> placed(const Design& d, const Truth& t,
+                                       std::vector<TruthEffect> effects) {
   for (TruthEffect& e : effects) {
     if (e.effect.kind != EffectKind::Step || std::isfinite(e.effect.at_s)) continue;
     Truth quiet = t;
@@ -62,10 +64,12 @@ inline std::vector<TruthEffect> placed(const Design& d, const Truth& t, std::vec
 // Over `seeds` clean simulations (truth(rng) each, noise seeds seed0, seed0 + 1, ...): how many
 // added nothing, and how many left a significant residual.
 template <class TruthFn>
-std::pair<int, int> clean_runs(const Design& d, TruthFn truth, std::mt19937_64& rng, int seeds, std::uint64_t seed0) {
+std::pair<int, int> clean_runs(const Design& d, TruthFn truth, std::mt19937_64& rng, int seeds,
+                               std::uint64_t seed0) {
   int clean = 0, flagged = 0;
   for (int s = 0; s < seeds; ++s) {
-    const DiagnoseResult r = diagnose(d, simulate(d, truth(d, rng), seed0 + static_cast<std::uint64_t>(s)));
+    const DiagnoseResult r =
+        diagnose(d, simulate(d, truth(d, rng), seed0 + static_cast<std::uint64_t>(s)));
     clean += r.added.empty();
     flagged += r.significant_after;
   }
@@ -73,7 +77,8 @@ std::pair<int, int> clean_runs(const Design& d, TruthFn truth, std::mt19937_64& 
 }
 
 // Counts the determined errors after and those within 3 standard uncertainties of the truth.
-inline void count_errors_within_3u(const DiagnoseResult& r, const Truth& t, Axis axis, double& inside, double& total) {
+inline void count_errors_within_3u(const DiagnoseResult& r, const Truth& t, Axis axis,
+                                   double& inside, double& total) {
   for (const ErrorsAtAngle& ea : r.errors_after) {
     const Vector6d truth = truth_errors(t, axis, ea.angle_deg);
     for (int k = 0; k < 6; ++k) {

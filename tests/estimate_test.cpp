@@ -14,7 +14,8 @@
 namespace dbbkit {
 namespace {
 
-LinearModel model_of(const Eigen::MatrixXd& J, const Eigen::VectorXd& y, const Eigen::VectorXd& sigma) {
+LinearModel model_of(const Eigen::MatrixXd& J, const Eigen::VectorXd& y,
+                     const Eigen::VectorXd& sigma) {
   LinearModel m;
   m.J = J.sparseView();
   m.y_um = y;
@@ -61,7 +62,8 @@ TEST(Estimate, PValueOfTwoDegreesOfFreedom) {
 }
 
 TEST(Estimate, NoRedundancyHasNoPValue) {
-  const Estimate est = estimate_wls(model_of(Eigen::MatrixXd::Identity(2, 2), Eigen::Vector2d(1, 2), Eigen::Vector2d(1, 1)));
+  const Estimate est = estimate_wls(
+      model_of(Eigen::MatrixXd::Identity(2, 2), Eigen::Vector2d(1, 2), Eigen::Vector2d(1, 1)));
   EXPECT_EQ(est.dof, 0);
   EXPECT_FALSE(est.p_value.has_value());
 }
@@ -138,9 +140,10 @@ TEST(Estimate, BlockDiagonalEqualsDense) {
 
 // Border columns (EstimateOptions): a block-diagonal model of 120 stations plus three
 // columns seen at every station, one of them a combination of the others and the stations'
-// columns (a direction through two stations and the border that the data cannot determine). Solved bordered and as one whole
-// block, everything the data determine agrees: rank, residual, values and uncertainties of
-// determined functions, which functions are determined, leverages, the gain's products.
+// columns (a direction through two stations and the border that the data cannot determine). Solved
+// bordered and as one whole block, everything the data determine agrees: rank, residual, values and
+// uncertainties of determined functions, which functions are determined, leverages, the gain's
+// products.
 TEST(Estimate, BorderedEqualsTheWholeBlock) {
   std::mt19937_64 rng(21);
   std::normal_distribution<double> n01;
@@ -152,7 +155,8 @@ TEST(Estimate, BorderedEqualsTheWholeBlock) {
       for (int j = 0; j < cols; ++j) J(s * rows + i, s * cols + j) = n01(rng);
     }
   }
-  Eigen::VectorXd v = Eigen::VectorXd::Zero(p0);  // the undetermined direction: stations 3 and 50 and the border
+  Eigen::VectorXd v =
+      Eigen::VectorXd::Zero(p0);  // the undetermined direction: stations 3 and 50 and the border
   for (int j = 0; j < cols; ++j) v(3 * cols + j) = n01(rng), v(50 * cols + j) = n01(rng);
   for (int i = 0; i < n; ++i) J(i, p0) = 1.0, J(i, p0 + 1) = std::sin(0.05 * i) * 30.0;
   J.col(p0 + 2) = J.leftCols(p0) * v + 2.0 * J.col(p0);
@@ -162,7 +166,8 @@ TEST(Estimate, BorderedEqualsTheWholeBlock) {
   EstimateOptions whole_o, border_o;
   whole_o.border_min_columns = 0;
   border_o.border_min_columns = 100;
-  const WlsSolver whole(test::sparse(J), sigma, whole_o), bordered(test::sparse(J), sigma, border_o);
+  const WlsSolver whole(test::sparse(J), sigma, whole_o),
+      bordered(test::sparse(J), sigma, border_o);
   EXPECT_TRUE(whole.border().empty());
   EXPECT_EQ(bordered.border(), (std::vector<int>{p0, p0 + 1, p0 + 2}));
   EXPECT_EQ(whole.blocks().size(), 1u);
@@ -210,7 +215,8 @@ TEST(Estimate, BorderedEqualsTheWholeBlock) {
 }
 
 TEST(Estimate, NoReadingsGivesNoNumbers) {
-  const Estimate est = estimate_wls(model_of(Eigen::MatrixXd(0, 3), Eigen::VectorXd(0), Eigen::VectorXd(0)));
+  const Estimate est =
+      estimate_wls(model_of(Eigen::MatrixXd(0, 3), Eigen::VectorXd(0), Eigen::VectorXd(0)));
   EXPECT_EQ(est.status, EstimateStatus::kNoReadings);
   EXPECT_FALSE(est.evaluate(Eigen::Vector3d(1, 0, 0)).determined);
   EXPECT_FALSE(est.p_value.has_value());
@@ -236,7 +242,8 @@ TEST(Estimate, NormalEquationsPathAgreesWithTheSvd) {
     Eigen::MatrixXd A(n, p), B(p, p);
     for (Eigen::Index i = 0; i < A.size(); ++i) A.data()[i] = z(rng);
     for (Eigen::Index i = 0; i < B.size(); ++i) B.data()[i] = z(rng);
-    const Eigen::MatrixXd Q1 = Eigen::HouseholderQR<Eigen::MatrixXd>(A).householderQ() * Eigen::MatrixXd::Identity(n, p);
+    const Eigen::MatrixXd Q1 =
+        Eigen::HouseholderQR<Eigen::MatrixXd>(A).householderQ() * Eigen::MatrixXd::Identity(n, p);
     const Eigen::MatrixXd Q2 = Eigen::HouseholderQR<Eigen::MatrixXd>(B).householderQ();
     Eigen::VectorXd s(p);
     for (int k = 0; k < p; ++k) s(k) = std::pow(kappa, -static_cast<double>(k) / (p - 1));
@@ -250,8 +257,12 @@ TEST(Estimate, NormalEquationsPathAgreesWithTheSvd) {
     const Estimate a = normal.solve(y), b = svd.solve(y);
     EXPECT_TRUE(test::near(a.singular_values, b.singular_values, 0, 1e-9)) << kappa;
     const double tol = 1e-9 * std::max(1.0, kappa * kappa * 1e-6);  // the bound's own allowance
-    EXPECT_TRUE(test::near(a.covariance, b.covariance, tol * test::dense(b.covariance).cwiseAbs().maxCoeff())) << kappa;
-    EXPECT_TRUE(test::near(normal.gain().sparse(), svd.gain().sparse(), tol * test::dense(svd.gain().sparse()).cwiseAbs().maxCoeff())) << kappa;
+    EXPECT_TRUE(test::near(a.covariance, b.covariance,
+                           tol * test::dense(b.covariance).cwiseAbs().maxCoeff()))
+        << kappa;
+    EXPECT_TRUE(test::near(normal.gain().sparse(), svd.gain().sparse(),
+                           tol * test::dense(svd.gain().sparse()).cwiseAbs().maxCoeff()))
+        << kappa;
     EXPECT_TRUE(test::near(a.theta, b.theta, tol * b.theta.cwiseAbs().maxCoeff())) << kappa;
     EXPECT_EQ(a.rank, p);
   }
@@ -276,10 +287,12 @@ TEST(Estimate, FourierIdentificationTakesTheNormalEquations) {
   EstimateOptions svd_only;
   svd_only.normal_equations_tolerance = 0;
   const WlsSolver normal(model.J, model.sigma_um), svd(model.J, model.sigma_um, svd_only);
-  EXPECT_GT(normal.a_priori().normal_equation_blocks, 0);  // the model splits into independent blocks
+  EXPECT_GT(normal.a_priori().normal_equation_blocks,
+            0);  // the model splits into independent blocks
   EXPECT_TRUE(test::near(normal.a_priori().covariance, svd.a_priori().covariance,
                          1e-9 * test::dense(svd.a_priori().covariance).cwiseAbs().maxCoeff()));
-  EXPECT_TRUE(test::near(normal.gain().sparse(), svd.gain().sparse(), 1e-9 * test::dense(svd.gain().sparse()).cwiseAbs().maxCoeff()));
+  EXPECT_TRUE(test::near(normal.gain().sparse(), svd.gain().sparse(),
+                         1e-9 * test::dense(svd.gain().sparse()).cwiseAbs().maxCoeff()));
 }
 
 }  // namespace

@@ -38,11 +38,14 @@ class Hostile : public ::testing::Test {
     fs::remove_all(dir_, ec);
   }
   std::string path(const std::string& name) const { return (fs::path(dir_) / name).string(); }
-  void write(const std::string& name, const std::string& content) const { std::ofstream(path(name)) << content; }
+  void write(const std::string& name, const std::string& content) const {
+    std::ofstream(path(name)) << content;
+  }
   // Names in the directory, sorted.
   std::vector<std::string> listing() const {
     std::vector<std::string> names;
-    for (const auto& e : fs::directory_iterator(dir_)) names.push_back(e.path().filename().string());
+    for (const auto& e : fs::directory_iterator(dir_))
+      names.push_back(e.path().filename().string());
     std::sort(names.begin(), names.end());
     return names;
   }
@@ -58,7 +61,8 @@ class Hostile : public ::testing::Test {
 
 TEST_F(Hostile, AnInputAtTheTemporaryNameIsNeitherReadAsOutputNorDestroyed) {
   fs::copy_file(kDesignC, path("x.json.tmp"));
-  const CliRun r = run_cli("evaluate --quiet --design " + path("x.json.tmp") + " --out " + path("x.json"));
+  const CliRun r =
+      run_cli("evaluate --quiet --design " + path("x.json.tmp") + " --out " + path("x.json"));
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(slurp(path("x.json.tmp")), slurp(kDesignC));
   EXPECT_TRUE(nlohmann::json::parse(slurp(path("x.json"))).is_object());
@@ -87,7 +91,8 @@ TEST_F(Hostile, AFifoTargetIsRefusedAndStaysAFifo) {
 TEST_F(Hostile, ADeviceTargetIsRefusedAndStaysADevice) {
   const CliRun r = run_cli("evaluate --quiet --design " + kDesignC + " --report /dev/null");
   EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.err.find("/dev/null: --report: exists and is not a regular file"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("/dev/null: --report: exists and is not a regular file"), std::string::npos)
+      << r.err;
   EXPECT_TRUE(fs::is_character_file("/dev/null"));
 }
 
@@ -111,10 +116,11 @@ TEST_F(Hostile, AReadOnlyDirectoryFailsAndLeavesNothing) {
   fs::permissions(dir_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
                             fs::perms::others_read | fs::perms::others_exec);
   fs::create_directory(path("ro"));
-  fs::permissions(path("ro"), fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
-                                  fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
-  const CliRun r = run_cli_shell(prefix + std::string(DBBKIT_CLI) + " evaluate --quiet --design " + kDesignC +
-                                 " --out " + path("ro/x.json"));
+  fs::permissions(path("ro"), fs::perms::owner_read | fs::perms::owner_exec |
+                                  fs::perms::group_read | fs::perms::group_exec |
+                                  fs::perms::others_read | fs::perms::others_exec);
+  const CliRun r = run_cli_shell(prefix + std::string(DBBKIT_CLI) + " evaluate --quiet --design " +
+                                 kDesignC + " --out " + path("ro/x.json"));
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("cannot create a file in"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::is_empty(path("ro")));
@@ -130,7 +136,8 @@ TEST_F(Hostile, AFullStandardOutputIsAnError) {
 }
 
 TEST_F(Hostile, OneFileForTwoOutputsAndAnEmptyPathAreRefused) {
-  CliRun r = run_cli("evaluate --design " + kDesignC + " --out " + path("x") + " --report " + path("x"));
+  CliRun r =
+      run_cli("evaluate --design " + kDesignC + " --out " + path("x") + " --report " + path("x"));
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("the same file is the target of two outputs"), std::string::npos) << r.err;
   r = run_cli("evaluate --design " + kDesignC + " --out ''");
@@ -146,9 +153,10 @@ TEST_F(Hostile, AReportThatFailsLateLeavesNoOutputAndTheOldFileIntact) {
   // gnuplot not on PATH: the report fails after the result is computed. The JSON asked
   // for beside it must not be written, and the file it would replace must stay as it was.
   write("x.json", "old\n");
-  const CliRun r = run_cli_shell("PATH=/nonexistent " + std::string(DBBKIT_CLI) + " identify --quiet --design " +
-                                 kDesignC + " --data " + kDataC + " --out " + path("x.json") + " --summary " +
-                                 path("s.md") + " --report " + path("r.html"));
+  const CliRun r =
+      run_cli_shell("PATH=/nonexistent " + std::string(DBBKIT_CLI) + " identify --quiet --design " +
+                    kDesignC + " --data " + kDataC + " --out " + path("x.json") + " --summary " +
+                    path("s.md") + " --report " + path("r.html"));
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("gnuplot"), std::string::npos) << r.err;
   EXPECT_EQ(slurp(path("x.json")), "old\n");
@@ -162,10 +170,11 @@ TEST_F(Hostile, AnInterruptedRunLeavesNoTemporaryAnywhere) {
   fs::create_directory(path("tmp"));
   fs::create_directory(path("out"));
   for (const char* delay : {"0.05", "0.3", "0.6", "1.0", "1.5"}) {
-    const std::string cmd = "TMPDIR=" + path("tmp") + " " + std::string(DBBKIT_CLI) + " evaluate --quiet --design " +
-                            kDesignC + " --monte-carlo --mc-max-trials 400000 --mc-threads 1 --out " +
-                            path("out/e.json") + " --report " + path("out/e.html") + " --summary " +
-                            path("out/e.md") + " & p=$!; sleep " + delay + "; kill -TERM $p 2>/dev/null; wait $p";
+    const std::string cmd =
+        "TMPDIR=" + path("tmp") + " " + std::string(DBBKIT_CLI) + " evaluate --quiet --design " +
+        kDesignC + " --monte-carlo --mc-max-trials 400000 --mc-threads 1 --out " +
+        path("out/e.json") + " --report " + path("out/e.html") + " --summary " + path("out/e.md") +
+        " & p=$!; sleep " + delay + "; kill -TERM $p 2>/dev/null; wait $p";
     run_cli_shell(cmd);
     EXPECT_TRUE(fs::is_empty(path("tmp"))) << "after " << delay << " s";
     for (const auto& e : fs::directory_iterator(path("out"))) {
@@ -185,9 +194,12 @@ class HostileOption : public ::testing::TestWithParam<OptionCase> {};
 
 TEST_P(HostileOption, ExitsTwoNamingTheOption) {
   std::string args = GetParam().args;
-  for (const auto& [key, value] : {std::pair<std::string, std::string>{"{C}", kDesignC}, {"{data}", kDataC},
-                                   {"{kit}", test::source_path("tests/fuzz/corpus/kit/small_c.json")}}) {
-    for (size_t at; (at = args.find(key)) != std::string::npos;) args.replace(at, key.size(), value);
+  for (const auto& [key, value] :
+       {std::pair<std::string, std::string>{"{C}", kDesignC},
+        {"{data}", kDataC},
+        {"{kit}", test::source_path("tests/fuzz/corpus/kit/small_c.json")}}) {
+    for (size_t at; (at = args.find(key)) != std::string::npos;)
+      args.replace(at, key.size(), value);
   }
   const CliRun r = run_cli(args);
   EXPECT_EQ(r.status, 2) << r.err;
@@ -197,24 +209,28 @@ TEST_P(HostileOption, ExitsTwoNamingTheOption) {
 
 INSTANTIATE_TEST_SUITE_P(
     Catalogue, HostileOption,
-    ::testing::Values(OptionCase{"optimize --kit {kit} --threads 100000", "--threads: '100000' is outside [0, 256]"},
-                      OptionCase{"optimize --kit {kit} --threads -3", "--threads: '-3' is outside"},
-                      OptionCase{"evaluate --design {C} --monte-carlo --mc-threads 100000", "--mc-threads"},
-                      OptionCase{"diagnose --design {C} --data {data} --level nan", "--level: 'nan' is not a number"},
-                      OptionCase{"diagnose --design {C} --data {data} --level 0.5", "--level: '0.5' is outside"},
-                      OptionCase{"diagnose --design {C} --data {data} --max-effects 1e3", "--max-effects"},
-                      OptionCase{"evaluate --design {C} --reference-length-mm inf", "--reference-length-mm"},
-                      OptionCase{"evaluate --design {C} --reference-length-mm -5", "--reference-length-mm"},
-                      OptionCase{"evaluate --design {C} --coverage 1.5", "--coverage"},
-                      OptionCase{"evaluate --design {C} --coverage nan", "--coverage"},
-                      OptionCase{"simulate --design {C} --truth {C} --seed -1", "--seed: '-1' is not a seed"},
-                      OptionCase{"evaluate --design {C} --monte-carlo --mc-seed 0x10", "--mc-seed"},
-                      OptionCase{"evaluate --design {C} --monte-carlo --mc-batch 100000000 --mc-max-trials 100000000",
-                                 "batch_trials: 100000000 trials per batch of 108 values would keep"},
-                      OptionCase{"evaluate --design {C} --monte-carlo --mc-batch 0", "--mc-batch"},
-                      OptionCase{"bench {C} --tolerance inf", "--tolerance"},
-                      OptionCase{"evaluate --design /dev/zero", "/dev/zero: longer than 512 MiB"},
-                      OptionCase{"evaluate --design /tmp", "/tmp: is a directory"}));
+    ::testing::Values(
+        OptionCase{"optimize --kit {kit} --threads 100000",
+                   "--threads: '100000' is outside [0, 256]"},
+        OptionCase{"optimize --kit {kit} --threads -3", "--threads: '-3' is outside"},
+        OptionCase{"evaluate --design {C} --monte-carlo --mc-threads 100000", "--mc-threads"},
+        OptionCase{"diagnose --design {C} --data {data} --level nan",
+                   "--level: 'nan' is not a number"},
+        OptionCase{"diagnose --design {C} --data {data} --level 0.5", "--level: '0.5' is outside"},
+        OptionCase{"diagnose --design {C} --data {data} --max-effects 1e3", "--max-effects"},
+        OptionCase{"evaluate --design {C} --reference-length-mm inf", "--reference-length-mm"},
+        OptionCase{"evaluate --design {C} --reference-length-mm -5", "--reference-length-mm"},
+        OptionCase{"evaluate --design {C} --coverage 1.5", "--coverage"},
+        OptionCase{"evaluate --design {C} --coverage nan", "--coverage"},
+        OptionCase{"simulate --design {C} --truth {C} --seed -1", "--seed: '-1' is not a seed"},
+        OptionCase{"evaluate --design {C} --monte-carlo --mc-seed 0x10", "--mc-seed"},
+        OptionCase{
+            "evaluate --design {C} --monte-carlo --mc-batch 100000000 --mc-max-trials 100000000",
+            "batch_trials: 100000000 trials per batch of 108 values would keep"},
+        OptionCase{"evaluate --design {C} --monte-carlo --mc-batch 0", "--mc-batch"},
+        OptionCase{"bench {C} --tolerance inf", "--tolerance"},
+        OptionCase{"evaluate --design /dev/zero", "/dev/zero: longer than 512 MiB"},
+        OptionCase{"evaluate --design /tmp", "/tmp: is a directory"}));
 
 }  // namespace
 }  // namespace dbbkit

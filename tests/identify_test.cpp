@@ -38,7 +38,8 @@ Truth random_truth(const Design& d, std::mt19937_64& rng) {
       test::add_truth_value(t, d.axis, a, e);
     }
   } else {
-    const int m = d.errors.kind == ErrorModel::Kind::Fourier ? 2 * d.errors.order + 1 : d.errors.order + 1;
+    const int m =
+        d.errors.kind == ErrorModel::Kind::Fourier ? 2 * d.errors.order + 1 : d.errors.order + 1;
     for (int k = 0; k < 6; ++k) {
       for (int c = 0; c < m; ++c) t.coefficients[k].push_back((k < 3 ? 10.0 : 30.0) * n01(rng));
     }
@@ -61,7 +62,8 @@ TEST(Identify, PaperBHeadHasRankFivePerAngleAndNamesTheToolAxis) {
   EXPECT_EQ(r.estimate.rank, 105);  // 5 per angle, 21 angles
   ASSERT_EQ(r.errors.size(), 21u);
   for (const ErrorsAtAngle& ea : r.errors) {
-    for (int k : {0, 1, 2, 4}) EXPECT_TRUE(ea.errors[k].determined) << ea.angle_deg << " " << kErrorNames[k];
+    for (int k : {0, 1, 2, 4})
+      EXPECT_TRUE(ea.errors[k].determined) << ea.angle_deg << " " << kErrorNames[k];
     EXPECT_EQ(ea.errors[3].determined, ea.angle_deg == 0.0) << "ex at " << ea.angle_deg;
     EXPECT_EQ(ea.errors[5].determined, ea.angle_deg == -90.0) << "ez at " << ea.angle_deg;
   }
@@ -71,9 +73,12 @@ TEST(Identify, PaperBHeadHasRankFivePerAngleAndNamesTheToolAxis) {
     const double b = *u.angle_deg * kPi / 180;
     double ex = 0, ez = 0;
     for (const auto& [name, c] : u.terms) {
-      if (name == "ex") ex = c;
-      else if (name == "ez") ez = c;
-      else ADD_FAILURE() << "unexpected term " << name << " at " << *u.angle_deg;
+      if (name == "ex")
+        ex = c;
+      else if (name == "ez")
+        ez = c;
+      else
+        ADD_FAILURE() << "unexpected term " << name << " at " << *u.angle_deg;
     }
     // Parallel to (sin b, cos b) on (ex, ez).
     EXPECT_NEAR(std::abs(ex * std::cos(b) - ez * std::sin(b)), 0.0, 1e-9) << *u.angle_deg;
@@ -104,7 +109,8 @@ TEST(Identify, NoiselessDataGiveTheTruthBack) {
       const Vector6d truth = truth_errors(t, d.axis, ea.angle_deg);
       for (int k = 0; k < 6; ++k) {
         ASSERT_TRUE(ea.errors[k].determined);
-        EXPECT_NEAR(ea.errors[k].value, truth(k), 1e-8) << config << " " << ea.angle_deg << " " << kErrorNames[k];
+        EXPECT_NEAR(ea.errors[k].value, truth(k), 1e-8)
+            << config << " " << ea.angle_deg << " " << kErrorNames[k];
       }
     }
   }
@@ -173,8 +179,10 @@ TEST_P(Coverage, TruthWithinThreeSigma) {
   }
   const double share = inside / total;
   EXPECT_GE(share, 0.98) << c.name;
-  // Binomial tolerance on the share, counted over independent blocks (values within a block correlate).
-  EXPECT_TRUE(test::within_binomial(share * blocks, blocks, 0.9973, 4.0)) << c.name << " share " << share;
+  // Binomial tolerance on the share, counted over independent blocks (values within a block
+  // correlate).
+  EXPECT_TRUE(test::within_binomial(share * blocks, blocks, 0.9973, 4.0))
+      << c.name << " share " << share;
   EXPECT_NEAR(z2 / total, 1.0, 0.1) << c.name;
   EXPECT_EQ(undetermined > 0, c.config == 1) << c.name;  // only the paper's B design loses rank
 }

@@ -25,9 +25,9 @@ namespace {
 struct AxisTruth {
   Eigen::Vector3d o = Eigen::Vector3d::Zero();      // um, perpendicular to the axis
   Eigen::Vector3d alpha = Eigen::Vector3d::Zero();  // urad, perpendicular to the axis
-  double c0 = 0;                                     // urad
-  Vector6d constant = Vector6d::Zero();              // d0 (um), e0 (urad, perpendicular to the axis)
-  double component_um = 0, component_urad = 0;       // amplitudes of the component motions
+  double c0 = 0;                                    // urad
+  Vector6d constant = Vector6d::Zero();             // d0 (um), e0 (urad, perpendicular to the axis)
+  double component_um = 0, component_urad = 0;      // amplitudes of the component motions
   std::array<double, 24> phases{};
 };
 
@@ -38,7 +38,8 @@ struct AxisTruth {
 // location patterns: there their least-squares part on the constants and the location
 // patterns (the docs' derivation: d0 + (I - R) o, e0 + c0 a + (I - R) alpha) is removed,
 // as the axis average line is the least-squares line (ISO 230-7).
-std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t, const std::vector<double>& g_deg) {
+std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t,
+                                        const std::vector<double>& g_deg) {
   const int n = static_cast<int>(g_deg.size());
   std::vector<Vector6d> out(n, Vector6d::Zero());
   for (int i = 0; i < n; ++i) {
@@ -92,15 +93,17 @@ std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t, const std
 Vector6d error_motion(Axis axis, const AxisTruth& t, double g_deg, const Vector6d& component) {
   const Eigen::Vector3d a = axis == Axis::C ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
   const Eigen::Vector3d alpha = 1e-6 * t.alpha;
-  const Eigen::Matrix3d tilt = alpha.norm() > 0 ? Eigen::AngleAxisd(alpha.norm(), alpha.normalized()).toRotationMatrix()
-                                                : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d tilt =
+      alpha.norm() > 0 ? Eigen::AngleAxisd(alpha.norm(), alpha.normalized()).toRotationMatrix()
+                       : Eigen::Matrix3d::Identity();
   const Eigen::Vector3d n = tilt * a;
   const double g = g_deg * M_PI / 180.0;
   const Eigen::Matrix3d Q = Eigen::AngleAxisd(g + 1e-6 * t.c0, n).toRotationMatrix();
   const Eigen::Matrix3d R = axis_rotation(axis, g_deg);
   const Eigen::Matrix3d Rerr = Q * R.transpose();
   // Rerr = Rx(ex) Ry(ey) Rz(ez) (exact_reading_um's order), solved for the small angles.
-  const Eigen::Vector3d e(std::atan2(-Rerr(1, 2), Rerr(2, 2)), std::asin(Rerr(0, 2)), std::atan2(-Rerr(0, 1), Rerr(0, 0)));
+  const Eigen::Vector3d e(std::atan2(-Rerr(1, 2), Rerr(2, 2)), std::asin(Rerr(0, 2)),
+                          std::atan2(-Rerr(0, 1), Rerr(0, 0)));
   Vector6d out;
   out.head<3>() = (Eigen::Matrix3d::Identity() - Q) * t.o;
   out.tail<3>() = 1e6 * e;
@@ -140,7 +143,8 @@ Truth exact_truth(const Design& d, const AxisTruth& at) {
   t.model = {ErrorModel::Kind::PerAngle, 0};
   const std::vector<double> g = positions(d);
   const std::vector<Vector6d> comp = component_motions(d.axis, at, g);
-  for (size_t i = 0; i < g.size(); ++i) test::add_truth_value(t, d.axis, d.angles_deg[i], error_motion(d.axis, at, g[i], comp[i]));
+  for (size_t i = 0; i < g.size(); ++i)
+    test::add_truth_value(t, d.axis, d.angles_deg[i], error_motion(d.axis, at, g[i], comp[i]));
   t.exact = true;
   t.bar_mm = 150;
   return t;
@@ -157,10 +161,12 @@ std::array<double, 5> location_of(Axis axis, const AxisTruth& t) {
 // axes, the share of error motion values whose interval holds the true range (asserted
 // >= the coverage probability 0.95: the interval's coverage is at least that). Also a
 // noise-free case: first order only.
-void check_recovery(const Design& d, int cases, bool components, std::uint64_t seed, int range_cases = 0) {
+void check_recovery(const Design& d, int cases, bool components, std::uint64_t seed,
+                    int range_cases = 0) {
   std::mt19937_64 rng(seed);
   const Parameterisation param(d);
-  int held = 0, held1 = 0, checked = 0, comp_held = 0, comp_checked = 0, range_held = 0, range_checked = 0;
+  int held = 0, held1 = 0, checked = 0, comp_held = 0, comp_checked = 0, range_held = 0,
+      range_checked = 0;
   double worst_noise_free = 0, width = 0;
   IdentifyOptions no_ranges;
   no_ranges.iso_motion.enabled = false;
@@ -210,15 +216,20 @@ void check_recovery(const Design& d, int cases, bool components, std::uint64_t s
       quiet.noiseless = true;
       const IdentifyResult q = identify(d, simulate(d, quiet, 1), no_ranges);
       const IsoResult qi = iso230_quantities(d, q.param, q.estimate, 1.0, IsoMotionOptions{false});
-      for (int j = 0; j < 5; ++j) worst_noise_free = std::max(worst_noise_free, std::abs(qi.location[j].value.value - want[j]));
+      for (int j = 0; j < 5; ++j)
+        worst_noise_free =
+            std::max(worst_noise_free, std::abs(qi.location[j].value.value - want[j]));
     }
   }
-  std::printf("%s design %s, %d axes%s: %d of %d location errors within 3 u (%d within 1 u); component motions "
-              "within 3 u: %d of %d; error motion values held by their interval: %d of %d (U / value %.2f on "
-              "average); noise-free: largest difference %.2e (um, urad)\n",
-              d.axis == Axis::C ? "C" : "B", d.name.c_str(), cases, components ? " with component motions" : "", held,
-              checked, held1, comp_held, comp_checked, range_held, range_checked,
-              range_checked ? width / range_checked : 0.0, worst_noise_free);
+  std::printf(
+      "%s design %s, %d axes%s: %d of %d location errors within 3 u (%d within 1 u); component "
+      "motions "
+      "within 3 u: %d of %d; error motion values held by their interval: %d of %d (U / value %.2f "
+      "on "
+      "average); noise-free: largest difference %.2e (um, urad)\n",
+      d.axis == Axis::C ? "C" : "B", d.name.c_str(), cases,
+      components ? " with component motions" : "", held, checked, held1, comp_held, comp_checked,
+      range_held, range_checked, range_checked ? width / range_checked : 0.0, worst_noise_free);
   // The uncertainty is the right size, not only large enough: about 68 % within 1 u.
   EXPECT_NEAR(static_cast<double>(held1) / checked, 0.6827, 0.09) << held1 << " of " << checked;
   EXPECT_GE(held, 0.99 * checked) << held << " of " << checked;
@@ -247,7 +258,8 @@ TEST(Iso230, LocationErrorsOfARealBAxisComeBackWithinTheirUncertainty) {
 // with the components' own stated u on a design without and one with declared set-up
 // tolerances (the low-rank part of the covariance).
 TEST(Iso230, ErrorMotionValueUIsBoundedByTheComponentsUncertainties) {
-  for (const char* file : {"designs/paper-c-turntable.json", "designs/c-turntable-kit-optimized-with-setup.json"}) {
+  for (const char* file :
+       {"designs/paper-c-turntable.json", "designs/c-turntable-kit-optimized-with-setup.json"}) {
     const Design d = io::read_design_file(test::source_path(file));
     const Truth truth = exact_truth(d, AxisTruth{});
     const IdentifyResult r = identify(d, simulate(d, truth, 21));

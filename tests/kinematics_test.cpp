@@ -48,32 +48,38 @@ TEST(Kinematics, TurntableRowsMatchPaperEquation9) {
     dP << 1, 0, 0, 0, 1e-3 * H, -1e-3 * L * std::sin(g),  //
         0, 1, 0, -1e-3 * H, 0, 1e-3 * L * std::cos(g),    //
         0, 0, 1, 1e-3 * L * std::sin(g), -1e-3 * L * std::cos(g), 0;
-    const Eigen::Vector3d u_r(std::cos(g), std::sin(g), 0), u_t(-std::sin(g), std::cos(g), 0), u_a(0, 0, 1);
-    const std::pair<Direction::Kind, Eigen::Vector3d> dirs[] = {
-        {Direction::Kind::Radial, u_r}, {Direction::Kind::Tangential, u_t}, {Direction::Kind::Axial, u_a}};
+    const Eigen::Vector3d u_r(std::cos(g), std::sin(g), 0), u_t(-std::sin(g), std::cos(g), 0),
+        u_a(0, 0, 1);
+    const std::pair<Direction::Kind, Eigen::Vector3d> dirs[] = {{Direction::Kind::Radial, u_r},
+                                                                {Direction::Kind::Tangential, u_t},
+                                                                {Direction::Kind::Axial, u_a}};
     for (const auto& [kind, u] : dirs) {
       const Installation in = make(L, 0, H, Direction::named(Axis::C, kind));
-      EXPECT_TRUE(test::near(J_reading_error(Axis::C, in, g_deg), u.transpose() * dP, 1e-12)) << g_deg;
+      EXPECT_TRUE(test::near(J_reading_error(Axis::C, in, g_deg), u.transpose() * dP, 1e-12))
+          << g_deg;
     }
   }
 }
 
-// model.md §4: P(b) = (L sin b, 0, L cos b), dX = L cos b ey + dx, dY = L (ez sin b - ex cos b) + dy,
-// dZ = -L sin b ey + dz; u_r = (sin b, 0, cos b), u_t = (cos b, 0, -sin b), u_a = (0, 1, 0).
+// model.md §4: P(b) = (L sin b, 0, L cos b), dX = L cos b ey + dx, dY = L (ez sin b - ex cos b) +
+// dy, dZ = -L sin b ey + dz; u_r = (sin b, 0, cos b), u_t = (cos b, 0, -sin b), u_a = (0, 1, 0).
 TEST(Kinematics, SwingingHeadRowsMatchModel) {
   const double L = 150;
   for (double b_deg : {0.0, -30.0, -90.0, -100.0}) {
     const double b = b_deg * kPi / 180;
     Eigen::Matrix<double, 3, 6> dP;
-    dP << 1, 0, 0, 0, 1e-3 * L * std::cos(b), 0,  //
+    dP << 1, 0, 0, 0, 1e-3 * L * std::cos(b), 0,                      //
         0, 1, 0, -1e-3 * L * std::cos(b), 0, 1e-3 * L * std::sin(b),  //
         0, 0, 1, 0, -1e-3 * L * std::sin(b), 0;
-    const Eigen::Vector3d u_r(std::sin(b), 0, std::cos(b)), u_t(std::cos(b), 0, -std::sin(b)), u_a(0, 1, 0);
-    const std::pair<Direction::Kind, Eigen::Vector3d> dirs[] = {
-        {Direction::Kind::Radial, u_r}, {Direction::Kind::Tangential, u_t}, {Direction::Kind::Axial, u_a}};
+    const Eigen::Vector3d u_r(std::sin(b), 0, std::cos(b)), u_t(std::cos(b), 0, -std::sin(b)),
+        u_a(0, 1, 0);
+    const std::pair<Direction::Kind, Eigen::Vector3d> dirs[] = {{Direction::Kind::Radial, u_r},
+                                                                {Direction::Kind::Tangential, u_t},
+                                                                {Direction::Kind::Axial, u_a}};
     for (const auto& [kind, u] : dirs) {
       const Installation in = make(L, 0, 0, Direction::named(Axis::B, kind));
-      EXPECT_TRUE(test::near(J_reading_error(Axis::B, in, b_deg), u.transpose() * dP, 1e-12)) << b_deg;
+      EXPECT_TRUE(test::near(J_reading_error(Axis::B, in, b_deg), u.transpose() * dP, 1e-12))
+          << b_deg;
       EXPECT_TRUE(test::near(ball_position_mm(Axis::B, in, b_deg),
                              Eigen::Vector3d(L * std::sin(b), 0, L * std::cos(b)), 1e-12));
     }
@@ -88,9 +94,11 @@ TEST(Kinematics, SignFlipsTheRow) {
 }
 
 TEST(Kinematics, ExplicitVectorEqualsNamedDirection) {
-  // An explicit body vector equal to the named one gives the same row; the body frame is the machine frame at 0.
+  // An explicit body vector equal to the named one gives the same row; the body frame is the
+  // machine frame at 0.
   for (Axis axis : {Axis::C, Axis::B}) {
-    for (auto kind : {Direction::Kind::Radial, Direction::Kind::Tangential, Direction::Kind::Axial}) {
+    for (auto kind :
+         {Direction::Kind::Radial, Direction::Kind::Tangential, Direction::Kind::Axial}) {
       const Direction named = Direction::named(axis, kind);
       const Installation a = make(80, 10, axis == Axis::C ? 40 : 0, named);
       const Installation b = make(80, 10, axis == Axis::C ? 40 : 0, Direction::vector(named.body));
@@ -114,8 +122,9 @@ TEST(Kinematics, RowAgreesWithExactTransformToSecondOrder) {
       } else {
         dir = Direction::vector(Eigen::Vector3d(uni(rng), uni(rng), uni(rng)).normalized());
       }
-      const Installation in = make(250 * std::abs(uni(rng)), 50 * uni(rng), axis == Axis::C ? 200 * std::abs(uni(rng)) : 0,
-                                   dir, trial % 2 ? 1 : -1);
+      const Installation in =
+          make(250 * std::abs(uni(rng)), 50 * uni(rng),
+               axis == Axis::C ? 200 * std::abs(uni(rng)) : 0, dir, trial % 2 ? 1 : -1);
       const double angle = 180 * uni(rng);
       Vector6d e;
       for (int i = 0; i < 6; ++i) e(i) = 50 * uni(rng);  // um and urad
@@ -125,7 +134,8 @@ TEST(Kinematics, RowAgreesWithExactTransformToSecondOrder) {
       for (double t : {40.0, 20.0, 10.0, 5.0}) {
         const double err = std::abs(exact_reading_um(axis, in, angle, t * e, bar) - t * row.dot(e));
         if (previous > 1e-9) {  // above rounding of the exact reading (~1e-10 um)
-          EXPECT_NEAR(previous / err, 4.0, 0.25) << "axis " << axis_name(axis) << " trial " << trial << " t " << t;
+          EXPECT_NEAR(previous / err, 4.0, 0.25)
+              << "axis " << axis_name(axis) << " trial " << trial << " t " << t;
           ++checked;
         }
         previous = err;

@@ -29,11 +29,14 @@ TEST(Readings, TheInstrumentRangeCatchesUmInAMmColumnAndCanBeWidened) {
   EXPECT_EQ(message_of(d, "installation,angle_deg,reading_mm\n1r,0,0.9\n"), "");
   const std::string mm = message_of(d, "installation,angle_deg,reading_mm\n1r,0,0.9\n1r,20,2.5\n");
   EXPECT_NE(mm.find("line 3"), std::string::npos) << mm;
-  EXPECT_NE(mm.find("reading_mm 2.5 is beyond the instrument's range of +-1 mm: are the readings in um?"),
-            std::string::npos)
+  EXPECT_NE(
+      mm.find("reading_mm 2.5 is beyond the instrument's range of +-1 mm: are the readings in um?"),
+      std::string::npos)
       << mm;
   const std::string um = message_of(d, "installation,angle_deg,reading_um\n1r,0,-1000.5\n");
-  EXPECT_NE(um.find("reading -1000.5 um is beyond the instrument's range of +-1 mm"), std::string::npos) << um;
+  EXPECT_NE(um.find("reading -1000.5 um is beyond the instrument's range of +-1 mm"),
+            std::string::npos)
+      << um;
   // A design declaring a range of 5 mm accepts 2.5 mm, and says so in its file.
   d.instrument_range_mm = 5.0;
   EXPECT_EQ(message_of(d, "installation,angle_deg,reading_mm\n1r,20,2.5\n"), "");

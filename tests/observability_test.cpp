@@ -14,7 +14,8 @@ constexpr double kPi = 3.14159265358979323846;
 // J = [1 0; 1 1; 0 1], sigma = 2 um. By hand:
 //   M = J'J / 4 = [2 1; 1 2] / 4: det = 3/16, trace M^-1 = 4 * 4/3 = 16/3, min eig = 1/4;
 //   hat diagonal of J (J'J)^-1 J' = 2/3 for every row.
-//   Columns of J/2 have norm sqrt(2)/2, so Js = J / sqrt(2): Js'Js = [2 1; 1 2]/2, singular values sqrt(3/2), sqrt(1/2).
+//   Columns of J/2 have norm sqrt(2)/2, so Js = J / sqrt(2): Js'Js = [2 1; 1 2]/2, singular values
+//   sqrt(3/2), sqrt(1/2).
 TEST(Observability, IndicesAndCriteriaAgainstHandValues) {
   Eigen::MatrixXd J(3, 2);
   J << 1, 0, 1, 1, 0, 1;
@@ -60,11 +61,11 @@ TEST(Observability, RankLossZeroesIndicesAndHidesDA) {
 // Radial readings do not depend on L: 1r and 2r repeat a + k H1 et, 3r gives a + k H3 et,
 // a straight-line fit in H with Sxx = (2/3) dH^2, so u(et) = sigma / (k dH sqrt(2/3)).
 // Tangential: t2 - t1 = k (L2 - L1) ez gives u(ez) = sqrt(2) sigma / (k dL) (the L1/L2 pair
-// alone), t3 - t1 = -k dH er gives u(er) = sqrt(2) sigma / (k dH). dz = the axial reading: u = sigma.
-// er and et come from disjoint readings, so u(ex)^2 = c^2 u(er)^2 + s^2 u(et)^2 and
-// u(ey)^2 = s^2 u(er)^2 + c^2 u(et)^2. At 0 deg the readings at 360 deg halve every variance.
-// Every station's uncertainties of the paper's C design (L1 = 100, L2 = 200, H1 = 60, H3 = 160
-// mm) against the closed form above, whatever the angle step.
+// alone), t3 - t1 = -k dH er gives u(er) = sqrt(2) sigma / (k dH). dz = the axial reading: u =
+// sigma. er and et come from disjoint readings, so u(ex)^2 = c^2 u(er)^2 + s^2 u(et)^2 and u(ey)^2
+// = s^2 u(er)^2 + c^2 u(et)^2. At 0 deg the readings at 360 deg halve every variance. Every
+// station's uncertainties of the paper's C design (L1 = 100, L2 = 200, H1 = 60, H3 = 160 mm)
+// against the closed form above, whatever the angle step.
 void expect_turntable_closed_form(const Evaluation& ev) {
   const double sigma = 1.25 / std::sqrt(3.0), k = 1e-3;
   const double dL = 200 - 100, dH = 160 - 60;
@@ -75,13 +76,15 @@ void expect_turntable_closed_form(const Evaluation& ev) {
   for (const ErrorsAtAngle& ea : ev.errors) {
     const double g = ea.angle_deg * kPi / 180, c = std::cos(g), s = std::sin(g);
     const double repeat = ea.angle_deg == 0.0 ? std::sqrt(2.0) : 1.0;
-    const double expected[4] = {sigma / repeat, std::sqrt(c * c * u_er * u_er + s * s * u_et * u_et) / repeat,
-                                std::sqrt(s * s * u_er * u_er + c * c * u_et * u_et) / repeat, u_ez / repeat};
+    const double expected[4] = {
+        sigma / repeat, std::sqrt(c * c * u_er * u_er + s * s * u_et * u_et) / repeat,
+        std::sqrt(s * s * u_er * u_er + c * c * u_et * u_et) / repeat, u_ez / repeat};
     const int error[4] = {2, 3, 4, 5};
     for (int i = 0; i < 4 && failures < 10; ++i) {
       const double tol = i == 0 ? 1e-12 : 1e-9;
       if (std::abs(ea.errors[error[i]].std - expected[i]) > tol) ++failures;
-      EXPECT_NEAR(ea.errors[error[i]].std, expected[i], tol) << kErrorNames[error[i]] << " at " << ea.angle_deg;
+      EXPECT_NEAR(ea.errors[error[i]].std, expected[i], tol)
+          << kErrorNames[error[i]] << " at " << ea.angle_deg;
     }
   }
 }
@@ -166,7 +169,8 @@ namespace {
 
 TEST(DesignMap, EveryPointIsTheEvaluationOfThatDesign) {
   const Design d = test::paper_design('C');
-  const std::vector<SweepVariable> vars = {io::parse_sweep(d, "L2=150:250:50"), io::parse_sweep(d, "H@3r,3t=100:200:100")};
+  const std::vector<SweepVariable> vars = {io::parse_sweep(d, "L2=150:250:50"),
+                                           io::parse_sweep(d, "H@3r,3t=100:200:100")};
   EXPECT_EQ(vars[0].installations, (std::vector<int>{3, 4}));  // 2r, 2t
   EXPECT_EQ(vars[1].installations, (std::vector<int>{5, 6}));
   const std::vector<SweepPoint> map = sweep_design(d, vars, 100.0);
@@ -181,13 +185,15 @@ TEST(DesignMap, EveryPointIsTheEvaluationOfThatDesign) {
     EXPECT_DOUBLE_EQ(*p.worst_std_um, *ev.worst.worst_std_um);
     EXPECT_DOUBLE_EQ(*p.condition_number, *ev.prior.condition_number);
   }
-  // A longer lever arm L2 - L1 shrinks u(ez) = sqrt(2) sigma / (k (L2 - L1)), so the worst case cannot grow.
+  // A longer lever arm L2 - L1 shrinks u(ez) = sqrt(2) sigma / (k (L2 - L1)), so the worst case
+  // cannot grow.
   EXPECT_LE(*map[4].worst_std_um, *map[0].worst_std_um);
 }
 
 TEST(DesignMap, BadSpecificationsAreRefused) {
   const Design d = test::paper_design('C');
-  for (const char* spec : {"L2", "X2=1:2:1", "L9=1:2:1", "L@4r=1:2:1", "L2=1:2", "L2=5:1:1", "L2=1:2:0", "L2=a:2:1"}) {
+  for (const char* spec :
+       {"L2", "X2=1:2:1", "L9=1:2:1", "L@4r=1:2:1", "L2=1:2", "L2=5:1:1", "L2=1:2:0", "L2=a:2:1"}) {
     EXPECT_THROW(io::parse_sweep(d, spec), InputError) << spec;
   }
   EXPECT_THROW(io::parse_sweep(test::paper_design('B'), "H1=1:2:1"), InputError);

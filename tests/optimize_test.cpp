@@ -36,7 +36,8 @@ Design random_design(std::mt19937& rng, Axis axis) {
     if (rng() % 2) {
       in.direction = Direction::named(axis, static_cast<Direction::Kind>(rng() % 3));
     } else {
-      in.direction = Direction::vector(Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized());
+      in.direction =
+          Direction::vector(Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized());
     }
     in.sign = rng() % 2 ? 1 : -1;
     d.installations.push_back(in);
@@ -52,16 +53,19 @@ TEST(FastWorstCase, MatchesTheFullEvaluation) {
     const Axis axis = t % 2 ? Axis::C : Axis::B;
     Design d = random_design(rng, axis);
     if (t % 3 == 1) {  // a series model on a third of the designs
-      d.errors = {axis == Axis::C ? ErrorModel::Kind::Fourier : ErrorModel::Kind::Legendre, static_cast<int>(rng() % 3)};
+      d.errors = {axis == Axis::C ? ErrorModel::Kind::Fourier : ErrorModel::Kind::Legendre,
+                  static_cast<int>(rng() % 3)};
     }
     const std::optional<WorstCase> w = fast_worst_case(d, 120.0);
     const Evaluation ev = evaluate_design(d, 120.0);
     if (!w) continue;
     ++fast;
-    ASSERT_TRUE(ev.worst.worst_std_um) << "the fast path answered for a design the full path finds rank-deficient";
+    ASSERT_TRUE(ev.worst.worst_std_um)
+        << "the fast path answered for a design the full path finds rank-deficient";
     EXPECT_NEAR(*w->worst_std_um, *ev.worst.worst_std_um, 1e-9 * *ev.worst.worst_std_um);
   }
-  EXPECT_GT(fast, 250);  // random designs with six or more installations are almost always full rank
+  EXPECT_GT(fast,
+            250);  // random designs with six or more installations are almost always full rank
 }
 
 TEST(FastWorstTotal, MatchesTheStackedSetupSolver) {
@@ -86,18 +90,26 @@ TEST(FastWorstTotal, MatchesTheStackedSetupSolver) {
     const TotalWorstCase ref = dense_worst_total(d, 120.0);
     if (!f) continue;
     ++fast;
-    ASSERT_TRUE(ref.total.worst_std_um) << "the fast path answered for a design the stacked path finds rank-deficient";
+    ASSERT_TRUE(ref.total.worst_std_um)
+        << "the fast path answered for a design the stacked path finds rank-deficient";
     // Rounding only;
     // where the worst case is reached is not compared: symmetric designs reach it at
     // several angles, and rounding picks one.
-    EXPECT_NEAR(*f->total.worst_std_um, *ref.total.worst_std_um, 1e-9 * *ref.total.worst_std_um) << t;
-    worst_total_rel = std::max(worst_total_rel, std::abs(*f->total.worst_std_um / *ref.total.worst_std_um - 1));
-    worst_noise_rel = std::max(worst_noise_rel, std::abs(*f->noise->worst_std_um - *ref.noise->worst_std_um) / *ref.total.worst_std_um);
-    EXPECT_NEAR(*f->noise->worst_std_um, *ref.noise->worst_std_um, 1e-9 * *ref.total.worst_std_um) << t;
+    EXPECT_NEAR(*f->total.worst_std_um, *ref.total.worst_std_um, 1e-9 * *ref.total.worst_std_um)
+        << t;
+    worst_total_rel =
+        std::max(worst_total_rel, std::abs(*f->total.worst_std_um / *ref.total.worst_std_um - 1));
+    worst_noise_rel =
+        std::max(worst_noise_rel, std::abs(*f->noise->worst_std_um - *ref.noise->worst_std_um) /
+                                      *ref.total.worst_std_um);
+    EXPECT_NEAR(*f->noise->worst_std_um, *ref.noise->worst_std_um, 1e-9 * *ref.total.worst_std_um)
+        << t;
     EXPECT_GT(*f->total.worst_std_um, *f->noise->worst_std_um);  // a declared tolerance adds
   }
   EXPECT_GT(fast, 60);
-  std::cout << "fast_worst_total against the stacked path over " << fast << " designs: largest relative difference " << worst_total_rel << " (total), " << worst_noise_rel << " (noise part, relative to the total)\n";
+  std::cout << "fast_worst_total against the stacked path over " << fast
+            << " designs: largest relative difference " << worst_total_rel << " (total), "
+            << worst_noise_rel << " (noise part, relative to the total)\n";
   // At the limits of a declared tolerance (README, "Limits"): a prior far above what the
   // readings leave (10 mm, the total near the prior) and far below (1 nm, the total near
   // the noise part) give the stacked path's total.
@@ -107,7 +119,8 @@ TEST(FastWorstTotal, MatchesTheStackedSetupSolver) {
     const std::optional<TotalWorstCase> f = fast_worst_total(e, 100.0);
     ASSERT_TRUE(f) << u;
     const TotalWorstCase ref = dense_worst_total(e, 100.0);
-    EXPECT_NEAR(*f->total.worst_std_um, *ref.total.worst_std_um, 1e-9 * *ref.total.worst_std_um) << u;
+    EXPECT_NEAR(*f->total.worst_std_um, *ref.total.worst_std_um, 1e-9 * *ref.total.worst_std_um)
+        << u;
   }
   // Without tolerances the total is the noise-only fast worst case; a series model declines.
   Design c = test::paper_design('C');
@@ -153,13 +166,14 @@ TEST(FastSetupInformation, MatchesTheStackedModel) {
       EXPECT_EQ(a.q, b.q) << t << " " << k;
       EXPECT_EQ(a.detectable, b.detectable) << t << " " << k;
       if (a.detectable && b.detectable) {
-        EXPECT_NEAR(a.min_information, b.min_information, 1e-9 * b.min_information) << t << " " << k;
+        EXPECT_NEAR(a.min_information, b.min_information, 1e-9 * b.min_information)
+            << t << " " << k;
       }
       (b.detectable ? detectable : not_detectable) += 1;
     }
   }
-  std::cout << "fast_setup_information against the stacked model: " << fast << " designs, " << detectable
-            << " effects detectable, " << not_detectable << " not\n";
+  std::cout << "fast_setup_information against the stacked model: " << fast << " designs, "
+            << detectable << " effects detectable, " << not_detectable << " not\n";
   EXPECT_GT(fast, 40);
   EXPECT_GT(detectable, 50);      // both outcomes are met: six installations leave nothing to
   EXPECT_GT(not_detectable, 20);  // detect, a duplicated reading leaves its pair
@@ -183,27 +197,34 @@ TEST(FastWorstCase, DeclinesRankLossAndAnswersSeries) {
   EXPECT_GT(w.n_undetermined, 0);
   Design c = test::paper_design('C');
   ASSERT_TRUE(fast_worst_case(c, 100));
-  EXPECT_NEAR(*fast_worst_case(c, 100)->worst_std_um, *evaluate_design(c, 100).worst.worst_std_um, 1e-12);
+  EXPECT_NEAR(*fast_worst_case(c, 100)->worst_std_um, *evaluate_design(c, 100).worst.worst_std_um,
+              1e-12);
   c.errors = {ErrorModel::Kind::Fourier, 2};
   ASSERT_TRUE(fast_worst_case(c, 100));
-  EXPECT_NEAR(*fast_worst_case(c, 100)->worst_std_um, *evaluate_design(c, 100).worst.worst_std_um, 1e-12);
+  EXPECT_NEAR(*fast_worst_case(c, 100)->worst_std_um, *evaluate_design(c, 100).worst.worst_std_um,
+              1e-12);
   // Order 9 on 20 deg steps: sin 9g is 0 at every measured angle, so its coefficients are not
   // determined (rank 108 of 114); the fast path declines and the general solver answers.
   c.errors = {ErrorModel::Kind::Fourier, 9};
   EXPECT_FALSE(fast_worst_case(c, 100));
   const Evaluation ev = evaluate_design(c, 100);
   EXPECT_EQ(ev.prior.n_unknowns - ev.prior.rank, 6);
-  EXPECT_NEAR(design_worst_case(c, 100).worst_std_um.value_or(-1), ev.worst.worst_std_um.value_or(-1), 1e-12);
+  EXPECT_NEAR(design_worst_case(c, 100).worst_std_um.value_or(-1),
+              ev.worst.worst_std_um.value_or(-1), 1e-12);
 }
 
-Kit formats_kit() { return io::read_kit_file(test::source_path("designs/kits/c-turntable-kit.json")); }
+Kit formats_kit() {
+  return io::read_kit_file(test::source_path("designs/kits/c-turntable-kit.json"));
+}
 
 TEST(Kit, BlockStacksAreTheDistinctHeights) {
-  const std::vector<Stack> s = block_stacks(formats_kit());  // base 45, blocks 25, 50, 100, at most 2
+  const std::vector<Stack> s =
+      block_stacks(formats_kit());  // base 45, blocks 25, 50, 100, at most 2
   std::vector<double> h;
   for (const Stack& x : s) h.push_back(x.height_mm);
   EXPECT_EQ(h, (std::vector<double>{45, 70, 95, 120, 145, 170, 195}));
-  EXPECT_EQ(s[4].blocks_mm, (std::vector<double>{100}));  // 145 = 45 + 100, one block rather than none
+  EXPECT_EQ(s[4].blocks_mm,
+            (std::vector<double>{100}));  // 145 = 45 + 100, one block rather than none
   EXPECT_EQ(s[3].blocks_mm, (std::vector<double>{25, 50}));
 }
 
@@ -227,7 +248,8 @@ TEST(Kit, TravelExtentIsExactOverTheArc) {
     double sampled = -1e300;
     for (int i = 0; i <= 20000; ++i) {
       const double a = lo + (hi - lo) * i / 20000.0;
-      const Eigen::Vector3d F = ball_position_mm(axis, in, a) - in.sign * 150.0 * direction_machine(axis, in, a);
+      const Eigen::Vector3d F =
+          ball_position_mm(axis, in, a) - in.sign * 150.0 * direction_machine(axis, in, a);
       for (int k = 0; k < 3; ++k) {
         sampled = std::max({sampled, kit.travel_mm[k].min - F(k), F(k) - kit.travel_mm[k].max});
       }
@@ -238,14 +260,16 @@ TEST(Kit, TravelExtentIsExactOverTheArc) {
 }
 
 TEST(Kit, FitBarTakesTheShortestBarThatFits) {
-  Kit kit = formats_kit();  // y travel +-300 mm: a tangential bar reaches sqrt(L^2 + bar^2) from the axis
+  // y travel +-300 mm: a tangential bar reaches sqrt(L^2 + bar^2) from the axis.
+  Kit kit = formats_kit();
   Installation in;
   in.L_mm = 250;
   in.H_mm = 45;
   in.direction = Direction::named(Axis::C, Direction::Kind::Tangential);
   const std::vector<double> turn = kit_angles(kit, 20);
   EXPECT_LE(fit_bar(kit, Axis::C, in, turn), 0);
-  EXPECT_EQ(*in.bar_mm, 100);  // sqrt(250^2 + 100^2) = 269 <= 300; 150 gives 292 too, but 100 is shorter
+  EXPECT_EQ(*in.bar_mm,
+            100);  // sqrt(250^2 + 100^2) = 269 <= 300; 150 gives 292 too, but 100 is shorter
   kit.bars_mm = {250, 300};
   EXPECT_GT(fit_bar(kit, Axis::C, in, turn), 0);  // sqrt(250^2 + 250^2) = 354 > 300: nothing fits
   EXPECT_NEAR(fit_bar(kit, Axis::C, in, turn), std::hypot(250.0, 250.0) - 300, 1e-9);
@@ -305,7 +329,8 @@ void expect_no_better_grid_point(const Kit& kit, double grid_mm) {
   EXPECT_TRUE(opt.best->feasible);
   EXPECT_EQ(opt.best->n_undetermined, grid.best->n_undetermined);
   EXPECT_LE(opt.best->objective, 1.005 * grid.best->objective)
-      << "a grid point is more than 0.5% better: " << grid.best->objective << " um vs " << opt.best->objective;
+      << "a grid point is more than 0.5% better: " << grid.best->objective << " um vs "
+      << opt.best->objective;
   // The travel binds: it is active at the optimum, and relaxing it lets the search do better.
   EXPECT_GT(opt.best->travel_violation_mm, -0.5);
   Kit relaxed = kit;
@@ -313,14 +338,18 @@ void expect_no_better_grid_point(const Kit& kit, double grid_mm) {
   const OptimizeResult free = optimize_kit(relaxed, {Criterion::Worst, 2});
   ASSERT_TRUE(free.best);
   EXPECT_LT(free.best->objective, 0.99 * opt.best->objective);
-  std::cout << kit.name << ": optimize " << opt.best->objective << " um (" << opt.evaluations << " designs), grid "
-            << grid_mm << " mm " << grid.best->objective << " um (" << grid.evaluations << " designs), travel relaxed "
-            << free.best->objective << " um\n";
+  std::cout << kit.name << ": optimize " << opt.best->objective << " um (" << opt.evaluations
+            << " designs), grid " << grid_mm << " mm " << grid.best->objective << " um ("
+            << grid.evaluations << " designs), travel relaxed " << free.best->objective << " um\n";
 }
 
-TEST(Exhaustive, SmallCKitNoGridPointBeatsTheSearch) { expect_no_better_grid_point(small_c_kit(), 2.5); }
+TEST(Exhaustive, SmallCKitNoGridPointBeatsTheSearch) {
+  expect_no_better_grid_point(small_c_kit(), 2.5);
+}
 
-TEST(Exhaustive, SmallBKitNoGridPointBeatsTheSearch) { expect_no_better_grid_point(small_b_kit(), 5.0); }
+TEST(Exhaustive, SmallBKitNoGridPointBeatsTheSearch) {
+  expect_no_better_grid_point(small_b_kit(), 5.0);
+}
 
 TEST(Optimize, BKitWithOffsetGivesRankSix) {
   const OptimizeResult r = optimize_kit(small_b_kit(), {Criterion::Worst, 2});
@@ -379,7 +408,8 @@ TEST(Optimize, TimeBudgetExcludesChoices) {
 // reports, within the time budget.
 // The C three_position pattern written out in a kit file, position by position.
 Pattern written_out_three_position() {
-  const Kit k = io::kit_from_text(R"({"format": "dbbkit.kit/1", "axis": "C", "reference_length_mm": 100,
+  const Kit k =
+      io::kit_from_text(R"({"format": "dbbkit.kit/1", "axis": "C", "reference_length_mm": 100,
     "pattern": {"name": "written-out", "distinct": [["H1", "H3"]], "positions": [
       {"id": "1", "L": "L1", "D": "D1", "H": "H1", "directions": ["radial", "tangential"]},
       {"id": "1", "H": "H1", "directions": ["axial"], "separated": false},
@@ -388,7 +418,7 @@ Pattern written_out_three_position() {
     "L_mm": {"min": 20, "max": 250}, "H_mm": {"base": 45, "blocks": [150], "max_stack": 1}, "bars_mm": [100],
     "travel_mm": {"x": [-220, 220], "y": [-220, 220], "z": [-50, 400]},
     "angles_deg": {"range": [0, 360], "steps": [30]}, "time_s": {"per_reading": 3, "per_installation": 240}})",
-                                  "written-out");
+                        "written-out");
   EXPECT_FALSE(k.pattern.builtin);
   return k.pattern;
 }
@@ -410,7 +440,10 @@ TEST(Pattern, KitFileExtendsTheBuiltIn) {
   // The B pattern's off-axis position is offered only where D_mm allows an offset.
   const Kit b = io::read_kit_file(test::source_path("designs/kits/b-head-kit-on-axis.json"));
   EXPECT_TRUE(offered_optional_positions(b).empty());
-  EXPECT_EQ(offered_optional_positions(io::read_kit_file(test::source_path("designs/kits/b-head-kit.json"))).size(), 1u);
+  EXPECT_EQ(offered_optional_positions(
+                io::read_kit_file(test::source_path("designs/kits/b-head-kit.json")))
+                .size(),
+            1u);
 }
 
 TEST(Pattern, TheBuiltInWrittenAsDataSearchesTheSame) {
@@ -426,7 +459,8 @@ TEST(Pattern, TheBuiltInWrittenAsDataSearchesTheSame) {
   EXPECT_EQ(a.best->x, b.best->x);
   EXPECT_EQ(a.evaluations, b.evaluations);
   ASSERT_EQ(a.best->design.installations.size(), 7u);
-  for (size_t i = 0; i < 7; ++i) EXPECT_EQ(a.best->design.installations[i].id, b.best->design.installations[i].id);
+  for (size_t i = 0; i < 7; ++i)
+    EXPECT_EQ(a.best->design.installations[i].id, b.best->design.installations[i].id);
 }
 
 TEST(Pattern, OptionalPositionsAreAddedInOrderAndBuyTotal) {
@@ -437,30 +471,34 @@ TEST(Pattern, OptionalPositionsAreAddedInOrderAndBuyTotal) {
   using K = Direction::Kind;
   const PatternCoordinate zero{};
   k.pattern.positions.push_back({"4", zero, zero, {"H3", 0}, {K::Axial}, false, true, false});
-  k.pattern.positions.push_back({"5", {"L5", 0}, {"D5", 0}, {"H1", 0}, {K::Radial, K::Tangential}, true, true, false});
+  k.pattern.positions.push_back(
+      {"5", {"L5", 0}, {"D5", 0}, {"H1", 0}, {K::Radial, K::Tangential}, true, true, false});
   validate_kit(k);
   // Two heights (45, 195 mm) in two orders, one step, 0, 1 or 2 optional positions.
   const std::vector<PatternChoice> choices = pattern_choices(k);
   ASSERT_EQ(choices.size(), 6u);
-  for (size_t i = 0; i < choices.size(); ++i) EXPECT_EQ(choices[i].n_optional, static_cast<int>(i / 2));
+  for (size_t i = 0; i < choices.size(); ++i)
+    EXPECT_EQ(choices[i].n_optional, static_cast<int>(i / 2));
   const OptimizeResult r = optimize_kit(k, {Criterion::WorstTotal, 2});
   ASSERT_TRUE(plain.best && r.best);
   for (const ChoiceResult& c : r.choices) {
     ASSERT_TRUE(c.best);
-    const size_t expected = 7 + (c.choice.n_optional >= 1 ? 1 : 0) + (c.choice.n_optional >= 2 ? 2 : 0);
+    const size_t expected =
+        7 + (c.choice.n_optional >= 1 ? 1 : 0) + (c.choice.n_optional >= 2 ? 2 : 0);
     EXPECT_EQ(c.best->design.installations.size(), expected) << c.label;
     if (c.choice.n_optional == 2) EXPECT_EQ(added_installations(k, *c.best), "4a 5r 5t");
   }
   // The same choices without optional positions search exactly as before.
-  for (size_t i = 0; i < plain.choices.size(); ++i) EXPECT_EQ(plain.choices[i].best->objective, r.choices[i].best->objective);
+  for (size_t i = 0; i < plain.choices.size(); ++i)
+    EXPECT_EQ(plain.choices[i].best->objective, r.choices[i].best->objective);
   // Extra installations buy total uncertainty: the best adds both positions, and its total
   // (recomputed through the stacked model) is below the three_position optimum.
   EXPECT_EQ(r.best->choice.n_optional, 2);
   const TotalWorstCase best = dense_worst_total(r.best->design, k.reference_length_mm);
   EXPECT_NEAR(*best.total.worst_std_um, r.best->objective, 1e-9 * r.best->objective);
   EXPECT_LT(r.best->objective, 0.95 * plain.best->objective);
-  std::cout << "small C kit, 10 um / 5 um: three_position " << plain.best->objective << " um, with 4a 5r 5t "
-            << r.best->objective << " um\n";
+  std::cout << "small C kit, 10 um / 5 um: three_position " << plain.best->objective
+            << " um, with 4a 5r 5t " << r.best->objective << " um\n";
   // The Pareto front: longer measurements only where they buy a smaller total.
   ASSERT_GE(r.pareto.size(), 2u);
   for (size_t i = 1; i < r.pareto.size(); ++i) {
@@ -483,9 +521,12 @@ TEST(Pattern, RequiredSetupDetectionIsMetByTheDesignFoundAndNamedWhereNoPosition
   k.max_stack = 1;
   auto evaluated_ratio = [&](const Design& d) {
     double ratio = 0;
-    const DetectionSettings settings = diagnose_detection_settings(effect_detectability(d, nominal_readings(d)));
-    for (const SetupEffectCheck& c : evaluate_design(d, k.reference_length_mm, {}, settings).setup_checks) {
-      ratio = std::max(ratio, c.detection_limit_um ? *c.detection_limit_um / c.declared_std_um : 1e300);
+    const DetectionSettings settings =
+        diagnose_detection_settings(effect_detectability(d, nominal_readings(d)));
+    for (const SetupEffectCheck& c :
+         evaluate_design(d, k.reference_length_mm, {}, settings).setup_checks) {
+      ratio =
+          std::max(ratio, c.detection_limit_um ? *c.detection_limit_um / c.declared_std_um : 1e300);
     }
     return ratio;
   };
@@ -501,9 +542,11 @@ TEST(Pattern, RequiredSetupDetectionIsMetByTheDesignFoundAndNamedWhereNoPosition
   const double ratio = evaluated_ratio(r.best->design);
   EXPECT_LE(ratio, r.best->detection->ratio * (1 + 1e-9));
   EXPECT_GT(ratio, 0.9);  // the requirement binds
-  std::cout << "set-up kit at 45 deg: best total " << unconstrained.best->objective << " um (largest detection limit / "
-            << "declared " << evaluated_ratio(unconstrained.best->design) << "); with the requirement "
-            << r.best->objective << " um (" << ratio << ", " << r.best->detection->effect << ")\n";
+  std::cout << "set-up kit at 45 deg: best total " << unconstrained.best->objective
+            << " um (largest detection limit / "
+            << "declared " << evaluated_ratio(unconstrained.best->design)
+            << "); with the requirement " << r.best->objective << " um (" << ratio << ", "
+            << r.best->detection->effect << ")\n";
   // A choice that meets the requirement meets it at its best point; one without enough
   // installations is named with the effects the axis errors take at every position.
   for (const ChoiceResult& c : r.choices) {
@@ -537,10 +580,11 @@ TEST(Optimize, OtherCriteriaScoreFullRankDesigns) {
     const OptimizeResult r = optimize_kit(k, o);
     ASSERT_TRUE(r.best) << criterion_name(c);
     EXPECT_TRUE(r.best->objective_defined) << criterion_name(c);
-    EXPECT_EQ(r.best_evaluation.prior.rank, r.best_evaluation.prior.n_unknowns) << criterion_name(c);
+    EXPECT_EQ(r.best_evaluation.prior.rank, r.best_evaluation.prior.n_unknowns)
+        << criterion_name(c);
     // The search's value is the criterion of the design it returns.
     const Evaluation& ev = r.best_evaluation;
-    const double expect = c == Criterion::D ? -*ev.criteria.D_logdet
+    const double expect = c == Criterion::D   ? -*ev.criteria.D_logdet
                           : c == Criterion::A ? *ev.criteria.A_trace
                           : c == Criterion::E ? -ev.criteria.E_min_eigenvalue
                                               : *ev.prior.condition_number;
@@ -556,8 +600,8 @@ TEST(Optimize, FormatsKitBeatsThePaperLikeDesign) {
   ASSERT_TRUE(paper.worst.worst_std_um);
   const double ratio = *r.best_evaluation.worst.worst_std_um / *paper.worst.worst_std_um;
   EXPECT_LT(ratio, 1.0);
-  std::cout << "formats.md kit: optimised " << *r.best_evaluation.worst.worst_std_um << " um, paper-like "
-            << *paper.worst.worst_std_um << " um, ratio " << ratio << "\n";
+  std::cout << "formats.md kit: optimised " << *r.best_evaluation.worst.worst_std_um
+            << " um, paper-like " << *paper.worst.worst_std_um << " um, ratio " << ratio << "\n";
   // The prediction carried by the search equals the full evaluation of the design it returns.
   EXPECT_NEAR(r.best->objective, *r.best_evaluation.worst.worst_std_um, 1e-9);
 }

@@ -2,6 +2,8 @@
 // and the normal and chi-squared deviates follow their distributions (binned against the exact
 // CDFs of Boost.Math, the tails counted on their own, the first four moments).
 
+#include "../src/random.hpp"
+
 #include <gtest/gtest.h>
 
 #include <boost/math/distributions/chi_squared.hpp>
@@ -9,7 +11,6 @@
 #include <cmath>
 #include <vector>
 
-#include "../src/random.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -23,7 +24,8 @@ TEST(Ziggurat, LayersHaveEqualAreaAndTheTopOneCloses) {
   const NormalZiggurat::Tables& t = NormalZiggurat::tables();
   const double v = t.area;
   // The base layer: rectangle [0, r] x [0, f(r)] and the tail beyond r, by the normal CDF.
-  const double tail = std::sqrt(2 * std::acos(-1.0)) * boost::math::cdf(boost::math::complement(boost::math::normal(), t.x[1]));
+  const double tail = std::sqrt(2 * std::acos(-1.0)) *
+                      boost::math::cdf(boost::math::complement(boost::math::normal(), t.x[1]));
   EXPECT_NEAR(t.x[1] * t.fx[1] + tail, v, 1e-15);
   EXPECT_NEAR(t.x[0] * t.fx[1], v, 1e-15);
   for (int i = 1; i < NormalZiggurat::kLayers; ++i) {
@@ -60,9 +62,12 @@ TEST(Ziggurat, DeviatesAreStandardNormal) {
   Xoshiro256pp rng(42);
   const NormalZiggurat n01;
   const boost::math::normal N;
-  expect_fits("normal", 2000000, 200, [&] { return n01(rng); }, [&](double p) { return boost::math::quantile(N, p); });
+  expect_fits(
+      "normal", 2000000, 200, [&] { return n01(rng); },
+      [&](double p) { return boost::math::quantile(N, p); });
 
-  // The tails (beyond the base layer's r, drawn by their own method, and far beyond) and the moments.
+  // The tails (beyond the base layer's r, drawn by their own method, and far beyond) and the
+  // moments.
   const long n = 4000000;
   long beyond_r = 0, beyond_4 = 0, negative = 0;
   double m1 = 0, m2 = 0, m3 = 0, m4 = 0;
@@ -107,7 +112,9 @@ TEST(ChiSquaredDeviates, FollowTheirDistribution) {
     const ChiSquared chi2(nu);
     const boost::math::chi_squared C(nu);
     const std::string what = "nu = " + std::to_string(nu);
-    expect_fits(what.c_str(), 400000, 100, [&] { return chi2(rng); }, [&](double p) { return boost::math::quantile(C, p); });
+    expect_fits(
+        what.c_str(), 400000, 100, [&] { return chi2(rng); },
+        [&](double p) { return boost::math::quantile(C, p); });
   }
 }
 

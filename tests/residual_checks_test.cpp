@@ -54,7 +54,8 @@ TEST(ColumnTester, OneAndTwoColumnsAgreeWithARefit) {
   std::mt19937_64 rng(2);
   std::normal_distribution<double> n01;
   for (int q : {1, 2}) {
-    const Eigen::MatrixXd X = Eigen::MatrixXd::NullaryExpr(60, q, [&](Eigen::Index, Eigen::Index) { return n01(rng); });
+    const Eigen::MatrixXd X =
+        Eigen::MatrixXd::NullaryExpr(60, q, [&](Eigen::Index, Eigen::Index) { return n01(rng); });
     const ColumnTest t = tester.test(X);
     int dof = 0;
     EXPECT_EQ(t.added_rank, q);
@@ -126,7 +127,9 @@ TEST(NoiseScale, IntervalFromChiSquaredQuantiles) {
 // order-2 model (tests/data/c_fourier2_bar150.json), swept ccw, cw, ccw.
 
 using test::fourier_design;
-Truth random_truth(const Design& d, std::mt19937_64& rng) { return test::random_fourier_truth(d, rng); }
+Truth random_truth(const Design& d, std::mt19937_64& rng) {
+  return test::random_fourier_truth(d, rng);
+}
 
 // One reading 30 um off: named (the right reading), nothing of the library added to explain
 // it, and the opt-in refit without it consistent with the noise.
@@ -140,12 +143,14 @@ TEST(DiagnoseFindsEffect, GrossReadingIsNamedNotExplainedAway) {
     const int row = static_cast<int>(rng() % rd.size());
     rd[row].reading_um += (s % 2 ? 30.0 : -30.0);
     const DiagnoseResult r = diagnose(d, rd);
-    named += !r.gross.empty() && r.gross[0].row == row && r.verdict.find("gross reading") != std::string::npos;
+    named += !r.gross.empty() && r.gross[0].row == row &&
+             r.verdict.find("gross reading") != std::string::npos;
     nothing_added += r.added.empty();
     DiagnoseOptions o;
     o.exclude_gross = true;
     const DiagnoseResult x = diagnose(d, rd, o);
-    refit_clean += x.excluded_rows == std::vector<int>{row} && x.after.p_value && *x.after.p_value > 0.01 &&
+    refit_clean += x.excluded_rows == std::vector<int>{row} && x.after.p_value &&
+                   *x.after.p_value > 0.01 &&
                    x.verdict.rfind("Refit without 1 gross reading", 0) == 0;
   }
   EXPECT_GE(named, 95);
@@ -166,7 +171,8 @@ TEST(DiagnoseFindsEffect, NoiseLargerThanDeclaredIsSaidSo) {
     noisy.half_width_um *= 2.45;
     t.noise = noisy;
     const DiagnoseResult r = diagnose(d, simulate(d, t, 12000 + s));
-    said += r.noise_larger_than_declared && r.verdict.find("more than the declared noise") != std::string::npos;
+    said += r.noise_larger_than_declared &&
+            r.verdict.find("more than the declared noise") != std::string::npos;
     nothing_added += r.added.empty();
     covered += r.noise && r.noise->low <= 2.45 && 2.45 <= r.noise->high;
   }
@@ -205,8 +211,9 @@ TEST(DiagnoseFindsEffect, StatedDetectionLimitHasItsPower) {
   const Design d = fourier_design();
   std::mt19937_64 rng(24);
   const DiagnoseResult clean = diagnose(d, simulate(d, random_truth(d, rng), 14000));
-  const auto it = std::find_if(clean.detection_limits.begin(), clean.detection_limits.end(),
-                               [](const DetectionLimit& l) { return l.label == "length_offset[2r]"; });
+  const auto it =
+      std::find_if(clean.detection_limits.begin(), clean.detection_limits.end(),
+                   [](const DetectionLimit& l) { return l.label == "length_offset[2r]"; });
   ASSERT_NE(it, clean.detection_limits.end());
   ASSERT_TRUE(it->limit.has_value());
   const double limit = *it->limit;
@@ -220,7 +227,8 @@ TEST(DiagnoseFindsEffect, StatedDetectionLimitHasItsPower) {
       auto in = [](const std::vector<std::string>& v) {
         return std::find(v.begin(), v.end(), "length_offset[2r]") != v.end();
       };
-      return a.block.label == "length_offset[2r]" || in(a.equivalent_to) || in(a.close_alternatives);
+      return a.block.label == "length_offset[2r]" || in(a.equivalent_to) ||
+             in(a.close_alternatives);
     });
   };
   for (int s = 0; s < seeds; ++s) {

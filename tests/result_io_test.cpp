@@ -14,8 +14,13 @@ using nlohmann::json;
 
 // json_text writes the rows one at a time; the text must be that of the whole document dumped.
 TEST(JsonText, IsTheDumpOfTheDocumentWithTheRows) {
-  json doc = {{"a", 1.5}, {"z", {{"k", "v"}}}, {"m", json::array({1, 2})}, {"s", "text \x01 with a control"}};
-  auto row = [](std::size_t i) { return json{{"i", i}, {"x", 0.1 * static_cast<double>(i)}, {"nested", {{"a", {1, 2}}}}}; };
+  json doc = {{"a", 1.5},
+              {"z", {{"k", "v"}}},
+              {"m", json::array({1, 2})},
+              {"s", "text \x01 with a control"}};
+  auto row = [](std::size_t i) {
+    return json{{"i", i}, {"x", 0.1 * static_cast<double>(i)}, {"nested", {{"a", {1, 2}}}}};
+  };
   for (std::size_t count : {0, 1, 3}) {
     json whole = doc;
     whole["readings"] = json::array();

@@ -2,20 +2,21 @@
 // checked against least squares solved here with Eigen's column-pivoting QR (not
 // the project's WLS solver).
 #include "dbbkit/selection.hpp"
-#include "test_util.hpp"
 
 #include <gtest/gtest.h>
 
 #include <Eigen/QR>
-
 #include <algorithm>
 #include <cmath>
 #include <random>
 
+#include "test_util.hpp"
+
 namespace dbbkit {
 namespace {
 
-EffectBlock column(EffectKind kind, int installation, const std::string& label, const Eigen::VectorXd& x) {
+EffectBlock column(EffectKind kind, int installation, const std::string& label,
+                   const Eigen::VectorXd& x) {
   EffectBlock b;
   b.effect.kind = kind;
   b.effect.installation = installation;
@@ -61,7 +62,8 @@ struct TwoHalves {
     w = t;
   }
   std::vector<EffectBlock> pool() const {
-    return {column(EffectKind::Drift, 0, "drift[0]", a), column(EffectKind::Drift, 1, "drift[1]", b),
+    return {column(EffectKind::Drift, 0, "drift[0]", a),
+            column(EffectKind::Drift, 1, "drift[1]", b),
             column(EffectKind::Drift, -1, "drift[all]", w)};
   }
   Eigen::VectorXd noise(std::mt19937_64& rng) const {
@@ -73,13 +75,13 @@ struct TwoHalves {
 };
 
 TEST(Selection, CandidateStateNamesAreDistinct) {
-  const std::vector<CandidateState> all = {CandidateState::kAdded,         CandidateState::kNotSignificant,
-                                           CandidateState::kConfounded,    CandidateState::kNotApplicable,
-                                           CandidateState::kEquivalent,    CandidateState::kDetectable};
+  const std::vector<CandidateState> all = {
+      CandidateState::kAdded,         CandidateState::kNotSignificant, CandidateState::kConfounded,
+      CandidateState::kNotApplicable, CandidateState::kEquivalent,     CandidateState::kDetectable};
   std::vector<std::string> names;
   for (CandidateState s : all) names.emplace_back(candidate_state_name(s));
-  EXPECT_EQ(names, (std::vector<std::string>{"added", "not significant", "confounded", "not applicable",
-                                             "equivalent", "detectable"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"added", "not significant", "confounded",
+                                             "not applicable", "equivalent", "detectable"}));
 }
 
 TEST(Selection, BicIsTheTextbookFormula) {
@@ -97,7 +99,9 @@ TEST(Selection, CleanDataAddsNothing) {
   std::mt19937_64 rng(11);
   int clean = 0;
   const int seeds = 300;
-  for (int s = 0; s < seeds; ++s) clean += select_effects(test::sparse(h.J), h.sigma, 1.0 + h.noise(rng).array(), h.pool()).added.empty();
+  for (int s = 0; s < seeds; ++s)
+    clean += select_effects(test::sparse(h.J), h.sigma, 1.0 + h.noise(rng).array(), h.pool())
+                 .added.empty();
   EXPECT_GE(clean, 0.97 * seeds) << clean;
 }
 
@@ -144,8 +148,10 @@ TEST(Selection, DifferentDriftsPerInstallationKeepTwoTerms) {
   for (int seed = 0; seed < seeds; ++seed) {
     const Eigen::VectorXd y = 2.0 + 12.0 * h.a.array() - 12.0 * h.b.array() + h.noise(rng).array();
     const Selection s = select_effects(test::sparse(h.J), h.sigma, y, h.pool());
-    const bool both = find_added(s, "drift[0]") && find_added(s, "drift[1]") && !find_added(s, "drift[all]");
-    const bool reported = s.structures.size() == 1 && s.structures[0].rejected == std::vector<std::string>{"drift[all]"} &&
+    const bool both =
+        find_added(s, "drift[0]") && find_added(s, "drift[1]") && !find_added(s, "drift[all]");
+    const bool reported = s.structures.size() == 1 &&
+                          s.structures[0].rejected == std::vector<std::string>{"drift[all]"} &&
                           s.structures[0].bic_chosen < s.structures[0].bic_rejected;
     kept += both && reported;
   }
@@ -158,7 +164,8 @@ TEST(Selection, CandidateInTheSpanOfTheModelIsConfounded) {
   std::mt19937_64 rng(9);
   const Eigen::VectorXd y = 50.0 + h.noise(rng).array();
   std::vector<EffectBlock> pool = h.pool();
-  pool.push_back(column(EffectKind::LengthOffset, -1, "length_offset[all]", Eigen::VectorXd::Constant(h.n, 1.0)));
+  pool.push_back(column(EffectKind::LengthOffset, -1, "length_offset[all]",
+                        Eigen::VectorXd::Constant(h.n, 1.0)));
   const Selection s = select_effects(test::sparse(h.J), h.sigma, y, pool);
   EXPECT_EQ(status_of(s, "length_offset[all]").state, CandidateState::kConfounded);
   EXPECT_EQ(find_added(s, "length_offset[all]"), nullptr);
@@ -196,18 +203,21 @@ TEST(Selection, AnEarlyChoiceMadeRedundantIsDropped) {
   std::normal_distribution<double> n01;
   Eigen::VectorXd a(n), b(n), noise(n);
   for (int i = 0; i < n; ++i) a(i) = n01(rng), b(i) = n01(rng), noise(i) = 0.05 * n01(rng);
-  const Eigen::VectorXd c = a + b + 0.3 * Eigen::VectorXd::NullaryExpr(n, [&](Eigen::Index) { return n01(rng); });
+  const Eigen::VectorXd c =
+      a + b + 0.3 * Eigen::VectorXd::NullaryExpr(n, [&](Eigen::Index) { return n01(rng); });
   const Eigen::VectorXd y = 8.0 * a + 5.0 * b + noise;
   const Eigen::MatrixXd J = Eigen::MatrixXd::Ones(n, 1);
-  const Selection s = select_effects(test::sparse(J), Eigen::VectorXd::Constant(n, 0.05), y,
-                                     {column(EffectKind::Periodic, 0, "a", a), column(EffectKind::Periodic, 0, "b", b),
-                                      column(EffectKind::Periodic, 0, "c", c)});
+  const Selection s = select_effects(
+      test::sparse(J), Eigen::VectorXd::Constant(n, 0.05), y,
+      {column(EffectKind::Periodic, 0, "a", a), column(EffectKind::Periodic, 0, "b", b),
+       column(EffectKind::Periodic, 0, "c", c)});
   EXPECT_NE(find_added(s, "a"), nullptr);
   EXPECT_NE(find_added(s, "b"), nullptr);
   EXPECT_EQ(find_added(s, "c"), nullptr);
   EXPECT_EQ(status_of(s, "c").state, CandidateState::kNotSignificant);
   EXPECT_EQ(s.added.size(), 2u);
-  EXPECT_NEAR(s.after.chi2, rss((Eigen::MatrixXd(n, 3) << J, a, b).finished(), y) / (0.05 * 0.05), 1e-6);
+  EXPECT_NEAR(s.after.chi2, rss((Eigen::MatrixXd(n, 3) << J, a, b).finished(), y) / (0.05 * 0.05),
+              1e-6);
 }
 
 }  // namespace
@@ -223,20 +233,23 @@ TEST(Selection, ExchangeUndoesAnEarlyChoiceThatFitsWorse) {
   std::mt19937_64 rng(19);
   std::normal_distribution<double> n01;
   Eigen::VectorXd a(n), b(n), z(n), noise(n);
-  for (int i = 0; i < n; ++i) a(i) = n01(rng), b(i) = n01(rng), z(i) = n01(rng), noise(i) = 0.05 * n01(rng);
+  for (int i = 0; i < n; ++i)
+    a(i) = n01(rng), b(i) = n01(rng), z(i) = n01(rng), noise(i) = 0.05 * n01(rng);
   const Eigen::VectorXd c = a + b + 0.3 * z;
   const Eigen::VectorXd y = 8.0 * a + 5.0 * b + noise;
   const Eigen::MatrixXd J = Eigen::MatrixXd::Ones(n, 1);
   SelectionOptions options;
   options.max_effects = 2;
-  const Selection s = select_effects(test::sparse(J), Eigen::VectorXd::Constant(n, 0.05), y,
-                                     {column(EffectKind::Periodic, 0, "a", a), column(EffectKind::Periodic, 0, "b", b),
-                                      column(EffectKind::Periodic, 0, "c", c)},
-                                     options);
+  const Selection s = select_effects(
+      test::sparse(J), Eigen::VectorXd::Constant(n, 0.05), y,
+      {column(EffectKind::Periodic, 0, "a", a), column(EffectKind::Periodic, 0, "b", b),
+       column(EffectKind::Periodic, 0, "c", c)},
+      options);
   ASSERT_EQ(s.added.size(), 2u);
   EXPECT_NE(find_added(s, "a"), nullptr);
   EXPECT_NE(find_added(s, "b"), nullptr);
-  EXPECT_NE(status_of(s, "b").detail.find("exchanged in for c"), std::string::npos) << status_of(s, "b").detail;
+  EXPECT_NE(status_of(s, "b").detail.find("exchanged in for c"), std::string::npos)
+      << status_of(s, "b").detail;
   EXPECT_EQ(status_of(s, "c").state, CandidateState::kNotSignificant);
   // The values are those of least squares on [1, a, b], each under its own label.
   Eigen::MatrixXd A(n, 3);

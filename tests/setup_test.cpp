@@ -3,6 +3,8 @@
 // covariance V = Sigma + X P X', the factorised augmented problem, the normal
 // approximation of the noncentral F, and data from the exact two-ball geometry.
 
+#include "dbbkit/setup.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
@@ -17,7 +19,6 @@
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/observability.hpp"
-#include "dbbkit/setup.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
 
@@ -53,8 +54,12 @@ Eigen::VectorXd prior_variances(const std::vector<SetupEffect>& effects) {
 // A design's model with its declared set-up effects and both solvers.
 struct Fixture {
   explicit Fixture(const Design& design)
-      : d(design), param(d), model(design_model(d, param)), base(model.J, model.sigma_um),
-        effects(setup_effects(d, model, true)), solver(base, effects) {}
+      : d(design),
+        param(d),
+        model(design_model(d, param)),
+        base(model.J, model.sigma_um),
+        effects(setup_effects(d, model, true)),
+        solver(base, effects) {}
   Design d;
   Parameterisation param;
   LinearModel model;
@@ -77,8 +82,10 @@ TEST(SetupSolver, AgreesWithGeneralisedLeastSquaresOnTheFullCovariance) {
   const Eigen::MatrixXd X = stacked(effects, n);
   const Eigen::VectorXd P = prior_variances(effects);
   EXPECT_EQ(solver.n_columns(), X.cols());
-  EXPECT_EQ((P.array() == 64.0).count(), 2);  // cx, cy of the override (radial and tangential: no cz)
-  EXPECT_EQ((P.array() == 25.0).count(), 2 * 5 + 1);  // the other five radial/tangential; the axial 1a sees only cz
+  EXPECT_EQ((P.array() == 64.0).count(),
+            2);  // cx, cy of the override (radial and tangential: no cz)
+  EXPECT_EQ((P.array() == 25.0).count(),
+            2 * 5 + 1);  // the other five radial/tangential; the axial 1a sees only cz
 
   const Eigen::MatrixXd Sigma = model.sigma_um.cwiseAbs2().asDiagonal();
   const Eigen::MatrixXd V = Sigma + X * P.asDiagonal() * X.transpose();
@@ -104,7 +111,9 @@ TEST(SetupSolver, AgreesWithGeneralisedLeastSquaresOnTheFullCovariance) {
     const SetupSolver::Parts parts = solver.parts(c);
     EXPECT_NEAR(parts.noise, noise(j, j), 1e-9 + 1e-7 * noise(j, j)) << j;
     EXPECT_NEAR(parts.setup, setup(j, j), 1e-9 + 1e-7 * setup(j, j)) << j;
-    EXPECT_NEAR(solver.a_priori().evaluate(c).std, std::sqrt(C(j, j)), 1e-9 + 1e-7 * std::sqrt(C(j, j))) << j;
+    EXPECT_NEAR(solver.a_priori().evaluate(c).std, std::sqrt(C(j, j)),
+                1e-9 + 1e-7 * std::sqrt(C(j, j)))
+        << j;
   }
   // The set-up part is not negligible here: the check means something.
   EXPECT_GT(setup.diagonal().maxCoeff(), 0.1 * noise.diagonal().maxCoeff());
@@ -120,8 +129,10 @@ TEST(SetupSolver, AgreesWithGeneralisedLeastSquaresOnTheFullCovariance) {
   Cf.setFromTriplets(rows.begin(), rows.end());
   const Eigen::MatrixXd CG = Eigen::MatrixXd(Cf) * G;
   EXPECT_TRUE(test::near(solver.left_gain(Cf), CG, 1e-9, 1e-7));
-  EXPECT_TRUE(test::near(solver.left_gain_times(Cf, solver.left_gain_setup(Cf), Y), CG * Y, 1e-9, 1e-7));
-  // Posterior covariance of beta: (X' (Sigma^-1 - Sigma^-1 J (J'Sigma^-1 J)^-1 J' Sigma^-1) X + P^-1)^-1.
+  EXPECT_TRUE(
+      test::near(solver.left_gain_times(Cf, solver.left_gain_setup(Cf), Y), CG * Y, 1e-9, 1e-7));
+  // Posterior covariance of beta: (X' (Sigma^-1 - Sigma^-1 J (J'Sigma^-1 J)^-1 J' Sigma^-1) X +
+  // P^-1)^-1.
   const Eigen::MatrixXd Wi = model.sigma_um.cwiseAbs2().cwiseInverse().asDiagonal();
   const Eigen::MatrixXd M0 = model.J.transpose() * Wi * model.J;
   const Eigen::MatrixXd Q = Wi - Wi * model.J * M0.ldlt().solve(model.J.transpose() * Wi);
@@ -193,8 +204,10 @@ TEST(Detection, NoncentralityMatchesTheNormalLimitForOneColumn) {
   // up to the far tail, P(Z < -z(1 - alpha/2) - sqrt(lambda)), which is below 1e-9 here.
   const boost::math::normal nd;
   for (double alpha : {0.01, 0.05, 0.01 / 30}) {
-    const double expected = std::pow(boost::math::quantile(nd, 1 - alpha / 2) + boost::math::quantile(nd, 0.9), 2);
-    EXPECT_NEAR(noncentrality_for_power(1, 10000000, alpha, 0.9), expected, 2e-3 * expected) << alpha;
+    const double expected =
+        std::pow(boost::math::quantile(nd, 1 - alpha / 2) + boost::math::quantile(nd, 0.9), 2);
+    EXPECT_NEAR(noncentrality_for_power(1, 10000000, alpha, 0.9), expected, 2e-3 * expected)
+        << alpha;
   }
 }
 
@@ -243,7 +256,9 @@ TEST(Detection, AnEffectAtItsDetectionLimitIsFoundNineTimesInTen) {
 namespace dbbkit {
 namespace {
 
-Design optimised_c() { return io::read_design_file(test::source_path("designs/c-turntable-kit-optimized.json")); }
+Design optimised_c() {
+  return io::read_design_file(test::source_path("designs/c-turntable-kit-optimized.json"));
+}
 
 // Errors of a few um and urad at every angle (first order: far below where the
 // second-order terms matter), from the exact two-ball geometry.
@@ -270,16 +285,20 @@ TEST(SetupDetection, AFiveMicrometreCentringOnAnyInstallationOfTheSetupKitDesign
   // declared instrument, tested as diagnose's first step tests it (nested F test of [J]
   // against [J X_e], level 0.01 over the candidates it tests). It must be found in at least
   // 9 data sets of 10 (binomial bounds); at the limit itself, in 9 of 10.
-  const Design d = io::read_design_file(test::source_path("designs/c-turntable-kit-setup-optimized.json"));
+  const Design d =
+      io::read_design_file(test::source_path("designs/c-turntable-kit-setup-optimized.json"));
   ASSERT_EQ(d.setup_std.centring_um, 5);
   ASSERT_EQ(d.setup_std.length_offset_um, 10);
-  const DetectionSettings settings = diagnose_detection_settings(effect_detectability(d, nominal_readings(d)));
+  const DetectionSettings settings =
+      diagnose_detection_settings(effect_detectability(d, nominal_readings(d)));
   const Evaluation ev = evaluate_design(d, 100, {}, settings);
   const SetupEffectCheck* worst = nullptr;
   for (const SetupEffectCheck& c : ev.setup_checks) {
     ASSERT_TRUE(c.detection_limit_um) << c.label;
     EXPECT_LE(*c.detection_limit_um, c.declared_std_um) << c.label;
-    if (c.kind == EffectKind::Centring && (!worst || *c.detection_limit_um > *worst->detection_limit_um)) worst = &c;
+    if (c.kind == EffectKind::Centring &&
+        (!worst || *c.detection_limit_um > *worst->detection_limit_um))
+      worst = &c;
   }
   ASSERT_NE(worst, nullptr);
 
@@ -304,7 +323,9 @@ TEST(SetupDetection, AFiveMicrometreCentringOnAnyInstallationOfTheSetupKitDesign
   for (const double size : {*worst->detection_limit_um, 5.0}) {
     SetupError centring;
     for (int k = 0; k < q; ++k) {
-      centring.centring_um(block.parameters[k] == "cx" ? 0 : block.parameters[k] == "cy" ? 1 : 2) = size * v(k);
+      centring.centring_um(block.parameters[k] == "cx"   ? 0
+                           : block.parameters[k] == "cy" ? 1
+                                                         : 2) = size * v(k);
     }
     t.setup_given = {{d.installations[worst->installation].id, centring}};
     int found = 0;
@@ -314,11 +335,14 @@ TEST(SetupDetection, AFiveMicrometreCentringOnAnyInstallationOfTheSetupKitDesign
       const double c0 = s0.solve(m.y_um).chi2, c1 = s1.solve(m.y_um).chi2;
       found += ((c0 - c1) / q) / (c1 / dof1) > f_crit;
     }
-    std::printf("%s (detection limit %.3f um): a centring of %.3f um in its least favourable direction found in %d "
-                "of %d data sets (exact two-ball readings)\n",
-                worst->label.c_str(), *worst->detection_limit_um, size, found, trials);
+    std::printf(
+        "%s (detection limit %.3f um): a centring of %.3f um in its least favourable direction "
+        "found in %d "
+        "of %d data sets (exact two-ball readings)\n",
+        worst->label.c_str(), *worst->detection_limit_um, size, found, trials);
     if (size == 5.0) {
-      EXPECT_GE(found, 0.9 * trials - 3 * std::sqrt(0.9 * 0.1 * trials)) << found << " of " << trials;
+      EXPECT_GE(found, 0.9 * trials - 3 * std::sqrt(0.9 * 0.1 * trials))
+          << found << " of " << trials;
     } else {
       EXPECT_TRUE(test::within_binomial(found, trials, 0.9, 3.5)) << found << " of " << trials;
     }
@@ -356,8 +380,10 @@ TEST(SetupCase, CentringOnAnUndetectableInstallationIsNamedByDiagnoseAndCoveredB
   const IdentifyResult noise_only = identify(d, readings);
   const Determined& e0 = noise_only.errors[st].errors[4];
   const double shift = e0.value - truth_ey;
-  // 6.7 um of centring times its bias per um: the shift the risk predicts (first order, noise aside).
-  EXPECT_NEAR(std::abs(shift), risk->bias_per_um * centring.centring_um.norm(), 3 * e0.std + 0.1 * std::abs(shift));
+  // 6.7 um of centring times its bias per um: the shift the risk predicts (first order, noise
+  // aside).
+  EXPECT_NEAR(std::abs(shift), risk->bias_per_um * centring.centring_um.norm(),
+              3 * e0.std + 0.1 * std::abs(shift));
   EXPECT_GT(std::abs(shift), 3 * e0.std) << "the noise-only uncertainty does not cover it";
 
   Design declared = d;
@@ -365,7 +391,8 @@ TEST(SetupCase, CentringOnAnUndetectableInstallationIsNamedByDiagnoseAndCoveredB
   declared.setup_std.length_offset_um = 10;
   const IdentifyResult total = identify(declared, readings);
   const Determined& e1 = total.errors[st].errors[4];
-  EXPECT_LT(std::abs(e1.value - truth_ey), 2 * e1.std) << e1.value << " +- " << e1.std << " vs " << truth_ey;
+  EXPECT_LT(std::abs(e1.value - truth_ey), 2 * e1.std)
+      << e1.value << " +- " << e1.std << " vs " << truth_ey;
   const DiagnoseResult diag_declared = diagnose(declared, readings);
   bool named = false;
   for (const SetupRisk& r : diag_declared.setup_risks) {
@@ -435,9 +462,11 @@ TEST(SetupCoverage, TotalIntervalsCoverWhereNoiseOnlyIntervalsDoNot) {
   // Pooled over every error: correlated within a data set, so a wider band (0.93 .. 0.97).
   const double pooled_rate = static_cast<double>(pooled_total_in) / pooled;
   EXPECT_NEAR(pooled_rate, 0.95, 0.02) << pooled_total_in << " of " << pooled;
-  std::printf("coverage of the 95 %% intervals of %s at station %d over %d data sets: total %d, noise-only %d; "
-              "pooled total %.4f\n",
-              kErrorNames[exposed_error], exposed_station, datasets, total_in, noise_in, pooled_rate);
+  std::printf(
+      "coverage of the 95 %% intervals of %s at station %d over %d data sets: total %d, noise-only "
+      "%d; "
+      "pooled total %.4f\n",
+      kErrorNames[exposed_error], exposed_station, datasets, total_in, noise_in, pooled_rate);
 }
 
 }  // namespace
@@ -466,7 +495,8 @@ TEST(SetupFormat, ToleranceDefaultAndOverridesSurviveTheDesignFile) {
   EXPECT_TRUE(back.setup_nuisance_declared());
   // The short form of the ball placement alone is still read, and declares no nuisance effect.
   const Design legacy = io::design_from_json(
-      nlohmann::json::parse(R"({"format": "dbbkit.design/1", "axis": "C", "angles_deg": [0, 90, 180, 270],
+      nlohmann::json::parse(
+          R"({"format": "dbbkit.design/1", "axis": "C", "angles_deg": [0, 90, 180, 270],
         "setup_std_mm": {"L": 0.2}, "installations": [{"id": "r", "ball_mm": {"L": 100, "H": 50}, "direction": "radial"}]})"),
       "legacy");
   EXPECT_EQ(legacy.setup_of(0).L_mm, 0.2);
@@ -482,7 +512,8 @@ namespace {
 TEST(SetupSearch, TheSearchCriterionEqualsEvaluatesWorstTotal) {
   // optimize's worst_total_std_um (design_worst_total) is evaluate's worst_total, and
   // without declared tolerances it is the noise-only worst case.
-  const Design d = io::read_design_file(test::source_path("designs/c-turntable-kit-optimized-with-setup.json"));
+  const Design d =
+      io::read_design_file(test::source_path("designs/c-turntable-kit-optimized-with-setup.json"));
   const Evaluation ev = evaluate_design(d, 100);
   const TotalWorstCase t = design_worst_total(d, 100);
   ASSERT_TRUE(ev.worst_total && ev.worst_total->worst_std_um && t.total.worst_std_um);

@@ -10,9 +10,9 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "dbbkit/error.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/truth_io.hpp"
-#include "dbbkit/error.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -25,7 +25,8 @@ TEST(ExactSetup, APerfectSetUpWithoutErrorsReadsZero) {
     const Design d = test::paper_design(axis);
     for (const Installation& in : d.installations) {
       for (double a : d.angles_deg) {
-        EXPECT_NEAR(exact_setup_reading_um(d.axis, in, a, Vector6d::Zero(), kBar, {}), 0.0, 1e-9) << in.id << " " << a;
+        EXPECT_NEAR(exact_setup_reading_um(d.axis, in, a, Vector6d::Zero(), kBar, {}), 0.0, 1e-9)
+            << in.id << " " << a;
       }
     }
   }
@@ -39,12 +40,15 @@ TEST(ExactSetup, ABallPlacedOutwardsIsAConstantRadiallyAndSecondOrderTangentiall
   SetupError e;
   e.ball_mm = {0.1, 0, 0};
   for (const Installation& in : d.installations) {
-    if (in.direction.kind != Direction::Kind::Radial && in.direction.kind != Direction::Kind::Tangential) continue;
+    if (in.direction.kind != Direction::Kind::Radial &&
+        in.direction.kind != Direction::Kind::Tangential)
+      continue;
     const double expected = in.direction.kind == Direction::Kind::Radial
                                 ? in.sign * 100.0
                                 : 1e3 * (std::sqrt(kBar * kBar + 0.01) - kBar);
     for (double a : d.angles_deg) {
-      EXPECT_NEAR(exact_setup_reading_um(d.axis, in, a, Vector6d::Zero(), kBar, e), expected, 1e-7) << in.id << " " << a;
+      EXPECT_NEAR(exact_setup_reading_um(d.axis, in, a, Vector6d::Zero(), kBar, e), expected, 1e-7)
+          << in.id << " " << a;
     }
   }
 }
@@ -73,8 +77,10 @@ TEST(ExactSetup, CentringAndLengthOffsetByHand) {
       }
       const double along = u.dot(c);
       const double across2 = c.squaredNorm() - along * along;
-      const double expected = 1e3 * (std::sqrt(std::pow(kBar - in.sign * along, 2) + across2) - kBar) + 1.5;
-      EXPECT_NEAR(exact_setup_reading_um(d.axis, in, a, Vector6d::Zero(), kBar, e), expected, 1e-7) << in.id << " " << a;
+      const double expected =
+          1e3 * (std::sqrt(std::pow(kBar - in.sign * along, 2) + across2) - kBar) + 1.5;
+      EXPECT_NEAR(exact_setup_reading_um(d.axis, in, a, Vector6d::Zero(), kBar, e), expected, 1e-7)
+          << in.id << " " << a;
     }
   }
 }
@@ -87,7 +93,8 @@ TEST(ExactSetup, WithoutSetUpItIsTheExactTransformOfTheErrors) {
     for (double a : d.angles_deg) {
       Vector6d e;
       for (int k = 0; k < 6; ++k) e(k) = (k < 3 ? 20.0 : 100.0) * n01(rng);
-      EXPECT_NEAR(exact_setup_reading_um(d.axis, in, a, e, kBar, {}), exact_reading_um(d.axis, in, a, e, kBar), 1e-9);
+      EXPECT_NEAR(exact_setup_reading_um(d.axis, in, a, e, kBar, {}),
+                  exact_reading_um(d.axis, in, a, e, kBar), 1e-9);
     }
   }
 }
@@ -187,7 +194,8 @@ TEST(ExactSetup, TheTruthFileDeclaresGeometryAndSetUp) {
   for (const Reading& x : r) {
     const int i = d.find_installation(x.installation);
     EXPECT_NEAR(x.reading_um,
-                exact_setup_reading_um(d.axis, d.installations[i], x.angle_deg, truth_errors(t, d.axis, x.angle_deg),
+                exact_setup_reading_um(d.axis, d.installations[i], x.angle_deg,
+                                       truth_errors(t, d.axis, x.angle_deg),
                                        *d.installations[i].bar_mm, s[i]),
                 1e-12);
   }

@@ -18,18 +18,19 @@
 namespace dbbkit::test {
 
 // |a - b| <= abs_tol + rel_tol * max(|a|, |b|), elementwise.
-inline ::testing::AssertionResult near(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, double abs_tol,
-                                       double rel_tol = 0.0) {
+inline ::testing::AssertionResult near(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b,
+                                       double abs_tol, double rel_tol = 0.0) {
   if (a.rows() != b.rows() || a.cols() != b.cols()) {
-    return ::testing::AssertionFailure() << "shapes differ: " << a.rows() << "x" << a.cols() << " vs " << b.rows()
-                                         << "x" << b.cols();
+    return ::testing::AssertionFailure() << "shapes differ: " << a.rows() << "x" << a.cols()
+                                         << " vs " << b.rows() << "x" << b.cols();
   }
   for (Eigen::Index i = 0; i < a.rows(); ++i) {
     for (Eigen::Index j = 0; j < a.cols(); ++j) {
       const double tol = abs_tol + rel_tol * std::max(std::abs(a(i, j)), std::abs(b(i, j)));
       if (!(std::abs(a(i, j) - b(i, j)) <= tol)) {
-        return ::testing::AssertionFailure() << "(" << i << "," << j << "): " << a(i, j) << " vs " << b(i, j)
-                                             << " differ by " << std::abs(a(i, j) - b(i, j)) << " > " << tol;
+        return ::testing::AssertionFailure()
+               << "(" << i << "," << j << "): " << a(i, j) << " vs " << b(i, j) << " differ by "
+               << std::abs(a(i, j) - b(i, j)) << " > " << tol;
       }
     }
   }
@@ -57,10 +58,13 @@ inline void add_truth_value(Truth& t, Axis axis, double angle_deg, const Vector6
   t.per_angle.emplace_back(angle_deg, e);
 }
 
-inline std::string source_path(const std::string& relative) { return std::string(DBBKIT_SOURCE_DIR) + "/" + relative; }
+inline std::string source_path(const std::string& relative) {
+  return std::string(DBBKIT_SOURCE_DIR) + "/" + relative;
+}
 
 inline Design paper_design(char axis) {
-  return io::read_design_file(source_path(axis == 'C' ? "designs/paper-c-turntable.json" : "designs/paper-b-head.json"));
+  return io::read_design_file(
+      source_path(axis == 'C' ? "designs/paper-c-turntable.json" : "designs/paper-b-head.json"));
 }
 
 // Two-sided binomial acceptance band: the number of successes in n trials of
@@ -72,7 +76,9 @@ inline bool within_binomial(double successes, double n, double p, double z) {
 // The paper's C installations with 150 mm bars and a Fourier order-2 error model,
 // swept ccw, cw, ccw, 10 s per reading (tests/data/c_fourier2_bar150.json): the
 // redundancy diagnosis needs.
-inline Design fourier_design() { return io::read_design_file(source_path("tests/data/c_fourier2_bar150.json")); }
+inline Design fourier_design() {
+  return io::read_design_file(source_path("tests/data/c_fourier2_bar150.json"));
+}
 
 // Random order-2 Fourier errors for it (10 um, 30 urad) with that schedule.
 inline Truth random_fourier_truth(const Design& d, std::mt19937_64& rng) {

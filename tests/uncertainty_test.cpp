@@ -2,8 +2,8 @@
 
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <Eigen/Eigenvalues>
+#include <cmath>
 #include <random>
 
 #include "dbbkit/error.hpp"
@@ -65,7 +65,8 @@ TEST(Budget, TypeAScalesByTheObservedNoise) {
 TEST(Budget, TypeAWithoutRedundancyIsRefused) {
   Design d = test::paper_design('C');
   d.angles_deg = {0, 20};
-  d.installations.erase(d.installations.begin() + 3);  // without 2r: 6 readings per angle, rank 6, no residual
+  d.installations.erase(d.installations.begin() +
+                        3);  // without 2r: 6 readings per angle, rank 6, no residual
   std::vector<Reading> readings = simulate(d, constant_truth(d, Vector6d::Ones()), 1);
   IdentifyOptions opt;
   opt.budget.type_a = true;
@@ -134,11 +135,13 @@ TEST(BudgetCovariance, PlacementPartMatchesFiniteDifferences) {
     moved.installations[i].L_mm += dL;
     const IdentifyResult r = identify(d, simulate(moved, t, 0));
     Eigen::VectorXd s(m);
-    for (Eigen::Index v = 0; v < m; ++v) s(v) = (r.budget.values[v].value - plain.budget.values[v].value) / dL;
+    for (Eigen::Index v = 0; v < m; ++v)
+      s(v) = (r.budget.values[v].value - plain.budget.values[v].value) / dL;
     expected += s * s.transpose() * uL * uL;
   }
   const Eigen::MatrixXd got = budget_covariance(with, placed) - budget_covariance(d, plain);
-  EXPECT_GT(expected.cwiseAbs().maxCoeff(), 0.01);  // (um^2, urad^2) the placement matters: not a vacuous check
+  EXPECT_GT(expected.cwiseAbs().maxCoeff(),
+            0.01);  // (um^2, urad^2) the placement matters: not a vacuous check
   EXPECT_TRUE(test::near(got, expected, 1e-6 * expected.cwiseAbs().maxCoeff()));
 }
 
@@ -156,7 +159,8 @@ TEST(BudgetCovariance, NoisePartIsThatOfTheGainAndScalesWithTypeA) {
     const Eigen::MatrixXd C = budget_functions(r.param, r.budget);
     const Eigen::MatrixXd CG = C * r.solver.gain().sparse();
     const double s2 = type_a ? *r.budget.type_a_scale * *r.budget.type_a_scale : 1.0;
-    const Eigen::MatrixXd expected = s2 * CG * r.solver.sigma_um().cwiseAbs2().asDiagonal() * CG.transpose();
+    const Eigen::MatrixXd expected =
+        s2 * CG * r.solver.sigma_um().cwiseAbs2().asDiagonal() * CG.transpose();
     const Eigen::MatrixXd cov = budget_covariance(d, r);
     EXPECT_TRUE(test::near(cov, expected, 1e-9 * expected.cwiseAbs().maxCoeff())) << type_a;
     for (size_t v = 0; v < r.budget.values.size(); ++v) {
@@ -181,10 +185,12 @@ TEST(BudgetCovariance, SetupPartAgreesWithTheVarianceOfSums) {
   const Eigen::MatrixXd cov = budget_covariance(d, r);
   const Eigen::Index m = cov.rows();
   ASSERT_EQ(m, static_cast<Eigen::Index>(r.budget.values.size()));
-  for (Eigen::Index v = 0; v < m; ++v) EXPECT_NEAR(std::sqrt(cov(v, v)), r.budget.values[v].u_c, 1e-9 * r.budget.values[v].u_c);
+  for (Eigen::Index v = 0; v < m; ++v)
+    EXPECT_NEAR(std::sqrt(cov(v, v)), r.budget.values[v].u_c, 1e-9 * r.budget.values[v].u_c);
   const SetupSolver setup(r.solver, setup_effects(d, r.model, true));
   const std::vector<SetupInput> inputs = setup_inputs(d);
-  const Eigen::MatrixXd GD = setup.gain_times(setup_sensitivity(d, r.param, r.model, inputs, r.estimate.theta));
+  const Eigen::MatrixXd GD =
+      setup.gain_times(setup_sensitivity(d, r.param, r.model, inputs, r.estimate.theta));
   const Eigen::MatrixXd C = budget_functions(r.param, r.budget);
   std::mt19937 rng(3);
   std::uniform_int_distribution<Eigen::Index> pick(0, m - 1);
@@ -198,7 +204,9 @@ TEST(BudgetCovariance, SetupPartAgreesWithTheVarianceOfSums) {
     for (size_t j = 0; j < inputs.size(); ++j) var += std::pow(sens(j) * inputs[j].std_mm, 2);
     const double sum = cov(a, a) + cov(b, b) + 2 * cov(a, b);
     EXPECT_NEAR(sum, var, 1e-9 * var) << a << " " << b;
-    if (a != b) largest_correlation = std::max(largest_correlation, std::abs(cov(a, b)) / std::sqrt(cov(a, a) * cov(b, b)));
+    if (a != b)
+      largest_correlation =
+          std::max(largest_correlation, std::abs(cov(a, b)) / std::sqrt(cov(a, a) * cov(b, b)));
   }
   EXPECT_GT(largest_correlation, 0.3);  // the off-diagonal terms matter
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(cov);
@@ -345,7 +353,8 @@ TEST_P(Coverage95, IntervalsContainTheTruth) {
   o.adaptive = false;
   o.max_trials = 200000;
   o.threads = 2;
-  const MonteCarloResult mc = monte_carlo_a_priori(d, 0.95, o);  // offsets of the value from the truth
+  const MonteCarloResult mc =
+      monte_carlo_a_priori(d, 0.95, o);  // offsets of the value from the truth
   std::mt19937_64 rng(5);
   std::normal_distribution<double> n01;
   const int sets = 2000;
@@ -378,12 +387,14 @@ TEST_P(Coverage95, IntervalsContainTheTruth) {
   }
   double pooled = 0;
   for (size_t v = 0; v < inside.size(); ++v) {
-    EXPECT_TRUE(test::within_binomial(inside[v], sets, 0.95, 4.5)) << c.name << " value " << v << ": " << inside[v];
+    EXPECT_TRUE(test::within_binomial(inside[v], sets, 0.95, 4.5))
+        << c.name << " value " << v << ": " << inside[v];
     pooled += inside[v];
   }
   pooled /= static_cast<double>(inside.size());
   // The pooled share is a mean of correlated shares: its spread is at most that of one value.
-  EXPECT_TRUE(test::within_binomial(pooled, sets, 0.95, 4.0)) << c.name << " pooled " << pooled / sets;
+  EXPECT_TRUE(test::within_binomial(pooled, sets, 0.95, 4.0))
+      << c.name << " pooled " << pooled / sets;
 }
 
 INSTANTIATE_TEST_SUITE_P(Models, Coverage95,

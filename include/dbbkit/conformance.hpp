@@ -51,7 +51,7 @@ struct ConformanceResult {
   // (conforms) or straddling it (not proven); absent when no value is determined.
   std::optional<double> value, low, high;
   std::optional<double> angle_deg;  // where, for a quantity at every angle
-  std::string basis;  // "value +- k u (k = 1.96)", "value +- U of the budget", ...
+  std::string basis;                // "value +- k u (k = 1.96)", "value +- U of the budget", ...
 };
 
 struct ConformanceReport {
@@ -72,10 +72,12 @@ std::vector<std::string> tolerance_quantities(Axis axis);
 std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& source);
 
 // tolerance_unit of every tolerance: the quantities and units checked before any work.
-void check_tolerances(Axis axis, const std::vector<Tolerance>& tolerances, const std::string& source);
+void check_tolerances(Axis axis, const std::vector<Tolerance>& tolerances,
+                      const std::string& source);
 
 // Decides every tolerance against an identification. Throws InputError as tolerance_unit.
 ConformanceReport decide_conformance(const Design& design, const IdentifyResult& result,
-                                     const std::vector<Tolerance>& tolerances, const std::string& source);
+                                     const std::vector<Tolerance>& tolerances,
+                                     const std::string& source);
 
 }  // namespace dbbkit

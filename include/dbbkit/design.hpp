@@ -91,7 +91,6 @@ struct ErrorModel {
   std::string describe() const;
 };
 
-
 // What `optimize` predicted for a design it wrote (informative; `evaluate` recomputes it).
 struct Prediction {
   std::string criterion;
@@ -105,7 +104,8 @@ inline constexpr double kDefaultInstrumentRange_mm = 1.0;
 struct Design {
   std::string name;
   std::string description;
-  std::map<std::string, std::string> assumed;  // declared assumptions, e.g. "L1": "100 mm, not given by the paper"
+  std::map<std::string, std::string>
+      assumed;  // declared assumptions, e.g. "L1": "100 mm, not given by the paper"
   Axis axis = Axis::C;
   std::vector<double> angles_deg;
   NoiseModel noise;
@@ -137,7 +137,8 @@ void validate_noise_and_model(const NoiseModel& noise, const ErrorModel& errors,
                               const std::string& source);
 
 // Set-up tolerances within the documented limits; throws InputError(source, key.<name>).
-void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std::string& source, const std::string& key);
+void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std::string& source,
+                                const std::string& key);
 
 // A finite length within +-limits::kMaxLength_mm.
 bool length_within_limits(double x_mm);

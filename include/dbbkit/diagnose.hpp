@@ -78,8 +78,8 @@ struct SetupRisk {
 // standard uncertainty as a rectangular component, change / sqrt(3), so that the errors hold
 // whichever is true. Several attributions combine in quadrature.
 struct Attribution {
-  std::string effect;                     // an added effect, or "a + b" for a substitution's
-  std::vector<std::string> alternatives;  // labels, or "c + d" for a substitution's
+  std::string effect;                      // an added effect, or "a + b" for a substitution's
+  std::vector<std::string> alternatives;   // labels, or "c + d" for a substitution's
   std::array<double, 6> largest_change{};  // um, urad
 };
 
@@ -104,15 +104,17 @@ struct DiagnoseResult {
   std::vector<StructureComparison> structures;  // whole-test against per-installation terms
   ResidualSignature signature_before, signature_after;
   bool significant_before = false, significant_after = false;
-  std::optional<double> p_lower_after;  // P(chi2_dof <= chi2 after): small when the residual is too small
+  std::optional<double>
+      p_lower_after;  // P(chi2_dof <= chi2 after): small when the residual is too small
   std::vector<SetupRisk> setup_risks;  // most dangerous first (smallest threshold)
   // Checks of the residual outside the library (residual_checks.hpp), on the final model.
-  std::vector<ResidualFeature> features_before, features_after;  // features_before: on the axis errors alone
-  std::vector<GrossReading> gross;         // rows index the readings fitted
-  int stopped_at_step = 0;                 // selection stopped at this step (0: it did not), for
+  std::vector<ResidualFeature> features_before,
+      features_after;               // features_before: on the axis errors alone
+  std::vector<GrossReading> gross;  // rows index the readings fitted
+  int stopped_at_step = 0;          // selection stopped at this step (0: it did not), for
   SelectionStop stopped_because = SelectionStop::kNone;  // this reason
-  std::optional<OrderCheck> order;         // series models
-  std::optional<NoiseScale> noise;         // when the residual after is significant
+  std::optional<OrderCheck> order;                       // series models
+  std::optional<NoiseScale> noise;                       // when the residual after is significant
   bool noise_larger_than_declared = false;  // significant after, no feature or check explains it
   std::vector<DetectionLimit> detection_limits;  // when nothing was added
   // Readings left out by exclude_gross: indices into the readings given, and their tests.
@@ -121,8 +123,10 @@ struct DiagnoseResult {
   std::string verdict;
 };
 
-// A feature in words, with its test: "a step of 5.02 um in installation 2t at t = 1234 s (F = ...)".
-std::string describe_feature(const Design& design, const std::vector<Reading>& readings, const ResidualFeature& f);
+// A feature in words, with its test: "a step of 5.02 um in installation 2t at t = 1234 s (F =
+// ...)".
+std::string describe_feature(const Design& design, const std::vector<Reading>& readings,
+                             const ResidualFeature& f);
 
 ResidualSignature residual_signature(const Design& design, const std::vector<Reading>& readings,
                                      const Eigen::VectorXd& residual_um);
@@ -132,7 +136,8 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
 
 // Which effects of the library a design (with its error model) can tell from the
 // axis errors, one at a time: "detectable", "confounded" or "not applicable".
-std::vector<CandidateStatus> effect_detectability(const Design& design, const std::vector<Reading>& readings);
+std::vector<CandidateStatus> effect_detectability(const Design& design,
+                                                  const std::vector<Reading>& readings);
 
 // The test set-up detection limits refer to (setup.hpp): diagnose's first step, at its
 // level over the candidates it would test at once (the detectable ones of `candidates`,

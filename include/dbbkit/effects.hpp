@@ -32,14 +32,24 @@
 
 namespace dbbkit {
 
-enum class EffectKind { LengthOffset, Centring, Drift, Reversal, Scale, Squareness, Periodic, Step, Thermal };
+enum class EffectKind {
+  LengthOffset,
+  Centring,
+  Drift,
+  Reversal,
+  Scale,
+  Squareness,
+  Periodic,
+  Step,
+  Thermal
+};
 
 const char* effect_name(EffectKind kind);
 // Throws InputError(source, key, ...) for an unknown name.
 EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key);
 bool effect_is_shared(EffectKind kind);
-// Length offset, drift and reversal also exist once for the whole test (installation -1, label "[all]");
-// thermal exists only for the whole test.
+// Length offset, drift and reversal also exist once for the whole test (installation -1, label
+// "[all]"); thermal exists only for the whole test.
 bool effect_has_whole_test_form(EffectKind kind);
 const char* effect_unit(EffectKind kind);
 // Names of the full parameter vector of an effect (before unseen columns are dropped).
@@ -54,16 +64,17 @@ struct EffectCandidate {
   // Step: the readings of the installation from the time at_s on (the test's clock, as
   // time_s) are offset; a step found in data without times is placed by reading order.
   double at_s = std::numeric_limits<double>::quiet_NaN();
-  double tau_min = 0;  // Thermal only: the time constant
+  double tau_min = 0;                             // Thermal only: the time constant
   std::string label(const Design& design) const;  // e.g. "centring[2r]", "squareness.xy"
 };
 
 // Per reading, the full-length row of the effect; `t0_s` the first time of the readings the effect
 // spans: the reading's installation, or the whole test for a whole-test drift (test_start_time).
-Eigen::VectorXd effect_row(const Design& design, const Reading& reading, double t0_s, const EffectCandidate& effect);
-// The same, with the reading's installation index already known (loops over readings).
-Eigen::VectorXd effect_row(const Design& design, const Reading& reading, int installation, double t0_s,
+Eigen::VectorXd effect_row(const Design& design, const Reading& reading, double t0_s,
                            const EffectCandidate& effect);
+// The same, with the reading's installation index already known (loops over readings).
+Eigen::VectorXd effect_row(const Design& design, const Reading& reading, int installation,
+                           double t0_s, const EffectCandidate& effect);
 
 // The set-up rows of the library without a Reading (the fast paths of observability.cpp):
 // the length offset's row is 1 at every angle; the centring's is -s u(angle) (3 components).
@@ -72,7 +83,8 @@ inline constexpr double kLengthOffsetRow = 1.0;
 Eigen::Vector3d centring_row(Axis axis, const Installation& installation, double angle_deg);
 
 // First time_s of every installation (NaN when it has no time).
-std::vector<double> installation_start_times(const Design& design, const std::vector<Reading>& readings);
+std::vector<double> installation_start_times(const Design& design,
+                                             const std::vector<Reading>& readings);
 // First time_s of the whole test (NaN when no reading has a time).
 double test_start_time(const std::vector<Reading>& readings);
 
@@ -82,7 +94,7 @@ struct EffectBlock {
   std::string unit;
   std::vector<std::string> parameters;  // the columns kept
   Eigen::MatrixXd X;                    // n_readings x parameters
-  std::string not_applicable;           // why the effect cannot be formed from these readings, or empty
+  std::string not_applicable;  // why the effect cannot be formed from these readings, or empty
 };
 
 // Where each reading belongs and when each installation and the test begin, found once for
@@ -96,12 +108,14 @@ struct ReadingLayout {
 };
 
 // The columns of an effect over the readings; all-zero columns are dropped.
-EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings, const EffectCandidate& effect);
-EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings, const ReadingLayout& layout,
+EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings,
                          const EffectCandidate& effect);
+EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings,
+                         const ReadingLayout& layout, const EffectCandidate& effect);
 
 // Every effect of the library that the readings could show (applicable or not, with the reason).
-std::vector<EffectBlock> candidate_effects(const Design& design, const std::vector<Reading>& readings);
+std::vector<EffectBlock> candidate_effects(const Design& design,
+                                           const std::vector<Reading>& readings);
 
 // An effect with a free position, one column per alternative (selection.hpp scans them):
 //   step[i]: a step between two consecutive readings of installation i, in time order
@@ -112,10 +126,10 @@ std::vector<EffectBlock> candidate_effects(const Design& design, const std::vect
 inline constexpr int kStepMinSegment = 3;
 inline constexpr int kThermalTaus = 12;
 struct ScanFamily {
-  EffectCandidate effect;     // the kind and installation; the position is the alternative's
-  std::string label;          // e.g. "step[2r]", "thermal[all]"
-  std::vector<int> rows;      // step: the installation's readings in order
-  bool timed = false;         // step: ordered by time_s
+  EffectCandidate effect;  // the kind and installation; the position is the alternative's
+  std::string label;       // e.g. "step[2r]", "thermal[all]"
+  std::vector<int> rows;   // step: the installation's readings in order
+  bool timed = false;      // step: ordered by time_s
   int min_segment = kStepMinSegment;
   std::vector<EffectBlock> alternatives;  // thermal: one block per tau
   std::string not_applicable;

@@ -73,7 +73,7 @@ struct Estimate {
   int n_unknowns = 0;
   int rank = 0;
 
-  Eigen::VectorXd theta;            // minimum-norm solution (in the scaled unknowns)
+  Eigen::VectorXd theta;  // minimum-norm solution (in the scaled unknowns)
   // Pseudo-inverse covariance, meaningful only for determined functions: block-diagonal
   // over the independent blocks of the model (one 6 x 6 block per station of a per-angle
   // model), stored sparse.
@@ -82,22 +82,23 @@ struct Estimate {
   // set-up effects a prior makes part of the model (setup.hpp). The covariance of a
   // function is c'(covariance + K S K')c.
   Eigen::MatrixXd covariance_K, covariance_S;
-  Eigen::VectorXd column_scale;     // |column j of Sigma^-1/2 J|, 1 for a negligible column
-  Eigen::VectorXd singular_values;  // of Js, descending
+  Eigen::VectorXd column_scale;            // |column j of Sigma^-1/2 J|, 1 for a negligible column
+  Eigen::VectorXd singular_values;         // of Js, descending
   std::optional<double> condition_number;  // sigma_max / sigma_rank of Js
   // Orthonormal basis of the null space of Js (p x (p - rank)); each column lies in one
   // independent block. Stored by rows, so that a function's projection reads only the rows
   // of its support.
   Eigen::SparseMatrix<double, Eigen::RowMajor> null_space_scaled;
 
-  Eigen::VectorXd residual_um;  // y - J theta
-  double rms_um = 0.0;          // sqrt(mean(residual^2))
-  double chi2 = 0.0;            // sum (residual / sigma)^2
-  int dof = 0;                  // n_readings - rank
+  Eigen::VectorXd residual_um;    // y - J theta
+  double rms_um = 0.0;            // sqrt(mean(residual^2))
+  double chi2 = 0.0;              // sum (residual / sigma)^2
+  int dof = 0;                    // n_readings - rank
   std::optional<double> p_value;  // P(chi2_dof >= chi2); absent when dof = 0
 
   double estimable_tolerance = 0.0;
-  int normal_equation_blocks = 0;  // blocks factorised through the normal equations (EstimateOptions)
+  // Blocks factorised through the normal equations (EstimateOptions).
+  int normal_equation_blocks = 0;
 
   // A linear function c.theta (c in theta units), sparse: values at one angle touch few
   // unknowns. A dense c is taken through its nonzeros.
@@ -175,9 +176,11 @@ class WlsSolver {
  public:
   using Gain = dbbkit::Gain;
 
-  WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options = {});
+  WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
+            const EstimateOptions& options = {});
   // A dense Jacobian (its exact zeros are the structure).
-  WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um, const EstimateOptions& options = {});
+  WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um,
+            const EstimateOptions& options = {});
 
   // Everything that does not depend on the readings (theta and residual empty).
   const Estimate& a_priori() const { return prior_; }
@@ -222,16 +225,19 @@ Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options =
 // of the order of sqrt(eps)-relative for a J of condition number up to 1e8. The work
 // is that of G X: linear in the readings for a per-angle model, where the factorised
 // [J X] couples every station into one block.
-int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X, const EstimateOptions& options = {});
+int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X,
+               const EstimateOptions& options = {});
 
 // R = Sigma^-1/2 (M - J G M): the whitened part of readings M (n x m) that the model of
 // `solver` cannot reproduce. `GM` = solver.gain() * M when the caller has it already.
 Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M);
-Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M, const Eigen::MatrixXd& GM);
+Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M,
+                            const Eigen::MatrixXd& GM);
 
 // added_rank from R = unexplained(solver, X) already formed, with the whitened column
 // norms |Sigma^-1/2 X_j| (the same rule).
-int added_rank(const Eigen::MatrixXd& R, const Eigen::VectorXd& whitened_norms, const EstimateOptions& options = {});
+int added_rank(const Eigen::MatrixXd& R, const Eigen::VectorXd& whitened_norms,
+               const EstimateOptions& options = {});
 
 // The tails of the chi-squared distribution with dof degrees of freedom at chi2:
 // P(X >= chi2) and P(X <= chi2). A residual of exactly (or next to) zero on many degrees of

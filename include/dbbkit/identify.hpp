@@ -12,9 +12,9 @@
 #include "dbbkit/design.hpp"
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/iso230.hpp"
+#include "dbbkit/linear_model.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/monte_carlo.hpp"
-#include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/uncertainty.hpp"
 
@@ -98,7 +98,8 @@ struct IdentifyResult {
 // error k over n_unknowns >= param.n_parameters() unknowns (those beyond the axis
 // errors, e.g. effects appended to J, get 0).
 // Stored sparse: a per-angle model's have one entry each.
-Eigen::SparseMatrix<double> error_functions(const Parameterisation& param, int station, Eigen::Index n_unknowns);
+Eigen::SparseMatrix<double> error_functions(const Parameterisation& param, int station,
+                                            Eigen::Index n_unknowns);
 
 // The errors at every station of the parameterisation from an estimate (whose
 // unknowns may extend beyond the axis errors, e.g. by effects appended to J).
@@ -118,6 +119,7 @@ Eigen::MatrixXd budget_covariance(const Design& design, const IdentifyResult& re
 
 // The JCGM 101 check of an identification's budget (monte_carlo.hpp), with the set-up
 // solver of its declared tolerances rebuilt when the set-up is included.
-MonteCarloResult monte_carlo(const Design& design, const IdentifyResult& result, const MonteCarloOptions& options);
+MonteCarloResult monte_carlo(const Design& design, const IdentifyResult& result,
+                             const MonteCarloOptions& options);
 
 }  // namespace dbbkit

@@ -49,9 +49,9 @@
 namespace dbbkit {
 
 struct IsoQuantity {
-  std::string name;     // e.g. "XOC", or "constant part of dx"
-  std::string unit;     // "um" or "urad"
-  Determined value;     // value and standard uncertainty (k = 1); determined = false: not determined
+  std::string name;  // e.g. "XOC", or "constant part of dx"
+  std::string unit;  // "um" or "urad"
+  Determined value;  // value and standard uncertainty (k = 1); determined = false: not determined
 };
 
 struct IsoComponentsAtAngle {
@@ -65,10 +65,10 @@ struct IsoMotionValue {
   std::string component;  // e.g. "EXC"
   std::string unit;       // "um" or "urad"
   bool computed = false;
-  std::string reason;     // why not computed
-  int angles = 0;         // the measured angles the range is taken over
-  double value = 0;       // the range of the estimated component motion
-  double U = 0;           // q: the p-quantile of the range of the estimation errors
+  std::string reason;        // why not computed
+  int angles = 0;            // the measured angles the range is taken over
+  double value = 0;          // the range of the estimated component motion
+  double U = 0;              // q: the p-quantile of the range of the estimation errors
   double low = 0, high = 0;  // max(0, value - U), value + U: coverage probability at least p
 };
 
@@ -82,7 +82,7 @@ struct IsoMotionOptions {
   // Beyond: not computed, said so (each trial costs angles^2 per component: 400 angles,
   // about a second per batch of 10^4 trials).
   int max_angles = 400;
-  std::optional<double> dof;   // Type A: degrees of freedom of the multivariate t; absent: Gaussian
+  std::optional<double> dof;  // Type A: degrees of freedom of the multivariate t; absent: Gaussian
 };
 
 struct IsoMotionValues {
@@ -95,12 +95,12 @@ struct IsoMotionValues {
 };
 
 struct IsoResult {
-  std::vector<IsoQuantity> location;  // 5: two positions, two orientations, the zero position
+  std::vector<IsoQuantity> location;   // 5: two positions, two orientations, the zero position
   std::vector<IsoQuantity> constants;  // 5: d0 (3 components) and e0 (the two perpendicular to a)
   std::array<std::string, 6> component_names;
   std::vector<IsoComponentsAtAngle> components;
   IsoMotionValues motion_values;  // empty when not asked for
-  std::string note;  // what a block could not determine, or ""
+  std::string note;               // what a block could not determine, or ""
 };
 
 // The ISO names of an axis: its location errors (two positions, two orientations, the zero
@@ -111,9 +111,10 @@ struct IsoNames {
 };
 IsoNames iso230_names(Axis axis);
 
-// `uncertainty_scale` multiplies every standard uncertainty (the budget's Type A scale, 1 for Type B).
-// Error motion values with `motion.enabled`.
-IsoResult iso230_quantities(const Design& design, const Parameterisation& param, const Estimate& est,
-                            double uncertainty_scale = 1.0, const IsoMotionOptions& motion = {});
+// `uncertainty_scale` multiplies every standard uncertainty (the budget's Type A scale, 1 for Type
+// B). Error motion values with `motion.enabled`.
+IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
+                            const Estimate& est, double uncertainty_scale = 1.0,
+                            const IsoMotionOptions& motion = {});
 
 }  // namespace dbbkit

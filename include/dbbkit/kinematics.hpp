@@ -17,7 +17,8 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 using RowVector6d = Eigen::Matrix<double, 1, 6>;
 
 inline constexpr std::array<const char*, 6> kErrorNames = {"dx", "dy", "dz", "ex", "ey", "ez"};
-inline constexpr std::array<const char*, 6> kErrorUnits = {"um", "um", "um", "urad", "urad", "urad"};
+inline constexpr std::array<const char*, 6> kErrorUnits = {"um",   "um",   "um",
+                                                           "urad", "urad", "urad"};
 
 // sin and cos of an angle in degrees, exact (0, +-1) at multiples of 90 deg,
 // so that a lever arm times cos(90 deg) is 0 and not 6e-17.
@@ -49,9 +50,11 @@ double exact_reading_um(Axis axis, const Installation& inst, double angle_deg, c
 
 // The set-up of one installation as it really is, against the design.
 struct SetupError {
-  double length_offset_um = 0;                              // zero (length) error of the bar as mounted
-  Eigen::Vector3d centring_um = Eigen::Vector3d::Zero();    // offset of the following ball's path centre, machine frame
-  Eigen::Vector3d ball_mm = Eigen::Vector3d::Zero();        // ball as placed minus as designed: (dL, dD, dH)
+  double length_offset_um = 0;  // zero (length) error of the bar as mounted
+  Eigen::Vector3d centring_um =
+      Eigen::Vector3d::Zero();  // offset of the following ball's path centre, machine frame
+  Eigen::Vector3d ball_mm =
+      Eigen::Vector3d::Zero();  // ball as placed minus as designed: (dL, dD, dH)
 };
 
 // The exact two-ball reading with a real set-up, no linearisation anywhere:
@@ -61,7 +64,7 @@ struct SetupError {
 //        path the machine was programmed for, shifted by the centring c,
 //   reading = |P - F| - bar + length_offset   [um].
 // With a zero set-up and zero errors it reads 0 exactly.
-double exact_setup_reading_um(Axis axis, const Installation& inst, double angle_deg, const Vector6d& e6,
-                              double bar_mm, const SetupError& setup);
+double exact_setup_reading_um(Axis axis, const Installation& inst, double angle_deg,
+                              const Vector6d& e6, double bar_mm, const SetupError& setup);
 
 }  // namespace dbbkit

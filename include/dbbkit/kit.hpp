@@ -45,8 +45,9 @@ struct PatternPosition {
 struct Pattern {
   std::string name;
   std::vector<PatternPosition> positions;
-  std::vector<std::vector<std::string>> distinct;  // groups of H variables that must take different heights
-  bool builtin = false;  // a named pattern of dbbkit (written by name)
+  std::vector<std::vector<std::string>>
+      distinct;                 // groups of H variables that must take different heights
+  bool builtin = false;         // a named pattern of dbbkit (written by name)
   int inherited_positions = 0;  // the first positions come from the built-in pattern it extends
 };
 
@@ -68,11 +69,11 @@ struct Kit {
   // below its limit are infeasible for the search.
   bool require_setup_detection = false;
   Interval L_mm;
-  Interval D_mm;                  // {0, 0}: no lateral offset
-  double H_base_mm = 0;           // C: height of the ball cup standing on the table
-  std::vector<double> blocks_mm;  // C: the cushion blocks owned, one entry per block
-  int max_stack = 0;              // C: at most this many blocks under one cup
-  std::vector<double> bars_mm;    // bar lengths that can be assembled
+  Interval D_mm;                      // {0, 0}: no lateral offset
+  double H_base_mm = 0;               // C: height of the ball cup standing on the table
+  std::vector<double> blocks_mm;      // C: the cushion blocks owned, one entry per block
+  int max_stack = 0;                  // C: at most this many blocks under one cup
+  std::vector<double> bars_mm;        // bar lengths that can be assembled
   std::array<Interval, 3> travel_mm;  // x, y, z of the following ball, machine frame of model.md
   double min_separation_mm = 0;
   Interval angle_range_deg;
@@ -115,11 +116,13 @@ double design_time_s(const Kit& kit, const Design& design);
 // coordinates are sinusoids of the angle, so the extent over the whole arc is
 // exact (end points and stationary points). Returns the largest excursion
 // outside travel_mm in mm (<= 0: inside everywhere).
-double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst, const std::vector<double>& angles_deg);
+double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst,
+                           const std::vector<double>& angles_deg);
 
 // Chooses the bar and the sign of an installation: the shortest bar, sign +1
 // before -1, that keeps the following ball inside the travel. When none does,
 // the choice with the smallest excursion is set. Returns the excursion (<= 0: fits).
-double fit_bar(const Kit& kit, Axis axis, Installation& inst, const std::vector<double>& angles_deg);
+double fit_bar(const Kit& kit, Axis axis, Installation& inst,
+               const std::vector<double>& angles_deg);
 
 }  // namespace dbbkit

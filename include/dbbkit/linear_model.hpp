@@ -18,9 +18,9 @@ namespace dbbkit {
 using Jacobian = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
 struct LinearModel {
-  Jacobian J;                 // [um per unit of theta], n_readings x n_parameters
-  Eigen::VectorXd y_um;       // readings (zero for a design model)
-  Eigen::VectorXd sigma_um;   // standard deviation of each reading
+  Jacobian J;                // [um per unit of theta], n_readings x n_parameters
+  Eigen::VectorXd y_um;      // readings (zero for a design model)
+  Eigen::VectorXd sigma_um;  // standard deviation of each reading
   std::vector<int> row_installation;
   std::vector<int> row_station;
   std::vector<double> row_angle_deg;
@@ -48,7 +48,8 @@ std::vector<SetupInput> setup_inputs(const Design& design);
 
 // d(readings)/d(input) [um/mm] at the errors theta: column j is the change of the
 // model readings J theta per mm of set-up input j. Exact: a row is linear in the ball position.
-Eigen::MatrixXd setup_sensitivity(const Design& design, const Parameterisation& param, const LinearModel& model,
-                                  const std::vector<SetupInput>& inputs, const Eigen::VectorXd& theta);
+Eigen::MatrixXd setup_sensitivity(const Design& design, const Parameterisation& param,
+                                  const LinearModel& model, const std::vector<SetupInput>& inputs,
+                                  const Eigen::VectorXd& theta);
 
 }  // namespace dbbkit

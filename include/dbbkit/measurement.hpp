@@ -14,11 +14,11 @@ enum class Sweep { CW, CCW };
 struct Reading {
   std::string installation;  // an id of the design
   double angle_deg = 0.0;
-  double reading_um = 0.0;      // bar length change
+  double reading_um = 0.0;       // bar length change
   std::optional<double> time_s;  // absent: not recorded
   std::optional<Sweep> sweep;
   std::optional<int> repeat;
-  int line = 0;  // line in the source file (0: not from a file)
+  int line = 0;        // line in the source file (0: not from a file)
   bool in_mm = false;  // read from a reading_mm column (for the message of a unit mix-up)
 };
 

@@ -29,11 +29,11 @@ class SetupSolver;
 
 struct MonteCarloOptions {
   std::uint64_t seed = 1;
-  int threads = 1;               // 0: all hardware threads
-  long batch_trials = 10000;     // M of JCGM 101 §7.9.4 (>= 100 / (1 - p))
-  long max_trials = 2000000;     // the adaptive procedure stops here, not converged
-  bool adaptive = true;          // false: exactly max_trials trials
-  int significant_digits = 2;    // n_dig of the numerical tolerance
+  int threads = 1;             // 0: all hardware threads
+  long batch_trials = 10000;   // M of JCGM 101 §7.9.4 (>= 100 / (1 - p))
+  long max_trials = 2000000;   // the adaptive procedure stops here, not converged
+  bool adaptive = true;        // false: exactly max_trials trials
+  int significant_digits = 2;  // n_dig of the numerical tolerance
   // The trials of one batch are kept (4 bytes per value and trial), never more: the
   // interval endpoints over all trials come from histograms around them (monte_carlo.cpp),
   // so memory does not grow with max_trials. A batch whose batch_trials x values x 4
@@ -81,9 +81,10 @@ double numerical_tolerance(double u, int significant_digits);
 
 // With `setup` (declared length offset and centring tolerances, setup.hpp) the
 // estimate is its own and every trial also draws the set-up effects from their priors.
-MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param, const LinearModel& model,
-                             const WlsSolver& solver, const Estimate& est, const Budget& budget,
-                             const MonteCarloOptions& options, const SetupSolver* setup = nullptr);
+MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param,
+                             const LinearModel& model, const WlsSolver& solver, const Estimate& est,
+                             const Budget& budget, const MonteCarloOptions& options,
+                             const SetupSolver* setup = nullptr);
 
 // The design as it would be measured, replayed at zero errors with the declared noise (Type B):
 // checks the linear a-priori uncertainties of `evaluate`.

@@ -25,8 +25,8 @@ namespace dbbkit {
 struct ObservabilityIndices {
   double O1 = 0, O2 = 0, O3 = 0, O4 = 0, O5 = 0;
 };
-ObservabilityIndices observability_indices(const Eigen::VectorXd& singular_values, int rank, int n_unknowns,
-                                           int n_readings);
+ObservabilityIndices observability_indices(const Eigen::VectorXd& singular_values, int rank,
+                                           int n_unknowns, int n_readings);
 
 // Criteria on M = J' Sigma^-1 J in the units of theta (um, urad: they mix units,
 // so compare them only between designs with the same parameterisation):
@@ -127,7 +127,8 @@ struct Evaluation {
 // The design as it would be measured: one reading per installation and angle.
 // `detection`: the test the set-up detection limits refer to (diagnose's level, and
 // the number of candidates it tests at once).
-Evaluation evaluate_design(const Design& design, double reference_length_mm, const EstimateOptions& options = {},
+Evaluation evaluate_design(const Design& design, double reference_length_mm,
+                           const EstimateOptions& options = {},
                            const DetectionSettings& detection = {});
 
 // A design map: one set-up coordinate (0 = L, 1 = D, 2 = H) of some installations
@@ -148,7 +149,8 @@ struct SweepPoint {
 
 // Every combination of the variables' values (first variable slowest). Throws
 // InputError when a combination makes an invalid design.
-std::vector<SweepPoint> sweep_design(const Design& design, const std::vector<SweepVariable>& variables,
+std::vector<SweepPoint> sweep_design(const Design& design,
+                                     const std::vector<SweepVariable>& variables,
                                      double reference_length_mm);
 
 }  // namespace dbbkit

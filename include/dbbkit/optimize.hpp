@@ -49,7 +49,7 @@ struct PatternChoice {
   int n_optional = 0;
   struct Height {
     std::string variable;
-    int stack = -1;         // index into block_stacks(kit)
+    int stack = -1;  // index into block_stacks(kit)
     double height_mm = 0;
   };
   std::vector<Height> heights;  // in the order the variables first appear
@@ -72,14 +72,15 @@ struct Candidate {
   PatternChoice choice;
   std::vector<double> x;  // the continuous variables
   Design design;          // bars and signs fitted to the travel
-  std::vector<int> installation_position;  // per installation: its position in kit.pattern.positions
+  std::vector<int>
+      installation_position;           // per installation: its position in kit.pattern.positions
   double travel_violation_mm = 0;      // <= 0: the following ball stays inside travel
   double separation_violation_mm = 0;  // <= 0: ball positions at least min_separation apart
   double time_s = 0;
   bool feasible = false;  // inside travel, separation and the time budget
   WorstCase worst;
-  int n_undetermined = 0;   // errors at angles the design cannot determine
-  double objective = 0;     // of the criterion (smaller is better)
+  int n_undetermined = 0;  // errors at angles the design cannot determine
+  double objective = 0;    // of the criterion (smaller is better)
   bool objective_defined = false;
   // With kit.require_setup_detection (feasible only if every declared set-up effect is
   // detected at its declared size): the test the limits refer to (diagnose's level over
@@ -89,7 +90,7 @@ struct Candidate {
   struct Detection {
     DetectionSettings settings;
     double ratio = 0;
-    std::string effect;               // its label, e.g. "centring[3t]"
+    std::string effect;              // its label, e.g. "centring[3t]"
     std::optional<double> limit_um;  // its detection limit
     double declared_std_um = 0;
     std::vector<std::string> undetectable;  // the effects the axis errors take
@@ -120,10 +121,11 @@ enum class ChoiceState {
   kOverTimeBudget,          // its shortest measurement (time_s) exceeds the kit's time budget
   kUndetectableEverywhere,  // the axis errors take a declared set-up effect at every position
                             // (best->detection->undetectable)
-  kOutsideTravel,           // no position keeps the following ball inside travel (best->travel_violation_mm)
-  kTooClose,                // no position keeps the balls min_separation_mm apart
-  kSetupNotDetected,        // no position detects every declared set-up effect at its size (best->detection)
-  kNoFeasiblePosition,      // none of the above, and no feasible position
+  kOutsideTravel,  // no position keeps the following ball inside travel (best->travel_violation_mm)
+  kTooClose,       // no position keeps the balls min_separation_mm apart
+  kSetupNotDetected,    // no position detects every declared set-up effect at its size
+                        // (best->detection)
+  kNoFeasiblePosition,  // none of the above, and no feasible position
 };
 
 // "searched", "over time budget", "undetectable everywhere", "outside travel", "too close",
@@ -132,9 +134,10 @@ const char* choice_state_name(ChoiceState s);
 
 struct ChoiceResult {
   PatternChoice choice;
-  std::string label;   // e.g. "H1 = 45 mm, H3 = 145 mm (blocks 100), step 20 deg"
+  std::string label;  // e.g. "H1 = 45 mm, H3 = 145 mm (blocks 100), step 20 deg"
   ChoiceState state = ChoiceState::kNoFeasiblePosition;
-  double time_s = 0;   // the measurement time of the choice at its lower bounds [s] (kOverTimeBudget)
+  // The measurement time of the choice at its lower bounds [s] (kOverTimeBudget).
+  double time_s = 0;
   std::optional<Candidate> best;
   bool budget_exhausted = false;  // the search stopped at max_evaluations_per_choice
 };
@@ -145,10 +148,11 @@ struct OptimizeResult {
   // Absent when no choice is feasible. Between choices, objectives within 1e-4 (relative)
   // count as equal and the shorter measurement is taken; the Pareto front likewise.
   std::optional<Candidate> best;
-  Evaluation best_evaluation;     // evaluate_design of the best
-  std::vector<Candidate> pareto;  // non-dominated (time, objective) among the best's determination class
-  long evaluations = 0;           // designs scored
-  std::string note;               // e.g. why a B design stays at rank 5
+  Evaluation best_evaluation;  // evaluate_design of the best
+  std::vector<Candidate>
+      pareto;            // non-dominated (time, objective) among the best's determination class
+  long evaluations = 0;  // designs scored
+  std::string note;      // e.g. why a B design stays at rank 5
 };
 
 // The discrete choices of a kit (each resolved: placements and continuous space), and the
@@ -158,7 +162,8 @@ std::string choice_label(const Kit& kit, const PatternChoice& choice);
 Candidate make_candidate(const Kit& kit, const PatternChoice& choice, const std::vector<double>& x);
 // Sets each installation's description (cup height and blocks, bar) for the person setting it up.
 void describe_installations(const Kit& kit, Candidate& c);
-// The installations of a candidate that come from optional positions of the pattern ("4a 5r 5t"; "-": none).
+// The installations of a candidate that come from optional positions of the pattern ("4a 5r 5t";
+// "-": none).
 std::string added_installations(const Kit& kit, const Candidate& c);
 // Scores a candidate (its design evaluated for the criterion).
 void score_candidate(const Kit& kit, Criterion criterion, Candidate& c);
@@ -170,6 +175,7 @@ OptimizeResult optimize_kit(const Kit& kit, const OptimizeOptions& options = {})
 
 // Every point of a grid with spacing grid_mm over each choice's continuous
 // space (both bounds included): the reference the search is tested against.
-OptimizeResult exhaustive_search(const Kit& kit, Criterion criterion, double grid_mm, int threads = 1);
+OptimizeResult exhaustive_search(const Kit& kit, Criterion criterion, double grid_mm,
+                                 int threads = 1);
 
 }  // namespace dbbkit

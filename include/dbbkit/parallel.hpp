@@ -36,7 +36,8 @@ void parallel_for(long n, int threads, Body&& body) {
       }
     }
   };
-  const long wanted = std::min<long>(std::max(1, std::min(threads, kMaxThreads)), std::max<long>(n, 1));
+  const long wanted =
+      std::min<long>(std::max(1, std::min(threads, kMaxThreads)), std::max<long>(n, 1));
   std::vector<std::thread> pool;
   for (long t = 1; t < wanted; ++t) {
     try {

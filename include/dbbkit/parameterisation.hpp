@@ -68,8 +68,9 @@ class Parameterisation {
   Axis axis_;
   ErrorModel model_;
   std::vector<double> station_deg_;
-  std::vector<std::pair<double, int>> index_;  // (angle key, station), sorted: station_of in O(log n)
-  double key_of(double angle_deg) const;        // C: angle modulo 360 in [0, 360); B: the angle
+  std::vector<std::pair<double, int>>
+      index_;                             // (angle key, station), sorted: station_of in O(log n)
+  double key_of(double angle_deg) const;  // C: angle modulo 360 in [0, 360); B: the angle
   int per_error_ = 1;
   int n_parameters_ = 0;
   double lo_deg_ = 0, hi_deg_ = 0;

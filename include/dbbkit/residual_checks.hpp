@@ -39,21 +39,23 @@ struct ColumnTest {
   int dof = 0;  // dof of the model with them appended
   double F = 0;
   double p = 1;
-  double value = 0, std = 0;  // one column only: its coefficient and standard uncertainty (declared noise)
+  double value = 0,
+         std = 0;  // one column only: its coefficient and standard uncertainty (declared noise)
 };
 
 // P(F(q, dof) >= F); 1 when F <= 0 or there is nothing to test.
 double f_test_p(int q, int dof, double F);
 
-// The order of significance: the smaller p; where p ties (both below the smallest double), the larger F.
+// The order of significance: the smaller p; where p ties (both below the smallest double), the
+// larger F.
 inline bool more_significant(double p_a, double F_a, double p_b, double F_b) {
   return p_a < p_b || (p_a == p_b && F_a > F_b);
 }
 
 struct ScanTest {
-  int best = -1;   // the alternative chosen (steps: index in `rows` of the first reading after the step;
-                   // readings: the row); -1 when none could be tested
-  int tested = 0;  // alternatives tested (m)
+  int best = -1;    // the alternative chosen (steps: index in `rows` of the first reading after the
+                    // step; readings: the row); -1 when none could be tested
+  int tested = 0;   // alternatives tested (m)
   ColumnTest test;  // of the best alternative
   double p_scan = 1;  // min(1, m p): the scan's p-value
 
@@ -105,19 +107,20 @@ class ColumnTester {
 //   kStep          a step scanned over the installation's readings (p over the positions)
 //   kReading       one reading on its own, scanned over all readings (a gross reading)
 enum class FeatureKind { kMean, kHarmonic, kDrift, kReversal, kStep, kReading };
-const char* feature_kind_name(FeatureKind k);  // "mean", "harmonic", "drift", "cw_minus_ccw", "step", "reading"
+const char* feature_kind_name(
+    FeatureKind k);  // "mean", "harmonic", "drift", "cw_minus_ccw", "step", "reading"
 
 struct ResidualFeature {
   FeatureKind kind = FeatureKind::kMean;
-  int installation = -1;  // -1: all (kReading)
-  int harmonic = 0;       // kHarmonic
-  int row = -1;           // kStep: the first reading after the step; kReading: the reading
+  int installation = -1;           // -1: all (kReading)
+  int harmonic = 0;                // kHarmonic
+  int row = -1;                    // kStep: the first reading after the step; kReading: the reading
   std::optional<Reading> reading;  // that reading
-  double value = 0, std = 0;  // one column: coefficient (um, um/min) and its standard uncertainty; kHarmonic:
-                              // the amplitude (um), std 0
+  double value = 0, std = 0;  // one column: coefficient (um, um/min) and its standard uncertainty;
+                              // kHarmonic: the amplitude (um), std 0
   ColumnTest test;
-  int tested = 1;    // alternatives scanned (kStep, kReading), else 1
-  double p = 1;      // the test's p, times `tested` for a scan
+  int tested = 1;  // alternatives scanned (kStep, kReading), else 1
+  double p = 1;    // the test's p, times `tested` for a scan
   // Installations whose feature of the same kind this one makes confounded: only the
   // difference is determined (a mean of 1r against 2r when the model holds their sum).
   std::vector<int> difference_with;
@@ -127,12 +130,14 @@ struct ResidualFeature {
 // readings `rows` (least squares of mean + a_k cos k g + b_k sin k g jointly), K = min(4,
 // (P - 1) / 2) for P distinct positions; empty when K < 1. Both the residual signature and the
 // harmonic features of residual_features state these.
-std::vector<double> residual_harmonics(const std::vector<Reading>& readings, const std::vector<int>& rows,
+std::vector<double> residual_harmonics(const std::vector<Reading>& readings,
+                                       const std::vector<int>& rows,
                                        const Eigen::VectorXd& residual_um);
 
 // Every feature of every installation, against the model of `solver` fitted to the readings
 // (`fit` = solver.solve(y)); `readings` as validated against `design`.
-std::vector<ResidualFeature> residual_features(const Design& design, const std::vector<Reading>& readings,
+std::vector<ResidualFeature> residual_features(const Design& design,
+                                               const std::vector<Reading>& readings,
                                                const WlsSolver& solver, const Estimate& fit,
                                                const EstimateOptions& options = {});
 
@@ -144,9 +149,10 @@ struct GrossReading {
   int row = -1;
   std::optional<Reading> reading;  // filled by the caller that has the readings (diagnose)
   double residual_um = 0;
-  double value_um = 0, std_um = 0;  // its offset from the rest (the indicator's coefficient) and uncertainty
-  double t = 0;  // externally studentised residual (signed)
-  double p = 1;  // single-reading p
+  double value_um = 0,
+         std_um = 0;  // its offset from the rest (the indicator's coefficient) and uncertainty
+  double t = 0;       // externally studentised residual (signed)
+  double p = 1;       // single-reading p
   double p_scan = 1;
   int tested = 0;
 };
@@ -157,30 +163,33 @@ std::vector<GrossReading> gross_readings(const Jacobian& J, const Eigen::VectorX
 // The errors' columns of each order K' = K+1 .. K+4 that the positions allow (2K'+1 <= P for
 // Fourier, K'+1 <= P for Legendre), each the whole J of that order, with K'; empty for a
 // per-angle model. ColumnTester::test takes the part the model of order K does not span.
-std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(const Design& design,
-                                                                  const std::vector<Reading>& readings);
+std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(
+    const Design& design, const std::vector<Reading>& readings);
 
 // The model's order (Fourier or Legendre errors): the errors' columns of order K' = K+1 ..
 // K+4 (as far as the positions allow: 2K'+1 for Fourier, K'+1 for Legendre) appended to J
-// (the solver's, which holds those of order K and the effects added); the K' of lowest BIC is suggested when
-// its F-test p times the orders tried is below the level. The fit with it: chi2 and dof.
+// (the solver's, which holds those of order K and the effects added); the K' of lowest BIC is
+// suggested when its F-test p times the orders tried is below the level. The fit with it: chi2 and
+// dof.
 struct OrderCheck {
   int order = 0;      // the design's
   int suggested = 0;  // K' of lowest BIC
   int tried = 0;
-  ColumnTest test;    // of K' against K
-  double p = 1;       // test.p times tried
+  ColumnTest test;  // of K' against K
+  double p = 1;     // test.p times tried
   double chi2_with = 0;
   int dof_with = 0;
   std::optional<double> p_value_with;  // P(chi2_dof >= chi2) with K'
 };
-std::optional<OrderCheck> model_order_check(const Design& design, const std::vector<Reading>& readings,
+std::optional<OrderCheck> model_order_check(const Design& design,
+                                            const std::vector<Reading>& readings,
                                             const WlsSolver& solver, const Estimate& fit,
                                             const EstimateOptions& options = {});
 // The same on columns already built (higher_order_columns), tested against the model `tester`
 // holds, whose fit is `fit`; `order` the design's.
-std::optional<OrderCheck> model_order_check(int order, const std::vector<std::pair<int, Eigen::MatrixXd>>& higher,
-                                            const ColumnTester& tester, const Estimate& fit);
+std::optional<OrderCheck> model_order_check(
+    int order, const std::vector<std::pair<int, Eigen::MatrixXd>>& higher,
+    const ColumnTester& tester, const Estimate& fit);
 
 // The scale of the noise: the readings scatter k = sqrt(chi2 / dof) times the declared
 // noise, with the 95 % interval [sqrt(chi2 / q_0.975), sqrt(chi2 / q_0.025)] (q the

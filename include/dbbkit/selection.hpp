@@ -90,7 +90,8 @@ struct EffectEvidence {
   int n_tested = 0;
   double bic_change = 0;
   double chi2_before = 0, chi2_after = 0;
-  int scanned = 0;  // a scanned candidate: the alternatives tested (its p at entry was min p times this)
+  // A scanned candidate: the alternatives tested (its p at entry was min p times this).
+  int scanned = 0;
 };
 
 // Another explanation (chi2_other, whose parameters cost extra_cost more than the chosen
@@ -113,8 +114,8 @@ struct AddedEffect {
   EffectBlock block;
   std::vector<std::string> equivalent_to;  // labels of equivalent alternatives not chosen
   // Candidates that fit almost as well (fits_almost_as_well) when the effect was chosen or in
-  // its place in the final model; the readings cannot tell them apart reliably (e.g. drift and reversal of one installation
-  // measured ccw then cw).
+  // its place in the final model; the readings cannot tell them apart reliably (e.g. drift and
+  // reversal of one installation measured ccw then cw).
   std::vector<std::string> close_alternatives;
   // The candidates that still fit almost as well in the effect's place in the final model (of
   // the pool, or a scanned step or warm-up at its best position), with their columns.
@@ -128,9 +129,12 @@ enum class CandidateState {
   kAdded,           // in the final model
   kNotSignificant,  // tested and not added (or exchanged out)
   kConfounded,      // its columns do not raise the rank by their number: its size cannot be told
-  kNotApplicable,   // its kind does not apply to this design (e.g. a reversal with one sweep direction)
-  kEquivalent,      // explains the data exactly as an added effect does; only their difference is determined
-  kDetectable,      // a design's a-priori answer (effect_detectability): it would raise the rank by its number
+  kNotApplicable,   // its kind does not apply to this design (e.g. a reversal with one sweep
+                    // direction)
+  kEquivalent,      // explains the data exactly as an added effect does; only their difference is
+                    // determined
+  kDetectable,  // a design's a-priori answer (effect_detectability): it would raise the rank by its
+                // number
 };
 
 // "added", "not significant", "confounded", "not applicable", "equivalent", "detectable".
@@ -145,9 +149,9 @@ struct CandidateStatus {
 // One whole-test effect against the same effect per installation (the structures
 // paragraph above): the labels and parameters of each, their BIC, which was kept.
 struct StructureComparison {
-  std::string kind;                      // effect name, e.g. "drift"
-  std::vector<std::string> chosen;       // labels in the final model
-  std::vector<std::string> rejected;     // labels of the alternative
+  std::string kind;                   // effect name, e.g. "drift"
+  std::vector<std::string> chosen;    // labels in the final model
+  std::vector<std::string> rejected;  // labels of the alternative
   double bic_chosen = 0, bic_rejected = 0;
 };
 
@@ -191,12 +195,14 @@ double bic(const Estimate& e);
 // explanation by fitting the noise at its best position.
 double parameter_cost(const EffectBlock& b, int scanned_alternatives);
 
-Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
-                         const std::vector<EffectBlock>& pool, const SelectionOptions& options = {});
+Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um,
+                         const Eigen::VectorXd& y_um, const std::vector<EffectBlock>& pool,
+                         const SelectionOptions& options = {});
 // With scanned candidates; `design` and `readings` build their alternatives.
-Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um, const Eigen::VectorXd& y_um,
-                         const std::vector<EffectBlock>& pool, const std::vector<ScanFamily>& families,
-                         const Design& design, const std::vector<Reading>& readings,
+Selection select_effects(const Jacobian& J, const Eigen::VectorXd& sigma_um,
+                         const Eigen::VectorXd& y_um, const std::vector<EffectBlock>& pool,
+                         const std::vector<ScanFamily>& families, const Design& design,
+                         const std::vector<Reading>& readings,
                          const SelectionOptions& options = {});
 
 }  // namespace dbbkit

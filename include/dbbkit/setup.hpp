@@ -52,14 +52,16 @@ struct SetupEffect {
   std::string label;                    // "centring[3r]"
   std::vector<std::string> parameters;  // "value" or "cx", "cy", "cz"
   Eigen::MatrixXd X;                    // n x parameters [um per um]
-  double std_um = 0;                    // declared standard uncertainty per column (0: none declared)
+  double std_um = 0;  // declared standard uncertainty per column (0: none declared)
 };
 
 // Every per-installation length offset and centring the rows can show; with
 // only_declared, only those with a declared tolerance.
-std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& model, bool only_declared);
+std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& model,
+                                       bool only_declared);
 // The same on the rows given (installation and angle of each; the values are not used).
-std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<Reading>& rows, bool only_declared);
+std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<Reading>& rows,
+                                       bool only_declared);
 
 class SetupSolver {
  public:
@@ -91,7 +93,8 @@ class SetupSolver {
   //   C G V = C (G0 V) - L R' W^1/2 (V - J G0 V),  L = C K S^-1 = left_gain_setup(C),
   // formed once for many V; memory that of G0 V (unknowns x m).
   Eigen::MatrixXd left_gain_setup(const FunctionRows& C) const;
-  Eigen::MatrixXd left_gain_times(const FunctionRows& C, const Eigen::MatrixXd& L, const Eigen::MatrixXd& V) const;
+  Eigen::MatrixXd left_gain_times(const FunctionRows& C, const Eigen::MatrixXd& L,
+                                  const Eigen::MatrixXd& V) const;
   // The 1-norm of every row of left_gain(C), without forming it: each row is c'G0 from the
   // rows of G0 that c touches (rows of C with one support in one product), plus (K'c)' D
   // with D = S^-1 R' W^1/2 (J G0 - I) formed once (memory: the readings times the unknowns
@@ -195,14 +198,17 @@ SetupInformation dense_setup_information(const Design& design);
 std::optional<double> detection_limit_um(int q, bool detectable, double min_information, int dof,
                                          const DetectionSettings& settings);
 
-std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param, const SetupSolver& solver,
+std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
+                                                  const SetupSolver& solver,
                                                   const std::vector<SetupEffect>& effects,
-                                                  const DetectionSettings& settings, double reference_length_mm);
+                                                  const DetectionSettings& settings,
+                                                  double reference_length_mm);
 
 // The first-order validity check (FirstOrderCheck, identify.hpp) at the errors theta.
-FirstOrderCheck first_order_check(const Design& design, const Parameterisation& param, const Eigen::VectorXd& theta);
+FirstOrderCheck first_order_check(const Design& design, const Parameterisation& param,
+                                  const Eigen::VectorXd& theta);
 // Its bias bound (bias_bound_std and where) for the values of a budget of the estimate of `solver`.
-void bound_first_order_bias(FirstOrderCheck& check, const SetupSolver& solver, const Parameterisation& param,
-                            const Budget& budget);
+void bound_first_order_bias(FirstOrderCheck& check, const SetupSolver& solver,
+                            const Parameterisation& param, const Budget& budget);
 
 }  // namespace dbbkit

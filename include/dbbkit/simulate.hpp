@@ -36,13 +36,13 @@ struct Schedule {
 
 // Format `dbbkit.truth/1` (README).
 struct Truth {
-  ErrorModel model;  // per_angle, fourier (C) or legendre (B)
+  ErrorModel model;                                    // per_angle, fourier (C) or legendre (B)
   std::vector<std::pair<double, Vector6d>> per_angle;  // angle_deg, (dx..ez)
-  std::array<std::vector<double>, 6> coefficients;      // series: per error, in basis order
-  std::optional<std::pair<double, double>> range_deg;   // legendre: the range x in [-1, 1] maps to
-  std::optional<NoiseModel> noise;  // absent: the design's noise
-  bool noiseless = false;           // noise "none"
-  int repeats = 1;                  // readings per installation and angle
+  std::array<std::vector<double>, 6> coefficients;     // series: per error, in basis order
+  std::optional<std::pair<double, double>> range_deg;  // legendre: the range x in [-1, 1] maps to
+  std::optional<NoiseModel> noise;                     // absent: the design's noise
+  bool noiseless = false;                              // noise "none"
+  int repeats = 1;                                     // readings per installation and angle
   std::optional<std::uint64_t> seed;
   std::vector<TruthEffect> effects;
   std::optional<Schedule> schedule;  // absent: no time_s and no sweep in the readings
@@ -63,11 +63,13 @@ struct Truth {
 // The set-up error of every installation of a simulation (design order): given,
 // or drawn from setup_draw with a generator of its own seeded by `seed` (the noise
 // draws do not depend on it). Zero for a first-order truth.
-std::vector<SetupError> simulated_setup_errors(const Design& design, const Truth& truth, std::uint64_t seed);
+std::vector<SetupError> simulated_setup_errors(const Design& design, const Truth& truth,
+                                               std::uint64_t seed);
 
 // The true errors at an angle. Throws InputError when a per-angle truth has no
 // value at that position.
-Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std::string& source = "truth");
+Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg,
+                      const std::string& source = "truth");
 
 // Checks a truth against a design (every position covered, coefficients of the right length).
 void validate_truth(const Truth& truth, const Design& design, const std::string& source = "truth");

@@ -22,12 +22,13 @@
 namespace dbbkit {
 
 struct BudgetOptions {
-  bool type_a = false;                // evaluate the reading noise from the residual
+  bool type_a = false;  // evaluate the reading noise from the residual
   double coverage_probability = 0.95;
 };
 
 struct BudgetComponent {
-  std::string name;  // "reading noise", "set-up length offset", "set-up centring", "set-up L", "set-up D", "set-up H"
+  std::string name;  // "reading noise", "set-up length offset", "set-up centring", "set-up L",
+                     // "set-up D", "set-up H"
   std::string type;  // "A" or "B"
   double u = 0;      // standard uncertainty contribution, in the value's unit
   std::optional<double> dof;  // absent: infinite
@@ -75,17 +76,18 @@ FunctionRows budget_functions(const Parameterisation& param, const Budget& budge
 // Throws InputError when Type A is asked for and the residual has no degrees of freedom.
 // With `setup` (declared length offset and centring tolerances), `est` is its estimate
 // and the noise and set-up parts are its own.
-Budget uncertainty_budget(const Design& design, const Parameterisation& param, const LinearModel& model,
-                          const WlsSolver& solver, const Estimate& est, const BudgetOptions& options,
-                          const SetupSolver* setup = nullptr);
+Budget uncertainty_budget(const Design& design, const Parameterisation& param,
+                          const LinearModel& model, const WlsSolver& solver, const Estimate& est,
+                          const BudgetOptions& options, const SetupSolver* setup = nullptr);
 
 // The joint covariance of the budget's values (values x values, in the order of
 // budget.values, each in its unit): the components of every u_c with the correlations
 // between values, i.e. reading noise (times the Type A factor squared), the set-up
 // length offsets and centrings (with `setup`) and the set-up inputs L, D, H (through
 // the same sensitivities as the budget). Its diagonal is u_c^2. Dense: values^2 doubles.
-Eigen::MatrixXd budget_covariance(const Design& design, const Parameterisation& param, const LinearModel& model,
-                                  const WlsSolver& solver, const Estimate& est, const Budget& budget,
+Eigen::MatrixXd budget_covariance(const Design& design, const Parameterisation& param,
+                                  const LinearModel& model, const WlsSolver& solver,
+                                  const Estimate& est, const Budget& budget,
                                   const SetupSolver* setup = nullptr);
 
 }  // namespace dbbkit

@@ -59,9 +59,11 @@ inline CLI::Validator integer_in(long long lo, long long hi) {
 inline CLI::Validator seed_value() {
   return CLI::Validator(
       [](std::string& s) -> std::string {
-        if (s.empty() || s.size() > 20) return "'" + s + "' is not a seed (a whole number in [0, 2^64 - 1])";
+        if (s.empty() || s.size() > 20)
+          return "'" + s + "' is not a seed (a whole number in [0, 2^64 - 1])";
         for (char c : s) {
-          if (c < '0' || c > '9') return "'" + s + "' is not a seed (a whole number in [0, 2^64 - 1])";
+          if (c < '0' || c > '9')
+            return "'" + s + "' is not a seed (a whole number in [0, 2^64 - 1])";
         }
         if (s.size() == 20 && s > "18446744073709551615") return "'" + s + "' is beyond 2^64 - 1";
         return "";
@@ -71,7 +73,8 @@ inline CLI::Validator seed_value() {
 
 // A path to read or write: never empty ("-" is standard output where the option allows it).
 inline CLI::Validator path_value() {
-  return CLI::Validator([](std::string& s) -> std::string { return s.empty() ? "an empty path" : ""; }, "PATH");
+  return CLI::Validator(
+      [](std::string& s) -> std::string { return s.empty() ? "an empty path" : ""; }, "PATH");
 }
 
 // A thread count: 0 (all hardware threads) up to kMaxThreads.

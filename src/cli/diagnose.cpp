@@ -1,17 +1,18 @@
+#include "dbbkit/diagnose.hpp"
+
 #include <iostream>
 #include <memory>
 
-#include "commands.hpp"
 #include "checks.hpp"
-#include "report_options.hpp"
-#include "dbbkit/io/reports.hpp"
-#include "dbbkit/diagnose.hpp"
+#include "commands.hpp"
 #include "dbbkit/error.hpp"
-#include "dbbkit/limits.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/output.hpp"
+#include "dbbkit/io/reports.hpp"
+#include "dbbkit/limits.hpp"
+#include "report_options.hpp"
 
 namespace dbbkit::cli {
 
@@ -26,21 +27,26 @@ struct DiagnoseArgs {
 
 Runner add_diagnose(CLI::App& app) {
   auto args = std::make_shared<DiagnoseArgs>();
-  CLI::App* sub = app.add_subcommand(
-      "diagnose", "Find what the model does not explain, add the effects that explain it, report before and after");
+  CLI::App* sub = app.add_subcommand("diagnose",
+                                     "Find what the model does not explain, add the effects that "
+                                     "explain it, report before and after");
   sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
   sub->add_option("--data", args->data, "Measurement file (CSV)")->required();
   sub->add_option("--out", args->out,
-                  "Result JSON (dbbkit.diagnose/1); '-': stdout. Absent: JSON on stdout when it is not a terminal, "
+                  "Result JSON (dbbkit.diagnose/1); '-': stdout. Absent: JSON on stdout when it is "
+                  "not a terminal, "
                   "else the tables");
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
   sub->add_option("--level", args->level, "Family-wise significance level of each selection step")
       ->check(finite_in(limits::kMinLevel, limits::kMaxLevel))
       ->capture_default_str();
-  sub->add_option("--max-effects", args->max_effects, "Most effects added")->check(integer_in(0, limits::kMaxEffects))->capture_default_str();
+  sub->add_option("--max-effects", args->max_effects, "Most effects added")
+      ->check(integer_in(0, limits::kMaxEffects))
+      ->capture_default_str();
   sub->add_flag("--exclude-gross", args->exclude_gross,
-                "Refit without the gross readings found (at most 10), and say so in the verdict and the JSON");
+                "Refit without the gross readings found (at most 10), and say so in the verdict "
+                "and the JSON");
   return [args, rep]() {
     const std::vector<std::string> in = {args->design, args->data};
     const std::string json_out = json_to_stdout(args->out) ? "-" : args->out;
@@ -55,12 +61,15 @@ Runner add_diagnose(CLI::App& app) {
     const io::InputFiles inputs{args->design, args->data};
     const io::RunContext run{command_line(), in};
     if (!rep->report.empty()) {
-      outputs.stage("--report", io::diagnose_report(io::ReportFormat::Html, run, design, readings, result, a_priori_expansion()));
+      outputs.stage("--report", io::diagnose_report(io::ReportFormat::Html, run, design, readings,
+                                                    result, a_priori_expansion()));
     }
     if (!rep->summary.empty()) {
-      outputs.stage("--summary", io::diagnose_report(io::ReportFormat::Markdown, run, design, readings, result, a_priori_expansion()));
+      outputs.stage("--summary", io::diagnose_report(io::ReportFormat::Markdown, run, design,
+                                                     readings, result, a_priori_expansion()));
     }
-    if (!json_out.empty()) outputs.stage("--out", io::diagnose_to_json(design, result, inputs).dump(2) + "\n");
+    if (!json_out.empty())
+      outputs.stage("--out", io::diagnose_to_json(design, result, inputs).dump(2) + "\n");
     outputs.commit();
     if (tables_to_stdout(args->out, rep->quiet)) std::cout << io::diagnose_summary(design, result);
     return 0;

@@ -5,18 +5,18 @@
 
 #include "checks.hpp"
 #include "commands.hpp"
-#include "dbbkit/limits.hpp"
-#include "report_options.hpp"
-#include "uncertainty_options.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/error.hpp"
-#include "dbbkit/linear_model.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/sweep_io.hpp"
+#include "dbbkit/limits.hpp"
+#include "dbbkit/linear_model.hpp"
 #include "dbbkit/observability.hpp"
+#include "report_options.hpp"
+#include "uncertainty_options.hpp"
 
 namespace dbbkit::cli {
 
@@ -30,27 +30,35 @@ struct EvaluateArgs {
 
 Runner add_evaluate(CLI::App& app) {
   auto args = std::make_shared<EvaluateArgs>();
-  CLI::App* sub = app.add_subcommand("evaluate", "What a design can identify, and how well, before measuring");
+  CLI::App* sub =
+      app.add_subcommand("evaluate", "What a design can identify, and how well, before measuring");
   sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
   sub->add_option("--reference-length-mm", args->reference_length_mm,
-                  "Lever arm converting angular uncertainty to um (default: the design's reference_length_mm)")
+                  "Lever arm converting angular uncertainty to um (default: the design's "
+                  "reference_length_mm)")
       ->check(finite_in(limits::kMinReferenceLength_mm, limits::kMaxLength_mm));
-  sub->add_option("--out", args->out, "Result JSON (dbbkit.evaluate/1); '-': stdout. The summary goes to stdout otherwise");
-  sub->add_option("--sweep", args->sweeps,
-                  "Design map: NAME=start:stop:step with NAME = L|D|H and an installation-id prefix (L2: L of "
-                  "installations 2*) or L|D|H@id,id; repeat for a grid");
+  sub->add_option(
+      "--out", args->out,
+      "Result JSON (dbbkit.evaluate/1); '-': stdout. The summary goes to stdout otherwise");
+  sub->add_option(
+      "--sweep", args->sweeps,
+      "Design map: NAME=start:stop:step with NAME = L|D|H and an installation-id prefix (L2: L of "
+      "installations 2*) or L|D|H@id,id; repeat for a grid");
   sub->add_option("--map-csv", args->map_csv, "Write the design map as CSV (with --sweep)");
   auto unc = std::make_shared<UncertaintyArgs>();
   add_uncertainty_options(sub, unc);
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
   return [args, unc, rep]() {
-    io::OutputSet outputs(output_targets(args->out, *rep, {{"--map-csv", args->map_csv}}), {args->design});
+    io::OutputSet outputs(output_targets(args->out, *rep, {{"--map-csv", args->map_csv}}),
+                          {args->design});
     const Design design = io::read_design_file(args->design);
-    const std::optional<double> ref = args->reference_length_mm ? args->reference_length_mm : design.reference_length_mm;
+    const std::optional<double> ref =
+        args->reference_length_mm ? args->reference_length_mm : design.reference_length_mm;
     if (!ref || !(*ref > 0)) {
-      throw InputError(args->design, "reference_length_mm",
-                       "needed to express angular uncertainty in um (or give --reference-length-mm)");
+      throw InputError(
+          args->design, "reference_length_mm",
+          "needed to express angular uncertainty in um (or give --reference-length-mm)");
     }
     if (!args->map_csv.empty() && args->sweeps.empty()) {
       throw InputError("--map-csv", "", "a design map needs at least one --sweep");
@@ -75,17 +83,20 @@ Runner add_evaluate(CLI::App& app) {
     }
     if (!args->map_csv.empty()) outputs.stage("--map-csv", io::sweep_csv(variables, map));
     const io::RunContext run{command_line(), {args->design}};
-    for (const auto& [option, file, format] : {std::tuple{"--report", rep->report, io::ReportFormat::Html},
-                                               std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {
+    for (const auto& [option, file, format] :
+         {std::tuple{"--report", rep->report, io::ReportFormat::Html},
+          std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {
       if (!file.empty()) {
-        outputs.stage(option, io::evaluate_report(format, run, design, ev, variables, map, mc ? &*mc : nullptr,
-                                                          a_priori_expansion(unc->coverage)));
+        outputs.stage(option,
+                      io::evaluate_report(format, run, design, ev, variables, map,
+                                          mc ? &*mc : nullptr, a_priori_expansion(unc->coverage)));
       }
     }
     outputs.commit();
     if (args->out != "-" && !rep->quiet) {
       std::cout << io::evaluate_summary(design, ev);
-      std::cout << "\neffects this design can tell from the axis errors (" << design.errors.describe() << "):\n";
+      std::cout << "\neffects this design can tell from the axis errors ("
+                << design.errors.describe() << "):\n";
       for (CandidateState st : {CandidateState::kDetectable, CandidateState::kConfounded,
                                 CandidateState::kNotApplicable}) {
         std::cout << "  " << candidate_state_name(st) << ":";
@@ -103,7 +114,8 @@ Runner add_evaluate(CLI::App& app) {
         }
         if (best) {
           std::cout << "; smallest worst_std_um " << *best->worst_std_um << " um at";
-          for (size_t i = 0; i < variables.size(); ++i) std::cout << " " << variables[i].name << " = " << best->values[i];
+          for (size_t i = 0; i < variables.size(); ++i)
+            std::cout << " " << variables[i].name << " = " << best->values[i];
         } else {
           std::cout << "; none determines every error";
         }

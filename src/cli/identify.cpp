@@ -1,19 +1,20 @@
+#include "dbbkit/identify.hpp"
+
 #include <iostream>
 #include <memory>
 #include <optional>
 
 #include "commands.hpp"
-#include "report_options.hpp"
-#include "uncertainty_options.hpp"
 #include "dbbkit/conformance.hpp"
-#include "dbbkit/identify.hpp"
-#include "dbbkit/setup.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/reports.hpp"
-#include "dbbkit/io/tolerances_io.hpp"
 #include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/tolerances_io.hpp"
+#include "dbbkit/setup.hpp"
+#include "report_options.hpp"
+#include "uncertainty_options.hpp"
 
 namespace dbbkit::cli {
 
@@ -26,17 +27,21 @@ struct IdentifyArgs {
 
 Runner add_identify(CLI::App& app) {
   auto args = std::make_shared<IdentifyArgs>();
-  CLI::App* sub = app.add_subcommand("identify", "Identify the six errors of the axis from DBB readings");
+  CLI::App* sub =
+      app.add_subcommand("identify", "Identify the six errors of the axis from DBB readings");
   sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
   sub->add_option("--data", args->data, "Measurement file (CSV)")->required();
   sub->add_option("--out", args->out,
-                  "Result JSON (dbbkit.identify/1); '-': stdout. Absent: JSON on stdout when it is not a terminal, "
+                  "Result JSON (dbbkit.identify/1); '-': stdout. Absent: JSON on stdout when it is "
+                  "not a terminal, "
                   "else the tables");
-  sub->add_flag("--type-a", args->type_a,
-                "Evaluate the reading noise from the residual (Type A, n - rank degrees of freedom) "
-                "instead of the declared instrument accuracy");
+  sub->add_flag(
+      "--type-a", args->type_a,
+      "Evaluate the reading noise from the residual (Type A, n - rank degrees of freedom) "
+      "instead of the declared instrument accuracy");
   sub->add_option("--tolerances", args->tolerances,
-                  "Tolerance file (dbbkit.tolerances/1): decide conformance after ISO 14253-1; exit code 1 when a "
+                  "Tolerance file (dbbkit.tolerances/1): decide conformance after ISO 14253-1; "
+                  "exit code 1 when a "
                   "quantity does not conform");
   auto unc = std::make_shared<UncertaintyArgs>();
   add_uncertainty_options(sub, unc);
@@ -60,30 +65,33 @@ Runner add_identify(CLI::App& app) {
     options.iso_motion.seed = unc->mc.seed;
     const IdentifyResult result = identify(design, readings, options);
     std::optional<ConformanceReport> conformance;
-    if (!tolerances.empty()) conformance = decide_conformance(design, result, tolerances, args->tolerances);
+    if (!tolerances.empty())
+      conformance = decide_conformance(design, result, tolerances, args->tolerances);
     std::optional<MonteCarloResult> mc;
     if (unc->monte_carlo) {
       report_progress(unc->mc, rep->quiet);
       mc = monte_carlo(design, result, unc->mc);
     }
-    nlohmann::json j =
-        io::identify_to_json(design, readings, result, {args->design, args->data}, mc ? &*mc : nullptr, false);
+    nlohmann::json j = io::identify_to_json(design, readings, result, {args->design, args->data},
+                                            mc ? &*mc : nullptr, false);
     if (conformance) j["conformance"] = io::conformance_to_json(*conformance, args->tolerances);
     const io::RunContext run{command_line(), inputs};
     if (!rep->report.empty()) {
-      outputs.stage("--report",
-                    io::identify_report(io::ReportFormat::Html, run, design, readings, result, mc ? &*mc : nullptr,
-                                        conformance ? &*conformance : nullptr));
+      outputs.stage("--report", io::identify_report(io::ReportFormat::Html, run, design, readings,
+                                                    result, mc ? &*mc : nullptr,
+                                                    conformance ? &*conformance : nullptr));
     }
     if (!rep->summary.empty()) {
-      outputs.stage("--summary", io::identify_report(io::ReportFormat::Markdown, run, design, readings, result,
-                                                     mc ? &*mc : nullptr, conformance ? &*conformance : nullptr));
+      outputs.stage("--summary", io::identify_report(io::ReportFormat::Markdown, run, design,
+                                                     readings, result, mc ? &*mc : nullptr,
+                                                     conformance ? &*conformance : nullptr));
     }
     if (!json_out.empty()) {
-      const std::size_t rows = std::min(readings.size(), static_cast<std::size_t>(result.estimate.residual_um.size()));
+      const std::size_t rows =
+          std::min(readings.size(), static_cast<std::size_t>(result.estimate.residual_um.size()));
       outputs.stage("--out", io::json_text(j, "readings", rows, [&](std::size_t i) {
-                      return io::identify_reading_row(readings, result.estimate, i);
-                    }) + "\n");
+                               return io::identify_reading_row(readings, result.estimate, i);
+                             }) + "\n");
     }
     outputs.commit();
     if (tables_to_stdout(args->out, rep->quiet)) {
@@ -92,8 +100,9 @@ Runner add_identify(CLI::App& app) {
       if (conformance) std::cout << io::conformance_text(*conformance);
     } else if (conformance && !rep->quiet) {
       std::cerr << "conformance: "
-                << (conformance->any_nonconforming() ? "does not conform" : "no nonconformity proven") << " ("
-                << args->tolerances << "; the decisions in the JSON)\n";
+                << (conformance->any_nonconforming() ? "does not conform"
+                                                     : "no nonconformity proven")
+                << " (" << args->tolerances << "; the decisions in the JSON)\n";
     }
     return conformance && conformance->any_nonconforming() ? 1 : 0;
   };

@@ -5,10 +5,11 @@
 //   formats.md promises), while a terminal gets the aligned tables instead.
 //   --quiet leaves only the files asked for.
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <memory>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "dbbkit/io/output.hpp"
@@ -29,7 +30,9 @@ inline void add_report_options(CLI::App* sub, const std::shared_ptr<ReportArgs>&
 inline bool stdout_is_terminal() { return ::isatty(STDOUT_FILENO) == 1; }
 
 // The JSON result goes to stdout.
-inline bool json_to_stdout(const std::string& out) { return out == "-" || (out.empty() && !stdout_is_terminal()); }
+inline bool json_to_stdout(const std::string& out) {
+  return out == "-" || (out.empty() && !stdout_is_terminal());
+}
 
 // The human tables go to stdout.
 inline bool tables_to_stdout(const std::string& out, bool quiet) {
@@ -39,7 +42,8 @@ inline bool tables_to_stdout(const std::string& out, bool quiet) {
 // The outputs of a command: --out when JSON goes to a file or to stdout (json_out:
 // the --out value, "-" when it is stdout by default), --report and --summary when
 // given, and the command's own others. Checked before any work is done (output.hpp).
-inline std::vector<io::OutputTarget> output_targets(const std::string& json_out, const ReportArgs& rep,
+inline std::vector<io::OutputTarget> output_targets(const std::string& json_out,
+                                                    const ReportArgs& rep,
                                                     std::vector<io::OutputTarget> others = {}) {
   std::vector<io::OutputTarget> t;
   if (!json_out.empty()) t.push_back({"--out", json_out});

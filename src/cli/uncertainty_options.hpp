@@ -22,15 +22,19 @@ inline void add_uncertainty_options(CLI::App* sub, const std::shared_ptr<Uncerta
   sub->add_option("--coverage", args->coverage, "Coverage probability of the expanded uncertainty")
       ->check(finite_in(limits::kMinCoverage, limits::kMaxCoverage))
       ->capture_default_str();
-  sub->add_flag("--monte-carlo", args->monte_carlo, "Check the linear result by Monte Carlo (JCGM 101)");
-  sub->add_option("--mc-seed", args->mc.seed, "Monte Carlo seed")->check(seed_value())->capture_default_str();
+  sub->add_flag("--monte-carlo", args->monte_carlo,
+                "Check the linear result by Monte Carlo (JCGM 101)");
+  sub->add_option("--mc-seed", args->mc.seed, "Monte Carlo seed")
+      ->check(seed_value())
+      ->capture_default_str();
   sub->add_option("--mc-threads", args->mc.threads, "Monte Carlo threads (0: all)")
       ->check(thread_count())
       ->capture_default_str();
   sub->add_option("--mc-max-trials", args->mc.max_trials, "Most Monte Carlo trials")
       ->check(integer_in(limits::kMinMonteCarloTrials, limits::kMaxMonteCarloTrials))
       ->capture_default_str();
-  sub->add_option("--mc-batch", args->mc.batch_trials, "Trials per adaptive batch (a multiple of 1000)")
+  sub->add_option("--mc-batch", args->mc.batch_trials,
+                  "Trials per adaptive batch (a multiple of 1000)")
       ->check(integer_in(limits::kMinMonteCarloTrials, limits::kMaxMonteCarloBatch))
       ->capture_default_str();
   sub->add_option("--mc-digits", args->mc.significant_digits,
@@ -45,7 +49,8 @@ inline void report_progress(MonteCarloOptions& mc, bool quiet) {
   const auto start = std::chrono::steady_clock::now();
   auto last = std::make_shared<double>(0.0);
   mc.progress = [start, last](long trials) {
-    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double t =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (t < 1.0 || t - *last < 1.0) return;
     *last = t;
     std::cerr << "monte carlo: " << trials << " trials, " << static_cast<int>(t) << " s\n";

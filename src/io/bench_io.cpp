@@ -45,7 +45,8 @@ Baseline read_baseline_file(const std::string& path) {
   const json j = parse_json(read_text_file(path), path);
   ObjectReader top(j, path, "");
   const std::string format = top.string("format");
-  if (format != kBaselineFormat) top.fail("format", "expected \"" + std::string(kBaselineFormat) + "\"");
+  if (format != kBaselineFormat)
+    top.fail("format", "expected \"" + std::string(kBaselineFormat) + "\"");
   Baseline b;
   b.tolerance_relative = top.number("tolerance_relative");
   if (!(b.tolerance_relative >= 0 && b.tolerance_relative < 1)) {
@@ -101,19 +102,25 @@ void judge(BenchRow& row, double tol) {
   const int lost_b = b.n_unknowns - b.rank, lost_n = n.n_unknowns - n.rank;
   if (n.n_unknowns != b.n_unknowns) {
     (n.n_unknowns > b.n_unknowns ? better : worse)
-        .push_back("unknowns " + std::to_string(b.n_unknowns) + " -> " + std::to_string(n.n_unknowns));
+        .push_back("unknowns " + std::to_string(b.n_unknowns) + " -> " +
+                   std::to_string(n.n_unknowns));
   }
-  if (lost_n > lost_b) worse.push_back("rank deficiency " + std::to_string(lost_b) + " -> " + std::to_string(lost_n));
-  if (lost_n < lost_b) better.push_back("rank deficiency " + std::to_string(lost_b) + " -> " + std::to_string(lost_n));
-  auto compare = [&](const char* what, const std::optional<double>& was, const std::optional<double>& is) {
+  if (lost_n > lost_b)
+    worse.push_back("rank deficiency " + std::to_string(lost_b) + " -> " + std::to_string(lost_n));
+  if (lost_n < lost_b)
+    better.push_back("rank deficiency " + std::to_string(lost_b) + " -> " + std::to_string(lost_n));
+  auto compare = [&](const char* what, const std::optional<double>& was,
+                     const std::optional<double>& is) {
     if (was && !is) {
       worse.push_back(std::string(what) + " " + num(was) + " um -> none");
     } else if (!was && is) {
       better.push_back(std::string(what) + " none -> " + num(is) + " um");
     } else if (was && is) {
       const double change = *is / *was - 1;
-      if (change > tol) worse.push_back(std::string(what) + " " + num(was) + " -> " + num(is) + " um");
-      if (change < -tol) better.push_back(std::string(what) + " " + num(was) + " -> " + num(is) + " um");
+      if (change > tol)
+        worse.push_back(std::string(what) + " " + num(was) + " -> " + num(is) + " um");
+      if (change < -tol)
+        better.push_back(std::string(what) + " " + num(was) + " -> " + num(is) + " um");
     }
   };
   compare("worst_std_um", b.worst_std_um, n.worst_std_um);
@@ -125,13 +132,16 @@ void judge(BenchRow& row, double tol) {
   const bool total_now = n.worst_total_std_um || n.worst_total_determined_std_um;
   const bool total_before = b.worst_total_std_um || b.worst_total_determined_std_um;
   if (total_now && !total_before) {
-    worse.push_back("worst_total_std_um has no baseline (declared set-up tolerances): write the baseline");
+    worse.push_back(
+        "worst_total_std_um has no baseline (declared set-up tolerances): write the baseline");
   } else if (!total_now && total_before) {
-    worse.push_back("worst_total_std_um in the baseline but the design declares no set-up tolerance");
+    worse.push_back(
+        "worst_total_std_um in the baseline but the design declares no set-up tolerance");
   } else if (total_now) {
     compare("worst_total_std_um", b.worst_total_std_um, n.worst_total_std_um);
     if (!b.worst_total_std_um && !n.worst_total_std_um) {
-      compare("worst_total_determined_std_um", b.worst_total_determined_std_um, n.worst_total_determined_std_um);
+      compare("worst_total_determined_std_um", b.worst_total_determined_std_um,
+              n.worst_total_determined_std_um);
     }
   }
   auto join = [](const std::vector<std::string>& v) {
@@ -169,15 +179,17 @@ void check_row(BenchRow& row, const BenchLimits& limits) {
       c.message = "worse than the baseline: " + row.detail;
     } else if (row.state == BenchState::kNew) {
       c.passed = limits.allow_new;
-      c.message = limits.allow_new ? "no baseline (allowed: --allow-new)"
-                                   : "no baseline for this design: add it to the baseline, or pass --allow-new";
+      c.message = limits.allow_new
+                      ? "no baseline (allowed: --allow-new)"
+                      : "no baseline for this design: add it to the baseline, or pass --allow-new";
     } else {
       c.message = bench_state_name(row.state) + (row.detail.empty() ? "" : ": " + row.detail);
     }
     row.checks.push_back(c);
   }
-  auto at_most = [&](const char* name, const std::optional<double>& limit, const std::optional<double>& value,
-                     const std::string& unit, const std::string& absent) {
+  auto at_most = [&](const char* name, const std::optional<double>& limit,
+                     const std::optional<double>& value, const std::string& unit,
+                     const std::string& absent) {
     if (!limit) return;
     BenchCheck c{name, true, ""};
     if (!value) {
@@ -205,14 +217,25 @@ std::string xml_escape(const std::string& text) {
   std::string out;
   for (char ch : text) {
     switch (ch) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
       default:
         // Control characters other than tab, newline and carriage return are not XML 1.0.
-        if (static_cast<unsigned char>(ch) >= 0x20 || ch == '\t' || ch == '\n' || ch == '\r') out += ch;
+        if (static_cast<unsigned char>(ch) >= 0x20 || ch == '\t' || ch == '\n' || ch == '\r')
+          out += ch;
     }
   }
   return out;
@@ -235,18 +258,20 @@ std::string bench_junit(const std::vector<BenchRow>& rows) {
   }
   std::ostringstream s;
   s << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
-  s << "<testsuites name=\"dbbkit bench\" tests=\"" << tests << "\" failures=\"" << failures << "\" errors=\"0\">\n";
+  s << "<testsuites name=\"dbbkit bench\" tests=\"" << tests << "\" failures=\"" << failures
+    << "\" errors=\"0\">\n";
   s << "  <testsuite name=\"dbbkit bench\" tests=\"" << tests << "\" failures=\"" << failures
     << "\" errors=\"0\" skipped=\"0\">\n";
   for (const BenchRow& r : rows) {
     for (const BenchCheck& c : r.checks) {
-      s << "    <testcase classname=\"" << xml_escape("bench." + r.key) << "\" name=\"" << xml_escape(c.name)
-        << "\" file=\"" << xml_escape(r.file) << "\"";
+      s << "    <testcase classname=\"" << xml_escape("bench." + r.key) << "\" name=\""
+        << xml_escape(c.name) << "\" file=\"" << xml_escape(r.file) << "\"";
       if (c.passed) {
         s << ">\n      <system-out>" << xml_escape(c.message) << "</system-out>\n    </testcase>\n";
       } else {
-        s << ">\n      <failure message=\"" << xml_escape(c.message) << "\" type=\"" << xml_escape(c.name) << "\">"
-          << xml_escape(r.file + ": " + c.message) << "</failure>\n    </testcase>\n";
+        s << ">\n      <failure message=\"" << xml_escape(c.message) << "\" type=\""
+          << xml_escape(c.name) << "\">" << xml_escape(r.file + ": " + c.message)
+          << "</failure>\n    </testcase>\n";
       }
     }
   }
@@ -254,7 +279,8 @@ std::string bench_junit(const std::vector<BenchRow>& rows) {
   return s.str();
 }
 
-std::string bench_markdown(const std::vector<BenchRow>& rows, double tol, const BenchLimits& limits) {
+std::string bench_markdown(const std::vector<BenchRow>& rows, double tol,
+                           const BenchLimits& limits) {
   int failed = 0, designs_failed = 0;
   for (const BenchRow& r : rows) {
     for (const BenchCheck& c : r.checks) failed += !c.passed;
@@ -262,25 +288,31 @@ std::string bench_markdown(const std::vector<BenchRow>& rows, double tol, const 
   }
   std::ostringstream s;
   s << "# dbbkit bench: the design gate\n\n";
-  s << rows.size() << " designs, " << designs_failed << " failed (" << failed << " failed checks). Tolerance against "
+  s << rows.size() << " designs, " << designs_failed << " failed (" << failed
+    << " failed checks). Tolerance against "
     << "the baseline " << tol * 100 << " %";
   if (limits.allow_new) s << "; designs without a baseline allowed";
-  if (limits.max_worst_std_um) s << "; worst_std_um at most " << num(limits.max_worst_std_um) << " um";
-  if (limits.max_worst_total_std_um) s << "; worst_total_std_um at most " << num(limits.max_worst_total_std_um) << " um";
+  if (limits.max_worst_std_um)
+    s << "; worst_std_um at most " << num(limits.max_worst_std_um) << " um";
+  if (limits.max_worst_total_std_um)
+    s << "; worst_total_std_um at most " << num(limits.max_worst_total_std_um) << " um";
   if (limits.max_time_s) s << "; time at most " << num(limits.max_time_s) << " s";
   s << ".\n\n";
-  s << "| design | axis | model | rank | worst_std_um [um] | baseline [um] | worst_total_std_um [um] | result |\n";
+  s << "| design | axis | model | rank | worst_std_um [um] | baseline [um] | worst_total_std_um "
+       "[um] | result |\n";
   s << "|---|---|---|---:|---:|---:|---:|---|\n";
   for (const BenchRow& r : rows) {
     std::string result;
     for (const BenchCheck& c : r.checks) {
       if (!c.passed) result += (result.empty() ? "" : "; ") + c.name + ": " + c.message;
     }
-    s << "| " << cell(r.key) << " | " << r.axis << " | " << cell(r.model) << " | " << r.now.rank << "/"
-      << r.now.n_unknowns << " | " << num(r.now.worst_std_um) << " | "
+    s << "| " << cell(r.key) << " | " << r.axis << " | " << cell(r.model) << " | " << r.now.rank
+      << "/" << r.now.n_unknowns << " | " << num(r.now.worst_std_um) << " | "
       << (r.baseline ? num(r.baseline->worst_std_um) : std::string("--")) << " | "
       << (r.now.worst_total_std_um ? num(r.now.worst_total_std_um) : std::string("--")) << " | "
-      << cell(result.empty() ? "pass (" + std::string(bench_state_name(r.state)) + ")" : "FAIL: " + result) << " |\n";
+      << cell(result.empty() ? "pass (" + std::string(bench_state_name(r.state)) + ")"
+                             : "FAIL: " + result)
+      << " |\n";
   }
   return s.str();
 }
@@ -289,12 +321,14 @@ std::string bench_table(const std::vector<BenchRow>& rows, double tol) {
   std::ostringstream s;
   size_t w = 6;
   for (const BenchRow& r : rows) w = std::max(w, r.key.size() + 2);
-  s << std::left << std::setw(static_cast<int>(w)) << "design" << std::right << std::setw(5) << "axis"
-    << std::setw(16) << "model" << std::setw(12) << "rank" << std::setw(14) << "worst [um]" << std::setw(14)
-    << "baseline" << std::setw(12) << "cond" << std::setw(10) << "status" << "\n";
+  s << std::left << std::setw(static_cast<int>(w)) << "design" << std::right << std::setw(5)
+    << "axis" << std::setw(16) << "model" << std::setw(12) << "rank" << std::setw(14)
+    << "worst [um]" << std::setw(14) << "baseline" << std::setw(12) << "cond" << std::setw(10)
+    << "status"
+    << "\n";
   for (const BenchRow& r : rows) {
-    s << std::left << std::setw(static_cast<int>(w)) << r.key << std::right << std::setw(5) << r.axis
-      << std::setw(16) << r.model << std::setw(12)
+    s << std::left << std::setw(static_cast<int>(w)) << r.key << std::right << std::setw(5)
+      << r.axis << std::setw(16) << r.model << std::setw(12)
       << (std::to_string(r.now.rank) + "/" + std::to_string(r.now.n_unknowns));
     // A rank-deficient design shows its worst determined value in brackets.
     auto worst = [](const BenchFigures& f) {
@@ -304,26 +338,33 @@ std::string bench_table(const std::vector<BenchRow>& rows, double tol) {
       t << "(" << num(f.worst_determined_std_um) << ")";
       return t.str();
     };
-    s << std::setw(14) << worst(r.now) << std::setw(14) << (r.baseline ? worst(*r.baseline) : "--") << std::setw(12)
-      << fmt_opt(r.condition_number, 4) << std::setw(10) << (r.passed() ? bench_state_name(r.state) : "FAIL") << "\n";
+    s << std::setw(14) << worst(r.now) << std::setw(14) << (r.baseline ? worst(*r.baseline) : "--")
+      << std::setw(12) << fmt_opt(r.condition_number, 4) << std::setw(10)
+      << (r.passed() ? bench_state_name(r.state) : "FAIL") << "\n";
     if (r.now.worst_total_std_um || r.now.worst_total_determined_std_um) {
-      s << "    total (noise and declared set-up): " << num(r.now.worst_total_std_um ? r.now.worst_total_std_um
-                                                                                   : r.now.worst_total_determined_std_um)
+      s << "    total (noise and declared set-up): "
+        << num(r.now.worst_total_std_um ? r.now.worst_total_std_um
+                                        : r.now.worst_total_determined_std_um)
         << " um";
-      if (r.baseline && (r.baseline->worst_total_std_um || r.baseline->worst_total_determined_std_um)) {
+      if (r.baseline &&
+          (r.baseline->worst_total_std_um || r.baseline->worst_total_determined_std_um)) {
         s << ", baseline "
-          << num(r.baseline->worst_total_std_um ? r.baseline->worst_total_std_um : r.baseline->worst_total_determined_std_um)
+          << num(r.baseline->worst_total_std_um ? r.baseline->worst_total_std_um
+                                                : r.baseline->worst_total_determined_std_um)
           << " um";
       }
       s << "\n";
     }
     if (!r.detail.empty()) s << "    " << r.detail << "\n";
     for (const BenchCheck& c : r.checks) {
-      if (!c.passed && c.name != "baseline") s << "    FAIL " << c.name << ": " << c.message << "\n";
-      if (!c.passed && c.name == "baseline" && r.state == BenchState::kNew) s << "    FAIL baseline: " << c.message << "\n";
+      if (!c.passed && c.name != "baseline")
+        s << "    FAIL " << c.name << ": " << c.message << "\n";
+      if (!c.passed && c.name == "baseline" && r.state == BenchState::kNew)
+        s << "    FAIL baseline: " << c.message << "\n";
     }
   }
-  s << "(worst: worst_std_um, angular errors at each design's reference length; in brackets the worst determined "
+  s << "(worst: worst_std_um, angular errors at each design's reference length; in brackets the "
+       "worst determined "
        "value of a rank-deficient design; tolerance "
     << tol * 100 << " %)\n";
   return s.str();

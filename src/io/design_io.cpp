@@ -39,21 +39,25 @@ std::vector<double> read_angles(ObjectReader& top) {
   return angles;
 }
 
-Direction read_direction(const json& v, Axis axis, const std::string& source, const std::string& path) {
+Direction read_direction(const json& v, Axis axis, const std::string& source,
+                         const std::string& path) {
   if (v.is_string()) {
     const std::string s = v.get<std::string>();
     if (s == "radial") return Direction::named(axis, Direction::Kind::Radial);
     if (s == "tangential") return Direction::named(axis, Direction::Kind::Tangential);
     if (s == "axial") return Direction::named(axis, Direction::Kind::Axial);
     throw InputError(source, path,
-                     "unknown direction '" + s + "' (expected radial, tangential, axial or a unit vector [x, y, z])");
+                     "unknown direction '" + s +
+                         "' (expected radial, tangential, axial or a unit vector [x, y, z])");
   }
   if (v.is_array() && v.size() == 3) {
     Eigen::Vector3d u;
-    for (int i = 0; i < 3; ++i) u(i) = as_number(v[i], source, path + "[" + std::to_string(i) + "]");
+    for (int i = 0; i < 3; ++i)
+      u(i) = as_number(v[i], source, path + "[" + std::to_string(i) + "]");
     if (std::abs(u.norm() - 1.0) > 1e-6) {
-      throw InputError(source, path, "an explicit direction must be a unit vector (|v| = " +
-                                         std::to_string(u.norm()) + ")");
+      throw InputError(
+          source, path,
+          "an explicit direction must be a unit vector (|v| = " + std::to_string(u.norm()) + ")");
     }
     return Direction::vector(u);
   }
@@ -72,8 +76,9 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
   } else if (dist == "normal") {
     m.distribution = NoiseModel::Distribution::Normal;
     if (noise.has("accuracy_um")) {
-      noise.fail("accuracy_um",
-                 "a normal distribution is declared by its standard deviation std_um, not by an accuracy");
+      noise.fail(
+          "accuracy_um",
+          "a normal distribution is declared by its standard deviation std_um, not by an accuracy");
     }
     m.std_um = noise.number("std_um");
     if (!(m.std_um > 0)) noise.fail("std_um", "must be a positive number of um");
@@ -125,15 +130,21 @@ SetupOverride read_setup_override(ObjectReader r) {
 }
 
 json setup_to_json(const SetupUncertainty& u, Axis axis) {
-  json j = {{"length_offset_um", u.length_offset_um}, {"centring_um", u.centring_um}, {"L_mm", u.L_mm}, {"D_mm", u.D_mm}};
+  json j = {{"length_offset_um", u.length_offset_um},
+            {"centring_um", u.centring_um},
+            {"L_mm", u.L_mm},
+            {"D_mm", u.D_mm}};
   if (axis == Axis::C) j["H_mm"] = u.H_mm;
   return j;
 }
 
 json setup_override_to_json(const SetupOverride& o) {
   json j = json::object();
-  for (const auto& [key, v] : {std::pair{"length_offset_um", &o.length_offset_um}, {"centring_um", &o.centring_um},
-                               {"L_mm", &o.L_mm}, {"D_mm", &o.D_mm}, {"H_mm", &o.H_mm}}) {
+  for (const auto& [key, v] : {std::pair{"length_offset_um", &o.length_offset_um},
+                               {"centring_um", &o.centring_um},
+                               {"L_mm", &o.L_mm},
+                               {"D_mm", &o.D_mm},
+                               {"H_mm", &o.H_mm}}) {
     if (*v) j[key] = **v;
   }
   return j;
@@ -150,7 +161,8 @@ Design design_from_json(const json& j, const std::string& source) {
   ObjectReader top(j, source, "");
   Design d;
   const std::string format = top.string("format");
-  if (format != kDesignFormat) top.fail("format", "expected \"" + std::string(kDesignFormat) + "\", found \"" + format + "\"");
+  if (format != kDesignFormat)
+    top.fail("format", "expected \"" + std::string(kDesignFormat) + "\", found \"" + format + "\"");
   d.name = top.optional_string("name").value_or("");
   d.description = top.optional_string("description").value_or("");
   if (const json* a = top.optional("assumed")) {
@@ -161,8 +173,10 @@ Design design_from_json(const json& j, const std::string& source) {
   }
   d.axis = read_axis(top);
   d.angles_deg = read_angles(top);
-  if (const json* n = top.optional("noise")) d.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
-  if (const json* e = top.optional("errors")) d.errors = read_error_model(ObjectReader(*e, source, "errors"));
+  if (const json* n = top.optional("noise"))
+    d.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
+  if (const json* e = top.optional("errors"))
+    d.errors = read_error_model(ObjectReader(*e, source, "errors"));
   d.reference_length_mm = top.optional_number("reference_length_mm");
   if (const json* inst = top.optional("instrument")) {
     ObjectReader r(*inst, source, "instrument");
@@ -171,14 +185,17 @@ Design design_from_json(const json& j, const std::string& source) {
   }
   if (const json* u = top.optional("setup_std_mm")) {
     // The short form of the ball placement alone: {"L": u, "D": u, "H": u} [mm].
-    if (top.has("setup_std")) top.fail("setup_std_mm", "give the ball placement in setup_std (L_mm, D_mm, H_mm) or here, not both");
+    if (top.has("setup_std"))
+      top.fail("setup_std_mm",
+               "give the ball placement in setup_std (L_mm, D_mm, H_mm) or here, not both");
     ObjectReader setup(*u, source, "setup_std_mm");
     d.setup_std.L_mm = setup.optional_number("L").value_or(0.0);
     d.setup_std.D_mm = setup.optional_number("D").value_or(0.0);
     d.setup_std.H_mm = setup.optional_number("H").value_or(0.0);
     setup.finish();
   }
-  if (const json* u = top.optional("setup_std")) d.setup_std = read_setup_override(ObjectReader(*u, source, "setup_std")).over({});
+  if (const json* u = top.optional("setup_std"))
+    d.setup_std = read_setup_override(ObjectReader(*u, source, "setup_std")).over({});
 
   const json& list = top.required("installations");
   if (!list.is_array()) top.fail("installations", "expected a list of installations");
@@ -201,7 +218,8 @@ Design design_from_json(const json& j, const std::string& source) {
     if (inst.sign != 1 && inst.sign != -1) in.fail("sign", "must be +1 or -1");
     inst.bar_mm = in.optional_number("bar_mm");
     inst.description = in.optional_string("description").value_or("");
-    if (const json* u = in.optional("setup_std")) inst.setup_std = read_setup_override(ObjectReader(*u, source, path + ".setup_std"));
+    if (const json* u = in.optional("setup_std"))
+      inst.setup_std = read_setup_override(ObjectReader(*u, source, path + ".setup_std"));
     in.finish();
     d.installations.push_back(inst);
   }
@@ -209,9 +227,11 @@ Design design_from_json(const json& j, const std::string& source) {
     ObjectReader pr(*p, source, "predicted");
     Prediction pred;
     pred.criterion = pr.optional_string("criterion").value_or("");
-    for (auto [key, field] : {std::pair{"worst_std_um", &pred.worst_std_um},
-                              std::pair{"worst_determined_std_um", &pred.worst_determined_std_um}}) {
-      if (const json* v = pr.optional(key); v && !v->is_null()) *field = as_number(*v, source, pr.key_path(key));
+    for (auto [key, field] :
+         {std::pair{"worst_std_um", &pred.worst_std_um},
+          std::pair{"worst_determined_std_um", &pred.worst_determined_std_um}}) {
+      if (const json* v = pr.optional(key); v && !v->is_null())
+        *field = as_number(*v, source, pr.key_path(key));
     }
     pred.rank = pr.integer("rank");
     pred.n_unknowns = pr.integer("n_unknowns");
@@ -224,7 +244,9 @@ Design design_from_json(const json& j, const std::string& source) {
   return d;
 }
 
-Design read_design_file(const std::string& path) { return design_from_json(parse_json(read_text_file(path), path), path); }
+Design read_design_file(const std::string& path) {
+  return design_from_json(parse_json(read_text_file(path), path), path);
+}
 
 json design_to_json(const Design& d) {
   json j;
@@ -244,7 +266,8 @@ json design_to_json(const Design& d) {
   }
   j["errors"] = errors;
   if (d.reference_length_mm) j["reference_length_mm"] = *d.reference_length_mm;
-  if (d.instrument_range_mm != kDefaultInstrumentRange_mm) j["instrument"] = {{"range_mm", d.instrument_range_mm}};
+  if (d.instrument_range_mm != kDefaultInstrumentRange_mm)
+    j["instrument"] = {{"range_mm", d.instrument_range_mm}};
   if (d.setup_std.nuisance()) {
     j["setup_std"] = setup_to_json(d.setup_std, d.axis);
   } else if (d.setup_std.any()) {
@@ -276,7 +299,8 @@ json design_to_json(const Design& d) {
     json pj;
     if (!p.criterion.empty()) pj["criterion"] = p.criterion;
     pj["worst_std_um"] = p.worst_std_um ? json(*p.worst_std_um) : json(nullptr);
-    pj["worst_determined_std_um"] = p.worst_determined_std_um ? json(*p.worst_determined_std_um) : json(nullptr);
+    pj["worst_determined_std_um"] =
+        p.worst_determined_std_um ? json(*p.worst_determined_std_um) : json(nullptr);
     pj["rank"] = p.rank;
     pj["n_unknowns"] = p.n_unknowns;
     if (p.time_s) pj["time_s"] = *p.time_s;

@@ -17,7 +17,11 @@ namespace {
 json signature_to_json(const ResidualSignature& s) {
   json list = json::array();
   for (const auto& i : s.installations) {
-    json e = {{"installation", i.id}, {"ball_mm", {{"L", i.L_mm}, {"D", i.D_mm}, {"H", i.H_mm}}}, {"n", i.n}, {"mean_um", r6(i.mean_um)}, {"rms_um", r6(i.rms_um)}};
+    json e = {{"installation", i.id},
+              {"ball_mm", {{"L", i.L_mm}, {"D", i.D_mm}, {"H", i.H_mm}}},
+              {"n", i.n},
+              {"mean_um", r6(i.mean_um)},
+              {"rms_um", r6(i.rms_um)}};
     json h = json::array();
     for (double a : i.harmonic_um) h.push_back(r6(a));
     e["harmonic_amplitude_um"] = h;
@@ -29,7 +33,9 @@ json signature_to_json(const ResidualSignature& s) {
 }
 
 json reading_to_json(const Reading& r) {
-  json j = {{"installation", r.installation}, {"angle_deg", r.angle_deg}, {"reading_um", r6(r.reading_um)}};
+  json j = {{"installation", r.installation},
+            {"angle_deg", r.angle_deg},
+            {"reading_um", r6(r.reading_um)}};
   j["time_s"] = r.time_s ? json(*r.time_s) : json(nullptr);
   j["sweep"] = r.sweep ? json(*r.sweep == Sweep::CW ? "cw" : "ccw") : json(nullptr);
   j["line"] = r.line > 0 ? json(r.line) : json(nullptr);
@@ -37,15 +43,20 @@ json reading_to_json(const Reading& r) {
 }
 
 json column_test_to_json(const ColumnTest& t) {
-  return {{"columns", t.q}, {"added_rank", t.added_rank}, {"delta_chi2", r6(t.delta_chi2)}, {"F", r6(t.F)},
-          {"dof", t.dof}, {"p_value", t.p}};
+  return {{"columns", t.q},
+          {"added_rank", t.added_rank},
+          {"delta_chi2", r6(t.delta_chi2)},
+          {"F", r6(t.F)},
+          {"dof", t.dof},
+          {"p_value", t.p}};
 }
 
 json features_to_json(const Design& d, const std::vector<ResidualFeature>& fs) {
   json out = json::array();
   for (const ResidualFeature& f : fs) {
     json j = {{"kind", feature_kind_name(f.kind)},
-              {"installation", f.installation >= 0 ? json(d.installations[f.installation].id) : json(nullptr)},
+              {"installation",
+               f.installation >= 0 ? json(d.installations[f.installation].id) : json(nullptr)},
               {"test", column_test_to_json(f.test)},
               {"alternatives_scanned", f.tested},
               {"p_value", f.p}};
@@ -69,9 +80,13 @@ json features_to_json(const Design& d, const std::vector<ResidualFeature>& fs) {
 json gross_to_json(const std::vector<GrossReading>& gs) {
   json out = json::array();
   for (const GrossReading& g : gs) {
-    json j = {{"residual_um", r6(g.residual_um)}, {"offset_um", r6(g.value_um)}, {"offset_std_um", r6(g.std_um)},
-              {"studentised", r6(g.t)}, {"p_value", g.p},
-              {"p_value_over_readings", g.p_scan}, {"readings_tested", g.tested}};
+    json j = {{"residual_um", r6(g.residual_um)},
+              {"offset_um", r6(g.value_um)},
+              {"offset_std_um", r6(g.std_um)},
+              {"studentised", r6(g.t)},
+              {"p_value", g.p},
+              {"p_value_over_readings", g.p_scan},
+              {"readings_tested", g.tested}};
     if (g.reading) j["reading"] = reading_to_json(*g.reading);
     out.push_back(j);
   }
@@ -81,21 +96,26 @@ json gross_to_json(const std::vector<GrossReading>& gs) {
 std::vector<std::string> installations_of(const Design& d, const EffectCandidate& e) {
   std::vector<std::string> ids;
   for (std::size_t i = 0; i < d.installations.size(); ++i) {
-    if (e.installation < 0 || e.installation == static_cast<int>(i)) ids.push_back(d.installations[i].id);
+    if (e.installation < 0 || e.installation == static_cast<int>(i))
+      ids.push_back(d.installations[i].id);
   }
   return ids;
 }
 
 std::string signature_text(const ResidualSignature& s, Axis axis) {
   std::ostringstream o;
-  o << std::setw(8) << "inst" << std::setw(8) << "L_mm" << std::setw(8) << (axis == Axis::C ? "H_mm" : "D_mm")
-    << std::setw(5) << "n" << std::setw(10) << "mean" << std::setw(10) << "rms";
-  if (axis == Axis::C) o << std::setw(9) << "1/turn" << std::setw(9) << "2/turn" << std::setw(9) << "3/turn" << std::setw(9) << "4/turn";
-  o << std::setw(12) << "um/min" << std::setw(10) << "cw-ccw" << "\n";
+  o << std::setw(8) << "inst" << std::setw(8) << "L_mm" << std::setw(8)
+    << (axis == Axis::C ? "H_mm" : "D_mm") << std::setw(5) << "n" << std::setw(10) << "mean"
+    << std::setw(10) << "rms";
+  if (axis == Axis::C)
+    o << std::setw(9) << "1/turn" << std::setw(9) << "2/turn" << std::setw(9) << "3/turn"
+      << std::setw(9) << "4/turn";
+  o << std::setw(12) << "um/min" << std::setw(10) << "cw-ccw"
+    << "\n";
   for (const auto& i : s.installations) {
-    o << std::setw(8) << i.id << std::fixed << std::setprecision(1) << std::setw(8) << i.L_mm << std::setw(8) << (axis == Axis::C ? i.H_mm : i.D_mm)
-      << std::setw(5) << i.n << std::fixed << std::setprecision(2) << std::setw(10) << i.mean_um
-      << std::setw(10) << i.rms_um;
+    o << std::setw(8) << i.id << std::fixed << std::setprecision(1) << std::setw(8) << i.L_mm
+      << std::setw(8) << (axis == Axis::C ? i.H_mm : i.D_mm) << std::setw(5) << i.n << std::fixed
+      << std::setprecision(2) << std::setw(10) << i.mean_um << std::setw(10) << i.rms_um;
     if (axis == Axis::C) {
       for (int k = 0; k < 4; ++k) {
         if (k < static_cast<int>(i.harmonic_um.size())) {
@@ -106,23 +126,30 @@ std::string signature_text(const ResidualSignature& s, Axis axis) {
       }
     }
     o << std::setw(12);
-    if (i.slope_um_per_min) o << std::setprecision(3) << *i.slope_um_per_min; else o << "--";
+    if (i.slope_um_per_min)
+      o << std::setprecision(3) << *i.slope_um_per_min;
+    else
+      o << "--";
     o << std::setw(10);
-    if (i.cw_minus_ccw_um) o << std::setprecision(2) << *i.cw_minus_ccw_um; else o << "--";
+    if (i.cw_minus_ccw_um)
+      o << std::setprecision(2) << *i.cw_minus_ccw_um;
+    else
+      o << "--";
     o << std::defaultfloat << "\n";
   }
   o << "most significant feature: " << (s.dominant.empty() ? "(not tested)" : s.dominant) << "\n";
   return o.str();
 }
 
-
 }  // namespace
 
 json diagnose_to_json(const Design& design, const DiagnoseResult& r, const InputFiles& inputs) {
   json j = result_header("dbbkit.diagnose/1", design, inputs);
   j["method"] =
-      "forward selection; a candidate is added when its nested F-test p-value is below level / (candidates tested "
-      "at that step) and the BIC decreases; a candidate that does not raise the rank by its number of columns is "
+      "forward selection; a candidate is added when its nested F-test p-value is below level / "
+      "(candidates tested "
+      "at that step) and the BIC decreases; a candidate that does not raise the rank by its number "
+      "of columns is "
       "confounded and never added";
   j["level"] = r.level;
   j["before"] = residual_to_json(r.before);
@@ -183,27 +210,31 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
   for (const Attribution& at : r.attributions) {
     json change = json::object();
     for (int k = 0; k < 6; ++k) change[kErrorNames[k]] = r6(at.largest_change[k]);
-    attributions.push_back({{"effect", at.effect},
-                            {"alternatives", at.alternatives},
-                            {"largest_change", change},
-                            {"distribution", "rectangular, half-width the change, in the errors' std"}});
+    attributions.push_back(
+        {{"effect", at.effect},
+         {"alternatives", at.alternatives},
+         {"largest_change", change},
+         {"distribution", "rectangular, half-width the change, in the errors' std"}});
   }
   j["attributions"] = attributions;
   json cands = json::array();
-  for (const CandidateStatus& c : r.candidates) cands.push_back({{"label", c.label}, {"status", candidate_state_name(c.state)}, {"detail", c.detail}});
+  for (const CandidateStatus& c : r.candidates)
+    cands.push_back(
+        {{"label", c.label}, {"status", candidate_state_name(c.state)}, {"detail", c.detail}});
   j["candidates"] = cands;
   json risks = json::array();
   for (const SetupRisk& k : r.setup_risks) {
-    risks.push_back({{"effect", k.label},
-                     {"error", kErrorNames[k.error]},
-                     {"angle_deg", k.angle_deg},
-                     {"bias_per_um", r6(k.bias_per_um)},
-                     {"unit", std::string(kErrorUnits[k.error]) + " per um"},
-                     {"stated_std", r6(k.stated_std)},
-                     {"threshold_um", r6(k.threshold_um)},
-                     {"declared_std_um", k.declared_std_um > 0 ? json(k.declared_std_um) : json(nullptr)},
-                     {"bias_at_declared", k.at_declared ? json(r6(*k.at_declared)) : json(nullptr)},
-                     {"exceeds_stated_std", k.exceeds}});
+    risks.push_back(
+        {{"effect", k.label},
+         {"error", kErrorNames[k.error]},
+         {"angle_deg", k.angle_deg},
+         {"bias_per_um", r6(k.bias_per_um)},
+         {"unit", std::string(kErrorUnits[k.error]) + " per um"},
+         {"stated_std", r6(k.stated_std)},
+         {"threshold_um", r6(k.threshold_um)},
+         {"declared_std_um", k.declared_std_um > 0 ? json(k.declared_std_um) : json(nullptr)},
+         {"bias_at_declared", k.at_declared ? json(r6(*k.at_declared)) : json(nullptr)},
+         {"exceeds_stated_std", k.exceeds}});
   }
   j["undetectable_setup_effects"] = risks;
   j["errors"] = errors_to_json(r.errors_after, true);
@@ -219,42 +250,51 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
     change[kErrorNames[k]] = any ? json(r6(m)) : json(nullptr);
   }
   j["largest_change_of_errors"] = change;
-  j["units"] = {{"dx", "um"}, {"dy", "um"}, {"dz", "um"}, {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
+  j["units"] = {{"dx", "um"},   {"dy", "um"},   {"dz", "um"},
+                {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
   j["unidentifiable"] = unidentifiable_to_json(r.unidentifiable_after);
-  json checks = {{"level", r.level},
-                 {"method",
-                  "each feature is the F-test of appending its columns to the final model (scale-free: referred to "
-                  "the residual's own scatter); a scan (a step at any reading of an installation, one reading alone) "
-                  "takes its best position, its p times the positions scanned (Bonferroni)"},
-                 {"features_after", features_to_json(design, r.features_after)},
-                 {"features_before", features_to_json(design, r.features_before)},
-                 {"gross_readings", gross_to_json(r.gross)},
-                 {"selection_stopped_at_gross_reading_step",
-                  r.stopped_because == SelectionStop::kGrossReading ? json(r.stopped_at_step) : json(nullptr)},
-                 {"selection_stopped_at_model_order_step",
-                  r.stopped_because == SelectionStop::kModelOrder ? json(r.stopped_at_step) : json(nullptr)},
-                 {"excluded_readings", gross_to_json(r.excluded)},
-                 {"noise_larger_than_declared", r.noise_larger_than_declared}};
+  json checks = {
+      {"level", r.level},
+      {"method",
+       "each feature is the F-test of appending its columns to the final model (scale-free: "
+       "referred to "
+       "the residual's own scatter); a scan (a step at any reading of an installation, one reading "
+       "alone) "
+       "takes its best position, its p times the positions scanned (Bonferroni)"},
+      {"features_after", features_to_json(design, r.features_after)},
+      {"features_before", features_to_json(design, r.features_before)},
+      {"gross_readings", gross_to_json(r.gross)},
+      {"selection_stopped_at_gross_reading_step",
+       r.stopped_because == SelectionStop::kGrossReading ? json(r.stopped_at_step) : json(nullptr)},
+      {"selection_stopped_at_model_order_step",
+       r.stopped_because == SelectionStop::kModelOrder ? json(r.stopped_at_step) : json(nullptr)},
+      {"excluded_readings", gross_to_json(r.excluded)},
+      {"noise_larger_than_declared", r.noise_larger_than_declared}};
   if (r.noise) {
-    checks["noise_scale"] = {{"ratio", r6(r.noise->ratio)}, {"low_95", r6(r.noise->low)}, {"high_95", r6(r.noise->high)}};
+    checks["noise_scale"] = {{"ratio", r6(r.noise->ratio)},
+                             {"low_95", r6(r.noise->low)},
+                             {"high_95", r6(r.noise->high)}};
   } else {
     checks["noise_scale"] = nullptr;
   }
   if (r.order) {
-    checks["model_order"] = {{"order", r.order->order},
-                             {"suggested", r.order->suggested},
-                             {"orders_tried", r.order->tried},
-                             {"test", column_test_to_json(r.order->test)},
-                             {"p_value_over_orders", r.order->p},
-                             {"chi2_with", r6(r.order->chi2_with)},
-                             {"dof_with", r.order->dof_with},
-                             {"p_value_with", r.order->p_value_with ? json(*r.order->p_value_with) : json(nullptr)}};
+    checks["model_order"] = {
+        {"order", r.order->order},
+        {"suggested", r.order->suggested},
+        {"orders_tried", r.order->tried},
+        {"test", column_test_to_json(r.order->test)},
+        {"p_value_over_orders", r.order->p},
+        {"chi2_with", r6(r.order->chi2_with)},
+        {"dof_with", r.order->dof_with},
+        {"p_value_with", r.order->p_value_with ? json(*r.order->p_value_with) : json(nullptr)}};
   } else {
     checks["model_order"] = nullptr;
   }
   json limits = json::array();
   for (const DetectionLimit& d : r.detection_limits) {
-    limits.push_back({{"effect", d.label}, {"unit", d.unit}, {"size_found_with_power_0_9", d.limit ? json(r6(*d.limit)) : json(nullptr)}});
+    limits.push_back({{"effect", d.label},
+                      {"unit", d.unit},
+                      {"size_found_with_power_0_9", d.limit ? json(r6(*d.limit)) : json(nullptr)}});
   }
   checks["detection_limits"] = limits;
   j["residual_checks"] = checks;
@@ -265,8 +305,8 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
 
 std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
   std::ostringstream s;
-  s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis " << axis_name(design.axis)
-    << "  errors " << design.errors.describe() << "\n";
+  s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
+    << axis_name(design.axis) << "  errors " << design.errors.describe() << "\n";
   s << "noise: " << design.noise.describe() << "\n";
   s << "before: " << residual_text(r.before) << "\n";
   s << "after:  " << residual_text(r.after) << "\n\n";
@@ -276,11 +316,11 @@ std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
     for (const AddedEffect& a : r.added) {
       s << "  " << std::left << std::setw(22) << a.block.label << std::right;
       for (std::size_t k = 0; k < a.values.size(); ++k) {
-        s << " " << a.block.parameters[k] << " = " << std::fixed << std::setprecision(3) << a.values[k].value << " +- "
-          << a.values[k].std << std::defaultfloat;
+        s << " " << a.block.parameters[k] << " = " << std::fixed << std::setprecision(3)
+          << a.values[k].value << " +- " << a.values[k].std << std::defaultfloat;
       }
-      s << " " << a.block.unit << "   (F = " << std::setprecision(4) << a.evidence.F << ", p = " << std::setprecision(3)
-        << a.evidence.p_value << ")\n";
+      s << " " << a.block.unit << "   (F = " << std::setprecision(4) << a.evidence.F
+        << ", p = " << std::setprecision(3) << a.evidence.p_value << ")\n";
     }
     s << "\n";
   }
@@ -289,16 +329,20 @@ std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
     confounded += c.state == CandidateState::kConfounded;
     na += c.state == CandidateState::kNotApplicable;
   }
-  s << "candidates: " << r.candidates.size() << " (" << confounded << " confounded with the model, " << na
-    << " not applicable to these readings; see the JSON)\n";
+  s << "candidates: " << r.candidates.size() << " (" << confounded << " confounded with the model, "
+    << na << " not applicable to these readings; see the JSON)\n";
   if (!r.setup_risks.empty()) {
-    s << "\nset-up effects this design cannot detect (size that moves the error by its standard uncertainty; "
+    s << "\nset-up effects this design cannot detect (size that moves the error by its standard "
+         "uncertainty; "
          "bias per um; at the declared size):\n";
     for (const SetupRisk& k : r.setup_risks) {
-      s << "  " << std::left << std::setw(22) << k.label << std::right << std::setprecision(3) << std::setw(8)
-        << k.threshold_um << " um  " << kErrorNames[k.error] << " at " << k.angle_deg << " deg, u = " << k.stated_std
-        << " " << kErrorUnits[k.error] << ", " << k.bias_per_um << " " << kErrorUnits[k.error] << " per um";
-      if (k.at_declared) s << ", " << *k.at_declared << " " << kErrorUnits[k.error] << (k.exceeds ? " (exceeds u)" : "");
+      s << "  " << std::left << std::setw(22) << k.label << std::right << std::setprecision(3)
+        << std::setw(8) << k.threshold_um << " um  " << kErrorNames[k.error] << " at "
+        << k.angle_deg << " deg, u = " << k.stated_std << " " << kErrorUnits[k.error] << ", "
+        << k.bias_per_um << " " << kErrorUnits[k.error] << " per um";
+      if (k.at_declared)
+        s << ", " << *k.at_declared << " " << kErrorUnits[k.error]
+          << (k.exceeds ? " (exceeds u)" : "");
       s << "\n";
     }
   }
@@ -309,6 +353,5 @@ std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
   s << unidentifiable_text(r.unidentifiable_after);
   return s.str();
 }
-
 
 }  // namespace dbbkit::io

@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <array>
-#include <filesystem>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -20,7 +20,8 @@ using nlohmann::json;
 
 std::string read_text_file(const std::string& path) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw InputError(path, "", "is a directory, not a file");
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path, "", "is a directory, not a file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open the file for reading");
   // Read in pieces and stop at the limit: a FIFO or a device such as /dev/zero never ends.
@@ -30,8 +31,9 @@ std::string read_text_file(const std::string& path) {
     in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
     text.append(buf.data(), static_cast<size_t>(in.gcount()));
     if (text.size() > limits::kMaxInputBytes) {
-      throw InputError(path, "", "longer than " + std::to_string(limits::kMaxInputBytes >> 20) +
-                                     " MiB, the most dbbkit reads from one input (README, \"Limits\")");
+      throw InputError(path, "",
+                       "longer than " + std::to_string(limits::kMaxInputBytes >> 20) +
+                           " MiB, the most dbbkit reads from one input (README, \"Limits\")");
     }
   }
   if (in.bad()) throw InputError(path, "", "error while reading the file");
@@ -132,13 +134,16 @@ json parse_json(const std::string& text, const std::string& source) {
   } catch (const json::parse_error& e) {
     std::string what = e.what();
     const auto pos = what.find("parse error");
-    throw InputError(source, line_column(text, e.byte > 0 ? e.byte - 1 : 0),
-                     "not valid JSON (" + (pos == std::string::npos ? what : what.substr(pos)) + ")");
+    throw InputError(
+        source, line_column(text, e.byte > 0 ? e.byte - 1 : 0),
+        "not valid JSON (" + (pos == std::string::npos ? what : what.substr(pos)) + ")");
   } catch (const json::exception& e) {
     // e.g. out_of_range for a number beyond the range of a double: find the number.
     for (std::size_t i = 0; i < text.size(); ++i) {
       const char c = text[i];
-      if (!(std::isdigit(static_cast<unsigned char>(c)) || c == '-') || (i > 0 && std::isalnum(static_cast<unsigned char>(text[i - 1])))) continue;
+      if (!(std::isdigit(static_cast<unsigned char>(c)) || c == '-') ||
+          (i > 0 && std::isalnum(static_cast<unsigned char>(text[i - 1]))))
+        continue;
       char* end = nullptr;
       const double x = std::strtod(text.c_str() + i, &end);
       if (end != text.c_str() + i && std::isinf(x)) {
@@ -148,7 +153,8 @@ json parse_json(const std::string& text, const std::string& source) {
     }
     throw InputError(source, "", std::string("not valid JSON (") + e.what() + ")");
   }
-  if (duplicate) throw InputError(source, "key '" + *duplicate + "'", "the key appears twice in one object");
+  if (duplicate)
+    throw InputError(source, "key '" + *duplicate + "'", "the key appears twice in one object");
   return j;
 }
 
@@ -189,7 +195,9 @@ const json* ObjectReader::optional(const std::string& key) {
   return &value_.at(key);
 }
 
-double ObjectReader::number(const std::string& key) { return as_number(required(key), source_, key_path(key)); }
+double ObjectReader::number(const std::string& key) {
+  return as_number(required(key), source_, key_path(key));
+}
 
 std::optional<double> ObjectReader::optional_number(const std::string& key) {
   const json* v = optional(key);
@@ -197,7 +205,9 @@ std::optional<double> ObjectReader::optional_number(const std::string& key) {
   return as_number(*v, source_, key_path(key));
 }
 
-int ObjectReader::integer(const std::string& key) { return as_integer(required(key), source_, key_path(key)); }
+int ObjectReader::integer(const std::string& key) {
+  return as_integer(required(key), source_, key_path(key));
+}
 
 std::optional<int> ObjectReader::optional_integer(const std::string& key) {
   const json* v = optional(key);
@@ -234,7 +244,8 @@ double as_number(const json& v, const std::string& source, const std::string& pa
 
 int as_integer(const json& v, const std::string& source, const std::string& path) {
   const double x = as_number(v, source, path);
-  if (x != std::floor(x) || std::abs(x) > 2e9) throw InputError(source, path, "expected an integer");
+  if (x != std::floor(x) || std::abs(x) > 2e9)
+    throw InputError(source, path, "expected an integer");
   return static_cast<int>(x);
 }
 

@@ -24,10 +24,12 @@ Interval read_pair(const json& v, const std::string& source, const std::string& 
   return {as_number(v[0], source, path + "[0]"), as_number(v[1], source, path + "[1]")};
 }
 
-std::vector<double> read_numbers(const json& v, const std::string& source, const std::string& path) {
+std::vector<double> read_numbers(const json& v, const std::string& source,
+                                 const std::string& path) {
   if (!v.is_array()) throw InputError(source, path, "expected a list of numbers");
   std::vector<double> out;
-  for (size_t i = 0; i < v.size(); ++i) out.push_back(as_number(v[i], source, path + "[" + std::to_string(i) + "]"));
+  for (size_t i = 0; i < v.size(); ++i)
+    out.push_back(as_number(v[i], source, path + "[" + std::to_string(i) + "]"));
   return out;
 }
 
@@ -57,7 +59,8 @@ PatternPosition read_position(ObjectReader r) {
   p.D = read_coordinate(r, "D");
   p.H = read_coordinate(r, "H");
   const json& dirs = r.required("directions");
-  if (!dirs.is_array()) r.fail("directions", "expected a list of \"radial\", \"tangential\", \"axial\"");
+  if (!dirs.is_array())
+    r.fail("directions", "expected a list of \"radial\", \"tangential\", \"axial\"");
   for (size_t i = 0; i < dirs.size(); ++i) {
     const std::string path = r.key_path("directions") + "[" + std::to_string(i) + "]";
     const std::string d = as_string(dirs[i], r.source(), path);
@@ -68,7 +71,8 @@ PatternPosition read_position(ObjectReader r) {
     } else if (d == "axial") {
       p.directions.push_back(Direction::Kind::Axial);
     } else {
-      throw InputError(r.source(), path, "unknown direction '" + d + "' (expected radial, tangential or axial)");
+      throw InputError(r.source(), path,
+                       "unknown direction '" + d + "' (expected radial, tangential or axial)");
     }
   }
   p.separated = read_flag(r, "separated", true);
@@ -85,11 +89,15 @@ Pattern read_pattern(ObjectReader& top, Axis axis) {
   auto named = [&](const std::string& name, const std::string& key) {
     if (std::optional<Pattern> p = builtin_pattern(name, axis)) return *p;
     if (name == "free") {
-      throw InputError(source, key,
-                       "\"free\" is not supported by this version of dbbkit: write the pattern as data, e.g. "
-                       "{\"extends\": \"three_position\", \"positions\": [...optional positions...]} (README, Kit file)");
+      throw InputError(
+          source, key,
+          "\"free\" is not supported by this version of dbbkit: write the pattern as data, e.g. "
+          "{\"extends\": \"three_position\", \"positions\": [...optional positions...]} (README, "
+          "Kit file)");
     }
-    throw InputError(source, key, "unknown pattern '" + name + "' (expected \"three_position\" or a pattern object)");
+    throw InputError(
+        source, key,
+        "unknown pattern '" + name + "' (expected \"three_position\" or a pattern object)");
   };
   if (v.is_string()) return named(v.get<std::string>(), "pattern");
   ObjectReader r = top.object("pattern");
@@ -103,15 +111,16 @@ Pattern read_pattern(ObjectReader& top, Axis axis) {
   if (const json* positions = r.optional("positions")) {
     if (!positions->is_array()) r.fail("positions", "expected a list of positions");
     for (size_t i = 0; i < positions->size(); ++i) {
-      p.positions.push_back(
-          read_position(ObjectReader((*positions)[i], source, r.key_path("positions") + "[" + std::to_string(i) + "]")));
+      p.positions.push_back(read_position(ObjectReader(
+          (*positions)[i], source, r.key_path("positions") + "[" + std::to_string(i) + "]")));
     }
   }
   if (const json* distinct = r.optional("distinct")) {
     if (!distinct->is_array()) r.fail("distinct", "expected a list of lists of height variables");
     for (size_t g = 0; g < distinct->size(); ++g) {
       const std::string path = r.key_path("distinct") + "[" + std::to_string(g) + "]";
-      if (!(*distinct)[g].is_array()) throw InputError(source, path, "expected a list of height variables");
+      if (!(*distinct)[g].is_array())
+        throw InputError(source, path, "expected a list of height variables");
       std::vector<std::string> group;
       for (size_t i = 0; i < (*distinct)[g].size(); ++i) {
         group.push_back(as_string((*distinct)[g][i], source, path + "[" + std::to_string(i) + "]"));
@@ -129,13 +138,16 @@ Kit kit_from_json(const json& j, const std::string& source) {
   ObjectReader top(j, source, "");
   Kit k;
   const std::string format = top.string("format");
-  if (format != kKitFormat) top.fail("format", "expected \"" + std::string(kKitFormat) + "\", found \"" + format + "\"");
+  if (format != kKitFormat)
+    top.fail("format", "expected \"" + std::string(kKitFormat) + "\", found \"" + format + "\"");
   k.name = top.optional_string("name").value_or("");
   top.optional_string("description");
   k.axis = read_axis(top);
   k.pattern = read_pattern(top, k.axis);
-  if (const json* n = top.optional("noise")) k.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
-  if (const json* e = top.optional("errors")) k.errors = read_error_model(ObjectReader(*e, source, "errors"));
+  if (const json* n = top.optional("noise"))
+    k.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
+  if (const json* e = top.optional("errors"))
+    k.errors = read_error_model(ObjectReader(*e, source, "errors"));
   k.reference_length_mm = top.number("reference_length_mm");
   if (const json* u = top.optional("setup_std")) {
     k.setup_std = read_setup_override(ObjectReader(*u, source, "setup_std")).over({});
@@ -143,7 +155,8 @@ Kit kit_from_json(const json& j, const std::string& source) {
   }
   k.require_setup_detection = read_flag(top, "require_setup_detection", false);
   if (k.require_setup_detection && !k.setup_std.nuisance()) {
-    top.fail("require_setup_detection", "needs a length offset or centring tolerance declared in setup_std");
+    top.fail("require_setup_detection",
+             "needs a length offset or centring tolerance declared in setup_std");
   }
   k.L_mm = read_min_max(top.object("L_mm"));
   if (top.has("D_mm")) k.D_mm = read_min_max(top.object("D_mm"));
@@ -160,7 +173,8 @@ Kit kit_from_json(const json& j, const std::string& source) {
   {
     ObjectReader t = top.object("travel_mm");
     const char* names[] = {"x", "y", "z"};
-    for (int i = 0; i < 3; ++i) k.travel_mm[i] = read_pair(t.required(names[i]), source, t.key_path(names[i]));
+    for (int i = 0; i < 3; ++i)
+      k.travel_mm[i] = read_pair(t.required(names[i]), source, t.key_path(names[i]));
     t.finish();
   }
   k.min_separation_mm = top.optional_number("min_separation_mm").value_or(0.0);

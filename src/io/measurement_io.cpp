@@ -8,8 +8,8 @@
 #include <sstream>
 
 #include "dbbkit/error.hpp"
-#include "dbbkit/limits.hpp"
 #include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/limits.hpp"
 
 namespace dbbkit::io {
 
@@ -44,9 +44,11 @@ struct Cell {
     if (text.empty()) fail("empty value");
     double x = 0;
     if (!parse_decimal(text, x)) {
-      const bool spelled_number = text.find_first_of("0123456789") != std::string::npos || text == "nan" ||
-                                  text == "NaN" || text == "inf" || text == "-inf" || text == "+inf";
-      fail("'" + text + "' is not " + (spelled_number ? "a finite number in decimal notation" : "a number"));
+      const bool spelled_number = text.find_first_of("0123456789") != std::string::npos ||
+                                  text == "nan" || text == "NaN" || text == "inf" ||
+                                  text == "-inf" || text == "+inf";
+      fail("'" + text + "' is not " +
+           (spelled_number ? "a finite number in decimal notation" : "a number"));
     }
     return x;
   }
@@ -62,9 +64,8 @@ struct Cell {
   }
 };
 
-const std::vector<std::string> kKnownColumns = {"installation", "angle_deg", "reading_mm",
-                                                "reading_um",   "time_s",    "sweep",
-                                                "repeat"};
+const std::vector<std::string> kKnownColumns = {
+    "installation", "angle_deg", "reading_mm", "reading_um", "time_s", "sweep", "repeat"};
 
 }  // namespace
 
@@ -82,7 +83,8 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
     if (trim(raw).empty()) continue;  // blank lines carry nothing
     const std::string where = "line " + std::to_string(line_no);
     if (raw.find('"') != std::string::npos) {
-      throw InputError(source, where, "quoted fields are not supported (ids and numbers need no quotes)");
+      throw InputError(source, where,
+                       "quoted fields are not supported (ids and numbers need no quotes)");
     }
     std::vector<std::string> cells = split(raw);
     if (header.empty()) {
@@ -92,26 +94,35 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
         bool known = false;
         for (const auto& k : kKnownColumns) known = known || k == h;
         if (!known) {
-          throw InputError(source, where, "unknown column '" + h +
-                                              "' (expected installation, angle_deg, reading_mm or reading_um, "
-                                              "and optionally time_s, sweep, repeat)");
+          throw InputError(source, where,
+                           "unknown column '" + h +
+                               "' (expected installation, angle_deg, reading_mm or reading_um, "
+                               "and optionally time_s, sweep, repeat)");
         }
-        if (!col.emplace(h, static_cast<int>(i)).second) throw InputError(source, where, "column '" + h + "' appears twice");
+        if (!col.emplace(h, static_cast<int>(i)).second)
+          throw InputError(source, where, "column '" + h + "' appears twice");
       }
       for (const char* req : {"installation", "angle_deg"}) {
-        if (!col.count(req)) throw InputError(source, where, std::string("required column '") + req + "' is missing");
+        if (!col.count(req))
+          throw InputError(source, where, std::string("required column '") + req + "' is missing");
       }
       const bool mm = col.count("reading_mm"), um = col.count("reading_um");
-      if (!mm && !um) throw InputError(source, where, "a column reading_mm or reading_um is required");
+      if (!mm && !um)
+        throw InputError(source, where, "a column reading_mm or reading_um is required");
       if (mm && um) throw InputError(source, where, "both reading_mm and reading_um: give one");
       continue;
     }
     if (cells.size() != header.size()) {
-      throw InputError(source, where, "expected " + std::to_string(header.size()) + " fields, found " +
-                                          std::to_string(cells.size()));
+      throw InputError(source, where,
+                       "expected " + std::to_string(header.size()) + " fields, found " +
+                           std::to_string(cells.size()));
     }
-    auto cell = [&](const std::string& name) { return Cell{source, line_no, name, cells[col.at(name)]}; };
-    auto present = [&](const std::string& name) { return col.count(name) && !cells[col.at(name)].empty(); };
+    auto cell = [&](const std::string& name) {
+      return Cell{source, line_no, name, cells[col.at(name)]};
+    };
+    auto present = [&](const std::string& name) {
+      return col.count(name) && !cells[col.at(name)].empty();
+    };
     Reading r;
     r.line = line_no;
     r.installation = cells[col.at("installation")];
@@ -136,8 +147,9 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
     }
     if (present("repeat")) r.repeat = cell("repeat").integer();
     if (readings.size() >= limits::kMaxReadings) {
-      throw InputError(source, where, "more than " + std::to_string(limits::kMaxReadings) +
-                                          " readings, the most one file may hold (README, \"Limits\")");
+      throw InputError(source, where,
+                       "more than " + std::to_string(limits::kMaxReadings) +
+                           " readings, the most one file may hold (README, \"Limits\")");
     }
     readings.push_back(r);
   }

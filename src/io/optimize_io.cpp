@@ -7,10 +7,10 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
-#include "dbbkit/observability.hpp"
 #include "dbbkit/io/report.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/observability.hpp"
 
 namespace dbbkit::io {
 
@@ -20,7 +20,8 @@ namespace {
 
 std::string where(const WorstCase& w) {
   if (w.at_error < 0) return "";
-  return std::string(" (") + kErrorNames[w.at_error] + " at " + fmt_num(w.at_angle_deg, 6) + " deg)";
+  return std::string(" (") + kErrorNames[w.at_error] + " at " + fmt_num(w.at_angle_deg, 6) +
+         " deg)";
 }
 
 json candidate_json(const Kit& kit, const Candidate& c) {
@@ -41,14 +42,15 @@ json candidate_json(const Kit& kit, const Candidate& c) {
   j["variables_mm"] = vars;
   if (c.detection) {
     const Candidate::Detection& d = *c.detection;
-    j["setup_detection"] = {{"level", d.settings.level},
-                            {"n_tests", d.settings.n_tests},
-                            {"power", d.settings.power},
-                            {"largest_ratio", std::isfinite(d.ratio) ? json(d.ratio) : json(nullptr)},
-                            {"effect", d.effect},
-                            {"detection_limit_um", optional_number(d.limit_um)},
-                            {"declared_std_um", d.declared_std_um},
-                            {"met", d.ratio <= 1.0}};
+    j["setup_detection"] = {
+        {"level", d.settings.level},
+        {"n_tests", d.settings.n_tests},
+        {"power", d.settings.power},
+        {"largest_ratio", std::isfinite(d.ratio) ? json(d.ratio) : json(nullptr)},
+        {"effect", d.effect},
+        {"detection_limit_um", optional_number(d.limit_um)},
+        {"declared_std_um", d.declared_std_um},
+        {"met", d.ratio <= 1.0}};
   }
   return j;
 }
@@ -56,14 +58,17 @@ json candidate_json(const Kit& kit, const Candidate& c) {
 }  // namespace
 
 std::string detection_text(const Candidate::Detection& d) {
-  std::string t = "required of every declared effect (found by diagnose at its declared size, power " +
-                  fmt_num(d.settings.power) + " at level " + fmt_num(d.settings.level) +
-                  (d.settings.n_tests > 1 ? " / " + std::to_string(d.settings.n_tests) + " candidates" : "") + "): ";
+  std::string t =
+      "required of every declared effect (found by diagnose at its declared size, power " +
+      fmt_num(d.settings.power) + " at level " + fmt_num(d.settings.level) +
+      (d.settings.n_tests > 1 ? " / " + std::to_string(d.settings.n_tests) + " candidates" : "") +
+      "): ";
   if (d.effect.empty()) return t + "no declared effect changes a reading";
   t += d.ratio <= 1.0 ? "met; the closest is " : "not met; ";
   t += d.effect;
   if (d.limit_um) {
-    t += ", detected from " + fmt_num(*d.limit_um, 4) + " um (declared " + fmt_num(d.declared_std_um, 4) + " um)";
+    t += ", detected from " + fmt_num(*d.limit_um, 4) + " um (declared " +
+         fmt_num(d.declared_std_um, 4) + " um)";
   } else {
     t += ", which the axis errors take (not detectable)";
   }
@@ -73,8 +78,8 @@ std::string detection_text(const Candidate::Detection& d) {
 Design optimized_design(const Kit& kit, const OptimizeResult& res, const std::string& kit_file) {
   Design d = res.best->design;
   const Evaluation& ev = res.best_evaluation;
-  d.description = "Found by dbbkit optimize in kit " + kit_file + " (criterion " + criterion_name(res.criterion) +
-                  "): " + choice_label(kit, res.best->choice) + ".";
+  d.description = "Found by dbbkit optimize in kit " + kit_file + " (criterion " +
+                  criterion_name(res.criterion) + "): " + choice_label(kit, res.best->choice) + ".";
   Prediction p;
   p.criterion = criterion_name(res.criterion);
   p.worst_std_um = ev.worst.worst_std_um;
@@ -91,8 +96,9 @@ Reference make_reference(const Kit& kit, Design design, const std::string& file)
   r.file = file;
   r.design = std::move(design);
   if (r.design.axis != kit.axis) {
-    throw InputError(file, "axis", "the reference is for axis " + std::string(axis_name(r.design.axis)) +
-                                       ", the kit for axis " + axis_name(kit.axis));
+    throw InputError(file, "axis",
+                     "the reference is for axis " + std::string(axis_name(r.design.axis)) +
+                         ", the kit for axis " + axis_name(kit.axis));
   }
   if (std::abs(r.design.noise.sigma_um() - kit.noise.sigma_um()) > 1e-12 * kit.noise.sigma_um()) {
     throw InputError(file, "noise",
@@ -100,8 +106,9 @@ Reference make_reference(const Kit& kit, Design design, const std::string& file)
                          ": the ratio would compare instruments, not designs");
   }
   if (r.design.errors.kind != kit.errors.kind || r.design.errors.order != kit.errors.order) {
-    throw InputError(file, "errors",
-                     "the reference uses " + r.design.errors.describe() + ", the kit " + kit.errors.describe());
+    throw InputError(
+        file, "errors",
+        "the reference uses " + r.design.errors.describe() + ", the kit " + kit.errors.describe());
   }
   const Evaluation ev = evaluate_design(r.design, kit.reference_length_mm);
   r.worst = ev.worst;
@@ -125,14 +132,17 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
     case ChoiceState::kSearched:
       return "searched";
     case ChoiceState::kOverTimeBudget:
-      return "over the time budget (" + mm(cr.time_s) + " s > " + mm(kit.time_budget_s.value_or(0.0)) + " s)";
+      return "over the time budget (" + mm(cr.time_s) + " s > " +
+             mm(kit.time_budget_s.value_or(0.0)) + " s)";
     case ChoiceState::kUndetectableEverywhere: {
       std::string list;
       if (cr.best && cr.best->detection) {
-        for (const std::string& e : cr.best->detection->undetectable) list += (list.empty() ? "" : ", ") + e;
+        for (const std::string& e : cr.best->detection->undetectable)
+          list += (list.empty() ? "" : ", ") + e;
       }
-      return "no position lets diagnose detect every declared set-up effect: the axis errors take " + list +
-             " at every position of this choice";
+      return "no position lets diagnose detect every declared set-up effect: the axis errors "
+             "take " +
+             list + " at every position of this choice";
     }
     case ChoiceState::kOutsideTravel:
       return "no position keeps the following ball inside travel (least excursion " +
@@ -142,8 +152,11 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
     case ChoiceState::kSetupNotDetected: {
       if (!cr.best || !cr.best->detection) break;
       const Candidate::Detection& d = *cr.best->detection;
-      return "no position lets diagnose detect every declared set-up effect at its declared size: " + d.effect +
-             (d.limit_um ? " is detected from " + mm(*d.limit_um) + " um (declared " + mm(d.declared_std_um) + " um)"
+      return "no position lets diagnose detect every declared set-up effect at its declared "
+             "size: " +
+             d.effect +
+             (d.limit_um ? " is detected from " + mm(*d.limit_um) + " um (declared " +
+                               mm(d.declared_std_um) + " um)"
                          : " cannot be told from the axis errors");
     }
     case ChoiceState::kNoFeasiblePosition:
@@ -152,8 +165,8 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
   return "no feasible position";
 }
 
-json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::string& kit_file, double seconds,
-                      const std::optional<Reference>& reference) {
+json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
+                      double seconds, const std::optional<Reference>& reference) {
   json j;
   j["format"] = "dbbkit.optimize/1";
   j["dbbkit_version"] = DBBKIT_VERSION;
@@ -173,7 +186,8 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
     add_rank_block(b, ev.prior);
     b["worst_std_um"] = optional_number(ev.worst.worst_std_um);
     b["worst_determined_std_um"] = optional_number(ev.worst.worst_determined_std_um);
-    b["worst_total_std_um"] = ev.worst_total ? optional_number(ev.worst_total->worst_std_um) : json(nullptr);
+    b["worst_total_std_um"] =
+        ev.worst_total ? optional_number(ev.worst_total->worst_std_um) : json(nullptr);
     b["setup_note"] = ev.setup_note;
     b["errors"] = errors_to_json(ev.errors, false);
     b["unidentifiable"] = unidentifiable_to_json(ev.unidentifiable);
@@ -194,22 +208,25 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   for (const Candidate& c : res.pareto) front.push_back(candidate_json(kit, c));
   j["pareto"] = front;
   if (reference) {
-    json r = {{"file", reference->file},
-              {"worst_std_um", optional_number(reference->worst.worst_std_um)},
-              {"worst_determined_std_um", optional_number(reference->worst.worst_determined_std_um)},
-              {"rank", reference->rank},
-              {"n_unknowns", reference->n_unknowns}};
+    json r = {
+        {"file", reference->file},
+        {"worst_std_um", optional_number(reference->worst.worst_std_um)},
+        {"worst_determined_std_um", optional_number(reference->worst.worst_determined_std_um)},
+        {"rank", reference->rank},
+        {"n_unknowns", reference->n_unknowns}};
     if (res.best && res.best_evaluation.worst.worst_std_um && reference->worst.worst_std_um) {
-      r["ratio_worst_std_um"] = *res.best_evaluation.worst.worst_std_um / *reference->worst.worst_std_um;
+      r["ratio_worst_std_um"] =
+          *res.best_evaluation.worst.worst_std_um / *reference->worst.worst_std_um;
     } else {
       r["ratio_worst_std_um"] = nullptr;
     }
     if (reference->worst_total) {
       r["worst_total_std_um"] = optional_number(reference->worst_total->worst_std_um);
       const std::optional<WorstCase>& bt = res.best_evaluation.worst_total;
-      r["ratio_worst_total_std_um"] = res.best && bt && bt->worst_std_um && reference->worst_total->worst_std_um
-                                          ? json(*bt->worst_std_um / *reference->worst_total->worst_std_um)
-                                          : json(nullptr);
+      r["ratio_worst_total_std_um"] =
+          res.best && bt && bt->worst_std_um && reference->worst_total->worst_std_um
+              ? json(*bt->worst_std_um / *reference->worst_total->worst_std_um)
+              : json(nullptr);
     }
     j["reference"] = r;
   }
@@ -217,22 +234,26 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
 }
 
 std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
-                             double seconds, const std::optional<Reference>& reference, bool pareto) {
+                             double seconds, const std::optional<Reference>& reference,
+                             bool pareto) {
   std::ostringstream s;
   int searched = 0;
   for (const ChoiceResult& cr : res.choices) searched += cr.state == ChoiceState::kSearched;
   s << "kit " << kit_file << ": axis " << axis_name(kit.axis) << ", pattern " << kit.pattern.name
     << ", " << kit.errors.describe() << ", noise " << kit.noise.describe() << "\n";
-  s << "criterion " << criterion_name(res.criterion) << "; " << res.choices.size() << " discrete choices, "
-    << searched << " feasible; " << res.evaluations << " designs scored in " << fmt_num(seconds, 3) << " s\n";
+  s << "criterion " << criterion_name(res.criterion) << "; " << res.choices.size()
+    << " discrete choices, " << searched << " feasible; " << res.evaluations
+    << " designs scored in " << fmt_num(seconds, 3) << " s\n";
   if (!res.note.empty()) s << "note: " << res.note << "\n";
   if (!res.best) {
-    // One line per distinct reason (a pattern that cannot meet a requirement fails every choice alike).
+    // One line per distinct reason (a pattern that cannot meet a requirement fails every choice
+    // alike).
     s << "\nno design fits the kit:\n";
     std::vector<std::pair<std::string, std::vector<const ChoiceResult*>>> reasons;
     for (const ChoiceResult& cr : res.choices) {
       const std::string status = choice_status_text(kit, cr);
-      auto it = std::find_if(reasons.begin(), reasons.end(), [&](const auto& r) { return r.first == status; });
+      auto it = std::find_if(reasons.begin(), reasons.end(),
+                             [&](const auto& r) { return r.first == status; });
       if (it == reasons.end()) {
         reasons.push_back({status, {&cr}});
       } else {
@@ -243,7 +264,8 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
       if (choices.size() == 1) {
         s << "  " << choices.front()->label << ": " << status << "\n";
       } else {
-        s << "  " << choices.size() << " choices (" << choices.front()->label << ", ...): " << status << "\n";
+        s << "  " << choices.size() << " choices (" << choices.front()->label
+          << ", ...): " << status << "\n";
       }
     }
     return s.str();
@@ -253,27 +275,31 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   s << "\nbest: " << choice_label(kit, b.choice) << "\n";
   s << std::setw(4) << "id" << std::setw(10) << "L [mm]" << std::setw(10) << "D [mm]";
   if (kit.axis == Axis::C) s << std::setw(10) << "H [mm]";
-  s << std::setw(13) << "direction" << std::setw(10) << "bar [mm]" << std::setw(6) << "sign" << "\n";
+  s << std::setw(13) << "direction" << std::setw(10) << "bar [mm]" << std::setw(6) << "sign"
+    << "\n";
   for (const Installation& in : b.design.installations) {
-    s << std::setw(4) << in.id << std::fixed << std::setprecision(2) << std::setw(10) << in.L_mm << std::setw(10)
-      << in.D_mm;
+    s << std::setw(4) << in.id << std::fixed << std::setprecision(2) << std::setw(10) << in.L_mm
+      << std::setw(10) << in.D_mm;
     if (kit.axis == Axis::C) s << std::setw(10) << in.H_mm;
-    s << std::setw(13) << in.direction.label() << std::setw(10) << *in.bar_mm << std::setw(6) << in.sign << "\n";
+    s << std::setw(13) << in.direction.label() << std::setw(10) << *in.bar_mm << std::setw(6)
+      << in.sign << "\n";
     s.unsetf(std::ios::fixed);
   }
   const size_t n_inst = b.design.installations.size(), n_ang = b.design.angles_deg.size();
-  s << "time " << fmt_num(b.time_s, 6) << " s = " << n_inst << " installations x " << fmt_num(kit.time_per_installation_s)
-    << " s + " << n_inst * n_ang << " readings x " << fmt_num(kit.time_per_reading_s) << " s";
+  s << "time " << fmt_num(b.time_s, 6) << " s = " << n_inst << " installations x "
+    << fmt_num(kit.time_per_installation_s) << " s + " << n_inst * n_ang << " readings x "
+    << fmt_num(kit.time_per_reading_s) << " s";
   if (kit.time_budget_s) s << " (budget " << fmt_num(*kit.time_budget_s, 6) << " s)";
   s << "\n";
   s << "rank " << ev.prior.rank << " of " << ev.prior.n_unknowns;
   if (ev.prior.condition_number) s << ", condition number " << fmt_num(*ev.prior.condition_number);
   s << "\n";
   if (ev.worst.worst_std_um) {
-    s << "worst_std_um " << fmt_num(*ev.worst.worst_std_um) << " um" << where(ev.worst) << ", angular errors at "
-      << fmt_num(kit.reference_length_mm) << " mm\n";
+    s << "worst_std_um " << fmt_num(*ev.worst.worst_std_um) << " um" << where(ev.worst)
+      << ", angular errors at " << fmt_num(kit.reference_length_mm) << " mm\n";
   } else if (ev.worst.worst_determined_std_um) {
-    s << "worst_std_um: none (" << ev.worst.n_undetermined << " errors at angles not determined); worst determined "
+    s << "worst_std_um: none (" << ev.worst.n_undetermined
+      << " errors at angles not determined); worst determined "
       << fmt_num(*ev.worst.worst_determined_std_um) << " um" << where(ev.worst) << "\n";
   }
   if (res.criterion != Criterion::Worst && b.objective_defined) {
@@ -282,7 +308,8 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   if (b.detection) s << "set-up detection " << detection_text(*b.detection) << "\n";
   s << unidentifiable_text(ev.unidentifiable);
   if (ev.setup_included) {
-    s << "\npredicted standard uncertainty (k = 1) at each angle, total (noise and the declared set-up "
+    s << "\npredicted standard uncertainty (k = 1) at each angle, total (noise and the declared "
+         "set-up "
          "tolerances):\n"
       << errors_table(ev.total_errors, false);
   } else {
@@ -290,11 +317,14 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
       << errors_table(ev.errors, false);
   }
   if (reference) {
-    s << "\nreference " << reference->file << ": rank " << reference->rank << " of " << reference->n_unknowns;
+    s << "\nreference " << reference->file << ": rank " << reference->rank << " of "
+      << reference->n_unknowns;
     if (reference->worst.worst_std_um) {
-      s << ", worst_std_um " << fmt_num(*reference->worst.worst_std_um) << " um" << where(reference->worst);
+      s << ", worst_std_um " << fmt_num(*reference->worst.worst_std_um) << " um"
+        << where(reference->worst);
       if (ev.worst.worst_std_um) {
-        s << "\nratio optimised / reference: " << fmt_num(*ev.worst.worst_std_um / *reference->worst.worst_std_um, 3);
+        s << "\nratio optimised / reference: "
+          << fmt_num(*ev.worst.worst_std_um / *reference->worst.worst_std_um, 3);
       }
     } else {
       s << ", worst_std_um: none (not every error determined)";
@@ -310,19 +340,23 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
     s << "\n";
   }
   if (kit.errors.kind == ErrorModel::Kind::PerAngle && kit.angle_steps_deg.size() > 1) {
-    s << "\nper_angle errors: each angle has its own six unknowns, so a finer step adds angles, each known as "
-         "well as before; between designs equally good the shorter measurement (the coarser step) is chosen. "
+    s << "\nper_angle errors: each angle has its own six unknowns, so a finer step adds angles, "
+         "each known as "
+         "well as before; between designs equally good the shorter measurement (the coarser step) "
+         "is chosen. "
          "Leave out of the kit the steps coarser than the spacing the errors are needed at.\n";
   }
   if (pareto) {
-    s << "\nPareto front, " << criterion_name(res.criterion) << " against time (designs that determine as much as "
+    s << "\nPareto front, " << criterion_name(res.criterion)
+      << " against time (designs that determine as much as "
       << "the best; each the best of its angle step and installations):\n";
-    s << std::setw(10) << "time [s]" << std::setw(15) << "installations" << std::setw(8) << "angles" << std::setw(12)
-      << "step [deg]" << std::setw(20) << criterion_name(res.criterion) << "  added (optional positions)\n";
+    s << std::setw(10) << "time [s]" << std::setw(15) << "installations" << std::setw(8) << "angles"
+      << std::setw(12) << "step [deg]" << std::setw(20) << criterion_name(res.criterion)
+      << "  added (optional positions)\n";
     for (const Candidate& c : res.pareto) {
-      s << std::setw(10) << fmt_num(c.time_s, 6) << std::setw(15) << c.design.installations.size() << std::setw(8)
-        << c.design.angles_deg.size() << std::setw(12) << fmt_num(c.choice.step_deg) << std::setw(20)
-        << fmt_num(c.objective, 5) << "  " << added_installations(kit, c) << "\n";
+      s << std::setw(10) << fmt_num(c.time_s, 6) << std::setw(15) << c.design.installations.size()
+        << std::setw(8) << c.design.angles_deg.size() << std::setw(12) << fmt_num(c.choice.step_deg)
+        << std::setw(20) << fmt_num(c.objective, 5) << "  " << added_installations(kit, c) << "\n";
     }
   }
   return s.str();
@@ -330,11 +364,13 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
 
 std::string pareto_csv(const Kit& kit, const OptimizeResult& res) {
   std::ostringstream s;
-  s << "time_s,n_installations,n_angles,step_deg," << criterion_name(res.criterion) << ",added_installations\n";
+  s << "time_s,n_installations,n_angles,step_deg," << criterion_name(res.criterion)
+    << ",added_installations\n";
   s << std::setprecision(10);
   for (const Candidate& c : res.pareto) {
-    s << c.time_s << "," << c.design.installations.size() << "," << c.design.angles_deg.size() << ","
-      << c.choice.step_deg << "," << c.objective << "," << added_installations(kit, c) << "\n";
+    s << c.time_s << "," << c.design.installations.size() << "," << c.design.angles_deg.size()
+      << "," << c.choice.step_deg << "," << c.objective << "," << added_installations(kit, c)
+      << "\n";
   }
   return s.str();
 }

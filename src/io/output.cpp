@@ -106,7 +106,8 @@ void finish_stdout() {
     const int e = errno;
     std::cout.clear();
     std::clearerr(stdout);
-    throw InputError("standard output", "", std::string("cannot write the output: ") + std::strerror(e));
+    throw InputError("standard output", "",
+                     std::string("cannot write the output: ") + std::strerror(e));
   }
 }
 
@@ -160,7 +161,8 @@ OutputSet::OutputSet(std::vector<OutputTarget> targets, std::vector<std::string>
     const std::string& p = t.path;
     if (p.empty()) throw InputError(t.option, "", "an empty path (use '-' for standard output)");
     if (p == "-") {
-      if (have_stdout) throw InputError(t.option, "", "standard output is already the target of another option");
+      if (have_stdout)
+        throw InputError(t.option, "", "standard output is already the target of another option");
       have_stdout = true;
       e->to_stdout = true;
       e->target = std::move(t);
@@ -171,7 +173,8 @@ OutputSet::OutputSet(std::vector<OutputTarget> targets, std::vector<std::string>
     const fs::path canonical = fs::weakly_canonical(p, ec);
     if (ec) throw InputError(p, "", "cannot resolve the output path: " + ec.message());
     for (const auto& [c, in] : canonical_inputs) {
-      if (c == canonical.string()) throw InputError(p, t.option, "the output would overwrite the input file " + in);
+      if (c == canonical.string())
+        throw InputError(p, t.option, "the output would overwrite the input file " + in);
     }
     if (!seen.insert(canonical.string()).second) {
       throw InputError(p, t.option, "the same file is the target of two outputs of this run");
@@ -180,9 +183,10 @@ OutputSet::OutputSet(std::vector<OutputTarget> targets, std::vector<std::string>
     if (::stat(p.c_str(), &st) == 0) {
       if (S_ISDIR(st.st_mode)) throw InputError(p, t.option, "is a directory");
       if (!S_ISREG(st.st_mode)) {
-        throw InputError(p, t.option,
-                         "exists and is not a regular file (a device, FIFO or socket): write to a regular file, "
-                         "or '-' for standard output");
+        throw InputError(
+            p, t.option,
+            "exists and is not a regular file (a device, FIFO or socket): write to a regular file, "
+            "or '-' for standard output");
       }
     } else if (errno != ENOENT) {
       // A dangling symlink is ENOENT (rename replaces the link); anything else is reported.
@@ -230,7 +234,9 @@ void OutputSet::stage(const std::string& option, const std::string& content) {
   {
     internal::SignalBlock block;
     fd = ::mkostemp(name.data(), O_CLOEXEC);
-    if (fd < 0) throw InputError(p, e.target.option, "cannot create a file in " + e.directory + ": " + errno_text(errno));
+    if (fd < 0)
+      throw InputError(p, e.target.option,
+                       "cannot create a file in " + e.directory + ": " + errno_text(errno));
     e.temporary = name;
     e.slot = internal::register_temporary(name);
   }
@@ -272,7 +278,8 @@ void OutputSet::withhold(const std::string& option) {
 void OutputSet::commit() {
   if (committed_) return;
   for (auto& e : entries_) {
-    if (!e->staged) throw std::logic_error("OutputSet::commit: " + e->target.option + " was not staged");
+    if (!e->staged)
+      throw std::logic_error("OutputSet::commit: " + e->target.option + " was not staged");
   }
   for (auto& e : entries_) {
     if (!e->to_stdout) continue;
@@ -309,7 +316,8 @@ void OutputSet::commit() {
           ::unlink(d->target.path.c_str());
         }
       }
-      throw InputError(e->target.path, e->target.option, "cannot move the finished file into place: " + errno_text(err));
+      throw InputError(e->target.path, e->target.option,
+                       "cannot move the finished file into place: " + errno_text(err));
     }
     internal::unregister_temporary(e->slot);
     e->slot = -1;
@@ -322,8 +330,8 @@ void OutputSet::commit() {
   committed_ = true;
 }
 
-void write_output(const std::string& path, const std::string& content, const std::vector<std::string>& inputs,
-                  const std::string& option) {
+void write_output(const std::string& path, const std::string& content,
+                  const std::vector<std::string>& inputs, const std::string& option) {
   OutputSet set({{option, path.empty() ? "-" : path}}, inputs);
   set.stage(option, content);
   set.commit();

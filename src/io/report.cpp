@@ -1,6 +1,12 @@
 #include "dbbkit/io/report.hpp"
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -11,12 +17,6 @@
 #include <limits>
 #include <map>
 #include <sstream>
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <vector>
 
 #include "dbbkit/error.hpp"
@@ -54,7 +54,8 @@ std::string num(double x) {
   return s.str();
 }
 
-const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2"};
+const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd",
+                          "#ff7f0e", "#17becf", "#8c564b", "#e377c2"};
 
 std::string series_block(const PlotSeries& s, int index) {
   std::ostringstream b;
@@ -75,8 +76,8 @@ std::string series_plot(const PlotSeries& s, int index) {
     p << "$d" << index << " using 1:3:4 with filledcurves fc rgb '" << colour
       << "' fs transparent solid 0.18 noborder notitle, ";
   }
-  p << "$d" << index << " using 1:2 with " << s.style << " lc rgb '" << colour << "' lw 1.5 pt 7 ps 0.5 title "
-    << gq(s.title);
+  p << "$d" << index << " using 1:2 with " << s.style << " lc rgb '" << colour
+    << "' lw 1.5 pt 7 ps 0.5 title " << gq(s.title);
   return p.str();
 }
 
@@ -94,7 +95,8 @@ std::string sha256_hex(const std::string& bytes) {
     std::array<std::uint32_t, 64> w{};
     for (int i = 0; i < 16; ++i) {
       w[i] = 0;
-      for (int j = 0; j < 4; ++j) w[i] = (w[i] << 8) | static_cast<unsigned char>(m[off + 4 * i + j]);
+      for (int j = 0; j < 4; ++j)
+        w[i] = (w[i] << 8) | static_cast<unsigned char>(m[off + 4 * i + j]);
     }
     for (int i = 16; i < 64; ++i) {
       const std::uint32_t s0 = rotr(w[i - 15], 7) ^ rotr(w[i - 15], 18) ^ (w[i - 15] >> 3);
@@ -125,7 +127,8 @@ std::string gnuplot_svg(const std::string& script, int width_px, int height_px) 
   // messages: nothing in a shared temporary directory is ever opened by a guessable
   // name. The directory and its files are known to the signal handlers (output.hpp).
   std::string dir = (std::filesystem::temp_directory_path() / "dbbkit-plot-XXXXXX").string();
-  if (!::mkdtemp(dir.data())) throw InputError("--report", "", "cannot create a temporary directory for gnuplot");
+  if (!::mkdtemp(dir.data()))
+    throw InputError("--report", "", "cannot create a temporary directory for gnuplot");
   const int dir_slot = internal::register_temporary(dir, true);
   const std::string gp = dir + "/plot.gp", svg = dir + "/plot.svg", log = dir + "/plot.log";
   std::vector<int> slots;
@@ -150,7 +153,8 @@ std::string gnuplot_svg(const std::string& script, int width_px, int height_px) 
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0600);
   posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
   std::string arg0 = "gnuplot";
   std::string arg1 = gp;
@@ -170,22 +174,26 @@ std::string gnuplot_svg(const std::string& script, int width_px, int height_px) 
   }
   cleanup();
   if (out.empty()) {
-    throw InputError("--report", "",
-                     not_found ? "gnuplot draws the plots and was not found; install gnuplot-nox (./setup.sh does)"
-                               : "gnuplot failed: " + err.substr(0, 400));
+    throw InputError(
+        "--report", "",
+        not_found
+            ? "gnuplot draws the plots and was not found; install gnuplot-nox (./setup.sh does)"
+            : "gnuplot failed: " + err.substr(0, 400));
   }
   // Drop the XML prolog and DOCTYPE: the SVG is inlined in HTML.
   const size_t start = out.find("<svg");
   return start == std::string::npos ? out : out.substr(start);
 }
 
-std::string plot_series(const std::string& title, const std::string& xlabel, const std::string& ylabel,
-                        const std::vector<PlotSeries>& series, int width_px, int height_px) {
+std::string plot_series(const std::string& title, const std::string& xlabel,
+                        const std::string& ylabel, const std::vector<PlotSeries>& series,
+                        int width_px, int height_px) {
   std::ostringstream s;
   for (size_t i = 0; i < series.size(); ++i) s << series_block(series[i], static_cast<int>(i));
   s << "set title " << gq(title) << "\nset xlabel " << gq(xlabel) << "\nset ylabel " << gq(ylabel)
     << "\nset grid\nset key outside right top\nplot ";
-  for (size_t i = 0; i < series.size(); ++i) s << (i ? ", " : "") << series_plot(series[i], static_cast<int>(i));
+  for (size_t i = 0; i < series.size(); ++i)
+    s << (i ? ", " : "") << series_plot(series[i], static_cast<int>(i));
   s << "\n";
   return gnuplot_svg(s.str(), width_px, height_px);
 }
@@ -226,8 +234,9 @@ std::string plot_design(const Design& design) {
     }
     // Along each level of the view's vertical coordinate, by the horizontal one: $<name>0
     // holds every other point from the first (labels above), $<name>1 the rest (below).
-    std::stable_sort(points.begin(), points.end(),
-                     [](const Point& a, const Point& b) { return a.y < b.y || (a.y == b.y && a.x < b.x); });
+    std::stable_sort(points.begin(), points.end(), [](const Point& a, const Point& b) {
+      return a.y < b.y || (a.y == b.y && a.x < b.x);
+    });
     std::array<std::vector<const Point*>, 2> sets;
     for (size_t i = 0, k = 0; i < points.size(); ++i) {
       k = i > 0 && std::abs(points[i].y - points[i - 1].y) < 1e-6 ? k + 1 : 0;
@@ -237,28 +246,33 @@ std::string plot_design(const Design& design) {
     for (size_t parity = 0; parity < 2; ++parity) {
       if (sets[parity].empty()) continue;
       d << "$" << name << parity << " << EOD\n";
-      for (const Point* q : sets[parity]) d << num(q->x) << " " << num(q->y) << " \"" << q->ids << "\"\n";
+      for (const Point* q : sets[parity])
+        d << num(q->x) << " " << num(q->y) << " \"" << q->ids << "\"\n";
       d << "EOD\n";
-      plot << ", $" << name << parity << " using 1:2 with points pt 7 ps 1.2 lc rgb '#d62728', $" << name << parity
-           << " using 1:2:3 with labels offset 0," << (parity == 0 ? "1" : "-1") << " font 'sans,9'";
+      plot << ", $" << name << parity << " using 1:2 with points pt 7 ps 1.2 lc rgb '#d62728', $"
+           << name << parity << " using 1:2:3 with labels offset 0," << (parity == 0 ? "1" : "-1")
+           << " font 'sans,9'";
     }
     return std::make_pair(d.str(), plot.str());
   };
   const bool c = design.axis == Axis::C;
-  const std::string what = design.installations.front().bar_mm ? "bar to the following ball" : "reading direction";
+  const std::string what =
+      design.installations.front().bar_mm ? "bar to the following ball" : "reading direction";
   const auto [top_data, top_plot] = labels("top", 0, 1);
   const auto [side_data, side_plot] = labels("side", 0, 2);
   std::ostringstream s;
   s << bars.str() << top_data << side_data << "set multiplot layout 1,2 title "
     << gq("design " + design.name + " (axis " + axis_name(design.axis) +
           ", body frame = machine frame at angle 0; lines: " + what + ")")
-    << "\nset size ratio -1\nset grid\nset key off\nset offsets graph 0.08, graph 0.08, graph 0.08, graph 0.08\n";
+    << "\nset size ratio -1\nset grid\nset key off\nset offsets graph 0.08, graph 0.08, graph "
+       "0.08, graph 0.08\n";
   // Top view x, y; side view x, z. The axis of rotation is drawn: C about z, B about y.
   s << "set title 'top view (x, y) [mm]'\nset xlabel 'x [mm]'\nset ylabel 'y [mm]'\n";
   if (!c) s << "set arrow 1 from 0,graph 0 to 0,graph 1 nohead dt 2 lc rgb '#888888'\n";
   s << "plot $bars using 1:2:4:5 with vectors nohead lw 2 lc rgb '#1f77b4'" << top_plot
     << (c ? ", '+' using (0):(0) with points pt 2 ps 2 lc rgb '#888888'" : "") << "\n";
-  s << "unset arrow 1\nset title 'side view (x, z) [mm]'\nset xlabel 'x [mm]'\nset ylabel 'z [mm]'\n";
+  s << "unset arrow 1\nset title 'side view (x, z) [mm]'\nset xlabel 'x [mm]'\nset ylabel 'z "
+       "[mm]'\n";
   if (c) s << "set arrow 1 from 0,graph 0 to 0,graph 1 nohead dt 2 lc rgb '#888888'\n";
   s << "plot $bars using 1:3:4:6 with vectors nohead lw 2 lc rgb '#1f77b4'" << side_plot
     << (c ? "" : ", '+' using (0):(0) with points pt 2 ps 2 lc rgb '#888888'") << "\n";
@@ -266,14 +280,16 @@ std::string plot_design(const Design& design) {
   return gnuplot_svg(s.str(), 900, 420);
 }
 
-std::string plot_errors(const std::vector<ErrorsAtAngle>& errors, bool values, double k, const std::string& title) {
+std::string plot_errors(const std::vector<ErrorsAtAngle>& errors, bool values, double k,
+                        const std::string& title) {
   std::vector<PlotSeries> tr, rot;
   for (int e = 0; e < 6; ++e) {
     PlotSeries s;
     s.title = kErrorNames[e];
     for (const ErrorsAtAngle& ea : errors) {
       const Determined& d = ea.errors[e];
-      const double v = d.determined ? (values ? d.value : 0.0) : std::numeric_limits<double>::quiet_NaN();
+      const double v =
+          d.determined ? (values ? d.value : 0.0) : std::numeric_limits<double>::quiet_NaN();
       const double U = d.determined ? k * d.std : std::numeric_limits<double>::quiet_NaN();
       s.x.push_back(ea.angle_deg);
       s.y.push_back(values ? v : U);
@@ -298,17 +314,20 @@ std::string plot_errors(const std::vector<ErrorsAtAngle>& errors, bool values, d
   return gnuplot_svg(sc.str(), 900, 640);
 }
 
-std::string plot_heatmap(const std::string& title, const std::string& xlabel, const std::string& ylabel,
-                         const std::string& zlabel, const std::vector<double>& x, const std::vector<double>& y,
+std::string plot_heatmap(const std::string& title, const std::string& xlabel,
+                         const std::string& ylabel, const std::string& zlabel,
+                         const std::vector<double>& x, const std::vector<double>& y,
                          const std::vector<double>& z) {
   std::ostringstream s;
   s << "$map << EOD\n";
   for (size_t j = 0; j < y.size(); ++j) {
-    for (size_t i = 0; i < x.size(); ++i) s << num(x[i]) << " " << num(y[j]) << " " << num(z[j * x.size() + i]) << "\n";
+    for (size_t i = 0; i < x.size(); ++i)
+      s << num(x[i]) << " " << num(y[j]) << " " << num(z[j * x.size() + i]) << "\n";
     s << "\n";
   }
-  s << "EOD\nset title " << gq(title) << "\nset xlabel " << gq(xlabel) << "\nset ylabel " << gq(ylabel)
-    << "\nset cblabel " << gq(zlabel) << "\nset palette rgbformulae 33,13,10\nset tics out\n"
+  s << "EOD\nset title " << gq(title) << "\nset xlabel " << gq(xlabel) << "\nset ylabel "
+    << gq(ylabel) << "\nset cblabel " << gq(zlabel)
+    << "\nset palette rgbformulae 33,13,10\nset tics out\n"
     << "plot $map using 1:2:3 with image notitle\n";
   return gnuplot_svg(s.str(), 760, 480);
 }
@@ -339,11 +358,17 @@ std::string html_escape(const std::string& s) {
 HtmlReport::HtmlReport(const std::string& title) : title_(title) {}
 
 void HtmlReport::heading(const std::string& text, int level) {
-  body_ += "<h" + std::to_string(level) + ">" + html_escape(text) + "</h" + std::to_string(level) + ">\n";
+  body_ += "<h" + std::to_string(level) + ">" + html_escape(text) + "</h" + std::to_string(level) +
+           ">\n";
 }
-void HtmlReport::paragraph(const std::string& text) { body_ += "<p>" + html_escape(text) + "</p>\n"; }
-void HtmlReport::preformatted(const std::string& text) { body_ += "<pre>" + html_escape(text) + "</pre>\n"; }
-void HtmlReport::table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows) {
+void HtmlReport::paragraph(const std::string& text) {
+  body_ += "<p>" + html_escape(text) + "</p>\n";
+}
+void HtmlReport::preformatted(const std::string& text) {
+  body_ += "<pre>" + html_escape(text) + "</pre>\n";
+}
+void HtmlReport::table(const std::vector<std::string>& header,
+                       const std::vector<std::vector<std::string>>& rows) {
   std::string t = "<table><thead><tr>";
   for (const std::string& h : header) t += "<th>" + html_escape(h) + "</th>";
   t += "</tr></thead><tbody>\n";
@@ -356,55 +381,72 @@ void HtmlReport::table(const std::vector<std::string>& header, const std::vector
 }
 void HtmlReport::figure(const std::string& svg, const std::string& caption) {
   ++figures_;
-  body_ += "<figure class=\"plot\">" + svg + "<figcaption>" + html_escape(caption) + "</figcaption></figure>\n";
+  body_ += "<figure class=\"plot\">" + svg + "<figcaption>" + html_escape(caption) +
+           "</figcaption></figure>\n";
 }
 
 namespace {
-std::vector<std::vector<std::string>> condition_rows(const std::string& command, const std::vector<std::string>& inputs,
+std::vector<std::vector<std::string>> condition_rows(const std::string& command,
+                                                     const std::vector<std::string>& inputs,
                                                      const Design* design) {
-  std::vector<std::vector<std::string>> rows = {{"software", std::string("dbbkit ") + DBBKIT_VERSION},
-                                                {"command", command}};
+  std::vector<std::vector<std::string>> rows = {
+      {"software", std::string("dbbkit ") + DBBKIT_VERSION}, {"command", command}};
   for (const std::string& f : inputs) {
     if (!f.empty()) rows.push_back({"input " + f, "SHA-256 " + sha256_file(f)});
   }
   if (design) {
     rows.push_back({"noise", design->noise.describe()});
     rows.push_back({"error model", design->errors.describe()});
-    if (design->reference_length_mm) rows.push_back({"reference length", fmt_num(*design->reference_length_mm) + " mm"});
+    if (design->reference_length_mm)
+      rows.push_back({"reference length", fmt_num(*design->reference_length_mm) + " mm"});
     for (const auto& [k, v] : design->assumed) rows.push_back({"assumed: " + k, v});
   }
   return rows;
 }
 }  // namespace
 
-void HtmlReport::conditions(const std::string& command, const std::vector<std::string>& inputs, const Design* design) {
+void HtmlReport::conditions(const std::string& command, const std::vector<std::string>& inputs,
+                            const Design* design) {
   heading("Conditions");
   table({"item", "value"}, condition_rows(command, inputs, design));
 }
 
 std::string HtmlReport::str() const {
   std::ostringstream h;
-  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << html_escape(title_)
-    << "</title>\n<style>body{font-family:sans-serif;max-width:72em;margin:2em auto;padding:0 1em;color:#222}"
+  h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>"
+    << html_escape(title_)
+    << "</title>\n<style>body{font-family:sans-serif;max-width:72em;margin:2em auto;padding:0 "
+       "1em;color:#222}"
        "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:2px 8px;"
-       "text-align:right;font-variant-numeric:tabular-nums}th{background:#eee}td:first-child{text-align:left}"
-       "figure{margin:1em 0}figure svg{max-width:100%;height:auto}figcaption{font-size:90%;color:#555}"
+       "text-align:right;font-variant-numeric:tabular-nums}th{background:#eee}td:first-child{text-"
+       "align:left}"
+       "figure{margin:1em 0}figure "
+       "svg{max-width:100%;height:auto}figcaption{font-size:90%;color:#555}"
        "pre{background:#f6f6f6;padding:0.5em;overflow-x:auto}</style>\n</head><body>\n<h1>"
     << html_escape(title_) << "</h1>\n"
     << body_
     // A self-check a browser runs on load: every plot present, drawn, and holding data;
     // no script error; nothing fetched from elsewhere (the file is self-contained).
-    << "<p id=\"selfcheck\" data-status=\"pending\" style=\"color:#999;font-size:80%\"></p>\n<script>\n"
-       "window.__errors=[];window.addEventListener('error',function(e){window.__errors.push(String(e.message));});\n"
-       "window.addEventListener('load',function(){var figs=document.querySelectorAll('figure.plot');var bad=[];\n"
-       "for(var i=0;i<figs.length;i++){var s=figs[i].querySelector('svg');if(!s){bad.push(i+': no svg');continue;}\n"
-       "var b=s.getBoundingClientRect();var data=0;var gs=s.querySelectorAll('g[id^=\"gnuplot_plot_\"]');\n"
+    << "<p id=\"selfcheck\" data-status=\"pending\" "
+       "style=\"color:#999;font-size:80%\"></p>\n<script>\n"
+       "window.__errors=[];window.addEventListener('error',function(e){window.__errors.push(String("
+       "e.message));});\n"
+       "window.addEventListener('load',function(){var "
+       "figs=document.querySelectorAll('figure.plot');var bad=[];\n"
+       "for(var i=0;i<figs.length;i++){var s=figs[i].querySelector('svg');if(!s){bad.push(i+': no "
+       "svg');continue;}\n"
+       "var b=s.getBoundingClientRect();var data=0;var "
+       "gs=s.querySelectorAll('g[id^=\"gnuplot_plot_\"]');\n"
        "for(var j=0;j<gs.length;j++){var ps=gs[j].querySelectorAll('path,image,use');"
-       "for(var k=0;k<ps.length;k++){var d=ps[k].getAttribute('d');if(ps[k].tagName!=='path'||(d&&d.length>20))data++;}}\n"
-       "if(b.width<100||b.height<100)bad.push(i+': not drawn');else if(data===0)bad.push(i+': no data');}\n"
-       "var ext=performance.getEntriesByType('resource').length;var el=document.getElementById('selfcheck');\n"
+       "for(var k=0;k<ps.length;k++){var "
+       "d=ps[k].getAttribute('d');if(ps[k].tagName!=='path'||(d&&d.length>20))data++;}}\n"
+       "if(b.width<100||b.height<100)bad.push(i+': not drawn');else if(data===0)bad.push(i+': no "
+       "data');}\n"
+       "var ext=performance.getEntriesByType('resource').length;var "
+       "el=document.getElementById('selfcheck');\n"
        "el.setAttribute('data-status',(bad.length||window.__errors.length||ext)?'fail':'ok');\n"
-       "el.textContent='self-check: '+figs.length+' plots, '+bad.length+' empty, '+window.__errors.length+"
+       "el.textContent='self-check: '+figs.length+' plots, '+bad.length+' empty, "
+       "'+window.__errors.length+"
        "' script errors, '+ext+' external resources'+(bad.length?' ('+bad.join('; ')+')':'');});\n"
        "</script>\n</body></html>\n";
   return h.str();
@@ -415,8 +457,11 @@ void MarkdownSummary::heading(const std::string& text, int level) {
   text_ += std::string(static_cast<size_t>(level), '#') + " " + text + "\n\n";
 }
 void MarkdownSummary::paragraph(const std::string& text) { text_ += text + "\n\n"; }
-void MarkdownSummary::preformatted(const std::string& text) { text_ += "```\n" + text + (text.empty() || text.back() == '\n' ? "" : "\n") + "```\n\n"; }
-void MarkdownSummary::table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows) {
+void MarkdownSummary::preformatted(const std::string& text) {
+  text_ += "```\n" + text + (text.empty() || text.back() == '\n' ? "" : "\n") + "```\n\n";
+}
+void MarkdownSummary::table(const std::vector<std::string>& header,
+                            const std::vector<std::vector<std::string>>& rows) {
   auto cell = [](std::string s) {
     std::string out;
     for (char c : s) out += c == '|' ? std::string("\\|") : std::string(1, c);
@@ -446,17 +491,21 @@ std::string fmt_num(double x, int digits) {
   return s.str();
 }
 
-std::string fmt_opt(const std::optional<double>& x, int digits) { return x ? fmt_num(*x, digits) : "--"; }
+std::string fmt_opt(const std::optional<double>& x, int digits) {
+  return x ? fmt_num(*x, digits) : "--";
+}
 
 std::vector<std::string> errors_header(bool values) {
   std::vector<std::string> h = {"angle [deg]"};
   for (int e = 0; e < 6; ++e) {
-    h.push_back(std::string(kErrorNames[e]) + (values ? " ± U" : " U") + " [" + kErrorUnits[e] + "]");
+    h.push_back(std::string(kErrorNames[e]) + (values ? " ± U" : " U") + " [" + kErrorUnits[e] +
+                "]");
   }
   return h;
 }
 
-std::vector<std::vector<std::string>> errors_rows(const std::vector<ErrorsAtAngle>& errors, bool values, double k) {
+std::vector<std::vector<std::string>> errors_rows(const std::vector<ErrorsAtAngle>& errors,
+                                                  bool values, double k) {
   std::vector<std::vector<std::string>> rows;
   for (const ErrorsAtAngle& ea : errors) {
     std::vector<std::string> r = {fmt_num(ea.angle_deg, 6)};

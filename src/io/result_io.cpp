@@ -23,9 +23,6 @@ const char* kConditionScaling =
 
 json optional_number(const std::optional<double>& x) { return x ? json(*x) : json(nullptr); }
 
-
-
-
 json errors_to_json(const std::vector<ErrorsAtAngle>& list, bool values) {
   json errors = json::array();
   for (const ErrorsAtAngle& ea : list) {
@@ -68,7 +65,9 @@ json result_header(const std::string& format, const Design& design, const InputF
   j["format"] = format;
   j["dbbkit_version"] = DBBKIT_VERSION;
   j["inputs"] = {{"design", inputs.design}, {"data", inputs.data}};
-  j["design"] = {{"name", design.name}, {"axis", axis_name(design.axis)}, {"errors_model", design.errors.describe()}};
+  j["design"] = {{"name", design.name},
+                 {"axis", axis_name(design.axis)},
+                 {"errors_model", design.errors.describe()}};
   if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
   j["noise"] = noise_to_json(design.noise);
   j["noise"]["sigma_um"] = design.noise.sigma_um();
@@ -87,7 +86,8 @@ void add_rank_block(json& j, const Estimate& est) {
 
 std::string residual_text(const Estimate& est) {
   std::ostringstream s;
-  s << "rms " << std::setprecision(4) << est.rms_um << " um, chi2 " << est.chi2 << " on " << est.dof << " dof";
+  s << "rms " << std::setprecision(4) << est.rms_um << " um, chi2 " << est.chi2 << " on " << est.dof
+    << " dof";
   if (est.p_value && *est.p_value < 1e-300) {
     s << ", p < 1e-300";
   } else if (est.p_value) {
@@ -100,16 +100,19 @@ std::string residual_text(const Estimate& est) {
 
 json budget_to_json(const Design& design, const Budget& budget) {
   json b;
-  b["standard"] = "JCGM 100: u_c^2 = sum of the components' u^2, nu_eff by Welch-Satterthwaite, U = k u_c";
+  b["standard"] =
+      "JCGM 100: u_c^2 = sum of the components' u^2, nu_eff by Welch-Satterthwaite, U = k u_c";
   b["coverage_probability"] = budget.coverage_probability;
   b["noise_evaluation"] = budget.noise_evaluation;
   if (budget.type_a_scale) b["type_a_scale"] = *budget.type_a_scale;
-  b["setup_std_mm"] = {{"L", design.setup_std.L_mm}, {"D", design.setup_std.D_mm}, {"H", design.setup_std.H_mm}};
+  b["setup_std_mm"] = {
+      {"L", design.setup_std.L_mm}, {"D", design.setup_std.D_mm}, {"H", design.setup_std.H_mm}};
   json values = json::array();
   for (const ValueBudget& v : budget.values) {
     json comps = json::array();
     for (const BudgetComponent& c : v.components) {
-      comps.push_back({{"name", c.name}, {"type", c.type}, {"u", r6(c.u)}, {"dof", optional_number(c.dof)}});
+      comps.push_back(
+          {{"name", c.name}, {"type", c.type}, {"u", r6(c.u)}, {"dof", optional_number(c.dof)}});
     }
     values.push_back({{"angle_deg", v.angle_deg},
                       {"error", kErrorNames[v.error]},
@@ -127,7 +130,9 @@ json budget_to_json(const Design& design, const Budget& budget) {
 
 json monte_carlo_to_json(const MonteCarloResult& mc) {
   json m;
-  m["standard"] = "JCGM 101: adaptive Monte Carlo, probabilistically symmetric coverage intervals, validation of the linear result";
+  m["standard"] =
+      "JCGM 101: adaptive Monte Carlo, probabilistically symmetric coverage intervals, validation "
+      "of the linear result";
   m["trials"] = mc.trials;
   m["converged"] = mc.converged;
   m["threads"] = mc.threads;
@@ -159,25 +164,28 @@ json monte_carlo_to_json(const MonteCarloResult& mc) {
 
 std::string monte_carlo_summary(const MonteCarloResult& mc) {
   std::ostringstream s;
-  s << "\nMonte Carlo (JCGM 101): " << mc.trials << " trials, " << mc.threads << " thread(s), seed " << mc.seed
-    << (mc.converged ? ", converged" : ", NOT converged") << "\n  " << mc.message << "\n";
+  s << "\nMonte Carlo (JCGM 101): " << mc.trials << " trials, " << mc.threads << " thread(s), seed "
+    << mc.seed << (mc.converged ? ", converged" : ", NOT converged") << "\n  " << mc.message
+    << "\n";
   int shown = 0;
   for (const MonteCarloValue& v : mc.values) {
     if (v.validated) continue;
     if (shown++ == 0) {
       s << "  not validated (the " << 100 * mc.coverage_probability
         << "% interval reported is the Monte Carlo one):\n";
-      s << std::setw(13) << "angle_deg" << std::setw(6) << "error" << std::setw(24) << "linear interval"
-        << std::setw(24) << "Monte Carlo interval" << std::setw(10) << "d_low" << std::setw(10) << "d_high"
-        << std::setw(10) << "delta" << "\n";
+      s << std::setw(13) << "angle_deg" << std::setw(6) << "error" << std::setw(24)
+        << "linear interval" << std::setw(24) << "Monte Carlo interval" << std::setw(10) << "d_low"
+        << std::setw(10) << "d_high" << std::setw(10) << "delta"
+        << "\n";
     }
     if (shown > 12) continue;
     std::ostringstream lin, m;
-    lin << std::fixed << std::setprecision(3) << "[" << v.linear_value - v.linear_U << ", " << v.linear_value + v.linear_U << "]";
+    lin << std::fixed << std::setprecision(3) << "[" << v.linear_value - v.linear_U << ", "
+        << v.linear_value + v.linear_U << "]";
     m << std::fixed << std::setprecision(3) << "[" << v.low << ", " << v.high << "]";
-    s << std::setw(13) << v.angle_deg << std::setw(6) << kErrorNames[v.error] << std::setw(24) << lin.str()
-      << std::setw(24) << m.str() << std::setw(10) << std::setprecision(3) << v.d_low << std::setw(10) << v.d_high
-      << std::setw(10) << v.delta << "\n";
+    s << std::setw(13) << v.angle_deg << std::setw(6) << kErrorNames[v.error] << std::setw(24)
+      << lin.str() << std::setw(24) << m.str() << std::setw(10) << std::setprecision(3) << v.d_low
+      << std::setw(10) << v.d_high << std::setw(10) << v.delta << "\n";
   }
   if (shown > 12) s << "  ... and " << shown - 12 << " more (see the JSON)\n";
   return s.str();
@@ -185,15 +193,18 @@ std::string monte_carlo_summary(const MonteCarloResult& mc) {
 
 json first_order_to_json(const FirstOrderCheck& f) {
   if (!f.computed) return {{"computed", false}, {"reason", f.reason}};
-  json j = {{"computed", true},
-            {"largest_term_um", r6(f.largest_term_um)},
-            {"at", {{"installation", f.installation}, {"angle_deg", f.angle_deg}}},
-            {"threshold_um", r6(0.25 * f.noise_sigma_um)},
-            {"warning", f.warn},
-            {"term", "|D_perp|^2 / (2 bar), D_perp: the balls' relative displacement across the bar from the "
-                     "identified errors and the set-up at 3 standard uncertainties"}};
+  json j = {
+      {"computed", true},
+      {"largest_term_um", r6(f.largest_term_um)},
+      {"at", {{"installation", f.installation}, {"angle_deg", f.angle_deg}}},
+      {"threshold_um", r6(0.25 * f.noise_sigma_um)},
+      {"warning", f.warn},
+      {"term",
+       "|D_perp|^2 / (2 bar), D_perp: the balls' relative displacement across the bar from the "
+       "identified errors and the set-up at 3 standard uncertainties"}};
   j["bias_bound_std"] = optional_number(f.bias_bound_std);
-  if (f.bias_error >= 0) j["bias_bound_at"] = {{"error", kErrorNames[f.bias_error]}, {"angle_deg", f.bias_angle_deg}};
+  if (f.bias_error >= 0)
+    j["bias_bound_at"] = {{"error", kErrorNames[f.bias_error]}, {"angle_deg", f.bias_angle_deg}};
   return j;
 }
 
@@ -201,47 +212,58 @@ std::string first_order_text(const FirstOrderCheck& f) {
   std::ostringstream s;
   s << "first-order check: ";
   if (!f.computed) return s.str() + "not computed: " + f.reason + "\n";
-  s << std::setprecision(3) << "largest second-order term " << f.largest_term_um << " um (" << f.installation << " at "
-    << f.angle_deg << " deg), " << (f.warn ? "ABOVE" : "below") << " 0.25 sigma = " << 0.25 * f.noise_sigma_um << " um";
+  s << std::setprecision(3) << "largest second-order term " << f.largest_term_um << " um ("
+    << f.installation << " at " << f.angle_deg << " deg), " << (f.warn ? "ABOVE" : "below")
+    << " 0.25 sigma = " << 0.25 * f.noise_sigma_um << " um";
   if (f.bias_bound_std) {
     s << "; it can bias an error by at most " << *f.bias_bound_std << " standard uncertainties ("
       << kErrorNames[f.bias_error] << " at " << f.bias_angle_deg << " deg)";
   }
   if (f.warn && f.bias_bound_std && *f.bias_bound_std >= 1) {
-    s << ": more than the stated uncertainty, the first-order reading model is not adequate for this set-up";
+    s << ": more than the stated uncertainty, the first-order reading model is not adequate for "
+         "this set-up";
   }
   return s.str() + "\n";
 }
 
 json identify_setup_to_json(const Design& design, const IdentifyResult& result) {
-  json setup = {{"included", result.setup_included}, {"note", result.setup_note},
+  json setup = {{"included", result.setup_included},
+                {"note", result.setup_note},
                 {"tolerances", setup_tolerances_to_json(design)}};
   json est = json::array();
   for (const SetupEstimate& e : result.setup_estimates) {
-    est.push_back({{"effect", e.label}, {"parameter", e.parameter}, {"value_um", r6(e.value_um)},
-                   {"std_um", r6(e.std_um)}, {"declared_std_um", e.declared_std_um}});
+    est.push_back({{"effect", e.label},
+                   {"parameter", e.parameter},
+                   {"value_um", r6(e.value_um)},
+                   {"std_um", r6(e.std_um)},
+                   {"declared_std_um", e.declared_std_um}});
   }
   setup["estimates"] = est;
   setup["first_order_check"] = first_order_to_json(result.first_order);
   return setup;
 }
 
-json identify_to_json(const Design& design, const std::vector<Reading>& readings, const IdentifyResult& result,
-                      const InputFiles& inputs, const MonteCarloResult* mc, bool with_readings) {
+json identify_to_json(const Design& design, const std::vector<Reading>& readings,
+                      const IdentifyResult& result, const InputFiles& inputs,
+                      const MonteCarloResult* mc, bool with_readings) {
   const Estimate& est = result.estimate;
   json j = result_header("dbbkit.identify/1", design, inputs);
-  j["uncertainty"] = "std: combined standard uncertainty u_c (k = 1); U: expanded uncertainty k u_c (see budget)";
+  j["uncertainty"] =
+      "std: combined standard uncertainty u_c (k = 1); U: expanded uncertainty k u_c (see budget)";
   add_rank_block(j, est);
 
   j["errors"] = errors_to_json(result.errors, true);
   for (json& e : j["errors"]) {
-    e["U"] = {{"dx", nullptr}, {"dy", nullptr}, {"dz", nullptr}, {"ex", nullptr}, {"ey", nullptr}, {"ez", nullptr}};
+    e["U"] = {{"dx", nullptr}, {"dy", nullptr}, {"dz", nullptr},
+              {"ex", nullptr}, {"ey", nullptr}, {"ez", nullptr}};
   }
-  for (const ValueBudget& v : result.budget.values) j["errors"][v.station]["U"][kErrorNames[v.error]] = r6(v.U);
+  for (const ValueBudget& v : result.budget.values)
+    j["errors"][v.station]["U"][kErrorNames[v.error]] = r6(v.U);
   j["budget"] = budget_to_json(design, result.budget);
   j["iso230"] = iso230_to_json(result);
   if (mc) j["monte_carlo"] = monte_carlo_to_json(*mc);
-  j["units"] = {{"dx", "um"}, {"dy", "um"}, {"dz", "um"}, {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
+  j["units"] = {{"dx", "um"},   {"dy", "um"},   {"dz", "um"},
+                {"ex", "urad"}, {"ey", "urad"}, {"ez", "urad"}};
   j["unidentifiable"] = unidentifiable_to_json(result.unidentifiable);
   j["residual"] = residual_to_json(est);
   j["setup"] = identify_setup_to_json(design, result);
@@ -263,7 +285,8 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
 
   if (with_readings) {
     json rows = json::array();
-    for (std::size_t i = 0; i < readings.size() && i < static_cast<std::size_t>(est.residual_um.size()); ++i) {
+    for (std::size_t i = 0;
+         i < readings.size() && i < static_cast<std::size_t>(est.residual_um.size()); ++i) {
       rows.push_back(identify_reading_row(readings, est, i));
     }
     j["readings"] = rows;
@@ -271,7 +294,8 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
   return j;
 }
 
-json identify_reading_row(const std::vector<Reading>& readings, const Estimate& est, std::size_t i) {
+json identify_reading_row(const std::vector<Reading>& readings, const Estimate& est,
+                          std::size_t i) {
   const Reading& r = readings[i];
   const Eigen::Index k = static_cast<Eigen::Index>(i);
   return {{"installation", r.installation},
@@ -283,7 +307,8 @@ json identify_reading_row(const std::vector<Reading>& readings, const Estimate& 
 
 std::string json_text(const json& j, const std::string& key, std::size_t count,
                       const std::function<json(std::size_t)>& row) {
-  if (j.contains(key)) throw std::logic_error("json_text: the document holds \"" + key + "\" already");
+  if (j.contains(key))
+    throw std::logic_error("json_text: the document holds \"" + key + "\" already");
   // A placeholder no value of the document can spell (a control character is escaped in a
   // dumped string), replaced by the array written row by row at the indent of a top-level key.
   json doc = j;
@@ -316,35 +341,40 @@ std::string json_text(const json& j, const std::string& key, std::size_t count,
 std::string identify_summary(const Design& design, const IdentifyResult& result) {
   const Estimate& est = result.estimate;
   std::ostringstream s;
-  s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis " << axis_name(design.axis)
-    << "  errors " << design.errors.describe() << "\n";
+  s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
+    << axis_name(design.axis) << "  errors " << design.errors.describe() << "\n";
   s << "noise: " << design.noise.describe() << "\n";
   s << est.message << "\n";
   if (est.condition_number) {
-    s << "condition number " << std::setprecision(4) << *est.condition_number << " (" << kConditionScaling << ")\n";
+    s << "condition number " << std::setprecision(4) << *est.condition_number << " ("
+      << kConditionScaling << ")\n";
   }
   s << "residual: " << residual_text(est);
   const Budget& b = result.budget;
   s << "\nuncertainty: reading noise " << b.noise_evaluation;
   if (design.setup_std.placement()) {
-    s << "; set-up L, D, H +- " << design.setup_std.L_mm << ", " << design.setup_std.D_mm << ", " << design.setup_std.H_mm
-      << " mm (standard)";
+    s << "; set-up L, D, H +- " << design.setup_std.L_mm << ", " << design.setup_std.D_mm << ", "
+      << design.setup_std.H_mm << " mm (standard)";
   }
   s << "\nset-up: " << result.setup_note;
   if (!b.values.empty()) {
     double kmin = b.values[0].k, kmax = kmin;
     for (const ValueBudget& v : b.values) kmin = std::min(kmin, v.k), kmax = std::max(kmax, v.k);
-    s << "\nexpanded uncertainty U = k u_c for " << 100 * b.coverage_probability << "% coverage, k = " << std::setprecision(4) << kmin;
+    s << "\nexpanded uncertainty U = k u_c for " << 100 * b.coverage_probability
+      << "% coverage, k = " << std::setprecision(4) << kmin;
     if (kmax > kmin) s << " .. " << kmax;
   }
-  s << "\n\nvalue +- combined standard uncertainty u_c (k = 1); '--' = not determined by the data\n";
+  s << "\n\nvalue +- combined standard uncertainty u_c (k = 1); '--' = not determined by the "
+       "data\n";
   s << errors_table(result.errors, true);
   s << unidentifiable_text(result.unidentifiable);
   if (!result.setup_estimates.empty()) {
-    s << "\nset-up effects estimated with their prior (value +- posterior standard uncertainty; declared):\n";
+    s << "\nset-up effects estimated with their prior (value +- posterior standard uncertainty; "
+         "declared):\n";
     for (const SetupEstimate& e : result.setup_estimates) {
-      s << "  " << std::left << std::setw(22) << (e.label + (e.parameter == "value" ? "" : "." + e.parameter))
-        << std::right << std::fixed << std::setprecision(2) << std::setw(9) << e.value_um << " +- " << e.std_um
+      s << "  " << std::left << std::setw(22)
+        << (e.label + (e.parameter == "value" ? "" : "." + e.parameter)) << std::right << std::fixed
+        << std::setprecision(2) << std::setw(9) << e.value_um << " +- " << e.std_um
         << " um  (declared " << e.declared_std_um << ")" << std::defaultfloat << "\n";
     }
   }
@@ -356,12 +386,16 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
 nlohmann::json iso230_to_json(const IdentifyResult& result) {
   const IsoResult& iso = result.iso;
   auto quantity = [](const IsoQuantity& q) {
-    return json{{"name", q.name}, {"unit", q.unit}, {"value", q.value.determined ? json(r6(q.value.value)) : json(nullptr)},
+    return json{{"name", q.name},
+                {"unit", q.unit},
+                {"value", q.value.determined ? json(r6(q.value.value)) : json(nullptr)},
                 {"std", q.value.determined ? json(r6(q.value.std)) : json(nullptr)}};
   };
   json j;
-  j["standard"] = "ISO 230-1 / ISO 230-7, first order: location errors of the axis average line (least squares over the "
-                  "determined values), constant parts, component error motions";
+  j["standard"] =
+      "ISO 230-1 / ISO 230-7, first order: location errors of the axis average line (least squares "
+      "over the "
+      "determined values), constant parts, component error motions";
   j["uncertainty"] = result.iso_note;
   json loc = json::array(), con = json::array(), comp = json::array();
   for (const IsoQuantity& q : iso.location) loc.push_back(quantity(q));
@@ -383,7 +417,8 @@ nlohmann::json iso230_to_json(const IdentifyResult& result) {
   if (!mv.values.empty()) {
     json vals = json::array();
     for (const IsoMotionValue& v : mv.values) {
-      json row{{"name", v.name}, {"component", v.component}, {"unit", v.unit}, {"angles", v.angles}};
+      json row{
+          {"name", v.name}, {"component", v.component}, {"unit", v.unit}, {"angles", v.angles}};
       if (v.computed) {
         row["value"] = r6(v.value);
         row["U"] = r6(v.U);
@@ -394,12 +429,10 @@ nlohmann::json iso230_to_json(const IdentifyResult& result) {
       }
       vals.push_back(row);
     }
-    j["error_motion_values"] = {{"values", vals},
-                                {"coverage_probability", mv.coverage_probability},
-                                {"trials", mv.trials},
-                                {"converged", mv.converged},
-                                {"seed", mv.seed},
-                                {"method", mv.note}};
+    j["error_motion_values"] = {
+        {"values", vals},      {"coverage_probability", mv.coverage_probability},
+        {"trials", mv.trials}, {"converged", mv.converged},
+        {"seed", mv.seed},     {"method", mv.note}};
   }
   if (!iso.note.empty()) j["note"] = iso.note;
   return j;
@@ -413,8 +446,8 @@ std::string iso230_text(const Design& design, const IdentifyResult& result) {
   auto line = [&](const IsoQuantity& q) {
     s << "    " << std::left << std::setw(22) << q.name << std::right;
     if (q.value.determined) {
-      s << std::fixed << std::setprecision(3) << std::setw(10) << q.value.value << " +- " << q.value.std << " "
-        << q.unit << std::defaultfloat << "\n";
+      s << std::fixed << std::setprecision(3) << std::setw(10) << q.value.value << " +- "
+        << q.value.std << " " << q.unit << std::defaultfloat << "\n";
     } else {
       s << "        -- (not determined)\n";
     }
@@ -424,7 +457,8 @@ std::string iso230_text(const Design& design, const IdentifyResult& result) {
   for (const IsoQuantity& q : iso.constants) line(q);
   s << "  component error motions (value; the location errors and constant parts removed):\n";
   s << "    " << std::setw(9) << "angle_deg";
-  for (const std::string& n : iso.component_names) s << std::setw(12) << (n + (n[1] == 'X' || n[1] == 'Y' || n[1] == 'Z' ? " [um]" : " [urad]"));
+  for (const std::string& n : iso.component_names)
+    s << std::setw(12) << (n + (n[1] == 'X' || n[1] == 'Y' || n[1] == 'Z' ? " [um]" : " [urad]"));
   s << "\n";
   for (const IsoComponentsAtAngle& a : iso.components) {
     s << "    " << std::setw(9) << a.angle_deg;
@@ -439,14 +473,17 @@ std::string iso230_text(const Design& design, const IdentifyResult& result) {
   }
   const IsoMotionValues& mv = iso.motion_values;
   if (!mv.values.empty()) {
-    s << "  error motion values (range over the measured angles; interval value +- U of coverage probability at least "
+    s << "  error motion values (range over the measured angles; interval value +- U of coverage "
+         "probability at least "
       << 100 * mv.coverage_probability << " %, U by Monte Carlo, " << mv.trials << " trials"
       << (mv.converged ? "" : ", not converged") << "):\n";
     for (const IsoMotionValue& v : mv.values) {
-      s << "    " << std::left << std::setw(48) << (v.name + " (" + v.component + ")") << std::right;
+      s << "    " << std::left << std::setw(48) << (v.name + " (" + v.component + ")")
+        << std::right;
       if (v.computed) {
-        s << std::fixed << std::setprecision(3) << std::setw(9) << v.value << " " << std::setw(4) << v.unit << "  U "
-          << v.U << "  [" << v.low << ", " << v.high << "]" << std::defaultfloat << "\n";
+        s << std::fixed << std::setprecision(3) << std::setw(9) << v.value << " " << std::setw(4)
+          << v.unit << "  U " << v.U << "  [" << v.low << ", " << v.high << "]" << std::defaultfloat
+          << "\n";
       } else {
         s << "  -- (" << v.reason << ")\n";
       }
@@ -459,38 +496,49 @@ std::string iso230_text(const Design& design, const IdentifyResult& result) {
 
 json effects_to_json(const std::vector<CandidateStatus>& effects) {
   json e = json::array();
-  for (const CandidateStatus& c : effects) e.push_back({{"label", c.label}, {"status", candidate_state_name(c.state)}, {"detail", c.detail}});
+  for (const CandidateStatus& c : effects)
+    e.push_back(
+        {{"label", c.label}, {"status", candidate_state_name(c.state)}, {"detail", c.detail}});
   return e;
 }
 
 std::string evaluate_summary(const Design& design, const Evaluation& ev) {
   const Estimate& est = ev.prior;
   std::ostringstream s;
-  s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis " << axis_name(design.axis)
-    << "  errors " << design.errors.describe() << "  " << est.n_readings << " readings\n";
+  s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
+    << axis_name(design.axis) << "  errors " << design.errors.describe() << "  " << est.n_readings
+    << " readings\n";
   s << "noise: " << design.noise.describe() << "\n";
   s << est.message << "\n";
   if (est.condition_number) {
-    s << "condition number " << std::setprecision(4) << *est.condition_number << " (" << kConditionScaling << ")\n";
+    s << "condition number " << std::setprecision(4) << *est.condition_number << " ("
+      << kConditionScaling << ")\n";
   }
   const ObservabilityIndices& o = ev.indices;
-  s << std::setprecision(4) << "observability: O1 " << o.O1 << "  O2 " << o.O2 << "  O3 " << o.O3 << "  O4 " << o.O4
-    << "  O5 " << o.O5 << "\n";
+  s << std::setprecision(4) << "observability: O1 " << o.O1 << "  O2 " << o.O2 << "  O3 " << o.O3
+    << "  O4 " << o.O4 << "  O5 " << o.O5 << "\n";
   const DesignCriteria& c = ev.criteria;
   s << "criteria on J'WJ (um, urad): D = log det ";
-  if (c.D_logdet) s << *c.D_logdet; else s << "(singular)";
+  if (c.D_logdet)
+    s << *c.D_logdet;
+  else
+    s << "(singular)";
   s << ", A = trace inv ";
-  if (c.A_trace) s << *c.A_trace; else s << "(singular)";
+  if (c.A_trace)
+    s << *c.A_trace;
+  else
+    s << "(singular)";
   s << ", E = min eig " << c.E_min_eigenvalue << ", G = max leverage " << c.G_max_leverage << "\n";
   const WorstCase& w = ev.worst;
   s << "worst standard uncertainty (angular errors x " << ev.reference_length_mm << " mm): ";
   if (w.worst_std_um) {
-    s << *w.worst_std_um << " um (" << kErrorNames[w.at_error] << " at " << w.at_angle_deg << " deg)\n";
+    s << *w.worst_std_um << " um (" << kErrorNames[w.at_error] << " at " << w.at_angle_deg
+      << " deg)\n";
   } else {
     s << "undefined: " << w.n_undetermined << " error value(s) not determined";
     if (w.worst_determined_std_um) {
-      s << "; over the determined ones " << *w.worst_determined_std_um << " um (" << kErrorNames[w.at_error] << " at "
-        << w.at_angle_deg << " deg)";
+      s << "; over the determined ones " << *w.worst_determined_std_um << " um ("
+        << kErrorNames[w.at_error] << " at " << w.at_angle_deg << " deg)";
     }
     s << "\n";
   }
@@ -498,17 +546,19 @@ std::string evaluate_summary(const Design& design, const Evaluation& ev) {
     const WorstCase& t = *ev.worst_total;
     s << "worst total standard uncertainty (noise and set-up): ";
     if (t.worst_std_um) {
-      s << *t.worst_std_um << " um (" << kErrorNames[t.at_error] << " at " << t.at_angle_deg << " deg)\n";
+      s << *t.worst_std_um << " um (" << kErrorNames[t.at_error] << " at " << t.at_angle_deg
+        << " deg)\n";
     } else if (t.worst_determined_std_um) {
-      s << "over the determined errors " << *t.worst_determined_std_um << " um (" << kErrorNames[t.at_error] << " at "
-        << t.at_angle_deg << " deg)\n";
+      s << "over the determined errors " << *t.worst_determined_std_um << " um ("
+        << kErrorNames[t.at_error] << " at " << t.at_angle_deg << " deg)\n";
     } else {
       s << "undefined\n";
     }
   }
   s << "set-up: " << ev.setup_note << "\n";
   if (ev.setup_included) {
-    s << "\na-priori standard uncertainty (k = 1), reading-noise part; '--' = not determined by the design\n";
+    s << "\na-priori standard uncertainty (k = 1), reading-noise part; '--' = not determined by "
+         "the design\n";
     s << errors_table(ev.errors, false);
     s << "\nset-up part (declared length offset and centring tolerances)\n";
     s << errors_table(ev.setup_errors, false);
@@ -537,7 +587,8 @@ std::string errors_table(const std::vector<ErrorsAtAngle>& errors, bool values) 
       if (!ea.errors[k].determined) {
         cell << "--";
       } else if (values) {
-        cell << std::fixed << std::setprecision(2) << ea.errors[k].value << " +- " << ea.errors[k].std;
+        cell << std::fixed << std::setprecision(2) << ea.errors[k].value << " +- "
+             << ea.errors[k].std;
       } else {
         cell << std::fixed << std::setprecision(3) << ea.errors[k].std;
       }
@@ -566,8 +617,11 @@ json setup_tolerances_to_json(const Design& design) {
   json list = json::array();
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
     const SetupUncertainty u = design.setup_of(i);
-    json e = {{"installation", design.installations[i].id}, {"length_offset_um", u.length_offset_um},
-              {"centring_um", u.centring_um}, {"L_mm", u.L_mm}, {"D_mm", u.D_mm}};
+    json e = {{"installation", design.installations[i].id},
+              {"length_offset_um", u.length_offset_um},
+              {"centring_um", u.centring_um},
+              {"L_mm", u.L_mm},
+              {"D_mm", u.D_mm}};
     if (design.axis == Axis::C) e["H_mm"] = u.H_mm;
     list.push_back(e);
   }
@@ -596,24 +650,30 @@ json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks, double re
   return list;
 }
 
-std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks, const DetectionSettings& detection) {
+std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks,
+                              const DetectionSettings& detection) {
   std::ostringstream s;
-  s << "\nset-up effects (detection limit: smallest size the nested F test finds at level " << detection.level;
+  s << "\nset-up effects (detection limit: smallest size the nested F test finds at level "
+    << detection.level;
   if (detection.n_tests > 1) s << " / " << detection.n_tests << " candidates";
-  s << " with power " << detection.power << "; bias: the largest change of an error per um of the effect):\n";
+  s << " with power " << detection.power
+    << "; bias: the largest change of an error per um of the effect):\n";
   for (const SetupEffectCheck& c : checks) {
     std::ostringstream line;
     line << "  " << std::left << std::setw(22) << c.label << std::right;
-    if (c.declared_std_um > 0) line << " declared " << std::setprecision(3) << c.declared_std_um << " um;";
+    if (c.declared_std_um > 0)
+      line << " declared " << std::setprecision(3) << c.declared_std_um << " um;";
     if (c.detectable) {
       line << " detectable";
-      if (c.detection_limit_um) line << ", limit " << std::setprecision(3) << *c.detection_limit_um << " um";
+      if (c.detection_limit_um)
+        line << ", limit " << std::setprecision(3) << *c.detection_limit_um << " um";
     } else {
       line << " NOT detectable";
     }
     if (c.bias_per_um) {
-      line << "; 1 um moves " << kErrorNames[c.bias_error] << " at " << c.bias_angle_deg << " deg by "
-           << std::setprecision(3) << *c.bias_per_um << " " << kErrorUnits[c.bias_error];
+      line << "; 1 um moves " << kErrorNames[c.bias_error] << " at " << c.bias_angle_deg
+           << " deg by " << std::setprecision(3) << *c.bias_per_um << " "
+           << kErrorUnits[c.bias_error];
     }
     s << line.str() << "\n";
   }
@@ -626,10 +686,12 @@ json evaluate_to_json(const Design& design, const Evaluation& ev, const std::str
   json j = result_header("dbbkit.evaluate/1", design, {design_file, ""});
   j["inputs"].erase("data");
   add_rank_block(j, est);
-  j["singular_values"] = std::vector<double>(est.singular_values.data(), est.singular_values.data() + est.singular_values.size());
+  j["singular_values"] = std::vector<double>(
+      est.singular_values.data(), est.singular_values.data() + est.singular_values.size());
   const ObservabilityIndices& o = ev.indices;
-  j["observability"] = {{"O1", o.O1}, {"O2", o.O2}, {"O3", o.O3}, {"O4", o.O4}, {"O5", o.O5},
-                        {"on", "singular values of the equilibrated whitened Jacobian"}};
+  j["observability"] = {
+      {"O1", o.O1}, {"O2", o.O2}, {"O3", o.O3},
+      {"O4", o.O4}, {"O5", o.O5}, {"on", "singular values of the equilibrated whitened Jacobian"}};
   const DesignCriteria& c = ev.criteria;
   j["criteria"] = {{"D_logdet", optional_number(c.D_logdet)},
                    {"A_trace", optional_number(c.A_trace)},
@@ -641,24 +703,32 @@ json evaluate_to_json(const Design& design, const Evaluation& ev, const std::str
   j["worst_std_um"] = optional_number(w.worst_std_um);
   j["worst_determined_std_um"] = optional_number(w.worst_determined_std_um);
   j["n_undetermined"] = w.n_undetermined;
-  if (w.at_error >= 0) j["worst_at"] = {{"angle_deg", w.at_angle_deg}, {"error", kErrorNames[w.at_error]}};
-  j["worst_total_std_um"] = ev.worst_total ? optional_number(ev.worst_total->worst_std_um) : json(nullptr);
+  if (w.at_error >= 0)
+    j["worst_at"] = {{"angle_deg", w.at_angle_deg}, {"error", kErrorNames[w.at_error]}};
+  j["worst_total_std_um"] =
+      ev.worst_total ? optional_number(ev.worst_total->worst_std_um) : json(nullptr);
   j["errors"] = errors_to_json(ev.errors, false);
   if (ev.setup_included) {
-    const json setup_part = errors_to_json(ev.setup_errors, false), total = errors_to_json(ev.total_errors, false);
+    const json setup_part = errors_to_json(ev.setup_errors, false),
+               total = errors_to_json(ev.total_errors, false);
     for (std::size_t i = 0; i < ev.errors.size(); ++i) {
       j["errors"][i]["setup_std"] = setup_part[i]["std"];
       j["errors"][i]["total_std"] = total[i]["std"];
     }
   }
-  json setup = {{"included", ev.setup_included}, {"note", ev.setup_note}, {"tolerances", setup_tolerances_to_json(design)}};
+  json setup = {{"included", ev.setup_included},
+                {"note", ev.setup_note},
+                {"tolerances", setup_tolerances_to_json(design)}};
   if (ev.worst_total) {
     const WorstCase& t = *ev.worst_total;
     setup["worst_total_std_um"] = optional_number(t.worst_std_um);
     setup["worst_total_determined_std_um"] = optional_number(t.worst_determined_std_um);
-    if (t.at_error >= 0) setup["worst_total_at"] = {{"angle_deg", t.at_angle_deg}, {"error", kErrorNames[t.at_error]}};
+    if (t.at_error >= 0)
+      setup["worst_total_at"] = {{"angle_deg", t.at_angle_deg}, {"error", kErrorNames[t.at_error]}};
   }
-  setup["detection"] = {{"level", ev.detection.level}, {"n_tests", ev.detection.n_tests}, {"power", ev.detection.power},
+  setup["detection"] = {{"level", ev.detection.level},
+                        {"n_tests", ev.detection.n_tests},
+                        {"power", ev.detection.power},
                         {"test", "nested F test of the effect against the axis errors (diagnose)"}};
   setup["effects"] = setup_checks_to_json(ev.setup_checks, ev.reference_length_mm);
   j["setup"] = setup;

@@ -17,7 +17,8 @@ constexpr double kMaxSweepValues = 10000;
 
 double parse_number(const std::string& text, const std::string& spec) {
   double x = 0;
-  if (!parse_decimal(text, x)) throw InputError("--sweep", spec, "'" + text + "' is not a finite decimal number");
+  if (!parse_decimal(text, x))
+    throw InputError("--sweep", spec, "'" + text + "' is not a finite decimal number");
   return x;
 }
 
@@ -25,29 +26,34 @@ double parse_number(const std::string& text, const std::string& spec) {
 
 SweepVariable parse_sweep(const Design& design, const std::string& spec) {
   const auto eq = spec.find('=');
-  if (eq == std::string::npos) throw InputError("--sweep", spec, "expected NAME=start:stop:step, e.g. L2=40:250:10");
+  if (eq == std::string::npos)
+    throw InputError("--sweep", spec, "expected NAME=start:stop:step, e.g. L2=40:250:10");
   SweepVariable v;
   v.name = spec.substr(0, eq);
   if (v.name.empty() || std::string("LDH").find(v.name[0]) == std::string::npos) {
     throw InputError("--sweep", spec, "the name must start with L, D or H");
   }
   v.coord = v.name[0] == 'L' ? 0 : v.name[0] == 'D' ? 1 : 2;
-  if (v.coord == 2 && design.axis == Axis::B) throw InputError("--sweep", spec, "H is not used for the swinging head B");
+  if (v.coord == 2 && design.axis == Axis::B)
+    throw InputError("--sweep", spec, "H is not used for the swinging head B");
   std::string rest = v.name.substr(1);
   if (!rest.empty() && rest[0] == '@') {
     std::istringstream ids(rest.substr(1));
     std::string id;
     while (std::getline(ids, id, ',')) {
       const int i = design.find_installation(id);
-      if (i < 0) throw InputError("--sweep", spec, "installation '" + id + "' is not in the design");
+      if (i < 0)
+        throw InputError("--sweep", spec, "installation '" + id + "' is not in the design");
       v.installations.push_back(i);
     }
   } else {
     for (size_t i = 0; i < design.installations.size(); ++i) {
-      if (design.installations[i].id.compare(0, rest.size(), rest) == 0) v.installations.push_back(static_cast<int>(i));
+      if (design.installations[i].id.compare(0, rest.size(), rest) == 0)
+        v.installations.push_back(static_cast<int>(i));
     }
   }
-  if (v.installations.empty()) throw InputError("--sweep", spec, "no installation of the design matches '" + rest + "'");
+  if (v.installations.empty())
+    throw InputError("--sweep", spec, "no installation of the design matches '" + rest + "'");
 
   std::vector<std::string> parts;
   std::istringstream range(spec.substr(eq + 1));
@@ -56,14 +62,17 @@ SweepVariable parse_sweep(const Design& design, const std::string& spec) {
   if (parts.size() != 3) throw InputError("--sweep", spec, "expected start:stop:step");
   const double start = parse_number(parts[0], spec), stop = parse_number(parts[1], spec),
                step = parse_number(parts[2], spec);
-  if (!(step > 0) || stop < start) throw InputError("--sweep", spec, "needs step > 0 and stop >= start");
+  if (!(step > 0) || stop < start)
+    throw InputError("--sweep", spec, "needs step > 0 and stop >= start");
   const double n = std::floor((stop - start) / step + 1e-9);
   if (n + 1 > kMaxSweepValues) throw InputError("--sweep", spec, "more than 10000 values");
-  for (long i = 0; i <= static_cast<long>(n); ++i) v.values.push_back(start + static_cast<double>(i) * step);
+  for (long i = 0; i <= static_cast<long>(n); ++i)
+    v.values.push_back(start + static_cast<double>(i) * step);
   return v;
 }
 
-nlohmann::json sweep_to_json(const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& points) {
+nlohmann::json sweep_to_json(const std::vector<SweepVariable>& variables,
+                             const std::vector<SweepPoint>& points) {
   using nlohmann::json;
   json vars = json::array();
   for (const SweepVariable& v : variables) {
@@ -88,7 +97,8 @@ nlohmann::json sweep_to_json(const std::vector<SweepVariable>& variables, const 
   return {{"variables", vars}, {"grid", grid}};
 }
 
-std::string sweep_csv(const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& points) {
+std::string sweep_csv(const std::vector<SweepVariable>& variables,
+                      const std::vector<SweepPoint>& points) {
   std::ostringstream s;
   for (const SweepVariable& v : variables) s << v.name << "_mm,";
   s << "rank,n_unknowns,condition_number,worst_std_um,worst_determined_std_um\n";

@@ -38,12 +38,14 @@ std::vector<Tolerance> tolerances_from_json(const json& j, const std::string& so
   ObjectReader top(j, source, "");
   const std::string format = top.string("format");
   if (format != kTolerancesFormat) {
-    top.fail("format", "expected \"" + std::string(kTolerancesFormat) + "\", found \"" + format + "\"");
+    top.fail("format",
+             "expected \"" + std::string(kTolerancesFormat) + "\", found \"" + format + "\"");
   }
   top.optional_string("description");
   const json& limits = top.required("limits");
   if (!limits.is_array() || limits.empty()) {
-    top.fail("limits", "expected a non-empty list of {quantity, unit, max_abs | lower and/or upper}");
+    top.fail("limits",
+             "expected a non-empty list of {quantity, unit, max_abs | lower and/or upper}");
   }
   std::vector<Tolerance> out;
   for (size_t i = 0; i < limits.size(); ++i) {
@@ -53,11 +55,13 @@ std::vector<Tolerance> tolerances_from_json(const json& j, const std::string& so
     t.quantity = r.string("quantity");
     t.where = where;
     for (const Tolerance& o : out) {
-      if (o.quantity == t.quantity) r.fail("quantity", "'" + t.quantity + "' has a limit already (" + o.where + ")");
+      if (o.quantity == t.quantity)
+        r.fail("quantity", "'" + t.quantity + "' has a limit already (" + o.where + ")");
     }
     const std::string unit = r.string("unit");
     double factor = 1.0;
-    if (!unit_of(unit, t.unit, factor)) r.fail("unit", "unknown unit '" + unit + "' (um, mm, urad, mrad or arcsec)");
+    if (!unit_of(unit, t.unit, factor))
+      r.fail("unit", "unknown unit '" + unit + "' (um, mm, urad, mrad or arcsec)");
     const std::optional<double> max_abs = r.optional_number("max_abs");
     const std::optional<double> lower = r.optional_number("lower");
     const std::optional<double> upper = r.optional_number("upper");
@@ -97,7 +101,8 @@ json conformance_to_json(const ConformanceReport& report, const std::string& tol
              {"nonconforming", r.nonconforming},
              {"not_proven", r.not_proven},
              {"undetermined", r.undetermined}};
-    if (r.value) row["deciding_value"] = {{"value", r6(*r.value)}, {"interval", {r6(*r.low), r6(*r.high)}}};
+    if (r.value)
+      row["deciding_value"] = {{"value", r6(*r.value)}, {"interval", {r6(*r.low), r6(*r.high)}}};
     if (r.value && r.angle_deg) row["deciding_value"]["angle_deg"] = *r.angle_deg;
     rows.push_back(row);
   }
@@ -114,8 +119,9 @@ std::string conformance_text(const ConformanceReport& report) {
   std::ostringstream s;
   s << "\nconformance (" << report.rule << "):\n";
   for (const std::string& w : report.warnings) s << "  WARNING: " << w << "\n";
-  s << "  " << std::left << std::setw(12) << "quantity" << std::setw(22) << "tolerance zone" << std::setw(18)
-    << "decision" << "deciding value [interval]\n";
+  s << "  " << std::left << std::setw(12) << "quantity" << std::setw(22) << "tolerance zone"
+    << std::setw(18) << "decision"
+    << "deciding value [interval]\n";
   for (const ConformanceResult& r : report.results) {
     std::ostringstream zone;
     zone << std::setprecision(4);
@@ -130,20 +136,21 @@ std::string conformance_text(const ConformanceReport& report) {
     s << "  " << std::setw(12) << r.quantity << std::setw(22) << zone.str() << std::setw(18)
       << decision_name(r.decision) << std::right;
     if (r.value) {
-      s << std::fixed << std::setprecision(3) << *r.value << " [" << *r.low << ", " << *r.high << "]"
-        << std::defaultfloat;
+      s << std::fixed << std::setprecision(3) << *r.value << " [" << *r.low << ", " << *r.high
+        << "]" << std::defaultfloat;
       if (r.angle_deg) s << " at " << *r.angle_deg << " deg";
     } else {
       s << "-- (not determined)";
     }
     if (r.values > 1) {
-      s << "  (" << r.values << " values: " << r.conforming << " conform, " << r.nonconforming << " do not, "
-        << r.not_proven << " not proven" << (r.undetermined ? ", " + std::to_string(r.undetermined) + " undetermined" : "")
-        << ")";
+      s << "  (" << r.values << " values: " << r.conforming << " conform, " << r.nonconforming
+        << " do not, " << r.not_proven << " not proven"
+        << (r.undetermined ? ", " + std::to_string(r.undetermined) + " undetermined" : "") << ")";
     }
     s << std::left << "\n";
   }
-  s << "  verdict: " << (report.any_nonconforming() ? "DOES NOT CONFORM (exit code 1)" : "no nonconformity proven")
+  s << "  verdict: "
+    << (report.any_nonconforming() ? "DOES NOT CONFORM (exit code 1)" : "no nonconformity proven")
     << "\n";
   return s.str();
 }

@@ -14,14 +14,16 @@ Truth truth_from_json(const json& j, const std::string& source) {
   ObjectReader top(j, source, "");
   Truth t;
   const std::string format = top.string("format");
-  if (format != kTruthFormat) top.fail("format", "expected \"" + std::string(kTruthFormat) + "\", found \"" + format + "\"");
+  if (format != kTruthFormat)
+    top.fail("format", "expected \"" + std::string(kTruthFormat) + "\", found \"" + format + "\"");
   top.optional_string("description");
   ObjectReader errors = top.object("errors");
   const std::string model = errors.string("model");
   if (model == "per_angle") {
     t.model.kind = ErrorModel::Kind::PerAngle;
     const json& values = errors.required("values");
-    if (!values.is_array() || values.empty()) errors.fail("values", "expected a non-empty list of {angle_deg, dx, ..., ez}");
+    if (!values.is_array() || values.empty())
+      errors.fail("values", "expected a non-empty list of {angle_deg, dx, ..., ez}");
     for (size_t i = 0; i < values.size(); ++i) {
       ObjectReader v(values[i], source, "errors.values[" + std::to_string(i) + "]");
       Vector6d e;
@@ -39,7 +41,8 @@ Truth truth_from_json(const json& j, const std::string& source) {
       if (!r.is_array() || r.size() != 2) errors.fail("range_deg", "expected [min, max]");
       t.range_deg = std::make_pair(as_number(r[0], source, "errors.range_deg[0]"),
                                    as_number(r[1], source, "errors.range_deg[1]"));
-      if (!(t.range_deg->second > t.range_deg->first)) errors.fail("range_deg", "max must exceed min");
+      if (!(t.range_deg->second > t.range_deg->first))
+        errors.fail("range_deg", "max must exceed min");
     }
     ObjectReader coeffs = errors.object("coefficients");
     for (int k = 0; k < 6; ++k) {
@@ -73,14 +76,18 @@ Truth truth_from_json(const json& j, const std::string& source) {
       const std::string vpath = path + ".value";
       switch (te.effect.kind) {
         case EffectKind::Centring: {
-          if (!v.is_array() || v.size() < 2 || v.size() > 3) throw InputError(source, vpath, "expected [cx, cy] or [cx, cy, cz] in um");
-          for (std::size_t k = 0; k < v.size(); ++k) te.value(static_cast<Eigen::Index>(k)) = as_number(v[k], source, vpath + "[" + std::to_string(k) + "]");
+          if (!v.is_array() || v.size() < 2 || v.size() > 3)
+            throw InputError(source, vpath, "expected [cx, cy] or [cx, cy, cz] in um");
+          for (std::size_t k = 0; k < v.size(); ++k)
+            te.value(static_cast<Eigen::Index>(k)) =
+                as_number(v[k], source, vpath + "[" + std::to_string(k) + "]");
           break;
         }
         case EffectKind::Scale:
         case EffectKind::Squareness: {
           ObjectReader o(v, source, vpath);
-          for (std::size_t k = 0; k < names.size(); ++k) te.value(static_cast<Eigen::Index>(k)) = o.optional_number(names[k]).value_or(0.0);
+          for (std::size_t k = 0; k < names.size(); ++k)
+            te.value(static_cast<Eigen::Index>(k)) = o.optional_number(names[k]).value_or(0.0);
           o.finish();
           break;
         }
@@ -103,7 +110,8 @@ Truth truth_from_json(const json& j, const std::string& source) {
         case EffectKind::Thermal: {
           ObjectReader o(v, source, vpath);
           te.effect.tau_min = o.number("tau_min");
-          if (!(te.effect.tau_min > 0) || !std::isfinite(te.effect.tau_min)) o.fail("tau_min", "must be a finite time > 0 min");
+          if (!(te.effect.tau_min > 0) || !std::isfinite(te.effect.tau_min))
+            o.fail("tau_min", "must be a finite time > 0 min");
           te.value(0) = o.number("plateau_um");
           o.finish();
           break;
@@ -121,10 +129,12 @@ Truth truth_from_json(const json& j, const std::string& source) {
     s.per_reading_s = o.optional_number("per_reading_s").value_or(s.per_reading_s);
     s.per_installation_s = o.optional_number("per_installation_s").value_or(s.per_installation_s);
     if (const json* sw = o.optional("sweeps")) {
-      if (!sw->is_array() || sw->empty()) o.fail("sweeps", "expected a list of \"ccw\" and/or \"cw\"");
+      if (!sw->is_array() || sw->empty())
+        o.fail("sweeps", "expected a list of \"ccw\" and/or \"cw\"");
       s.sweeps.clear();
       for (std::size_t k = 0; k < sw->size(); ++k) {
-        const std::string x = as_string((*sw)[k], source, "schedule.sweeps[" + std::to_string(k) + "]");
+        const std::string x =
+            as_string((*sw)[k], source, "schedule.sweeps[" + std::to_string(k) + "]");
         if (x != "cw" && x != "ccw") o.fail("sweeps", "'" + x + "' is not a sweep (cw or ccw)");
         s.sweeps.push_back(x == "cw" ? Sweep::CW : Sweep::CCW);
       }
@@ -133,18 +143,21 @@ Truth truth_from_json(const json& j, const std::string& source) {
     t.schedule = s;
   }
   if (const auto g = top.optional_string("geometry")) {
-    if (*g != "first_order" && *g != "exact") top.fail("geometry", "'" + *g + "' is not a geometry (first_order or exact)");
+    if (*g != "first_order" && *g != "exact")
+      top.fail("geometry", "'" + *g + "' is not a geometry (first_order or exact)");
     t.exact = *g == "exact";
   }
   t.bar_mm = top.optional_number("bar_mm");
   if (const json* su = top.optional("setup")) {
     ObjectReader s(*su, source, "setup");
     // A size in um or mm: finite, >= 0 for a standard uncertainty, within the documented limits.
-    auto size = [&](ObjectReader& o, const std::string& key, double limit, bool signed_value) -> double {
+    auto size = [&](ObjectReader& o, const std::string& key, double limit,
+                    bool signed_value) -> double {
       const double x = o.number(key);
       if (!std::isfinite(x) || std::abs(x) > limit || (!signed_value && x < 0)) {
-        o.fail(key, signed_value ? "must be a finite number within +-" + std::to_string(limit)
-                                 : "must be a standard uncertainty in [0, " + std::to_string(limit) + "]");
+        o.fail(key, signed_value
+                        ? "must be a finite number within +-" + std::to_string(limit)
+                        : "must be a standard uncertainty in [0, " + std::to_string(limit) + "]");
       }
       return x;
     };
@@ -162,13 +175,15 @@ Truth truth_from_json(const json& j, const std::string& source) {
     };
     if (const json* d = s.optional("draw")) {
       ObjectReader r(*d, source, "setup.draw");
-      if (r.has("length_offset_um")) t.setup_draw.length_offset_um = size(r, "length_offset_um", 1e4, false);
+      if (r.has("length_offset_um"))
+        t.setup_draw.length_offset_um = size(r, "length_offset_um", 1e4, false);
       if (r.has("centring_um")) t.setup_draw.centring_um = size(r, "centring_um", 1e4, false);
       t.setup_draw.ball_mm = ball(r, false);
       r.finish();
     }
     if (const json* given = s.optional("installations")) {
-      if (!given->is_object()) s.fail("installations", "expected {\"<id>\": {length_offset_um, centring_um, ball_mm}}");
+      if (!given->is_object())
+        s.fail("installations", "expected {\"<id>\": {length_offset_um, centring_um, ball_mm}}");
       for (auto it = given->begin(); it != given->end(); ++it) {
         ObjectReader r(it.value(), source, "setup.installations." + it.key());
         SetupError e;
@@ -181,7 +196,8 @@ Truth truth_from_json(const json& j, const std::string& source) {
           for (std::size_t k = 0; k < c->size(); ++k) {
             const double x = as_number((*c)[k], source, path + "[" + std::to_string(k) + "]");
             if (!std::isfinite(x) || std::abs(x) > 1e4) {
-              throw InputError(source, path + "[" + std::to_string(k) + "]", "must be within +-1e4 um");
+              throw InputError(source, path + "[" + std::to_string(k) + "]",
+                               "must be within +-1e4 um");
             }
             e.centring_um(static_cast<Eigen::Index>(k)) = x;
           }
@@ -215,6 +231,8 @@ nlohmann::json setup_errors_to_json(const Design& design, const std::vector<Setu
   return {{"format", "dbbkit.setup-errors/1"}, {"installations", list}};
 }
 
-Truth read_truth_file(const std::string& path) { return truth_from_json(parse_json(read_text_file(path), path), path); }
+Truth read_truth_file(const std::string& path) {
+  return truth_from_json(parse_json(read_text_file(path), path), path);
+}
 
 }  // namespace dbbkit::io

@@ -79,7 +79,9 @@ py::object to_python(const nlohmann::json& j) {
   }
 }
 
-std::string child(const std::string& path, const std::string& key) { return path.empty() ? key : path + "." + key; }
+std::string child(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
 
 // A dict, list, str, number, bool or None (and NumPy scalars and arrays, through tolist())
 // as the JSON the readers take; anything else, or a non-finite number, is an InputError
@@ -92,12 +94,15 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
       if (h.cast<py::int_>() >= py::int_(0)) return h.cast<unsigned long long>();
       return h.cast<long long>();
     } catch (const py::cast_error&) {
-      throw InputError(source, path, "the integer " + py::str(h).cast<std::string>() + " is out of range");
+      throw InputError(source, path,
+                       "the integer " + py::str(h).cast<std::string>() + " is out of range");
     }
   }
   if (py::isinstance<py::float_>(h)) {
     const double x = h.cast<double>();
-    if (!std::isfinite(x)) throw InputError(source, path, "not a finite number (" + py::repr(h).cast<std::string>() + ")");
+    if (!std::isfinite(x))
+      throw InputError(source, path,
+                       "not a finite number (" + py::repr(h).cast<std::string>() + ")");
     return x;
   }
   if (py::isinstance<py::str>(h)) return h.cast<std::string>();
@@ -105,7 +110,9 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
     nlohmann::json j = nlohmann::json::object();
     for (auto item : py::reinterpret_borrow<py::dict>(h)) {
       if (!py::isinstance<py::str>(item.first)) {
-        throw InputError(source, path, "a key that is not a string (" + py::repr(item.first).cast<std::string>() + ")");
+        throw InputError(
+            source, path,
+            "a key that is not a string (" + py::repr(item.first).cast<std::string>() + ")");
       }
       const std::string key = item.first.cast<std::string>();
       j[key] = from_python(item.second, source, child(path, key));
@@ -115,7 +122,8 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
   if (py::isinstance<py::list>(h) || py::isinstance<py::tuple>(h)) {
     nlohmann::json j = nlohmann::json::array();
     long i = 0;
-    for (py::handle e : h) j.push_back(from_python(e, source, path + "[" + std::to_string(i++) + "]"));
+    for (py::handle e : h)
+      j.push_back(from_python(e, source, path + "[" + std::to_string(i++) + "]"));
     return j;
   }
   if (py::hasattr(h, "tolist")) return from_python(h.attr("tolist")(), source, path);  // NumPy
@@ -143,14 +151,16 @@ void check_finite_in(const char* name, double x, double lo, double hi) {
 
 void check_integer_in(const char* name, long long x, long long lo, long long hi) {
   if (x < lo || x > hi) {
-    throw InputError("argument", name,
-                     std::to_string(x) + " is outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    throw InputError(
+        "argument", name,
+        std::to_string(x) + " is outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
   }
 }
 
 int thread_count(const char* name, int threads) {
   check_integer_in(name, threads, 0, kMaxThreads);
-  return threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return threads > 0 ? threads
+                     : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
 // ---------------------------------------------------------------- Ctrl-C
@@ -202,10 +212,13 @@ PyDesign make_design(py::handle source) {
   return read_input<Design>(source, "design", &io::read_design_file, &io::design_from_json);
 }
 
-PyKit make_kit(py::handle source) { return read_input<Kit>(source, "kit", &io::read_kit_file, &io::kit_from_json); }
+PyKit make_kit(py::handle source) {
+  return read_input<Kit>(source, "kit", &io::read_kit_file, &io::kit_from_json);
+}
 
 // validate_readings names "line N"; readings given as arrays are named by index.
-void validate_rows(const Design& design, const std::vector<Reading>& readings, const std::string& source) {
+void validate_rows(const Design& design, const std::vector<Reading>& readings,
+                   const std::string& source) {
   try {
     validate_readings(design, readings, source);
   } catch (const InputError& e) {
@@ -217,16 +230,18 @@ void validate_rows(const Design& design, const std::vector<Reading>& readings, c
   }
 }
 
-PyMeasurements measurements_from_arrays(const PyDesign& d, const std::vector<std::string>& installation,
-                                        const std::vector<double>& angle_deg, const std::vector<double>& reading_um,
-                                        const std::optional<std::vector<double>>& time_s,
-                                        const std::optional<std::vector<std::optional<std::string>>>& sweep,
-                                        const std::optional<std::vector<int>>& repeat) {
+PyMeasurements measurements_from_arrays(
+    const PyDesign& d, const std::vector<std::string>& installation,
+    const std::vector<double>& angle_deg, const std::vector<double>& reading_um,
+    const std::optional<std::vector<double>>& time_s,
+    const std::optional<std::vector<std::optional<std::string>>>& sweep,
+    const std::optional<std::vector<int>>& repeat) {
   const size_t n = installation.size();
   auto same_length = [n](const char* name, size_t m) {
     if (m != n) {
       throw InputError("measurements", name,
-                       std::to_string(m) + " values for " + std::to_string(n) + " installations (one per reading)");
+                       std::to_string(m) + " values for " + std::to_string(n) +
+                           " installations (one per reading)");
     }
   };
   same_length("angle_deg", angle_deg.size());
@@ -251,7 +266,8 @@ PyMeasurements measurements_from_arrays(const PyDesign& d, const std::vector<std
       } else if (s == "ccw") {
         r.sweep = Sweep::CCW;
       } else {
-        throw InputError("measurements", "sweep[" + std::to_string(i) + "]", "'" + s + "' (expected cw, ccw or None)");
+        throw InputError("measurements", "sweep[" + std::to_string(i) + "]",
+                         "'" + s + "' (expected cw, ccw or None)");
       }
     }
     if (repeat) r.repeat = (*repeat)[i];
@@ -309,7 +325,8 @@ std::string iframe(const std::string& html) {
       escaped += c;
     }
   }
-  return "<iframe style=\"width: 100%; height: 900px; border: 1px solid #ccc\" srcdoc=\"" + escaped + "\"></iframe>";
+  return "<iframe style=\"width: 100%; height: 900px; border: 1px solid #ccc\" srcdoc=\"" +
+         escaped + "\"></iframe>";
 }
 
 io::ReportFormat report_format(const std::string& format) {
@@ -320,10 +337,13 @@ io::ReportFormat report_format(const std::string& format) {
 
 // ---------------------------------------------------------------- Monte Carlo
 
-MonteCarloOptions mc_options(std::uint64_t seed, int threads, long max_trials, long batch, int digits) {
-  check_integer_in("mc_max_trials", max_trials, limits::kMinMonteCarloTrials, limits::kMaxMonteCarloTrials);
+MonteCarloOptions mc_options(std::uint64_t seed, int threads, long max_trials, long batch,
+                             int digits) {
+  check_integer_in("mc_max_trials", max_trials, limits::kMinMonteCarloTrials,
+                   limits::kMaxMonteCarloTrials);
   check_integer_in("mc_batch", batch, limits::kMinMonteCarloTrials, limits::kMaxMonteCarloBatch);
-  check_integer_in("mc_digits", digits, limits::kMinSignificantDigits, limits::kMaxSignificantDigits);
+  check_integer_in("mc_digits", digits, limits::kMinSignificantDigits,
+                   limits::kMaxSignificantDigits);
   MonteCarloOptions o;
   o.seed = seed;
   o.threads = thread_count("mc_threads", threads);
@@ -356,7 +376,8 @@ struct PyEvaluateResult {
   nlohmann::json json;
   std::string report(const std::string& format) const {
     const io::RunContext run{"dbbkit.evaluate (Python)", files_of(*design)};
-    return io::evaluate_report(report_format(format), run, design->value, ev, {}, {}, mc ? &*mc : nullptr, expansion);
+    return io::evaluate_report(report_format(format), run, design->value, ev, {}, {},
+                               mc ? &*mc : nullptr, expansion);
   }
 };
 
@@ -378,8 +399,10 @@ struct PyIdentifyResult {
   }
   // (stations, 6) of the budget's U and its k, NaN where not determined.
   Eigen::MatrixXd budget_array(bool expanded) const {
-    Eigen::MatrixXd a = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(result().errors.size()), 6, kNaN);
-    for (const ValueBudget& v : result().budget.values) a(v.station, v.error) = expanded ? v.U : v.k;
+    Eigen::MatrixXd a =
+        Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(result().errors.size()), 6, kNaN);
+    for (const ValueBudget& v : result().budget.values)
+      a(v.station, v.error) = expanded ? v.U : v.k;
     return a;
   }
   // (6 stations, 6 stations): row 6 s + k is error k at station s; NaN where not determined.
@@ -404,9 +427,9 @@ struct PyDiagnoseResult {
   DiagnoseResult result;
   nlohmann::json json;
   std::string report(const std::string& format) const {
-    return io::diagnose_report(report_format(format), io::RunContext{"dbbkit.diagnose (Python)", files_of(*design, *data)},
-                               design->value,
-                               data->readings, result, a_priori_expansion());
+    return io::diagnose_report(report_format(format),
+                               io::RunContext{"dbbkit.diagnose (Python)", files_of(*design, *data)},
+                               design->value, data->readings, result, a_priori_expansion());
   }
 };
 
@@ -419,20 +442,23 @@ struct PyOptimizeResult {
   std::string report(const std::string& format) const {
     std::vector<std::string> f = files_of(*kit);
     if (reference) f.push_back(reference->file);
-    return io::optimize_report(report_format(format), io::RunContext{"dbbkit.optimize (Python)", f}, kit->value, result,
-                               reference, seconds, a_priori_expansion());
+    return io::optimize_report(report_format(format), io::RunContext{"dbbkit.optimize (Python)", f},
+                               kit->value, result, reference, seconds, a_priori_expansion());
   }
 };
 
 // ---------------------------------------------------------------- operations
 
-PyEvaluateResult run_evaluate(const PyDesign& d, std::optional<double> reference_length_mm, bool monte_carlo,
-                          double coverage, std::uint64_t mc_seed, int mc_threads, long mc_max_trials, long mc_batch,
-                          int mc_digits) {
-  if (reference_length_mm) check_finite_in("reference_length_mm", *reference_length_mm, limits::kMinReferenceLength_mm, limits::kMaxLength_mm);
+PyEvaluateResult run_evaluate(const PyDesign& d, std::optional<double> reference_length_mm,
+                              bool monte_carlo, double coverage, std::uint64_t mc_seed,
+                              int mc_threads, long mc_max_trials, long mc_batch, int mc_digits) {
+  if (reference_length_mm)
+    check_finite_in("reference_length_mm", *reference_length_mm, limits::kMinReferenceLength_mm,
+                    limits::kMaxLength_mm);
   check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
   MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
-  const std::optional<double> ref = reference_length_mm ? reference_length_mm : d.value.reference_length_mm;
+  const std::optional<double> ref =
+      reference_length_mm ? reference_length_mm : d.value.reference_length_mm;
   if (!ref || !(*ref > 0)) {
     throw InputError(d.source, "reference_length_mm",
                      "needed to express angular uncertainty in um (or give reference_length_mm=)");
@@ -454,12 +480,14 @@ PyEvaluateResult run_evaluate(const PyDesign& d, std::optional<double> reference
   return r;
 }
 
-PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool type_a, double coverage,
-                          py::object tolerances, bool monte_carlo, std::uint64_t mc_seed, int mc_threads,
-                          long mc_max_trials, long mc_batch, int mc_digits) {
+PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool type_a,
+                              double coverage, py::object tolerances, bool monte_carlo,
+                              std::uint64_t mc_seed, int mc_threads, long mc_max_trials,
+                              long mc_batch, int mc_digits) {
   check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
   MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
-  validate_rows(d.value, m.readings, m.source);  // the design may not be the one they were read with
+  validate_rows(d.value, m.readings,
+                m.source);  // the design may not be the one they were read with
   PyIdentifyResult r;
   std::vector<Tolerance> tols;
   std::string tol_source;
@@ -485,13 +513,14 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
     if (!tols.empty()) r.conformance = decide_conformance(d.value, r.result(), tols, tol_source);
     if (monte_carlo) r.mc = dbbkit::monte_carlo(d.value, r.result(), mc);
   }
-  r.json = io::identify_to_json(d.value, m.readings, r.result(), {d.source, m.source}, r.mc ? &*r.mc : nullptr);
+  r.json = io::identify_to_json(d.value, m.readings, r.result(), {d.source, m.source},
+                                r.mc ? &*r.mc : nullptr);
   if (r.conformance) r.json["conformance"] = io::conformance_to_json(*r.conformance, tol_source);
   return r;
 }
 
-PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double level, int max_effects,
-                              bool exclude_gross) {
+PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double level,
+                              int max_effects, bool exclude_gross) {
   check_finite_in("level", level, limits::kMinLevel, limits::kMaxLevel);
   check_integer_in("max_effects", max_effects, 0, limits::kMaxEffects);
   validate_rows(d.value, m.readings, m.source);
@@ -511,20 +540,24 @@ PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double
 }
 
 PyOptimizeResult run_optimize(const PyKit& k, std::optional<std::string> criterion, int threads,
-                          bool require_setup_detection, std::optional<PyDesign> reference) {
+                              bool require_setup_detection, std::optional<PyDesign> reference) {
   Kit kit = k.value;
   if (require_setup_detection) {
     if (!kit.setup_std.nuisance()) {
       throw InputError(k.source, "setup_std",
-                       "require_setup_detection needs a length offset or centring tolerance declared in the kit");
+                       "require_setup_detection needs a length offset or centring tolerance "
+                       "declared in the kit");
     }
     kit.require_setup_detection = true;
   }
-  const Criterion c =
-      criterion_from_name(criterion ? *criterion : kit.setup_std.nuisance() ? "worst_total" : "worst", "criterion");
+  const Criterion c = criterion_from_name(criterion                  ? *criterion
+                                          : kit.setup_std.nuisance() ? "worst_total"
+                                                                     : "worst",
+                                          "criterion");
   if (c == Criterion::WorstTotal && !kit.setup_std.nuisance()) {
-    throw InputError(k.source, "setup_std",
-                     "criterion worst_total needs a length offset or centring tolerance declared in the kit");
+    throw InputError(
+        k.source, "setup_std",
+        "criterion worst_total needs a length offset or centring tolerance declared in the kit");
   }
   OptimizeOptions options;
   options.criterion = c;
@@ -544,13 +577,16 @@ PyOptimizeResult run_optimize(const PyKit& k, std::optional<std::string> criteri
   return r;
 }
 
-PyMeasurements run_simulate(const PyDesign& d, py::handle truth, std::optional<std::uint64_t> seed) {
-  const Input<Truth> in = read_input<Truth>(truth, "truth", &io::read_truth_file, &io::truth_from_json);
+PyMeasurements run_simulate(const PyDesign& d, py::handle truth,
+                            std::optional<std::uint64_t> seed) {
+  const Input<Truth> in =
+      read_input<Truth>(truth, "truth", &io::read_truth_file, &io::truth_from_json);
   const Truth& t = in.value;
   const std::string& source = in.source;
   validate_truth(t, d.value, source);
   const std::optional<std::uint64_t> s = seed ? seed : t.seed;
-  if (!s && !t.noiseless) throw InputError(source, "seed", "no seed: give seed= or \"seed\" in the truth");
+  if (!s && !t.noiseless)
+    throw InputError(source, "seed", "no seed: give seed= or \"seed\" in the truth");
   PyMeasurements m;
   m.source = "simulated";
   {
@@ -604,16 +640,20 @@ PYBIND11_MODULE(dbbkit, m) {
   using namespace dbbkit;
   using namespace dbbkit::python;
   m.doc() =
-      "dbbkit: the geometric errors of a rotary axis from double ball bar readings, their uncertainty, the "
-      "design of the measurement and the closed loop on real data. Units: dx, dy, dz in um; ex, ey, ez in urad; "
-      "angles in degrees; lengths in mm. Uncertainties are standard (k = 1) unless named U (expanded, k stated).";
+      "dbbkit: the geometric errors of a rotary axis from double ball bar readings, their "
+      "uncertainty, the "
+      "design of the measurement and the closed loop on real data. Units: dx, dy, dz in um; ex, "
+      "ey, ez in urad; "
+      "angles in degrees; lengths in mm. Uncertainties are standard (k = 1) unless named U "
+      "(expanded, k stated).";
   m.attr("__version__") = DBBKIT_VERSION;
   m.attr("ERROR_NAMES") = py::make_tuple("dx", "dy", "dz", "ex", "ey", "ez");
   m.attr("ERROR_UNITS") = py::make_tuple("um", "um", "um", "urad", "urad", "urad");
 
   static py::exception<InputError> input_error(m, "InputError", PyExc_ValueError);
   input_error.doc() =
-      "Bad input: source (the file, or 'design', 'kit', 'measurements', 'truth', 'tolerances', 'argument'), "
+      "Bad input: source (the file, or 'design', 'kit', 'measurements', 'truth', 'tolerances', "
+      "'argument'), "
       "where (the line or key), detail (what is wrong).";
   py::register_exception_translator([](std::exception_ptr p) {
     try {
@@ -627,36 +667,44 @@ PYBIND11_MODULE(dbbkit, m) {
     }
   });
 
-  py::class_<PyDesign>(m, "Design", "A measurement design (dbbkit.design/1), from a file path or a dict")
+  py::class_<PyDesign>(m, "Design",
+                       "A measurement design (dbbkit.design/1), from a file path or a dict")
       .def(py::init([](py::handle source) { return make_design(source); }), py::arg("source"),
-           "Design(path) reads a design file; Design(dict) takes the same keys. Raises InputError naming the key.")
+           "Design(path) reads a design file; Design(dict) takes the same keys. Raises InputError "
+           "naming the key.")
       .def_property_readonly("source", [](const PyDesign& d) { return d.source; })
       .def_property_readonly("name", [](const PyDesign& d) { return d.value.name; })
-      .def_property_readonly("axis", [](const PyDesign& d) { return std::string(axis_name(d.value.axis)); })
+      .def_property_readonly("axis",
+                             [](const PyDesign& d) { return std::string(axis_name(d.value.axis)); })
       .def_property_readonly("angles_deg",
                              [](const PyDesign& d) {
-                               return Eigen::Map<const Eigen::VectorXd>(d.value.angles_deg.data(),
-                                                                        static_cast<Eigen::Index>(d.value.angles_deg.size()));
+                               return Eigen::Map<const Eigen::VectorXd>(
+                                   d.value.angles_deg.data(),
+                                   static_cast<Eigen::Index>(d.value.angles_deg.size()));
                              })
       .def_property_readonly("installations",
                              [](const PyDesign& d) {
                                std::vector<std::string> ids;
-                               for (const Installation& i : d.value.installations) ids.push_back(i.id);
+                               for (const Installation& i : d.value.installations)
+                                 ids.push_back(i.id);
                                return ids;
                              })
-      .def("to_dict", [](const PyDesign& d) { return to_python(io::design_to_json(d.value)); },
-           "The design as the dict a design file holds")
+      .def(
+          "to_dict", [](const PyDesign& d) { return to_python(io::design_to_json(d.value)); },
+          "The design as the dict a design file holds")
       .def("__repr__", [](const PyDesign& d) {
         return "<dbbkit.Design '" + d.value.name + "' axis " + axis_name(d.value.axis) + ", " +
                std::to_string(d.value.installations.size()) + " installations, " +
-               std::to_string(d.value.angles_deg.size()) + " angles, " + d.value.errors.describe() + ">";
+               std::to_string(d.value.angles_deg.size()) + " angles, " + d.value.errors.describe() +
+               ">";
       });
 
   py::class_<PyKit>(m, "Kit", "A kit to search (dbbkit.kit/1), from a file path or a dict")
       .def(py::init([](py::handle source) { return make_kit(source); }), py::arg("source"))
       .def_property_readonly("source", [](const PyKit& k) { return k.source; })
       .def_property_readonly("name", [](const PyKit& k) { return k.value.name; })
-      .def_property_readonly("axis", [](const PyKit& k) { return std::string(axis_name(k.value.axis)); })
+      .def_property_readonly("axis",
+                             [](const PyKit& k) { return std::string(axis_name(k.value.axis)); })
       .def("__repr__", [](const PyKit& k) {
         return "<dbbkit.Kit '" + k.value.name + "' axis " + axis_name(k.value.axis) + ">";
       });
@@ -664,23 +712,28 @@ PYBIND11_MODULE(dbbkit, m) {
   py::class_<PyMeasurements>(m, "Measurements", "DBB readings checked against a design")
       .def(py::init([](py::handle path, const PyDesign& design) {
              const auto p = as_path(path);
-             if (!p) throw InputError("argument", "path", "a measurement file path (str or os.PathLike)");
+             if (!p)
+               throw InputError("argument", "path", "a measurement file path (str or os.PathLike)");
              return measurements_from_file(*p, design);
            }),
-           py::arg("path"), py::arg("design"), "Measurements(path, design): a measurement CSV (formats.md)")
-      .def_static("from_csv",
-                  [](const std::string& text, const PyDesign& design, const std::string& source) {
-                    PyMeasurements mm;
-                    mm.readings = io::parse_measurements(text, source);
-                    validate_readings(design.value, mm.readings, source);
-                    mm.source = source;
-                    return mm;
-                  },
-                  py::arg("text"), py::arg("design"), py::arg("source") = "csv", "The readings of CSV text")
-      .def_static("from_arrays", &measurements_from_arrays, py::arg("design"), py::arg("installation"),
-                  py::arg("angle_deg"), py::arg("reading_um"), py::arg("time_s") = py::none(),
-                  py::arg("sweep") = py::none(), py::arg("repeat") = py::none(),
-                  "One reading per index: installation id, angle [deg], reading [um]; optional time [s] (NaN: "
+           py::arg("path"), py::arg("design"),
+           "Measurements(path, design): a measurement CSV (formats.md)")
+      .def_static(
+          "from_csv",
+          [](const std::string& text, const PyDesign& design, const std::string& source) {
+            PyMeasurements mm;
+            mm.readings = io::parse_measurements(text, source);
+            validate_readings(design.value, mm.readings, source);
+            mm.source = source;
+            return mm;
+          },
+          py::arg("text"), py::arg("design"), py::arg("source") = "csv", "The readings of CSV text")
+      .def_static("from_arrays", &measurements_from_arrays, py::arg("design"),
+                  py::arg("installation"), py::arg("angle_deg"), py::arg("reading_um"),
+                  py::arg("time_s") = py::none(), py::arg("sweep") = py::none(),
+                  py::arg("repeat") = py::none(),
+                  "One reading per index: installation id, angle [deg], reading [um]; optional "
+                  "time [s] (NaN: "
                   "not recorded), sweep ('cw', 'ccw' or None) and repeat")
       .def_property_readonly("source", [](const PyMeasurements& mm) { return mm.source; })
       .def("__len__", [](const PyMeasurements& mm) { return mm.readings.size(); })
@@ -693,187 +746,255 @@ PYBIND11_MODULE(dbbkit, m) {
       .def_property_readonly("angle_deg",
                              [](const PyMeasurements& mm) {
                                Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
-                               for (size_t i = 0; i < mm.readings.size(); ++i) v(static_cast<Eigen::Index>(i)) = mm.readings[i].angle_deg;
+                               for (size_t i = 0; i < mm.readings.size(); ++i)
+                                 v(static_cast<Eigen::Index>(i)) = mm.readings[i].angle_deg;
                                return v;
                              })
       .def_property_readonly("reading_um",
                              [](const PyMeasurements& mm) {
                                Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
-                               for (size_t i = 0; i < mm.readings.size(); ++i) v(static_cast<Eigen::Index>(i)) = mm.readings[i].reading_um;
+                               for (size_t i = 0; i < mm.readings.size(); ++i)
+                                 v(static_cast<Eigen::Index>(i)) = mm.readings[i].reading_um;
                                return v;
                              })
       .def_property_readonly("time_s",
                              [](const PyMeasurements& mm) {
                                Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
                                for (size_t i = 0; i < mm.readings.size(); ++i) {
-                                 v(static_cast<Eigen::Index>(i)) = mm.readings[i].time_s.value_or(kNaN);
+                                 v(static_cast<Eigen::Index>(i)) =
+                                     mm.readings[i].time_s.value_or(kNaN);
                                }
                                return v;
                              })
-      .def("to_csv",
-           [](const PyMeasurements& mm) {
-             std::ostringstream out;
-             io::write_measurements_csv(out, mm.readings);
-             return out.str();
-           },
-           "The readings as a measurement CSV")
+      .def(
+          "to_csv",
+          [](const PyMeasurements& mm) {
+            std::ostringstream out;
+            io::write_measurements_csv(out, mm.readings);
+            return out.str();
+          },
+          "The readings as a measurement CSV")
       .def("__repr__", [](const PyMeasurements& mm) {
-        return "<dbbkit.Measurements " + std::to_string(mm.readings.size()) + " readings from " + mm.source + ">";
+        return "<dbbkit.Measurements " + std::to_string(mm.readings.size()) + " readings from " +
+               mm.source + ">";
       });
 
-  py::class_<PyMonteCarlo>(m, "MonteCarloResult", "JCGM 101 propagation of distributions, per identified value")
-      .def_property_readonly("json", [](const PyMonteCarlo& r) { return to_python(io::monte_carlo_to_json(r.mc)); })
+  py::class_<PyMonteCarlo>(m, "MonteCarloResult",
+                           "JCGM 101 propagation of distributions, per identified value")
+      .def_property_readonly(
+          "json", [](const PyMonteCarlo& r) { return to_python(io::monte_carlo_to_json(r.mc)); })
       .def_property_readonly("trials", [](const PyMonteCarlo& r) { return r.mc.trials; })
       .def_property_readonly("converged", [](const PyMonteCarlo& r) { return r.mc.converged; })
       .def_property_readonly("n_validated", [](const PyMonteCarlo& r) { return r.mc.n_validated; })
-      .def_property_readonly("arrays", [](const PyMonteCarlo& r) { return monte_carlo_arrays(r.mc); },
-                             "Per value: station, error (0..5), angle_deg, mean, std, low, high (the probabilistically "
-                             "symmetric interval), linear_value, linear_u, linear_U, validated")
+      .def_property_readonly(
+          "arrays", [](const PyMonteCarlo& r) { return monte_carlo_arrays(r.mc); },
+          "Per value: station, error (0..5), angle_deg, mean, std, low, high (the "
+          "probabilistically "
+          "symmetric interval), linear_value, linear_u, linear_U, validated")
       .def("summary", [](const PyMonteCarlo& r) { return io::monte_carlo_summary(r.mc); });
 
-  py::class_<PyEvaluateResult>(m, "EvaluateResult", "What a design can identify, and how well, before measuring")
-      .def_property_readonly("json", [](const PyEvaluateResult& r) { return to_python(r.json); },
-                             "The dict `dbbkit evaluate --out` writes")
-      .def_property_readonly("angles_deg", [](const PyEvaluateResult& r) { return angles_array(r.ev.errors); })
-      .def_property_readonly("std", [](const PyEvaluateResult& r) { return errors_array(r.ev.errors, false); },
-                             "(stations, 6): the reading-noise standard uncertainty (k = 1) of dx..ez [um, urad]; "
-                             "NaN where not determined")
-      .def_property_readonly("std_total",
-                             [](const PyEvaluateResult& r) -> py::object {
-                               if (!r.ev.setup_included) return py::none();
-                               return py::cast(errors_array(r.ev.total_errors, false));
-                             },
-                             "(stations, 6): noise and declared set-up tolerances; None when none are declared")
+  py::class_<PyEvaluateResult>(m, "EvaluateResult",
+                               "What a design can identify, and how well, before measuring")
+      .def_property_readonly(
+          "json", [](const PyEvaluateResult& r) { return to_python(r.json); },
+          "The dict `dbbkit evaluate --out` writes")
+      .def_property_readonly("angles_deg",
+                             [](const PyEvaluateResult& r) { return angles_array(r.ev.errors); })
+      .def_property_readonly(
+          "std", [](const PyEvaluateResult& r) { return errors_array(r.ev.errors, false); },
+          "(stations, 6): the reading-noise standard uncertainty (k = 1) of dx..ez [um, urad]; "
+          "NaN where not determined")
+      .def_property_readonly(
+          "std_total",
+          [](const PyEvaluateResult& r) -> py::object {
+            if (!r.ev.setup_included) return py::none();
+            return py::cast(errors_array(r.ev.total_errors, false));
+          },
+          "(stations, 6): noise and declared set-up tolerances; None when none are declared")
       .def_property_readonly("worst_std_um",
                              [](const PyEvaluateResult& r) -> py::object {
-                               return r.json.contains("worst_std_um") ? to_python(r.json.at("worst_std_um")) : py::none();
+                               return r.json.contains("worst_std_um")
+                                          ? to_python(r.json.at("worst_std_um"))
+                                          : py::none();
                              })
-      .def_property_readonly("singular_values", [](const PyEvaluateResult& r) { return r.ev.prior.singular_values; })
+      .def_property_readonly("singular_values",
+                             [](const PyEvaluateResult& r) { return r.ev.prior.singular_values; })
       .def_property_readonly("rank", [](const PyEvaluateResult& r) { return r.ev.prior.rank; })
-      .def_property_readonly("n_unknowns", [](const PyEvaluateResult& r) { return r.ev.prior.n_unknowns; })
+      .def_property_readonly("n_unknowns",
+                             [](const PyEvaluateResult& r) { return r.ev.prior.n_unknowns; })
       .def_property_readonly("monte_carlo",
                              [](const PyEvaluateResult& r) -> py::object {
                                return r.mc ? py::cast(PyMonteCarlo{*r.mc}) : py::none();
                              })
-      .def("summary", [](const PyEvaluateResult& r) { return io::evaluate_summary(r.design->value, r.ev); })
+      .def("summary",
+           [](const PyEvaluateResult& r) { return io::evaluate_summary(r.design->value, r.ev); })
       .def("report", &PyEvaluateResult::report, py::arg("format") = "html")
       .def("_repr_html_", [](const PyEvaluateResult& r) { return iframe(r.report("html")); });
 
-  py::class_<PyIdentifyResult>(m, "IdentifyResult", "The identified errors with their uncertainty budget")
-      .def_property_readonly("json", [](const PyIdentifyResult& r) { return to_python(r.json); },
-                             "The dict `dbbkit identify --out` writes")
-      .def_property_readonly("angles_deg", [](const PyIdentifyResult& r) { return angles_array(r.result().errors); })
-      .def_property_readonly("values", [](const PyIdentifyResult& r) { return errors_array(r.result().errors, true); },
-                             "(stations, 6): dx, dy, dz [um], ex, ey, ez [urad]; NaN where not determined")
-      .def_property_readonly("std", [](const PyIdentifyResult& r) { return errors_array(r.result().errors, false); },
-                             "(stations, 6): combined standard uncertainty u_c (k = 1) of the budget")
-      .def_property_readonly("U", [](const PyIdentifyResult& r) { return r.budget_array(true); },
-                             "(stations, 6): expanded uncertainty k u_c at the coverage probability")
-      .def_property_readonly("k", [](const PyIdentifyResult& r) { return r.budget_array(false); },
-                             "(stations, 6): the coverage factor of each value (Student t at nu_eff)")
-      .def_property_readonly("coverage_probability",
-                             [](const PyIdentifyResult& r) { return r.result().budget.coverage_probability; })
-      .def_property_readonly("determined", [](const PyIdentifyResult& r) { return determined_array(r.result().errors); })
+  py::class_<PyIdentifyResult>(m, "IdentifyResult",
+                               "The identified errors with their uncertainty budget")
+      .def_property_readonly(
+          "json", [](const PyIdentifyResult& r) { return to_python(r.json); },
+          "The dict `dbbkit identify --out` writes")
+      .def_property_readonly(
+          "angles_deg", [](const PyIdentifyResult& r) { return angles_array(r.result().errors); })
+      .def_property_readonly(
+          "values", [](const PyIdentifyResult& r) { return errors_array(r.result().errors, true); },
+          "(stations, 6): dx, dy, dz [um], ex, ey, ez [urad]; NaN where not determined")
+      .def_property_readonly(
+          "std", [](const PyIdentifyResult& r) { return errors_array(r.result().errors, false); },
+          "(stations, 6): combined standard uncertainty u_c (k = 1) of the budget")
+      .def_property_readonly(
+          "U", [](const PyIdentifyResult& r) { return r.budget_array(true); },
+          "(stations, 6): expanded uncertainty k u_c at the coverage probability")
+      .def_property_readonly(
+          "k", [](const PyIdentifyResult& r) { return r.budget_array(false); },
+          "(stations, 6): the coverage factor of each value (Student t at nu_eff)")
+      .def_property_readonly(
+          "coverage_probability",
+          [](const PyIdentifyResult& r) { return r.result().budget.coverage_probability; })
+      .def_property_readonly(
+          "determined",
+          [](const PyIdentifyResult& r) { return determined_array(r.result().errors); })
       .def("covariance", &PyIdentifyResult::covariance,
-           "(6 stations, 6 stations): the joint covariance of the values (row 6 s + k: error k at station s), with "
-           "every component of u_c and their correlations; its diagonal is std**2; NaN where not determined")
-      .def_property_readonly("residuals_um", [](const PyIdentifyResult& r) { return r.result().estimate.residual_um; },
-                             "Reading minus the model's reading [um], in the order of the measurements")
-      .def_property_readonly("singular_values",
-                             [](const PyIdentifyResult& r) { return r.result().estimate.singular_values; },
-                             "Of the column-equilibrated whitened Jacobian, descending")
-      .def_property_readonly("rank", [](const PyIdentifyResult& r) { return r.result().estimate.rank; })
-      .def_property_readonly("n_unknowns", [](const PyIdentifyResult& r) { return r.result().estimate.n_unknowns; })
-      .def_property_readonly("n_readings", [](const PyIdentifyResult& r) { return r.result().estimate.n_readings; })
-      .def_property_readonly("chi2", [](const PyIdentifyResult& r) { return r.result().estimate.chi2; })
-      .def_property_readonly("dof", [](const PyIdentifyResult& r) { return r.result().estimate.dof; })
-      .def_property_readonly("p_value", [](const PyIdentifyResult& r) { return r.result().estimate.p_value; })
-      .def_property_readonly("budget", [](const PyIdentifyResult& r) { return to_python(r.json.at("budget")); },
-                             "The JCGM 100 budget of every value (components, u_c, nu_eff, k, U)")
+           "(6 stations, 6 stations): the joint covariance of the values (row 6 s + k: error k at "
+           "station s), with "
+           "every component of u_c and their correlations; its diagonal is std**2; NaN where not "
+           "determined")
+      .def_property_readonly(
+          "residuals_um", [](const PyIdentifyResult& r) { return r.result().estimate.residual_um; },
+          "Reading minus the model's reading [um], in the order of the measurements")
+      .def_property_readonly(
+          "singular_values",
+          [](const PyIdentifyResult& r) { return r.result().estimate.singular_values; },
+          "Of the column-equilibrated whitened Jacobian, descending")
+      .def_property_readonly("rank",
+                             [](const PyIdentifyResult& r) { return r.result().estimate.rank; })
+      .def_property_readonly(
+          "n_unknowns", [](const PyIdentifyResult& r) { return r.result().estimate.n_unknowns; })
+      .def_property_readonly(
+          "n_readings", [](const PyIdentifyResult& r) { return r.result().estimate.n_readings; })
+      .def_property_readonly("chi2",
+                             [](const PyIdentifyResult& r) { return r.result().estimate.chi2; })
+      .def_property_readonly("dof",
+                             [](const PyIdentifyResult& r) { return r.result().estimate.dof; })
+      .def_property_readonly("p_value",
+                             [](const PyIdentifyResult& r) { return r.result().estimate.p_value; })
+      .def_property_readonly(
+          "budget", [](const PyIdentifyResult& r) { return to_python(r.json.at("budget")); },
+          "The JCGM 100 budget of every value (components, u_c, nu_eff, k, U)")
       .def_property_readonly("monte_carlo",
                              [](const PyIdentifyResult& r) -> py::object {
                                return r.mc ? py::cast(PyMonteCarlo{*r.mc}) : py::none();
                              })
-      .def_property_readonly("conforms",
-                             [](const PyIdentifyResult& r) -> py::object {
-                               if (!r.conformance) return py::none();
-                               return py::bool_(!r.conformance->any_nonconforming());
-                             },
-                             "With tolerances: False when a quantity does not conform (ISO 14253-1), else True; "
-                             "None without tolerances")
-      .def("summary",
-           [](const PyIdentifyResult& r) {
-             std::string s = io::identify_summary(r.design->value, r.result());
-             if (r.mc) s += io::monte_carlo_summary(*r.mc);
-             if (r.conformance) s += io::conformance_text(*r.conformance);
-             return s;
-           },
-           "The tables `dbbkit identify` prints")
+      .def_property_readonly(
+          "conforms",
+          [](const PyIdentifyResult& r) -> py::object {
+            if (!r.conformance) return py::none();
+            return py::bool_(!r.conformance->any_nonconforming());
+          },
+          "With tolerances: False when a quantity does not conform (ISO 14253-1), else True; "
+          "None without tolerances")
+      .def(
+          "summary",
+          [](const PyIdentifyResult& r) {
+            std::string s = io::identify_summary(r.design->value, r.result());
+            if (r.mc) s += io::monte_carlo_summary(*r.mc);
+            if (r.conformance) s += io::conformance_text(*r.conformance);
+            return s;
+          },
+          "The tables `dbbkit identify` prints")
       .def("report", &PyIdentifyResult::report, py::arg("format") = "html")
       .def("_repr_html_", [](const PyIdentifyResult& r) { return iframe(r.report("html")); });
 
-  py::class_<PyDiagnoseResult>(m, "DiagnoseResult", "What the model does not explain, the effects added, before/after")
-      .def_property_readonly("json", [](const PyDiagnoseResult& r) { return to_python(r.json); },
-                             "The dict `dbbkit diagnose --out` writes")
-      .def_property_readonly("angles_deg", [](const PyDiagnoseResult& r) { return angles_array(r.result.errors_before); })
-      .def_property_readonly("values_before",
-                             [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_before, true); })
-      .def_property_readonly("std_before",
-                             [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_before, false); })
-      .def_property_readonly("values_after",
-                             [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_after, true); })
-      .def_property_readonly("std_after",
-                             [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_after, false); })
-      .def_property_readonly("residuals_before_um", [](const PyDiagnoseResult& r) { return r.result.before.residual_um; })
-      .def_property_readonly("residuals_after_um", [](const PyDiagnoseResult& r) { return r.result.after.residual_um; })
-      .def_property_readonly("rms_before_um", [](const PyDiagnoseResult& r) { return r.result.before.rms_um; })
-      .def_property_readonly("rms_after_um", [](const PyDiagnoseResult& r) { return r.result.after.rms_um; })
-      .def_property_readonly("added", [](const PyDiagnoseResult& r) { return to_python(r.json.at("added_effects")); },
-                             "The effects added, with values and evidence (as in the JSON)")
+  py::class_<PyDiagnoseResult>(m, "DiagnoseResult",
+                               "What the model does not explain, the effects added, before/after")
+      .def_property_readonly(
+          "json", [](const PyDiagnoseResult& r) { return to_python(r.json); },
+          "The dict `dbbkit diagnose --out` writes")
+      .def_property_readonly(
+          "angles_deg",
+          [](const PyDiagnoseResult& r) { return angles_array(r.result.errors_before); })
+      .def_property_readonly(
+          "values_before",
+          [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_before, true); })
+      .def_property_readonly(
+          "std_before",
+          [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_before, false); })
+      .def_property_readonly(
+          "values_after",
+          [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_after, true); })
+      .def_property_readonly(
+          "std_after",
+          [](const PyDiagnoseResult& r) { return errors_array(r.result.errors_after, false); })
+      .def_property_readonly("residuals_before_um",
+                             [](const PyDiagnoseResult& r) { return r.result.before.residual_um; })
+      .def_property_readonly("residuals_after_um",
+                             [](const PyDiagnoseResult& r) { return r.result.after.residual_um; })
+      .def_property_readonly("rms_before_um",
+                             [](const PyDiagnoseResult& r) { return r.result.before.rms_um; })
+      .def_property_readonly("rms_after_um",
+                             [](const PyDiagnoseResult& r) { return r.result.after.rms_um; })
+      .def_property_readonly(
+          "added", [](const PyDiagnoseResult& r) { return to_python(r.json.at("added_effects")); },
+          "The effects added, with values and evidence (as in the JSON)")
       .def_property_readonly("verdict", [](const PyDiagnoseResult& r) { return r.result.verdict; })
-      .def("summary", [](const PyDiagnoseResult& r) { return io::diagnose_summary(r.design->value, r.result); },
-           "The tables `dbbkit diagnose` prints")
+      .def(
+          "summary",
+          [](const PyDiagnoseResult& r) { return io::diagnose_summary(r.design->value, r.result); },
+          "The tables `dbbkit diagnose` prints")
       .def("report", &PyDiagnoseResult::report, py::arg("format") = "html")
       .def("_repr_html_", [](const PyDiagnoseResult& r) { return iframe(r.report("html")); });
 
-  py::class_<PyOptimizeResult>(m, "OptimizeResult", "The search of a kit: the best design, every choice, the front")
-      .def_property_readonly("json", [](const PyOptimizeResult& r) { return to_python(r.json); },
-                             "The dict `dbbkit optimize --result` writes")
-      .def_property_readonly("design",
-                             [](const PyOptimizeResult& r) -> py::object {
-                               if (!r.result.best) return py::none();
-                               return py::cast(PyDesign{io::optimized_design(r.kit->value, r.result, r.kit->source),
-                                                        "optimized design", false});
-                             },
-                             "The best design (what `dbbkit optimize --out` writes); None when no choice is feasible")
+  py::class_<PyOptimizeResult>(m, "OptimizeResult",
+                               "The search of a kit: the best design, every choice, the front")
+      .def_property_readonly(
+          "json", [](const PyOptimizeResult& r) { return to_python(r.json); },
+          "The dict `dbbkit optimize --result` writes")
+      .def_property_readonly(
+          "design",
+          [](const PyOptimizeResult& r) -> py::object {
+            if (!r.result.best) return py::none();
+            return py::cast(PyDesign{io::optimized_design(r.kit->value, r.result, r.kit->source),
+                                     "optimized design", false});
+          },
+          "The best design (what `dbbkit optimize --out` writes); None when no choice is feasible")
       .def_property_readonly("seconds", [](const PyOptimizeResult& r) { return r.seconds; })
-      .def("summary",
-           [](const PyOptimizeResult& r, bool pareto) {
-             return io::optimize_summary(r.kit->value, r.result, r.kit->source, r.seconds, r.reference, pareto);
-           },
-           py::arg("pareto") = false)
+      .def(
+          "summary",
+          [](const PyOptimizeResult& r, bool pareto) {
+            return io::optimize_summary(r.kit->value, r.result, r.kit->source, r.seconds,
+                                        r.reference, pareto);
+          },
+          py::arg("pareto") = false)
       .def("report", &PyOptimizeResult::report, py::arg("format") = "html")
       .def("_repr_html_", [](const PyOptimizeResult& r) { return iframe(r.report("html")); });
 
   constexpr std::uint64_t kSeed = 1;
   m.def("evaluate", &run_evaluate, py::arg("design"), py::arg("reference_length_mm") = py::none(),
         py::arg("monte_carlo") = false, py::arg("coverage") = 0.95, py::arg("mc_seed") = kSeed,
-        py::arg("mc_threads") = 1, py::arg("mc_max_trials") = 2000000L, py::arg("mc_batch") = 10000L,
-        py::arg("mc_digits") = 2, "`dbbkit evaluate`: the a-priori uncertainty of a design (no readings)");
-  m.def("identify", &run_identify, py::arg("design"), py::arg("measurements"), py::arg("type_a") = false,
-        py::arg("coverage") = 0.95, py::arg("tolerances") = py::none(), py::arg("monte_carlo") = false,
-        py::arg("mc_seed") = kSeed, py::arg("mc_threads") = 1, py::arg("mc_max_trials") = 2000000L,
+        py::arg("mc_threads") = 1, py::arg("mc_max_trials") = 2000000L,
         py::arg("mc_batch") = 10000L, py::arg("mc_digits") = 2,
-        "`dbbkit identify`: the six errors from the readings, their budget (JCGM 100), ISO 230-7 terms, and with "
+        "`dbbkit evaluate`: the a-priori uncertainty of a design (no readings)");
+  m.def("identify", &run_identify, py::arg("design"), py::arg("measurements"),
+        py::arg("type_a") = false, py::arg("coverage") = 0.95, py::arg("tolerances") = py::none(),
+        py::arg("monte_carlo") = false, py::arg("mc_seed") = kSeed, py::arg("mc_threads") = 1,
+        py::arg("mc_max_trials") = 2000000L, py::arg("mc_batch") = 10000L, py::arg("mc_digits") = 2,
+        "`dbbkit identify`: the six errors from the readings, their budget (JCGM 100), ISO 230-7 "
+        "terms, and with "
         "tolerances (a path or dict, dbbkit.tolerances/1) the conformance decisions");
-  m.def("diagnose", &run_diagnose, py::arg("design"), py::arg("measurements"), py::arg("level") = 0.01,
-        py::arg("max_effects") = 12, py::arg("exclude_gross") = false,
-        "`dbbkit diagnose`: the closed loop, before and after (exclude_gross: refit without the gross readings "
+  m.def("diagnose", &run_diagnose, py::arg("design"), py::arg("measurements"),
+        py::arg("level") = 0.01, py::arg("max_effects") = 12, py::arg("exclude_gross") = false,
+        "`dbbkit diagnose`: the closed loop, before and after (exclude_gross: refit without the "
+        "gross readings "
         "found, and say so)");
-  m.def("optimize", &run_optimize, py::arg("kit"), py::arg("criterion") = py::none(), py::arg("threads") = 0,
-        py::arg("require_setup_detection") = false, py::arg("reference") = py::none(),
-        "`dbbkit optimize`: the design of the kit with the smallest worst-case uncertainty (criterion: worst, "
+  m.def("optimize", &run_optimize, py::arg("kit"), py::arg("criterion") = py::none(),
+        py::arg("threads") = 0, py::arg("require_setup_detection") = false,
+        py::arg("reference") = py::none(),
+        "`dbbkit optimize`: the design of the kit with the smallest worst-case uncertainty "
+        "(criterion: worst, "
         "worst_total, D, A, E, condition); the result does not depend on threads");
-  m.def("simulate", &run_simulate, py::arg("design"), py::arg("truth"), py::arg("seed") = py::none(),
+  m.def("simulate", &run_simulate, py::arg("design"), py::arg("truth"),
+        py::arg("seed") = py::none(),
         "`dbbkit simulate`: synthetic readings from a truth (a path or dict, dbbkit.truth/1)");
 }

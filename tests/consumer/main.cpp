@@ -39,8 +39,8 @@ int main() {
   const IdentifyResult r = identify(d, readings);
   const ErrorsAtAngle& at0 = r.errors.front();
   for (int k = 0; k < 6; ++k) {
-    std::cout << kErrorNames[k] << " = " << at0.errors[k].value << " +- " << at0.errors[k].std << " "
-              << kErrorUnits[k] << "\n";
+    std::cout << kErrorNames[k] << " = " << at0.errors[k].value << " +- " << at0.errors[k].std
+              << " " << kErrorUnits[k] << "\n";
   }
   std::cout << "chi2 " << r.estimate.chi2 << " on " << r.estimate.dof << " dof\n";
   return r.estimate.rank == r.estimate.n_unknowns ? 0 : 1;

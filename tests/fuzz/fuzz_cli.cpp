@@ -23,15 +23,17 @@ bool number_in(const std::string& s, double lo, double hi) {
 }
 
 void check(const CLI::App& sub) {
-  static const std::set<std::string> paths = {"--design", "--data", "--out", "--report", "--summary",
-                                              "--kit",    "--result", "--reference", "--pareto-csv",
-                                              "--map-csv", "--truth", "--setup-out", "--baseline", "--write-baseline"};
+  static const std::set<std::string> paths = {
+      "--design", "--data",      "--out",       "--report",        "--summary",
+      "--kit",    "--result",    "--reference", "--pareto-csv",    "--map-csv",
+      "--truth",  "--setup-out", "--baseline",  "--write-baseline"};
   for (const CLI::Option* opt : sub.get_options()) {
     if (opt->count() == 0) continue;
     const std::string name = opt->get_name();
     for (const std::string& v : opt->results()) {
       if (paths.count(name) && v.empty()) __builtin_trap();
-      if ((name == "--threads" || name == "--mc-threads") && !number_in(v, 0, dbbkit::kMaxThreads)) __builtin_trap();
+      if ((name == "--threads" || name == "--mc-threads") && !number_in(v, 0, dbbkit::kMaxThreads))
+        __builtin_trap();
       if (name == "--level" && !number_in(v, 1e-6, 0.2)) __builtin_trap();
       if (name == "--coverage" && !number_in(v, 0.5, 0.9999)) __builtin_trap();
       if (name == "--reference-length-mm" && !number_in(v, 1e-3, 1e4)) __builtin_trap();

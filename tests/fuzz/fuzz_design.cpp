@@ -23,7 +23,8 @@ bool bounded(const dbbkit::Design& d) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
-    const dbbkit::Design d = dbbkit::io::design_from_json(dbbkit::io::parse_json(text, "fuzz"), "fuzz");
+    const dbbkit::Design d =
+        dbbkit::io::design_from_json(dbbkit::io::parse_json(text, "fuzz"), "fuzz");
     if (bounded(d)) {
       const dbbkit::Evaluation ev = dbbkit::evaluate_design(d, 100.0);
       if (ev.worst.worst_std_um && !(*ev.worst.worst_std_um >= 0)) __builtin_trap();

@@ -30,7 +30,8 @@ bool bounded(const dbbkit::Kit& kit) {
     const double angles = kit.angle_range_deg.width() / step + 1;
     if (!(angles <= 40)) return false;
     const double readings = dbbkit::max_installations(kit) * angles;
-    const double unknowns = kit.errors.kind == dbbkit::ErrorModel::Kind::PerAngle ? 6.0 : 6.0 * per_error;
+    const double unknowns =
+        kit.errors.kind == dbbkit::ErrorModel::Kind::PerAngle ? 6.0 : 6.0 * per_error;
     if (!(readings * unknowns * unknowns <= kMaxWork)) return false;
   }
   return true;
@@ -51,7 +52,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       if (r.evaluations > static_cast<long>(r.choices.size()) * kMaxEvaluations) __builtin_trap();
       if (r.best) {
         if (!r.best->feasible || !(r.best->time_s >= 0)) __builtin_trap();
-        if (r.best_evaluation.worst.worst_std_um && !(*r.best_evaluation.worst.worst_std_um >= 0)) __builtin_trap();
+        if (r.best_evaluation.worst.worst_std_um && !(*r.best_evaluation.worst.worst_std_um >= 0))
+          __builtin_trap();
       }
     }
   } catch (const dbbkit::InputError&) {

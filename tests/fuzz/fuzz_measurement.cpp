@@ -9,12 +9,14 @@
 #include "dbbkit/io/measurement_io.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  static const dbbkit::Design design = dbbkit::io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
+  static const dbbkit::Design design =
+      dbbkit::io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
     const auto readings = dbbkit::io::parse_measurements(text, "fuzz");
     dbbkit::validate_readings(design, readings, "fuzz");
-    dbbkit::IdentifyOptions options;  // the error motion values' Monte Carlo, bounded for the fuzzer's time limit
+    dbbkit::IdentifyOptions
+        options;  // the error motion values' Monte Carlo, bounded for the fuzzer's time limit
     options.iso_motion.max_trials = 20000;
     const dbbkit::IdentifyResult r = dbbkit::identify(design, readings, options);
     if (!(r.estimate.chi2 >= 0)) __builtin_trap();

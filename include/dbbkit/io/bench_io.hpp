@@ -5,11 +5,10 @@
 // more than the tolerance fails; a total without a baseline figure fails too.
 
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 namespace dbbkit::io {
 
@@ -33,7 +32,7 @@ nlohmann::json baseline_to_json(const Baseline& b);
 // One check of a design, as a CI system reports it (a JUnit test case): "baseline" (the
 // comparison with the baseline file) and each absolute limit given.
 struct BenchCheck {
-  std::string name;     // "baseline", "max_worst_std_um", "max_worst_total_std_um", "max_time_s"
+  std::string name;  // "baseline", "max_worst_std_um", "max_worst_total_std_um", "max_time_s"
   bool passed = true;
   std::string message;  // what was compared, and why it failed
 };
@@ -70,7 +69,8 @@ void check_row(BenchRow& row, const BenchLimits& limits);
 std::string bench_table(const std::vector<BenchRow>& rows, double tolerance_relative);
 // The same as a Markdown summary, and as JUnit XML (one test suite, one test case per
 // design and check; a failed check carries a <failure> with its message).
-std::string bench_markdown(const std::vector<BenchRow>& rows, double tolerance_relative, const BenchLimits& limits);
+std::string bench_markdown(const std::vector<BenchRow>& rows, double tolerance_relative,
+                           const BenchLimits& limits);
 std::string bench_junit(const std::vector<BenchRow>& rows);
 
 }  // namespace dbbkit::io

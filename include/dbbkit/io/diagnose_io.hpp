@@ -11,7 +11,8 @@
 
 namespace dbbkit::io {
 
-nlohmann::json diagnose_to_json(const Design& design, const DiagnoseResult& result, const InputFiles& inputs);
+nlohmann::json diagnose_to_json(const Design& design, const DiagnoseResult& result,
+                                const InputFiles& inputs);
 std::string diagnose_summary(const Design& design, const DiagnoseResult& result);
 
 }  // namespace dbbkit::io

@@ -31,10 +31,12 @@ struct Reference {
 // when it is for another axis, another noise or another error model than the kit.
 Reference make_reference(const Kit& kit, Design design, const std::string& file);
 
-nlohmann::json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
-                                double seconds, const std::optional<Reference>& reference);
+nlohmann::json optimize_to_json(const Kit& kit, const OptimizeResult& res,
+                                const std::string& kit_file, double seconds,
+                                const std::optional<Reference>& reference);
 std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
-                             double seconds, const std::optional<Reference>& reference, bool pareto);
+                             double seconds, const std::optional<Reference>& reference,
+                             bool pareto);
 std::string pareto_csv(const Kit& kit, const OptimizeResult& res);
 // What became of a choice, in words: "searched", or which constraint binds with its figures
 // ("over the time budget (2100 s > 1800 s)").

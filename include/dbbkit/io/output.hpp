@@ -54,8 +54,8 @@ class OutputSet {
 };
 
 // One output alone: an OutputSet of one target, staged and committed.
-void write_output(const std::string& path, const std::string& content, const std::vector<std::string>& inputs = {},
-                  const std::string& option = "--out");
+void write_output(const std::string& path, const std::string& content,
+                  const std::vector<std::string>& inputs = {}, const std::string& option = "--out");
 
 // Installs handlers of SIGINT, SIGTERM and SIGHUP that remove the temporaries of
 // every OutputSet and of the report plots, then end the process by the same

@@ -28,8 +28,9 @@ struct PlotSeries {
   std::vector<double> x, y, lo, hi;
   std::string style = "linespoints";  // gnuplot style of the line: linespoints, lines, points
 };
-std::string plot_series(const std::string& title, const std::string& xlabel, const std::string& ylabel,
-                        const std::vector<PlotSeries>& series, int width_px = 760, int height_px = 380);
+std::string plot_series(const std::string& title, const std::string& xlabel,
+                        const std::string& ylabel, const std::vector<PlotSeries>& series,
+                        int width_px = 760, int height_px = 380);
 
 // The design drawn in its body frame (the machine frame at angle 0): a top
 // view (x, y) and a side view (x, z) with every ball position, its id, and the
@@ -38,11 +39,13 @@ std::string plot_design(const Design& design);
 
 // The six errors against angle, translations and rotations in two panels: the
 // value (or 0 for an a-priori evaluation) with a band of +-U, U = k u.
-std::string plot_errors(const std::vector<ErrorsAtAngle>& errors, bool values, double k, const std::string& title);
+std::string plot_errors(const std::vector<ErrorsAtAngle>& errors, bool values, double k,
+                        const std::string& title);
 
 // A heat map of z over a grid (x fastest); NaN cells are left blank.
-std::string plot_heatmap(const std::string& title, const std::string& xlabel, const std::string& ylabel,
-                         const std::string& zlabel, const std::vector<double>& x, const std::vector<double>& y,
+std::string plot_heatmap(const std::string& title, const std::string& xlabel,
+                         const std::string& ylabel, const std::string& zlabel,
+                         const std::vector<double>& x, const std::vector<double>& y,
                          const std::vector<double>& z);
 
 std::string html_escape(const std::string& s);
@@ -54,10 +57,13 @@ class HtmlReport {
   void heading(const std::string& text, int level = 2);
   void paragraph(const std::string& text);  // escaped
   void preformatted(const std::string& text);
-  void table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows);
+  void table(const std::vector<std::string>& header,
+             const std::vector<std::vector<std::string>>& rows);
   void figure(const std::string& svg, const std::string& caption);
-  // Conditions of the run: software version, command, inputs with their SHA-256, noise, assumptions.
-  void conditions(const std::string& command, const std::vector<std::string>& inputs, const Design* design);
+  // Conditions of the run: software version, command, inputs with their SHA-256, noise,
+  // assumptions.
+  void conditions(const std::string& command, const std::vector<std::string>& inputs,
+                  const Design* design);
   std::string str() const;
   int n_figures() const { return figures_; }
 
@@ -73,16 +79,20 @@ class MarkdownSummary {
   void heading(const std::string& text, int level = 2);
   void paragraph(const std::string& text);
   void preformatted(const std::string& text);
-  void table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows);
-  void conditions(const std::string& command, const std::vector<std::string>& inputs, const Design* design);
+  void table(const std::vector<std::string>& header,
+             const std::vector<std::vector<std::string>>& rows);
+  void conditions(const std::string& command, const std::vector<std::string>& inputs,
+                  const Design* design);
   std::string str() const { return text_; }
 
  private:
   std::string text_;
 };
 
-// The errors as table rows: angle, then value +- U (or U alone) per error; "--" where not determined.
-std::vector<std::vector<std::string>> errors_rows(const std::vector<ErrorsAtAngle>& errors, bool values, double k);
+// The errors as table rows: angle, then value +- U (or U alone) per error; "--" where not
+// determined.
+std::vector<std::vector<std::string>> errors_rows(const std::vector<ErrorsAtAngle>& errors,
+                                                  bool values, double k);
 std::vector<std::string> errors_header(bool values);
 
 // Formats a number with `digits` significant digits; fmt_opt gives "--" when absent.

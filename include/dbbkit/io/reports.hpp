@@ -28,12 +28,15 @@ struct RunContext {
 
 std::string identify_report(ReportFormat f, const RunContext& run, const Design& design,
                             const std::vector<Reading>& readings, const IdentifyResult& result,
-                            const MonteCarloResult* mc, const ConformanceReport* conformance = nullptr);
-std::string evaluate_report(ReportFormat f, const RunContext& run, const Design& design, const Evaluation& ev,
-                            const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& map,
-                            const MonteCarloResult* mc, const Expansion& expansion);
-std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& kit, const OptimizeResult& res,
-                            const std::optional<Reference>& reference, double seconds, const Expansion& expansion);
+                            const MonteCarloResult* mc,
+                            const ConformanceReport* conformance = nullptr);
+std::string evaluate_report(ReportFormat f, const RunContext& run, const Design& design,
+                            const Evaluation& ev, const std::vector<SweepVariable>& variables,
+                            const std::vector<SweepPoint>& map, const MonteCarloResult* mc,
+                            const Expansion& expansion);
+std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& kit,
+                            const OptimizeResult& res, const std::optional<Reference>& reference,
+                            double seconds, const Expansion& expansion);
 std::string diagnose_report(ReportFormat f, const RunContext& run, const Design& design,
                             const std::vector<Reading>& readings, const DiagnoseResult& result,
                             const Expansion& expansion);

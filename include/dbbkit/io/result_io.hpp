@@ -22,7 +22,8 @@ struct InputFiles {
 };
 
 // What every result carries first: format, version, input files, design, noise.
-nlohmann::json result_header(const std::string& format, const Design& design, const InputFiles& inputs);
+nlohmann::json result_header(const std::string& format, const Design& design,
+                             const InputFiles& inputs);
 // status, message, n_readings, n_unknowns, rank, condition_number, condition_scaling.
 void add_rank_block(nlohmann::json& j, const Estimate& est);
 
@@ -32,7 +33,8 @@ nlohmann::json identify_to_json(const Design& design, const std::vector<Reading>
                                 const IdentifyResult& result, const InputFiles& inputs,
                                 const MonteCarloResult* mc = nullptr, bool with_readings = true);
 // Row i of the "readings" array of `dbbkit.identify/1`.
-nlohmann::json identify_reading_row(const std::vector<Reading>& readings, const Estimate& est, std::size_t i);
+nlohmann::json identify_reading_row(const std::vector<Reading>& readings, const Estimate& est,
+                                    std::size_t i);
 
 // j.dump(2) with an array of `count` rows, row(i) each, under `key` (absent from j): the
 // same text as with the array in j, without holding the rows as JSON nodes at once (about
@@ -58,10 +60,13 @@ nlohmann::json residual_to_json(const Estimate& est);
 // The set-up tolerances of every installation; what the design can tell of each set-up
 // effect (setup.hpp) as JSON and as text.
 nlohmann::json setup_tolerances_to_json(const Design& design);
-nlohmann::json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks, double reference_length_mm);
-std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks, const DetectionSettings& detection);
+nlohmann::json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks,
+                                    double reference_length_mm);
+std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks,
+                              const DetectionSettings& detection);
 
-nlohmann::json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file,
+nlohmann::json evaluate_to_json(const Design& design, const Evaluation& ev,
+                                const std::string& design_file,
                                 const MonteCarloResult* mc = nullptr);
 std::string evaluate_summary(const Design& design, const Evaluation& ev);
 // The effects a design can tell from the axis errors (effect_detectability): label, status, detail.

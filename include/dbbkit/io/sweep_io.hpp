@@ -14,7 +14,9 @@ namespace dbbkit::io {
 
 SweepVariable parse_sweep(const Design& design, const std::string& spec);
 
-nlohmann::json sweep_to_json(const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& points);
-std::string sweep_csv(const std::vector<SweepVariable>& variables, const std::vector<SweepPoint>& points);
+nlohmann::json sweep_to_json(const std::vector<SweepVariable>& variables,
+                             const std::vector<SweepPoint>& points);
+std::string sweep_csv(const std::vector<SweepVariable>& variables,
+                      const std::vector<SweepPoint>& points);
 
 }  // namespace dbbkit::io

@@ -15,7 +15,8 @@ inline constexpr const char* kTolerancesFormat = "dbbkit.tolerances/1";
 std::vector<Tolerance> read_tolerances_file(const std::string& path);
 std::vector<Tolerance> tolerances_from_json(const nlohmann::json& j, const std::string& source);
 
-nlohmann::json conformance_to_json(const ConformanceReport& report, const std::string& tolerances_path);
+nlohmann::json conformance_to_json(const ConformanceReport& report,
+                                   const std::string& tolerances_path);
 std::string conformance_text(const ConformanceReport& report);
 
 }  // namespace dbbkit::io
