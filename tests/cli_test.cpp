@@ -557,6 +557,47 @@ TEST(Cli, ATerminalGetsTablesAPipeGetsJson) {
   EXPECT_EQ(quiet.out.find("full rank"), std::string::npos) << quiet.out;
 }
 
+// --quiet leaves only the files asked for, in every command, on a terminal and in a pipe; and
+// optimize without --out behaves as the others: the summary on a terminal, the design in a pipe.
+TEST(Cli, QuietLeavesOnlyTheFilesAskedForAndOptimizeMatchesTheOthers) {
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_quiet";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string d = dir.string() + "/";
+  const std::string kit = test::source_path("designs/kits/b-head-kit-on-axis.json");
+  const std::string truth = test::source_path("tests/data/truth_c_per_angle.json");
+  const std::vector<std::pair<std::string, std::string>> commands = {
+      {"evaluate --design " + kDesignC + " --out " + d + "e.json --summary " + d + "e.md",
+       "e.json"},
+      {"identify --design " + kDesignC + " --data " + kDataC + " --out " + d + "i.json", "i.json"},
+      {"diagnose --design " + kDesignC + " --data " + kDataC + " --out " + d + "d.json", "d.json"},
+      {"simulate --design " + kDesignC + " --truth " + truth + " --out " + d + "s.csv", "s.csv"},
+      {"optimize --kit " + kit + " --out " + d + "o.json --result " + d + "r.json", "o.json"},
+      {"bench " + kDesignC + " --allow-new --summary " + d + "b.md", "b.md"},
+  };
+  for (const auto& [cmd, file] : commands) {
+    for (bool tty : {false, true}) {
+      std::filesystem::remove(d + file);
+      const std::string line = std::string(DBBKIT_CLI) + " " + cmd + " --quiet";
+      const CliRun r =
+          tty ? run_cli_shell("script -qec '" + line + "' /dev/null") : run_cli_shell(line);
+      EXPECT_EQ(r.status, 0) << cmd << "\n" << r.err;
+      EXPECT_EQ(r.out, "") << cmd << (tty ? " (terminal)" : " (pipe)");
+      EXPECT_EQ(r.err, "") << cmd << (tty ? " (terminal)" : " (pipe)");
+      EXPECT_TRUE(std::filesystem::exists(d + file)) << cmd;
+    }
+  }
+  const std::string optimize = std::string(DBBKIT_CLI) + " optimize --kit " + kit;
+  const CliRun tty = run_cli_shell("script -qec '" + optimize + "' /dev/null");
+  ASSERT_EQ(tty.status, 0) << tty.err;
+  EXPECT_EQ(tty.out.find("\"format\""), std::string::npos) << "no JSON on a terminal without --out";
+  EXPECT_NE(tty.out.find("worst"), std::string::npos) << tty.out.substr(0, 500);
+  const CliRun pipe = run_cli_shell(optimize);
+  ASSERT_EQ(pipe.status, 0) << pipe.err;
+  EXPECT_EQ(nlohmann::json::parse(pipe.out)["format"], "dbbkit.design/1");
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Report, Sha256KnownVectors) {
   EXPECT_EQ(io::sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
   EXPECT_EQ(io::sha256_hex("abc"),

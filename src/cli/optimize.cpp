@@ -1,19 +1,20 @@
+#include "dbbkit/optimize.hpp"
+
 #include <chrono>
 #include <iostream>
 #include <memory>
 #include <optional>
 #include <thread>
 
-#include "commands.hpp"
 #include "checks.hpp"
-#include "report_options.hpp"
-#include "dbbkit/io/reports.hpp"
+#include "commands.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/optimize_io.hpp"
 #include "dbbkit/io/output.hpp"
-#include "dbbkit/optimize.hpp"
+#include "dbbkit/io/reports.hpp"
+#include "report_options.hpp"
 
 namespace dbbkit::cli {
 
@@ -28,45 +29,60 @@ struct OptimizeArgs {
 
 Runner add_optimize(CLI::App& app) {
   auto args = std::make_shared<OptimizeArgs>();
-  CLI::App* sub = app.add_subcommand("optimize", "Search a kit for the design with the smallest worst-case uncertainty");
+  CLI::App* sub = app.add_subcommand(
+      "optimize", "Search a kit for the design with the smallest worst-case uncertainty");
   sub->add_option("--kit", args->kit, "Kit file (dbbkit.kit/1)")->required();
-  sub->add_option("--out", args->out,
-                  "The best design (dbbkit.design/1), which identify accepts as it is; '-' or absent: stdout");
-  sub->add_option("--result", args->result, "Search result JSON (dbbkit.optimize/1): every choice, the Pareto front");
+  sub->add_option(
+      "--out", args->out,
+      "The best design (dbbkit.design/1), which identify accepts as it is; '-': stdout. Absent: "
+      "the design on stdout when it is not a terminal, else the summary");
+  sub->add_option("--result", args->result,
+                  "Search result JSON (dbbkit.optimize/1): every choice, the Pareto front");
   sub->add_option("--criterion", args->criterion,
-                  "worst (worst_std_um; the default without set-up tolerances), worst_total (worst_total_std_um: "
-                  "noise and the kit's setup_std; the default with them), D (max log det M), A (min trace M^-1), E "
+                  "worst (worst_std_um; the default without set-up tolerances), worst_total "
+                  "(worst_total_std_um: "
+                  "noise and the kit's setup_std; the default with them), D (max log det M), A "
+                  "(min trace M^-1), E "
                   "(max smallest eigenvalue), condition (min condition number)");
-  sub->add_option("--reference", args->reference,
-                  "A design to compare with (same noise and error model as the kit): ratio of worst_std_um");
-  sub->add_flag("--require-setup-detection", args->require_detection,
-                "Only designs in which diagnose detects every declared set-up effect at its declared size "
-                "(the kit's require_setup_detection)");
-  sub->add_flag("--pareto", args->pareto, "Print the front of the criterion against measurement time");
+  sub->add_option(
+      "--reference", args->reference,
+      "A design to compare with (same noise and error model as the kit): ratio of worst_std_um");
+  sub->add_flag(
+      "--require-setup-detection", args->require_detection,
+      "Only designs in which diagnose detects every declared set-up effect at its declared size "
+      "(the kit's require_setup_detection)");
+  sub->add_flag("--pareto", args->pareto,
+                "Print the front of the criterion against measurement time");
   sub->add_option("--pareto-csv", args->pareto_csv, "Write the Pareto front as CSV");
-  sub->add_option("--threads", args->threads, "Worker threads (0: all cores); the result does not depend on it")
+  sub->add_option("--threads", args->threads,
+                  "Worker threads (0: all cores); the result does not depend on it")
       ->check(thread_count());
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
   return [args, rep]() {
     args->quiet = rep->quiet;
     const std::vector<std::string> inputs = {args->kit, args->reference};
-    io::OutputSet outputs(output_targets(args->out.empty() ? "-" : args->out, *rep,
-                                         {{"--result", args->result}, {"--pareto-csv", args->pareto_csv}}),
-                          inputs);
+    io::OutputSet outputs(
+        output_targets(json_to_stdout(args->out) ? "-" : args->out, *rep,
+                       {{"--result", args->result}, {"--pareto-csv", args->pareto_csv}}),
+        inputs);
     Kit kit = io::read_kit_file(args->kit);
     if (args->require_detection) {
       if (!kit.setup_std.nuisance()) {
         throw InputError(args->kit, "setup_std",
-                         "--require-setup-detection needs a length offset or centring tolerance declared in the kit");
+                         "--require-setup-detection needs a length offset or centring tolerance "
+                         "declared in the kit");
       }
       kit.require_setup_detection = true;
     }
-    const Criterion criterion = criterion_from_name(
-        !args->criterion.empty() ? args->criterion : kit.setup_std.nuisance() ? "worst_total" : "worst", "--criterion");
+    const Criterion criterion = criterion_from_name(!args->criterion.empty()   ? args->criterion
+                                                    : kit.setup_std.nuisance() ? "worst_total"
+                                                                               : "worst",
+                                                    "--criterion");
     if (criterion == Criterion::WorstTotal && !kit.setup_std.nuisance()) {
       throw InputError(args->kit, "setup_std",
-                       "--criterion worst_total needs a length offset or centring tolerance declared in the kit");
+                       "--criterion worst_total needs a length offset or centring tolerance "
+                       "declared in the kit");
     }
     std::optional<io::Reference> reference;
     if (!args->reference.empty()) {
@@ -74,9 +90,12 @@ Runner add_optimize(CLI::App& app) {
     }
     OptimizeOptions options;
     options.criterion = criterion;
-    options.threads = args->threads > 0 ? args->threads : std::max(1u, std::thread::hardware_concurrency());
+    options.threads =
+        args->threads > 0 ? args->threads : std::max(1u, std::thread::hardware_concurrency());
     const auto start = std::chrono::steady_clock::now();
-    auto elapsed = [&]() { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+    auto elapsed = [&]() {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
     double last_report = 0;
     if (!args->quiet) {
       options.progress = [&](int done, int total, const Candidate* best) {
@@ -84,31 +103,37 @@ Runner add_optimize(CLI::App& app) {
         if (t < 1.0 || (t - last_report < 1.0 && done < total)) return;
         last_report = t;
         std::cerr << "optimize: " << done << "/" << total << " choices searched, " << t << " s";
-        if (best && best->objective_defined) std::cerr << ", best " << criterion_name(criterion) << " " << best->objective;
+        if (best && best->objective_defined)
+          std::cerr << ", best " << criterion_name(criterion) << " " << best->objective;
         std::cerr << "\n";
       };
     }
     const OptimizeResult res = optimize_kit(kit, options);
     const double seconds = elapsed();
     if (!args->result.empty()) {
-      outputs.stage("--result", io::optimize_to_json(kit, res, args->kit, seconds, reference).dump(2) + "\n");
+      outputs.stage("--result",
+                    io::optimize_to_json(kit, res, args->kit, seconds, reference).dump(2) + "\n");
     }
     if (!args->pareto_csv.empty()) outputs.stage("--pareto-csv", io::pareto_csv(kit, res));
     const io::RunContext run{command_line(), inputs};
-    for (const auto& [option, file, format] : {std::tuple{"--report", rep->report, io::ReportFormat::Html},
-                                               std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {
-      if (!file.empty()) outputs.stage(option, io::optimize_report(format, run, kit, res, reference, seconds, a_priori_expansion()));
+    for (const auto& [option, file, format] :
+         {std::tuple{"--report", rep->report, io::ReportFormat::Html},
+          std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {
+      if (!file.empty())
+        outputs.stage(option, io::optimize_report(format, run, kit, res, reference, seconds,
+                                                  a_priori_expansion()));
     }
-    if (res.best) {
+    const bool design_out = !args->out.empty() || json_to_stdout(args->out);
+    if (res.best && design_out) {
       const Design d = io::optimized_design(kit, res, args->kit);
       outputs.stage("--out", io::design_to_json(d).dump(2) + "\n");
-    } else {
+    } else if (design_out) {
       outputs.withhold("--out");  // no design: the file given is left as it is
     }
     outputs.commit();
     if (!res.best && !args->quiet) {  // no design: why, on the error stream (exit 1)
       std::cerr << io::optimize_summary(kit, res, args->kit, seconds, reference, args->pareto);
-    } else if (!args->quiet && !args->out.empty() && args->out != "-") {
+    } else if (tables_to_stdout(args->out, args->quiet)) {
       std::cout << io::optimize_summary(kit, res, args->kit, seconds, reference, args->pareto);
     }
     return res.best ? 0 : 1;

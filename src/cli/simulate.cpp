@@ -1,3 +1,5 @@
+#include "dbbkit/simulate.hpp"
+
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -9,7 +11,6 @@
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/truth_io.hpp"
-#include "dbbkit/simulate.hpp"
 
 namespace dbbkit::cli {
 
@@ -17,19 +18,26 @@ namespace {
 struct SimulateArgs {
   std::string design, truth, out, setup_out;
   std::optional<std::uint64_t> seed;
+  bool quiet = false;
 };
 }  // namespace
 
 Runner add_simulate(CLI::App& app) {
   auto args = std::make_shared<SimulateArgs>();
-  CLI::App* sub = app.add_subcommand("simulate", "Synthetic readings of a design from a declared truth");
+  CLI::App* sub =
+      app.add_subcommand("simulate", "Synthetic readings of a design from a declared truth");
   sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
   sub->add_option("--truth", args->truth, "Truth file (dbbkit.truth/1)")->required();
-  sub->add_option("--seed", args->seed, "Seed of the noise generator (overrides the truth file's seed)")
+  sub->add_option("--seed", args->seed,
+                  "Seed of the noise generator (overrides the truth file's seed)")
       ->check(seed_value());
   sub->add_option("--out", args->out, "Measurement CSV; '-' or absent: stdout");
-  sub->add_option("--setup-out", args->setup_out,
-                  "The set-up errors used (dbbkit.setup-errors/1 JSON; exact geometry), drawn or given");
+  sub->add_option(
+      "--setup-out", args->setup_out,
+      "The set-up errors used (dbbkit.setup-errors/1 JSON; exact geometry), drawn or given");
+  // simulate prints nothing but the files asked for; --quiet is accepted as by every command.
+  sub->add_flag("--quiet", args->quiet,
+                "Nothing on the terminal but the files asked for (the default)");
   return [args]() {
     std::vector<io::OutputTarget> targets = {{"--out", args->out.empty() ? "-" : args->out}};
     if (!args->setup_out.empty()) targets.push_back({"--setup-out", args->setup_out});
@@ -45,10 +53,14 @@ Runner add_simulate(CLI::App& app) {
     io::write_measurements_csv(csv, simulate(design, truth, seed.value_or(0)));
     outputs.stage("--out", csv.str());
     if (!args->setup_out.empty()) {
-      if (!truth.exact) throw InputError("--setup-out", "", "set-up errors are simulated with \"geometry\": \"exact\" only");
-      outputs.stage("--setup-out",
-                    io::setup_errors_to_json(design, simulated_setup_errors(design, truth, seed.value_or(0))).dump(2) +
-                        "\n");
+      if (!truth.exact)
+        throw InputError("--setup-out", "",
+                         "set-up errors are simulated with \"geometry\": \"exact\" only");
+      outputs.stage(
+          "--setup-out",
+          io::setup_errors_to_json(design, simulated_setup_errors(design, truth, seed.value_or(0)))
+                  .dump(2) +
+              "\n");
     }
     outputs.commit();
     return 0;

@@ -607,20 +607,19 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
   }
   design_section(p, design);
   p.heading("Residuals before and after");
-  p.figure(
-      [&] {
-        return plot_series("residual before (axis errors only)", "angle [deg]",
-                           "reading - model [um]",
-                           residual_series(design, readings, r.before.residual_um));
-      },
-      "Residual per installation with the six error motions alone.");
-  p.figure(
-      [&] {
-        return plot_series("residual after (with the effects added)", "angle [deg]",
-                           "reading - model [um]",
-                           residual_series(design, readings, r.after.residual_um));
-      },
-      "Residual per installation with the effects added.");
+  auto residual_figure = [&](const char* title, const Eigen::VectorXd& residual,
+                             const char* caption) {
+    p.figure(
+        [&] {
+          return plot_series(title, "angle [deg]", "reading - model [um]",
+                             residual_series(design, readings, residual));
+        },
+        caption);
+  };
+  residual_figure("residual before (axis errors only)", r.before.residual_um,
+                  "Residual per installation with the six error motions alone.");
+  residual_figure("residual after (with the effects added)", r.after.residual_um,
+                  "Residual per installation with the effects added.");
   p.heading("Errors after");
   errors_section(p, with_expanded(r.errors_after, nullptr, expansion.k), true,
                  "errors with the effects added, " + design.name, expansion.coverage_probability);
