@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
@@ -210,6 +212,38 @@ MonteCarloResult monte_carlo(const Design& design, const IdentifyResult& result,
   const SetupSolver setup(result.solver, setup_effects(design, result.model, true));
   return monte_carlo(design, result.param, result.model, result.solver, result.estimate,
                      result.budget, options, &setup);
+}
+
+std::vector<ExpandedErrorsAtAngle> expanded_errors(const std::vector<ErrorsAtAngle>& errors,
+                                                   double k) {
+  std::vector<ExpandedErrorsAtAngle> out;
+  out.reserve(errors.size());
+  for (const ErrorsAtAngle& ea : errors) {
+    ExpandedErrorsAtAngle x{ea.angle_deg, ea.station, {}};
+    for (int e = 0; e < 6; ++e) {
+      const Determined& d = ea.errors[e];
+      x.errors[e] = {d.determined, d.value, d.determined ? k * d.std : 0.0};
+    }
+    out.push_back(x);
+  }
+  return out;
+}
+
+std::vector<ExpandedErrorsAtAngle> expanded_errors(const std::vector<ErrorsAtAngle>& errors,
+                                                   const Budget& budget) {
+  std::map<std::pair<int, int>, double> U;
+  for (const ValueBudget& v : budget.values) U[{v.station, v.error}] = v.U;
+  std::vector<ExpandedErrorsAtAngle> out = expanded_errors(errors, 0.0);
+  for (ExpandedErrorsAtAngle& ea : out) {
+    for (int e = 0; e < 6; ++e) {
+      if (!ea.errors[e].determined) continue;
+      const auto it = U.find({ea.station, e});
+      if (it == U.end())
+        throw std::logic_error("expanded_errors: a determined value has no budget entry");
+      ea.errors[e].U = it->second;
+    }
+  }
+  return out;
 }
 
 }  // namespace dbbkit

@@ -14,7 +14,7 @@
 #include <string>
 
 #include "cli_util.hpp"
-#include "dbbkit/io/report.hpp"
+#include "dbbkit/io/hashing.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {

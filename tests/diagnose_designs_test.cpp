@@ -14,6 +14,7 @@
 
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/effects.hpp"
+#include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/simulate.hpp"
@@ -272,7 +273,8 @@ TEST(DiagnoseOnDesigns, AttributionEntersTheErrorsUncertainty) {
     const std::vector<ErrorsAtAngle> chosen = fit_with(r.added[0].block.label);
     const std::vector<ErrorsAtAngle> other = fit_with(r.attributions[0].alternatives[0]);
     expect_errors_carry(r, chosen, other);
-    EXPECT_NE(r.verdict.find("in their uncertainties (rectangular)"), std::string::npos);
+    EXPECT_NE(io::diagnose_verdict(d, readings, r).find("in their uncertainties (rectangular)"),
+              std::string::npos);
     ++checked;
   }
   EXPECT_EQ(checked, 3) << "too few seeds with one attribution";
@@ -324,7 +326,8 @@ TEST(DiagnoseOnDesigns, SubstitutionEntersTheErrorsUncertainty) {
     const std::vector<ErrorsAtAngle> chosen = fit_with(chosen_blocks);
     const std::vector<ErrorsAtAngle> other = fit_with(other_blocks);
     expect_errors_carry(r, chosen, other);
-    EXPECT_NE(r.verdict.find(joined_by + " in place of "), std::string::npos) << r.verdict;
+    const std::string verdict = io::diagnose_verdict(d, readings, r);
+    EXPECT_NE(verdict.find(joined_by + " in place of "), std::string::npos) << verdict;
     ++checked;
   }
   EXPECT_GE(checked, 1) << "no seed with one substitution";
@@ -344,14 +347,16 @@ TEST(DiagnoseOnDesigns, GrossReadingAndNoiseScaleAreSaid) {
       rd[row].reading_um += (s % 2 ? 30.0 : -30.0);
       const DiagnoseResult g = diagnose(d, rd);
       named += !g.gross.empty() && g.gross[0].row == row &&
-               g.verdict.find("gross reading") != std::string::npos;
+               io::diagnose_verdict(d, rd, g).find("gross reading") != std::string::npos;
       gross_nothing_added += g.added.empty();
       Truth t = random_truth(d, rng);
       t.noise = d.noise;
       t.noise->half_width_um *= 2.45;
-      const DiagnoseResult r = diagnose(d, simulate(d, t, 27000 + s));
+      const std::vector<Reading> rn = simulate(d, t, 27000 + s);
+      const DiagnoseResult r = diagnose(d, rn);
+      const std::string verdict = io::diagnose_verdict(d, rn, r);
       said += r.noise_larger_than_declared &&
-              r.verdict.find("more than the declared noise") != std::string::npos;
+              verdict.find("more than the declared noise") != std::string::npos;
       noise_nothing_added += r.added.empty();
       covered += r.noise && r.noise->low <= 2.45 && 2.45 <= r.noise->high;
     }
@@ -375,9 +380,11 @@ TEST(DiagnoseOnDesigns, LegendreOrderTooLowIsSuggested) {
     for (int k = 0; k < 6; ++k) t.coefficients[k].resize(5, 0.0);
     t.coefficients[0][4] = 3.0;  // dx: P4
     t.coefficients[2][4] = 3.0;  // dz: P4
-    const DiagnoseResult r = diagnose(d, simulate(d, t, 28000 + s));
+    const std::vector<Reading> rd = simulate(d, t, 28000 + s);
+    const DiagnoseResult r = diagnose(d, rd);
+    const std::string verdict = io::diagnose_verdict(d, rd, r);
     suggested += r.order && r.order->suggested == 4 && r.order->p < 0.01 &&
-                 r.verdict.find("Set errors.order to 4") != std::string::npos;
+                 verdict.find("Set errors.order to 4") != std::string::npos;
     nothing_added += r.added.empty();
     consistent += r.order && r.order->p_value_with && *r.order->p_value_with > 0.01;
   }

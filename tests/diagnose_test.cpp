@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/simulate.hpp"
 #include "diagnose_util.hpp"
@@ -157,11 +158,16 @@ TEST(Diagnose, UnknownEffectIsFlaggedNotMisattributed) {
   for (int s = 0; s < seeds; ++s) {
     Truth t = random_truth(d, rng);
     t.effects = {effect(EffectKind::Periodic, "1r", {4}, 3)};
-    const DiagnoseResult r = diagnose(d, simulate(d, t, 9000 + s));
+    const std::vector<Reading> rd = simulate(d, t, 9000 + s);
+    const DiagnoseResult r = diagnose(d, rd);
+    const std::string verdict = io::diagnose_verdict(d, rd, r);
     flagged += r.significant_after;
-    described += r.signature_after.dominant.find("3-per-turn") != std::string::npos &&
-                 r.signature_after.dominant.find("1r") != std::string::npos &&
-                 r.verdict.find("no effect of the library explains") != std::string::npos;
+    described +=
+        r.signature_after.dominant &&
+        io::describe_feature(d, rd, *r.signature_after.dominant).find("3-per-turn") !=
+            std::string::npos &&
+        io::describe_feature(d, rd, *r.signature_after.dominant).find("1r") != std::string::npos &&
+        verdict.find("no effect of the library explains") != std::string::npos;
     misattributed += !r.added.empty();
   }
   EXPECT_GE(flagged, 0.95 * seeds);
@@ -197,12 +203,14 @@ TEST(Diagnose, PerInstallationDriftsAreKeptAgainstOneWholeTestDrift) {
   for (int s = 0; s < seeds; ++s) {
     Truth t = random_truth(d, rng);
     t.effects = {effect(EffectKind::Drift, "1t", {0.4}), effect(EffectKind::Drift, "3r", {-0.3})};
-    const DiagnoseResult r = diagnose(d, simulate(d, t, 9600 + s));
+    const std::vector<Reading> rd = simulate(d, t, 9600 + s);
+    const DiagnoseResult r = diagnose(d, rd);
+    const std::string verdict = io::diagnose_verdict(d, rd, r);
     kept += has(r, "drift[1t]") && has(r, "drift[3r]") && !has(r, "drift[all]");
     for (const StructureComparison& c : r.structures) {
       reported += c.kind == "drift" && c.rejected == std::vector<std::string>{"drift[all]"} &&
                   c.bic_chosen < c.bic_rejected &&
-                  r.verdict.find("was preferred to one for the whole test") != std::string::npos;
+                  verdict.find("was preferred to one for the whole test") != std::string::npos;
     }
   }
   // A step scanned over 3r's readings takes the place of its drift in 2 of these 20 seeds
@@ -357,7 +365,7 @@ TEST(DiagnoseBordered, AgreesWithTheWholeBlock) {
       EXPECT_NEAR(a.std, b.std, 1e-8) << s << " " << k;
     }
   }
-  EXPECT_EQ(bordered.verdict, whole.verdict);
+  EXPECT_EQ(io::diagnose_verdict(d, r, bordered), io::diagnose_verdict(d, r, whole));
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
 
@@ -144,14 +145,14 @@ TEST(DiagnoseFindsEffect, GrossReadingIsNamedNotExplainedAway) {
     rd[row].reading_um += (s % 2 ? 30.0 : -30.0);
     const DiagnoseResult r = diagnose(d, rd);
     named += !r.gross.empty() && r.gross[0].row == row &&
-             r.verdict.find("gross reading") != std::string::npos;
+             io::diagnose_verdict(d, rd, r).find("gross reading") != std::string::npos;
     nothing_added += r.added.empty();
     DiagnoseOptions o;
     o.exclude_gross = true;
     const DiagnoseResult x = diagnose(d, rd, o);
     refit_clean += x.excluded_rows == std::vector<int>{row} && x.after.p_value &&
                    *x.after.p_value > 0.01 &&
-                   x.verdict.rfind("Refit without 1 gross reading", 0) == 0;
+                   io::diagnose_verdict(d, rd, x).rfind("Refit without 1 gross reading", 0) == 0;
   }
   EXPECT_GE(named, 95);
   EXPECT_GE(nothing_added, 95);
@@ -170,9 +171,11 @@ TEST(DiagnoseFindsEffect, NoiseLargerThanDeclaredIsSaidSo) {
     NoiseModel noisy = d.noise;
     noisy.half_width_um *= 2.45;
     t.noise = noisy;
-    const DiagnoseResult r = diagnose(d, simulate(d, t, 12000 + s));
+    const std::vector<Reading> rd = simulate(d, t, 12000 + s);
+    const DiagnoseResult r = diagnose(d, rd);
+    const std::string verdict = io::diagnose_verdict(d, rd, r);
     said += r.noise_larger_than_declared &&
-            r.verdict.find("more than the declared noise") != std::string::npos;
+            verdict.find("more than the declared noise") != std::string::npos;
     nothing_added += r.added.empty();
     covered += r.noise && r.noise->low <= 2.45 && 2.45 <= r.noise->high;
   }
@@ -194,9 +197,11 @@ TEST(DiagnoseFindsEffect, ModelOrderTooLowIsSuggested) {
     for (int k = 0; k < 6; ++k) t.coefficients[k].resize(13, 0.0);
     t.coefficients[0][11] = 3.0;  // dx: cos 6a
     t.coefficients[1][12] = 3.0;  // dy: sin 6a
-    const DiagnoseResult r = diagnose(d, simulate(d, t, 13000 + s));
+    const std::vector<Reading> rd = simulate(d, t, 13000 + s);
+    const DiagnoseResult r = diagnose(d, rd);
+    const std::string verdict = io::diagnose_verdict(d, rd, r);
     suggested += r.order && r.order->suggested == 6 && r.order->p < 0.01 &&
-                 r.verdict.find("Set errors.order to 6") != std::string::npos;
+                 verdict.find("Set errors.order to 6") != std::string::npos;
     nothing_added += r.added.empty();
     consistent += r.order && r.order->p_value_with && *r.order->p_value_with > 0.01;
   }

@@ -18,6 +18,7 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
@@ -367,11 +368,12 @@ TEST(SetupCase, CentringOnAnUndetectableInstallationIsNamedByDiagnoseAndCoveredB
   for (const SetupRisk& r : diag.setup_risks) {
     if (r.label == "centring[3r]") risk = &r;
   }
-  ASSERT_NE(risk, nullptr) << diag.verdict;
+  const std::string verdict = io::diagnose_verdict(d, readings, diag);
+  ASSERT_NE(risk, nullptr) << verdict;
   EXPECT_EQ(risk->error, 4) << "ey";  // the error it moves most relative to its uncertainty
   EXPECT_FALSE(risk->exceeds);        // nothing declared: no claim at a declared size
-  EXPECT_NE(diag.verdict.find("cannot be detected"), std::string::npos) << diag.verdict;
-  EXPECT_NE(diag.verdict.find("assume a perfect set-up"), std::string::npos) << diag.verdict;
+  EXPECT_NE(verdict.find("cannot be detected"), std::string::npos) << verdict;
+  EXPECT_NE(verdict.find("assume a perfect set-up"), std::string::npos) << verdict;
 
   // The shift of ey at the angle named, noise-only and with the declared tolerance.
   const Parameterisation param(d);
@@ -398,7 +400,7 @@ TEST(SetupCase, CentringOnAnUndetectableInstallationIsNamedByDiagnoseAndCoveredB
   for (const SetupRisk& r : diag_declared.setup_risks) {
     if (r.label == "centring[3r]") named = r.at_declared && r.exceeds;
   }
-  EXPECT_TRUE(named) << diag_declared.verdict;
+  EXPECT_TRUE(named) << io::diagnose_verdict(declared, readings, diag_declared);
 }
 
 }  // namespace

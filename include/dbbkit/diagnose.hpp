@@ -3,7 +3,7 @@
 // it to an effect of the library, add the effect, report before and after. Which
 // effects are added, and the evidence for each, is model selection
 // (selection.hpp); diagnose describes the residual before and after, the set-up
-// effects the final model cannot see, and gives the verdict.
+// effects the final model cannot see; io/diagnose_text.hpp gives the verdict in words.
 
 #include <array>
 #include <optional>
@@ -50,7 +50,7 @@ struct ResidualSignature {
     std::optional<double> cw_minus_ccw_um;
   };
   std::vector<Installation> installations;
-  std::string dominant;  // the largest feature, in words
+  std::optional<ResidualFeature> dominant;  // the most significant feature (smallest p)
 };
 
 // A set-up effect (per-installation length offset or centring, not added) that the
@@ -120,13 +120,10 @@ struct DiagnoseResult {
   // Readings left out by exclude_gross: indices into the readings given, and their tests.
   std::vector<int> excluded_rows;
   std::vector<GrossReading> excluded;  // rows index the readings given
-  std::string verdict;
+  // The smallest p of the features after times their number, at most 1 (Bonferroni): below
+  // the level, some feature explains the residual left.
+  double features_p_all = 1;
 };
-
-// A feature in words, with its test: "a step of 5.02 um in installation 2t at t = 1234 s (F =
-// ...)".
-std::string describe_feature(const Design& design, const std::vector<Reading>& readings,
-                             const ResidualFeature& f);
 
 ResidualSignature residual_signature(const Design& design, const std::vector<Reading>& readings,
                                      const Eigen::VectorXd& residual_um);

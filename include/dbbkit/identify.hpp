@@ -27,6 +27,25 @@ struct ErrorsAtAngle {
   std::array<Determined, 6> errors;  // dx, dy, dz [um], ex, ey, ez [urad]
 };
 
+// The six errors at one position with their expanded uncertainties U (same units).
+struct ExpandedValue {
+  bool determined = false;
+  double value = 0.0;
+  double U = 0.0;
+};
+struct ExpandedErrorsAtAngle {
+  double angle_deg = 0.0;
+  int station = 0;
+  std::array<ExpandedValue, 6> errors;
+};
+// U = k u for every determined value (an a-priori expansion, a_priori_expansion()).
+std::vector<ExpandedErrorsAtAngle> expanded_errors(const std::vector<ErrorsAtAngle>& errors,
+                                                   double k);
+// U of each determined value from its budget (Budget::values); a determined value without a
+// budget entry is a logic_error.
+std::vector<ExpandedErrorsAtAngle> expanded_errors(const std::vector<ErrorsAtAngle>& errors,
+                                                   const Budget& budget);
+
 // One direction of theta that no reading sees: theta and theta + t * direction
 // give the same readings for any t, so the combination sum_i c_i theta_i
 // (with c the unit direction) is not determined.

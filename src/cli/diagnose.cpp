@@ -61,17 +61,18 @@ Runner add_diagnose(CLI::App& app) {
     const io::InputFiles inputs{args->design, args->data};
     const io::RunContext run{command_line(), in};
     if (!rep->report.empty()) {
-      outputs.stage("--report", io::diagnose_report(io::ReportFormat::Html, run, design, readings,
+      outputs.stage("--report", io::diagnose_report(io::ReportFormat::kHtml, run, design, readings,
                                                     result, a_priori_expansion()));
     }
     if (!rep->summary.empty()) {
-      outputs.stage("--summary", io::diagnose_report(io::ReportFormat::Markdown, run, design,
+      outputs.stage("--summary", io::diagnose_report(io::ReportFormat::kMarkdown, run, design,
                                                      readings, result, a_priori_expansion()));
     }
     if (!json_out.empty())
-      outputs.stage("--out", io::diagnose_to_json(design, result, inputs).dump(2) + "\n");
+      outputs.stage("--out", io::diagnose_to_json(design, readings, result, inputs).dump(2) + "\n");
     outputs.commit();
-    if (tables_to_stdout(args->out, rep->quiet)) std::cout << io::diagnose_summary(design, result);
+    if (tables_to_stdout(args->out, rep->quiet))
+      std::cout << io::diagnose_summary(design, readings, result);
     return 0;
   };
 }

@@ -84,8 +84,8 @@ Runner add_evaluate(CLI::App& app) {
     if (!args->map_csv.empty()) outputs.stage("--map-csv", io::sweep_csv(variables, map));
     const io::RunContext run{command_line(), {args->design}};
     for (const auto& [option, file, format] :
-         {std::tuple{"--report", rep->report, io::ReportFormat::Html},
-          std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {
+         {std::tuple{"--report", rep->report, io::ReportFormat::kHtml},
+          std::tuple{"--summary", rep->summary, io::ReportFormat::kMarkdown}}) {
       if (!file.empty()) {
         outputs.stage(option,
                       io::evaluate_report(format, run, design, ev, variables, map,

@@ -77,12 +77,12 @@ Runner add_identify(CLI::App& app) {
     if (conformance) j["conformance"] = io::conformance_to_json(*conformance, args->tolerances);
     const io::RunContext run{command_line(), inputs};
     if (!rep->report.empty()) {
-      outputs.stage("--report", io::identify_report(io::ReportFormat::Html, run, design, readings,
+      outputs.stage("--report", io::identify_report(io::ReportFormat::kHtml, run, design, readings,
                                                     result, mc ? &*mc : nullptr,
                                                     conformance ? &*conformance : nullptr));
     }
     if (!rep->summary.empty()) {
-      outputs.stage("--summary", io::identify_report(io::ReportFormat::Markdown, run, design,
+      outputs.stage("--summary", io::identify_report(io::ReportFormat::kMarkdown, run, design,
                                                      readings, result, mc ? &*mc : nullptr,
                                                      conformance ? &*conformance : nullptr));
     }

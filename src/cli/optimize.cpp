@@ -117,8 +117,8 @@ Runner add_optimize(CLI::App& app) {
     if (!args->pareto_csv.empty()) outputs.stage("--pareto-csv", io::pareto_csv(kit, res));
     const io::RunContext run{command_line(), inputs};
     for (const auto& [option, file, format] :
-         {std::tuple{"--report", rep->report, io::ReportFormat::Html},
-          std::tuple{"--summary", rep->summary, io::ReportFormat::Markdown}}) {
+         {std::tuple{"--report", rep->report, io::ReportFormat::kHtml},
+          std::tuple{"--summary", rep->summary, io::ReportFormat::kMarkdown}}) {
       if (!file.empty())
         outputs.stage(option, io::optimize_report(format, run, kit, res, reference, seconds,
                                                   a_priori_expansion()));

@@ -6,8 +6,9 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/json_reader.hpp"
-#include "dbbkit/io/report.hpp"
+#include "dbbkit/io/report_writer.hpp"
 #include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/text.hpp"
 
 namespace dbbkit::io {
 
@@ -213,31 +214,10 @@ void check_row(BenchRow& row, const BenchLimits& limits) {
 
 namespace {
 
+// XML text: html_escape's four entities and the apostrophe.
 std::string xml_escape(const std::string& text) {
   std::string out;
-  for (char ch : text) {
-    switch (ch) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        // Control characters other than tab, newline and carriage return are not XML 1.0.
-        if (static_cast<unsigned char>(ch) >= 0x20 || ch == '\t' || ch == '\n' || ch == '\r')
-          out += ch;
-    }
-  }
+  for (char ch : html_escape(text)) out += ch == '\'' ? std::string("&apos;") : std::string(1, ch);
   return out;
 }
 

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/kinematics.hpp"
 
@@ -14,7 +15,8 @@ using nlohmann::json;
 
 namespace {
 
-json signature_to_json(const ResidualSignature& s) {
+json signature_to_json(const ResidualSignature& s, const Design& design,
+                       const std::vector<Reading>& readings) {
   json list = json::array();
   for (const auto& i : s.installations) {
     json e = {{"installation", i.id},
@@ -29,7 +31,9 @@ json signature_to_json(const ResidualSignature& s) {
     e["cw_minus_ccw_um"] = i.cw_minus_ccw_um ? json(r6(*i.cw_minus_ccw_um)) : json(nullptr);
     list.push_back(e);
   }
-  return {{"installations", list}, {"dominant", s.dominant}};
+  return {
+      {"installations", list},
+      {"dominant", s.dominant ? describe_feature(design, readings, *s.dominant) : std::string()}};
 }
 
 json reading_to_json(const Reading& r) {
@@ -102,7 +106,9 @@ std::vector<std::string> installations_of(const Design& d, const EffectCandidate
   return ids;
 }
 
-std::string signature_text(const ResidualSignature& s, Axis axis) {
+std::string signature_text(const ResidualSignature& s, const Design& design,
+                           const std::vector<Reading>& readings) {
+  const Axis axis = design.axis;
   std::ostringstream o;
   o << std::setw(8) << "inst" << std::setw(8) << "L_mm" << std::setw(8)
     << (axis == Axis::C ? "H_mm" : "D_mm") << std::setw(5) << "n" << std::setw(10) << "mean"
@@ -137,13 +143,15 @@ std::string signature_text(const ResidualSignature& s, Axis axis) {
       o << "--";
     o << std::defaultfloat << "\n";
   }
-  o << "most significant feature: " << (s.dominant.empty() ? "(not tested)" : s.dominant) << "\n";
+  o << "most significant feature: "
+    << (s.dominant ? describe_feature(design, readings, *s.dominant) : "(not tested)") << "\n";
   return o.str();
 }
 
 }  // namespace
 
-json diagnose_to_json(const Design& design, const DiagnoseResult& r, const InputFiles& inputs) {
+json diagnose_to_json(const Design& design, const std::vector<Reading>& readings,
+                      const DiagnoseResult& r, const InputFiles& inputs) {
   json j = result_header("dbbkit.diagnose/1", design, inputs);
   j["method"] =
       "forward selection; a candidate is added when its nested F-test p-value is below level / "
@@ -158,7 +166,7 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
   j["significant_residual_before"] = r.significant_before;
   j["significant_residual_after"] = r.significant_after;
   j["after_lower_tail_p"] = r.p_lower_after ? json(*r.p_lower_after) : json(nullptr);
-  j["verdict"] = r.verdict;
+  j["verdict"] = diagnose_verdict(design, readings, r);
   json added = json::array();
   for (const AddedEffect& a : r.added) {
     json value = json::object(), std = json::object();
@@ -298,19 +306,20 @@ json diagnose_to_json(const Design& design, const DiagnoseResult& r, const Input
   }
   checks["detection_limits"] = limits;
   j["residual_checks"] = checks;
-  j["signature_before"] = signature_to_json(r.signature_before);
-  j["signature_after"] = signature_to_json(r.signature_after);
+  j["signature_before"] = signature_to_json(r.signature_before, design, readings);
+  j["signature_after"] = signature_to_json(r.signature_after, design, readings);
   return j;
 }
 
-std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
+std::string diagnose_summary(const Design& design, const std::vector<Reading>& readings,
+                             const DiagnoseResult& r) {
   std::ostringstream s;
   s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
     << axis_name(design.axis) << "  errors " << design.errors.describe() << "\n";
   s << "noise: " << design.noise.describe() << "\n";
   s << "before: " << residual_text(r.before) << "\n";
   s << "after:  " << residual_text(r.after) << "\n\n";
-  s << r.verdict << "\n\n";
+  s << diagnose_verdict(design, readings, r) << "\n\n";
   if (!r.added.empty()) {
     s << "added effects (value +- standard uncertainty):\n";
     for (const AddedEffect& a : r.added) {
@@ -346,8 +355,9 @@ std::string diagnose_summary(const Design& design, const DiagnoseResult& r) {
       s << "\n";
     }
   }
-  s << "\nresidual signature before [um]:\n" << signature_text(r.signature_before, design.axis);
-  s << "\nresidual signature after [um]:\n" << signature_text(r.signature_after, design.axis);
+  s << "\nresidual signature before [um]:\n"
+    << signature_text(r.signature_before, design, readings);
+  s << "\nresidual signature after [um]:\n" << signature_text(r.signature_after, design, readings);
   s << "\nerrors after (value +- standard uncertainty, k = 1); '--' = not determined\n";
   s << errors_table(r.errors_after, true);
   s << unidentifiable_text(r.unidentifiable_after);

@@ -7,8 +7,8 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
-#include "dbbkit/io/report.hpp"
 #include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/observability.hpp"
 

@@ -24,6 +24,7 @@
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_io.hpp"
+#include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
@@ -330,8 +331,8 @@ std::string iframe(const std::string& html) {
 }
 
 io::ReportFormat report_format(const std::string& format) {
-  if (format == "html") return io::ReportFormat::Html;
-  if (format == "markdown") return io::ReportFormat::Markdown;
+  if (format == "html") return io::ReportFormat::kHtml;
+  if (format == "markdown") return io::ReportFormat::kMarkdown;
   throw InputError("argument", "format", "'" + format + "' (expected html or markdown)");
 }
 
@@ -535,7 +536,7 @@ PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double
     options.exclude_gross = exclude_gross;
     r.result = dbbkit::diagnose(d.value, m.readings, options);
   }
-  r.json = io::diagnose_to_json(d.value, r.result, {d.source, m.source});
+  r.json = io::diagnose_to_json(d.value, m.readings, r.result, {d.source, m.source});
   return r;
 }
 
@@ -938,10 +939,16 @@ PYBIND11_MODULE(dbbkit, m) {
       .def_property_readonly(
           "added", [](const PyDiagnoseResult& r) { return to_python(r.json.at("added_effects")); },
           "The effects added, with values and evidence (as in the JSON)")
-      .def_property_readonly("verdict", [](const PyDiagnoseResult& r) { return r.result.verdict; })
+      .def_property_readonly("verdict",
+                             [](const PyDiagnoseResult& r) {
+                               return io::diagnose_verdict(r.design->value, r.data->readings,
+                                                           r.result);
+                             })
       .def(
           "summary",
-          [](const PyDiagnoseResult& r) { return io::diagnose_summary(r.design->value, r.result); },
+          [](const PyDiagnoseResult& r) {
+            return io::diagnose_summary(r.design->value, r.data->readings, r.result);
+          },
           "The tables `dbbkit diagnose` prints")
       .def("report", &PyDiagnoseResult::report, py::arg("format") = "html")
       .def("_repr_html_", [](const PyDiagnoseResult& r) { return iframe(r.report("html")); });

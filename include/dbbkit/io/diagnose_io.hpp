@@ -11,8 +11,10 @@
 
 namespace dbbkit::io {
 
-nlohmann::json diagnose_to_json(const Design& design, const DiagnoseResult& result,
-                                const InputFiles& inputs);
-std::string diagnose_summary(const Design& design, const DiagnoseResult& result);
+// `readings`: the readings given to diagnose (the result's rows index them).
+nlohmann::json diagnose_to_json(const Design& design, const std::vector<Reading>& readings,
+                                const DiagnoseResult& result, const InputFiles& inputs);
+std::string diagnose_summary(const Design& design, const std::vector<Reading>& readings,
+                             const DiagnoseResult& result);
 
 }  // namespace dbbkit::io

@@ -1,6 +1,8 @@
 #pragma once
 // The report of each command: HTML (with plots) or Markdown (tables only), from
-// the same sections.
+// the same sections written through one ReportWriter (report_writer.hpp). One source
+// file per command: identify_report.cpp, evaluate_report.cpp, optimize_report.cpp,
+// diagnose_report.cpp; the sections they share in report_sections.cpp.
 
 #include <optional>
 #include <string>
@@ -11,14 +13,13 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/optimize_io.hpp"
+#include "dbbkit/io/report_writer.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/optimize.hpp"
 
 namespace dbbkit::io {
-
-enum class ReportFormat { Html, Markdown };
 
 // What ran: the command line and the input files (hashed into the conditions).
 struct RunContext {

@@ -1,0 +1,26 @@
+#pragma once
+// The words of diagnose: the verdict and the residual's features, built from the
+// structured result (diagnose.hpp). `readings` are the readings given to diagnose (the
+// rows of the result's features and gross readings index them).
+
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/diagnose.hpp"
+#include "dbbkit/measurement.hpp"
+
+namespace dbbkit::io {
+
+// What the residual says before and after, which effects were added and why, what remains,
+// the set-up effects the design cannot see and, when nothing was added, the sizes that
+// would have been found.
+std::string diagnose_verdict(const Design& design, const std::vector<Reading>& readings,
+                             const DiagnoseResult& result);
+
+// A feature in words, with its test: "a step of 5.02 +- 0.3 um in installation 2t from the
+// reading ... (F = ..., p = ...)".
+std::string describe_feature(const Design& design, const std::vector<Reading>& readings,
+                             const ResidualFeature& f);
+
+}  // namespace dbbkit::io

@@ -1,0 +1,39 @@
+#pragma once
+// The plots of the reports, drawn by gnuplot (gnuplot.hpp) as inline SVG.
+
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/identify.hpp"
+
+namespace dbbkit::io {
+
+// One line of a line plot; lo/hi (same length as x, or empty) draw a band.
+// NaN values are gaps (a value the data cannot determine).
+struct PlotSeries {
+  std::string title;
+  std::vector<double> x, y, lo, hi;
+  std::string style = "linespoints";  // gnuplot style of the line: linespoints, lines, points
+};
+std::string plot_series(const std::string& title, const std::string& xlabel,
+                        const std::string& ylabel, const std::vector<PlotSeries>& series,
+                        int width_px = 760, int height_px = 380);
+
+// The design drawn in its body frame (the machine frame at angle 0): a top
+// view (x, y) and a side view (x, z) with every ball position, its id, and the
+// bar to the following ball (or the reading direction, 40 mm, when no bar is given).
+std::string plot_design(const Design& design);
+
+// The six errors against angle, translations and rotations in two panels: the
+// value (or 0 for an a-priori evaluation) with a band of +-U.
+std::string plot_errors(const std::vector<ExpandedErrorsAtAngle>& errors, bool values,
+                        const std::string& title);
+
+// A heat map of z over a grid (x fastest); NaN cells are left blank.
+std::string plot_heatmap(const std::string& title, const std::string& xlabel,
+                         const std::string& ylabel, const std::string& zlabel,
+                         const std::vector<double>& x, const std::vector<double>& y,
+                         const std::vector<double>& z);
+
+}  // namespace dbbkit::io

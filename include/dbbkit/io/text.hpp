@@ -1,0 +1,14 @@
+#pragma once
+// Numbers as text, for the words io builds (terminal summaries, reports, verdicts).
+
+#include <optional>
+#include <string>
+
+namespace dbbkit::io {
+
+// A number with `digits` significant digits (std::setprecision); fmt_opt gives "--" when
+// absent.
+std::string fmt_num(double x, int digits = 4);
+std::string fmt_opt(const std::optional<double>& x, int digits = 4);
+
+}  // namespace dbbkit::io

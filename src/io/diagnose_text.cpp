@@ -1,0 +1,313 @@
+#include "dbbkit/io/diagnose_text.hpp"
+
+#include <algorithm>
+#include <sstream>
+
+#include "dbbkit/io/text.hpp"
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit::io {
+
+namespace {
+
+// The most significant feature (smallest p) in words, or empty.
+
+std::string p_text(double p) { return p < 1e-300 ? "< 1e-300" : "= " + fmt_num(p, 3); }
+
+std::string reading_text(const Reading& r) {
+  std::string s = "installation " + r.installation + " at " + fmt_num(r.angle_deg, 6) + " deg";
+  if (r.sweep) s += *r.sweep == Sweep::CW ? " cw" : " ccw";
+  if (r.time_s) s += ", t = " + fmt_num(*r.time_s, 6) + " s";
+  if (r.line > 0) s += ", line " + std::to_string(r.line);
+  return s;
+}
+
+// "a + b" for a set of effects.
+std::string joined(const std::vector<std::string>& labels) {
+  std::string out;
+  for (const std::string& l : labels) out += (out.empty() ? "" : " + ") + l;
+  return out;
+}
+
+std::string setup_risk_text(const Design& design, const std::vector<SetupRisk>& risks) {
+  std::ostringstream v;
+  const bool declared = design.setup_nuisance_declared();
+  v << "But " << risks.size()
+    << " set-up effect(s) cannot be detected by this design, and they move the errors "
+    << "without leaving a residual";
+  if (!declared)
+    v << " (no set-up tolerance is declared: the stated uncertainties assume a perfect set-up)";
+  v << ". The most dangerous:";
+  const std::size_t shown = std::min<std::size_t>(3, risks.size());
+  for (std::size_t i = 0; i < shown; ++i) {
+    const SetupRisk& r = risks[i];
+    v << (i ? ";" : "") << " " << r.label << " of " << fmt_num(r.threshold_um, 3) << " um moves "
+      << kErrorNames[r.error] << " at " << fmt_num(r.angle_deg, 3)
+      << " deg by its standard uncertainty " << fmt_num(r.stated_std, 3) << " "
+      << kErrorUnits[r.error] << " (" << fmt_num(r.bias_per_um, 3) << " " << kErrorUnits[r.error]
+      << " per um)";
+    if (r.at_declared) {
+      v << ", at its declared " << fmt_num(r.declared_std_um, 3) << " um by "
+        << fmt_num(*r.at_declared, 3) << " " << kErrorUnits[r.error];
+    }
+  }
+  if (declared) {
+    v << ". The errors here are stated for the readings' noise; identify and evaluate carry the "
+         "declared set-up "
+         "tolerances in their total uncertainties. Installations that make these effects "
+         "detectable remove the "
+         "doubt (evaluate lists them).";
+  } else {
+    v << ". Declare set-up tolerances (setup_std) to carry them in the uncertainties, or measure "
+         "installations that "
+         "make them detectable (evaluate lists them).";
+  }
+  return v.str();
+}
+
+}  // namespace
+
+std::string describe_feature(const Design& design, const std::vector<Reading>& readings,
+                             const ResidualFeature& f) {
+  std::ostringstream s;
+  const std::string inst =
+      f.installation >= 0 ? design.installations[f.installation].id : std::string("all");
+  auto pm = [&](const char* unit) {
+    return fmt_num(f.value, 4) + " +- " + fmt_num(f.std, 2) + " " + unit;
+  };
+  switch (f.kind) {
+    case FeatureKind::kMean:
+      s << "a mean residual of " << pm("um") << " in installation " << inst;
+      break;
+    case FeatureKind::kHarmonic:
+      s << "a " << f.harmonic << "-per-turn term of amplitude " << fmt_num(f.value, 4)
+        << " um in installation " << inst;
+      break;
+    case FeatureKind::kDrift:
+      s << "a drift of " << pm("um/min") << " in installation " << inst;
+      break;
+    case FeatureKind::kReversal:
+      s << "a difference cw - ccw of " << pm("um") << " in installation " << inst;
+      break;
+    case FeatureKind::kStep:
+      s << "a step of " << pm("um") << " in installation " << inst << " from the reading "
+        << reading_text(readings[f.row]);
+      break;
+    case FeatureKind::kReading:
+      s << "one reading off by " << pm("um") << ": " << reading_text(readings[f.row]);
+      break;
+  }
+  s << " (F = " << fmt_num(f.test.F, 4) << ", p " << p_text(f.test.p);
+  if (f.tested > 1)
+    s << ", times " << f.tested
+      << " positions scanned: " << p_text(f.p).substr(f.p < 1e-300 ? 0 : 2);
+  s << ")";
+  if (!f.difference_with.empty()) {
+    s << "; only its difference from installation";
+    for (int j : f.difference_with) s << " " << design.installations[j].id;
+    s << " is determined";
+  }
+  return s.str();
+}
+
+std::string diagnose_verdict(const Design& design, const std::vector<Reading>& readings,
+                             const DiagnoseResult& res) {
+  std::ostringstream v;
+  if (!res.excluded.empty()) {
+    v << "Refit without " << res.excluded.size()
+      << " gross reading(s), as asked (--exclude-gross):";
+    for (std::size_t g = 0; g < res.excluded.size(); ++g) {
+      v << (g ? ";" : "") << " "
+        << reading_text(readings[static_cast<std::size_t>(res.excluded[g].row)]) << ", off by "
+        << fmt_num(res.excluded[g].value_um, 4) << " +- " << fmt_num(res.excluded[g].std_um, 2)
+        << " um (t = " << fmt_num(res.excluded[g].t, 4) << ")";
+    }
+    v << ". ";
+  }
+  const std::string dominant_after =
+      res.signature_after.dominant
+          ? describe_feature(design, readings, *res.signature_after.dominant)
+          : std::string();
+  auto chi = [](const Estimate& e) {
+    std::ostringstream s;
+    s << "chi2 " << fmt_num(e.chi2, 4) << " on " << e.dof << " dof, p ";
+    if (e.p_value && *e.p_value < 1e-300) {
+      s << "< 1e-300";
+    } else if (e.p_value) {
+      s << "= " << fmt_num(*e.p_value, 3);
+    } else {
+      s << "undefined";
+    }
+    return s.str();
+  };
+  if (!res.before.p_value) {
+    v << "The design leaves no redundant reading: nothing can be tested.";
+  } else if (!res.significant_before && res.added.empty()) {
+    v << "The residual is consistent with the declared noise (" << chi(res.before)
+      << "): nothing to explain" << (res.setup_risks.empty() ? "." : " in the residual.");
+  } else {
+    v << "Before: " << chi(res.before) << ". ";
+    if (res.added.empty() && res.stopped_at_step > 0) {
+      v << "No effect of the library was added before selection stopped. ";
+    } else if (res.added.empty()) {
+      v << "No effect of the library is justified. ";
+    } else {
+      // The change of the errors should the alternatives of `effect` be the true ones.
+      auto attribution_sentence = [&](const std::string& effect) {
+        for (const Attribution& at : res.attributions) {
+          if (at.effect != effect) continue;
+          const double um =
+              *std::max_element(at.largest_change.begin(), at.largest_change.begin() + 3);
+          const double urad =
+              *std::max_element(at.largest_change.begin() + 3, at.largest_change.end());
+          v << "The errors after carry the change should";
+          for (std::size_t i = 0; i < at.alternatives.size(); ++i)
+            v << (i ? " or " : " ") << at.alternatives[i];
+          v << " be the true one (up to " << fmt_num(um, 3) << " um, " << fmt_num(urad, 3)
+            << " urad) in their uncertainties (rectangular). ";
+        }
+      };
+      v << "Added:";
+      for (const AddedEffect& a : res.added) v << " " << a.block.label;
+      v << ". After: " << chi(res.after) << ". ";
+      for (const AddedEffect& a : res.added) {
+        if (!a.close_alternatives.empty()) {
+          v << a.block.label << " was chosen over";
+          for (std::size_t i = 0; i < a.close_alternatives.size(); ++i)
+            v << (i ? " or " : " ") << a.close_alternatives[i];
+          v << ", which fit almost as well: these readings cannot tell them apart reliably. ";
+          attribution_sentence(a.block.label);
+        }
+        if (a.equivalent_to.empty()) continue;
+        v << a.block.label << " is equivalent to";
+        for (const std::string& l : a.equivalent_to) v << " " << l;
+        v << ": the data determine only their difference, so it is attributed by convention to the "
+             "later "
+             "installation, and the errors after are conditional on that choice. ";
+      }
+      for (const Substitution& sub : res.substitutions) {
+        std::vector<std::string> by;
+        for (const EffectBlock& b : sub.by) by.push_back(b.label);
+        v << joined(by) << " in place of " << joined(sub.replaced) << " fit"
+          << (by.size() == 1 ? "s" : "")
+          << " almost as well: these readings cannot tell the two explanations apart reliably. ";
+        attribution_sentence(joined(sub.replaced));
+      }
+    }
+    for (const StructureComparison& c : res.structures) {
+      auto list = [](const std::vector<std::string>& labels) {
+        std::string out;
+        for (const std::string& l : labels) out += (out.empty() ? "" : " ") + l;
+        return out;
+      };
+      v << (c.chosen.size() == 1 ? "One " + c.kind + " for the whole test (" + list(c.chosen) + ")"
+                                 : "A " + c.kind + " per installation (" + list(c.chosen) + ")")
+        << " was preferred to "
+        << (c.rejected.size() == 1 ? "one for the whole test (" + list(c.rejected) + ")"
+                                   : "one per installation (" + list(c.rejected) + ")")
+        << ": BIC " << fmt_num(c.bic_chosen, 6) << " against " << fmt_num(c.bic_rejected, 6)
+        << ". ";
+    }
+    if (res.stopped_at_step > 0 && (res.stopped_because == SelectionStop::kModelOrder)) {
+      v << "Selection stopped at step " << res.stopped_at_step
+        << ", where a higher order of the error model was the best candidate: no effect is added "
+           "to explain part "
+           "of a motion the model's order cannot follow. ";
+    }
+    if (res.stopped_at_step > 0 && !(res.stopped_because == SelectionStop::kModelOrder) &&
+        !res.gross.empty()) {
+      v << "Selection stopped at step " << res.stopped_at_step
+        << ", where one reading alone was the best candidate: no effect is added to explain part "
+           "of it away. ";
+    }
+    if (!res.gross.empty()) {
+      v << res.gross.size()
+        << " gross reading(s), each tested alone against the rest (externally studentised "
+        << "residual, Bonferroni over the readings):";
+      for (std::size_t g = 0; g < res.gross.size(); ++g) {
+        const GrossReading& gr = res.gross[g];
+        v << (g ? ";" : "") << " " << reading_text(readings[gr.row]) << ", off by "
+          << fmt_num(gr.value_um, 4) << " +- " << fmt_num(gr.std_um, 2)
+          << " um (t = " << fmt_num(gr.t, 4) << ", p " << p_text(gr.p_scan) << " over " << gr.tested
+          << " readings)";
+      }
+      v << ". Check them at the machine; dbbkit diagnose --exclude-gross refits without them and "
+           "says so. ";
+    }
+    if (res.significant_after) {
+      v << "A significant residual remains that no effect of the library explains";
+      if (res.features_p_all < res.level) {
+        v << "; its most significant feature is " << dominant_after << ". ";
+      } else {
+        v << ". ";
+      }
+      if (res.order && res.order->p < res.level) {
+        const OrderCheck& o = *res.order;
+        v << "The error model's order looks too low: order " << o.suggested << " instead of "
+          << o.order << " explains " << fmt_num(o.test.delta_chi2, 4)
+          << " of chi2 (F = " << fmt_num(o.test.F, 4) << ", p " << p_text(o.p) << " over "
+          << o.tried << " orders); with it chi2 " << fmt_num(o.chi2_with, 4) << " on " << o.dof_with
+          << " dof" << (o.p_value_with ? ", p " + p_text(*o.p_value_with) : std::string())
+          << ". Set errors.order to " << o.suggested << " in the design. ";
+      }
+      if (res.noise_larger_than_declared && res.noise) {
+        const NoiseScale& ns = *res.noise;
+        v << "No feature of the residual stands out against its own scatter (the most significant, "
+          << dominant_after << ", has p " << p_text(res.features_p_all) << " over "
+          << res.features_after.size() << " features): the readings scatter "
+          << fmt_num(ns.ratio, 3) << " times (95 % interval " << fmt_num(ns.low, 3) << " to "
+          << fmt_num(ns.high, 3)
+          << ") more than the declared noise, evenly. The declared accuracy looks too "
+          << "small; identify --type-a states the uncertainties from the data's own scatter. ";
+      }
+    } else {
+      v << "No significant residual remains.";
+    }
+  }
+  if (res.p_lower_after) {
+    // The lower tail: a residual far smaller than the declared noise predicts.
+    const double lower = *res.p_lower_after;
+    if (lower < res.level) {
+      v << " The residual is smaller than the declared noise predicts (P(chi2 <= "
+        << fmt_num(res.after.chi2, 4) << ") = " << fmt_num(lower, 3)
+        << "): the declared instrument accuracy overstates the scatter of these readings "
+        << "(averaged readings?); the uncertainties stated from it are conservative, and a Type A "
+           "evaluation "
+        << "(identify --type-a) would state them from the data.";
+    }
+  }
+  if (!res.setup_risks.empty()) {
+    if (v.str().empty() || v.str().back() != ' ') v << " ";
+    v << setup_risk_text(design, res.setup_risks);
+  }
+  if (!res.detection_limits.empty()) {
+    // Per kind, the range over its candidates of the size found with power 0.9.
+    v << " Nothing was added; with the declared noise, these would have been found with power 0.9 "
+         "at this level:";
+    std::vector<std::string> kinds;
+    for (const DetectionLimit& d : res.detection_limits) {
+      const std::string k = d.label.substr(0, d.label.find('['));
+      if (std::find(kinds.begin(), kinds.end(), k) == kinds.end()) kinds.push_back(k);
+    }
+    bool first = true;
+    for (const std::string& k : kinds) {
+      double lo = 1e300, hi = 0;
+      std::string lo_label, unit;
+      for (const DetectionLimit& d : res.detection_limits) {
+        if (d.label.substr(0, d.label.find('[')) != k || !d.limit) continue;
+        if (*d.limit < lo) lo = *d.limit, lo_label = d.label;
+        hi = std::max(hi, *d.limit), unit = d.unit;
+      }
+      if (lo_label.empty()) continue;
+      v << (first ? " " : "; ") << k << " of " << fmt_num(lo, 2) << " " << unit
+        << (hi > lo * 1.005 ? " (" + lo_label + ") to " + fmt_num(hi, 2) + " " + unit
+                            : std::string())
+        << " or more";
+      first = false;
+    }
+    v << " (every candidate in the JSON).";
+  }
+  return v.str();
+}
+
+}  // namespace dbbkit::io

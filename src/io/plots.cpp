@@ -1,0 +1,194 @@
+#include "dbbkit/io/plots.hpp"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <utility>
+
+#include "dbbkit/io/gnuplot.hpp"
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit::io {
+
+namespace {
+
+const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd",
+                          "#ff7f0e", "#17becf", "#8c564b", "#e377c2"};
+
+std::string series_block(const PlotSeries& s, int index) {
+  std::ostringstream b;
+  b << "$d" << index << " << EOD\n";
+  for (size_t i = 0; i < s.x.size(); ++i) {
+    b << gnuplot_number(s.x[i]) << " " << gnuplot_number(s.y[i]);
+    if (!s.lo.empty()) b << " " << gnuplot_number(s.lo[i]) << " " << gnuplot_number(s.hi[i]);
+    b << "\n";
+  }
+  b << "EOD\n";
+  return b.str();
+}
+
+std::string series_plot(const PlotSeries& s, int index) {
+  const std::string colour = kColours[index % 8];
+  std::ostringstream p;
+  if (!s.lo.empty()) {
+    p << "$d" << index << " using 1:3:4 with filledcurves fc rgb '" << colour
+      << "' fs transparent solid 0.18 noborder notitle, ";
+  }
+  p << "$d" << index << " using 1:2 with " << s.style << " lc rgb '" << colour
+    << "' lw 1.5 pt 7 ps 0.5 title " << gnuplot_quote(s.title);
+  return p.str();
+}
+
+}  // namespace
+
+std::string plot_series(const std::string& title, const std::string& xlabel,
+                        const std::string& ylabel, const std::vector<PlotSeries>& series,
+                        int width_px, int height_px) {
+  std::ostringstream s;
+  for (size_t i = 0; i < series.size(); ++i) s << series_block(series[i], static_cast<int>(i));
+  s << "set title " << gnuplot_quote(title) << "\nset xlabel " << gnuplot_quote(xlabel)
+    << "\nset ylabel " << gnuplot_quote(ylabel) << "\nset grid\nset key outside right top\nplot ";
+  for (size_t i = 0; i < series.size(); ++i)
+    s << (i ? ", " : "") << series_plot(series[i], static_cast<int>(i));
+  s << "\n";
+  return gnuplot_svg(s.str(), width_px, height_px);
+}
+
+std::string plot_design(const Design& design) {
+  std::ostringstream bars;
+  bars << "$bars << EOD\n";
+  std::vector<std::pair<Eigen::Vector3d, std::string>> balls;  // ball position, installation id
+  for (const Installation& in : design.installations) {
+    const Eigen::Vector3d P = ball_body_mm(design.axis, in);
+    const double length = in.bar_mm ? *in.bar_mm : 40.0;
+    const Eigen::Vector3d F = in.bar_mm ? Eigen::Vector3d(P - in.sign * length * in.direction.body)
+                                        : Eigen::Vector3d(P + length * in.direction.body);
+    bars << gnuplot_number(P.x()) << " " << gnuplot_number(P.y()) << " " << gnuplot_number(P.z())
+         << " " << gnuplot_number(F.x() - P.x()) << " " << gnuplot_number(F.y() - P.y()) << " "
+         << gnuplot_number(F.z() - P.z()) << "\n";
+    balls.emplace_back(P, in.id);
+  }
+  bars << "EOD\n";
+  // The labels of each view: installations whose balls project to one point share a label
+  // (e.g. two axial readings on the axis at different heights, seen from above); along the
+  // view's horizontal axis, neighbouring labels alternate above and below their point, so
+  // that balls close together keep readable labels.
+  auto labels = [&](const std::string& name, int h, int v) {
+    struct Point {
+      double x, y;
+      std::string ids;
+    };
+    std::vector<Point> points;
+    for (const auto& [P, id] : balls) {
+      bool found = false;
+      for (Point& q : points) {
+        if (std::abs(q.x - P(h)) < 1e-6 && std::abs(q.y - P(v)) < 1e-6) {
+          if (("," + q.ids + ",").find("," + id + ",") == std::string::npos) q.ids += "," + id;
+          found = true;
+        }
+      }
+      if (!found) points.push_back({P(h), P(v), id});
+    }
+    // Along each level of the view's vertical coordinate, by the horizontal one: $<name>0
+    // holds every other point from the first (labels above), $<name>1 the rest (below).
+    std::stable_sort(points.begin(), points.end(), [](const Point& a, const Point& b) {
+      return a.y < b.y || (a.y == b.y && a.x < b.x);
+    });
+    std::array<std::vector<const Point*>, 2> sets;
+    for (size_t i = 0, k = 0; i < points.size(); ++i) {
+      k = i > 0 && std::abs(points[i].y - points[i - 1].y) < 1e-6 ? k + 1 : 0;
+      sets[k % 2].push_back(&points[i]);
+    }
+    std::ostringstream d, plot;
+    for (size_t parity = 0; parity < 2; ++parity) {
+      if (sets[parity].empty()) continue;
+      d << "$" << name << parity << " << EOD\n";
+      for (const Point* q : sets[parity])
+        d << gnuplot_number(q->x) << " " << gnuplot_number(q->y) << " \"" << q->ids << "\"\n";
+      d << "EOD\n";
+      plot << ", $" << name << parity << " using 1:2 with points pt 7 ps 1.2 lc rgb '#d62728', $"
+           << name << parity << " using 1:2:3 with labels offset 0," << (parity == 0 ? "1" : "-1")
+           << " font 'sans,9'";
+    }
+    return std::make_pair(d.str(), plot.str());
+  };
+  const bool c = design.axis == Axis::C;
+  const std::string what =
+      design.installations.front().bar_mm ? "bar to the following ball" : "reading direction";
+  const auto [top_data, top_plot] = labels("top", 0, 1);
+  const auto [side_data, side_plot] = labels("side", 0, 2);
+  std::ostringstream s;
+  s << bars.str() << top_data << side_data << "set multiplot layout 1,2 title "
+    << gnuplot_quote("design " + design.name + " (axis " + axis_name(design.axis) +
+                     ", body frame = machine frame at angle 0; lines: " + what + ")")
+    << "\nset size ratio -1\nset grid\nset key off\nset offsets graph 0.08, graph 0.08, graph "
+       "0.08, graph 0.08\n";
+  // Top view x, y; side view x, z. The axis of rotation is drawn: C about z, B about y.
+  s << "set title 'top view (x, y) [mm]'\nset xlabel 'x [mm]'\nset ylabel 'y [mm]'\n";
+  if (!c) s << "set arrow 1 from 0,graph 0 to 0,graph 1 nohead dt 2 lc rgb '#888888'\n";
+  s << "plot $bars using 1:2:4:5 with vectors nohead lw 2 lc rgb '#1f77b4'" << top_plot
+    << (c ? ", '+' using (0):(0) with points pt 2 ps 2 lc rgb '#888888'" : "") << "\n";
+  s << "unset arrow 1\nset title 'side view (x, z) [mm]'\nset xlabel 'x [mm]'\nset ylabel 'z "
+       "[mm]'\n";
+  if (c) s << "set arrow 1 from 0,graph 0 to 0,graph 1 nohead dt 2 lc rgb '#888888'\n";
+  s << "plot $bars using 1:3:4:6 with vectors nohead lw 2 lc rgb '#1f77b4'" << side_plot
+    << (c ? "" : ", '+' using (0):(0) with points pt 2 ps 2 lc rgb '#888888'") << "\n";
+  s << "unset multiplot\n";
+  return gnuplot_svg(s.str(), 900, 420);
+}
+
+std::string plot_errors(const std::vector<ExpandedErrorsAtAngle>& errors, bool values,
+                        const std::string& title) {
+  std::vector<PlotSeries> tr, rot;
+  for (int e = 0; e < 6; ++e) {
+    PlotSeries s;
+    s.title = kErrorNames[e];
+    for (const ExpandedErrorsAtAngle& ea : errors) {
+      const ExpandedValue& d = ea.errors[e];
+      const double v =
+          d.determined ? (values ? d.value : 0.0) : std::numeric_limits<double>::quiet_NaN();
+      const double U = d.determined ? d.U : std::numeric_limits<double>::quiet_NaN();
+      s.x.push_back(ea.angle_deg);
+      s.y.push_back(values ? v : U);
+      s.lo.push_back(v - U);
+      s.hi.push_back(v + U);
+    }
+    if (!values) s.lo.clear(), s.hi.clear();
+    (e < 3 ? tr : rot).push_back(s);
+  }
+  std::ostringstream sc;
+  int index = 0;
+  for (const PlotSeries& s : tr) sc << series_block(s, index++);
+  for (const PlotSeries& s : rot) sc << series_block(s, index++);
+  const std::string what = values ? "value with band +-U" : "U (a priori)";
+  sc << "set multiplot layout 2,1 title " << gnuplot_quote(title)
+     << "\nset grid\nset key outside right top\n"
+     << "set xlabel 'angle [deg]'\n";
+  sc << "set title " << gnuplot_quote("translations: " + what) << "\nset ylabel 'um'\nplot ";
+  for (int i = 0; i < 3; ++i) sc << (i ? ", " : "") << series_plot(tr[i], i);
+  sc << "\nset title " << gnuplot_quote("rotations: " + what) << "\nset ylabel 'urad'\nplot ";
+  for (int i = 0; i < 3; ++i) sc << (i ? ", " : "") << series_plot(rot[i], i + 3);
+  sc << "\nunset multiplot\n";
+  return gnuplot_svg(sc.str(), 900, 640);
+}
+
+std::string plot_heatmap(const std::string& title, const std::string& xlabel,
+                         const std::string& ylabel, const std::string& zlabel,
+                         const std::vector<double>& x, const std::vector<double>& y,
+                         const std::vector<double>& z) {
+  std::ostringstream s;
+  s << "$map << EOD\n";
+  for (size_t j = 0; j < y.size(); ++j) {
+    for (size_t i = 0; i < x.size(); ++i)
+      s << gnuplot_number(x[i]) << " " << gnuplot_number(y[j]) << " "
+        << gnuplot_number(z[j * x.size() + i]) << "\n";
+    s << "\n";
+  }
+  s << "EOD\nset title " << gnuplot_quote(title) << "\nset xlabel " << gnuplot_quote(xlabel)
+    << "\nset ylabel " << gnuplot_quote(ylabel) << "\nset cblabel " << gnuplot_quote(zlabel)
+    << "\nset palette rgbformulae 33,13,10\nset tics out\n"
+    << "plot $map using 1:2:3 with image notitle\n";
+  return gnuplot_svg(s.str(), 760, 480);
+}
+
+}  // namespace dbbkit::io

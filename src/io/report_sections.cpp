@@ -1,0 +1,130 @@
+#include "report_sections.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <iomanip>
+#include <sstream>
+#include <utility>
+
+#include "dbbkit/io/plots.hpp"
+#include "dbbkit/io/text.hpp"
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit::io::detail {
+
+std::vector<std::vector<std::string>> installation_rows(const Design& d) {
+  std::vector<std::vector<std::string>> rows;
+  for (const Installation& in : d.installations) {
+    rows.push_back({in.id, fmt_num(in.L_mm, 6), fmt_num(in.D_mm, 6),
+                    d.axis == Axis::C ? fmt_num(in.H_mm, 6) : "--", in.direction.label(),
+                    std::to_string(in.sign), in.bar_mm ? fmt_num(*in.bar_mm, 6) : "--",
+                    in.description});
+  }
+  return rows;
+}
+
+void design_section(ReportWriter& p, const Design& d) {
+  p.heading("Design");
+  p.paragraph(d.name + ": axis " + axis_name(d.axis) + ", " + std::to_string(d.angles_deg.size()) +
+              " angles from " +
+              fmt_num(*std::min_element(d.angles_deg.begin(), d.angles_deg.end()), 6) + " to " +
+              fmt_num(*std::max_element(d.angles_deg.begin(), d.angles_deg.end()), 6) + " deg, " +
+              std::to_string(d.installations.size()) + " installations, errors " +
+              d.errors.describe() + ".");
+  if (!d.description.empty()) p.paragraph(d.description);
+  p.figure([&] { return plot_design(d); },
+           "Ball positions (red) and bars to the following ball (blue), labelled "
+           "with the installations that use them; dashed: the axis of rotation.");
+  p.table({"id", "L [mm]", "D [mm]", "H [mm]", "direction", "sign", "bar [mm]", "set-up"},
+          installation_rows(d));
+}
+
+// Residual against angle, one line per installation.
+std::vector<PlotSeries> residual_series(const Design& d, const std::vector<Reading>& readings,
+                                        const Eigen::VectorXd& residual) {
+  std::vector<PlotSeries> out;
+  for (const Installation& in : d.installations) {
+    std::vector<std::pair<double, double>> pts;
+    for (size_t i = 0; i < readings.size(); ++i) {
+      if (readings[i].installation == in.id)
+        pts.push_back({readings[i].angle_deg, residual(static_cast<long>(i))});
+    }
+    if (pts.empty()) continue;
+    std::stable_sort(pts.begin(), pts.end(), [](auto& a, auto& b) { return a.first < b.first; });
+    PlotSeries s;
+    s.title = in.id;
+    for (auto& [a, r] : pts) s.x.push_back(a), s.y.push_back(r);
+    out.push_back(s);
+  }
+  return out;
+}
+
+void unidentifiable_section(ReportWriter& p, const std::vector<Unidentifiable>& list) {
+  if (list.empty()) return;
+  p.heading("Not determined");
+  p.paragraph(std::to_string(list.size()) +
+              " combination(s) of the errors no reading sees; their values are reported as '--', "
+              "never as numbers.");
+  std::vector<std::vector<std::string>> rows;
+  for (const Unidentifiable& u : list) {
+    rows.push_back(
+        {u.angle_deg ? fmt_num(*u.angle_deg, 6) : "all", u.expression, u.interpretation});
+  }
+  p.table({"angle [deg]", "combination", "meaning"}, rows);
+}
+
+// Errors with U = k u per value (k from the budget when there is one).
+// `coverage`: the coverage probability of U.
+void errors_section(ReportWriter& p, const std::vector<ExpandedErrorsAtAngle>& expanded,
+                    bool values, const std::string& what, double coverage) {
+  const std::string at = "U (" + fmt_num(100 * coverage) + " %)";
+  p.figure([&] { return plot_errors(expanded, values, what); },
+           values ? "The six errors against angle; the band is the expanded uncertainty " + at + "."
+                  : "Expanded uncertainty " + at +
+                        " of each error at each angle, before any reading is taken.");
+  p.table(errors_header(values), errors_rows(expanded, values));
+}
+
+// A clause as a sentence: capital first letter, full stop.
+std::string as_sentence(std::string text) {
+  if (!text.empty()) text[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(text[0])));
+  return text + ".";
+}
+
+std::vector<std::string> errors_header(bool values) {
+  std::vector<std::string> h = {"angle [deg]"};
+  for (int e = 0; e < 6; ++e) {
+    h.push_back(std::string(kErrorNames[e]) + (values ? " ± U" : " U") + " [" + kErrorUnits[e] +
+                "]");
+  }
+  return h;
+}
+
+std::vector<std::vector<std::string>> errors_rows(const std::vector<ExpandedErrorsAtAngle>& errors,
+                                                  bool values) {
+  std::vector<std::vector<std::string>> rows;
+  for (const ExpandedErrorsAtAngle& ea : errors) {
+    std::vector<std::string> r = {fmt_num(ea.angle_deg, 6)};
+    for (int e = 0; e < 6; ++e) {
+      const ExpandedValue& d = ea.errors[e];
+      std::ostringstream c;
+      c << std::fixed << std::setprecision(2);
+      if (!d.determined) {
+        c << "--";
+      } else if (values) {
+        c << d.value << " ± " << d.U;
+      } else {
+        c << d.U;
+      }
+      r.push_back(c.str());
+    }
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+void conditions(ReportWriter& p, const RunContext& run, const Design* design) {
+  p.conditions(run.command, run.inputs, design);
+}
+
+}  // namespace dbbkit::io::detail

@@ -1,0 +1,43 @@
+#pragma once
+// Sections shared by the commands' reports (reports.hpp), each written through the
+// ReportWriter interface. Internal to io.
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/identify.hpp"
+#include "dbbkit/io/plots.hpp"
+#include "dbbkit/io/report_writer.hpp"
+#include "dbbkit/io/reports.hpp"
+#include "dbbkit/measurement.hpp"
+
+namespace dbbkit::io::detail {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// The installations as table rows: id, L, D, H, direction, sign, bar, set-up.
+std::vector<std::vector<std::string>> installation_rows(const Design& d);
+// The design: a sentence, its drawing and the installations' table.
+void design_section(ReportWriter& p, const Design& d);
+// Residual against angle, one line per installation.
+std::vector<PlotSeries> residual_series(const Design& d, const std::vector<Reading>& readings,
+                                        const Eigen::VectorXd& residual);
+// The combinations of the errors no reading sees, when there are any.
+void unidentifiable_section(ReportWriter& p, const std::vector<Unidentifiable>& list);
+// The errors (values with +-U, or U alone) as a plot and a table; `coverage`: the coverage
+// probability of U.
+void errors_section(ReportWriter& p, const std::vector<ExpandedErrorsAtAngle>& expanded,
+                    bool values, const std::string& what, double coverage);
+// The errors as table rows: angle, then value +- U (or U alone) per error; "--" where not
+// determined.
+std::vector<std::vector<std::string>> errors_rows(const std::vector<ExpandedErrorsAtAngle>& errors,
+                                                  bool values);
+std::vector<std::string> errors_header(bool values);
+// A clause as a sentence: capital first letter, full stop.
+std::string as_sentence(std::string text);
+// The run's conditions (ReportWriter::conditions).
+void conditions(ReportWriter& p, const RunContext& run, const Design* design);
+
+}  // namespace dbbkit::io::detail
