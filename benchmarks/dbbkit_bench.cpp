@@ -169,7 +169,7 @@ void BM_IdentifyFourier(benchmark::State& state) {
   const int angles = static_cast<int>(state.range(0));
   d.angles_deg.clear();
   for (int i = 0; i < angles; ++i) d.angles_deg.push_back(360.0 * i / angles);
-  d.errors = {ErrorModel::Kind::Fourier, static_cast<int>(state.range(1))};
+  d.errors = {ErrorModel::Kind::kFourier, static_cast<int>(state.range(1))};
   for (int k = 0; k < 5; ++k) {
     Installation in = d.installations[k % 7];
     in.id = "x" + std::to_string(k);

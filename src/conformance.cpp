@@ -8,16 +8,13 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "number_text.hpp"
 
 namespace dbbkit {
 
 namespace {
 
-std::string fixed(double x, int digits) {
-  std::ostringstream s;
-  s << std::setprecision(digits) << x;
-  return s.str();
-}
+std::string fixed(double x, int digits) { return text::significant(x, digits); }
 
 // One value's interval against the zone: its decision and its margin (the smallest
 // distance of the interval inside the zone; negative when it reaches outside).
@@ -122,7 +119,7 @@ int quantity_index(Axis axis, const std::vector<std::string>& q, const Tolerance
     for (const std::string& n : q) list += (list.empty() ? "" : ", ") + n;
     throw InputError(source, t.where + ".quantity",
                      "'" + t.quantity + "' is not a quantity of a" +
-                         std::string(axis == Axis::C ? " C" : " B") +
+                         std::string(axis == Axis::kC ? " C" : " B") +
                          " axis; a tolerance names one of: " + list);
   }
   const int i = static_cast<int>(it - q.begin());

@@ -11,6 +11,14 @@
 
 namespace dbbkit {
 
+namespace {
+
+// An explicit direction is a unit vector when ||v| - 1| < kUnitVectorTolerance (a vector
+// written with six digits).
+constexpr double kUnitVectorTolerance = 1e-6;
+
+}  // namespace
+
 InputError::InputError(std::string source, std::string where, std::string detail)
     : std::runtime_error(source + ": " + (where.empty() ? "" : where + ": ") + detail),
       source_(std::move(source)),
@@ -21,39 +29,39 @@ InputError InputError::with_source(const std::string& source) const {
   return InputError(source, where_, detail_);
 }
 
-const char* axis_name(Axis axis) { return axis == Axis::C ? "C" : "B"; }
+const char* axis_name(Axis axis) { return axis == Axis::kC ? "C" : "B"; }
 
 Direction Direction::named(Axis axis, Kind kind) {
   Direction d;
   d.kind = kind;
-  if (axis == Axis::C) {
-    d.body = kind == Kind::Radial       ? Eigen::Vector3d::UnitX()
-             : kind == Kind::Tangential ? Eigen::Vector3d::UnitY()
-                                        : Eigen::Vector3d::UnitZ();
+  if (axis == Axis::kC) {
+    d.body = kind == Kind::kRadial       ? Eigen::Vector3d::UnitX()
+             : kind == Kind::kTangential ? Eigen::Vector3d::UnitY()
+                                         : Eigen::Vector3d::UnitZ();
   } else {
-    d.body = kind == Kind::Radial       ? Eigen::Vector3d::UnitZ()
-             : kind == Kind::Tangential ? Eigen::Vector3d::UnitX()
-                                        : Eigen::Vector3d::UnitY();
+    d.body = kind == Kind::kRadial       ? Eigen::Vector3d::UnitZ()
+             : kind == Kind::kTangential ? Eigen::Vector3d::UnitX()
+                                         : Eigen::Vector3d::UnitY();
   }
   return d;
 }
 
 Direction Direction::vector(const Eigen::Vector3d& unit_body) {
   Direction d;
-  d.kind = Kind::Vector;
+  d.kind = Kind::kVector;
   d.body = unit_body;
   return d;
 }
 
 std::string Direction::label() const {
   switch (kind) {
-    case Kind::Radial:
+    case Kind::kRadial:
       return "radial";
-    case Kind::Tangential:
+    case Kind::kTangential:
       return "tangential";
-    case Kind::Axial:
+    case Kind::kAxial:
       return "axial";
-    case Kind::Vector:
+    case Kind::kVector:
       break;
   }
   std::ostringstream s;
@@ -62,12 +70,12 @@ std::string Direction::label() const {
 }
 
 double NoiseModel::sigma_um() const {
-  return distribution == Distribution::Uniform ? half_width_um / std::sqrt(3.0) : std_um;
+  return distribution == Distribution::kUniform ? half_width_um / std::sqrt(3.0) : std_um;
 }
 
 std::string NoiseModel::describe() const {
   std::ostringstream s;
-  if (distribution == Distribution::Uniform) {
+  if (distribution == Distribution::kUniform) {
     s << "rectangular +-" << half_width_um << " um (sigma = a/sqrt(3) = " << sigma_um() << " um)";
   } else {
     s << "normal, sigma = " << std_um << " um";
@@ -77,11 +85,11 @@ std::string NoiseModel::describe() const {
 
 std::string ErrorModel::describe() const {
   switch (kind) {
-    case Kind::PerAngle:
+    case Kind::kPerAngle:
       return "per_angle";
-    case Kind::Fourier:
+    case Kind::kFourier:
       return "fourier order " + std::to_string(order);
-    case Kind::Legendre:
+    case Kind::kLegendre:
       return "legendre order " + std::to_string(order);
   }
   return "";
@@ -154,7 +162,7 @@ void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std:
     require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_mm, source, key + "." + name,
             "must be a standard uncertainty in [0, 100] mm (README, \"Limits\")");
   }
-  if (axis == Axis::B)
+  if (axis == Axis::kB)
     require(u.H_mm == 0, source, key + ".H_mm", "H is not used for the swinging head B");
 }
 
@@ -162,7 +170,7 @@ bool length_within_limits(double x_mm) { return length_ok(x_mm); }
 
 void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axis,
                               const std::string& source) {
-  if (n.distribution == NoiseModel::Distribution::Uniform) {
+  if (n.distribution == NoiseModel::Distribution::kUniform) {
     require(noise_ok(n.half_width_um), source, "noise.accuracy_um",
             "must be a number of um in [1e-4, 1e4] (README, \"Limits\")");
   } else {
@@ -172,14 +180,14 @@ void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axi
   require(m.order >= 0, source, "errors.order", "must be a non-negative integer");
   require(m.order <= limits::kMaxSeriesOrder, source, "errors.order",
           "must be at most " + std::to_string(limits::kMaxSeriesOrder) + " (README, \"Limits\")");
-  if (m.kind == ErrorModel::Kind::Fourier) {
+  if (m.kind == ErrorModel::Kind::kFourier) {
     require(
-        axis == Axis::C, source, "errors.model",
+        axis == Axis::kC, source, "errors.model",
         "a Fourier series is for the full-turn axis C; use \"legendre\" for the swinging head B");
   }
-  if (m.kind == ErrorModel::Kind::Legendre) {
+  if (m.kind == ErrorModel::Kind::kLegendre) {
     require(
-        axis == Axis::B, source, "errors.model",
+        axis == Axis::kB, source, "errors.model",
         "a Legendre series is for the partial-range axis B; use \"fourier\" for the turntable C");
   }
 }
@@ -195,7 +203,7 @@ void validate_design(const Design& d, const std::string& source) {
     const std::string key = "angles_deg[" + std::to_string(i) + "]";
     const double a = d.angles_deg[i];
     require(finite(a), source, key, "angle is not a finite number");
-    if (d.axis == Axis::B) {
+    if (d.axis == Axis::kB) {
       require(a >= -180.0 && a <= 180.0, source, key,
               "angle " + std::to_string(a) +
                   " deg is outside [-180, 180] deg, the most a swinging head B can reach");
@@ -220,7 +228,7 @@ void validate_design(const Design& d, const std::string& source) {
   }
 
   validate_noise_and_model(d.noise, d.errors, d.axis, source);
-  if (d.errors.kind == ErrorModel::Kind::Legendre) {
+  if (d.errors.kind == ErrorModel::Kind::kLegendre) {
     if (d.errors.order > 0) {
       double lo = d.angles_deg.front(), hi = lo;
       for (double a : d.angles_deg) lo = std::min(lo, a), hi = std::max(hi, a);
@@ -254,7 +262,7 @@ void validate_design(const Design& d, const std::string& source) {
     require(length_ok(in.L_mm), source, key + ".ball_mm.L", kLengthLimit);
     require(length_ok(in.D_mm), source, key + ".ball_mm.D", kLengthLimit);
     require(length_ok(in.H_mm), source, key + ".ball_mm.H", kLengthLimit);
-    if (d.axis == Axis::C) {
+    if (d.axis == Axis::kC) {
       require(in.L_mm >= 0, source, key + ".ball_mm.L",
               "the radial distance L of a turntable ball must be >= 0 mm");
     } else {
@@ -262,7 +270,7 @@ void validate_design(const Design& d, const std::string& source) {
               "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
     }
     const double norm = in.direction.body.norm();
-    require(finite(norm) && std::abs(norm - 1.0) < 1e-6, source, key + ".direction",
+    require(finite(norm) && std::abs(norm - 1.0) < kUnitVectorTolerance, source, key + ".direction",
             "an explicit direction must be a unit vector (|v| = " + std::to_string(norm) + ")");
     require(in.sign == 1 || in.sign == -1, source, key + ".sign", "must be +1 or -1");
     if (in.bar_mm) {

@@ -45,7 +45,7 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
     for (int j = 0; j < s.n; ++j) ri(j) = r(rows[j]);
     s.mean_um = ri.mean();
     s.rms_um = std::sqrt(ri.squaredNorm() / s.n);
-    if (design.axis == Axis::C) s.harmonic_um = residual_harmonics(readings, rows, r);
+    if (design.axis == Axis::kC) s.harmonic_um = residual_harmonics(readings, rows, r);
     double t_sum = 0, t2 = 0, tr = 0, t_min = 1e300, t_max = -1e300;
     int nt = 0;
     double cw_sum = 0, ccw_sum = 0;
@@ -58,7 +58,7 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
         t_min = std::min(t_min, t), t_max = std::max(t_max, t);
       }
       if (rd.sweep)
-        (*rd.sweep == Sweep::CW ? (cw_sum += ri(j), ++ncw) : (ccw_sum += ri(j), ++nccw));
+        (*rd.sweep == Sweep::kCW ? (cw_sum += ri(j), ++ncw) : (ccw_sum += ri(j), ++nccw));
     }
     if (nt == s.n && nt > 2 && t_max > t_min) {
       const double tm = t_sum / nt;
@@ -87,8 +87,10 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
   for (const SetupEffect& e : setup_effects(design, model, false)) {
     bool in_model = false;
     for (const AddedEffect& a : added) in_model = in_model || a.block.label == e.label;
-    if (in_model || added_rank(solver, e.X, options.estimate) == e.X.cols()) continue;
-    const Eigen::MatrixXd GX = solver.gain() * e.X;
+    if (in_model ||
+        added_rank(solver, e.J_reading_effect, options.estimate) == e.J_reading_effect.cols())
+      continue;
+    const Eigen::MatrixXd GX = solver.J_theta_reading() * e.J_reading_effect;
     SetupRisk worst;
     bool any = false;
     for (int s = 0; s < param.n_stations(); ++s) {
@@ -144,11 +146,14 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
   settings.n_tests = std::max(1, n_tests);
   for (const EffectBlock& b : pool) {
     if (!b.not_applicable.empty()) continue;
-    const Eigen::MatrixXd R = unexplained(solver, b.X);
+    const Eigen::MatrixXd R = unexplained(solver, b.J_reading_effect);
     const Eigen::VectorXd norms =
-        (solver.sigma_um().cwiseInverse().asDiagonal() * b.X).colwise().norm().transpose();
+        (solver.sigma_um().cwiseInverse().asDiagonal() * b.J_reading_effect)
+            .colwise()
+            .norm()
+            .transpose();
     const int q = added_rank(R, norms, options.estimate);
-    if (q < b.X.cols()) continue;  // confounded: no size would be found
+    if (q < b.J_reading_effect.cols()) continue;  // confounded: no size would be found
     const double info =
         Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(R.transpose() * R).eigenvalues()(0);
     const int dof = static_cast<int>(solver.J().rows()) - prior.rank - q;
@@ -186,12 +191,13 @@ std::vector<Attribution> attribute(const Parameterisation& param, const LinearMo
     Eigen::Index cols = 0, removed = 0, inserted = 0;
     for (const AddedEffect& a : added) {
       if (std::find(out_labels.begin(), out_labels.end(), a.block.label) != out_labels.end()) {
-        removed += a.block.X.cols();
+        removed += a.block.J_reading_effect.cols();
         continue;
       }
-      blocks.push_back(&a.block.X);
+      blocks.push_back(&a.block.J_reading_effect);
     }
-    for (const EffectBlock* b : in) blocks.push_back(&b->X), inserted += b->X.cols();
+    for (const EffectBlock* b : in)
+      blocks.push_back(&b->J_reading_effect), inserted += b->J_reading_effect.cols();
     for (const Eigen::MatrixXd* X : blocks) cols += X->cols();
     Eigen::MatrixXd X(model.J.rows(), cols);
     Eigen::Index c = 0;
@@ -410,8 +416,8 @@ std::vector<CandidateStatus> effect_detectability(const Design& design,
       out.push_back({b.label, CandidateState::kNotApplicable, b.not_applicable});
       continue;
     }
-    const int q = static_cast<int>(b.X.cols());
-    const int added = added_rank(solver, b.X);
+    const int q = static_cast<int>(b.J_reading_effect.cols());
+    const int added = added_rank(solver, b.J_reading_effect);
     if (added < q) {
       out.push_back({b.label, CandidateState::kConfounded,
                      "raises the rank by " + std::to_string(added) + " of " + std::to_string(q) +

@@ -8,6 +8,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "number_text.hpp"
 #include "tolerances.hpp"
 
 namespace dbbkit {
@@ -20,15 +21,15 @@ struct KindInfo {
   bool shared;
 };
 constexpr KindInfo kKinds[] = {
-    {EffectKind::LengthOffset, "length_offset", "um", false},
-    {EffectKind::Centring, "centring", "um", false},
-    {EffectKind::Drift, "drift", "um/min", false},
-    {EffectKind::Reversal, "reversal", "um", false},
-    {EffectKind::Scale, "scale", "um/m", true},
-    {EffectKind::Squareness, "squareness", "urad", true},
-    {EffectKind::Periodic, "periodic", "um", false},
-    {EffectKind::Step, "step", "um", false},
-    {EffectKind::Thermal, "thermal", "um", false},
+    {EffectKind::kLengthOffset, "length_offset", "um", false},
+    {EffectKind::kCentring, "centring", "um", false},
+    {EffectKind::kDrift, "drift", "um/min", false},
+    {EffectKind::kReversal, "reversal", "um", false},
+    {EffectKind::kScale, "scale", "um/m", true},
+    {EffectKind::kSquareness, "squareness", "urad", true},
+    {EffectKind::kPeriodic, "periodic", "um", false},
+    {EffectKind::kStep, "step", "um", false},
+    {EffectKind::kThermal, "thermal", "um", false},
 };
 const KindInfo& info(EffectKind k) {
   for (const KindInfo& i : kKinds) {
@@ -42,8 +43,8 @@ const char* effect_name(EffectKind kind) { return info(kind).name; }
 const char* effect_unit(EffectKind kind) { return info(kind).unit; }
 bool effect_is_shared(EffectKind kind) { return info(kind).shared; }
 bool effect_has_whole_test_form(EffectKind kind) {
-  return kind == EffectKind::LengthOffset || kind == EffectKind::Drift ||
-         kind == EffectKind::Reversal || kind == EffectKind::Thermal;
+  return kind == EffectKind::kLengthOffset || kind == EffectKind::kDrift ||
+         kind == EffectKind::kReversal || kind == EffectKind::kThermal;
 }
 
 EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key) {
@@ -58,15 +59,12 @@ EffectKind effect_kind(const std::string& name, const std::string& source, const
 
 namespace {
 // A position in a label: up to 6 significant digits.
-std::string short_number(double x) {
-  std::ostringstream o;
-  o << std::setprecision(6) << x;
-  return o.str();
-}
+std::string short_number(double x) { return text::significant(x, 6); }
 
 // Parameters of an effect: three components for the vector effects, else one.
 int effect_parameter_count(EffectKind kind) {
-  return kind == EffectKind::Centring || kind == EffectKind::Scale || kind == EffectKind::Squareness
+  return kind == EffectKind::kCentring || kind == EffectKind::kScale ||
+                 kind == EffectKind::kSquareness
              ? 3
              : 1;
 }
@@ -74,11 +72,11 @@ int effect_parameter_count(EffectKind kind) {
 
 std::vector<std::string> effect_parameter_names(EffectKind kind) {
   switch (kind) {
-    case EffectKind::Centring:
+    case EffectKind::kCentring:
       return {"cx", "cy", "cz"};
-    case EffectKind::Scale:
+    case EffectKind::kScale:
       return {"x", "y", "z"};
-    case EffectKind::Squareness:
+    case EffectKind::kSquareness:
       return {"xy", "yz", "zx"};
     default:
       return {"value"};
@@ -90,9 +88,9 @@ std::string EffectCandidate::label(const Design& design) const {
   if (component >= 0) s += "." + effect_parameter_names(kind)[component];
   if (installation >= 0) s += "[" + design.installations[installation].id + "]";
   if (installation < 0 && effect_has_whole_test_form(kind)) s += "[all]";
-  if (kind == EffectKind::Periodic) s += "(" + std::to_string(harmonic) + "/turn)";
-  if (kind == EffectKind::Step && std::isfinite(at_s)) s += "(t=" + short_number(at_s) + "s)";
-  if (kind == EffectKind::Thermal) s += "(tau=" + short_number(tau_min) + "min)";
+  if (kind == EffectKind::kPeriodic) s += "(" + std::to_string(harmonic) + "/turn)";
+  if (kind == EffectKind::kStep && std::isfinite(at_s)) s += "(t=" + short_number(at_s) + "s)";
+  if (kind == EffectKind::kThermal) s += "(tau=" + short_number(tau_min) + "min)";
   return s;
 }
 
@@ -120,52 +118,52 @@ Eigen::Vector3d centring_row(Axis axis, const Installation& in, double angle_deg
   return -in.sign * direction_machine(axis, in, angle_deg);
 }
 
-Eigen::VectorXd effect_row(const Design& design, const Reading& r, double t0_s,
-                           const EffectCandidate& e) {
-  return effect_row(design, r, design.find_installation(r.installation), t0_s, e);
+Eigen::VectorXd J_reading_effect(const Design& design, const Reading& r, double t0_s,
+                                 const EffectCandidate& e) {
+  return J_reading_effect(design, r, design.find_installation(r.installation), t0_s, e);
 }
 
-Eigen::VectorXd effect_row(const Design& design, const Reading& r, int inst, double t0_s,
-                           const EffectCandidate& e) {
+Eigen::VectorXd J_reading_effect(const Design& design, const Reading& r, int inst, double t0_s,
+                                 const EffectCandidate& e) {
   Eigen::VectorXd row = Eigen::VectorXd::Zero(effect_parameter_count(e.kind));
   if (e.installation >= 0 && e.installation != inst) return row;
   const Installation& in = design.installations[inst];
   switch (e.kind) {
-    case EffectKind::LengthOffset:
+    case EffectKind::kLengthOffset:
       row(0) = kLengthOffsetRow;
       break;
-    case EffectKind::Centring:
+    case EffectKind::kCentring:
       row = centring_row(design.axis, in, r.angle_deg);
       break;
-    case EffectKind::Drift:
+    case EffectKind::kDrift:
       if (r.time_s && std::isfinite(t0_s)) row(0) = (*r.time_s - t0_s) / 60.0;
       break;
-    case EffectKind::Reversal:
-      if (r.sweep) row(0) = *r.sweep == Sweep::CW ? 0.5 : -0.5;
+    case EffectKind::kReversal:
+      if (r.sweep) row(0) = *r.sweep == Sweep::kCW ? 0.5 : -0.5;
       break;
-    case EffectKind::Scale:
-    case EffectKind::Squareness: {
+    case EffectKind::kScale:
+    case EffectKind::kSquareness: {
       if (!in.bar_mm) break;
       const Eigen::Vector3d u = direction_machine(design.axis, in, r.angle_deg);
       const Eigen::Vector3d F =
           ball_position_mm(design.axis, in, r.angle_deg) - in.sign * *in.bar_mm * u;
       const Eigen::Vector3d w =
           -in.sign * 1e-3 * u;  // reading per um of following-ball motion, per mm of F
-      if (e.kind == EffectKind::Scale) {
+      if (e.kind == EffectKind::kScale) {
         row = w.cwiseProduct(F);
       } else {
         row << w.x() * F.y(), w.y() * F.z(), w.z() * F.x();
       }
       break;
     }
-    case EffectKind::Step:
+    case EffectKind::kStep:
       if (r.time_s && *r.time_s >= e.at_s) row(0) = 1.0;
       break;
-    case EffectKind::Thermal:
+    case EffectKind::kThermal:
       if (r.time_s && std::isfinite(t0_s) && e.tau_min > 0)
         row(0) = -std::expm1(-(*r.time_s - t0_s) / (60.0 * e.tau_min));
       break;
-    case EffectKind::Periodic: {
+    case EffectKind::kPeriodic: {
       double s, c;
       sincos_deg(e.harmonic * r.angle_deg - e.phase_deg, s, c);
       row(0) = c;
@@ -203,18 +201,19 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
     const bool applies = e.installation < 0 || e.installation == inst;
     if (applies) {
       time_missing = time_missing || !r.time_s;
-      cw = cw || (r.sweep && *r.sweep == Sweep::CW);
-      ccw = ccw || (r.sweep && *r.sweep == Sweep::CCW);
+      cw = cw || (r.sweep && *r.sweep == Sweep::kCW);
+      ccw = ccw || (r.sweep && *r.sweep == Sweep::kCCW);
       bar_missing = bar_missing || !design.installations[inst].bar_mm;
     }
     const double start = e.installation < 0 ? layout.test_start_s : layout.start_s[inst];
-    full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, start, e).transpose();
+    full.row(static_cast<Eigen::Index>(i)) =
+        J_reading_effect(design, r, inst, start, e).transpose();
   }
-  if ((e.kind == EffectKind::Drift || e.kind == EffectKind::Thermal) && time_missing)
+  if ((e.kind == EffectKind::kDrift || e.kind == EffectKind::kThermal) && time_missing)
     b.not_applicable = "needs time_s on every reading it applies to";
-  if (e.kind == EffectKind::Reversal && !(cw && ccw))
+  if (e.kind == EffectKind::kReversal && !(cw && ccw))
     b.not_applicable = "needs readings of both sweeps (cw and ccw)";
-  if ((e.kind == EffectKind::Scale || e.kind == EffectKind::Squareness) && bar_missing) {
+  if ((e.kind == EffectKind::kScale || e.kind == EffectKind::kSquareness) && bar_missing) {
     b.not_applicable = "needs bar_mm on every installation (the following ball's position)";
   }
   std::vector<int> keep;
@@ -225,9 +224,9 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
   }
   if (keep.empty() && b.not_applicable.empty())
     b.not_applicable = "changes no reading of this design";
-  b.X.resize(full.rows(), static_cast<Eigen::Index>(keep.size()));
+  b.J_reading_effect.resize(full.rows(), static_cast<Eigen::Index>(keep.size()));
   for (std::size_t j = 0; j < keep.size(); ++j) {
-    b.X.col(static_cast<Eigen::Index>(j)) = full.col(keep[j]);
+    b.J_reading_effect.col(static_cast<Eigen::Index>(j)) = full.col(keep[j]);
     b.parameters.push_back(names[keep[j]]);
   }
   return b;
@@ -237,8 +236,8 @@ std::vector<EffectBlock> candidate_effects(const Design& design,
                                            const std::vector<Reading>& readings) {
   std::vector<EffectBlock> out;
   const ReadingLayout layout(design, readings);
-  for (EffectKind k :
-       {EffectKind::LengthOffset, EffectKind::Centring, EffectKind::Drift, EffectKind::Reversal}) {
+  for (EffectKind k : {EffectKind::kLengthOffset, EffectKind::kCentring, EffectKind::kDrift,
+                       EffectKind::kReversal}) {
     for (std::size_t i = 0; i < design.installations.size(); ++i) {
       out.push_back(effect_block(design, readings, layout, {k, static_cast<int>(i)}));
     }
@@ -249,7 +248,7 @@ std::vector<EffectBlock> candidate_effects(const Design& design,
   }
   // Shared effects one parameter at a time: part of a scale or squareness can be
   // confounded (an isotropic scale is a length offset) while the rest is not.
-  for (EffectKind k : {EffectKind::Scale, EffectKind::Squareness}) {
+  for (EffectKind k : {EffectKind::kScale, EffectKind::kSquareness}) {
     for (int c = 0; c < 3; ++c) out.push_back(effect_block(design, readings, layout, {k, -1, c}));
   }
   return out;
@@ -257,7 +256,7 @@ std::vector<EffectBlock> candidate_effects(const Design& design,
 
 EffectBlock ScanFamily::alternative(const Design& design, const std::vector<Reading>& readings,
                                     int k) const {
-  if (effect.kind != EffectKind::Step) return alternatives.at(static_cast<std::size_t>(k));
+  if (effect.kind != EffectKind::kStep) return alternatives.at(static_cast<std::size_t>(k));
   EffectBlock b;
   b.effect = effect;
   const Reading& first =
@@ -269,8 +268,9 @@ EffectBlock ScanFamily::alternative(const Design& design, const std::vector<Read
         "(from reading " + std::to_string(k + 1) + " of " + std::to_string(rows.size()) + ")";
   b.unit = effect_unit(effect.kind);
   b.parameters = {"value"};
-  b.X = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(readings.size()), 1);
-  for (std::size_t j = static_cast<std::size_t>(k); j < rows.size(); ++j) b.X(rows[j], 0) = 1.0;
+  b.J_reading_effect = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(readings.size()), 1);
+  for (std::size_t j = static_cast<std::size_t>(k); j < rows.size(); ++j)
+    b.J_reading_effect(rows[j], 0) = 1.0;
   return b;
 }
 
@@ -282,7 +282,7 @@ std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Re
     rows[index.at(readings[j].installation)].push_back(static_cast<int>(j));
   for (std::size_t i = 0; i < design.installations.size(); ++i) {
     ScanFamily f;
-    f.effect.kind = EffectKind::Step;
+    f.effect.kind = EffectKind::kStep;
     f.effect.installation = static_cast<int>(i);
     f.label = f.effect.label(design);
     f.rows = rows[i];
@@ -299,7 +299,7 @@ std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Re
     out.push_back(f);
   }
   ScanFamily th;
-  th.effect.kind = EffectKind::Thermal;
+  th.effect.kind = EffectKind::kThermal;
   th.label = th.effect.label(design);
   th.label = th.label.substr(0, th.label.find('('));
   double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;

@@ -14,6 +14,14 @@
 
 namespace dbbkit {
 
+namespace {
+
+// An entry of a null vector is structure when |entry| > kStructuralZero max|entry|; below,
+// it is the rounding of a zero.
+constexpr double kStructuralZero = 1e-9;
+
+}  // namespace
+
 const char* status_name(EstimateStatus status) {
   switch (status) {
     case EstimateStatus::kFullRank:
@@ -473,7 +481,7 @@ Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M,
 }
 
 Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M) {
-  return unexplained(solver, M, solver.gain() * M);
+  return unexplained(solver, M, solver.J_theta_reading() * M);
 }
 
 double chi2_upper_tail(int dof, double chi2) {
@@ -598,7 +606,7 @@ Eigen::MatrixXd Estimate::null_directions() const {
   const Eigen::SparseMatrix<double> N =
       column_scale.cwiseInverse().asDiagonal() * null_space_scaled;
   const double scale = N.coeffs().size() > 0 ? N.coeffs().cwiseAbs().maxCoeff() : 0.0;
-  const double tiny = 1e-9 * scale;  // |entry| <= 1e-9 * max|entry| is rounding, not structure
+  const double tiny = kStructuralZero * scale;
   // Groups of null vectors linked through the unknowns they share.
   const auto [group_of, n_groups] = column_components(N);
   std::vector<std::vector<int>> groups(static_cast<std::size_t>(n_groups));

@@ -11,16 +11,22 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/setup.hpp"
+#include "number_text.hpp"
 
 namespace dbbkit {
 
 namespace {
 
-std::string fmt(double x, int digits = 4) {
-  std::ostringstream s;
-  s << std::setprecision(digits) << x;
-  return s.str();
-}
+// The words for a direction no reading sees (an unidentifiable motion):
+//   a ball lies on the motion's line when its distance |(P - Q) x a| <= kOnLine_mm;
+//   the motion is a pure rotation when its pitch |h| <= kNoPitch (|d| + 1e-3 |e|);
+//   the line is the tool axis when it passes within kOnLine_mm of the origin and
+//   |a x z_tool| < kParallel.
+constexpr double kOnLine_mm = 1e-6;
+constexpr double kNoPitch = 1e-9;
+constexpr double kParallel = 1e-9;
+
+std::string fmt(double x, int digits = 4) { return text::significant(x, digits); }
 
 std::string fmt_vec(const Eigen::Vector3d& v, int digits = 4) {
   auto clean = [](double x) { return std::abs(x) < 5e-13 ? 0.0 : x; };
@@ -59,17 +65,17 @@ std::string interpret_rigid_motion(const Design& design, double angle_deg, const
   bool on_all_balls = true;
   for (const Installation& inst : design.installations) {
     const Eigen::Vector3d P = ball_position_mm(design.axis, inst, angle_deg);
-    if ((P - Q_mm).cross(a).norm() > 1e-6) on_all_balls = false;
+    if ((P - Q_mm).cross(a).norm() > kOnLine_mm) on_all_balls = false;
   }
-  if (std::abs(h) <= 1e-9 * (d.norm() + 1e-3 * e.norm())) {
+  if (std::abs(h) <= kNoPitch * (d.norm() + 1e-3 * e.norm())) {
     s << "a rotation about the line through " << fmt_vec(Q_mm) << " mm along " << fmt_vec(a)
       << " (machine frame)";
   } else {
     s << "a screw motion about the line through " << fmt_vec(Q_mm) << " mm along " << fmt_vec(a)
       << " (machine frame)";
   }
-  if (design.axis == Axis::B && Q_mm.norm() < 1e-6 &&
-      a.cross(axis_rotation(Axis::B, angle_deg) * Eigen::Vector3d::UnitZ()).norm() < 1e-9) {
+  if (design.axis == Axis::kB && Q_mm.norm() < kOnLine_mm &&
+      a.cross(axis_rotation(Axis::kB, angle_deg) * Eigen::Vector3d::UnitZ()).norm() < kParallel) {
     s << ", the tool axis";
   }
   if (on_all_balls) {
@@ -106,7 +112,7 @@ std::vector<Unidentifiable> describe_null_space(const Design& design, const Para
                                                 const Estimate& est) {
   std::vector<Unidentifiable> out;
   const Eigen::MatrixXd N = est.null_directions();
-  const bool per_angle = param.model().kind == ErrorModel::Kind::PerAngle;
+  const bool per_angle = param.model().kind == ErrorModel::Kind::kPerAngle;
   for (int c = 0; c < N.cols(); ++c) {
     Unidentifiable u;
     int station = -2;  // -2: none seen yet, -1: several

@@ -14,6 +14,14 @@ namespace dbbkit {
 
 namespace {
 
+// The rank of the covariance of an error motion's values: eigenvalues lambda_i >
+// kCovarianceRank max lambda count; the rest is rounding of a zero.
+constexpr double kCovarianceRank = 1e-12;
+
+}  // namespace
+
+namespace {
+
 // One block (translations or rotations): the rows of the determined values and the
 // five unknowns' columns at each.
 struct Row {
@@ -128,9 +136,9 @@ void range_monte_carlo(const std::vector<ComponentDraw>& draws,
 }  // namespace
 
 IsoNames iso230_names(Axis axis) {
-  const std::string s = axis == Axis::C ? "C" : "B";
-  return {{"XO" + s, (axis == Axis::C ? "YO" : "ZO") + s, "AO" + s,
-           (axis == Axis::C ? "BO" : "CO") + s, s + "0" + s},
+  const std::string s = axis == Axis::kC ? "C" : "B";
+  return {{"XO" + s, (axis == Axis::kC ? "YO" : "ZO") + s, "AO" + s,
+           (axis == Axis::kC ? "BO" : "CO") + s, s + "0" + s},
           {"EX" + s, "EY" + s, "EZ" + s, "EA" + s, "EB" + s, "EC" + s}};
 }
 
@@ -138,7 +146,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
                             const Estimate& est, double uncertainty_scale,
                             const IsoMotionOptions& motion) {
   IsoResult out;
-  const bool c_axis = design.axis == Axis::C;
+  const bool c_axis = design.axis == Axis::kC;
   // The nominal axis a and the two directions p1, p2 perpendicular to it (machine frame).
   const int ia = c_axis ? 2 : 1, ip1 = 0, ip2 = c_axis ? 1 : 2;
   const IsoNames names = iso230_names(design.axis);
@@ -345,7 +353,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(cov);
       const double top = std::max(0.0, eig.eigenvalues().maxCoeff());
       int r = 0;
-      for (Eigen::Index i = 0; i < n_at; ++i) r += eig.eigenvalues()(i) > 1e-12 * top;
+      for (Eigen::Index i = 0; i < n_at; ++i) r += eig.eigenvalues()(i) > kCovarianceRank * top;
       d.L = eig.eigenvectors().rightCols(r) * eig.eigenvalues().tail(r).cwiseSqrt().asDiagonal();
       v.computed = true;
       v.value =

@@ -36,7 +36,7 @@ Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg) {
   double s, c;
   sincos_deg(angle_deg, s, c);
   Eigen::Matrix3d R;
-  if (axis == Axis::C) {
+  if (axis == Axis::kC) {
     R << c, -s, 0, s, c, 0, 0, 0, 1;
   } else {
     R << c, 0, s, 0, 1, 0, -s, 0, c;
@@ -45,7 +45,7 @@ Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg) {
 }
 
 Eigen::Vector3d ball_body_mm(Axis axis, const Installation& inst) {
-  if (axis == Axis::C) return {inst.L_mm, inst.D_mm, inst.H_mm};
+  if (axis == Axis::kC) return {inst.L_mm, inst.D_mm, inst.H_mm};
   return {0.0, inst.D_mm, inst.L_mm};
 }
 
@@ -90,7 +90,7 @@ double exact_setup_reading_um(Axis axis, const Installation& inst, double angle_
   Installation placed = inst;
   placed.L_mm += setup.ball_mm(0);
   placed.D_mm += setup.ball_mm(1);
-  if (axis == Axis::C) placed.H_mm += setup.ball_mm(2);
+  if (axis == Axis::kC) placed.H_mm += setup.ball_mm(2);
   const Eigen::Vector3d P_nominal = ball_position_mm(axis, inst, angle_deg);
   const Eigen::Vector3d u = direction_machine(axis, inst, angle_deg);
   const Eigen::Vector3d F = P_nominal - inst.sign * bar_mm * u + 1e-3 * setup.centring_um;

@@ -13,6 +13,13 @@ namespace dbbkit {
 
 namespace {
 
+// A step divides the angle range into m steps when |m - round(m)| <= kWholeSteps max(1, m).
+constexpr double kWholeSteps = 1e-9;
+
+}  // namespace
+
+namespace {
+
 void require(bool ok, const std::string& source, const std::string& key, const std::string& what) {
   if (!ok) throw InputError(source, key, what);
 }
@@ -61,23 +68,23 @@ std::optional<Pattern> builtin_pattern(const std::string& name, Axis axis) {
   Pattern p;
   p.name = name;
   p.builtin = true;
-  if (axis == Axis::C) {
+  if (axis == Axis::kC) {
     // Balls at (L1, D1, H1), (L2, D2, H1), (L3, D3, H3) read radially and tangentially, the
     // axial reading on the axis at H1; H1 != H3.
     p.positions = {
-        {"1", var("L1"), var("D1"), var("H1"), {K::Radial, K::Tangential}, true, false, false},
-        {"1", zero, zero, var("H1"), {K::Axial}, false, false, false},
-        {"2", var("L2"), var("D2"), var("H1"), {K::Radial, K::Tangential}, true, false, false},
-        {"3", var("L3"), var("D3"), var("H3"), {K::Radial, K::Tangential}, true, false, false},
+        {"1", var("L1"), var("D1"), var("H1"), {K::kRadial, K::kTangential}, true, false, false},
+        {"1", zero, zero, var("H1"), {K::kAxial}, false, false, false},
+        {"2", var("L2"), var("D2"), var("H1"), {K::kRadial, K::kTangential}, true, false, false},
+        {"3", var("L3"), var("D3"), var("H3"), {K::kRadial, K::kTangential}, true, false, false},
     };
     p.distinct = {{"H1", "H3"}};
   } else {
     // Balls at L1 and L2 on the tool axis read in all three directions; where D_mm allows,
     // a third at (L3, D3) off the axis, radial and tangential (without it, rank 5 at every angle).
     p.positions = {
-        {"1", var("L1"), zero, zero, {K::Radial, K::Tangential, K::Axial}, true, false, false},
-        {"2", var("L2"), zero, zero, {K::Radial, K::Tangential, K::Axial}, true, false, false},
-        {"3", var("L3"), var("D3"), zero, {K::Radial, K::Tangential}, true, true, true},
+        {"1", var("L1"), zero, zero, {K::kRadial, K::kTangential, K::kAxial}, true, false, false},
+        {"2", var("L2"), zero, zero, {K::kRadial, K::kTangential, K::kAxial}, true, false, false},
+        {"3", var("L3"), var("D3"), zero, {K::kRadial, K::kTangential}, true, true, true},
     };
   }
   return p;
@@ -85,13 +92,13 @@ std::optional<Pattern> builtin_pattern(const std::string& name, Axis axis) {
 
 std::string installation_id(const PatternPosition& position, Direction::Kind kind) {
   switch (kind) {
-    case Direction::Kind::Radial:
+    case Direction::Kind::kRadial:
       return position.id + "r";
-    case Direction::Kind::Tangential:
+    case Direction::Kind::kTangential:
       return position.id + "t";
-    case Direction::Kind::Axial:
+    case Direction::Kind::kAxial:
       return position.id + "a";
-    case Direction::Kind::Vector:
+    case Direction::Kind::kVector:
       break;
   }
   return position.id + "v";
@@ -141,7 +148,7 @@ void validate_pattern(const Kit& k, const std::string& source) {
     require(!pos.id.empty(), source, key + ".id", "is empty");
     require(!pos.directions.empty(), source, key + ".directions", "no directions");
     for (Direction::Kind d : pos.directions) {
-      require(d != Direction::Kind::Vector, source, key + ".directions",
+      require(d != Direction::Kind::kVector, source, key + ".directions",
               "must be radial, tangential or axial");
       const std::string id = installation_id(pos, d);
       require(std::find(ids.begin(), ids.end(), id) == ids.end(), source, key + ".directions",
@@ -163,7 +170,7 @@ void validate_pattern(const Kit& k, const std::string& source) {
                   " and as " + std::string(1, name));
       if (name == 'H' && fresh) heights.push_back(c->variable);
     }
-    if (k.axis == Axis::B) {
+    if (k.axis == Axis::kB) {
       require(!pos.H.is_variable() && pos.H.value == 0, source, key + ".H",
               "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
     }
@@ -172,7 +179,7 @@ void validate_pattern(const Kit& k, const std::string& source) {
           "every position is optional: at least one must be required");
   require(heights.size() <= kMaxHeightVariables, source, "pattern.positions",
           "more than 4 height variables");
-  const size_t n_stacks = k.axis == Axis::C ? block_stacks(k).size() : 0;
+  const size_t n_stacks = k.axis == Axis::kC ? block_stacks(k).size() : 0;
   for (size_t g = 0; g < p.distinct.size(); ++g) {
     const std::string key = "pattern.distinct[" + std::to_string(g) + "]";
     for (const std::string& v : p.distinct[g]) {
@@ -212,12 +219,12 @@ void validate_kit(const Kit& k, const std::string& source) {
   require(length_within_limits(k.D_mm.min) && length_within_limits(k.D_mm.max), source, "D_mm",
           "min and max must be finite numbers of mm within +-10000 mm");
   require(k.D_mm.min <= k.D_mm.max, source, "D_mm", "min is larger than max");
-  if (k.axis == Axis::B) {
+  if (k.axis == Axis::kB) {
     require(k.D_mm.contains(0.0), source, "D_mm",
             "the B pattern puts two balls on the tool axis (D = 0): the range must include 0");
   }
 
-  if (k.axis == Axis::C) {
+  if (k.axis == Axis::kC) {
     require(length_within_limits(k.H_base_mm) && k.H_base_mm >= 0, source, "H_mm.base",
             "must be a height in [0, 10000] mm");
     require(k.blocks_mm.size() <= kMaxBlocks, source, "H_mm.blocks", "more than 16 blocks");
@@ -246,7 +253,7 @@ void validate_kit(const Kit& k, const std::string& source) {
   const Interval& r = k.angle_range_deg;
   require(finite(r.min) && finite(r.max) && r.min < r.max, source, "angles_deg.range",
           "must be [first, last] with first < last, in degrees");
-  if (k.axis == Axis::C) {
+  if (k.axis == Axis::kC) {
     require(r.width() <= 360.0 + kAngleTolerance_deg, source, "angles_deg.range",
             "spans more than one turn");
   } else {
@@ -260,7 +267,7 @@ void validate_kit(const Kit& k, const std::string& source) {
     require(finite(st) && st > 0, source, key, "must be a positive step in degrees");
     const double m = r.width() / st;
     require(m + 1 <= kMaxAngles, source, key, "gives more than 100000 angles");
-    require(std::abs(m - std::round(m)) <= 1e-9 * std::max(1.0, m), source, key,
+    require(std::abs(m - std::round(m)) <= kWholeSteps * std::max(1.0, m), source, key,
             "does not divide the range into a whole number of steps");
     for (size_t j = 0; j < i; ++j) {
       require(std::abs(k.angle_steps_deg[j] - st) > kAngleTolerance_deg, source, key,

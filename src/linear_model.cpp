@@ -1,5 +1,6 @@
 #include "dbbkit/linear_model.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <string>
 
@@ -21,7 +22,7 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
                      const std::vector<RowSpec>& rows) {
   const int n = static_cast<int>(rows.size());
   const int p = param.n_parameters();
-  const bool per_angle = param.model().kind == ErrorModel::Kind::PerAngle;
+  const bool per_angle = param.model().kind == ErrorModel::Kind::kPerAngle;
   // A series model is one dense block (every reading sees every coefficient of the six
   // errors): its factorisation holds n x p and p x p matrices. A per-angle model is one
   // small block per station, linear in the readings whatever their number.
@@ -125,21 +126,32 @@ std::vector<SetupInput> setup_inputs(const Design& design) {
   return out;
 }
 
-Eigen::MatrixXd setup_sensitivity(const Design& design, const Parameterisation& param,
-                                  const LinearModel& model, const std::vector<SetupInput>& inputs,
-                                  const Eigen::VectorXd& theta) {
+Eigen::MatrixXd J_reading_setup(const Design& design, const Parameterisation& param,
+                                const LinearModel& model, const std::vector<SetupInput>& inputs,
+                                const Eigen::VectorXd& theta) {
   const int n = static_cast<int>(model.J.rows());
   Eigen::MatrixXd D = Eigen::MatrixXd::Zero(n, static_cast<int>(inputs.size()));
   for (size_t j = 0; j < inputs.size(); ++j) {
     const SetupInput& in = inputs[j];
-    Installation moved = design.installations[in.installation];
+    const Installation& base = design.installations[in.installation];
+    Installation moved = base;
     (in.coord == 0 ? moved.L_mm : in.coord == 1 ? moved.D_mm : moved.H_mm) += 1.0;
     for (int i = 0; i < n; ++i) {
       if (model.row_installation[i] != in.installation) continue;
       const double a = model.row_angle_deg[i];
-      const RowVector6d d_row =
-          J_reading_error(design.axis, moved, a) -
-          J_reading_error(design.axis, design.installations[in.installation], a);
+      // The row is us . d + 1e-3 (P x us) . e with us = s u the unit vector from the following
+      // ball to the ball. Moving the ball by dP (per mm of the input: the ball position is
+      // linear in L, D, H) moves the lever arm, and, the following ball staying on its
+      // programmed path, turns the bar: d(us) = (I - us us') dP / bar.
+      const Eigen::Vector3d P = ball_position_mm(design.axis, base, a);
+      const Eigen::Vector3d dP = ball_position_mm(design.axis, moved, a) - P;
+      const Eigen::Vector3d us = base.sign * direction_machine(design.axis, base, a);
+      const Eigen::Vector3d dus = base.bar_mm
+                                      ? Eigen::Vector3d((dP - us * us.dot(dP)) / *base.bar_mm)
+                                      : Eigen::Vector3d::Zero();
+      RowVector6d d_row;
+      d_row.head<3>() = dus.transpose();
+      d_row.tail<3>() = 1e-3 * (dP.cross(us) + P.cross(dus)).transpose();
       D(i, static_cast<int>(j)) = d_row * param.errors_at_angle(a, theta);
     }
   }

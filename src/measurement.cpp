@@ -38,7 +38,7 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
     if (positions.station_of(r.angle_deg) < 0) {
       std::ostringstream s;
       s << "angle " << r.angle_deg << " deg is not a position of the design";
-      if (design.axis == Axis::B && (r.angle_deg < *lo || r.angle_deg > *hi)) {
+      if (design.axis == Axis::kB && (r.angle_deg < *lo || r.angle_deg > *hi)) {
         s << " (outside its range " << *lo << " .. " << *hi << " deg)";
       }
       throw InputError(source, where, s.str());

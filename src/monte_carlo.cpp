@@ -17,6 +17,14 @@ namespace dbbkit {
 
 namespace {
 
+// A value that does not scatter (std 0) gets a window of half-width kDegenerateWindow |mean|
+// (at least the smallest normal double) around its mean.
+constexpr double kDegenerateWindow = 1e-12;
+
+}  // namespace
+
+namespace {
+
 using detail::interval_ranks;
 using detail::splitmix64;
 using detail::Xoshiro256pp;
@@ -137,7 +145,7 @@ struct Accumulator {
 // and when it does not, a refinement pass finds it (below).
 double window_half_width(double std, double mean) {
   const double h = 0.5 * std;
-  return h > 0 ? h : std::max(1e-12 * std::abs(mean), 1e-300);
+  return h > 0 ? h : std::max(kDegenerateWindow * std::abs(mean), 1e-300);
 }
 
 }  // namespace
@@ -208,7 +216,7 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     A = setup->left_gain(C);
     A_sparse = A.sparseView(1.0, 1e-300);
   } else {
-    A_sparse = solver.gain().left(C);
+    A_sparse = solver.J_theta_reading().left(C);
   }
   const bool sparse = !factored && static_cast<double>(A_sparse.nonZeros()) < a_size / 4;
   if (!factored && !sparse && A.size() == 0) A = Eigen::MatrixXd(A_sparse);
@@ -218,7 +226,7 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   const std::vector<SetupInput> inputs = setup_inputs(design);
   Eigen::MatrixXd AD;
   if (!inputs.empty()) {
-    const Eigen::MatrixXd D = setup_sensitivity(design, param, model, inputs, est.theta);
+    const Eigen::MatrixXd D = J_reading_setup(design, param, model, inputs, est.theta);
     AD = factored ? setup->left_gain_times(C, L, D) : Eigen::MatrixXd(A_sparse * D);
   }
   const int q_setup = static_cast<int>(AS.cols());
@@ -245,7 +253,7 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
           const double scale = noise.sigma_um() * *budget.type_a_scale * std::sqrt(nu / chi2(rng));
           for (int i = 0; i < n; ++i) V(i, t) = scale * n01(rng);
         }
-      } else if (noise.distribution == NoiseModel::Distribution::Uniform) {
+      } else if (noise.distribution == NoiseModel::Distribution::kUniform) {
         const double a2 = 2.0 * noise.half_width_um, a = noise.half_width_um;
         double* v = V.data();
         for (long k = 0; k < n * kChunk; ++k) v[k] = a2 * rng.uniform01() - a;

@@ -217,7 +217,7 @@ namespace {
 // information, and a station met n times has the covariance T Mb^-1 T' / n: one 6 x 6
 // inverse serves every angle. Absent when the design is near rank loss (below).
 std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Design& design) {
-  if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::PerAngle)
+  if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::kPerAngle)
     return std::nullopt;
   const Eigen::Matrix<double, 6, 6> Mbm = body_information(design);
   double Mb[6][6];
@@ -385,7 +385,7 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   if (design.installations.empty()) return std::nullopt;
   // Declared set-up tolerances change the estimate (setup.hpp): fast_worst_total answers.
   if (design.setup_nuisance_declared()) return std::nullopt;
-  if (design.errors.kind != ErrorModel::Kind::PerAngle)
+  if (design.errors.kind != ErrorModel::Kind::kPerAngle)
     return fast_worst_case_series(design, reference_length_mm);
   const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design);
   if (!Cb) return std::nullopt;
@@ -440,7 +440,7 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   // F_h'F_l)) T' and noise part = diag T (Cb / n + sum_hl phi_h phi_l Z_h'Z_l) T'.
   // K P K' - F'F is a difference: a prior far larger than what the readings leave sends
   // the design to the general path (below). Tested against dense_worst_total, whose
-  // set-up columns are effect_row's at every angle.
+  // set-up columns are J_reading_effect's at every angle.
   const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design);
   if (!Cb) return std::nullopt;
   const PerAngleHarmonics h(design);
@@ -615,12 +615,12 @@ std::optional<SetupInformation> fast_setup_information(const Design& design) {
   out.rank = 6 * n_st;
   for (int i = 0; i < m; ++i) {
     const SetupUncertainty u = design.setup_of(i);
-    for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Centring}) {
-      const double std_um = kind == EffectKind::LengthOffset ? u.length_offset_um : u.centring_um;
+    for (EffectKind kind : {EffectKind::kLengthOffset, EffectKind::kCentring}) {
+      const double std_um = kind == EffectKind::kLengthOffset ? u.length_offset_um : u.centring_um;
       if (!(std_um > 0)) continue;
       Eigen::Matrix3d X = Eigen::Matrix3d::Zero();  // (harmonic, column)
       int q_full = 1;
-      if (kind == EffectKind::LengthOffset) {
+      if (kind == EffectKind::kLengthOffset) {
         X(0, 0) = kLengthOffsetRow;
       } else {
         X = h.centring_harmonics(design, i).transpose();
@@ -765,6 +765,16 @@ std::vector<SweepPoint> sweep_design(const Design& design,
     if (i < 0) break;
   }
   return out;
+}
+
+int best_sweep_point(const std::vector<SweepPoint>& map) {
+  int best = -1;
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    const std::optional<double>& w = map[i].worst_std_um;
+    if (w && (best < 0 || *w < *map[static_cast<std::size_t>(best)].worst_std_um))
+      best = static_cast<int>(i);
+  }
+  return best;
 }
 
 }  // namespace dbbkit

@@ -13,6 +13,7 @@
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/parallel.hpp"
+#include "number_text.hpp"
 
 namespace dbbkit {
 
@@ -26,12 +27,19 @@ constexpr double kGeometryTolerance_mm = 1e-9;
 // |f_b|) (the shorter measurement is then better).
 constexpr double kCandidateTie = 1e-9;
 constexpr int kNearRankLoss = 1 << 20;  // n_undetermined of a point the fast path declined
+// A reference design declares the kit's instrument when |sigma_ref - sigma_kit| <=
+// kSameNoiseRelative sigma_kit (the same noise written in another form).
+constexpr double kSameNoiseRelative = 1e-12;
+// Local starts: two points are apart when max_k |x_k - y_k| / max(ub_k - lb_k, kMinRange_mm)
+// > kStartsApart; COBYLA stops when a step changes every coordinate by at most kLocalXtol of it.
+constexpr double kMinRange_mm = 1e-12;
+constexpr double kStartsApart = 0.05;
+constexpr double kLocalXtol = 1e-10;
+// A grid of step h over [lo, hi] has ceil((hi - lo) / h - kWholeSteps) steps: a range that is
+// a whole number of steps up to rounding gets no extra point.
+constexpr double kWholeSteps = 1e-9;
 
-std::string mm(double x) {
-  std::ostringstream os;
-  os << std::round(x * 1000.0) / 1000.0;
-  return os.str();
-}
+std::string mm(double x) { return text::rounded(x, 3); }
 
 std::string stack_text(const Kit& kit, const Stack& s) {
   std::string t = mm(s.height_mm) + " mm (";
@@ -215,12 +223,12 @@ class ChoiceSearch {
   // The worst case (noise only, or the total) without the stacked model, when the fast path
   // applies (observability.hpp); false for the other criteria and where it declines.
   bool fast_score(Candidate& c) const {
-    if (criterion_ == Criterion::Worst) {
+    if (criterion_ == Criterion::kWorst) {
       const std::optional<WorstCase> w = fast_worst_case(c.design, kit_.reference_length_mm);
       if (!w) return false;
       c.worst = *w;
       c.objective = *w->worst_std_um;
-    } else if (criterion_ == Criterion::WorstTotal) {
+    } else if (criterion_ == Criterion::kWorstTotal) {
       // The total alone (one triangular solve); the noise part of each choice's best is
       // formed once the choice is searched (search_all).
       const std::optional<TotalWorstCase> t =
@@ -411,7 +419,7 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
       search_one(s);
       evaluations += s.evaluations();
       cr.best = s.best();
-      if (cr.best && criterion == Criterion::WorstTotal) {
+      if (cr.best && criterion == Criterion::kWorstTotal) {
         cr.best->worst = *design_worst_total(cr.best->design, kit.reference_length_mm).noise;
       }
       cr.budget_exhausted = s.budget_exhausted();
@@ -472,7 +480,7 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
     for (int i : res.best->installation_position)
       best_off_axis = best_off_axis || off_axis(kit, kit.pattern.positions[i]);
   }
-  if (kit.axis == Axis::B) {
+  if (kit.axis == Axis::kB) {
     if (!can_be_off_axis) {
       res.note = "the kit allows no lateral offset (D_mm = [" + mm(kit.D_mm.min) + ", " +
                  mm(kit.D_mm.max) +
@@ -492,12 +500,12 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
 }  // namespace
 
 Criterion criterion_from_name(const std::string& name, const std::string& source) {
-  if (name == "worst") return Criterion::Worst;
-  if (name == "D") return Criterion::D;
-  if (name == "A") return Criterion::A;
-  if (name == "E") return Criterion::E;
-  if (name == "condition") return Criterion::Condition;
-  if (name == "worst_total") return Criterion::WorstTotal;
+  if (name == "worst") return Criterion::kWorst;
+  if (name == "D") return Criterion::kD;
+  if (name == "A") return Criterion::kA;
+  if (name == "E") return Criterion::kE;
+  if (name == "condition") return Criterion::kCondition;
+  if (name == "worst_total") return Criterion::kWorstTotal;
   throw InputError(
       source, "",
       "unknown criterion '" + name + "' (expected worst, worst_total, D, A, E or condition)");
@@ -505,17 +513,17 @@ Criterion criterion_from_name(const std::string& name, const std::string& source
 
 const char* criterion_name(Criterion c) {
   switch (c) {
-    case Criterion::Worst:
+    case Criterion::kWorst:
       return "worst_std_um";
-    case Criterion::D:
+    case Criterion::kD:
       return "D";
-    case Criterion::A:
+    case Criterion::kA:
       return "A";
-    case Criterion::E:
+    case Criterion::kE:
       return "E";
-    case Criterion::Condition:
+    case Criterion::kCondition:
       return "condition";
-    case Criterion::WorstTotal:
+    case Criterion::kWorstTotal:
       return "worst_total_std_um";
   }
   return "?";
@@ -540,7 +548,7 @@ void resolve(const Kit& kit, PatternChoice& c) {
   for (PatternChoice::Placement& pl : c.placements) {
     const PatternPosition& p = kit.pattern.positions[pl.position];
     pl.D = variable(p.D, kit.D_mm);
-    if (kit.axis != Axis::C) continue;
+    if (kit.axis != Axis::kC) continue;
     pl.H_mm = p.H.value;
     for (const PatternChoice::Height& h : c.heights) {
       if (p.H.is_variable() && h.variable == p.H.variable) pl.H_mm = h.height_mm;
@@ -552,7 +560,7 @@ void resolve(const Kit& kit, PatternChoice& c) {
 
 std::vector<PatternChoice> pattern_choices(const Kit& kit) {
   std::vector<PatternChoice> out;
-  const std::vector<Stack> stacks = kit.axis == Axis::C ? block_stacks(kit) : std::vector<Stack>{};
+  const std::vector<Stack> stacks = kit.axis == Axis::kC ? block_stacks(kit) : std::vector<Stack>{};
   const int n_offered = static_cast<int>(offered_optional_positions(kit).size());
   for (int n_opt = 0; n_opt <= n_offered; ++n_opt) {
     // The height variables of the positions included, in the order they first appear.
@@ -599,7 +607,7 @@ std::vector<PatternChoice> pattern_choices(const Kit& kit) {
 
 std::string choice_label(const Kit& kit, const PatternChoice& c) {
   std::string t;
-  if (kit.axis == Axis::C) {
+  if (kit.axis == Axis::kC) {
     const std::vector<Stack> stacks = block_stacks(kit);
     for (const PatternChoice::Height& h : c.heights)
       t += h.variable + " = " + stack_text(kit, stacks[h.stack]) + ", ";
@@ -671,12 +679,12 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice,
 
 void describe_installations(const Kit& kit, Candidate& c) {
   std::vector<Stack> stacks;
-  if (kit.axis == Axis::C) stacks = block_stacks(kit);
+  if (kit.axis == Axis::kC) stacks = block_stacks(kit);
   for (size_t k = 0; k < c.design.installations.size(); ++k) {
     Installation& in = c.design.installations[k];
     const PatternPosition& p = kit.pattern.positions[c.installation_position[k]];
     std::string t;
-    if (kit.axis == Axis::C) {
+    if (kit.axis == Axis::kC) {
       if (p.H.is_variable()) {
         for (const PatternChoice::Height& h : c.choice.heights) {
           if (h.variable == p.H.variable) t = h.variable + " = " + stack_text(kit, stacks[h.stack]);
@@ -703,7 +711,7 @@ std::string added_installations(const Kit& kit, const Candidate& c) {
 }
 
 void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
-  if (criterion == Criterion::Worst) {
+  if (criterion == Criterion::kWorst) {
     c.worst = design_worst_case(c.design, kit.reference_length_mm);
     c.n_undetermined = c.worst.n_undetermined;
     const std::optional<double> v =
@@ -712,7 +720,7 @@ void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
     c.objective = v.value_or(0.0);
     return;
   }
-  if (criterion == Criterion::WorstTotal) {
+  if (criterion == Criterion::kWorstTotal) {
     const TotalWorstCase t = design_worst_total(c.design, kit.reference_length_mm);
     c.worst = *t.noise;
     c.n_undetermined = t.total.n_undetermined;
@@ -727,20 +735,20 @@ void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
   c.n_undetermined = ev.worst.n_undetermined;
   std::optional<double> v;
   switch (criterion) {
-    case Criterion::D:
+    case Criterion::kD:
       if (ev.criteria.D_logdet) v = -*ev.criteria.D_logdet;
       break;
-    case Criterion::A:
+    case Criterion::kA:
       v = ev.criteria.A_trace;
       break;
-    case Criterion::E:
+    case Criterion::kE:
       if (ev.prior.rank == ev.prior.n_unknowns) v = -ev.criteria.E_min_eigenvalue;
       break;
-    case Criterion::Condition:
+    case Criterion::kCondition:
       if (ev.prior.rank == ev.prior.n_unknowns) v = ev.prior.condition_number;
       break;
-    case Criterion::Worst:
-    case Criterion::WorstTotal:
+    case Criterion::kWorst:
+    case Criterion::kWorstTotal:
       break;
   }
   c.objective_defined = v.has_value();
@@ -793,6 +801,50 @@ OptimizeResult optimize_kit(const Kit& kit, const OptimizeOptions& options) {
 
 OptimizeResult exhaustive_search(const Kit& kit, Criterion criterion, double grid_mm, int threads) {
   return search_all(kit, criterion, threads, [&](ChoiceSearch& s) { s.grid(grid_mm); }, {});
+}
+
+Reference make_reference(const Kit& kit, Design design, const std::string& file) {
+  Reference r;
+  r.file = file;
+  r.design = std::move(design);
+  if (r.design.axis != kit.axis) {
+    throw InputError(file, "axis",
+                     "the reference is for axis " + std::string(axis_name(r.design.axis)) +
+                         ", the kit for axis " + axis_name(kit.axis));
+  }
+  if (std::abs(r.design.noise.sigma_um() - kit.noise.sigma_um()) >
+      kSameNoiseRelative * kit.noise.sigma_um()) {
+    throw InputError(file, "noise",
+                     "declares " + r.design.noise.describe() + ", the kit " + kit.noise.describe() +
+                         ": the ratio would compare instruments, not designs");
+  }
+  if (r.design.errors.kind != kit.errors.kind || r.design.errors.order != kit.errors.order) {
+    throw InputError(
+        file, "errors",
+        "the reference uses " + r.design.errors.describe() + ", the kit " + kit.errors.describe());
+  }
+  const Evaluation ev = evaluate_design(r.design, kit.reference_length_mm);
+  r.worst = ev.worst;
+  if (kit.setup_std.nuisance()) {
+    Design with = r.design;
+    if (!with.setup_nuisance_declared()) with.setup_std = kit.setup_std;
+    r.worst_total = design_worst_total(with, kit.reference_length_mm).total;
+  }
+  r.rank = ev.prior.rank;
+  r.n_unknowns = ev.prior.n_unknowns;
+  return r;
+}
+
+ReferenceRatios reference_ratios(const OptimizeResult& res, const Reference& reference) {
+  ReferenceRatios r;
+  if (!res.best) return r;
+  const Evaluation& ev = res.best_evaluation;
+  if (ev.worst.worst_std_um && reference.worst.worst_std_um)
+    r.worst_std_um = *ev.worst.worst_std_um / *reference.worst.worst_std_um;
+  if (ev.worst_total && ev.worst_total->worst_std_um && reference.worst_total &&
+      reference.worst_total->worst_std_um)
+    r.worst_total_std_um = *ev.worst_total->worst_std_um / *reference.worst_total->worst_std_um;
+  return r;
 }
 
 }  // namespace dbbkit

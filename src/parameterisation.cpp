@@ -11,7 +11,7 @@ namespace dbbkit {
 
 bool same_position(Axis axis, double a_deg, double b_deg) {
   double diff = std::abs(a_deg - b_deg);
-  if (axis == Axis::C) {
+  if (axis == Axis::kC) {
     diff = std::fmod(diff, 360.0);
     diff = std::min(diff, 360.0 - diff);
   }
@@ -20,11 +20,11 @@ bool same_position(Axis axis, double a_deg, double b_deg) {
 
 int coefficients_per_error(const ErrorModel& model) {
   switch (model.kind) {
-    case ErrorModel::Kind::Fourier:
+    case ErrorModel::Kind::kFourier:
       return 2 * model.order + 1;
-    case ErrorModel::Kind::Legendre:
+    case ErrorModel::Kind::kLegendre:
       return model.order + 1;
-    case ErrorModel::Kind::PerAngle:
+    case ErrorModel::Kind::kPerAngle:
       break;
   }
   return 1;
@@ -52,11 +52,11 @@ Parameterisation::Parameterisation(const Design& design)
   lo_deg_ = *std::min_element(design.angles_deg.begin(), design.angles_deg.end());
   hi_deg_ = *std::max_element(design.angles_deg.begin(), design.angles_deg.end());
   per_error_ = dbbkit::coefficients_per_error(model_);
-  n_parameters_ = model_.kind == ErrorModel::Kind::PerAngle ? 6 * n_stations() : 6 * per_error_;
+  n_parameters_ = model_.kind == ErrorModel::Kind::kPerAngle ? 6 * n_stations() : 6 * per_error_;
 }
 
 double Parameterisation::key_of(double angle_deg) const {
-  if (axis_ != Axis::C) return angle_deg;
+  if (axis_ != Axis::kC) return angle_deg;
   double k = std::fmod(angle_deg, 360.0);
   if (k < 0) k += 360.0;
   return k;
@@ -78,7 +78,7 @@ int Parameterisation::station_of(double angle_deg) const {
   };
   const double tol = 2 * kAngleTolerance_deg;
   scan(k - tol, k + tol);
-  if (axis_ == Axis::C) {
+  if (axis_ == Axis::kC) {
     if (k < tol) scan(360.0 + k - tol, 360.0 + tol);
     if (k > 360.0 - tol) scan(-tol, k - 360.0 + tol);
   }
@@ -104,20 +104,20 @@ Eigen::VectorXd legendre_basis(int order, double x) {
 
 Eigen::VectorXd Parameterisation::series_basis(double angle_deg) const {
   switch (model_.kind) {
-    case ErrorModel::Kind::Fourier:
+    case ErrorModel::Kind::kFourier:
       return fourier_basis(model_.order, angle_deg);
-    case ErrorModel::Kind::Legendre:
+    case ErrorModel::Kind::kLegendre:
       return legendre_basis(
           model_.order,
           hi_deg_ > lo_deg_ ? 2.0 * (angle_deg - lo_deg_) / (hi_deg_ - lo_deg_) - 1.0 : 0.0);
-    case ErrorModel::Kind::PerAngle:
+    case ErrorModel::Kind::kPerAngle:
       break;
   }
   return Eigen::VectorXd::Ones(1);
 }
 
 Eigen::SparseMatrix<double> Parameterisation::error_functions(int station) const {
-  if (model_.kind != ErrorModel::Kind::PerAngle)
+  if (model_.kind != ErrorModel::Kind::kPerAngle)
     return error_functions_at_angle(station_deg_[station]);
   Eigen::SparseMatrix<double> E(n_parameters_, 6);
   E.reserve(Eigen::VectorXi::Constant(6, 1));
@@ -127,7 +127,7 @@ Eigen::SparseMatrix<double> Parameterisation::error_functions(int station) const
 }
 
 Eigen::SparseMatrix<double> Parameterisation::error_functions_at_angle(double angle_deg) const {
-  if (model_.kind == ErrorModel::Kind::PerAngle) {
+  if (model_.kind == ErrorModel::Kind::kPerAngle) {
     const int s = station_of(angle_deg);
     if (s < 0) {
       throw InputError("parameterisation", "angle " + format_angle(angle_deg),
@@ -161,20 +161,20 @@ Eigen::Matrix<double, 6, 1> Parameterisation::errors_at_angle(double angle_deg,
 }
 
 int Parameterisation::parameter_error(int j) const {
-  return model_.kind == ErrorModel::Kind::PerAngle ? j % 6 : j / per_error_;
+  return model_.kind == ErrorModel::Kind::kPerAngle ? j % 6 : j / per_error_;
 }
 
 int Parameterisation::parameter_station(int j) const {
-  return model_.kind == ErrorModel::Kind::PerAngle ? j / 6 : -1;
+  return model_.kind == ErrorModel::Kind::kPerAngle ? j / 6 : -1;
 }
 
 std::string Parameterisation::parameter_name(int j) const {
   const std::string error = kErrorNames[parameter_error(j)];
-  if (model_.kind == ErrorModel::Kind::PerAngle) {
+  if (model_.kind == ErrorModel::Kind::kPerAngle) {
     return error + "@" + format_angle(station_deg_[parameter_station(j)]);
   }
   const int c = j % per_error_;
-  if (model_.kind == ErrorModel::Kind::Fourier) {
+  if (model_.kind == ErrorModel::Kind::kFourier) {
     if (c == 0) return error + ".c0";
     return error + ((c % 2) ? ".cos" : ".sin") + std::to_string((c + 1) / 2);
   }

@@ -30,7 +30,7 @@ int distinct_positions(Axis axis, const std::vector<Reading>& readings,
   angles.reserve(n);
   for (std::size_t j = 0; j < n; ++j) {
     double a = readings[rows ? static_cast<std::size_t>((*rows)[j]) : j].angle_deg;
-    if (axis == Axis::C) {
+    if (axis == Axis::kC) {
       a = std::fmod(a, 360.0);
       if (a < 0) a += 360.0;
     }
@@ -40,7 +40,7 @@ int distinct_positions(Axis axis, const std::vector<Reading>& readings,
   int count = 0;
   for (std::size_t j = 0; j < angles.size(); ++j)
     count += j == 0 || !same_position(axis, angles[j - 1], angles[j]);
-  if (axis == Axis::C && count > 1 && same_position(axis, angles.front(), angles.back())) --count;
+  if (axis == Axis::kC && count > 1 && same_position(axis, angles.front(), angles.back())) --count;
   return count;
 }
 
@@ -50,7 +50,7 @@ std::vector<double> residual_harmonics(const std::vector<Reading>& readings,
                                        const std::vector<int>& rows,
                                        const Eigen::VectorXd& residual_um) {
   std::vector<double> amplitude;
-  const int K = std::min(4, (distinct_positions(Axis::C, readings, &rows) - 1) / 2);
+  const int K = std::min(4, (distinct_positions(Axis::kC, readings, &rows) - 1) / 2);
   if (K < 1) return amplitude;
   const Eigen::Index n = static_cast<Eigen::Index>(rows.size());
   Eigen::MatrixXd A(n, 2 * K + 1);
@@ -93,7 +93,7 @@ ColumnTest ColumnTester::test(const Eigen::MatrixXd& X) const {
   if (X.cols() == 1) {
     const Eigen::VectorXd x = X.col(0);
     const Eigen::VectorXd Wx = w_.cwiseProduct(x);
-    const double R2 = Wx.dot(x) - (solver_.J().transpose() * Wx).dot(solver_.gain() * x);
+    const double R2 = Wx.dot(x) - (solver_.J().transpose() * Wx).dot(solver_.J_theta_reading() * x);
     return one_column(Wx.dot(fit_.residual_um), Wx.dot(x), R2);
   }
   ColumnTest t;
@@ -127,7 +127,7 @@ ScanTest ColumnTester::scan_steps(const std::vector<int>& rows, int min_segment)
   min_segment = std::max(1, min_segment);
   if (m < 2 * min_segment) return s;
   const Jacobian& J = solver_.J();
-  const WlsSolver::Gain& G = solver_.gain();
+  const WlsSolver::Gain& G = solver_.J_theta_reading();
   Eigen::VectorXd JWx = Eigen::VectorXd::Zero(J.cols()), Gx = Eigen::VectorXd::Zero(G.rows());
   // With a low-rank part U V: x'W J G x = JWx.(G0 x) + (U'J'W x).(V x), both q-vectors
   // summed reading by reading (J U formed once).
@@ -211,7 +211,7 @@ std::vector<ResidualFeature> residual_features(const Design& design,
       bool cw = false, ccw = false;
       for (int j : r) {
         if (!readings[j].sweep) continue;
-        const bool is_cw = *readings[j].sweep == Sweep::CW;
+        const bool is_cw = *readings[j].sweep == Sweep::kCW;
         cw = cw || is_cw, ccw = ccw || !is_cw;
         c(j, 0) = is_cw ? 0.5 : -0.5;
       }
@@ -245,7 +245,7 @@ std::vector<ResidualFeature> residual_features(const Design& design,
     if (r.empty()) continue;
     const int inst = static_cast<int>(i);
     add(feature(FeatureKind::kMean, inst), column(FeatureKind::kMean, inst));
-    if (design.axis == Axis::C) {
+    if (design.axis == Axis::kC) {
       const std::vector<double> amplitude = residual_harmonics(readings, r, fit.residual_um);
       for (int k = 1; k <= static_cast<int>(amplitude.size()); ++k) {
         Eigen::MatrixXd h = Eigen::MatrixXd::Zero(n, 2);
@@ -328,10 +328,10 @@ std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(
     const Design& design, const std::vector<Reading>& readings) {
   std::vector<std::pair<int, Eigen::MatrixXd>> out;
   const ErrorModel::Kind kind = design.errors.kind;
-  if (kind == ErrorModel::Kind::PerAngle) return out;
+  if (kind == ErrorModel::Kind::kPerAngle) return out;
   const int P = distinct_positions(design.axis, readings, nullptr);
   const int K = design.errors.order;
-  const int K_max = kind == ErrorModel::Kind::Fourier ? (P - 1) / 2 : P - 1;
+  const int K_max = kind == ErrorModel::Kind::kFourier ? (P - 1) / 2 : P - 1;
   for (int k = K + 1; k <= std::min(K + 4, K_max); ++k) {
     Design higher = design;
     higher.errors.order = k;

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "dbbkit/residual_checks.hpp"
+#include "number_text.hpp"
 
 namespace dbbkit {
 
@@ -22,11 +23,7 @@ constexpr double kTie = 1e-9;
 // narrower than kLogTauBracket.
 constexpr double kLogTauBracket = 1e-6;
 
-std::string fmt(double x, int digits = 3) {
-  std::ostringstream s;
-  s << std::setprecision(digits) << x;
-  return s.str();
-}
+std::string fmt(double x) { return text::significant(x, 3); }
 
 // Of candidates appended to one model, the one whose columns lower chi2 most, raising the rank
 // by their number; of candidates that explain the data alike (a tie, kTie: equivalent ones), the
@@ -35,7 +32,7 @@ struct BestAppended {
   std::optional<EffectBlock> block;
   ColumnTest test;
   void consider(const EffectBlock& b, const ColumnTest& t) {
-    if (t.added_rank < b.X.cols()) return;
+    if (t.added_rank < b.J_reading_effect.cols()) return;
     if (block) {
       const double d = t.delta_chi2 - test.delta_chi2;
       const bool tie = std::abs(d) <= kTie * (1.0 + std::abs(t.delta_chi2));
@@ -122,7 +119,7 @@ class Selector {
     Jacobian J = J0_;
     for (std::size_t b = 0; b < added_.size(); ++b) {
       if (std::find(skip.begin(), skip.end(), static_cast<int>(b)) == skip.end())
-        J = append_columns(J, added_[b].block.X);
+        J = append_columns(J, added_[b].block.J_reading_effect);
     }
     return J;
   }
@@ -140,13 +137,14 @@ class Selector {
   // declared convention the latest installation's is chosen; returns it and the others.
   std::pair<int, std::vector<int>> equivalents(int best, const Jacobian& base) const {
     std::vector<int> equivalent;
-    const WlsSolver with_best(append_columns(base, pool_[best].X), sigma_, o_.estimate);
+    const WlsSolver with_best(append_columns(base, pool_[best].J_reading_effect), sigma_,
+                              o_.estimate);
     for (std::size_t i = 0; i < pool_.size(); ++i) {
       if (used_[i] || static_cast<int>(i) == best ||
           status_[i].state == CandidateState::kConfounded)
         continue;
-      if (pool_[i].X.cols() != pool_[best].X.cols()) continue;
-      if (added_rank(with_best, pool_[i].X, o_.estimate) == 0)
+      if (pool_[i].J_reading_effect.cols() != pool_[best].J_reading_effect.cols()) continue;
+      if (added_rank(with_best, pool_[i].J_reading_effect, o_.estimate) == 0)
         equivalent.push_back(static_cast<int>(i));
     }
     int chosen = best;
@@ -197,8 +195,8 @@ class Selector {
       const ColumnTester tester(solver, current_, o_.estimate);
       for (std::size_t i = 0; i < pool_.size(); ++i) {
         if (used_[i]) continue;
-        const int q = static_cast<int>(pool_[i].X.cols());
-        const ColumnTest trial = tester.test(pool_[i].X);
+        const int q = static_cast<int>(pool_[i].J_reading_effect.cols());
+        const ColumnTest trial = tester.test(pool_[i].J_reading_effect);
         if (trial.added_rank < q) {
           status_[i] = {pool_[i].label, CandidateState::kConfounded,
                         "its " + std::to_string(q) + " column(s) raise the rank by " +
@@ -225,11 +223,11 @@ class Selector {
           if (family_used_[f]) continue;
           const ScanFamily& fam = families_[f];
           ScanTest st;
-          if (fam.effect.kind == EffectKind::Step) {
+          if (fam.effect.kind == EffectKind::kStep) {
             st = tester.scan_steps(fam.rows, fam.min_segment);
           } else {
             for (std::size_t k = 0; k < fam.alternatives.size(); ++k) {
-              st.consider(static_cast<int>(k), tester.test(fam.alternatives[k].X));
+              st.consider(static_cast<int>(k), tester.test(fam.alternatives[k].J_reading_effect));
             }
           }
           if (st.best < 0) {
@@ -284,7 +282,7 @@ class Selector {
         continue;
       }
       if (best < 0) return;
-      best_est = solve(append_columns(J_, pool_[best].X));
+      best_est = solve(append_columns(J_, pool_[best].J_reading_effect));
       const double threshold = o_.level / tested;
       const double dbic = bic(best_est) - bic(current_);
       if (!(best_p < threshold && dbic < 0)) {
@@ -295,12 +293,13 @@ class Selector {
       }
       // Equivalent alternatives: each spans the other modulo the current model.
       const auto [chosen, equivalent] = equivalents(best, J_);
-      if (chosen != best) best_est = solve(append_columns(J_, pool_[chosen].X)), best = chosen;
+      if (chosen != best)
+        best_est = solve(append_columns(J_, pool_[chosen].J_reading_effect)), best = chosen;
       AddedEffect a;
       a.block = pool_[best];
       for (std::size_t i = 0; i < pool_.size(); ++i) {
         if (static_cast<int>(i) == best || trial_chi2[i] < 0 ||
-            pool_[i].X.cols() != pool_[best].X.cols())
+            pool_[i].J_reading_effect.cols() != pool_[best].J_reading_effect.cols())
           continue;
         if (std::find(equivalent.begin(), equivalent.end(), static_cast<int>(i)) !=
             equivalent.end())
@@ -310,7 +309,7 @@ class Selector {
         }
       }
       mark_equivalent(a, best, equivalent);
-      a.evidence = {step_,        best_F, static_cast<int>(pool_[best].X.cols()),
+      a.evidence = {step_,        best_F, static_cast<int>(pool_[best].J_reading_effect.cols()),
                     best_est.dof, best_p, threshold,
                     tested,       dbic,   current_.chi2,
                     best_est.chi2};
@@ -319,7 +318,7 @@ class Selector {
       status_[best] = {pool_[best].label, CandidateState::kAdded,
                        "step " + std::to_string(step_) + ": F = " + fmt(best_F) + ", p = " +
                            fmt(best_p) + " < " + fmt(threshold) + ", BIC change " + fmt(dbic)};
-      J_ = append_columns(J_, pool_[best].X);
+      J_ = append_columns(J_, pool_[best].J_reading_effect);
       current_ = best_est;
     }
   }
@@ -330,7 +329,7 @@ class Selector {
                    const std::vector<double>& trial_chi2) {
     const ScanFamily& fam = families_[f];
     EffectBlock block = fam.alternative(*design_, *readings_, k);
-    const Estimate trial = solve(append_columns(J_, block.X));
+    const Estimate trial = solve(append_columns(J_, block.J_reading_effect));
     const double threshold = o_.level / tested;
     const double dbic =
         bic(trial) - bic(current_) + std::log(static_cast<double>(current_.n_readings));
@@ -345,11 +344,11 @@ class Selector {
     a.evidence.scanned = scanned;
     // Library candidates of one column that fit almost as well (as in forward()).
     for (std::size_t i = 0; i < pool_.size(); ++i) {
-      if (trial_chi2[i] < 0 || pool_[i].X.cols() != 1) continue;
+      if (trial_chi2[i] < 0 || pool_[i].J_reading_effect.cols() != 1) continue;
       if (fits_almost_as_well(trial_chi2[i], trial)) a.close_alternatives.push_back(pool_[i].label);
     }
     Estimate after = trial;
-    if (fam.effect.kind == EffectKind::Thermal) block = refine_thermal(fam, k, after);
+    if (fam.effect.kind == EffectKind::kThermal) block = refine_thermal(fam, k, after);
     family_status_[f] = {fam.label, CandidateState::kAdded,
                          "step " + std::to_string(step_) + ": " + block.label + ", F = " + fmt(F) +
                              ", p = " + fmt(p) + " (over " + std::to_string(scanned) +
@@ -358,7 +357,7 @@ class Selector {
     a.block = std::move(block);
     added_.push_back(a);
     family_used_[f] = true;
-    J_ = append_columns(J_, added_.back().block.X);
+    J_ = append_columns(J_, added_.back().block.J_reading_effect);
     current_ = after;
     return true;
   }
@@ -377,7 +376,7 @@ class Selector {
     const double hi = fam.alternatives[std::min<std::size_t>(k + 1, m - 1)].effect.tau_min *
                       (static_cast<std::size_t>(k) + 1 < m ? 1.0 : 1.5);
     auto fall_at = [&](double log_tau) {
-      return -tester.test(thermal_block(fam, std::exp(log_tau)).X).delta_chi2;
+      return -tester.test(thermal_block(fam, std::exp(log_tau)).J_reading_effect).delta_chi2;
     };
     const double g = (std::sqrt(5.0) - 1) / 2;
     double a = std::log(lo), b = std::log(hi);
@@ -403,21 +402,21 @@ class Selector {
     const ColumnTester tester(solver, current_, o_.estimate);
     const double tau = refined_tau(fam, k, tester);
     EffectBlock f = thermal_block(fam, tau);
-    const Estimate one = solve(append_columns(J_, f.X));
+    const Estimate one = solve(append_columns(J_, f.J_reading_effect));
     Eigen::VectorXd unit = Eigen::VectorXd::Zero(one.n_unknowns);
     unit(one.n_unknowns - 1) = 1.0;
     const double plateau = one.evaluate(unit).value;
     // df/dtau = -exp(-dt / tau) dt / tau^2 = -(1 - f) dt / tau^2, dt in min.
-    Eigen::VectorXd deriv = Eigen::VectorXd::Zero(f.X.rows());
+    Eigen::VectorXd deriv = Eigen::VectorXd::Zero(f.J_reading_effect.rows());
     const double t0 = test_start_time(*readings_);
-    for (Eigen::Index i = 0; i < f.X.rows(); ++i) {
+    for (Eigen::Index i = 0; i < f.J_reading_effect.rows(); ++i) {
       const double dt = (*(*readings_)[static_cast<std::size_t>(i)].time_s - t0) / 60.0;
-      deriv(i) = -plateau * (1.0 - f.X(i, 0)) * dt / (tau * tau);
+      deriv(i) = -plateau * (1.0 - f.J_reading_effect(i, 0)) * dt / (tau * tau);
     }
     EffectBlock two = f;
-    two.X.conservativeResize(Eigen::NoChange, 2);
-    two.X.col(1) = deriv;
-    const Estimate with_tau = solve(append_columns(J_, two.X));
+    two.J_reading_effect.conservativeResize(Eigen::NoChange, 2);
+    two.J_reading_effect.col(1) = deriv;
+    const Estimate with_tau = solve(append_columns(J_, two.J_reading_effect));
     if (with_tau.rank - one.rank <
         1) {  // tau not determined (a plateau of zero): the one-column block
       fit = one;
@@ -430,7 +429,7 @@ class Selector {
 
   // The scanned family an added block came from, or -1.
   int family_of(const EffectBlock& b) const {
-    if (b.effect.kind != EffectKind::Step && b.effect.kind != EffectKind::Thermal) return -1;
+    if (b.effect.kind != EffectKind::kStep && b.effect.kind != EffectKind::kThermal) return -1;
     for (std::size_t f = 0; f < families_.size(); ++f) {
       if (families_[f].effect.kind == b.effect.kind &&
           families_[f].effect.installation == b.effect.installation) {
@@ -452,9 +451,9 @@ class Selector {
       if (used_[i] || status_[i].state == CandidateState::kConfounded ||
           status_[i].state == CandidateState::kEquivalent)
         continue;
-      if (pool_[i].X.cols() != added_[a].block.X.cols()) continue;
-      const ColumnTest t = tester.test(pool_[i].X);
-      if (t.added_rank < pool_[i].X.cols()) continue;
+      if (pool_[i].J_reading_effect.cols() != added_[a].block.J_reading_effect.cols()) continue;
+      const ColumnTest t = tester.test(pool_[i].J_reading_effect);
+      if (t.added_rank < pool_[i].J_reading_effect.cols()) continue;
       chi2[i] = fit.chi2 - t.delta_chi2;
     }
     return chi2;
@@ -505,7 +504,7 @@ class Selector {
     double worst_p = -1, worst_F = 0;
     for (std::size_t a = 0; a < added_.size(); ++a) {
       const Estimate reduced = solve(model_without(static_cast<int>(a)));
-      const int q = static_cast<int>(added_[a].block.X.cols());
+      const int q = static_cast<int>(added_[a].block.J_reading_effect.cols());
       if (current_.dof <= 0) return false;
       const double F = ((reduced.chi2 - current_.chi2) / q) / (current_.chi2 / current_.dof);
       const double p = f_test_p(q, current_.dof, F);
@@ -539,7 +538,7 @@ class Selector {
 
   // One whole-test term against the same effect per installation, for each kind that has both.
   void compare_structures() {
-    for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Drift, EffectKind::Reversal}) {
+    for (EffectKind kind : {EffectKind::kLengthOffset, EffectKind::kDrift, EffectKind::kReversal}) {
       int whole = -1;  // pool index of the whole-test candidate
       for (std::size_t i = 0; i < pool_.size(); ++i) {
         if (pool_[i].effect.kind == kind && pool_[i].effect.installation < 0 &&
@@ -570,9 +569,9 @@ class Selector {
           if (b.effect.kind != kind || b.effect.installation < 0 || !b.not_applicable.empty() ||
               used_[i])
             continue;
-          const Jacobian trial = append_columns(alt, b.X);
+          const Jacobian trial = append_columns(alt, b.J_reading_effect);
           const int r = rank_of(trial);
-          if (r - rank < b.X.cols()) continue;
+          if (r - rank < b.J_reading_effect.cols()) continue;
           alt = trial, rank = r;
           c.rejected.push_back(b.label);
         }
@@ -587,13 +586,13 @@ class Selector {
         for (std::size_t a = 0; a < added_.size(); ++a) {
           if (std::find(per_added.begin(), per_added.end(), static_cast<int>(a)) ==
               per_added.end()) {
-            alt = append_columns(alt, added_[a].block.X);
+            alt = append_columns(alt, added_[a].block.J_reading_effect);
           }
         }
         const int base_rank = rank_of(alt);
-        alt = append_columns(alt, pool_[whole].X);
+        alt = append_columns(alt, pool_[whole].J_reading_effect);
         const Estimate alt_est = solve(alt);
-        if (alt_est.rank - base_rank < pool_[whole].X.cols())
+        if (alt_est.rank - base_rank < pool_[whole].J_reading_effect.cols())
           continue;  // confounded with what remains
         for (int a : per_added) c.chosen.push_back(added_[a].block.label);
         c.rejected = {pool_[whole].label};
@@ -620,7 +619,7 @@ class Selector {
       const ColumnTester tester(base, fit, o_.estimate);
       single_[a].chi2_without = fit.chi2;
       auto fits = [&](const EffectBlock& b, const ColumnTest& t) {
-        return t.added_rank >= b.X.cols() &&
+        return t.added_rank >= b.J_reading_effect.cols() &&
                fits_almost_as_well(fit.chi2 - t.delta_chi2, current_, cost(b) - cost(effect.block));
       };
       auto consider = [&](const EffectBlock& b, const ColumnTest& t) {
@@ -633,18 +632,19 @@ class Selector {
       };
       for (std::size_t i = 0; i < pool_.size(); ++i) {
         if (used_[i] || status_[i].state == CandidateState::kConfounded) continue;
-        consider(pool_[i], tester.test(pool_[i].X));
+        consider(pool_[i], tester.test(pool_[i].J_reading_effect));
       }
       if (!design_ || !readings_) continue;
       for (std::size_t f = 0; f < families_.size(); ++f) {
         if (family_used_[f]) continue;
         const auto b = best_of_family(families_[f], tester);
-        if (!b || !consider(b->first, b->second) || families_[f].effect.kind != EffectKind::Thermal)
+        if (!b || !consider(b->first, b->second) ||
+            families_[f].effect.kind != EffectKind::kThermal)
           continue;
         // A warm-up's time constant is poorly determined where a drift fits almost as well: every
         // time constant of the grid that fits almost as well is an alternative too.
         for (const EffectBlock& alt : families_[f].alternatives) {
-          if (alt.label != b->first.label && fits(alt, tester.test(alt.X)))
+          if (alt.label != b->first.label && fits(alt, tester.test(alt.J_reading_effect)))
             effect.close_in_final.push_back(alt);
         }
       }
@@ -666,7 +666,7 @@ class Selector {
     };
     for (std::size_t i = 0; i < pool_.size(); ++i) {
       if (used_[i] || status_[i].state == CandidateState::kConfounded) continue;
-      consider(pool_[i], tester.test(pool_[i].X));
+      consider(pool_[i], tester.test(pool_[i].J_reading_effect));
     }
     if (!design_ || !readings_) return best;
     for (std::size_t f = 0; f < families_.size(); ++f) {
@@ -681,7 +681,7 @@ class Selector {
   // (refined_tau). None when no alternative raises the rank.
   std::optional<std::pair<EffectBlock, ColumnTest>> best_of_family(
       const ScanFamily& fam, const ColumnTester& tester) const {
-    if (fam.effect.kind == EffectKind::Step) {
+    if (fam.effect.kind == EffectKind::kStep) {
       const ScanTest st = tester.scan_steps(fam.rows, fam.min_segment);
       if (st.best < 0) return std::nullopt;
       return std::make_pair(fam.alternative(*design_, *readings_, st.best), st.test);
@@ -689,15 +689,15 @@ class Selector {
     int k = -1;
     ColumnTest t;
     for (std::size_t a = 0; a < fam.alternatives.size(); ++a) {
-      const ColumnTest ta = tester.test(fam.alternatives[a].X);
+      const ColumnTest ta = tester.test(fam.alternatives[a].J_reading_effect);
       if (ta.added_rank > 0 && (k < 0 || ta.delta_chi2 > t.delta_chi2))
         k = static_cast<int>(a), t = ta;
     }
     if (k < 0) return std::nullopt;
-    if (fam.effect.kind != EffectKind::Thermal)
+    if (fam.effect.kind != EffectKind::kThermal)
       return std::make_pair(fam.alternative(*design_, *readings_, k), t);
     EffectBlock b = thermal_block(fam, refined_tau(fam, k, tester));
-    const ColumnTest tb = tester.test(b.X);
+    const ColumnTest tb = tester.test(b.J_reading_effect);
     if (tb.added_rank < 1 || tb.delta_chi2 < t.delta_chi2)
       return std::make_pair(fam.alternative(*design_, *readings_, k), t);
     return std::make_pair(std::move(b), tb);
@@ -710,8 +710,8 @@ class Selector {
     int m = 0;
     if (f >= 0) {
       const ScanFamily& fam = families_[f];
-      m = static_cast<int>(fam.effect.kind == EffectKind::Step ? fam.rows.size()
-                                                               : fam.alternatives.size());
+      m = static_cast<int>(fam.effect.kind == EffectKind::kStep ? fam.rows.size()
+                                                                : fam.alternatives.size());
     }
     return parameter_cost(b, m);
   }
@@ -747,7 +747,7 @@ class Selector {
         }
         if (!best.block) break;
         by.push_back(*best.block);
-        M = append_columns(M, best.block->X);
+        M = append_columns(M, best.block->J_reading_effect);
         const double chi2 = chi2_before - best.test.delta_chi2;
         double extra = 0;
         for (const EffectBlock& b : by) extra += cost(b);
@@ -769,7 +769,7 @@ class Selector {
     for (std::size_t a = 0; a < added_.size(); ++a) {
       const Estimate reduced = solve(model_without(static_cast<int>(a)));
       EffectEvidence& e = added_[a].evidence;
-      e.q = static_cast<int>(added_[a].block.X.cols());
+      e.q = static_cast<int>(added_[a].block.J_reading_effect.cols());
       e.dof = current_.dof;
       e.chi2_before = reduced.chi2;
       e.chi2_after = current_.chi2;
@@ -783,7 +783,7 @@ class Selector {
     int col = static_cast<int>(J0_.cols());
     for (AddedEffect& a : added_) {
       a.values.clear();
-      for (int j = 0; j < a.block.X.cols(); ++j, ++col) {
+      for (int j = 0; j < a.block.J_reading_effect.cols(); ++j, ++col) {
         Eigen::VectorXd c = Eigen::VectorXd::Zero(current_.n_unknowns);
         c(col) = 1.0;
         a.values.push_back(current_.evaluate(c));
@@ -848,9 +848,9 @@ const char* candidate_state_name(CandidateState s) {
 double bic(const Estimate& e) { return bic(static_cast<double>(e.n_readings), e.chi2, e.rank); }
 
 double parameter_cost(const EffectBlock& b, int scanned_alternatives) {
-  double cost = 2.0 * static_cast<double>(b.X.cols());
-  const bool scanned = b.effect.kind == EffectKind::Step ||
-                       (b.effect.kind == EffectKind::Thermal && b.X.cols() == 1);
+  double cost = 2.0 * static_cast<double>(b.J_reading_effect.cols());
+  const bool scanned = b.effect.kind == EffectKind::kStep ||
+                       (b.effect.kind == EffectKind::kThermal && b.J_reading_effect.cols() == 1);
   if (scanned && scanned_alternatives > 1)
     cost += 2.0 * std::log(static_cast<double>(scanned_alternatives));
   return cost;

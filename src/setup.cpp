@@ -14,6 +14,15 @@
 
 namespace dbbkit {
 
+namespace {
+
+// The noncentrality for a power is bisected until hi - lo <= kBisection hi.
+constexpr double kBisection = 1e-9;
+// A set-up effect moves no error when its largest bias b (error unit per um) <= kNoBias.
+constexpr double kNoBias = 1e-12;
+
+}  // namespace
+
 std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& model,
                                        bool only_declared) {
   // The model's rows as readings, so that the columns are the effect library's own (effect_block).
@@ -32,13 +41,13 @@ std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<R
   const ReadingLayout layout(design, rows);
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
     const SetupUncertainty u = design.setup_of(i);
-    for (EffectKind kind : {EffectKind::LengthOffset, EffectKind::Centring}) {
-      const double std_um = kind == EffectKind::LengthOffset ? u.length_offset_um : u.centring_um;
+    for (EffectKind kind : {EffectKind::kLengthOffset, EffectKind::kCentring}) {
+      const double std_um = kind == EffectKind::kLengthOffset ? u.length_offset_um : u.centring_um;
       if (only_declared && !(std_um > 0)) continue;
       EffectBlock block = effect_block(design, rows, layout, {kind, i});
       if (!block.not_applicable.empty()) continue;  // changes no reading of these rows
       out.push_back({kind, i, std::move(block.label), std::move(block.parameters),
-                     std::move(block.X), std_um});
+                     std::move(block.J_reading_effect), std_um});
     }
   }
   return out;
@@ -50,7 +59,7 @@ SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& 
   const int n = static_cast<int>(base.J().rows());
   int q = 0;
   for (const SetupEffect& e : declared) {
-    if (e.std_um > 0) q += static_cast<int>(e.X.cols());
+    if (e.std_um > 0) q += static_cast<int>(e.J_reading_effect.cols());
   }
   X_.resize(n, q);
   prior_std_.resize(q);
@@ -58,8 +67,8 @@ SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& 
   for (std::size_t k = 0; k < declared.size(); ++k) {
     const SetupEffect& e = declared[k];
     if (!(e.std_um > 0)) continue;
-    for (int c = 0; c < e.X.cols(); ++c, ++j) {
-      X_.col(j) = e.X.col(c);
+    for (int c = 0; c < e.J_reading_effect.cols(); ++c, ++j) {
+      X_.col(j) = e.J_reading_effect.col(c);
       prior_std_(j) = e.std_um;
       column_of_.emplace_back(static_cast<int>(k), c);
       column_kind_.push_back(e.kind);
@@ -68,9 +77,9 @@ SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& 
   if (q == 0 || n == 0) return;
   // The covariance's low-rank term is the set-up part's alone: a base solved with border
   // columns (which has its own) is not combined with set-up effects.
-  if (base.gain().low_rank())
+  if (base.J_theta_reading().low_rank())
     throw std::logic_error("SetupSolver: a base solved with border columns");
-  K_ = base.gain() * X_;
+  K_ = base.J_theta_reading() * X_;
   R_ = unexplained(base, X_, K_);
   RtR_ = R_.transpose() * R_;
   Eigen::MatrixXd S = RtR_;
@@ -92,7 +101,7 @@ Estimate SetupSolver::solve(const Eigen::VectorXd& y_um) const {
   Estimate est = prior_;
   if (est.status == EstimateStatus::kNoReadings) return est;
   const Eigen::VectorXd b = beta(y_um);
-  est.theta = base_->gain() * Eigen::VectorXd(y_um - X_ * b);
+  est.theta = base_->J_theta_reading() * Eigen::VectorXd(y_um - X_ * b);
   est.residual_um = y_um - base_->J() * est.theta - X_ * b;
   est.rms_um = std::sqrt(est.residual_um.squaredNorm() / est.n_readings);
   est.chi2 = est.residual_um.cwiseQuotient(base_->sigma_um()).squaredNorm() +
@@ -102,19 +111,19 @@ Estimate SetupSolver::solve(const Eigen::VectorXd& y_um) const {
 }
 
 Eigen::MatrixXd SetupSolver::gain_times(const Eigen::MatrixXd& M) const {
-  Eigen::MatrixXd GM = base_->gain() * M;
+  Eigen::MatrixXd GM = base_->J_theta_reading() * M;
   if (!any()) return GM;
   GM -= K_ * (S_inv_ * (R_.transpose() * unexplained(*base_, M, GM)));
   return GM;
 }
 
 Eigen::MatrixXd SetupSolver::left_gain(const FunctionRows& C) const {
-  Eigen::MatrixXd A = base_->gain().left(C);
+  Eigen::MatrixXd A = base_->J_theta_reading().left(C);
   if (!any()) return A;
   const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
   const Eigen::MatrixXd TW = ((C * K_) * S_inv_ * R_.transpose()) * w.asDiagonal();  // n_out x n
   A -= TW;
-  A += base_->gain().left(Eigen::MatrixXd(TW * base_->J()));
+  A += base_->J_theta_reading().left(Eigen::MatrixXd(TW * base_->J()));
   return A;
 }
 
@@ -125,7 +134,7 @@ Eigen::MatrixXd SetupSolver::left_gain_setup(const FunctionRows& C) const {
 
 Eigen::MatrixXd SetupSolver::left_gain_times(const FunctionRows& C, const Eigen::MatrixXd& L,
                                              const Eigen::MatrixXd& V) const {
-  const Eigen::MatrixXd GV = base_->gain() * V;
+  const Eigen::MatrixXd GV = base_->J_theta_reading() * V;
   Eigen::MatrixXd out = C * GV;
   if (any()) out.noalias() -= L * (R_.transpose() * unexplained(*base_, V, GV));
   return out;
@@ -133,13 +142,13 @@ Eigen::MatrixXd SetupSolver::left_gain_times(const FunctionRows& C, const Eigen:
 
 Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
   const Eigen::SparseMatrix<double, Eigen::RowMajor> G0 =
-      base_->gain().sparse();  // row j of G0 contiguous
+      base_->J_theta_reading().sparse();  // row j of G0 contiguous
   const Eigen::Index n = G0.cols();
   Eigen::MatrixXd Dt;  // D', n x q
   if (any()) {
     const Eigen::VectorXd w = base_->sigma_um().cwiseInverse();
     const Eigen::MatrixXd M = (S_inv_ * R_.transpose()) * w.asDiagonal();  // S^-1 R' W^1/2, q x n
-    Dt = (base_->gain().left(Eigen::MatrixXd(M * base_->J())) - M).transpose();
+    Dt = (base_->J_theta_reading().left(Eigen::MatrixXd(M * base_->J())) - M).transpose();
   }
   // Rows with the same support (a series: one error's coefficients; per angle: one station)
   // go together through one dense product on that support and the readings its rows of G0
@@ -269,7 +278,7 @@ double noncentrality_for_power(int q, int dof, double alpha, double power) {
   };
   double lo = 0, hi = 1;
   while (power_at(hi) < power && hi < 1e8) hi *= 2;
-  for (int it = 0; it < 200 && hi - lo > 1e-9 * hi; ++it) {
+  for (int it = 0; it < 200 && hi - lo > kBisection * hi; ++it) {
     const double mid = 0.5 * (lo + hi);
     (power_at(mid) < power ? lo : hi) = mid;
   }
@@ -292,9 +301,10 @@ SetupEffectInformation effect_information(const WlsSolver& base, const Eigen::Ve
   info.kind = e.kind;
   info.installation = e.installation;
   info.declared_std_um = e.std_um;
-  info.q = static_cast<int>(e.X.cols());
-  const Eigen::MatrixXd Re = unexplained(base, e.X);
-  info.detectable = added_rank(Re, (w.asDiagonal() * e.X).colwise().norm().transpose()) == info.q;
+  info.q = static_cast<int>(e.J_reading_effect.cols());
+  const Eigen::MatrixXd Re = unexplained(base, e.J_reading_effect);
+  info.detectable =
+      added_rank(Re, (w.asDiagonal() * e.J_reading_effect).colwise().norm().transpose()) == info.q;
   if (info.detectable) {
     const double r = Eigen::JacobiSVD<Eigen::MatrixXd>(Re).singularValues()(info.q - 1);
     info.min_information = r * r;
@@ -349,7 +359,8 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
     ch.detectable = info.detectable;
     ch.detection_limit_um = detection_limit_um(info.q, info.detectable, info.min_information,
                                                est.n_readings - est.rank - info.q, settings);
-    const Eigen::MatrixXd GX = solver.gain_times(e.X);  // p x q: the estimate per um of the effect
+    const Eigen::MatrixXd GX =
+        solver.gain_times(e.J_reading_effect);  // p x q: the estimate per um of the effect
     double best = -1;
     for (const Fn& f : fns) {
       const double b = (f.c.transpose() * GX).norm();
@@ -362,7 +373,7 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
         ch.bias_angle_deg = param.station_angle_deg(f.station);
       }
     }
-    if (best <= 1e-12) {
+    if (best <= kNoBias) {
       ch.bias_per_um.reset();
       ch.bias_um_per_um.reset();
       ch.bias_error = -1;

@@ -12,7 +12,7 @@
 namespace dbbkit {
 
 Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std::string& source) {
-  if (truth.model.kind == ErrorModel::Kind::PerAngle) {
+  if (truth.model.kind == ErrorModel::Kind::kPerAngle) {
     for (const auto& [a, e] : truth.per_angle) {
       if (same_position(axis, a, angle_deg)) return e;
     }
@@ -21,7 +21,7 @@ Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std
     throw InputError(source, "errors.values", s.str());
   }
   Eigen::VectorXd f;
-  if (truth.model.kind == ErrorModel::Kind::Fourier) {
+  if (truth.model.kind == ErrorModel::Kind::kFourier) {
     f = fourier_basis(truth.model.order, angle_deg);
   } else {
     const auto [lo, hi] = *truth.range_deg;
@@ -57,7 +57,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
       throw InputError(source, "setup.installations." + id,
                        "installation '" + id + "' is not in the design");
     }
-    if (design.axis == Axis::B && given.ball_mm(2) != 0) {
+    if (design.axis == Axis::kB && given.ball_mm(2) != 0) {
       throw InputError(source, "setup.installations." + id + ".ball_mm.H",
                        "H is not used for the swinging head B");
     }
@@ -89,7 +89,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     std::vector<std::pair<double, size_t>> keys;
     for (size_t i = 0; i < truth.per_angle.size(); ++i) {
       double a = truth.per_angle[i].first;
-      if (design.axis == Axis::C) a = std::fmod(std::fmod(a, 360.0) + 360.0, 360.0);
+      if (design.axis == Axis::kC) a = std::fmod(std::fmod(a, 360.0) + 360.0, 360.0);
       keys.emplace_back(a, i);
     }
     std::sort(keys.begin(), keys.end());
@@ -143,7 +143,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
       throw InputError(source, key + ".installation",
                        "installation '" + e.installation + "' is not in the design");
     }
-    if ((e.effect.kind == EffectKind::Scale || e.effect.kind == EffectKind::Squareness)) {
+    if ((e.effect.kind == EffectKind::kScale || e.effect.kind == EffectKind::kSquareness)) {
       for (const Installation& in : design.installations) {
         if (!in.bar_mm)
           throw InputError(source, key,
@@ -151,22 +151,22 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
                                " needs bar_mm on every installation of the design");
       }
     }
-    if ((e.effect.kind == EffectKind::Drift || e.effect.kind == EffectKind::Step ||
-         e.effect.kind == EffectKind::Thermal) &&
+    if ((e.effect.kind == EffectKind::kDrift || e.effect.kind == EffectKind::kStep ||
+         e.effect.kind == EffectKind::kThermal) &&
         !truth.schedule) {
       throw InputError(
           source, key,
           std::string(effect_name(e.effect.kind)) + " needs a schedule (the readings' times)");
     }
-    if (e.effect.kind == EffectKind::Thermal && !e.installation.empty()) {
+    if (e.effect.kind == EffectKind::kThermal && !e.installation.empty()) {
       throw InputError(source, key + ".installation",
                        "thermal is one warm-up of the whole test: no installation");
     }
-    if (e.effect.kind == EffectKind::Step && !std::isfinite(e.effect.at_s)) {
+    if (e.effect.kind == EffectKind::kStep && !std::isfinite(e.effect.at_s)) {
       throw InputError(source, key + ".value.at_s",
                        "a step needs the time it happens (s, the test's clock)");
     }
-    if (e.effect.kind == EffectKind::Reversal &&
+    if (e.effect.kind == EffectKind::kReversal &&
         (!truth.schedule || truth.schedule->sweeps.size() < 2)) {
       throw InputError(source, key, "reversal needs a schedule with both sweeps");
     }
@@ -178,14 +178,14 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     if (truth.schedule->sweeps.empty())
       throw InputError(source, "schedule.sweeps", "needs at least one sweep");
   }
-  if (truth.model.kind == ErrorModel::Kind::PerAngle) {
+  if (truth.model.kind == ErrorModel::Kind::kPerAngle) {
     for (double a : design.angles_deg) truth_errors(truth, design.axis, a, source);
     return;
   }
-  if (truth.model.kind == ErrorModel::Kind::Fourier && design.axis != Axis::C) {
+  if (truth.model.kind == ErrorModel::Kind::kFourier && design.axis != Axis::kC) {
     throw InputError(source, "errors.model", "a Fourier truth is for the full-turn axis C");
   }
-  if (truth.model.kind == ErrorModel::Kind::Legendre) {
+  if (truth.model.kind == ErrorModel::Kind::kLegendre) {
     if (!truth.range_deg || !(truth.range_deg->second > truth.range_deg->first)) {
       throw InputError(source, "errors.range_deg",
                        "a Legendre truth needs its range [min, max] with max > min");
@@ -214,7 +214,7 @@ std::vector<SetupError> simulated_setup_errors(const Design& design, const Truth
     e.length_offset_um = s.length_offset_um * n01(rng);
     for (int k = 0; k < 3; ++k) e.centring_um(k) = s.centring_um * n01(rng);
     for (int k = 0; k < 3; ++k) e.ball_mm(k) = s.ball_mm(k) * n01(rng);
-    if (design.axis == Axis::B) e.ball_mm(2) = 0;
+    if (design.axis == Axis::kB) e.ball_mm(2) = 0;
   }
   for (const auto& [id, given] : truth.setup_given) {
     const int i = design.find_installation(id);
@@ -231,17 +231,17 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
   std::normal_distribution<double> normal(0.0, noise.std_um);
   auto draw = [&]() -> double {
     if (truth.noiseless) return 0.0;
-    return noise.distribution == NoiseModel::Distribution::Uniform ? uniform(rng) : normal(rng);
+    return noise.distribution == NoiseModel::Distribution::kUniform ? uniform(rng) : normal(rng);
   };
 
   std::vector<Reading> out;
   double t = 0;
   const std::vector<Sweep> sweeps =
-      truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::CCW};
+      truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::kCCW};
   for (const Installation& inst : design.installations) {
     for (Sweep sweep : sweeps) {
       std::vector<double> angles = design.angles_deg;
-      if (sweep == Sweep::CW) std::reverse(angles.begin(), angles.end());
+      if (sweep == Sweep::kCW) std::reverse(angles.begin(), angles.end());
       for (double a : angles) {
         for (int r = 0; r < truth.repeats; ++r) {
           Reading reading;
@@ -277,7 +277,8 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
     for (const TruthEffect& e : truth.effects) {
       EffectCandidate c = e.effect;
       c.installation = e.installation.empty() ? -1 : design.find_installation(e.installation);
-      value += effect_row(design, reading, i, c.installation < 0 ? t_test : t0[i], c).dot(e.value);
+      value +=
+          J_reading_effect(design, reading, i, c.installation < 0 ? t_test : t0[i], c).dot(e.value);
     }
     reading.reading_um = value + draw();
   }

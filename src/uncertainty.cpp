@@ -53,8 +53,8 @@ Eigen::MatrixXd input_gain(const Design& design, const Parameterisation& param,
                            const LinearModel& model, const WlsSolver& solver, const Estimate& est,
                            const SetupSolver* setup, const std::vector<SetupInput>& inputs) {
   if (inputs.empty()) return {};
-  const Eigen::MatrixXd D = setup_sensitivity(design, param, model, inputs, est.theta);
-  return setup ? setup->gain_times(D) : Eigen::MatrixXd(solver.gain() * D);
+  const Eigen::MatrixXd D = J_reading_setup(design, param, model, inputs, est.theta);
+  return setup ? setup->gain_times(D) : Eigen::MatrixXd(solver.J_theta_reading() * D);
 }
 }  // namespace
 
@@ -103,7 +103,8 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param,
                                 std::sqrt(parts.noise) * noise_scale, noise_dof});
         double u2[2] = {0, 0};  // length offset, centring
         for (int j = 0; j < setup->n_columns(); ++j) {
-          u2[setup->column_kind(j) == EffectKind::LengthOffset ? 0 : 1] += parts.setup_by_column(j);
+          u2[setup->column_kind(j) == EffectKind::kLengthOffset ? 0 : 1] +=
+              parts.setup_by_column(j);
         }
         if (u2[0] > 0)
           v.components.push_back({"set-up length offset", "B", std::sqrt(u2[0]), std::nullopt});

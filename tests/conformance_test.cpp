@@ -28,7 +28,7 @@ namespace {
 IdentifyResult simulated_c() {
   const Design d = test::paper_design('C');
   Truth t;
-  t.model = {ErrorModel::Kind::PerAngle, 0};
+  t.model = {ErrorModel::Kind::kPerAngle, 0};
   for (double a : d.angles_deg) {
     const double g = a * M_PI / 180.0;
     Vector6d e = Vector6d::Zero();
@@ -197,7 +197,7 @@ TEST(Conformance, ADesignWithSetUpTolerancesCarriesThem) {
   const Design d =
       io::read_design_file(test::source_path("designs/c-turntable-kit-optimized-with-setup.json"));
   Truth t;
-  t.model = {ErrorModel::Kind::PerAngle, 0};
+  t.model = {ErrorModel::Kind::kPerAngle, 0};
   for (double a : d.angles_deg) test::add_truth_value(t, d.axis, a, Vector6d::Zero());
   const IdentifyResult r = identify(d, simulate(d, t, 3));
   ASSERT_TRUE(r.setup_included);

@@ -68,7 +68,7 @@ const char* variant_name(Variant v) {
 Design variant_design(Variant v) {
   Design d = test::paper_design(v == Variant::CPerAngle ? 'C' : 'B');
   if (v == Variant::BLegendre) {
-    d.errors = ErrorModel{ErrorModel::Kind::Legendre, 2};
+    d.errors = ErrorModel{ErrorModel::Kind::kLegendre, 2};
     return d;
   }
   const double step = v == Variant::CPerAngle ? 30 : 10;
@@ -85,7 +85,7 @@ Truth random_truth(const Design& d, std::mt19937_64& rng) {
   auto draw = [&](int k) { return (k < 3 ? 10.0 : 30.0) * n01(rng); };
   Truth t;
   t.model = d.errors;
-  if (d.errors.kind == ErrorModel::Kind::PerAngle) {
+  if (d.errors.kind == ErrorModel::Kind::kPerAngle) {
     for (double a : d.angles_deg) {
       Vector6d e;
       for (int k = 0; k < 6; ++k) e(k) = draw(k);
@@ -98,7 +98,7 @@ Truth random_truth(const Design& d, std::mt19937_64& rng) {
     const auto [lo, hi] = std::minmax_element(d.angles_deg.begin(), d.angles_deg.end());
     t.range_deg = std::make_pair(*lo, *hi);
   }
-  t.schedule = Schedule{10, 240, {Sweep::CCW, Sweep::CW, Sweep::CCW}};
+  t.schedule = Schedule{10, 240, {Sweep::kCCW, Sweep::kCW, Sweep::kCCW}};
   return t;
 }
 
@@ -141,12 +141,12 @@ double conditional_inflation(const Design& d, const std::vector<Reading>& readin
   Eigen::MatrixXd J = model.J;
   const WlsSolver alone(J, model.sigma_um);
   for (const TruthEffect& o : others) {
-    const Eigen::MatrixXd& X = block(o).X;
+    const Eigen::MatrixXd& X = block(o).J_reading_effect;
     J.conservativeResize(Eigen::NoChange, J.cols() + X.cols());
     J.rightCols(X.cols()) = X;
   }
   const WlsSolver with_others(J, model.sigma_um);
-  const Eigen::MatrixXd& X = block(e).X;
+  const Eigen::MatrixXd& X = block(e).J_reading_effect;
   const Eigen::VectorXd v = e.value.head(X.cols());
   const double info_alone = (unexplained(alone, X) * v).squaredNorm();
   const double info_with = (unexplained(with_others, X) * v).squaredNorm();
@@ -161,7 +161,7 @@ std::vector<TruthEffect> sized(Variant v, std::vector<TruthEffect> effects, doub
   std::mt19937_64 rng(30);
   const std::vector<Reading> readings = simulate(d, random_truth(d, rng), 20000);
   auto scanned = [](const TruthEffect& e) {
-    return e.effect.kind == EffectKind::Step || e.effect.kind == EffectKind::Thermal;
+    return e.effect.kind == EffectKind::kStep || e.effect.kind == EffectKind::kThermal;
   };
   const std::vector<TruthEffect> given = effects;
   for (TruthEffect& e : effects) {
@@ -203,7 +203,7 @@ TEST(DiagnoseOnDesigns, StatedDetectionLimitHasItsPower) {
     for (int s = 0; s < 100; ++s) {
       for (double factor : {1.0, 2.0}) {
         Truth t = random_truth(d, rng);
-        t.effects = {effect(EffectKind::Drift, "1t", {factor * limit})};
+        t.effects = {effect(EffectKind::kDrift, "1t", {factor * limit})};
         const DiagnoseResult r = diagnose(d, simulate(d, t, 23000 + s));
         (factor == 1.0 ? at_limit : at_twice) +=
             has(r, "drift[1t]") || named_alternative(r, "drift[1t]");
@@ -248,7 +248,7 @@ TEST(DiagnoseOnDesigns, AttributionEntersTheErrorsUncertainty) {
   int checked = 0;
   for (int s = 0; s < 40 && checked < 3; ++s) {
     Truth t = random_truth(d, rng);
-    t.effects = sized(Variant::BLegendre, {effect(EffectKind::Centring, "2r", {1, 1})}, 3.0);
+    t.effects = sized(Variant::BLegendre, {effect(EffectKind::kCentring, "2r", {1, 1})}, 3.0);
     const std::vector<Reading> readings = simulate(d, t, 24000 + s);
     const DiagnoseResult r = diagnose(d, readings);
     if (r.attributions.size() != 1 || r.added.size() != 1 ||
@@ -266,8 +266,8 @@ TEST(DiagnoseOnDesigns, AttributionEntersTheErrorsUncertainty) {
       const auto b = std::find_if(pool.begin(), pool.end(),
                                   [&](const EffectBlock& e) { return e.label == label; });
       EXPECT_NE(b, pool.end());
-      Eigen::MatrixXd A(model.J.rows(), model.J.cols() + b->X.cols());
-      A << test::dense(model.J), b->X;
+      Eigen::MatrixXd A(model.J.rows(), model.J.cols() + b->J_reading_effect.cols());
+      A << test::dense(model.J), b->J_reading_effect;
       return errors_at_stations(param, WlsSolver(A, model.sigma_um).solve(model.y_um));
     };
     const std::vector<ErrorsAtAngle> chosen = fit_with(r.added[0].block.label);
@@ -288,9 +288,9 @@ TEST(DiagnoseOnDesigns, SubstitutionEntersTheErrorsUncertainty) {
   const Design d = variant_design(Variant::CPerAngle);
   const Parameterisation param(d);
   std::mt19937_64 rng(35);
-  const std::vector<TruthEffect> effects =
-      sized(Variant::CPerAngle,
-            {effect(EffectKind::LengthOffset, "2r", {1}), effect(EffectKind::Drift, "", {1})}, 3.0);
+  const std::vector<TruthEffect> effects = sized(
+      Variant::CPerAngle,
+      {effect(EffectKind::kLengthOffset, "2r", {1}), effect(EffectKind::kDrift, "", {1})}, 3.0);
   int checked = 0;
   for (int s = 0; s < 100 && checked < 2; ++s) {
     Truth t = random_truth(d, rng);
@@ -316,13 +316,13 @@ TEST(DiagnoseOnDesigns, SubstitutionEntersTheErrorsUncertainty) {
     };
     std::vector<const Eigen::MatrixXd*> chosen_blocks, other_blocks;
     for (const AddedEffect& a : r.added) {
-      chosen_blocks.push_back(&a.block.X);
+      chosen_blocks.push_back(&a.block.J_reading_effect);
       if (std::find(sub.replaced.begin(), sub.replaced.end(), a.block.label) ==
           sub.replaced.end()) {
-        other_blocks.push_back(&a.block.X);
+        other_blocks.push_back(&a.block.J_reading_effect);
       }
     }
-    for (const EffectBlock& b : sub.by) other_blocks.push_back(&b.X);
+    for (const EffectBlock& b : sub.by) other_blocks.push_back(&b.J_reading_effect);
     const std::vector<ErrorsAtAngle> chosen = fit_with(chosen_blocks);
     const std::vector<ErrorsAtAngle> other = fit_with(other_blocks);
     expect_errors_carry(r, chosen, other);
@@ -472,37 +472,40 @@ std::vector<DesignCase> design_cases() {
   std::vector<DesignCase> cases;
   for (Variant v : {Variant::CPerAngle, Variant::BPerAngle, Variant::BLegendre}) {
     const std::vector<DesignCase> each = {
-        {v, "length_offset", {effect(EffectKind::LengthOffset, "2r", {10})}, {"length_offset[2r]"}},
-        {v, "centring", {effect(EffectKind::Centring, "2r", {6, -4})}, {"centring[2r]"}},
-        {v, "drift", {effect(EffectKind::Drift, "1t", {0.4})}, {"drift[1t]"}},
-        {v, "reversal", {effect(EffectKind::Reversal, "2t", {3})}, {"reversal[2t]"}},
+        {v,
+         "length_offset",
+         {effect(EffectKind::kLengthOffset, "2r", {10})},
+         {"length_offset[2r]"}},
+        {v, "centring", {effect(EffectKind::kCentring, "2r", {6, -4})}, {"centring[2r]"}},
+        {v, "drift", {effect(EffectKind::kDrift, "1t", {0.4})}, {"drift[1t]"}},
+        {v, "reversal", {effect(EffectKind::kReversal, "2t", {3})}, {"reversal[2t]"}},
         {v,
          "whole_test_drift",
-         {effect(EffectKind::Drift, "", {0.3})},
+         {effect(EffectKind::kDrift, "", {0.3})},
          {"drift[all]"},
-         {EffectKind::Drift}},
+         {EffectKind::kDrift}},
         {v,
          "whole_test_reversal",
-         {effect(EffectKind::Reversal, "", {4})},
+         {effect(EffectKind::kReversal, "", {4})},
          {"reversal[all]"},
-         {EffectKind::Reversal}},
-        {v, "step", {step("2t", 5)}, {"step[2t]"}, {EffectKind::Drift, EffectKind::Centring}},
-        {v, "thermal", {thermal(8, 20)}, {"thermal[all]"}, {EffectKind::Drift}},
+         {EffectKind::kReversal}},
+        {v, "step", {step("2t", 5)}, {"step[2t]"}, {EffectKind::kDrift, EffectKind::kCentring}},
+        {v, "thermal", {thermal(8, 20)}, {"thermal[all]"}, {EffectKind::kDrift}},
         {v,
          "two_at_once",
-         {effect(EffectKind::LengthOffset, "2r", {1}), effect(EffectKind::Drift, "1t", {1})},
+         {effect(EffectKind::kLengthOffset, "2r", {1}), effect(EffectKind::kDrift, "1t", {1})},
          {"length_offset[2r]", "drift[1t]"}},
         {v,
          "whole_test_drift_and_length_offset",
-         {effect(EffectKind::LengthOffset, "2r", {1}), effect(EffectKind::Drift, "", {1})},
+         {effect(EffectKind::kLengthOffset, "2r", {1}), effect(EffectKind::kDrift, "", {1})},
          {"length_offset[2r]", "drift[all]"},
-         {EffectKind::Drift}},
+         {EffectKind::kDrift}},
         {v,
          "three_at_once",
-         {effect(EffectKind::Centring, "2r", {-5, 7}), step("1t", -5),
-          effect(EffectKind::Reversal, "", {3})},
+         {effect(EffectKind::kCentring, "2r", {-5, 7}), step("1t", -5),
+          effect(EffectKind::kReversal, "", {3})},
          {"centring[2r]", "step[1t]", "reversal[all]"},
-         {EffectKind::Reversal}},
+         {EffectKind::kReversal}},
     };
     cases.insert(cases.end(), each.begin(), each.end());
   }

@@ -77,8 +77,8 @@ TEST_P(FindsEffect, AddsItAndExplainsTheResidual) {
         if (a.block.effect.kind != te.effect.kind) continue;
         // A step found at another reading, a warm-up with another time constant: their sizes
         // differ.
-        if (te.effect.kind == EffectKind::Step && a.block.effect.at_s != te.effect.at_s) continue;
-        if (te.effect.kind == EffectKind::Thermal) {  // the plateau and the fitted time constant
+        if (te.effect.kind == EffectKind::kStep && a.block.effect.at_s != te.effect.at_s) continue;
+        if (te.effect.kind == EffectKind::kThermal) {  // the plateau and the fitted time constant
           ASSERT_EQ(a.values.size(), 2u);
           right_value += std::abs(a.values[0].value - te.value(0)) <= 3 * a.values[0].std;
           right_value += std::abs(a.values[1].value - te.effect.tau_min) <= 3 * a.values[1].std;
@@ -104,48 +104,49 @@ TEST_P(FindsEffect, AddsItAndExplainsTheResidual) {
 INSTANTIATE_TEST_SUITE_P(
     Library, FindsEffect,
     ::testing::Values(
+        EffectCase{"length_offset",
+                   {effect(EffectKind::kLengthOffset, "2r", {10})},
+                   {"length_offset[2r]"}},
+        EffectCase{"centring", {effect(EffectKind::kCentring, "2r", {6, -4})}, {"centring[2r]"}},
+        EffectCase{"drift", {effect(EffectKind::kDrift, "1t", {0.4})}, {"drift[1t]"}},
+        EffectCase{"reversal", {effect(EffectKind::kReversal, "3r", {3})}, {"reversal[3r]"}},
+        EffectCase{"scale", {effect(EffectKind::kScale, "", {40, 0, 0})}, {"scale.x"}},
         EffectCase{
-            "length_offset", {effect(EffectKind::LengthOffset, "2r", {10})}, {"length_offset[2r]"}},
-        EffectCase{"centring", {effect(EffectKind::Centring, "2r", {6, -4})}, {"centring[2r]"}},
-        EffectCase{"drift", {effect(EffectKind::Drift, "1t", {0.4})}, {"drift[1t]"}},
-        EffectCase{"reversal", {effect(EffectKind::Reversal, "3r", {3})}, {"reversal[3r]"}},
-        EffectCase{"scale", {effect(EffectKind::Scale, "", {40, 0, 0})}, {"scale.x"}},
-        EffectCase{
-            "squareness", {effect(EffectKind::Squareness, "", {25, 0, 0})}, {"squareness.xy"}},
-        EffectCase{
-            "offset_and_drift",
-            {effect(EffectKind::LengthOffset, "2r", {-8}), effect(EffectKind::Drift, "3t", {0.3})},
-            {"length_offset[2r]", "drift[3t]"}},
-        EffectCase{
-            "centring_and_reversal",
-            {effect(EffectKind::Centring, "2r", {-5, 7}), effect(EffectKind::Reversal, "2t", {-4})},
-            {"centring[2r]", "reversal[2t]"}},
+            "squareness", {effect(EffectKind::kSquareness, "", {25, 0, 0})}, {"squareness.xy"}},
+        EffectCase{"offset_and_drift",
+                   {effect(EffectKind::kLengthOffset, "2r", {-8}),
+                    effect(EffectKind::kDrift, "3t", {0.3})},
+                   {"length_offset[2r]", "drift[3t]"}},
+        EffectCase{"centring_and_reversal",
+                   {effect(EffectKind::kCentring, "2r", {-5, 7}),
+                    effect(EffectKind::kReversal, "2t", {-4})},
+                   {"centring[2r]", "reversal[2t]"}},
         // Effects of the whole test: one drift on the test's clock (0.3 um/min), one reversal
         // common to every installation (a length change common to every reading, the bar's
         // own, is confounded on this design: WholeTestLengthIsConfoundedAndNeverAdded).
         EffectCase{"whole_test_drift",
-                   {effect(EffectKind::Drift, "", {0.3})},
+                   {effect(EffectKind::kDrift, "", {0.3})},
                    {"drift[all]"},
-                   {EffectKind::Drift}},
+                   {EffectKind::kDrift}},
         EffectCase{"whole_test_reversal",
-                   {effect(EffectKind::Reversal, "", {4})},
+                   {effect(EffectKind::kReversal, "", {4})},
                    {"reversal[all]"},
-                   {EffectKind::Reversal}},
+                   {EffectKind::kReversal}},
         EffectCase{
             "whole_test_drift_and_centring",
-            {effect(EffectKind::Drift, "", {-0.2}), effect(EffectKind::Centring, "2r", {4, 5})},
+            {effect(EffectKind::kDrift, "", {-0.2}), effect(EffectKind::kCentring, "2r", {4, 5})},
             {"drift[all]", "centring[2r]"},
-            {EffectKind::Drift}},
+            {EffectKind::kDrift}},
         // A 5 um jump halfway through one installation: a step, not that installation's drift
         // and centring.
         EffectCase{
-            "step", {step("2t", 5)}, {"step[2t]"}, {EffectKind::Drift, EffectKind::Centring}},
+            "step", {step("2t", 5)}, {"step[2t]"}, {EffectKind::kDrift, EffectKind::kCentring}},
         EffectCase{"step_and_length_offset",
-                   {step("1t", -4), effect(EffectKind::LengthOffset, "2r", {6})},
+                   {step("1t", -4), effect(EffectKind::kLengthOffset, "2r", {6})},
                    {"step[1t]", "length_offset[2r]"},
-                   {EffectKind::Drift}},
+                   {EffectKind::kDrift}},
         // A warm-up: 8 um approached with a time constant of 20 min over a test of about 70 min.
-        EffectCase{"thermal", {thermal(8, 20)}, {"thermal[all]"}, {EffectKind::Drift}}),
+        EffectCase{"thermal", {thermal(8, 20)}, {"thermal[all]"}, {EffectKind::kDrift}}),
     [](const auto& info) { return std::string(info.param.name); });
 
 // A 3-per-turn term is outside the library: it must stay a flagged, described,
@@ -157,7 +158,7 @@ TEST(Diagnose, UnknownEffectIsFlaggedNotMisattributed) {
   int flagged = 0, described = 0, misattributed = 0;
   for (int s = 0; s < seeds; ++s) {
     Truth t = random_truth(d, rng);
-    t.effects = {effect(EffectKind::Periodic, "1r", {4}, 3)};
+    t.effects = {effect(EffectKind::kPeriodic, "1r", {4}, 3)};
     const std::vector<Reading> rd = simulate(d, t, 9000 + s);
     const DiagnoseResult r = diagnose(d, rd);
     const std::string verdict = io::diagnose_verdict(d, rd, r);
@@ -182,7 +183,7 @@ TEST(Diagnose, WholeTestLengthIsConfoundedAndNeverAdded) {
   std::mt19937_64 rng(4);
   for (int s = 0; s < 5; ++s) {
     Truth t = random_truth(d, rng);
-    t.effects = {effect(EffectKind::LengthOffset, "", {3})};
+    t.effects = {effect(EffectKind::kLengthOffset, "", {3})};
     const DiagnoseResult r = diagnose(d, simulate(d, t, 9500 + s));
     EXPECT_FALSE(has(r, "length_offset[all]"));
     const auto c =
@@ -202,7 +203,7 @@ TEST(Diagnose, PerInstallationDriftsAreKeptAgainstOneWholeTestDrift) {
   int kept = 0, reported = 0;
   for (int s = 0; s < seeds; ++s) {
     Truth t = random_truth(d, rng);
-    t.effects = {effect(EffectKind::Drift, "1t", {0.4}), effect(EffectKind::Drift, "3r", {-0.3})};
+    t.effects = {effect(EffectKind::kDrift, "1t", {0.4}), effect(EffectKind::kDrift, "3r", {-0.3})};
     const std::vector<Reading> rd = simulate(d, t, 9600 + s);
     const DiagnoseResult r = diagnose(d, rd);
     const std::string verdict = io::diagnose_verdict(d, rd, r);
@@ -227,8 +228,8 @@ TEST(Diagnose, NearlyCollinearCandidatesAreReported) {
   int wrong = 0, warned = 0, right = 0;
   for (int s = 0; s < 60; ++s) {
     Truth t = random_truth(d, rng);
-    t.schedule->sweeps = {Sweep::CCW, Sweep::CW};
-    t.effects = {effect(EffectKind::Drift, "1t", {0.4})};
+    t.schedule->sweeps = {Sweep::kCCW, Sweep::kCW};
+    t.effects = {effect(EffectKind::kDrift, "1t", {0.4})};
     const DiagnoseResult r = diagnose(d, simulate(d, t, 300 + s));
     if (has(r, "drift[1t]")) {
       ++right;
@@ -251,7 +252,7 @@ TEST(Diagnose, ConfoundedEffectIsNeverAdded) {
   const Design d = fourier_design();
   std::mt19937_64 rng(4);
   Truth t = random_truth(d, rng);
-  t.effects = {effect(EffectKind::LengthOffset, "1a", {15})};
+  t.effects = {effect(EffectKind::kLengthOffset, "1a", {15})};
   const DiagnoseResult r = diagnose(d, simulate(d, t, 1));
   EXPECT_FALSE(has(r, "length_offset[1a]"));
   const auto it =
@@ -297,7 +298,7 @@ TEST(Detectability, ProjectionAgreesWithTheAugmentedFactorisation) {
     t.model = ErrorModel{};
     for (double a : d.angles_deg) test::add_truth_value(t, d.axis, a, Vector6d::Zero());
     t.noiseless = true;
-    t.schedule = Schedule{10, 240, {Sweep::CCW, Sweep::CW}};
+    t.schedule = Schedule{10, 240, {Sweep::kCCW, Sweep::kCW}};
     const std::vector<Reading> readings = simulate(d, t, 0);
     const Parameterisation param(d);
     const LinearModel model = build_linear_model(d, param, readings);
@@ -305,12 +306,12 @@ TEST(Detectability, ProjectionAgreesWithTheAugmentedFactorisation) {
     const int rank = solver.a_priori().rank;
     for (const EffectBlock& b : candidate_effects(d, readings)) {
       if (!b.not_applicable.empty()) continue;
-      Eigen::MatrixXd A(model.J.rows(), model.J.cols() + b.X.cols());
-      A << test::dense(model.J), b.X;
+      Eigen::MatrixXd A(model.J.rows(), model.J.cols() + b.J_reading_effect.cols());
+      A << test::dense(model.J), b.J_reading_effect;
       const int full = WlsSolver(A, model.sigma_um).a_priori().rank - rank;
-      EXPECT_EQ(added_rank(solver, b.X), full) << d.name << " " << b.label;
+      EXPECT_EQ(added_rank(solver, b.J_reading_effect), full) << d.name << " " << b.label;
       ++compared;
-      confounded += full < b.X.cols();
+      confounded += full < b.J_reading_effect.cols();
     }
   }
   EXPECT_GT(compared, 100);
@@ -340,8 +341,8 @@ TEST(DiagnoseBordered, AgreesWithTheWholeBlock) {
     for (int k = 0; k < 6; ++k) e(k) = 3.0 * n01(rng);
     test::add_truth_value(t, d.axis, a, e);
   }
-  t.schedule = Schedule{5, 60, {Sweep::CCW, Sweep::CW}};
-  t.effects = {effect(EffectKind::Drift, "2r", {0.5}), effect(EffectKind::Reversal, "", {1.5})};
+  t.schedule = Schedule{5, 60, {Sweep::kCCW, Sweep::kCW}};
+  t.effects = {effect(EffectKind::kDrift, "2r", {0.5}), effect(EffectKind::kReversal, "", {1.5})};
   const std::vector<Reading> r = simulate(d, t, 31);
   DiagnoseOptions whole_o, border_o;
   whole_o.estimate.border_min_columns = 0;

@@ -33,13 +33,13 @@ inline bool has(const DiagnoseResult& r, const std::string& label) {
 }
 
 inline TruthEffect step(const std::string& inst, double size_um, double at_s = std::nan("")) {
-  TruthEffect e = effect(EffectKind::Step, inst, {size_um});
+  TruthEffect e = effect(EffectKind::kStep, inst, {size_um});
   e.effect.at_s = at_s;
   return e;
 }
 
 inline TruthEffect thermal(double plateau_um, double tau_min) {
-  TruthEffect e = effect(EffectKind::Thermal, "", {plateau_um});
+  TruthEffect e = effect(EffectKind::kThermal, "", {plateau_um});
   e.effect.tau_min = tau_min;
   return e;
 }
@@ -48,7 +48,7 @@ inline TruthEffect thermal(double plateau_um, double tau_min) {
 inline std::vector<TruthEffect> placed(const Design& d, const Truth& t,
                                        std::vector<TruthEffect> effects) {
   for (TruthEffect& e : effects) {
-    if (e.effect.kind != EffectKind::Step || std::isfinite(e.effect.at_s)) continue;
+    if (e.effect.kind != EffectKind::kStep || std::isfinite(e.effect.at_s)) continue;
     Truth quiet = t;
     quiet.effects.clear();
     std::vector<double> times;

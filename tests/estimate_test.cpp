@@ -211,7 +211,8 @@ TEST(Estimate, BorderedEqualsTheWholeBlock) {
   for (int i = 0; i < n; i += 13) EXPECT_NEAR(bordered.leverage(i), whole.leverage(i), 1e-10) << i;
   // J G: the same projector either way (it does not depend on the minimum-norm choice).
   const Eigen::MatrixXd Y = Eigen::MatrixXd::Random(n, 2);
-  EXPECT_TRUE(test::near(J * (bordered.gain() * Y), J * (whole.gain() * Y), 1e-9, 1e-9));
+  EXPECT_TRUE(test::near(J * (bordered.J_theta_reading() * Y), J * (whole.J_theta_reading() * Y),
+                         1e-9, 1e-9));
 }
 
 TEST(Estimate, NoReadingsGivesNoNumbers) {
@@ -260,8 +261,8 @@ TEST(Estimate, NormalEquationsPathAgreesWithTheSvd) {
     EXPECT_TRUE(test::near(a.covariance, b.covariance,
                            tol * test::dense(b.covariance).cwiseAbs().maxCoeff()))
         << kappa;
-    EXPECT_TRUE(test::near(normal.gain().sparse(), svd.gain().sparse(),
-                           tol * test::dense(svd.gain().sparse()).cwiseAbs().maxCoeff()))
+    EXPECT_TRUE(test::near(normal.J_theta_reading().sparse(), svd.J_theta_reading().sparse(),
+                           tol * test::dense(svd.J_theta_reading().sparse()).cwiseAbs().maxCoeff()))
         << kappa;
     EXPECT_TRUE(test::near(a.theta, b.theta, tol * b.theta.cwiseAbs().maxCoeff())) << kappa;
     EXPECT_EQ(a.rank, p);
@@ -281,7 +282,7 @@ TEST(Estimate, FourierIdentificationTakesTheNormalEquations) {
   Design d = test::paper_design('C');
   d.angles_deg.clear();
   for (int i = 0; i < 72; ++i) d.angles_deg.push_back(5.0 * i);
-  d.errors = {ErrorModel::Kind::Fourier, 20};
+  d.errors = {ErrorModel::Kind::kFourier, 20};
   const Parameterisation param(d);
   const LinearModel model = build_linear_model(d, param, nominal_readings(d));
   EstimateOptions svd_only;
@@ -291,8 +292,8 @@ TEST(Estimate, FourierIdentificationTakesTheNormalEquations) {
             0);  // the model splits into independent blocks
   EXPECT_TRUE(test::near(normal.a_priori().covariance, svd.a_priori().covariance,
                          1e-9 * test::dense(svd.a_priori().covariance).cwiseAbs().maxCoeff()));
-  EXPECT_TRUE(test::near(normal.gain().sparse(), svd.gain().sparse(),
-                         1e-9 * test::dense(svd.gain().sparse()).cwiseAbs().maxCoeff()));
+  EXPECT_TRUE(test::near(normal.J_theta_reading().sparse(), svd.J_theta_reading().sparse(),
+                         1e-9 * test::dense(svd.J_theta_reading().sparse()).cwiseAbs().maxCoeff()));
 }
 
 }  // namespace

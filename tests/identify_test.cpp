@@ -16,12 +16,12 @@ constexpr double kPi = 3.14159265358979323846;
 // The paper's B head plus a third ball off the tool axis (model.md §4): radial and tangential.
 Design b_head_with_offset() {
   Design d = test::paper_design('B');
-  for (auto dir : {Direction::Kind::Radial, Direction::Kind::Tangential}) {
+  for (auto dir : {Direction::Kind::kRadial, Direction::Kind::kTangential}) {
     Installation in;
-    in.id = dir == Direction::Kind::Radial ? "3r" : "3t";
+    in.id = dir == Direction::Kind::kRadial ? "3r" : "3t";
     in.L_mm = 150;
     in.D_mm = 60;
-    in.direction = Direction::named(Axis::B, dir);
+    in.direction = Direction::named(Axis::kB, dir);
     d.installations.push_back(in);
   }
   return d;
@@ -31,7 +31,7 @@ Truth random_truth(const Design& d, std::mt19937_64& rng) {
   std::normal_distribution<double> n01;
   Truth t;
   t.model = d.errors;
-  if (d.errors.kind == ErrorModel::Kind::PerAngle) {
+  if (d.errors.kind == ErrorModel::Kind::kPerAngle) {
     for (double a : d.angles_deg) {
       Vector6d e;
       for (int k = 0; k < 6; ++k) e(k) = (k < 3 ? 10.0 : 30.0) * n01(rng);
@@ -39,11 +39,11 @@ Truth random_truth(const Design& d, std::mt19937_64& rng) {
     }
   } else {
     const int m =
-        d.errors.kind == ErrorModel::Kind::Fourier ? 2 * d.errors.order + 1 : d.errors.order + 1;
+        d.errors.kind == ErrorModel::Kind::kFourier ? 2 * d.errors.order + 1 : d.errors.order + 1;
     for (int k = 0; k < 6; ++k) {
       for (int c = 0; c < m; ++c) t.coefficients[k].push_back((k < 3 ? 10.0 : 30.0) * n01(rng));
     }
-    if (d.errors.kind == ErrorModel::Kind::Legendre) {
+    if (d.errors.kind == ErrorModel::Kind::kLegendre) {
       const auto [lo, hi] = std::minmax_element(d.angles_deg.begin(), d.angles_deg.end());
       t.range_deg = std::make_pair(*lo, *hi);
     }
@@ -100,7 +100,7 @@ TEST(Identify, NoiselessDataGiveTheTruthBack) {
   std::mt19937_64 rng(13);
   for (int config = 0; config < 3; ++config) {
     Design d = config == 1 ? b_head_with_offset() : test::paper_design('C');
-    if (config == 2) d.errors = {ErrorModel::Kind::Fourier, 3};
+    if (config == 2) d.errors = {ErrorModel::Kind::kFourier, 3};
     Truth t = random_truth(d, rng);
     t.noiseless = true;
     const IdentifyResult r = identify(d, simulate(d, t, 0));
@@ -146,10 +146,10 @@ TEST_P(Coverage, TruthWithinThreeSigma) {
   Design d = c.config == 0 || c.config == 3 ? test::paper_design('C')
              : c.config == 1                ? test::paper_design('B')
                                             : b_head_with_offset();
-  if (c.config == 3) d.errors = {ErrorModel::Kind::Fourier, 3};
-  if (c.config == 4) d.errors = {ErrorModel::Kind::Legendre, 2};
-  if (c.noise == NoiseModel::Distribution::Normal) {
-    d.noise.distribution = NoiseModel::Distribution::Normal;
+  if (c.config == 3) d.errors = {ErrorModel::Kind::kFourier, 3};
+  if (c.config == 4) d.errors = {ErrorModel::Kind::kLegendre, 2};
+  if (c.noise == NoiseModel::Distribution::kNormal) {
+    d.noise.distribution = NoiseModel::Distribution::kNormal;
     d.noise.std_um = 0.5;
   }
   std::mt19937_64 rng(1000 + c.config);
@@ -175,7 +175,7 @@ TEST_P(Coverage, TruthWithinThreeSigma) {
       }
     }
     // Independent blocks: stations of a per-angle model, whole data sets of a series.
-    blocks += d.errors.kind == ErrorModel::Kind::PerAngle ? static_cast<int>(r.errors.size()) : 1;
+    blocks += d.errors.kind == ErrorModel::Kind::kPerAngle ? static_cast<int>(r.errors.size()) : 1;
   }
   const double share = inside / total;
   EXPECT_GE(share, 0.98) << c.name;
@@ -189,12 +189,12 @@ TEST_P(Coverage, TruthWithinThreeSigma) {
 
 INSTANTIATE_TEST_SUITE_P(
     Designs, Coverage,
-    ::testing::Values(CoverageCase{"paper_C_uniform", 0, NoiseModel::Distribution::Uniform},
-                      CoverageCase{"paper_C_normal", 0, NoiseModel::Distribution::Normal},
-                      CoverageCase{"paper_B_uniform", 1, NoiseModel::Distribution::Uniform},
-                      CoverageCase{"B_offset_normal", 2, NoiseModel::Distribution::Normal},
-                      CoverageCase{"C_fourier3_uniform", 3, NoiseModel::Distribution::Uniform},
-                      CoverageCase{"B_legendre2_normal", 4, NoiseModel::Distribution::Normal}),
+    ::testing::Values(CoverageCase{"paper_C_uniform", 0, NoiseModel::Distribution::kUniform},
+                      CoverageCase{"paper_C_normal", 0, NoiseModel::Distribution::kNormal},
+                      CoverageCase{"paper_B_uniform", 1, NoiseModel::Distribution::kUniform},
+                      CoverageCase{"B_offset_normal", 2, NoiseModel::Distribution::kNormal},
+                      CoverageCase{"C_fourier3_uniform", 3, NoiseModel::Distribution::kUniform},
+                      CoverageCase{"B_legendre2_normal", 4, NoiseModel::Distribution::kNormal}),
     [](const auto& info) { return std::string(info.param.name); });
 
 }  // namespace

@@ -48,7 +48,7 @@ std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t,
       const double amp = k < 3 ? t.component_um : t.component_urad;
       out[i](k) += amp * (std::cos(2 * g + t.phases[k]) + 0.5 * std::sin(3 * g + t.phases[6 + k]));
     }
-    if (axis == Axis::C) {
+    if (axis == Axis::kC) {
       for (int b = 0; b < 2; ++b) {
         const double amp = b == 0 ? t.component_um : t.component_urad;
         const double u = amp * std::cos(t.phases[12 + b]), v = amp * std::sin(t.phases[12 + b]);
@@ -57,12 +57,12 @@ std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t,
       }
     }
   }
-  if (axis == Axis::B) {
+  if (axis == Axis::kB) {
     for (int b = 0; b < 2; ++b) {
       Eigen::MatrixXd X = Eigen::MatrixXd::Zero(3 * n, 5);
       Eigen::VectorXd y(3 * n);
       for (int i = 0; i < n; ++i) {
-        const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(Axis::B, g_deg[i]);
+        const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(Axis::kB, g_deg[i]);
         for (int k = 0; k < 3; ++k) {
           const int r = 3 * i + k;
           if (b == 0) {
@@ -91,7 +91,7 @@ std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t,
 // tilted axis, against the nominal R(g) P0: R_err = Q R', d_err = (I - Q) o. Then the
 // constant parts and the component motions.
 Vector6d error_motion(Axis axis, const AxisTruth& t, double g_deg, const Vector6d& component) {
-  const Eigen::Vector3d a = axis == Axis::C ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d a = axis == Axis::kC ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
   const Eigen::Vector3d alpha = 1e-6 * t.alpha;
   const Eigen::Matrix3d tilt =
       alpha.norm() > 0 ? Eigen::AngleAxisd(alpha.norm(), alpha.normalized()).toRotationMatrix()
@@ -113,7 +113,7 @@ Vector6d error_motion(Axis axis, const AxisTruth& t, double g_deg, const Vector6
 AxisTruth random_truth(Axis axis, std::mt19937_64& rng, bool components) {
   std::uniform_real_distribution<double> u(-1, 1), phase(0, 2 * M_PI);
   AxisTruth t;
-  const int p1 = 0, p2 = axis == Axis::C ? 1 : 2, ax = axis == Axis::C ? 2 : 1;
+  const int p1 = 0, p2 = axis == Axis::kC ? 1 : 2, ax = axis == Axis::kC ? 2 : 1;
   t.o(p1) = 20 * u(rng);
   t.o(p2) = 20 * u(rng);
   t.alpha(p1) = 50 * u(rng);
@@ -134,13 +134,13 @@ AxisTruth random_truth(Axis axis, std::mt19937_64& rng, bool components) {
 // The measured positions of d (360 is the position 0).
 std::vector<double> positions(const Design& d) {
   std::vector<double> g;
-  for (double a : d.angles_deg) g.push_back(d.axis == Axis::C ? std::fmod(a, 360.0) : a);
+  for (double a : d.angles_deg) g.push_back(d.axis == Axis::kC ? std::fmod(a, 360.0) : a);
   return g;
 }
 
 Truth exact_truth(const Design& d, const AxisTruth& at) {
   Truth t;
-  t.model = {ErrorModel::Kind::PerAngle, 0};
+  t.model = {ErrorModel::Kind::kPerAngle, 0};
   const std::vector<double> g = positions(d);
   const std::vector<Vector6d> comp = component_motions(d.axis, at, g);
   for (size_t i = 0; i < g.size(); ++i)
@@ -151,7 +151,7 @@ Truth exact_truth(const Design& d, const AxisTruth& at) {
 }
 
 std::array<double, 5> location_of(Axis axis, const AxisTruth& t) {
-  const int p1 = 0, p2 = axis == Axis::C ? 1 : 2;
+  const int p1 = 0, p2 = axis == Axis::kC ? 1 : 2;
   return {t.o(p1), t.o(p2), t.alpha(p1), t.alpha(p2), t.c0};
 }
 
@@ -227,7 +227,7 @@ void check_recovery(const Design& d, int cases, bool components, std::uint64_t s
       "within 3 u: %d of %d; error motion values held by their interval: %d of %d (U / value %.2f "
       "on "
       "average); noise-free: largest difference %.2e (um, urad)\n",
-      d.axis == Axis::C ? "C" : "B", d.name.c_str(), cases,
+      d.axis == Axis::kC ? "C" : "B", d.name.c_str(), cases,
       components ? " with component motions" : "", held, checked, held1, comp_held, comp_checked,
       range_held, range_checked, range_checked ? width / range_checked : 0.0, worst_noise_free);
   // The uncertainty is the right size, not only large enough: about 68 % within 1 u.

@@ -50,12 +50,12 @@ TEST(Kinematics, TurntableRowsMatchPaperEquation9) {
         0, 0, 1, 1e-3 * L * std::sin(g), -1e-3 * L * std::cos(g), 0;
     const Eigen::Vector3d u_r(std::cos(g), std::sin(g), 0), u_t(-std::sin(g), std::cos(g), 0),
         u_a(0, 0, 1);
-    const std::pair<Direction::Kind, Eigen::Vector3d> dirs[] = {{Direction::Kind::Radial, u_r},
-                                                                {Direction::Kind::Tangential, u_t},
-                                                                {Direction::Kind::Axial, u_a}};
+    const std::pair<Direction::Kind, Eigen::Vector3d> dirs[] = {{Direction::Kind::kRadial, u_r},
+                                                                {Direction::Kind::kTangential, u_t},
+                                                                {Direction::Kind::kAxial, u_a}};
     for (const auto& [kind, u] : dirs) {
-      const Installation in = make(L, 0, H, Direction::named(Axis::C, kind));
-      EXPECT_TRUE(test::near(J_reading_error(Axis::C, in, g_deg), u.transpose() * dP, 1e-12))
+      const Installation in = make(L, 0, H, Direction::named(Axis::kC, kind));
+      EXPECT_TRUE(test::near(J_reading_error(Axis::kC, in, g_deg), u.transpose() * dP, 1e-12))
           << g_deg;
     }
   }
@@ -73,36 +73,62 @@ TEST(Kinematics, SwingingHeadRowsMatchModel) {
         0, 0, 1, 0, -1e-3 * L * std::sin(b), 0;
     const Eigen::Vector3d u_r(std::sin(b), 0, std::cos(b)), u_t(std::cos(b), 0, -std::sin(b)),
         u_a(0, 1, 0);
-    const std::pair<Direction::Kind, Eigen::Vector3d> dirs[] = {{Direction::Kind::Radial, u_r},
-                                                                {Direction::Kind::Tangential, u_t},
-                                                                {Direction::Kind::Axial, u_a}};
+    const std::pair<Direction::Kind, Eigen::Vector3d> dirs[] = {{Direction::Kind::kRadial, u_r},
+                                                                {Direction::Kind::kTangential, u_t},
+                                                                {Direction::Kind::kAxial, u_a}};
     for (const auto& [kind, u] : dirs) {
-      const Installation in = make(L, 0, 0, Direction::named(Axis::B, kind));
-      EXPECT_TRUE(test::near(J_reading_error(Axis::B, in, b_deg), u.transpose() * dP, 1e-12))
+      const Installation in = make(L, 0, 0, Direction::named(Axis::kB, kind));
+      EXPECT_TRUE(test::near(J_reading_error(Axis::kB, in, b_deg), u.transpose() * dP, 1e-12))
           << b_deg;
-      EXPECT_TRUE(test::near(ball_position_mm(Axis::B, in, b_deg),
+      EXPECT_TRUE(test::near(ball_position_mm(Axis::kB, in, b_deg),
                              Eigen::Vector3d(L * std::sin(b), 0, L * std::cos(b)), 1e-12));
     }
   }
 }
 
 TEST(Kinematics, SignFlipsTheRow) {
-  Installation in = make(100, 5, 60, Direction::named(Axis::C, Direction::Kind::Radial));
-  const RowVector6d plus = J_reading_error(Axis::C, in, 40);
+  Installation in = make(100, 5, 60, Direction::named(Axis::kC, Direction::Kind::kRadial));
+  const RowVector6d plus = J_reading_error(Axis::kC, in, 40);
   in.sign = -1;
-  EXPECT_TRUE(test::near(J_reading_error(Axis::C, in, 40), -plus, 0.0));
+  EXPECT_TRUE(test::near(J_reading_error(Axis::kC, in, 40), -plus, 0.0));
 }
 
 TEST(Kinematics, ExplicitVectorEqualsNamedDirection) {
   // An explicit body vector equal to the named one gives the same row; the body frame is the
   // machine frame at 0.
-  for (Axis axis : {Axis::C, Axis::B}) {
+  for (Axis axis : {Axis::kC, Axis::kB}) {
     for (auto kind :
-         {Direction::Kind::Radial, Direction::Kind::Tangential, Direction::Kind::Axial}) {
+         {Direction::Kind::kRadial, Direction::Kind::kTangential, Direction::Kind::kAxial}) {
       const Direction named = Direction::named(axis, kind);
-      const Installation a = make(80, 10, axis == Axis::C ? 40 : 0, named);
-      const Installation b = make(80, 10, axis == Axis::C ? 40 : 0, Direction::vector(named.body));
+      const Installation a = make(80, 10, axis == Axis::kC ? 40 : 0, named);
+      const Installation b = make(80, 10, axis == Axis::kC ? 40 : 0, Direction::vector(named.body));
       EXPECT_TRUE(test::near(J_reading_error(axis, a, 33), J_reading_error(axis, b, 33), 0.0));
+    }
+  }
+}
+
+// The row is the derivative of the exact reading at zero error: central differences of the
+// exact homogeneous transform (tests/test_util.hpp, jacobian_matches), both axes, named and
+// explicit directions, both signs.
+TEST(Kinematics, RowIsTheDerivativeOfTheExactReading) {
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> uni(-1, 1);
+  for (Axis axis : {Axis::kC, Axis::kB}) {
+    for (int trial = 0; trial < 40; ++trial) {
+      const int k = trial % 4;
+      const Direction dir =
+          k < 3 ? Direction::named(axis, static_cast<Direction::Kind>(k))
+                : Direction::vector(Eigen::Vector3d(uni(rng), uni(rng), uni(rng)).normalized());
+      const Installation in =
+          make(250 * std::abs(uni(rng)), 50 * uni(rng),
+               axis == Axis::kC ? 200 * std::abs(uni(rng)) : 0, dir, trial % 2 ? 1 : -1);
+      const double angle = 180 * uni(rng);
+      auto exact = [&](const Eigen::VectorXd& e) {
+        return Eigen::VectorXd::Constant(1, exact_reading_um(axis, in, angle, e, 150.0));
+      };
+      EXPECT_TRUE(test::jacobian_matches(exact, Eigen::VectorXd::Zero(6),
+                                         J_reading_error(axis, in, angle), 1.0, 1e-8, 1e-7))
+          << "axis " << axis_name(axis) << " trial " << trial;
     }
   }
 }
@@ -113,7 +139,7 @@ TEST(Kinematics, RowAgreesWithExactTransformToSecondOrder) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> uni(-1, 1);
   int checked = 0;
-  for (Axis axis : {Axis::C, Axis::B}) {
+  for (Axis axis : {Axis::kC, Axis::kB}) {
     for (int trial = 0; trial < 40; ++trial) {
       Direction dir;
       const int k = trial % 4;
@@ -124,7 +150,7 @@ TEST(Kinematics, RowAgreesWithExactTransformToSecondOrder) {
       }
       const Installation in =
           make(250 * std::abs(uni(rng)), 50 * uni(rng),
-               axis == Axis::C ? 200 * std::abs(uni(rng)) : 0, dir, trial % 2 ? 1 : -1);
+               axis == Axis::kC ? 200 * std::abs(uni(rng)) : 0, dir, trial % 2 ? 1 : -1);
       const double angle = 180 * uni(rng);
       Vector6d e;
       for (int i = 0; i < 6; ++i) e(i) = 50 * uni(rng);  // um and urad

@@ -23,16 +23,16 @@ Design random_design(std::mt19937& rng, Axis axis) {
   std::uniform_real_distribution<double> L(0, 300), D(-80, 80), H(0, 200), unit(-1, 1);
   Design d;
   d.axis = axis;
-  d.angles_deg = axis == Axis::C ? std::vector<double>{0, 30, 60, 90, 135, 200, 270, 330, 360}
-                                 : std::vector<double>{-100, -75, -50, -20, 0};
+  d.angles_deg = axis == Axis::kC ? std::vector<double>{0, 30, 60, 90, 135, 200, 270, 330, 360}
+                                  : std::vector<double>{-100, -75, -50, -20, 0};
   d.noise.half_width_um = 1.0 + unit(rng) * 0.5;
   const int n = 6 + static_cast<int>(rng() % 4);
   for (int i = 0; i < n; ++i) {
     Installation in;
     in.id = "i" + std::to_string(i);
-    in.L_mm = axis == Axis::C ? L(rng) : 50 + L(rng);
+    in.L_mm = axis == Axis::kC ? L(rng) : 50 + L(rng);
     in.D_mm = D(rng);
-    in.H_mm = axis == Axis::C ? H(rng) : 0.0;
+    in.H_mm = axis == Axis::kC ? H(rng) : 0.0;
     if (rng() % 2) {
       in.direction = Direction::named(axis, static_cast<Direction::Kind>(rng() % 3));
     } else {
@@ -50,10 +50,10 @@ TEST(FastWorstCase, MatchesTheFullEvaluation) {
   std::mt19937 rng(7);
   int fast = 0;
   for (int t = 0; t < 300; ++t) {
-    const Axis axis = t % 2 ? Axis::C : Axis::B;
+    const Axis axis = t % 2 ? Axis::kC : Axis::kB;
     Design d = random_design(rng, axis);
     if (t % 3 == 1) {  // a series model on a third of the designs
-      d.errors = {axis == Axis::C ? ErrorModel::Kind::Fourier : ErrorModel::Kind::Legendre,
+      d.errors = {axis == Axis::kC ? ErrorModel::Kind::kFourier : ErrorModel::Kind::kLegendre,
                   static_cast<int>(rng() % 3)};
     }
     const std::optional<WorstCase> w = fast_worst_case(d, 120.0);
@@ -77,7 +77,7 @@ TEST(FastWorstTotal, MatchesTheStackedSetupSolver) {
   int fast = 0;
   double worst_total_rel = 0, worst_noise_rel = 0;
   for (int t = 0; t < 120; ++t) {
-    const Axis axis = t % 2 ? Axis::C : Axis::B;
+    const Axis axis = t % 2 ? Axis::kC : Axis::kB;
     Design d = random_design(rng, axis);
     d.setup_std.length_offset_um = t % 3 == 0 ? 0.0 : 20 * unit(rng);
     d.setup_std.centring_um = t % 3 == 1 ? 0.0 : 10 * unit(rng);
@@ -127,7 +127,7 @@ TEST(FastWorstTotal, MatchesTheStackedSetupSolver) {
   ASSERT_TRUE(fast_worst_total(c, 100));
   EXPECT_EQ(*fast_worst_total(c, 100)->total.worst_std_um, *fast_worst_case(c, 100)->worst_std_um);
   c.setup_std.centring_um = 5;
-  c.errors = {ErrorModel::Kind::Fourier, 2};
+  c.errors = {ErrorModel::Kind::kFourier, 2};
   EXPECT_FALSE(fast_worst_total(c, 100));
   EXPECT_TRUE(design_worst_total(c, 100).total.worst_std_um);
 }
@@ -139,7 +139,7 @@ TEST(FastSetupInformation, MatchesTheStackedModel) {
   std::uniform_real_distribution<double> unit(0, 1);
   int fast = 0, detectable = 0, not_detectable = 0;
   for (int t = 0; t < 80; ++t) {
-    const Axis axis = t % 2 ? Axis::C : Axis::B;
+    const Axis axis = t % 2 ? Axis::kC : Axis::kB;
     Design d = random_design(rng, axis);
     d.setup_std.length_offset_um = t % 3 == 0 ? 0.0 : 1 + 20 * unit(rng);
     d.setup_std.centring_um = t % 3 == 1 ? 0.0 : 1 + 10 * unit(rng);
@@ -199,13 +199,13 @@ TEST(FastWorstCase, DeclinesRankLossAndAnswersSeries) {
   ASSERT_TRUE(fast_worst_case(c, 100));
   EXPECT_NEAR(*fast_worst_case(c, 100)->worst_std_um, *evaluate_design(c, 100).worst.worst_std_um,
               1e-12);
-  c.errors = {ErrorModel::Kind::Fourier, 2};
+  c.errors = {ErrorModel::Kind::kFourier, 2};
   ASSERT_TRUE(fast_worst_case(c, 100));
   EXPECT_NEAR(*fast_worst_case(c, 100)->worst_std_um, *evaluate_design(c, 100).worst.worst_std_um,
               1e-12);
   // Order 9 on 20 deg steps: sin 9g is 0 at every measured angle, so its coefficients are not
   // determined (rank 108 of 114); the fast path declines and the general solver answers.
-  c.errors = {ErrorModel::Kind::Fourier, 9};
+  c.errors = {ErrorModel::Kind::kFourier, 9};
   EXPECT_FALSE(fast_worst_case(c, 100));
   const Evaluation ev = evaluate_design(c, 100);
   EXPECT_EQ(ev.prior.n_unknowns - ev.prior.rank, 6);
@@ -217,72 +217,11 @@ Kit formats_kit() {
   return io::read_kit_file(test::source_path("designs/kits/c-turntable-kit.json"));
 }
 
-TEST(Kit, BlockStacksAreTheDistinctHeights) {
-  const std::vector<Stack> s =
-      block_stacks(formats_kit());  // base 45, blocks 25, 50, 100, at most 2
-  std::vector<double> h;
-  for (const Stack& x : s) h.push_back(x.height_mm);
-  EXPECT_EQ(h, (std::vector<double>{45, 70, 95, 120, 145, 170, 195}));
-  EXPECT_EQ(s[4].blocks_mm,
-            (std::vector<double>{100}));  // 145 = 45 + 100, one block rather than none
-  EXPECT_EQ(s[3].blocks_mm, (std::vector<double>{25, 50}));
-}
-
-TEST(Kit, TravelExtentIsExactOverTheArc) {
-  Kit kit = formats_kit();
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (int t = 0; t < 300; ++t) {
-    const Axis axis = t % 2 ? Axis::C : Axis::B;
-    Installation in;
-    in.L_mm = 150 + 100 * u(rng);
-    in.D_mm = 40 * u(rng);
-    in.H_mm = axis == Axis::C ? 100 + 50 * u(rng) : 0;
-    in.direction = Direction::named(axis, static_cast<Direction::Kind>(t % 3));
-    in.sign = u(rng) > 0 ? 1 : -1;
-    in.bar_mm = 150;
-    const double lo = axis == Axis::C ? 360 * u(rng) : -100 + 30 * u(rng);
-    const double hi = lo + (axis == Axis::C ? 180 + 180 * u(rng) : 90 + 20 * u(rng));
-    const double v = travel_violation_mm(kit, axis, in, {lo, hi});
-    // Dense sampling can only find less (or equal) excursion, and nearly as much.
-    double sampled = -1e300;
-    for (int i = 0; i <= 20000; ++i) {
-      const double a = lo + (hi - lo) * i / 20000.0;
-      const Eigen::Vector3d F =
-          ball_position_mm(axis, in, a) - in.sign * 150.0 * direction_machine(axis, in, a);
-      for (int k = 0; k < 3; ++k) {
-        sampled = std::max({sampled, kit.travel_mm[k].min - F(k), F(k) - kit.travel_mm[k].max});
-      }
-    }
-    EXPECT_LE(sampled, v + 1e-9);
-    EXPECT_GE(sampled, v - 1e-3);
-  }
-}
-
-TEST(Kit, FitBarTakesTheShortestBarThatFits) {
-  // y travel +-300 mm: a tangential bar reaches sqrt(L^2 + bar^2) from the axis.
-  Kit kit = formats_kit();
-  Installation in;
-  in.L_mm = 250;
-  in.H_mm = 45;
-  in.direction = Direction::named(Axis::C, Direction::Kind::Tangential);
-  const std::vector<double> turn = kit_angles(kit, 20);
-  EXPECT_LE(fit_bar(kit, Axis::C, in, turn), 0);
-  EXPECT_EQ(*in.bar_mm,
-            100);  // sqrt(250^2 + 100^2) = 269 <= 300; 150 gives 292 too, but 100 is shorter
-  kit.bars_mm = {250, 300};
-  EXPECT_GT(fit_bar(kit, Axis::C, in, turn), 0);  // sqrt(250^2 + 250^2) = 354 > 300: nothing fits
-  EXPECT_NEAR(fit_bar(kit, Axis::C, in, turn), std::hypot(250.0, 250.0) - 300, 1e-9);
-}
-
-// A small C kit whose travel binds: x, y within +-220 mm, so a tangential bar of
-// 100 mm allows L <= sqrt(220^2 - 100^2) = 196 mm of the 250 the table offers
-// (a 150 mm block sets the heights apart, so that the radii limit the worst case).
 Kit small_c_kit() {
   Kit k;
   k.name = "small-c";
-  k.axis = Axis::C;
-  k.pattern = *builtin_pattern("three_position", Axis::C);
+  k.axis = Axis::kC;
+  k.pattern = *builtin_pattern("three_position", Axis::kC);
   k.reference_length_mm = 100;
   k.L_mm = {20, 250};
   k.D_mm = {0, 0};
@@ -306,8 +245,8 @@ Kit small_c_kit() {
 Kit small_b_kit() {
   Kit k;
   k.name = "small-b";
-  k.axis = Axis::B;
-  k.pattern = *builtin_pattern("three_position", Axis::B);
+  k.axis = Axis::kB;
+  k.pattern = *builtin_pattern("three_position", Axis::kB);
   k.reference_length_mm = 100;
   k.L_mm = {100, 260};
   k.D_mm = {0, 150};
@@ -323,8 +262,8 @@ Kit small_b_kit() {
 }
 
 void expect_no_better_grid_point(const Kit& kit, double grid_mm) {
-  const OptimizeResult opt = optimize_kit(kit, {Criterion::Worst, 2});
-  const OptimizeResult grid = exhaustive_search(kit, Criterion::Worst, grid_mm, 2);
+  const OptimizeResult opt = optimize_kit(kit, {Criterion::kWorst, 2});
+  const OptimizeResult grid = exhaustive_search(kit, Criterion::kWorst, grid_mm, 2);
   ASSERT_TRUE(opt.best && grid.best);
   EXPECT_TRUE(opt.best->feasible);
   EXPECT_EQ(opt.best->n_undetermined, grid.best->n_undetermined);
@@ -335,7 +274,7 @@ void expect_no_better_grid_point(const Kit& kit, double grid_mm) {
   EXPECT_GT(opt.best->travel_violation_mm, -0.5);
   Kit relaxed = kit;
   relaxed.travel_mm = {Interval{-2000, 2000}, Interval{-2000, 2000}, Interval{-2000, 2000}};
-  const OptimizeResult free = optimize_kit(relaxed, {Criterion::Worst, 2});
+  const OptimizeResult free = optimize_kit(relaxed, {Criterion::kWorst, 2});
   ASSERT_TRUE(free.best);
   EXPECT_LT(free.best->objective, 0.99 * opt.best->objective);
   std::cout << kit.name << ": optimize " << opt.best->objective << " um (" << opt.evaluations
@@ -352,7 +291,7 @@ TEST(Exhaustive, SmallBKitNoGridPointBeatsTheSearch) {
 }
 
 TEST(Optimize, BKitWithOffsetGivesRankSix) {
-  const OptimizeResult r = optimize_kit(small_b_kit(), {Criterion::Worst, 2});
+  const OptimizeResult r = optimize_kit(small_b_kit(), {Criterion::kWorst, 2});
   ASSERT_TRUE(r.best);
   EXPECT_EQ(r.best->choice.n_optional, 1);
   EXPECT_EQ(r.best_evaluation.prior.rank, r.best_evaluation.prior.n_unknowns);
@@ -365,7 +304,7 @@ TEST(Optimize, BKitWithOffsetGivesRankSix) {
 TEST(Optimize, BKitWithoutOffsetGivesRankFiveAndNamesTheMissingRotation) {
   Kit k = small_b_kit();
   k.D_mm = {0, 0};
-  const OptimizeResult r = optimize_kit(k, {Criterion::Worst, 2});
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorst, 2});
   ASSERT_TRUE(r.best);
   const int n_angles = static_cast<int>(r.best->design.angles_deg.size());
   EXPECT_EQ(r.best_evaluation.prior.rank, 5 * n_angles);
@@ -381,8 +320,8 @@ TEST(Optimize, BKitWithoutOffsetGivesRankFiveAndNamesTheMissingRotation) {
 
 TEST(Optimize, ResultDoesNotDependOnThreads) {
   const Kit k = small_c_kit();
-  const OptimizeResult a = optimize_kit(k, {Criterion::Worst, 1});
-  const OptimizeResult b = optimize_kit(k, {Criterion::Worst, 3});
+  const OptimizeResult a = optimize_kit(k, {Criterion::kWorst, 1});
+  const OptimizeResult b = optimize_kit(k, {Criterion::kWorst, 3});
   ASSERT_TRUE(a.best && b.best);
   EXPECT_EQ(a.best->x, b.best->x);
   EXPECT_EQ(a.best->objective, b.best->objective);
@@ -394,7 +333,7 @@ TEST(Optimize, TimeBudgetExcludesChoices) {
   k.angle_steps_deg = {10, 30};
   // 7 installations: 37 angles take 7 * 240 + 259 * 3 = 2457 s, 13 angles 1953 s.
   k.time_budget_s = 2000;
-  const OptimizeResult r = optimize_kit(k, {Criterion::Worst, 2});
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorst, 2});
   ASSERT_TRUE(r.best);
   EXPECT_EQ(r.best->choice.step_deg, 30);
   EXPECT_DOUBLE_EQ(r.best->time_s, 1953);
@@ -451,8 +390,8 @@ TEST(Pattern, TheBuiltInWrittenAsDataSearchesTheSame) {
   Kit data = builtin;
   data.pattern = written_out_three_position();
   validate_kit(data);
-  const OptimizeResult a = optimize_kit(builtin, {Criterion::Worst, 2});
-  const OptimizeResult b = optimize_kit(data, {Criterion::Worst, 2});
+  const OptimizeResult a = optimize_kit(builtin, {Criterion::kWorst, 2});
+  const OptimizeResult b = optimize_kit(data, {Criterion::kWorst, 2});
   ASSERT_TRUE(a.best && b.best);
   ASSERT_EQ(a.choices.size(), b.choices.size());
   EXPECT_EQ(a.best->objective, b.best->objective);
@@ -467,19 +406,19 @@ TEST(Pattern, OptionalPositionsAreAddedInOrderAndBuyTotal) {
   Kit k = small_c_kit();
   k.setup_std.length_offset_um = 10;
   k.setup_std.centring_um = 5;
-  const OptimizeResult plain = optimize_kit(k, {Criterion::WorstTotal, 2});
+  const OptimizeResult plain = optimize_kit(k, {Criterion::kWorstTotal, 2});
   using K = Direction::Kind;
   const PatternCoordinate zero{};
-  k.pattern.positions.push_back({"4", zero, zero, {"H3", 0}, {K::Axial}, false, true, false});
+  k.pattern.positions.push_back({"4", zero, zero, {"H3", 0}, {K::kAxial}, false, true, false});
   k.pattern.positions.push_back(
-      {"5", {"L5", 0}, {"D5", 0}, {"H1", 0}, {K::Radial, K::Tangential}, true, true, false});
+      {"5", {"L5", 0}, {"D5", 0}, {"H1", 0}, {K::kRadial, K::kTangential}, true, true, false});
   validate_kit(k);
   // Two heights (45, 195 mm) in two orders, one step, 0, 1 or 2 optional positions.
   const std::vector<PatternChoice> choices = pattern_choices(k);
   ASSERT_EQ(choices.size(), 6u);
   for (size_t i = 0; i < choices.size(); ++i)
     EXPECT_EQ(choices[i].n_optional, static_cast<int>(i / 2));
-  const OptimizeResult r = optimize_kit(k, {Criterion::WorstTotal, 2});
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorstTotal, 2});
   ASSERT_TRUE(plain.best && r.best);
   for (const ChoiceResult& c : r.choices) {
     ASSERT_TRUE(c.best);
@@ -532,8 +471,8 @@ TEST(Pattern, RequiredSetupDetectionIsMetByTheDesignFoundAndNamedWhereNoPosition
   };
   Kit free = k;
   free.require_setup_detection = false;
-  const OptimizeResult unconstrained = optimize_kit(free, {Criterion::WorstTotal, 2});
-  const OptimizeResult r = optimize_kit(k, {Criterion::WorstTotal, 2});
+  const OptimizeResult unconstrained = optimize_kit(free, {Criterion::kWorstTotal, 2});
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorstTotal, 2});
   ASSERT_TRUE(unconstrained.best && r.best);
   EXPECT_FALSE(unconstrained.best->detection);
   EXPECT_GT(evaluated_ratio(unconstrained.best->design), 1.5);
@@ -559,7 +498,7 @@ TEST(Pattern, RequiredSetupDetectionIsMetByTheDesignFoundAndNamedWhereNoPosition
   Kit plain = io::read_kit_file(test::source_path("designs/kits/c-turntable-kit-tolerances.json"));
   ASSERT_FALSE(plain.require_setup_detection);
   plain.require_setup_detection = true;
-  const OptimizeResult none = optimize_kit(plain, {Criterion::WorstTotal, 2});
+  const OptimizeResult none = optimize_kit(plain, {Criterion::kWorstTotal, 2});
   EXPECT_FALSE(none.best);
   for (const ChoiceResult& c : none.choices) {
     EXPECT_EQ(c.state, ChoiceState::kUndetectableEverywhere) << c.label;
@@ -571,7 +510,7 @@ TEST(Pattern, RequiredSetupDetectionIsMetByTheDesignFoundAndNamedWhereNoPosition
 
 TEST(Optimize, OtherCriteriaScoreFullRankDesigns) {
   Kit k = small_c_kit();
-  for (Criterion c : {Criterion::D, Criterion::A, Criterion::E, Criterion::Condition}) {
+  for (Criterion c : {Criterion::kD, Criterion::kA, Criterion::kE, Criterion::kCondition}) {
     OptimizeOptions o;
     o.criterion = c;
     o.threads = 2;
@@ -584,17 +523,17 @@ TEST(Optimize, OtherCriteriaScoreFullRankDesigns) {
         << criterion_name(c);
     // The search's value is the criterion of the design it returns.
     const Evaluation& ev = r.best_evaluation;
-    const double expect = c == Criterion::D   ? -*ev.criteria.D_logdet
-                          : c == Criterion::A ? *ev.criteria.A_trace
-                          : c == Criterion::E ? -ev.criteria.E_min_eigenvalue
-                                              : *ev.prior.condition_number;
+    const double expect = c == Criterion::kD   ? -*ev.criteria.D_logdet
+                          : c == Criterion::kA ? *ev.criteria.A_trace
+                          : c == Criterion::kE ? -ev.criteria.E_min_eigenvalue
+                                               : *ev.prior.condition_number;
     EXPECT_NEAR(r.best->objective, expect, 1e-9 * std::abs(expect)) << criterion_name(c);
   }
 }
 
 TEST(Optimize, FormatsKitBeatsThePaperLikeDesign) {
   const Kit k = formats_kit();
-  const OptimizeResult r = optimize_kit(k, {Criterion::Worst, 2});
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorst, 2});
   ASSERT_TRUE(r.best && r.best_evaluation.worst.worst_std_um);
   const Evaluation paper = evaluate_design(test::paper_design('C'), k.reference_length_mm);
   ASSERT_TRUE(paper.worst.worst_std_um);

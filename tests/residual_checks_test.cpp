@@ -240,7 +240,7 @@ TEST(DiagnoseFindsEffect, StatedDetectionLimitHasItsPower) {
     for (double factor : {1.0, 2.0}) {
       Truth t = random_truth(d, rng);
       TruthEffect e;
-      e.effect.kind = EffectKind::LengthOffset;
+      e.effect.kind = EffectKind::kLengthOffset;
       e.installation = "2r";
       e.value = Eigen::VectorXd::Constant(1, factor * limit);
       t.effects = {e};

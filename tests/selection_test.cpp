@@ -22,7 +22,7 @@ EffectBlock column(EffectKind kind, int installation, const std::string& label,
   b.effect.installation = installation;
   b.label = label;
   b.parameters = {"value"};
-  b.X = x;
+  b.J_reading_effect = x;
   return b;
 }
 
@@ -62,9 +62,9 @@ struct TwoHalves {
     w = t;
   }
   std::vector<EffectBlock> pool() const {
-    return {column(EffectKind::Drift, 0, "drift[0]", a),
-            column(EffectKind::Drift, 1, "drift[1]", b),
-            column(EffectKind::Drift, -1, "drift[all]", w)};
+    return {column(EffectKind::kDrift, 0, "drift[0]", a),
+            column(EffectKind::kDrift, 1, "drift[1]", b),
+            column(EffectKind::kDrift, -1, "drift[all]", w)};
   }
   Eigen::VectorXd noise(std::mt19937_64& rng) const {
     std::normal_distribution<double> n01;
@@ -164,7 +164,7 @@ TEST(Selection, CandidateInTheSpanOfTheModelIsConfounded) {
   std::mt19937_64 rng(9);
   const Eigen::VectorXd y = 50.0 + h.noise(rng).array();
   std::vector<EffectBlock> pool = h.pool();
-  pool.push_back(column(EffectKind::LengthOffset, -1, "length_offset[all]",
+  pool.push_back(column(EffectKind::kLengthOffset, -1, "length_offset[all]",
                         Eigen::VectorXd::Constant(h.n, 1.0)));
   const Selection s = select_effects(test::sparse(h.J), h.sigma, y, pool);
   EXPECT_EQ(status_of(s, "length_offset[all]").state, CandidateState::kConfounded);
@@ -183,9 +183,10 @@ TEST(Selection, EquivalentCandidatesGoToTheLaterInstallation) {
   Eigen::MatrixXd J(h.n, 2);
   J << h.t, o0 + o1;  // the axis errors see only the common offset
   const Eigen::VectorXd y = 3.0 * h.t.array() + 6.0 * o0.array() + h.noise(rng).array();
-  const Selection s = select_effects(test::sparse(J), h.sigma, y,
-                                     {column(EffectKind::LengthOffset, 0, "length_offset[0]", o0),
-                                      column(EffectKind::LengthOffset, 1, "length_offset[1]", o1)});
+  const Selection s =
+      select_effects(test::sparse(J), h.sigma, y,
+                     {column(EffectKind::kLengthOffset, 0, "length_offset[0]", o0),
+                      column(EffectKind::kLengthOffset, 1, "length_offset[1]", o1)});
   ASSERT_EQ(s.added.size(), 1u);
   EXPECT_EQ(s.added[0].block.label, "length_offset[1]");
   EXPECT_EQ(s.added[0].equivalent_to, std::vector<std::string>{"length_offset[0]"});
@@ -209,8 +210,8 @@ TEST(Selection, AnEarlyChoiceMadeRedundantIsDropped) {
   const Eigen::MatrixXd J = Eigen::MatrixXd::Ones(n, 1);
   const Selection s = select_effects(
       test::sparse(J), Eigen::VectorXd::Constant(n, 0.05), y,
-      {column(EffectKind::Periodic, 0, "a", a), column(EffectKind::Periodic, 0, "b", b),
-       column(EffectKind::Periodic, 0, "c", c)});
+      {column(EffectKind::kPeriodic, 0, "a", a), column(EffectKind::kPeriodic, 0, "b", b),
+       column(EffectKind::kPeriodic, 0, "c", c)});
   EXPECT_NE(find_added(s, "a"), nullptr);
   EXPECT_NE(find_added(s, "b"), nullptr);
   EXPECT_EQ(find_added(s, "c"), nullptr);
@@ -242,8 +243,8 @@ TEST(Selection, ExchangeUndoesAnEarlyChoiceThatFitsWorse) {
   options.max_effects = 2;
   const Selection s = select_effects(
       test::sparse(J), Eigen::VectorXd::Constant(n, 0.05), y,
-      {column(EffectKind::Periodic, 0, "a", a), column(EffectKind::Periodic, 0, "b", b),
-       column(EffectKind::Periodic, 0, "c", c)},
+      {column(EffectKind::kPeriodic, 0, "a", a), column(EffectKind::kPeriodic, 0, "b", b),
+       column(EffectKind::kPeriodic, 0, "c", c)},
       options);
   ASSERT_EQ(s.added.size(), 2u);
   EXPECT_NE(find_added(s, "a"), nullptr);

@@ -34,12 +34,12 @@ Design with_setup(Design d, double length_um, double centring_um) {
 
 Eigen::MatrixXd stacked(const std::vector<SetupEffect>& effects, int n) {
   int q = 0;
-  for (const SetupEffect& e : effects) q += static_cast<int>(e.X.cols());
+  for (const SetupEffect& e : effects) q += static_cast<int>(e.J_reading_effect.cols());
   Eigen::MatrixXd X(n, q);
   int j = 0;
   for (const SetupEffect& e : effects) {
-    X.middleCols(j, e.X.cols()) = e.X;
-    j += static_cast<int>(e.X.cols());
+    X.middleCols(j, e.J_reading_effect.cols()) = e.J_reading_effect;
+    j += static_cast<int>(e.J_reading_effect.cols());
   }
   return X;
 }
@@ -47,7 +47,7 @@ Eigen::MatrixXd stacked(const std::vector<SetupEffect>& effects, int n) {
 Eigen::VectorXd prior_variances(const std::vector<SetupEffect>& effects) {
   std::vector<double> v;
   for (const SetupEffect& e : effects) {
-    for (int c = 0; c < e.X.cols(); ++c) v.push_back(e.std_um * e.std_um);
+    for (int c = 0; c < e.J_reading_effect.cols(); ++c) v.push_back(e.std_um * e.std_um);
   }
   return Eigen::Map<Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
 }
@@ -265,7 +265,7 @@ Design optimised_c() {
 // second-order terms matter), from the exact two-ball geometry.
 Truth exact_truth_with_errors(const Design& d) {
   Truth t;
-  t.model = {ErrorModel::Kind::PerAngle, 0};
+  t.model = {ErrorModel::Kind::kPerAngle, 0};
   for (double a : d.angles_deg) {
     Vector6d e;
     const double r = a * M_PI / 180;
@@ -297,7 +297,7 @@ TEST(SetupDetection, AFiveMicrometreCentringOnAnyInstallationOfTheSetupKitDesign
   for (const SetupEffectCheck& c : ev.setup_checks) {
     ASSERT_TRUE(c.detection_limit_um) << c.label;
     EXPECT_LE(*c.detection_limit_um, c.declared_std_um) << c.label;
-    if (c.kind == EffectKind::Centring &&
+    if (c.kind == EffectKind::kCentring &&
         (!worst || *c.detection_limit_um > *worst->detection_limit_um))
       worst = &c;
   }
@@ -307,15 +307,16 @@ TEST(SetupDetection, AFiveMicrometreCentringOnAnyInstallationOfTheSetupKitDesign
   const std::vector<Reading> first = simulate(d, t, 1);
   const Parameterisation param(d);
   const LinearModel model = build_linear_model(d, param, first);
-  const EffectBlock block = effect_block(d, first, {EffectKind::Centring, worst->installation});
-  const int q = static_cast<int>(block.X.cols());
+  const EffectBlock block = effect_block(d, first, {EffectKind::kCentring, worst->installation});
+  const int q = static_cast<int>(block.J_reading_effect.cols());
   ASSERT_EQ(q, 2) << "a radial or tangential reading sees the centring in the plane of the table";
   const WlsSolver s0(model.J, model.sigma_um);
   Eigen::MatrixXd Jx(model.J.rows(), model.J.cols() + q);
-  Jx << test::dense(model.J), block.X;
+  Jx << test::dense(model.J), block.J_reading_effect;
   const WlsSolver s1(Jx, model.sigma_um);
   // The least favourable direction: the right singular vector of the smallest singular value.
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(unexplained(s0, block.X), Eigen::ComputeThinV);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(unexplained(s0, block.J_reading_effect),
+                                              Eigen::ComputeThinV);
   const Eigen::VectorXd v = svd.matrixV().col(q - 1);
   const int dof1 = static_cast<int>(model.J.rows()) - s1.a_priori().rank;
   const double f_crit = boost::math::quantile(
@@ -542,7 +543,7 @@ namespace {
 // declared tolerances, on a per-angle and a Fourier design.
 TEST(LeftGain, IsTheEstimatesResponseAndItsRowNormsAreFormedWithoutIt) {
   Design fourier = test::paper_design('C');
-  fourier.errors = {ErrorModel::Kind::Fourier, 3};
+  fourier.errors = {ErrorModel::Kind::kFourier, 3};
   for (const Design& base : {test::paper_design('C'), fourier}) {
     for (const bool tolerances : {false, true}) {
       const Design d = tolerances ? with_setup(base, 10, 5) : base;

@@ -40,10 +40,10 @@ TEST(ExactSetup, ABallPlacedOutwardsIsAConstantRadiallyAndSecondOrderTangentiall
   SetupError e;
   e.ball_mm = {0.1, 0, 0};
   for (const Installation& in : d.installations) {
-    if (in.direction.kind != Direction::Kind::Radial &&
-        in.direction.kind != Direction::Kind::Tangential)
+    if (in.direction.kind != Direction::Kind::kRadial &&
+        in.direction.kind != Direction::Kind::kTangential)
       continue;
-    const double expected = in.direction.kind == Direction::Kind::Radial
+    const double expected = in.direction.kind == Direction::Kind::kRadial
                                 ? in.sign * 100.0
                                 : 1e3 * (std::sqrt(kBar * kBar + 0.01) - kBar);
     for (double a : d.angles_deg) {
@@ -66,10 +66,10 @@ TEST(ExactSetup, CentringAndLengthOffsetByHand) {
       const double g = a * M_PI / 180.0;
       Eigen::Vector3d u;
       switch (in.direction.kind) {
-        case Direction::Kind::Radial:
+        case Direction::Kind::kRadial:
           u = {std::cos(g), std::sin(g), 0};
           break;
-        case Direction::Kind::Tangential:
+        case Direction::Kind::kTangential:
           u = {-std::sin(g), std::cos(g), 0};
           break;
         default:
@@ -101,7 +101,7 @@ TEST(ExactSetup, WithoutSetUpItIsTheExactTransformOfTheErrors) {
 
 Truth exact_truth(const Design& d) {
   Truth t;
-  t.model = {ErrorModel::Kind::Fourier, 1};
+  t.model = {ErrorModel::Kind::kFourier, 1};
   for (int k = 0; k < 6; ++k) t.coefficients[k] = {2.0 + k, 1.0, -1.0};
   t.exact = true;
   t.noiseless = true;
@@ -156,7 +156,7 @@ TEST(ExactSetup, IdentifyRecoversTheErrorsFromExactReadingsWithAPerfectSetUp) {
   // must recover the axis errors to within their stated uncertainty (here far above the
   // second-order terms of errors of a few um and urad).
   Design d = test::paper_design('C');
-  d.errors = {ErrorModel::Kind::Fourier, 1};
+  d.errors = {ErrorModel::Kind::kFourier, 1};
   Truth t = exact_truth(d);
   t.noiseless = false;
   const IdentifyResult r = identify(d, simulate(d, t, 5));

@@ -37,6 +37,31 @@ inline ::testing::AssertionResult near(const Eigen::MatrixXd& a, const Eigen::Ma
   return ::testing::AssertionSuccess();
 }
 
+// A Jacobian against central differences (manif's JacobianTester in spirit): f maps
+// R^n to R^m, J is its analytic m x n Jacobian at x. Column j of the difference quotient
+// is D_j = (f(x + h e_j) - f(x - h e_j)) / 2h, whose error is O(h^2) times the third
+// derivative; it passes when
+//   |J_ij - D_ij| <= abs_tol + rel_tol max(|J_ij|, |D_ij|)   for every i, j,
+// and names the first entry that does not.
+template <typename F>
+::testing::AssertionResult jacobian_matches(const F& f, const Eigen::VectorXd& x,
+                                            const Eigen::MatrixXd& J, double h, double abs_tol,
+                                            double rel_tol = 0.0) {
+  const Eigen::VectorXd f0 = f(x);
+  if (J.rows() != f0.size() || J.cols() != x.size()) {
+    return ::testing::AssertionFailure() << "J is " << J.rows() << "x" << J.cols() << ", f maps "
+                                         << x.size() << " to " << f0.size();
+  }
+  Eigen::MatrixXd D(J.rows(), J.cols());
+  for (Eigen::Index j = 0; j < x.size(); ++j) {
+    Eigen::VectorXd xp = x, xm = x;
+    xp(j) += h;
+    xm(j) -= h;
+    D.col(j) = (f(xp) - f(xm)) / (2.0 * h);
+  }
+  return near(J, D, abs_tol, rel_tol);
+}
+
 // A sparse (or any) matrix as a dense one, for comparisons.
 template <typename D>
 Eigen::MatrixXd dense(const Eigen::EigenBase<D>& x) {
@@ -88,7 +113,7 @@ inline Truth random_fourier_truth(const Design& d, std::mt19937_64& rng) {
   for (int k = 0; k < 6; ++k) {
     for (int c = 0; c < 5; ++c) t.coefficients[k].push_back((k < 3 ? 10.0 : 30.0) * n01(rng));
   }
-  t.schedule = Schedule{10, 240, {Sweep::CCW, Sweep::CW, Sweep::CCW}};
+  t.schedule = Schedule{10, 240, {Sweep::kCCW, Sweep::kCW, Sweep::kCCW}};
   return t;
 }
 

@@ -18,9 +18,51 @@ namespace {
 
 Truth constant_truth(const Design& d, const Vector6d& e) {
   Truth t;
-  t.model.kind = ErrorModel::Kind::PerAngle;
+  t.model.kind = ErrorModel::Kind::kPerAngle;
   for (double a : d.angles_deg) test::add_truth_value(t, d.axis, a, e);
   return t;
+}
+
+// Readings of the constant errors e with installation i's ball moved by dL [mm] along L (no
+// ball moved for i < 0), from the exact two-ball geometry (Truth::exact, the following ball on
+// its programmed path): the part odd in e, (r(e) - r(-e)) / 2, so that neither the reading the
+// moved ball gives by itself (a constant the zeroing of the bar absorbs, or second order) nor
+// terms of second order in e remain. Independent of the first-order model.
+std::vector<Reading> exact_readings_moved(const Design& d, const Vector6d& e, int i, double dL) {
+  auto run = [&](const Vector6d& x) {
+    Truth t = constant_truth(d, x);
+    t.noiseless = true;
+    t.exact = true;
+    if (i >= 0) {
+      SetupError moved;
+      moved.ball_mm = {dL, 0, 0};
+      t.setup_given = {{d.installations[static_cast<std::size_t>(i)].id, moved}};
+    }
+    return simulate(d, t, 0);
+  };
+  std::vector<Reading> plus = run(e);
+  const std::vector<Reading> minus = run(-e);
+  for (std::size_t k = 0; k < plus.size(); ++k)
+    plus[k].reading_um = 0.5 * (plus[k].reading_um - minus[k].reading_um);
+  return plus;
+}
+
+// Per installation, the derivative of every budget value with respect to its ball's L: central
+// differences of identify on the exact readings (the third-order error, (dL / bar)^2 / 6 of
+// the value, is about 2e-6 of it here).
+std::vector<Eigen::VectorXd> value_shifts_per_L(const Design& d, const Vector6d& e) {
+  const double dL = 0.5;
+  std::vector<Eigen::VectorXd> shift;
+  for (std::size_t i = 0; i < d.installations.size(); ++i) {
+    const IdentifyResult plus = identify(d, exact_readings_moved(d, e, static_cast<int>(i), dL));
+    const IdentifyResult minus = identify(d, exact_readings_moved(d, e, static_cast<int>(i), -dL));
+    Eigen::VectorXd sh(static_cast<Eigen::Index>(plus.budget.values.size()));
+    for (std::size_t v = 0; v < plus.budget.values.size(); ++v)
+      sh(static_cast<Eigen::Index>(v)) =
+          (plus.budget.values[v].value - minus.budget.values[v].value) / (2 * dL);
+    shift.push_back(sh);
+  }
+  return shift;
 }
 
 TEST(Budget, CoverageFactorsFromTables) {
@@ -41,7 +83,7 @@ TEST(Budget, TypeAScalesByTheObservedNoise) {
   Design d = test::paper_design('C');
   Truth t = constant_truth(d, Vector6d::Constant(3.0));
   NoiseModel heavy;
-  heavy.distribution = NoiseModel::Distribution::Normal;
+  heavy.distribution = NoiseModel::Distribution::kNormal;
   heavy.std_um = 2.0 * d.noise.sigma_um();  // the machine is twice as noisy as declared
   t.noise = heavy;
   t.repeats = 3;  // 399 readings, 108 unknowns: 291 dof
@@ -73,30 +115,17 @@ TEST(Budget, TypeAWithoutRedundancyIsRefused) {
   EXPECT_THROW(identify(d, readings, opt), InputError);
 }
 
-// The set-up component against a finite difference: readings taken with every ball
-// moved by dL, identified with the nominal design, shift the values by dvalue; with
-// independent inputs u_setup^2 = sum_i (dvalue_i/dL)^2 u_L^2 over the installations i.
+// The set-up component against finite differences of the exact geometry: readings taken with
+// a ball moved along L (following ball on its programmed path), identified with the nominal
+// design, shift the values by dvalue; with independent inputs
+// u_setup^2 = sum_i (dvalue_i/dL)^2 u_L^2 over the installations i.
 TEST(Budget, SetupUncertaintyMatchesFiniteDifference) {
   Design d = test::paper_design('C');
   d.setup_std.L_mm = 0.2;
   Vector6d e;
   e << 5, -4, 3, 40, -30, 60;
-  Truth t = constant_truth(d, e);
-  t.noiseless = true;
-  const IdentifyResult nominal = identify(d, simulate(d, t, 0));
-  std::vector<Eigen::VectorXd> shift;  // per installation, dvalue/dL over the budget's values
-  const double dL = 0.5;
-  for (size_t i = 0; i < d.installations.size(); ++i) {
-    Design moved = d;
-    moved.installations[i].L_mm += dL;
-    std::vector<Reading> readings = simulate(moved, t, 0);
-    const IdentifyResult r = identify(d, readings);
-    Eigen::VectorXd s(nominal.budget.values.size());
-    for (size_t v = 0; v < nominal.budget.values.size(); ++v) {
-      s(v) = (r.budget.values[v].value - nominal.budget.values[v].value) / dL;
-    }
-    shift.push_back(s);
-  }
+  const IdentifyResult nominal = identify(d, exact_readings_moved(d, e, -1, 0.0));
+  const std::vector<Eigen::VectorXd> shift = value_shifts_per_L(d, e);
   int checked = 0;
   for (size_t v = 0; v < nominal.budget.values.size(); ++v) {
     double expected2 = 0;
@@ -105,22 +134,20 @@ TEST(Budget, SetupUncertaintyMatchesFiniteDifference) {
     for (const BudgetComponent& c : nominal.budget.values[v].components) {
       if (c.name == "set-up L") got = c.u;
     }
-    EXPECT_NEAR(got, std::sqrt(expected2), 1e-9 + 1e-6 * std::sqrt(expected2)) << v;
+    EXPECT_NEAR(got, std::sqrt(expected2), 1e-7 + 1e-4 * std::sqrt(expected2)) << v;
     checked += expected2 > 1e-6;
   }
   EXPECT_GT(checked, 30);  // the set-up matters for many values, not a vacuous check
 }
 
 // The joint covariance of the values. Its L part against finite differences of the
-// identification (the exact simulator moved by dL per installation), off the diagonal too:
+// identification (the exact geometry moved by dL per installation), off the diagonal too:
 // with independent inputs Cov_L(v, w) = sum_i (dv/dL_i)(dw/dL_i) u_L^2.
 TEST(BudgetCovariance, PlacementPartMatchesFiniteDifferences) {
   Design d = test::paper_design('C');
   Vector6d e;
   e << 5, -4, 3, 40, -30, 60;
-  Truth t = constant_truth(d, e);
-  t.noiseless = true;
-  const std::vector<Reading> readings = simulate(d, t, 0);
+  const std::vector<Reading> readings = exact_readings_moved(d, e, -1, 0.0);
   const IdentifyResult plain = identify(d, readings);
   const double uL = 0.2;
   Design with = d;
@@ -129,20 +156,12 @@ TEST(BudgetCovariance, PlacementPartMatchesFiniteDifferences) {
   ASSERT_EQ(plain.budget.values.size(), placed.budget.values.size());
   const Eigen::Index m = static_cast<Eigen::Index>(plain.budget.values.size());
   Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(m, m);
-  const double dL = 0.5;
-  for (size_t i = 0; i < d.installations.size(); ++i) {
-    Design moved = d;
-    moved.installations[i].L_mm += dL;
-    const IdentifyResult r = identify(d, simulate(moved, t, 0));
-    Eigen::VectorXd s(m);
-    for (Eigen::Index v = 0; v < m; ++v)
-      s(v) = (r.budget.values[v].value - plain.budget.values[v].value) / dL;
-    expected += s * s.transpose() * uL * uL;
-  }
+  for (const Eigen::VectorXd& sh : value_shifts_per_L(d, e))
+    expected += sh * sh.transpose() * uL * uL;
   const Eigen::MatrixXd got = budget_covariance(with, placed) - budget_covariance(d, plain);
   EXPECT_GT(expected.cwiseAbs().maxCoeff(),
             0.01);  // (um^2, urad^2) the placement matters: not a vacuous check
-  EXPECT_TRUE(test::near(got, expected, 1e-6 * expected.cwiseAbs().maxCoeff()));
+  EXPECT_TRUE(test::near(got, expected, 1e-4 * expected.cwiseAbs().maxCoeff()));
 }
 
 // The noise part against the gain (theta_hat = G y, so Cov = C G diag(sigma^2) G' C', a formula
@@ -157,7 +176,7 @@ TEST(BudgetCovariance, NoisePartIsThatOfTheGainAndScalesWithTypeA) {
     opt.budget.type_a = type_a;
     const IdentifyResult r = identify(d, readings, opt);
     const Eigen::MatrixXd C = budget_functions(r.param, r.budget);
-    const Eigen::MatrixXd CG = C * r.solver.gain().sparse();
+    const Eigen::MatrixXd CG = C * r.solver.J_theta_reading().sparse();
     const double s2 = type_a ? *r.budget.type_a_scale * *r.budget.type_a_scale : 1.0;
     const Eigen::MatrixXd expected =
         s2 * CG * r.solver.sigma_um().cwiseAbs2().asDiagonal() * CG.transpose();
@@ -190,7 +209,7 @@ TEST(BudgetCovariance, SetupPartAgreesWithTheVarianceOfSums) {
   const SetupSolver setup(r.solver, setup_effects(d, r.model, true));
   const std::vector<SetupInput> inputs = setup_inputs(d);
   const Eigen::MatrixXd GD =
-      setup.gain_times(setup_sensitivity(d, r.param, r.model, inputs, r.estimate.theta));
+      setup.gain_times(J_reading_setup(d, r.param, r.model, inputs, r.estimate.theta));
   const Eigen::MatrixXd C = budget_functions(r.param, r.budget);
   std::mt19937 rng(3);
   std::uniform_int_distribution<Eigen::Index> pick(0, m - 1);
@@ -213,126 +232,6 @@ TEST(BudgetCovariance, SetupPartAgreesWithTheVarianceOfSums) {
   EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-9 * eig.eigenvalues().maxCoeff());  // a covariance
 }
 
-TEST(MonteCarlo, AgreesWithTheLinearResultForNormalNoise) {
-  Design d = test::paper_design('C');
-  d.noise.distribution = NoiseModel::Distribution::Normal;
-  d.noise.std_um = 0.7;
-  MonteCarloOptions o;
-  o.significant_digits = 1;
-  o.threads = 2;
-  const MonteCarloResult mc = monte_carlo_a_priori(d, 0.95, o);
-  EXPECT_TRUE(mc.converged);
-  EXPECT_EQ(mc.n_validated, 108) << mc.message;
-}
-
-// The comparison can fail: with rectangular noise, dz at every angle but 0 is one
-// rectangular reading, whose 95% interval is +-0.95 a, not +-1.96 a/sqrt(3).
-TEST(MonteCarlo, DetectsANonGaussianOutput) {
-  const Design d = test::paper_design('C');
-  MonteCarloOptions o;
-  o.significant_digits = 1;
-  const MonteCarloResult mc = monte_carlo_a_priori(d, 0.95, o);
-  int dz_checked = 0;
-  for (const MonteCarloValue& v : mc.values) {
-    if (v.error != 2 || v.angle_deg == 0.0) continue;
-    EXPECT_FALSE(v.validated) << v.angle_deg;
-    EXPECT_NEAR(v.high, 0.95 * 1.25, 0.01);
-    EXPECT_NEAR(v.linear_U, 1.959964 * 1.25 / std::sqrt(3.0), 1e-6);
-    ++dz_checked;
-  }
-  EXPECT_EQ(dz_checked, 17);
-}
-
-// With set-up tolerances, the map from readings to values formed (values x readings) and
-// applied as a product (large designs, MonteCarloOptions::max_dense_gain_bytes) give the same
-// trials to rounding: the same intervals to far below their numerical tolerance.
-TEST(MonteCarlo, FactoredSetupGainAgreesWithTheFormedOne) {
-  Design d = test::paper_design('C');
-  d.setup_std.length_offset_um = 3;
-  d.setup_std.centring_um = 2;
-  MonteCarloOptions o;
-  o.adaptive = false;
-  o.max_trials = 20000;
-  o.seed = 11;
-  const MonteCarloResult formed = monte_carlo_a_priori(d, 0.95, o);
-  o.max_dense_gain_bytes = 0;
-  const MonteCarloResult product = monte_carlo_a_priori(d, 0.95, o);
-  ASSERT_EQ(formed.values.size(), product.values.size());
-  ASSERT_FALSE(formed.values.empty());
-  double largest_setup_share = 0;
-  for (size_t i = 0; i < formed.values.size(); ++i) {
-    const MonteCarloValue& a = formed.values[i];
-    const MonteCarloValue& b = product.values[i];
-    const double tol = 1e-5 * a.std;
-    EXPECT_NEAR(a.std, b.std, tol) << i;
-    EXPECT_NEAR(a.low, b.low, tol) << i;
-    EXPECT_NEAR(a.high, b.high, tol) << i;
-    largest_setup_share = std::max(largest_setup_share, a.linear_u / (1.25 / std::sqrt(3.0)));
-  }
-  // The set-up part is present: u exceeds that of one reading's noise somewhere.
-  EXPECT_GT(largest_setup_share, 1.0);
-}
-
-TEST(MonteCarlo, ReproducibleForASeedWhateverTheThreads) {
-  const Design d = test::paper_design('B');
-  MonteCarloOptions o;
-  o.adaptive = false;
-  o.max_trials = 20000;
-  o.seed = 77;
-  o.threads = 1;
-  const MonteCarloResult one = monte_carlo_a_priori(d, 0.95, o);
-  o.threads = 2;
-  const MonteCarloResult two = monte_carlo_a_priori(d, 0.95, o);
-  o.seed = 78;
-  const MonteCarloResult other = monte_carlo_a_priori(d, 0.95, o);
-  ASSERT_EQ(one.values.size(), two.values.size());
-  bool differs = false;
-  for (size_t i = 0; i < one.values.size(); ++i) {
-    EXPECT_EQ(one.values[i].low, two.values[i].low);
-    EXPECT_EQ(one.values[i].std, two.values[i].std);
-    differs = differs || one.values[i].std != other.values[i].std;
-  }
-  EXPECT_TRUE(differs);
-}
-
-TEST(MonteCarlo, EndpointsDoNotDependOnTheBatchingAndAreFoundToATenthOfTheTolerance) {
-  // The trials are the same whatever the batch size (one stream per chunk of 1000), so
-  // one batch of 100,000 and ten of 10,000 give the same mean and standard deviation
-  // (to rounding) and endpoints within the resolution each is placed to (a tenth of the
-  // numerical tolerance). With four significant digits the tolerance is a hundred times
-  // finer: the endpoints are found by replaying the trials into narrower windows, and the
-  // two-digit endpoints lie within their resolution of them.
-  const Design d = test::paper_design('C');
-  MonteCarloOptions o;
-  o.adaptive = false;
-  o.max_trials = 100000;
-  o.batch_trials = 100000;
-  o.threads = 2;
-  const MonteCarloResult one = monte_carlo_a_priori(d, 0.95, o);
-  o.batch_trials = 10000;
-  const MonteCarloResult many = monte_carlo_a_priori(d, 0.95, o);
-  o.significant_digits = 4;
-  const MonteCarloResult fine = monte_carlo_a_priori(d, 0.95, o);
-  EXPECT_EQ(one.refinement_passes, 0);
-  EXPECT_GT(fine.refinement_passes, 0);
-  ASSERT_EQ(one.values.size(), many.values.size());
-  ASSERT_EQ(one.values.size(), fine.values.size());
-  for (size_t v = 0; v < one.values.size(); ++v) {
-    const MonteCarloValue &a = one.values[v], &b = many.values[v], &f = fine.values[v];
-    EXPECT_NEAR(a.mean, b.mean, 1e-12 + 1e-9 * a.std) << v;
-    EXPECT_NEAR(a.std, b.std, 1e-9 * a.std) << v;
-    const double res2 = 0.1 * std::min(numerical_tolerance(a.std, 2), a.delta);
-    const double res4 = 0.1 * std::min(numerical_tolerance(f.std, 4), f.delta);
-    EXPECT_NEAR(a.low, b.low, 2 * res2) << v;
-    EXPECT_NEAR(a.high, b.high, 2 * res2) << v;
-    EXPECT_NEAR(a.low, f.low, res2 + res4) << v;
-    EXPECT_NEAR(a.high, f.high, res2 + res4) << v;
-  }
-}
-
-// Coverage: over 2000 simulated data sets the reported 95% intervals (linear where
-// Monte Carlo validates it, Monte Carlo otherwise) contain the truth 95% of the time,
-// within the binomial tolerance, per value and pooled.
 struct CoverageCase {
   const char* name;
   bool fourier;
@@ -344,9 +243,9 @@ class Coverage95 : public ::testing::TestWithParam<CoverageCase> {};
 TEST_P(Coverage95, IntervalsContainTheTruth) {
   const CoverageCase& c = GetParam();
   Design d = test::paper_design('C');
-  if (c.fourier) d.errors = {ErrorModel::Kind::Fourier, 3};
+  if (c.fourier) d.errors = {ErrorModel::Kind::kFourier, 3};
   if (c.normal) {
-    d.noise.distribution = NoiseModel::Distribution::Normal;
+    d.noise.distribution = NoiseModel::Distribution::kNormal;
     d.noise.std_um = 0.6;
   }
   MonteCarloOptions o;

@@ -14,7 +14,7 @@ namespace dbbkit {
 
 // C: turntable about Z, ball at table coordinates (L, D, H).
 // B: swinging head about Y, ball at (L sin b, D, L cos b) (model.md §3-4).
-enum class Axis { C, B };
+enum class Axis { kC, kB };
 
 const char* axis_name(Axis axis);
 
@@ -23,8 +23,8 @@ const char* axis_name(Axis axis);
 // at angle 0: C radial = X, tangential = Y, axial = Z; B radial = Z (tool
 // axis), tangential = X, axial = Y (swing axis).
 struct Direction {
-  enum class Kind { Radial, Tangential, Axial, Vector };
-  Kind kind = Kind::Radial;
+  enum class Kind { kRadial, kTangential, kAxial, kVector };
+  Kind kind = Kind::kRadial;
   Eigen::Vector3d body = Eigen::Vector3d::UnitX();  // unit vector
 
   static Direction named(Axis axis, Kind kind);
@@ -73,8 +73,8 @@ struct Installation {
 // Instrument noise of one reading. Uniform: +-half_width (the instrument's
 // stated accuracy), sigma = a / sqrt(3) (JCGM 100 rectangular). Normal: sigma given.
 struct NoiseModel {
-  enum class Distribution { Uniform, Normal };
-  Distribution distribution = Distribution::Uniform;
+  enum class Distribution { kUniform, kNormal };
+  Distribution distribution = Distribution::kUniform;
   double half_width_um = 1.25;  // Uniform only
   double std_um = 0.0;          // Normal only
 
@@ -84,8 +84,8 @@ struct NoiseModel {
 
 // How the six errors depend on the angle (model.md §5).
 struct ErrorModel {
-  enum class Kind { PerAngle, Fourier, Legendre };
-  Kind kind = Kind::PerAngle;
+  enum class Kind { kPerAngle, kFourier, kLegendre };
+  Kind kind = Kind::kPerAngle;
   int order = 0;  // series order K (Fourier: harmonics 0..K; Legendre: degree 0..K)
 
   std::string describe() const;
@@ -106,7 +106,7 @@ struct Design {
   std::string description;
   std::map<std::string, std::string>
       assumed;  // declared assumptions, e.g. "L1": "100 mm, not given by the paper"
-  Axis axis = Axis::C;
+  Axis axis = Axis::kC;
   std::vector<double> angles_deg;
   NoiseModel noise;
   ErrorModel errors;

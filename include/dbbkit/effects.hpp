@@ -1,7 +1,7 @@
 #pragma once
 // Effects the six error motions do not describe (model.md §6), each a block of
 // extra columns of J with a name, a unit and the installations it applies to.
-// A reading changes by row . value, with row from effect_row():
+// A reading changes by row . value, with row from J_reading_effect():
 //   length_offset (per installation, um):       1
 //   centring (per installation, um):            -s u . c, c the constant offset of the
 //                                               following ball's path (machine frame)
@@ -33,15 +33,15 @@
 namespace dbbkit {
 
 enum class EffectKind {
-  LengthOffset,
-  Centring,
-  Drift,
-  Reversal,
-  Scale,
-  Squareness,
-  Periodic,
-  Step,
-  Thermal
+  kLengthOffset,
+  kCentring,
+  kDrift,
+  kReversal,
+  kScale,
+  kSquareness,
+  kPeriodic,
+  kStep,
+  kThermal
 };
 
 const char* effect_name(EffectKind kind);
@@ -56,7 +56,7 @@ const char* effect_unit(EffectKind kind);
 std::vector<std::string> effect_parameter_names(EffectKind kind);
 
 struct EffectCandidate {
-  EffectKind kind = EffectKind::LengthOffset;
+  EffectKind kind = EffectKind::kLengthOffset;
   int installation = -1;  // -1: shared by all installations
   int component = -1;     // one parameter of a multi-parameter effect (e.g. scale.x); -1: all
   int harmonic = 0;       // Periodic only
@@ -70,15 +70,15 @@ struct EffectCandidate {
 
 // Per reading, the full-length row of the effect; `t0_s` the first time of the readings the effect
 // spans: the reading's installation, or the whole test for a whole-test drift (test_start_time).
-Eigen::VectorXd effect_row(const Design& design, const Reading& reading, double t0_s,
-                           const EffectCandidate& effect);
+Eigen::VectorXd J_reading_effect(const Design& design, const Reading& reading, double t0_s,
+                                 const EffectCandidate& effect);
 // The same, with the reading's installation index already known (loops over readings).
-Eigen::VectorXd effect_row(const Design& design, const Reading& reading, int installation,
-                           double t0_s, const EffectCandidate& effect);
+Eigen::VectorXd J_reading_effect(const Design& design, const Reading& reading, int installation,
+                                 double t0_s, const EffectCandidate& effect);
 
 // The set-up rows of the library without a Reading (the fast paths of observability.cpp):
 // the length offset's row is 1 at every angle; the centring's is -s u(angle) (3 components).
-// effect_row answers with these.
+// J_reading_effect answers with these.
 inline constexpr double kLengthOffsetRow = 1.0;
 Eigen::Vector3d centring_row(Axis axis, const Installation& installation, double angle_deg);
 
@@ -93,7 +93,7 @@ struct EffectBlock {
   std::string label;
   std::string unit;
   std::vector<std::string> parameters;  // the columns kept
-  Eigen::MatrixXd X;                    // n_readings x parameters
+  Eigen::MatrixXd J_reading_effect;     // n_readings x parameters [reading um per unit]
   std::string not_applicable;  // why the effect cannot be formed from these readings, or empty
 };
 

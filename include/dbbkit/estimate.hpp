@@ -184,8 +184,8 @@ class WlsSolver {
 
   // Everything that does not depend on the readings (theta and residual empty).
   const Estimate& a_priori() const { return prior_; }
-  // theta_hat = gain() * y: the p x n map from readings to the minimum-norm estimate.
-  const Gain& gain() const { return gain_; }
+  // theta_hat = J_theta_reading() * y: the p x n map from readings to the minimum-norm estimate.
+  const Gain& J_theta_reading() const { return gain_; }
   // The border columns (ascending; empty when the model is solved block by block alone).
   const std::vector<int>& border() const { return border_; }
   // h_i = J_i G e_i: the leverage of reading i.
@@ -229,7 +229,7 @@ int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X,
                const EstimateOptions& options = {});
 
 // R = Sigma^-1/2 (M - J G M): the whitened part of readings M (n x m) that the model of
-// `solver` cannot reproduce. `GM` = solver.gain() * M when the caller has it already.
+// `solver` cannot reproduce. `GM` = solver.J_theta_reading() * M when the caller has it already.
 Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M);
 Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M,
                             const Eigen::MatrixXd& GM);

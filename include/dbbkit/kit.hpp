@@ -56,7 +56,7 @@ std::optional<Pattern> builtin_pattern(const std::string& name, Axis axis);
 
 struct Kit {
   std::string name;
-  Axis axis = Axis::C;
+  Axis axis = Axis::kC;
   Pattern pattern;
   NoiseModel noise;
   ErrorModel errors;

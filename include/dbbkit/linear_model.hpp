@@ -46,10 +46,13 @@ struct SetupInput {
 // The set-up inputs with a declared uncertainty (design.setup_std), in installation order.
 std::vector<SetupInput> setup_inputs(const Design& design);
 
-// d(readings)/d(input) [um/mm] at the errors theta: column j is the change of the
-// model readings J theta per mm of set-up input j. Exact: a row is linear in the ball position.
-Eigen::MatrixXd setup_sensitivity(const Design& design, const Parameterisation& param,
-                                  const LinearModel& model, const std::vector<SetupInput>& inputs,
-                                  const Eigen::VectorXd& theta);
+// d(readings)/d(input) [um/mm] at the errors theta: column j is the derivative of the model
+// readings J theta with respect to set-up input j (the ball's L, D or H). The ball moves the
+// lever arm of the rotations and, the following ball staying on its programmed path, turns
+// the bar by dP_perp / bar, which changes the reading of every error; an installation without
+// bar_mm has no known bar, and only the lever arm is counted for it.
+Eigen::MatrixXd J_reading_setup(const Design& design, const Parameterisation& param,
+                                const LinearModel& model, const std::vector<SetupInput>& inputs,
+                                const Eigen::VectorXd& theta);
 
 }  // namespace dbbkit

@@ -9,7 +9,7 @@
 
 namespace dbbkit {
 
-enum class Sweep { CW, CCW };
+enum class Sweep { kCW, kCCW };
 
 struct Reading {
   std::string installation;  // an id of the design

@@ -153,4 +153,8 @@ std::vector<SweepPoint> sweep_design(const Design& design,
                                      const std::vector<SweepVariable>& variables,
                                      double reference_length_mm);
 
+// The point of a design map with the smallest worst_std_um (the first of equals), or -1 when
+// no point determines every error.
+int best_sweep_point(const std::vector<SweepPoint>& map);
+
 }  // namespace dbbkit

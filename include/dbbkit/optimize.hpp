@@ -24,7 +24,7 @@ namespace dbbkit {
 // rank behind designs that leave less, whatever the criterion.
 // WorstTotal: worst_total_std_um, the worst case of the total (noise and the kit's
 // declared set-up tolerances, setup.hpp).
-enum class Criterion { Worst, D, A, E, Condition, WorstTotal };
+enum class Criterion { kWorst, kD, kA, kE, kCondition, kWorstTotal };
 const char* criterion_name(Criterion c);
 // The criterion a command line or script names: worst, worst_total, D, A, E, condition.
 // Throws InputError(source, "", ...) for any other name.
@@ -102,7 +102,7 @@ struct Candidate {
 // returns the best per choice and overall. Deterministic: the same kit and
 // options give the same result whatever the number of threads.
 struct OptimizeOptions {
-  Criterion criterion = Criterion::Worst;
+  Criterion criterion = Criterion::kWorst;
   int threads = 1;
   int global_evaluations_per_variable = 100;  // DIRECT-L budget: this x (variables + 1)
   int local_evaluations = 300;                // COBYLA budget per start
@@ -143,7 +143,7 @@ struct ChoiceResult {
 };
 
 struct OptimizeResult {
-  Criterion criterion = Criterion::Worst;
+  Criterion criterion = Criterion::kWorst;
   std::vector<ChoiceResult> choices;
   // Absent when no choice is feasible. Between choices, objectives within 1e-4 (relative)
   // count as equal and the shorter measurement is taken; the Pareto front likewise.
@@ -177,5 +177,31 @@ OptimizeResult optimize_kit(const Kit& kit, const OptimizeOptions& options = {})
 // space (both bounds included): the reference the search is tested against.
 OptimizeResult exhaustive_search(const Kit& kit, Criterion criterion, double grid_mm,
                                  int threads = 1);
+
+// A reference design evaluated beside the optimised one.
+struct Reference {
+  std::string file;
+  Design design;
+  WorstCase worst;
+  int rank = 0, n_unknowns = 0;
+  // With set-up tolerances in the kit: the reference's total worst case under the same
+  // tolerances (its own when it declares some, else the kit's).
+  std::optional<WorstCase> worst_total;
+};
+
+// The reference for a kit: the design evaluated with the kit's reference length (and,
+// with set-up tolerances in the kit, its total worst case). Throws InputError(file, key)
+// when it is for another axis, another noise or another error model than the kit: the
+// noise is the kit's when |sigma_ref - sigma_kit| <= 1e-12 sigma_kit (the same instrument
+// written twice), anything else would compare instruments, not designs.
+Reference make_reference(const Kit& kit, Design design, const std::string& file);
+
+// The optimised design's worst case over the reference's (and the same for the totals with
+// set-up tolerances); absent when there is no best design or either side leaves an error
+// undetermined.
+struct ReferenceRatios {
+  std::optional<double> worst_std_um, worst_total_std_um;
+};
+ReferenceRatios reference_ratios(const OptimizeResult& res, const Reference& reference);
 
 }  // namespace dbbkit

@@ -47,11 +47,11 @@ namespace dbbkit {
 // One set-up effect of one installation (length_offset or centring), with the
 // columns it has on the model's rows (all-zero components dropped).
 struct SetupEffect {
-  EffectKind kind = EffectKind::LengthOffset;
+  EffectKind kind = EffectKind::kLengthOffset;
   int installation = 0;
   std::string label;                    // "centring[3r]"
   std::vector<std::string> parameters;  // "value" or "cx", "cy", "cz"
-  Eigen::MatrixXd X;                    // n x parameters [um per um]
+  Eigen::MatrixXd J_reading_effect;     // n x parameters [um per um]
   double std_um = 0;  // declared standard uncertainty per column (0: none declared)
 };
 
@@ -152,7 +152,7 @@ ErrorParts error_parts(const Parameterisation& param, const SetupSolver& solver)
 struct SetupEffectCheck {
   std::string label;
   int installation = 0;
-  EffectKind kind = EffectKind::LengthOffset;
+  EffectKind kind = EffectKind::kLengthOffset;
   double declared_std_um = 0;  // 0: none declared
   bool detectable = false;
   std::optional<double> detection_limit_um;  // absent when not detectable or no degrees of freedom
@@ -179,7 +179,7 @@ double noncentrality_for_power(int q, int dof, double alpha, double power);
 // with the readings and the rank of the axis errors' model (the F test's degrees of
 // freedom are n - rank - q_e).
 struct SetupEffectInformation {
-  EffectKind kind = EffectKind::LengthOffset;
+  EffectKind kind = EffectKind::kLengthOffset;
   int installation = 0;
   double declared_std_um = 0;
   int q = 0;

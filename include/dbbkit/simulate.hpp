@@ -19,7 +19,7 @@
 
 namespace dbbkit {
 
-// An effect hidden in simulated readings: the reading changes by effect_row . value.
+// An effect hidden in simulated readings: the reading changes by J_reading_effect . value.
 struct TruthEffect {
   EffectCandidate effect;
   std::string installation;  // id, empty for a shared effect (resolved against the design)
@@ -31,7 +31,7 @@ struct TruthEffect {
 struct Schedule {
   double per_reading_s = 3;
   double per_installation_s = 240;
-  std::vector<Sweep> sweeps = {Sweep::CCW};
+  std::vector<Sweep> sweeps = {Sweep::kCCW};
 };
 
 // Format `dbbkit.truth/1` (README).

@@ -95,32 +95,9 @@ Runner add_evaluate(CLI::App& app) {
     outputs.commit();
     if (args->out != "-" && !rep->quiet) {
       std::cout << io::evaluate_summary(design, ev);
-      std::cout << "\neffects this design can tell from the axis errors ("
-                << design.errors.describe() << "):\n";
-      for (CandidateState st : {CandidateState::kDetectable, CandidateState::kConfounded,
-                                CandidateState::kNotApplicable}) {
-        std::cout << "  " << candidate_state_name(st) << ":";
-        for (const CandidateStatus& c : effects) {
-          if (c.state == st) std::cout << " " << c.label;
-        }
-        std::cout << "\n";
-      }
+      std::cout << io::effects_summary(design, effects);
       if (mc) std::cout << io::monte_carlo_summary(*mc);
-      if (!variables.empty()) {
-        std::cout << "\ndesign map: " << map.size() << " designs";
-        const SweepPoint* best = nullptr;
-        for (const SweepPoint& p : map) {
-          if (p.worst_std_um && (!best || *p.worst_std_um < *best->worst_std_um)) best = &p;
-        }
-        if (best) {
-          std::cout << "; smallest worst_std_um " << *best->worst_std_um << " um at";
-          for (size_t i = 0; i < variables.size(); ++i)
-            std::cout << " " << variables[i].name << " = " << best->values[i];
-        } else {
-          std::cout << "; none determines every error";
-        }
-        std::cout << "\n";
-      }
+      if (!variables.empty()) std::cout << io::sweep_summary(variables, map);
     }
     return 0;
   };

@@ -79,14 +79,14 @@ Runner add_optimize(CLI::App& app) {
                                                     : kit.setup_std.nuisance() ? "worst_total"
                                                                                : "worst",
                                                     "--criterion");
-    if (criterion == Criterion::WorstTotal && !kit.setup_std.nuisance()) {
+    if (criterion == Criterion::kWorstTotal && !kit.setup_std.nuisance()) {
       throw InputError(args->kit, "setup_std",
                        "--criterion worst_total needs a length offset or centring tolerance "
                        "declared in the kit");
     }
-    std::optional<io::Reference> reference;
+    std::optional<Reference> reference;
     if (!args->reference.empty()) {
-      reference = io::make_reference(kit, io::read_design_file(args->reference), args->reference);
+      reference = make_reference(kit, io::read_design_file(args->reference), args->reference);
     }
     OptimizeOptions options;
     options.criterion = criterion;

@@ -43,9 +43,9 @@ Direction read_direction(const json& v, Axis axis, const std::string& source,
                          const std::string& path) {
   if (v.is_string()) {
     const std::string s = v.get<std::string>();
-    if (s == "radial") return Direction::named(axis, Direction::Kind::Radial);
-    if (s == "tangential") return Direction::named(axis, Direction::Kind::Tangential);
-    if (s == "axial") return Direction::named(axis, Direction::Kind::Axial);
+    if (s == "radial") return Direction::named(axis, Direction::Kind::kRadial);
+    if (s == "tangential") return Direction::named(axis, Direction::Kind::kTangential);
+    if (s == "axial") return Direction::named(axis, Direction::Kind::kAxial);
     throw InputError(source, path,
                      "unknown direction '" + s +
                          "' (expected radial, tangential, axial or a unit vector [x, y, z])");
@@ -70,11 +70,11 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
   const std::string dist = noise.optional_string("distribution").value_or("uniform");
   NoiseModel m;
   if (dist == "uniform") {
-    m.distribution = NoiseModel::Distribution::Uniform;
+    m.distribution = NoiseModel::Distribution::kUniform;
     m.half_width_um = noise.number("accuracy_um");
     if (!(m.half_width_um > 0)) noise.fail("accuracy_um", "must be a positive number of um");
   } else if (dist == "normal") {
-    m.distribution = NoiseModel::Distribution::Normal;
+    m.distribution = NoiseModel::Distribution::kNormal;
     if (noise.has("accuracy_um")) {
       noise.fail(
           "accuracy_um",
@@ -95,19 +95,19 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
 
 Axis read_axis(ObjectReader& top) {
   const std::string axis = top.string("axis");
-  if (axis == "B") return Axis::B;
+  if (axis == "B") return Axis::kB;
   if (axis != "C") top.fail("axis", "unknown axis '" + axis + "' (expected \"C\" or \"B\")");
-  return Axis::C;
+  return Axis::kC;
 }
 
 ErrorModel read_error_model(ObjectReader errors) {
   ErrorModel m;
   const std::string model = errors.string("model");
   if (model == "per_angle") {
-    m.kind = ErrorModel::Kind::PerAngle;
+    m.kind = ErrorModel::Kind::kPerAngle;
     if (errors.has("order")) errors.fail("order", "a per_angle model has no order");
   } else if (model == "fourier" || model == "legendre") {
-    m.kind = model == "fourier" ? ErrorModel::Kind::Fourier : ErrorModel::Kind::Legendre;
+    m.kind = model == "fourier" ? ErrorModel::Kind::kFourier : ErrorModel::Kind::kLegendre;
     m.order = errors.integer("order");
     if (m.order < 0) errors.fail("order", "must be >= 0");
   } else {
@@ -134,7 +134,7 @@ json setup_to_json(const SetupUncertainty& u, Axis axis) {
             {"centring_um", u.centring_um},
             {"L_mm", u.L_mm},
             {"D_mm", u.D_mm}};
-  if (axis == Axis::C) j["H_mm"] = u.H_mm;
+  if (axis == Axis::kC) j["H_mm"] = u.H_mm;
   return j;
 }
 
@@ -151,7 +151,7 @@ json setup_override_to_json(const SetupOverride& o) {
 }
 
 json noise_to_json(const NoiseModel& noise) {
-  if (noise.distribution == NoiseModel::Distribution::Uniform) {
+  if (noise.distribution == NoiseModel::Distribution::kUniform) {
     return {{"distribution", "uniform"}, {"accuracy_um", noise.half_width_um}};
   }
   return {{"distribution", "normal"}, {"std_um", noise.std_um}};
@@ -207,7 +207,7 @@ Design design_from_json(const json& j, const std::string& source) {
     ObjectReader ball = in.object("ball_mm");
     inst.L_mm = ball.number("L");
     inst.D_mm = ball.optional_number("D").value_or(0.0);
-    if (d.axis == Axis::C) {
+    if (d.axis == Axis::kC) {
       inst.H_mm = ball.number("H");
     } else if (ball.has("H")) {
       ball.fail("H", "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
@@ -258,10 +258,10 @@ json design_to_json(const Design& d) {
   j["angles_deg"] = d.angles_deg;
   j["noise"] = noise_to_json(d.noise);
   json errors;
-  if (d.errors.kind == ErrorModel::Kind::PerAngle) {
+  if (d.errors.kind == ErrorModel::Kind::kPerAngle) {
     errors["model"] = "per_angle";
   } else {
-    errors["model"] = d.errors.kind == ErrorModel::Kind::Fourier ? "fourier" : "legendre";
+    errors["model"] = d.errors.kind == ErrorModel::Kind::kFourier ? "fourier" : "legendre";
     errors["order"] = d.errors.order;
   }
   j["errors"] = errors;
@@ -272,7 +272,7 @@ json design_to_json(const Design& d) {
     j["setup_std"] = setup_to_json(d.setup_std, d.axis);
   } else if (d.setup_std.any()) {
     j["setup_std_mm"] = {{"L", d.setup_std.L_mm}, {"D", d.setup_std.D_mm}};
-    if (d.axis == Axis::C) j["setup_std_mm"]["H"] = d.setup_std.H_mm;
+    if (d.axis == Axis::kC) j["setup_std_mm"]["H"] = d.setup_std.H_mm;
   }
   json list = json::array();
   for (const Installation& in : d.installations) {
@@ -280,9 +280,9 @@ json design_to_json(const Design& d) {
     i["id"] = in.id;
     json ball = {{"L", in.L_mm}};
     if (in.D_mm != 0.0) ball["D"] = in.D_mm;
-    if (d.axis == Axis::C) ball["H"] = in.H_mm;
+    if (d.axis == Axis::kC) ball["H"] = in.H_mm;
     i["ball_mm"] = ball;
-    if (in.direction.kind == Direction::Kind::Vector) {
+    if (in.direction.kind == Direction::Kind::kVector) {
       i["direction"] = {in.direction.body.x(), in.direction.body.y(), in.direction.body.z()};
     } else {
       i["direction"] = in.direction.label();

@@ -41,7 +41,7 @@ json reading_to_json(const Reading& r) {
             {"angle_deg", r.angle_deg},
             {"reading_um", r6(r.reading_um)}};
   j["time_s"] = r.time_s ? json(*r.time_s) : json(nullptr);
-  j["sweep"] = r.sweep ? json(*r.sweep == Sweep::CW ? "cw" : "ccw") : json(nullptr);
+  j["sweep"] = r.sweep ? json(*r.sweep == Sweep::kCW ? "cw" : "ccw") : json(nullptr);
   j["line"] = r.line > 0 ? json(r.line) : json(nullptr);
   return j;
 }
@@ -111,18 +111,18 @@ std::string signature_text(const ResidualSignature& s, const Design& design,
   const Axis axis = design.axis;
   std::ostringstream o;
   o << std::setw(8) << "inst" << std::setw(8) << "L_mm" << std::setw(8)
-    << (axis == Axis::C ? "H_mm" : "D_mm") << std::setw(5) << "n" << std::setw(10) << "mean"
+    << (axis == Axis::kC ? "H_mm" : "D_mm") << std::setw(5) << "n" << std::setw(10) << "mean"
     << std::setw(10) << "rms";
-  if (axis == Axis::C)
+  if (axis == Axis::kC)
     o << std::setw(9) << "1/turn" << std::setw(9) << "2/turn" << std::setw(9) << "3/turn"
       << std::setw(9) << "4/turn";
   o << std::setw(12) << "um/min" << std::setw(10) << "cw-ccw"
     << "\n";
   for (const auto& i : s.installations) {
     o << std::setw(8) << i.id << std::fixed << std::setprecision(1) << std::setw(8) << i.L_mm
-      << std::setw(8) << (axis == Axis::C ? i.H_mm : i.D_mm) << std::setw(5) << i.n << std::fixed
+      << std::setw(8) << (axis == Axis::kC ? i.H_mm : i.D_mm) << std::setw(5) << i.n << std::fixed
       << std::setprecision(2) << std::setw(10) << i.mean_um << std::setw(10) << i.rms_um;
-    if (axis == Axis::C) {
+    if (axis == Axis::kC) {
       for (int k = 0; k < 4; ++k) {
         if (k < static_cast<int>(i.harmonic_um.size())) {
           o << std::setw(9) << i.harmonic_um[k];

@@ -16,7 +16,7 @@ std::string p_text(double p) { return p < 1e-300 ? "< 1e-300" : "= " + fmt_num(p
 
 std::string reading_text(const Reading& r) {
   std::string s = "installation " + r.installation + " at " + fmt_num(r.angle_deg, 6) + " deg";
-  if (r.sweep) s += *r.sweep == Sweep::CW ? " cw" : " ccw";
+  if (r.sweep) s += *r.sweep == Sweep::kCW ? " cw" : " ccw";
   if (r.time_s) s += ", t = " + fmt_num(*r.time_s, 6) + " s";
   if (r.line > 0) s += ", line " + std::to_string(r.line);
   return s;

@@ -65,11 +65,11 @@ PatternPosition read_position(ObjectReader r) {
     const std::string path = r.key_path("directions") + "[" + std::to_string(i) + "]";
     const std::string d = as_string(dirs[i], r.source(), path);
     if (d == "radial") {
-      p.directions.push_back(Direction::Kind::Radial);
+      p.directions.push_back(Direction::Kind::kRadial);
     } else if (d == "tangential") {
-      p.directions.push_back(Direction::Kind::Tangential);
+      p.directions.push_back(Direction::Kind::kTangential);
     } else if (d == "axial") {
-      p.directions.push_back(Direction::Kind::Axial);
+      p.directions.push_back(Direction::Kind::kAxial);
     } else {
       throw InputError(r.source(), path,
                        "unknown direction '" + d + "' (expected radial, tangential or axial)");
@@ -160,7 +160,7 @@ Kit kit_from_json(const json& j, const std::string& source) {
   }
   k.L_mm = read_min_max(top.object("L_mm"));
   if (top.has("D_mm")) k.D_mm = read_min_max(top.object("D_mm"));
-  if (k.axis == Axis::C) {
+  if (k.axis == Axis::kC) {
     ObjectReader h = top.object("H_mm");
     k.H_base_mm = h.number("base");
     k.blocks_mm = read_numbers(h.required("blocks"), source, h.key_path("blocks"));

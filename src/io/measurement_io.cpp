@@ -138,9 +138,9 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
     if (present("sweep")) {
       const std::string& s = cells[col.at("sweep")];
       if (s == "cw") {
-        r.sweep = Sweep::CW;
+        r.sweep = Sweep::kCW;
       } else if (s == "ccw") {
-        r.sweep = Sweep::CCW;
+        r.sweep = Sweep::kCCW;
       } else {
         cell("sweep").fail("'" + s + "' is not a sweep (expected cw or ccw)");
       }
@@ -185,7 +185,7 @@ void write_measurements_csv(std::ostream& out, const std::vector<Reading>& readi
     }
     if (sweep) {
       out << ",";
-      if (r.sweep) out << (*r.sweep == Sweep::CW ? "cw" : "ccw");
+      if (r.sweep) out << (*r.sweep == Sweep::kCW ? "cw" : "ccw");
     }
     if (repeat) {
       out << ",";

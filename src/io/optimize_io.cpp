@@ -91,43 +91,8 @@ Design optimized_design(const Kit& kit, const OptimizeResult& res, const std::st
   return d;
 }
 
-Reference make_reference(const Kit& kit, Design design, const std::string& file) {
-  Reference r;
-  r.file = file;
-  r.design = std::move(design);
-  if (r.design.axis != kit.axis) {
-    throw InputError(file, "axis",
-                     "the reference is for axis " + std::string(axis_name(r.design.axis)) +
-                         ", the kit for axis " + axis_name(kit.axis));
-  }
-  if (std::abs(r.design.noise.sigma_um() - kit.noise.sigma_um()) > 1e-12 * kit.noise.sigma_um()) {
-    throw InputError(file, "noise",
-                     "declares " + r.design.noise.describe() + ", the kit " + kit.noise.describe() +
-                         ": the ratio would compare instruments, not designs");
-  }
-  if (r.design.errors.kind != kit.errors.kind || r.design.errors.order != kit.errors.order) {
-    throw InputError(
-        file, "errors",
-        "the reference uses " + r.design.errors.describe() + ", the kit " + kit.errors.describe());
-  }
-  const Evaluation ev = evaluate_design(r.design, kit.reference_length_mm);
-  r.worst = ev.worst;
-  if (kit.setup_std.nuisance()) {
-    Design with = r.design;
-    if (!with.setup_nuisance_declared()) with.setup_std = kit.setup_std;
-    r.worst_total = design_worst_total(with, kit.reference_length_mm).total;
-  }
-  r.rank = ev.prior.rank;
-  r.n_unknowns = ev.prior.n_unknowns;
-  return r;
-}
-
 std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
-  auto mm = [](double x) {
-    std::ostringstream os;
-    os << std::round(x * 1000.0) / 1000.0;
-    return os.str();
-  };
+  auto mm = [](double x) { return fmt_rounded(x, 3); };
   switch (cr.state) {
     case ChoiceState::kSearched:
       return "searched";
@@ -214,19 +179,11 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
         {"worst_determined_std_um", optional_number(reference->worst.worst_determined_std_um)},
         {"rank", reference->rank},
         {"n_unknowns", reference->n_unknowns}};
-    if (res.best && res.best_evaluation.worst.worst_std_um && reference->worst.worst_std_um) {
-      r["ratio_worst_std_um"] =
-          *res.best_evaluation.worst.worst_std_um / *reference->worst.worst_std_um;
-    } else {
-      r["ratio_worst_std_um"] = nullptr;
-    }
+    const ReferenceRatios ratios = reference_ratios(res, *reference);
+    r["ratio_worst_std_um"] = optional_number(ratios.worst_std_um);
     if (reference->worst_total) {
       r["worst_total_std_um"] = optional_number(reference->worst_total->worst_std_um);
-      const std::optional<WorstCase>& bt = res.best_evaluation.worst_total;
-      r["ratio_worst_total_std_um"] =
-          res.best && bt && bt->worst_std_um && reference->worst_total->worst_std_um
-              ? json(*bt->worst_std_um / *reference->worst_total->worst_std_um)
-              : json(nullptr);
+      r["ratio_worst_total_std_um"] = optional_number(ratios.worst_total_std_um);
     }
     j["reference"] = r;
   }
@@ -274,13 +231,13 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   const Evaluation& ev = res.best_evaluation;
   s << "\nbest: " << choice_label(kit, b.choice) << "\n";
   s << std::setw(4) << "id" << std::setw(10) << "L [mm]" << std::setw(10) << "D [mm]";
-  if (kit.axis == Axis::C) s << std::setw(10) << "H [mm]";
+  if (kit.axis == Axis::kC) s << std::setw(10) << "H [mm]";
   s << std::setw(13) << "direction" << std::setw(10) << "bar [mm]" << std::setw(6) << "sign"
     << "\n";
   for (const Installation& in : b.design.installations) {
     s << std::setw(4) << in.id << std::fixed << std::setprecision(2) << std::setw(10) << in.L_mm
       << std::setw(10) << in.D_mm;
-    if (kit.axis == Axis::C) s << std::setw(10) << in.H_mm;
+    if (kit.axis == Axis::kC) s << std::setw(10) << in.H_mm;
     s << std::setw(13) << in.direction.label() << std::setw(10) << *in.bar_mm << std::setw(6)
       << in.sign << "\n";
     s.unsetf(std::ios::fixed);
@@ -302,7 +259,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
       << " errors at angles not determined); worst determined "
       << fmt_num(*ev.worst.worst_determined_std_um) << " um" << where(ev.worst) << "\n";
   }
-  if (res.criterion != Criterion::Worst && b.objective_defined) {
+  if (res.criterion != Criterion::kWorst && b.objective_defined) {
     s << criterion_name(res.criterion) << " objective " << fmt_num(b.objective, 6) << "\n";
   }
   if (b.detection) s << "set-up detection " << detection_text(*b.detection) << "\n";
@@ -317,29 +274,28 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
       << errors_table(ev.errors, false);
   }
   if (reference) {
+    const ReferenceRatios ratios = reference_ratios(res, *reference);
     s << "\nreference " << reference->file << ": rank " << reference->rank << " of "
       << reference->n_unknowns;
     if (reference->worst.worst_std_um) {
       s << ", worst_std_um " << fmt_num(*reference->worst.worst_std_um) << " um"
         << where(reference->worst);
-      if (ev.worst.worst_std_um) {
-        s << "\nratio optimised / reference: "
-          << fmt_num(*ev.worst.worst_std_um / *reference->worst.worst_std_um, 3);
-      }
+      if (ratios.worst_std_um)
+        s << "\nratio optimised / reference: " << fmt_num(*ratios.worst_std_um, 3);
     } else {
       s << ", worst_std_um: none (not every error determined)";
     }
     if (reference->worst_total && reference->worst_total->worst_std_um) {
       s << "\nreference with the same set-up tolerances: worst_total_std_um "
         << fmt_num(*reference->worst_total->worst_std_um) << " um";
-      if (ev.worst_total && ev.worst_total->worst_std_um) {
+      if (ratios.worst_total_std_um) {
         s << "; optimised " << fmt_num(*ev.worst_total->worst_std_um) << " um, ratio "
-          << fmt_num(*ev.worst_total->worst_std_um / *reference->worst_total->worst_std_um, 3);
+          << fmt_num(*ratios.worst_total_std_um, 3);
       }
     }
     s << "\n";
   }
-  if (kit.errors.kind == ErrorModel::Kind::PerAngle && kit.angle_steps_deg.size() > 1) {
+  if (kit.errors.kind == ErrorModel::Kind::kPerAngle && kit.angle_steps_deg.size() > 1) {
     s << "\nper_angle errors: each angle has its own six unknowns, so a finer step adds angles, "
          "each known as "
          "well as before; between designs equally good the shorter measurement (the coarser step) "

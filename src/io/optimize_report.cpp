@@ -54,20 +54,17 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
         {"worst_total_std_um (noise and set-up)", fmt_opt(ev.worst_total->worst_std_um) + " um"});
   if (b.detection) summary.push_back({"set-up detection", detection_text(*b.detection)});
   if (reference) {
+    const ReferenceRatios ratios = reference_ratios(res, *reference);
     summary.push_back(
         {"reference " + reference->file, fmt_opt(reference->worst.worst_std_um) + " um"});
-    if (ev.worst.worst_std_um && reference->worst.worst_std_um) {
-      summary.push_back({"ratio optimised / reference",
-                         fmt_num(*ev.worst.worst_std_um / *reference->worst.worst_std_um, 3)});
-    }
+    if (ratios.worst_std_um)
+      summary.push_back({"ratio optimised / reference", fmt_num(*ratios.worst_std_um, 3)});
     if (reference->worst_total && ev.worst_total) {
       summary.push_back({"reference worst_total_std_um, same set-up tolerances",
                          fmt_opt(reference->worst_total->worst_std_um) + " um"});
-      if (ev.worst_total->worst_std_um && reference->worst_total->worst_std_um) {
+      if (ratios.worst_total_std_um)
         summary.push_back(
-            {"total ratio optimised / reference",
-             fmt_num(*ev.worst_total->worst_std_um / *reference->worst_total->worst_std_um, 3)});
-      }
+            {"total ratio optimised / reference", fmt_num(*ratios.worst_total_std_um, 3)});
     }
   }
   p.table({"best design", ""}, summary);

@@ -112,7 +112,7 @@ std::string plot_design(const Design& design) {
     }
     return std::make_pair(d.str(), plot.str());
   };
-  const bool c = design.axis == Axis::C;
+  const bool c = design.axis == Axis::kC;
   const std::string what =
       design.installations.front().bar_mm ? "bar to the following ball" : "reading direction";
   const auto [top_data, top_plot] = labels("top", 0, 1);

@@ -16,7 +16,7 @@ std::vector<std::vector<std::string>> installation_rows(const Design& d) {
   std::vector<std::vector<std::string>> rows;
   for (const Installation& in : d.installations) {
     rows.push_back({in.id, fmt_num(in.L_mm, 6), fmt_num(in.D_mm, 6),
-                    d.axis == Axis::C ? fmt_num(in.H_mm, 6) : "--", in.direction.label(),
+                    d.axis == Axis::kC ? fmt_num(in.H_mm, 6) : "--", in.direction.label(),
                     std::to_string(in.sign), in.bar_mm ? fmt_num(*in.bar_mm, 6) : "--",
                     in.description});
   }

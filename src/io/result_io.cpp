@@ -268,7 +268,7 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
   j["residual"] = residual_to_json(est);
   j["setup"] = identify_setup_to_json(design, result);
 
-  if (design.errors.kind != ErrorModel::Kind::PerAngle) {
+  if (design.errors.kind != ErrorModel::Kind::kPerAngle) {
     const Parameterisation param(design);
     json params = json::array();
     for (int p = 0; p < param.n_parameters(); ++p) {
@@ -622,7 +622,7 @@ json setup_tolerances_to_json(const Design& design) {
               {"centring_um", u.centring_um},
               {"L_mm", u.L_mm},
               {"D_mm", u.D_mm}};
-    if (design.axis == Axis::C) e["H_mm"] = u.H_mm;
+    if (design.axis == Axis::kC) e["H_mm"] = u.H_mm;
     list.push_back(e);
   }
   return list;
@@ -735,6 +735,21 @@ json evaluate_to_json(const Design& design, const Evaluation& ev, const std::str
   j["unidentifiable"] = unidentifiable_to_json(ev.unidentifiable);
   if (mc) j["monte_carlo"] = monte_carlo_to_json(*mc);
   return j;
+}
+
+std::string effects_summary(const Design& design, const std::vector<CandidateStatus>& effects) {
+  std::ostringstream s;
+  s << "\neffects this design can tell from the axis errors (" << design.errors.describe()
+    << "):\n";
+  for (CandidateState st :
+       {CandidateState::kDetectable, CandidateState::kConfounded, CandidateState::kNotApplicable}) {
+    s << "  " << candidate_state_name(st) << ":";
+    for (const CandidateStatus& c : effects) {
+      if (c.state == st) s << " " << c.label;
+    }
+    s << "\n";
+  }
+  return s.str();
 }
 
 }  // namespace dbbkit::io

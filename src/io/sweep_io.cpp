@@ -34,7 +34,7 @@ SweepVariable parse_sweep(const Design& design, const std::string& spec) {
     throw InputError("--sweep", spec, "the name must start with L, D or H");
   }
   v.coord = v.name[0] == 'L' ? 0 : v.name[0] == 'D' ? 1 : 2;
-  if (v.coord == 2 && design.axis == Axis::B)
+  if (v.coord == 2 && design.axis == Axis::kB)
     throw InputError("--sweep", spec, "H is not used for the swinging head B");
   std::string rest = v.name.substr(1);
   if (!rest.empty() && rest[0] == '@') {
@@ -115,6 +115,23 @@ std::string sweep_csv(const std::vector<SweepVariable>& variables,
     opt(p.worst_determined_std_um);
     s << "\n";
   }
+  return s.str();
+}
+
+std::string sweep_summary(const std::vector<SweepVariable>& variables,
+                          const std::vector<SweepPoint>& points) {
+  std::ostringstream s;
+  s << "\ndesign map: " << points.size() << " designs";
+  const int best = best_sweep_point(points);
+  if (best >= 0) {
+    const SweepPoint& b = points[static_cast<std::size_t>(best)];
+    s << "; smallest worst_std_um " << *b.worst_std_um << " um at";
+    for (size_t i = 0; i < variables.size(); ++i)
+      s << " " << variables[i].name << " = " << b.values[i];
+  } else {
+    s << "; none determines every error";
+  }
+  s << "\n";
   return s.str();
 }
 

@@ -3,13 +3,13 @@
 #include <iomanip>
 #include <sstream>
 
+#include "../number_text.hpp"
+
 namespace dbbkit::io {
 
-std::string fmt_num(double x, int digits) {
-  std::ostringstream s;
-  s << std::setprecision(digits) << x;
-  return s.str();
-}
+std::string fmt_num(double x, int digits) { return text::significant(x, digits); }
+
+std::string fmt_rounded(double x, int decimals) { return text::rounded(x, decimals); }
 
 std::string fmt_opt(const std::optional<double>& x, int digits) {
   return x ? fmt_num(*x, digits) : "--";

@@ -20,7 +20,7 @@ Truth truth_from_json(const json& j, const std::string& source) {
   ObjectReader errors = top.object("errors");
   const std::string model = errors.string("model");
   if (model == "per_angle") {
-    t.model.kind = ErrorModel::Kind::PerAngle;
+    t.model.kind = ErrorModel::Kind::kPerAngle;
     const json& values = errors.required("values");
     if (!values.is_array() || values.empty())
       errors.fail("values", "expected a non-empty list of {angle_deg, dx, ..., ez}");
@@ -33,10 +33,10 @@ Truth truth_from_json(const json& j, const std::string& source) {
       t.per_angle.emplace_back(a, e);
     }
   } else if (model == "fourier" || model == "legendre") {
-    t.model.kind = model == "fourier" ? ErrorModel::Kind::Fourier : ErrorModel::Kind::Legendre;
+    t.model.kind = model == "fourier" ? ErrorModel::Kind::kFourier : ErrorModel::Kind::kLegendre;
     t.model.order = errors.integer("order");
     if (t.model.order < 0) errors.fail("order", "must be >= 0");
-    if (t.model.kind == ErrorModel::Kind::Legendre) {
+    if (t.model.kind == ErrorModel::Kind::kLegendre) {
       const json& r = errors.required("range_deg");
       if (!r.is_array() || r.size() != 2) errors.fail("range_deg", "expected [min, max]");
       t.range_deg = std::make_pair(as_number(r[0], source, "errors.range_deg[0]"),
@@ -75,7 +75,7 @@ Truth truth_from_json(const json& j, const std::string& source) {
       const json& v = e.required("value");
       const std::string vpath = path + ".value";
       switch (te.effect.kind) {
-        case EffectKind::Centring: {
+        case EffectKind::kCentring: {
           if (!v.is_array() || v.size() < 2 || v.size() > 3)
             throw InputError(source, vpath, "expected [cx, cy] or [cx, cy, cz] in um");
           for (std::size_t k = 0; k < v.size(); ++k)
@@ -83,15 +83,15 @@ Truth truth_from_json(const json& j, const std::string& source) {
                 as_number(v[k], source, vpath + "[" + std::to_string(k) + "]");
           break;
         }
-        case EffectKind::Scale:
-        case EffectKind::Squareness: {
+        case EffectKind::kScale:
+        case EffectKind::kSquareness: {
           ObjectReader o(v, source, vpath);
           for (std::size_t k = 0; k < names.size(); ++k)
             te.value(static_cast<Eigen::Index>(k)) = o.optional_number(names[k]).value_or(0.0);
           o.finish();
           break;
         }
-        case EffectKind::Periodic: {
+        case EffectKind::kPeriodic: {
           ObjectReader o(v, source, vpath);
           te.effect.harmonic = o.integer("harmonic");
           if (te.effect.harmonic < 1) o.fail("harmonic", "must be >= 1");
@@ -100,14 +100,14 @@ Truth truth_from_json(const json& j, const std::string& source) {
           o.finish();
           break;
         }
-        case EffectKind::Step: {
+        case EffectKind::kStep: {
           ObjectReader o(v, source, vpath);
           te.effect.at_s = o.number("at_s");
           te.value(0) = o.number("size_um");
           o.finish();
           break;
         }
-        case EffectKind::Thermal: {
+        case EffectKind::kThermal: {
           ObjectReader o(v, source, vpath);
           te.effect.tau_min = o.number("tau_min");
           if (!(te.effect.tau_min > 0) || !std::isfinite(te.effect.tau_min))
@@ -136,7 +136,7 @@ Truth truth_from_json(const json& j, const std::string& source) {
         const std::string x =
             as_string((*sw)[k], source, "schedule.sweeps[" + std::to_string(k) + "]");
         if (x != "cw" && x != "ccw") o.fail("sweeps", "'" + x + "' is not a sweep (cw or ccw)");
-        s.sweeps.push_back(x == "cw" ? Sweep::CW : Sweep::CCW);
+        s.sweeps.push_back(x == "cw" ? Sweep::kCW : Sweep::kCCW);
       }
     }
     o.finish();

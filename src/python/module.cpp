@@ -263,9 +263,9 @@ PyMeasurements measurements_from_arrays(
     if (sweep && (*sweep)[i]) {
       const std::string& s = *(*sweep)[i];
       if (s == "cw") {
-        r.sweep = Sweep::CW;
+        r.sweep = Sweep::kCW;
       } else if (s == "ccw") {
-        r.sweep = Sweep::CCW;
+        r.sweep = Sweep::kCCW;
       } else {
         throw InputError("measurements", "sweep[" + std::to_string(i) + "]",
                          "'" + s + "' (expected cw, ccw or None)");
@@ -437,7 +437,7 @@ struct PyDiagnoseResult {
 struct PyOptimizeResult {
   std::shared_ptr<const PyKit> kit;
   OptimizeResult result;
-  std::optional<io::Reference> reference;
+  std::optional<Reference> reference;
   double seconds = 0;
   nlohmann::json json;
   std::string report(const std::string& format) const {
@@ -555,7 +555,7 @@ PyOptimizeResult run_optimize(const PyKit& k, std::optional<std::string> criteri
                                           : kit.setup_std.nuisance() ? "worst_total"
                                                                      : "worst",
                                           "criterion");
-  if (c == Criterion::WorstTotal && !kit.setup_std.nuisance()) {
+  if (c == Criterion::kWorstTotal && !kit.setup_std.nuisance()) {
     throw InputError(
         k.source, "setup_std",
         "criterion worst_total needs a length offset or centring tolerance declared in the kit");
@@ -569,7 +569,7 @@ PyOptimizeResult run_optimize(const PyKit& k, std::optional<std::string> criteri
   r.kit = std::make_shared<const PyKit>(PyKit{kit, k.source, k.from_file});
   {
     py::gil_scoped_release release;
-    if (reference) r.reference = io::make_reference(kit, reference->value, reference->source);
+    if (reference) r.reference = make_reference(kit, reference->value, reference->source);
     const auto start = std::chrono::steady_clock::now();
     r.result = optimize_kit(kit, options);
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -11,7 +11,7 @@ int main() {
   using namespace dbbkit;
   Design d;
   d.name = "three positions";
-  d.axis = Axis::C;
+  d.axis = Axis::kC;
   for (int a = 0; a <= 360; a += 30) d.angles_deg.push_back(a);
   d.noise.half_width_um = 1.25;  // rectangular +-1.25 um
   auto ball = [&](const char* id, double L, double H, Direction::Kind k) {
@@ -19,13 +19,14 @@ int main() {
     in.id = id;
     in.L_mm = L;
     in.H_mm = H;
-    in.direction = Direction::named(Axis::C, k);
+    in.direction = Direction::named(Axis::kC, k);
     d.installations.push_back(in);
   };
   using K = Direction::Kind;
-  ball("1r", 100, 60, K::Radial), ball("1t", 100, 60, K::Tangential), ball("1a", 0, 60, K::Axial);
-  ball("2r", 200, 60, K::Radial), ball("2t", 200, 60, K::Tangential);
-  ball("3r", 100, 160, K::Radial), ball("3t", 100, 160, K::Tangential);
+  ball("1r", 100, 60, K::kRadial), ball("1t", 100, 60, K::kTangential),
+      ball("1a", 0, 60, K::kAxial);
+  ball("2r", 200, 60, K::kRadial), ball("2t", 200, 60, K::kTangential);
+  ball("3r", 100, 160, K::kRadial), ball("3t", 100, 160, K::kTangential);
   validate_design(d);
 
   const Evaluation ev = evaluate_design(d, 100.0);
@@ -33,7 +34,7 @@ int main() {
             << *ev.worst.worst_std_um << " um\n";
 
   Truth truth;  // position-independent errors: dx..ez = 1, 2, 3 um and 4, 5, 6 urad
-  truth.model = {ErrorModel::Kind::Fourier, 0};
+  truth.model = {ErrorModel::Kind::kFourier, 0};
   for (int k = 0; k < 6; ++k) truth.coefficients[k] = {k + 1.0};
   const std::vector<Reading> readings = simulate(d, truth, 42);
   const IdentifyResult r = identify(d, readings);

@@ -14,7 +14,7 @@
 namespace {
 bool bounded(const dbbkit::Design& d) {
   if (d.angles_deg.size() > 40 || d.installations.size() > 12) return false;
-  if (d.errors.kind == dbbkit::ErrorModel::Kind::PerAngle) return true;
+  if (d.errors.kind == dbbkit::ErrorModel::Kind::kPerAngle) return true;
   const double p = 6.0 * dbbkit::coefficients_per_error(d.errors);
   return static_cast<double>(d.angles_deg.size() * d.installations.size()) * p * p <= 2e6;
 }

@@ -31,7 +31,7 @@ bool bounded(const dbbkit::Kit& kit) {
     if (!(angles <= 40)) return false;
     const double readings = dbbkit::max_installations(kit) * angles;
     const double unknowns =
-        kit.errors.kind == dbbkit::ErrorModel::Kind::PerAngle ? 6.0 : 6.0 * per_error;
+        kit.errors.kind == dbbkit::ErrorModel::Kind::kPerAngle ? 6.0 : 6.0 * per_error;
     if (!(readings * unknowns * unknowns <= kMaxWork)) return false;
   }
   return true;

@@ -15,22 +15,6 @@ namespace dbbkit::io {
 // description of how it was found (identify and evaluate accept it as it is).
 Design optimized_design(const Kit& kit, const OptimizeResult& res, const std::string& kit_file);
 
-// A reference design evaluated beside the optimised one.
-struct Reference {
-  std::string file;
-  Design design;
-  WorstCase worst;
-  int rank = 0, n_unknowns = 0;
-  // With set-up tolerances in the kit: the reference's total worst case under the same
-  // tolerances (its own when it declares some, else the kit's).
-  std::optional<WorstCase> worst_total;
-};
-
-// The reference for a kit: the design evaluated with the kit's reference length (and,
-// with set-up tolerances in the kit, its total worst case). Throws InputError(file, key)
-// when it is for another axis, another noise or another error model than the kit.
-Reference make_reference(const Kit& kit, Design design, const std::string& file);
-
 nlohmann::json optimize_to_json(const Kit& kit, const OptimizeResult& res,
                                 const std::string& kit_file, double seconds,
                                 const std::optional<Reference>& reference);

@@ -71,6 +71,8 @@ nlohmann::json evaluate_to_json(const Design& design, const Evaluation& ev,
 std::string evaluate_summary(const Design& design, const Evaluation& ev);
 // The effects a design can tell from the axis errors (effect_detectability): label, status, detail.
 nlohmann::json effects_to_json(const std::vector<CandidateStatus>& effects);
+// The effects a design can tell from the axis errors, on the terminal: one line per state.
+std::string effects_summary(const Design& design, const std::vector<CandidateStatus>& effects);
 
 // The errors block (value and std per angle, null where not determined); with
 // values = false only the std is written (a-priori evaluation).

@@ -18,5 +18,8 @@ nlohmann::json sweep_to_json(const std::vector<SweepVariable>& variables,
                              const std::vector<SweepPoint>& points);
 std::string sweep_csv(const std::vector<SweepVariable>& variables,
                       const std::vector<SweepPoint>& points);
+// The map on the terminal: its size and its best point (best_sweep_point).
+std::string sweep_summary(const std::vector<SweepVariable>& variables,
+                          const std::vector<SweepPoint>& points);
 
 }  // namespace dbbkit::io
