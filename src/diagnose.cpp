@@ -413,19 +413,29 @@ std::vector<CandidateStatus> effect_detectability(const Design& design,
   std::vector<CandidateStatus> out;
   for (const EffectBlock& b : candidate_effects(design, readings)) {
     if (!b.not_applicable.empty()) {
-      out.push_back({b.label, CandidateState::kNotApplicable, b.not_applicable});
+      CandidateStatus c;
+      c.label = b.label;
+      c.state = CandidateState::kNotApplicable;
+      c.reason = CandidateReason::kNotApplicable;
+      c.note = b.not_applicable;
+      out.push_back(c);
       continue;
     }
     const int q = static_cast<int>(b.J_reading_effect.cols());
     const int added = added_rank(solver, b.J_reading_effect);
+    CandidateStatus c;
+    c.label = b.label;
+    c.columns = q;
+    c.added_rank = added;
     if (added < q) {
-      out.push_back({b.label, CandidateState::kConfounded,
-                     "raises the rank by " + std::to_string(added) + " of " + std::to_string(q) +
-                         ": indistinguishable from the axis errors of the " +
-                         design.errors.describe() + " model"});
+      c.state = CandidateState::kConfounded;
+      c.reason = CandidateReason::kRankShortOfModel;
+      c.note = design.errors.describe();
     } else {
-      out.push_back({b.label, CandidateState::kDetectable, ""});
+      c.state = CandidateState::kDetectable;
+      c.reason = CandidateReason::kFullRank;
     }
+    out.push_back(c);
   }
   return out;
 }

@@ -2,12 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
 #include <optional>
-#include <sstream>
 
 #include "dbbkit/residual_checks.hpp"
-#include "number_text.hpp"
 
 namespace dbbkit {
 
@@ -23,7 +20,20 @@ constexpr double kTie = 1e-9;
 // narrower than kLogTauBracket.
 constexpr double kLogTauBracket = 1e-6;
 
-std::string fmt(double x) { return text::significant(x, 3); }
+CandidateStatus status(const std::string& label, CandidateState state, CandidateReason reason) {
+  CandidateStatus s;
+  s.label = label;
+  s.state = state;
+  s.reason = reason;
+  return s;
+}
+
+CandidateStatus not_applicable(const std::string& label, const std::string& why) {
+  CandidateStatus s =
+      status(label, CandidateState::kNotApplicable, CandidateReason::kNotApplicable);
+  s.note = why;
+  return s;
+}
 
 // Of candidates appended to one model, the one whose columns lower chi2 most, raising the rank
 // by their number; of candidates that explain the data alike (a tie, kTie: equivalent ones), the
@@ -69,15 +79,14 @@ class Selector {
     for (std::size_t i = 0; i < pool_.size(); ++i) {
       status_[i].label = pool_[i].label;
       if (!pool_[i].not_applicable.empty()) {
-        status_[i] = {pool_[i].label, CandidateState::kNotApplicable, pool_[i].not_applicable};
+        status_[i] = not_applicable(pool_[i].label, pool_[i].not_applicable);
         used_[i] = true;
       }
     }
     for (std::size_t f = 0; f < families_.size(); ++f) {
       family_status_[f].label = families_[f].label;
       if (!families_[f].not_applicable.empty()) {
-        family_status_[f] = {families_[f].label, CandidateState::kNotApplicable,
-                             families_[f].not_applicable};
+        family_status_[f] = not_applicable(families_[f].label, families_[f].not_applicable);
         family_used_[f] = true;
       }
     }
@@ -164,11 +173,9 @@ class Selector {
     for (int i : equivalent) {
       a.equivalent_to.push_back(pool_[i].label);
       used_[i] = true;
-      status_[i] = {
-          pool_[i].label, CandidateState::kEquivalent,
-          "explains the data exactly as " + pool_[chosen].label +
-              " does (only their difference is determined); by convention the later installation "
-              "carries it"};
+      status_[i] =
+          status(pool_[i].label, CandidateState::kEquivalent, CandidateReason::kEquivalent);
+      status_[i].other = pool_[chosen].label;
     }
   }
 
@@ -178,8 +185,8 @@ class Selector {
       const int i = index_of(l);
       if (i < 0) continue;
       used_[i] = false;
-      status_[i] = {l, CandidateState::kNotSignificant,
-                    "equivalent to " + a.block.label + ", which left the model"};
+      status_[i] = status(l, CandidateState::kNotSignificant, CandidateReason::kReleased);
+      status_[i].other = a.block.label;
     }
   }
 
@@ -198,22 +205,24 @@ class Selector {
         const int q = static_cast<int>(pool_[i].J_reading_effect.cols());
         const ColumnTest trial = tester.test(pool_[i].J_reading_effect);
         if (trial.added_rank < q) {
-          status_[i] = {pool_[i].label, CandidateState::kConfounded,
-                        "its " + std::to_string(q) + " column(s) raise the rank by " +
-                            std::to_string(trial.added_rank) +
-                            ": its size cannot be told from the axis errors" +
-                            (added_.empty() ? std::string() : " and the effects already added")};
+          status_[i] =
+              status(pool_[i].label, CandidateState::kConfounded, CandidateReason::kRankShort);
+          status_[i].columns = q;
+          status_[i].added_rank = trial.added_rank;
+          status_[i].with_added = !added_.empty();
           continue;
         }
         if (trial.dof <= 0) {
-          status_[i] = {pool_[i].label, CandidateState::kNotSignificant,
-                        "no residual degrees of freedom left to test it"};
+          status_[i] =
+              status(pool_[i].label, CandidateState::kNotSignificant, CandidateReason::kNoDof);
           continue;
         }
         ++tested;
         trial_chi2[i] = current_.chi2 - trial.delta_chi2;
-        status_[i] = {pool_[i].label, CandidateState::kNotSignificant,
-                      "F = " + fmt(trial.F) + ", p = " + fmt(trial.p)};
+        status_[i] =
+            status(pool_[i].label, CandidateState::kNotSignificant, CandidateReason::kTested);
+        status_[i].F = trial.F;
+        status_[i].p = trial.p;
         if (trial.p < best_p) best = static_cast<int>(i), best_p = trial.p, best_F = trial.F;
       }
       // Scanned candidates: the best alternative of each, p multiplied by the alternatives tested.
@@ -231,17 +240,18 @@ class Selector {
             }
           }
           if (st.best < 0) {
-            family_status_[f] = {
-                fam.label, CandidateState::kConfounded,
-                "no alternative raises the rank: its size cannot be told from the model"};
+            family_status_[f] =
+                status(fam.label, CandidateState::kConfounded, CandidateReason::kScanRankShort);
             continue;
           }
           ++tested;
-          const std::string where = fam.alternative(*design_, *readings_, st.best).label;
-          family_status_[f] = {fam.label, CandidateState::kNotSignificant,
-                               "best " + where + ": F = " + fmt(st.test.F) +
-                                   ", p = " + fmt(st.test.p) + " times " +
-                                   std::to_string(st.tested) + " alternatives = " + fmt(st.p_scan)};
+          CandidateStatus& fs = family_status_[f];
+          fs = status(fam.label, CandidateState::kNotSignificant, CandidateReason::kScanTested);
+          fs.other = fam.alternative(*design_, *readings_, st.best).label;
+          fs.F = st.test.F;
+          fs.p = st.test.p;
+          fs.scanned = st.tested;
+          fs.p_scan = st.p_scan;
           if (st.p_scan < best_p ||
               (best_family >= 0 && more_significant(st.p_scan, st.test.F, best_p, best_F))) {
             best = -1, best_family = static_cast<int>(f), best_alt = st.best, best_p = st.p_scan,
@@ -286,9 +296,7 @@ class Selector {
       const double threshold = o_.level / tested;
       const double dbic = bic(best_est) - bic(current_);
       if (!(best_p < threshold && dbic < 0)) {
-        status_[best].detail += " (the best candidate at step " + std::to_string(step_) +
-                                "; needs p < " + fmt(threshold) + " and a lower BIC, change " +
-                                fmt(dbic) + ")";
+        status_[best].missed = StepMiss{step_, threshold, dbic, false};
         return;
       }
       // Equivalent alternatives: each spans the other modulo the current model.
@@ -315,9 +323,12 @@ class Selector {
                     best_est.chi2};
       added_.push_back(a);
       used_[best] = true;
-      status_[best] = {pool_[best].label, CandidateState::kAdded,
-                       "step " + std::to_string(step_) + ": F = " + fmt(best_F) + ", p = " +
-                           fmt(best_p) + " < " + fmt(threshold) + ", BIC change " + fmt(dbic)};
+      status_[best] = status(pool_[best].label, CandidateState::kAdded, CandidateReason::kAdded);
+      status_[best].step = step_;
+      status_[best].F = best_F;
+      status_[best].p = best_p;
+      status_[best].threshold = threshold;
+      status_[best].bic_change = dbic;
       J_ = append_columns(J_, pool_[best].J_reading_effect);
       current_ = best_est;
     }
@@ -334,9 +345,7 @@ class Selector {
     const double dbic =
         bic(trial) - bic(current_) + std::log(static_cast<double>(current_.n_readings));
     if (!(p < threshold && dbic < 0)) {
-      family_status_[f].detail += " (the best candidate at step " + std::to_string(step_) +
-                                  "; needs p < " + fmt(threshold) + " and a lower BIC, change " +
-                                  fmt(dbic) + " with its position)";
+      family_status_[f].missed = StepMiss{step_, threshold, dbic, true};
       return false;
     }
     AddedEffect a;
@@ -349,11 +358,15 @@ class Selector {
     }
     Estimate after = trial;
     if (fam.effect.kind == EffectKind::kThermal) block = refine_thermal(fam, k, after);
-    family_status_[f] = {fam.label, CandidateState::kAdded,
-                         "step " + std::to_string(step_) + ": " + block.label + ", F = " + fmt(F) +
-                             ", p = " + fmt(p) + " (over " + std::to_string(scanned) +
-                             " alternatives) < " + fmt(threshold) + ", BIC change " + fmt(dbic) +
-                             " with its position"};
+    CandidateStatus& fs = family_status_[f];
+    fs = status(fam.label, CandidateState::kAdded, CandidateReason::kScanAdded);
+    fs.step = step_;
+    fs.other = block.label;
+    fs.F = F;
+    fs.p = p;
+    fs.scanned = scanned;
+    fs.threshold = threshold;
+    fs.bic_change = dbic;
     a.block = std::move(block);
     added_.push_back(a);
     family_used_[f] = true;
@@ -479,12 +492,13 @@ class Selector {
     const auto [chosen, equivalent] = equivalents(swap_in, model_without(swap_out));
     swap_in = chosen;
     used_[out_idx] = false;
-    status_[out_idx] = {
-        pool_[out_idx].label, CandidateState::kNotSignificant,
-        "exchanged for " + pool_[swap_in].label + ", which explains the data better"};
+    status_[out_idx] = status(pool_[out_idx].label, CandidateState::kNotSignificant,
+                              CandidateReason::kExchangedOut);
+    status_[out_idx].other = pool_[swap_in].label;
     used_[swap_in] = true;
-    status_[swap_in] = {pool_[swap_in].label, CandidateState::kAdded,
-                        "exchanged in for " + pool_[out_idx].label};
+    status_[swap_in] =
+        status(pool_[swap_in].label, CandidateState::kAdded, CandidateReason::kExchangedIn);
+    status_[swap_in].other = pool_[out_idx].label;
     added_[swap_out].block = pool_[swap_in];
     mark_equivalent(added_[swap_out], swap_in, equivalent);
     added_[swap_out].close_alternatives = {pool_[out_idx].label};
@@ -516,10 +530,12 @@ class Selector {
       if (static_cast<int>(a) != worst)
         others += (others.empty() ? "" : ", ") + added_[a].block.label;
     }
-    const CandidateStatus dropped{added_[worst].block.label, CandidateState::kNotSignificant,
-                                  "dropped: no longer significant once " + others +
-                                      " were in the model (F = " + fmt(worst_F) +
-                                      ", p = " + fmt(worst_p) + " >= " + fmt(o_.level) + ")"};
+    CandidateStatus dropped = status(added_[worst].block.label, CandidateState::kNotSignificant,
+                                     CandidateReason::kDropped);
+    dropped.other = others;
+    dropped.F = worst_F;
+    dropped.p = worst_p;
+    dropped.level = o_.level;
     if (const int f = family_of(added_[worst].block); f >= 0) {
       family_used_[f] = false;
       family_status_[f] = dropped;

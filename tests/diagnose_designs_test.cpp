@@ -449,7 +449,8 @@ TEST_P(FindsEffectOnDesign, AddsItAndExplainsTheResidual) {
       for (const CandidateStatus& cs : r.candidates) {
         for (const std::string& l : c.labels) {
           if (cs.label == l && !has(r, l))
-            misses += " <" + l + ": " + candidate_state_name(cs.state) + " " + cs.detail + ">";
+            misses += " <" + l + ": " + candidate_state_name(cs.state) + " " +
+                      io::candidate_detail(cs) + ">";
         }
       }
       misses += "]";

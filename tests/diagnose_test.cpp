@@ -190,7 +190,7 @@ TEST(Diagnose, WholeTestLengthIsConfoundedAndNeverAdded) {
         std::find_if(r.candidates.begin(), r.candidates.end(),
                      [](const CandidateStatus& cs) { return cs.label == "length_offset[all]"; });
     ASSERT_NE(c, r.candidates.end());
-    EXPECT_EQ(c->state, CandidateState::kConfounded) << c->detail;
+    EXPECT_EQ(c->state, CandidateState::kConfounded) << io::candidate_detail(*c);
   }
 }
 

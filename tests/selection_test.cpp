@@ -10,6 +10,7 @@
 #include <cmath>
 #include <random>
 
+#include "dbbkit/io/diagnose_text.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -249,8 +250,8 @@ TEST(Selection, ExchangeUndoesAnEarlyChoiceThatFitsWorse) {
   ASSERT_EQ(s.added.size(), 2u);
   EXPECT_NE(find_added(s, "a"), nullptr);
   EXPECT_NE(find_added(s, "b"), nullptr);
-  EXPECT_NE(status_of(s, "b").detail.find("exchanged in for c"), std::string::npos)
-      << status_of(s, "b").detail;
+  EXPECT_NE(io::candidate_detail(status_of(s, "b")).find("exchanged in for c"), std::string::npos)
+      << io::candidate_detail(status_of(s, "b"));
   EXPECT_EQ(status_of(s, "c").state, CandidateState::kNotSignificant);
   // The values are those of least squares on [1, a, b], each under its own label.
   Eigen::MatrixXd A(n, 3);

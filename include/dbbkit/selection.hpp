@@ -140,10 +140,50 @@ enum class CandidateState {
 // "added", "not significant", "confounded", "not applicable", "equivalent", "detectable".
 const char* candidate_state_name(CandidateState s);
 
+// Why a candidate ended in its state; the figures it names are in CandidateStatus, and
+// io::candidate_detail (io/diagnose_text.hpp) says it in words.
+enum class CandidateReason {
+  kNotTested,         // selection ended before testing it
+  kNotApplicable,     // `note`: why its kind does not apply to these readings
+  kRankShort,         // its `columns` column(s) raise the rank by `added_rank` (`with_added`:
+                      // given the effects already added too)
+  kNoDof,             // no residual degrees of freedom left to test it
+  kTested,            // F, p
+  kScanRankShort,     // a scanned candidate: no alternative raises the rank
+  kScanTested,        // a scanned candidate: its best alternative `other`, F, p, times
+                      // `scanned` alternatives = p_scan
+  kAdded,             // at `step`: F, p < threshold, bic_change
+  kScanAdded,         // at `step`: alternative `other`, F, p over `scanned` alternatives
+                      // < threshold, bic_change with its position
+  kEquivalent,        // explains the data exactly as the added `other`
+  kReleased,          // equivalent to `other`, which left the model
+  kExchangedOut,      // exchanged for `other`, which explains the data better
+  kExchangedIn,       // exchanged in for `other`
+  kDropped,           // no longer significant once `other` (a list) were in the model: F,
+                      // p >= level
+  kRankShortOfModel,  // a design's a-priori answer: raises the rank by `added_rank` of
+                      // `columns`; `note`: the error model
+  kFullRank,          // a design's a-priori answer: raises the rank by its number of columns
+};
+
+// The best candidate of a step, which did not pass: the threshold its p had to beat and its
+// change of BIC (with_position: the position of a scanned candidate counted as a parameter).
+struct StepMiss {
+  int step = 0;
+  double threshold = 0, bic_change = 0;
+  bool with_position = false;
+};
+
 struct CandidateStatus {
   std::string label;
   CandidateState state = CandidateState::kNotSignificant;
-  std::string detail;
+  CandidateReason reason = CandidateReason::kNotTested;
+  std::string other;  // the effect(s) or the alternative the reason names
+  std::string note;   // kNotApplicable, kRankShortOfModel (see there)
+  int step = 0, columns = 0, added_rank = 0, scanned = 0;
+  bool with_added = false;
+  double F = 0, p = 0, p_scan = 0, threshold = 0, bic_change = 0, level = 0;
+  std::optional<StepMiss> missed;
 };
 
 // One whole-test effect against the same effect per installation (the structures

@@ -227,8 +227,9 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
   j["attributions"] = attributions;
   json cands = json::array();
   for (const CandidateStatus& c : r.candidates)
-    cands.push_back(
-        {{"label", c.label}, {"status", candidate_state_name(c.state)}, {"detail", c.detail}});
+    cands.push_back({{"label", c.label},
+                     {"status", candidate_state_name(c.state)},
+                     {"detail", candidate_detail(c)}});
   j["candidates"] = cands;
   json risks = json::array();
   for (const SetupRisk& k : r.setup_risks) {

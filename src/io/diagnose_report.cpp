@@ -104,7 +104,7 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
   p.preformatted(diagnose_summary(design, given, r));
   std::vector<std::vector<std::string>> cand;
   for (const CandidateStatus& c : r.candidates)
-    cand.push_back({c.label, candidate_state_name(c.state), c.detail});
+    cand.push_back({c.label, candidate_state_name(c.state), candidate_detail(c)});
   p.table({"candidate", "status", "why"}, cand);
   conditions(p, run, &design);
   return p.str();

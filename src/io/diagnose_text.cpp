@@ -310,4 +310,73 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
   return v.str();
 }
 
+std::string candidate_detail(const CandidateStatus& c) {
+  auto f = [](double x) { return fmt_num(x, 3); };
+  std::string t;
+  switch (c.reason) {
+    case CandidateReason::kNotTested:
+    case CandidateReason::kFullRank:
+      break;
+    case CandidateReason::kNotApplicable:
+      t = c.note;
+      break;
+    case CandidateReason::kRankShort:
+      t = "its " + std::to_string(c.columns) + " column(s) raise the rank by " +
+          std::to_string(c.added_rank) + ": its size cannot be told from the axis errors" +
+          (c.with_added ? " and the effects already added" : "");
+      break;
+    case CandidateReason::kNoDof:
+      t = "no residual degrees of freedom left to test it";
+      break;
+    case CandidateReason::kTested:
+      t = "F = " + f(c.F) + ", p = " + f(c.p);
+      break;
+    case CandidateReason::kScanRankShort:
+      t = "no alternative raises the rank: its size cannot be told from the model";
+      break;
+    case CandidateReason::kScanTested:
+      t = "best " + c.other + ": F = " + f(c.F) + ", p = " + f(c.p) + " times " +
+          std::to_string(c.scanned) + " alternatives = " + f(c.p_scan);
+      break;
+    case CandidateReason::kAdded:
+      t = "step " + std::to_string(c.step) + ": F = " + f(c.F) + ", p = " + f(c.p) + " < " +
+          f(c.threshold) + ", BIC change " + f(c.bic_change);
+      break;
+    case CandidateReason::kScanAdded:
+      t = "step " + std::to_string(c.step) + ": " + c.other + ", F = " + f(c.F) +
+          ", p = " + f(c.p) + " (over " + std::to_string(c.scanned) + " alternatives) < " +
+          f(c.threshold) + ", BIC change " + f(c.bic_change) + " with its position";
+      break;
+    case CandidateReason::kEquivalent:
+      t = "explains the data exactly as " + c.other +
+          " does (only their difference is determined); by convention the later installation "
+          "carries it";
+      break;
+    case CandidateReason::kReleased:
+      t = "equivalent to " + c.other + ", which left the model";
+      break;
+    case CandidateReason::kExchangedOut:
+      t = "exchanged for " + c.other + ", which explains the data better";
+      break;
+    case CandidateReason::kExchangedIn:
+      t = "exchanged in for " + c.other;
+      break;
+    case CandidateReason::kDropped:
+      t = "dropped: no longer significant once " + c.other + " were in the model (F = " + f(c.F) +
+          ", p = " + f(c.p) + " >= " + f(c.level) + ")";
+      break;
+    case CandidateReason::kRankShortOfModel:
+      t = "raises the rank by " + std::to_string(c.added_rank) + " of " +
+          std::to_string(c.columns) + ": indistinguishable from the axis errors of the " + c.note +
+          " model";
+      break;
+  }
+  if (c.missed) {
+    t += " (the best candidate at step " + std::to_string(c.missed->step) + "; needs p < " +
+         f(c.missed->threshold) + " and a lower BIC, change " + f(c.missed->bic_change) +
+         (c.missed->with_position ? " with its position)" : ")");
+  }
+  return t;
+}
+
 }  // namespace dbbkit::io

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 
@@ -497,8 +498,9 @@ std::string iso230_text(const Design& design, const IdentifyResult& result) {
 json effects_to_json(const std::vector<CandidateStatus>& effects) {
   json e = json::array();
   for (const CandidateStatus& c : effects)
-    e.push_back(
-        {{"label", c.label}, {"status", candidate_state_name(c.state)}, {"detail", c.detail}});
+    e.push_back({{"label", c.label},
+                 {"status", candidate_state_name(c.state)},
+                 {"detail", candidate_detail(c)}});
   return e;
 }
 

@@ -23,4 +23,9 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
 std::string describe_feature(const Design& design, const std::vector<Reading>& readings,
                              const ResidualFeature& f);
 
+// Why a candidate ended in its state, in words with its figures (CandidateReason): "F = 2.1,
+// p = 0.15", "step 2: F = 40.2, p = 1e-08 < 0.000345, BIC change -31.4", ...; empty when it
+// was not tested.
+std::string candidate_detail(const CandidateStatus& c);
+
 }  // namespace dbbkit::io
