@@ -194,7 +194,6 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
   gain_ = Gain(Gain::Sparse(p, n), Eigen::MatrixXd(), Eigen::MatrixXd());
   if (n == 0) {
     est.status = EstimateStatus::kNoReadings;
-    est.message = "no readings: nothing can be estimated";
     return;
   }
 
@@ -449,13 +448,8 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
 
   if (rank == p) {
     est.status = EstimateStatus::kFullRank;
-    est.message =
-        "full rank: " + std::to_string(p) + " unknowns from " + std::to_string(n) + " readings";
   } else {
     est.status = EstimateStatus::kRankDeficient;
-    est.message = "rank " + std::to_string(rank) + " of " + std::to_string(p) + ": " +
-                  std::to_string(p - rank) +
-                  " combination(s) of the unknowns are not determined by the data";
   }
 }
 

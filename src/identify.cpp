@@ -156,8 +156,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                      {},
                      {},
                      false,
-                     {},
-                     {},
+                     false,
                      {},
                      {},
                      {}};
@@ -179,30 +178,16 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   bool placement = false;
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i)
     placement = placement || design.setup_of(i).placement();
-  res.iso_note =
-      std::string("standard uncertainty (k = 1) from the estimate's covariance: reading noise (") +
-      res.budget.noise_evaluation + ")" +
-      (setup.any() ? " and the declared length offset and centring tolerances" : "") +
-      (placement ? "; the ball placement (L, D, H) is not propagated into them" : "");
+  res.placement_declared = placement;
   res.first_order = first_order_check(design, res.param, res.estimate.theta);
   bound_first_order_bias(res.first_order, setup, res.param, res.budget);
   if (setup.any()) {
-    res.setup_note =
-        "the errors' uncertainties include the declared length offset and centring tolerances: the "
-        "set-up effects are estimated with their prior (what the readings see is estimated, the "
-        "rest "
-        "is propagated at its declared size)";
     const Eigen::VectorXd b = setup.beta(res.model.y_um);
     for (int j = 0; j < setup.n_columns(); ++j) {
       const auto [e, c] = setup.column_of()[j];
       res.setup_estimates.push_back({declared[e].label, declared[e].parameters[c], b(j),
                                      std::sqrt(setup.beta_covariance()(j, j)), declared[e].std_um});
     }
-  } else {
-    res.setup_note =
-        "set-up uncertainty of the length offsets and centrings is not included: the design "
-        "declares no "
-        "such tolerance (setup_std)";
   }
   return res;
 }

@@ -177,7 +177,6 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   const int n = static_cast<int>(model.J.rows());
   const int n_out = static_cast<int>(budget.values.size());
   if (n_out == 0 || n == 0) {
-    res.message = "no determined value to propagate";
     return res;
   }
   // The trials of one batch are kept (4 bytes per value and trial), never more: the memory
@@ -435,19 +434,9 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     res.n_validated += mv.validated;
     res.values.push_back(mv);
   }
-  res.message = std::to_string(res.n_validated) + " of " + std::to_string(n_out) +
-                " values: the linear (GUM) interval is validated by Monte Carlo within its "
-                "numerical tolerance";
-  if (options.adaptive && !res.converged) {
-    res.message += "; the adaptive procedure stopped at max_trials before its tolerance was met";
-  }
-  int unplaced = 0;
-  for (int v = 0; v < n_out; ++v) unplaced += !endpoint[v][0].found + !endpoint[v][1].found;
-  if (unplaced > 0) {
-    res.message += "; " + std::to_string(unplaced) +
-                   " interval endpoint(s) could not be placed within a tenth of the "
-                   "numerical tolerance (not validated)";
-  }
+  res.adaptive = options.adaptive;
+  for (int v = 0; v < n_out; ++v)
+    res.unplaced_endpoints += !endpoint[v][0].found + !endpoint[v][1].found;
   return res;
 }
 

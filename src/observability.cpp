@@ -719,15 +719,6 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
     ev.setup_errors = std::move(parts.setup);
     ev.total_errors = std::move(parts.total);
     ev.worst_total = worst_case(ev.total_errors, reference_length_mm);
-    ev.setup_note =
-        "the uncertainties include the declared length offset and centring tolerances (total = "
-        "noise and "
-        "set-up); the ball placement (L, D, H) is propagated at the identified errors by identify";
-  } else {
-    ev.setup_note =
-        "set-up uncertainty is not included: the design declares no length offset or centring "
-        "tolerance "
-        "(setup_std)";
   }
   ev.worst = worst_case(ev.errors, reference_length_mm);
   return ev;

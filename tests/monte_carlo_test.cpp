@@ -10,6 +10,7 @@
 #include <random>
 
 #include "dbbkit/identify.hpp"
+#include "dbbkit/io/result_io.hpp"
 #include "dbbkit/setup.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
@@ -26,7 +27,7 @@ TEST(MonteCarlo, AgreesWithTheLinearResultForNormalNoise) {
   o.threads = 2;
   const MonteCarloResult mc = monte_carlo_a_priori(d, 0.95, o);
   EXPECT_TRUE(mc.converged);
-  EXPECT_EQ(mc.n_validated, 108) << mc.message;
+  EXPECT_EQ(mc.n_validated, 108) << io::monte_carlo_message(mc);
 }
 
 // The comparison can fail: with rectangular noise, dz at every angle but 0 is one

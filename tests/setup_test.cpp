@@ -19,6 +19,7 @@
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
+#include "dbbkit/io/result_io.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
@@ -196,7 +197,7 @@ TEST(SetupSolver, NoToleranceIsTheWeightedLeastSquaresOfJAlone) {
   const Evaluation ev = evaluate_design(d, 100);
   EXPECT_FALSE(ev.setup_included);
   EXPECT_FALSE(ev.worst_total.has_value());
-  EXPECT_NE(ev.setup_note.find("not included"), std::string::npos);
+  EXPECT_NE(io::evaluation_setup_note(ev).find("not included"), std::string::npos);
 }
 
 TEST(Detection, NoncentralityMatchesTheNormalLimitForOneColumn) {

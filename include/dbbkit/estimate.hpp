@@ -68,7 +68,6 @@ struct Determined {
 
 struct Estimate {
   EstimateStatus status = EstimateStatus::kNoReadings;
-  std::string message;
   int n_readings = 0;
   int n_unknowns = 0;
   int rank = 0;

@@ -103,14 +103,14 @@ struct IdentifyResult {
   std::vector<ErrorsAtAngle> errors;
   std::vector<Unidentifiable> unidentifiable;
   // Set-up: whether declared length offset and centring tolerances are part of the
-  // model (then `estimate` is that of setup.hpp), in words, and the estimated effects.
+  // model (then `estimate` is that of setup.hpp), and the estimated effects;
+  // placement_declared: some installation declares ball placement (L, D, H) tolerances.
   bool setup_included = false;
-  std::string setup_note;
+  bool placement_declared = false;
   std::vector<SetupEstimate> setup_estimates;
   FirstOrderCheck first_order;
   // ISO 230-7 location errors, constant parts and component error motions (iso230.hpp).
   IsoResult iso;
-  std::string iso_note;  // what their uncertainties include
 };
 
 // The six functions c.theta that are the errors dx..ez at `station`: column k is

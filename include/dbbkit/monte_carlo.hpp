@@ -72,8 +72,9 @@ struct MonteCarloResult {
   int significant_digits = 2;
   int n_validated = 0;
   int refinement_passes = 0;  // replays of the trials to place an interval endpoint finely enough
-  std::vector<MonteCarloValue> values;  // in the order of budget.values
-  std::string message;
+  std::vector<MonteCarloValue> values;  // in the order of budget.values (empty: nothing to draw)
+  bool adaptive = false;                // the number of trials was adaptive
+  int unplaced_endpoints = 0;  // interval endpoints not placed within a tenth of the tolerance
 };
 
 // Numerical tolerance of a standard uncertainty u with n_dig significant digits: 1/2 10^l.

@@ -117,7 +117,6 @@ struct Evaluation {
   // every per-installation length offset and centring, declared or not, with
   // whether the design can detect it, its detection limit and the bias it causes.
   bool setup_included = false;
-  std::string setup_note;  // what the uncertainties include and what not, in words
   std::vector<ErrorsAtAngle> setup_errors, total_errors;
   std::optional<WorstCase> worst_total;
   std::vector<SetupEffectCheck> setup_checks;

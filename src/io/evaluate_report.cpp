@@ -6,6 +6,7 @@
 #include "dbbkit/io/plots.hpp"
 #include "dbbkit/io/report_writer.hpp"
 #include "dbbkit/io/reports.hpp"
+#include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "report_sections.hpp"
@@ -82,12 +83,12 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
   p.paragraph("Reading noise Type B: " + design.noise.describe() + "; U = " + fmt_num(k) + " u (" +
               fmt_num(100 * coverage) + " %, infinite degrees of freedom).");
   if (ev.setup_included) {
-    p.paragraph("Set-up: " + ev.setup_note +
+    p.paragraph("Set-up: " + evaluation_setup_note(ev) +
                 ". The plot and table show the total (noise and set-up).");
     errors_section(p, expanded_errors(ev.total_errors, k), false,
                    "a-priori expanded total uncertainty of " + design.name, coverage);
   } else {
-    p.paragraph(as_sentence(ev.setup_note));
+    p.paragraph(as_sentence(evaluation_setup_note(ev)));
     errors_section(p, expanded_errors(ev.errors, k), false,
                    "a-priori expanded uncertainty of " + design.name, coverage);
   }

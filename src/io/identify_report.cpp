@@ -26,7 +26,7 @@ void iso230_section(ReportWriter& p, const IdentifyResult& r) {
       "First order. Location errors of the axis average line and the constant parts, fitted by "
       "least squares "
       "to the determined values; the component error motions are what remains. " +
-      as_sentence(r.iso_note));
+      as_sentence(iso_uncertainty_note(r)));
   std::vector<std::vector<std::string>> rows;
   for (const auto* list : {&iso.location, &iso.constants}) {
     for (const IsoQuantity& q : *list) {

@@ -153,7 +153,7 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
     b["worst_determined_std_um"] = optional_number(ev.worst.worst_determined_std_um);
     b["worst_total_std_um"] =
         ev.worst_total ? optional_number(ev.worst_total->worst_std_um) : json(nullptr);
-    b["setup_note"] = ev.setup_note;
+    b["setup_note"] = evaluation_setup_note(ev);
     b["errors"] = errors_to_json(ev.errors, false);
     b["unidentifiable"] = unidentifiable_to_json(ev.unidentifiable);
     j["best"] = b;
@@ -270,7 +270,8 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
          "tolerances):\n"
       << errors_table(ev.total_errors, false);
   } else {
-    s << "\npredicted standard uncertainty (k = 1) at each angle (" << ev.setup_note << "):\n"
+    s << "\npredicted standard uncertainty (k = 1) at each angle (" << evaluation_setup_note(ev)
+      << "):\n"
       << errors_table(ev.errors, false);
   }
   if (reference) {

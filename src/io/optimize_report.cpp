@@ -7,6 +7,7 @@
 #include "dbbkit/io/plots.hpp"
 #include "dbbkit/io/report_writer.hpp"
 #include "dbbkit/io/reports.hpp"
+#include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "report_sections.hpp"
@@ -77,7 +78,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
                    "set-up tolerances)",
                    coverage);
   } else {
-    p.paragraph(as_sentence(ev.setup_note));
+    p.paragraph(as_sentence(evaluation_setup_note(ev)));
     errors_section(p, expanded_errors(ev.errors, k), false,
                    "predicted expanded uncertainty, best design", coverage);
   }

@@ -77,7 +77,7 @@ json result_header(const std::string& format, const Design& design, const InputF
 
 void add_rank_block(json& j, const Estimate& est) {
   j["status"] = status_name(est.status);
-  j["message"] = est.message;
+  j["message"] = estimate_message(est);
   j["n_readings"] = est.n_readings;
   j["n_unknowns"] = est.n_unknowns;
   j["rank"] = est.rank;
@@ -141,7 +141,7 @@ json monte_carlo_to_json(const MonteCarloResult& mc) {
   m["coverage_probability"] = mc.coverage_probability;
   m["significant_digits"] = mc.significant_digits;
   m["n_validated"] = mc.n_validated;
-  m["message"] = mc.message;
+  m["message"] = monte_carlo_message(mc);
   json values = json::array();
   for (const MonteCarloValue& v : mc.values) {
     values.push_back({{"angle_deg", v.angle_deg},
@@ -166,8 +166,8 @@ json monte_carlo_to_json(const MonteCarloResult& mc) {
 std::string monte_carlo_summary(const MonteCarloResult& mc) {
   std::ostringstream s;
   s << "\nMonte Carlo (JCGM 101): " << mc.trials << " trials, " << mc.threads << " thread(s), seed "
-    << mc.seed << (mc.converged ? ", converged" : ", NOT converged") << "\n  " << mc.message
-    << "\n";
+    << mc.seed << (mc.converged ? ", converged" : ", NOT converged") << "\n  "
+    << monte_carlo_message(mc) << "\n";
   int shown = 0;
   for (const MonteCarloValue& v : mc.values) {
     if (v.validated) continue;
@@ -229,7 +229,7 @@ std::string first_order_text(const FirstOrderCheck& f) {
 
 json identify_setup_to_json(const Design& design, const IdentifyResult& result) {
   json setup = {{"included", result.setup_included},
-                {"note", result.setup_note},
+                {"note", identify_setup_note(result)},
                 {"tolerances", setup_tolerances_to_json(design)}};
   json est = json::array();
   for (const SetupEstimate& e : result.setup_estimates) {
@@ -345,7 +345,7 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
   s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
     << axis_name(design.axis) << "  errors " << design.errors.describe() << "\n";
   s << "noise: " << design.noise.describe() << "\n";
-  s << est.message << "\n";
+  s << estimate_message(est) << "\n";
   if (est.condition_number) {
     s << "condition number " << std::setprecision(4) << *est.condition_number << " ("
       << kConditionScaling << ")\n";
@@ -357,7 +357,7 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
     s << "; set-up L, D, H +- " << design.setup_std.L_mm << ", " << design.setup_std.D_mm << ", "
       << design.setup_std.H_mm << " mm (standard)";
   }
-  s << "\nset-up: " << result.setup_note;
+  s << "\nset-up: " << identify_setup_note(result);
   if (!b.values.empty()) {
     double kmin = b.values[0].k, kmax = kmin;
     for (const ValueBudget& v : b.values) kmin = std::min(kmin, v.k), kmax = std::max(kmax, v.k);
@@ -397,7 +397,7 @@ nlohmann::json iso230_to_json(const IdentifyResult& result) {
       "ISO 230-1 / ISO 230-7, first order: location errors of the axis average line (least squares "
       "over the "
       "determined values), constant parts, component error motions";
-  j["uncertainty"] = result.iso_note;
+  j["uncertainty"] = iso_uncertainty_note(result);
   json loc = json::array(), con = json::array(), comp = json::array();
   for (const IsoQuantity& q : iso.location) loc.push_back(quantity(q));
   for (const IsoQuantity& q : iso.constants) con.push_back(quantity(q));
@@ -442,7 +442,7 @@ nlohmann::json iso230_to_json(const IdentifyResult& result) {
 std::string iso230_text(const Design& design, const IdentifyResult& result) {
   const IsoResult& iso = result.iso;
   std::ostringstream s;
-  s << "\nISO 230-7 (first order; " << result.iso_note << "):\n";
+  s << "\nISO 230-7 (first order; " << iso_uncertainty_note(result) << "):\n";
   s << "  location errors of the axis average line (value +- u, k = 1):\n";
   auto line = [&](const IsoQuantity& q) {
     s << "    " << std::left << std::setw(22) << q.name << std::right;
@@ -511,7 +511,7 @@ std::string evaluate_summary(const Design& design, const Evaluation& ev) {
     << axis_name(design.axis) << "  errors " << design.errors.describe() << "  " << est.n_readings
     << " readings\n";
   s << "noise: " << design.noise.describe() << "\n";
-  s << est.message << "\n";
+  s << estimate_message(est) << "\n";
   if (est.condition_number) {
     s << "condition number " << std::setprecision(4) << *est.condition_number << " ("
       << kConditionScaling << ")\n";
@@ -557,7 +557,7 @@ std::string evaluate_summary(const Design& design, const Evaluation& ev) {
       s << "undefined\n";
     }
   }
-  s << "set-up: " << ev.setup_note << "\n";
+  s << "set-up: " << evaluation_setup_note(ev) << "\n";
   if (ev.setup_included) {
     s << "\na-priori standard uncertainty (k = 1), reading-noise part; '--' = not determined by "
          "the design\n";
@@ -719,7 +719,7 @@ json evaluate_to_json(const Design& design, const Evaluation& ev, const std::str
     }
   }
   json setup = {{"included", ev.setup_included},
-                {"note", ev.setup_note},
+                {"note", evaluation_setup_note(ev)},
                 {"tolerances", setup_tolerances_to_json(design)}};
   if (ev.worst_total) {
     const WorstCase& t = *ev.worst_total;
@@ -752,6 +752,63 @@ std::string effects_summary(const Design& design, const std::vector<CandidateSta
     s << "\n";
   }
   return s.str();
+}
+
+std::string estimate_message(const Estimate& est) {
+  const int p = est.n_unknowns, n = est.n_readings;
+  switch (est.status) {
+    case EstimateStatus::kNoReadings:
+      return "no readings: nothing can be estimated";
+    case EstimateStatus::kFullRank:
+      return "full rank: " + std::to_string(p) + " unknowns from " + std::to_string(n) +
+             " readings";
+    case EstimateStatus::kRankDeficient:
+      return "rank " + std::to_string(est.rank) + " of " + std::to_string(p) + ": " +
+             std::to_string(p - est.rank) +
+             " combination(s) of the unknowns are not determined by the data";
+  }
+  return "";
+}
+
+std::string monte_carlo_message(const MonteCarloResult& mc) {
+  if (mc.values.empty()) return "no determined value to propagate";
+  std::string t = std::to_string(mc.n_validated) + " of " + std::to_string(mc.values.size()) +
+                  " values: the linear (GUM) interval is validated by Monte Carlo within its "
+                  "numerical tolerance";
+  if (mc.adaptive && !mc.converged)
+    t += "; the adaptive procedure stopped at max_trials before its tolerance was met";
+  if (mc.unplaced_endpoints > 0) {
+    t += "; " + std::to_string(mc.unplaced_endpoints) +
+         " interval endpoint(s) could not be placed within a tenth of the numerical tolerance "
+         "(not validated)";
+  }
+  return t;
+}
+
+std::string identify_setup_note(const IdentifyResult& r) {
+  return r.setup_included
+             ? "the errors' uncertainties include the declared length offset and centring "
+               "tolerances: the set-up effects are estimated with their prior (what the readings "
+               "see is estimated, the rest is propagated at its declared size)"
+             : "set-up uncertainty of the length offsets and centrings is not included: the "
+               "design declares no such tolerance (setup_std)";
+}
+
+std::string evaluation_setup_note(const Evaluation& ev) {
+  return ev.setup_included
+             ? "the uncertainties include the declared length offset and centring tolerances "
+               "(total = noise and set-up); the ball placement (L, D, H) is propagated at the "
+               "identified errors by identify"
+             : "set-up uncertainty is not included: the design declares no length offset or "
+               "centring tolerance (setup_std)";
+}
+
+std::string iso_uncertainty_note(const IdentifyResult& r) {
+  return std::string(
+             "standard uncertainty (k = 1) from the estimate's covariance: reading noise (") +
+         r.budget.noise_evaluation + ")" +
+         (r.setup_included ? " and the declared length offset and centring tolerances" : "") +
+         (r.placement_declared ? "; the ball placement (L, D, H) is not propagated into them" : "");
 }
 
 }  // namespace dbbkit::io

@@ -90,4 +90,14 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
 nlohmann::json iso230_to_json(const IdentifyResult& result);
 std::string iso230_text(const Design& design, const IdentifyResult& result);
 
+// The words of the structured results (the library builds none):
+// "full rank: 42 unknowns from 49 readings", "rank 40 of 42: 2 combination(s) ...".
+std::string estimate_message(const Estimate& est);
+// "12 of 12 values: the linear (GUM) interval is validated by Monte Carlo ...".
+std::string monte_carlo_message(const MonteCarloResult& mc);
+// What the uncertainties of identify, evaluate and the ISO 230-7 quantities include.
+std::string identify_setup_note(const IdentifyResult& r);
+std::string evaluation_setup_note(const Evaluation& ev);
+std::string iso_uncertainty_note(const IdentifyResult& r);
+
 }  // namespace dbbkit::io
