@@ -238,7 +238,8 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
           set.add(v.value, v.low, v.high, std::nullopt);
         } else {
           set.undetermined();
-          r.basis += "; " + v.reason;
+          r.uncomputed_motion = v;
+          r.uncomputed_index = i - 11;
         }
       }
     } else {  // an identified error at every angle, with the budget's U

@@ -158,7 +158,6 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     return d;
   };
   std::vector<IsoQuantity> location(5), constants(5);
-  std::vector<std::string> notes;
   // The functions of every block's fitted quantities, for the components.
   std::array<Eigen::MatrixXd, 2> Q;  // p x 5 per block
   std::array<bool, 2> fitted = {false, false};
@@ -184,10 +183,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     for (int i = 0; i < m; ++i) X.row(i) = rows[i].x;
     const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(X);
     if (m < 5 || qr.rank() < 5) {
-      notes.push_back(std::string(b == 0 ? "translations" : "rotations") +
-                      ": the determined values (" + std::to_string(m) +
-                      ") do not determine the location errors and constant parts (rank " +
-                      std::to_string(m == 0 ? 0 : static_cast<int>(qr.rank())) + " of 5)");
+      out.gaps.push_back({b, m, m == 0 ? 0 : static_cast<int>(qr.rank())});
       continue;
     }
     // H = (X'X)^-1 X' (least squares); the fitted quantity j is sum_i H(j, i) c_i.
@@ -303,7 +299,6 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     out.components.push_back(at);
     if (motion.enabled) terms.push_back(std::move(station_terms));
   }
-  for (const std::string& n : notes) out.note += (out.note.empty() ? "" : "; ") + n;
   if (motion.enabled) {
     // The error motion values: per component, the joint covariance of its values at the
     // angles where it is determined (the same covariance as each value's own uncertainty).
@@ -327,19 +322,17 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       const int n_at = static_cast<int>(at.size());
       v.angles = n_at;
       if (!fitted[b]) {
-        v.reason = std::string("the ") + (b == 0 ? "translations" : "rotations") +
-                   " do not determine the location errors";
+        v.gap = IsoMotionGap::kLocationNotDetermined;
         continue;
       }
       if (n_at < 2 || n_at < static_cast<int>(out.components.size())) {
-        v.reason = std::to_string(n_at) + " of the " + std::to_string(out.components.size()) +
-                   " measured angles determine " + v.component +
-                   ": its range over the measured angles is not known";
+        v.gap = IsoMotionGap::kNotEveryAngle;
+        v.measured = static_cast<int>(out.components.size());
         continue;
       }
       if (n_at > motion.max_angles) {
-        v.reason = std::to_string(n_at) + " angles: more than the " +
-                   std::to_string(motion.max_angles) + " whose joint covariance is drawn";
+        v.gap = IsoMotionGap::kTooManyAngles;
+        v.max_angles = motion.max_angles;
         continue;
       }
       ComponentDraw d;
@@ -364,23 +357,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     std::vector<IsoMotionValue*> outputs;
     for (int e : drawn) outputs.push_back(&mv.values[e]);
     range_monte_carlo(draws, outputs, motion, mv);
-    const std::string pct =
-        std::to_string(static_cast<int>(std::lround(100 * motion.coverage_probability)));
-    mv.note =
-        "range (peak-to-valley) of each component error motion over the measured angles (fixed "
-        "sensitive "
-        "direction); the range of estimated values is biased upward, so the interval is value +- U "
-        "with U the " +
-        pct +
-        " % quantile of the range of the estimation errors (|range(estimate) - range(true)| <= "
-        "range(errors)"
-        ": coverage probability at least " +
-        pct + " %), U by Monte Carlo (JCGM 101) from the joint " +
-        (motion.dof ? "t distribution (" + std::to_string(static_cast<int>(*motion.dof)) +
-                          " degrees of freedom)"
-                    : std::string("Gaussian")) +
-        " of the component values: " + std::to_string(mv.trials) + " trials, seed " +
-        std::to_string(motion.seed) + (mv.converged ? "" : ", not converged");
+    mv.dof = motion.dof;
   }
   return out;
 }

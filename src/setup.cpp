@@ -389,7 +389,7 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
   fc.noise_sigma_um = design.noise.sigma_um();
   for (const Installation& in : design.installations) {
     if (!in.bar_mm) {
-      fc.reason = "needs bar_mm on every installation (installation " + in.id + " has none)";
+      fc.without_bar = in.id;
       return fc;
     }
   }

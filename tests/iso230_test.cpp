@@ -15,6 +15,7 @@
 
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/result_io.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
@@ -182,7 +183,7 @@ void check_recovery(const Design& d, int cases, bool components, std::uint64_t s
     ranges.enabled = c < range_cases;
     ranges.seed = 100 + c;
     const IsoResult iso = iso230_quantities(d, r.param, r.estimate, 1.0, ranges);
-    ASSERT_TRUE(iso.note.empty()) << iso.note;
+    ASSERT_TRUE(iso.gaps.empty()) << io::iso_gaps_note(iso);
     const std::array<double, 5> want = location_of(d.axis, at);
     for (int j = 0; j < 5; ++j) {
       ASSERT_TRUE(iso.location[j].value.determined) << iso.location[j].name;
@@ -201,7 +202,7 @@ void check_recovery(const Design& d, int cases, bool components, std::uint64_t s
     }
     for (int e = 0; e < 6 && ranges.enabled; ++e) {
       const IsoMotionValue& v = iso.motion_values.values[e];
-      ASSERT_TRUE(v.computed) << v.component << ": " << v.reason;
+      ASSERT_TRUE(v.computed) << v.component << ": " << static_cast<int>(v.gap);
       double lo = comp[0](e), hi = comp[0](e);
       for (const Vector6d& x : comp) {
         lo = std::min(lo, x(e));
@@ -266,7 +267,7 @@ TEST(Iso230, ErrorMotionValueUIsBoundedByTheComponentsUncertainties) {
     ASSERT_EQ(std::string(file).find("with-setup") != std::string::npos, r.setup_included) << file;
     for (int e = 0; e < 6; ++e) {
       const IsoMotionValue& v = r.iso.motion_values.values[e];
-      ASSERT_TRUE(v.computed) << file << " " << v.component << ": " << v.reason;
+      ASSERT_TRUE(v.computed) << file << " " << v.component << ": " << static_cast<int>(v.gap);
       std::vector<double> u;
       for (const IsoComponentsAtAngle& a : r.iso.components) u.push_back(a.motions[e].std);
       const boost::math::normal n01;
@@ -304,7 +305,10 @@ TEST(Iso230, NamesAndUndeterminedBlocks) {
   EXPECT_EQ(ib.location[0].name, "XOB");
   EXPECT_EQ(ib.location[4].name, "B0B");
   EXPECT_FALSE(ib.location[2].value.determined);
-  EXPECT_NE(ib.note.find("rotations"), std::string::npos) << ib.note;
+  ASSERT_FALSE(ib.gaps.empty());
+  EXPECT_EQ(ib.gaps.back().block, 1);
+  EXPECT_LT(ib.gaps.back().rank, 5);
+  EXPECT_NE(io::iso_gaps_note(ib).find("rotations"), std::string::npos) << io::iso_gaps_note(ib);
 }
 
 }  // namespace

@@ -52,6 +52,10 @@ struct ConformanceResult {
   std::optional<double> value, low, high;
   std::optional<double> angle_deg;  // where, for a quantity at every angle
   std::string basis;                // "value +- k u (k = 1.96)", "value +- U of the budget", ...
+  // An error motion value that was not computed (io says why after the basis), and its index
+  // in the order of the component names.
+  std::optional<IsoMotionValue> uncomputed_motion;
+  int uncomputed_index = -1;
 };
 
 struct ConformanceReport {

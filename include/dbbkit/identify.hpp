@@ -79,7 +79,7 @@ struct SetupEstimate {
 // at 3 standard uncertainties (ball placement L/D/H and centring).
 struct FirstOrderCheck {
   bool computed = false;
-  std::string reason;  // why not computed (no bar length)
+  std::string without_bar;  // not computed: the first installation without bar_mm
   double largest_term_um = 0;
   std::string installation;
   double angle_deg = 0;

@@ -60,12 +60,18 @@ struct IsoComponentsAtAngle {
   std::array<Determined, 6> motions;  // in the order of the names (translations, then rotations)
 };
 
+enum class IsoMotionGap { kNone, kLocationNotDetermined, kNotEveryAngle, kTooManyAngles };
+
 struct IsoMotionValue {
   std::string name;       // e.g. "radial error motion value, X"
   std::string component;  // e.g. "EXC"
   std::string unit;       // "um" or "urad"
   bool computed = false;
-  std::string reason;        // why not computed
+  // Why not computed: the block (translations or rotations) does not determine the location
+  // errors, not every measured angle determines the component (`angles` of `measured`), or
+  // more than `max_angles` angles.
+  IsoMotionGap gap = IsoMotionGap::kNone;
+  int measured = 0, max_angles = 0;
   int angles = 0;            // the measured angles the range is taken over
   double value = 0;          // the range of the estimated component motion
   double U = 0;              // q: the p-quantile of the range of the estimation errors
@@ -91,7 +97,15 @@ struct IsoMotionValues {
   bool converged = false;
   std::uint64_t seed = 0;
   double coverage_probability = 0.95;
-  std::string note;  // how they were computed
+  std::optional<double> dof;  // of the multivariate t (Type A); absent: Gaussian
+};
+
+// A block (0: translations, 1: rotations) whose determined values (`values`) leave the
+// location errors and constant parts undetermined (rank `rank` of 5).
+struct IsoBlockGap {
+  int block = 0;
+  int values = 0;
+  int rank = 0;
 };
 
 struct IsoResult {
@@ -100,7 +114,7 @@ struct IsoResult {
   std::array<std::string, 6> component_names;
   std::vector<IsoComponentsAtAngle> components;
   IsoMotionValues motion_values;  // empty when not asked for
-  std::string note;               // what a block could not determine, or ""
+  std::vector<IsoBlockGap> gaps;  // what a block could not determine
 };
 
 // The ISO names of an axis: its location errors (two positions, two orientations, the zero

@@ -8,6 +8,7 @@
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
+#include "dbbkit/io/tolerances_io.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "report_sections.hpp"
 
@@ -49,21 +50,23 @@ void iso230_section(ReportWriter& p, const IdentifyResult& r) {
   const IsoMotionValues& mv = iso.motion_values;
   if (!mv.values.empty()) {
     std::vector<std::vector<std::string>> vals;
-    for (const IsoMotionValue& v : mv.values) {
+    for (std::size_t e = 0; e < mv.values.size(); ++e) {
+      const IsoMotionValue& v = mv.values[e];
       if (v.computed) {
         vals.push_back({v.name, v.component, fmt_num(v.value), fmt_num(v.U),
                         "[" + fmt_num(v.low) + ", " + fmt_num(v.high) + "]", v.unit});
       } else {
-        vals.push_back({v.name, v.component, "--", "--", v.reason, v.unit});
+        vals.push_back(
+            {v.name, v.component, "--", "--", iso_motion_reason(v, static_cast<int>(e)), v.unit});
       }
     }
     p.paragraph("Error motion values (ISO 230-7, fixed sensitive direction). " +
-                as_sentence(mv.note));
+                as_sentence(iso_motion_note(mv)));
     p.table({"quantity", "component", "value", "U",
              "interval (at least " + fmt_num(100 * mv.coverage_probability) + " %)", "unit"},
             vals);
   }
-  if (!iso.note.empty()) p.paragraph(as_sentence(iso.note));
+  if (!iso.gaps.empty()) p.paragraph(as_sentence(iso_gaps_note(iso)));
 }
 
 // The conformance decisions (conformance.hpp): the rule, then one row per tolerance.
@@ -94,7 +97,7 @@ void conformance_section(ReportWriter& p, const ConformanceReport& c) {
                               " / " + std::to_string(r.not_proven + r.undetermined)
                         : "");
     }
-    row.push_back(r.basis);
+    row.push_back(conformance_basis(r));
     rows.push_back(row);
   }
   std::vector<std::string> header = {"quantity", "tolerance zone", "decision",

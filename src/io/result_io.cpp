@@ -193,7 +193,7 @@ std::string monte_carlo_summary(const MonteCarloResult& mc) {
 }
 
 json first_order_to_json(const FirstOrderCheck& f) {
-  if (!f.computed) return {{"computed", false}, {"reason", f.reason}};
+  if (!f.computed) return {{"computed", false}, {"reason", first_order_reason(f)}};
   json j = {
       {"computed", true},
       {"largest_term_um", r6(f.largest_term_um)},
@@ -212,7 +212,7 @@ json first_order_to_json(const FirstOrderCheck& f) {
 std::string first_order_text(const FirstOrderCheck& f) {
   std::ostringstream s;
   s << "first-order check: ";
-  if (!f.computed) return s.str() + "not computed: " + f.reason + "\n";
+  if (!f.computed) return s.str() + "not computed: " + first_order_reason(f) + "\n";
   s << std::setprecision(3) << "largest second-order term " << f.largest_term_um << " um ("
     << f.installation << " at " << f.angle_deg << " deg), " << (f.warn ? "ABOVE" : "below")
     << " 0.25 sigma = " << 0.25 * f.noise_sigma_um << " um";
@@ -417,7 +417,8 @@ nlohmann::json iso230_to_json(const IdentifyResult& result) {
   const IsoMotionValues& mv = iso.motion_values;
   if (!mv.values.empty()) {
     json vals = json::array();
-    for (const IsoMotionValue& v : mv.values) {
+    for (std::size_t e = 0; e < mv.values.size(); ++e) {
+      const IsoMotionValue& v = mv.values[e];
       json row{
           {"name", v.name}, {"component", v.component}, {"unit", v.unit}, {"angles", v.angles}};
       if (v.computed) {
@@ -426,16 +427,16 @@ nlohmann::json iso230_to_json(const IdentifyResult& result) {
         row["interval"] = {r6(v.low), r6(v.high)};
       } else {
         row["value"] = nullptr;
-        row["reason"] = v.reason;
+        row["reason"] = iso_motion_reason(v, static_cast<int>(e));
       }
       vals.push_back(row);
     }
     j["error_motion_values"] = {
         {"values", vals},      {"coverage_probability", mv.coverage_probability},
         {"trials", mv.trials}, {"converged", mv.converged},
-        {"seed", mv.seed},     {"method", mv.note}};
+        {"seed", mv.seed},     {"method", iso_motion_note(mv)}};
   }
-  if (!iso.note.empty()) j["note"] = iso.note;
+  if (!iso.gaps.empty()) j["note"] = iso_gaps_note(iso);
   return j;
 }
 
@@ -478,7 +479,8 @@ std::string iso230_text(const Design& design, const IdentifyResult& result) {
          "probability at least "
       << 100 * mv.coverage_probability << " %, U by Monte Carlo, " << mv.trials << " trials"
       << (mv.converged ? "" : ", not converged") << "):\n";
-    for (const IsoMotionValue& v : mv.values) {
+    for (std::size_t e = 0; e < mv.values.size(); ++e) {
+      const IsoMotionValue& v = mv.values[e];
       s << "    " << std::left << std::setw(48) << (v.name + " (" + v.component + ")")
         << std::right;
       if (v.computed) {
@@ -486,11 +488,11 @@ std::string iso230_text(const Design& design, const IdentifyResult& result) {
           << v.unit << "  U " << v.U << "  [" << v.low << ", " << v.high << "]" << std::defaultfloat
           << "\n";
       } else {
-        s << "  -- (" << v.reason << ")\n";
+        s << "  -- (" << iso_motion_reason(v, static_cast<int>(e)) << ")\n";
       }
     }
   }
-  if (!iso.note.empty()) s << "  " << iso.note << "\n";
+  if (!iso.gaps.empty()) s << "  " << iso_gaps_note(iso) << "\n";
   (void)design;
   return s.str();
 }
@@ -809,6 +811,58 @@ std::string iso_uncertainty_note(const IdentifyResult& r) {
          r.budget.noise_evaluation + ")" +
          (r.setup_included ? " and the declared length offset and centring tolerances" : "") +
          (r.placement_declared ? "; the ball placement (L, D, H) is not propagated into them" : "");
+}
+
+std::string iso_motion_reason(const IsoMotionValue& v, int index) {
+  switch (v.gap) {
+    case IsoMotionGap::kNone:
+      return "";
+    case IsoMotionGap::kLocationNotDetermined:
+      return std::string("the ") + (index < 3 ? "translations" : "rotations") +
+             " do not determine the location errors";
+    case IsoMotionGap::kNotEveryAngle:
+      return std::to_string(v.angles) + " of the " + std::to_string(v.measured) +
+             " measured angles determine " + v.component +
+             ": its range over the measured angles is not known";
+    case IsoMotionGap::kTooManyAngles:
+      return std::to_string(v.angles) + " angles: more than the " + std::to_string(v.max_angles) +
+             " whose joint covariance is drawn";
+  }
+  return "";
+}
+
+std::string iso_motion_note(const IsoMotionValues& mv) {
+  const std::string pct =
+      std::to_string(static_cast<int>(std::lround(100 * mv.coverage_probability)));
+  return "range (peak-to-valley) of each component error motion over the measured angles (fixed "
+         "sensitive direction); the range of estimated values is biased upward, so the interval "
+         "is value +- U with U the " +
+         pct +
+         " % quantile of the range of the estimation errors (|range(estimate) - range(true)| <= "
+         "range(errors): coverage probability at least " +
+         pct + " %), U by Monte Carlo (JCGM 101) from the joint " +
+         (mv.dof ? "t distribution (" + std::to_string(static_cast<int>(*mv.dof)) +
+                       " degrees of freedom)"
+                 : std::string("Gaussian")) +
+         " of the component values: " + std::to_string(mv.trials) + " trials, seed " +
+         std::to_string(mv.seed) + (mv.converged ? "" : ", not converged");
+}
+
+std::string iso_gaps_note(const IsoResult& iso) {
+  std::string t;
+  for (const IsoBlockGap& g : iso.gaps) {
+    t += (t.empty() ? "" : "; ") + std::string(g.block == 0 ? "translations" : "rotations") +
+         ": the determined values (" + std::to_string(g.values) +
+         ") do not determine the location errors and constant parts (rank " +
+         std::to_string(g.rank) + " of 5)";
+  }
+  return t;
+}
+
+std::string first_order_reason(const FirstOrderCheck& f) {
+  return f.computed
+             ? std::string()
+             : "needs bar_mm on every installation (installation " + f.without_bar + " has none)";
 }
 
 }  // namespace dbbkit::io

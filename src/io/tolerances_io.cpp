@@ -95,7 +95,7 @@ json conformance_to_json(const ConformanceReport& report, const std::string& tol
              {"lower", r.lower ? json(r6(*r.lower)) : json(nullptr)},
              {"upper", r.upper ? json(r6(*r.upper)) : json(nullptr)},
              {"decision", decision_name(r.decision)},
-             {"basis", r.basis},
+             {"basis", conformance_basis(r)},
              {"values", r.values},
              {"conforming", r.conforming},
              {"nonconforming", r.nonconforming},
@@ -153,6 +153,12 @@ std::string conformance_text(const ConformanceReport& report) {
     << (report.any_nonconforming() ? "DOES NOT CONFORM (exit code 1)" : "no nonconformity proven")
     << "\n";
   return s.str();
+}
+
+std::string conformance_basis(const ConformanceResult& r) {
+  return r.uncomputed_motion
+             ? r.basis + "; " + iso_motion_reason(*r.uncomputed_motion, r.uncomputed_index)
+             : r.basis;
 }
 
 }  // namespace dbbkit::io

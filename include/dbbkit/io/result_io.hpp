@@ -99,5 +99,13 @@ std::string monte_carlo_message(const MonteCarloResult& mc);
 std::string identify_setup_note(const IdentifyResult& r);
 std::string evaluation_setup_note(const Evaluation& ev);
 std::string iso_uncertainty_note(const IdentifyResult& r);
+// Why error motion value `index` (in the order of the component names) was not computed.
+std::string iso_motion_reason(const IsoMotionValue& v, int index);
+// How the error motion values were computed.
+std::string iso_motion_note(const IsoMotionValues& mv);
+// What a block of the ISO 230-7 fit could not determine; empty when nothing.
+std::string iso_gaps_note(const IsoResult& iso);
+// Why the first-order check was not computed.
+std::string first_order_reason(const FirstOrderCheck& f);
 
 }  // namespace dbbkit::io

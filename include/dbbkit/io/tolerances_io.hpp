@@ -19,4 +19,7 @@ nlohmann::json conformance_to_json(const ConformanceReport& report,
                                    const std::string& tolerances_path);
 std::string conformance_text(const ConformanceReport& report);
 
+// The basis of a decision, with why an error motion value it needed was not computed.
+std::string conformance_basis(const ConformanceResult& r);
+
 }  // namespace dbbkit::io
