@@ -11,13 +11,12 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/setup.hpp"
-#include "number_text.hpp"
 
 namespace dbbkit {
 
 namespace {
 
-// The words for a direction no reading sees (an unidentifiable motion):
+// The rigid motion of a direction no reading sees (an unidentifiable motion):
 //   a ball lies on the motion's line when its distance |(P - Q) x a| <= kOnLine_mm;
 //   the motion is a pure rotation when its pitch |h| <= kNoPitch (|d| + 1e-3 |e|);
 //   the line is the tool axis when it passes within kOnLine_mm of the origin and
@@ -26,64 +25,33 @@ constexpr double kOnLine_mm = 1e-6;
 constexpr double kNoPitch = 1e-9;
 constexpr double kParallel = 1e-9;
 
-std::string fmt(double x, int digits = 4) { return text::significant(x, digits); }
-
-std::string fmt_vec(const Eigen::Vector3d& v, int digits = 4) {
-  auto clean = [](double x) { return std::abs(x) < 5e-13 ? 0.0 : x; };
-  return "(" + fmt(clean(v.x()), digits) + ", " + fmt(clean(v.y()), digits) + ", " +
-         fmt(clean(v.z()), digits) + ")";
-}
-
-std::string expression_of(const std::vector<std::pair<std::string, double>>& terms) {
-  std::ostringstream s;
-  for (size_t i = 0; i < terms.size(); ++i) {
-    const double c = terms[i].second;
-    if (i == 0) {
-      s << (c < 0 ? "-" : "");
-    } else {
-      s << (c < 0 ? " - " : " + ");
-    }
-    s << fmt(std::abs(c)) << " " << terms[i].first;
-  }
-  return s.str();
-}
-
-// A null direction confined to one station is a small rigid motion (d, e):
-// a screw about an axis. Says which, and whether it moves any ball of the design.
-std::string interpret_rigid_motion(const Design& design, double angle_deg, const Eigen::Vector3d& d,
-                                   const Eigen::Vector3d& e) {
-  std::ostringstream s;
+// A null direction confined to one station is a small rigid motion (d, e): a screw about an
+// axis (RigidMotion).
+RigidMotion rigid_motion(const Design& design, double angle_deg, const Eigen::Vector3d& d,
+                         const Eigen::Vector3d& e) {
+  RigidMotion m;
   if (e.norm() == 0.0) {
-    s << "a translation of the moving body along " << fmt_vec(d.normalized())
-      << " (machine frame): it changes no reading";
-    return s.str();
+    m.kind = RigidMotion::Kind::kTranslation;
+    m.direction = d.normalized();
+    return m;
   }
   const Eigen::Vector3d a = e.normalized();
   // dP = 1e-3 e x (P - Q) + h a: the line through Q (mm) along a, pitch h.
   const Eigen::Vector3d Q_mm = 1e3 * e.cross(d) / e.squaredNorm();
   const double h = d.dot(a);
-  bool on_all_balls = true;
+  m.direction = a;
+  m.point_mm = Q_mm;
+  m.on_all_balls = true;
   for (const Installation& inst : design.installations) {
     const Eigen::Vector3d P = ball_position_mm(design.axis, inst, angle_deg);
-    if ((P - Q_mm).cross(a).norm() > kOnLine_mm) on_all_balls = false;
+    if ((P - Q_mm).cross(a).norm() > kOnLine_mm) m.on_all_balls = false;
   }
-  if (std::abs(h) <= kNoPitch * (d.norm() + 1e-3 * e.norm())) {
-    s << "a rotation about the line through " << fmt_vec(Q_mm) << " mm along " << fmt_vec(a)
-      << " (machine frame)";
-  } else {
-    s << "a screw motion about the line through " << fmt_vec(Q_mm) << " mm along " << fmt_vec(a)
-      << " (machine frame)";
-  }
-  if (design.axis == Axis::kB && Q_mm.norm() < kOnLine_mm &&
-      a.cross(axis_rotation(Axis::kB, angle_deg) * Eigen::Vector3d::UnitZ()).norm() < kParallel) {
-    s << ", the tool axis";
-  }
-  if (on_all_balls) {
-    s << "; every ball of the design lies on that line, so no reading sees it";
-  } else {
-    s << "; it moves the balls only across their reading directions";
-  }
-  return s.str();
+  m.kind = std::abs(h) <= kNoPitch * (d.norm() + 1e-3 * e.norm()) ? RigidMotion::Kind::kRotation
+                                                                  : RigidMotion::Kind::kScrew;
+  m.tool_axis =
+      design.axis == Axis::kB && Q_mm.norm() < kOnLine_mm &&
+      a.cross(axis_rotation(Axis::kB, angle_deg) * Eigen::Vector3d::UnitZ()).norm() < kParallel;
+  return m;
 }
 
 }  // namespace
@@ -133,10 +101,9 @@ std::vector<Unidentifiable> describe_null_space(const Design& design, const Para
         e(k - 3) = N(j, c);
       }
     }
-    u.expression = expression_of(u.terms);
     if (local) {
       u.angle_deg = param.station_angle_deg(station);
-      u.interpretation = interpret_rigid_motion(design, *u.angle_deg, d, e);
+      u.motion = rigid_motion(design, *u.angle_deg, d, e);
     }
     out.push_back(u);
   }

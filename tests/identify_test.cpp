@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include "dbbkit/io/result_io.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
 
@@ -83,7 +84,8 @@ TEST(Identify, PaperBHeadHasRankFivePerAngleAndNamesTheToolAxis) {
     // Parallel to (sin b, cos b) on (ex, ez).
     EXPECT_NEAR(std::abs(ex * std::cos(b) - ez * std::sin(b)), 0.0, 1e-9) << *u.angle_deg;
     EXPECT_NEAR(ex * ex + ez * ez, 1.0, 1e-9);
-    EXPECT_NE(u.interpretation.find("the tool axis"), std::string::npos) << u.interpretation;
+    ASSERT_TRUE(u.motion);
+    EXPECT_TRUE(u.motion->tool_axis) << io::unidentifiable_interpretation(u);
   }
 }
 

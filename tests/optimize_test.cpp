@@ -13,6 +13,7 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/optimize_io.hpp"
+#include "dbbkit/io/result_io.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "test_util.hpp"
 
@@ -311,7 +312,8 @@ TEST(Optimize, BKitWithoutOffsetGivesRankFiveAndNamesTheMissingRotation) {
   EXPECT_EQ(r.best_evaluation.prior.n_unknowns, 6 * n_angles);
   ASSERT_EQ(static_cast<int>(r.best_evaluation.unidentifiable.size()), n_angles);
   for (const Unidentifiable& u : r.best_evaluation.unidentifiable) {
-    EXPECT_NE(u.interpretation.find("the tool axis"), std::string::npos) << u.interpretation;
+    ASSERT_TRUE(u.motion);
+    EXPECT_TRUE(u.motion->tool_axis) << io::unidentifiable_interpretation(u);
   }
   EXPECT_NE(r.note.find("rank 5"), std::string::npos) << r.note;
   EXPECT_FALSE(r.best_evaluation.worst.worst_std_um);

@@ -49,11 +49,24 @@ std::vector<ExpandedErrorsAtAngle> expanded_errors(const std::vector<ErrorsAtAng
 // One direction of theta that no reading sees: theta and theta + t * direction
 // give the same readings for any t, so the combination sum_i c_i theta_i
 // (with c the unit direction) is not determined.
+// A null direction confined to one position is a small rigid motion (d, e) of the moving
+// body: a translation along `direction` (e = 0), or a rotation or screw motion about the line
+// through `point_mm` along `direction` (machine frame). tool_axis: that line is the B head's
+// tool axis; on_all_balls: every ball of the design lies on it (no reading sees the motion),
+// otherwise it moves the balls only across their reading directions.
+struct RigidMotion {
+  enum class Kind { kTranslation, kRotation, kScrew };
+  Kind kind = Kind::kTranslation;
+  Eigen::Vector3d direction = Eigen::Vector3d::Zero();
+  Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();
+  bool tool_axis = false;
+  bool on_all_balls = false;
+};
+
 struct Unidentifiable {
   std::vector<std::pair<std::string, double>> terms;  // parameter name, coefficient
-  std::optional<double> angle_deg;  // set when confined to one position (per_angle)
-  std::string expression;           // e.g. "0.7071 ex - 0.7071 ez"
-  std::string interpretation;       // the rigid motion it stands for, when per_angle
+  std::optional<double> angle_deg;    // set when confined to one position (per_angle)
+  std::optional<RigidMotion> motion;  // the rigid motion it stands for, when per_angle
 };
 
 struct IdentifyOptions {

@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "dbbkit/io/plots.hpp"
+#include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
 
@@ -67,8 +68,8 @@ void unidentifiable_section(ReportWriter& p, const std::vector<Unidentifiable>& 
               "never as numbers.");
   std::vector<std::vector<std::string>> rows;
   for (const Unidentifiable& u : list) {
-    rows.push_back(
-        {u.angle_deg ? fmt_num(*u.angle_deg, 6) : "all", u.expression, u.interpretation});
+    rows.push_back({u.angle_deg ? fmt_num(*u.angle_deg, 6) : "all", unidentifiable_expression(u),
+                    unidentifiable_interpretation(u)});
   }
   p.table({"angle [deg]", "combination", "meaning"}, rows);
 }

@@ -8,6 +8,7 @@
 
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
+#include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 
@@ -46,9 +47,9 @@ json unidentifiable_to_json(const std::vector<Unidentifiable>& list) {
   for (const Unidentifiable& u : list) {
     json coeffs = json::object();
     for (const auto& [name, c] : u.terms) coeffs[name] = r6(c);
-    json entry = {{"combination", coeffs}, {"expression", u.expression}};
+    json entry = {{"combination", coeffs}, {"expression", unidentifiable_expression(u)}};
     if (u.angle_deg) entry["angle_deg"] = *u.angle_deg;
-    if (!u.interpretation.empty()) entry["interpretation"] = u.interpretation;
+    if (u.motion) entry["interpretation"] = unidentifiable_interpretation(u);
     unid.push_back(entry);
   }
   return unid;
@@ -610,8 +611,8 @@ std::string unidentifiable_text(const std::vector<Unidentifiable>& list) {
   for (const Unidentifiable& u : list) {
     s << "  ";
     if (u.angle_deg) s << "at " << *u.angle_deg << " deg: ";
-    s << u.expression;
-    if (!u.interpretation.empty()) s << "\n      = " << u.interpretation;
+    s << unidentifiable_expression(u);
+    if (u.motion) s << "\n      = " << unidentifiable_interpretation(u);
     s << "\n";
   }
   return s.str();
@@ -863,6 +864,43 @@ std::string first_order_reason(const FirstOrderCheck& f) {
   return f.computed
              ? std::string()
              : "needs bar_mm on every installation (installation " + f.without_bar + " has none)";
+}
+
+namespace {
+std::string vec_text(const Eigen::Vector3d& v) {
+  auto clean = [](double x) { return std::abs(x) < 5e-13 ? 0.0 : x; };
+  return "(" + fmt_num(clean(v.x()), 4) + ", " + fmt_num(clean(v.y()), 4) + ", " +
+         fmt_num(clean(v.z()), 4) + ")";
+}
+}  // namespace
+
+std::string unidentifiable_expression(const Unidentifiable& u) {
+  std::string s;
+  for (std::size_t i = 0; i < u.terms.size(); ++i) {
+    const double c = u.terms[i].second;
+    s += i == 0 ? (c < 0 ? "-" : "") : (c < 0 ? " - " : " + ");
+    s += fmt_num(std::abs(c), 4) + " " + u.terms[i].first;
+  }
+  return s;
+}
+
+std::string rigid_motion_text(const RigidMotion& m) {
+  if (m.kind == RigidMotion::Kind::kTranslation) {
+    return "a translation of the moving body along " + vec_text(m.direction) +
+           " (machine frame): it changes no reading";
+  }
+  std::string s =
+      std::string(m.kind == RigidMotion::Kind::kRotation ? "a rotation" : "a screw motion") +
+      " about the line through " + vec_text(m.point_mm) + " mm along " + vec_text(m.direction) +
+      " (machine frame)";
+  if (m.tool_axis) s += ", the tool axis";
+  s += m.on_all_balls ? "; every ball of the design lies on that line, so no reading sees it"
+                      : "; it moves the balls only across their reading directions";
+  return s;
+}
+
+std::string unidentifiable_interpretation(const Unidentifiable& u) {
+  return u.motion ? rigid_motion_text(*u.motion) : std::string();
 }
 
 }  // namespace dbbkit::io

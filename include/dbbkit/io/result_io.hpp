@@ -107,5 +107,10 @@ std::string iso_motion_note(const IsoMotionValues& mv);
 std::string iso_gaps_note(const IsoResult& iso);
 // Why the first-order check was not computed.
 std::string first_order_reason(const FirstOrderCheck& f);
+// A combination no reading sees: "0.7071 ex - 0.7071 ez", and the rigid motion it stands for:
+// "a rotation about the line through (0, 0, 0) mm along (0, 0, 1) (machine frame); ...".
+std::string unidentifiable_expression(const Unidentifiable& u);
+std::string rigid_motion_text(const RigidMotion& m);
+std::string unidentifiable_interpretation(const Unidentifiable& u);  // empty without a motion
 
 }  // namespace dbbkit::io
