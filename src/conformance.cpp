@@ -8,13 +8,10 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
-#include "number_text.hpp"
 
 namespace dbbkit {
 
 namespace {
-
-std::string fixed(double x, int digits) { return text::significant(x, digits); }
 
 // One value's interval against the zone: its decision and its margin (the smallest
 // distance of the interval inside the zone; negative when it reaches outside).
@@ -161,40 +158,16 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
   ConformanceReport rep;
   const double p = result.budget.coverage_probability;
   rep.coverage_probability = p;
-  const std::string pct = fixed(100 * p, 4) + " %";
-  rep.rule =
-      "ISO 14253-1:2017 default decision rule: conformity is proven when the interval (value +- U, "
-      "coverage "
-      "probability " +
-      pct +
-      ") lies inside the tolerance zone, nonconformity when it lies wholly outside; "
-      "otherwise neither is proven. A quantity at every measured angle conforms when every value "
-      "does and "
-      "does not conform when one does not; an undetermined value proves nothing";
   const Estimate& est = result.estimate;
   const bool type_a = result.budget.type_a_scale.has_value();
   // k of the ISO quantities: their u carries the Type A scale, with the residual's
   // degrees of freedom; Type B: infinite.
   const double k_iso = coverage_factor(type_a ? std::optional<double>(est.dof) : std::nullopt, p);
-  const std::string iso_basis =
-      "value +- k u, k = " + fixed(k_iso, 4) +
-      (type_a ? " (Student's t, " + std::to_string(est.dof) + " degrees of freedom)"
-              : std::string(" (normal)"));
-  if (!type_a && est.p_value && *est.p_value < 0.01) {
-    rep.warnings.push_back(
-        "the residual contradicts the declared reading noise (chi2 p " +
-        (*est.p_value > 0 ? "= " + fixed(*est.p_value, 2) : std::string("< 1e-300")) +
-        "): the intervals rest on an uncertainty the data do not support; state it from the "
-        "residual "
-        "(--type-a) or find what the model lacks (diagnose) before relying on these decisions");
-  }
-  if (!result.setup_included) {
-    rep.warnings.push_back(
-        "the design declares no set-up tolerances (setup_std): the intervals leave out where the "
-        "balls were set, "
-        "and a centring error of the balls moves the location errors (XOC, YOC ...) by as much as "
-        "itself");
-  }
+  rep.k_iso = k_iso;
+  if (type_a) rep.type_a_dof = est.dof;
+  if (!type_a && est.p_value && *est.p_value < kNoiseContradiction)
+    rep.noise_contradiction_p = *est.p_value;
+  rep.no_setup_tolerances = !result.setup_included;
   const IsoResult& iso = result.iso;
   const std::vector<std::string> q = tolerance_quantities(design.axis);
   // The budget's value of each determined error, by station and error (station-major).
@@ -209,14 +182,14 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
     SetDecision set(r);
     if (i < 5) {  // a location error
       const Determined& d = iso.location[i].value;
-      r.basis = iso_basis;
+      r.basis = ConformanceResult::Basis::kIsoQuantity;
       if (d.determined) {
         set.add(d.value, d.value - k_iso * d.std, d.value + k_iso * d.std, std::nullopt);
       } else {
         set.undetermined();
       }
     } else if (i < 11) {  // a component error motion at every angle
-      r.basis = iso_basis + ", at every measured angle";
+      r.basis = ConformanceResult::Basis::kIsoAtEveryAngle;
       for (const IsoComponentsAtAngle& a : iso.components) {
         const Determined& d = a.motions[i - 5];
         if (d.determined) {
@@ -227,11 +200,10 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
       }
     } else if (i < 17) {  // an error motion value
       const IsoMotionValues& mv = iso.motion_values;
-      r.basis = "[max(0, range - U), range + U], coverage probability at least " + pct +
-                " (error motion values)";
+      r.basis = ConformanceResult::Basis::kMotionValue;
       if (mv.values.empty()) {
         set.undetermined();
-        r.basis += "; not computed";
+        r.motion_values_computed = false;
       } else {
         const IsoMotionValue& v = mv.values[i - 11];
         if (v.computed) {
@@ -244,10 +216,7 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
       }
     } else {  // an identified error at every angle, with the budget's U
       const int e = i - 17;
-      r.basis =
-          "value +- U of the uncertainty budget (k at each value's effective degrees of freedom), "
-          "at every "
-          "measured angle";
+      r.basis = ConformanceResult::Basis::kBudget;
       for (const ErrorsAtAngle& a : result.errors) {
         const ValueBudget* b = a.errors[e].determined ? budget_of[6 * a.station + e] : nullptr;
         if (b) {

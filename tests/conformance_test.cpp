@@ -79,8 +79,10 @@ TEST(Conformance, EveryOutcomeOfOneValueWithTheNormalCoverageFactor) {
             Decision::kNotProven);
   // The residual agrees with the declared noise: no warning of it; the design declares no
   // set-up tolerances: that warning.
-  const std::vector<std::string> w =
-      decide_conformance(d, r, {zone("XOC", -100, 100)}, "test").warnings;
+  const ConformanceReport cr = decide_conformance(d, r, {zone("XOC", -100, 100)}, "test");
+  EXPECT_FALSE(cr.noise_contradiction_p);
+  EXPECT_TRUE(cr.no_setup_tolerances);
+  const std::vector<std::string> w = io::conformance_warnings(cr);
   ASSERT_EQ(w.size(), 1u);
   EXPECT_NE(w[0].find("no set-up tolerances"), std::string::npos);
 }
@@ -177,20 +179,25 @@ TEST(Conformance, TypeAUsesStudentsTAndTheWarningFollowsTheResidual) {
       io::read_measurement_file(test::source_path("tests/data/paper/paper_c_turntable.csv"), d);
   // Type B on the paper's data: the residual (chi2 7612 on 25 dof) contradicts the noise.
   const IdentifyResult b = identify(d, readings);
-  EXPECT_NE(
-      decide_conformance(d, b, {zone("XOC", -100, 100)}, "test").warnings.at(0).find("contradicts"),
-      std::string::npos);
+  const ConformanceReport rb = decide_conformance(d, b, {zone("XOC", -100, 100)}, "test");
+  ASSERT_TRUE(rb.noise_contradiction_p);
+  EXPECT_LT(*rb.noise_contradiction_p, kNoiseContradiction);
+  EXPECT_NE(io::conformance_warnings(rb).at(0).find("contradicts"), std::string::npos);
   IdentifyOptions opt;
   opt.budget.type_a = true;
   const IdentifyResult a = identify(d, readings, opt);
   ASSERT_EQ(a.estimate.dof, 25);
   const ConformanceReport rep = decide_conformance(d, a, {zone("XOC", -100, 100)}, "test");
-  for (const std::string& w : rep.warnings)
+  EXPECT_FALSE(rep.noise_contradiction_p);
+  for (const std::string& w : io::conformance_warnings(rep))
     EXPECT_EQ(w.find("contradicts"), std::string::npos) << w;
   const Determined& x = a.iso.location[0].value;
   const double k = 2.059539;  // Student's t, 25 degrees of freedom, 97.5 % quantile (tables)
   EXPECT_NEAR(*rep.results[0].high - x.value, k * x.std, 1e-5 * x.std);
-  EXPECT_NE(rep.results[0].basis.find("25 degrees of freedom"), std::string::npos);
+  EXPECT_EQ(rep.type_a_dof, 25);
+  EXPECT_NEAR(rep.k_iso, k, 1e-5);
+  EXPECT_NE(io::conformance_basis(rep, rep.results[0]).find("25 degrees of freedom"),
+            std::string::npos);
 }
 
 TEST(Conformance, ADesignWithSetUpTolerancesCarriesThem) {
@@ -202,7 +209,7 @@ TEST(Conformance, ADesignWithSetUpTolerancesCarriesThem) {
   const IdentifyResult r = identify(d, simulate(d, t, 3));
   ASSERT_TRUE(r.setup_included);
   const ConformanceReport rep = decide_conformance(d, r, {zone("XOC", -100, 100)}, "test");
-  EXPECT_TRUE(rep.warnings.empty()) << rep.warnings.at(0);
+  EXPECT_TRUE(io::conformance_warnings(rep).empty()) << io::conformance_warnings(rep).at(0);
   EXPECT_EQ(rep.results[0].decision, Decision::kConforms);
 }
 

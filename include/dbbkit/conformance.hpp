@@ -51,22 +51,35 @@ struct ConformanceResult {
   // (conforms) or straddling it (not proven); absent when no value is determined.
   std::optional<double> value, low, high;
   std::optional<double> angle_deg;  // where, for a quantity at every angle
-  std::string basis;                // "value +- k u (k = 1.96)", "value +- U of the budget", ...
-  // An error motion value that was not computed (io says why after the basis), and its index
-  // in the order of the component names.
+  // What the intervals are: a location error's value +- k_iso u, the same at every measured
+  // angle (component error motions), an error motion value's interval, or an identified
+  // error's value +- U of its budget at every measured angle.
+  enum class Basis { kIsoQuantity, kIsoAtEveryAngle, kMotionValue, kBudget };
+  Basis basis = Basis::kIsoQuantity;
+  bool motion_values_computed = true;  // kMotionValue: false when none was asked for
+  // An error motion value that was not computed, and its index in the order of the component
+  // names (io says why after the basis).
   std::optional<IsoMotionValue> uncomputed_motion;
   int uncomputed_index = -1;
 };
 
 struct ConformanceReport {
-  std::string rule;
   double coverage_probability = 0.95;
+  // k of the ISO 230-7 quantities' intervals: Student's t at type_a_dof degrees of freedom
+  // (Type A), else the normal quantile.
+  double k_iso = 0;
+  std::optional<int> type_a_dof;
   std::vector<ConformanceResult> results;  // in the order of the tolerances
   // What the decisions rest on that the data or the design put in doubt: the residual
-  // contradicting the declared noise; no declared set-up tolerances.
-  std::vector<std::string> warnings;
+  // contradicting the declared noise (its chi2 p-value below kNoiseContradiction, Type B
+  // only); no declared set-up tolerances.
+  std::optional<double> noise_contradiction_p;
+  bool no_setup_tolerances = false;
   bool any_nonconforming() const;
 };
+
+// The residual contradicts the declared noise when its chi2 p-value < kNoiseContradiction.
+inline constexpr double kNoiseContradiction = 0.01;
 
 // The quantities a tolerance can name for `axis`, for messages and documentation.
 std::vector<std::string> tolerance_quantities(Axis axis);

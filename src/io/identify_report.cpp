@@ -75,8 +75,8 @@ void conformance_section(ReportWriter& p, const ConformanceReport& c) {
   p.paragraph(
       std::string("Verdict: ") +
       (c.any_nonconforming() ? "DOES NOT CONFORM (exit code 1)." : "no nonconformity proven.") +
-      " " + as_sentence(c.rule));
-  for (const std::string& w : c.warnings) p.paragraph("Warning: " + as_sentence(w));
+      " " + as_sentence(conformance_rule(c)));
+  for (const std::string& w : conformance_warnings(c)) p.paragraph("Warning: " + as_sentence(w));
   bool sets = false;  // a quantity at every angle: its counts get a column
   for (const ConformanceResult& r : c.results) sets = sets || r.values > 1;
   std::vector<std::vector<std::string>> rows;
@@ -97,7 +97,7 @@ void conformance_section(ReportWriter& p, const ConformanceReport& c) {
                               " / " + std::to_string(r.not_proven + r.undetermined)
                         : "");
     }
-    row.push_back(conformance_basis(r));
+    row.push_back(conformance_basis(c, r));
     rows.push_back(row);
   }
   std::vector<std::string> header = {"quantity", "tolerance zone", "decision",

@@ -7,6 +7,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/text.hpp"
 
 namespace dbbkit::io {
 
@@ -95,7 +96,7 @@ json conformance_to_json(const ConformanceReport& report, const std::string& tol
              {"lower", r.lower ? json(r6(*r.lower)) : json(nullptr)},
              {"upper", r.upper ? json(r6(*r.upper)) : json(nullptr)},
              {"decision", decision_name(r.decision)},
-             {"basis", conformance_basis(r)},
+             {"basis", conformance_basis(report, r)},
              {"values", r.values},
              {"conforming", r.conforming},
              {"nonconforming", r.nonconforming},
@@ -107,18 +108,18 @@ json conformance_to_json(const ConformanceReport& report, const std::string& tol
     rows.push_back(row);
   }
   json j{{"tolerances", tolerances_path},
-         {"rule", report.rule},
+         {"rule", conformance_rule(report)},
          {"coverage_probability", report.coverage_probability},
          {"results", rows},
          {"verdict", report.any_nonconforming() ? "does not conform" : "no nonconformity proven"}};
-  j["warnings"] = report.warnings;
+  j["warnings"] = conformance_warnings(report);
   return j;
 }
 
 std::string conformance_text(const ConformanceReport& report) {
   std::ostringstream s;
-  s << "\nconformance (" << report.rule << "):\n";
-  for (const std::string& w : report.warnings) s << "  WARNING: " << w << "\n";
+  s << "\nconformance (" << conformance_rule(report) << "):\n";
+  for (const std::string& w : conformance_warnings(report)) s << "  WARNING: " << w << "\n";
   s << "  " << std::left << std::setw(12) << "quantity" << std::setw(22) << "tolerance zone"
     << std::setw(18) << "decision"
     << "deciding value [interval]\n";
@@ -155,10 +156,59 @@ std::string conformance_text(const ConformanceReport& report) {
   return s.str();
 }
 
-std::string conformance_basis(const ConformanceResult& r) {
-  return r.uncomputed_motion
-             ? r.basis + "; " + iso_motion_reason(*r.uncomputed_motion, r.uncomputed_index)
-             : r.basis;
+std::string conformance_rule(const ConformanceReport& report) {
+  const std::string pct = fmt_num(100 * report.coverage_probability, 4) + " %";
+  return "ISO 14253-1:2017 default decision rule: conformity is proven when the interval (value "
+         "+- U, coverage probability " +
+         pct +
+         ") lies inside the tolerance zone, nonconformity when it lies wholly outside; otherwise "
+         "neither is proven. A quantity at every measured angle conforms when every value does "
+         "and does not conform when one does not; an undetermined value proves nothing";
+}
+
+std::vector<std::string> conformance_warnings(const ConformanceReport& report) {
+  std::vector<std::string> w;
+  if (report.noise_contradiction_p) {
+    const double p = *report.noise_contradiction_p;
+    w.push_back("the residual contradicts the declared reading noise (chi2 p " +
+                (p > 0 ? "= " + fmt_num(p, 2) : std::string("< 1e-300")) +
+                "): the intervals rest on an uncertainty the data do not support; state it from "
+                "the residual (--type-a) or find what the model lacks (diagnose) before relying "
+                "on these decisions");
+  }
+  if (report.no_setup_tolerances) {
+    w.push_back(
+        "the design declares no set-up tolerances (setup_std): the intervals leave out where the "
+        "balls were set, and a centring error of the balls moves the location errors (XOC, YOC "
+        "...) by as much as itself");
+  }
+  return w;
+}
+
+std::string conformance_basis(const ConformanceReport& report, const ConformanceResult& r) {
+  const std::string iso =
+      "value +- k u, k = " + fmt_num(report.k_iso, 4) +
+      (report.type_a_dof
+           ? " (Student's t, " + std::to_string(*report.type_a_dof) + " degrees of freedom)"
+           : std::string(" (normal)"));
+  switch (r.basis) {
+    case ConformanceResult::Basis::kIsoQuantity:
+      return iso;
+    case ConformanceResult::Basis::kIsoAtEveryAngle:
+      return iso + ", at every measured angle";
+    case ConformanceResult::Basis::kMotionValue: {
+      std::string t = "[max(0, range - U), range + U], coverage probability at least " +
+                      fmt_num(100 * report.coverage_probability, 4) + " % (error motion values)";
+      if (!r.motion_values_computed) t += "; not computed";
+      if (r.uncomputed_motion)
+        t += "; " + iso_motion_reason(*r.uncomputed_motion, r.uncomputed_index);
+      return t;
+    }
+    case ConformanceResult::Basis::kBudget:
+      return "value +- U of the uncertainty budget (k at each value's effective degrees of "
+             "freedom), at every measured angle";
+  }
+  return "";
 }
 
 }  // namespace dbbkit::io

@@ -19,7 +19,10 @@ nlohmann::json conformance_to_json(const ConformanceReport& report,
                                    const std::string& tolerances_path);
 std::string conformance_text(const ConformanceReport& report);
 
-// The basis of a decision, with why an error motion value it needed was not computed.
-std::string conformance_basis(const ConformanceResult& r);
+// The decision rule (ISO 14253-1 at the report's coverage), the warnings, and the basis of a
+// decision (with why an error motion value it needed was not computed), in words.
+std::string conformance_rule(const ConformanceReport& report);
+std::vector<std::string> conformance_warnings(const ConformanceReport& report);
+std::string conformance_basis(const ConformanceReport& report, const ConformanceResult& r);
 
 }  // namespace dbbkit::io
