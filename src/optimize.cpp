@@ -482,16 +482,9 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
   }
   if (kit.axis == Axis::kB) {
     if (!can_be_off_axis) {
-      res.note = "the kit allows no lateral offset (D_mm = [" + mm(kit.D_mm.min) + ", " +
-                 mm(kit.D_mm.max) +
-                 "]): every ball lies on the tool axis, so a rotation about that axis is "
-                 "unobservable (rank 5 "
-                 "of 6 at every angle); the search minimises what is identifiable";
+      res.rank_five = OptimizeResult::RankFiveCause::kNoLateralOffset;
     } else if (!res.best || !best_off_axis) {
-      res.note =
-          "no design with the off-axis position fits the kit (time budget or travel): rank 5 of 6 "
-          "at "
-          "every angle; the search minimises what is identifiable";
+      res.rank_five = OptimizeResult::RankFiveCause::kNoOffAxisDesignFits;
     }
   }
   return res;

@@ -76,10 +76,9 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param,
     noise_scale = std::sqrt(est.chi2 / est.dof);
     noise_dof = est.dof;
     b.type_a_scale = noise_scale;
-    b.noise_evaluation = "Type A (residual, " + std::to_string(est.dof) + " degrees of freedom)";
-  } else {
-    b.noise_evaluation = "Type B (declared instrument: " + design.noise.describe() + ")";
+    b.type_a_dof = est.dof;
   }
+  b.declared_noise = design.noise;
 
   const std::vector<SetupInput> inputs = setup_inputs(design);
   const Eigen::MatrixXd GD = input_gain(design, param, model, solver, est, setup, inputs);

@@ -299,7 +299,7 @@ TEST(Optimize, BKitWithOffsetGivesRankSix) {
   EXPECT_TRUE(r.best_evaluation.worst.worst_std_um);
   EXPECT_TRUE(r.best_evaluation.unidentifiable.empty());
   EXPECT_NE(r.best->design.installations.back().D_mm, 0.0);
-  EXPECT_TRUE(r.note.empty());
+  EXPECT_EQ(r.rank_five, OptimizeResult::RankFiveCause::kNone);
 }
 
 TEST(Optimize, BKitWithoutOffsetGivesRankFiveAndNamesTheMissingRotation) {
@@ -315,7 +315,8 @@ TEST(Optimize, BKitWithoutOffsetGivesRankFiveAndNamesTheMissingRotation) {
     ASSERT_TRUE(u.motion);
     EXPECT_TRUE(u.motion->tool_axis) << io::unidentifiable_interpretation(u);
   }
-  EXPECT_NE(r.note.find("rank 5"), std::string::npos) << r.note;
+  EXPECT_EQ(r.rank_five, OptimizeResult::RankFiveCause::kNoLateralOffset);
+  EXPECT_NE(io::rank_five_note(k, r).find("rank 5"), std::string::npos) << io::rank_five_note(k, r);
   EXPECT_FALSE(r.best_evaluation.worst.worst_std_um);
   EXPECT_TRUE(r.best_evaluation.worst.worst_determined_std_um);
 }

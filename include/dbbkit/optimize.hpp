@@ -152,7 +152,11 @@ struct OptimizeResult {
   std::vector<Candidate>
       pareto;            // non-dominated (time, objective) among the best's determination class
   long evaluations = 0;  // designs scored
-  std::string note;      // e.g. why a B design stays at rank 5
+  // Why a B design stays at rank 5 (a rotation about the tool axis unobservable): the kit
+  // allows no lateral offset (kNoLateralOffset, the kit's D_mm range says so), or no design
+  // with the off-axis position fits it (kNoOffAxisDesignFits).
+  enum class RankFiveCause { kNone, kNoLateralOffset, kNoOffAxisDesignFits };
+  RankFiveCause rank_five = RankFiveCause::kNone;
 };
 
 // The discrete choices of a kit (each resolved: placements and continuous space), and the

@@ -48,9 +48,12 @@ struct ValueBudget {
 
 struct Budget {
   double coverage_probability = 0.95;
-  std::string noise_evaluation;        // "Type B (declared instrument)" or "Type A (residual)"
-  std::optional<double> type_a_scale;  // sqrt(chi2 / nu) when Type A
-  std::vector<ValueBudget> values;     // determined values only, station-major
+  // The reading noise: Type A from the residual (type_a_dof degrees of freedom, type_a_scale =
+  // sqrt(chi2 / nu)), or Type B from the declared instrument (declared_noise).
+  std::optional<int> type_a_dof;
+  std::optional<double> type_a_scale;
+  NoiseModel declared_noise;
+  std::vector<ValueBudget> values;  // determined values only, station-major
 };
 
 // k such that P(|T_nu| <= k) = p; the normal quantile when nu is absent (infinite).

@@ -120,7 +120,7 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
   p.paragraph(std::to_string(est.n_readings) + " readings, " + std::to_string(est.n_unknowns) +
               " unknowns, rank " + std::to_string(est.rank) +
               (est.rank == est.n_unknowns ? " (full rank)" : " (rank-deficient)") + "; residual " +
-              residual_text(est) + ". Reading noise: " + r.budget.noise_evaluation +
+              residual_text(est) + ". Reading noise: " + noise_evaluation_text(r.budget) +
               "; expanded uncertainty U = k u_c at " +
               fmt_num(100 * r.budget.coverage_probability) +
               " % coverage (k from Student's t at the effective degrees of freedom).");

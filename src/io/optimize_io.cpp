@@ -143,7 +143,7 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   j["noise"] = noise_to_json(kit.noise);
   j["evaluations"] = res.evaluations;
   j["seconds"] = seconds;
-  if (!res.note.empty()) j["note"] = res.note;
+  if (res.rank_five != OptimizeResult::RankFiveCause::kNone) j["note"] = rank_five_note(kit, res);
   if (res.best) {
     const Evaluation& ev = res.best_evaluation;
     json b = candidate_json(kit, *res.best);
@@ -201,7 +201,8 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   s << "criterion " << criterion_name(res.criterion) << "; " << res.choices.size()
     << " discrete choices, " << searched << " feasible; " << res.evaluations
     << " designs scored in " << fmt_num(seconds, 3) << " s\n";
-  if (!res.note.empty()) s << "note: " << res.note << "\n";
+  if (res.rank_five != OptimizeResult::RankFiveCause::kNone)
+    s << "note: " << rank_five_note(kit, res) << "\n";
   if (!res.best) {
     // One line per distinct reason (a pattern that cannot meet a requirement fails every choice
     // alike).
@@ -330,6 +331,22 @@ std::string pareto_csv(const Kit& kit, const OptimizeResult& res) {
       << "\n";
   }
   return s.str();
+}
+
+std::string rank_five_note(const Kit& kit, const OptimizeResult& res) {
+  switch (res.rank_five) {
+    case OptimizeResult::RankFiveCause::kNone:
+      return "";
+    case OptimizeResult::RankFiveCause::kNoLateralOffset:
+      return "the kit allows no lateral offset (D_mm = [" + fmt_rounded(kit.D_mm.min, 3) + ", " +
+             fmt_rounded(kit.D_mm.max, 3) +
+             "]): every ball lies on the tool axis, so a rotation about that axis is unobservable "
+             "(rank 5 of 6 at every angle); the search minimises what is identifiable";
+    case OptimizeResult::RankFiveCause::kNoOffAxisDesignFits:
+      return "no design with the off-axis position fits the kit (time budget or travel): rank 5 "
+             "of 6 at every angle; the search minimises what is identifiable";
+  }
+  return "";
 }
 
 }  // namespace dbbkit::io

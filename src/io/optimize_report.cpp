@@ -30,7 +30,9 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
               std::to_string(res.choices.size()) + " discrete choices, " +
               std::to_string(feasible) + " feasible; " + std::to_string(res.evaluations) +
               " designs scored in " + fmt_num(seconds, 3) + " s." +
-              (res.note.empty() ? "" : " " + res.note + "."));
+              (res.rank_five == OptimizeResult::RankFiveCause::kNone
+                   ? ""
+                   : " " + rank_five_note(kit, res) + "."));
   if (!res.best) {
     p.paragraph("No design fits the kit.");
     std::vector<std::vector<std::string>> rows;

@@ -105,7 +105,7 @@ json budget_to_json(const Design& design, const Budget& budget) {
   b["standard"] =
       "JCGM 100: u_c^2 = sum of the components' u^2, nu_eff by Welch-Satterthwaite, U = k u_c";
   b["coverage_probability"] = budget.coverage_probability;
-  b["noise_evaluation"] = budget.noise_evaluation;
+  b["noise_evaluation"] = noise_evaluation_text(budget);
   if (budget.type_a_scale) b["type_a_scale"] = *budget.type_a_scale;
   b["setup_std_mm"] = {
       {"L", design.setup_std.L_mm}, {"D", design.setup_std.D_mm}, {"H", design.setup_std.H_mm}};
@@ -353,7 +353,7 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
   }
   s << "residual: " << residual_text(est);
   const Budget& b = result.budget;
-  s << "\nuncertainty: reading noise " << b.noise_evaluation;
+  s << "\nuncertainty: reading noise " << noise_evaluation_text(b);
   if (design.setup_std.placement()) {
     s << "; set-up L, D, H +- " << design.setup_std.L_mm << ", " << design.setup_std.D_mm << ", "
       << design.setup_std.H_mm << " mm (standard)";
@@ -809,7 +809,7 @@ std::string evaluation_setup_note(const Evaluation& ev) {
 std::string iso_uncertainty_note(const IdentifyResult& r) {
   return std::string(
              "standard uncertainty (k = 1) from the estimate's covariance: reading noise (") +
-         r.budget.noise_evaluation + ")" +
+         noise_evaluation_text(r.budget) + ")" +
          (r.setup_included ? " and the declared length offset and centring tolerances" : "") +
          (r.placement_declared ? "; the ball placement (L, D, H) is not propagated into them" : "");
 }
@@ -901,6 +901,12 @@ std::string rigid_motion_text(const RigidMotion& m) {
 
 std::string unidentifiable_interpretation(const Unidentifiable& u) {
   return u.motion ? rigid_motion_text(*u.motion) : std::string();
+}
+
+std::string noise_evaluation_text(const Budget& b) {
+  return b.type_a_dof
+             ? "Type A (residual, " + std::to_string(*b.type_a_dof) + " degrees of freedom)"
+             : "Type B (declared instrument: " + b.declared_noise.describe() + ")";
 }
 
 }  // namespace dbbkit::io

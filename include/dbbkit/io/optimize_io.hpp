@@ -28,4 +28,8 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr);
 // The kit's set-up detection requirement as met by a candidate, in words (one sentence).
 std::string detection_text(const Candidate::Detection& d);
 
+// Why the design found stays at rank 5 (OptimizeResult::rank_five), in words; empty when it
+// does not.
+std::string rank_five_note(const Kit& kit, const OptimizeResult& res);
+
 }  // namespace dbbkit::io

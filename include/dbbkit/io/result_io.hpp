@@ -99,6 +99,9 @@ std::string monte_carlo_message(const MonteCarloResult& mc);
 std::string identify_setup_note(const IdentifyResult& r);
 std::string evaluation_setup_note(const Evaluation& ev);
 std::string iso_uncertainty_note(const IdentifyResult& r);
+// How the reading noise was evaluated: "Type A (residual, 25 degrees of freedom)" or "Type B
+// (declared instrument: rectangular +-1.25 um ...)".
+std::string noise_evaluation_text(const Budget& b);
 // Why error motion value `index` (in the order of the component names) was not computed.
 std::string iso_motion_reason(const IsoMotionValue& v, int index);
 // How the error motion values were computed.
