@@ -145,7 +145,7 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
   settings.level = options.level;
   settings.n_tests = std::max(1, n_tests);
   for (const EffectBlock& b : pool) {
-    if (!b.not_applicable.empty()) continue;
+    if (!b.applicability.applicable()) continue;
     const Eigen::MatrixXd R = unexplained(solver, b.J_reading_effect);
     const Eigen::VectorXd norms =
         (solver.sigma_um().cwiseInverse().asDiagonal() * b.J_reading_effect)
@@ -412,12 +412,12 @@ std::vector<CandidateStatus> effect_detectability(const Design& design,
   const WlsSolver solver(model.J, model.sigma_um);
   std::vector<CandidateStatus> out;
   for (const EffectBlock& b : candidate_effects(design, readings)) {
-    if (!b.not_applicable.empty()) {
+    if (!b.applicability.applicable()) {
       CandidateStatus c;
       c.label = b.label;
       c.state = CandidateState::kNotApplicable;
       c.reason = CandidateReason::kNotApplicable;
-      c.note = b.not_applicable;
+      c.applicability = b.applicability;
       out.push_back(c);
       continue;
     }

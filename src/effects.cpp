@@ -210,11 +210,11 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
         J_reading_effect(design, r, inst, start, e).transpose();
   }
   if ((e.kind == EffectKind::kDrift || e.kind == EffectKind::kThermal) && time_missing)
-    b.not_applicable = "needs time_s on every reading it applies to";
+    b.applicability.why = NotApplicable::kNeedsTimes;
   if (e.kind == EffectKind::kReversal && !(cw && ccw))
-    b.not_applicable = "needs readings of both sweeps (cw and ccw)";
+    b.applicability.why = NotApplicable::kNeedsBothSweeps;
   if ((e.kind == EffectKind::kScale || e.kind == EffectKind::kSquareness) && bar_missing) {
-    b.not_applicable = "needs bar_mm on every installation (the following ball's position)";
+    b.applicability.why = NotApplicable::kNeedsBar;
   }
   std::vector<int> keep;
   for (int j = 0; j < full.cols(); ++j) {
@@ -222,8 +222,8 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
         full.col(j).cwiseAbs().maxCoeff() > tol::kSeenValue)
       keep.push_back(j);
   }
-  if (keep.empty() && b.not_applicable.empty())
-    b.not_applicable = "changes no reading of this design";
+  if (keep.empty() && b.applicability.applicable())
+    b.applicability.why = NotApplicable::kChangesNoReading;
   b.J_reading_effect.resize(full.rows(), static_cast<Eigen::Index>(keep.size()));
   for (std::size_t j = 0; j < keep.size(); ++j) {
     b.J_reading_effect.col(static_cast<Eigen::Index>(j)) = full.col(keep[j]);
@@ -293,8 +293,7 @@ std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Re
                        [&](int a, int b) { return *readings[a].time_s < *readings[b].time_s; });
     }
     if (static_cast<int>(f.rows.size()) < 2 * f.min_segment) {
-      f.not_applicable =
-          "needs at least " + std::to_string(2 * f.min_segment) + " readings of the installation";
+      f.applicability = {NotApplicable::kTooFewReadings, 2 * f.min_segment};
     }
     out.push_back(f);
   }
@@ -312,9 +311,9 @@ std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Re
     t0 = std::min(t0, *r.time_s), t1 = std::max(t1, *r.time_s);
   }
   if (!all_timed) {
-    th.not_applicable = "needs time_s on every reading";
+    th.applicability.why = NotApplicable::kNeedsEveryTime;
   } else if (!(t1 > t0)) {
-    th.not_applicable = "needs readings at more than one time";
+    th.applicability.why = NotApplicable::kNeedsSeveralTimes;
   } else {
     const double T_min = (t1 - t0) / 60.0;
     const ReadingLayout layout(design, readings);

@@ -78,7 +78,7 @@ class DetectionRequirement {
     settings_.level = DiagnoseOptions{}.level;
     settings_.n_tests = 0;
     for (const EffectBlock& b : candidate_effects(probe, nominal_readings(probe)))
-      settings_.n_tests += b.not_applicable.empty();
+      settings_.n_tests += b.applicability.applicable();
     settings_.n_tests = std::max(1, settings_.n_tests);
   }
 

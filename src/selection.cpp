@@ -28,10 +28,10 @@ CandidateStatus status(const std::string& label, CandidateState state, Candidate
   return s;
 }
 
-CandidateStatus not_applicable(const std::string& label, const std::string& why) {
+CandidateStatus not_applicable(const std::string& label, const Applicability& why) {
   CandidateStatus s =
       status(label, CandidateState::kNotApplicable, CandidateReason::kNotApplicable);
-  s.note = why;
+  s.applicability = why;
   return s;
 }
 
@@ -78,15 +78,15 @@ class Selector {
     res.before = current_;
     for (std::size_t i = 0; i < pool_.size(); ++i) {
       status_[i].label = pool_[i].label;
-      if (!pool_[i].not_applicable.empty()) {
-        status_[i] = not_applicable(pool_[i].label, pool_[i].not_applicable);
+      if (!pool_[i].applicability.applicable()) {
+        status_[i] = not_applicable(pool_[i].label, pool_[i].applicability);
         used_[i] = true;
       }
     }
     for (std::size_t f = 0; f < families_.size(); ++f) {
       family_status_[f].label = families_[f].label;
-      if (!families_[f].not_applicable.empty()) {
-        family_status_[f] = not_applicable(families_[f].label, families_[f].not_applicable);
+      if (!families_[f].applicability.applicable()) {
+        family_status_[f] = not_applicable(families_[f].label, families_[f].applicability);
         family_used_[f] = true;
       }
     }
@@ -558,7 +558,7 @@ class Selector {
       int whole = -1;  // pool index of the whole-test candidate
       for (std::size_t i = 0; i < pool_.size(); ++i) {
         if (pool_[i].effect.kind == kind && pool_[i].effect.installation < 0 &&
-            pool_[i].not_applicable.empty()) {
+            pool_[i].applicability.applicable()) {
           whole = static_cast<int>(i);
         }
       }
@@ -582,7 +582,7 @@ class Selector {
         int rank = rank_of(alt);
         for (std::size_t i = 0; i < pool_.size(); ++i) {
           const EffectBlock& b = pool_[i];
-          if (b.effect.kind != kind || b.effect.installation < 0 || !b.not_applicable.empty() ||
+          if (b.effect.kind != kind || b.effect.installation < 0 || !b.applicability.applicable() ||
               used_[i])
             continue;
           const Jacobian trial = append_columns(alt, b.J_reading_effect);

@@ -45,7 +45,7 @@ std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<R
       const double std_um = kind == EffectKind::kLengthOffset ? u.length_offset_um : u.centring_um;
       if (only_declared && !(std_um > 0)) continue;
       EffectBlock block = effect_block(design, rows, layout, {kind, i});
-      if (!block.not_applicable.empty()) continue;  // changes no reading of these rows
+      if (!block.applicability.applicable()) continue;  // changes no reading of these rows
       out.push_back({kind, i, std::move(block.label), std::move(block.parameters),
                      std::move(block.J_reading_effect), std_um});
     }

@@ -305,7 +305,7 @@ TEST(Detectability, ProjectionAgreesWithTheAugmentedFactorisation) {
     const WlsSolver solver(model.J, model.sigma_um);
     const int rank = solver.a_priori().rank;
     for (const EffectBlock& b : candidate_effects(d, readings)) {
-      if (!b.not_applicable.empty()) continue;
+      if (!b.applicability.applicable()) continue;
       Eigen::MatrixXd A(model.J.rows(), model.J.cols() + b.J_reading_effect.cols());
       A << test::dense(model.J), b.J_reading_effect;
       const int full = WlsSolver(A, model.sigma_um).a_priori().rank - rank;

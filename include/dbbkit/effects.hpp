@@ -88,13 +88,34 @@ std::vector<double> installation_start_times(const Design& design,
 // First time_s of the whole test (NaN when no reading has a time).
 double test_start_time(const std::vector<Reading>& readings);
 
+// Why an effect cannot be formed from a set of readings (io::not_applicable_text says it):
+// a drift or warm-up without time_s on a reading it applies to (kNeedsTimes), a reversal
+// without both sweeps, scale or squareness without a bar, an effect no reading sees, a
+// warm-up without a time on every reading (kNeedsEveryTime) or with one time only, a step
+// with fewer than min_readings readings of its installation.
+enum class NotApplicable {
+  kNone,
+  kNeedsTimes,
+  kNeedsBothSweeps,
+  kNeedsBar,
+  kChangesNoReading,
+  kNeedsEveryTime,
+  kNeedsSeveralTimes,
+  kTooFewReadings,
+};
+struct Applicability {
+  NotApplicable why = NotApplicable::kNone;
+  int min_readings = 0;  // kTooFewReadings
+  bool applicable() const { return why == NotApplicable::kNone; }
+};
+
 struct EffectBlock {
   EffectCandidate effect;
   std::string label;
   std::string unit;
   std::vector<std::string> parameters;  // the columns kept
   Eigen::MatrixXd J_reading_effect;     // n_readings x parameters [reading um per unit]
-  std::string not_applicable;  // why the effect cannot be formed from these readings, or empty
+  Applicability applicability;          // whether the effect can be formed from these readings
 };
 
 // Where each reading belongs and when each installation and the test begin, found once for
@@ -132,7 +153,7 @@ struct ScanFamily {
   bool timed = false;      // step: ordered by time_s
   int min_segment = kStepMinSegment;
   std::vector<EffectBlock> alternatives;  // thermal: one block per tau
-  std::string not_applicable;
+  Applicability applicability;
   // The block of alternative k (step: the first reading after the step is rows[k]).
   EffectBlock alternative(const Design& design, const std::vector<Reading>& readings, int k) const;
 };

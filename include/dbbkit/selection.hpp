@@ -144,7 +144,7 @@ const char* candidate_state_name(CandidateState s);
 // io::candidate_detail (io/diagnose_text.hpp) says it in words.
 enum class CandidateReason {
   kNotTested,         // selection ended before testing it
-  kNotApplicable,     // `note`: why its kind does not apply to these readings
+  kNotApplicable,     // `applicability`: why its kind does not apply to these readings
   kRankShort,         // its `columns` column(s) raise the rank by `added_rank` (`with_added`:
                       // given the effects already added too)
   kNoDof,             // no residual degrees of freedom left to test it
@@ -178,8 +178,9 @@ struct CandidateStatus {
   std::string label;
   CandidateState state = CandidateState::kNotSignificant;
   CandidateReason reason = CandidateReason::kNotTested;
-  std::string other;  // the effect(s) or the alternative the reason names
-  std::string note;   // kNotApplicable, kRankShortOfModel (see there)
+  std::string other;            // the effect(s) or the alternative the reason names
+  std::string note;             // kRankShortOfModel: the error model
+  Applicability applicability;  // kNotApplicable
   int step = 0, columns = 0, added_rank = 0, scanned = 0;
   bool with_added = false;
   double F = 0, p = 0, p_scan = 0, threshold = 0, bic_change = 0, level = 0;
