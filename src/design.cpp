@@ -8,16 +8,9 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/measurement.hpp"
+#include "tolerances.hpp"
 
 namespace dbbkit {
-
-namespace {
-
-// An explicit direction is a unit vector when ||v| - 1| < kUnitVectorTolerance (a vector
-// written with six digits).
-constexpr double kUnitVectorTolerance = 1e-6;
-
-}  // namespace
 
 InputError::InputError(std::string source, std::string where, std::string detail)
     : std::runtime_error(source + ": " + (where.empty() ? "" : where + ": ") + detail),
@@ -270,7 +263,8 @@ void validate_design(const Design& d, const std::string& source) {
               "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
     }
     const double norm = in.direction.body.norm();
-    require(finite(norm) && std::abs(norm - 1.0) < kUnitVectorTolerance, source, key + ".direction",
+    require(finite(norm) && std::abs(norm - 1.0) <= tol::kUnitVectorTolerance, source,
+            key + ".direction",
             "an explicit direction must be a unit vector (|v| = " + std::to_string(norm) + ")");
     require(in.sign == 1 || in.sign == -1, source, key + ".sign", "must be +1 or -1");
     if (in.bar_mm) {

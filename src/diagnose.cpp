@@ -346,6 +346,15 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   }
 
   if (res.after.dof > 0) res.p_lower_after = chi2_lower_tail(res.after.dof, res.after.chi2);
+  for (int k = 0; k < 6; ++k) {
+    for (std::size_t s = 0; s < res.errors_after.size(); ++s) {
+      const Determined &a = res.errors_after[s].errors[k], &b = res.errors_before[s].errors[k];
+      if (a.determined && b.determined) {
+        res.largest_change_of_errors[k] =
+            std::max(res.largest_change_of_errors[k].value_or(0.0), std::abs(a.value - b.value));
+      }
+    }
+  }
   return res;
 }
 

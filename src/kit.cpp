@@ -8,15 +8,9 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
+#include "tolerances.hpp"
 
 namespace dbbkit {
-
-namespace {
-
-// A step divides the angle range into m steps when |m - round(m)| <= kWholeSteps max(1, m).
-constexpr double kWholeSteps = 1e-9;
-
-}  // namespace
 
 namespace {
 
@@ -267,7 +261,7 @@ void validate_kit(const Kit& k, const std::string& source) {
     require(finite(st) && st > 0, source, key, "must be a positive step in degrees");
     const double m = r.width() / st;
     require(m + 1 <= kMaxAngles, source, key, "gives more than 100000 angles");
-    require(std::abs(m - std::round(m)) <= kWholeSteps * std::max(1.0, m), source, key,
+    require(std::abs(m - std::round(m)) <= tol::kWholeSteps * std::max(1.0, m), source, key,
             "does not divide the range into a whole number of steps");
     for (size_t j = 0; j < i; ++j) {
       require(std::abs(k.angle_steps_deg[j] - st) > kAngleTolerance_deg, source, key,

@@ -14,6 +14,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/parallel.hpp"
 #include "number_text.hpp"
+#include "tolerances.hpp"
 
 namespace dbbkit {
 
@@ -35,9 +36,6 @@ constexpr double kSameNoiseRelative = 1e-12;
 constexpr double kMinRange_mm = 1e-12;
 constexpr double kStartsApart = 0.05;
 constexpr double kLocalXtol = 1e-10;
-// A grid of step h over [lo, hi] has ceil((hi - lo) / h - kWholeSteps) steps: a range that is
-// a whole number of steps up to rounding gets no extra point.
-constexpr double kWholeSteps = 1e-9;
 
 std::string mm(double x) { return text::rounded(x, 3); }
 
@@ -315,8 +313,8 @@ class ChoiceSearch {
       for (const std::vector<double>& y : starts) {
         double d = 0;
         for (int k = 0; k < n; ++k)
-          d = std::max(d, std::abs(xf[k] - y[k]) / std::max(ub[k] - lb[k], 1e-12));
-        apart = apart && d > 0.05;
+          d = std::max(d, std::abs(xf[k] - y[k]) / std::max(ub[k] - lb[k], kMinRange_mm));
+        apart = apart && d > kStartsApart;
       }
       if (apart) starts.push_back(xf);
     }
@@ -328,7 +326,7 @@ class ChoiceSearch {
       std::vector<double> step;
       for (int k = 0; k < n; ++k) step.push_back(0.1 * (ub[k] - lb[k]));
       o.set_initial_step(step);
-      o.set_xtol_rel(1e-10);
+      o.set_xtol_rel(kLocalXtol);
       o.set_maxeval(options.local_evaluations);
       double fx = 0;
       try {
@@ -343,7 +341,7 @@ class ChoiceSearch {
     std::vector<std::vector<double>> axes(n);
     for (int k = 0; k < n; ++k) {
       const double lo = space_.lower[free_[k]], hi = space_.upper[free_[k]];
-      const long m = static_cast<long>(std::ceil((hi - lo) / h - 1e-9));
+      const long m = static_cast<long>(std::ceil((hi - lo) / h - tol::kWholeSteps));
       for (long i = 0; i <= m; ++i)
         axes[k].push_back(i == m ? hi : lo + static_cast<double>(i) * h);
     }

@@ -20,6 +20,9 @@ namespace {
 constexpr double kBisection = 1e-9;
 // A set-up effect moves no error when its largest bias b (error unit per um) <= kNoBias.
 constexpr double kNoBias = 1e-12;
+// The first-order model is in doubt (FirstOrderCheck::warn) when the largest second-order
+// term of a reading > kFirstOrderWarning sigma of the reading noise.
+constexpr double kFirstOrderWarning = 0.25;
 
 }  // namespace
 
@@ -416,7 +419,8 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
       }
     }
   }
-  fc.warn = fc.largest_term_um > 0.25 * fc.noise_sigma_um;
+  fc.threshold_um = kFirstOrderWarning * fc.noise_sigma_um;
+  fc.warn = fc.largest_term_um > fc.threshold_um;
   return fc;
 }
 

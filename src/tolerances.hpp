@@ -20,4 +20,13 @@ constexpr double kFastPerAngleCondition = 1e5;
 constexpr double kFastSeriesCondition = 1e10;
 constexpr double kMinColumnScale = 1e-12;
 
+// A step h divides a range of width w into m = w / h steps when |m - round(m)| <=
+// kWholeSteps max(1, |m|) (kit angle steps, design angle grids); a search grid of step h over
+// [lo, hi] has ceil((hi - lo) / h - kWholeSteps) steps.
+constexpr double kWholeSteps = 1e-9;
+
+// An explicit reading direction is a unit vector when ||v| - 1| <= kUnitVectorTolerance (a
+// vector written with six digits); design.cpp and the design reader apply it alike.
+constexpr double kUnitVectorTolerance = 1e-6;
+
 }  // namespace dbbkit::tol

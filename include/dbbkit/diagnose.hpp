@@ -123,6 +123,9 @@ struct DiagnoseResult {
   // The smallest p of the features after times their number, at most 1 (Bonferroni): below
   // the level, some feature explains the residual left.
   double features_p_all = 1;
+  // Per error (dx..ez), the largest |after - before| over the positions where both are
+  // determined; absent where none is.
+  std::array<std::optional<double>, 6> largest_change_of_errors;
 };
 
 ResidualSignature residual_signature(const Design& design, const std::vector<Reading>& readings,

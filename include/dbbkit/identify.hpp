@@ -97,7 +97,8 @@ struct FirstOrderCheck {
   std::string installation;
   double angle_deg = 0;
   double noise_sigma_um = 0;
-  bool warn = false;  // largest_term > 0.25 sigma
+  double threshold_um = 0;  // kFirstOrderWarning sigma
+  bool warn = false;        // largest_term > threshold_um
   // A bound on the bias of every identified error, should every reading carry the
   // largest term t: |c'G delta| <= t |c'G|_1 (G the estimate's gain), as a multiple of
   // the error's standard uncertainty, the largest over the errors and where.

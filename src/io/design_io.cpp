@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "../tolerances.hpp"
 #include "dbbkit/error.hpp"
 
 namespace dbbkit::io {
@@ -29,8 +30,8 @@ std::vector<double> read_angles(ObjectReader& top) {
   grid.finish();
   if (step == 0.0) grid.fail("step", "must not be 0");
   const double n = (stop - start) / step;
-  if (n < -1e-9) grid.fail("step", "goes away from stop (the sign of step is wrong)");
-  if (std::abs(n - std::round(n)) > 1e-9 * std::max(1.0, std::abs(n))) {
+  if (n < -tol::kWholeSteps) grid.fail("step", "goes away from stop (the sign of step is wrong)");
+  if (std::abs(n - std::round(n)) > tol::kWholeSteps * std::max(1.0, std::abs(n))) {
     grid.fail("stop", "is not start + k * step for a whole k");
   }
   if (n + 1 > kMaxAngles) grid.fail("step", "gives more than 100000 angles");
@@ -54,7 +55,7 @@ Direction read_direction(const json& v, Axis axis, const std::string& source,
     Eigen::Vector3d u;
     for (int i = 0; i < 3; ++i)
       u(i) = as_number(v[i], source, path + "[" + std::to_string(i) + "]");
-    if (std::abs(u.norm() - 1.0) > 1e-6) {
+    if (std::abs(u.norm() - 1.0) > tol::kUnitVectorTolerance) {
       throw InputError(
           source, path,
           "an explicit direction must be a unit vector (|v| = " + std::to_string(u.norm()) + ")");

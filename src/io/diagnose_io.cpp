@@ -250,13 +250,8 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
   j["errors_before"] = errors_to_json(r.errors_before, true);
   json change = json::object();
   for (int k = 0; k < 6; ++k) {
-    double m = 0;
-    bool any = false;
-    for (std::size_t s = 0; s < r.errors_after.size(); ++s) {
-      const Determined &a = r.errors_after[s].errors[k], &b = r.errors_before[s].errors[k];
-      if (a.determined && b.determined) m = std::max(m, std::abs(a.value - b.value)), any = true;
-    }
-    change[kErrorNames[k]] = any ? json(r6(m)) : json(nullptr);
+    const std::optional<double>& m = r.largest_change_of_errors[k];
+    change[kErrorNames[k]] = m ? json(r6(*m)) : json(nullptr);
   }
   j["largest_change_of_errors"] = change;
   j["units"] = {{"dx", "um"},   {"dy", "um"},   {"dz", "um"},

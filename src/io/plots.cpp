@@ -12,6 +12,10 @@ namespace dbbkit::io {
 
 namespace {
 
+// Two balls of the design drawing share a point (and its label) when both coordinates differ
+// by less than kSamePoint_mm.
+constexpr double kSamePoint_mm = 1e-6;
+
 const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd",
                           "#ff7f0e", "#17becf", "#8c564b", "#e377c2"};
 
@@ -82,7 +86,7 @@ std::string plot_design(const Design& design) {
     for (const auto& [P, id] : balls) {
       bool found = false;
       for (Point& q : points) {
-        if (std::abs(q.x - P(h)) < 1e-6 && std::abs(q.y - P(v)) < 1e-6) {
+        if (std::abs(q.x - P(h)) < kSamePoint_mm && std::abs(q.y - P(v)) < kSamePoint_mm) {
           if (("," + q.ids + ",").find("," + id + ",") == std::string::npos) q.ids += "," + id;
           found = true;
         }
@@ -96,7 +100,7 @@ std::string plot_design(const Design& design) {
     });
     std::array<std::vector<const Point*>, 2> sets;
     for (size_t i = 0, k = 0; i < points.size(); ++i) {
-      k = i > 0 && std::abs(points[i].y - points[i - 1].y) < 1e-6 ? k + 1 : 0;
+      k = i > 0 && std::abs(points[i].y - points[i - 1].y) < kSamePoint_mm ? k + 1 : 0;
       sets[k % 2].push_back(&points[i]);
     }
     std::ostringstream d, plot;

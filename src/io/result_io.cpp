@@ -199,7 +199,7 @@ json first_order_to_json(const FirstOrderCheck& f) {
       {"computed", true},
       {"largest_term_um", r6(f.largest_term_um)},
       {"at", {{"installation", f.installation}, {"angle_deg", f.angle_deg}}},
-      {"threshold_um", r6(0.25 * f.noise_sigma_um)},
+      {"threshold_um", r6(f.threshold_um)},
       {"warning", f.warn},
       {"term",
        "|D_perp|^2 / (2 bar), D_perp: the balls' relative displacement across the bar from the "
@@ -216,7 +216,7 @@ std::string first_order_text(const FirstOrderCheck& f) {
   if (!f.computed) return s.str() + "not computed: " + first_order_reason(f) + "\n";
   s << std::setprecision(3) << "largest second-order term " << f.largest_term_um << " um ("
     << f.installation << " at " << f.angle_deg << " deg), " << (f.warn ? "ABOVE" : "below")
-    << " 0.25 sigma = " << 0.25 * f.noise_sigma_um << " um";
+    << " 0.25 sigma = " << f.threshold_um << " um";
   if (f.bias_bound_std) {
     s << "; it can bias an error by at most " << *f.bias_bound_std << " standard uncertainties ("
       << kErrorNames[f.bias_error] << " at " << f.bias_angle_deg << " deg)";
