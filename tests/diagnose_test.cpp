@@ -5,9 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <sstream>
 
 #include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/measurement_io.hpp"
+#include "dbbkit/io/reports.hpp"
+#include "dbbkit/io/truth_io.hpp"
 #include "dbbkit/simulate.hpp"
 #include "diagnose_util.hpp"
 #include "test_util.hpp"
@@ -367,6 +370,40 @@ TEST(DiagnoseBordered, AgreesWithTheWholeBlock) {
     }
   }
   EXPECT_EQ(io::diagnose_verdict(d, r, bordered), io::diagnose_verdict(d, r, whole));
+}
+
+// After --exclude-gross the result's rows index the readings given, not the readings fitted:
+// the report must name the reading the JSON names. (It described the checks' features with
+// the fitted readings: two readings excluded before a step put it two readings late.)
+TEST(Diagnose, ReportNamesTheReadingsGivenAfterExcludingGrossOnes) {
+  const Design d = fourier_design();
+  const Truth t = io::read_truth_file(test::source_path("tests/data/truth_step.json"));
+  std::vector<Reading> given = simulate(d, t, 1);
+  for (std::size_t r : {given.size() / 3, 2 * given.size() / 3}) given[r].reading_um += 30;
+  DiagnoseOptions o;
+  o.exclude_gross = true;
+  const DiagnoseResult r = diagnose(d, given, o);
+  ASSERT_EQ(r.excluded_rows.size(), 2u);
+  const std::string report = io::diagnose_report(io::ReportFormat::kMarkdown, {"test", {}}, d,
+                                                 given, r, a_priori_expansion());
+  // The five most significant features the report lists; those placed at a reading after an
+  // excluded one were named wrongly.
+  std::vector<const ResidualFeature*> top;
+  for (const ResidualFeature& f : r.features_after) top.push_back(&f);
+  std::sort(top.begin(), top.end(),
+            [](const ResidualFeature* a, const ResidualFeature* b) { return a->p < b->p; });
+  top.resize(std::min<std::size_t>(5, top.size()));
+  int checked = 0;
+  for (const ResidualFeature* f : top) {
+    if (f->row <= r.excluded_rows.front()) continue;
+    const Reading& at = given[static_cast<std::size_t>(f->row)];
+    std::ostringstream where;
+    where << "installation " << at.installation << " at " << at.angle_deg << " deg"
+          << (at.sweep == Sweep::kCW ? " cw" : " ccw") << ", t = " << *at.time_s << " s";
+    EXPECT_NE(report.find(where.str()), std::string::npos) << where.str() << "\n" << report;
+    ++checked;
+  }
+  EXPECT_GT(checked, 0);
 }
 
 }  // namespace
