@@ -79,12 +79,6 @@ std::vector<std::vector<std::string>> condition_rows(const std::string& command,
 }
 }  // namespace
 
-void HtmlWriter::conditions(const std::string& command, const std::vector<std::string>& inputs,
-                            const Design* design) {
-  heading("Conditions");
-  table({"item", "value"}, condition_rows(command, inputs, design));
-}
-
 std::string HtmlWriter::str() const {
   std::ostringstream h;
   h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>"
@@ -154,8 +148,9 @@ void MarkdownWriter::table(const std::vector<std::string>& header,
   text_ += t + "\n";
 }
 void MarkdownWriter::figure(const std::function<std::string()>&, const std::string&) {}
-void MarkdownWriter::conditions(const std::string& command, const std::vector<std::string>& inputs,
-                                const Design* design) {
+
+void ReportWriter::conditions(const std::string& command, const std::vector<std::string>& inputs,
+                              const Design* design) {
   heading("Conditions");
   table({"item", "value"}, condition_rows(command, inputs, design));
 }

@@ -24,10 +24,10 @@ class ReportWriter {
                      const std::vector<std::vector<std::string>>& rows) = 0;
   // A plot: `svg` is called only by a writer that draws plots (gnuplot runs only then).
   virtual void figure(const std::function<std::string()>& svg, const std::string& caption) = 0;
-  // Conditions of the run: software version, command, inputs with their SHA-256, noise,
-  // error model, assumptions.
-  virtual void conditions(const std::string& command, const std::vector<std::string>& inputs,
-                          const Design* design) = 0;
+  // Conditions of the run, a heading and a table written through the two calls above:
+  // software version, command, inputs with their SHA-256, noise, error model, assumptions.
+  void conditions(const std::string& command, const std::vector<std::string>& inputs,
+                  const Design* design);
   virtual std::string str() const = 0;
 };
 
@@ -42,8 +42,6 @@ class HtmlWriter final : public ReportWriter {
   void table(const std::vector<std::string>& header,
              const std::vector<std::vector<std::string>>& rows) override;
   void figure(const std::function<std::string()>& svg, const std::string& caption) override;
-  void conditions(const std::string& command, const std::vector<std::string>& inputs,
-                  const Design* design) override;
   std::string str() const override;
 
  private:
@@ -60,8 +58,6 @@ class MarkdownWriter final : public ReportWriter {
   void table(const std::vector<std::string>& header,
              const std::vector<std::vector<std::string>>& rows) override;
   void figure(const std::function<std::string()>& svg, const std::string& caption) override;
-  void conditions(const std::string& command, const std::vector<std::string>& inputs,
-                  const Design* design) override;
   std::string str() const override { return text_; }
 
  private:
