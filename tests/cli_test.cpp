@@ -574,6 +574,7 @@ TEST(Cli, QuietLeavesOnlyTheFilesAskedForAndOptimizeMatchesTheOthers) {
       {"simulate --design " + kDesignC + " --truth " + truth + " --out " + d + "s.csv", "s.csv"},
       {"optimize --kit " + kit + " --out " + d + "o.json --result " + d + "r.json", "o.json"},
       {"bench " + kDesignC + " --allow-new --summary " + d + "b.md", "b.md"},
+      {"program --design " + kDesignC + " --dialect iso --out " + d + "p.nc", "p.nc"},
   };
   for (const auto& [cmd, file] : commands) {
     for (bool tty : {false, true}) {

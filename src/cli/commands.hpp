@@ -16,5 +16,6 @@ Runner add_evaluate(CLI::App& app);
 Runner add_diagnose(CLI::App& app);
 Runner add_optimize(CLI::App& app);
 Runner add_bench(CLI::App& app);
+Runner add_program(CLI::App& app);
 
 }  // namespace dbbkit::cli

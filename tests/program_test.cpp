@@ -1,0 +1,332 @@
+// The part program, read back by a parser of its own (ISO words and Heidenhain blocks), is
+// checked against the geometry of model.md written out here with std::sin and std::cos:
+// every commanded following-ball position within 1 um of the nominal path, every reading at
+// a design angle in sweep order, and the bar length along each interpolated move within the
+// path tolerance.
+#include "dbbkit/program.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+
+#include "cli_util.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/program_io.hpp"
+
+namespace dbbkit {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// --- the geometry, independently of kinematics.cpp -------------------------------------
+Eigen::Matrix3d rotation(Axis axis, double deg) {
+  const double a = deg * kPi / 180, c = std::cos(a), s = std::sin(a);
+  Eigen::Matrix3d R;
+  if (axis == Axis::kC)
+    R << c, -s, 0, s, c, 0, 0, 0, 1;  // about +Z
+  else
+    R << c, 0, s, 0, 1, 0, -s, 0, c;  // about +Y
+  return R;
+}
+// The ball (moving body) and the following ball at an angle, model frame.
+Eigen::Vector3d ball(Axis axis, const Installation& in, double deg) {
+  const Eigen::Vector3d body = axis == Axis::kC ? Eigen::Vector3d(in.L_mm, in.D_mm, in.H_mm)
+                                                : Eigen::Vector3d(0, in.D_mm, in.L_mm);
+  return rotation(axis, deg) * body;
+}
+Eigen::Vector3d following(Axis axis, const Installation& in, double deg) {
+  return ball(axis, in, deg) - in.sign * *in.bar_mm * (rotation(axis, deg) * in.direction.body);
+}
+
+// --- the parser -------------------------------------------------------------------------
+struct Commanded {
+  std::string installation;
+  double angle = 0;
+  Eigen::Vector3d xyz;
+  bool mounted = false;  // after the stop that mounts the bar
+};
+struct Dwell {
+  std::string installation;
+  double angle = 0;
+  Eigen::Vector3d xyz;
+};
+struct Parsed {
+  std::vector<Commanded> moves;
+  std::vector<Dwell> dwells;
+  int mounts = 0;
+};
+
+Parsed parse(const std::string& text, io::Dialect dialect, char rotary) {
+  Parsed out;
+  std::istringstream in(text);
+  std::string line, installation;
+  double x = NAN, y = NAN, z = NAN, r = NAN;
+  bool mounted = false;
+  while (std::getline(in, line)) {
+    std::string code = line, comment;
+    if (dialect == io::Dialect::kIso) {
+      const size_t open = code.find('(');
+      if (open != std::string::npos) {
+        comment = code.substr(open + 1, code.find(')', open) - open - 1);
+        code = code.substr(0, open);
+      }
+    } else {
+      const size_t semi = code.find(';');
+      if (semi != std::string::npos) {
+        comment = code.substr(semi + 1);
+        code = code.substr(0, semi);
+      }
+      std::istringstream first(code);
+      int number = -1;
+      first >> number;  // the block number
+      std::string rest;
+      std::getline(first, rest);
+      code = rest;
+    }
+    const std::string marker = "installation ";
+    if (comment.find(marker) != std::string::npos && comment.find(" of ") != std::string::npos) {
+      std::istringstream c(comment.substr(comment.find(marker) + marker.size()));
+      c >> installation;
+      mounted = false;
+      x = y = z = NAN;  // a position is not carried from one installation to the next
+    }
+    std::istringstream words(code);
+    std::vector<std::string> w;
+    for (std::string t; words >> t;) w.push_back(t);
+    if (w.empty()) continue;
+    bool motion = false;
+    if (dialect == io::Dialect::kIso) {
+      for (const std::string& t : w) {
+        if (t == "G00" || t == "G01") motion = true;
+        if (t == "M00" && comment.find("mount") != std::string::npos) {
+          mounted = true;
+          ++out.mounts;
+        }
+        if (t == "G04") out.dwells.push_back({installation, r, {x, y, z}});
+      }
+    } else {
+      motion = w[0] == "L";
+      if (w[0] == "STOP" && comment.find("mount") != std::string::npos) {
+        mounted = true;
+        ++out.mounts;
+      }
+      if (w.size() >= 4 && w[0] == "CYCL" && w[2] == "9.1")
+        out.dwells.push_back({installation, r, {x, y, z}});
+    }
+    if (!motion) continue;
+    for (const std::string& t : w) {
+      if (t.size() < 2) continue;
+      const char a = t[0];
+      if (a != 'X' && a != 'Y' && a != 'Z' && a != rotary) continue;
+      if (t == "FMAX") continue;
+      const double v = std::stod(t.substr(1));
+      (a == 'X' ? x : a == 'Y' ? y : a == 'Z' ? z : r) = v;
+    }
+    out.moves.push_back({installation, r, {x, y, z}, mounted});
+  }
+  return out;
+}
+
+// --- random designs ----------------------------------------------------------------------
+Design random_design(std::mt19937_64& rng, Axis axis) {
+  std::uniform_real_distribution<double> U(0, 1);
+  Design d;
+  d.name = "random";
+  d.axis = axis;
+  const double step = std::vector<double>{5, 10, 15, 20, 30, 45}[rng() % 6];
+  const double start = axis == Axis::kC ? 0 : -120 + 5 * static_cast<int>(rng() % 8);
+  const int steps = axis == Axis::kC ? static_cast<int>(std::lround(360 / step))
+                                     : std::max(2, static_cast<int>(std::lround(100 / step)));
+  for (int k = 0; k <= steps; ++k) d.angles_deg.push_back(start + k * step);
+  const int n = 1 + static_cast<int>(rng() % 5);
+  for (int i = 0; i < n; ++i) {
+    Installation in;
+    in.id = "i" + std::to_string(i);
+    in.L_mm = 20 + 380 * U(rng);
+    in.D_mm = U(rng) < 0.5 ? 0 : -100 + 200 * U(rng);
+    in.H_mm = axis == Axis::kC ? 20 + 300 * U(rng) : 0;
+    const int kind = static_cast<int>(rng() % 4);
+    if (kind < 3) {
+      in.direction = Direction::named(axis, static_cast<Direction::Kind>(kind));
+    } else {
+      Eigen::Vector3d v(U(rng) - 0.5, U(rng) - 0.5, U(rng) - 0.5);
+      in.direction = Direction::vector(v.normalized());
+    }
+    in.sign = U(rng) < 0.5 ? 1 : -1;
+    in.bar_mm = std::vector<double>{100, 150, 250, 300, 400}[rng() % 5];
+    d.installations.push_back(in);
+  }
+  return d;
+}
+
+TEST(Program, CommandedPositionsFollowTheNominalPathInBothDialectsAndAxes) {
+  std::mt19937_64 rng(20261125);
+  int designs = 0, moves = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const Axis axis = trial % 2 ? Axis::kB : Axis::kC;
+    const Design d = random_design(rng, axis);
+    ProgramOptions o;
+    o.sweeps = static_cast<ProgramOptions::Sweeps>(rng() % 3);
+    o.path_tolerance_mm = std::vector<double>{0.01, 0.05, 0.2}[rng() % 3];
+    o.tool_down = axis == Axis::kB && rng() % 2;
+    const MeasurementProgram program = measurement_program(d, o);
+    for (const io::Dialect dialect : {io::Dialect::kIso, io::Dialect::kHeidenhain}) {
+      const char rotary = axis == Axis::kC ? 'C' : 'B';
+      const Parsed p = parse(io::program_text(d, program, dialect), dialect, rotary);
+      ASSERT_EQ(p.mounts, static_cast<int>(d.installations.size()));
+      // The commanded point against the nominal path, and the table ball's position for B.
+      std::map<std::string, Eigen::Vector3d> table_ball;
+      const Eigen::Vector3d flip =
+          o.tool_down ? Eigen::Vector3d(-1, 1, -1) : Eigen::Vector3d(1, 1, 1);
+      for (const Commanded& m : p.moves) {
+        if (std::isnan(m.xyz.x())) continue;  // the rotary alone, before the first linear move
+        const Installation& in = d.installations[d.find_installation(m.installation)];
+        const Eigen::Vector3d F = following(axis, in, m.angle);
+        if (axis == Axis::kC) {
+          EXPECT_LE((m.xyz - F).norm(), 1e-3) << m.installation << " at " << m.angle;
+        } else {
+          // The pivot Q and the table ball T: T - Q = F (turned when the tool points down).
+          const Eigen::Vector3d T = m.xyz + flip.cwiseProduct(F);
+          auto [it, fresh] = table_ball.emplace(m.installation, T);
+          EXPECT_LE((T - it->second).norm(), 1e-3) << m.installation << " at " << m.angle;
+          if (fresh) EXPECT_LE(m.xyz.norm(), 1e-3) << "the pivot starts at the origin";
+        }
+        ++moves;
+      }
+      // Readings: the design's angles, in sweep order, at mounted positions.
+      std::map<std::string, std::vector<double>> read;
+      for (const Dwell& dw : p.dwells) read[dw.installation].push_back(dw.angle);
+      std::vector<double> ccw = d.angles_deg, cw(ccw.rbegin(), ccw.rend()), expect;
+      if (o.sweeps != ProgramOptions::Sweeps::kCW) expect = ccw;
+      if (o.sweeps != ProgramOptions::Sweeps::kCCW)
+        expect.insert(expect.end(), cw.begin(), cw.end());
+      for (const Installation& in : d.installations) {
+        ASSERT_EQ(read[in.id].size(), expect.size()) << in.id;
+        for (size_t k = 0; k < expect.size(); ++k) EXPECT_NEAR(read[in.id][k], expect[k], 1e-9);
+      }
+      // The bar along each interpolated move (mounted, within one installation).
+      for (size_t k = 1; k < p.moves.size(); ++k) {
+        const Commanded &a = p.moves[k - 1], &b = p.moves[k];
+        if (!a.mounted || !b.mounted || a.installation != b.installation) continue;
+        const Installation& in = d.installations[d.find_installation(a.installation)];
+        for (int j = 1; j < 10; ++j) {
+          const double t = j / 10.0, ang = a.angle + t * (b.angle - a.angle);
+          const Eigen::Vector3d q = a.xyz + t * (b.xyz - a.xyz);
+          // C: the spindle ball at q; B: the head ball at q + P, the table ball fixed.
+          const double bar =
+              axis == Axis::kC
+                  ? (ball(axis, in, ang) - q).norm()
+                  : (flip.cwiseProduct(ball(axis, in, ang)) + q - table_ball[a.installation])
+                        .norm();
+          EXPECT_LE(std::abs(bar - *in.bar_mm), o.path_tolerance_mm + 1e-3)
+              << in.id << " between " << a.angle << " and " << b.angle;
+        }
+      }
+    }
+    ++designs;
+  }
+  EXPECT_EQ(designs, 40);
+  EXPECT_GT(moves, 1000);
+}
+
+TEST(Program, AnInstallationWithoutABarIsRefusedByName) {
+  Design d = io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
+  d.installations[2].bar_mm.reset();
+  try {
+    measurement_program(d, ProgramOptions{});
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), "installations[2].bar_mm");
+    EXPECT_NE(e.detail().find("1a"), std::string::npos);
+  }
+}
+
+TEST(Program, OptionsOutsideTheirLimitsAreRefused) {
+  const Design d = io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
+  for (auto set : {+[](ProgramOptions& o) { o.dwell_s = 0; },
+                   +[](ProgramOptions& o) { o.feed_mm_per_min = NAN; },
+                   +[](ProgramOptions& o) { o.path_tolerance_mm = 2; }}) {
+    ProgramOptions o;
+    set(o);
+    EXPECT_THROW(measurement_program(d, o), InputError);
+  }
+}
+
+TEST(Program, FinerPathToleranceSplitsStepsFurtherAndStaysWithinIt) {
+  const Design d = io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
+  size_t previous = 0;
+  for (double tol : {0.5, 0.05, 0.005}) {
+    ProgramOptions o;
+    o.path_tolerance_mm = tol;
+    const MeasurementProgram p = measurement_program(d, o);
+    size_t positions = 0;
+    for (const InstallationProgram& ip : p.installations) {
+      EXPECT_LE(ip.largest_bar_change_mm, tol);
+      for (const ProgramSweep& s : ip.sweeps) positions += s.positions.size();
+    }
+    EXPECT_GT(positions, previous) << tol;
+    previous = positions;
+    EXPECT_EQ(p.readings, 7 * 19);
+  }
+}
+
+}  // namespace
+}  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// Every committed design has a program in both dialects, read back with one reading per
+// installation, angle and sweep.
+TEST(ProgramCli, EveryCommittedDesignHasAProgramInBothDialects) {
+  int designs = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(DBBKIT_SOURCE_DIR "/designs")) {
+    if (entry.path().extension() != ".json") continue;
+    const Design d = io::read_design_file(entry.path().string());
+    for (const std::string dialect : {"iso", "heidenhain"}) {
+      const CliRun r = run_cli("program --design " + entry.path().string() + " --dialect " +
+                               dialect + " --sweeps both");
+      ASSERT_EQ(r.status, 0) << entry.path() << r.err;
+      const Parsed p = parse(r.out, dialect == "iso" ? io::Dialect::kIso : io::Dialect::kHeidenhain,
+                             d.axis == Axis::kC ? 'C' : 'B');
+      EXPECT_EQ(p.dwells.size(), 2 * d.installations.size() * d.angles_deg.size()) << entry.path();
+      EXPECT_EQ(p.mounts, static_cast<int>(d.installations.size()));
+    }
+    ++designs;
+  }
+  EXPECT_GE(designs, 8);
+}
+
+TEST(ProgramCli, BadRequestsExitTwoSayingWhy) {
+  const std::string c = DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json";
+  CliRun r = run_cli("program --design " + c + " --dialect iso --tool-down");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--tool-down"), std::string::npos) << r.err;
+  r = run_cli("program --design " + c + " --dialect fanuc");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--dialect"), std::string::npos) << r.err;
+  r = run_cli("program --design " + c + " --dialect iso --path-tolerance-mm 0");
+  EXPECT_EQ(r.status, 2);
+  // A design without a bar: the file and the key are named.
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_program_test";
+  std::filesystem::create_directories(dir);
+  std::string text = slurp(c);
+  const std::string bar = ",\n      \"bar_mm\": 150\n";
+  text.replace(text.find(bar), bar.size(), "\n");
+  const std::string nobar = (dir / "nobar.json").string();
+  std::ofstream(nobar) << text;
+  r = run_cli("program --design " + nobar + " --dialect heidenhain");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find(nobar), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("installations[0].bar_mm"), std::string::npos) << r.err;
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace dbbkit
