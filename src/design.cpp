@@ -271,6 +271,38 @@ void validate_design(const Design& d, const std::string& source) {
       require(length_ok(*in.bar_mm) && *in.bar_mm > 0, source, key + ".bar_mm",
               "must be a positive length in mm, at most 10000 mm");
     }
+    if (!in.bar_parts_mm.empty()) {
+      require(in.bar_mm.has_value(), source, key + ".bar_parts_mm",
+              "the parts of a bar need its length bar_mm");
+      double sum = 0;
+      for (size_t k = 0; k < in.bar_parts_mm.size(); ++k) {
+        require(length_ok(in.bar_parts_mm[k]) && in.bar_parts_mm[k] > 0, source,
+                key + ".bar_parts_mm[" + std::to_string(k) + "]",
+                "must be a positive length in mm, at most 10000 mm");
+        sum += in.bar_parts_mm[k];
+      }
+      require(std::abs(sum - *in.bar_mm) <= kAssemblyTolerance_mm, source, key + ".bar_parts_mm",
+              "the parts add up to " + std::to_string(sum) +
+                  " mm, not bar_mm = " + std::to_string(*in.bar_mm) + " mm");
+    }
+    if (in.cup_mm) {
+      require(d.axis == Axis::kC, source, key + ".stack_mm",
+              "a cup on cushion blocks is a turntable (C) set-up");
+      require(length_ok(*in.cup_mm) && *in.cup_mm >= 0, source, key + ".stack_mm.cup",
+              "must be a length >= 0 mm, at most 10000 mm");
+      double sum = *in.cup_mm;
+      for (size_t k = 0; k < in.blocks_mm.size(); ++k) {
+        require(length_ok(in.blocks_mm[k]) && in.blocks_mm[k] > 0, source,
+                key + ".stack_mm.blocks[" + std::to_string(k) + "]",
+                "must be a positive length in mm, at most 10000 mm");
+        sum += in.blocks_mm[k];
+      }
+      require(std::abs(sum - in.H_mm) <= kAssemblyTolerance_mm, source, key + ".stack_mm",
+              "the cup and its blocks add up to " + std::to_string(sum) +
+                  " mm, not H = " + std::to_string(in.H_mm) + " mm");
+    } else {
+      require(in.blocks_mm.empty(), source, key + ".stack_mm", "blocks need the cup's height");
+    }
   }
 }
 

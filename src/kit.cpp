@@ -228,6 +228,21 @@ void validate_kit(const Kit& k, const std::string& source) {
     }
     require(k.max_stack >= 0, source, "H_mm.max_stack", "must be an integer >= 0");
   }
+  if (k.bar_set) {
+    const BarSet& b = *k.bar_set;
+    require(length_within_limits(b.base_mm) && b.base_mm > 0, source, "bars.base_mm",
+            "must be a positive length in mm, at most 10000 mm");
+    require(static_cast<int>(b.extensions_mm.size()) <= kMaxBarExtensions, source,
+            "bars.extensions_mm", "more than " + std::to_string(kMaxBarExtensions) + " extensions");
+    if (b.max_extensions) {
+      require(*b.max_extensions >= 0, source, "bars.max_extensions", "must be an integer >= 0");
+    }
+    for (size_t i = 0; i < b.extensions_mm.size(); ++i) {
+      require(length_within_limits(b.extensions_mm[i]) && b.extensions_mm[i] > 0, source,
+              "bars.extensions_mm[" + std::to_string(i) + "]",
+              "must be a positive length in mm, at most 10000 mm");
+    }
+  }
   require(!k.bars_mm.empty(), source, "bars_mm", "no bars");
   for (size_t i = 0; i < k.bars_mm.size(); ++i) {
     require(length_within_limits(k.bars_mm[i]) && k.bars_mm[i] > 0, source,
@@ -272,6 +287,12 @@ void validate_kit(const Kit& k, const std::string& source) {
           "must be a time >= 0 s");
   require(finite(k.time_per_installation_s) && k.time_per_installation_s >= 0, source,
           "time_s.per_installation", "must be a time >= 0 s");
+  require(finite(k.time_per_position_s) && k.time_per_position_s >= 0, source,
+          "time_s.per_position", "must be a time >= 0 s");
+  if (k.resolution_mm) {
+    require(finite(*k.resolution_mm) && *k.resolution_mm >= 1e-3 && *k.resolution_mm <= 10, source,
+            "resolution_mm", "must be in [0.001, 10] mm");
+  }
   if (k.time_budget_s) {
     require(finite(*k.time_budget_s) && *k.time_budget_s > 0, source, "time_s.budget",
             "must be a positive time in s");
@@ -310,9 +331,66 @@ std::vector<double> kit_angles(const Kit& kit, double step_deg) {
   return a;
 }
 
+std::vector<double> assembled_bars(const BarSet& set) {
+  const int n = static_cast<int>(set.extensions_mm.size());
+  std::vector<double> out;
+  for (unsigned mask = 0; mask < (1u << n); ++mask) {
+    if (set.max_extensions && __builtin_popcount(mask) > *set.max_extensions) continue;
+    double L = set.base_mm;
+    for (int k = 0; k < n; ++k)
+      if (mask & (1u << k)) L += set.extensions_mm[k];
+    out.push_back(L);
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(
+      std::unique(out.begin(), out.end(),
+                  [](double a, double b) { return std::abs(a - b) <= kAssemblyTolerance_mm; }),
+      out.end());
+  return out;
+}
+
+std::vector<double> bar_parts(const Kit& kit, double length_mm) {
+  if (!kit.bar_set) {
+    for (double b : kit.bars_mm)
+      if (std::abs(b - length_mm) <= kAssemblyTolerance_mm) return {b};
+    return {};
+  }
+  const BarSet& set = *kit.bar_set;
+  const int n = static_cast<int>(set.extensions_mm.size());
+  std::vector<double> best;
+  for (unsigned mask = 0; mask < (1u << n); ++mask) {
+    if (set.max_extensions && __builtin_popcount(mask) > *set.max_extensions) continue;
+    std::vector<double> parts = {set.base_mm};
+    double L = set.base_mm;
+    for (int k = 0; k < n; ++k) {
+      if (mask & (1u << k)) {
+        parts.push_back(set.extensions_mm[k]);
+        L += set.extensions_mm[k];
+      }
+    }
+    if (std::abs(L - length_mm) <= kAssemblyTolerance_mm &&
+        (best.empty() || parts.size() < best.size()))
+      best = parts;
+  }
+  return best;
+}
+
+int ball_positions(const Design& design) {
+  std::vector<Eigen::Vector3d> seen;
+  for (const Installation& in : design.installations) {
+    const Eigen::Vector3d p(in.L_mm, in.D_mm, in.H_mm);
+    if (std::none_of(seen.begin(), seen.end(), [&](const Eigen::Vector3d& q) {
+          return (p - q).cwiseAbs().maxCoeff() <= kAssemblyTolerance_mm;
+        }))
+      seen.push_back(p);
+  }
+  return static_cast<int>(seen.size());
+}
+
 double design_time_s(const Kit& kit, const Design& design) {
   const double n_inst = static_cast<double>(design.installations.size());
-  return n_inst * kit.time_per_installation_s +
+  return (kit.time_per_position_s > 0 ? ball_positions(design) * kit.time_per_position_s : 0.0) +
+         n_inst * kit.time_per_installation_s +
          n_inst * static_cast<double>(design.angles_deg.size()) * kit.time_per_reading_s;
 }
 

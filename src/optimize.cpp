@@ -392,6 +392,63 @@ bool better_choice(const Candidate& a, const Candidate& b) {
   return better(a, b);
 }
 
+// The best design with its continuous positions rounded to multiples of the kit's
+// resolution: every combination of the multiple below and above each variable (inside its
+// bounds) is made, checked and scored again, and the best feasible one replaces the best.
+void round_best(const Kit& kit, Criterion criterion, OptimizeResult& res) {
+  if (!kit.resolution_mm || !res.best) return;
+  const double r = *kit.resolution_mm;
+  const Candidate& unrounded = *res.best;
+  const PatternSpace& space = unrounded.choice.space;
+  std::vector<std::vector<double>> options(unrounded.x.size());
+  for (size_t i = 0; i < unrounded.x.size(); ++i) {
+    const double x = unrounded.x[i];
+    for (double m : {std::floor(x / r) * r, std::ceil(x / r) * r}) {
+      // A multiple closer than kAssemblyTolerance_mm to a bound is the bound itself.
+      m = std::clamp(m, space.lower[i], space.upper[i]);
+      if (std::abs(m / r - std::round(m / r)) * r <= kAssemblyTolerance_mm &&
+          (options[i].empty() || options[i].back() != m))
+        options[i].push_back(m);
+    }
+  }
+  OptimizeResult::Rounding rd;
+  rd.resolution_mm = r;
+  rd.unrounded = unrounded;
+  // A range with no multiple of the resolution inside: nothing rounded, and said so.
+  for (const std::vector<double>& o : options) {
+    if (o.empty()) {
+      res.rounding = std::move(rd);
+      return;
+    }
+  }
+  std::optional<DetectionRequirement> detection;
+  if (kit.require_setup_detection) detection.emplace(unrounded.design);
+  std::optional<Candidate> best;
+  std::vector<size_t> pick(options.size(), 0);
+  for (;;) {
+    std::vector<double> x(options.size());
+    for (size_t i = 0; i < options.size(); ++i) x[i] = options[i][pick[i]];
+    Candidate c = make_candidate(kit, unrounded.choice, x);
+    score_candidate(kit, criterion, c);
+    if (detection) detection->score(c, false);
+    ++rd.tried;
+    if (c.feasible && c.n_undetermined <= unrounded.n_undetermined && c.objective_defined &&
+        (!best || better(c, *best)))
+      best = std::move(c);
+    size_t i = 0;
+    while (i < pick.size() && ++pick[i] == options[i].size()) pick[i++] = 0;
+    if (i == pick.size()) break;
+  }
+  if (best) {
+    if (criterion == Criterion::kWorstTotal)
+      best->worst = *design_worst_total(best->design, kit.reference_length_mm).noise;
+    describe_installations(kit, *best);
+    res.best = std::move(best);
+    rd.applied = true;
+  }
+  res.rounding = std::move(rd);
+}
+
 // Runs `search_one` over every choice in parallel and assembles the result.
 template <typename SearchOne>
 OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, SearchOne&& search_one,
@@ -448,6 +505,7 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
     if (cr.best && cr.best->feasible && (!res.best || better_choice(*cr.best, *res.best)))
       res.best = cr.best;
   }
+  round_best(kit, criterion, res);
   if (res.best) {
     res.best_evaluation = evaluate_design(res.best->design, kit.reference_length_mm);
     // Pareto front of (time, objective) among the choices that determine as much as the best.
@@ -675,20 +733,39 @@ void describe_installations(const Kit& kit, Candidate& c) {
     Installation& in = c.design.installations[k];
     const PatternPosition& p = kit.pattern.positions[c.installation_position[k]];
     std::string t;
+    in.cup_mm.reset();
+    in.blocks_mm.clear();
     if (kit.axis == Axis::kC) {
       if (p.H.is_variable()) {
         for (const PatternChoice::Height& h : c.choice.heights) {
-          if (h.variable == p.H.variable) t = h.variable + " = " + stack_text(kit, stacks[h.stack]);
+          if (h.variable != p.H.variable) continue;
+          t = h.variable + " = " + stack_text(kit, stacks[h.stack]);
+          in.cup_mm = kit.H_base_mm;
+          in.blocks_mm = stacks[h.stack].blocks_mm;
         }
       } else {
         t = "H = " + mm(p.H.value) + " mm (fixed by the pattern)";
+        for (const Stack& st : stacks) {
+          if (std::abs(st.height_mm - p.H.value) <= kAssemblyTolerance_mm) {
+            in.cup_mm = kit.H_base_mm;
+            in.blocks_mm = st.blocks_mm;
+          }
+        }
       }
       if (!p.L.is_variable() && !p.D.is_variable() && p.L.value == 0 && p.D.value == 0)
         t += ", on the axis";
     } else {
       t = off_axis(kit, p) ? "off the tool axis" : "on the tool axis";
     }
-    in.description = t + ", bar " + mm(*in.bar_mm) + " mm";
+    in.bar_parts_mm = bar_parts(kit, *in.bar_mm);
+    t += ", bar " + mm(*in.bar_mm) + " mm";
+    if (in.bar_parts_mm.size() > 1) {
+      t += " (";
+      for (size_t i = 0; i < in.bar_parts_mm.size(); ++i)
+        t += (i ? " + " : "") + mm(in.bar_parts_mm[i]);
+      t += ")";
+    }
+    in.description = t;
   }
 }
 
@@ -836,6 +913,50 @@ ReferenceRatios reference_ratios(const OptimizeResult& res, const Reference& ref
       reference.worst_total->worst_std_um)
     r.worst_total_std_um = *ev.worst_total->worst_std_um / *reference.worst_total->worst_std_um;
   return r;
+}
+
+std::vector<BindingConstraint> binding_constraints(const Kit& kit, const OptimizeResult& res) {
+  std::vector<BindingConstraint> out;
+  // How near a choice is to fitting, in the measure of its state (smaller is nearer).
+  auto distance = [](const ChoiceResult& cr) {
+    switch (cr.state) {
+      case ChoiceState::kOverTimeBudget:
+        return cr.time_s;
+      case ChoiceState::kOutsideTravel:
+        return cr.best ? cr.best->travel_violation_mm : 0.0;
+      case ChoiceState::kTooClose:
+        return cr.best ? cr.best->separation_violation_mm : 0.0;
+      case ChoiceState::kSetupNotDetected:
+        return cr.best && cr.best->detection ? cr.best->detection->ratio : 0.0;
+      default:
+        return 0.0;
+    }
+  };
+  for (int i = 0; i < static_cast<int>(res.choices.size()); ++i) {
+    const ChoiceResult& cr = res.choices[i];
+    if (cr.state == ChoiceState::kSearched) continue;
+    auto it = std::find_if(out.begin(), out.end(),
+                           [&](const BindingConstraint& b) { return b.state == cr.state; });
+    if (it == out.end()) {
+      out.push_back({cr.state, 0, i});
+      it = out.end() - 1;
+    }
+    ++it->choices;
+    if (distance(cr) < distance(res.choices[it->closest])) it->closest = i;
+  }
+  for (BindingConstraint& b : out) {
+    if (b.state != ChoiceState::kOverTimeBudget) continue;
+    const ChoiceResult& cr = res.choices[b.closest];
+    const Candidate probe = make_candidate(kit, cr.choice, cr.choice.space.lower);
+    b.time_s = probe.time_s;
+    b.positions = ball_positions(probe.design);
+    b.installations = static_cast<int>(probe.design.installations.size());
+    b.readings = b.installations * static_cast<int>(probe.design.angles_deg.size());
+  }
+  std::stable_sort(
+      out.begin(), out.end(),
+      [](const BindingConstraint& a, const BindingConstraint& b) { return a.choices > b.choices; });
+  return out;
 }
 
 }  // namespace dbbkit

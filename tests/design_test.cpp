@@ -64,6 +64,26 @@ TEST(DesignValidation, NamesTheKeyAtFault) {
   d = paper;
   d.installations[1].sign = 0;
   EXPECT_EQ(where(d), "installations[1].sign");
+  // The hardware as assembled must add up: bar parts to bar_mm, the cup and blocks to H.
+  d = paper;  // bar 150 mm, H 60 mm at installation 0
+  d.installations[0].bar_parts_mm = {100, 50};
+  d.installations[0].cup_mm = 45;
+  d.installations[0].blocks_mm = {15};
+  EXPECT_EQ(where(d), "(accepted)");
+  d.installations[0].bar_parts_mm = {100, 40};
+  EXPECT_EQ(where(d), "installations[0].bar_parts_mm");
+  d.installations[0].bar_parts_mm = {100, 50};
+  d.installations[0].blocks_mm = {25};
+  EXPECT_EQ(where(d), "installations[0].stack_mm");
+  d.installations[0].blocks_mm = {-5, 20};
+  EXPECT_EQ(where(d), "installations[0].stack_mm.blocks[0]");
+  d = paper;
+  d.installations[3].blocks_mm = {25};
+  EXPECT_EQ(where(d), "installations[3].stack_mm");
+  d = paper;
+  d.installations[4].bar_mm.reset();
+  d.installations[4].bar_parts_mm = {100};
+  EXPECT_EQ(where(d), "installations[4].bar_parts_mm");
 }
 
 TEST(SetupOverride, ReplacesOnlyTheKeysGiven) {

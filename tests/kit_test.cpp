@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <tuple>
 
+#include "dbbkit/error.hpp"
 #include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "test_util.hpp"
@@ -79,6 +81,80 @@ TEST(Kit, FitBarTakesTheShortestBarThatFits) {
 // A small C kit whose travel binds: x, y within +-220 mm, so a tangential bar of
 // 100 mm allows L <= sqrt(220^2 - 100^2) = 196 mm of the 250 the table offers
 // (a 150 mm block sets the heights apart, so that the radii limit the worst case).
+
+// Bars as sold: a 100 mm base with 50, 150 and 300 mm extensions gives every sum of the
+// base and a subset, each once, and each bar's parts are the fewest that make it.
+TEST(Kit, BarSetAssembliesAndTheirParts) {
+  BarSet set{100, {50, 150, 300}};
+  // 100, +50, +150, +300, +50+150, +50+300, +150+300, +50+150+300
+  EXPECT_EQ(assembled_bars(set), (std::vector<double>{100, 150, 250, 300, 400, 450, 550, 600}));
+  Kit kit = formats_kit();
+  kit.bar_set = set;
+  kit.bars_mm = assembled_bars(set);
+  EXPECT_EQ(bar_parts(kit, 450), (std::vector<double>{100, 50, 300}));
+  EXPECT_EQ(bar_parts(kit, 100), (std::vector<double>{100}));
+  EXPECT_TRUE(bar_parts(kit, 120).empty());
+  // Two ways to make 300 (base + 50 + 150 or base + 200): the fewest parts.
+  kit.bar_set = BarSet{100, {50, 150, 200}};
+  EXPECT_EQ(bar_parts(kit, 300), (std::vector<double>{100, 200}));
+  // A kit of bars as assembled: each bar is one part.
+  Kit assembled = formats_kit();
+  assembled.bar_set.reset();
+  EXPECT_EQ(bar_parts(assembled, 250), (std::vector<double>{250}));
+}
+
+TEST(Kit, BarsAsSoldAreReadAndCheckedByKey) {
+  const std::string head = R"({"format": "dbbkit.kit/1", "axis": "C", "reference_length_mm": 100,
+    "pattern": "three_position", "L_mm": {"min": 20, "max": 250},
+    "H_mm": {"base": 45, "blocks": [150], "max_stack": 1},
+    "travel_mm": {"x": [-220, 220], "y": [-220, 220], "z": [-50, 400]},
+    "angles_deg": {"range": [0, 360], "steps": [30]},
+    "time_s": {"per_reading": 3, "per_installation": 60, "per_position": 180}, )";
+  const Kit k = io::kit_from_text(
+      head + R"("bars": {"base_mm": 100, "extensions_mm": [50, 150]}, "resolution_mm": 0.5})", "k");
+  EXPECT_EQ(k.bars_mm, (std::vector<double>{100, 150, 250, 300}));
+  ASSERT_TRUE(k.resolution_mm);
+  EXPECT_EQ(*k.resolution_mm, 0.5);
+  EXPECT_EQ(k.time_per_position_s, 180);
+  auto where = [&](const std::string& tail) {
+    try {
+      io::kit_from_text(head + tail, "k");
+    } catch (const InputError& e) {
+      return e.where();
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(where(R"("bars": {"base_mm": 100}, "bars_mm": [100]})"), "bars");
+  EXPECT_EQ(where(R"("bars": {"base_mm": -1}})"), "bars.base_mm");
+  EXPECT_EQ(where(R"("bars": {"base_mm": 100, "extensions_mm": [50, 0]}})"),
+            "bars.extensions_mm[1]");
+  EXPECT_EQ(where(R"("bars": {"base_mm": 100, "extensions_mm": [1,2,3,4,5,6,7,8,9,10,11,12,13]}})"),
+            "bars.extensions_mm");
+  EXPECT_EQ(where(R"("bars": {"base_mm": 100, "lengths": [50]}})"), "bars.lengths");
+  EXPECT_EQ(where(R"("bars_mm": [100], "resolution_mm": 0})"), "resolution_mm");
+}
+
+// Installations at one ball position share its set-up time.
+TEST(Kit, DesignTimeCountsEachBallPositionOnce) {
+  Kit kit = formats_kit();
+  kit.time_per_position_s = 180;
+  kit.time_per_installation_s = 60;
+  kit.time_per_reading_s = 3;
+  Design d;
+  d.angles_deg = {0, 90, 180, 270, 360};
+  for (auto [L, H, kind] : {std::tuple{100.0, 45.0, Direction::Kind::kRadial},
+                            std::tuple{100.0, 45.0, Direction::Kind::kTangential},
+                            std::tuple{0.0, 45.0, Direction::Kind::kAxial},
+                            std::tuple{100.0, 145.0, Direction::Kind::kRadial}}) {
+    Installation in;
+    in.L_mm = L;
+    in.H_mm = H;
+    in.direction = Direction::named(Axis::kC, kind);
+    d.installations.push_back(in);
+  }
+  EXPECT_EQ(ball_positions(d), 3);
+  EXPECT_DOUBLE_EQ(design_time_s(kit, d), 3 * 180 + 4 * 60 + 4 * 5 * 3);
+}
 
 }  // namespace
 }  // namespace dbbkit

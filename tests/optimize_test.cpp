@@ -345,6 +345,46 @@ TEST(Optimize, TimeBudgetExcludesChoices) {
   EXPECT_EQ(over, 2);  // step 10 for both height orders
 }
 
+// No choice fits the budget: one constraint binds the whole kit, with the shortest design's
+// time as it adds up (7 installations at 37 angles and at 13).
+TEST(Optimize, AKitOverItsTimeBudgetNamesTheShortestDesign) {
+  Kit k = small_c_kit();
+  k.angle_steps_deg = {10, 30};
+  k.time_budget_s = 1900;
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorst, 2});
+  ASSERT_FALSE(r.best);
+  const std::vector<BindingConstraint> b = binding_constraints(k, r);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_EQ(b[0].state, ChoiceState::kOverTimeBudget);
+  EXPECT_EQ(b[0].choices, 4);
+  EXPECT_DOUBLE_EQ(b[0].time_s, 1953);  // 7 x 240 + 7 x 13 x 3
+  EXPECT_EQ(b[0].installations, 7);
+  EXPECT_EQ(b[0].readings, 91);
+}
+
+// With a resolution the best is rounded: every position a multiple of it, checked and scored
+// again (the objective is the rounded design's own), within a small change of the optimum.
+TEST(Optimize, TheBestIsRoundedToTheKitsResolutionAndScoredAgain) {
+  Kit k = small_c_kit();
+  const OptimizeResult free = optimize_kit(k, {Criterion::kWorst, 2});
+  k.resolution_mm = 5;
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorst, 2});
+  ASSERT_TRUE(r.best && r.rounding && free.best);
+  EXPECT_TRUE(r.rounding->applied);
+  EXPECT_TRUE(r.best->feasible);
+  EXPECT_GE(r.rounding->tried, 1);
+  EXPECT_EQ(r.rounding->unrounded.x, free.best->x);
+  for (const Installation& in : r.best->design.installations) {
+    EXPECT_NEAR(std::remainder(in.L_mm, 5.0), 0, 1e-9) << in.id << " L " << in.L_mm;
+    EXPECT_NEAR(std::remainder(in.D_mm, 5.0), 0, 1e-9) << in.id;
+  }
+  const WorstCase w = design_worst_case(r.best->design, k.reference_length_mm);
+  EXPECT_NEAR(r.best->objective, *w.worst_std_um, 1e-12 * *w.worst_std_um);
+  EXPECT_NEAR(*r.best_evaluation.worst.worst_std_um, *w.worst_std_um, 1e-9);
+  EXPECT_GE(r.best->objective, free.best->objective * (1 - 1e-9));  // the search's optimum
+  EXPECT_LE(r.best->objective, free.best->objective * 1.05);
+}
+
 // A pattern is data: the built-in three_position written out position by position
 // searches the same, and optional positions are added in order, each choice the search
 // reports, within the time budget.

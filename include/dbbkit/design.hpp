@@ -68,6 +68,13 @@ struct Installation {
   std::optional<double> bar_mm;  // bar length, when declared
   std::string description;       // free text for the person setting it up
   SetupOverride setup_std;       // this installation's set-up tolerances, over the design's default
+  // The hardware as assembled, when known (optimize writes it from the kit; the set-up sheet
+  // shows it). bar_parts_mm: the base bar first, then the extensions screwed on; their sum
+  // is bar_mm. C: cup_mm, the height of the ball's centre in its cup on the table, and
+  // blocks_mm, the cushion blocks under the cup; cup_mm + the blocks = H.
+  std::vector<double> bar_parts_mm;
+  std::optional<double> cup_mm;
+  std::vector<double> blocks_mm;
 };
 
 // Instrument noise of one reading. Uniform: +-half_width (the instrument's
@@ -100,6 +107,10 @@ struct Prediction {
 };
 
 inline constexpr double kDefaultInstrumentRange_mm = 1.0;
+
+// The parts of a bar add up to bar_mm, and a cup and its blocks to H, when
+// |sum - value| <= kAssemblyTolerance_mm (lengths written with 6 decimals).
+inline constexpr double kAssemblyTolerance_mm = 1e-6;
 
 struct Design {
   std::string name;

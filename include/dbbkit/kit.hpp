@@ -54,6 +54,16 @@ struct Pattern {
 // The built-in patterns by name ("three_position"); absent for an unknown name.
 std::optional<Pattern> builtin_pattern(const std::string& name, Axis axis);
 
+// Bars as sold: a base bar and extensions screwed onto it, each extension used at most once
+// (a QC20-W: a 100 mm base with 50, 150 and 300 mm extensions).
+struct BarSet {
+  double base_mm = 0;
+  std::vector<double> extensions_mm;
+  std::optional<int> max_extensions;  // at most this many on one bar (absent: all of them)
+};
+// At most this many extensions in a bar set (2^n assemblies are enumerated).
+inline constexpr int kMaxBarExtensions = 12;
+
 struct Kit {
   std::string name;
   Axis axis = Axis::kC;
@@ -69,17 +79,24 @@ struct Kit {
   // below its limit are infeasible for the search.
   bool require_setup_detection = false;
   Interval L_mm;
-  Interval D_mm;                      // {0, 0}: no lateral offset
-  double H_base_mm = 0;               // C: height of the ball cup standing on the table
-  std::vector<double> blocks_mm;      // C: the cushion blocks owned, one entry per block
-  int max_stack = 0;                  // C: at most this many blocks under one cup
-  std::vector<double> bars_mm;        // bar lengths that can be assembled
+  Interval D_mm;                  // {0, 0}: no lateral offset
+  double H_base_mm = 0;           // C: height of the ball cup standing on the table
+  std::vector<double> blocks_mm;  // C: the cushion blocks owned, one entry per block
+  int max_stack = 0;              // C: at most this many blocks under one cup
+  std::vector<double> bars_mm;    // bar lengths that can be assembled
+  std::optional<BarSet> bar_set;  // how they are assembled (absent: each bar is one part)
+  // The search's ball positions (L, D) are rounded to multiples of this before the best is
+  // written, and the rounded design is checked and scored again (absent: not rounded).
+  std::optional<double> resolution_mm;
   std::array<Interval, 3> travel_mm;  // x, y, z of the following ball, machine frame of model.md
   double min_separation_mm = 0;
   Interval angle_range_deg;
   std::vector<double> angle_steps_deg;
   double time_per_reading_s = 0;
-  double time_per_installation_s = 0;
+  double time_per_installation_s = 0;  // each installation: the bar mounted in one direction
+  // Each ball position set up (the cup and its blocks placed; installations at one position
+  // share it). 0 when the kit does not give it: per_installation then covers both.
+  double time_per_position_s = 0;
   std::optional<double> time_budget_s;  // absent: no limit
 };
 
@@ -107,8 +124,19 @@ std::vector<Stack> block_stacks(const Kit& kit);
 // The measured angles for one step: range.min, range.min + step, ..., range.max.
 std::vector<double> kit_angles(const Kit& kit, double step_deg);
 
-// installations x time_per_installation + readings x time_per_reading, one
-// reading per installation and angle.
+// Every length base + a subset of the extensions gives, ascending, each once.
+std::vector<double> assembled_bars(const BarSet& set);
+// The parts of a bar of the kit: with a bar set, the base and the fewest extensions that
+// make `length_mm` (|sum - length| <= kAssemblyTolerance_mm); otherwise the bar itself.
+// Empty when the kit has no such bar.
+std::vector<double> bar_parts(const Kit& kit, double length_mm);
+
+// The distinct ball positions of a design (installations whose ball is at the same L, D, H
+// within kAssemblyTolerance_mm share one): each is one set-up of the cup.
+int ball_positions(const Design& design);
+
+// positions x time_per_position + installations x time_per_installation + readings x
+// time_per_reading, one reading per installation and angle.
 double design_time_s(const Kit& kit, const Design& design);
 
 // The following ball sits at F = P - s bar u (README, "Conventions") and, as the

@@ -157,7 +157,33 @@ struct OptimizeResult {
   // with the off-axis position fits it (kNoOffAxisDesignFits).
   enum class RankFiveCause { kNone, kNoLateralOffset, kNoOffAxisDesignFits };
   RankFiveCause rank_five = RankFiveCause::kNone;
+  // With the kit's resolution_mm: the best as searched (unrounded), and whether a rounded
+  // design (each continuous position the multiple of the resolution below or above, inside
+  // its bounds: `tried` designs checked and scored again) was feasible and replaced it in
+  // `best`. Not applied: no rounded design is feasible (or a variable's range holds no
+  // multiple of the resolution: tried = 0), and `best` is the unrounded one.
+  struct Rounding {
+    double resolution_mm = 0;
+    Candidate unrounded;
+    bool applied = false;
+    int tried = 0;
+  };
+  std::optional<Rounding> rounding;
 };
+
+// Why no design fits a kit: one entry per state some choice ended in (never kSearched), most
+// choices first, each with the choice closest to fitting (`closest`, an index into
+// res.choices): the shortest for kOverTimeBudget (and how its time adds up), the least
+// excursion for kOutsideTravel, the least shortfall for kTooClose, the smallest ratio of
+// detection limit to declared size for kSetupNotDetected.
+struct BindingConstraint {
+  ChoiceState state = ChoiceState::kNoFeasiblePosition;
+  int choices = 0;
+  int closest = -1;
+  double time_s = 0;  // kOverTimeBudget: the shortest design's time
+  int positions = 0, installations = 0, readings = 0;
+};
+std::vector<BindingConstraint> binding_constraints(const Kit& kit, const OptimizeResult& res);
 
 // The discrete choices of a kit (each resolved: placements and continuous space), and the
 // design for a choice and a point (bars and signs fitted; violations set).

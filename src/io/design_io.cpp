@@ -219,6 +219,17 @@ Design design_from_json(const json& j, const std::string& source) {
     if (inst.sign != 1 && inst.sign != -1) in.fail("sign", "must be +1 or -1");
     inst.bar_mm = in.optional_number("bar_mm");
     inst.description = in.optional_string("description").value_or("");
+    if (const json* parts = in.optional("bar_parts_mm"))
+      inst.bar_parts_mm = read_numbers(*parts, source, path + ".bar_parts_mm");
+    if (const json* st = in.optional("stack_mm")) {
+      if (d.axis != Axis::kC)
+        in.fail("stack_mm", "a cup on cushion blocks is a turntable (C) set-up");
+      ObjectReader stack(*st, source, path + ".stack_mm");
+      inst.cup_mm = stack.number("cup");
+      if (const json* b = stack.optional("blocks"))
+        inst.blocks_mm = read_numbers(*b, source, stack.key_path("blocks"));
+      stack.finish();
+    }
     if (const json* u = in.optional("setup_std"))
       inst.setup_std = read_setup_override(ObjectReader(*u, source, path + ".setup_std"));
     in.finish();
@@ -290,6 +301,8 @@ json design_to_json(const Design& d) {
     }
     if (in.sign != 1) i["sign"] = in.sign;
     if (in.bar_mm) i["bar_mm"] = *in.bar_mm;
+    if (!in.bar_parts_mm.empty()) i["bar_parts_mm"] = in.bar_parts_mm;
+    if (in.cup_mm) i["stack_mm"] = {{"cup", *in.cup_mm}, {"blocks", in.blocks_mm}};
     if (!in.description.empty()) i["description"] = in.description;
     if (in.setup_std.any()) i["setup_std"] = setup_override_to_json(in.setup_std);
     list.push_back(i);

@@ -254,4 +254,13 @@ std::string as_string(const json& v, const std::string& source, const std::strin
   return v.get<std::string>();
 }
 
+std::vector<double> read_numbers(const nlohmann::json& v, const std::string& source,
+                                 const std::string& path) {
+  if (!v.is_array()) throw InputError(source, path, "expected a list of numbers");
+  std::vector<double> out;
+  for (size_t i = 0; i < v.size(); ++i)
+    out.push_back(as_number(v[i], source, path + "[" + std::to_string(i) + "]"));
+  return out;
+}
+
 }  // namespace dbbkit::io

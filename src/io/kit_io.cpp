@@ -24,15 +24,6 @@ Interval read_pair(const json& v, const std::string& source, const std::string& 
   return {as_number(v[0], source, path + "[0]"), as_number(v[1], source, path + "[1]")};
 }
 
-std::vector<double> read_numbers(const json& v, const std::string& source,
-                                 const std::string& path) {
-  if (!v.is_array()) throw InputError(source, path, "expected a list of numbers");
-  std::vector<double> out;
-  for (size_t i = 0; i < v.size(); ++i)
-    out.push_back(as_number(v[i], source, path + "[" + std::to_string(i) + "]"));
-  return out;
-}
-
 bool read_flag(ObjectReader& r, const std::string& key, bool fallback) {
   const json* v = r.optional(key);
   if (!v) return fallback;
@@ -169,7 +160,26 @@ Kit kit_from_json(const json& j, const std::string& source) {
   } else if (top.has("H_mm")) {
     top.fail("H_mm", "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
   }
-  k.bars_mm = read_numbers(top.required("bars_mm"), source, top.key_path("bars_mm"));
+  if (top.has("bars") && top.has("bars_mm"))
+    top.fail("bars", "give the bars either as sold (bars) or as assembled (bars_mm), not both");
+  if (top.has("bars")) {
+    ObjectReader b = top.object("bars");
+    BarSet set;
+    set.base_mm = b.number("base_mm");
+    if (const json* e = b.optional("extensions_mm"))
+      set.extensions_mm = read_numbers(*e, source, b.key_path("extensions_mm"));
+    if (b.has("max_extensions")) set.max_extensions = b.integer("max_extensions");
+    b.finish();
+    k.bar_set = set;
+    // Checked before the 2^n assemblies are enumerated.
+    if (static_cast<int>(set.extensions_mm.size()) > kMaxBarExtensions)
+      throw InputError(source, "bars.extensions_mm",
+                       "more than " + std::to_string(kMaxBarExtensions) + " extensions");
+    k.bars_mm = assembled_bars(set);
+  } else {
+    k.bars_mm = read_numbers(top.required("bars_mm"), source, top.key_path("bars_mm"));
+  }
+  k.resolution_mm = top.optional_number("resolution_mm");
   {
     ObjectReader t = top.object("travel_mm");
     const char* names[] = {"x", "y", "z"};
@@ -188,6 +198,7 @@ Kit kit_from_json(const json& j, const std::string& source) {
     ObjectReader t = top.object("time_s");
     k.time_per_reading_s = t.number("per_reading");
     k.time_per_installation_s = t.number("per_installation");
+    k.time_per_position_s = t.optional_number("per_position").value_or(0.0);
     k.time_budget_s = t.optional_number("budget");
     t.finish();
   }

@@ -130,6 +130,60 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
   return "no feasible position";
 }
 
+std::string time_sum(const Kit& kit, int positions, int installations, int readings) {
+  std::string t;
+  if (kit.time_per_position_s > 0)
+    t = std::to_string(positions) + " positions x " + fmt_num(kit.time_per_position_s) + " s + ";
+  return t + std::to_string(installations) + " installations x " +
+         fmt_num(kit.time_per_installation_s) + " s + " + std::to_string(readings) +
+         " readings x " + fmt_num(kit.time_per_reading_s) + " s";
+}
+
+std::string rounding_text(const OptimizeResult& res) {
+  if (!res.rounding || !res.best) return "";
+  const OptimizeResult::Rounding& r = *res.rounding;
+  const std::string head = "positions rounded to the kit's resolution of " +
+                           fmt_num(r.resolution_mm) + " mm (" + std::to_string(r.tried) +
+                           " rounded designs checked and scored): ";
+  if (!r.applied)
+    return head +
+           (r.tried == 0 ? "a position's range holds no multiple of it" : "none is feasible") +
+           ", the positions are written as searched (not rounded)";
+  std::string t = head + criterion_name(res.criterion) + " " + fmt_num(r.unrounded.objective, 6) +
+                  " as searched, " + fmt_num(res.best->objective, 6) + " rounded";
+  if (r.unrounded.objective > 0)
+    t += " (" + std::string(res.best->objective >= r.unrounded.objective ? "+" : "") +
+         fmt_rounded(100.0 * (res.best->objective / r.unrounded.objective - 1.0), 2) + " %)";
+  return t;
+}
+
+std::string binding_text(const Kit& kit, const OptimizeResult& res) {
+  const std::vector<BindingConstraint> binding = binding_constraints(kit, res);
+  const size_t total = res.choices.size();
+  std::string out;
+  for (const BindingConstraint& b : binding) {
+    const ChoiceResult& cr = res.choices[b.closest];
+    std::string t;
+    if (b.state == ChoiceState::kOverTimeBudget) {
+      t = std::string(binding.size() > 1 ? "the shortest of them, " : "the shortest design, ") +
+          time_sum(kit, b.positions, b.installations, b.readings) + " = " +
+          fmt_rounded(b.time_s, 3) + " s, already exceeds the time budget of " +
+          fmt_rounded(kit.time_budget_s.value_or(0.0), 3) + " s";
+    } else {
+      t = choice_status_text(kit, cr);
+      if (b.state == ChoiceState::kOutsideTravel || b.state == ChoiceState::kTooClose ||
+          b.state == ChoiceState::kSetupNotDetected)
+        t += " (nearest: " + cr.label + ")";
+    }
+    if (binding.size() > 1)
+      t = std::to_string(b.choices) + " of " + std::to_string(total) + " choices: " + t;
+    else
+      t += " (all " + std::to_string(total) + " choices)";
+    out += (out.empty() ? "" : "; ") + t;
+  }
+  return out.empty() ? "no choice was searched" : out;
+}
+
 json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
                       double seconds, const std::optional<Reference>& reference) {
   json j;
@@ -172,6 +226,30 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   json front = json::array();
   for (const Candidate& c : res.pareto) front.push_back(candidate_json(kit, c));
   j["pareto"] = front;
+  if (res.rounding) {
+    j["rounding"] = {{"resolution_mm", res.rounding->resolution_mm},
+                     {"applied", res.rounding->applied},
+                     {"tried", res.rounding->tried},
+                     {"as_searched", candidate_json(kit, res.rounding->unrounded)},
+                     {"text", rounding_text(res)}};
+  }
+  if (!res.best) {
+    json binding = json::array();
+    for (const BindingConstraint& b : binding_constraints(kit, res)) {
+      json e = {{"state", choice_state_name(b.state)},
+                {"choices", b.choices},
+                {"nearest", res.choices[b.closest].label}};
+      if (b.state == ChoiceState::kOverTimeBudget) {
+        e["time_s"] = b.time_s;
+        e["positions"] = b.positions;
+        e["installations"] = b.installations;
+        e["readings"] = b.readings;
+      }
+      binding.push_back(e);
+    }
+    j["binding"] = binding;
+    j["binding_text"] = binding_text(kit, res);
+  }
   if (reference) {
     json r = {
         {"file", reference->file},
@@ -204,28 +282,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   if (res.rank_five != OptimizeResult::RankFiveCause::kNone)
     s << "note: " << rank_five_note(kit, res) << "\n";
   if (!res.best) {
-    // One line per distinct reason (a pattern that cannot meet a requirement fails every choice
-    // alike).
-    s << "\nno design fits the kit:\n";
-    std::vector<std::pair<std::string, std::vector<const ChoiceResult*>>> reasons;
-    for (const ChoiceResult& cr : res.choices) {
-      const std::string status = choice_status_text(kit, cr);
-      auto it = std::find_if(reasons.begin(), reasons.end(),
-                             [&](const auto& r) { return r.first == status; });
-      if (it == reasons.end()) {
-        reasons.push_back({status, {&cr}});
-      } else {
-        it->second.push_back(&cr);
-      }
-    }
-    for (const auto& [status, choices] : reasons) {
-      if (choices.size() == 1) {
-        s << "  " << choices.front()->label << ": " << status << "\n";
-      } else {
-        s << "  " << choices.size() << " choices (" << choices.front()->label
-          << ", ...): " << status << "\n";
-      }
-    }
+    s << "\nno design fits the kit: " << binding_text(kit, res) << "\n";
     return s.str();
   }
   const Candidate& b = *res.best;
@@ -244,9 +301,9 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
     s.unsetf(std::ios::fixed);
   }
   const size_t n_inst = b.design.installations.size(), n_ang = b.design.angles_deg.size();
-  s << "time " << fmt_num(b.time_s, 6) << " s = " << n_inst << " installations x "
-    << fmt_num(kit.time_per_installation_s) << " s + " << n_inst * n_ang << " readings x "
-    << fmt_num(kit.time_per_reading_s) << " s";
+  s << "time " << fmt_num(b.time_s, 6) << " s = "
+    << time_sum(kit, ball_positions(b.design), static_cast<int>(n_inst),
+                static_cast<int>(n_inst * n_ang));
   if (kit.time_budget_s) s << " (budget " << fmt_num(*kit.time_budget_s, 6) << " s)";
   s << "\n";
   s << "rank " << ev.prior.rank << " of " << ev.prior.n_unknowns;
@@ -263,6 +320,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   if (res.criterion != Criterion::kWorst && b.objective_defined) {
     s << criterion_name(res.criterion) << " objective " << fmt_num(b.objective, 6) << "\n";
   }
+  if (res.rounding) s << rounding_text(res) << "\n";
   if (b.detection) s << "set-up detection " << detection_text(*b.detection) << "\n";
   s << unidentifiable_text(ev.unidentifiable);
   if (ev.setup_included) {

@@ -6,6 +6,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <vector>
 
 namespace dbbkit::io {
 
@@ -54,5 +55,8 @@ class ObjectReader {
 double as_number(const nlohmann::json& v, const std::string& source, const std::string& path);
 int as_integer(const nlohmann::json& v, const std::string& source, const std::string& path);
 std::string as_string(const nlohmann::json& v, const std::string& source, const std::string& path);
+// A list of numbers; throws InputError(source, path[i]) at the first that is not one.
+std::vector<double> read_numbers(const nlohmann::json& v, const std::string& source,
+                                 const std::string& path);
 
 }  // namespace dbbkit::io

@@ -25,6 +25,15 @@ std::string pareto_csv(const Kit& kit, const OptimizeResult& res);
 // What became of a choice, in words: "searched", or which constraint binds with its figures
 // ("over the time budget (2100 s > 1800 s)").
 std::string choice_status_text(const Kit& kit, const ChoiceResult& cr);
+// Why no design fits the kit, in one line (binding_constraints in words): "the shortest design,
+// 7 installations x 240 s + 63 readings x 3 s = 1869 s, already exceeds the time budget of
+// 1000 s"; with several constraints, each with its count of choices.
+std::string binding_text(const Kit& kit, const OptimizeResult& res);
+// What rounding the best to the kit's resolution changed, in one sentence; empty without it.
+std::string rounding_text(const OptimizeResult& res);
+// How a design's time adds up: "[3 positions x 60 s + ]7 installations x 240 s + 63 readings
+// x 3 s".
+std::string time_sum(const Kit& kit, int positions, int installations, int readings);
 // The kit's set-up detection requirement as met by a candidate, in words (one sentence).
 std::string detection_text(const Candidate::Detection& d);
 
