@@ -37,6 +37,14 @@ echo "== C table against designs/tolerances/c-turntable-acceptance.json: $(grep 
   --out reports/c-turntable-kit-optimized.json --result reports/c-turntable-kit-optimize.json \
   --report reports/c-turntable-kit-optimize.html --summary reports/c-turntable-kit-optimize.md --pareto --quiet
 echo "== C kit of formats.md: $(grep -m1 'ratio' reports/c-turntable-kit-optimize.md || true)"
+# At the machine: the set-up sheet of the design found (order, hardware, a drawing of each
+# installation) and its part program in both dialects.
+./build/dbbkit setup-sheet --design reports/c-turntable-kit-optimized.json --kit designs/kits/c-turntable-kit.json \
+  --report reports/c-turntable-kit-setup-sheet.html --summary reports/c-turntable-kit-setup-sheet.md --quiet
+./build/dbbkit program --design reports/c-turntable-kit-optimized.json --dialect iso \
+  --out reports/c-turntable-kit-optimized.nc --quiet
+./build/dbbkit program --design reports/c-turntable-kit-optimized.json --dialect heidenhain \
+  --out reports/c-turntable-kit-optimized.h --quiet
 # The same kit with set-up tolerances (10 um length offset, 5 um centring) and optional
 # installations: the total it minimises, what each extra installation buys (Pareto front),
 # and the detection limits of the set-up effects in the design it finds.

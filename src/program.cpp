@@ -137,8 +137,8 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
         p.angle_deg = a;
         p.linear_mm = commanded_point_mm(design.axis, inst, ip.bar_mm, a, first, tool_down);
         p.reading = reading;
-        program.motion_time_s += 60.0 * (p.linear_mm - last).norm() / options.feed_mm_per_min;
-        if (reading) program.motion_time_s += options.dwell_s;
+        ip.motion_time_s += 60.0 * (p.linear_mm - last).norm() / options.feed_mm_per_min;
+        if (reading) ip.motion_time_s += options.dwell_s;
         last = p.linear_mm;
         ps.positions.push_back(p);
       };
@@ -157,6 +157,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
       ip.sweeps.push_back(std::move(ps));
     }
     program.readings += ip.readings;
+    program.motion_time_s += ip.motion_time_s;
     program.installations.push_back(std::move(ip));
   }
   return program;

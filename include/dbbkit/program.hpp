@@ -71,6 +71,7 @@ struct InstallationProgram {
   std::vector<ProgramSweep> sweeps;
   double largest_bar_change_mm = 0;  // along the interpolated path, over every sub-step
   int readings = 0;
+  double motion_time_s = 0;  // its moves at the feed and its dwells (no set-up)
 };
 
 struct MeasurementProgram {

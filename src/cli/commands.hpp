@@ -17,5 +17,6 @@ Runner add_diagnose(CLI::App& app);
 Runner add_optimize(CLI::App& app);
 Runner add_bench(CLI::App& app);
 Runner add_program(CLI::App& app);
+Runner add_setup_sheet(CLI::App& app);
 
 }  // namespace dbbkit::cli

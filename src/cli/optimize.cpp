@@ -14,6 +14,7 @@
 #include "dbbkit/io/optimize_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/reports.hpp"
+#include "dbbkit/setup_sheet.hpp"
 #include "report_options.hpp"
 
 namespace dbbkit::cli {
@@ -116,12 +117,16 @@ Runner add_optimize(CLI::App& app) {
     }
     if (!args->pareto_csv.empty()) outputs.stage("--pareto-csv", io::pareto_csv(kit, res));
     const io::RunContext run{command_line(), inputs};
+    std::optional<SetupSheet> sheet;
+    if (res.best && (!rep->report.empty() || !rep->summary.empty()))
+      sheet = make_setup_sheet(io::optimized_design(kit, res, args->kit), ProgramOptions{},
+                               std::nullopt, &kit);
     for (const auto& [option, file, format] :
          {std::tuple{"--report", rep->report, io::ReportFormat::kHtml},
           std::tuple{"--summary", rep->summary, io::ReportFormat::kMarkdown}}) {
       if (!file.empty())
         outputs.stage(option, io::optimize_report(format, run, kit, res, reference, seconds,
-                                                  a_priori_expansion()));
+                                                  a_priori_expansion(), sheet ? &*sheet : nullptr));
     }
     const bool design_out = !args->out.empty() || json_to_stdout(args->out);
     if (res.best && design_out) {

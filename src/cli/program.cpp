@@ -11,20 +11,21 @@
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/program_io.hpp"
 #include "dbbkit/io/text.hpp"
+#include "program_options.hpp"
 
 namespace dbbkit::cli {
 
 namespace {
-struct ProgramArgs {
-  std::string design, out, dialect, sweeps = "ccw";
-  ProgramOptions options;
+struct ProgramCommandArgs {
+  std::string design, out, dialect;
   int program_number = 1;
   bool quiet = false;
 };
 }  // namespace
 
 Runner add_program(CLI::App& app) {
-  auto args = std::make_shared<ProgramArgs>();
+  auto args = std::make_shared<ProgramCommandArgs>();
+  auto prog = std::make_shared<ProgramArgs>();
   CLI::App* sub = app.add_subcommand(
       "program",
       "A part program of the measurement: rotary moves, the linear moves that keep the "
@@ -34,37 +35,17 @@ Runner add_program(CLI::App& app) {
       ->required()
       ->check(CLI::IsMember({"iso", "heidenhain"}));
   sub->add_option("--out", args->out, "Program file; '-' or absent: stdout");
-  sub->add_option("--sweeps", args->sweeps,
-                  "ccw (increasing angle, the default), cw, or both (ccw then cw: diagnose can "
-                  "then see a reversal error)")
-      ->check(CLI::IsMember({"ccw", "cw", "both"}));
-  sub->add_option("--dwell-s", args->options.dwell_s, "Dwell at each reading [s] (default 2)")
-      ->check(finite_in(1e-3, 600));
-  sub->add_option("--feed-mm-min", args->options.feed_mm_per_min,
-                  "Feed of the linear axes between positions [mm/min] (default 500)")
-      ->check(finite_in(1, 60000));
-  sub->add_option("--path-tolerance-mm", args->options.path_tolerance_mm,
-                  "Largest bar-length change along the interpolated move between two "
-                  "positions [mm] (default 0.05)")
-      ->check(finite_in(1e-4, 1));
+  add_program_options(sub, prog);
   sub->add_option("--program-number", args->program_number, "ISO O-number (default 1)")
       ->check(integer_in(1, 9999));
-  sub->add_flag("--tool-down", args->options.tool_down,
-                "B only: the tool points to -Z at B0 (commanded points turned 180 deg about Y)");
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the files asked for");
-  return [args]() {
+  return [args, prog]() {
     io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}}, {args->design});
     const Design design = io::read_design_file(args->design);
-    if (args->options.tool_down && design.axis != Axis::kB)
-      throw InputError("--tool-down", "", "applies to a B design; " + args->design + " is C");
-    const std::map<std::string, ProgramOptions::Sweeps> sweeps = {
-        {"ccw", ProgramOptions::Sweeps::kCCW},
-        {"cw", ProgramOptions::Sweeps::kCW},
-        {"both", ProgramOptions::Sweeps::kBoth}};
-    args->options.sweeps = sweeps.at(args->sweeps);
+    const ProgramOptions options = program_options(*prog, design.axis, args->design);
     MeasurementProgram program;
     try {
-      program = measurement_program(design, args->options);
+      program = measurement_program(design, options);
     } catch (const InputError& e) {
       throw e.source() == "design" ? e.with_source(args->design) : e;
     }
@@ -81,7 +62,7 @@ Runner add_program(CLI::App& app) {
                 << " readings, moves and dwells about "
                 << io::fmt_rounded(program.motion_time_s / 60.0, 1)
                 << " min; largest bar change between positions " << io::fmt_num(worst * 1e3, 3)
-                << " um (tolerance " << io::fmt_rounded(args->options.path_tolerance_mm * 1e3, 1)
+                << " um (tolerance " << io::fmt_rounded(options.path_tolerance_mm * 1e3, 1)
                 << " um)\n";
     }
     return 0;

@@ -8,6 +8,7 @@
 #include "dbbkit/io/report_writer.hpp"
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/setup_sheet_io.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "report_sections.hpp"
@@ -18,7 +19,7 @@ using namespace detail;
 
 std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& kit,
                             const OptimizeResult& res, const std::optional<Reference>& reference,
-                            double seconds, const Expansion& expansion) {
+                            double seconds, const Expansion& expansion, const SetupSheet* sheet) {
   const std::unique_ptr<ReportWriter> page = make_report_writer(
       f, "dbbkit optimize: " + (kit.name.empty() ? std::string("kit") : kit.name));
   ReportWriter& p = *page;
@@ -34,10 +35,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
                    ? ""
                    : " " + rank_five_note(kit, res) + "."));
   if (!res.best) {
-    p.paragraph("No design fits the kit.");
-    std::vector<std::vector<std::string>> rows;
-    for (const ChoiceResult& c : res.choices) rows.push_back({c.label, choice_status_text(kit, c)});
-    p.table({"choice", "status"}, rows);
+    p.paragraph("No design fits the kit: " + binding_text(kit, res) + ".");
     conditions(p, run, nullptr);
     return p.str();
   }
@@ -117,6 +115,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   p.table({"time [s]", "installations", "angles", "step [deg]", criterion_name(res.criterion),
            "added (optional positions)"},
           front);
+  if (sheet) write_setup_sheet(p, *sheet, run.inputs.empty() ? "" : run.inputs.front(), 2);
   conditions(p, run, &d);
   return p.str();
 }

@@ -93,10 +93,12 @@ std::string HtmlWriter::str() const {
        "pre{background:#f6f6f6;padding:0.5em;overflow-x:auto}</style>\n</head><body>\n<h1>"
     << html_escape(title_) << "</h1>\n"
     << body_
-    // A self-check a browser runs on load: every plot present, drawn, and holding data;
-    // no script error; nothing fetched from elsewhere (the file is self-contained).
+    // A self-check a browser runs on load: every plot present, drawn, and holding data (a
+    // gnuplot plot's paths, or the balls and bars of a drawing's <g class="data">); no script
+    // error; nothing fetched from elsewhere (the file is self-contained). It stays in the DOM
+    // for a test to read and is not shown.
     << "<p id=\"selfcheck\" data-status=\"pending\" "
-       "style=\"color:#999;font-size:80%\"></p>\n<script>\n"
+       "style=\"display:none\"></p>\n<script>\n"
        "window.__errors=[];window.addEventListener('error',function(e){window.__errors.push(String("
        "e.message));});\n"
        "window.addEventListener('load',function(){var "
@@ -108,6 +110,7 @@ std::string HtmlWriter::str() const {
        "for(var j=0;j<gs.length;j++){var ps=gs[j].querySelectorAll('path,image,use');"
        "for(var k=0;k<ps.length;k++){var "
        "d=ps[k].getAttribute('d');if(ps[k].tagName!=='path'||(d&&d.length>20))data++;}}\n"
+       "var ds=s.querySelectorAll('g.data circle,g.data line');data+=ds.length;\n"
        "if(b.width<100||b.height<100)bad.push(i+': not drawn');else if(data===0)bad.push(i+': no "
        "data');}\n"
        "var ext=performance.getEntriesByType('resource').length;var "

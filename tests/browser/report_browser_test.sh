@@ -21,10 +21,13 @@ cd "$src"
 "$cli" optimize --kit designs/kits/b-head-kit.json --out "$work/best.json" --report "$work/optimize.html" --quiet
 "$cli" diagnose --design designs/paper-b-head.json --data tests/data/paper/paper_b_head.csv \
   --out "$work/dg.json" --report "$work/diagnose.html" --quiet
-declare -A expected=([identify]=3 [evaluate]=3 [optimize]=3 [diagnose]=4)
+"$cli" setup-sheet --design "$work/best.json" --kit designs/kits/b-head-kit.json --report "$work/setup-sheet.html" --quiet
+# optimize: 3 plots and the best design's set-up sheet, a drawing per installation.
+steps="$(grep -c '"id":' "$work/best.json")"
+declare -A expected=([identify]=3 [evaluate]=3 [optimize]=$((3 + steps)) [diagnose]=4 [setup-sheet]=$steps)
 
 failed=0
-for name in identify evaluate optimize diagnose; do
+for name in identify evaluate optimize diagnose setup-sheet; do
   page="file://$work/$name.html"
   flags=(--headless --no-sandbox --disable-gpu --hide-scrollbars --no-first-run --disable-extensions
          --user-data-dir="$work/profile")

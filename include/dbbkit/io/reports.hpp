@@ -18,6 +18,7 @@
 #include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/optimize.hpp"
+#include "dbbkit/setup_sheet.hpp"
 
 namespace dbbkit::io {
 
@@ -35,9 +36,11 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
                             const Evaluation& ev, const std::vector<SweepVariable>& variables,
                             const std::vector<SweepPoint>& map, const MonteCarloResult* mc,
                             const Expansion& expansion);
+// With `sheet`, the best design's set-up sheet closes the report.
 std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& kit,
                             const OptimizeResult& res, const std::optional<Reference>& reference,
-                            double seconds, const Expansion& expansion);
+                            double seconds, const Expansion& expansion,
+                            const SetupSheet* sheet = nullptr);
 std::string diagnose_report(ReportFormat f, const RunContext& run, const Design& design,
                             const std::vector<Reading>& readings, const DiagnoseResult& result,
                             const Expansion& expansion);

@@ -1,0 +1,82 @@
+#pragma once
+// A design as a person sets it up at the machine: the installations in the order that changes
+// the block stack, then the bar, the fewest times; and the design with its ball positions
+// rounded to what can be set, checked and scored again.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/kit.hpp"
+#include "dbbkit/program.hpp"
+
+namespace dbbkit {
+
+struct SetupStep {
+  int installation = 0;        // index into the design
+  int position = 0;            // its ball position: 1, 2, ..., one more each time the cup moves
+  bool moves_cup = false;      // the cup is placed at a new position (the first step included)
+  bool changes_stack = false;  // C: the block stack under the cup is built anew
+  bool changes_bar = false;    // the bar is assembled anew (the first step included)
+};
+
+struct SetupOrder {
+  std::vector<SetupStep> steps;
+  // Changes after the first set-up, in this order and in the design's order.
+  int cup_moves = 0, stack_changes = 0, bar_changes = 0;
+  int design_cup_moves = 0, design_stack_changes = 0, design_bar_changes = 0;
+  // The order is the minimum over every order of the positions (false: more than
+  // kMaxExactPositions positions, ordered greedily).
+  bool exhaustive = true;
+};
+
+inline constexpr int kMaxExactPositions = 14;
+
+// The installations at one ball position follow each other, those with the same bar together;
+// which bar comes first and which last at a position is chosen with the order of the
+// positions. The order minimises the stack changes first, then the bar changes: exactly, by
+// dynamic programming over the subsets of positions and the (first, last) bar at each (at
+// most kMaxExactPositions positions and 2^22 states), else greedily from the design's first
+// position. The design's own order is kept when it changes no more (stack,
+// then bar, then cup moves); its steps then number a position again when the cup comes back
+// to it. Two stacks are the same when their cup and blocks are (or,
+// without them in the design, their heights H are); two bars when their lengths and parts are.
+SetupOrder setup_order(const Design& design);
+
+// The design with L, D (and H without a block stack given) rounded to multiples of
+// resolution_mm, and what that changed.
+struct RoundedDesign {
+  Design design;
+  double resolution_mm = 0;
+  double largest_shift_mm = 0;  // over every coordinate of every installation
+  // worst_std_um of the design as given and as rounded (absent: not every error determined).
+  std::optional<double> worst_std_um, rounded_worst_std_um;
+  // With a kit: the installations whose following ball leaves the travel once rounded,
+  // and by how much [mm].
+  std::vector<std::pair<std::string, double>> outside_travel;
+  bool travel_checked = false;
+};
+
+// Rounds and scores again (with the design's reference length; InputError without one) and,
+// with a kit, checks the following ball of every rounded installation against its travel.
+// resolution_mm in [0.001, 10].
+RoundedDesign round_design(const Design& design, double resolution_mm, const Kit* kit);
+
+// Everything a set-up sheet states: the design as it is set up (rounded when asked), the
+// order, the measurement as programmed (the following ball at the first angle, the moves and
+// dwells of each installation) and, with a kit, each step's set-up time: per_position when
+// the cup moves, per_installation always.
+struct SetupSheet {
+  Design design;
+  SetupOrder order;
+  MeasurementProgram program;
+  std::optional<RoundedDesign> rounding;
+  std::vector<double> setup_time_s;  // per step; empty without a kit
+  double total_time_s = 0;           // set-ups (with a kit) plus moves and dwells
+};
+
+SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
+                            std::optional<double> resolution_mm, const Kit* kit);
+
+}  // namespace dbbkit

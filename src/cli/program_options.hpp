@@ -1,0 +1,54 @@
+#pragma once
+// The options of the measurement as programmed (program.hpp), shared by `program` and
+// `setup-sheet`: the sweeps, the dwell, the feed, the path tolerance, and where the tool
+// points on a B head.
+
+#include <CLI/CLI.hpp>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "checks.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/program.hpp"
+
+namespace dbbkit::cli {
+
+struct ProgramArgs {
+  ProgramOptions options;
+  std::string sweeps = "ccw";
+};
+
+inline void add_program_options(CLI::App* sub, const std::shared_ptr<ProgramArgs>& args) {
+  sub->add_option("--sweeps", args->sweeps,
+                  "ccw (increasing angle, the default), cw, or both (ccw then cw: diagnose can "
+                  "then see a reversal error)")
+      ->check(CLI::IsMember({"ccw", "cw", "both"}));
+  sub->add_option("--dwell-s", args->options.dwell_s, "Dwell at each reading [s] (default 2)")
+      ->check(finite_in(1e-3, 600));
+  sub->add_option("--feed-mm-min", args->options.feed_mm_per_min,
+                  "Feed of the linear axes between positions [mm/min] (default 500)")
+      ->check(finite_in(1, 60000));
+  sub->add_option("--path-tolerance-mm", args->options.path_tolerance_mm,
+                  "Largest bar-length change along the interpolated move between two "
+                  "positions [mm] (default 0.05)")
+      ->check(finite_in(1e-4, 1));
+  sub->add_flag("--tool-down", args->options.tool_down,
+                "B only: the tool points to -Z at B0 (commanded points turned 180 deg about Y)");
+}
+
+// The options as given, checked against the design's axis.
+inline ProgramOptions program_options(const ProgramArgs& args, Axis axis,
+                                      const std::string& design_file) {
+  if (args.options.tool_down && axis != Axis::kB)
+    throw InputError("--tool-down", "", "applies to a B design; " + design_file + " is C");
+  const std::map<std::string, ProgramOptions::Sweeps> sweeps = {
+      {"ccw", ProgramOptions::Sweeps::kCCW},
+      {"cw", ProgramOptions::Sweeps::kCW},
+      {"both", ProgramOptions::Sweeps::kBoth}};
+  ProgramOptions o = args.options;
+  o.sweeps = sweeps.at(args.sweeps);
+  return o;
+}
+
+}  // namespace dbbkit::cli

@@ -1,0 +1,373 @@
+#include "dbbkit/io/setup_sheet_io.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <vector>
+
+#include "dbbkit/io/text.hpp"
+#include "dbbkit/kinematics.hpp"
+#include "report_sections.hpp"
+
+namespace dbbkit::io {
+
+namespace {
+
+std::string mm(double x) { return fmt_rounded(x, 3); }
+
+std::string lengths(const std::vector<double>& v) {
+  std::string t;
+  for (size_t i = 0; i < v.size(); ++i) t += (i ? " + " : "") + mm(v[i]);
+  return t;
+}
+
+std::string ball_text(Axis axis, const Installation& in) {
+  std::string t = "L " + mm(in.L_mm) + ", D " + mm(in.D_mm);
+  if (axis == Axis::kC) t += ", H " + mm(in.H_mm);
+  return t;
+}
+
+std::string stack_text(Axis axis, const Installation& in) {
+  if (axis != Axis::kC) return "tool side: ball " + mm(in.L_mm) + " mm from the pivot";
+  if (!in.cup_mm) return "H " + mm(in.H_mm) + " mm (cup and blocks not given in the design)";
+  if (in.blocks_mm.empty()) return "cup on the table (" + mm(*in.cup_mm) + " mm)";
+  return "cup (" + mm(*in.cup_mm) + " mm) on blocks " + lengths(in.blocks_mm) + " mm";
+}
+
+std::string bar_text(const Installation& in) {
+  if (!in.bar_mm) return "not given";
+  std::string t = mm(*in.bar_mm) + " mm";
+  if (in.bar_parts_mm.size() > 1)
+    t += " (" + lengths(in.bar_parts_mm) + ")";
+  else if (in.bar_parts_mm.empty())
+    t += " (parts not given)";
+  return t;
+}
+
+std::string times(int n) {
+  if (n == 0) return "never";
+  if (n == 1) return "once";
+  if (n == 2) return "twice";
+  return std::to_string(n) + " times";
+}
+
+// C: where the cup stands, in words ("on blocks 50 + 100 mm", "on the table").
+std::string cup_on(const Installation& in) {
+  if (!in.cup_mm) return "";
+  if (in.blocks_mm.empty()) return " on the table";
+  return " on blocks " + lengths(in.blocks_mm) + " mm";
+}
+
+std::string xyz(const Eigen::Vector3d& p) {
+  return "X " + mm(p.x()) + ", Y " + mm(p.y()) + ", Z " + mm(p.z());
+}
+
+const char* sweep_word(Sweep s) { return s == Sweep::kCCW ? "ccw" : "cw"; }
+
+std::string sweeps_text(const InstallationProgram& ip) {
+  std::string t;
+  for (const ProgramSweep& s : ip.sweeps)
+    t += (t.empty() ? "" : " then ") + std::string(sweep_word(s.direction));
+  return t;
+}
+
+// What the person does before this step, in words.
+std::string instructions(const SetupSheet& sheet, int k) {
+  const SetupStep& s = sheet.order.steps[k];
+  const Axis axis = sheet.design.axis;
+  const Installation& in = sheet.design.installations[s.installation];
+  const InstallationProgram& ip = sheet.program.installations[s.installation];
+  std::string t;
+  if (k == 0) {
+    t = axis == Axis::kC ? "Place the cup" + cup_on(in) + " with the ball at " +
+                               ball_text(axis, in) + " mm (table coordinates at C " +
+                               mm(ip.sweeps.front().positions.front().angle_deg) + " deg)."
+                         : "Set the ball at " + ball_text(axis, in) + " mm (head coordinates).";
+  } else if (s.moves_cup && axis == Axis::kB) {
+    t = "Move the ball to " + ball_text(axis, in) + " mm (tool cup and holder).";
+  } else if (s.moves_cup) {
+    t = "Move the cup" + std::string(s.changes_stack ? "" : ", on the same stack,") + " to " +
+        ball_text(axis, in) + " mm";
+    if (axis == Axis::kC && s.changes_stack)
+      t += in.cup_mm ? "; rebuild the stack: the cup" + cup_on(in) : "; rebuild the stack to H";
+    t += ".";
+  } else {
+    t = axis == Axis::kC ? "Keep the cup." : "Keep the ball.";
+  }
+  t += s.changes_bar ? " Assemble the bar of " + bar_text(in) + "." : " Keep the bar.";
+  t += " Mount it " + in.direction.label() + " (sign " + (in.sign > 0 ? "+1" : "-1") + ")";
+  if (axis == Axis::kC) {
+    const Eigen::Vector3d& f = ip.sweeps.front().positions.front().linear_mm;
+    t += " with the spindle's ball at " + xyz(f) + " mm.";
+    double lowest = f.z();
+    for (const ProgramSweep& sw : ip.sweeps)
+      for (const ProgramPosition& p : sw.positions) lowest = std::min(lowest, p.linear_mm.z());
+    if (lowest < 0)
+      t += " CHECK: the spindle's ball would go " + mm(-lowest) +
+           " mm below the table surface; is the installation's sign right?";
+  } else {
+    t += " with the table's ball at " + xyz(ip.fixed_ball_mm) + " mm from the pivot.";
+  }
+  t += " Sweep " + sweeps_text(ip) + ", " + std::to_string(ip.readings) + " readings.";
+  return t;
+}
+
+// --- drawing --------------------------------------------------------------------------------
+
+struct Panel {
+  double x0, y0, size;               // where the panel sits in the picture [px]
+  double cx = 0, cy = 0, scale = 1;  // the point at its centre [mm] and px per mm
+  Panel(double x, double y, double s, const std::vector<std::pair<double, double>>& pts)
+      : x0(x), y0(y), size(s) {
+    double lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
+    for (auto [px, py] : pts) {
+      lo_x = std::min(lo_x, px), hi_x = std::max(hi_x, px);
+      lo_y = std::min(lo_y, py), hi_y = std::max(hi_y, py);
+    }
+    cx = 0.5 * (lo_x + hi_x), cy = 0.5 * (lo_y + hi_y);
+    const double span = std::max({hi_x - lo_x, hi_y - lo_y, 50.0});
+    scale = 0.8 * size / span;
+  }
+  double X(double x) const { return x0 + 0.5 * size + (x - cx) * scale; }
+  double Y(double y) const { return y0 + 0.5 * size - (y - cy) * scale; }
+};
+
+std::string num(double v) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(1);
+  s << v;
+  return s.str();
+}
+
+void line(std::ostringstream& s, const Panel& p, double x1, double y1, double x2, double y2,
+          const std::string& style) {
+  s << "<line x1='" << num(p.X(x1)) << "' y1='" << num(p.Y(y1)) << "' x2='" << num(p.X(x2))
+    << "' y2='" << num(p.Y(y2)) << "' style='" << style << "'/>";
+}
+// A ball and its label: above right (the ball) or below left (the other ball), so that two
+// balls drawn at one point keep both labels readable.
+void ball(std::ostringstream& s, const Panel& p, double x, double y, const std::string& fill,
+          const std::string& label, bool below = false) {
+  s << "<circle cx='" << num(p.X(x)) << "' cy='" << num(p.Y(y)) << "' r='5' fill='" << fill
+    << "' stroke='#222'/><text x='" << num(p.X(x) + (below ? -7 : 7)) << "' y='"
+    << num(p.Y(y) + (below ? 16 : -7)) << "' font-size='11'" << (below ? " text-anchor='end'" : "")
+    << ">" << label << "</text>";
+}
+void path(std::ostringstream& s, const Panel& p, double radius) {
+  s << "<circle cx='" << num(p.X(0)) << "' cy='" << num(p.Y(0)) << "' r='" << num(radius * p.scale)
+    << "' fill='none' stroke='#999' stroke-dasharray='3 3'/>";
+}
+void rect(std::ostringstream& s, const Panel& p, double x, double y, double w, double h,
+          const std::string& fill) {
+  s << "<rect x='" << num(p.X(x)) << "' y='" << num(p.Y(y + h)) << "' width='" << num(w * p.scale)
+    << "' height='" << num(h * p.scale) << "' fill='" << fill << "' stroke='#555'/>";
+}
+void caption(std::ostringstream& s, const Panel& p, const std::string& text) {
+  s << "<text x='" << num(p.x0 + 6) << "' y='" << num(p.y0 + 14) << "' font-size='12'>" << text
+    << "</text>";
+}
+
+}  // namespace
+
+std::string installation_drawing(const SetupSheet& sheet, int step) {
+  const SetupStep& st = sheet.order.steps[step];
+  const Axis axis = sheet.design.axis;
+  const Installation& in = sheet.design.installations[st.installation];
+  const InstallationProgram& ip = sheet.program.installations[st.installation];
+  const double a = ip.sweeps.front().positions.front().angle_deg;
+  const double bar = ip.bar_mm;
+  const Eigen::Vector3d P = ball_position_mm(axis, in, a);
+  const Eigen::Vector3d F = P - in.sign * bar * direction_machine(axis, in, a);
+  std::ostringstream s;
+  const double W = 640, H = 320;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H
+    << "' viewBox='0 0 " << W << " " << H << "' font-family='sans-serif'>";
+  s << "<rect width='" << W << "' height='" << H << "' fill='white'/><g class='data'>";
+  const std::string bar_style = "stroke:#1f77b4;stroke-width:3";
+  const std::string axis_style = "stroke:#888;stroke-dasharray:4 3";
+  if (axis == Axis::kC) {
+    // From above: the axis, the paths of both balls (dashed), the balls and the bar.
+    const double R = std::max({P.head<2>().norm(), F.head<2>().norm(), 50.0}) * 1.1;
+    const Panel top(0, 0, 320, {{-R, -R}, {R, R}});
+    caption(s, top, "from above (X right, Y up), C " + mm(a) + " deg; dashed: the paths");
+    line(s, top, -R, 0, R, 0, axis_style);
+    line(s, top, 0, -R, 0, R, axis_style);
+    path(s, top, P.head<2>().norm());
+    path(s, top, F.head<2>().norm());
+    line(s, top, P.x(), P.y(), F.x(), F.y(), bar_style);
+    ball(s, top, P.x(), P.y(), "#d62728", "ball " + in.id);
+    ball(s, top, F.x(), F.y(), "#2ca02c", "spindle", true);
+    // From the side, in the vertical plane through the axis and the ball (radial r, height z).
+    const Eigen::Vector2d radial =
+        P.head<2>().norm() > 1e-9
+            ? Eigen::Vector2d(P.head<2>().normalized())
+            : Eigen::Vector2d(std::cos(a * M_PI / 180), std::sin(a * M_PI / 180));
+    const double pr = P.head<2>().dot(radial), fr = F.head<2>().dot(radial);
+    // At least 200 mm across, so that a small set-up is not drawn larger than a big one.
+    const double lo = std::min({pr, fr, 0.0}) - 30, hi = std::max({pr, fr, 0.0}) + 30,
+                 top_z = std::max({P.z(), F.z(), 0.0}) + 20, low_z = std::min(F.z(), 0.0);
+    const double wide = std::max(0.0, 200 - (hi - lo)) / 2;
+    const Panel side(320, 0, 320, {{lo - wide, low_z}, {hi + wide, std::max(top_z, low_z + 200)}});
+    caption(s, side, "from the side (radial right, Z up)");
+    line(s, side, side.cx - 0.5 * side.size / side.scale, 0, side.cx + 0.5 * side.size / side.scale,
+         0, "stroke:#333;stroke-width:2");
+    line(s, side, 0, 0, 0, std::max(P.z(), F.z()) + 20, axis_style);
+    double z = 0;
+    for (double b : in.blocks_mm) {
+      rect(s, side, pr - 20, z, 40, b, "#e0c080");
+      z += b;
+    }
+    rect(s, side, pr - 10, z, 20, std::max(P.z() - z, 0.0), "#bbbbbb");
+    line(s, side, pr, P.z(), fr, F.z(), bar_style);
+    ball(s, side, pr, P.z(), "#d62728", "ball");
+    ball(s, side, fr, F.z(), "#2ca02c", "spindle", true);
+  } else {
+    // The swing plane X-Z: pivot, tool axis to the ball, the table's ball and the bar.
+    const double sx = sheet.program.options.tool_down ? -1 : 1;
+    const Panel plane(0, 0, 320, {{sx * P.x(), sx * P.z()}, {sx * F.x(), sx * F.z()}, {0, 0}});
+    caption(s, plane, "swing plane (X right, Z up), B " + mm(a) + " deg");
+    line(s, plane, 0, 0, sx * P.x(), sx * P.z(), "stroke:#555;stroke-width:4");
+    line(s, plane, sx * P.x(), sx * P.z(), sx * F.x(), sx * F.z(), bar_style);
+    ball(s, plane, 0, 0, "#ffffff", "pivot");
+    ball(s, plane, sx * P.x(), sx * P.z(), "#d62728", "ball " + in.id);
+    ball(s, plane, sx * F.x(), sx * F.z(), "#2ca02c", "table ball", true);
+    const Panel front(320, 0, 320, {{P.y(), sx * P.z()}, {F.y(), sx * F.z()}, {0, 0}});
+    caption(s, front, "along X (Y right, Z up): the offset D");
+    line(s, front, 0, 0, P.y(), sx * P.z(), "stroke:#555;stroke-width:4");
+    line(s, front, P.y(), sx * P.z(), F.y(), sx * F.z(), bar_style);
+    ball(s, front, 0, 0, "#ffffff", "pivot");
+    ball(s, front, P.y(), sx * P.z(), "#d62728", "ball");
+    ball(s, front, F.y(), sx * F.z(), "#2ca02c", "table ball", true);
+  }
+  s << "</g></svg>";
+  return s.str();
+}
+
+void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::string& kit_file,
+                       int level) {
+  const Design& d = sheet.design;
+  const SetupOrder& o = sheet.order;
+  const MeasurementProgram& pr = sheet.program;
+  const ProgramOptions& po = pr.options;
+  int positions = 0;
+  for (const SetupStep& s : o.steps) positions = std::max(positions, s.position);
+  if (level > 1) w.heading("Set-up sheet: " + d.name, level);
+  std::string intro =
+      "Axis " + std::string(axis_name(d.axis)) + ", " + std::to_string(d.installations.size()) +
+      " installations at " + std::to_string(positions) + " ball positions, " +
+      std::to_string(d.angles_deg.size()) + " angles from " +
+      mm(*std::min_element(d.angles_deg.begin(), d.angles_deg.end())) + " to " +
+      mm(*std::max_element(d.angles_deg.begin(), d.angles_deg.end())) +
+      " deg: " + std::to_string(pr.readings) + " readings. Moves and dwells take about " +
+      fmt_rounded(pr.motion_time_s / 60.0, 1) + " min (dwell " + fmt_num(po.dwell_s) + " s, feed " +
+      fmt_num(po.feed_mm_per_min) + " mm/min)";
+  if (!sheet.setup_time_s.empty())
+    intro += "; with the set-up times of the kit " + kit_file + ", about " +
+             fmt_rounded(sheet.total_time_s / 60.0, 1) + " min in all.";
+  else
+    intro += "; set-up times are not included (give --kit for them).";
+  w.paragraph(intro);
+  std::string order;
+  for (const SetupStep& s : o.steps)
+    order += (order.empty() ? "" : " ") + d.installations[s.installation].id;
+  const std::string changes =
+      d.axis == Axis::kC
+          ? "the cup moves " + times(o.cup_moves) + ", the block stack is rebuilt " +
+                times(o.stack_changes) + " and the bar reassembled " + times(o.bar_changes) +
+                " (in the design's order: " + times(o.design_cup_moves) + ", " +
+                times(o.design_stack_changes) + " and " + times(o.design_bar_changes) + ")"
+          : "the ball moves " + times(o.cup_moves) + " and the bar is reassembled " +
+                times(o.bar_changes) + " (in the design's order: " + times(o.design_cup_moves) +
+                " and " + times(o.design_bar_changes) + ")";
+  w.paragraph("Order: " + order + ". After the first set-up " + changes +
+              ". The installations at one ball position follow each other, and the positions "
+              "are ordered to " +
+              (d.axis == Axis::kC ? "rebuild the block stack the fewest times, then to " : "") +
+              "reassemble the bar the fewest times" +
+              (o.exhaustive ? " (the least over every order of the positions; the design's own "
+                              "order where none changes less)."
+                            : " (greedily: too many positions to try every order)."));
+  if (sheet.rounding) {
+    const RoundedDesign& r = *sheet.rounding;
+    std::string t = "Ball positions rounded to " + fmt_num(r.resolution_mm) +
+                    " mm (the largest shift " + mm(r.largest_shift_mm) +
+                    " mm). worst_std_um (k = 1): " + fmt_opt(r.worst_std_um) + " um as designed, " +
+                    fmt_opt(r.rounded_worst_std_um) + " um as rounded.";
+    if (!r.travel_checked) {
+      t += " The travel was not checked (give --kit).";
+    } else if (r.outside_travel.empty()) {
+      t += " Every following ball stays inside the kit's travel.";
+    } else {
+      t += " OUTSIDE the kit's travel once rounded:";
+      for (const auto& [id, v] : r.outside_travel) t += " " + id + " by " + mm(v) + " mm;";
+      t += " choose a finer resolution or move these balls by hand.";
+    }
+    w.paragraph(t);
+  }
+  std::vector<std::vector<std::string>> rows;
+  for (size_t k = 0; k < o.steps.size(); ++k) {
+    const SetupStep& s = o.steps[k];
+    const Installation& in = d.installations[s.installation];
+    const InstallationProgram& ip = pr.installations[s.installation];
+    const Eigen::Vector3d follow =
+        d.axis == Axis::kC ? ip.sweeps.front().positions.front().linear_mm : ip.fixed_ball_mm;
+    double t = ip.motion_time_s;
+    if (!sheet.setup_time_s.empty()) t += sheet.setup_time_s[k];
+    rows.push_back({std::to_string(k + 1), in.id, std::to_string(s.position), ball_text(d.axis, in),
+                    stack_text(d.axis, in), bar_text(in),
+                    in.direction.label() + (in.sign > 0 ? " +1" : " -1"), xyz(follow),
+                    sweeps_text(ip), std::to_string(ip.readings), fmt_rounded(t, 0)});
+  }
+  w.table({"step", "installation", "position", "ball [mm]", "cup and blocks", "bar [mm]",
+           "direction, sign",
+           d.axis == Axis::kC ? "spindle ball at the first angle [mm]"
+                              : "table ball from the pivot [mm]",
+           "sweep", "readings",
+           sheet.setup_time_s.empty() ? "moves and dwells [s]" : "time with set-up [s]"},
+          rows);
+  for (size_t k = 0; k < o.steps.size(); ++k) {
+    const Installation& in = d.installations[o.steps[k].installation];
+    w.heading("Step " + std::to_string(k + 1) + ": installation " + in.id, std::max(2, level + 1));
+    w.paragraph(instructions(sheet, static_cast<int>(k)));
+    w.figure([&sheet, k] { return installation_drawing(sheet, static_cast<int>(k)); },
+             "Installation " + in.id + " to scale at the first angle: the ball (red), the " +
+                 (d.axis == Axis::kC ? std::string("spindle's ball") : "table's ball") +
+                 " (green) and the bar (blue).");
+  }
+}
+
+std::string setup_sheet_report(ReportFormat format, const RunContext& run, const SetupSheet& sheet,
+                               const std::string& kit_file) {
+  auto w = make_report_writer(format, "dbbkit set-up sheet: " + sheet.design.name);
+  write_setup_sheet(*w, sheet, kit_file, 1);  // the page's title is the sheet's heading
+  detail::conditions(*w, run, &sheet.design);
+  return w->str();
+}
+
+std::string setup_sheet_summary(const SetupSheet& sheet) {
+  std::ostringstream s;
+  const Design& d = sheet.design;
+  s << "set-up sheet of " << d.name << ": " << d.installations.size() << " installations, "
+    << sheet.program.readings << " readings, moves and dwells about "
+    << fmt_rounded(sheet.program.motion_time_s / 60.0, 1) << " min";
+  if (!sheet.setup_time_s.empty())
+    s << ", with set-ups about " << fmt_rounded(sheet.total_time_s / 60.0, 1) << " min";
+  s << "\norder:";
+  for (const SetupStep& st : sheet.order.steps) s << " " << d.installations[st.installation].id;
+  s << " (cup moved " << sheet.order.cup_moves << ", stack rebuilt " << sheet.order.stack_changes
+    << ", bar reassembled " << sheet.order.bar_changes << " times; in the design's order "
+    << sheet.order.design_cup_moves << ", " << sheet.order.design_stack_changes << ", "
+    << sheet.order.design_bar_changes << ")\n";
+  if (sheet.rounding) {
+    s << "rounded to " << fmt_num(sheet.rounding->resolution_mm) << " mm: worst_std_um (k = 1) "
+      << fmt_opt(sheet.rounding->worst_std_um) << " -> "
+      << fmt_opt(sheet.rounding->rounded_worst_std_um) << " um";
+    if (!sheet.rounding->outside_travel.empty())
+      s << "; " << sheet.rounding->outside_travel.size() << " installations outside the travel";
+    s << "\n";
+  }
+  return s.str();
+}
+
+}  // namespace dbbkit::io

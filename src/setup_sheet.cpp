@@ -1,0 +1,293 @@
+#include "dbbkit/setup_sheet.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <tuple>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/observability.hpp"
+#include "number_text.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+// One stack change outweighs every bar change (a design has far fewer than 1000 bars).
+constexpr long kStackWeight = 1000;
+// The exact order's table holds 2^positions x positions x ways states at most this many.
+constexpr size_t kMaxExactStates = size_t{1} << 22;
+
+bool same(double a, double b) { return std::abs(a - b) <= kAssemblyTolerance_mm; }
+
+bool same_lengths(const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (!same(a[i], b[i])) return false;
+  return true;
+}
+
+bool same_position(const Installation& a, const Installation& b) {
+  return same(a.L_mm, b.L_mm) && same(a.D_mm, b.D_mm) && same(a.H_mm, b.H_mm);
+}
+
+bool same_stack(Axis axis, const Installation& a, const Installation& b) {
+  if (axis != Axis::kC) return true;
+  if (a.cup_mm && b.cup_mm)
+    return same(*a.cup_mm, *b.cup_mm) && same_lengths(a.blocks_mm, b.blocks_mm);
+  return same(a.H_mm, b.H_mm);
+}
+
+bool same_bar(const Installation& a, const Installation& b) {
+  if (a.bar_mm.has_value() != b.bar_mm.has_value()) return false;
+  if (a.bar_mm && !same(*a.bar_mm, *b.bar_mm)) return false;
+  return a.bar_parts_mm.empty() || b.bar_parts_mm.empty() ||
+         same_lengths(a.bar_parts_mm, b.bar_parts_mm);
+}
+
+double bar_length(const Installation& in) { return in.bar_mm.value_or(0.0); }
+
+// The installations at one ball position. Installations with the same bar form a class and
+// follow each other; any class may come first and any other last (the order of those between
+// does not change the count), so each (first, last) pair is one way to set the position up.
+struct Group {
+  std::vector<std::vector<int>> ways;  // installation orders, one per (first, last) pair
+};
+
+// Counts the changes along an order of installations (the first set-up not counted).
+void count_changes(const Design& d, const std::vector<int>& order, int& cups, int& stacks,
+                   int& bars) {
+  cups = stacks = bars = 0;
+  for (size_t k = 1; k < order.size(); ++k) {
+    const Installation &a = d.installations[order[k - 1]], &b = d.installations[order[k]];
+    cups += !same_position(a, b);
+    stacks += !same_stack(d.axis, a, b);
+    bars += !same_bar(a, b);
+  }
+}
+
+}  // namespace
+
+SetupOrder setup_order(const Design& design) {
+  const std::vector<Installation>& ins = design.installations;
+  // The ball positions, in the order they first appear, and the bar classes at each.
+  std::vector<std::vector<int>> members;
+  for (int i = 0; i < static_cast<int>(ins.size()); ++i) {
+    auto it = std::find_if(members.begin(), members.end(), [&](const std::vector<int>& g) {
+      return same_position(ins[g.front()], ins[i]);
+    });
+    if (it == members.end())
+      members.push_back({i});
+    else
+      it->push_back(i);
+  }
+  std::vector<Group> groups;
+  for (const std::vector<int>& m : members) {
+    std::vector<std::vector<int>> classes;
+    for (int i : m) {
+      auto it = std::find_if(classes.begin(), classes.end(), [&](const std::vector<int>& c) {
+        return same_bar(ins[c.front()], ins[i]);
+      });
+      if (it == classes.end())
+        classes.push_back({i});
+      else
+        it->push_back(i);
+    }
+    std::stable_sort(classes.begin(), classes.end(),
+                     [&](const std::vector<int>& a, const std::vector<int>& b) {
+                       return bar_length(ins[a.front()]) < bar_length(ins[b.front()]);
+                     });
+    Group g;
+    const int k = static_cast<int>(classes.size());
+    for (int f = 0; f < k; ++f) {
+      for (int l = 0; l < k; ++l) {
+        if (k > 1 && f == l) continue;
+        if (k == 1 && l != f) continue;
+        std::vector<int> order = classes[f];
+        for (int c = 0; c < k; ++c)
+          if (c != f && c != l) order.insert(order.end(), classes[c].begin(), classes[c].end());
+        if (l != f) order.insert(order.end(), classes[l].begin(), classes[l].end());
+        g.ways.push_back(order);
+      }
+    }
+    groups.push_back(std::move(g));
+  }
+  const int n = static_cast<int>(groups.size());
+  size_t ways = 1;
+  for (const Group& g : groups) ways = std::max(ways, g.ways.size());
+  auto join = [&](int g, int gw, int h, int hw) -> long {
+    const Installation &a = ins[groups[g].ways[gw].back()], &b = ins[groups[h].ways[hw].front()];
+    return kStackWeight * !same_stack(design.axis, a, b) + !same_bar(a, b);
+  };
+  std::vector<std::pair<int, int>> path;  // (group, way)
+  SetupOrder out;
+  if (n <= kMaxExactPositions && (size_t{1} << n) * n * ways <= kMaxExactStates) {
+    // best[mask][g][w]: the least cost of setting up the positions in mask, ending at g set up
+    // the way w; from[...] the state before.
+    const size_t W = ways;
+    const size_t states = (size_t{1} << n) * n * W;
+    std::vector<long> best(states, std::numeric_limits<long>::max());
+    std::vector<long> from(states, -1);
+    auto at = [&](size_t mask, int g, size_t w) { return (mask * n + g) * W + w; };
+    for (int g = 0; g < n; ++g)
+      for (size_t w = 0; w < groups[g].ways.size(); ++w) best[at(size_t{1} << g, g, w)] = 0;
+    for (size_t mask = 1; mask < (size_t{1} << n); ++mask) {
+      for (int g = 0; g < n; ++g) {
+        if (!(mask & (size_t{1} << g))) continue;
+        for (size_t w = 0; w < groups[g].ways.size(); ++w) {
+          const long c = best[at(mask, g, w)];
+          if (c == std::numeric_limits<long>::max()) continue;
+          for (int h = 0; h < n; ++h) {
+            if (mask & (size_t{1} << h)) continue;
+            for (size_t v = 0; v < groups[h].ways.size(); ++v) {
+              const size_t next = at(mask | (size_t{1} << h), h, v);
+              const long cost = c + join(g, static_cast<int>(w), h, static_cast<int>(v));
+              if (cost < best[next]) {  // strict: among equal orders the first found stays
+                best[next] = cost;
+                from[next] = static_cast<long>(at(mask, g, w));
+              }
+            }
+          }
+        }
+      }
+    }
+    const size_t full = (size_t{1} << n) - 1;
+    size_t end = at(full, 0, 0);
+    for (int g = 0; g < n; ++g)
+      for (size_t w = 0; w < groups[g].ways.size(); ++w)
+        if (best[at(full, g, w)] < best[end]) end = at(full, g, w);
+    for (long st = static_cast<long>(end); st >= 0; st = from[st]) {
+      const int w = static_cast<int>(st % static_cast<long>(W));
+      const int g = static_cast<int>((st / static_cast<long>(W)) % n);
+      path.emplace_back(g, w);
+    }
+    std::reverse(path.begin(), path.end());
+  } else {
+    out.exhaustive = false;
+    std::vector<bool> used(n, false);
+    path.emplace_back(0, 0);
+    used[0] = true;
+    for (int k = 1; k < n; ++k) {
+      std::pair<int, int> next{-1, 0};
+      long least = std::numeric_limits<long>::max();
+      for (int h = 0; h < n; ++h) {
+        if (used[h]) continue;
+        for (size_t v = 0; v < groups[h].ways.size(); ++v) {
+          const long c = join(path.back().first, path.back().second, h, static_cast<int>(v));
+          if (c < least) least = c, next = {h, static_cast<int>(v)};
+        }
+      }
+      used[next.first] = true;
+      path.push_back(next);
+    }
+  }
+  std::vector<int> order;
+  for (size_t k = 0; k < path.size(); ++k) {
+    const std::vector<int>& members = groups[path[k].first].ways[path[k].second];
+    for (size_t m = 0; m < members.size(); ++m) {
+      SetupStep s;
+      s.installation = members[m];
+      s.position = static_cast<int>(k) + 1;
+      const Installation* prev = order.empty() ? nullptr : &ins[order.back()];
+      s.moves_cup = m == 0;
+      s.changes_stack =
+          design.axis == Axis::kC && (!prev || !same_stack(design.axis, *prev, ins[members[m]]));
+      s.changes_bar = !prev || !same_bar(*prev, ins[members[m]]);
+      order.push_back(members[m]);
+      out.steps.push_back(s);
+    }
+  }
+  count_changes(design, order, out.cup_moves, out.stack_changes, out.bar_changes);
+  std::vector<int> given(ins.size());
+  for (size_t i = 0; i < ins.size(); ++i) given[i] = static_cast<int>(i);
+  count_changes(design, given, out.design_cup_moves, out.design_stack_changes,
+                out.design_bar_changes);
+  // The design's own order stays where no order changes less (stack, then bar, then cup).
+  if (std::make_tuple(out.design_stack_changes, out.design_bar_changes, out.design_cup_moves) <=
+      std::make_tuple(out.stack_changes, out.bar_changes, out.cup_moves)) {
+    out.cup_moves = out.design_cup_moves;
+    out.stack_changes = out.design_stack_changes;
+    out.bar_changes = out.design_bar_changes;
+    out.steps.clear();
+    int positions = 0;
+    for (size_t k = 0; k < ins.size(); ++k) {
+      SetupStep s;
+      s.installation = static_cast<int>(k);
+      const Installation* prev = k ? &ins[k - 1] : nullptr;
+      s.moves_cup = !prev || !same_position(*prev, ins[k]);
+      positions += s.moves_cup;
+      s.position = positions;
+      s.changes_stack =
+          design.axis == Axis::kC && (!prev || !same_stack(design.axis, *prev, ins[k]));
+      s.changes_bar = !prev || !same_bar(*prev, ins[k]);
+      out.steps.push_back(s);
+    }
+  }
+  return out;
+}
+
+RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
+  if (!(std::isfinite(r) && r >= 1e-3 && r <= 10))
+    throw InputError("--resolution-mm", "",
+                     "must be in [0.001, 10] mm, got " + text::significant(r, 6));
+  if (!design.reference_length_mm)
+    throw InputError("design", "reference_length_mm",
+                     "needed to state the worst case of the rounded design");
+  if (kit && kit->axis != design.axis)
+    throw InputError("--kit", "axis",
+                     std::string("the kit is for axis ") + axis_name(kit->axis) +
+                         ", the design for axis " + axis_name(design.axis));
+  RoundedDesign out;
+  out.resolution_mm = r;
+  out.design = design;
+  auto round = [&](double x) { return std::round(x / r) * r; };
+  for (Installation& in : out.design.installations) {
+    const double L = round(in.L_mm), D = round(in.D_mm);
+    // H is set by the cup and its blocks when they are given: it is as exact as they are.
+    const double H = in.cup_mm || design.axis != Axis::kC ? in.H_mm : round(in.H_mm);
+    out.largest_shift_mm = std::max({out.largest_shift_mm, std::abs(L - in.L_mm),
+                                     std::abs(D - in.D_mm), std::abs(H - in.H_mm)});
+    in.L_mm = L, in.D_mm = D, in.H_mm = H;
+  }
+  validate_design(out.design);
+  const WorstCase before = design_worst_case(design, *design.reference_length_mm);
+  const WorstCase after = design_worst_case(out.design, *design.reference_length_mm);
+  out.worst_std_um = before.worst_std_um;
+  out.rounded_worst_std_um = after.worst_std_um;
+  if (kit) {
+    out.travel_checked = true;
+    for (const Installation& in : out.design.installations) {
+      const double v = travel_violation_mm(*kit, design.axis, in, out.design.angles_deg);
+      if (v > kAssemblyTolerance_mm) out.outside_travel.emplace_back(in.id, v);
+    }
+  }
+  return out;
+}
+
+SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
+                            std::optional<double> resolution_mm, const Kit* kit) {
+  SetupSheet sheet;
+  sheet.design = design;
+  if (resolution_mm) {
+    sheet.rounding = round_design(design, *resolution_mm, kit);
+    sheet.design = sheet.rounding->design;
+  } else if (kit && kit->axis != design.axis) {
+    throw InputError("--kit", "axis",
+                     std::string("the kit is for axis ") + axis_name(kit->axis) +
+                         ", the design for axis " + axis_name(design.axis));
+  }
+  sheet.order = setup_order(sheet.design);
+  sheet.program = measurement_program(sheet.design, program);
+  sheet.total_time_s = sheet.program.motion_time_s;
+  if (kit) {
+    for (const SetupStep& s : sheet.order.steps) {
+      const double t =
+          (s.moves_cup ? kit->time_per_position_s : 0.0) + kit->time_per_installation_s;
+      sheet.setup_time_s.push_back(t);
+      sheet.total_time_s += t;
+    }
+  }
+  return sheet;
+}
+
+}  // namespace dbbkit
