@@ -959,4 +959,35 @@ std::vector<BindingConstraint> binding_constraints(const Kit& kit, const Optimiz
   return out;
 }
 
+std::vector<int> runner_up_choices(const OptimizeResult& res, int n) {
+  std::vector<int> out;
+  if (!res.best) return out;
+  // What a person changes at the machine: the block stacks (C), else the step and the
+  // optional positions.
+  auto key = [](const PatternChoice& c) {
+    std::vector<double> k;
+    for (const PatternChoice::Height& h : c.heights) k.push_back(h.stack);
+    if (k.empty()) k = {c.step_deg, static_cast<double>(c.n_optional)};
+    return k;
+  };
+  const std::vector<double> best_key = key(res.best->choice);
+  std::map<std::vector<double>, int> best_of;
+  for (int i = 0; i < static_cast<int>(res.choices.size()); ++i) {
+    const ChoiceResult& cr = res.choices[i];
+    if (cr.state != ChoiceState::kSearched || !cr.best || !cr.best->objective_defined ||
+        cr.best->n_undetermined != res.best->n_undetermined)
+      continue;
+    const std::vector<double> k = key(cr.choice);
+    if (k == best_key) continue;
+    auto it = best_of.find(k);
+    if (it == best_of.end() || better(*cr.best, *res.choices[it->second].best)) best_of[k] = i;
+  }
+  for (const auto& [k, i] : best_of) out.push_back(i);
+  std::stable_sort(out.begin(), out.end(), [&](int a, int c) {
+    return better(*res.choices[a].best, *res.choices[c].best);
+  });
+  if (static_cast<int>(out.size()) > n) out.resize(n);
+  return out;
+}
+
 }  // namespace dbbkit

@@ -709,3 +709,43 @@ TEST(Report, EvaluateStatesTheCoverageAskedFor) {
 
 }  // namespace
 }  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// The reports name what a person needs: the effects a design cannot detect (evaluate), the
+// change of the errors (diagnose, the figures of the JSON), the runner-up designs (optimize).
+TEST(Cli, ReportsListUndetectableEffectsTheChangeOfTheErrorsAndRunnerUps) {
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_report_sections";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string d = dir.string() + "/";
+  CliRun r = run_cli("evaluate --design " + kDesignC + " --summary " + d + "e.md --quiet");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string e = slurp(d + "e.md");
+  EXPECT_NE(e.find("## Effects this design cannot detect"), std::string::npos);
+  EXPECT_NE(e.find("| length_offset[1t] | taken by the axis errors |"), std::string::npos);
+  EXPECT_NE(e.find("| drift[1r] | not applicable to these readings |"), std::string::npos);
+  r = run_cli("diagnose --design " + kDesignC + " --data " + kDataC + " --out " + d +
+              "g.json --summary " + d + "g.md --quiet");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json g = nlohmann::json::parse(slurp(d + "g.json"));
+  const std::string md = slurp(d + "g.md");
+  ASSERT_NE(md.find("## Change of the errors"), std::string::npos);
+  const double dx = g["largest_change_of_errors"]["dx"].get<double>();
+  std::ostringstream row;
+  row << "| dx | " << std::round(dx * 1000) / 1000 << " um |";
+  EXPECT_NE(md.find(row.str()), std::string::npos) << row.str();
+  r = run_cli("optimize --kit " + test::source_path("designs/kits/c-turntable-kit.json") +
+              " --summary " + d + "o.md --quiet");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::string o = slurp(d + "o.md");
+  EXPECT_NE(o.find("## Runner-up designs"), std::string::npos);
+  EXPECT_NE(o.find("| H1 = 45 mm (cup on the table), H3 = 145 mm (cup of 45 mm on block 100 mm), "
+                   "step 45 deg |"),
+            std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace dbbkit

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <iostream>
 #include <random>
+#include <set>
 
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/io/kit_io.hpp"
@@ -360,6 +361,38 @@ TEST(Optimize, AKitOverItsTimeBudgetNamesTheShortestDesign) {
   EXPECT_DOUBLE_EQ(b[0].time_s, 1953);  // 7 x 240 + 7 x 13 x 3
   EXPECT_EQ(b[0].installations, 7);
   EXPECT_EQ(b[0].readings, 91);
+}
+
+// The runner-ups are the best of each other set of block stacks, worse than (or tied with)
+// the best, in order.
+TEST(Optimize, RunnerUpsAreTheBestOfEachOtherSetOfStacks) {
+  Kit k = formats_kit();
+  k.angle_steps_deg = {45};
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorst, 2});
+  ASSERT_TRUE(r.best);
+  const std::vector<int> runners = runner_up_choices(r, 100);
+  std::set<std::vector<int>> seen;
+  std::vector<int> best_stacks;
+  for (const auto& h : r.best->choice.heights) best_stacks.push_back(h.stack);
+  double previous = r.best->objective * (1 - 1e-4);
+  for (int i : runners) {
+    const Candidate& c = *r.choices[i].best;
+    std::vector<int> stacks;
+    for (const auto& h : c.choice.heights) stacks.push_back(h.stack);
+    EXPECT_NE(stacks, best_stacks);
+    EXPECT_TRUE(seen.insert(stacks).second) << "one runner-up per set of stacks";
+    EXPECT_GE(c.objective, previous * (1 - 1e-9));  // `better`: ties within 1e-9 go by time
+    previous = c.objective;
+    // No other choice with these stacks is better.
+    for (const ChoiceResult& cr : r.choices) {
+      std::vector<int> s2;
+      for (const auto& h : cr.choice.heights) s2.push_back(h.stack);
+      if (s2 == stacks && cr.best && cr.state == ChoiceState::kSearched)
+        EXPECT_FALSE(better(*cr.best, c));
+    }
+  }
+  // Every other set of stacks of the kit: pairs of distinct heights of 7 stacks, less the best's.
+  EXPECT_EQ(runners.size(), 7u * 6u - 1u);
 }
 
 // With a resolution the best is rounded: every position a multiple of it, checked and scored

@@ -185,6 +185,12 @@ struct BindingConstraint {
 };
 std::vector<BindingConstraint> binding_constraints(const Kit& kit, const OptimizeResult& res);
 
+// The alternatives to the best a person would weigh: for each other set of block stacks (C;
+// for B, each other angle step and number of optional positions) the best searched choice
+// that determines as much as the best, ordered by `better`; at most n, indices into
+// res.choices. Their designs are as searched (not rounded to the kit's resolution).
+std::vector<int> runner_up_choices(const OptimizeResult& res, int n);
+
 // The discrete choices of a kit (each resolved: placements and continuous space), and the
 // design for a choice and a point (bars and signs fitted; violations set).
 std::vector<PatternChoice> pattern_choices(const Kit& kit);

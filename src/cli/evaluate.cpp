@@ -87,9 +87,9 @@ Runner add_evaluate(CLI::App& app) {
          {std::tuple{"--report", rep->report, io::ReportFormat::kHtml},
           std::tuple{"--summary", rep->summary, io::ReportFormat::kMarkdown}}) {
       if (!file.empty()) {
-        outputs.stage(option,
-                      io::evaluate_report(format, run, design, ev, variables, map,
-                                          mc ? &*mc : nullptr, a_priori_expansion(unc->coverage)));
+        outputs.stage(option, io::evaluate_report(format, run, design, ev, variables, map,
+                                                  mc ? &*mc : nullptr,
+                                                  a_priori_expansion(unc->coverage), &effects));
       }
     }
     outputs.commit();

@@ -96,6 +96,32 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
                   "Residual per installation with the six error motions alone.");
   residual_figure("residual after (with the effects added)", r.after.residual_um,
                   "Residual per installation with the effects added.");
+  p.heading("Change of the errors");
+  {
+    std::vector<std::vector<std::string>> largest;
+    for (int e = 0; e < 6; ++e) {
+      largest.push_back({kErrorNames[e],
+                         r.largest_change_of_errors[e]
+                             ? fmt_rounded(*r.largest_change_of_errors[e], 3) + " " + kErrorUnits[e]
+                             : "not determined before and after"});
+    }
+    p.paragraph(
+        "What adding the effects changed: the errors after minus the errors before, at "
+        "each position where both are determined ('--' elsewhere), to 0.001 um or urad; the "
+        "largest change of each error first.");
+    p.table({"error", "largest |after - before|"}, largest);
+    std::vector<std::vector<std::string>> rows;
+    for (size_t a = 0; a < r.errors_before.size() && a < r.errors_after.size(); ++a) {
+      std::vector<std::string> row = {fmt_num(r.errors_before[a].angle_deg, 6)};
+      for (int e = 0; e < 6; ++e) {
+        const Determined &b = r.errors_before[a].errors[e], &f = r.errors_after[a].errors[e];
+        row.push_back(b.determined && f.determined ? fmt_rounded(f.value - b.value, 3) : "--");
+      }
+      rows.push_back(row);
+    }
+    p.table({"angle [deg]", "dx [um]", "dy [um]", "dz [um]", "ex [urad]", "ey [urad]", "ez [urad]"},
+            rows);
+  }
   p.heading("Errors after");
   errors_section(p, expanded_errors(r.errors_after, expansion.k), true,
                  "errors with the effects added, " + design.name, expansion.coverage_probability);

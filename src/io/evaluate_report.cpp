@@ -3,6 +3,7 @@
 #include <limits>
 #include <memory>
 
+#include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/plots.hpp"
 #include "dbbkit/io/report_writer.hpp"
 #include "dbbkit/io/reports.hpp"
@@ -16,6 +17,32 @@ namespace dbbkit::io {
 using namespace detail;
 
 namespace {
+
+// The effects of diagnose's library this design cannot detect: those the axis errors take
+// (confounded), and those its readings cannot carry (not applicable: no times, one sweep).
+void effects_section(ReportWriter& p, const Design& design,
+                     const std::vector<CandidateStatus>& effects) {
+  p.heading("Effects this design cannot detect");
+  std::vector<std::vector<std::string>> rows;
+  int detectable = 0;
+  for (const CandidateStatus& c : effects) {
+    if (c.state == CandidateState::kDetectable) ++detectable;
+    if (c.state == CandidateState::kConfounded)
+      rows.push_back({c.label, "taken by the axis errors", candidate_detail(c)});
+    if (c.state == CandidateState::kNotApplicable)
+      rows.push_back(
+          {c.label, "not applicable to these readings", not_applicable_text(c.applicability)});
+  }
+  p.paragraph(std::to_string(detectable) + " of the " + std::to_string(effects.size()) +
+              " effects diagnose can add are detectable with this design (" +
+              design.errors.describe() + "). " +
+              (rows.empty() ? std::string("It can detect every one.")
+                            : "The others: an effect the axis errors take leaves no residual and "
+                              "moves the errors instead; an effect not applicable needs what the "
+                              "design's nominal readings lack (times, both sweeps): measured with "
+                              "times and both sweeps (program --sweeps both), diagnose tests it."));
+  if (!rows.empty()) p.table({"effect", "why not", "detail"}, rows);
+}
 
 // Every set-up effect: declared size, detectable, detection limit, largest bias per um.
 void setup_checks_section(ReportWriter& p, const Evaluation& ev) {
@@ -46,7 +73,8 @@ void setup_checks_section(ReportWriter& p, const Evaluation& ev) {
 std::string evaluate_report(ReportFormat f, const RunContext& run, const Design& design,
                             const Evaluation& ev, const std::vector<SweepVariable>& variables,
                             const std::vector<SweepPoint>& map, const MonteCarloResult* mc,
-                            const Expansion& expansion) {
+                            const Expansion& expansion,
+                            const std::vector<CandidateStatus>* effects) {
   const std::unique_ptr<ReportWriter> page =
       make_report_writer(f, "dbbkit evaluate: " + design.name);
   ReportWriter& p = *page;
@@ -118,11 +146,27 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
             std::vector<double> z;
             // sweep_design varies the last variable fastest: x = the second variable.
             for (const SweepPoint& pt : map) z.push_back(pt.worst_std_um.value_or(kNaN));
+            // The design's own point and the best of the map, marked.
+            std::vector<HeatmapMark> marks;
+            auto coordinate = [&](const SweepVariable& v) {
+              const Installation& in = design.installations[v.installations.front()];
+              return v.coord == 0 ? in.L_mm : v.coord == 1 ? in.D_mm : in.H_mm;
+            };
+            marks.push_back({coordinate(variables[1]), coordinate(variables[0]), "this design"});
+            const int best = best_sweep_point(map);
+            std::optional<double> z_max;
+            if (best >= 0) {
+              marks.push_back({map[best].values[1], map[best].values[0], "best"});
+              z_max = 2 * *map[best].worst_std_um;
+            }
             return plot_heatmap("worst_std_um [um] over the design map",
                                 variables[1].name + " [mm]", variables[0].name + " [mm]",
-                                "worst_std_um [um]", variables[1].values, variables[0].values, z);
+                                "worst_std_um [um]", variables[1].values, variables[0].values, z,
+                                z_max, marks);
           },
-          "worst_std_um at each point of the map; blank where not every error is determined.");
+          "worst_std_um at each point of the map (viridis; the scale runs from the best point to "
+          "twice its value, larger values take the top colour); the design evaluated and the "
+          "map's best point marked; blank where not every error is determined.");
     } else if (variables.size() == 1) {
       p.figure(
           [&] {
@@ -137,6 +181,7 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
     }
     p.table(header, rows);
   }
+  if (effects) effects_section(p, design, *effects);
   conditions(p, run, &design);
   return p.str();
 }

@@ -17,6 +17,39 @@ namespace dbbkit::io {
 
 using namespace detail;
 
+namespace {
+
+// What differs between two choices, in words: the angle step, the heights, the optional
+// positions added.
+std::string choice_change_text(const Kit& kit, const Candidate& from, const Candidate& to) {
+  std::vector<std::string> parts;
+  if (from.choice.step_deg != to.choice.step_deg)
+    parts.push_back("step " + fmt_num(from.choice.step_deg) + " -> " + fmt_num(to.choice.step_deg) +
+                    " deg");
+  for (size_t h = 0; h < to.choice.heights.size() && h < from.choice.heights.size(); ++h) {
+    if (from.choice.heights[h].stack != to.choice.heights[h].stack)
+      parts.push_back(to.choice.heights[h].variable + " " +
+                      fmt_num(from.choice.heights[h].height_mm) + " -> " +
+                      fmt_num(to.choice.heights[h].height_mm) + " mm");
+  }
+  if (from.choice.n_optional != to.choice.n_optional)
+    parts.push_back("added " + added_installations(kit, from) + " -> " +
+                    added_installations(kit, to));
+  if (parts.empty()) return "the positions only";
+  std::string t;
+  for (const std::string& p : parts) t += (t.empty() ? "" : ", ") + p;
+  return t;
+}
+
+// "+3.5 %"; within 0.05 % a tie, which the shorter measurement wins.
+std::string percent_worse(double x, double best) {
+  const double pct = 100.0 * (x / best - 1.0);
+  if (std::abs(pct) < 0.05) return "a tie (within 0.05 %)";
+  return (pct > 0 ? "+" : "-") + fmt_rounded(std::abs(pct), 1) + " %";
+}
+
+}  // namespace
+
 std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& kit,
                             const OptimizeResult& res, const std::optional<Reference>& reference,
                             double seconds, const Expansion& expansion, const SetupSheet* sheet) {
@@ -107,14 +140,35 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
       "time and "
       "uncertainty (line).");
   std::vector<std::vector<std::string>> front;
-  for (const Candidate& c : res.pareto) {
+  for (size_t i = 0; i < res.pareto.size(); ++i) {
+    const Candidate& c = res.pareto[i];
     front.push_back({fmt_num(c.time_s, 6), std::to_string(c.design.installations.size()),
                      std::to_string(c.design.angles_deg.size()), fmt_num(c.choice.step_deg),
-                     fmt_num(c.objective, 5), added_installations(kit, c)});
+                     fmt_num(c.objective, 5), added_installations(kit, c),
+                     i == 0 ? "the shortest" : choice_change_text(kit, res.pareto[i - 1], c)});
   }
   p.table({"time [s]", "installations", "angles", "step [deg]", criterion_name(res.criterion),
-           "added (optional positions)"},
+           "added (optional positions)", "what changes from the point before"},
           front);
+  const std::vector<int> runners = runner_up_choices(res, 5);
+  if (!runners.empty()) {
+    p.heading("Runner-up designs");
+    p.paragraph("The best design with each other " +
+                std::string(kit.axis == Axis::kC ? "set of block stacks"
+                                                 : "angle step and set of optional positions") +
+                " (as searched, not rounded), and how much worse each is than the best (" +
+                fmt_num(b.objective, 5) +
+                "): one within a few per cent may be the easier to set up.");
+    std::vector<std::vector<std::string>> rows;
+    for (int i : runners) {
+      const Candidate& c = *res.choices[i].best;
+      rows.push_back({res.choices[i].label, fmt_num(c.time_s, 6), fmt_num(c.objective, 5),
+                      percent_worse(c.objective, b.objective), choice_change_text(kit, b, c)});
+    }
+    p.table({"choice", "time [s]", criterion_name(res.criterion), "worse than the best",
+             "what differs from the best"},
+            rows);
+  }
   if (sheet) write_setup_sheet(p, *sheet, run.inputs.empty() ? "" : run.inputs.front(), 2);
   conditions(p, run, &d);
   return p.str();

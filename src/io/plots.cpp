@@ -179,19 +179,39 @@ std::string plot_errors(const std::vector<ExpandedErrorsAtAngle>& errors, bool v
 std::string plot_heatmap(const std::string& title, const std::string& xlabel,
                          const std::string& ylabel, const std::string& zlabel,
                          const std::vector<double>& x, const std::vector<double>& y,
-                         const std::vector<double>& z) {
+                         const std::vector<double>& z, std::optional<double> z_max,
+                         const std::vector<HeatmapMark>& marks) {
   std::ostringstream s;
   s << "$map << EOD\n";
+  double lo = std::numeric_limits<double>::infinity();
   for (size_t j = 0; j < y.size(); ++j) {
-    for (size_t i = 0; i < x.size(); ++i)
-      s << gnuplot_number(x[i]) << " " << gnuplot_number(y[j]) << " "
-        << gnuplot_number(z[j * x.size() + i]) << "\n";
+    for (size_t i = 0; i < x.size(); ++i) {
+      const double v = z[j * x.size() + i];
+      if (std::isfinite(v)) lo = std::min(lo, v);
+      s << gnuplot_number(x[i]) << " " << gnuplot_number(y[j]) << " " << gnuplot_number(v) << "\n";
+    }
     s << "\n";
   }
-  s << "EOD\nset title " << gnuplot_quote(title) << "\nset xlabel " << gnuplot_quote(xlabel)
+  s << "EOD\n";
+  if (!marks.empty()) {
+    s << "$marks << EOD\n";
+    for (const HeatmapMark& m : marks)
+      s << gnuplot_number(m.x) << " " << gnuplot_number(m.y) << " \"" << m.label << "\"\n";
+    s << "EOD\n";
+  }
+  s << "set title " << gnuplot_quote(title) << "\nset xlabel " << gnuplot_quote(xlabel)
     << "\nset ylabel " << gnuplot_quote(ylabel) << "\nset cblabel " << gnuplot_quote(zlabel)
-    << "\nset palette rgbformulae 33,13,10\nset tics out\n"
-    << "plot $map using 1:2:3 with image notitle\n";
+    << "\nset palette defined (0 '#440154', 0.14 '#46327e', 0.29 '#365c8d', 0.43 '#277f8e', "
+       "0.57 '#1fa187', 0.71 '#4ac16d', 0.86 '#a0da39', 1 '#fde725')\nset tics out\n";
+  s << "set style textbox opaque fillcolor rgb '#ffffff' noborder\n";
+  if (z_max && std::isfinite(lo) && *z_max > lo)
+    s << "set cbrange [" << gnuplot_number(lo) << ":" << gnuplot_number(*z_max) << "]\n";
+  s << "plot $map using 1:2:3 with image notitle";
+  if (!marks.empty())
+    s << ", $marks using 1:2 with points pt 7 ps 1.4 lc rgb '#e41a1c' notitle"
+      << ", $marks using 1:2:3 with labels offset -1.2,0.9 right boxed tc rgb '#000000' "
+         "font ',11' notitle";
+  s << "\n";
   return gnuplot_svg(s.str(), 760, 480);
 }
 

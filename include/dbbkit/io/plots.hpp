@@ -1,6 +1,7 @@
 #pragma once
 // The plots of the reports, drawn by gnuplot (gnuplot.hpp) as inline SVG.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,10 +31,18 @@ std::string plot_design(const Design& design);
 std::string plot_errors(const std::vector<ExpandedErrorsAtAngle>& errors, bool values,
                         const std::string& title);
 
-// A heat map of z over a grid (x fastest); NaN cells are left blank.
+// A point marked on a heat map, with its label.
+struct HeatmapMark {
+  double x = 0, y = 0;
+  std::string label;  // no double quote
+};
+// A heat map of z over a grid (x fastest); NaN cells are left blank. The colour map is
+// viridis (perceptually uniform, readable in grey); the colour scale runs from the smallest z
+// to z_max when given (larger values take the top colour), else to the largest.
 std::string plot_heatmap(const std::string& title, const std::string& xlabel,
                          const std::string& ylabel, const std::string& zlabel,
                          const std::vector<double>& x, const std::vector<double>& y,
-                         const std::vector<double>& z);
+                         const std::vector<double>& z, std::optional<double> z_max = {},
+                         const std::vector<HeatmapMark>& marks = {});
 
 }  // namespace dbbkit::io

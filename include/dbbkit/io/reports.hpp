@@ -18,6 +18,7 @@
 #include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/optimize.hpp"
+#include "dbbkit/selection.hpp"
 #include "dbbkit/setup_sheet.hpp"
 
 namespace dbbkit::io {
@@ -32,10 +33,13 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
                             const std::vector<Reading>& readings, const IdentifyResult& result,
                             const MonteCarloResult* mc,
                             const ConformanceReport* conformance = nullptr);
+// With `effects` (assess_design), the effects of diagnose's library the design cannot tell
+// from the axis errors, and those its readings cannot carry, are listed.
 std::string evaluate_report(ReportFormat f, const RunContext& run, const Design& design,
                             const Evaluation& ev, const std::vector<SweepVariable>& variables,
                             const std::vector<SweepPoint>& map, const MonteCarloResult* mc,
-                            const Expansion& expansion);
+                            const Expansion& expansion,
+                            const std::vector<CandidateStatus>* effects = nullptr);
 // With `sheet`, the best design's set-up sheet closes the report.
 std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& kit,
                             const OptimizeResult& res, const std::optional<Reference>& reference,
