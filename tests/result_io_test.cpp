@@ -56,3 +56,43 @@ TEST(JsonText, IdentifyRowsMatchTheWholeDocument) {
 
 }  // namespace
 }  // namespace dbbkit
+
+#include "../src/io/report_sections.hpp"
+
+namespace dbbkit {
+namespace {
+
+// The residual plots draw each installation in its own panel and each sweep (and repeat) as
+// a line of its own in angle order, whatever order the readings were taken in.
+TEST(ResidualPanels, EachSweepIsALineInAngleOrder) {
+  const Design d = test::paper_design('C');
+  std::vector<Reading> readings;
+  for (int sweep = 0; sweep < 2; ++sweep) {
+    for (int k = 0; k < 5; ++k) {
+      Reading r;
+      r.installation = "2r";
+      r.angle_deg = sweep == 0 ? 20.0 * k : 20.0 * (4 - k);  // ccw up, then cw down
+      r.sweep = sweep == 0 ? Sweep::kCCW : Sweep::kCW;
+      readings.push_back(r);
+    }
+  }
+  Reading lone;
+  lone.installation = "1r";
+  lone.angle_deg = 40;
+  readings.push_back(lone);
+  Eigen::VectorXd residual(static_cast<long>(readings.size()));
+  for (long i = 0; i < residual.size(); ++i) residual(i) = static_cast<double>(i);
+  const std::vector<io::ResidualPanel> panels = io::detail::residual_panels(d, readings, residual);
+  ASSERT_EQ(panels.size(), 2u);  // installations with readings only, in the design's order
+  EXPECT_EQ(panels[0].installation, "1r");
+  EXPECT_EQ(panels[0].lines[0].sweep, "sweep not recorded");
+  ASSERT_EQ(panels[1].lines.size(), 2u);
+  EXPECT_EQ(panels[1].lines[0].sweep, "ccw");
+  EXPECT_EQ(panels[1].lines[1].sweep, "cw");
+  EXPECT_EQ(panels[1].lines[1].angle_deg, (std::vector<double>{0, 20, 40, 60, 80}));
+  // The cw readings 5..9 were taken at 80, 60, ..., 0: in angle order their residuals reverse.
+  EXPECT_EQ(panels[1].lines[1].residual_um, (std::vector<double>{9, 8, 7, 6, 5}));
+}
+
+}  // namespace
+}  // namespace dbbkit

@@ -143,7 +143,7 @@ std::string signature_text(const ResidualSignature& s, const Design& design,
       o << "--";
     o << std::defaultfloat << "\n";
   }
-  o << "most significant feature: "
+  o << "most significant feature (+- standard uncertainty, k = 1): "
     << (s.dominant ? describe_feature(design, readings, *s.dominant) : "(not tested)") << "\n";
   return o.str();
 }
@@ -317,7 +317,7 @@ std::string diagnose_summary(const Design& design, const std::vector<Reading>& r
   s << "after:  " << residual_text(r.after) << "\n\n";
   s << diagnose_verdict(design, readings, r) << "\n\n";
   if (!r.added.empty()) {
-    s << "added effects (value +- standard uncertainty):\n";
+    s << "added effects (value +- standard uncertainty, k = 1):\n";
     for (const AddedEffect& a : r.added) {
       s << "  " << std::left << std::setw(22) << a.block.label << std::right;
       for (std::size_t k = 0; k < a.values.size(); ++k) {

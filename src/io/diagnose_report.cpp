@@ -87,15 +87,24 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
                              const char* caption) {
     p.figure(
         [&] {
-          return plot_series(title, "angle [deg]", "reading - model [um]",
-                             residual_series(design, readings, residual));
+          return plot_residual_panels(std::string(title) + " [um]",
+                                      residual_panels(design, readings, residual));
         },
         caption);
   };
-  residual_figure("residual before (axis errors only)", r.before.residual_um,
-                  "Residual per installation with the six error motions alone.");
+  residual_figure(
+      "residual before (axis errors only)", r.before.residual_um,
+      "Residual with the six error motions alone: a panel per installation on one scale, each "
+      "sweep a line in angle order.");
   residual_figure("residual after (with the effects added)", r.after.residual_um,
                   "Residual per installation with the effects added.");
+  p.figure(
+      [&] {
+        return plot_residual_polar("residual before, around the turn",
+                                   residual_panels(design, readings, r.before.residual_um));
+      },
+      "The residual before as a ballbar plot: each trace leaves the dashed circle outwards where "
+      "the bar read longer than the model, inwards where shorter.");
   p.heading("Change of the errors");
   {
     std::vector<std::vector<std::string>> largest;

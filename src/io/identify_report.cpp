@@ -134,10 +134,19 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
   p.heading("Residuals");
   p.figure(
       [&] {
-        return plot_series("residual per installation", "angle [deg]", "reading - model [um]",
-                           residual_series(design, readings, est.residual_um));
+        return plot_residual_panels("residual per installation [um]",
+                                    residual_panels(design, readings, est.residual_um));
       },
-      "Residual of every reading against the fitted model, per installation.");
+      "Residual of every reading against the fitted model: a panel per installation on one "
+      "scale, each sweep a line in angle order.");
+  p.figure(
+      [&] {
+        return plot_residual_polar("residual around the turn",
+                                   residual_panels(design, readings, est.residual_um));
+      },
+      "The same residuals as a ballbar plot: each trace leaves the dashed circle outwards where "
+      "the bar read longer than the model, inwards where shorter (not to scale with the "
+      "machine).");
   // The budget of the value with the largest U of each error (JCGM 100).
   p.heading("Uncertainty budget (JCGM 100)");
   p.paragraph(

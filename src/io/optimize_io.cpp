@@ -310,7 +310,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   if (ev.prior.condition_number) s << ", condition number " << fmt_num(*ev.prior.condition_number);
   s << "\n";
   if (ev.worst.worst_std_um) {
-    s << "worst_std_um " << fmt_num(*ev.worst.worst_std_um) << " um" << where(ev.worst)
+    s << "worst_std_um (k = 1) " << fmt_num(*ev.worst.worst_std_um) << " um" << where(ev.worst)
       << ", angular errors at " << fmt_num(kit.reference_length_mm) << " mm\n";
   } else if (ev.worst.worst_determined_std_um) {
     s << "worst_std_um: none (" << ev.worst.n_undetermined

@@ -215,4 +215,89 @@ std::string plot_heatmap(const std::string& title, const std::string& xlabel,
   return gnuplot_svg(s.str(), 760, 480);
 }
 
+std::string plot_residual_panels(const std::string& title,
+                                 const std::vector<ResidualPanel>& panels) {
+  const int n = static_cast<int>(panels.size());
+  if (n == 0) return "";
+  const int cols = std::min(n, 4), rows = (n + cols - 1) / cols;
+  double lim = 0;
+  for (const ResidualPanel& p : panels)
+    for (const ResidualLine& l : p.lines)
+      for (double r : l.residual_um)
+        if (std::isfinite(r)) lim = std::max(lim, std::abs(r));
+  lim = lim > 0 ? 1.1 * lim : 1.0;
+  std::ostringstream s;
+  int block = 0;
+  for (const ResidualPanel& p : panels) {
+    for (const ResidualLine& l : p.lines) {
+      s << "$r" << block++ << " << EOD\n";
+      for (size_t k = 0; k < l.angle_deg.size(); ++k)
+        s << gnuplot_number(l.angle_deg[k]) << " " << gnuplot_number(l.residual_um[k]) << "\n";
+      s << "EOD\n";
+    }
+  }
+  double lo_a = std::numeric_limits<double>::infinity(), hi_a = -lo_a;
+  for (const ResidualPanel& p : panels)
+    for (const ResidualLine& l : p.lines)
+      for (double a : l.angle_deg) lo_a = std::min(lo_a, a), hi_a = std::max(hi_a, a);
+  const double span = hi_a > lo_a ? hi_a - lo_a : 1.0;
+  const double tic = span > 180 ? 90 : span > 60 ? 30 : span > 20 ? 10 : span / 4;
+  s << "set multiplot layout " << rows << "," << cols << " title " << gnuplot_quote(title)
+    << "\nset grid\nset yrange [" << gnuplot_number(-lim) << ":" << gnuplot_number(lim)
+    << "]\nset xrange [" << gnuplot_number(lo_a) << ":"
+    << gnuplot_number(hi_a > lo_a ? hi_a : lo_a + 1) << "]\nset xtics " << gnuplot_number(tic)
+    << "\nset xlabel 'angle [deg]'\nset key top right font ',9'\n";
+  block = 0;
+  for (int k = 0; k < n; ++k) {
+    const ResidualPanel& p = panels[k];
+    s << "set title " << gnuplot_quote(p.installation) << "\nset ylabel "
+      << gnuplot_quote(k % cols == 0 ? "reading - model [um]" : "") << "\nplot ";
+    // A key only where a panel has more than one line.
+    for (size_t j = 0; j < p.lines.size(); ++j, ++block) {
+      s << (j ? ", " : "") << "$r" << block << " using 1:2 with linespoints lc rgb '"
+        << kColours[j % 8] << "' lw 1.5 pt 7 ps 0.4 "
+        << (p.lines.size() > 1 ? "title " + gnuplot_quote(p.lines[j].sweep) : "notitle");
+    }
+    s << "\n";
+  }
+  s << "unset multiplot\n";
+  return gnuplot_svg(s.str(), 190 * cols + 40, 200 * rows + 40);
+}
+
+std::string plot_residual_polar(const std::string& title,
+                                const std::vector<ResidualPanel>& panels) {
+  double lim = 0;
+  for (const ResidualPanel& p : panels)
+    for (const ResidualLine& l : p.lines)
+      for (double r : l.residual_um)
+        if (std::isfinite(r)) lim = std::max(lim, std::abs(r));
+  lim = lim > 0 ? lim : 1.0;
+  const double base = 2 * lim;  // the circle the traces deviate from
+  std::ostringstream s;
+  int block = 0;
+  std::ostringstream plot;
+  plot << "plot " << gnuplot_number(base) << " with lines dt 2 lc rgb '#888888' title "
+       << gnuplot_quote("model (" + gnuplot_number(base) + " um from the centre)");
+  for (size_t k = 0; k < panels.size(); ++k) {
+    for (const ResidualLine& l : panels[k].lines) {
+      s << "$p" << block << " << EOD\n";
+      for (size_t j = 0; j < l.angle_deg.size(); ++j)
+        s << gnuplot_number(l.angle_deg[j]) << " " << gnuplot_number(base + l.residual_um[j])
+          << "\n";
+      s << "EOD\n";
+      plot << ", $p" << block << " using 1:2 with linespoints lc rgb '" << kColours[k % 8]
+           << "' lw 1.5 pt 7 ps 0.4 title "
+           << gnuplot_quote(panels[k].lines.size() > 1 ? panels[k].installation + " " + l.sweep
+                                                       : panels[k].installation);
+      ++block;
+    }
+  }
+  s << "set title " << gnuplot_quote(title) << "\nset polar\nset angles degrees\nset size square"
+    << "\nunset border\nunset xtics\nunset ytics\nunset raxis\nunset rtics\nset grid polar 30"
+    << "\nset rrange [0:" << gnuplot_number(base + 1.1 * lim)
+    << "]\nset key outside right top font ',9'\n"
+    << plot.str() << "\n";
+  return gnuplot_svg(s.str(), 760, 560);
+}
+
 }  // namespace dbbkit::io

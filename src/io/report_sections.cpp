@@ -41,21 +41,34 @@ void design_section(ReportWriter& p, const Design& d) {
 }
 
 // Residual against angle, one line per installation.
-std::vector<PlotSeries> residual_series(const Design& d, const std::vector<Reading>& readings,
-                                        const Eigen::VectorXd& residual) {
-  std::vector<PlotSeries> out;
+std::vector<ResidualPanel> residual_panels(const Design& d, const std::vector<Reading>& readings,
+                                           const Eigen::VectorXd& residual) {
+  std::vector<ResidualPanel> out;
   for (const Installation& in : d.installations) {
-    std::vector<std::pair<double, double>> pts;
+    ResidualPanel panel;
+    panel.installation = in.id;
+    // Readings of one sweep and repeat form a line; lines in the order first read.
+    std::vector<std::pair<std::string, std::vector<std::pair<double, double>>>> lines;
     for (size_t i = 0; i < readings.size(); ++i) {
-      if (readings[i].installation == in.id)
-        pts.push_back({readings[i].angle_deg, residual(static_cast<long>(i))});
+      const Reading& r = readings[i];
+      if (r.installation != in.id) continue;
+      std::string key = !r.sweep ? "sweep not recorded" : *r.sweep == Sweep::kCCW ? "ccw" : "cw";
+      if (r.repeat) key += " #" + std::to_string(*r.repeat);
+      auto it = std::find_if(lines.begin(), lines.end(), [&](auto& l) { return l.first == key; });
+      if (it == lines.end()) {
+        lines.push_back({key, {}});
+        it = lines.end() - 1;
+      }
+      it->second.push_back({r.angle_deg, residual(static_cast<long>(i))});
     }
-    if (pts.empty()) continue;
-    std::stable_sort(pts.begin(), pts.end(), [](auto& a, auto& b) { return a.first < b.first; });
-    PlotSeries s;
-    s.title = in.id;
-    for (auto& [a, r] : pts) s.x.push_back(a), s.y.push_back(r);
-    out.push_back(s);
+    for (auto& [key, pts] : lines) {
+      std::stable_sort(pts.begin(), pts.end(), [](auto& a, auto& b) { return a.first < b.first; });
+      ResidualLine l;
+      l.sweep = key;
+      for (auto& [a, r] : pts) l.angle_deg.push_back(a), l.residual_um.push_back(r);
+      panel.lines.push_back(std::move(l));
+    }
+    if (!panel.lines.empty()) out.push_back(std::move(panel));
   }
   return out;
 }

@@ -21,9 +21,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 std::vector<std::vector<std::string>> installation_rows(const Design& d);
 // The design: a sentence, its drawing and the installations' table.
 void design_section(ReportWriter& p, const Design& d);
-// Residual against angle, one line per installation.
-std::vector<PlotSeries> residual_series(const Design& d, const std::vector<Reading>& readings,
-                                        const Eigen::VectorXd& residual);
+// The residual of each installation, each sweep (and repeat) a line in angle order.
+std::vector<ResidualPanel> residual_panels(const Design& d, const std::vector<Reading>& readings,
+                                           const Eigen::VectorXd& residual);
 // The combinations of the errors no reading sees, when there are any.
 void unidentifiable_section(ReportWriter& p, const std::vector<Unidentifiable>& list);
 // The errors (values with +-U, or U alone) as a plot and a table; `coverage`: the coverage

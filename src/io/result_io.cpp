@@ -535,7 +535,7 @@ std::string evaluate_summary(const Design& design, const Evaluation& ev) {
     s << "(singular)";
   s << ", E = min eig " << c.E_min_eigenvalue << ", G = max leverage " << c.G_max_leverage << "\n";
   const WorstCase& w = ev.worst;
-  s << "worst standard uncertainty (angular errors x " << ev.reference_length_mm << " mm): ";
+  s << "worst standard uncertainty (k = 1; angular errors x " << ev.reference_length_mm << " mm): ";
   if (w.worst_std_um) {
     s << *w.worst_std_um << " um (" << kErrorNames[w.at_error] << " at " << w.at_angle_deg
       << " deg)\n";

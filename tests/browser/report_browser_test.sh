@@ -24,7 +24,7 @@ cd "$src"
 "$cli" setup-sheet --design "$work/best.json" --kit designs/kits/b-head-kit.json --report "$work/setup-sheet.html" --quiet
 # optimize: 3 plots and the best design's set-up sheet, a drawing per installation.
 steps="$(grep -c '"id":' "$work/best.json")"
-declare -A expected=([identify]=3 [evaluate]=3 [optimize]=$((3 + steps)) [diagnose]=4 [setup-sheet]=$steps)
+declare -A expected=([identify]=4 [evaluate]=3 [optimize]=$((3 + steps)) [diagnose]=5 [setup-sheet]=$steps)
 
 failed=0
 for name in identify evaluate optimize diagnose setup-sheet; do
@@ -54,7 +54,7 @@ done
 sed -e 's/id="gnuplot_plot_/id="removed_plot_/g' "$work/identify.html" > "$work/emptied.html"
 timeout 120 "$browser" --headless --no-sandbox --disable-gpu --no-first-run --user-data-dir="$work/profile" \
   --virtual-time-budget=5000 --dump-dom "file://$work/emptied.html" >"$work/emptied.dom" 2>/dev/null || true
-if grep -q 'data-status="fail"' "$work/emptied.dom" && grep -q '3 empty' "$work/emptied.dom"; then
+if grep -q 'data-status="fail"' "$work/emptied.dom" && grep -q '4 empty' "$work/emptied.dom"; then
   echo "ok   a page whose plots hold no data fails its self-check"
 else
   failed=$((failed + 1))

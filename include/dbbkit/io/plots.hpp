@@ -31,6 +31,23 @@ std::string plot_design(const Design& design);
 std::string plot_errors(const std::vector<ExpandedErrorsAtAngle>& errors, bool values,
                         const std::string& title);
 
+// The residual of each installation in a panel of its own (small multiples, one scale for
+// all), each sweep (cw, ccw, not recorded; each repeat) a line of its own in angle order.
+struct ResidualLine {
+  std::string sweep;  // "ccw", "cw", "sweep not recorded"; a repeat adds " #n"
+  std::vector<double> angle_deg, residual_um;
+};
+struct ResidualPanel {
+  std::string installation;
+  std::vector<ResidualLine> lines;
+};
+std::string plot_residual_panels(const std::string& title,
+                                 const std::vector<ResidualPanel>& panels);
+// The same residuals as a ballbar shows them: each installation a closed trace around a
+// circle of radius `base_um`, out where the bar read longer than the model, in where shorter
+// (radius = base + residual), against the angle.
+std::string plot_residual_polar(const std::string& title, const std::vector<ResidualPanel>& panels);
+
 // A point marked on a heat map, with its label.
 struct HeatmapMark {
   double x = 0, y = 0;
