@@ -395,6 +395,11 @@ bool better_choice(const Candidate& a, const Candidate& b) {
 // The best design with its continuous positions rounded to multiples of the kit's
 // resolution: every combination of the multiple below and above each variable (inside its
 // bounds) is made, checked and scored again, and the best feasible one replaces the best.
+// Every combination of the multiples below and above is tried for at most this many
+// continuous variables (2^6 = 64 designs); beyond, the nearest multiples and each single
+// change of them (2 n + 1 designs at most).
+constexpr size_t kMaxExhaustiveRounding = 6;
+
 void round_best(const Kit& kit, Criterion criterion, OptimizeResult& res) {
   if (!kit.resolution_mm || !res.best) return;
   const double r = *kit.resolution_mm;
@@ -424,10 +429,7 @@ void round_best(const Kit& kit, Criterion criterion, OptimizeResult& res) {
   std::optional<DetectionRequirement> detection;
   if (kit.require_setup_detection) detection.emplace(unrounded.design);
   std::optional<Candidate> best;
-  std::vector<size_t> pick(options.size(), 0);
-  for (;;) {
-    std::vector<double> x(options.size());
-    for (size_t i = 0; i < options.size(); ++i) x[i] = options[i][pick[i]];
+  auto score = [&](const std::vector<double>& x) {
     Candidate c = make_candidate(kit, unrounded.choice, x);
     score_candidate(kit, criterion, c);
     if (detection) detection->score(c, false);
@@ -435,9 +437,34 @@ void round_best(const Kit& kit, Criterion criterion, OptimizeResult& res) {
     if (c.feasible && c.n_undetermined <= unrounded.n_undetermined && c.objective_defined &&
         (!best || better(c, *best)))
       best = std::move(c);
-    size_t i = 0;
-    while (i < pick.size() && ++pick[i] == options[i].size()) pick[i++] = 0;
-    if (i == pick.size()) break;
+  };
+  if (options.size() <= kMaxExhaustiveRounding) {
+    std::vector<size_t> pick(options.size(), 0);
+    for (;;) {
+      std::vector<double> x(options.size());
+      for (size_t i = 0; i < options.size(); ++i) x[i] = options[i][pick[i]];
+      score(x);
+      size_t i = 0;
+      while (i < pick.size() && ++pick[i] == options[i].size()) pick[i++] = 0;
+      if (i == pick.size()) break;
+    }
+  } else {
+    // Many variables: the nearest multiples, and that point with one variable the other way.
+    std::vector<double> nearest(options.size());
+    for (size_t i = 0; i < options.size(); ++i) {
+      nearest[i] = options[i].front();
+      for (double m : options[i])
+        if (std::abs(m - unrounded.x[i]) < std::abs(nearest[i] - unrounded.x[i])) nearest[i] = m;
+    }
+    score(nearest);
+    for (size_t i = 0; i < options.size(); ++i) {
+      for (double m : options[i]) {
+        if (m == nearest[i]) continue;
+        std::vector<double> x = nearest;
+        x[i] = m;
+        score(x);
+      }
+    }
   }
   if (best) {
     if (criterion == Criterion::kWorstTotal)

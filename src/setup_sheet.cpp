@@ -16,7 +16,7 @@ namespace {
 // One stack change outweighs every bar change (a design has far fewer than 1000 bars).
 constexpr long kStackWeight = 1000;
 // The exact order's table holds 2^positions x positions x ways states at most this many.
-constexpr size_t kMaxExactStates = size_t{1} << 22;
+constexpr size_t kMaxExactStates = size_t{1} << 20;
 
 bool same(double a, double b) { return std::abs(a - b) <= kAssemblyTolerance_mm; }
 

@@ -363,6 +363,39 @@ TEST(Optimize, AKitOverItsTimeBudgetNamesTheShortestDesign) {
   EXPECT_EQ(b[0].readings, 91);
 }
 
+// With more than six continuous variables the rounding tries the nearest multiples and each
+// single change of them (at most 2 n + 1 designs), not every combination.
+TEST(Optimize, RoundingManyVariablesTriesTheNearestAndSingleChanges) {
+  std::string positions;
+  for (int i = 1; i <= 7; ++i) {
+    positions += std::string(i > 1 ? ", " : "") + R"({"id": ")" + std::to_string(i) +
+                 R"(", "L": "L)" + std::to_string(i) + R"(", "H": )" + std::to_string(45 + 40 * i) +
+                 R"(, "directions": ["radial", "tangential"]})";
+  }
+  const Kit k = io::kit_from_text(
+      R"({"format": "dbbkit.kit/1", "axis": "C", "reference_length_mm": 100,
+    "pattern": {"name": "seven", "positions": [)" +
+          positions + R"(,
+      {"id": "0", "H": 45, "directions": ["axial"], "separated": false}]},
+    "L_mm": {"min": 20, "max": 250}, "H_mm": {"base": 45, "blocks": [], "max_stack": 0}, "bars_mm": [100],
+    "resolution_mm": 5,
+    "travel_mm": {"x": [-400, 400], "y": [-400, 400], "z": [-50, 600]},
+    "angles_deg": {"range": [0, 360], "steps": [90]}, "time_s": {"per_reading": 3, "per_installation": 240}})",
+      "seven");
+  OptimizeOptions o;
+  o.global_evaluations_per_variable = 5;
+  o.local_evaluations = 20;
+  o.threads = 2;
+  const OptimizeResult r = optimize_kit(k, o);
+  ASSERT_TRUE(r.best && r.rounding);
+  EXPECT_EQ(r.rounding->unrounded.x.size(), 7u);
+  EXPECT_TRUE(r.rounding->applied);
+  EXPECT_GE(r.rounding->tried, 1);
+  EXPECT_LE(r.rounding->tried, 2 * 7 + 1);
+  for (const Installation& in : r.best->design.installations)
+    EXPECT_NEAR(std::remainder(in.L_mm, 5.0), 0, 1e-9) << in.id;
+}
+
 // The runner-ups are the best of each other set of block stacks, worse than (or tied with)
 // the best, in order.
 TEST(Optimize, RunnerUpsAreTheBestOfEachOtherSetOfStacks) {

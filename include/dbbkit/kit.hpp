@@ -61,8 +61,9 @@ struct BarSet {
   std::vector<double> extensions_mm;
   std::optional<int> max_extensions;  // at most this many on one bar (absent: all of them)
 };
-// At most this many extensions in a bar set (2^n assemblies are enumerated).
-inline constexpr int kMaxBarExtensions = 12;
+// At most this many extensions in a bar set (2^n assemblies are enumerated, and the search
+// tries each for each installation it places).
+inline constexpr int kMaxBarExtensions = 8;
 
 struct Kit {
   std::string name;

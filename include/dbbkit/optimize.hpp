@@ -159,9 +159,10 @@ struct OptimizeResult {
   RankFiveCause rank_five = RankFiveCause::kNone;
   // With the kit's resolution_mm: the best as searched (unrounded), and whether a rounded
   // design (each continuous position the multiple of the resolution below or above, inside
-  // its bounds: `tried` designs checked and scored again) was feasible and replaced it in
-  // `best`. Not applied: no rounded design is feasible (or a variable's range holds no
-  // multiple of the resolution: tried = 0), and `best` is the unrounded one.
+  // its bounds; every combination for up to 6 variables, else the nearest multiples and each
+  // single change of them: `tried` designs checked and scored again) was feasible and
+  // replaced it in `best`. Not applied: no rounded design is feasible (or a variable's range holds
+  // no multiple of the resolution: tried = 0), and `best` is the unrounded one.
   struct Rounding {
     double resolution_mm = 0;
     Candidate unrounded;

@@ -37,7 +37,7 @@ inline constexpr int kMaxExactPositions = 14;
 // which bar comes first and which last at a position is chosen with the order of the
 // positions. The order minimises the stack changes first, then the bar changes: exactly, by
 // dynamic programming over the subsets of positions and the (first, last) bar at each (at
-// most kMaxExactPositions positions and 2^22 states), else greedily from the design's first
+// most kMaxExactPositions positions and 2^20 states, 16 MB), else greedily from the design's first
 // position. The design's own order is kept when it changes no more (stack,
 // then bar, then cup moves); its steps then number a position again when the cup comes back
 // to it. Two stacks are the same when their cup and blocks are (or,
