@@ -131,14 +131,23 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
             all.y.push_back(c.best->objective);
           }
         }
-        for (const Candidate& c : res.pareto)
+        for (size_t i = 0; i < res.pareto.size(); ++i) {
+          const Candidate& c = res.pareto[i];
           front.x.push_back(c.time_s), front.y.push_back(c.objective);
+          front.labels.push_back(fmt_num(c.time_s, 6) + " s, " + fmt_num(c.objective, 4) +
+                                 (i ? "; " + choice_change_text(kit, res.pareto[i - 1], c) : ""));
+        }
+        // The interesting range: up to 2.5 times the front's largest value.
+        double top = 0;
+        for (double v : front.y) top = std::max(top, v);
         return plot_series(std::string(criterion_name(res.criterion)) + " against measurement time",
-                           "time [s]", criterion_name(res.criterion), {all, front});
+                           "time [s]", criterion_name(res.criterion), {all, front}, 760, 420,
+                           2.5 * top);
       },
       "Every discrete choice's best design (points) and the front of those no other beats in both "
-      "time and "
-      "uncertainty (line).");
+      "time and uncertainty (line), each point of the front labelled with its time, its "
+      "uncertainty and what changes from the point before; the axis ends at 2.5 times the "
+      "front's largest value (worse choices are off the plot, and in the result JSON).");
   std::vector<std::vector<std::string>> front;
   for (size_t i = 0; i < res.pareto.size(); ++i) {
     const Candidate& c = res.pareto[i];

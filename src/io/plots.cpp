@@ -25,6 +25,12 @@ std::string series_block(const PlotSeries& s, int index) {
   for (size_t i = 0; i < s.x.size(); ++i) {
     b << gnuplot_number(s.x[i]) << " " << gnuplot_number(s.y[i]);
     if (!s.lo.empty()) b << " " << gnuplot_number(s.lo[i]) << " " << gnuplot_number(s.hi[i]);
+    if (s.lo.empty() && i < s.labels.size()) {
+      std::string label = s.labels[i];
+      for (char& c : label)
+        if (c == '"') c = '\'';
+      b << " \"" << label << "\"";
+    }
     b << "\n";
   }
   b << "EOD\n";
@@ -40,6 +46,10 @@ std::string series_plot(const PlotSeries& s, int index) {
   }
   p << "$d" << index << " using 1:2 with " << s.style << " lc rgb '" << colour
     << "' lw 1.5 pt 7 ps 0.5 title " << gnuplot_quote(s.title);
+  if (s.lo.empty() && !s.labels.empty())
+    p << ", $d" << index
+      << " using 1:2:3 with labels offset 0.6,0.6 left rotate by 50 boxed font ',9' tc rgb '"
+      << colour << "' notitle";
   return p.str();
 }
 
@@ -47,11 +57,13 @@ std::string series_plot(const PlotSeries& s, int index) {
 
 std::string plot_series(const std::string& title, const std::string& xlabel,
                         const std::string& ylabel, const std::vector<PlotSeries>& series,
-                        int width_px, int height_px) {
+                        int width_px, int height_px, std::optional<double> y_max) {
   std::ostringstream s;
   for (size_t i = 0; i < series.size(); ++i) s << series_block(series[i], static_cast<int>(i));
   s << "set title " << gnuplot_quote(title) << "\nset xlabel " << gnuplot_quote(xlabel)
-    << "\nset ylabel " << gnuplot_quote(ylabel) << "\nset grid\nset key outside right top\nplot ";
+    << "\nset ylabel " << gnuplot_quote(ylabel) << "\nset grid\nset key outside right top\n";
+  if (y_max && *y_max > 0) s << "set yrange [0:" << gnuplot_number(*y_max) << "]\n";
+  s << "set style textbox opaque fillcolor rgb '#ffffff' noborder\nplot ";
   for (size_t i = 0; i < series.size(); ++i)
     s << (i ? ", " : "") << series_plot(series[i], static_cast<int>(i));
   s << "\n";

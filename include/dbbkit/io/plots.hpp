@@ -16,10 +16,12 @@ struct PlotSeries {
   std::string title;
   std::vector<double> x, y, lo, hi;
   std::string style = "linespoints";  // gnuplot style of the line: linespoints, lines, points
+  std::vector<std::string> labels;    // written beside the points (empty, or one per point)
 };
+// y_max (when given): the y axis runs from 0 to it, points above it are off the plot.
 std::string plot_series(const std::string& title, const std::string& xlabel,
                         const std::string& ylabel, const std::vector<PlotSeries>& series,
-                        int width_px = 760, int height_px = 380);
+                        int width_px = 760, int height_px = 380, std::optional<double> y_max = {});
 
 // The design drawn in its body frame (the machine frame at angle 0): a top
 // view (x, y) and a side view (x, z) with every ball position, its id, and the
