@@ -575,6 +575,7 @@ TEST(Cli, QuietLeavesOnlyTheFilesAskedForAndOptimizeMatchesTheOthers) {
       {"optimize --kit " + kit + " --out " + d + "o.json --result " + d + "r.json", "o.json"},
       {"bench " + kDesignC + " --allow-new --summary " + d + "b.md", "b.md"},
       {"program --design " + kDesignC + " --dialect iso --out " + d + "p.nc", "p.nc"},
+      {"setup-sheet --design " + kDesignC + " --summary " + d + "s.md", "s.md"},
   };
   for (const auto& [cmd, file] : commands) {
     for (bool tty : {false, true}) {
