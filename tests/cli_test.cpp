@@ -623,7 +623,7 @@ TEST(Report, IdentifyWritesHtmlWithPlotsAndAMarkdownSummary) {
        at = h.find("<figure class=\"plot\"><svg", at + 1)) {
     ++plots;
   }
-  EXPECT_EQ(plots, 3);  // design, errors, residuals
+  EXPECT_EQ(plots, 4);  // design, errors, residual panels, residual polar trace
   EXPECT_EQ(h.find("src=\"http"), std::string::npos) << "the report must not fetch anything";
   const std::string hash = io::sha256_file(kDesignC);
   for (const std::string* page : {&h, &m}) {
