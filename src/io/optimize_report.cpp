@@ -45,7 +45,8 @@ std::string choice_change_text(const Kit& kit, const Candidate& from, const Cand
 std::string percent_worse(double x, double best) {
   const double pct = 100.0 * (x / best - 1.0);
   if (std::abs(pct) < 0.05) return "a tie (within 0.05 %)";
-  return (pct > 0 ? "+" : "-") + fmt_rounded(std::abs(pct), 1) + " %";
+  std::string t(pct > 0 ? "+" : "-");
+  return t.append(fmt_rounded(std::abs(pct), 1)).append(" %");
 }
 
 }  // namespace
