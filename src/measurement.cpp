@@ -10,6 +10,8 @@
 
 namespace dbbkit {
 
+const char* sweep_name(Sweep s) { return s == Sweep::kCW ? "cw" : "ccw"; }
+
 std::vector<Reading> nominal_readings(const Design& design) {
   std::vector<Reading> out;
   out.reserve(design.installations.size() * design.angles_deg.size());

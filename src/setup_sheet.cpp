@@ -54,16 +54,44 @@ struct Group {
   std::vector<std::vector<int>> ways;  // installation orders, one per (first, last) pair
 };
 
-// Counts the changes along an order of installations (the first set-up not counted).
-void count_changes(const Design& d, const std::vector<int>& order, int& cups, int& stacks,
-                   int& bars) {
-  cups = stacks = bars = 0;
-  for (size_t k = 1; k < order.size(); ++k) {
-    const Installation &a = d.installations[order[k - 1]], &b = d.installations[order[k]];
-    cups += !same_position(a, b);
-    stacks += !same_stack(d.axis, a, b);
-    bars += !same_bar(a, b);
+// The steps along an order of installations: the cup moves (and the position number grows)
+// where the ball position changes, the stack and the bar where they differ from the step
+// before; the first step sets everything up.
+std::vector<SetupStep> steps_along(const Design& d, const std::vector<int>& order) {
+  std::vector<SetupStep> steps;
+  int positions = 0;
+  for (size_t k = 0; k < order.size(); ++k) {
+    const Installation& in = d.installations[order[k]];
+    const Installation* prev = k ? &d.installations[order[k - 1]] : nullptr;
+    SetupStep s;
+    s.installation = order[k];
+    s.moves_cup = !prev || !same_position(*prev, in);
+    positions += s.moves_cup;
+    s.position = positions;
+    s.changes_stack = d.axis == Axis::kC && (!prev || !same_stack(d.axis, *prev, in));
+    s.changes_bar = !prev || !same_bar(*prev, in);
+    steps.push_back(s);
   }
+  return steps;
+}
+
+// The changes after the first step: (stack, bar, cup), in the order they are minimised.
+std::tuple<int, int, int> changes(const std::vector<SetupStep>& steps) {
+  int stacks = 0, bars = 0, cups = 0;
+  for (size_t k = 1; k < steps.size(); ++k) {
+    stacks += steps[k].changes_stack;
+    bars += steps[k].changes_bar;
+    cups += steps[k].moves_cup;
+  }
+  return {stacks, bars, cups};
+}
+
+// A kit of the design's axis, or none.
+void check_kit_axis(const Kit* kit, const Design& design) {
+  if (kit && kit->axis != design.axis)
+    throw InputError("--kit", "axis",
+                     std::string("the kit is for axis ") + axis_name(kit->axis) +
+                         ", the design for axis " + axis_name(design.axis));
 }
 
 }  // namespace
@@ -181,48 +209,17 @@ SetupOrder setup_order(const Design& design) {
       path.push_back(next);
     }
   }
-  std::vector<int> order;
-  for (size_t k = 0; k < path.size(); ++k) {
-    const std::vector<int>& members = groups[path[k].first].ways[path[k].second];
-    for (size_t m = 0; m < members.size(); ++m) {
-      SetupStep s;
-      s.installation = members[m];
-      s.position = static_cast<int>(k) + 1;
-      const Installation* prev = order.empty() ? nullptr : &ins[order.back()];
-      s.moves_cup = m == 0;
-      s.changes_stack =
-          design.axis == Axis::kC && (!prev || !same_stack(design.axis, *prev, ins[members[m]]));
-      s.changes_bar = !prev || !same_bar(*prev, ins[members[m]]);
-      order.push_back(members[m]);
-      out.steps.push_back(s);
-    }
-  }
-  count_changes(design, order, out.cup_moves, out.stack_changes, out.bar_changes);
-  std::vector<int> given(ins.size());
+  std::vector<int> order, given(ins.size());
+  for (const auto& [g, w] : path)
+    order.insert(order.end(), groups[g].ways[w].begin(), groups[g].ways[w].end());
   for (size_t i = 0; i < ins.size(); ++i) given[i] = static_cast<int>(i);
-  count_changes(design, given, out.design_cup_moves, out.design_stack_changes,
-                out.design_bar_changes);
+  const std::vector<SetupStep> found = steps_along(design, order),
+                               designed = steps_along(design, given);
+  std::tie(out.design_stack_changes, out.design_bar_changes, out.design_cup_moves) =
+      changes(designed);
   // The design's own order stays where no order changes less (stack, then bar, then cup).
-  if (std::make_tuple(out.design_stack_changes, out.design_bar_changes, out.design_cup_moves) <=
-      std::make_tuple(out.stack_changes, out.bar_changes, out.cup_moves)) {
-    out.cup_moves = out.design_cup_moves;
-    out.stack_changes = out.design_stack_changes;
-    out.bar_changes = out.design_bar_changes;
-    out.steps.clear();
-    int positions = 0;
-    for (size_t k = 0; k < ins.size(); ++k) {
-      SetupStep s;
-      s.installation = static_cast<int>(k);
-      const Installation* prev = k ? &ins[k - 1] : nullptr;
-      s.moves_cup = !prev || !same_position(*prev, ins[k]);
-      positions += s.moves_cup;
-      s.position = positions;
-      s.changes_stack =
-          design.axis == Axis::kC && (!prev || !same_stack(design.axis, *prev, ins[k]));
-      s.changes_bar = !prev || !same_bar(*prev, ins[k]);
-      out.steps.push_back(s);
-    }
-  }
+  out.steps = changes(designed) <= changes(found) ? designed : found;
+  std::tie(out.stack_changes, out.bar_changes, out.cup_moves) = changes(out.steps);
   return out;
 }
 
@@ -233,10 +230,7 @@ RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
   if (!design.reference_length_mm)
     throw InputError("design", "reference_length_mm",
                      "needed to state the worst case of the rounded design");
-  if (kit && kit->axis != design.axis)
-    throw InputError("--kit", "axis",
-                     std::string("the kit is for axis ") + axis_name(kit->axis) +
-                         ", the design for axis " + axis_name(design.axis));
+  check_kit_axis(kit, design);
   RoundedDesign out;
   out.resolution_mm = r;
   out.design = design;
@@ -268,13 +262,10 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
                             std::optional<double> resolution_mm, const Kit* kit) {
   SetupSheet sheet;
   sheet.design = design;
+  check_kit_axis(kit, design);
   if (resolution_mm) {
     sheet.rounding = round_design(design, *resolution_mm, kit);
     sheet.design = sheet.rounding->design;
-  } else if (kit && kit->axis != design.axis) {
-    throw InputError("--kit", "axis",
-                     std::string("the kit is for axis ") + axis_name(kit->axis) +
-                         ", the design for axis " + axis_name(design.axis));
   }
   sheet.order = setup_order(sheet.design);
   sheet.program = measurement_program(sheet.design, program);

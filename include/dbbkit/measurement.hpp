@@ -11,6 +11,9 @@ namespace dbbkit {
 
 enum class Sweep { kCW, kCCW };
 
+// "cw" or "ccw", as measurement files write it.
+const char* sweep_name(Sweep s);
+
 struct Reading {
   std::string installation;  // an id of the design
   double angle_deg = 0.0;

@@ -41,7 +41,7 @@ json reading_to_json(const Reading& r) {
             {"angle_deg", r.angle_deg},
             {"reading_um", r6(r.reading_um)}};
   j["time_s"] = r.time_s ? json(*r.time_s) : json(nullptr);
-  j["sweep"] = r.sweep ? json(*r.sweep == Sweep::kCW ? "cw" : "ccw") : json(nullptr);
+  j["sweep"] = r.sweep ? json(sweep_name(*r.sweep)) : json(nullptr);
   j["line"] = r.line > 0 ? json(r.line) : json(nullptr);
   return j;
 }

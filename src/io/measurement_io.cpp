@@ -185,7 +185,7 @@ void write_measurements_csv(std::ostream& out, const std::vector<Reading>& readi
     }
     if (sweep) {
       out << ",";
-      if (r.sweep) out << (*r.sweep == Sweep::kCW ? "cw" : "ccw");
+      if (r.sweep) out << sweep_name(*r.sweep);
     }
     if (repeat) {
       out << ",";

@@ -158,7 +158,11 @@ std::string rounding_text(const OptimizeResult& res) {
 }
 
 std::string binding_text(const Kit& kit, const OptimizeResult& res) {
-  const std::vector<BindingConstraint> binding = binding_constraints(kit, res);
+  return binding_text(kit, res, binding_constraints(kit, res));
+}
+
+std::string binding_text(const Kit& kit, const OptimizeResult& res,
+                         const std::vector<BindingConstraint>& binding) {
   const size_t total = res.choices.size();
   std::string out;
   for (const BindingConstraint& b : binding) {
@@ -234,8 +238,9 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
                      {"text", rounding_text(res)}};
   }
   if (!res.best) {
+    const std::vector<BindingConstraint> constraints = binding_constraints(kit, res);
     json binding = json::array();
-    for (const BindingConstraint& b : binding_constraints(kit, res)) {
+    for (const BindingConstraint& b : constraints) {
       json e = {{"state", choice_state_name(b.state)},
                 {"choices", b.choices},
                 {"nearest", res.choices[b.closest].label}};
@@ -248,7 +253,7 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
       binding.push_back(e);
     }
     j["binding"] = binding;
-    j["binding_text"] = binding_text(kit, res);
+    j["binding_text"] = binding_text(kit, res, constraints);
   }
   if (reference) {
     json r = {

@@ -32,8 +32,6 @@ std::string comment_safe(std::string s) {
   return s;
 }
 
-const char* sweep_word(Sweep s) { return s == Sweep::kCCW ? "ccw" : "cw"; }
-
 class Writer {
  public:
   Writer(Dialect d, char rotary) : dialect_(d), rotary_(rotary) {}
@@ -177,7 +175,7 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     const ProgramPosition& start = ip.sweeps.front().positions.front();
     std::string sweeps;
     for (const ProgramSweep& s : ip.sweeps)
-      sweeps += (sweeps.empty() ? "" : " then ") + std::string(sweep_word(s.direction));
+      sweeps += (sweeps.empty() ? "" : " then ") + std::string(sweep_name(s.direction));
     w.comment("installation " + inst.id + " (" + std::to_string(k + 1) + " of " +
               std::to_string(n) + "): " + ball_text(program.axis, inst) + ", " +
               inst.direction.label() + ", sign " + (inst.sign > 0 ? "+1" : "-1") + ", bar " +
@@ -199,7 +197,7 @@ std::string program_text(const Design& design, const MeasurementProgram& program
         if (pi > 0) w.move(p.linear_mm, p.angle_deg, o.feed_mm_per_min);
         if (p.reading) {
           w.dwell(o.dwell_s, "reading " + inst.id + " " + fmt_rounded(p.angle_deg, 4) + " deg " +
-                                 sweep_word(s.direction));
+                                 sweep_name(s.direction));
         }
       }
     }

@@ -52,7 +52,7 @@ std::vector<ResidualPanel> residual_panels(const Design& d, const std::vector<Re
     for (size_t i = 0; i < readings.size(); ++i) {
       const Reading& r = readings[i];
       if (r.installation != in.id) continue;
-      std::string key = !r.sweep ? "sweep not recorded" : *r.sweep == Sweep::kCCW ? "ccw" : "cw";
+      std::string key = r.sweep ? sweep_name(*r.sweep) : "sweep not recorded";
       if (r.repeat) key += " #" + std::to_string(*r.repeat);
       auto it = std::find_if(lines.begin(), lines.end(), [&](auto& l) { return l.first == key; });
       if (it == lines.end()) {

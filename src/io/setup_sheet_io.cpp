@@ -62,12 +62,10 @@ std::string xyz(const Eigen::Vector3d& p) {
   return "X " + mm(p.x()) + ", Y " + mm(p.y()) + ", Z " + mm(p.z());
 }
 
-const char* sweep_word(Sweep s) { return s == Sweep::kCCW ? "ccw" : "cw"; }
-
 std::string sweeps_text(const InstallationProgram& ip) {
   std::string t;
   for (const ProgramSweep& s : ip.sweeps)
-    t += (t.empty() ? "" : " then ") + std::string(sweep_word(s.direction));
+    t += (t.empty() ? "" : " then ") + std::string(sweep_name(s.direction));
   return t;
 }
 

@@ -29,6 +29,9 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr);
 // 7 installations x 240 s + 63 readings x 3 s = 1869 s, already exceeds the time budget of
 // 1000 s"; with several constraints, each with its count of choices.
 std::string binding_text(const Kit& kit, const OptimizeResult& res);
+// The same from constraints already found (binding_constraints(kit, res)).
+std::string binding_text(const Kit& kit, const OptimizeResult& res,
+                         const std::vector<BindingConstraint>& binding);
 // What rounding the best to the kit's resolution changed, in one sentence; empty without it.
 std::string rounding_text(const OptimizeResult& res);
 // How a design's time adds up: "[3 positions x 60 s + ]7 installations x 240 s + 63 readings
