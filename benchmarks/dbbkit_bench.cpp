@@ -156,6 +156,7 @@ void BM_MonteCarloPaperC(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
 BENCHMARK(BM_MonteCarloPaperC)
+    ->Args({10000, 1})
     ->Args({100000, 2})
     ->Args({1000000, 2})
     ->Args({1000000, 1})

@@ -7,6 +7,9 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/parallel.hpp"
@@ -30,7 +33,7 @@ using detail::splitmix64;
 using detail::Xoshiro256pp;
 
 // Trials per random stream; the streams are independent of the thread count.
-constexpr long kChunk = 1000;
+constexpr long kChunk = 1000;       // a multiple of 8
 constexpr long kFactoredSlab = 50;  // trials per product when the gain is not formed
 constexpr int kBins = 4096;         // bins of a quantile window
 
@@ -55,25 +58,53 @@ Stats batch_stats(std::vector<float> x, double p) {
   return s;
 }
 
+// The float at or above x: for a float v, v < x exactly when v < float_at_or_above(x).
+float float_at_or_above(double x) {
+  if (!(x < static_cast<double>(std::numeric_limits<float>::max())))
+    return std::numeric_limits<float>::infinity();
+  if (!(x > -static_cast<double>(std::numeric_limits<float>::max())))
+    return -std::numeric_limits<float>::max();
+  float f = static_cast<float>(x);
+  if (static_cast<double>(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+
 // A histogram over [a, a + kBins w) with the count below it: where an interval endpoint
-// lies, to within w, without keeping the trials.
+// lies, to within w, without keeping the trials. A trial x (a float) is below when x < a and
+// binned when it is not below and x < a + kBins w, both compared exactly (lo_f, hi_f).
 struct Window {
   double a = 0, w = 0, inv_w = 0;
+  float lo_f = 0, hi_f = 0;
   std::uint64_t below = 0;
   std::vector<std::uint32_t> counts;
+  // Trials inside, not yet binned: binning them a few thousand at a time finds the counts in
+  // the cache (a trial binned as it comes misses it: the windows of every value are touched
+  // between two trials of one value).
+  std::vector<float> pending;
   void reset(double lo, double hi) {
     a = lo;
     w = (hi - lo) / kBins;
     inv_w = 1.0 / w;
+    lo_f = float_at_or_above(lo);
+    hi_f = std::max(lo_f, float_at_or_above(a + kBins * w));
     below = 0;
     counts.assign(kBins, 0);
+    pending.clear();
   }
-  void add(double x) {
-    const double t = (x - a) * inv_w;
-    if (t < 0) {
+  void flush() {
+    for (float v : pending) bin(v);
+    pending.clear();
+  }
+  bool inside(float x) const { return x >= lo_f && x < hi_f; }
+  void bin(float x) {
+    const double t = (static_cast<double>(x) - a) * inv_w;
+    ++counts[std::clamp(static_cast<int>(t), 0, kBins - 1)];
+  }
+  void add(float x) {
+    if (x < lo_f) {
       ++below;
-    } else if (t < kBins) {
-      ++counts[std::min(kBins - 1, static_cast<int>(t))];
+    } else if (x < hi_f) {
+      bin(x);
     }
   }
   // The value of rank k (0-based) when it falls inside, by linear interpolation within its
@@ -92,6 +123,59 @@ struct Window {
   }
 };
 
+// Where the trials of one batch inside each window begin among the pending ones, and how
+// many of the batch lay below it (for the batch's own endpoints).
+struct Kept {
+  std::array<std::size_t, 2> first{};
+  std::array<std::uint64_t, 2> below{};
+  double mean = 0, std = 0;
+};
+
+// Vectors of the GCC and Clang vector extensions: SIMD registers on any instruction set that
+// has them (SSE2, NEON), plain scalar code otherwise.
+using F4 = float __attribute__((vector_size(16)));
+using I4 = std::int32_t __attribute__((vector_size(16)));
+using D2 = double __attribute__((vector_size(16)));
+
+// Bit l set when lane l of a comparison's mask (all ones or zero) is set.
+inline int lane_bits(I4 mask) {
+#if defined(__SSE2__)
+  return _mm_movemask_ps(reinterpret_cast<__m128>(mask));
+#else
+  return (mask[0] & 1) | (mask[1] & 2) | (mask[2] & 4) | (mask[3] & 8);
+#endif
+}
+// The four lanes of a float vector as two double vectors.
+inline void widen(F4 f, D2& lo, D2& hi) {
+#if defined(__SSE2__)
+  const __m128 v = reinterpret_cast<__m128>(f);
+  lo = reinterpret_cast<D2>(_mm_cvtps_pd(v));
+  hi = reinterpret_cast<D2>(_mm_cvtps_pd(_mm_movehl_ps(v, v)));
+#else
+  lo = D2{f[0], f[1]};
+  hi = D2{f[2], f[3]};
+#endif
+}
+// Lane by lane minimum and maximum.
+inline F4 vmin(F4 a, F4 b) {
+#if defined(__SSE2__)
+  return reinterpret_cast<F4>(_mm_min_ps(reinterpret_cast<__m128>(a), reinterpret_cast<__m128>(b)));
+#else
+  const I4 m = a < b;
+  return reinterpret_cast<F4>((reinterpret_cast<I4>(a) & m) | (reinterpret_cast<I4>(b) & ~m));
+#endif
+}
+inline F4 vmax(F4 a, F4 b) {
+#if defined(__SSE2__)
+  return reinterpret_cast<F4>(_mm_max_ps(reinterpret_cast<__m128>(a), reinterpret_cast<__m128>(b)));
+#else
+  const I4 m = a > b;
+  return reinterpret_cast<F4>((reinterpret_cast<I4>(a) & m) | (reinterpret_cast<I4>(b) & ~m));
+#endif
+}
+inline int ctz(int bits) { return __builtin_ctz(static_cast<unsigned>(bits)); }
+constexpr std::size_t kFlush = 4096;  // pending trials of a window binned at once
+
 // Everything kept of one value: moments merged batch by batch (Chan, Golub and LeVeque),
 // the range seen, and a window around each endpoint (0: low, 1: high).
 struct Accumulator {
@@ -101,34 +185,83 @@ struct Accumulator {
          max = -std::numeric_limits<double>::infinity();
   std::array<Window, 2> windows;
 
-  void add_batch(const float* x, long m) {
-    // One pass: the moments about the first sample (four partial sums in a fixed order),
-    // the range, and each window's counts (the few trials inside binned, branch rarely taken).
+  // One batch: the moments, the range, and each window's counts (its trials inside pending);
+  // `kept` (when given) gets the batch's moments, where its trials inside each window begin
+  // and the count below it.
+  //
+  // One pass on vectors of the GCC and Clang vector extensions (SSE2, NEON or plain scalar
+  // code, whatever the target): the sums about the first trial in double (eight partial sums
+  // in a fixed order: the result does not depend on the threads), the range, the counts below
+  // each window, and which trials of each block of eight lie inside a window (a few per
+  // cent): only those are touched one by one, kept pending.
+  void add_batch(const float* x, long m, Kept* kept) {
     const double shift = x[0];
-    double s1[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0};
-    double lo = x[0], hi = x[0];
-    Window &low = windows[0], &high = windows[1];
-    std::uint64_t low_below = 0, high_below = 0;
-    const double la = low.a, li = low.inv_w, ha = high.a, hi_w = high.inv_w;
-    const double kb = kBins;
-    for (long t = 0; t < m; ++t) {
-      const double v = x[t];
-      const double d = v - shift;
-      s1[t & 3] += d;
-      s2[t & 3] += d * d;
-      lo = v < lo ? v : lo;
-      hi = v > hi ? v : hi;
-      const double tl = (v - la) * li, th = (v - ha) * hi_w;
-      low_below += tl < 0;
-      high_below += th < 0;
-      if (tl >= 0 && tl < kb) ++low.counts[std::min(kBins - 1, static_cast<int>(tl))];
-      if (th >= 0 && th < kb) ++high.counts[std::min(kBins - 1, static_cast<int>(th))];
+    Window &wl = windows[0], &wh = windows[1];
+    const float l0 = wl.lo_f, l1 = wl.hi_f, h0 = wh.lo_f, h1 = wh.hi_f;
+    if (kept) kept->first = {wl.pending.size(), wh.pending.size()};
+    auto splat = [](float f) { return F4{f, f, f, f}; };
+    const F4 L0 = splat(l0), L1 = splat(l1), H0 = splat(h0), H1 = splat(h1);
+    const D2 S = {shift, shift};
+    D2 s1[2] = {}, s2[2] = {};
+    F4 lo = splat(x[0]), hi = lo;
+    I4 below_low = {0, 0, 0, 0}, below_high = below_low;  // minus the counts
+    long t = 0;
+    for (; t + 8 <= m; t += 8) {
+      F4 a, b;
+      std::memcpy(&a, x + t, sizeof a);
+      std::memcpy(&b, x + t + 4, sizeof b);
+      for (const F4& f : {a, b}) {
+        D2 d[2];
+        widen(f, d[0], d[1]);
+        for (int k = 0; k < 2; ++k) {
+          d[k] -= S;
+          s1[k] += d[k];
+          s2[k] += d[k] * d[k];
+        }
+      }
+      lo = vmin(vmin(a, b), lo);
+      hi = vmax(vmax(a, b), hi);
+      const I4 al = a < L0, bl = b < L0, ah = a < H0, bh = b < H0;
+      below_low += al + bl;
+      below_high += ah + bh;
+      const int in_low = lane_bits(~al & (a < L1)) | lane_bits(~bl & (b < L1)) << 4;
+      const int in_high = lane_bits(~ah & (a < H1)) | lane_bits(~bh & (b < H1)) << 4;
+      if (in_low | in_high) {
+        for (int bits = in_low; bits; bits &= bits - 1) wl.pending.push_back(x[t + ctz(bits)]);
+        for (int bits = in_high; bits; bits &= bits - 1) wh.pending.push_back(x[t + ctz(bits)]);
+      }
     }
-    low.below += low_below;
-    high.below += high_below;
-    min = std::min(min, lo);
-    max = std::max(max, hi);
-    const double sum = (s1[0] + s1[1]) + (s1[2] + s1[3]), sum2 = (s2[0] + s2[1]) + (s2[2] + s2[3]);
+    double sum = 0, sum2 = 0;
+    for (int k = 0; k < 2; ++k) {
+      sum += s1[k][0] + s1[k][1];
+      sum2 += s2[k][0] + s2[k][1];
+    }
+    std::uint64_t bl = 0, bh = 0;
+    for (; t < m; ++t) {
+      const float v = x[t];
+      const double d = static_cast<double>(v) - shift;
+      sum += d;
+      sum2 += d * d;
+      lo[0] = std::min(lo[0], v);
+      hi[0] = std::max(hi[0], v);
+      bl += v < l0;
+      bh += v < h0;
+      if (v >= l0 && v < l1) wl.pending.push_back(v);
+      if (v >= h0 && v < h1) wh.pending.push_back(v);
+    }
+    for (int l = 0; l < 4; ++l) {
+      min = std::min(min, static_cast<double>(lo[l]));
+      max = std::max(max, static_cast<double>(hi[l]));
+      bl += static_cast<std::uint64_t>(-static_cast<std::int64_t>(below_low[l]));
+      bh += static_cast<std::uint64_t>(-static_cast<std::int64_t>(below_high[l]));
+    }
+    wl.below += bl;
+    wh.below += bh;
+    if (kept) {
+      kept->below = {bl, bh};
+      kept->mean = shift + sum / m;
+      kept->std = std::sqrt(std::max(0.0, sum2 - sum * sum / m) / (m - 1));
+    }
     const double bm = shift + sum / m;
     const double bm2 = std::max(0.0, sum2 - sum * sum / m);
     const double n1 = static_cast<double>(n), n2 = static_cast<double>(m), nt = n1 + n2;
@@ -139,13 +272,52 @@ struct Accumulator {
   }
 };
 
-// The half-width of a window around an endpoint first estimated from the first batch: the
-// estimate's own scatter is about sqrt(p (1 - p) / M) / f, a few hundredths of a standard
-// deviation for M = 10^4; half a standard deviation keeps the endpoint inside in practice,
-// and when it does not, a refinement pass finds it (below).
-double window_half_width(double std, double mean) {
-  const double h = 0.5 * std;
-  return h > 0 ? h : std::max(kDegenerateWindow * std::abs(mean), 1e-300);
+// The statistics of one batch after add_batch: the moments from its sums, the endpoints
+// among the trials kept inside the windows when their ranks fall there, else by selection
+// over the whole batch (exact either way).
+Stats kept_batch_stats(const float* x, long m, Accumulator& acc, const Kept& kept, double p) {
+  Stats s;
+  s.mean = kept.mean;
+  s.std = kept.std;
+  const auto [lo, hi] = interval_ranks(m, p);
+  const std::array<long, 2> rank = {lo, hi};
+  std::vector<float> all;
+  for (int e = 0; e < 2; ++e) {
+    std::vector<float>& pending = acc.windows[e].pending;
+    const auto in = pending.begin() + static_cast<std::ptrdiff_t>(kept.first[e]);
+    const long k = rank[e] - static_cast<long>(kept.below[e]);
+    float value;
+    if (k >= 0 && k < pending.end() - in) {
+      std::nth_element(in, in + k, pending.end());  // reorders this batch's pending trials only
+      value = in[k];
+    } else {
+      if (all.empty()) all.assign(x, x + m);
+      std::nth_element(all.begin(), all.begin() + rank[e], all.end());
+      value = all[rank[e]];
+    }
+    (e == 0 ? s.low : s.high) = value;
+  }
+  return s;
+}
+
+// The half-width of a window around an endpoint first estimated from the first batch of M
+// trials. The estimate's own scatter is sqrt(P (1 - P) / M) / f, P the tail probability and
+// f the density at the endpoint, estimated from the batch's trials within a quarter of a
+// standard deviation; eight times that (at least 0.02 and at most 0.5 standard deviations)
+// keeps the endpoint of all the trials inside in practice, and when it does not, a refinement
+// pass finds it (below). A narrow window bins few trials and places the endpoint finely.
+double window_half_width(const std::vector<float>& x, double endpoint, double std, double mean,
+                         double p) {
+  if (!(std > 0)) return std::max(kDegenerateWindow * std::abs(mean), 1e-300);
+  const double d = 0.25 * std;
+  long near = 0;
+  for (float v : x) near += std::abs(static_cast<double>(v) - endpoint) <= d;
+  const double M = static_cast<double>(x.size());
+  if (near < 20) return 0.5 * std;
+  const double f = static_cast<double>(near) / (2.0 * d * M);
+  const double tail = 0.5 * (1.0 - p);
+  const double se = std::sqrt(tail * (1.0 - tail) / M) / f;
+  return std::clamp(8.0 * se, 0.02 * std, 0.5 * std);
 }
 
 }  // namespace
@@ -235,60 +407,108 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   const double nu = type_a ? static_cast<double>(est.dof) : 0.0;
 
   // Trials [first_chunk, first_chunk + n_chunks) x kChunk, each chunk from its own stream,
-  // into buffer (n_out x n_chunks kChunk, value-major).
+  // into buffer (n_out x n_chunks kChunk, value-major). The draws are laid out reading by
+  // reading (a row of kChunk trials each), so that every product is a sum of contiguous rows.
+  using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  A_sparse.makeCompressed();
   const long M = options.batch_trials;
   std::vector<float> buffer(static_cast<std::size_t>(n_out) * static_cast<std::size_t>(M));
   auto run_chunks = [&](long first_chunk, long n_chunks) {
     const long width = n_chunks * kChunk;
     parallel_for(n_chunks, res.threads, [&](long c) {
-      thread_local Eigen::MatrixXd V, Q, out;  // per-thread buffers, reused across chunks
+      thread_local RowMatrix V, Q, out;  // per-thread buffers, reused across chunks
+      thread_local std::vector<std::uint64_t> words;
       V.resize(n, kChunk);
-      Xoshiro256pp rng(
+      detail::BlockXoshiro rng(
           splitmix64(options.seed ^ splitmix64(static_cast<std::uint64_t>(first_chunk + c))));
       const detail::NormalZiggurat n01;
-      const detail::ChiSquared chi2(nu > 0 ? nu : 1.0);
+      auto normals = [&](RowMatrix& X, const auto& row_scale) {
+        for (Eigen::Index i = 0; i < X.rows(); ++i) {
+          double* x = X.row(i).data();
+          const double s = row_scale(i);
+          for (long t = 0; t < kChunk; ++t) x[t] = s * n01(rng);
+        }
+      };
       if (type_a) {
-        for (long t = 0; t < kChunk; ++t) {
-          const double scale = noise.sigma_um() * *budget.type_a_scale * std::sqrt(nu / chi2(rng));
-          for (int i = 0; i < n; ++i) V(i, t) = scale * n01(rng);
+        // Each trial's noise is normal scaled by sqrt(nu / chi2_nu): Student t marginals.
+        const detail::ChiSquared chi2(nu > 0 ? nu : 1.0);
+        std::array<double, kChunk> scale;
+        for (long t = 0; t < kChunk; ++t)
+          scale[t] = noise.sigma_um() * *budget.type_a_scale * std::sqrt(nu / chi2(rng));
+        normals(V, [](Eigen::Index) { return 1.0; });
+        for (int i = 0; i < n; ++i) {
+          double* x = V.row(i).data();
+          for (long t = 0; t < kChunk; ++t) x[t] *= scale[t];
         }
       } else if (noise.distribution == NoiseModel::Distribution::kUniform) {
         const double a2 = 2.0 * noise.half_width_um, a = noise.half_width_um;
-        double* v = V.data();
-        for (long k = 0; k < n * kChunk; ++k) v[k] = a2 * rng.uniform01() - a;
+        words.resize(kChunk);
+        for (int i = 0; i < n; ++i) {
+          rng.fill(words.data(), kChunk);
+          double* x = V.row(i).data();
+          for (long t = 0; t < kChunk; ++t) x[t] = a2 * detail::unit_interval(words[t]) - a;
+        }
       } else {
-        double* v = V.data();
-        for (long k = 0; k < n * kChunk; ++k) v[k] = noise.std_um * n01(rng);
+        normals(V, [&](Eigen::Index) { return noise.std_um; });
       }
+      out.resize(n_out, kChunk);
       if (factored) {  // in slabs of trials: G0 V is unknowns x slab
-        out.resize(n_out, kChunk);
         for (long t = 0; t < kChunk; t += kFactoredSlab) {
           const long w = std::min(kFactoredSlab, kChunk - t);
-          out.middleCols(t, w) = setup->left_gain_times(C, L, V.middleCols(t, w));
+          out.middleCols(t, w) = setup->left_gain_times(C, L, Eigen::MatrixXd(V.middleCols(t, w)));
         }
       } else if (sparse) {
-        out.noalias() = A_sparse * V;
+        // Each value's row is the sum of its readings' rows, each times its weight, taken
+        // eight trials at a time in registers; without set-up draws the sum goes straight
+        // into the batch as floats.
+        const int* outer = A_sparse.outerIndexPtr();
+        const int* inner = A_sparse.innerIndexPtr();
+        const double* weight = A_sparse.valuePtr();
+        const bool direct = inputs.empty() && q_setup == 0;
+        for (int v = 0; v < n_out; ++v) {
+          double* o = out.row(v).data();
+          float* dst = buffer.data() + static_cast<std::size_t>(v) * width + c * kChunk;
+          for (long t = 0; t < kChunk; t += 8) {
+            D2 sum[4] = {};
+            for (int k = outer[v]; k < outer[v + 1]; ++k) {
+              const D2 a = {weight[k], weight[k]};
+              const double* x = V.row(inner[k]).data() + t;
+              for (int j = 0; j < 4; ++j) {
+                D2 xj;
+                std::memcpy(&xj, x + 2 * j, sizeof xj);
+                sum[j] += a * xj;
+              }
+            }
+            if (direct) {
+              const double b = base(v);
+              for (int j = 0; j < 4; ++j) {
+                dst[t + 2 * j] = static_cast<float>(b + sum[j][0]);
+                dst[t + 2 * j + 1] = static_cast<float>(b + sum[j][1]);
+              }
+            } else {
+              std::memcpy(o + t, sum, sizeof sum);
+            }
+          }
+        }
+        if (direct) return;
       } else {
         out.noalias() = A * V;
       }
       if (!inputs.empty()) {
         Q.resize(static_cast<Eigen::Index>(inputs.size()), kChunk);
-        for (long t = 0; t < kChunk; ++t) {
-          for (size_t j = 0; j < inputs.size(); ++j)
-            Q(static_cast<Eigen::Index>(j), t) = inputs[j].std_mm * n01(rng);
-        }
+        normals(Q, [&](Eigen::Index j) { return inputs[static_cast<size_t>(j)].std_mm; });
         out.noalias() += AD * Q;
       }
       if (q_setup > 0) {
         Q.resize(q_setup, kChunk);
-        for (long t = 0; t < kChunk; ++t) {
-          for (int j = 0; j < q_setup; ++j) Q(j, t) = n01(rng);
-        }
+        normals(Q, [](Eigen::Index) { return 1.0; });
         out.noalias() += AS * Q;
       }
       for (int v = 0; v < n_out; ++v) {
         float* dst = buffer.data() + static_cast<std::size_t>(v) * width + c * kChunk;
-        for (long t = 0; t < kChunk; ++t) dst[t] = static_cast<float>(base(v) + out(v, t));
+        const double* o = out.row(v).data();
+        const double b = base(v);
+        for (long t = 0; t < kChunk; ++t) dst[t] = static_cast<float>(b + o[t]);
       }
     });
   };
@@ -296,6 +516,7 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
   const double p = budget.coverage_probability;
   std::vector<Accumulator> acc(n_out);
   std::vector<std::vector<Stats>> history(n_out);
+  std::vector<Kept> kept(options.adaptive ? n_out : 0);
   long total = 0;
   while (total < options.max_trials) {
     const long batch = std::min(M, options.max_trials - total) / kChunk * kChunk;
@@ -304,16 +525,25 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     const bool first = total == 0;
     parallel_for(n_out, res.threads, [&](long v) {
       const float* x = buffer.data() + static_cast<std::size_t>(v) * batch;
-      if (first || options.adaptive) {
-        const Stats s = batch_stats(std::vector<float>(x, x + batch), p);
+      if (first) {  // the windows, around the first batch's endpoints
+        std::vector<float> sample(x, x + batch);
+        const Stats s = batch_stats(sample, p);
         if (options.adaptive) history[v].push_back(s);
-        if (first) {  // the windows, around the first batch's endpoints
-          const double h = window_half_width(s.std, s.mean);
-          acc[v].windows[0].reset(s.low - h, s.low + h);
-          acc[v].windows[1].reset(s.high - h, s.high + h);
+        for (int e = 0; e < 2; ++e) {
+          const double at = e == 0 ? s.low : s.high;
+          const double h = window_half_width(sample, at, s.std, s.mean, p);
+          acc[v].windows[e].reset(at - h, at + h);
         }
+        acc[v].add_batch(x, batch, nullptr);
+      } else if (options.adaptive) {
+        acc[v].add_batch(x, batch, &kept[v]);
+        history[v].push_back(kept_batch_stats(x, batch, acc[v], kept[v], p));
+      } else {
+        acc[v].add_batch(x, batch, nullptr);
       }
-      acc[v].add_batch(x, batch);
+      for (Window& w : acc[v].windows) {
+        if (w.pending.size() >= kFlush) w.flush();
+      }
     });
     total += batch;
     if (options.progress) options.progress(total);
@@ -337,6 +567,9 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
     }
   }
   res.trials = total;
+  for (Accumulator& a : acc) {
+    for (Window& w : a.windows) w.flush();
+  }
 
   // The endpoints: the order statistics of ranks r and r + q among all the trials, found in
   // their windows to within the bin width. Where one lies outside its window, or the bin is

@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <utility>
 #include <vector>
 
@@ -28,6 +29,12 @@ class Xoshiro256pp {
     for (int i = 0; i < 4; ++i)
       s_[i] = splitmix64(seed + static_cast<std::uint64_t>(i) * 0x9E3779B97F4A7C15ULL);
   }
+  // From a given state (not all zero).
+  static Xoshiro256pp from_state(const std::uint64_t (&state)[4]) {
+    Xoshiro256pp g(0);
+    for (int i = 0; i < 4; ++i) g.s_[i] = state[i];
+    return g;
+  }
   static constexpr result_type min() { return 0; }
   static constexpr result_type max() { return ~result_type{0}; }
   result_type operator()() {
@@ -47,6 +54,112 @@ class Xoshiro256pp {
  private:
   static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
   std::uint64_t s_[4];
+};
+
+// Four xoshiro256++ streams side by side, their words interleaved (word k from lane k mod 4):
+// the state is kept in local arrays over the lanes, which the compiler keeps in vector
+// registers on any SIMD instruction set, so the words come at several times the rate of one
+// stream. Lane l is seeded from splitmix64(seed, l) as Xoshiro256pp is from its seed.
+class Xoshiro256ppX4 {
+ public:
+  using result_type = std::uint64_t;
+  static constexpr int kLanes = 4;
+  explicit Xoshiro256ppX4(std::uint64_t seed) {
+    for (int l = 0; l < kLanes; ++l) {
+      const std::uint64_t lane_seed =
+          splitmix64(seed ^ splitmix64(0xD1B54A32D192ED03ULL * static_cast<std::uint64_t>(l + 1)));
+      for (int i = 0; i < 4; ++i)
+        s_[i][l] = splitmix64(lane_seed + static_cast<std::uint64_t>(i) * 0x9E3779B97F4A7C15ULL);
+    }
+  }
+  // The state of lane l (as Xoshiro256pp::from_state takes it).
+  void lane_state(int l, std::uint64_t (&state)[4]) const {
+    for (int i = 0; i < 4; ++i) state[i] = s_[i][l];
+  }
+  // n words (n a multiple of kLanes). The states are pairs of lanes in 128-bit vectors of the
+  // GCC and Clang vector extensions, which become SIMD registers on any instruction set that
+  // has them (SSE2, NEON) and scalar code otherwise.
+  void fill(std::uint64_t* out, std::size_t n) {
+    using U2 = std::uint64_t __attribute__((vector_size(16)));
+    U2 a0, a1, a2, a3, b0, b1, b2, b3;  // lanes 0-1 and 2-3
+    std::memcpy(&a0, s_[0], sizeof a0);
+    std::memcpy(&a1, s_[1], sizeof a1);
+    std::memcpy(&a2, s_[2], sizeof a2);
+    std::memcpy(&a3, s_[3], sizeof a3);
+    std::memcpy(&b0, s_[0] + 2, sizeof b0);
+    std::memcpy(&b1, s_[1] + 2, sizeof b1);
+    std::memcpy(&b2, s_[2] + 2, sizeof b2);
+    std::memcpy(&b3, s_[3] + 2, sizeof b3);
+    auto step = [](U2& s0, U2& s1, U2& s2, U2& s3) {
+      const U2 sum = s0 + s3;
+      const U2 r = ((sum << 23) | (sum >> 41)) + s0;
+      const U2 t = s1 << 17;
+      s2 ^= s0;
+      s3 ^= s1;
+      s1 ^= s2;
+      s0 ^= s3;
+      s2 ^= t;
+      s3 = (s3 << 45) | (s3 >> 19);
+      return r;
+    };
+    for (std::size_t k = 0; k < n; k += kLanes) {
+      const U2 ra = step(a0, a1, a2, a3);
+      const U2 rb = step(b0, b1, b2, b3);
+      std::memcpy(out + k, &ra, sizeof ra);
+      std::memcpy(out + k + 2, &rb, sizeof rb);
+    }
+    std::memcpy(s_[0], &a0, sizeof a0);
+    std::memcpy(s_[1], &a1, sizeof a1);
+    std::memcpy(s_[2], &a2, sizeof a2);
+    std::memcpy(s_[3], &a3, sizeof a3);
+    std::memcpy(s_[0] + 2, &b0, sizeof b0);
+    std::memcpy(s_[1] + 2, &b1, sizeof b1);
+    std::memcpy(s_[2] + 2, &b2, sizeof b2);
+    std::memcpy(s_[3] + 2, &b3, sizeof b3);
+  }
+
+ private:
+  std::uint64_t s_[4][kLanes];
+};
+
+// Uniform on [0, 1) from the top 52 bits of a word, every double k 2^-52 equally likely: the
+// bits become the mantissa of a double in [1, 2), less one (exact). Unlike the conversion of
+// an integer, it is a shift, an or and a subtraction on any SIMD instruction set.
+inline double unit_interval(std::uint64_t w) {
+  const std::uint64_t bits = (w >> 12) | 0x3FF0000000000000ULL;
+  double x;
+  std::memcpy(&x, &bits, sizeof x);
+  return x - 1.0;
+}
+
+// The words of a Xoshiro256ppX4 in blocks, one at a time, for the draws that take a varying
+// number of words (the ziggurat's normals, the chi-squared deviates): the same
+// UniformRandomBitGenerator interface as Xoshiro256pp.
+class BlockXoshiro {
+ public:
+  using result_type = std::uint64_t;
+  explicit BlockXoshiro(std::uint64_t seed) : gen_(seed) {}
+  static constexpr result_type min() { return 0; }
+  static constexpr result_type max() { return ~result_type{0}; }
+  result_type operator()() {
+    if (pos_ == kBlock) {
+      gen_.fill(block_, kBlock);
+      pos_ = 0;
+    }
+    return block_[pos_++];
+  }
+  double uniform01() { return static_cast<double>(operator()() >> 11) * 0x1.0p-53; }
+  // n words straight from the generator (n a multiple of 4), after the block's rest.
+  void fill(std::uint64_t* out, std::size_t n) {
+    pos_ = kBlock;  // the block's rest is dropped: the streams stay a function of the seed
+    gen_.fill(out, n);
+  }
+
+ private:
+  static constexpr int kBlock = 256;
+  Xoshiro256ppX4 gen_;
+  std::uint64_t block_[kBlock];
+  int pos_ = kBlock;
 };
 
 // Standard normal deviates by the ziggurat method (Marsaglia and Tsang, J. Stat. Softw. 5(8),
@@ -85,7 +198,8 @@ class NormalZiggurat {
     return t;
   }
 
-  double operator()(Xoshiro256pp& rng) const {
+  template <class Rng>
+  double operator()(Rng& rng) const {
     const Tables& t = tables_;
     for (;;) {
       const std::uint64_t bits = rng();
@@ -121,7 +235,8 @@ class ChiSquared {
     d_ = a - 1.0 / 3.0;
     c_ = 1.0 / std::sqrt(9.0 * d_);
   }
-  double operator()(Xoshiro256pp& rng) const {
+  template <class Rng>
+  double operator()(Rng& rng) const {
     double g;
     for (;;) {
       const double z = normal_(rng);

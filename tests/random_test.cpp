@@ -19,6 +19,34 @@ namespace {
 using detail::ChiSquared;
 using detail::NormalZiggurat;
 using detail::Xoshiro256pp;
+using detail::Xoshiro256ppX4;
+
+// The four-lane generator's words are, lane by lane, those of the one-stream generator from
+// the lane's state: the vector code computes xoshiro256++ itself.
+TEST(Xoshiro256ppX4, EachLaneIsTheScalarGeneratorFromItsState) {
+  for (std::uint64_t seed : {0ULL, 1ULL, 0xDEADBEEFULL, ~0ULL}) {
+    Xoshiro256ppX4 x4(seed);
+    std::vector<Xoshiro256pp> lanes;
+    for (int l = 0; l < Xoshiro256ppX4::kLanes; ++l) {
+      std::uint64_t state[4];
+      x4.lane_state(l, state);
+      lanes.push_back(Xoshiro256pp::from_state(state));
+    }
+    std::vector<std::uint64_t> words(4000);
+    for (int round = 0; round < 3; ++round) {  // the state carries over between calls
+      x4.fill(words.data(), words.size());
+      for (std::size_t k = 0; k < words.size(); ++k)
+        ASSERT_EQ(words[k], lanes[k % 4]()) << "seed " << seed << " word " << k;
+    }
+  }
+  // Different seeds give different lanes, and the lanes of one seed differ.
+  std::uint64_t a[4], b[4], c[4];
+  Xoshiro256ppX4(1).lane_state(0, a);
+  Xoshiro256ppX4(2).lane_state(0, b);
+  Xoshiro256ppX4(1).lane_state(1, c);
+  EXPECT_NE(a[0], b[0]);
+  EXPECT_NE(a[0], c[0]);
+}
 
 TEST(Ziggurat, LayersHaveEqualAreaAndTheTopOneCloses) {
   const NormalZiggurat::Tables& t = NormalZiggurat::tables();
@@ -116,6 +144,41 @@ TEST(ChiSquaredDeviates, FollowTheirDistribution) {
         what.c_str(), 400000, 100, [&] { return chi2(rng); },
         [&](double p) { return boost::math::quantile(C, p); });
   }
+}
+
+// The conversion to [0, 1): the top 52 bits, every multiple of 2^-52, both ends exact.
+TEST(UnitInterval, IsTheTop52BitsTimes2ToTheMinus52) {
+  EXPECT_EQ(detail::unit_interval(0), 0.0);
+  EXPECT_EQ(detail::unit_interval(0xFFFULL), 0.0);  // the low 12 bits are dropped
+  EXPECT_EQ(detail::unit_interval(~0ULL), 1.0 - 0x1.0p-52);
+  EXPECT_EQ(detail::unit_interval(1ULL << 12), 0x1.0p-52);
+  EXPECT_EQ(detail::unit_interval(1ULL << 63), 0.5);
+  std::uint64_t w = 0x0123456789ABCDEFULL;
+  EXPECT_EQ(detail::unit_interval(w), static_cast<double>(w >> 12) * 0x1.0p-52);
+  // Uniform, as the Monte Carlo draws rectangular noise from the block generator's words.
+  detail::BlockXoshiro rng(7);
+  std::vector<std::uint64_t> words(1000);
+  std::size_t next = words.size();
+  expect_fits(
+      "uniform", 2000000, 200,
+      [&] {
+        if (next == words.size()) {
+          rng.fill(words.data(), words.size());
+          next = 0;
+        }
+        return detail::unit_interval(words[next++]);
+      },
+      [](double p) { return p; });
+}
+
+// The ziggurat on the block generator's words (as the Monte Carlo draws its normals).
+TEST(Ziggurat, DeviatesFromTheBlockGeneratorAreStandardNormal) {
+  detail::BlockXoshiro rng(43);
+  const NormalZiggurat n01;
+  const boost::math::normal N;
+  expect_fits(
+      "normal (block words)", 2000000, 200, [&] { return n01(rng); },
+      [&](double p) { return boost::math::quantile(N, p); });
 }
 
 }  // namespace
