@@ -165,12 +165,11 @@ BENCHMARK(BM_MonteCarloPaperC)
     ->UseRealTime();
 
 // A large series model: `angles` angles over a full turn, 12 installations, Fourier order `order`.
-void BM_IdentifyFourier(benchmark::State& state) {
+Design fourier_design(int angles, int order) {
   Design d = paper_c();
-  const int angles = static_cast<int>(state.range(0));
   d.angles_deg.clear();
   for (int i = 0; i < angles; ++i) d.angles_deg.push_back(360.0 * i / angles);
-  d.errors = {ErrorModel::Kind::kFourier, static_cast<int>(state.range(1))};
+  d.errors = {ErrorModel::Kind::kFourier, order};
   for (int k = 0; k < 5; ++k) {
     Installation in = d.installations[k % 7];
     in.id = "x" + std::to_string(k);
@@ -178,23 +177,52 @@ void BM_IdentifyFourier(benchmark::State& state) {
     in.H_mm += 20 * k;
     d.installations.push_back(in);
   }
+  return d;
+}
+
+// The series sizes: angles over a turn and order (readings grow with the angles, unknowns with
+// the order).
+void series_sizes(benchmark::internal::Benchmark* b) {
+  for (const auto& [angles, order] :
+       {std::pair{360, 20}, {180, 20}, {90, 20}, {720, 20}, {360, 10}, {360, 5}})
+    b->Args({angles, order});
+}
+
+// Readings of the series design: every coefficient 1, the declared noise.
+std::vector<Reading> series_readings(const Design& d) {
   Truth t;
   t.model = d.errors;
   for (int k = 0; k < 6; ++k) t.coefficients[k].assign(2 * d.errors.order + 1, 1.0);
-  const std::vector<Reading> readings = simulate(d, t, 1);
+  return simulate(d, t, 1);
+}
+
+// What the NumPy peer (benchmarks/peer_series_identify.py) times: from the model's rows to the
+// estimate and its covariance (the factorisation, the estimate, the residual and chi2).
+void BM_SolveFourier(benchmark::State& state) {
+  const Design d =
+      fourier_design(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const Parameterisation param(d);
+  const LinearModel model = build_linear_model(d, param, series_readings(d));
+  for (auto _ : state) {
+    const WlsSolver solver(model);
+    benchmark::DoNotOptimize(solver.solve(model.y_um).chi2);
+  }
+  state.counters["readings"] = static_cast<double>(model.J.rows());
+  state.counters["unknowns"] = static_cast<double>(model.J.cols());
+}
+BENCHMARK(BM_SolveFourier)->Apply(series_sizes)->Unit(benchmark::kMillisecond);
+
+void BM_IdentifyFourier(benchmark::State& state) {
+  const Design d =
+      fourier_design(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const std::vector<Reading> readings = series_readings(d);
   IdentifyOptions options;  // the estimate; the error motion values' Monte Carlo is not part of it
   options.iso_motion.enabled = false;
   for (auto _ : state) benchmark::DoNotOptimize(identify(d, readings, options).estimate.chi2);
   state.counters["readings"] = static_cast<double>(readings.size());
   state.counters["unknowns"] = 6.0 * (2 * d.errors.order + 1);
 }
-BENCHMARK(BM_IdentifyFourier)
-    ->Args({360, 20})
-    ->Args({180, 20})
-    ->Args({90, 20})
-    ->Args({360, 10})
-    ->Args({360, 5})
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_IdentifyFourier)->Apply(series_sizes)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -1,10 +1,14 @@
 #include "dbbkit/estimate.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <boost/math/distributions/chi_squared.hpp>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <optional>
@@ -132,20 +136,103 @@ Border border_columns(const Jacobian& Js, const EstimateOptions& o) {
 Gain::Gain(Sparse sparse, Eigen::MatrixXd U, Eigen::MatrixXd V)
     : sparse_(std::move(sparse)), U_(std::move(U)), V_(std::move(V)) {}
 
+Gain::Gain(Sparse sparse, Sparse covariance, std::shared_ptr<const Jacobian> J,
+           Eigen::VectorXd weight, std::shared_ptr<const SeriesRows> series)
+    : sparse_(std::move(sparse)),
+      cov_(std::move(covariance)),
+      J_(std::move(J)),
+      weight_(std::move(weight)),
+      series_(std::move(series)) {}
+
+Eigen::VectorXd Gain::left_l1(const FunctionRows& C) const {
+  if (!series_l1()) throw std::logic_error("Gain::left_l1: not a series' implicit gain");
+  const SeriesRows& s = *series_;
+  const Eigen::Index m = s.per_error, na = s.basis.rows(), nv = C.rows();
+  const Eigen::MatrixXd cov = cov_;  // p x p, p = 6 m
+  std::vector<std::vector<int>> at(static_cast<std::size_t>(na));
+  for (Eigen::Index i = 0; i < s.g.rows(); ++i)
+    at[static_cast<std::size_t>(s.angle[static_cast<std::size_t>(i)])].push_back(
+        static_cast<int>(i));
+  const Eigen::MatrixXd basis_t = s.basis.transpose();  // m x angles
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(nv);
+  constexpr Eigen::Index kChunk = 256;  // functions at a time
+  std::array<Eigen::MatrixXd, 6> P;     // per error: functions x angles
+  for (Eigen::Index v0 = 0; v0 < nv; v0 += kChunk) {
+    const Eigen::Index w = std::min(kChunk, nv - v0);
+    const Eigen::SparseMatrix<double> Ct = C.middleRows(v0, w).transpose();  // p x w
+    const Eigen::MatrixXd Zt = (cov * Ct).transpose();                       // w x p
+    for (int k = 0; k < 6; ++k) P[k].noalias() = Zt.middleCols(k * m, m) * basis_t;
+    // Angle by angle, two functions at a time on vector lanes (GCC and Clang vector
+    // extensions): the six errors' values loaded once for all the angle's readings.
+    using D2 = double __attribute__((vector_size(16)));
+    for (Eigen::Index a = 0; a < na; ++a) {
+      const std::vector<int>& readings = at[static_cast<std::size_t>(a)];
+      const double* p[6];
+      for (int k = 0; k < 6; ++k) p[k] = P[k].col(a).data();
+      Eigen::Index t = 0;
+      for (; t + 2 <= w; t += 2) {
+        D2 e[6];
+        for (int k = 0; k < 6; ++k) std::memcpy(&e[k], p[k] + t, sizeof(D2));
+        D2 sum = {0, 0};
+        for (int i : readings) {
+          D2 r = {0, 0};
+          for (int k = 0; k < 6; ++k) {
+            const double gk = s.g(i, k);
+            r += D2{gk, gk} * e[k];
+          }
+          const D2 r_abs = {std::abs(r[0]), std::abs(r[1])};
+          sum += D2{weight_(i), weight_(i)} * r_abs;
+        }
+        out(v0 + t) += sum[0];
+        out(v0 + t + 1) += sum[1];
+      }
+      for (; t < w; ++t) {
+        for (int i : readings) {
+          double r = 0;
+          for (int k = 0; k < 6; ++k) r += s.g(i, k) * p[k][t];
+          out(v0 + t) += weight_(i) * std::abs(r);
+        }
+      }
+    }
+  }
+  return out;
+}
+
+const Gain::Sparse& Gain::sparse() const {
+  if (!implicit()) return sparse_;
+  std::shared_ptr<const Sparse> formed = std::atomic_load(&formed_);
+  if (!formed) {
+    // Cov J' W: the blocks' covariance times their rows (two threads may both form it; one
+    // copy is kept).
+    const Eigen::MatrixXd CJ = Eigen::MatrixXd(cov_) * (J_->transpose() * weight_.asDiagonal());
+    auto g = std::make_shared<Sparse>(sparse_ + Sparse(CJ.sparseView(1.0, 0.0)));
+    std::atomic_store(&formed_, std::shared_ptr<const Sparse>(g));
+    formed = std::atomic_load(&formed_);
+  }
+  return *formed;
+}
+
 Eigen::MatrixXd Gain::operator*(const Eigen::MatrixXd& M) const {
   Eigen::MatrixXd out = sparse_ * M;
+  if (implicit()) out.noalias() += cov_ * (J_->transpose() * (weight_.asDiagonal() * M));
   if (low_rank()) out.noalias() += U_ * (V_ * M);
   return out;
 }
 
 Eigen::VectorXd Gain::operator*(const Eigen::VectorXd& y) const {
   Eigen::VectorXd out = sparse_ * y;
+  if (implicit()) out.noalias() += cov_ * (J_->transpose() * weight_.cwiseProduct(y));
   if (low_rank()) out.noalias() += U_ * (V_ * y);
   return out;
 }
 
 FunctionRows Gain::left(const FunctionRows& C) const {
   FunctionRows out = C * sparse_;
+  if (implicit()) {
+    const FunctionRows CC = C * cov_;
+    const Jacobian JW = weight_.asDiagonal() * (*J_);
+    out = out + FunctionRows(CC * JW.transpose());
+  }
   if (low_rank()) {
     const Eigen::MatrixXd dense = (C * U_) * V_;
     out = out + FunctionRows(dense.sparseView(1.0, 0.0));
@@ -155,34 +242,63 @@ FunctionRows Gain::left(const FunctionRows& C) const {
 
 Eigen::MatrixXd Gain::left(const Eigen::MatrixXd& M) const {
   Eigen::MatrixXd out = M * sparse_;
+  if (implicit()) out.noalias() += ((M * cov_) * J_->transpose()) * weight_.asDiagonal();
   if (low_rank()) out.noalias() += (M * U_) * V_;
   return out;
 }
 
 Eigen::VectorXd Gain::col(Eigen::Index i) const {
   Eigen::VectorXd out = sparse_.col(i);
+  if (implicit()) out.noalias() += cov_ * (weight_(i) * Eigen::VectorXd(J_->row(i).transpose()));
   if (low_rank()) out.noalias() += U_ * V_.col(i);
   return out;
 }
 
-double WlsSolver::leverage(Eigen::Index i) const {
+double Gain::leverage(const Jacobian& J, Eigen::Index i) const {
   double h = 0;
-  for (Jacobian::InnerIterator x(J_, i); x; ++x) {
-    double g = gain_.sparse().coeff(x.col(), i);
-    if (gain_.low_rank()) g += gain_.U().row(x.col()).dot(gain_.V().col(i));
+  for (Jacobian::InnerIterator x(J, i); x; ++x) {
+    double g = sparse_.coeff(x.col(), i);
+    if (low_rank()) g += U_.row(x.col()).dot(V_.col(i));
     h += x.value() * g;
+  }
+  if (implicit()) {  // w_i J_i Cov J_i'
+    const Eigen::VectorXd row = J_->row(i).transpose();
+    h += weight_(i) * row.dot(cov_ * row);
   }
   return h;
 }
+
+double WlsSolver::leverage(Eigen::Index i) const { return gain_.leverage(*J_, i); }
 
 WlsSolver::WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um,
                      const EstimateOptions& options)
     : WlsSolver(Jacobian(J.sparseView()), sigma_um, options) {}
 
+namespace {
+
+std::shared_ptr<const Jacobian> compressed(const Jacobian& J) {
+  auto c = std::make_shared<Jacobian>(J);
+  c->makeCompressed();
+  return c;
+}
+
+}  // namespace
+
 WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
                      const EstimateOptions& options)
-    : J_(J), sigma_(sigma_um) {
-  J_.makeCompressed();
+    : J_(compressed(J)), sigma_(sigma_um) {
+  factorise(options);
+}
+
+WlsSolver::WlsSolver(const LinearModel& model, const EstimateOptions& options)
+    : J_(compressed(model.J)), sigma_(model.sigma_um) {
+  if (model.series && factorise_series(model.series, options)) return;
+  factorise(options);
+}
+
+void WlsSolver::factorise(const EstimateOptions& options) {
+  const Jacobian& J = *J_;
+  const Eigen::VectorXd& sigma_um = sigma_;
   Estimate& est = prior_;
   const int n = static_cast<int>(J.rows());
   const int p = static_cast<int>(J.cols());
@@ -198,7 +314,7 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
   }
 
   const Eigen::VectorXd w = sigma_um.cwiseInverse();
-  Jacobian Js = w.asDiagonal() * J_;
+  Jacobian Js = w.asDiagonal() * J;
   est.column_scale = Eigen::VectorXd::Zero(p);
   for (int i = 0; i < n; ++i) {
     for (Jacobian::InnerIterator it(Js, i); it; ++it)
@@ -333,6 +449,18 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
   }
 
   std::vector<Eigen::Triplet<double>> gain_entries, cov_entries, null_entries;
+  est.covariance_block_of.assign(static_cast<std::size_t>(p), -1);
+  est.covariance_local.assign(static_cast<std::size_t>(p), -1);
+  est.covariance_blocks.resize(static_cast<std::size_t>(n_blocks));
+  for (int b = 0; b < n_blocks; ++b) {
+    const Block& blk = blocks_[b];
+    const Eigen::Index c = static_cast<Eigen::Index>(blk.cols.size());
+    est.covariance_blocks[static_cast<std::size_t>(b)] = Eigen::MatrixXd::Zero(c, c);
+    for (Eigen::Index a = 0; a < c; ++a) {
+      est.covariance_block_of[static_cast<std::size_t>(blk.cols[a])] = b;
+      est.covariance_local[static_cast<std::size_t>(blk.cols[a])] = static_cast<int>(a);
+    }
+  }
   std::vector<double> all_s;
   all_s.reserve(static_cast<std::size_t>(p));
   int rank = 0, n_null = 0;
@@ -352,6 +480,8 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
       const Eigen::MatrixXd g =
           d.normal ? Eigen::MatrixXd(c * d.sub.transpose())  // scaled, whitened
                    : Eigen::MatrixXd(Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose());
+      est.covariance_blocks[static_cast<std::size_t>(b)] =
+          unscale(blk.cols).asDiagonal() * c * unscale(blk.cols).asDiagonal();
       for (std::size_t a = 0; a < blk.cols.size(); ++a) {
         const int ja = blk.cols[a];
         for (std::size_t rr = 0; rr < blk.rows.size(); ++rr) {
@@ -392,13 +522,13 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
     for (int k = 0; k < q; ++k) position[static_cast<std::size_t>(border_[k])] = k;
     Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, q);
     for (int i = 0; i < n; ++i) {
-      for (Jacobian::InnerIterator it(J_, i); it; ++it) {
+      for (Jacobian::InnerIterator it(J, i); it; ++it) {
         const int k = position[static_cast<std::size_t>(it.col())];
         if (k >= 0) X(i, k) = it.value();
       }
     }
     const Eigen::MatrixXd K = G0 * X;  // zero in the border's rows
-    const Eigen::MatrixXd R = w.asDiagonal() * (X - J_ * K);
+    const Eigen::MatrixXd R = w.asDiagonal() * (X - J * K);
     Eigen::VectorXd d(q);
     for (int k = 0; k < q; ++k) d(k) = 1.0 / est.column_scale(border_[k]);
     const Eigen::MatrixXd Sn = d.asDiagonal() * (R.transpose() * R) * d.asDiagonal();
@@ -453,12 +583,213 @@ WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
   }
 }
 
+bool WlsSolver::factorise_series(const std::shared_ptr<const SeriesRows>& series_rows,
+                                 const EstimateOptions& options) {
+  const SeriesRows& series = *series_rows;
+  const Jacobian& J = *J_;
+  const int n = static_cast<int>(J.rows());
+  const int p = static_cast<int>(J.cols());
+  const int m = series.per_error;
+  const Eigen::Index na = series.basis.rows();
+  if (n == 0 || m <= 0 || p != 6 * m || series.g.rows() != n || series.basis.cols() != m ||
+      static_cast<int>(series.angle.size()) != n || !(options.normal_equations_tolerance > 0) ||
+      (options.border_min_columns > 0 && p > options.border_min_columns)) {
+    return false;
+  }
+  // The information J' W J summed per angle: A(a) = sum over its readings of w g g' (6 x 6),
+  // and block (k, l) of J' W J is Phi' diag(A_kl) Phi (Phi: angles x m).
+  const Eigen::VectorXd weight = sigma_.cwiseAbs2().cwiseInverse();
+  std::vector<Eigen::Matrix<double, 6, 6>> A(static_cast<std::size_t>(na),
+                                             Eigen::Matrix<double, 6, 6>::Zero());
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Matrix<double, 1, 6> g = series.g.row(i);
+    A[static_cast<std::size_t>(series.angle[i])].noalias() += weight(i) * g.transpose() * g;
+  }
+  const Eigen::MatrixXd& Phi = series.basis;
+  Eigen::MatrixXd M(p, p);
+  Eigen::VectorXd d(na);
+  for (int k = 0; k < 6; ++k) {
+    for (int l = k; l < 6; ++l) {
+      for (Eigen::Index a = 0; a < na; ++a) d(a) = A[static_cast<std::size_t>(a)](k, l);
+      M.block(k * m, l * m, m, m).noalias() = Phi.transpose() * (d.asDiagonal() * Phi);
+      if (l != k) M.block(l * m, k * m, m, m) = M.block(k * m, l * m, m, m).transpose();
+    }
+  }
+  // Column scaling: |column j of W^1/2 J| = sqrt(M_jj); a negligible column goes the general way.
+  Estimate est;
+  est.n_readings = n;
+  est.n_unknowns = p;
+  est.estimable_tolerance = options.estimable_tolerance;
+  est.column_scale = M.diagonal().cwiseMax(0.0).cwiseSqrt();
+  const double max_column = est.column_scale.maxCoeff();
+  for (int j = 0; j < p; ++j) {
+    if (!(est.column_scale(j) > options.negligible_column * max_column)) return false;
+  }
+  const Eigen::VectorXd unscale = est.column_scale.cwiseInverse();
+  // Independent blocks, as the general path finds them from J's rows: at one angle the
+  // errors its readings share form groups, and each group times the basis functions not
+  // zero there is linked; the groups of all angles joined (union-find over the columns).
+  std::vector<int> parent(static_cast<std::size_t>(p));
+  for (int j = 0; j < p; ++j) parent[static_cast<std::size_t>(j)] = j;
+  auto root = [&](int j) {
+    while (parent[static_cast<std::size_t>(j)] != j)
+      j = parent[static_cast<std::size_t>(j)] =
+          parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(j)])];
+    return j;
+  };
+  {
+    std::vector<std::array<int, 6>> error_group(static_cast<std::size_t>(na));
+    std::vector<std::array<char, 6>> seen(static_cast<std::size_t>(na));
+    for (Eigen::Index a = 0; a < na; ++a) {
+      for (int k = 0; k < 6; ++k) error_group[static_cast<std::size_t>(a)][k] = k;
+      seen[static_cast<std::size_t>(a)].fill(0);
+    }
+    auto group_root = [](std::array<int, 6>& g, int k) {
+      while (g[k] != k) k = g[k];
+      return k;
+    };
+    for (int i = 0; i < n; ++i) {
+      std::array<int, 6>& g = error_group[static_cast<std::size_t>(series.angle[i])];
+      std::array<char, 6>& sn = seen[static_cast<std::size_t>(series.angle[i])];
+      int first = -1;
+      for (int k = 0; k < 6; ++k) {
+        if (series.g(i, k) == 0.0) continue;
+        sn[k] = 1;
+        if (first < 0) {
+          first = k;
+        } else {
+          g[group_root(g, k)] = group_root(g, first);
+        }
+      }
+    }
+    for (Eigen::Index a = 0; a < na; ++a) {
+      std::array<int, 6>& g = error_group[static_cast<std::size_t>(a)];
+      const std::array<char, 6>& sn = seen[static_cast<std::size_t>(a)];
+      int first_basis = -1;
+      for (int b = 0; b < m; ++b) {
+        if (Phi(a, b) != 0.0) {
+          first_basis = b;
+          break;
+        }
+      }
+      if (first_basis < 0) continue;
+      for (int k = 0; k < 6; ++k) {
+        if (!sn[k]) continue;
+        const int anchor = root(group_root(g, k) * m + first_basis);
+        for (int b = 0; b < m; ++b) {
+          if (Phi(a, b) != 0.0) parent[static_cast<std::size_t>(root(k * m + b))] = anchor;
+        }
+      }
+    }
+  }
+  std::vector<int> block_of_col(static_cast<std::size_t>(p), -1),
+      number(static_cast<std::size_t>(p), -1);
+  std::vector<Block> blocks;
+  std::vector<int> local(static_cast<std::size_t>(p), -1);
+  for (int j = 0; j < p; ++j) {
+    int& b = number[static_cast<std::size_t>(root(j))];
+    if (b < 0) {
+      b = static_cast<int>(blocks.size());
+      blocks.emplace_back();
+    }
+    block_of_col[static_cast<std::size_t>(j)] = b;
+    local[static_cast<std::size_t>(j)] =
+        static_cast<int>(blocks[static_cast<std::size_t>(b)].cols.size());
+    blocks[static_cast<std::size_t>(b)].cols.push_back(j);
+  }
+  for (int i = 0; i < n; ++i) {
+    const Jacobian::InnerIterator first(J, i);
+    if (first)
+      blocks[static_cast<std::size_t>(block_of_col[static_cast<std::size_t>(first.col())])]
+          .rows.push_back(i);
+  }
+  // Each block through its normal equations: its eigenvalues for the condition bound and the
+  // rank, then the inverse from a Cholesky factorisation. A block that is small, short,
+  // rank deficient or too ill-conditioned for the bound goes the general way (SVD, null space).
+  std::vector<Eigen::MatrixXd> inverse(blocks.size());
+  std::vector<double> all_s;
+  all_s.reserve(static_cast<std::size_t>(p));
+  double s_max = 0, s_min = std::numeric_limits<double>::infinity();
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    const Block& blk = blocks[b];
+    const Eigen::Index c = static_cast<Eigen::Index>(blk.cols.size());
+    if (c < options.normal_equations_min_columns ||
+        static_cast<Eigen::Index>(blk.rows.size()) < c) {
+      return false;
+    }
+    Eigen::MatrixXd sub(c, c);
+    for (Eigen::Index x = 0; x < c; ++x) {
+      for (Eigen::Index y = 0; y < c; ++y) {
+        const int jx = blk.cols[static_cast<std::size_t>(x)],
+                  jy = blk.cols[static_cast<std::size_t>(y)];
+        sub(x, y) = unscale(jx) * M(jx, jy) * unscale(jy);
+      }
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(sub, Eigen::EigenvaluesOnly);
+    if (eig.info() != Eigen::Success) return false;
+    const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
+    const double bound = lambda(c - 1) / lambda(0) * static_cast<double>(blk.rows.size()) *
+                         std::numeric_limits<double>::epsilon();
+    if (!(lambda(0) > 0) || !(bound <= options.normal_equations_tolerance)) return false;
+    const Eigen::LLT<Eigen::MatrixXd> llt(sub);
+    if (llt.info() != Eigen::Success) return false;
+    inverse[b] = llt.solve(Eigen::MatrixXd::Identity(c, c));
+    inverse[b] = 0.5 * (inverse[b] + inverse[b].transpose());
+    for (Eigen::Index k = 0; k < c; ++k) all_s.push_back(std::sqrt(lambda(k)));
+    s_max = std::max(s_max, std::sqrt(lambda(c - 1)));
+    s_min = std::min(s_min, std::sqrt(lambda(0)));
+  }
+  if (!(s_min > options.min_relative_singular_value * s_max)) return false;  // rank deficient
+
+  std::vector<Eigen::Triplet<double>> cov_entries;
+  cov_entries.reserve(static_cast<std::size_t>(p) * static_cast<std::size_t>(p));
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    const Block& blk = blocks[b];
+    for (std::size_t x = 0; x < blk.cols.size(); ++x) {
+      for (std::size_t y = 0; y < blk.cols.size(); ++y) {
+        const int jx = blk.cols[x], jy = blk.cols[y];
+        const double v = unscale(jx) *
+                         inverse[b](static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y)) *
+                         unscale(jy);
+        if (v != 0.0) cov_entries.emplace_back(jx, jy, v);
+      }
+    }
+  }
+  est.covariance.resize(p, p);
+  est.covariance.setFromTriplets(cov_entries.begin(), cov_entries.end());
+  est.covariance_block_of.assign(static_cast<std::size_t>(p), -1);
+  est.covariance_local.assign(static_cast<std::size_t>(p), -1);
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    const Block& blk = blocks[b];
+    for (std::size_t x = 0; x < blk.cols.size(); ++x) {
+      est.covariance_block_of[static_cast<std::size_t>(blk.cols[x])] = static_cast<int>(b);
+      est.covariance_local[static_cast<std::size_t>(blk.cols[x])] = static_cast<int>(x);
+    }
+    inverse[b] = unscale(blk.cols).asDiagonal() * inverse[b] * unscale(blk.cols).asDiagonal();
+  }
+  est.covariance_blocks = std::move(inverse);
+  est.null_space_scaled.resize(p, 0);
+  std::sort(all_s.begin(), all_s.end(), std::greater<double>());
+  est.singular_values =
+      Eigen::Map<Eigen::VectorXd>(all_s.data(), static_cast<Eigen::Index>(all_s.size()));
+  est.rank = p;
+  est.condition_number = s_max / s_min;
+  est.dof = n - p;
+  est.status = EstimateStatus::kFullRank;
+  est.normal_equation_blocks = static_cast<int>(blocks.size());
+  gain_ = Gain(Gain::Sparse(p, n), est.covariance, J_, weight, series_rows);
+  blocks_ = std::move(blocks);
+  border_.clear();
+  prior_ = std::move(est);
+  return true;
+}
+
 Estimate WlsSolver::solve(const Eigen::VectorXd& y_um) const {
   Estimate est = prior_;
   if (est.status == EstimateStatus::kNoReadings) return est;
   const int n = est.n_readings;
   est.theta = gain_ * y_um;
-  est.residual_um = y_um - J_ * est.theta;
+  est.residual_um = y_um - *J_ * est.theta;
   est.rms_um = std::sqrt(est.residual_um.squaredNorm() / n);
   est.chi2 = est.residual_um.cwiseQuotient(sigma_).squaredNorm();
   if (est.dof > 0) est.p_value = chi2_upper_tail(est.dof, est.chi2);
@@ -555,7 +886,32 @@ bool Estimate::determined(const Function& c) const {
   return std::sqrt(proj2) <= estimable_tolerance * std::sqrt(norm2);
 }
 
+double Estimate::covariance_at(Eigen::Index a, Eigen::Index b) const {
+  if (covariance_block_of.empty()) return covariance.coeff(a, b);
+  const int ba = covariance_block_of[static_cast<std::size_t>(a)];
+  if (ba < 0 || ba != covariance_block_of[static_cast<std::size_t>(b)]) return 0.0;
+  return covariance_blocks[static_cast<std::size_t>(ba)](
+      covariance_local[static_cast<std::size_t>(a)], covariance_local[static_cast<std::size_t>(b)]);
+}
+
 double Estimate::base_variance(const Function& c) const {
+  if (!covariance_block_of.empty()) {
+    // On the support's blocks: each pair of entries in one block.
+    double var = 0;
+    for (Function::InnerIterator a(c); a; ++a) {
+      const int ba = covariance_block_of[static_cast<std::size_t>(a.index())];
+      if (ba < 0) continue;
+      const Eigen::MatrixXd& B = covariance_blocks[static_cast<std::size_t>(ba)];
+      const Eigen::Index la = covariance_local[static_cast<std::size_t>(a.index())];
+      double row = 0;
+      for (Function::InnerIterator b(c); b; ++b) {
+        if (covariance_block_of[static_cast<std::size_t>(b.index())] != ba) continue;
+        row += B(la, covariance_local[static_cast<std::size_t>(b.index())]) * b.value();
+      }
+      var += a.value() * row;
+    }
+    return var;
+  }
   double var = 0;
   for (Function::InnerIterator a(c); a; ++a) {
     for (Function::InnerIterator b(c); b; ++b)

@@ -114,7 +114,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                         const IdentifyOptions& options) {
   Parameterisation param(design);
   LinearModel model = build_linear_model(design, param, readings);
-  WlsSolver solver(model.J, model.sigma_um, options.estimate);
+  WlsSolver solver(model, options.estimate);
   IdentifyResult res{std::move(param),
                      std::move(model),
                      std::move(solver),

@@ -248,13 +248,25 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   struct Term {
     int b = 0;
     std::vector<std::pair<Eigen::Index, double>> c;  // (index, coefficient) of the nonzeros
+    int block = -1;                   // all of c in one block of the covariance: its number
+    std::vector<Eigen::Index> local;  // and each nonzero's place in it
     Eigen::Matrix<double, 1, 5> x, cSQ;
     Eigen::VectorXd Kc;  // K'c; empty without a low-rank part
   };
   auto covariance = [&](const Term& i, const Term& j) {
     double v = 0;
-    for (const auto& [a, ca] : i.c) {
-      for (const auto& [q, cq] : j.c) v += ca * est.covariance.coeff(a, q) * cq;
+    if (i.block >= 0 && i.block == j.block) {  // on the dense block, no search
+      const Eigen::MatrixXd& B = est.covariance_blocks[static_cast<std::size_t>(i.block)];
+      for (std::size_t x = 0; x < i.c.size(); ++x) {
+        double row = 0;
+        for (std::size_t y = 0; y < j.c.size(); ++y)
+          row += B(i.local[x], j.local[y]) * j.c[y].second;
+        v += i.c[x].second * row;
+      }
+    } else {
+      for (const auto& [a, ca] : i.c) {
+        for (const auto& [q, cq] : j.c) v += ca * est.covariance_at(a, q) * cq;
+      }
     }
     v += -i.cSQ.dot(j.x) - j.cSQ.dot(i.x) + (i.x * QSQ[i.b] * j.x.transpose())(0);
     if (low_rank) {
@@ -288,6 +300,13 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
         t.c.emplace_back(a, it.value());
         t.cSQ += it.value() * SQ[b].row(a);
         value += it.value() * est.theta(a);
+      }
+      if (!est.covariance_block_of.empty() && !t.c.empty()) {
+        t.block = est.covariance_block_of[static_cast<std::size_t>(t.c.front().first)];
+        for (const auto& [a, ca] : t.c) {
+          if (est.covariance_block_of[static_cast<std::size_t>(a)] != t.block) t.block = -1;
+          t.local.push_back(est.covariance_local[static_cast<std::size_t>(a)]);
+        }
       }
       if (low_rank) t.Kc = est.low_rank_coordinates(c);
       Determined d;

@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <string>
+#include <unordered_map>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
@@ -45,34 +46,72 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
   LinearModel m;
   m.y_um.resize(n);
   m.sigma_um = Eigen::VectorXd::Constant(n, design.noise.sigma_um());
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(static_cast<std::size_t>(n) * (per_angle ? 6 : static_cast<std::size_t>(p)));
   m.row_installation.reserve(static_cast<std::size_t>(n));
   m.row_station.reserve(static_cast<std::size_t>(n));
   m.row_angle_deg.reserve(static_cast<std::size_t>(n));
+  // A series: the basis once per distinct angle, the rows factored (SeriesRows).
+  auto series = std::make_shared<SeriesRows>();
+  std::vector<Eigen::VectorXd> basis;
+  std::unordered_map<double, int> basis_of;
+  if (!per_angle) {
+    series->per_error = param.coefficients_per_error();
+    series->g.resize(n, 6);
+    series->angle.reserve(static_cast<std::size_t>(n));
+  }
+  Eigen::VectorXi per_row(n);
+  std::vector<RowVector6d> gs(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
     const RowSpec& r = rows[i];
     const Installation& inst = design.installations[r.installation];
-    const RowVector6d g = J_reading_error(design.axis, inst, r.angle_deg);
+    const RowVector6d& g = gs[static_cast<std::size_t>(i)] =
+        J_reading_error(design.axis, inst, r.angle_deg);
     const int station = param.station_of(r.angle_deg);
     if (per_angle) {
-      // block-diagonal: the errors at this station only
-      for (int k = 0; k < 6; ++k) {
-        if (g(k) != 0.0) entries.emplace_back(i, 6 * station + k, g(k));
-      }
+      if (station < 0) param.error_functions_at_angle(r.angle_deg);  // throws: no errors there
+      per_row(i) = static_cast<int>((g.array() != 0.0).count());
     } else {
-      const Eigen::VectorXd row = param.error_functions_at_angle(r.angle_deg) * g.transpose();
-      for (int j = 0; j < p; ++j) {
-        if (row(j) != 0.0) entries.emplace_back(i, j, row(j));
-      }
+      const auto [it, added] = basis_of.try_emplace(r.angle_deg, static_cast<int>(basis.size()));
+      if (added) basis.push_back(param.series_basis(r.angle_deg));
+      series->angle.push_back(it->second);
+      series->g.row(i) = g;
+      per_row(i) =
+          static_cast<int>((g.array() != 0.0).count() * (basis[it->second].array() != 0.0).count());
     }
     m.y_um(i) = r.y_um;
     m.row_installation.push_back(r.installation);
     m.row_station.push_back(station);
     m.row_angle_deg.push_back(r.angle_deg);
   }
+  // The rows in column order, each entry g(k) phi_a (a series) or g(k) (per angle) as the
+  // error functions' product gives it.
   m.J.resize(n, p);
-  m.J.setFromTriplets(entries.begin(), entries.end());
+  m.J.reserve(per_row);
+  for (int i = 0; i < n; ++i) {
+    if (per_angle) {
+      const RowVector6d& g = gs[static_cast<std::size_t>(i)];
+      for (int k = 0; k < 6; ++k) {
+        if (g(k) != 0.0) m.J.insert(i, 6 * m.row_station[i] + k) = g(k);
+      }
+      continue;
+    }
+    const Eigen::VectorXd& f = basis[static_cast<std::size_t>(series->angle[i])];
+    const int per = series->per_error;
+    for (int k = 0; k < 6; ++k) {
+      const double gk = gs[static_cast<std::size_t>(i)](k);
+      if (gk == 0.0) continue;
+      for (int a = 0; a < per; ++a) {
+        const double v = f(a) * gk;
+        if (v != 0.0) m.J.insert(i, k * per + a) = v;
+      }
+    }
+  }
+  m.J.makeCompressed();
+  if (!per_angle) {
+    series->basis.resize(static_cast<Eigen::Index>(basis.size()), series->per_error);
+    for (std::size_t b = 0; b < basis.size(); ++b)
+      series->basis.row(static_cast<Eigen::Index>(b)) = basis[b].transpose();
+    m.series = std::move(series);
+  }
   return m;
 }
 

@@ -677,7 +677,7 @@ MonteCarloResult monte_carlo_a_priori(const Design& design, double coverage_prob
                                       const MonteCarloOptions& options) {
   const Parameterisation param(design);
   const LinearModel model = design_model(design, param);
-  const WlsSolver solver(model.J, model.sigma_um);
+  const WlsSolver solver(model);
   BudgetOptions b;
   b.coverage_probability = coverage_probability;
   // At zero errors the ball placement (L, D, H) changes no reading; the length offsets

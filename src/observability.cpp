@@ -677,7 +677,7 @@ TotalWorstCase design_worst_total(const Design& design, double reference_length_
 TotalWorstCase dense_worst_total(const Design& design, double reference_length_mm) {
   const Parameterisation param(design);
   const LinearModel model = design_model(design, param);
-  const WlsSolver solver(model.J, model.sigma_um);
+  const WlsSolver solver(model);
   const SetupSolver setup(solver, setup_effects(design, model, true));
   TotalWorstCase out;
   const ErrorParts parts = error_parts(param, setup);  // without declared tolerances: total = noise
@@ -696,7 +696,7 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
                            const EstimateOptions& options, const DetectionSettings& detection) {
   const Parameterisation param(design);
   const LinearModel model = design_model(design, param);
-  const WlsSolver solver(model.J, model.sigma_um, options);
+  const WlsSolver solver(model, options);
   Evaluation ev;
   ev.prior = solver.a_priori();
   ev.reference_length_mm = reference_length_mm;

@@ -157,7 +157,18 @@ Eigen::MatrixXd Parameterisation::error_map_at_angle(double angle_deg) const {
 
 Eigen::Matrix<double, 6, 1> Parameterisation::errors_at_angle(double angle_deg,
                                                               const Eigen::VectorXd& theta) const {
-  return error_functions_at_angle(angle_deg).transpose() * theta;
+  if (model_.kind == ErrorModel::Kind::kPerAngle)
+    return error_functions_at_angle(angle_deg).transpose() * theta;
+  // The basis functions once for the six errors, each summed in the order of its coefficients
+  // (the product with error_functions_at_angle, without forming it).
+  const Eigen::VectorXd f = series_basis(angle_deg);
+  Eigen::Matrix<double, 6, 1> e = Eigen::Matrix<double, 6, 1>::Zero();
+  for (int k = 0; k < 6; ++k) {
+    for (int j = 0; j < per_error_; ++j) {
+      if (f(j) != 0.0) e(k) += f(j) * theta(k * per_error_ + j);
+    }
+  }
+  return e;
 }
 
 int Parameterisation::parameter_error(int j) const {

@@ -144,6 +144,7 @@ Eigen::MatrixXd SetupSolver::left_gain_times(const FunctionRows& C, const Eigen:
 }
 
 Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
+  if (!any() && base_->J_theta_reading().series_l1()) return base_->J_theta_reading().left_l1(C);
   const Eigen::SparseMatrix<double, Eigen::RowMajor> G0 =
       base_->J_theta_reading().sparse();  // row j of G0 contiguous
   const Eigen::Index n = G0.cols();
@@ -397,6 +398,10 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
     }
   }
   fc.computed = true;
+  // The errors at each design angle, once for every installation.
+  std::vector<Eigen::Matrix<double, 6, 1>> errors;
+  errors.reserve(design.angles_deg.size());
+  for (double a : design.angles_deg) errors.push_back(param.errors_at_angle(a, theta));
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
     const Installation& in = design.installations[i];
     const SetupUncertainty u = design.setup_of(i);
@@ -405,10 +410,11 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
     const double placement_um =
         3e3 * std::sqrt(u.L_mm * u.L_mm + u.D_mm * u.D_mm + u.H_mm * u.H_mm);
     const double centring_um = 3.0 * u.centring_um * std::sqrt(3.0);
-    for (double a : design.angles_deg) {
+    for (std::size_t ia = 0; ia < design.angles_deg.size(); ++ia) {
+      const double a = design.angles_deg[ia];
       const Eigen::Vector3d P = ball_position_mm(design.axis, in, a);
       const Eigen::Vector3d dir = direction_machine(design.axis, in, a);
-      Eigen::Matrix<double, 6, 1> e6 = param.errors_at_angle(a, theta);
+      const Eigen::Matrix<double, 6, 1>& e6 = errors[ia];
       const Eigen::Vector3d dP = e6.head<3>() + 1e-3 * e6.tail<3>().cross(P);  // um
       const double perp = (dP - dP.dot(dir) * dir).norm() + placement_um + centring_um;
       const double term = perp * perp / (2.0 * *in.bar_mm * 1e3);

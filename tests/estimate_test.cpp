@@ -296,5 +296,124 @@ TEST(Estimate, FourierIdentificationTakesTheNormalEquations) {
                          1e-9 * test::dense(svd.J_theta_reading().sparse()).cwiseAbs().maxCoeff()));
 }
 
+// The factored rows of a series model (LinearModel::series) give the general solver's result:
+// the blocks, singular values, covariance, estimate and every use of the (implicit) gain,
+// on C and B designs, Fourier and Legendre, split into independent blocks or not. Where the
+// path cannot answer (a block too small for the normal equations, or rank loss) the general
+// path does, with identical results.
+TEST(Estimate, SeriesRowsGiveTheGeneralSolversResult) {
+  struct Case {
+    const char* name;
+    Design d;
+    bool fast;  // expected to take the factored path
+  };
+  std::vector<Case> cases;
+  auto with = [](Design d, ErrorModel e, int angles, double span) {
+    d.errors = e;
+    d.angles_deg.clear();
+    for (int i = 0; i < angles; ++i) d.angles_deg.push_back(span * i / angles);
+    return d;
+  };
+  cases.push_back({"C fourier 20, 72 angles (independent blocks)",
+                   with(test::paper_design('C'), {ErrorModel::Kind::kFourier, 20}, 72, 360), true});
+  auto twelve = [](Design d) {  // as the benchmark: more installations, one block
+    for (int k = 0; k < 5; ++k) {
+      Installation in = d.installations[static_cast<std::size_t>(k) % 7];
+      in.id = "x" + std::to_string(k);
+      in.L_mm += 30 + 10 * k;
+      in.H_mm += 20 * k;
+      d.installations.push_back(in);
+    }
+    return d;
+  };
+  cases.push_back({"C fourier 8, 12 installations",
+                   twelve(with(test::paper_design('C'), {ErrorModel::Kind::kFourier, 8}, 90, 360)),
+                   true});
+  {
+    Design d = test::paper_design('B');
+    d.errors = {ErrorModel::Kind::kLegendre, 7};
+    cases.push_back({"B legendre 7 (its three null directions: rank loss)", d, false});
+  }
+  cases.push_back({"C legendre 9 over 300 degrees, 12 installations",
+                   twelve(with(test::paper_design('C'), {ErrorModel::Kind::kLegendre, 9}, 61, 300)),
+                   true});
+  cases.push_back({"C fourier 2 (blocks below the normal equations' size)",
+                   with(test::paper_design('C'), {ErrorModel::Kind::kFourier, 2}, 36, 360), false});
+  {
+    Design d = with(test::paper_design('C'), {ErrorModel::Kind::kFourier, 20}, 72, 360);
+    d.installations.resize(1);  // one radial installation: most errors unseen (rank loss)
+    cases.push_back({"C fourier 20, one installation", d, false});
+  }
+  std::mt19937 rng(3);
+  std::normal_distribution<double> z;
+  int fast = 0;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const Parameterisation param(c.d);
+    std::vector<Reading> readings = nominal_readings(c.d);
+    for (Reading& r : readings) r.reading_um = z(rng);
+    const LinearModel model = build_linear_model(c.d, param, readings);
+    ASSERT_TRUE(model.series);
+    const WlsSolver general(model.J, model.sigma_um), factored(model);
+    const WlsSolver::Gain &Gg = general.J_theta_reading(), &Gf = factored.J_theta_reading();
+    EXPECT_EQ(Gf.implicit(), c.fast);
+    fast += Gf.implicit();
+    const Estimate a = factored.solve(model.y_um), b = general.solve(model.y_um);
+    EXPECT_EQ(a.rank, b.rank);
+    EXPECT_EQ(a.status, b.status);
+    ASSERT_EQ(factored.blocks().size(), general.blocks().size());
+    for (std::size_t k = 0; k < general.blocks().size(); ++k) {
+      EXPECT_EQ(factored.blocks()[k].cols, general.blocks()[k].cols) << k;
+      EXPECT_EQ(factored.blocks()[k].rows, general.blocks()[k].rows) << k;
+    }
+    if (!c.fast) {  // the general path itself: the same numbers
+      EXPECT_TRUE(test::near(test::dense(a.covariance), test::dense(b.covariance), 0.0));
+      EXPECT_TRUE(test::near(a.theta, b.theta, 0.0));
+      continue;
+    }
+    const double cov_max = test::dense(b.covariance).cwiseAbs().maxCoeff();
+    EXPECT_TRUE(test::near(test::dense(a.covariance), test::dense(b.covariance), 1e-10 * cov_max));
+    EXPECT_TRUE(test::near(a.column_scale, b.column_scale, 0.0, 1e-12));
+    EXPECT_TRUE(test::near(a.singular_values, b.singular_values, 0.0, 1e-9));
+    ASSERT_TRUE(a.condition_number && b.condition_number);
+    EXPECT_NEAR(*a.condition_number, *b.condition_number, 1e-9 * *b.condition_number);
+    EXPECT_EQ(a.null_space_scaled.cols(), 0);
+    EXPECT_TRUE(test::near(a.theta, b.theta, 1e-9 * b.theta.cwiseAbs().maxCoeff()));
+    EXPECT_TRUE(
+        test::near(a.residual_um, b.residual_um, 1e-9 * b.residual_um.cwiseAbs().maxCoeff()));
+    EXPECT_NEAR(a.chi2, b.chi2, 1e-9 * b.chi2);
+    // The covariance's dense blocks are the sparse matrix.
+    for (Eigen::Index i = 0; i < a.covariance.rows(); i += 7) {
+      for (Eigen::Index j = 0; j < a.covariance.cols(); j += 5)
+        EXPECT_EQ(a.covariance_at(i, j), a.covariance.coeff(i, j)) << i << "," << j;
+    }
+    // The gain, implicit, in each of its uses.
+    const Eigen::MatrixXd Gd = test::dense(Gg.sparse());
+    const double g_max = Gd.cwiseAbs().maxCoeff();
+    EXPECT_TRUE(test::near(test::dense(Gf.sparse()), Gd, 1e-9 * g_max));
+    Eigen::MatrixXd M(model.J.rows(), 3), L(4, model.J.cols());
+    for (Eigen::Index i = 0; i < M.size(); ++i) M.data()[i] = z(rng);
+    for (Eigen::Index i = 0; i < L.size(); ++i) L.data()[i] = z(rng);
+    EXPECT_TRUE(test::near(Gf * M, Gd * M, 1e-9 * (Gd * M).cwiseAbs().maxCoeff()));
+    EXPECT_TRUE(test::near(Gf.left(L), L * Gd, 1e-9 * (L * Gd).cwiseAbs().maxCoeff()));
+    std::vector<Eigen::Triplet<double>> t;
+    for (int r = 0; r < 5; ++r) {
+      for (int j = 0; j < 6; ++j) t.emplace_back(r, (r * 13 + j * 7) % model.J.cols(), z(rng));
+    }
+    FunctionRows C(5, model.J.cols());
+    C.setFromTriplets(t.begin(), t.end());
+    const Eigen::MatrixXd CG = test::dense(C) * Gd;
+    EXPECT_TRUE(test::near(test::dense(Gf.left(C)), CG, 1e-9 * CG.cwiseAbs().maxCoeff()));
+    ASSERT_TRUE(Gf.series_l1());
+    const Eigen::VectorXd l1 = CG.cwiseAbs().rowwise().sum();
+    EXPECT_TRUE(test::near(Gf.left_l1(C), l1, 0.0, 1e-9));
+    for (Eigen::Index i = 0; i < model.J.rows(); i += 37) {
+      EXPECT_TRUE(test::near(Gf.col(i), Gd.col(i), 1e-9 * g_max)) << i;
+      EXPECT_NEAR(factored.leverage(i), general.leverage(i), 1e-9) << i;
+    }
+  }
+  EXPECT_EQ(fast, 3);
+}
+
 }  // namespace
 }  // namespace dbbkit

@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -77,6 +78,11 @@ struct Estimate {
   // over the independent blocks of the model (one 6 x 6 block per station of a per-angle
   // model), stored sparse.
   Eigen::SparseMatrix<double> covariance;
+  // The same covariance as dense blocks, one per independent block of the model (in its
+  // columns' order), with each unknown's block (-1: none) and place in it: what a function's
+  // variance reads (base_variance, covariance_at), without searching the sparse matrix.
+  std::vector<Eigen::MatrixXd> covariance_blocks;
+  std::vector<int> covariance_block_of, covariance_local;
   // A low-rank term of the covariance, K S K' (p x q, q x q; empty when absent): the
   // set-up effects a prior makes part of the model (setup.hpp). The covariance of a
   // function is c'(covariance + K S K')c.
@@ -111,6 +117,8 @@ struct Estimate {
   // The two terms of its variance, on the support of c: c' covariance c, and K'c (empty
   // without the low-rank term).
   double base_variance(const Function& c) const;
+  // Entry (a, b) of `covariance`.
+  double covariance_at(Eigen::Index a, Eigen::Index b) const;
   Eigen::VectorXd low_rank_coordinates(const Function& c) const;
   bool determined(const Function& c) const;
   template <typename D>
@@ -129,19 +137,26 @@ using FunctionRows = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
 // The gain G (p x n): theta_hat = G y. Sparse, one piece per independent block, plus a
 // low-rank part U V (p x q times q x n) for a model solved with border columns; the
-// products below never form G densely.
+// products below never form G densely. The blocks factorised through their normal
+// equations from a series model's factored rows (WlsSolver) keep their part of G implicit,
+// G = Cov J' W with W = Sigma^-1: nothing p x n is formed unless sparse() asks for it.
 class Gain {
  public:
   using Sparse = Eigen::SparseMatrix<double>;  // by columns
   Gain() = default;
   Gain(Sparse sparse, Eigen::MatrixXd U, Eigen::MatrixXd V);
+  // The implicit part Cov J' diag(weight) beside the explicit one.
+  Gain(Sparse sparse, Sparse covariance, std::shared_ptr<const Jacobian> J, Eigen::VectorXd weight,
+       std::shared_ptr<const SeriesRows> series = nullptr);
 
   Eigen::Index rows() const { return sparse_.rows(); }
   Eigen::Index cols() const { return sparse_.cols(); }
-  const Sparse& sparse() const { return sparse_; }
+  // G formed, as a sparse matrix (formed on the first call when G has an implicit part).
+  const Sparse& sparse() const;
   const Eigen::MatrixXd& U() const { return U_; }
   const Eigen::MatrixXd& V() const { return V_; }
   bool low_rank() const { return U_.cols() > 0; }
+  bool implicit() const { return J_ != nullptr; }
 
   // G M and G y.
   Eigen::MatrixXd operator*(const Eigen::MatrixXd& M) const;
@@ -152,10 +167,23 @@ class Gain {
   Eigen::MatrixXd left(const Eigen::MatrixXd& M) const;
   // Column i of G: the estimate's response to reading i (dense, p).
   Eigen::VectorXd col(Eigen::Index i) const;
+  // J_i G e_i for row i of J (the leverage of reading i).
+  double leverage(const Jacobian& J, Eigen::Index i) const;
+  // |row r of C G|_1 for each function r, when G is wholly implicit with a series' factored
+  // rows (series_l1()); nothing n x p or values x n is formed: with z = Cov c, the row's
+  // entry at reading i is w_i sum_k g_i(k) phi(angle_i)' z_k, the basis products taken for
+  // every angle at once (one product per error) and the readings summed angle by angle.
+  bool series_l1() const { return series_ != nullptr && sparse_.nonZeros() == 0 && !low_rank(); }
+  Eigen::VectorXd left_l1(const FunctionRows& C) const;
 
  private:
   Sparse sparse_;
   Eigen::MatrixXd U_, V_;
+  Sparse cov_;  // the implicit part's covariance (theta units), zero elsewhere
+  std::shared_ptr<const Jacobian> J_;
+  Eigen::VectorXd weight_;                        // 1 / sigma^2 per reading
+  std::shared_ptr<const SeriesRows> series_;      // the rows J_ factors into, when known
+  mutable std::shared_ptr<const Sparse> formed_;  // sparse() of an implicit gain
 };
 
 // The factorisation of a design's Jacobian, done once and reused for any
@@ -177,6 +205,12 @@ class WlsSolver {
 
   WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
             const EstimateOptions& options = {});
+  // A model with a series' factored rows (LinearModel::series): when every independent block
+  // is full rank and takes the normal equations (EstimateOptions), the information is summed
+  // from the rows' 6 x 6 blocks per angle times the basis' outer products, each block's
+  // covariance comes from a Cholesky factorisation after its eigenvalues (the condition
+  // bound), and the gain stays implicit. Otherwise, as from J alone.
+  explicit WlsSolver(const LinearModel& model, const EstimateOptions& options = {});
   // A dense Jacobian (its exact zeros are the structure).
   WlsSolver(const Eigen::MatrixXd& J, const Eigen::VectorXd& sigma_um,
             const EstimateOptions& options = {});
@@ -188,7 +222,7 @@ class WlsSolver {
   // The border columns (ascending; empty when the model is solved block by block alone).
   const std::vector<int>& border() const { return border_; }
   // h_i = J_i G e_i: the leverage of reading i.
-  const Jacobian& J() const { return J_; }
+  const Jacobian& J() const { return *J_; }
   const Eigen::VectorXd& sigma_um() const { return sigma_; }
 
   double leverage(Eigen::Index i) const;
@@ -202,7 +236,11 @@ class WlsSolver {
   Estimate solve(const Eigen::VectorXd& y_um) const;
 
  private:
-  Jacobian J_;
+  void factorise(const EstimateOptions& options);
+  bool factorise_series(const std::shared_ptr<const SeriesRows>& series,
+                        const EstimateOptions& options);
+
+  std::shared_ptr<const Jacobian> J_;
   Eigen::VectorXd sigma_;
   Estimate prior_;
   Gain gain_;

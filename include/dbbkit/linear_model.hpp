@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <memory>
 #include <vector>
 
 #include "dbbkit/design.hpp"
@@ -17,6 +18,18 @@ namespace dbbkit {
 // has six entries a row (its station's errors), a series model one per coefficient.
 using Jacobian = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
+// A series model's rows factor through the six errors at the reading's angle:
+//   J(i, k m + a) = g_i(k) phi_a(angle_i),
+// g_i the reading's sensitivities to the six errors (J_reading_error) and phi the m basis
+// functions of one error at its angle. The solver sums the information from 6 x 6 blocks per
+// angle times the basis' outer products instead of the n x p rows (WlsSolver).
+struct SeriesRows {
+  int per_error = 0;                                            // m
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> g;  // n x 6
+  std::vector<int> angle;                                       // row -> row of basis
+  Eigen::MatrixXd basis;                                        // distinct angles x m
+};
+
 struct LinearModel {
   Jacobian J;                // [um per unit of theta], n_readings x n_parameters
   Eigen::VectorXd y_um;      // readings (zero for a design model)
@@ -24,6 +37,9 @@ struct LinearModel {
   std::vector<int> row_installation;
   std::vector<int> row_station;
   std::vector<double> row_angle_deg;
+  // A series model's factored rows (built with J; absent for a per-angle model). Whoever
+  // changes J drops it.
+  std::shared_ptr<const SeriesRows> series;
 };
 
 // [J X]: the columns of X (n x q, dense) after those of J; exact zeros of X are left out.
