@@ -26,12 +26,19 @@ constexpr double kMaxAngles = 100000;
 
 // The extent of a + b cos(g) + c sin(g) over the arc [lo, hi] (degrees):
 // the end points and the stationary points inside the arc.
-std::pair<double, double> arc_extent(double a, double b, double c, double lo_deg, double hi_deg) {
-  double s, co;
-  sincos_deg(lo_deg, s, co);
-  double v0 = a + b * co + c * s;
-  sincos_deg(hi_deg, s, co);
-  const double v1 = a + b * co + c * s;
+// (sin, cos) of the arc's two ends, found once for its three coordinates.
+struct ArcEnds {
+  double lo_deg, hi_deg, s_lo, c_lo, s_hi, c_hi;
+  ArcEnds(double lo, double hi) : lo_deg(lo), hi_deg(hi) {
+    sincos_deg(lo, s_lo, c_lo);
+    sincos_deg(hi, s_hi, c_hi);
+  }
+};
+
+std::pair<double, double> arc_extent(double a, double b, double c, const ArcEnds& ends) {
+  const double lo_deg = ends.lo_deg, hi_deg = ends.hi_deg;
+  double v0 = a + b * ends.c_lo + c * ends.s_lo;
+  const double v1 = a + b * ends.c_hi + c * ends.s_hi;
   double mn = std::min(v0, v1), mx = std::max(v0, v1);
   const double amp = std::hypot(b, c);
   if (amp > 0) {
@@ -398,16 +405,24 @@ double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst,
                            const std::vector<double>& angles_deg) {
   if (angles_deg.empty() || !inst.bar_mm) return 0.0;
   const auto [lo_it, hi_it] = std::minmax_element(angles_deg.begin(), angles_deg.end());
-  // R(g) = M0 + cos g M1 + sin g M2 for a rotation about a fixed axis.
-  const Eigen::Matrix3d R0 = axis_rotation(axis, 0), R90 = axis_rotation(axis, 90),
-                        R180 = axis_rotation(axis, 180);
-  const Eigen::Matrix3d M0 = 0.5 * (R0 + R180), M1 = 0.5 * (R0 - R180), M2 = R90 - M0;
+  // R(g) = M0 + cos g M1 + sin g M2 for a rotation about a fixed axis (per axis, once).
+  struct Harmonics {
+    Eigen::Matrix3d M0, M1, M2;
+    explicit Harmonics(Axis axis) {
+      const Eigen::Matrix3d R0 = axis_rotation(axis, 0), R90 = axis_rotation(axis, 90),
+                            R180 = axis_rotation(axis, 180);
+      M0 = 0.5 * (R0 + R180), M1 = 0.5 * (R0 - R180), M2 = R90 - M0;
+    }
+  };
+  static const Harmonics c_axis(Axis::kC), b_axis(Axis::kB);
+  const Harmonics& h = axis == Axis::kC ? c_axis : b_axis;
   const Eigen::Vector3d G =
       ball_body_mm(axis, inst) - inst.sign * *inst.bar_mm * inst.direction.body;
-  const Eigen::Vector3d a = M0 * G, b = M1 * G, c = M2 * G;
+  const Eigen::Vector3d a = h.M0 * G, b = h.M1 * G, c = h.M2 * G;
+  const ArcEnds ends(*lo_it, *hi_it);
   double worst = -std::numeric_limits<double>::infinity();
   for (int k = 0; k < 3; ++k) {
-    const auto [mn, mx] = arc_extent(a(k), b(k), c(k), *lo_it, *hi_it);
+    const auto [mn, mx] = arc_extent(a(k), b(k), c(k), ends);
     worst = std::max({worst, kit.travel_mm[k].min - mn, mx - kit.travel_mm[k].max});
   }
   return worst;

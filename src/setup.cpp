@@ -275,10 +275,15 @@ ErrorParts error_parts(const Parameterisation& param, const SetupSolver& solver)
 
 double noncentrality_for_power(int q, int dof, double alpha, double power) {
   namespace bm = boost::math;
-  const double f_crit = bm::quantile(bm::complement(bm::fisher_f(q, dof), alpha));
+  // In double precision throughout (Boost's default promotes to long double, six to twelve
+  // times slower here, for digits far below the bisection's tolerance).
+  using Policy = bm::policies::policy<bm::policies::promote_double<false>>;
+  const double f_crit =
+      bm::quantile(bm::complement(bm::fisher_f_distribution<double, Policy>(q, dof), alpha));
   auto power_at = [&](double lambda) {
     if (lambda <= 0) return alpha;
-    return bm::cdf(bm::complement(bm::non_central_f(q, dof, lambda), f_crit));
+    return bm::cdf(
+        bm::complement(bm::non_central_f_distribution<double, Policy>(q, dof, lambda), f_crit));
   };
   double lo = 0, hi = 1;
   while (power_at(hi) < power && hi < 1e8) hi *= 2;
@@ -289,11 +294,26 @@ double noncentrality_for_power(int q, int dof, double alpha, double power) {
   return hi;
 }
 
-std::optional<double> detection_limit_um(int q, bool detectable, double min_information, int dof,
-                                         const DetectionSettings& settings) {
+namespace {
+
+// detection_limit_um, the noncentrality of each (q, dof) found once when a cache is given.
+std::optional<double> limit_um(int q, bool detectable, double min_information, int dof,
+                               const DetectionSettings& settings,
+                               std::map<std::pair<int, int>, double>* cache) {
   if (!detectable || q <= 0 || dof <= 0 || !(min_information > 0)) return std::nullopt;
   const double alpha = settings.level / std::max(1, settings.n_tests);
-  return std::sqrt(noncentrality_for_power(q, dof, alpha, settings.power) / min_information);
+  if (!cache)
+    return std::sqrt(noncentrality_for_power(q, dof, alpha, settings.power) / min_information);
+  const auto [it, added] = cache->try_emplace({q, dof}, 0.0);
+  if (added) it->second = noncentrality_for_power(q, dof, alpha, settings.power);
+  return std::sqrt(it->second / min_information);
+}
+
+}  // namespace
+
+std::optional<double> detection_limit_um(int q, bool detectable, double min_information, int dof,
+                                         const DetectionSettings& settings) {
+  return limit_um(q, detectable, min_information, dof, settings, nullptr);
 }
 
 namespace {
@@ -353,6 +373,9 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
       if (est.determined(c)) fns.push_back({s, k, c});
     }
   }
+  // The noncentrality for the power depends on (q, dof) alone: the effects of every
+  // installation share a few, each found once.
+  std::map<std::pair<int, int>, double> noncentrality;
   for (const SetupEffect& e : effects) {
     SetupEffectCheck ch;
     ch.label = e.label;
@@ -361,8 +384,8 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
     ch.declared_std_um = e.std_um;
     const SetupEffectInformation info = effect_information(base, w, e);
     ch.detectable = info.detectable;
-    ch.detection_limit_um = detection_limit_um(info.q, info.detectable, info.min_information,
-                                               est.n_readings - est.rank - info.q, settings);
+    ch.detection_limit_um = limit_um(info.q, info.detectable, info.min_information,
+                                     est.n_readings - est.rank - info.q, settings, &noncentrality);
     const Eigen::MatrixXd GX =
         solver.gain_times(e.J_reading_effect);  // p x q: the estimate per um of the effect
     double best = -1;
