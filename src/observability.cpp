@@ -352,19 +352,29 @@ struct PerAngleHarmonics {
         count(n_st, 0),
         phi(n_st),
         Jb(m, 6) {
-    for (double a : design.angles_deg) ++count[param.station_of(a)];
+    for (int st : param.design_stations()) ++count[st];
     for (int st = 0; st < n_st; ++st) {
       double sn = 0, cs = 1;
       sincos_deg(param.station_angle_deg(st), sn, cs);
       phi[st] = Eigen::Vector3d(1.0, cs, sn);
       Phi.noalias() += count[st] * phi[st] * phi[st].transpose();
     }
-    const Eigen::Matrix3d R0 = axis_rotation(design.axis, 0.0),
-                          R90 = axis_rotation(design.axis, 90.0);
-    const Eigen::Matrix3d R180 = axis_rotation(design.axis, 180.0);
-    A0 = 0.5 * (R0 + R180);
-    A1 = 0.5 * (R0 - R180);
-    A2 = R90 - A0;
+    // R(g) = A0 + cos g A1 + sin g A2, per axis once.
+    struct Harmonics {
+      Eigen::Matrix3d A0, A1, A2;
+      explicit Harmonics(Axis axis) {
+        const Eigen::Matrix3d R0 = axis_rotation(axis, 0.0), R90 = axis_rotation(axis, 90.0);
+        const Eigen::Matrix3d R180 = axis_rotation(axis, 180.0);
+        A0 = 0.5 * (R0 + R180);
+        A1 = 0.5 * (R0 - R180);
+        A2 = R90 - A0;
+      }
+    };
+    static const Harmonics c_axis(Axis::kC), b_axis(Axis::kB);
+    const Harmonics& h = design.axis == Axis::kC ? c_axis : b_axis;
+    A0 = h.A0;
+    A1 = h.A1;
+    A2 = h.A2;
     for (int i = 0; i < m; ++i)
       Jb.row(i) = J_reading_error(design.axis, design.installations[i], 0.0);
   }
@@ -392,7 +402,7 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   const Eigen::Matrix3d Ct = Cb->topLeftCorner<3, 3>(), Cr = Cb->bottomRightCorner<3, 3>();
   const Parameterisation param(design);
   std::vector<int> count(param.n_stations(), 0);
-  for (double a : design.angles_deg) ++count[param.station_of(a)];
+  for (int st : param.design_stations()) ++count[st];
   WorstTracker worst(reference_length_mm);
   for (int st = 0; st < param.n_stations(); ++st) {
     const Eigen::Matrix3d R = axis_rotation(design.axis, param.station_angle_deg(st));

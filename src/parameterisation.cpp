@@ -41,13 +41,17 @@ std::string format_angle(double a) {
 
 Parameterisation::Parameterisation(const Design& design)
     : axis_(design.axis), model_(design.errors) {
+  design_stations_.reserve(design.angles_deg.size());
   for (double a : design.angles_deg) {
-    if (station_of(a) < 0) {
+    int s = station_of(a);
+    if (s < 0) {
       const double k = key_of(a);
+      s = static_cast<int>(station_deg_.size());
       index_.insert(std::lower_bound(index_.begin(), index_.end(), std::pair<double, int>(k, -1)),
-                    {k, static_cast<int>(station_deg_.size())});
+                    {k, s});
       station_deg_.push_back(a);
     }
+    design_stations_.push_back(s);
   }
   lo_deg_ = *std::min_element(design.angles_deg.begin(), design.angles_deg.end());
   hi_deg_ = *std::max_element(design.angles_deg.begin(), design.angles_deg.end());

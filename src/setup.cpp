@@ -6,6 +6,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 #include <boost/math/distributions/fisher_f.hpp>
 #include <boost/math/distributions/non_central_f.hpp>
+#include <boost/math/tools/toms748_solve.hpp>
 #include <cmath>
 #include <map>
 #include <stdexcept>
@@ -16,7 +17,7 @@ namespace dbbkit {
 
 namespace {
 
-// The noncentrality for a power is bisected until hi - lo <= kBisection hi.
+// The noncentrality for a power is bracketed until hi - lo <= kBisection hi.
 constexpr double kBisection = 1e-9;
 // A set-up effect moves no error when its largest bias b (error unit per um) <= kNoBias.
 constexpr double kNoBias = 1e-12;
@@ -286,12 +287,20 @@ double noncentrality_for_power(int q, int dof, double alpha, double power) {
         bm::complement(bm::non_central_f_distribution<double, Policy>(q, dof, lambda), f_crit));
   };
   double lo = 0, hi = 1;
-  while (power_at(hi) < power && hi < 1e8) hi *= 2;
-  for (int it = 0; it < 200 && hi - lo > kBisection * hi; ++it) {
-    const double mid = 0.5 * (lo + hi);
-    (power_at(mid) < power ? lo : hi) = mid;
-  }
-  return hi;
+  double f_hi = power_at(hi) - power;
+  while (f_hi < 0 && hi < 1e8) lo = hi, hi *= 2, f_hi = power_at(hi) - power;
+  if (f_hi < 0) return hi;
+  // The power rises with the noncentrality: the root in [lo, hi] by TOMS 748 (Alefeld, Potra
+  // and Shi), to the same relative width as the bisection it replaces, in a few evaluations
+  // of the noncentral F instead of about 35; the upper end, where the power is reached.
+  const double f_lo = power_at(lo) - power;
+  if (!(f_lo < 0)) return lo;
+  std::uintmax_t iterations = 200;
+  const auto bracket = bm::tools::toms748_solve(
+      [&](double lambda) { return power_at(lambda) - power; }, lo, hi, f_lo, f_hi,
+      [](double a, double b) { return std::abs(b - a) <= kBisection * std::max(a, b); },
+      iterations);
+  return bracket.second;
 }
 
 namespace {

@@ -12,6 +12,7 @@
 #include <Eigen/QR>
 #include <Eigen/SVD>
 #include <boost/math/distributions/fisher_f.hpp>
+#include <boost/math/distributions/non_central_f.hpp>
 #include <boost/math/distributions/normal.hpp>
 #include <random>
 
@@ -565,6 +566,27 @@ TEST(LeftGain, IsTheEstimatesResponseAndItsRowNormsAreFormedWithoutIt) {
       const Eigen::VectorXd l1 = setup.left_gain_l1(FunctionRows(C.sparseView()));
       const Eigen::VectorXd expected = A.rowwise().lpNorm<1>();
       EXPECT_TRUE(test::near(l1, expected, 1e-12 * expected.maxCoeff(), 1e-10)) << tolerances;
+    }
+  }
+}
+
+// The noncentrality for a power is the root of power(lambda) = target to a relative width of
+// 1e-9, on its upper side: checked against Boost's noncentral F in its default (long double)
+// precision, independently of the double-precision evaluation and the root finder used.
+TEST(Noncentrality, ReachesThePowerWithinTheRootsWidth) {
+  namespace bm = boost::math;
+  for (int q : {1, 2, 3, 6}) {
+    for (int dof : {3, 30, 500}) {
+      for (double power : {0.5, 0.9, 0.99}) {
+        const double alpha = 0.05 / 14;
+        const double lambda = noncentrality_for_power(q, dof, alpha, power);
+        const double f_crit = bm::quantile(bm::complement(bm::fisher_f(q, dof), alpha));
+        auto power_at = [&](double l) {
+          return bm::cdf(bm::complement(bm::non_central_f(q, dof, l), f_crit));
+        };
+        EXPECT_GE(power_at(lambda), power - 1e-12) << q << " " << dof << " " << power;
+        EXPECT_LE(power_at(lambda * (1 - 2e-9)), power + 1e-12) << q << " " << dof << " " << power;
+      }
     }
   }
 }

@@ -39,6 +39,8 @@ class Parameterisation {
   double station_angle_deg(int station) const { return station_deg_[station]; }
   // The station of an angle, or -1 when the angle is no position of the design.
   int station_of(double angle_deg) const;
+  // The station of each of the design's angles, in its order (found once, on construction).
+  const std::vector<int>& design_stations() const { return design_stations_; }
 
   // The six errors at a station as functions of theta, sparse (n_parameters x 6, column k
   // is error k, on the coefficients it reads: its station's one for a per-angle model), and
@@ -68,6 +70,7 @@ class Parameterisation {
   Axis axis_;
   ErrorModel model_;
   std::vector<double> station_deg_;
+  std::vector<int> design_stations_;
   std::vector<std::pair<double, int>>
       index_;                             // (angle key, station), sorted: station_of in O(log n)
   double key_of(double angle_deg) const;  // C: angle modulo 360 in [0, 360); B: the angle
