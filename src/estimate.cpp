@@ -282,6 +282,29 @@ std::shared_ptr<const Jacobian> compressed(const Jacobian& J) {
   return c;
 }
 
+// The covariance (theta units) from its dense blocks, one per independent block of the model
+// (zero where the block has no rank): the sparse matrix, and each unknown's block and place.
+void set_covariance(Estimate& est, const std::vector<WlsSolver::Block>& blocks,
+                    std::vector<Eigen::MatrixXd> dense, int p) {
+  std::vector<Eigen::Triplet<double>> entries;
+  est.covariance_block_of.assign(static_cast<std::size_t>(p), -1);
+  est.covariance_local.assign(static_cast<std::size_t>(p), -1);
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    const std::vector<int>& cols = blocks[b].cols;
+    for (std::size_t x = 0; x < cols.size(); ++x) {
+      est.covariance_block_of[static_cast<std::size_t>(cols[x])] = static_cast<int>(b);
+      est.covariance_local[static_cast<std::size_t>(cols[x])] = static_cast<int>(x);
+      for (std::size_t y = 0; y < cols.size(); ++y) {
+        const double v = dense[b](static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y));
+        if (v != 0.0) entries.emplace_back(cols[x], cols[y], v);
+      }
+    }
+  }
+  est.covariance.resize(p, p);
+  est.covariance.setFromTriplets(entries.begin(), entries.end());
+  est.covariance_blocks = std::move(dense);
+}
+
 }  // namespace
 
 WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
@@ -448,18 +471,11 @@ void WlsSolver::factorise(const EstimateOptions& options) {
     est.normal_equation_blocks += svds[b].normal;
   }
 
-  std::vector<Eigen::Triplet<double>> gain_entries, cov_entries, null_entries;
-  est.covariance_block_of.assign(static_cast<std::size_t>(p), -1);
-  est.covariance_local.assign(static_cast<std::size_t>(p), -1);
-  est.covariance_blocks.resize(static_cast<std::size_t>(n_blocks));
+  std::vector<Eigen::Triplet<double>> gain_entries, null_entries;
+  std::vector<Eigen::MatrixXd> covariance_blocks(static_cast<std::size_t>(n_blocks));
   for (int b = 0; b < n_blocks; ++b) {
-    const Block& blk = blocks_[b];
-    const Eigen::Index c = static_cast<Eigen::Index>(blk.cols.size());
-    est.covariance_blocks[static_cast<std::size_t>(b)] = Eigen::MatrixXd::Zero(c, c);
-    for (Eigen::Index a = 0; a < c; ++a) {
-      est.covariance_block_of[static_cast<std::size_t>(blk.cols[a])] = b;
-      est.covariance_local[static_cast<std::size_t>(blk.cols[a])] = static_cast<int>(a);
-    }
+    const Eigen::Index c = static_cast<Eigen::Index>(blocks_[b].cols.size());
+    covariance_blocks[static_cast<std::size_t>(b)] = Eigen::MatrixXd::Zero(c, c);
   }
   std::vector<double> all_s;
   all_s.reserve(static_cast<std::size_t>(p));
@@ -480,7 +496,7 @@ void WlsSolver::factorise(const EstimateOptions& options) {
       const Eigen::MatrixXd g =
           d.normal ? Eigen::MatrixXd(c * d.sub.transpose())  // scaled, whitened
                    : Eigen::MatrixXd(Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose());
-      est.covariance_blocks[static_cast<std::size_t>(b)] =
+      covariance_blocks[static_cast<std::size_t>(b)] =
           unscale(blk.cols).asDiagonal() * c * unscale(blk.cols).asDiagonal();
       for (std::size_t a = 0; a < blk.cols.size(); ++a) {
         const int ja = blk.cols[a];
@@ -489,12 +505,6 @@ void WlsSolver::factorise(const EstimateOptions& options) {
                            g(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(rr)) *
                            w(blk.rows[rr]);
           if (v != 0.0) gain_entries.emplace_back(ja, blk.rows[rr], v);
-        }
-        for (std::size_t c2 = 0; c2 < blk.cols.size(); ++c2) {
-          const double v = unscale(ja) *
-                           c(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(c2)) *
-                           unscale(blk.cols[c2]);
-          if (v != 0.0) cov_entries.emplace_back(ja, blk.cols[c2], v);
         }
       }
     }
@@ -507,7 +517,7 @@ void WlsSolver::factorise(const EstimateOptions& options) {
   }
   Gain::Sparse G0(p, n);
   G0.setFromTriplets(gain_entries.begin(), gain_entries.end());
-  est.covariance.setFromTriplets(cov_entries.begin(), cov_entries.end());
+  set_covariance(est, blocks_, std::move(covariance_blocks), p);
   if (border_.empty()) {
     gain_ = Gain(std::move(G0), Eigen::MatrixXd(), Eigen::MatrixXd());
   } else {
@@ -741,33 +751,10 @@ bool WlsSolver::factorise_series(const std::shared_ptr<const SeriesRows>& series
   }
   if (!(s_min > options.min_relative_singular_value * s_max)) return false;  // rank deficient
 
-  std::vector<Eigen::Triplet<double>> cov_entries;
-  cov_entries.reserve(static_cast<std::size_t>(p) * static_cast<std::size_t>(p));
-  for (std::size_t b = 0; b < blocks.size(); ++b) {
-    const Block& blk = blocks[b];
-    for (std::size_t x = 0; x < blk.cols.size(); ++x) {
-      for (std::size_t y = 0; y < blk.cols.size(); ++y) {
-        const int jx = blk.cols[x], jy = blk.cols[y];
-        const double v = unscale(jx) *
-                         inverse[b](static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y)) *
-                         unscale(jy);
-        if (v != 0.0) cov_entries.emplace_back(jx, jy, v);
-      }
-    }
-  }
-  est.covariance.resize(p, p);
-  est.covariance.setFromTriplets(cov_entries.begin(), cov_entries.end());
-  est.covariance_block_of.assign(static_cast<std::size_t>(p), -1);
-  est.covariance_local.assign(static_cast<std::size_t>(p), -1);
-  for (std::size_t b = 0; b < blocks.size(); ++b) {
-    const Block& blk = blocks[b];
-    for (std::size_t x = 0; x < blk.cols.size(); ++x) {
-      est.covariance_block_of[static_cast<std::size_t>(blk.cols[x])] = static_cast<int>(b);
-      est.covariance_local[static_cast<std::size_t>(blk.cols[x])] = static_cast<int>(x);
-    }
-    inverse[b] = unscale(blk.cols).asDiagonal() * inverse[b] * unscale(blk.cols).asDiagonal();
-  }
-  est.covariance_blocks = std::move(inverse);
+  for (std::size_t b = 0; b < blocks.size(); ++b)
+    inverse[b] =
+        unscale(blocks[b].cols).asDiagonal() * inverse[b] * unscale(blocks[b].cols).asDiagonal();
+  set_covariance(est, blocks, std::move(inverse), p);
   est.null_space_scaled.resize(p, 0);
   std::sort(all_s.begin(), all_s.end(), std::greater<double>());
   est.singular_values =

@@ -44,6 +44,20 @@ Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg) {
   return R;
 }
 
+const RotationHarmonics& rotation_harmonics(Axis axis) {
+  auto make = [](Axis a) {
+    const Eigen::Matrix3d R0 = axis_rotation(a, 0.0), R90 = axis_rotation(a, 90.0),
+                          R180 = axis_rotation(a, 180.0);
+    RotationHarmonics h;
+    h.A0 = 0.5 * (R0 + R180);
+    h.A1 = 0.5 * (R0 - R180);
+    h.A2 = R90 - h.A0;
+    return h;
+  };
+  static const RotationHarmonics c_axis = make(Axis::kC), b_axis = make(Axis::kB);
+  return axis == Axis::kC ? c_axis : b_axis;
+}
+
 Eigen::Vector3d ball_body_mm(Axis axis, const Installation& inst) {
   if (axis == Axis::kC) return {inst.L_mm, inst.D_mm, inst.H_mm};
   return {0.0, inst.D_mm, inst.L_mm};

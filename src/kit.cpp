@@ -405,20 +405,10 @@ double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst,
                            const std::vector<double>& angles_deg) {
   if (angles_deg.empty() || !inst.bar_mm) return 0.0;
   const auto [lo_it, hi_it] = std::minmax_element(angles_deg.begin(), angles_deg.end());
-  // R(g) = M0 + cos g M1 + sin g M2 for a rotation about a fixed axis (per axis, once).
-  struct Harmonics {
-    Eigen::Matrix3d M0, M1, M2;
-    explicit Harmonics(Axis axis) {
-      const Eigen::Matrix3d R0 = axis_rotation(axis, 0), R90 = axis_rotation(axis, 90),
-                            R180 = axis_rotation(axis, 180);
-      M0 = 0.5 * (R0 + R180), M1 = 0.5 * (R0 - R180), M2 = R90 - M0;
-    }
-  };
-  static const Harmonics c_axis(Axis::kC), b_axis(Axis::kB);
-  const Harmonics& h = axis == Axis::kC ? c_axis : b_axis;
+  const RotationHarmonics& h = rotation_harmonics(axis);  // R(g) = A0 + cos g A1 + sin g A2
   const Eigen::Vector3d G =
       ball_body_mm(axis, inst) - inst.sign * *inst.bar_mm * inst.direction.body;
-  const Eigen::Vector3d a = h.M0 * G, b = h.M1 * G, c = h.M2 * G;
+  const Eigen::Vector3d a = h.A0 * G, b = h.A1 * G, c = h.A2 * G;
   const ArcEnds ends(*lo_it, *hi_it);
   double worst = -std::numeric_limits<double>::infinity();
   for (int k = 0; k < 3; ++k) {

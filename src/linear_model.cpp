@@ -50,7 +50,7 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
   m.row_station.reserve(static_cast<std::size_t>(n));
   m.row_angle_deg.reserve(static_cast<std::size_t>(n));
   // A series: the basis once per distinct angle, the rows factored (SeriesRows).
-  auto series = std::make_shared<SeriesRows>();
+  std::shared_ptr<SeriesRows> series = per_angle ? nullptr : std::make_shared<SeriesRows>();
   std::vector<Eigen::VectorXd> basis;
   std::unordered_map<double, int> basis_of;
   if (!per_angle) {

@@ -246,8 +246,8 @@ struct Accumulator {
       hi[0] = std::max(hi[0], v);
       bl += v < l0;
       bh += v < h0;
-      if (v >= l0 && v < l1) wl.pending.push_back(v);
-      if (v >= h0 && v < h1) wh.pending.push_back(v);
+      if (wl.inside(v)) wl.pending.push_back(v);
+      if (wh.inside(v)) wh.pending.push_back(v);
     }
     for (int l = 0; l < 4; ++l) {
       min = std::min(min, static_cast<double>(lo[l]));
@@ -281,21 +281,18 @@ Stats kept_batch_stats(const float* x, long m, Accumulator& acc, const Kept& kep
   s.std = kept.std;
   const auto [lo, hi] = interval_ranks(m, p);
   const std::array<long, 2> rank = {lo, hi};
-  std::vector<float> all;
   for (int e = 0; e < 2; ++e) {
     std::vector<float>& pending = acc.windows[e].pending;
     const auto in = pending.begin() + static_cast<std::ptrdiff_t>(kept.first[e]);
     const long k = rank[e] - static_cast<long>(kept.below[e]);
-    float value;
-    if (k >= 0 && k < pending.end() - in) {
-      std::nth_element(in, in + k, pending.end());  // reorders this batch's pending trials only
-      value = in[k];
-    } else {
-      if (all.empty()) all.assign(x, x + m);
-      std::nth_element(all.begin(), all.begin() + rank[e], all.end());
-      value = all[rank[e]];
+    if (!(k >= 0 && k < pending.end() - in)) {  // outside the window: the whole batch
+      const Stats whole = batch_stats(std::vector<float>(x, x + m), p);
+      s.low = whole.low;
+      s.high = whole.high;
+      return s;
     }
-    (e == 0 ? s.low : s.high) = value;
+    std::nth_element(in, in + k, pending.end());  // reorders this batch's pending trials only
+    (e == 0 ? s.low : s.high) = in[k];
   }
   return s;
 }
@@ -534,13 +531,11 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
           const double h = window_half_width(sample, at, s.std, s.mean, p);
           acc[v].windows[e].reset(at - h, at + h);
         }
-        acc[v].add_batch(x, batch, nullptr);
-      } else if (options.adaptive) {
-        acc[v].add_batch(x, batch, &kept[v]);
-        history[v].push_back(kept_batch_stats(x, batch, acc[v], kept[v], p));
-      } else {
-        acc[v].add_batch(x, batch, nullptr);
       }
+      // After the first batch, an adaptive run's batch estimates come from the trials kept.
+      Kept* k = !first && options.adaptive ? &kept[static_cast<std::size_t>(v)] : nullptr;
+      acc[v].add_batch(x, batch, k);
+      if (k) history[v].push_back(kept_batch_stats(x, batch, acc[v], *k, p));
       for (Window& w : acc[v].windows) {
         if (w.pending.size() >= kFlush) w.flush();
       }

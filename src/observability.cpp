@@ -359,19 +359,7 @@ struct PerAngleHarmonics {
       phi[st] = Eigen::Vector3d(1.0, cs, sn);
       Phi.noalias() += count[st] * phi[st] * phi[st].transpose();
     }
-    // R(g) = A0 + cos g A1 + sin g A2, per axis once.
-    struct Harmonics {
-      Eigen::Matrix3d A0, A1, A2;
-      explicit Harmonics(Axis axis) {
-        const Eigen::Matrix3d R0 = axis_rotation(axis, 0.0), R90 = axis_rotation(axis, 90.0);
-        const Eigen::Matrix3d R180 = axis_rotation(axis, 180.0);
-        A0 = 0.5 * (R0 + R180);
-        A1 = 0.5 * (R0 - R180);
-        A2 = R90 - A0;
-      }
-    };
-    static const Harmonics c_axis(Axis::kC), b_axis(Axis::kB);
-    const Harmonics& h = design.axis == Axis::kC ? c_axis : b_axis;
+    const RotationHarmonics& h = rotation_harmonics(design.axis);
     A0 = h.A0;
     A1 = h.A1;
     A2 = h.A2;

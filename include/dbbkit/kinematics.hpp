@@ -27,6 +27,13 @@ void sincos_deg(double angle_deg, double& s, double& c);
 // Rotation of the axis at `angle_deg`: Rz for C, Ry for B.
 Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg);
 
+// The rotation about the axis as harmonics of the angle: R(g) = A0 + cos g A1 + sin g A2,
+// A0 = (R(0) + R(180)) / 2, A1 = (R(0) - R(180)) / 2, A2 = R(90) - A0 (formed once per axis).
+struct RotationHarmonics {
+  Eigen::Matrix3d A0, A1, A2;
+};
+const RotationHarmonics& rotation_harmonics(Axis axis);
+
 // Ball position in the body frame (= machine frame at angle 0):
 // C: (L, D, H) (model.md §3); B: (0, D, L), so that P(b) = (L sin b, D, L cos b) (§4).
 Eigen::Vector3d ball_body_mm(Axis axis, const Installation& inst);
