@@ -69,6 +69,15 @@ void BM_WorstTotalPaperC(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_WorstTotalPaperC)->Unit(benchmark::kMicrosecond);
+// The same as the search scores it: the stations of its angles formed once for every candidate.
+void BM_WorstTotalPaperCStationsGiven(benchmark::State& state) {
+  const Design d = paper_c_with_setup();
+  const AngleStations stations(d.axis, d.angles_deg);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(fast_worst_total(d, 100.0, false, &stations)->total.worst_std_um);
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_WorstTotalPaperCStationsGiven)->Unit(benchmark::kMicrosecond);
 // The same pair on the design the search chose for the kit with set-up tolerances
 // (12 installations, 37 angles): the size the search scores.
 Design setup_kit_design() {

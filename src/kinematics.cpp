@@ -11,10 +11,12 @@ double rad(double deg) { return deg * kPi / 180.0; }
 }  // namespace
 
 void sincos_deg(double angle_deg, double& s, double& c) {
-  double a = std::fmod(angle_deg, 360.0);
+  // fmod is exact and returns an angle already in [0, 360) unchanged: skipped for those.
+  double a = angle_deg >= 0.0 && angle_deg < 360.0 ? angle_deg : std::fmod(angle_deg, 360.0);
   if (a < 0) a += 360.0;
-  const int quadrant = static_cast<int>(std::lround(a / 90.0)) % 4;
-  const double r = rad(a - 90.0 * std::lround(a / 90.0));  // |r| <= 45 deg
+  const double q = std::round(a / 90.0);  // halves away from zero, as lround
+  const int quadrant = static_cast<int>(q) % 4;
+  const double r = rad(a - 90.0 * q);  // |r| <= 45 deg
   const double sr = r == 0 ? 0.0 : std::sin(r), cr = r == 0 ? 1.0 : std::cos(r);
   switch (quadrant) {
     case 0:
@@ -35,6 +37,10 @@ void sincos_deg(double angle_deg, double& s, double& c) {
 Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg) {
   double s, c;
   sincos_deg(angle_deg, s, c);
+  return axis_rotation_sc(axis, s, c);
+}
+
+Eigen::Matrix3d axis_rotation_sc(Axis axis, double s, double c) {
   Eigen::Matrix3d R;
   if (axis == Axis::kC) {
     R << c, -s, 0, s, c, 0, 0, 0, 1;

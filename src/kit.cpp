@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
@@ -29,7 +30,8 @@ constexpr double kMaxAngles = 100000;
 // (sin, cos) of the arc's two ends, found once for its three coordinates.
 struct ArcEnds {
   double lo_deg, hi_deg, s_lo, c_lo, s_hi, c_hi;
-  ArcEnds(double lo, double hi) : lo_deg(lo), hi_deg(hi) {
+  bool full;  // a whole turn or more: every angle is on the arc
+  ArcEnds(double lo, double hi) : lo_deg(lo), hi_deg(hi), full(hi - lo >= 360.0) {
     sincos_deg(lo, s_lo, c_lo);
     sincos_deg(hi, s_hi, c_hi);
   }
@@ -41,7 +43,10 @@ std::pair<double, double> arc_extent(double a, double b, double c, const ArcEnds
   const double v1 = a + b * ends.c_hi + c * ends.s_hi;
   double mn = std::min(v0, v1), mx = std::max(v0, v1);
   const double amp = std::hypot(b, c);
-  if (amp > 0) {
+  if (amp > 0 && ends.full) {
+    mx = std::max(mx, a + amp);
+    mn = std::min(mn, a - amp);
+  } else if (amp > 0) {
     const double g_max =
         std::atan2(c, b) * 180.0 / 3.14159265358979323846;  // where the value is a + amp
     for (const double g : {g_max, g_max + 180.0}) {
@@ -57,6 +62,18 @@ std::pair<double, double> arc_extent(double a, double b, double c, const ArcEnds
     }
   }
   return {mn, mx};
+}
+
+// The travel violation of the following ball's path G turned over the arc (travel_violation_mm).
+double arc_travel_violation(const Kit& kit, const RotationHarmonics& h, const Eigen::Vector3d& G,
+                            const ArcEnds& ends) {
+  const Eigen::Vector3d a = h.A0 * G, b = h.A1 * G, c = h.A2 * G;
+  double worst = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    const auto [mn, mx] = arc_extent(a(k), b(k), c(k), ends);
+    worst = std::max({worst, kit.travel_mm[k].min - mn, mx - kit.travel_mm[k].max});
+  }
+  return worst;
 }
 
 }  // namespace
@@ -405,32 +422,66 @@ double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst,
                            const std::vector<double>& angles_deg) {
   if (angles_deg.empty() || !inst.bar_mm) return 0.0;
   const auto [lo_it, hi_it] = std::minmax_element(angles_deg.begin(), angles_deg.end());
-  const RotationHarmonics& h = rotation_harmonics(axis);  // R(g) = A0 + cos g A1 + sin g A2
   const Eigen::Vector3d G =
       ball_body_mm(axis, inst) - inst.sign * *inst.bar_mm * inst.direction.body;
-  const Eigen::Vector3d a = h.A0 * G, b = h.A1 * G, c = h.A2 * G;
-  const ArcEnds ends(*lo_it, *hi_it);
-  double worst = -std::numeric_limits<double>::infinity();
-  for (int k = 0; k < 3; ++k) {
-    const auto [mn, mx] = arc_extent(a(k), b(k), c(k), ends);
-    worst = std::max({worst, kit.travel_mm[k].min - mn, mx - kit.travel_mm[k].max});
-  }
-  return worst;
+  // R(g) = A0 + cos g A1 + sin g A2
+  return arc_travel_violation(kit, rotation_harmonics(axis), G, ArcEnds(*lo_it, *hi_it));
 }
+
+namespace {
+
+// The kit's bars, shortest first (the kit's own list when it is sorted already).
+const std::vector<double>& sorted_bars(const Kit& kit, std::vector<double>& storage) {
+  if (std::is_sorted(kit.bars_mm.begin(), kit.bars_mm.end())) return kit.bars_mm;
+  storage = kit.bars_mm;
+  std::sort(storage.begin(), storage.end());
+  return storage;
+}
+
+// The arc the angles span (absent without angles).
+std::optional<ArcEnds> arc_of(const std::vector<double>& angles_deg) {
+  if (angles_deg.empty()) return std::nullopt;
+  const auto [lo_it, hi_it] = std::minmax_element(angles_deg.begin(), angles_deg.end());
+  return ArcEnds(*lo_it, *hi_it);
+}
+
+double fit_bar_on(const Kit& kit, Axis axis, Installation& inst, const std::vector<double>& bars,
+                  const std::optional<ArcEnds>& ends);
+
+}  // namespace
 
 double fit_bar(const Kit& kit, Axis axis, Installation& inst,
                const std::vector<double>& angles_deg) {
-  std::vector<double> bars = kit.bars_mm;
-  std::sort(bars.begin(), bars.end());
+  std::vector<double> storage;
+  return fit_bar_on(kit, axis, inst, sorted_bars(kit, storage), arc_of(angles_deg));
+}
+
+double fit_bars(const Kit& kit, Design& design) {
+  std::vector<double> storage;
+  const std::vector<double>& bars = sorted_bars(kit, storage);
+  const std::optional<ArcEnds> ends = arc_of(design.angles_deg);
+  double worst = -std::numeric_limits<double>::infinity();
+  for (Installation& in : design.installations)
+    worst = std::max(worst, fit_bar_on(kit, design.axis, in, bars, ends));
+  return worst;
+}
+
+namespace {
+
+// fit_bar with the bars sorted and the arc formed.
+double fit_bar_on(const Kit& kit, Axis axis, Installation& inst, const std::vector<double>& bars,
+                  const std::optional<ArcEnds>& ends) {
   double best = std::numeric_limits<double>::infinity();
   double best_bar = bars.front();
   int best_sign = 1;
+  // Each bar and sign moves only the following ball.
+  const RotationHarmonics& h = rotation_harmonics(axis);
+  const Eigen::Vector3d ball = ball_body_mm(axis, inst);
   for (double bar : bars) {
     for (int sign : {1, -1}) {
-      Installation t = inst;
-      t.bar_mm = bar;
-      t.sign = sign;
-      const double v = travel_violation_mm(kit, axis, t, angles_deg);
+      const double v =
+          ends ? arc_travel_violation(kit, h, ball - sign * bar * inst.direction.body, *ends)
+               : 0.0;  // no angle: nothing turns (travel_violation_mm)
       if (v <= 0) {
         inst.bar_mm = bar;
         inst.sign = sign;
@@ -443,5 +494,7 @@ double fit_bar(const Kit& kit, Axis axis, Installation& inst,
   inst.sign = best_sign;
   return best;
 }
+
+}  // namespace
 
 }  // namespace dbbkit

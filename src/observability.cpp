@@ -216,10 +216,11 @@ namespace {
 // 1e-3 R (P x u)). So the information of one angle is T Mb T' with Mb the body-frame
 // information, and a station met n times has the covariance T Mb^-1 T' / n: one 6 x 6
 // inverse serves every angle. Absent when the design is near rank loss (below).
-std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Design& design) {
+// Mbm: body_information(design), or the same sum from the body-frame rows.
+std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(
+    const Design& design, const Eigen::Matrix<double, 6, 6>& Mbm) {
   if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::kPerAngle)
     return std::nullopt;
-  const Eigen::Matrix<double, 6, 6> Mbm = body_information(design);
   double Mb[6][6];
   for (int j = 0; j < 6; ++j) {
     for (int k = 0; k < 6; ++k) Mb[j][k] = Mbm(j, k);
@@ -246,6 +247,11 @@ std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Desig
     for (int k = 0; k < 6; ++k) C(j, k) = sc[j] * Ai[j][k] * sc[k];
   }
   return C;
+}
+std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Design& design) {
+  if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::kPerAngle)
+    return std::nullopt;
+  return per_angle_body_covariance(design, body_information(design));
 }
 
 // An orthonormal basis U (m x (m - 6)) of the complement of the range of A (m x 6, full
@@ -335,7 +341,7 @@ void block_grams(const Rhs18& A, std::array<Eigen::Matrix<double, 9, 9>, 2>& out
 // rotation as R(g) = A0 + cos g A1 + sin g A2 (a rotation about a fixed axis); the
 // body-frame rows Jb and the weight w of the one noise.
 struct PerAngleHarmonics {
-  Parameterisation param;
+  const AngleStations& st;
   int m = 0, n_st = 0;
   double w = 0;
   std::vector<int> count;
@@ -344,20 +350,18 @@ struct PerAngleHarmonics {
   Eigen::Matrix3d A0, A1, A2;
   Eigen::Matrix<double, Eigen::Dynamic, 6> Jb;
 
-  explicit PerAngleHarmonics(const Design& design)
-      : param(design),
+  // stations: the design's (AngleStations::serves).
+  PerAngleHarmonics(const Design& design, const AngleStations& stations)
+      : st(stations),
         m(static_cast<int>(design.installations.size())),
-        n_st(param.n_stations()),
+        n_st(stations.n_stations()),
         w(1.0 / (design.noise.sigma_um() * design.noise.sigma_um())),
-        count(n_st, 0),
+        count(stations.count),
         phi(n_st),
         Jb(m, 6) {
-    for (int st : param.design_stations()) ++count[st];
-    for (int st = 0; st < n_st; ++st) {
-      double sn = 0, cs = 1;
-      sincos_deg(param.station_angle_deg(st), sn, cs);
-      phi[st] = Eigen::Vector3d(1.0, cs, sn);
-      Phi.noalias() += count[st] * phi[st] * phi[st].transpose();
+    for (int k = 0; k < n_st; ++k) {
+      phi[k] = Eigen::Vector3d(1.0, stations.cos[k], stations.sin[k]);
+      Phi.noalias() += count[k] * phi[k] * phi[k].transpose();
     }
     const RotationHarmonics& h = rotation_harmonics(design.axis);
     A0 = h.A0;
@@ -377,9 +381,39 @@ struct PerAngleHarmonics {
   }
 };
 
+// The stations given when they serve the design, else its own (formed in own).
+const AngleStations& stations_of(const Design& design, const AngleStations* given,
+                                 std::optional<AngleStations>& own) {
+  if (given && given->serves(design)) return *given;
+  return own.emplace(design.axis, design.angles_deg);
+}
+
 }  // namespace
 
-std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm) {
+AngleStations::AngleStations(Axis axis_, const std::vector<double>& angles)
+    : axis(axis_), angles_deg(angles) {
+  Design d;
+  d.axis = axis;
+  d.angles_deg = angles;
+  d.errors.kind = ErrorModel::Kind::kPerAngle;
+  const Parameterisation param(d);
+  count.assign(param.n_stations(), 0);
+  for (int k : param.design_stations()) ++count[k];
+  station_deg.resize(param.n_stations());
+  sin.resize(param.n_stations());
+  cos.resize(param.n_stations());
+  for (int k = 0; k < param.n_stations(); ++k) {
+    station_deg[k] = param.station_angle_deg(k);
+    sincos_deg(station_deg[k], sin[k], cos[k]);
+  }
+}
+
+bool AngleStations::serves(const Design& design) const {
+  return design.axis == axis && design.angles_deg == angles_deg;
+}
+
+std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm,
+                                         const AngleStations* stations) {
   if (design.installations.empty()) return std::nullopt;
   // Declared set-up tolerances change the estimate (setup.hpp): fast_worst_total answers.
   if (design.setup_nuisance_declared()) return std::nullopt;
@@ -388,24 +422,48 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design);
   if (!Cb) return std::nullopt;
   const Eigen::Matrix3d Ct = Cb->topLeftCorner<3, 3>(), Cr = Cb->bottomRightCorner<3, 3>();
-  const Parameterisation param(design);
-  std::vector<int> count(param.n_stations(), 0);
-  for (int st : param.design_stations()) ++count[st];
+  std::optional<AngleStations> own;
+  const AngleStations& at = stations_of(design, stations, own);
+  // The diagonal of R C R' with R = A0 + cos g A1 + sin g A2: row k of R is sum_h phi_h a_hk
+  // (a_hk the row k of A_h, phi = (1, cos g, sin g)), so the variance of error k is
+  // phi' Q_k phi, Q_k(h, l) = a_hk' C a_lk: six monomials (1, c, s, c^2, c s, s^2) per
+  // error, their coefficients formed once.
+  const RotationHarmonics& rh = rotation_harmonics(design.axis);
+  const Eigen::Matrix3d* A[3] = {&rh.A0, &rh.A1, &rh.A2};
+  double coef[6][6];  // [monomial][error]
+  for (int e = 0; e < 6; ++e) {
+    const Eigen::Matrix3d& C = e < 3 ? Ct : Cr;
+    Eigen::Matrix3d Q;
+    for (int h = 0; h < 3; ++h) {
+      for (int l = 0; l < 3; ++l) Q(h, l) = A[h]->row(e % 3).dot(C * A[l]->row(e % 3).transpose());
+    }
+    coef[0][e] = Q(0, 0);
+    coef[1][e] = Q(0, 1) + Q(1, 0);
+    coef[2][e] = Q(0, 2) + Q(2, 0);
+    coef[3][e] = Q(1, 1);
+    coef[4][e] = Q(1, 2) + Q(2, 1);
+    coef[5][e] = Q(2, 2);
+  }
   WorstTracker worst(reference_length_mm);
-  for (int st = 0; st < param.n_stations(); ++st) {
-    const Eigen::Matrix3d R = axis_rotation(design.axis, param.station_angle_deg(st));
-    const Eigen::Vector3d vt = (R * Ct * R.transpose()).diagonal(),
-                          vr = (R * Cr * R.transpose()).diagonal();
-    for (int k = 0; k < 6; ++k)
-      worst.add(param.station_angle_deg(st), k, (k < 3 ? vt(k) : vr(k - 3)) / count[st]);
+  for (int st = 0; st < at.n_stations(); ++st) {
+    const double c = at.cos[st], s = at.sin[st];
+    const double mono[6] = {1.0, c, s, c * c, c * s, s * s};
+    double v[6];
+    for (int e = 0; e < 6; ++e) v[e] = coef[0][e];
+    for (int u = 1; u < 6; ++u) {
+      for (int e = 0; e < 6; ++e) v[e] += coef[u][e] * mono[u];
+    }
+    const double inv_n = 1.0 / at.count[st];
+    for (int e = 0; e < 6; ++e) worst.add(at.station_deg[st], e, v[e] * inv_n);
   }
   return worst.result();
 }
 
 std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm,
-                                               bool with_noise_part) {
+                                               bool with_noise_part,
+                                               const AngleStations* stations) {
   if (!design.setup_nuisance_declared()) {
-    const std::optional<WorstCase> w = fast_worst_case(design, reference_length_mm);
+    const std::optional<WorstCase> w = fast_worst_case(design, reference_length_mm, stations);
     if (!w) return std::nullopt;
     return TotalWorstCase{*w, *w};
   }
@@ -439,10 +497,15 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   // K P K' - F'F is a difference: a prior far larger than what the readings leave sends
   // the design to the general path (below). Tested against dense_worst_total, whose
   // set-up columns are J_reading_effect's at every angle.
-  const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design);
+  if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::kPerAngle)
+    return std::nullopt;
+  std::optional<AngleStations> own;
+  const PerAngleHarmonics h(design, stations_of(design, stations, own));
+  // body_information from the body-frame rows (the same products: the sign squares away).
+  Eigen::Matrix<double, 6, 6> Mb = Eigen::Matrix<double, 6, 6>::Zero();
+  for (int i = 0; i < h.m; ++i) Mb.noalias() += h.w * h.Jb.row(i).transpose() * h.Jb.row(i);
+  const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design, Mb);
   if (!Cb) return std::nullopt;
-  const PerAngleHarmonics h(design);
-  const Parameterisation& param = h.param;
   const int m = h.m, n_st = h.n_st;
   const double w = h.w;
   const std::vector<int>& count = h.count;
@@ -575,7 +638,7 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
     for (int u = 0; u < 6; ++u) {
       for (int e = 0; e < 6; ++e) own[e] += coef_c[u][e] * mono[u];
     }
-    const double angle = param.station_angle_deg(st);
+    const double angle = h.st.station_deg[st];
     for (int e = 0; e < 6; ++e) {
       largest_total[e / 3] = std::max(largest_total[e / 3], inv_n * own[e] + t[e]);
       total.add(angle, e, inv_n * own[e] + t[e]);
@@ -595,7 +658,8 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   return TotalWorstCase{noise.result(), total.result()};
 }
 
-std::optional<SetupInformation> fast_setup_information(const Design& design) {
+std::optional<SetupInformation> fast_setup_information(const Design& design,
+                                                       const AngleStations* stations) {
   // fast_worst_total's notation. An effect of installation i has the columns phi(g)' x_k on
   // that installation's readings (x_k the harmonic coefficients of its column k, X = [x_k]),
   // and R'R = sum_hl Phi_hl X_h' W N X_l reduces to w N_ii X' Phi X: the axis errors take the
@@ -603,7 +667,8 @@ std::optional<SetupInformation> fast_setup_information(const Design& design) {
   // diagonal of w X' Phi X, so added_rank's test is on the eigenvalues of N_ii D^-1/2 X' Phi X
   // D^-1/2 (D that diagonal): every one above min_relative_singular_value.
   if (!per_angle_body_covariance(design)) return std::nullopt;
-  const PerAngleHarmonics h(design);
+  std::optional<AngleStations> own;
+  const PerAngleHarmonics h(design, stations_of(design, stations, own));
   const int m = h.m, n_st = h.n_st;
   Eigen::VectorXd share = Eigen::VectorXd::Zero(m);  // N_ii
   if (m > 6) share = orthonormal_complement(h.Jb).rowwise().squaredNorm();

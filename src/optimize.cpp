@@ -39,6 +39,9 @@ constexpr double kLocalXtol = 1e-10;
 
 std::string mm(double x) { return text::rounded(x, 3); }
 
+Candidate candidate_skeleton(const Kit& kit, const PatternChoice& choice);
+void place_candidate(const Kit& kit, Candidate& c, const std::vector<double>& x);
+
 std::string stack_text(const Kit& kit, const Stack& s) {
   std::string t = mm(s.height_mm) + " mm (";
   if (s.blocks_mm.empty()) return t + "cup on the table)";
@@ -82,13 +85,13 @@ class DetectionRequirement {
 
   // fast_only: a choice scored on the fast path alone, where a point it declines (near rank
   // loss, penalised) is not scored either.
-  void score(Candidate& c, bool fast_only) {
+  void score(Candidate& c, bool fast_only, const AngleStations* stations = nullptr) {
     Candidate::Detection d;
     d.settings = settings_;
     d.ratio = -std::numeric_limits<double>::infinity();
     std::optional<SetupInformation> fast;
     if (fast_only) {
-      fast = fast_setup_information(c.design);
+      fast = fast_setup_information(c.design, stations);
       if (!fast) {
         d.ratio = std::numeric_limits<double>::infinity();
         d.effect = "near rank loss, not scored";
@@ -141,7 +144,11 @@ double detection_violation(const Candidate& c) {
 class ChoiceSearch {
  public:
   ChoiceSearch(const Kit& kit, const PatternChoice& choice, Criterion criterion)
-      : kit_(kit), choice_(choice), criterion_(criterion), space_(choice.space) {
+      : kit_(kit),
+        choice_(choice),
+        criterion_(criterion),
+        space_(choice.space),
+        stations_(kit.axis, kit_angles(kit, choice.step_deg)) {
     for (size_t i = 0; i < space_.names.size(); ++i) {
       if (space_.upper[i] > space_.lower[i]) free_.push_back(static_cast<int>(i));
     }
@@ -195,7 +202,11 @@ class ChoiceSearch {
       budget_exhausted_ = true;
       throw nlopt::forced_stop();  // caught by the stage that is running: its best point is kept
     }
-    Candidate c = make_candidate(kit_, choice_, x);
+    // The point's candidate in the storage of the one before last (its structure is the
+    // choice's): place_candidate builds it as make_candidate would.
+    if (!spare_) spare_ = candidate_skeleton(kit_, choice_);
+    Candidate& c = *spare_;
+    place_candidate(kit_, c, x);
     if (fast_only_) {
       // A choice whose generic point is full rank: a point the fast path declines is within
       // a factor 1e4 of rank loss (or at it, e.g. two balls at one position) and is penalised
@@ -207,14 +218,14 @@ class ChoiceSearch {
     } else {
       score_candidate(kit_, criterion_, c);
     }
-    if (detection_) detection_->score(c, fast_only_);
+    if (detection_) detection_->score(c, fast_only_, &stations_);
     ++evaluations_;
     if (global_stage_ && c.feasible && c.objective_defined &&
         c.n_undetermined <= generic_undetermined_) {
       global_points_.emplace_back(c.objective, x);
     }
     if (!best_ || better(c, *best_)) best_ = c;
-    last_ = std::move(c);
+    last_.swap(spare_);
     return *last_;
   }
 
@@ -222,7 +233,8 @@ class ChoiceSearch {
   // applies (observability.hpp); false for the other criteria and where it declines.
   bool fast_score(Candidate& c) const {
     if (criterion_ == Criterion::kWorst) {
-      const std::optional<WorstCase> w = fast_worst_case(c.design, kit_.reference_length_mm);
+      const std::optional<WorstCase> w =
+          fast_worst_case(c.design, kit_.reference_length_mm, &stations_);
       if (!w) return false;
       c.worst = *w;
       c.objective = *w->worst_std_um;
@@ -230,7 +242,7 @@ class ChoiceSearch {
       // The total alone (one triangular solve); the noise part of each choice's best is
       // formed once the choice is searched (search_all).
       const std::optional<TotalWorstCase> t =
-          fast_worst_total(c.design, kit_.reference_length_mm, false);
+          fast_worst_total(c.design, kit_.reference_length_mm, false, &stations_);
       if (!t) return false;
       c.worst = WorstCase{};
       c.objective = *t->total.worst_std_um;
@@ -361,6 +373,7 @@ class ChoiceSearch {
   PatternChoice choice_;
   Criterion criterion_;
   PatternSpace space_;
+  AngleStations stations_;  // every candidate's (make_candidate's angles)
   std::vector<int> free_;
   int generic_undetermined_ = 0;
   bool fast_only_ = false;
@@ -369,7 +382,7 @@ class ChoiceSearch {
   long evaluations_ = 0;
   long max_evaluations_ = 0;
   bool budget_exhausted_ = false;
-  std::optional<Candidate> best_, last_;
+  std::optional<Candidate> best_, last_, spare_;
   // The points of the global stage (objective, x), for the extra starts of the local stage.
   static constexpr size_t kExtraLocalStarts = 4;
   bool global_stage_ = false;
@@ -700,11 +713,13 @@ std::string choice_label(const Kit& kit, const PatternChoice& c) {
   return t;
 }
 
-Candidate make_candidate(const Kit& kit, const PatternChoice& choice,
-                         const std::vector<double>& x) {
+namespace {
+
+// What make_candidate builds independently of the point: the choice, the design's
+// description, angles and installations (positions, bars and scores are place_candidate's).
+Candidate candidate_skeleton(const Kit& kit, const PatternChoice& choice) {
   Candidate c;
   c.choice = choice;
-  c.x = x;
   Design& d = c.design;
   d.axis = kit.axis;
   d.name = kit.name.empty() ? "optimized" : kit.name + "-optimized";
@@ -713,43 +728,72 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice,
   d.errors = kit.errors;
   d.reference_length_mm = kit.reference_length_mm;
   d.setup_std = kit.setup_std;
-  struct Placed {
-    double L, D, H;
-  };
-  std::vector<Placed> separated;
   for (const PatternChoice::Placement& pl : choice.placements) {
     const PatternPosition& p = kit.pattern.positions[pl.position];
-    const Placed at{pl.L >= 0 ? x[pl.L] : p.L.value, pl.D >= 0 ? x[pl.D] : p.D.value, pl.H_mm};
-    if (p.separated) separated.push_back(at);
     for (Direction::Kind kind : p.directions) {
       Installation in;
       in.id = installation_id(p, kind);
-      in.L_mm = at.L;
-      in.D_mm = at.D;
-      in.H_mm = at.H;
       in.direction = Direction::named(kit.axis, kind);
       d.installations.push_back(std::move(in));
       c.installation_position.push_back(pl.position);
     }
   }
-  c.travel_violation_mm = -std::numeric_limits<double>::infinity();
-  for (Installation& in : d.installations) {
-    c.travel_violation_mm =
-        std::max(c.travel_violation_mm, fit_bar(kit, kit.axis, in, d.angles_deg));
-  }
+  return c;
+}
+
+// The candidate c (candidate_skeleton's for its choice, or a candidate placed before) at the
+// point x: positions, bars and signs fitted to the travel, violations, time; its scores as a
+// new candidate's (unscored). The point's storage is reused.
+void place_candidate(const Kit& kit, Candidate& c, const std::vector<double>& x) {
+  c.x = x;
+  Design& d = c.design;
   c.separation_violation_mm = -std::numeric_limits<double>::infinity();
-  for (size_t i = 0; i < separated.size(); ++i) {
-    for (size_t j = 0; j < i; ++j) {
-      const double dist =
-          std::hypot(separated[i].L - separated[j].L, separated[i].D - separated[j].D,
-                     separated[i].H - separated[j].H);
-      c.separation_violation_mm = std::max(c.separation_violation_mm, kit.min_separation_mm - dist);
+  struct Placed {
+    double L, D, H;
+  };
+  size_t k = 0;
+  const std::vector<PatternChoice::Placement>& placements = c.choice.placements;
+  for (size_t i = 0; i < placements.size(); ++i) {
+    const PatternChoice::Placement& pl = placements[i];
+    const PatternPosition& p = kit.pattern.positions[pl.position];
+    const Placed at{pl.L >= 0 ? x[pl.L] : p.L.value, pl.D >= 0 ? x[pl.D] : p.D.value, pl.H_mm};
+    if (p.separated) {
+      // Against the separated positions before it, in order.
+      for (size_t j = 0; j < i; ++j) {
+        const PatternChoice::Placement& pj = placements[j];
+        const PatternPosition& q = kit.pattern.positions[pj.position];
+        if (!q.separated) continue;
+        const Placed b{pj.L >= 0 ? x[pj.L] : q.L.value, pj.D >= 0 ? x[pj.D] : q.D.value, pj.H_mm};
+        const double dist = std::hypot(at.L - b.L, at.D - b.D, at.H - b.H);
+        c.separation_violation_mm =
+            std::max(c.separation_violation_mm, kit.min_separation_mm - dist);
+      }
+    }
+    for (size_t n = 0; n < p.directions.size(); ++n, ++k) {
+      Installation& in = d.installations[k];
+      in.L_mm = at.L;
+      in.D_mm = at.D;
+      in.H_mm = at.H;
     }
   }
+  c.travel_violation_mm = fit_bars(kit, d);
   c.time_s = design_time_s(kit, d);
   c.feasible = c.travel_violation_mm <= kGeometryTolerance_mm &&
                c.separation_violation_mm <= kGeometryTolerance_mm &&
                (!kit.time_budget_s || c.time_s <= *kit.time_budget_s);
+  c.worst = WorstCase{};
+  c.n_undetermined = 0;
+  c.objective = 0;
+  c.objective_defined = false;
+  c.detection.reset();
+}
+
+}  // namespace
+
+Candidate make_candidate(const Kit& kit, const PatternChoice& choice,
+                         const std::vector<double>& x) {
+  Candidate c = candidate_skeleton(kit, choice);
+  place_candidate(kit, c, x);
   return c;
 }
 

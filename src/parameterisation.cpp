@@ -12,7 +12,7 @@ namespace dbbkit {
 bool same_position(Axis axis, double a_deg, double b_deg) {
   double diff = std::abs(a_deg - b_deg);
   if (axis == Axis::kC) {
-    diff = std::fmod(diff, 360.0);
+    if (!(diff < 360.0)) diff = std::fmod(diff, 360.0);  // fmod leaves [0, 360) unchanged
     diff = std::min(diff, 360.0 - diff);
   }
   return diff < kAngleTolerance_deg;
@@ -61,7 +61,7 @@ Parameterisation::Parameterisation(const Design& design)
 
 double Parameterisation::key_of(double angle_deg) const {
   if (axis_ != Axis::kC) return angle_deg;
-  double k = std::fmod(angle_deg, 360.0);
+  double k = angle_deg >= 0.0 && angle_deg < 360.0 ? angle_deg : std::fmod(angle_deg, 360.0);
   if (k < 0) k += 360.0;
   return k;
 }

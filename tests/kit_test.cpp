@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <random>
 #include <tuple>
 
 #include "dbbkit/error.hpp"
@@ -45,7 +47,9 @@ TEST(Kit, TravelExtentIsExactOverTheArc) {
     in.sign = u(rng) > 0 ? 1 : -1;
     in.bar_mm = 150;
     const double lo = axis == Axis::kC ? 360 * u(rng) : -100 + 30 * u(rng);
-    const double hi = lo + (axis == Axis::kC ? 180 + 180 * u(rng) : 90 + 20 * u(rng));
+    // Every fifth C arc a whole turn or more (its extremes are reached wherever they fall).
+    const double hi = lo + (axis == Axis::kC ? (t % 5 == 1 ? 400 + 40 * u(rng) : 180 + 180 * u(rng))
+                                             : 90 + 20 * u(rng));
     const double v = travel_violation_mm(kit, axis, in, {lo, hi});
     // Dense sampling can only find less (or equal) excursion, and nearly as much.
     double sampled = -1e300;
@@ -59,6 +63,37 @@ TEST(Kit, TravelExtentIsExactOverTheArc) {
     }
     EXPECT_LE(sampled, v + 1e-9);
     EXPECT_GE(sampled, v - 1e-3);
+  }
+}
+
+TEST(Kit, FitBarsIsFitBarForEachInstallation) {
+  // The arc formed once for the design: each installation gets fit_bar's bar, sign and
+  // excursion, and the largest excursion is returned; bars listed unsorted are sorted.
+  Kit kit = formats_kit();
+  kit.bars_mm = {300, 100, 250, 150};
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int t = 0; t < 100; ++t) {
+    Design d;
+    d.axis = t % 2 ? Axis::kC : Axis::kB;
+    d.angles_deg = t % 3 ? kit_angles(kit, 15) : std::vector<double>{-40 + 10 * u(rng), 30};
+    for (int i = 0; i < 5; ++i) {
+      Installation in;
+      in.L_mm = 150 + 150 * u(rng);
+      in.D_mm = 60 * u(rng);
+      in.H_mm = d.axis == Axis::kC ? 100 + 80 * u(rng) : 0;
+      in.direction = Direction::named(d.axis, static_cast<Direction::Kind>(i % 3));
+      d.installations.push_back(in);
+    }
+    Design e = d;
+    double worst = -std::numeric_limits<double>::infinity();
+    for (Installation& in : e.installations)
+      worst = std::max(worst, fit_bar(kit, e.axis, in, e.angles_deg));
+    EXPECT_EQ(fit_bars(kit, d), worst);
+    for (size_t i = 0; i < d.installations.size(); ++i) {
+      EXPECT_EQ(d.installations[i].bar_mm, e.installations[i].bar_mm);
+      EXPECT_EQ(d.installations[i].sign, e.installations[i].sign);
+    }
   }
 }
 

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <iostream>
+#include <numeric>
 #include <random>
 #include <set>
 
@@ -191,6 +192,58 @@ TEST(FastSetupInformation, MatchesTheStackedModel) {
   }
 }
 
+TEST(AngleStations, GivenStationsGiveTheSameAnswersAndOthersAreNotUsed) {
+  // A search forms the stations of its angles once: the fast paths answer exactly as with
+  // their own, and stations of other angles or another axis are passed over.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int t = 0; t < 40; ++t) {
+    const Axis axis = t % 2 ? Axis::kC : Axis::kB;
+    Design d = random_design(rng, axis);
+    if (t % 4 < 2) {  // repeated angles and angles a turn apart are one station
+      d.angles_deg.push_back(d.angles_deg[1]);
+      if (axis == Axis::kC) d.angles_deg.push_back(d.angles_deg[2] + 360);
+    }
+    if (t % 3) {
+      d.setup_std.length_offset_um = 20 * unit(rng);
+      d.setup_std.centring_um = 10 * unit(rng);
+    }
+    const AngleStations own(axis, d.angles_deg);
+    ASSERT_TRUE(own.serves(d));
+    EXPECT_EQ(std::accumulate(own.count.begin(), own.count.end(), 0),
+              static_cast<int>(d.angles_deg.size()));
+    std::vector<double> shifted = d.angles_deg;
+    shifted.back() += 1;
+    const AngleStations other(axis, shifted);
+    const AngleStations turned(axis == Axis::kC ? Axis::kB : Axis::kC, d.angles_deg);
+    EXPECT_FALSE(other.serves(d));
+    EXPECT_FALSE(turned.serves(d));
+    const std::optional<TotalWorstCase> ref = fast_worst_total(d, 100.0);
+    for (const AngleStations* s : {&own, &other, &turned}) {
+      const std::optional<TotalWorstCase> f = fast_worst_total(d, 100.0, true, s);
+      ASSERT_EQ(f.has_value(), ref.has_value()) << t;
+      if (!f) continue;
+      EXPECT_EQ(f->total.worst_std_um, ref->total.worst_std_um) << t;
+      EXPECT_EQ(f->total.at_angle_deg, ref->total.at_angle_deg) << t;
+      EXPECT_EQ(f->noise->worst_std_um, ref->noise->worst_std_um) << t;
+      const std::optional<SetupInformation> a = fast_setup_information(d),
+                                            b = fast_setup_information(d, s);
+      ASSERT_EQ(a.has_value(), b.has_value());
+      if (!a) continue;
+      ASSERT_EQ(a->effects.size(), b->effects.size());
+      for (size_t k = 0; k < a->effects.size(); ++k)
+        EXPECT_EQ(a->effects[k].min_information, b->effects[k].min_information);
+    }
+    d.setup_std = {};
+    const std::optional<WorstCase> w = fast_worst_case(d, 100.0);
+    for (const AngleStations* s : {&own, &other, &turned}) {
+      const std::optional<WorstCase> f = fast_worst_case(d, 100.0, s);
+      ASSERT_EQ(f.has_value(), w.has_value());
+      if (f) EXPECT_EQ(f->worst_std_um, w->worst_std_um);
+    }
+  }
+}
+
 TEST(FastWorstCase, DeclinesRankLossAndAnswersSeries) {
   const Design b = test::paper_design('B');  // both balls on the tool axis: rank 5 at every angle
   EXPECT_FALSE(fast_worst_case(b, 100));
@@ -330,6 +383,60 @@ TEST(Optimize, ResultDoesNotDependOnThreads) {
   EXPECT_EQ(a.best->x, b.best->x);
   EXPECT_EQ(a.best->objective, b.best->objective);
   EXPECT_EQ(a.evaluations, b.evaluations);
+}
+
+TEST(Optimize, EachChoicesBestIsTheCandidateMadeAfreshAtItsPoint) {
+  // The search places each point in the storage of an earlier one: the best of every
+  // choice is what make_candidate and a fresh score give at its point.
+  Kit k = small_c_kit();
+  k.angle_steps_deg = {20, 30, 45};
+  const OptimizeResult res = optimize_kit(k, {Criterion::kWorst, 1});
+  int compared = 0;
+  for (const ChoiceResult& cr : res.choices) {
+    if (!cr.best) continue;
+    Candidate fresh = make_candidate(k, cr.choice, cr.best->x);
+    score_candidate(k, Criterion::kWorst, fresh);
+    const Design &a = cr.best->design, &b = fresh.design;
+    EXPECT_EQ(a.angles_deg, b.angles_deg);
+    ASSERT_EQ(a.installations.size(), b.installations.size());
+    for (size_t i = 0; i < a.installations.size(); ++i) {
+      EXPECT_EQ(a.installations[i].id, b.installations[i].id);
+      EXPECT_EQ(a.installations[i].L_mm, b.installations[i].L_mm);
+      EXPECT_EQ(a.installations[i].D_mm, b.installations[i].D_mm);
+      EXPECT_EQ(a.installations[i].H_mm, b.installations[i].H_mm);
+      EXPECT_EQ(a.installations[i].bar_mm, b.installations[i].bar_mm);
+      EXPECT_EQ(a.installations[i].sign, b.installations[i].sign);
+    }
+    EXPECT_EQ(cr.best->travel_violation_mm, fresh.travel_violation_mm);
+    EXPECT_EQ(cr.best->separation_violation_mm, fresh.separation_violation_mm);
+    // The same two by hand: the travel of each installation with its bar, the separation of
+    // each pair of separated positions.
+    double travel = -std::numeric_limits<double>::infinity();
+    for (const Installation& in : a.installations)
+      travel = std::max(travel, travel_violation_mm(k, k.axis, in, a.angles_deg));
+    EXPECT_EQ(cr.best->travel_violation_mm, travel);
+    double separation = -std::numeric_limits<double>::infinity();
+    std::vector<Eigen::Vector3d> seen;
+    std::set<int> positions;
+    for (size_t i = 0; i < a.installations.size(); ++i) {
+      const int p = cr.best->installation_position[i];
+      if (!k.pattern.positions[p].separated || !positions.insert(p).second) continue;
+      const Installation& in = a.installations[i];
+      const Eigen::Vector3d here(in.L_mm, in.D_mm, in.H_mm);
+      for (const Eigen::Vector3d& there : seen)
+        separation = std::max(separation, k.min_separation_mm - (here - there).norm());
+      seen.push_back(here);
+    }
+    EXPECT_NEAR(cr.best->separation_violation_mm, separation, 1e-12);
+    EXPECT_EQ(cr.best->time_s, fresh.time_s);
+    EXPECT_EQ(cr.best->feasible, fresh.feasible);
+    EXPECT_EQ(cr.best->objective_defined, fresh.objective_defined);
+    EXPECT_EQ(cr.best->n_undetermined, fresh.n_undetermined);
+    EXPECT_NEAR(cr.best->objective, fresh.objective, 1e-12 * fresh.objective);
+    ++compared;
+  }
+  EXPECT_EQ(compared, static_cast<int>(res.choices.size()));
+  EXPECT_GE(compared, 6);
 }
 
 TEST(Optimize, TimeBudgetExcludesChoices) {

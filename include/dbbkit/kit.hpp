@@ -153,5 +153,8 @@ double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst,
 // the choice with the smallest excursion is set. Returns the excursion (<= 0: fits).
 double fit_bar(const Kit& kit, Axis axis, Installation& inst,
                const std::vector<double>& angles_deg);
+// fit_bar for every installation of the design (its axis and angles, the arc formed once);
+// returns the largest excursion (-infinity without installations).
+double fit_bars(const Kit& kit, Design& design);
 
 }  // namespace dbbkit

@@ -52,6 +52,20 @@ struct WorstCase {
 };
 WorstCase worst_case(const std::vector<ErrorsAtAngle>& errors, double reference_length_mm);
 
+// The stations of a design's angles (as Parameterisation finds them), how often each is
+// read, and their sines and cosines (sincos_deg). A search forms them once for its
+// candidates, which share their angles; the fast paths below form their own for a design
+// whose axis or angles differ.
+struct AngleStations {
+  AngleStations(Axis axis, const std::vector<double>& angles_deg);
+  bool serves(const Design& design) const;  // the same axis and the same angles, in order
+  Axis axis;
+  std::vector<double> angles_deg;
+  std::vector<double> station_deg, sin, cos;
+  std::vector<int> count;
+  int n_stations() const { return static_cast<int>(station_deg.size()); }
+};
+
 // The worst case of a design without assembling the stacked model. Every
 // installation is read at every angle, so each angle's information is the
 // body-frame information turned by the axis rotation: for a per-angle model one
@@ -61,7 +75,8 @@ WorstCase worst_case(const std::vector<ErrorsAtAngle>& errors, double reference_
 // <= 1e5, against the rank tolerance of 1e9); otherwise it is absent and
 // evaluate_design answers. Same numbers as evaluate_design's worst case up to
 // rounding (tested).
-std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm);
+std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm,
+                                         const AngleStations* stations = nullptr);
 
 // The worst case of the noise part and of the total (noise and declared set-up,
 // setup.hpp) of a design, without the rest of evaluate_design; without declared
@@ -84,14 +99,16 @@ TotalWorstCase dense_worst_total(const Design& design, double reference_length_m
 // declared tolerances the total is fast_worst_case's. Without with_noise_part the noise
 // part is not formed (the search scores the total alone).
 std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm,
-                                               bool with_noise_part = true);
+                                               bool with_noise_part = true,
+                                               const AngleStations* stations = nullptr);
 
 // setup.hpp's SetupInformation of the declared set-up effects without the stacked model,
 // where fast_worst_total's closed form applies (a per-angle model far from rank loss):
 // the residual of an effect of installation i keeps the share N_ii = 1 - h_i (h_i the
 // leverage of its body-frame row) at every angle, so r^2 is the smallest eigenvalue of
 // w N_ii X' Phi X (X its harmonic coefficients, Phi = sum over the readings of phi phi').
-std::optional<SetupInformation> fast_setup_information(const Design& design);
+std::optional<SetupInformation> fast_setup_information(const Design& design,
+                                                       const AngleStations* stations = nullptr);
 // fast_setup_information when it applies, else dense_setup_information.
 SetupInformation design_setup_information(const Design& design);
 
