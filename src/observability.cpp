@@ -217,14 +217,11 @@ namespace {
 // information, and a station met n times has the covariance T Mb^-1 T' / n: one 6 x 6
 // inverse serves every angle. Absent when the design is near rank loss (below).
 // Mbm: body_information(design), or the same sum from the body-frame rows.
-std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(
-    const Design& design, const Eigen::Matrix<double, 6, 6>& Mbm) {
+// Mb: its lower triangle (k <= j) is read.
+std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Design& design,
+                                                                     const double (&Mb)[6][6]) {
   if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::kPerAngle)
     return std::nullopt;
-  double Mb[6][6];
-  for (int j = 0; j < 6; ++j) {
-    for (int k = 0; k < 6; ++k) Mb[j][k] = Mbm(j, k);
-  }
   // Scale the translation and the rotation block each by one number, a scaling that
   // commutes with T: with A = S Mb S, every angle's equilibrated Jacobian has
   // cond <= sqrt(6) cond(J S) (van der Sluis) and cond(J S)^2 = cond(A) <= trace A trace A^-1.
@@ -233,10 +230,10 @@ std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(
   if (!(ct > 0) || !(cr > 0)) return std::nullopt;
   const double sc[6] = {1 / std::sqrt(ct), 1 / std::sqrt(ct), 1 / std::sqrt(ct),
                         1 / std::sqrt(cr), 1 / std::sqrt(cr), 1 / std::sqrt(cr)};
-  double A[6][6], Ai[6][6];
+  double A[6][6], Ai[6][6];  // inverse6 reads the lower triangle of A
   double trace_A = 0, trace_Ai = 0;
   for (int j = 0; j < 6; ++j) {
-    for (int k = 0; k < 6; ++k) A[j][k] = sc[j] * Mb[j][k] * sc[k];
+    for (int k = 0; k <= j; ++k) A[j][k] = sc[j] * Mb[j][k] * sc[k];
     trace_A += A[j][j];
   }
   if (!inverse6(A, Ai)) return std::nullopt;
@@ -251,7 +248,22 @@ std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(
 std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Design& design) {
   if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::kPerAngle)
     return std::nullopt;
-  return per_angle_body_covariance(design, body_information(design));
+  // body_information's lower triangle, each entry the same products in the same order.
+  double Mb[6][6];
+  for (int j = 0; j < 6; ++j) {
+    for (int k = 0; k <= j; ++k) Mb[j][k] = 0;
+  }
+  const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
+  for (const Installation& in : design.installations) {
+    double r[6];
+    const Eigen::Vector3d m = 1e-3 * ball_body_mm(design.axis, in).cross(in.direction.body);
+    for (int j = 0; j < 3; ++j) r[j] = in.direction.body(j), r[j + 3] = m(j);
+    for (int j = 0; j < 6; ++j) {
+      const double wr = w * r[j];
+      for (int k = 0; k <= j; ++k) Mb[j][k] += wr * r[k];
+    }
+  }
+  return per_angle_body_covariance(design, Mb);
 }
 
 // An orthonormal basis U (m x (m - 6)) of the complement of the range of A (m x 6, full
@@ -433,9 +445,11 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
   double coef[6][6];  // [monomial][error]
   for (int e = 0; e < 6; ++e) {
     const Eigen::Matrix3d& C = e < 3 ? Ct : Cr;
+    Eigen::Vector3d a[3], Ca[3];
+    for (int h = 0; h < 3; ++h) a[h] = A[h]->row(e % 3).transpose(), Ca[h] = C * a[h];
     Eigen::Matrix3d Q;
     for (int h = 0; h < 3; ++h) {
-      for (int l = 0; l < 3; ++l) Q(h, l) = A[h]->row(e % 3).dot(C * A[l]->row(e % 3).transpose());
+      for (int l = 0; l < 3; ++l) Q(h, l) = a[h].dot(Ca[l]);
     }
     coef[0][e] = Q(0, 0);
     coef[1][e] = Q(0, 1) + Q(1, 0);
@@ -502,8 +516,16 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   std::optional<AngleStations> own;
   const PerAngleHarmonics h(design, stations_of(design, stations, own));
   // body_information from the body-frame rows (the same products: the sign squares away).
-  Eigen::Matrix<double, 6, 6> Mb = Eigen::Matrix<double, 6, 6>::Zero();
-  for (int i = 0; i < h.m; ++i) Mb.noalias() += h.w * h.Jb.row(i).transpose() * h.Jb.row(i);
+  double Mb[6][6];  // its lower triangle
+  for (int j = 0; j < 6; ++j) {
+    for (int k = 0; k <= j; ++k) Mb[j][k] = 0;
+  }
+  for (int i = 0; i < h.m; ++i) {
+    for (int j = 0; j < 6; ++j) {
+      const double wr = h.w * h.Jb(i, j);
+      for (int k = 0; k <= j; ++k) Mb[j][k] += wr * h.Jb(i, k);
+    }
+  }
   const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design, Mb);
   if (!Cb) return std::nullopt;
   const int m = h.m, n_st = h.n_st;

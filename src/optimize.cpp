@@ -139,8 +139,10 @@ double detection_violation(const Candidate& c) {
   return c.detection ? std::min(c.detection->ratio, 1e6) - 1.0 : -1.0;
 }
 
-// The search over one choice: DIRECT-L, then COBYLA from the best point found
-// and from the centre. Every scored point is kept if it is the best so far.
+// The search over one choice: DIRECT-L (a point outside the constraints scored as
+// unscorable), then COBYLA under the constraints from the best point found, from the
+// global stage's next best points apart from it and from the centre. Every scored point is
+// kept if it is the best so far.
 class ChoiceSearch {
  public:
   ChoiceSearch(const Kit& kit, const PatternChoice& choice, Criterion criterion)
@@ -257,6 +259,14 @@ class ChoiceSearch {
   double objective(const std::vector<double>& xf) {
     const Candidate& c = at(full(xf));
     if (!c.objective_defined || c.n_undetermined > generic_undetermined_) return kPenalty;
+    // The global stage scores a point outside the constraints as one it cannot score: NLopt's
+    // DIRECT, told of constraints, rescans every infeasible point against every feasible one
+    // at each iteration (quadratic in the points; half the search's time). The local stage
+    // keeps the constraints, so a best on a constraint's boundary is reached there.
+    if (global_stage_ &&
+        (c.travel_violation_mm > kGeometryTolerance_mm ||
+         c.separation_violation_mm > kGeometryTolerance_mm || detection_violation(c) > 0))
+      return kPenalty;
     return c.objective;
   }
 
@@ -292,9 +302,11 @@ class ChoiceSearch {
       o.set_lower_bounds(lb);
       o.set_upper_bounds(ub);
       o.set_min_objective(f, this);
-      o.add_inequality_constraint(travel, this, kGeometryTolerance_mm);
-      o.add_inequality_constraint(separation, this, kGeometryTolerance_mm);
-      if (detection_) o.add_inequality_constraint(detection, this, 0.0);
+      if (!global_stage_) {  // the global stage: objective()
+        o.add_inequality_constraint(travel, this, kGeometryTolerance_mm);
+        o.add_inequality_constraint(separation, this, kGeometryTolerance_mm);
+        if (detection_) o.add_inequality_constraint(detection, this, 0.0);
+      }
     };
     // Global stage.
     {

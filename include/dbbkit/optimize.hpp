@@ -2,9 +2,9 @@
 // The design search over a kit (model.md §7, formats.md "Kit file"): discrete
 // choices (cushion-block stacks, angle step, whether a B design has its
 // off-axis position) are enumerated; the continuous ball positions of each are
-// searched by NLopt, a global derivative-free stage (DIRECT-L, deterministic,
-// with the travel and separation constraints) followed by a local polish
-// (COBYLA). The minimax objective worst_std_um is non-smooth; both stages are
+// searched by NLopt, a global derivative-free stage (DIRECT-L, deterministic; a
+// point outside the travel, separation or detection constraints is scored as
+// unscorable) followed by a local polish under the constraints (COBYLA). The minimax objective worst_std_um is non-smooth; both stages are
 // derivative-free and never differentiate it.
 
 #include <functional>
