@@ -9,7 +9,9 @@
 #include <boost/math/tools/toms748_solve.hpp>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <stdexcept>
+#include <tuple>
 
 #include "dbbkit/kinematics.hpp"
 
@@ -274,7 +276,9 @@ ErrorParts error_parts(const Parameterisation& param, const SetupSolver& solver)
   return out;
 }
 
-double noncentrality_for_power(int q, int dof, double alpha, double power) {
+namespace {
+
+double find_noncentrality(int q, int dof, double alpha, double power) {
   namespace bm = boost::math;
   // In double precision throughout (Boost's default promotes to long double, six to twelve
   // times slower here, for digits far below the bisection's tolerance).
@@ -301,6 +305,30 @@ double noncentrality_for_power(int q, int dof, double alpha, double power) {
       [](double a, double b) { return std::abs(b - a) <= kBisection * std::max(a, b); },
       iterations);
   return bracket.second;
+}
+
+// Roots kept for the process: a search or a series of evaluations asks for the same few
+// (q, dof, alpha, power) again and again. At most this many are kept.
+constexpr std::size_t kNoncentralityCache = 4096;
+
+}  // namespace
+
+double noncentrality_for_power(int q, int dof, double alpha, double power) {
+  using Key = std::tuple<int, int, double, double>;
+  static std::mutex mutex;
+  static std::map<Key, double> cache;
+  if (!std::isfinite(alpha) || !std::isfinite(power))
+    return find_noncentrality(q, dof, alpha, power);
+  const Key key{q, dof, alpha, power};  // finite: the map's order is strict
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    const auto it = cache.find(key);
+    if (it != cache.end()) return it->second;
+  }
+  const double lambda = find_noncentrality(q, dof, alpha, power);  // a pure function of the key
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (cache.size() < kNoncentralityCache) cache.emplace(key, lambda);
+  return lambda;
 }
 
 namespace {

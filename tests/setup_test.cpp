@@ -578,14 +578,18 @@ TEST(Noncentrality, ReachesThePowerWithinTheRootsWidth) {
   for (int q : {1, 2, 3, 6}) {
     for (int dof : {3, 30, 500}) {
       for (double power : {0.5, 0.9, 0.99}) {
-        const double alpha = 0.05 / 14;
-        const double lambda = noncentrality_for_power(q, dof, alpha, power);
-        const double f_crit = bm::quantile(bm::complement(bm::fisher_f(q, dof), alpha));
-        auto power_at = [&](double l) {
-          return bm::cdf(bm::complement(bm::non_central_f(q, dof, l), f_crit));
-        };
-        EXPECT_GE(power_at(lambda), power - 1e-12) << q << " " << dof << " " << power;
-        EXPECT_LE(power_at(lambda * (1 - 2e-9)), power + 1e-12) << q << " " << dof << " " << power;
+        for (double alpha :
+             {0.05 / 14, 0.01 / 30}) {  // the roots are kept per (q, dof, alpha, power)
+          const double lambda = noncentrality_for_power(q, dof, alpha, power);
+          EXPECT_EQ(noncentrality_for_power(q, dof, alpha, power), lambda);  // asked again
+          const double f_crit = bm::quantile(bm::complement(bm::fisher_f(q, dof), alpha));
+          auto power_at = [&](double l) {
+            return bm::cdf(bm::complement(bm::non_central_f(q, dof, l), f_crit));
+          };
+          EXPECT_GE(power_at(lambda), power - 1e-12) << q << " " << dof << " " << power;
+          EXPECT_LE(power_at(lambda * (1 - 2e-9)), power + 1e-12)
+              << q << " " << dof << " " << power;
+        }
       }
     }
   }
