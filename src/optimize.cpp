@@ -1063,7 +1063,9 @@ std::vector<int> runner_up_choices(const OptimizeResult& res, int n) {
     const std::vector<double> k = key(cr.choice);
     if (k == best_key) continue;
     auto it = best_of.find(k);
-    if (it == best_of.end() || better(*cr.best, *res.choices[it->second].best)) best_of[k] = i;
+    // As for the best: between objectives within kObjectiveTie the shorter measurement.
+    if (it == best_of.end() || better_choice(*cr.best, *res.choices[it->second].best))
+      best_of[k] = i;
   }
   for (const auto& [k, i] : best_of) out.push_back(i);
   std::stable_sort(out.begin(), out.end(), [&](int a, int c) {

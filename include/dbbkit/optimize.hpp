@@ -4,8 +4,8 @@
 // off-axis position) are enumerated; the continuous ball positions of each are
 // searched by NLopt, a global derivative-free stage (DIRECT-L, deterministic; a
 // point outside the travel, separation or detection constraints is scored as
-// unscorable) followed by a local polish under the constraints (COBYLA). The minimax objective worst_std_um is non-smooth; both stages are
-// derivative-free and never differentiate it.
+// unscorable) followed by a local polish under the constraints (COBYLA). The minimax objective
+// worst_std_um is non-smooth; both stages are derivative-free and never differentiate it.
 
 #include <functional>
 #include <optional>
@@ -188,7 +188,8 @@ std::vector<BindingConstraint> binding_constraints(const Kit& kit, const Optimiz
 
 // The alternatives to the best a person would weigh: for each other set of block stacks (C;
 // for B, each other angle step and number of optional positions) the best searched choice
-// that determines as much as the best, ordered by `better`; at most n, indices into
+// that determines as much as the best (as for the best, between objectives within 1e-4 of
+// each other the shorter measurement), ordered by `better`; at most n, indices into
 // res.choices. Their designs are as searched (not rounded to the kit's resolution).
 std::vector<int> runner_up_choices(const OptimizeResult& res, int n);
 
