@@ -123,9 +123,26 @@ Eigen::VectorXd J_reading_effect(const Design& design, const Reading& r, double 
   return J_reading_effect(design, r, design.find_installation(r.installation), t0_s, e);
 }
 
+namespace {
+
+// J_reading_effect's row without a heap allocation (at most three parameters): effect_block
+// forms one per reading and effect.
+using EffectRow = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 3, 1>;
+EffectRow effect_row(const Design& design, const Reading& r, int inst, double t0_s,
+                     const EffectCandidate& e);
+
+}  // namespace
+
 Eigen::VectorXd J_reading_effect(const Design& design, const Reading& r, int inst, double t0_s,
                                  const EffectCandidate& e) {
-  Eigen::VectorXd row = Eigen::VectorXd::Zero(effect_parameter_count(e.kind));
+  return effect_row(design, r, inst, t0_s, e);
+}
+
+namespace {
+
+EffectRow effect_row(const Design& design, const Reading& r, int inst, double t0_s,
+                     const EffectCandidate& e) {
+  EffectRow row = EffectRow::Zero(effect_parameter_count(e.kind));
   if (e.installation >= 0 && e.installation != inst) return row;
   const Installation& in = design.installations[inst];
   switch (e.kind) {
@@ -173,6 +190,8 @@ Eigen::VectorXd J_reading_effect(const Design& design, const Reading& r, int ins
   return row;
 }
 
+}  // namespace
+
 ReadingLayout::ReadingLayout(const Design& design, const std::vector<Reading>& readings)
     : start_s(installation_start_times(design, readings)), test_start_s(test_start_time(readings)) {
   const auto index = design.installation_index();
@@ -206,8 +225,7 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
       bar_missing = bar_missing || !design.installations[inst].bar_mm;
     }
     const double start = e.installation < 0 ? layout.test_start_s : layout.start_s[inst];
-    full.row(static_cast<Eigen::Index>(i)) =
-        J_reading_effect(design, r, inst, start, e).transpose();
+    full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, start, e).transpose();
   }
   if ((e.kind == EffectKind::kDrift || e.kind == EffectKind::kThermal) && time_missing)
     b.applicability.why = NotApplicable::kNeedsTimes;
