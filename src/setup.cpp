@@ -356,14 +356,17 @@ std::optional<double> detection_limit_um(int q, bool detectable, double min_info
 namespace {
 
 // R_e = unexplained(base, X_e) (whitened), its smallest singular value squared and added_rank.
+// G0X: the base's gain times the effect's columns, when the caller has it.
 SetupEffectInformation effect_information(const WlsSolver& base, const Eigen::VectorXd& w,
-                                          const SetupEffect& e) {
+                                          const SetupEffect& e,
+                                          const Eigen::MatrixXd* G0X = nullptr) {
   SetupEffectInformation info;
   info.kind = e.kind;
   info.installation = e.installation;
   info.declared_std_um = e.std_um;
   info.q = static_cast<int>(e.J_reading_effect.cols());
-  const Eigen::MatrixXd Re = unexplained(base, e.J_reading_effect);
+  const Eigen::MatrixXd Re =
+      G0X ? unexplained(base, e.J_reading_effect, *G0X) : unexplained(base, e.J_reading_effect);
   info.detectable =
       added_rank(Re, (w.asDiagonal() * e.J_reading_effect).colwise().norm().transpose()) == info.q;
   if (info.detectable) {
@@ -419,12 +422,15 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
     ch.installation = e.installation;
     ch.kind = e.kind;
     ch.declared_std_um = e.std_um;
-    const SetupEffectInformation info = effect_information(base, w, e);
+    // The base's gain times the effect, once: the effect's information and, without
+    // declared set-up tolerances, its bias per um.
+    const Eigen::MatrixXd G0X = base.J_theta_reading() * e.J_reading_effect;
+    const SetupEffectInformation info = effect_information(base, w, e, &G0X);
     ch.detectable = info.detectable;
     ch.detection_limit_um = limit_um(info.q, info.detectable, info.min_information,
                                      est.n_readings - est.rank - info.q, settings, &noncentrality);
-    const Eigen::MatrixXd GX =
-        solver.gain_times(e.J_reading_effect);  // p x q: the estimate per um of the effect
+    const Eigen::MatrixXd GX =  // p x q: the estimate per um of the effect
+        solver.any() ? solver.gain_times(e.J_reading_effect) : G0X;
     double best = -1;
     for (const Fn& f : fns) {
       const double b = (f.c.transpose() * GX).norm();
