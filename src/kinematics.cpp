@@ -37,10 +37,6 @@ void sincos_deg(double angle_deg, double& s, double& c) {
 Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg) {
   double s, c;
   sincos_deg(angle_deg, s, c);
-  return axis_rotation_sc(axis, s, c);
-}
-
-Eigen::Matrix3d axis_rotation_sc(Axis axis, double s, double c) {
   Eigen::Matrix3d R;
   if (axis == Axis::kC) {
     R << c, -s, 0, s, c, 0, 0, 0, 1;

@@ -64,6 +64,13 @@ std::pair<double, double> arc_extent(double a, double b, double c, const ArcEnds
   return {mn, mx};
 }
 
+// The arc the angles span (absent without angles).
+std::optional<ArcEnds> arc_of(const std::vector<double>& angles_deg) {
+  if (angles_deg.empty()) return std::nullopt;
+  const auto [lo_it, hi_it] = std::minmax_element(angles_deg.begin(), angles_deg.end());
+  return ArcEnds(*lo_it, *hi_it);
+}
+
 // The travel violation of the following ball's path G turned over the arc (travel_violation_mm).
 double arc_travel_violation(const Kit& kit, const RotationHarmonics& h, const Eigen::Vector3d& G,
                             const ArcEnds& ends) {
@@ -420,12 +427,12 @@ double design_time_s(const Kit& kit, const Design& design) {
 
 double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst,
                            const std::vector<double>& angles_deg) {
-  if (angles_deg.empty() || !inst.bar_mm) return 0.0;
-  const auto [lo_it, hi_it] = std::minmax_element(angles_deg.begin(), angles_deg.end());
+  const std::optional<ArcEnds> ends = arc_of(angles_deg);
+  if (!ends || !inst.bar_mm) return 0.0;
   const Eigen::Vector3d G =
       ball_body_mm(axis, inst) - inst.sign * *inst.bar_mm * inst.direction.body;
   // R(g) = A0 + cos g A1 + sin g A2
-  return arc_travel_violation(kit, rotation_harmonics(axis), G, ArcEnds(*lo_it, *hi_it));
+  return arc_travel_violation(kit, rotation_harmonics(axis), G, *ends);
 }
 
 namespace {
@@ -436,13 +443,6 @@ const std::vector<double>& sorted_bars(const Kit& kit, std::vector<double>& stor
   storage = kit.bars_mm;
   std::sort(storage.begin(), storage.end());
   return storage;
-}
-
-// The arc the angles span (absent without angles).
-std::optional<ArcEnds> arc_of(const std::vector<double>& angles_deg) {
-  if (angles_deg.empty()) return std::nullopt;
-  const auto [lo_it, hi_it] = std::minmax_element(angles_deg.begin(), angles_deg.end());
-  return ArcEnds(*lo_it, *hi_it);
 }
 
 double fit_bar_on(const Kit& kit, Axis axis, Installation& inst, const std::vector<double>& bars,

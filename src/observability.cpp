@@ -216,8 +216,25 @@ namespace {
 // 1e-3 R (P x u)). So the information of one angle is T Mb T' with Mb the body-frame
 // information, and a station met n times has the covariance T Mb^-1 T' / n: one 6 x 6
 // inverse serves every angle. Absent when the design is near rank loss (below).
-// Mbm: body_information(design), or the same sum from the body-frame rows.
-// Mb: its lower triangle (k <= j) is read.
+// The lower triangle (k <= j) of the information w sum_i r_i r_i' of body-frame rows r_i, each
+// entry the products of body_information (w r_j) r_k in the same order.
+struct LowerInformation {
+  double M[6][6];
+  LowerInformation() {
+    for (int j = 0; j < 6; ++j) {
+      for (int k = 0; k <= j; ++k) M[j][k] = 0;
+    }
+  }
+  template <typename Row>
+  void add(double w, const Row& r) {
+    for (int j = 0; j < 6; ++j) {
+      const double wr = w * r(j);
+      for (int k = 0; k <= j; ++k) M[j][k] += wr * r(k);
+    }
+  }
+};
+
+// Mb: the body information's lower triangle (k <= j), the only part read.
 std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Design& design,
                                                                      const double (&Mb)[6][6]) {
   if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::kPerAngle)
@@ -248,22 +265,15 @@ std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Desig
 std::optional<Eigen::Matrix<double, 6, 6>> per_angle_body_covariance(const Design& design) {
   if (design.installations.empty() || design.errors.kind != ErrorModel::Kind::kPerAngle)
     return std::nullopt;
-  // body_information's lower triangle, each entry the same products in the same order.
-  double Mb[6][6];
-  for (int j = 0; j < 6; ++j) {
-    for (int k = 0; k <= j; ++k) Mb[j][k] = 0;
-  }
+  LowerInformation Mb;
   const double w = 1.0 / (design.noise.sigma_um() * design.noise.sigma_um());
   for (const Installation& in : design.installations) {
-    double r[6];
-    const Eigen::Vector3d m = 1e-3 * ball_body_mm(design.axis, in).cross(in.direction.body);
-    for (int j = 0; j < 3; ++j) r[j] = in.direction.body(j), r[j + 3] = m(j);
-    for (int j = 0; j < 6; ++j) {
-      const double wr = w * r[j];
-      for (int k = 0; k <= j; ++k) Mb[j][k] += wr * r[k];
-    }
+    Eigen::Matrix<double, 6, 1> r;
+    r.head<3>() = in.direction.body;
+    r.tail<3>() = 1e-3 * ball_body_mm(design.axis, in).cross(in.direction.body);
+    Mb.add(w, r);
   }
-  return per_angle_body_covariance(design, Mb);
+  return per_angle_body_covariance(design, Mb.M);
 }
 
 // An orthonormal basis U (m x (m - 6)) of the complement of the range of A (m x 6, full
@@ -356,7 +366,7 @@ struct PerAngleHarmonics {
   const AngleStations& st;
   int m = 0, n_st = 0;
   double w = 0;
-  std::vector<int> count;
+  const std::vector<int>& count;  // st.count
   std::vector<Eigen::Vector3d> phi;
   Eigen::Matrix3d Phi = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d A0, A1, A2;
@@ -392,6 +402,31 @@ struct PerAngleHarmonics {
     return C;
   }
 };
+
+// The variances of the six errors at angle g of T Cb T' (T = diag(R, R), R = A0 + cos g A1 +
+// sin g A2): row k of R is sum_h phi_h a_hk (a_hk the row k of A_h, phi = (1, cos g, sin g)),
+// so the variance of error k is phi' Q_k phi, Q_k(h, l) = a_hk' C a_lk (C its 3 x 3 block
+// of Cb). coef[u][e]: the coefficient of monomial u of (1, c, s, c^2, c s, s^2) for error e.
+void rotated_variance_coefficients(const Eigen::Matrix<double, 6, 6>& Cb, Axis axis,
+                                   double (&coef)[6][6]) {
+  const RotationHarmonics& rh = rotation_harmonics(axis);
+  const Eigen::Matrix3d* A[3] = {&rh.A0, &rh.A1, &rh.A2};
+  for (int e = 0; e < 6; ++e) {
+    const Eigen::Matrix3d C = Cb.block<3, 3>(3 * (e / 3), 3 * (e / 3));
+    Eigen::Vector3d a[3], Ca[3];
+    for (int h = 0; h < 3; ++h) a[h] = A[h]->row(e % 3).transpose(), Ca[h] = C * a[h];
+    Eigen::Matrix3d Q;
+    for (int h = 0; h < 3; ++h) {
+      for (int l = 0; l < 3; ++l) Q(h, l) = a[h].dot(Ca[l]);
+    }
+    coef[0][e] = Q(0, 0);
+    coef[1][e] = Q(0, 1) + Q(1, 0);
+    coef[2][e] = Q(0, 2) + Q(2, 0);
+    coef[3][e] = Q(1, 1);
+    coef[4][e] = Q(1, 2) + Q(2, 1);
+    coef[5][e] = Q(2, 2);
+  }
+}
 
 // The stations given when they serve the design, else its own (formed in own).
 const AngleStations& stations_of(const Design& design, const AngleStations* given,
@@ -433,31 +468,10 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
     return fast_worst_case_series(design, reference_length_mm);
   const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design);
   if (!Cb) return std::nullopt;
-  const Eigen::Matrix3d Ct = Cb->topLeftCorner<3, 3>(), Cr = Cb->bottomRightCorner<3, 3>();
   std::optional<AngleStations> own;
   const AngleStations& at = stations_of(design, stations, own);
-  // The diagonal of R C R' with R = A0 + cos g A1 + sin g A2: row k of R is sum_h phi_h a_hk
-  // (a_hk the row k of A_h, phi = (1, cos g, sin g)), so the variance of error k is
-  // phi' Q_k phi, Q_k(h, l) = a_hk' C a_lk: six monomials (1, c, s, c^2, c s, s^2) per
-  // error, their coefficients formed once.
-  const RotationHarmonics& rh = rotation_harmonics(design.axis);
-  const Eigen::Matrix3d* A[3] = {&rh.A0, &rh.A1, &rh.A2};
-  double coef[6][6];  // [monomial][error]
-  for (int e = 0; e < 6; ++e) {
-    const Eigen::Matrix3d& C = e < 3 ? Ct : Cr;
-    Eigen::Vector3d a[3], Ca[3];
-    for (int h = 0; h < 3; ++h) a[h] = A[h]->row(e % 3).transpose(), Ca[h] = C * a[h];
-    Eigen::Matrix3d Q;
-    for (int h = 0; h < 3; ++h) {
-      for (int l = 0; l < 3; ++l) Q(h, l) = a[h].dot(Ca[l]);
-    }
-    coef[0][e] = Q(0, 0);
-    coef[1][e] = Q(0, 1) + Q(1, 0);
-    coef[2][e] = Q(0, 2) + Q(2, 0);
-    coef[3][e] = Q(1, 1);
-    coef[4][e] = Q(1, 2) + Q(2, 1);
-    coef[5][e] = Q(2, 2);
-  }
+  double coef[6][6];  // [monomial][error], formed once for every station
+  rotated_variance_coefficients(*Cb, design.axis, coef);
   WorstTracker worst(reference_length_mm);
   for (int st = 0; st < at.n_stations(); ++st) {
     const double c = at.cos[st], s = at.sin[st];
@@ -516,17 +530,9 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   std::optional<AngleStations> own;
   const PerAngleHarmonics h(design, stations_of(design, stations, own));
   // body_information from the body-frame rows (the same products: the sign squares away).
-  double Mb[6][6];  // its lower triangle
-  for (int j = 0; j < 6; ++j) {
-    for (int k = 0; k <= j; ++k) Mb[j][k] = 0;
-  }
-  for (int i = 0; i < h.m; ++i) {
-    for (int j = 0; j < 6; ++j) {
-      const double wr = h.w * h.Jb(i, j);
-      for (int k = 0; k <= j; ++k) Mb[j][k] += wr * h.Jb(i, k);
-    }
-  }
-  const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design, Mb);
+  LowerInformation Mb;
+  for (int i = 0; i < h.m; ++i) Mb.add(h.w, h.Jb.row(i));
+  const std::optional<Eigen::Matrix<double, 6, 6>> Cb = per_angle_body_covariance(design, Mb.M);
   if (!Cb) return std::nullopt;
   const int m = h.m, n_st = h.n_st;
   const double w = h.w;
@@ -622,15 +628,13 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
   }
   const Eigen::Matrix3d* A[3] = {&h.A0, &h.A1, &h.A2};
   // Coefficients [monomial][error], so that a station's six values are one vector sum.
-  double coef_t[15][6] = {}, coef_n[15][6] = {}, coef_c[6][6] = {};
+  // C0's (monomials of degree <= 2, the same order): rotated_variance_coefficients.
+  double coef_t[15][6] = {}, coef_n[15][6] = {}, coef_c[6][6];
+  rotated_variance_coefficients(*Cb, design.axis, coef_c);
   for (int e = 0; e < 6; ++e) {
     const int b = e / 3, row = e % 3;
     Eigen::Vector3d a[3];
     for (int al = 0; al < 3; ++al) a[al] = A[al]->row(row).transpose();
-    for (int al = 0; al < 3; ++al) {
-      for (int be = 0; be < 3; ++be)
-        coef_c[mono_of({al, be})][e] += a[al].dot(Cb->block<3, 3>(3 * b, 3 * b) * a[be]);
-    }
     for (int k = 0; k < 6; ++k) {
       for (int be = 0; be < 3; ++be) {
         const Eigen::Vector3d ht = Ht[k][b] * a[be];

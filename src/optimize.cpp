@@ -261,8 +261,8 @@ class ChoiceSearch {
     if (!c.objective_defined || c.n_undetermined > generic_undetermined_) return kPenalty;
     // The global stage scores a point outside the constraints as one it cannot score: NLopt's
     // DIRECT, told of constraints, rescans every infeasible point against every feasible one
-    // at each iteration (quadratic in the points; half the search's time). The local stage
-    // keeps the constraints, so a best on a constraint's boundary is reached there.
+    // at each iteration (quadratic in the points; a third of the formats kit's search). The local
+    // stage keeps the constraints, so a best on a constraint's boundary is reached there.
     if (global_stage_ &&
         (c.travel_violation_mm > kGeometryTolerance_mm ||
          c.separation_violation_mm > kGeometryTolerance_mm || detection_violation(c) > 0))
@@ -763,19 +763,21 @@ void place_candidate(const Kit& kit, Candidate& c, const std::vector<double>& x)
   struct Placed {
     double L, D, H;
   };
+  // A placement's ball at x: its variables, or the position's fixed values.
+  const auto placed = [&](const PatternChoice::Placement& pl) {
+    const PatternPosition& p = kit.pattern.positions[pl.position];
+    return Placed{pl.L >= 0 ? x[pl.L] : p.L.value, pl.D >= 0 ? x[pl.D] : p.D.value, pl.H_mm};
+  };
   size_t k = 0;
   const std::vector<PatternChoice::Placement>& placements = c.choice.placements;
   for (size_t i = 0; i < placements.size(); ++i) {
-    const PatternChoice::Placement& pl = placements[i];
-    const PatternPosition& p = kit.pattern.positions[pl.position];
-    const Placed at{pl.L >= 0 ? x[pl.L] : p.L.value, pl.D >= 0 ? x[pl.D] : p.D.value, pl.H_mm};
+    const PatternPosition& p = kit.pattern.positions[placements[i].position];
+    const Placed at = placed(placements[i]);
     if (p.separated) {
       // Against the separated positions before it, in order.
       for (size_t j = 0; j < i; ++j) {
-        const PatternChoice::Placement& pj = placements[j];
-        const PatternPosition& q = kit.pattern.positions[pj.position];
-        if (!q.separated) continue;
-        const Placed b{pj.L >= 0 ? x[pj.L] : q.L.value, pj.D >= 0 ? x[pj.D] : q.D.value, pj.H_mm};
+        if (!kit.pattern.positions[placements[j].position].separated) continue;
+        const Placed b = placed(placements[j]);
         const double dist = std::hypot(at.L - b.L, at.D - b.D, at.H - b.H);
         c.separation_violation_mm =
             std::max(c.separation_violation_mm, kit.min_separation_mm - dist);

@@ -331,26 +331,11 @@ double noncentrality_for_power(int q, int dof, double alpha, double power) {
   return lambda;
 }
 
-namespace {
-
-// detection_limit_um, the noncentrality of each (q, dof) found once when a cache is given.
-std::optional<double> limit_um(int q, bool detectable, double min_information, int dof,
-                               const DetectionSettings& settings,
-                               std::map<std::pair<int, int>, double>* cache) {
-  if (!detectable || q <= 0 || dof <= 0 || !(min_information > 0)) return std::nullopt;
-  const double alpha = settings.level / std::max(1, settings.n_tests);
-  if (!cache)
-    return std::sqrt(noncentrality_for_power(q, dof, alpha, settings.power) / min_information);
-  const auto [it, added] = cache->try_emplace({q, dof}, 0.0);
-  if (added) it->second = noncentrality_for_power(q, dof, alpha, settings.power);
-  return std::sqrt(it->second / min_information);
-}
-
-}  // namespace
-
 std::optional<double> detection_limit_um(int q, bool detectable, double min_information, int dof,
                                          const DetectionSettings& settings) {
-  return limit_um(q, detectable, min_information, dof, settings, nullptr);
+  if (!detectable || q <= 0 || dof <= 0 || !(min_information > 0)) return std::nullopt;
+  const double alpha = settings.level / std::max(1, settings.n_tests);
+  return std::sqrt(noncentrality_for_power(q, dof, alpha, settings.power) / min_information);
 }
 
 namespace {
@@ -413,9 +398,6 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
       if (est.determined(c)) fns.push_back({s, k, c});
     }
   }
-  // The noncentrality for the power depends on (q, dof) alone: the effects of every
-  // installation share a few, each found once.
-  std::map<std::pair<int, int>, double> noncentrality;
   for (const SetupEffect& e : effects) {
     SetupEffectCheck ch;
     ch.label = e.label;
@@ -427,8 +409,10 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
     const Eigen::MatrixXd G0X = base.J_theta_reading() * e.J_reading_effect;
     const SetupEffectInformation info = effect_information(base, w, e, &G0X);
     ch.detectable = info.detectable;
-    ch.detection_limit_um = limit_um(info.q, info.detectable, info.min_information,
-                                     est.n_readings - est.rank - info.q, settings, &noncentrality);
+    // The noncentrality for the power depends on (q, dof) alone, and is kept
+    // (noncentrality_for_power): the effects of every installation share a few.
+    ch.detection_limit_um = detection_limit_um(info.q, info.detectable, info.min_information,
+                                               est.n_readings - est.rank - info.q, settings);
     const Eigen::MatrixXd GX =  // p x q: the estimate per um of the effect
         solver.any() ? solver.gain_times(e.J_reading_effect) : G0X;
     double best = -1;

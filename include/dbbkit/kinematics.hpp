@@ -26,8 +26,6 @@ void sincos_deg(double angle_deg, double& s, double& c);
 
 // Rotation of the axis at `angle_deg`: Rz for C, Ry for B.
 Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg);
-// The same from the angle's sine and cosine (sincos_deg's).
-Eigen::Matrix3d axis_rotation_sc(Axis axis, double s, double c);
 
 // The rotation about the axis as harmonics of the angle: R(g) = A0 + cos g A1 + sin g A2,
 // A0 = (R(0) + R(180)) / 2, A1 = (R(0) - R(180)) / 2, A2 = R(90) - A0 (formed once per axis).
