@@ -93,6 +93,7 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
     const Eigen::MatrixXd GX = solver.J_theta_reading() * e.J_reading_effect;
     SetupRisk worst;
     bool any = false;
+    PlaceOfLargest place;  // of the smallest threshold (the largest b / std), ties to the first
     for (int s = 0; s < param.n_stations(); ++s) {
       const Eigen::SparseMatrix<double> C = error_functions(param, s, p_ext);
       for (int k = 0; k < 6; ++k) {
@@ -102,7 +103,7 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
         if (!(b > tol::kSeenValue))
           continue;  // the effect moves this error by nothing but rounding
         const double threshold = d.std / b;
-        if (!any || threshold < worst.threshold_um) {
+        if (place.offer(b / d.std)) {
           any = true;
           worst.error = k;
           worst.angle_deg = after[s].angle_deg;
@@ -121,8 +122,9 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
     }
     out.push_back(worst);
   }
-  std::sort(out.begin(), out.end(),
-            [](const SetupRisk& a, const SetupRisk& b) { return a.threshold_um < b.threshold_um; });
+  std::stable_sort(out.begin(), out.end(), [](const SetupRisk& a, const SetupRisk& b) {
+    return a.threshold_um < b.threshold_um;
+  });
   return out;
 }
 

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <array>
@@ -427,7 +428,9 @@ void WlsSolver::factorise(const EstimateOptions& options) {
   // result); nullopt otherwise, `sub` untouched.
   auto block_normal = [&](Eigen::MatrixXd& sub) -> std::optional<BlockSvd> {
     const Eigen::Index c = sub.cols();
-    if (!(options.normal_equations_tolerance > 0) || c < options.normal_equations_min_columns ||
+    if (!(options.normal_equations_tolerance > 0) ||
+        (c < options.normal_equations_min_columns &&
+         c > options.normal_equations_max_small_columns) ||
         sub.rows() < c) {
       return std::nullopt;
     }
@@ -818,6 +821,13 @@ double bic(double n, double chi2, int parameters) {
   return n * std::log(std::max(chi2, 1e-300) / n) + parameters * std::log(n);
 }
 
+Eigen::MatrixXd triangular_factor(const Eigen::MatrixXd& A) {
+  const Eigen::Index q = A.cols();
+  if (A.rows() <= q) return A;
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(A);
+  return qr.matrixQR().topRows(q).triangularView<Eigen::Upper>();
+}
+
 int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X, const EstimateOptions& options) {
   if (X.cols() == 0 || X.rows() == 0) return 0;
   const Eigen::VectorXd norms =
@@ -829,7 +839,8 @@ int added_rank(const Eigen::MatrixXd& unexplained_part, const Eigen::VectorXd& n
                const EstimateOptions& options) {
   const int q = static_cast<int>(unexplained_part.cols());
   if (q == 0 || unexplained_part.rows() == 0) return 0;
-  Eigen::MatrixXd R = unexplained_part;
+  // Scaling the columns commutes with the triangular factor: R D = Q (T D).
+  Eigen::MatrixXd R = triangular_factor(unexplained_part);
   for (int j = 0; j < q; ++j) {
     if (norms(j) > 0) {
       R.col(j) /= norms(j);

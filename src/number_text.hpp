@@ -21,7 +21,7 @@ inline std::string significant(double x, int digits) {
 inline std::string rounded(double x, int decimals) {
   const double p = std::pow(10.0, decimals);
   std::ostringstream s;
-  s << std::round(x * p) / p;
+  s << std::round(x * p) / p + 0.0;  // + 0.0: a value rounding to zero prints 0, never -0
   return s.str();
 }
 

@@ -75,7 +75,8 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
 namespace {
 
 // The largest standard uncertainty over the values offered, angular errors in um
-// at the reference length; worst_std_um only when no value was undetermined.
+// at the reference length; worst_std_um only when no value was undetermined. Its place is
+// the first value offered within tol::kTieRelative of the largest (set by place_of_largest).
 class WorstTracker {
  public:
   explicit WorstTracker(double reference_length_mm)
@@ -83,8 +84,8 @@ class WorstTracker {
   // Compared as squares [um^2]; one square root at the end.
   void add(double angle_deg, int error, double variance) {
     const double u2 = std::max(0.0, variance) * (error < 3 ? 1.0 : scale2_);
-    if (u2 > worst2_) {
-      worst2_ = u2;
+    worst2_ = std::max(worst2_, u2);
+    if (place_.offer(u2)) {
       wc_.at_angle_deg = angle_deg;
       wc_.at_error = error;
     }
@@ -99,6 +100,7 @@ class WorstTracker {
  private:
   double scale2_;  // (1e-3 reference length)^2: an angular error's variance [urad^2] in um^2
   double worst2_ = -1;
+  PlaceOfLargest place_;
   WorstCase wc_;
 };
 

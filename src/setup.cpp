@@ -12,8 +12,10 @@
 #include <mutex>
 #include <stdexcept>
 #include <tuple>
+#include <utility>
 
 #include "dbbkit/kinematics.hpp"
+#include "tolerances.hpp"
 
 namespace dbbkit {
 
@@ -352,10 +354,11 @@ SetupEffectInformation effect_information(const WlsSolver& base, const Eigen::Ve
   info.q = static_cast<int>(e.J_reading_effect.cols());
   const Eigen::MatrixXd Re =
       G0X ? unexplained(base, e.J_reading_effect, *G0X) : unexplained(base, e.J_reading_effect);
+  const Eigen::MatrixXd T = triangular_factor(Re);  // the singular values of Re, one QR
   info.detectable =
-      added_rank(Re, (w.asDiagonal() * e.J_reading_effect).colwise().norm().transpose()) == info.q;
+      added_rank(T, (w.asDiagonal() * e.J_reading_effect).colwise().norm().transpose()) == info.q;
   if (info.detectable) {
-    const double r = Eigen::JacobiSVD<Eigen::MatrixXd>(Re).singularValues()(info.q - 1);
+    const double r = Eigen::JacobiSVD<Eigen::MatrixXd>(T).singularValues()(info.q - 1);
     info.min_information = r * r;
   }
   return info;
@@ -385,19 +388,26 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
   const WlsSolver& base = solver.base();
   const Estimate& est = solver.a_priori();
   const Eigen::VectorXd w = base.sigma_um().cwiseInverse();
-  // The determined error functions, once.
+  // The determined error functions, once: their nonzeros [first, last) in one array.
   struct Fn {
     int station, error;
-    Estimate::Function c;
+    std::size_t first, last;
   };
   std::vector<Fn> fns;
+  std::vector<std::pair<Eigen::Index, double>> nonzeros;
+  fns.reserve(6 * static_cast<std::size_t>(param.n_stations()));
   for (int s = 0; s < param.n_stations(); ++s) {
     const Eigen::SparseMatrix<double> C = error_functions(param, s, est.n_unknowns);
     for (int k = 0; k < 6; ++k) {
       const Estimate::Function c = C.col(k);
-      if (est.determined(c)) fns.push_back({s, k, c});
+      if (!est.determined(c)) continue;
+      const std::size_t first = nonzeros.size();
+      for (Estimate::Function::InnerIterator it(c); it; ++it)
+        nonzeros.emplace_back(it.index(), it.value());
+      fns.push_back({s, k, first, nonzeros.size()});
     }
   }
+  out.reserve(effects.size());
   for (const SetupEffect& e : effects) {
     SetupEffectCheck ch;
     ch.label = e.label;
@@ -416,11 +426,21 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
     const Eigen::MatrixXd GX =  // p x q: the estimate per um of the effect
         solver.any() ? solver.gain_times(e.J_reading_effect) : G0X;
     double best = -1;
+    PlaceOfLargest place;  // the largest bias's error and angle, ties to the first
+    const Eigen::Index q = GX.cols();
     for (const Fn& f : fns) {
-      const double b = (f.c.transpose() * GX).norm();
+      // |c' GX|, summed over c's nonzeros in their order.
+      double b2 = 0;
+      for (Eigen::Index k = 0; k < q; ++k) {
+        double cg = 0;
+        for (std::size_t t = f.first; t < f.last; ++t)
+          cg += nonzeros[t].second * GX(nonzeros[t].first, k);
+        b2 += cg * cg;
+      }
+      const double b = std::sqrt(b2);
       const double b_um = f.error >= 3 ? 1e-3 * reference_length_mm * b : b;
-      if (b_um > best) {
-        best = b_um;
+      best = std::max(best, b_um);
+      if (place.offer(b_um)) {
         ch.bias_per_um = b;
         ch.bias_um_per_um = b_um;
         ch.bias_error = f.error;
@@ -432,7 +452,7 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
       ch.bias_um_per_um.reset();
       ch.bias_error = -1;
     }
-    out.push_back(ch);
+    out.push_back(std::move(ch));
   }
   return out;
 }
@@ -485,14 +505,14 @@ void bound_first_order_bias(FirstOrderCheck& check, const SetupSolver& solver,
   if (!check.computed || budget.values.empty()) return;
   const Eigen::VectorXd l1 =
       solver.left_gain_l1(budget_functions(param, budget));  // |c'G|_1 per value
-  double worst = -1;
+  PlaceOfLargest place;  // the bound is the largest ratio; its place ties to the first value
   for (std::size_t v = 0; v < budget.values.size(); ++v) {
     const ValueBudget& vb = budget.values[v];
     if (!(vb.u_c > 0)) continue;
     const double ratio = check.largest_term_um * l1(static_cast<Eigen::Index>(v)) / vb.u_c;
-    if (ratio > worst) {
-      worst = ratio;
+    if (ratio >= 0 && (!check.bias_bound_std || ratio > *check.bias_bound_std))
       check.bias_bound_std = ratio;
+    if (place.offer(ratio)) {
       check.bias_error = vb.error;
       check.bias_angle_deg = vb.angle_deg;
     }

@@ -1,4 +1,6 @@
 #pragma once
+
+#include <cmath>
 // Fixed numerical tolerances shared by more than one source file, each named once and
 // documented by the inequality it tests. Tolerances a caller may change are in the Options
 // of their operation (EstimateOptions::min_relative_singular_value, ...); tolerances used by
@@ -29,4 +31,31 @@ constexpr double kWholeSteps = 1e-9;
 // vector written with six digits); design.cpp and the design reader apply it alike.
 constexpr double kUnitVectorTolerance = 1e-6;
 
+// Where a largest value is named (the worst uncertainty's error and angle, the largest bias of
+// a set-up effect), values within kTieRelative of one another are a tie, and the first offered
+// (stations in angle order, errors dx..ez) is named: a symmetric design has exact ties that
+// rounding would otherwise break one way or the other (PlaceOfLargest).
+constexpr double kTieRelative = 1e-9;
+
 }  // namespace dbbkit::tol
+
+namespace dbbkit {
+
+// The place of the largest of the values offered, ties (tol::kTieRelative) to the first: offer
+// says whether this value takes the place. Every value offered is at most (1 + kTieRelative)
+// times the value at the place.
+class PlaceOfLargest {
+ public:
+  bool offer(double v) {
+    if (!(v > (taken_ ? at_ * (1.0 + tol::kTieRelative) : -HUGE_VAL))) return false;  // NaN: no
+    at_ = v;
+    taken_ = true;
+    return true;
+  }
+
+ private:
+  double at_ = 0;
+  bool taken_ = false;
+};
+
+}  // namespace dbbkit

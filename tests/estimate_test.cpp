@@ -276,6 +276,67 @@ TEST(Estimate, NormalEquationsPathAgreesWithTheSvd) {
   EXPECT_EQ(deficient.a_priori().rank, p - 1);
 }
 
+// A per-angle model's stations (blocks of six columns) take the normal equations where the
+// condition bound holds and the SVD where a station loses rank (the B head's): against the
+// SVD of every block, the same rank, null space, singular values, covariance, gain and
+// estimate, within the bound's allowance.
+TEST(Estimate, PerAngleStationsTakeTheNormalEquationsWhereTheBoundHolds) {
+  EstimateOptions svd_only;
+  svd_only.normal_equations_tolerance = 0;
+  std::mt19937 rng(12);
+  std::normal_distribution<double> z;
+  for (const char axis : {'C', 'B'}) {
+    SCOPED_TRACE(axis);
+    const Design d = test::paper_design(axis);
+    const Parameterisation param(d);
+    std::vector<Reading> readings = nominal_readings(d);
+    for (Reading& r : readings) r.reading_um = z(rng);
+    const LinearModel model = build_linear_model(d, param, readings);
+    const WlsSolver normal(model.J, model.sigma_um), svd(model.J, model.sigma_um, svd_only);
+    const Estimate a = normal.solve(model.y_um), b = svd.solve(model.y_um);
+    EXPECT_EQ(svd.a_priori().normal_equation_blocks, 0);
+    const int blocks = static_cast<int>(normal.blocks().size());
+    int short_blocks = 0;  // fewer readings than unknowns: the SVD, not the normal equations
+    for (const WlsSolver::Block& blk : normal.blocks())
+      short_blocks += blk.rows.size() < blk.cols.size();
+    if (axis == 'C') {
+      EXPECT_EQ(short_blocks, 0);
+      EXPECT_EQ(a.normal_equation_blocks, blocks);  // every block full rank
+    } else {
+      // The B head's stations: blocks of fewer readings than unknowns (rank deficient, its
+      // undetermined errors) take the SVD, the others the normal equations.
+      EXPECT_GT(short_blocks, 0);
+      EXPECT_EQ(a.normal_equation_blocks, blocks - short_blocks);
+      EXPECT_LT(a.rank, a.n_unknowns);
+    }
+    EXPECT_EQ(a.rank, b.rank);
+    EXPECT_EQ(a.null_space_scaled.cols(), b.null_space_scaled.cols());
+    EXPECT_TRUE(test::near(a.singular_values, b.singular_values, 0, 1e-9));
+    EXPECT_TRUE(test::near(a.covariance, b.covariance,
+                           1e-9 * test::dense(b.covariance).cwiseAbs().maxCoeff()));
+    EXPECT_TRUE(
+        test::near(normal.J_theta_reading().sparse(), svd.J_theta_reading().sparse(),
+                   1e-9 * test::dense(svd.J_theta_reading().sparse()).cwiseAbs().maxCoeff()));
+    EXPECT_TRUE(test::near(a.theta, b.theta, 1e-9 * b.theta.cwiseAbs().maxCoeff()));
+    EXPECT_NEAR(a.chi2, b.chi2, 1e-9 * b.chi2);
+    // Within the bound, the normal equations are near the SVD; not identical (the two paths
+    // differ in rounding), so a path that silently fell back would not pass for this one.
+    if (axis == 'C') EXPECT_NE(test::dense(a.covariance), test::dense(b.covariance));
+  }
+  // An ill-conditioned station (kappa^2 rows eps > 1e-6): two nearly parallel columns in a
+  // block of six; the bound fails and the SVD answers, with the SVD's numbers exactly.
+  const int n = 8, p = 6;
+  Eigen::MatrixXd J(n, p);
+  for (Eigen::Index i = 0; i < J.size(); ++i) J.data()[i] = z(rng);
+  for (int i = 0; i < n; ++i) J(i, 1) = J(i, 0) + 1e-6 * z(rng);
+  const WlsSolver ill(J, Eigen::VectorXd::Ones(n)), ill_svd(J, Eigen::VectorXd::Ones(n), svd_only);
+  EXPECT_EQ(ill.a_priori().normal_equation_blocks, 0);
+  EXPECT_EQ(test::dense(ill.a_priori().covariance), test::dense(ill_svd.a_priori().covariance));
+  // A well-conditioned one of six columns takes the normal equations.
+  for (int i = 0; i < n; ++i) J(i, 1) = z(rng);
+  EXPECT_EQ(WlsSolver(J, Eigen::VectorXd::Ones(n)).a_priori().normal_equation_blocks, 1);
+}
+
 // A Fourier identification (order 20, 246 unknowns) takes the normal equations and gives
 // the SVD's values and uncertainties.
 TEST(Estimate, FourierIdentificationTakesTheNormalEquations) {

@@ -16,12 +16,14 @@
 #include <boost/math/distributions/normal.hpp>
 #include <random>
 
+#include "../src/tolerances.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/observability.hpp"
+#include "dbbkit/residual_checks.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
 
@@ -592,6 +594,123 @@ TEST(Noncentrality, ReachesThePowerWithinTheRootsWidth) {
         }
       }
     }
+  }
+}
+
+}  // namespace
+}  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// A symmetric design has exact ties between stations that rounding breaks one way or the
+// other. Each set-up check names its largest bias at the first (station, error) within the
+// tie tolerance of the largest: recomputed here from the SVD's gain (not the normal
+// equations evaluate takes), every (station, error) scanned in order.
+TEST(SetupChecks, TheLargestBiasIsNamedAtTheFirstOfItsTies) {
+  const Design d = test::paper_design('C');
+  const Evaluation ev = evaluate_design(d, 100.0);
+  const Parameterisation param(d);
+  const LinearModel model = design_model(d, param);
+  EstimateOptions svd_only;
+  svd_only.normal_equations_tolerance = 0;
+  const WlsSolver svd(model.J, model.sigma_um, svd_only);
+  const std::vector<SetupEffect> effects = setup_effects(d, model, false);
+  ASSERT_EQ(effects.size(), ev.setup_checks.size());
+  int with_ties = 0;
+  for (std::size_t e = 0; e < effects.size(); ++e) {
+    const SetupEffectCheck& ch = ev.setup_checks[e];
+    SCOPED_TRACE(ch.label);
+    const Eigen::MatrixXd GX = svd.J_theta_reading() * effects[e].J_reading_effect;
+    struct Bias {
+      double angle_deg, b_um;
+      int error;
+    };
+    std::vector<Bias> all;
+    double largest = 0;
+    for (int s = 0; s < param.n_stations(); ++s) {
+      const Eigen::MatrixXd C = test::dense(error_functions(param, s, svd.a_priori().n_unknowns));
+      for (int k = 0; k < 6; ++k) {
+        if (!svd.a_priori().determined(Eigen::SparseVector<double>(C.col(k).sparseView())))
+          continue;
+        const double b = (C.col(k).transpose() * GX).norm();
+        all.push_back({param.station_angle_deg(s), k >= 3 ? 0.1 * b : b, k});
+        largest = std::max(largest, all.back().b_um);
+      }
+    }
+    ASSERT_GT(largest, 0);
+    ASSERT_TRUE(ch.bias_um_per_um);
+    EXPECT_NEAR(*ch.bias_um_per_um, largest, 1e-9 * largest);
+    // The ties: within 1e-6 of the largest, and none between 1e-9 and 1e-6 (so that the
+    // two paths' rounding cannot make a tie of one and not of the other).
+    const Bias* first = nullptr;
+    int ties = 0;
+    for (const Bias& x : all) {
+      const double gap = (largest - x.b_um) / largest;
+      EXPECT_FALSE(gap > 1e-9 && gap <= 1e-6) << x.angle_deg << " " << x.error;
+      if (gap <= 1e-6) {
+        ++ties;
+        if (!first) first = &x;
+      }
+    }
+    ASSERT_NE(first, nullptr);
+    with_ties += ties > 1;
+    EXPECT_EQ(ch.bias_angle_deg, first->angle_deg);
+    EXPECT_EQ(ch.bias_error, first->error);
+  }
+  EXPECT_GT(with_ties, 0);  // the rule is exercised: some effect's largest bias is a tie
+}
+
+}  // namespace
+}  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// The place of the largest: the first value offered is taken; a later one only when it exceeds
+// the value at the place by more than tol::kTieRelative; NaN never. Every value offered is at
+// most (1 + kTieRelative) times the value at the place (random sequences with near-ties).
+TEST(Ties, PlaceOfLargestKeepsTheFirstOfTies) {
+  PlaceOfLargest p;
+  EXPECT_FALSE(p.offer(std::nan("")));
+  EXPECT_TRUE(p.offer(0.0));
+  EXPECT_TRUE(p.offer(1.0));
+  EXPECT_FALSE(p.offer(1.0));
+  EXPECT_FALSE(p.offer(1.0 + 1e-12));
+  EXPECT_FALSE(p.offer(0.5));
+  EXPECT_FALSE(p.offer(std::nan("")));
+  EXPECT_TRUE(p.offer(1.0 + 1e-6));
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int trial = 0; trial < 200; ++trial) {
+    PlaceOfLargest q;
+    double at = -1, largest = -1;
+    int place = -1;
+    for (int i = 0; i < 50; ++i) {
+      // values clustered near 1 at steps around the tolerance
+      const double v = 1.0 + std::floor(u(rng) * 8) * 0.4 * tol::kTieRelative;
+      largest = std::max(largest, v);
+      if (q.offer(v)) at = v, place = i;
+    }
+    EXPECT_GE(place, 0);
+    EXPECT_LE(largest, at * (1.0 + tol::kTieRelative));
+  }
+}
+
+// Significance: the smaller p; p within kSignificanceTie (or both zero) is a tie, decided by
+// F only where F differs by more than the tie; otherwise neither is more significant.
+TEST(Ties, MoreSignificantIsAStrictOrderWithTies) {
+  EXPECT_TRUE(more_significant(0.01, 1.0, 0.02, 9.0));
+  EXPECT_FALSE(more_significant(0.02, 9.0, 0.01, 1.0));
+  EXPECT_FALSE(more_significant(0.01 * (1 + 1e-12), 8.548, 0.01, 8.548));
+  EXPECT_FALSE(more_significant(0.01, 8.548, 0.01 * (1 + 1e-12), 8.548 * (1 + 1e-12)));
+  EXPECT_TRUE(more_significant(0.0, 300.0, 0.0, 200.0));  // both below the smallest double
+  EXPECT_FALSE(more_significant(0.0, 200.0, 0.0, 300.0));
+  EXPECT_FALSE(more_significant(std::nan(""), 1.0, 0.5, 1.0));
+  EXPECT_FALSE(more_significant(0.5, 1.0, std::nan(""), 1.0));
+  for (const double p : {0.3, 1e-5, 1e-200}) {
+    EXPECT_FALSE(more_significant(p, 2.0, p, 2.0));  // irreflexive
+    EXPECT_TRUE(more_significant(p * 0.99, 2.0, p, 2.0));
   }
 }
 

@@ -36,8 +36,12 @@ struct EstimateOptions {
   //   kappa^2 * rows * epsilon <= normal_equations_tolerance,
   // a bound on the relative error the squaring adds to the covariance, and when every
   // singular value counts toward the rank; otherwise (and with a tolerance of 0) the SVD.
+  // A block of at most normal_equations_max_small_columns columns (a station of a per-angle
+  // model: six) takes the same path under the same bound: its SVD costs more than the rest of
+  // its factorisation.
   double normal_equations_tolerance = 1e-6;
   int normal_equations_min_columns = 32;
+  int normal_equations_max_small_columns = 6;
   // Border columns. In an independent block of more than border_min_columns columns, a
   // column with more than border_nonzeros_factor times the block's median count of nonzeros
   // (and more than border_min_nonzeros) is a border column: an effect of the whole test or
@@ -271,8 +275,14 @@ Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M);
 Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M,
                             const Eigen::MatrixXd& GM);
 
-// added_rank from R = unexplained(solver, X) already formed, with the whitened column
-// norms |Sigma^-1/2 X_j| (the same rule).
+// T with T'T = A'A and so the singular values of A: for A of more rows than columns the
+// upper triangle of its Householder QR (cols x cols), otherwise A itself. The SVD of a tall,
+// narrow A (a set-up effect's unexplained part: readings x at most 3) is that of T, without
+// the QR that an SVD of A would form anyway and without U.
+Eigen::MatrixXd triangular_factor(const Eigen::MatrixXd& A);
+
+// added_rank from R = unexplained(solver, X) already formed (or its triangular_factor), with the
+// whitened column norms |Sigma^-1/2 X_j| (the same rule).
 int added_rank(const Eigen::MatrixXd& R, const Eigen::VectorXd& whitened_norms,
                const EstimateOptions& options = {});
 

@@ -46,10 +46,15 @@ struct ColumnTest {
 // P(F(q, dof) >= F); 1 when F <= 0 or there is nothing to test.
 double f_test_p(int q, int dof, double F);
 
-// The order of significance: the smaller p; where p ties (both below the smallest double), the
-// larger F.
+// The order of significance: the smaller p; where p ties (both below the smallest double, or
+// within a relative kSignificanceTie), the larger F; where F ties too, neither. A scan keeps the
+// first of tied alternatives: equivalent features (a step in one installation and the opposite
+// step in another whose difference alone the data determine) tie exactly but for rounding.
+constexpr double kSignificanceTie = 1e-9;
 inline bool more_significant(double p_a, double F_a, double p_b, double F_b) {
-  return p_a < p_b || (p_a == p_b && F_a > F_b);
+  if (p_a < p_b * (1.0 - kSignificanceTie)) return true;
+  if (!(p_a <= p_b * (1.0 + kSignificanceTie))) return false;  // clearly less significant, or NaN
+  return F_a > F_b * (1.0 + kSignificanceTie);
 }
 
 struct ScanTest {

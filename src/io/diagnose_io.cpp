@@ -106,6 +106,12 @@ std::vector<std::string> installations_of(const Design& d, const EffectCandidate
   return ids;
 }
 
+// x as printed to `decimals` places without a sign when it rounds to zero: a residual mean of
+// -1e-17 um is 0.00, not -0.00.
+double unsigned_zero(double x, int decimals) {
+  return std::abs(x) < 0.5 * std::pow(10.0, -decimals) ? 0.0 : x;
+}
+
 std::string signature_text(const ResidualSignature& s, const Design& design,
                            const std::vector<Reading>& readings) {
   const Axis axis = design.axis;
@@ -121,7 +127,8 @@ std::string signature_text(const ResidualSignature& s, const Design& design,
   for (const auto& i : s.installations) {
     o << std::setw(8) << i.id << std::fixed << std::setprecision(1) << std::setw(8) << i.L_mm
       << std::setw(8) << (axis == Axis::kC ? i.H_mm : i.D_mm) << std::setw(5) << i.n << std::fixed
-      << std::setprecision(2) << std::setw(10) << i.mean_um << std::setw(10) << i.rms_um;
+      << std::setprecision(2) << std::setw(10) << unsigned_zero(i.mean_um, 2) << std::setw(10)
+      << i.rms_um;
     if (axis == Axis::kC) {
       for (int k = 0; k < 4; ++k) {
         if (k < static_cast<int>(i.harmonic_um.size())) {
@@ -133,12 +140,12 @@ std::string signature_text(const ResidualSignature& s, const Design& design,
     }
     o << std::setw(12);
     if (i.slope_um_per_min)
-      o << std::setprecision(3) << *i.slope_um_per_min;
+      o << std::setprecision(3) << unsigned_zero(*i.slope_um_per_min, 3);
     else
       o << "--";
     o << std::setw(10);
     if (i.cw_minus_ccw_um)
-      o << std::setprecision(2) << *i.cw_minus_ccw_um;
+      o << std::setprecision(2) << unsigned_zero(*i.cw_minus_ccw_um, 2);
     else
       o << "--";
     o << std::defaultfloat << "\n";
