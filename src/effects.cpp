@@ -211,19 +211,19 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
   b.label = e.label(design);
   b.unit = effect_unit(e.kind);
   const std::vector<std::string> names = effect_parameter_names(e.kind);
-  Eigen::MatrixXd full(static_cast<Eigen::Index>(readings.size()),
-                       static_cast<Eigen::Index>(names.size()));
+  // Zero where the effect does not apply (another installation's readings): effect_row's own
+  // value there.
+  Eigen::MatrixXd full = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(readings.size()),
+                                               static_cast<Eigen::Index>(names.size()));
   bool time_missing = false, cw = false, ccw = false, bar_missing = false;
   for (std::size_t i = 0; i < readings.size(); ++i) {
     const Reading& r = readings[i];
     const int inst = layout.installation[i];
-    const bool applies = e.installation < 0 || e.installation == inst;
-    if (applies) {
-      time_missing = time_missing || !r.time_s;
-      cw = cw || (r.sweep && *r.sweep == Sweep::kCW);
-      ccw = ccw || (r.sweep && *r.sweep == Sweep::kCCW);
-      bar_missing = bar_missing || !design.installations[inst].bar_mm;
-    }
+    if (e.installation >= 0 && e.installation != inst) continue;  // does not apply
+    time_missing = time_missing || !r.time_s;
+    cw = cw || (r.sweep && *r.sweep == Sweep::kCW);
+    ccw = ccw || (r.sweep && *r.sweep == Sweep::kCCW);
+    bar_missing = bar_missing || !design.installations[inst].bar_mm;
     const double start = e.installation < 0 ? layout.test_start_s : layout.start_s[inst];
     full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, start, e).transpose();
   }

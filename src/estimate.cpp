@@ -214,7 +214,16 @@ const Gain::Sparse& Gain::sparse() const {
 }
 
 Eigen::MatrixXd Gain::operator*(const Eigen::MatrixXd& M) const {
-  Eigen::MatrixXd out = sparse_ * M;
+  // The sparse part column by column of M, passing over M's zeros (a set-up effect's columns
+  // are zero outside its installation's readings); the order of the sums is the product's.
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(sparse_.rows(), M.cols());
+  for (Eigen::Index j = 0; j < M.cols(); ++j) {
+    for (Eigen::Index r = 0; r < M.rows(); ++r) {
+      const double m = M(r, j);
+      if (m == 0.0) continue;
+      for (Sparse::InnerIterator it(sparse_, r); it; ++it) out(it.row(), j) += it.value() * m;
+    }
+  }
   if (implicit()) out.noalias() += cov_ * (J_->transpose() * (weight_.asDiagonal() * M));
   if (low_rank()) out.noalias() += U_ * (V_ * M);
   return out;
@@ -434,19 +443,26 @@ void WlsSolver::factorise(const EstimateOptions& options) {
         sub.rows() < c) {
       return std::nullopt;
     }
-    Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(c, c);
-    gram.selfadjointView<Eigen::Lower>().rankUpdate(sub.transpose());
-    gram = gram.selfadjointView<Eigen::Lower>();
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(gram);
-    if (eig.info() != Eigen::Success) return std::nullopt;
-    const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
-    const double kappa2 = lambda(c - 1) / lambda(0);
-    const double bound =
-        kappa2 * static_cast<double>(sub.rows()) * std::numeric_limits<double>::epsilon();
-    if (!(lambda(0) > 0) || !(bound <= options.normal_equations_tolerance)) return std::nullopt;
     BlockSvd d;
-    d.s = lambda.reverse().cwiseSqrt();
-    d.V = eig.eigenvectors().rowwise().reverse();
+    if (c == 1) {  // one column: its norm, no decomposition
+      const double norm2 = sub.col(0).squaredNorm();
+      if (!(norm2 > 0)) return std::nullopt;
+      d.s = Eigen::VectorXd::Constant(1, std::sqrt(norm2));
+      d.V = Eigen::MatrixXd::Identity(1, 1);
+    } else {
+      Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(c, c);
+      gram.selfadjointView<Eigen::Lower>().rankUpdate(sub.transpose());
+      gram = gram.selfadjointView<Eigen::Lower>();
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(gram);
+      if (eig.info() != Eigen::Success) return std::nullopt;
+      const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
+      const double kappa2 = lambda(c - 1) / lambda(0);
+      const double bound =
+          kappa2 * static_cast<double>(sub.rows()) * std::numeric_limits<double>::epsilon();
+      if (!(lambda(0) > 0) || !(bound <= options.normal_equations_tolerance)) return std::nullopt;
+      d.s = lambda.reverse().cwiseSqrt();
+      d.V = eig.eigenvectors().rowwise().reverse();
+    }
     d.normal = true;
     d.sub = std::move(sub);
     return d;

@@ -59,8 +59,10 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
           }
         }
       }
-      const double e = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly)
-                           .eigenvalues()(0);
+      const double e =
+          m == 1 ? M(0, 0)
+                 : Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly)
+                       .eigenvalues()(0);
       e_min = e_min ? std::min(*e_min, e) : e;
     }
     if (e_min) c.E_min_eigenvalue = *e_min;

@@ -342,18 +342,15 @@ std::optional<double> detection_limit_um(int q, bool detectable, double min_info
 
 namespace {
 
-// R_e = unexplained(base, X_e) (whitened), its smallest singular value squared and added_rank.
-// G0X: the base's gain times the effect's columns, when the caller has it.
-SetupEffectInformation effect_information(const WlsSolver& base, const Eigen::VectorXd& w,
-                                          const SetupEffect& e,
-                                          const Eigen::MatrixXd* G0X = nullptr) {
+// From R_e = unexplained(base, X_e) (whitened): its smallest singular value squared and
+// added_rank.
+SetupEffectInformation effect_information(const Eigen::VectorXd& w, const SetupEffect& e,
+                                          const Eigen::Ref<const Eigen::MatrixXd>& Re) {
   SetupEffectInformation info;
   info.kind = e.kind;
   info.installation = e.installation;
   info.declared_std_um = e.std_um;
   info.q = static_cast<int>(e.J_reading_effect.cols());
-  const Eigen::MatrixXd Re =
-      G0X ? unexplained(base, e.J_reading_effect, *G0X) : unexplained(base, e.J_reading_effect);
   const Eigen::MatrixXd T = triangular_factor(Re);  // the singular values of Re, one QR
   info.detectable =
       added_rank(T, (w.asDiagonal() * e.J_reading_effect).colwise().norm().transpose()) == info.q;
@@ -375,7 +372,7 @@ SetupInformation dense_setup_information(const Design& design) {
   out.rank = base.a_priori().rank;
   const Eigen::VectorXd w = base.sigma_um().cwiseInverse();
   for (const SetupEffect& e : setup_effects(design, model, true))
-    out.effects.push_back(effect_information(base, w, e));
+    out.effects.push_back(effect_information(w, e, unexplained(base, e.J_reading_effect)));
   return out;
 }
 
@@ -408,26 +405,38 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
     }
   }
   out.reserve(effects.size());
+  // Every effect's columns side by side: the base's gain times them, their unexplained part
+  // and (with declared set-up tolerances) the full gain times them, each in one product.
+  Eigen::Index n_columns = 0;
+  for (const SetupEffect& e : effects) n_columns += e.J_reading_effect.cols();
+  Eigen::MatrixXd X(base.J().rows(), n_columns);
+  n_columns = 0;
+  for (const SetupEffect& e : effects) {
+    X.middleCols(n_columns, e.J_reading_effect.cols()) = e.J_reading_effect;
+    n_columns += e.J_reading_effect.cols();
+  }
+  const Eigen::MatrixXd G0X = base.J_theta_reading() * X;
+  const Eigen::MatrixXd R = unexplained(base, X, G0X);
+  const Eigen::MatrixXd GX_all = solver.any() ? solver.gain_times(X) : Eigen::MatrixXd();
+  Eigen::Index column = 0;  // the effect's first column in X
   for (const SetupEffect& e : effects) {
     SetupEffectCheck ch;
     ch.label = e.label;
     ch.installation = e.installation;
     ch.kind = e.kind;
     ch.declared_std_um = e.std_um;
-    // The base's gain times the effect, once: the effect's information and, without
-    // declared set-up tolerances, its bias per um.
-    const Eigen::MatrixXd G0X = base.J_theta_reading() * e.J_reading_effect;
-    const SetupEffectInformation info = effect_information(base, w, e, &G0X);
+    const Eigen::Index q = e.J_reading_effect.cols();
+    const SetupEffectInformation info = effect_information(w, e, R.middleCols(column, q));
     ch.detectable = info.detectable;
     // The noncentrality for the power depends on (q, dof) alone, and is kept
     // (noncentrality_for_power): the effects of every installation share a few.
     ch.detection_limit_um = detection_limit_um(info.q, info.detectable, info.min_information,
                                                est.n_readings - est.rank - info.q, settings);
-    const Eigen::MatrixXd GX =  // p x q: the estimate per um of the effect
-        solver.any() ? solver.gain_times(e.J_reading_effect) : G0X;
+    const auto GX =  // p x q: the estimate per um of the effect
+        (solver.any() ? GX_all : G0X).middleCols(column, q);
+    column += q;
     double best = -1;
     PlaceOfLargest place;  // the largest bias's error and angle, ties to the first
-    const Eigen::Index q = GX.cols();
     for (const Fn& f : fns) {
       // |c' GX|, summed over c's nonzeros in their order.
       double b2 = 0;
