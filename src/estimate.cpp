@@ -435,6 +435,7 @@ void WlsSolver::factorise(const EstimateOptions& options) {
   };
   // The normal equations when the condition bound holds (`sub` then moves into the
   // result); nullopt otherwise, `sub` untouched.
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;  // its storage kept from block to block
   auto block_normal = [&](Eigen::MatrixXd& sub) -> std::optional<BlockSvd> {
     const Eigen::Index c = sub.cols();
     if (!(options.normal_equations_tolerance > 0) ||
@@ -453,7 +454,7 @@ void WlsSolver::factorise(const EstimateOptions& options) {
       Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(c, c);
       gram.selfadjointView<Eigen::Lower>().rankUpdate(sub.transpose());
       gram = gram.selfadjointView<Eigen::Lower>();
-      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(gram);
+      eig.compute(gram);
       if (eig.info() != Eigen::Success) return std::nullopt;
       const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
       const double kappa2 = lambda(c - 1) / lambda(0);

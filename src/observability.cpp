@@ -48,6 +48,7 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
     const Eigen::VectorXd w = solver.sigma_um().cwiseAbs2().cwiseInverse();
     std::optional<double> e_min;
     std::vector<int> local(static_cast<std::size_t>(p), -1);
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;  // its storage kept from block to block
     for (const WlsSolver::Block& b : solver.blocks()) {
       const int m = static_cast<int>(b.cols.size());
       for (int a = 0; a < m; ++a) local[static_cast<std::size_t>(b.cols[a])] = a;
@@ -59,10 +60,7 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
           }
         }
       }
-      const double e =
-          m == 1 ? M(0, 0)
-                 : Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(M, Eigen::EigenvaluesOnly)
-                       .eigenvalues()(0);
+      const double e = m == 1 ? M(0, 0) : eig.compute(M, Eigen::EigenvaluesOnly).eigenvalues()(0);
       e_min = e_min ? std::min(*e_min, e) : e;
     }
     if (e_min) c.E_min_eigenvalue = *e_min;
