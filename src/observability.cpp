@@ -76,7 +76,7 @@ namespace {
 
 // The largest standard uncertainty over the values offered, angular errors in um
 // at the reference length; worst_std_um only when no value was undetermined. Its place is
-// the first value offered within tol::kTieRelative of the largest (set by place_of_largest).
+// the first value offered within tol::kTieRelative of the largest (PlaceOfLargest).
 class WorstTracker {
  public:
   explicit WorstTracker(double reference_length_mm)

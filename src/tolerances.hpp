@@ -1,10 +1,10 @@
 #pragma once
-
-#include <cmath>
 // Fixed numerical tolerances shared by more than one source file, each named once and
 // documented by the inequality it tests. Tolerances a caller may change are in the Options
 // of their operation (EstimateOptions::min_relative_singular_value, ...); tolerances used by
 // one file only are named at the top of that file.
+
+#include <cmath>
 
 namespace dbbkit::tol {
 
@@ -34,7 +34,9 @@ constexpr double kUnitVectorTolerance = 1e-6;
 // Where a largest value is named (the worst uncertainty's error and angle, the largest bias of
 // a set-up effect), values within kTieRelative of one another are a tie, and the first offered
 // (stations in angle order, errors dx..ez) is named: a symmetric design has exact ties that
-// rounding would otherwise break one way or the other (PlaceOfLargest).
+// rounding would otherwise break one way or the other (PlaceOfLargest). The order of
+// significance of residual features (more_significant, residual_checks.hpp, public) ties its
+// p-values by the same relative width, kSignificanceTie.
 constexpr double kTieRelative = 1e-9;
 
 }  // namespace dbbkit::tol
