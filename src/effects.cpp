@@ -193,10 +193,17 @@ EffectRow effect_row(const Design& design, const Reading& r, int inst, double t0
 }  // namespace
 
 ReadingLayout::ReadingLayout(const Design& design, const std::vector<Reading>& readings)
-    : start_s(installation_start_times(design, readings)), test_start_s(test_start_time(readings)) {
+    : start_s(design.installations.size(), std::numeric_limits<double>::quiet_NaN()),
+      test_start_s(test_start_time(readings)) {
+  // Each reading's installation found once; its start time (installation_start_times) from it.
   const auto index = design.installation_index();
   installation.reserve(readings.size());
-  for (const Reading& r : readings) installation.push_back(index.at(r.installation));
+  for (const Reading& r : readings) {
+    const int i = index.at(r.installation);
+    installation.push_back(i);
+    double& t0 = start_s[static_cast<std::size_t>(i)];
+    if (r.time_s && !(t0 <= *r.time_s)) t0 = *r.time_s;
+  }
 }
 
 EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings,
@@ -242,11 +249,14 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
   }
   if (keep.empty() && b.applicability.applicable())
     b.applicability.why = NotApplicable::kChangesNoReading;
-  b.J_reading_effect.resize(full.rows(), static_cast<Eigen::Index>(keep.size()));
-  for (std::size_t j = 0; j < keep.size(); ++j) {
-    b.J_reading_effect.col(static_cast<Eigen::Index>(j)) = full.col(keep[j]);
-    b.parameters.push_back(names[keep[j]]);
+  for (int j : keep) b.parameters.push_back(names[static_cast<std::size_t>(j)]);
+  if (static_cast<Eigen::Index>(keep.size()) == full.cols()) {  // every column kept, in order
+    b.J_reading_effect = std::move(full);
+    return b;
   }
+  b.J_reading_effect.resize(full.rows(), static_cast<Eigen::Index>(keep.size()));
+  for (std::size_t j = 0; j < keep.size(); ++j)
+    b.J_reading_effect.col(static_cast<Eigen::Index>(j)) = full.col(keep[j]);
   return b;
 }
 

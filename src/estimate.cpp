@@ -17,6 +17,8 @@
 #include <utility>
 #include <vector>
 
+#include "small_eigen.hpp"
+
 namespace dbbkit {
 
 namespace {
@@ -296,22 +298,32 @@ std::shared_ptr<const Jacobian> compressed(const Jacobian& J) {
 // (zero where the block has no rank): the sparse matrix, and each unknown's block and place.
 void set_covariance(Estimate& est, const std::vector<WlsSolver::Block>& blocks,
                     std::vector<Eigen::MatrixXd> dense, int p) {
-  std::vector<Eigen::Triplet<double>> entries;
   est.covariance_block_of.assign(static_cast<std::size_t>(p), -1);
   est.covariance_local.assign(static_cast<std::size_t>(p), -1);
+  Eigen::Index nonzeros = 0;
   for (std::size_t b = 0; b < blocks.size(); ++b) {
     const std::vector<int>& cols = blocks[b].cols;
     for (std::size_t x = 0; x < cols.size(); ++x) {
       est.covariance_block_of[static_cast<std::size_t>(cols[x])] = static_cast<int>(b);
       est.covariance_local[static_cast<std::size_t>(cols[x])] = static_cast<int>(x);
-      for (std::size_t y = 0; y < cols.size(); ++y) {
-        const double v = dense[b](static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y));
-        if (v != 0.0) entries.emplace_back(cols[x], cols[y], v);
-      }
+    }
+    nonzeros += (dense[b].array() != 0.0).count();
+  }
+  // Column by column, rows ascending (a block's columns are ascending): no sort.
+  est.covariance.resize(p, p);
+  est.covariance.reserve(nonzeros);
+  for (int j = 0; j < p; ++j) {
+    est.covariance.startVec(j);
+    const int b = est.covariance_block_of[static_cast<std::size_t>(j)];
+    if (b < 0) continue;
+    const std::vector<int>& cols = blocks[static_cast<std::size_t>(b)].cols;
+    const Eigen::Index y = est.covariance_local[static_cast<std::size_t>(j)];
+    for (std::size_t x = 0; x < cols.size(); ++x) {
+      const double v = dense[static_cast<std::size_t>(b)](static_cast<Eigen::Index>(x), y);
+      if (v != 0.0) est.covariance.insertBack(cols[x], j) = v;
     }
   }
-  est.covariance.resize(p, p);
-  est.covariance.setFromTriplets(entries.begin(), entries.end());
+  est.covariance.finalize();
   est.covariance_blocks = std::move(dense);
 }
 
@@ -436,6 +448,9 @@ void WlsSolver::factorise(const EstimateOptions& options) {
   // The normal equations when the condition bound holds (`sub` then moves into the
   // result); nullopt otherwise, `sub` untouched.
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;  // its storage kept from block to block
+  detail::SmallSymmetricEigen small_eig;
+  Eigen::MatrixXd gram;
+  Eigen::VectorXd lambda;
   auto block_normal = [&](Eigen::MatrixXd& sub) -> std::optional<BlockSvd> {
     const Eigen::Index c = sub.cols();
     if (!(options.normal_equations_tolerance > 0) ||
@@ -451,18 +466,35 @@ void WlsSolver::factorise(const EstimateOptions& options) {
       d.s = Eigen::VectorXd::Constant(1, std::sqrt(norm2));
       d.V = Eigen::MatrixXd::Identity(1, 1);
     } else {
-      Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(c, c);
+      gram.setZero(c, c);  // its storage kept from block to block
       gram.selfadjointView<Eigen::Lower>().rankUpdate(sub.transpose());
-      gram = gram.selfadjointView<Eigen::Lower>();
-      eig.compute(gram);
-      if (eig.info() != Eigen::Success) return std::nullopt;
-      const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
+      // A station's block (at most kSmallEigenMax columns) in fixed storage; a series' block,
+      // or a small one whose steps did not converge, by Eigen's solver.
+      const bool small = c <= detail::kSmallEigenMax && small_eig.compute(gram, true);
+      if (small) {
+        lambda.resize(c);
+        for (Eigen::Index k = 0; k < c; ++k) lambda(k) = small_eig.eigenvalue(static_cast<int>(k));
+      } else {
+        gram = gram.selfadjointView<Eigen::Lower>();
+        eig.compute(gram);
+        if (eig.info() != Eigen::Success) return std::nullopt;
+        lambda = eig.eigenvalues();
+      }
+      // lambda ascending
       const double kappa2 = lambda(c - 1) / lambda(0);
       const double bound =
           kappa2 * static_cast<double>(sub.rows()) * std::numeric_limits<double>::epsilon();
       if (!(lambda(0) > 0) || !(bound <= options.normal_equations_tolerance)) return std::nullopt;
       d.s = lambda.reverse().cwiseSqrt();
-      d.V = eig.eigenvectors().rowwise().reverse();
+      if (small) {
+        d.V.resize(c, c);
+        for (Eigen::Index k = 0; k < c; ++k) {
+          for (Eigen::Index i = 0; i < c; ++i)
+            d.V(i, k) = small_eig.vector(static_cast<int>(i), static_cast<int>(c - 1 - k));
+        }
+      } else {
+        d.V = eig.eigenvectors().rowwise().reverse();
+      }
     }
     d.normal = true;
     d.sub = std::move(sub);
@@ -491,7 +523,8 @@ void WlsSolver::factorise(const EstimateOptions& options) {
     est.normal_equation_blocks += svds[b].normal;
   }
 
-  std::vector<Eigen::Triplet<double>> gain_entries, null_entries;
+  std::vector<Eigen::Triplet<double>> null_entries;
+  std::vector<Eigen::MatrixXd> block_gain(static_cast<std::size_t>(n_blocks));  // its cols x rows
   std::vector<Eigen::MatrixXd> covariance_blocks(static_cast<std::size_t>(n_blocks));
   for (int b = 0; b < n_blocks; ++b) {
     const Eigen::Index c = static_cast<Eigen::Index>(blocks_[b].cols.size());
@@ -501,6 +534,8 @@ void WlsSolver::factorise(const EstimateOptions& options) {
   all_s.reserve(static_cast<std::size_t>(p));
   int rank = 0, n_null = 0;
   double s_min_kept = 0;
+  Eigen::MatrixXd c, g;  // a block's covariance and gain, scaled; storage kept from block to block
+  Eigen::VectorXd inv_s, u;
   for (int b = 0; b < n_blocks; ++b) {
     const BlockSvd& d = svds[b];
     const Block& blk = blocks_[b];
@@ -510,22 +545,24 @@ void WlsSolver::factorise(const EstimateOptions& options) {
     if (r > 0) s_min_kept = s_min_kept == 0 ? d.s(r - 1) : std::min(s_min_kept, d.s(r - 1));
     rank += r;
     if (r > 0) {
-      const Eigen::MatrixXd Vr = d.V.leftCols(r);
-      const Eigen::VectorXd inv_s = d.s.head(r).cwiseInverse();
-      const Eigen::MatrixXd c = Vr * inv_s.cwiseAbs2().asDiagonal() * Vr.transpose();
-      const Eigen::MatrixXd g =
-          d.normal ? Eigen::MatrixXd(c * d.sub.transpose())  // scaled, whitened
-                   : Eigen::MatrixXd(Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose());
-      covariance_blocks[static_cast<std::size_t>(b)] =
-          unscale(blk.cols).asDiagonal() * c * unscale(blk.cols).asDiagonal();
-      for (std::size_t a = 0; a < blk.cols.size(); ++a) {
-        const int ja = blk.cols[a];
-        for (std::size_t rr = 0; rr < blk.rows.size(); ++rr) {
-          const double v = unscale(ja) *
-                           g(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(rr)) *
-                           w(blk.rows[rr]);
-          if (v != 0.0) gain_entries.emplace_back(ja, blk.rows[rr], v);
-        }
+      const auto Vr = d.V.leftCols(r);
+      inv_s = d.s.head(r).cwiseInverse();
+      c.noalias() = Vr * inv_s.cwiseAbs2().asDiagonal() * Vr.transpose();
+      if (d.normal) {  // scaled, whitened
+        g.noalias() = c * d.sub.transpose();
+      } else {
+        g.noalias() = Vr * inv_s.asDiagonal() * d.U.leftCols(r).transpose();
+      }
+      u.resize(static_cast<Eigen::Index>(blk.cols.size()));
+      for (std::size_t a = 0; a < blk.cols.size(); ++a)
+        u(static_cast<Eigen::Index>(a)) = unscale(blk.cols[a]);
+      covariance_blocks[static_cast<std::size_t>(b)] = u.asDiagonal() * c * u.asDiagonal();
+      Eigen::MatrixXd& gb = block_gain[static_cast<std::size_t>(b)];  // original units
+      gb.resize(g.rows(), g.cols());
+      for (Eigen::Index rr = 0; rr < g.cols(); ++rr) {
+        for (Eigen::Index a = 0; a < g.rows(); ++a)
+          gb(a, rr) = unscale(blk.cols[static_cast<std::size_t>(a)]) * g(a, rr) *
+                      w(blk.rows[static_cast<std::size_t>(rr)]);
       }
     }
     for (int k = r; k < d.V.cols(); ++k, ++n_null) {
@@ -535,8 +572,34 @@ void WlsSolver::factorise(const EstimateOptions& options) {
       }
     }
   }
+  // The gain column by column (a reading's column holds its block's rows, ascending): no sort.
+  std::vector<int> block_of_row(static_cast<std::size_t>(n), -1),
+      place_in_block(static_cast<std::size_t>(n));
+  Eigen::Index gain_nonzeros = 0;
+  for (int b = 0; b < n_blocks; ++b) {
+    const std::vector<int>& rows = blocks_[b].rows;
+    if (block_gain[static_cast<std::size_t>(b)].size() == 0) continue;
+    for (std::size_t rr = 0; rr < rows.size(); ++rr) {
+      block_of_row[static_cast<std::size_t>(rows[rr])] = b;
+      place_in_block[static_cast<std::size_t>(rows[rr])] = static_cast<int>(rr);
+    }
+    gain_nonzeros += (block_gain[static_cast<std::size_t>(b)].array() != 0.0).count();
+  }
   Gain::Sparse G0(p, n);
-  G0.setFromTriplets(gain_entries.begin(), gain_entries.end());
+  G0.reserve(gain_nonzeros);
+  for (int i = 0; i < n; ++i) {
+    G0.startVec(i);
+    const int b = block_of_row[static_cast<std::size_t>(i)];
+    if (b < 0) continue;
+    const Eigen::MatrixXd& gb = block_gain[static_cast<std::size_t>(b)];
+    const std::vector<int>& cols = blocks_[b].cols;
+    const Eigen::Index rr = place_in_block[static_cast<std::size_t>(i)];
+    for (std::size_t a = 0; a < cols.size(); ++a) {
+      const double v = gb(static_cast<Eigen::Index>(a), rr);
+      if (v != 0.0) G0.insertBack(cols[a], i) = v;
+    }
+  }
+  G0.finalize();
   set_covariance(est, blocks_, std::move(covariance_blocks), p);
   if (border_.empty()) {
     gain_ = Gain(std::move(G0), Eigen::MatrixXd(), Eigen::MatrixXd());
@@ -809,7 +872,21 @@ Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options) 
 
 Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M,
                             const Eigen::MatrixXd& GM) {
-  return solver.sigma_um().cwiseInverse().asDiagonal() * (M - solver.J() * GM);
+  // W^1/2 (M - J GM) in one pass, row by row (J's few nonzeros in a row reach into each of
+  // GM's columns), without the product's and the difference's temporaries.
+  const Jacobian& J = solver.J();
+  const Eigen::VectorXd& sigma = solver.sigma_um();
+  Eigen::MatrixXd R(M.rows(), M.cols());
+  for (Eigen::Index i = 0; i < J.rows(); ++i) {
+    const double w = 1.0 / sigma(i);
+    for (Eigen::Index t = 0; t < M.cols(); ++t) {
+      const double* g = GM.col(t).data();
+      double jg = 0;
+      for (Jacobian::InnerIterator it(J, i); it; ++it) jg += it.value() * g[it.col()];
+      R(i, t) = w * (M(i, t) - jg);
+    }
+  }
+  return R;
 }
 
 Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M) {

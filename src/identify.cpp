@@ -58,9 +58,7 @@ RigidMotion rigid_motion(const Design& design, double angle_deg, const Eigen::Ve
 
 Eigen::SparseMatrix<double> error_functions(const Parameterisation& param, int station,
                                             Eigen::Index n_unknowns) {
-  Eigen::SparseMatrix<double> C = param.error_functions(station);
-  if (n_unknowns > C.rows()) C.conservativeResize(n_unknowns, 6);
-  return C;
+  return param.error_functions(station, n_unknowns);
 }
 
 std::vector<ErrorsAtAngle> errors_at_stations(const Parameterisation& param, const Estimate& est) {

@@ -10,6 +10,7 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
+#include "small_eigen.hpp"
 #include "tolerances.hpp"
 
 namespace dbbkit {
@@ -44,15 +45,21 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
     for (int j = 0; j < p; ++j) trace += est.covariance.coeff(j, j);
     c.A_trace = trace;
     // M = J' W J is block-diagonal over the solver's blocks: its smallest eigenvalue is the
-    // smallest of the blocks'.
+    // smallest of the blocks'. A block with M_b - (1 - kTieRelative) e I positive definite (e the
+    // smallest so far) lowers it by less than the tie width, and its eigenvalues are not
+    // computed: a symmetric design's stations have the same eigenvalues to rounding.
     const Eigen::VectorXd w = solver.sigma_um().cwiseAbs2().cwiseInverse();
     std::optional<double> e_min;
     std::vector<int> local(static_cast<std::size_t>(p), -1);
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;  // its storage kept from block to block
+    // A station's block in fixed storage, a larger one (or one whose steps did not converge)
+    // by Eigen's solver; storage kept from block to block.
+    detail::SmallSymmetricEigen small_eig;
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;
+    Eigen::MatrixXd M;
     for (const WlsSolver::Block& b : solver.blocks()) {
       const int m = static_cast<int>(b.cols.size());
       for (int a = 0; a < m; ++a) local[static_cast<std::size_t>(b.cols[a])] = a;
-      Eigen::MatrixXd M = Eigen::MatrixXd::Zero(m, m);
+      M.setZero(m, m);
       for (int i : b.rows) {
         for (Jacobian::InnerIterator x(solver.J(), i); x; ++x) {
           for (Jacobian::InnerIterator y(solver.J(), i); y; ++y) {
@@ -60,7 +67,15 @@ DesignCriteria design_criteria(const WlsSolver& solver) {
           }
         }
       }
-      const double e = m == 1 ? M(0, 0) : eig.compute(M, Eigen::EigenvaluesOnly).eigenvalues()(0);
+      if (m > 1 && e_min && *e_min > 0 &&
+          detail::positive_definite_shifted(M, (1.0 - tol::kTieRelative) * *e_min))
+        continue;
+      double e = M(0, 0);
+      if (m > 1 && small_eig.compute(M, false)) {
+        e = small_eig.eigenvalue(0);
+      } else if (m > 1) {
+        e = eig.compute(M, Eigen::EigenvaluesOnly).eigenvalues()(0);
+      }
       e_min = e_min ? std::min(*e_min, e) : e;
     }
     if (e_min) c.E_min_eigenvalue = *e_min;

@@ -120,34 +120,41 @@ Eigen::VectorXd Parameterisation::series_basis(double angle_deg) const {
   return Eigen::VectorXd::Ones(1);
 }
 
-Eigen::SparseMatrix<double> Parameterisation::error_functions(int station) const {
+Eigen::SparseMatrix<double> Parameterisation::error_functions(int station,
+                                                              Eigen::Index rows) const {
   if (model_.kind != ErrorModel::Kind::kPerAngle)
-    return error_functions_at_angle(station_deg_[station]);
-  Eigen::SparseMatrix<double> E(n_parameters_, 6);
-  E.reserve(Eigen::VectorXi::Constant(6, 1));
-  for (int k = 0; k < 6; ++k) E.insert(6 * station + k, k) = 1.0;
-  E.makeCompressed();
+    return error_functions_at_angle(station_deg_[station], rows);
+  // Column by column, in order: no sort, no search.
+  Eigen::SparseMatrix<double> E(std::max<Eigen::Index>(rows, n_parameters_), 6);
+  E.reserve(6);
+  for (int k = 0; k < 6; ++k) {
+    E.startVec(k);
+    E.insertBack(6 * station + k, k) = 1.0;
+  }
+  E.finalize();
   return E;
 }
 
-Eigen::SparseMatrix<double> Parameterisation::error_functions_at_angle(double angle_deg) const {
+Eigen::SparseMatrix<double> Parameterisation::error_functions_at_angle(double angle_deg,
+                                                                       Eigen::Index rows) const {
   if (model_.kind == ErrorModel::Kind::kPerAngle) {
     const int s = station_of(angle_deg);
     if (s < 0) {
       throw InputError("parameterisation", "angle " + format_angle(angle_deg),
                        "a per-angle model has no errors between its measured positions");
     }
-    return error_functions(s);
+    return error_functions(s, rows);
   }
   const Eigen::VectorXd f = series_basis(angle_deg);
-  Eigen::SparseMatrix<double> E(n_parameters_, 6);
-  E.reserve(Eigen::VectorXi::Constant(6, per_error_));
+  Eigen::SparseMatrix<double> E(std::max<Eigen::Index>(rows, n_parameters_), 6);
+  E.reserve(6 * per_error_);
   for (int k = 0; k < 6; ++k) {
+    E.startVec(k);
     for (int j = 0; j < per_error_; ++j) {
-      if (f(j) != 0.0) E.insert(k * per_error_ + j, k) = f(j);
+      if (f(j) != 0.0) E.insertBack(k * per_error_ + j, k) = f(j);
     }
   }
-  E.makeCompressed();
+  E.finalize();
   return E;
 }
 

@@ -223,7 +223,10 @@ class Selector {
             status(pool_[i].label, CandidateState::kNotSignificant, CandidateReason::kTested);
         status_[i].F = trial.F;
         status_[i].p = trial.p;
-        if (trial.p < best_p) best = static_cast<int>(i), best_p = trial.p, best_F = trial.F;
+        // Ties within kSignificanceTie (the x and z scales of a symmetric design) go to the
+        // first in the pool's order, not to rounding.
+        if (more_significant(trial.p, trial.F, best_p, best_F))
+          best = static_cast<int>(i), best_p = trial.p, best_F = trial.F;
       }
       // Scanned candidates: the best alternative of each, p multiplied by the alternatives tested.
       int best_family = -1, best_alt = -1, best_scanned = 0;

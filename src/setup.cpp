@@ -258,6 +258,9 @@ SetupSolver::JointParts SetupSolver::joint_parts(const Eigen::SparseMatrix<doubl
 ErrorParts error_parts(const Parameterisation& param, const SetupSolver& solver) {
   ErrorParts out;
   const Estimate& est = solver.a_priori();
+  out.noise.reserve(static_cast<std::size_t>(param.n_stations()));
+  out.setup.reserve(static_cast<std::size_t>(param.n_stations()));
+  out.total.reserve(static_cast<std::size_t>(param.n_stations()));
   for (int s = 0; s < param.n_stations(); ++s) {
     ErrorsAtAngle noise, setup, total;
     noise.station = setup.station = total.station = s;

@@ -408,3 +408,30 @@ TEST(Diagnose, ReportNamesTheReadingsGivenAfterExcludingGrossOnes) {
 
 }  // namespace
 }  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// The paper's B head data: scale.x and scale.z are the best candidates of step 3 with the same
+// F and p to rounding (a symmetric design). The first in the pool's order, scale.x, is named
+// the step's best; rounding had decided it (more_significant's tie, as for the scans).
+TEST(Diagnose, TiedCandidatesNameTheFirst) {
+  const Design d = test::paper_design('B');
+  const DiagnoseResult r = diagnose(
+      d, io::read_measurement_file(test::source_path("tests/data/paper/paper_b_head.csv"), d));
+  const CandidateStatus* x = nullptr;
+  const CandidateStatus* z = nullptr;
+  for (const CandidateStatus& c : r.candidates) {
+    if (c.label == "scale.x") x = &c;
+    if (c.label == "scale.z") z = &c;
+  }
+  ASSERT_TRUE(x && z);
+  ASSERT_GT(x->p, 0);
+  EXPECT_NEAR(x->p, z->p, kSignificanceTie * x->p);  // a tie
+  EXPECT_NEAR(x->F, z->F, kSignificanceTie * x->F);
+  EXPECT_TRUE(x->missed.has_value());
+  EXPECT_FALSE(z->missed.has_value());
+}
+
+}  // namespace
+}  // namespace dbbkit

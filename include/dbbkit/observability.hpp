@@ -31,7 +31,8 @@ ObservabilityIndices observability_indices(const Eigen::VectorXd& singular_value
 // Criteria on M = J' Sigma^-1 J in the units of theta (um, urad: they mix units,
 // so compare them only between designs with the same parameterisation):
 //   D = log det M, A = trace M^-1 (absent when M is singular), E = smallest
-//   eigenvalue of M (0 when singular), G = largest leverage h_ii of a reading
+//   eigenvalue of M (0 when singular; to 1e-9 relative where the solver's blocks tie, as
+//   the stations of a symmetric design do), G = largest leverage h_ii of a reading
 //   (diagonal of the hat matrix; rank / n on average).
 struct DesignCriteria {
   std::optional<double> D_logdet;

@@ -44,9 +44,12 @@ class Parameterisation {
 
   // The six errors at a station as functions of theta, sparse (n_parameters x 6, column k
   // is error k, on the coefficients it reads: its station's one for a per-angle model), and
-  // at any angle for a series (per_angle: the angle must be a station).
-  Eigen::SparseMatrix<double> error_functions(int station) const;
-  Eigen::SparseMatrix<double> error_functions_at_angle(double angle_deg) const;
+  // at any angle for a series (per_angle: the angle must be a station). With rows >
+  // n_parameters, the matrix has that many rows (unknowns after theta's, such as set-up
+  // columns, read by no error).
+  Eigen::SparseMatrix<double> error_functions(int station, Eigen::Index rows = 0) const;
+  Eigen::SparseMatrix<double> error_functions_at_angle(double angle_deg,
+                                                       Eigen::Index rows = 0) const;
   // The same as a dense map: e6 = E theta (6 x n_parameters).
   Eigen::MatrixXd error_map(int station) const;
   Eigen::MatrixXd error_map_at_angle(double angle_deg) const;
