@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "../src/simd.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/parameterisation.hpp"
@@ -223,6 +224,58 @@ TEST(Estimate, NoReadingsGivesNoNumbers) {
   EXPECT_FALSE(est.p_value.has_value());
 }
 
+// The paper's C design with five more installations (twelve), as the series benchmark.
+Design twelve_installations(Design d) {
+  for (int k = 0; k < 5; ++k) {
+    Installation in = d.installations[static_cast<std::size_t>(k) % 7];
+    in.id = "x" + std::to_string(k);
+    in.L_mm += 30 + 10 * k;
+    in.H_mm += 20 * k;
+    d.installations.push_back(in);
+  }
+  return d;
+}
+
+// Gain::left_l1 of a series runs its kernels four doubles wide where the processor has AVX
+// and two wide otherwise: both give the same bits, and both |C G|_1 of the dense gain. 91
+// angles and 553 functions leave tails in every loop (angles, chunks of 256, vector lanes).
+// On a processor without AVX both runs take the two-wide path.
+TEST(Estimate, SeriesL1IsTheSameOnEveryVectorWidth) {
+  Design d = twelve_installations(test::paper_design('C'));
+  d.errors = {ErrorModel::Kind::kFourier, 20};
+  d.angles_deg.clear();
+  for (int i = 0; i < 91; ++i) d.angles_deg.push_back(360.0 * i / 91);
+  const Parameterisation param(d);
+  const LinearModel model = build_linear_model(d, param, nominal_readings(d));
+  const WlsSolver factored(model);
+  const WlsSolver::Gain& G = factored.J_theta_reading();
+  ASSERT_TRUE(G.series_l1());
+  std::vector<Eigen::Triplet<double>> t;
+  int row = 0;
+  for (int st = 0; st < param.n_stations(); ++st) {
+    const Eigen::SparseMatrix<double> E = param.error_functions(st);
+    for (int e = 0; e < 6; ++e, ++row) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(E, e); it; ++it)
+        t.emplace_back(row, static_cast<int>(it.row()), it.value());
+    }
+  }
+  std::mt19937 rng(11);
+  std::normal_distribution<double> z;
+  for (int r = 0; r < 7; ++r, ++row) {  // across the errors' coefficients
+    for (int j = 0; j < 9; ++j) t.emplace_back(row, (r * 31 + j * 17) % model.J.cols(), z(rng));
+  }
+  FunctionRows C(row, model.J.cols());
+  C.setFromTriplets(t.begin(), t.end());
+  ASSERT_EQ(C.rows(), 6 * 91 + 7);
+  detail::wide_vectors_allowed() = false;
+  const Eigen::VectorXd narrow = G.left_l1(C);
+  detail::wide_vectors_allowed() = true;
+  const Eigen::VectorXd wide = G.left_l1(C);
+  for (Eigen::Index v = 0; v < C.rows(); ++v) EXPECT_EQ(narrow(v), wide(v)) << v;
+  const Eigen::VectorXd l1 = (test::dense(C) * test::dense(G.sparse())).cwiseAbs().rowwise().sum();
+  EXPECT_TRUE(test::near(wide, l1, 0.0, 1e-9));
+}
+
 }  // namespace
 }  // namespace dbbkit
 
@@ -377,16 +430,7 @@ TEST(Estimate, SeriesRowsGiveTheGeneralSolversResult) {
   };
   cases.push_back({"C fourier 20, 72 angles (independent blocks)",
                    with(test::paper_design('C'), {ErrorModel::Kind::kFourier, 20}, 72, 360), true});
-  auto twelve = [](Design d) {  // as the benchmark: more installations, one block
-    for (int k = 0; k < 5; ++k) {
-      Installation in = d.installations[static_cast<std::size_t>(k) % 7];
-      in.id = "x" + std::to_string(k);
-      in.L_mm += 30 + 10 * k;
-      in.H_mm += 20 * k;
-      d.installations.push_back(in);
-    }
-    return d;
-  };
+  const auto twelve = twelve_installations;  // as the benchmark: more installations, one block
   cases.push_back({"C fourier 8, 12 installations",
                    twelve(with(test::paper_design('C'), {ErrorModel::Kind::kFourier, 8}, 90, 360)),
                    true});
