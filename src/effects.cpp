@@ -94,16 +94,34 @@ std::string EffectCandidate::label(const Design& design) const {
   return s;
 }
 
-std::vector<double> installation_start_times(const Design& design,
-                                             const std::vector<Reading>& readings) {
+namespace {
+
+// Each installation's earliest reading time (NaN without one), the readings' installations
+// given (-1: none of the design's).
+std::vector<double> start_times(const Design& design, const std::vector<Reading>& readings,
+                                const std::vector<int>& installation) {
   std::vector<double> t0(design.installations.size(), std::numeric_limits<double>::quiet_NaN());
-  const auto index = design.installation_index();
-  for (const Reading& r : readings) {
-    const auto it = index.find(r.installation);
-    const int i = it == index.end() ? -1 : it->second;
-    if (i >= 0 && r.time_s && !(t0[i] <= *r.time_s)) t0[i] = *r.time_s;
+  for (std::size_t k = 0; k < readings.size(); ++k) {
+    const int i = installation[k];
+    const Reading& r = readings[k];
+    if (i >= 0 && r.time_s && !(t0[static_cast<std::size_t>(i)] <= *r.time_s))
+      t0[static_cast<std::size_t>(i)] = *r.time_s;
   }
   return t0;
+}
+
+}  // namespace
+
+std::vector<double> installation_start_times(const Design& design,
+                                             const std::vector<Reading>& readings) {
+  const auto index = design.installation_index();
+  std::vector<int> installation;
+  installation.reserve(readings.size());
+  for (const Reading& r : readings) {
+    const auto it = index.find(r.installation);
+    installation.push_back(it == index.end() ? -1 : it->second);
+  }
+  return start_times(design, readings, installation);
 }
 
 double test_start_time(const std::vector<Reading>& readings) {
@@ -193,17 +211,11 @@ EffectRow effect_row(const Design& design, const Reading& r, int inst, double t0
 }  // namespace
 
 ReadingLayout::ReadingLayout(const Design& design, const std::vector<Reading>& readings)
-    : start_s(design.installations.size(), std::numeric_limits<double>::quiet_NaN()),
-      test_start_s(test_start_time(readings)) {
-  // Each reading's installation found once; its start time (installation_start_times) from it.
-  const auto index = design.installation_index();
+    : test_start_s(test_start_time(readings)) {
+  const auto index = design.installation_index();  // each reading's installation, looked up once
   installation.reserve(readings.size());
-  for (const Reading& r : readings) {
-    const int i = index.at(r.installation);
-    installation.push_back(i);
-    double& t0 = start_s[static_cast<std::size_t>(i)];
-    if (r.time_s && !(t0 <= *r.time_s)) t0 = *r.time_s;
-  }
+  for (const Reading& r : readings) installation.push_back(index.at(r.installation));
+  start_s = start_times(design, readings, installation);
 }
 
 EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings,

@@ -12,12 +12,12 @@
 #include <cstring>
 #include <functional>
 #include <limits>
-#include <map>
 #include <optional>
 #include <stdexcept>
 #include <utility>
 #include <vector>
 
+#include "function_rows.hpp"
 #include "simd.hpp"
 #include "small_eigen.hpp"
 
@@ -200,25 +200,20 @@ __attribute__((always_inline)) inline void basis_products(const double* Z, Eigen
                                                           Eigen::Index na, Eigen::Index m,
                                                           double* P) {
   constexpr int L = kLanes<V>, U = 4;
+  auto one = [&](Eigen::Index a, Eigen::Index t) {  // one function at one angle, lanes' order
+    double acc = 0;
+    for (Eigen::Index j = 0; j < m; ++j) acc += B[j * na + a] * Z[j * ld + t];
+    P[a * n + t] = acc;
+  };
   Eigen::Index a = 0;
   for (; a + 2 <= na; a += 2) {
     Eigen::Index t = 0;
     for (; t + U * L <= n; t += U * L) basis_block<V, U>(Z, ld, n, B, na, m, a, t, P);
     for (; t + L <= n; t += L) basis_block<V, 1>(Z, ld, n, B, na, m, a, t, P);
-    for (; t < n; ++t) {
-      for (Eigen::Index aa = a; aa < a + 2; ++aa) {
-        double acc = 0;
-        for (Eigen::Index j = 0; j < m; ++j) acc += B[j * na + aa] * Z[j * ld + t];
-        P[aa * n + t] = acc;
-      }
-    }
+    for (; t < n; ++t) one(a, t), one(a + 1, t);
   }
   for (; a < na; ++a) {
-    for (Eigen::Index t = 0; t < n; ++t) {
-      double acc = 0;
-      for (Eigen::Index j = 0; j < m; ++j) acc += B[j * na + a] * Z[j * ld + t];
-      P[a * n + t] = acc;
-    }
+    for (Eigen::Index t = 0; t < n; ++t) one(a, t);
   }
 }
 
@@ -307,23 +302,23 @@ Eigen::VectorXd Gain::left_l1(const FunctionRows& C) const {
   for (Eigen::Index i = 0; i < s.g.rows(); ++i)
     at[static_cast<std::size_t>(s.angle[static_cast<std::size_t>(i)])].push_back(
         static_cast<int>(i));
-  const bool wide = detail::use_wide_vectors();
+  // The kernels' width, chosen once (simd.hpp).
+  auto basis_products_of = basis_products_portable;
+  auto weighted_abs_sums_of = weighted_abs_sums_portable;
+#if DBBKIT_WIDE_VECTORS
+  if (detail::use_wide_vectors())
+    basis_products_of = basis_products_avx, weighted_abs_sums_of = weighted_abs_sums_avx;
+#endif
   Eigen::VectorXd out = Eigen::VectorXd::Zero(nv);
   // Functions with one support (a budget's: one error's coefficients) go together, so that
   // z = Cov c is one dense product on the support's rows of Cov for a chunk of them.
-  std::map<std::vector<Eigen::Index>, std::vector<Eigen::Index>> groups;
-  for (Eigen::Index i = 0; i < nv; ++i) {
-    std::vector<Eigen::Index> support;
-    for (FunctionRows::InnerIterator it(C, i); it; ++it) {
-      if (it.value() != 0.0) support.push_back(it.col());
-    }
-    if (!support.empty()) groups[support].push_back(i);  // the zero function's sum is 0
-  }
+  const auto groups = detail::rows_by_support(C);
   constexpr std::size_t kChunk = 256;  // functions at a time
   std::array<Eigen::MatrixXd, 6> P;    // per error: functions x angles
   Eigen::MatrixXd Cs, Zt;
   Eigen::VectorXd sums;
   for (const auto& [support, rows] : groups) {
+    if (support.empty()) continue;  // the zero function's sum is 0
     const Eigen::Index k = static_cast<Eigen::Index>(support.size());
     Eigen::MatrixXd cov_s(k, cov.cols());  // the support's rows of Cov
     for (Eigen::Index j = 0; j < k; ++j)
@@ -341,33 +336,18 @@ Eigen::VectorXd Gain::left_l1(const FunctionRows& C) const {
       Zt.noalias() = Cs * cov_s;  // w x p: row t is (Cov c_t)'
       for (int e = 0; e < 6; ++e) {
         P[e].resize(w, na);
-        const double* Ze = Zt.data() + e * m * w;
-#if DBBKIT_WIDE_VECTORS
-        if (wide) {
-          basis_products_avx(Ze, w, w, s.basis.data(), na, m, P[e].data());
-          continue;
-        }
-#endif
-        basis_products_portable(Ze, w, w, s.basis.data(), na, m, P[e].data());
+        basis_products_of(Zt.data() + e * m * w, w, w, s.basis.data(), na, m, P[e].data());
       }
       // Angle by angle: the chunk's functions against the angle's readings.
       sums.setZero(w);
       for (Eigen::Index a = 0; a < na; ++a) {
         const double* p[6];
         for (int e = 0; e < 6; ++e) p[e] = P[e].col(a).data();
-        const std::vector<int>& readings = at[static_cast<std::size_t>(a)];
-#if DBBKIT_WIDE_VECTORS
-        if (wide) {
-          weighted_abs_sums_avx(p, w, readings, s, weight_, sums.data());
-          continue;
-        }
-#endif
-        weighted_abs_sums_portable(p, w, readings, s, weight_, sums.data());
+        weighted_abs_sums_of(p, w, at[static_cast<std::size_t>(a)], s, weight_, sums.data());
       }
       for (Eigen::Index t = 0; t < w; ++t) out(rows[first + static_cast<std::size_t>(t)]) = sums(t);
     }
   }
-  (void)wide;
   return out;
 }
 

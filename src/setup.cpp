@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "dbbkit/kinematics.hpp"
+#include "function_rows.hpp"
 #include "tolerances.hpp"
 
 namespace dbbkit {
@@ -163,14 +164,7 @@ Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
   // go together through one dense product on that support and the readings its rows of G0
   // touch, at most kChunk rows at a time, formed transposed so that each row's values are
   // contiguous; with a set-up part, (K'c)' D adds a value at every reading.
-  std::map<std::vector<Eigen::Index>, std::vector<Eigen::Index>> groups;
-  for (Eigen::Index i = 0; i < C.rows(); ++i) {
-    std::vector<Eigen::Index> support;
-    for (FunctionRows::InnerIterator it(C, i); it; ++it) {
-      if (it.value() != 0.0) support.push_back(it.col());
-    }
-    groups[support].push_back(i);
-  }
+  const auto groups = detail::rows_by_support(C);
   constexpr std::size_t kChunk = 256;
   Eigen::VectorXd out = Eigen::VectorXd::Zero(C.rows());
   std::vector<Eigen::Index> touched;  // the readings the support's rows of G0 touch
