@@ -25,7 +25,10 @@ echo "== design gate: every committed design against benchmarks/designs-baseline
 # Stages 2 and 3 share one clang build: AddressSanitizer + UndefinedBehaviorSanitizer
 # everywhere, and libFuzzer coverage instrumentation of the library for the fuzz targets.
 echo "== AddressSanitizer + UndefinedBehaviorSanitizer (clang)"
+# Line tables only (-gline-tables-only): the sanitizers' reports name file and line, at a
+# fraction of full debug information's compile and link time.
 CC=clang CXX=clang++ cmake -S . -B build-san -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDBBKIT_SANITIZE=address,undefined \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -gline-tables-only -DNDEBUG" \
   -DDBBKIT_BUILD_TESTS=ON -DDBBKIT_BUILD_FUZZERS=ON -DDBBKIT_BUILD_BENCHMARKS=OFF -DDBBKIT_PYTHON=OFF >/dev/null
 cmake --build build-san -j "$jobs"
 # The statistical studies (thousands of repeated identifications) and the exhaustive
@@ -36,7 +39,7 @@ cmake --build build-san -j "$jobs"
 # tests ran in stage 1.
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-san --output-on-failure -j "$jobs" \
-  -E 'Coverage|FindsEffect|CleanDataAddsNothing|NearlyCollinearCandidates|PerInstallationDriftsAreKept|UnknownEffectIsFlagged|Exhaustive|ConsumerOfInstalledPackage'
+  -E 'Coverage|FindsEffect|CleanDataAddsNothing|StatedDetectionLimitHasItsPower|GrossReadingAndNoiseScaleAreSaid|NearlyCollinearCandidates|PerInstallationDriftsAreKept|UnknownEffectIsFlagged|Exhaustive|ConsumerOfInstalledPackage'
 
 echo "== fuzzing (libFuzzer, 30 s per target)"
 work="$(mktemp -d)"

@@ -42,7 +42,7 @@ std::string mm(double x) { return text::rounded(x, 3); }
 Candidate candidate_skeleton(const Kit& kit, const PatternChoice& choice);
 void place_candidate(const Kit& kit, Candidate& c, const std::vector<double>& x);
 
-std::string stack_text(const Kit& kit, const Stack& s) {
+std::string kit_stack_text(const Kit& kit, const Stack& s) {
   std::string t = mm(s.height_mm) + " mm (";
   if (s.blocks_mm.empty()) return t + "cup on the table)";
   t += "cup of " + mm(kit.H_base_mm) + " mm on block";
@@ -711,7 +711,7 @@ std::string choice_label(const Kit& kit, const PatternChoice& c) {
   if (kit.axis == Axis::kC) {
     const std::vector<Stack> stacks = block_stacks(kit);
     for (const PatternChoice::Height& h : c.heights)
-      t += h.variable + " = " + stack_text(kit, stacks[h.stack]) + ", ";
+      t += h.variable + " = " + kit_stack_text(kit, stacks[h.stack]) + ", ";
   }
   t += "step " + mm(c.step_deg) + " deg";
   const std::vector<int> offered = offered_optional_positions(kit);
@@ -824,7 +824,7 @@ void describe_installations(const Kit& kit, Candidate& c) {
       if (p.H.is_variable()) {
         for (const PatternChoice::Height& h : c.choice.heights) {
           if (h.variable != p.H.variable) continue;
-          t = h.variable + " = " + stack_text(kit, stacks[h.stack]);
+          t = h.variable + " = " + kit_stack_text(kit, stacks[h.stack]);
           in.cup_mm = kit.H_base_mm;
           in.blocks_mm = stacks[h.stack].blocks_mm;
         }

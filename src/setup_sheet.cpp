@@ -27,7 +27,7 @@ bool same_lengths(const std::vector<double>& a, const std::vector<double>& b) {
   return true;
 }
 
-bool same_position(const Installation& a, const Installation& b) {
+bool same_ball_position(const Installation& a, const Installation& b) {
   return same(a.L_mm, b.L_mm) && same(a.D_mm, b.D_mm) && same(a.H_mm, b.H_mm);
 }
 
@@ -65,7 +65,7 @@ std::vector<SetupStep> steps_along(const Design& d, const std::vector<int>& orde
     const Installation* prev = k ? &d.installations[order[k - 1]] : nullptr;
     SetupStep s;
     s.installation = order[k];
-    s.moves_cup = !prev || !same_position(*prev, in);
+    s.moves_cup = !prev || !same_ball_position(*prev, in);
     positions += s.moves_cup;
     s.position = positions;
     s.changes_stack = d.axis == Axis::kC && (!prev || !same_stack(d.axis, *prev, in));
@@ -102,7 +102,7 @@ SetupOrder setup_order(const Design& design) {
   std::vector<std::vector<int>> members;
   for (int i = 0; i < static_cast<int>(ins.size()); ++i) {
     auto it = std::find_if(members.begin(), members.end(), [&](const std::vector<int>& g) {
-      return same_position(ins[g.front()], ins[i]);
+      return same_ball_position(ins[g.front()], ins[i]);
     });
     if (it == members.end())
       members.push_back({i});

@@ -21,9 +21,9 @@ namespace dbbkit {
 namespace {
 
 std::string bad(const std::string& name) { return test::source_path("tests/data/bad/" + name); }
-const std::string kDesignC = test::source_path("designs/paper-c-turntable.json");
-const std::string kDesignB = test::source_path("designs/paper-b-head.json");
-const std::string kDataC = test::source_path("tests/data/paper/paper_c_turntable.csv");
+using test::kDataC;
+using test::kDesignB;
+using test::kDesignC;
 
 struct BadCase {
   std::string file;    // the broken file, under tests/data/bad

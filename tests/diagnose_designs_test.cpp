@@ -80,7 +80,7 @@ Design variant_design(Variant v) {
 
 // Random axis errors (10 um, 30 urad: per angle, or per series coefficient), swept ccw, cw,
 // ccw, 10 s per reading, 240 s between installations.
-Truth random_truth(const Design& d, std::mt19937_64& rng) {
+Truth random_variant_truth(const Design& d, std::mt19937_64& rng) {
   std::normal_distribution<double> n01;
   auto draw = [&](int k) { return (k < 3 ? 10.0 : 30.0) * n01(rng); };
   Truth t;
@@ -109,7 +109,7 @@ const std::map<std::string, double>& stated_limits(Variant v) {
   if (it != cache.end()) return it->second;
   const Design d = variant_design(v);
   std::mt19937_64 rng(30);
-  const DiagnoseResult r = diagnose(d, simulate(d, random_truth(d, rng), 20000));
+  const DiagnoseResult r = diagnose(d, simulate(d, random_variant_truth(d, rng), 20000));
   std::map<std::string, double> limits;
   for (const DetectionLimit& l : r.detection_limits) {
     if (l.limit) limits[l.label] = *l.limit;
@@ -159,7 +159,7 @@ double conditional_inflation(const Design& d, const std::vector<Reading>& readin
 std::vector<TruthEffect> sized(Variant v, std::vector<TruthEffect> effects, double factor) {
   const Design d = variant_design(v);
   std::mt19937_64 rng(30);
-  const std::vector<Reading> readings = simulate(d, random_truth(d, rng), 20000);
+  const std::vector<Reading> readings = simulate(d, random_variant_truth(d, rng), 20000);
   auto scanned = [](const TruthEffect& e) {
     return e.effect.kind == EffectKind::kStep || e.effect.kind == EffectKind::kThermal;
   };
@@ -186,7 +186,7 @@ TEST(DiagnoseOnDesigns, CleanDataAddsNothing) {
   for (Variant v : {Variant::CPerAngle, Variant::BPerAngle, Variant::BLegendre}) {
     const Design d = variant_design(v);
     std::mt19937_64 rng(31);
-    const auto [clean, flagged] = test::clean_runs(d, random_truth, rng, 100, 21000);
+    const auto [clean, flagged] = test::clean_runs(d, random_variant_truth, rng, 100, 21000);
     EXPECT_GE(clean, 95) << variant_name(v);
     EXPECT_LE(flagged, 5) << variant_name(v);
   }
@@ -202,7 +202,7 @@ TEST(DiagnoseOnDesigns, StatedDetectionLimitHasItsPower) {
     int at_limit = 0, at_twice = 0;
     for (int s = 0; s < 100; ++s) {
       for (double factor : {1.0, 2.0}) {
-        Truth t = random_truth(d, rng);
+        Truth t = random_variant_truth(d, rng);
         t.effects = {effect(EffectKind::kDrift, "1t", {factor * limit})};
         const DiagnoseResult r = diagnose(d, simulate(d, t, 23000 + s));
         (factor == 1.0 ? at_limit : at_twice) +=
@@ -247,7 +247,7 @@ TEST(DiagnoseOnDesigns, AttributionEntersTheErrorsUncertainty) {
   std::mt19937_64 rng(34);
   int checked = 0;
   for (int s = 0; s < 40 && checked < 3; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = random_variant_truth(d, rng);
     t.effects = sized(Variant::BLegendre, {effect(EffectKind::kCentring, "2r", {1, 1})}, 3.0);
     const std::vector<Reading> readings = simulate(d, t, 24000 + s);
     const DiagnoseResult r = diagnose(d, readings);
@@ -293,7 +293,7 @@ TEST(DiagnoseOnDesigns, SubstitutionEntersTheErrorsUncertainty) {
       {effect(EffectKind::kLengthOffset, "2r", {1}), effect(EffectKind::kDrift, "", {1})}, 3.0);
   int checked = 0;
   for (int s = 0; s < 100 && checked < 2; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = random_variant_truth(d, rng);
     t.effects = effects;
     const std::vector<Reading> readings = simulate(d, t, 25000 + s);
     const DiagnoseResult r = diagnose(d, readings);
@@ -342,14 +342,14 @@ TEST(DiagnoseOnDesigns, GrossReadingAndNoiseScaleAreSaid) {
     std::mt19937_64 rng(36);
     int named = 0, gross_nothing_added = 0, said = 0, noise_nothing_added = 0, covered = 0;
     for (int s = 0; s < 100; ++s) {
-      std::vector<Reading> rd = simulate(d, random_truth(d, rng), 26000 + s);
+      std::vector<Reading> rd = simulate(d, random_variant_truth(d, rng), 26000 + s);
       const int row = static_cast<int>(rng() % rd.size());
       rd[row].reading_um += (s % 2 ? 30.0 : -30.0);
       const DiagnoseResult g = diagnose(d, rd);
       named += !g.gross.empty() && g.gross[0].row == row &&
                io::diagnose_verdict(d, rd, g).find("gross reading") != std::string::npos;
       gross_nothing_added += g.added.empty();
-      Truth t = random_truth(d, rng);
+      Truth t = random_variant_truth(d, rng);
       t.noise = d.noise;
       t.noise->half_width_um *= 2.45;
       const std::vector<Reading> rn = simulate(d, t, 27000 + s);
@@ -375,7 +375,7 @@ TEST(DiagnoseOnDesigns, LegendreOrderTooLowIsSuggested) {
   std::mt19937_64 rng(37);
   int suggested = 0, nothing_added = 0, consistent = 0;
   for (int s = 0; s < 100; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = random_variant_truth(d, rng);
     t.model.order = 4;
     for (int k = 0; k < 6; ++k) t.coefficients[k].resize(5, 0.0);
     t.coefficients[0][4] = 3.0;  // dx: P4
@@ -420,7 +420,7 @@ TEST_P(FindsEffectOnDesign, AddsItAndExplainsTheResidual) {
   std::string misses;
   const std::vector<TruthEffect> effects = sized(c.variant, c.effects, c.factor);
   for (int s = 0; s < seeds; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = random_variant_truth(d, rng);
     t.effects = placed(d, t, effects);
     const DiagnoseResult r = diagnose(d, simulate(d, t, 22000 + s));
     bool all = true;

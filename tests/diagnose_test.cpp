@@ -22,9 +22,7 @@ namespace {
 // swept ccw, cw, ccw, 10 s per reading: the redundancy diagnosis needs (with ccw then cw
 // alone, a drift and a reversal of one installation are nearly collinear).
 using test::fourier_design;
-Truth random_truth(const Design& d, std::mt19937_64& rng) {
-  return test::random_fourier_truth(d, rng);
-}
+using test::random_fourier_truth;
 
 using test::effect;
 using test::has;
@@ -36,7 +34,7 @@ TEST(Diagnose, CleanDataAddsNothing) {
   const Design d = fourier_design();
   std::mt19937_64 rng(1);
   const int seeds = 500;
-  const auto [clean, flagged] = test::clean_runs(d, random_truth, rng, seeds, 5000);
+  const auto [clean, flagged] = test::clean_runs(d, random_fourier_truth, rng, seeds, 5000);
   EXPECT_GE(clean, 0.97 * seeds) << clean << " of " << seeds;
   EXPECT_LE(flagged, 0.03 * seeds);
 }
@@ -62,7 +60,7 @@ TEST_P(FindsEffect, AddsItAndExplainsTheResidual) {
   int found = 0, consistent = 0, right_value = 0, values = 0;
   double inside = 0, total = 0;
   for (int s = 0; s < seeds; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = random_fourier_truth(d, rng);
     t.effects = placed(d, t, c.effects);
     const DiagnoseResult r = diagnose(d, simulate(d, t, 7000 + s));
     bool all = true;
@@ -160,7 +158,7 @@ TEST(Diagnose, UnknownEffectIsFlaggedNotMisattributed) {
   const int seeds = 50;
   int flagged = 0, described = 0, misattributed = 0;
   for (int s = 0; s < seeds; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = random_fourier_truth(d, rng);
     t.effects = {effect(EffectKind::kPeriodic, "1r", {4}, 3)};
     const std::vector<Reading> rd = simulate(d, t, 9000 + s);
     const DiagnoseResult r = diagnose(d, rd);
@@ -185,7 +183,7 @@ TEST(Diagnose, WholeTestLengthIsConfoundedAndNeverAdded) {
   const Design d = fourier_design();
   std::mt19937_64 rng(4);
   for (int s = 0; s < 5; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = random_fourier_truth(d, rng);
     t.effects = {effect(EffectKind::kLengthOffset, "", {3})};
     const DiagnoseResult r = diagnose(d, simulate(d, t, 9500 + s));
     EXPECT_FALSE(has(r, "length_offset[all]"));
@@ -205,7 +203,7 @@ TEST(Diagnose, PerInstallationDriftsAreKeptAgainstOneWholeTestDrift) {
   const int seeds = 20;
   int kept = 0, reported = 0;
   for (int s = 0; s < seeds; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = random_fourier_truth(d, rng);
     t.effects = {effect(EffectKind::kDrift, "1t", {0.4}), effect(EffectKind::kDrift, "3r", {-0.3})};
     const std::vector<Reading> rd = simulate(d, t, 9600 + s);
     const DiagnoseResult r = diagnose(d, rd);
@@ -230,7 +228,7 @@ TEST(Diagnose, NearlyCollinearCandidatesAreReported) {
   std::mt19937_64 rng(6);
   int wrong = 0, warned = 0, right = 0;
   for (int s = 0; s < 60; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = random_fourier_truth(d, rng);
     t.schedule->sweeps = {Sweep::kCCW, Sweep::kCW};
     t.effects = {effect(EffectKind::kDrift, "1t", {0.4})};
     const DiagnoseResult r = diagnose(d, simulate(d, t, 300 + s));
@@ -254,7 +252,7 @@ TEST(Diagnose, ConfoundedEffectIsNeverAdded) {
   // as confounded, not added, and the errors must not pretend to know the split.
   const Design d = fourier_design();
   std::mt19937_64 rng(4);
-  Truth t = random_truth(d, rng);
+  Truth t = random_fourier_truth(d, rng);
   t.effects = {effect(EffectKind::kLengthOffset, "1a", {15})};
   const DiagnoseResult r = diagnose(d, simulate(d, t, 1));
   EXPECT_FALSE(has(r, "length_offset[1a]"));

@@ -16,7 +16,7 @@
 namespace dbbkit {
 namespace {
 
-constexpr double kBar = 150.0;  // mm, when the design gives none
+using test::kBar;
 
 EffectCandidate candidate(EffectKind kind, int installation) {
   EffectCandidate e;

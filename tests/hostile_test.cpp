@@ -21,8 +21,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const std::string kDesignC = test::source_path("designs/paper-c-turntable.json");
-const std::string kDataC = test::source_path("tests/data/paper/paper_c_turntable.csv");
+using test::kDataC;
+using test::kDesignC;
 
 // A fresh directory per test, removed at the end.
 class Hostile : public ::testing::Test {

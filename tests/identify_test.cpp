@@ -12,7 +12,7 @@
 namespace dbbkit {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using test::kPi;
 
 // The paper's B head plus a third ball off the tool axis (model.md §4): radial and tangential.
 Design b_head_with_offset() {
@@ -28,7 +28,7 @@ Design b_head_with_offset() {
   return d;
 }
 
-Truth random_truth(const Design& d, std::mt19937_64& rng) {
+Truth random_model_truth(const Design& d, std::mt19937_64& rng) {
   std::normal_distribution<double> n01;
   Truth t;
   t.model = d.errors;
@@ -57,7 +57,7 @@ Truth random_truth(const Design& d, std::mt19937_64& rng) {
 TEST(Identify, PaperBHeadHasRankFivePerAngleAndNamesTheToolAxis) {
   const Design d = test::paper_design('B');
   std::mt19937_64 rng(11);
-  const IdentifyResult r = identify(d, simulate(d, random_truth(d, rng), 5));
+  const IdentifyResult r = identify(d, simulate(d, random_model_truth(d, rng), 5));
   EXPECT_EQ(r.estimate.status, EstimateStatus::kRankDeficient);
   EXPECT_EQ(r.estimate.n_unknowns, 126);
   EXPECT_EQ(r.estimate.rank, 105);  // 5 per angle, 21 angles
@@ -92,7 +92,7 @@ TEST(Identify, PaperBHeadHasRankFivePerAngleAndNamesTheToolAxis) {
 TEST(Identify, LateralOffsetBallRestoresFullRank) {
   const Design d = b_head_with_offset();
   std::mt19937_64 rng(12);
-  const IdentifyResult r = identify(d, simulate(d, random_truth(d, rng), 6));
+  const IdentifyResult r = identify(d, simulate(d, random_model_truth(d, rng), 6));
   EXPECT_EQ(r.estimate.status, EstimateStatus::kFullRank);
   EXPECT_EQ(r.estimate.rank, 126);
   EXPECT_TRUE(r.unidentifiable.empty());
@@ -103,7 +103,7 @@ TEST(Identify, NoiselessDataGiveTheTruthBack) {
   for (int config = 0; config < 3; ++config) {
     Design d = config == 1 ? b_head_with_offset() : test::paper_design('C');
     if (config == 2) d.errors = {ErrorModel::Kind::kFourier, 3};
-    Truth t = random_truth(d, rng);
+    Truth t = random_model_truth(d, rng);
     t.noiseless = true;
     const IdentifyResult r = identify(d, simulate(d, t, 0));
     EXPECT_LT(r.estimate.rms_um, 1e-9);
@@ -121,7 +121,7 @@ TEST(Identify, NoiselessDataGiveTheTruthBack) {
 TEST(Identify, MissingAngleLeavesItsErrorsUndetermined) {
   const Design d = test::paper_design('C');
   std::mt19937_64 rng(14);
-  std::vector<Reading> readings = simulate(d, random_truth(d, rng), 7);
+  std::vector<Reading> readings = simulate(d, random_model_truth(d, rng), 7);
   std::erase_if(readings, [](const Reading& r) { return r.angle_deg == 40.0; });
   const IdentifyResult r = identify(d, readings);
   EXPECT_EQ(r.estimate.rank, 102);
@@ -159,7 +159,7 @@ TEST_P(Coverage, TruthWithinThreeSigma) {
   double inside = 0, total = 0, z2 = 0, undetermined = 0;
   int blocks = 0;
   for (int i = 0; i < draws; ++i) {
-    const Truth t = random_truth(d, rng);
+    const Truth t = random_model_truth(d, rng);
     const IdentifyResult r = identify(d, simulate(d, t, 100 + i));
     for (const ErrorsAtAngle& ea : r.errors) {
       const Vector6d truth = truth_errors(t, d.axis, ea.angle_deg);

@@ -10,7 +10,7 @@
 namespace dbbkit {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using test::kPi;
 
 Installation make(double L, double D, double H, Direction dir, int sign = 1) {
   Installation in;

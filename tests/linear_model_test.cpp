@@ -15,7 +15,7 @@
 namespace dbbkit {
 namespace {
 
-constexpr double kBar = 150.0;  // mm, when the design gives none
+using test::kBar;
 
 TEST(SetupJacobian, IsTheDerivativeOfTheExactReadingOfTheErrorsWithTheBallMoved) {
   std::mt19937_64 rng(17);

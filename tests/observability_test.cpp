@@ -13,7 +13,7 @@
 namespace dbbkit {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using test::kPi;
 
 // J = [1 0; 1 1; 0 1], sigma = 2 um. By hand:
 //   M = J'J / 4 = [2 1; 1 2] / 4: det = 3/16, trace M^-1 = 4 * 4/3 = 16/3, min eig = 1/4;

@@ -18,11 +18,12 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/program_io.hpp"
+#include "test_util.hpp"
 
 namespace dbbkit {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using test::kPi;
 
 // --- the geometry, independently of kinematics.cpp -------------------------------------
 Eigen::Matrix3d rotation(Axis axis, double deg) {

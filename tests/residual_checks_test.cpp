@@ -128,10 +128,6 @@ TEST(NoiseScale, IntervalFromChiSquaredQuantiles) {
 // order-2 model (tests/data/c_fourier2_bar150.json), swept ccw, cw, ccw.
 
 using test::fourier_design;
-Truth random_truth(const Design& d, std::mt19937_64& rng) {
-  return test::random_fourier_truth(d, rng);
-}
-
 // One reading 30 um off: named (the right reading), nothing of the library added to explain
 // it, and the opt-in refit without it consistent with the noise.
 TEST(DiagnoseFindsEffect, GrossReadingIsNamedNotExplainedAway) {
@@ -140,7 +136,7 @@ TEST(DiagnoseFindsEffect, GrossReadingIsNamedNotExplainedAway) {
   const int seeds = 100;
   int named = 0, nothing_added = 0, refit_clean = 0;
   for (int s = 0; s < seeds; ++s) {
-    std::vector<Reading> rd = simulate(d, random_truth(d, rng), 11000 + s);
+    std::vector<Reading> rd = simulate(d, test::random_fourier_truth(d, rng), 11000 + s);
     const int row = static_cast<int>(rng() % rd.size());
     rd[row].reading_um += (s % 2 ? 30.0 : -30.0);
     const DiagnoseResult r = diagnose(d, rd);
@@ -167,7 +163,7 @@ TEST(DiagnoseFindsEffect, NoiseLargerThanDeclaredIsSaidSo) {
   const int seeds = 100;
   int said = 0, nothing_added = 0, covered = 0;
   for (int s = 0; s < seeds; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = test::random_fourier_truth(d, rng);
     NoiseModel noisy = d.noise;
     noisy.half_width_um *= 2.45;
     t.noise = noisy;
@@ -192,7 +188,7 @@ TEST(DiagnoseFindsEffect, ModelOrderTooLowIsSuggested) {
   const int seeds = 100;
   int suggested = 0, nothing_added = 0, consistent = 0;
   for (int s = 0; s < seeds; ++s) {
-    Truth t = random_truth(d, rng);
+    Truth t = test::random_fourier_truth(d, rng);
     t.model.order = 6;
     for (int k = 0; k < 6; ++k) t.coefficients[k].resize(13, 0.0);
     t.coefficients[0][11] = 3.0;  // dx: cos 6a
@@ -215,7 +211,7 @@ TEST(DiagnoseFindsEffect, ModelOrderTooLowIsSuggested) {
 TEST(DiagnoseFindsEffect, StatedDetectionLimitHasItsPower) {
   const Design d = fourier_design();
   std::mt19937_64 rng(24);
-  const DiagnoseResult clean = diagnose(d, simulate(d, random_truth(d, rng), 14000));
+  const DiagnoseResult clean = diagnose(d, simulate(d, test::random_fourier_truth(d, rng), 14000));
   const auto it =
       std::find_if(clean.detection_limits.begin(), clean.detection_limits.end(),
                    [](const DetectionLimit& l) { return l.label == "length_offset[2r]"; });
@@ -238,7 +234,7 @@ TEST(DiagnoseFindsEffect, StatedDetectionLimitHasItsPower) {
   };
   for (int s = 0; s < seeds; ++s) {
     for (double factor : {1.0, 2.0}) {
-      Truth t = random_truth(d, rng);
+      Truth t = test::random_fourier_truth(d, rng);
       TruthEffect e;
       e.effect.kind = EffectKind::kLengthOffset;
       e.installation = "2r";

@@ -18,7 +18,7 @@
 namespace dbbkit {
 namespace {
 
-constexpr double kBar = 150.0;
+using test::kBar;
 
 TEST(ExactSetup, APerfectSetUpWithoutErrorsReadsZero) {
   for (char axis : {'C', 'B'}) {

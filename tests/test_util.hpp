@@ -17,6 +17,9 @@
 
 namespace dbbkit::test {
 
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kBar = 150.0;  // mm, a bar length where the design gives none
+
 // |a - b| <= abs_tol + rel_tol * max(|a|, |b|), elementwise.
 inline ::testing::AssertionResult near(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b,
                                        double abs_tol, double rel_tol = 0.0) {
@@ -86,6 +89,11 @@ inline void add_truth_value(Truth& t, Axis axis, double angle_deg, const Vector6
 inline std::string source_path(const std::string& relative) {
   return std::string(DBBKIT_SOURCE_DIR) + "/" + relative;
 }
+
+// The paper's C design and its data.
+inline const std::string kDesignC = source_path("designs/paper-c-turntable.json");
+inline const std::string kDesignB = source_path("designs/paper-b-head.json");
+inline const std::string kDataC = source_path("tests/data/paper/paper_c_turntable.csv");
 
 inline Design paper_design(char axis) {
   return io::read_design_file(

@@ -106,7 +106,7 @@ std::string heidenhain_name(const std::string& name) {
   return s.substr(0, 24);
 }
 
-std::string ball_text(Axis axis, const Installation& inst) {
+std::string program_ball_text(Axis axis, const Installation& inst) {
   std::string s =
       "ball L " + fmt_rounded(inst.L_mm, 4) + " mm, D " + fmt_rounded(inst.D_mm, 4) + " mm";
   if (axis == Axis::kC) s += ", H " + fmt_rounded(inst.H_mm, 4) + " mm";
@@ -177,7 +177,7 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     for (const ProgramSweep& s : ip.sweeps)
       sweeps += (sweeps.empty() ? "" : " then ") + std::string(sweep_name(s.direction));
     w.comment("installation " + inst.id + " (" + std::to_string(k + 1) + " of " +
-              std::to_string(n) + "): " + ball_text(program.axis, inst) + ", " +
+              std::to_string(n) + "): " + program_ball_text(program.axis, inst) + ", " +
               inst.direction.label() + ", sign " + (inst.sign > 0 ? "+1" : "-1") + ", bar " +
               fmt_rounded(ip.bar_mm, 4) + " mm; sweep " + sweeps + ", " +
               std::to_string(ip.readings) + " readings");

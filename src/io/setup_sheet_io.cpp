@@ -21,7 +21,7 @@ std::string lengths(const std::vector<double>& v) {
   return t;
 }
 
-std::string ball_text(Axis axis, const Installation& in) {
+std::string sheet_ball_text(Axis axis, const Installation& in) {
   std::string t = "L " + mm(in.L_mm) + ", D " + mm(in.D_mm);
   if (axis == Axis::kC) t += ", H " + mm(in.H_mm);
   return t;
@@ -77,15 +77,16 @@ std::string instructions(const SetupSheet& sheet, int k) {
   const InstallationProgram& ip = sheet.program.installations[s.installation];
   std::string t;
   if (k == 0) {
-    t = axis == Axis::kC ? "Place the cup" + cup_on(in) + " with the ball at " +
-                               ball_text(axis, in) + " mm (table coordinates at C " +
-                               mm(ip.sweeps.front().positions.front().angle_deg) + " deg)."
-                         : "Set the ball at " + ball_text(axis, in) + " mm (head coordinates).";
+    t = axis == Axis::kC
+            ? "Place the cup" + cup_on(in) + " with the ball at " + sheet_ball_text(axis, in) +
+                  " mm (table coordinates at C " +
+                  mm(ip.sweeps.front().positions.front().angle_deg) + " deg)."
+            : "Set the ball at " + sheet_ball_text(axis, in) + " mm (head coordinates).";
   } else if (s.moves_cup && axis == Axis::kB) {
-    t = "Move the ball to " + ball_text(axis, in) + " mm (tool cup and holder).";
+    t = "Move the ball to " + sheet_ball_text(axis, in) + " mm (tool cup and holder).";
   } else if (s.moves_cup) {
     t = "Move the cup" + std::string(s.changes_stack ? "" : ", on the same stack,") + " to " +
-        ball_text(axis, in) + " mm";
+        sheet_ball_text(axis, in) + " mm";
     if (axis == Axis::kC && s.changes_stack)
       t += in.cup_mm ? "; rebuild the stack: the cup" + cup_on(in) : "; rebuild the stack to H";
     t += ".";
@@ -130,7 +131,7 @@ struct Panel {
   double Y(double y) const { return y0 + 0.5 * size - (y - cy) * scale; }
 };
 
-std::string num(double v) {
+std::string sheet_number(double v) {
   std::ostringstream s;
   s.setf(std::ios::fixed);
   s.precision(1);
@@ -140,30 +141,32 @@ std::string num(double v) {
 
 void line(std::ostringstream& s, const Panel& p, double x1, double y1, double x2, double y2,
           const std::string& style) {
-  s << "<line x1='" << num(p.X(x1)) << "' y1='" << num(p.Y(y1)) << "' x2='" << num(p.X(x2))
-    << "' y2='" << num(p.Y(y2)) << "' style='" << style << "'/>";
+  s << "<line x1='" << sheet_number(p.X(x1)) << "' y1='" << sheet_number(p.Y(y1)) << "' x2='"
+    << sheet_number(p.X(x2)) << "' y2='" << sheet_number(p.Y(y2)) << "' style='" << style << "'/>";
 }
 // A ball and its label: above right (the ball) or below left (the other ball), so that two
 // balls drawn at one point keep both labels readable.
 void ball(std::ostringstream& s, const Panel& p, double x, double y, const std::string& fill,
           const std::string& label, bool below = false) {
-  s << "<circle cx='" << num(p.X(x)) << "' cy='" << num(p.Y(y)) << "' r='5' fill='" << fill
-    << "' stroke='#222'/><text x='" << num(p.X(x) + (below ? -7 : 7)) << "' y='"
-    << num(p.Y(y) + (below ? 16 : -7)) << "' font-size='11'" << (below ? " text-anchor='end'" : "")
-    << ">" << label << "</text>";
+  s << "<circle cx='" << sheet_number(p.X(x)) << "' cy='" << sheet_number(p.Y(y))
+    << "' r='5' fill='" << fill << "' stroke='#222'/><text x='"
+    << sheet_number(p.X(x) + (below ? -7 : 7)) << "' y='"
+    << sheet_number(p.Y(y) + (below ? 16 : -7)) << "' font-size='11'"
+    << (below ? " text-anchor='end'" : "") << ">" << label << "</text>";
 }
 void path(std::ostringstream& s, const Panel& p, double radius) {
-  s << "<circle cx='" << num(p.X(0)) << "' cy='" << num(p.Y(0)) << "' r='" << num(radius * p.scale)
-    << "' fill='none' stroke='#999' stroke-dasharray='3 3'/>";
+  s << "<circle cx='" << sheet_number(p.X(0)) << "' cy='" << sheet_number(p.Y(0)) << "' r='"
+    << sheet_number(radius * p.scale) << "' fill='none' stroke='#999' stroke-dasharray='3 3'/>";
 }
 void rect(std::ostringstream& s, const Panel& p, double x, double y, double w, double h,
           const std::string& fill) {
-  s << "<rect x='" << num(p.X(x)) << "' y='" << num(p.Y(y + h)) << "' width='" << num(w * p.scale)
-    << "' height='" << num(h * p.scale) << "' fill='" << fill << "' stroke='#555'/>";
+  s << "<rect x='" << sheet_number(p.X(x)) << "' y='" << sheet_number(p.Y(y + h)) << "' width='"
+    << sheet_number(w * p.scale) << "' height='" << sheet_number(h * p.scale) << "' fill='" << fill
+    << "' stroke='#555'/>";
 }
 void caption(std::ostringstream& s, const Panel& p, const std::string& text) {
-  s << "<text x='" << num(p.x0 + 6) << "' y='" << num(p.y0 + 14) << "' font-size='12'>" << text
-    << "</text>";
+  s << "<text x='" << sheet_number(p.x0 + 6) << "' y='" << sheet_number(p.y0 + 14)
+    << "' font-size='12'>" << text << "</text>";
 }
 
 }  // namespace
@@ -312,8 +315,8 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
         d.axis == Axis::kC ? ip.sweeps.front().positions.front().linear_mm : ip.fixed_ball_mm;
     double t = ip.motion_time_s;
     if (!sheet.setup_time_s.empty()) t += sheet.setup_time_s[k];
-    rows.push_back({std::to_string(k + 1), in.id, std::to_string(s.position), ball_text(d.axis, in),
-                    stack_text(d.axis, in), bar_text(in),
+    rows.push_back({std::to_string(k + 1), in.id, std::to_string(s.position),
+                    sheet_ball_text(d.axis, in), stack_text(d.axis, in), bar_text(in),
                     in.direction.label() + (in.sign > 0 ? " +1" : " -1"), xyz(follow),
                     sweeps_text(ip), std::to_string(ip.readings), fmt_rounded(t, 0)});
   }
