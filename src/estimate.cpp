@@ -1138,19 +1138,32 @@ double Estimate::covariance_at(Eigen::Index a, Eigen::Index b) const {
 
 double Estimate::base_variance(const Function& c) const {
   if (!covariance_block_of.empty()) {
-    // On the support's blocks: each pair of entries in one block.
-    double var = 0;
+    // On the support's blocks: var = sum over a of c_a (sum over b of B(a, b) c_b), a and b
+    // entries of one block, each sum in c's order. The inner sums of all a are formed together,
+    // a column of B at a time (contiguous reads of the column-major block); each is the same
+    // sum in the same order as one formed alone.
+    struct Entry {
+      int block;
+      Eigen::Index local;
+      double value;
+    };
+    std::vector<Entry> e;
+    e.reserve(static_cast<std::size_t>(c.nonZeros()));
     for (Function::InnerIterator a(c); a; ++a) {
-      const int ba = covariance_block_of[static_cast<std::size_t>(a.index())];
-      if (ba < 0) continue;
-      const Eigen::MatrixXd& B = covariance_blocks[static_cast<std::size_t>(ba)];
-      const Eigen::Index la = covariance_local[static_cast<std::size_t>(a.index())];
-      double row = 0;
-      for (Function::InnerIterator b(c); b; ++b) {
-        if (covariance_block_of[static_cast<std::size_t>(b.index())] != ba) continue;
-        row += B(la, covariance_local[static_cast<std::size_t>(b.index())]) * b.value();
+      e.push_back({covariance_block_of[static_cast<std::size_t>(a.index())],
+                   covariance_local[static_cast<std::size_t>(a.index())], a.value()});
+    }
+    std::vector<double> row(e.size(), 0.0);
+    for (const Entry& b : e) {
+      if (b.block < 0) continue;
+      const double* col = covariance_blocks[static_cast<std::size_t>(b.block)].col(b.local).data();
+      for (std::size_t a = 0; a < e.size(); ++a) {
+        if (e[a].block == b.block) row[a] += col[e[a].local] * b.value;
       }
-      var += a.value() * row;
+    }
+    double var = 0;
+    for (std::size_t a = 0; a < e.size(); ++a) {
+      if (e[a].block >= 0) var += e[a].value * row[a];
     }
     return var;
   }

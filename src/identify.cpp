@@ -61,17 +61,40 @@ Eigen::SparseMatrix<double> error_functions(const Parameterisation& param, int s
   return param.error_functions(station, n_unknowns);
 }
 
-std::vector<ErrorsAtAngle> errors_at_stations(const Parameterisation& param, const Estimate& est) {
+namespace {
+
+// The errors at every station: whether each is determined and its estimate, and with_std its
+// standard uncertainty from the estimate's covariance (identify takes the budget's instead).
+std::vector<ErrorsAtAngle> at_stations(const Parameterisation& param, const Estimate& est,
+                                       bool with_std) {
   std::vector<ErrorsAtAngle> out;
+  out.reserve(static_cast<std::size_t>(param.n_stations()));
   for (int s = 0; s < param.n_stations(); ++s) {
     ErrorsAtAngle ea;
     ea.station = s;
     ea.angle_deg = param.station_angle_deg(s);
     const Eigen::SparseMatrix<double> C = error_functions(param, s, est.n_unknowns);
-    for (int k = 0; k < 6; ++k) ea.errors[k] = est.evaluate(Estimate::Function(C.col(k)));
+    for (int k = 0; k < 6; ++k) {
+      const Estimate::Function c = C.col(k);
+      if (with_std) {
+        ea.errors[k] = est.evaluate(c);
+      } else if (est.determined(c)) {
+        ea.errors[k].determined = true;
+        if (est.theta.size() > 0) {
+          for (Estimate::Function::InnerIterator a(c); a; ++a)
+            ea.errors[k].value += a.value() * est.theta(a.index());
+        }
+      }
+    }
     out.push_back(ea);
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<ErrorsAtAngle> errors_at_stations(const Parameterisation& param, const Estimate& est) {
+  return at_stations(param, est, true);
 }
 
 std::vector<Unidentifiable> describe_null_space(const Design& design, const Parameterisation& param,
@@ -131,8 +154,20 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   res.estimate = setup.solve(res.model.y_um);
   res.budget = uncertainty_budget(design, res.param, res.model, res.solver, res.estimate,
                                   options.budget, &setup);
-  res.errors = errors_at_stations(res.param, res.estimate);
-  for (const ValueBudget& v : res.budget.values) res.errors[v.station].errors[v.error].std = v.u_c;
+  // Every determined value has its entry in the budget, whose u_c is its standard uncertainty.
+  res.errors = at_stations(res.param, res.estimate, false);
+  std::size_t budgeted = 0;
+  for (const ValueBudget& v : res.budget.values) {
+    Determined& d = res.errors[static_cast<std::size_t>(v.station)].errors[v.error];
+    budgeted += d.determined;
+    d.std = v.u_c;
+  }
+  std::size_t determined = 0;
+  for (const ErrorsAtAngle& ea : res.errors) {
+    for (const Determined& d : ea.errors) determined += d.determined;
+  }
+  if (budgeted != determined || budgeted != res.budget.values.size())
+    throw std::logic_error("identify: the budget's values are not the determined errors");
   res.unidentifiable = describe_null_space(design, res.param, res.estimate);
   res.setup_included = setup.any();
   IsoMotionOptions motion = options.iso_motion;

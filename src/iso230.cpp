@@ -253,16 +253,20 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     Eigen::Matrix<double, 1, 5> x, cSQ;
     Eigen::VectorXd Kc;  // K'c; empty without a low-rank part
   };
+  std::vector<double> row;  // the covariance's inner sums, one per nonzero of i
   auto covariance = [&](const Term& i, const Term& j) {
     double v = 0;
     if (i.block >= 0 && i.block == j.block) {  // on the dense block, no search
+      // v = sum over x of c_x (sum over y of B(x, y) c_y), each sum in its order; the inner
+      // sums formed together a column of B at a time (contiguous reads), the same bits.
       const Eigen::MatrixXd& B = est.covariance_blocks[static_cast<std::size_t>(i.block)];
-      for (std::size_t x = 0; x < i.c.size(); ++x) {
-        double row = 0;
-        for (std::size_t y = 0; y < j.c.size(); ++y)
-          row += B(i.local[x], j.local[y]) * j.c[y].second;
-        v += i.c[x].second * row;
+      row.assign(i.c.size(), 0.0);
+      for (std::size_t y = 0; y < j.c.size(); ++y) {
+        const double* col = B.col(j.local[y]).data();
+        const double cy = j.c[y].second;
+        for (std::size_t x = 0; x < i.c.size(); ++x) row[x] += col[i.local[x]] * cy;
       }
+      for (std::size_t x = 0; x < i.c.size(); ++x) v += i.c[x].second * row[x];
     } else {
       for (const auto& [a, ca] : i.c) {
         for (const auto& [q, cq] : j.c) v += ca * est.covariance_at(a, q) * cq;
