@@ -243,6 +243,31 @@ void BM_SolveFourier(benchmark::State& state) {
 }
 BENCHMARK(BM_SolveFourier)->Apply(series_sizes)->Unit(benchmark::kMillisecond);
 
+// The first-order bias bound's kernel alone: |c'G|_1 of every error's value at every angle
+// (what identify's bound_first_order_bias asks of the series' gain).
+void BM_BiasBoundFourier(benchmark::State& state) {
+  const Design d =
+      fourier_design(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const Parameterisation param(d);
+  const LinearModel model = build_linear_model(d, param, series_readings(d));
+  const WlsSolver solver(model);
+  std::vector<Eigen::Triplet<double>> entries;
+  int row = 0;
+  for (int s = 0; s < param.n_stations(); ++s) {
+    const Eigen::SparseMatrix<double> E = param.error_functions(s);
+    for (int e = 0; e < 6; ++e, ++row) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(E, e); it; ++it)
+        entries.emplace_back(row, static_cast<int>(it.row()), it.value());
+    }
+  }
+  FunctionRows C(row, model.J.cols());
+  C.setFromTriplets(entries.begin(), entries.end());
+  for (auto _ : state) benchmark::DoNotOptimize(solver.J_theta_reading().left_l1(C).sum());
+  state.counters["values"] = static_cast<double>(C.rows());
+  state.counters["readings"] = static_cast<double>(model.J.rows());
+}
+BENCHMARK(BM_BiasBoundFourier)->Apply(series_sizes)->Unit(benchmark::kMillisecond);
+
 void BM_IdentifyFourier(benchmark::State& state) {
   const Design d =
       fourier_design(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));

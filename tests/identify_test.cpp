@@ -7,6 +7,7 @@
 
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/simulate.hpp"
+#include "dbbkit/uncertainty.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -50,6 +51,35 @@ Truth random_model_truth(const Design& d, std::mt19937_64& rng) {
     }
   }
   return t;
+}
+
+// The first-order bias bound of a series model (the tiles of src/series_l1.cpp) against its
+// definition on the dense gain: the largest t |c'G|_1 / u_c over the budget's values, named
+// where a sequential scan of the values takes it (a later value must exceed by 1e-9).
+TEST(Identify, SeriesBiasBoundIsTheLargestOverTheDenseGain) {
+  Design d = test::paper_design('C');
+  d.errors = {ErrorModel::Kind::kFourier, 16};  // blocks of >= 32 columns: the implicit gain
+  d.angles_deg.clear();
+  for (int i = 0; i < 75; ++i) d.angles_deg.push_back(360.0 * i / 75);  // 2 tiles and a tail
+  std::mt19937_64 rng(5);
+  const IdentifyResult r = identify(d, simulate(d, random_model_truth(d, rng), 3));
+  ASSERT_FALSE(r.setup_included);
+  ASSERT_TRUE(r.solver.J_theta_reading().series_l1());
+  ASSERT_TRUE(r.first_order.computed);
+  ASSERT_TRUE(r.first_order.bias_bound_std);
+  ASSERT_EQ(r.budget.values.size(), 6u * 75u);
+  const Eigen::MatrixXd CG = test::dense(budget_functions(r.param, r.budget)) *
+                             test::dense(r.solver.J_theta_reading().sparse());
+  double largest = -1;
+  std::size_t place = 0;
+  for (std::size_t v = 0; v < r.budget.values.size(); ++v) {
+    const double ratio = r.first_order.largest_term_um *
+                         CG.row(static_cast<Eigen::Index>(v)).lpNorm<1>() / r.budget.values[v].u_c;
+    if (ratio > largest * (1.0 + 1e-9)) largest = ratio, place = v;
+  }
+  EXPECT_NEAR(*r.first_order.bias_bound_std, largest, 1e-9 * largest);
+  EXPECT_EQ(r.first_order.bias_error, r.budget.values[place].error);
+  EXPECT_EQ(r.first_order.bias_angle_deg, r.budget.values[place].angle_deg);
 }
 
 // model.md §4: both balls on the tool axis; the rotation about it, ex sin b + ez cos b, is

@@ -175,8 +175,9 @@ class Gain {
   double leverage(const Jacobian& J, Eigen::Index i) const;
   // |row r of C G|_1 for each function r, when G is wholly implicit with a series' factored
   // rows (series_l1()); nothing n x p or values x n is formed: with z = Cov c, the row's
-  // entry at reading i is w_i sum_k g_i(k) phi(angle_i)' z_k, the basis products taken for
-  // every angle at once (one product per error) and the readings summed angle by angle.
+  // entry at reading i is w_i sum_k g_i(k) phi(angle_i)' z_k. The errors' values at the
+  // readings' angles (a budget's) share the products phi(a)' Cov_ke phi(b) of each pair of
+  // angles, formed once for both (src/series_l1.cpp).
   bool series_l1() const { return series_ != nullptr && sparse_.nonZeros() == 0 && !low_rank(); }
   Eigen::VectorXd left_l1(const FunctionRows& C) const;
 

@@ -1,0 +1,398 @@
+// Gain::left_l1 of a series' implicit gain: |c'G|_1 for each function c, G = Cov J' W, with
+// J's rows factored as J(i, k m + a) = g_i(k) phi_a(angle_i) (SeriesRows). The entry of c'G
+// at reading i is w_i g_i' s(angle_i), with s_k(b) = phi(b)' z_k and z = Cov c; nothing
+// readings x parameters or values x readings is formed.
+//
+// A budget's functions are the errors' values at the readings' own angles, c = e_k (x) phi(a).
+// For them s_e(b) = phi(a)' Cov_ke phi(b) = S_ke(a, b), and S_ke(a, b) = S_ek(b, a): one tile
+// of S_ke(A, B) (A, B two blocks of angles) serves both the values at A against the readings
+// at B and the values at B against the readings at A, so every pair of angles is formed once.
+// Other functions take one dense product per function and angle.
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <map>
+#include <stdexcept>
+#include <vector>
+
+#include "dbbkit/estimate.hpp"
+#include "dbbkit/linear_model.hpp"
+#include "function_rows.hpp"
+#include "simd.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+// The two kernels, on GCC and Clang vector extensions of V (two doubles in the portable
+// build, four where the processor has AVX: use_wide_vectors). Each lane sums in the same
+// order as the scalar tail, with separate multiplies and adds, so that every width gives the
+// same bits (EstimateTest: SeriesL1IsTheSameOnEveryVectorWidth).
+template <class V>
+constexpr int kLanes = static_cast<int>(sizeof(V) / sizeof(double));
+
+// x in every lane, loaded on its own (a broadcast, not a pair of neighbours shuffled).
+template <class V>
+__attribute__((always_inline)) inline void broadcast(V& v, const double* x) {
+  if constexpr (kLanes<V> == 2) {
+    v = V{*x, *x};
+  } else {
+#if DBBKIT_WIDE_VECTORS
+    // One vbroadcastsd from memory; the compiler's own choice for AVX without AVX2 is a
+    // vmovddup and a vinsertf128, two shuffles that cap the kernels' rate.
+    asm("vbroadcastsd %1, %0" : "=x"(v) : "m"(*x));
+#else
+    v = V{*x, *x, *x, *x};
+#endif
+  }
+}
+
+// v to p (unaligned), from a copy: the accumulators' own addresses are never taken, so that
+// they stay in registers.
+template <class V>
+__attribute__((always_inline)) inline void store(double* p, V v) {
+  std::memcpy(p, &v, sizeof(V));
+}
+
+// P = Z B' (Z: n x m, column-major, leading dimension ldz; B: nb x m, row-major, leading
+// dimension ldb; P: n x nb, column-major, leading dimension n): the sum over the m
+// coefficients in their order, for U vectors of rows of Z and two rows of B at a time. B is
+// read by rows so that the two rows' entries are far apart, each a broadcast of its own.
+template <class V, int U>
+__attribute__((always_inline)) inline void product_block(const double* Z, Eigen::Index ldz,
+                                                         Eigen::Index n, const double* B,
+                                                         Eigen::Index ldb, Eigen::Index m,
+                                                         Eigen::Index a, Eigen::Index t,
+                                                         double* P) {
+  constexpr int L = kLanes<V>;
+  V acc0[U], acc1[U];
+  for (int u = 0; u < U; ++u) acc0[u] = V{}, acc1[u] = V{};
+  for (Eigen::Index j = 0; j < m; ++j) {
+    V b0, b1;
+    broadcast(b0, B + a * ldb + j);
+    broadcast(b1, B + (a + 1) * ldb + j);
+    const double* z = Z + j * ldz + t;
+    for (int u = 0; u < U; ++u) {
+      V zu;
+      std::memcpy(&zu, z + u * L, sizeof(V));
+      // One load for both products: the compiler would fold it into each (two loads), and
+      // loads, not arithmetic, would then bound the kernel.
+      asm("" : "+x"(zu));
+      acc0[u] += b0 * zu;
+      acc1[u] += b1 * zu;
+    }
+  }
+  for (int u = 0; u < U; ++u) {
+    store(P + a * n + t + u * L, acc0[u]);
+    store(P + (a + 1) * n + t + u * L, acc1[u]);
+  }
+}
+
+template <class V>
+__attribute__((always_inline)) inline void products(const double* Z, Eigen::Index ldz,
+                                                    Eigen::Index n, const double* B,
+                                                    Eigen::Index ldb, Eigen::Index nb,
+                                                    Eigen::Index m, double* P) {
+  constexpr int L = kLanes<V>, U = 4;
+  auto one = [&](Eigen::Index a, Eigen::Index t) {  // one row of Z, one of B, lanes' order
+    double acc = 0;
+    for (Eigen::Index j = 0; j < m; ++j) acc += B[a * ldb + j] * Z[j * ldz + t];
+    P[a * n + t] = acc;
+  };
+  Eigen::Index a = 0;
+  for (; a + 2 <= nb; a += 2) {
+    Eigen::Index t = 0;
+    for (; t + U * L <= n; t += U * L) product_block<V, U>(Z, ldz, n, B, ldb, m, a, t, P);
+    for (; t + L <= n; t += L) product_block<V, 1>(Z, ldz, n, B, ldb, m, a, t, P);
+    for (; t < n; ++t) one(a, t), one(a + 1, t);
+  }
+  for (; a < nb; ++a) {
+    for (Eigen::Index t = 0; t < n; ++t) one(a, t);
+  }
+}
+
+// One angle's readings, each as its six weighted factors w_i g_i(k) (row-major, 6 a reading).
+struct AngleReadings {
+  const double* wg = nullptr;
+  Eigen::Index count = 0;
+};
+
+// out(t) += sum over the angle's readings i of |sum_k w_i g_i(k) p_k(t)|, t < n: the
+// functions on vector lanes, two vectors of them at a time (two independent sums), the
+// six values loaded once for all the readings; each lane sums in the scalar tail's order.
+template <class V, int U>
+__attribute__((always_inline)) inline void abs_sums_block(const double* const* p, AngleReadings r,
+                                                          Eigen::Index t, double* out) {
+  constexpr int L = kLanes<V>;
+  using Mask = decltype(V{} < V{});
+  Mask magnitude;  // every bit but the sign's
+  for (int l = 0; l < L; ++l) magnitude[l] = 0x7fffffffffffffffLL;
+  V e[U][6], sum[U];
+  for (int u = 0; u < U; ++u) {
+    for (int k = 0; k < 6; ++k) std::memcpy(&e[u][k], p[k] + t + u * L, sizeof(V));
+    sum[u] = V{};
+  }
+  for (Eigen::Index i = 0; i < r.count; ++i) {
+    const double* g = r.wg + 6 * i;
+    V gk, h[U];
+    broadcast(gk, g);
+    for (int u = 0; u < U; ++u) h[u] = gk * e[u][0];
+    for (int k = 1; k < 6; ++k) {
+      broadcast(gk, g + k);
+      for (int u = 0; u < U; ++u) h[u] += gk * e[u][k];
+    }
+    for (int u = 0; u < U; ++u) sum[u] += (V)((Mask)h[u] & magnitude);
+  }
+  for (int u = 0; u < U; ++u) {
+    V o;
+    std::memcpy(&o, out + t + u * L, sizeof(V));
+    store(out + t + u * L, o + sum[u]);
+  }
+}
+
+template <class V>
+__attribute__((always_inline)) inline void abs_sums(const double* const* p, Eigen::Index n,
+                                                    AngleReadings r, double* out) {
+  constexpr int L = kLanes<V>;
+  Eigen::Index t = 0;
+  for (; t + 2 * L <= n; t += 2 * L) abs_sums_block<V, 2>(p, r, t, out);
+  for (; t + L <= n; t += L) abs_sums_block<V, 1>(p, r, t, out);
+  for (; t < n; ++t) {
+    double sum = 0;
+    for (Eigen::Index i = 0; i < r.count; ++i) {
+      const double* g = r.wg + 6 * i;
+      double h = g[0] * p[0][t];
+      for (int k = 1; k < 6; ++k) h += g[k] * p[k][t];
+      sum += std::abs(h);
+    }
+    out[t] += sum;
+  }
+}
+
+struct Kernels {
+  void (*products)(const double*, Eigen::Index, Eigen::Index, const double*, Eigen::Index,
+                   Eigen::Index, Eigen::Index, double*);
+  void (*abs_sums)(const double* const*, Eigen::Index, AngleReadings, double*);
+};
+
+using D2 = double __attribute__((vector_size(16)));
+
+void products_portable(const double* Z, Eigen::Index ldz, Eigen::Index n, const double* B,
+                       Eigen::Index ldb, Eigen::Index nb, Eigen::Index m, double* P) {
+  products<D2>(Z, ldz, n, B, ldb, nb, m, P);
+}
+
+void abs_sums_portable(const double* const* p, Eigen::Index n, AngleReadings r, double* out) {
+  abs_sums<D2>(p, n, r, out);
+}
+
+#if DBBKIT_WIDE_VECTORS
+using D4 = double __attribute__((vector_size(32)));
+
+__attribute__((target("avx"))) void products_avx(const double* Z, Eigen::Index ldz, Eigen::Index n,
+                                                 const double* B, Eigen::Index ldb, Eigen::Index nb,
+                                                 Eigen::Index m, double* P) {
+  products<D4>(Z, ldz, n, B, ldb, nb, m, P);
+}
+
+__attribute__((target("avx"))) void abs_sums_avx(const double* const* p, Eigen::Index n,
+                                                 AngleReadings r, double* out) {
+  abs_sums<D4>(p, n, r, out);
+}
+#endif
+
+// The kernels' width, chosen once a call (simd.hpp).
+Kernels kernels() {
+#if DBBKIT_WIDE_VECTORS
+  if (detail::use_wide_vectors()) return {products_avx, abs_sums_avx};
+#endif
+  return {products_portable, abs_sums_portable};
+}
+
+// The readings angle by angle, their factors weighted: wg (6 a reading, in angle order).
+struct ByAngle {
+  std::vector<double> wg;
+  std::vector<Eigen::Index> first;  // angle a's readings: [first[a], first[a + 1])
+  AngleReadings at(Eigen::Index a) const {
+    const auto i = static_cast<std::size_t>(a);
+    return {wg.data() + 6 * first[i], first[i + 1] - first[i]};
+  }
+};
+
+ByAngle readings_by_angle(const SeriesRows& s, const Eigen::VectorXd& weight) {
+  const Eigen::Index na = s.basis.rows(), n = s.g.rows();
+  ByAngle b;
+  b.first.assign(static_cast<std::size_t>(na + 1), 0);
+  for (Eigen::Index i = 0; i < n; ++i) ++b.first[static_cast<std::size_t>(s.angle[i] + 1)];
+  for (std::size_t a = 0; a < static_cast<std::size_t>(na); ++a) b.first[a + 1] += b.first[a];
+  std::vector<Eigen::Index> next(b.first.begin(), b.first.end() - 1);
+  b.wg.resize(static_cast<std::size_t>(6 * n));
+  for (Eigen::Index i = 0; i < n; ++i) {  // readings of one angle in their order
+    const Eigen::Index at = next[static_cast<std::size_t>(s.angle[i])]++;
+    for (int k = 0; k < 6; ++k) b.wg[static_cast<std::size_t>(6 * at + k)] = weight(i) * s.g(i, k);
+  }
+  return b;
+}
+
+// l1(a, k): |c'G|_1 of error k's value at the readings' angle a, for every angle and error
+// (the tiles of the file's comment).
+Eigen::MatrixXd values_l1(const SeriesRows& s, const Eigen::MatrixXd& cov, const ByAngle& by,
+                          const Kernels& kern) {
+  const Eigen::Index m = s.per_error, na = s.basis.rows(), p = 6 * m;
+  const Eigen::MatrixXd basis_t = s.basis.transpose();  // m x na: the basis row-major
+  const double* basis = basis_t.data();
+  // X_k = Phi Cov_k,: (na x p): z of error k's value at every angle; Cov_k,: read by rows is
+  // Cov_:,k by columns (Cov is symmetric).
+  std::array<Eigen::MatrixXd, 6> X;
+  for (int k = 0; k < 6; ++k) {
+    X[k].resize(na, p);
+    kern.products(s.basis.data(), na, na, cov.data() + k * m, p, p, m, X[k].data());
+  }
+  constexpr Eigen::Index kTile = 32;  // angles a tile: 2 x 36 tiles of 8 KB stay in L2
+  std::vector<double> S(static_cast<std::size_t>(36 * kTile * kTile));
+  std::vector<double> St(S.size());
+  auto tile = [](std::vector<double>& v, int k, int e) {
+    return v.data() + (6 * k + e) * kTile * kTile;
+  };
+  Eigen::MatrixXd l1 = Eigen::MatrixXd::Zero(na, 6);
+  for (Eigen::Index A = 0; A < na; A += kTile) {
+    const Eigen::Index nA = std::min(kTile, na - A);
+    for (Eigen::Index B = A; B < na; B += kTile) {
+      const Eigen::Index nB = std::min(kTile, na - B);
+      for (int k = 0; k < 6; ++k) {  // S_ke(A, B), nA x nB
+        for (int e = 0; e < 6; ++e)
+          kern.products(X[k].data() + e * m * na + A, na, nA, basis + B * m, m, nB, m,
+                        tile(S, k, e));
+      }
+      // The values at A against the readings at B.
+      for (int k = 0; k < 6; ++k) {
+        for (Eigen::Index b = 0; b < nB; ++b) {
+          const double* col[6];
+          for (int e = 0; e < 6; ++e) col[e] = tile(S, k, e) + b * nA;
+          kern.abs_sums(col, nA, by.at(B + b), l1.col(k).data() + A);
+        }
+      }
+      if (B == A) continue;
+      // The values at B against the readings at A: S_ek(B, A) = S_ke(A, B)'.
+      for (int k = 0; k < 6; ++k) {
+        for (int e = 0; e < 6; ++e) {
+          const double* from = tile(S, k, e);
+          double* to = tile(St, e, k);
+          for (Eigen::Index a = 0; a < nA; ++a) {
+            for (Eigen::Index b = 0; b < nB; ++b) to[a * nB + b] = from[b * nA + a];
+          }
+        }
+      }
+      for (int e = 0; e < 6; ++e) {
+        for (Eigen::Index a = 0; a < nA; ++a) {
+          const double* col[6];
+          for (int k = 0; k < 6; ++k) col[k] = tile(St, e, k) + a * nB;
+          kern.abs_sums(col, nB, by.at(A + a), l1.col(e).data() + B);
+        }
+      }
+    }
+  }
+  return l1;
+}
+
+// Which rows of C are one error's value at one of the readings' angles: (error, angle), or
+// (-1, -1). The values must be the basis row to the bit.
+std::vector<std::pair<int, Eigen::Index>> values_at_angles(const FunctionRows& C,
+                                                           const SeriesRows& s) {
+  const Eigen::Index m = s.per_error, na = s.basis.rows();
+  std::map<std::vector<double>, Eigen::Index> angle_of;
+  for (Eigen::Index a = 0; a < na; ++a) {
+    std::vector<double> row(static_cast<std::size_t>(m));
+    for (Eigen::Index j = 0; j < m; ++j) row[static_cast<std::size_t>(j)] = s.basis(a, j);
+    angle_of.emplace(std::move(row), a);
+  }
+  std::vector<std::pair<int, Eigen::Index>> out(static_cast<std::size_t>(C.rows()), {-1, -1});
+  std::vector<double> row(static_cast<std::size_t>(m));
+  for (Eigen::Index v = 0; v < C.rows(); ++v) {
+    std::fill(row.begin(), row.end(), 0.0);
+    int error = -1;
+    bool one_error = true;
+    for (FunctionRows::InnerIterator it(C, v); it; ++it) {
+      if (it.value() == 0.0) continue;
+      const int k = static_cast<int>(it.col() / m);
+      if (error >= 0 && k != error) one_error = false;
+      error = k;
+      row[static_cast<std::size_t>(it.col() % m)] = it.value();
+    }
+    if (!one_error || error < 0) continue;
+    const auto found = angle_of.find(row);
+    if (found != angle_of.end()) out[static_cast<std::size_t>(v)] = {error, found->second};
+  }
+  return out;
+}
+
+}  // namespace
+
+Eigen::VectorXd Gain::left_l1(const FunctionRows& C) const {
+  if (!series_l1()) throw std::logic_error("Gain::left_l1: not a series' implicit gain");
+  const SeriesRows& s = *series_;
+  const Eigen::Index m = s.per_error, na = s.basis.rows(), nv = C.rows();
+  const Eigen::MatrixXd cov = cov_;  // p x p, p = 6 m
+  const Kernels kern = kernels();
+  const ByAngle by = readings_by_angle(s, weight_);
+  const Eigen::MatrixXd basis_t = s.basis.transpose();  // m x na: the basis row-major
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(nv);
+  // The values at the readings' angles, through the tiles when they are at least half of
+  // all 6 na (the tiles form every error at every angle).
+  const auto at = values_at_angles(C, s);
+  const auto n_at = std::count_if(at.begin(), at.end(), [](const auto& x) { return x.first >= 0; });
+  const bool tiles = 2 * n_at >= 6 * na;
+  if (tiles) {
+    const Eigen::MatrixXd l1 = values_l1(s, cov, by, kern);
+    for (Eigen::Index v = 0; v < nv; ++v) {
+      const auto [k, a] = at[static_cast<std::size_t>(v)];
+      if (k >= 0) out(v) = l1(a, k);
+    }
+  }
+  // The others: functions with one support go together, so that z = Cov c is one dense
+  // product on the support's rows of Cov for a chunk of them; then s_k at every angle (one
+  // product per error) and the readings summed angle by angle.
+  constexpr std::size_t kChunk = 256;  // functions at a time
+  std::array<Eigen::MatrixXd, 6> P;    // per error: functions x angles
+  Eigen::MatrixXd Cs, Zt;
+  for (const auto& [support, all_rows] : detail::rows_by_support(C)) {
+    if (support.empty()) continue;  // the zero function's sum is 0
+    std::vector<Eigen::Index> rows;
+    for (Eigen::Index v : all_rows) {
+      if (!tiles || at[static_cast<std::size_t>(v)].first < 0) rows.push_back(v);
+    }
+    if (rows.empty()) continue;
+    const Eigen::Index k = static_cast<Eigen::Index>(support.size());
+    Eigen::MatrixXd cov_s(k, cov.cols());  // the support's rows of Cov
+    for (Eigen::Index j = 0; j < k; ++j)
+      cov_s.row(j) = cov.row(support[static_cast<std::size_t>(j)]);
+    for (std::size_t first = 0; first < rows.size(); first += kChunk) {
+      const Eigen::Index w = static_cast<Eigen::Index>(std::min(kChunk, rows.size() - first));
+      Cs.setZero(w, k);
+      for (Eigen::Index t = 0; t < w; ++t) {
+        Eigen::Index j = 0;
+        for (FunctionRows::InnerIterator it(C, rows[first + static_cast<std::size_t>(t)]); it;
+             ++it) {
+          if (it.value() != 0.0) Cs(t, j++) = it.value();
+        }
+      }
+      Zt.noalias() = Cs * cov_s;  // w x p: row t is (Cov c_t)'
+      for (int e = 0; e < 6; ++e) {
+        P[e].resize(w, na);
+        kern.products(Zt.data() + e * m * w, w, w, basis_t.data(), m, na, m, P[e].data());
+      }
+      Eigen::VectorXd sums = Eigen::VectorXd::Zero(w);
+      for (Eigen::Index a = 0; a < na; ++a) {
+        const double* p[6];
+        for (int e = 0; e < 6; ++e) p[e] = P[e].col(a).data();
+        kern.abs_sums(p, w, by.at(a), sums.data());
+      }
+      for (Eigen::Index t = 0; t < w; ++t) out(rows[first + static_cast<std::size_t>(t)]) = sums(t);
+    }
+  }
+  return out;
+}
+
+}  // namespace dbbkit
