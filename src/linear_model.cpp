@@ -83,14 +83,15 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
     m.row_angle_deg.push_back(r.angle_deg);
   }
   // The rows in column order, each entry g(k) phi_a (a series) or g(k) (per angle) as the
-  // error functions' product gives it.
+  // error functions' product gives it, appended in order into the compressed storage.
   m.J.resize(n, p);
-  m.J.reserve(per_row);
+  m.J.reserve(per_row.cast<Eigen::Index>().sum());
   for (int i = 0; i < n; ++i) {
+    m.J.startVec(i);
     if (per_angle) {
       const RowVector6d& g = gs[static_cast<std::size_t>(i)];
       for (int k = 0; k < 6; ++k) {
-        if (g(k) != 0.0) m.J.insert(i, 6 * m.row_station[i] + k) = g(k);
+        if (g(k) != 0.0) m.J.insertBack(i, 6 * m.row_station[i] + k) = g(k);
       }
       continue;
     }
@@ -101,11 +102,11 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
       if (gk == 0.0) continue;
       for (int a = 0; a < per; ++a) {
         const double v = f(a) * gk;
-        if (v != 0.0) m.J.insert(i, k * per + a) = v;
+        if (v != 0.0) m.J.insertBack(i, k * per + a) = v;
       }
     }
   }
-  m.J.makeCompressed();
+  m.J.finalize();
   if (!per_angle) {
     series->basis.resize(static_cast<Eigen::Index>(basis.size()), series->per_error);
     for (std::size_t b = 0; b < basis.size(); ++b)
@@ -142,14 +143,15 @@ Jacobian append_columns(const Jacobian& J, const Eigen::MatrixXd& X) {
   for (Eigen::Index i = 0; i < J.rows(); ++i) {
     per_row(i) = static_cast<int>(J.row(i).nonZeros() + (X.row(i).array() != 0.0).count());
   }
-  out.reserve(per_row);
-  for (Eigen::Index i = 0; i < J.rows(); ++i) {
-    for (Jacobian::InnerIterator it(J, i); it; ++it) out.insert(i, it.col()) = it.value();
+  out.reserve(per_row.cast<Eigen::Index>().sum());
+  for (Eigen::Index i = 0; i < J.rows(); ++i) {  // appended in order, compressed
+    out.startVec(i);
+    for (Jacobian::InnerIterator it(J, i); it; ++it) out.insertBack(i, it.col()) = it.value();
     for (Eigen::Index c = 0; c < X.cols(); ++c) {
-      if (X(i, c) != 0.0) out.insert(i, J.cols() + c) = X(i, c);
+      if (X(i, c) != 0.0) out.insertBack(i, J.cols() + c) = X(i, c);
     }
   }
-  out.makeCompressed();
+  out.finalize();
   return out;
 }
 

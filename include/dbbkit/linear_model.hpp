@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "dbbkit/design.hpp"
@@ -40,6 +41,22 @@ struct LinearModel {
   // A series model's factored rows (built with J; absent for a per-angle model). Whoever
   // changes J drops it.
   std::shared_ptr<const SeriesRows> series;
+
+  LinearModel() = default;
+  LinearModel(const LinearModel&) = default;
+  LinearModel& operator=(const LinearModel&) = default;
+  // A move takes J's storage: Eigen 3.4's SparseMatrix has no move of its own and would copy.
+  LinearModel(LinearModel&& other) noexcept { *this = std::move(other); }
+  LinearModel& operator=(LinearModel&& other) noexcept {
+    J.swap(other.J);
+    y_um = std::move(other.y_um);
+    sigma_um = std::move(other.sigma_um);
+    row_installation = std::move(other.row_installation);
+    row_station = std::move(other.row_station);
+    row_angle_deg = std::move(other.row_angle_deg);
+    series = std::move(other.series);
+    return *this;
+  }
 };
 
 // [J X]: the columns of X (n x q, dense) after those of J; exact zeros of X are left out.
