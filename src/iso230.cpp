@@ -161,10 +161,15 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   // The functions of every block's fitted quantities, for the components.
   std::array<Eigen::MatrixXd, 2> Q;  // p x 5 per block
   std::array<bool, 2> fitted = {false, false};
+  // The error functions of every station, formed once for both blocks and the components.
+  std::vector<Eigen::SparseMatrix<double>> functions;
+  functions.reserve(static_cast<std::size_t>(param.n_stations()));
+  for (int st = 0; st < param.n_stations(); ++st)
+    functions.push_back(error_functions(param, st, est.n_unknowns));
   for (int b = 0; b < 2; ++b) {
     std::vector<Row> rows;
     for (int st = 0; st < param.n_stations(); ++st) {
-      const Eigen::SparseMatrix<double> C = error_functions(param, st, est.n_unknowns);
+      const Eigen::SparseMatrix<double>& C = functions[static_cast<std::size_t>(st)];
       const Eigen::Matrix3d R = axis_rotation(design.axis, param.station_angle_deg(st));
       const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - R;
       for (int k = 0; k < 3; ++k) {
@@ -285,7 +290,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     IsoComponentsAtAngle at;
     at.station = st;
     at.angle_deg = param.station_angle_deg(st);
-    const Eigen::SparseMatrix<double> C = error_functions(param, st, est.n_unknowns);
+    const Eigen::SparseMatrix<double>& C = functions[static_cast<std::size_t>(st)];
     const Eigen::Matrix3d IR =
         Eigen::Matrix3d::Identity() - axis_rotation(design.axis, at.angle_deg);
     std::array<Term, 6> station_terms;

@@ -57,6 +57,11 @@ Parameterisation::Parameterisation(const Design& design)
   hi_deg_ = *std::max_element(design.angles_deg.begin(), design.angles_deg.end());
   per_error_ = dbbkit::coefficients_per_error(model_);
   n_parameters_ = model_.kind == ErrorModel::Kind::kPerAngle ? 6 * n_stations() : 6 * per_error_;
+  if (model_.kind != ErrorModel::Kind::kPerAngle) {
+    station_basis_.resize(n_stations(), per_error_);
+    for (int st = 0; st < n_stations(); ++st)
+      station_basis_.row(st) = series_basis(station_deg_[static_cast<std::size_t>(st)]).transpose();
+  }
 }
 
 double Parameterisation::key_of(double angle_deg) const {
@@ -123,7 +128,7 @@ Eigen::VectorXd Parameterisation::series_basis(double angle_deg) const {
 Eigen::SparseMatrix<double> Parameterisation::error_functions(int station,
                                                               Eigen::Index rows) const {
   if (model_.kind != ErrorModel::Kind::kPerAngle)
-    return error_functions_at_angle(station_deg_[station], rows);
+    return series_error_functions(station_basis_.data() + station, station_basis_.rows(), rows);
   // Column by column, in order: no sort, no search.
   Eigen::SparseMatrix<double> E(std::max<Eigen::Index>(rows, n_parameters_), 6);
   E.reserve(6);
@@ -146,12 +151,19 @@ Eigen::SparseMatrix<double> Parameterisation::error_functions_at_angle(double an
     return error_functions(s, rows);
   }
   const Eigen::VectorXd f = series_basis(angle_deg);
+  return series_error_functions(f.data(), 1, rows);
+}
+
+Eigen::SparseMatrix<double> Parameterisation::series_error_functions(const double* f,
+                                                                     Eigen::Index stride,
+                                                                     Eigen::Index rows) const {
   Eigen::SparseMatrix<double> E(std::max<Eigen::Index>(rows, n_parameters_), 6);
   E.reserve(6 * per_error_);
   for (int k = 0; k < 6; ++k) {
     E.startVec(k);
     for (int j = 0; j < per_error_; ++j) {
-      if (f(j) != 0.0) E.insertBack(k * per_error_ + j, k) = f(j);
+      const double fj = f[j * stride];
+      if (fj != 0.0) E.insertBack(k * per_error_ + j, k) = fj;
     }
   }
   E.finalize();

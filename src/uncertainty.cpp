@@ -30,7 +30,10 @@ std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& co
 }
 
 FunctionRows budget_functions(const Parameterisation& param, const Budget& budget) {
-  std::vector<Eigen::Triplet<double>> entries;
+  // Row by row, each row's entries in column order (an error function's): appended in order
+  // into compressed storage.
+  FunctionRows C(static_cast<Eigen::Index>(budget.values.size()), param.n_parameters());
+  C.reserve(static_cast<Eigen::Index>(budget.values.size()) * param.coefficients_per_error());
   int station = -1;
   Eigen::SparseMatrix<double> E;
   for (std::size_t v = 0; v < budget.values.size(); ++v) {
@@ -38,12 +41,12 @@ FunctionRows budget_functions(const Parameterisation& param, const Budget& budge
       station = budget.values[v].station;
       E = param.error_functions(station);
     }
-    for (Eigen::SparseMatrix<double>::InnerIterator it(E, budget.values[v].error); it; ++it) {
-      entries.emplace_back(static_cast<int>(v), static_cast<int>(it.row()), it.value());
-    }
+    const auto row = static_cast<Eigen::Index>(v);
+    C.startVec(row);
+    for (Eigen::SparseMatrix<double>::InnerIterator it(E, budget.values[v].error); it; ++it)
+      C.insertBack(row, it.row()) = it.value();
   }
-  FunctionRows C(static_cast<Eigen::Index>(budget.values.size()), param.n_parameters());
-  C.setFromTriplets(entries.begin(), entries.end());
+  C.finalize();
   return C;
 }
 

@@ -80,6 +80,11 @@ class Parameterisation {
   int per_error_ = 1;
   int n_parameters_ = 0;
   double lo_deg_ = 0, hi_deg_ = 0;
+  // A series: series_basis at each station, formed once (row s; empty for per angle).
+  Eigen::MatrixXd station_basis_;
+  // A series' six error functions from the basis f (coefficients_per_error() values).
+  Eigen::SparseMatrix<double> series_error_functions(const double* f, Eigen::Index stride,
+                                                     Eigen::Index rows) const;
 };
 
 }  // namespace dbbkit
