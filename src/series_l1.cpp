@@ -22,6 +22,10 @@
 #include "function_rows.hpp"
 #include "simd.hpp"
 
+// The kernels pass vectors by value only to functions always inlined into their caller, so no
+// call's ABI depends on AVX (which -Wpsabi warns of).
+#pragma GCC diagnostic ignored "-Wpsabi"
+
 namespace dbbkit {
 
 namespace {
@@ -39,9 +43,10 @@ __attribute__((always_inline)) inline void broadcast(V& v, const double* x) {
   if constexpr (kLanes<V> == 2) {
     v = V{*x, *x};
   } else {
-#if DBBKIT_WIDE_VECTORS
-    // One vbroadcastsd from memory; the compiler's own choice for AVX without AVX2 is a
-    // vmovddup and a vinsertf128, two shuffles that cap the kernels' rate.
+#if DBBKIT_WIDE_VECTORS && !defined(__clang__)
+    // One vbroadcastsd from memory: GCC's own choice for AVX without AVX2 is a vmovddup and
+    // a vinsertf128, two shuffles that cap the kernels' rate. (Clang emits the broadcast by
+    // itself, and rejects a 256-bit operand here, outside the AVX function it is inlined into.)
     asm("vbroadcastsd %1, %0" : "=x"(v) : "m"(*x));
 #else
     v = V{*x, *x, *x, *x};
@@ -77,9 +82,11 @@ __attribute__((always_inline)) inline void product_block(const double* Z, Eigen:
     for (int u = 0; u < U; ++u) {
       V zu;
       std::memcpy(&zu, z + u * L, sizeof(V));
-      // One load for both products: the compiler would fold it into each (two loads), and
-      // loads, not arithmetic, would then bound the kernel.
+#if DBBKIT_WIDE_VECTORS && !defined(__clang__)
+      // One load for both products: GCC folds it into each (two loads), and loads, not
+      // arithmetic, then bound the kernel.
       asm("" : "+x"(zu));
+#endif
       acc0[u] += b0 * zu;
       acc1[u] += b1 * zu;
     }
