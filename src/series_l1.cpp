@@ -23,7 +23,9 @@
 #include "simd.hpp"
 
 // The kernels pass vectors by value only to functions always inlined into their caller, so no
-// call's ABI depends on AVX (which -Wpsabi warns of).
+// call's ABI depends on AVX (which -Wpsabi warns of); popped at the end of the file (a unity
+// batch goes on with other files).
+#pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace dbbkit {
@@ -357,6 +359,7 @@ Eigen::VectorXd Gain::left_l1(const FunctionRows& C) const {
       const auto [k, a] = at[static_cast<std::size_t>(v)];
       if (k >= 0) out(v) = l1(a, k);
     }
+    if (n_at == nv) return out;  // every function was such a value
   }
   // The others: functions with one support go together, so that z = Cov c is one dense
   // product on the support's rows of Cov for a chunk of them; then s_k at every angle (one
@@ -403,3 +406,5 @@ Eigen::VectorXd Gain::left_l1(const FunctionRows& C) const {
 }
 
 }  // namespace dbbkit
+
+#pragma GCC diagnostic pop
