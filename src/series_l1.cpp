@@ -246,11 +246,10 @@ ByAngle readings_by_angle(const SeriesRows& s, const Eigen::VectorXd& weight) {
 }
 
 // l1(a, k): |c'G|_1 of error k's value at the readings' angle a, for every angle and error
-// (the tiles of the file's comment).
-Eigen::MatrixXd values_l1(const SeriesRows& s, const Eigen::MatrixXd& cov, const ByAngle& by,
-                          const Kernels& kern) {
+// (the tiles of the file's comment); basis_t is the basis row-major (m x na).
+Eigen::MatrixXd values_l1(const SeriesRows& s, const Eigen::MatrixXd& basis_t,
+                          const Eigen::MatrixXd& cov, const ByAngle& by, const Kernels& kern) {
   const Eigen::Index m = s.per_error, na = s.basis.rows(), p = 6 * m;
-  const Eigen::MatrixXd basis_t = s.basis.transpose();  // m x na: the basis row-major
   const double* basis = basis_t.data();
   // X_k = Phi Cov_k,: (na x p): z of error k's value at every angle; Cov_k,: read by rows is
   // Cov_:,k by columns (Cov is symmetric).
@@ -346,7 +345,8 @@ Eigen::VectorXd Gain::left_l1(const FunctionRows& C) const {
   const Eigen::MatrixXd cov = cov_;  // p x p, p = 6 m
   const Kernels kern = kernels();
   const ByAngle by = readings_by_angle(s, weight_);
-  const Eigen::MatrixXd basis_t = s.basis.transpose();  // m x na: the basis row-major
+  const Eigen::MatrixXd basis_t =
+      s.basis.transpose();  // m x na: the basis row-major, for both paths
   Eigen::VectorXd out = Eigen::VectorXd::Zero(nv);
   // The values at the readings' angles, through the tiles when they are at least half of
   // all 6 na (the tiles form every error at every angle).
@@ -354,7 +354,7 @@ Eigen::VectorXd Gain::left_l1(const FunctionRows& C) const {
   const auto n_at = std::count_if(at.begin(), at.end(), [](const auto& x) { return x.first >= 0; });
   const bool tiles = 2 * n_at >= 6 * na;
   if (tiles) {
-    const Eigen::MatrixXd l1 = values_l1(s, cov, by, kern);
+    const Eigen::MatrixXd l1 = values_l1(s, basis_t, cov, by, kern);
     for (Eigen::Index v = 0; v < nv; ++v) {
       const auto [k, a] = at[static_cast<std::size_t>(v)];
       if (k >= 0) out(v) = l1(a, k);
