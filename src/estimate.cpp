@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "block_form.hpp"
 #include "small_eigen.hpp"
 
 namespace dbbkit {
@@ -896,11 +897,11 @@ int added_rank(const Eigen::MatrixXd& unexplained_part, const Eigen::VectorXd& n
 
 bool Estimate::determined(const Function& c) const {
   if (status == EstimateStatus::kNoReadings) return false;
+  if (null_space_scaled.cols() == 0) return true;  // full rank: every function
   double norm2 = 0;
   for (Function::InnerIterator it(c); it; ++it)
     norm2 += std::pow(it.value() / column_scale(it.index()), 2);
   if (norm2 == 0.0) return true;  // the zero function is known exactly
-  if (null_space_scaled.cols() == 0) return true;
   // N'w on the null vectors the support touches (each lies in one block).
   std::vector<std::pair<Eigen::Index, double>> terms;
   for (Function::InnerIterator ct(c); ct; ++ct) {
@@ -936,7 +937,24 @@ double Estimate::base_variance(const Function& c) const {
     // On the support's blocks: var = sum over a of c_a (sum over b of B(a, b) c_b), a and b
     // entries of one block, each sum in c's order. The inner sums of all a are formed together,
     // a column of B at a time (contiguous reads of the column-major block); each is the same
-    // sum in the same order as one formed alone.
+    // sum in the same order as one formed alone (detail::block_form, which takes a support
+    // in one block).
+    const std::size_t nz = static_cast<std::size_t>(c.nonZeros());
+    const int* index = c.innerIndexPtr();
+    const int block = nz > 0 ? covariance_block_of[static_cast<std::size_t>(index[0])] : -1;
+    bool one_block = block >= 0;
+    std::vector<int> places(nz);
+    std::vector<double> work;
+    for (std::size_t k = 0; k < nz && one_block; ++k) {
+      const auto j = static_cast<std::size_t>(index[k]);
+      one_block = covariance_block_of[j] == block;
+      places[k] = covariance_local[j];
+    }
+    if (one_block) {
+      return detail::block_form(covariance_blocks[static_cast<std::size_t>(block)], c.valuePtr(),
+                                places.data(), detail::consecutive_start(places.data(), nz), nz,
+                                c.valuePtr(), places.data(), nz, work);
+    }
     struct Entry {
       int block;
       Eigen::Index local;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "block_form.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/monte_carlo.hpp"
@@ -252,9 +253,11 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   // with QSQ = Q' (Sigma + K S K') Q; c_i' Sigma c_j costs the two supports, not p^2.
   struct Term {
     int b = 0;
-    std::vector<std::pair<Eigen::Index, double>> c;  // (index, coefficient) of the nonzeros
+    std::vector<Eigen::Index> index;  // the nonzeros of c: their unknowns
+    std::vector<double> coef;         // and coefficients
     int block = -1;                   // all of c in one block of the covariance: its number
-    std::vector<Eigen::Index> local;  // and each nonzero's place in it
+    std::vector<Eigen::Index> local;  // and each nonzero's place in it,
+    Eigen::Index local_start = -1;    // the first when the places run consecutively
     Eigen::Matrix<double, 1, 5> x, cSQ;
     Eigen::VectorXd Kc;  // K'c; empty without a low-rank part
   };
@@ -262,19 +265,15 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   auto covariance = [&](const Term& i, const Term& j) {
     double v = 0;
     if (i.block >= 0 && i.block == j.block) {  // on the dense block, no search
-      // v = sum over x of c_x (sum over y of B(x, y) c_y), each sum in its order; the inner
-      // sums formed together a column of B at a time (contiguous reads), the same bits.
-      const Eigen::MatrixXd& B = est.covariance_blocks[static_cast<std::size_t>(i.block)];
-      row.assign(i.c.size(), 0.0);
-      for (std::size_t y = 0; y < j.c.size(); ++y) {
-        const double* col = B.col(j.local[y]).data();
-        const double cy = j.c[y].second;
-        for (std::size_t x = 0; x < i.c.size(); ++x) row[x] += col[i.local[x]] * cy;
-      }
-      for (std::size_t x = 0; x < i.c.size(); ++x) v += i.c[x].second * row[x];
+      // v = sum over x of c_x (sum over y of B(x, y) c_y), each sum in its order: the same
+      // bits as Estimate::base_variance.
+      v = detail::block_form(est.covariance_blocks[static_cast<std::size_t>(i.block)],
+                             i.coef.data(), i.local.data(), i.local_start, i.coef.size(),
+                             j.coef.data(), j.local.data(), j.coef.size(), row);
     } else {
-      for (const auto& [a, ca] : i.c) {
-        for (const auto& [q, cq] : j.c) v += ca * est.covariance_at(a, q) * cq;
+      for (std::size_t x = 0; x < i.coef.size(); ++x) {
+        for (std::size_t y = 0; y < j.coef.size(); ++y)
+          v += i.coef[x] * est.covariance_at(i.index[x], j.index[y]) * j.coef[y];
       }
     }
     v += -i.cSQ.dot(j.x) - j.cSQ.dot(i.x) + (i.x * QSQ[i.b] * j.x.transpose())(0);
@@ -306,16 +305,18 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       for (Estimate::Function::InnerIterator it(c); it; ++it) {
         const Eigen::Index a = it.index();
         if (it.value() == 0.0) continue;
-        t.c.emplace_back(a, it.value());
+        t.index.push_back(a);
+        t.coef.push_back(it.value());
         t.cSQ += it.value() * SQ[b].row(a);
         value += it.value() * est.theta(a);
       }
-      if (!est.covariance_block_of.empty() && !t.c.empty()) {
-        t.block = est.covariance_block_of[static_cast<std::size_t>(t.c.front().first)];
-        for (const auto& [a, ca] : t.c) {
+      if (!est.covariance_block_of.empty() && !t.index.empty()) {
+        t.block = est.covariance_block_of[static_cast<std::size_t>(t.index.front())];
+        for (const Eigen::Index a : t.index) {
           if (est.covariance_block_of[static_cast<std::size_t>(a)] != t.block) t.block = -1;
           t.local.push_back(est.covariance_local[static_cast<std::size_t>(a)]);
         }
+        t.local_start = detail::consecutive_start(t.local.data(), t.local.size());
       }
       if (low_rank) t.Kc = est.low_rank_coordinates(c);
       Determined d;
