@@ -14,7 +14,12 @@ void sincos_deg(double angle_deg, double& s, double& c) {
   // fmod is exact and returns an angle already in [0, 360) unchanged: skipped for those.
   double a = angle_deg >= 0.0 && angle_deg < 360.0 ? angle_deg : std::fmod(angle_deg, 360.0);
   if (a < 0) a += 360.0;
-  const double q = std::round(a / 90.0);  // halves away from zero, as lround
+  // The nearest quadrant, a half to the even one: the angles a and 360 - a then take the
+  // quadrants q and 4 - q and opposite remainders r, so that sin is odd and cos even to the bit
+  // (the reflection the series' bias bound pairs angles by: series_l1.cpp).
+  const double x = a / 90.0;
+  double q = std::round(x);
+  if (std::abs(q - x) == 0.5) q = 2.0 * std::round(0.5 * x);
   const int quadrant = static_cast<int>(q) % 4;
   const double r = rad(a - 90.0 * q);  // |r| <= 45 deg
   const double sr = r == 0 ? 0.0 : std::sin(r), cr = r == 0 ? 1.0 : std::cos(r);

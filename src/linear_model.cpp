@@ -55,6 +55,7 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
   std::unordered_map<double, int> basis_of;
   if (!per_angle) {
     series->per_error = param.coefficients_per_error();
+    series->parity = basis_parity(param.model());
     series->g.resize(n, 6);
     series->angle.reserve(static_cast<std::size_t>(n));
   }

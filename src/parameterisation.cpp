@@ -30,6 +30,18 @@ int coefficients_per_error(const ErrorModel& model) {
   return 1;
 }
 
+std::vector<int> basis_parity(const ErrorModel& model) {
+  std::vector<int> parity;
+  if (model.kind == ErrorModel::Kind::kPerAngle) return parity;
+  parity.resize(static_cast<std::size_t>(coefficients_per_error(model)));
+  for (std::size_t j = 0; j < parity.size(); ++j) {
+    // Fourier: 1, then cos k g (even) and sin k g (odd) in turn; Legendre: P_j has j's parity.
+    parity[j] = model.kind == ErrorModel::Kind::kFourier ? (j > 0 && j % 2 == 0 ? -1 : 1)
+                                                         : (j % 2 == 0 ? 1 : -1);
+  }
+  return parity;
+}
+
 namespace {
 
 std::string format_angle(double a) {

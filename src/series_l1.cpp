@@ -9,6 +9,8 @@
 // at B and the values at B against the readings at A, so every pair of angles is formed once.
 // Other functions take one dense product per function and angle.
 
+#include "series_l1.hpp"
+
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
@@ -245,41 +247,196 @@ ByAngle readings_by_angle(const SeriesRows& s, const Eigen::VectorXd& weight) {
   return b;
 }
 
+constexpr Eigen::Index kTile = 32;  // slots a tile: 2 x 36 tiles of 8 KB stay in L2
+
+// The readings' angles in slots, tile by tile (tiles of kTile slots, the last shorter).
+// Paired (the basis has odd functions, and enough angles pair): a tile of 2h slots holds h
+// angles in its first h slots and, in the next h, each one's reflection: another of the
+// readings' angles whose basis row is the first's with the odd functions negated (to the bit),
+// or, for an angle without one (or its own reflection), a slot with that row and no readings.
+// The basis functions are then ordered even first. Unpaired: a slot per angle, in order.
+//
+// With the even and odd parts of phi, S(a, b) = phi(a)' Cov_ke phi(b) is E(a, b) + O(a, b)
+// (the sums over b's even and odd functions) and S(a, b') = E(a, b) - O(a, b) for the
+// reflection b' of b: a tile's rows against the first halves of the other's give both halves,
+// at half the products.
+struct Slots {
+  Eigen::MatrixXd basis;                    // slots x m, the functions in `order`
+  Eigen::MatrixXd basis_t;                  // its transpose (each slot's row contiguous)
+  std::vector<Eigen::Index> angle;          // slot -> the readings' angle, or -1 (no readings)
+  std::vector<Eigen::Index> of_angle;       // angle -> its slot
+  std::vector<int> order;                   // column j is basis function order[j]
+  std::vector<Eigen::Index> first, second;  // paired: the slots of pair q
+  Eigen::Index even = 0;                    // paired: the even functions (the first columns)
+  bool paired = false;
+};
+
+Slots make_slots(const SeriesRows& s, const Eigen::MatrixXd& basis_t) {
+  const Eigen::Index m = s.per_error, na = s.basis.rows();
+  Slots out;
+  std::vector<int> even, odd;
+  if (static_cast<Eigen::Index>(s.parity.size()) == m) {
+    for (int j = 0; j < static_cast<int>(m); ++j) (s.parity[j] > 0 ? even : odd).push_back(j);
+  }
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs;  // (angle, its reflection or -1)
+  if (!odd.empty()) {
+    std::map<std::vector<double>, Eigen::Index> angle_of;
+    std::vector<double> row(static_cast<std::size_t>(m));
+    for (Eigen::Index a = na - 1; a >= 0; --a) {  // a row's first angle kept
+      for (Eigen::Index j = 0; j < m; ++j) row[static_cast<std::size_t>(j)] = s.basis(a, j);
+      angle_of[row] = a;
+    }
+    std::vector<char> taken(static_cast<std::size_t>(na), 0);
+    for (Eigen::Index a = 0; a < na; ++a) {
+      if (taken[static_cast<std::size_t>(a)]) continue;
+      taken[static_cast<std::size_t>(a)] = 1;
+      bool own = true;  // the row is its own reflection (every odd function zero)
+      for (Eigen::Index j = 0; j < m; ++j) {
+        row[static_cast<std::size_t>(j)] = s.parity[static_cast<std::size_t>(j)] * s.basis(a, j);
+        own = own && row[static_cast<std::size_t>(j)] == s.basis(a, j);
+      }
+      Eigen::Index partner = -1;
+      const auto found = own ? angle_of.end() : angle_of.find(row);
+      if (found != angle_of.end() && !taken[static_cast<std::size_t>(found->second)]) {
+        partner = found->second;
+        taken[static_cast<std::size_t>(partner)] = 1;
+      }
+      pairs.emplace_back(a, partner);
+    }
+  }
+  // Pairing halves the products and adds a slot per unpaired angle: taken at up to 1.25 slots
+  // an angle (the absolute sums grow with the slots).
+  out.paired = !odd.empty() && 4 * 2 * static_cast<Eigen::Index>(pairs.size()) <= 5 * na;
+  if (!out.paired) {
+    out.basis = s.basis;
+    out.basis_t = basis_t;
+    out.angle.resize(static_cast<std::size_t>(na));
+    out.order.resize(static_cast<std::size_t>(m));
+    for (Eigen::Index a = 0; a < na; ++a) out.angle[static_cast<std::size_t>(a)] = a;
+    for (int j = 0; j < static_cast<int>(m); ++j) out.order[static_cast<std::size_t>(j)] = j;
+    out.of_angle = out.angle;
+    return out;
+  }
+  out.order = even;
+  out.order.insert(out.order.end(), odd.begin(), odd.end());
+  out.even = static_cast<Eigen::Index>(even.size());
+  const Eigen::Index np = static_cast<Eigen::Index>(pairs.size()), ns = 2 * np;
+  constexpr Eigen::Index h_full = kTile / 2;
+  out.basis.resize(ns, m);
+  out.angle.assign(static_cast<std::size_t>(ns), -1);
+  out.of_angle.assign(static_cast<std::size_t>(na), -1);
+  for (Eigen::Index q = 0; q < np; ++q) {
+    const Eigen::Index t = q / h_full, h = std::min(h_full, np - t * h_full), i = q - t * h_full;
+    const Eigen::Index first = t * kTile + i, second = first + h;
+    const auto [a, partner] = pairs[static_cast<std::size_t>(q)];
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const int f = out.order[static_cast<std::size_t>(j)];
+      out.basis(first, j) = s.basis(a, f);
+      out.basis(second, j) = s.parity[static_cast<std::size_t>(f)] * s.basis(a, f);
+    }
+    out.first.push_back(first);
+    out.second.push_back(second);
+    out.angle[static_cast<std::size_t>(first)] = a;
+    out.of_angle[static_cast<std::size_t>(a)] = first;
+    if (partner >= 0) {
+      out.angle[static_cast<std::size_t>(second)] = partner;
+      out.of_angle[static_cast<std::size_t>(partner)] = second;
+    }
+  }
+  out.basis_t = out.basis.transpose();
+  return out;
+}
+
 // l1(a, k): |c'G|_1 of error k's value at the readings' angle a, for every angle and error
 // (the tiles of the file's comment); basis_t is the basis row-major (m x na).
 Eigen::MatrixXd values_l1(const SeriesRows& s, const Eigen::MatrixXd& basis_t,
                           const Eigen::MatrixXd& cov, const ByAngle& by, const Kernels& kern) {
   const Eigen::Index m = s.per_error, na = s.basis.rows(), p = 6 * m;
-  const double* basis = basis_t.data();
-  // X_k = Phi Cov_k,: (na x p): z of error k's value at every angle; Cov_k,: read by rows is
-  // Cov_:,k by columns (Cov is symmetric).
-  std::array<Eigen::MatrixXd, 6> X;
-  for (int k = 0; k < 6; ++k) {
-    X[k].resize(na, p);
-    kern.products(s.basis.data(), na, na, cov.data() + k * m, p, p, m, X[k].data());
+  const Slots slots = make_slots(s, basis_t);
+  const Eigen::Index ns = slots.basis.rows(), even = slots.even;
+  const double* basis = slots.basis_t.data();
+  auto readings = [&](Eigen::Index slot) {
+    const Eigen::Index a = slots.angle[static_cast<std::size_t>(slot)];
+    return a >= 0 ? by.at(a) : AngleReadings{};
+  };
+  // Cov with each error's functions in the slots' order.
+  Eigen::MatrixXd cov_ordered;
+  if (slots.paired) {
+    cov_ordered.resize(p, p);
+    for (Eigen::Index y = 0; y < p; ++y) {
+      const Eigen::Index fy = (y / m) * m + slots.order[static_cast<std::size_t>(y % m)];
+      for (Eigen::Index x = 0; x < p; ++x)
+        cov_ordered(x, y) = cov((x / m) * m + slots.order[static_cast<std::size_t>(x % m)], fy);
+    }
   }
-  constexpr Eigen::Index kTile = 32;  // angles a tile: 2 x 36 tiles of 8 KB stay in L2
+  const Eigen::MatrixXd& cov_o = slots.paired ? cov_ordered : cov;
+  // X_k = Phi Cov_k,: (slots x p): z of error k's value at every slot; Cov_k,: read by rows is
+  // Cov_:,k by columns (Cov is symmetric).
+  // Paired: the even and odd sums for the pairs' first slots, the second's their difference.
+  std::array<Eigen::MatrixXd, 6> X;
+  const Eigen::Index np = static_cast<Eigen::Index>(slots.first.size());
+  Eigen::MatrixXd firsts(np, m), xe(np, p), xo(np, p);
+  for (Eigen::Index q = 0; q < np; ++q)
+    firsts.row(q) = slots.basis.row(slots.first[static_cast<std::size_t>(q)]);
+  for (int k = 0; k < 6; ++k) {
+    X[k].resize(ns, p);
+    if (!slots.paired) {
+      kern.products(slots.basis.data(), ns, ns, cov_o.data() + k * m, p, p, m, X[k].data());
+      continue;
+    }
+    kern.products(firsts.data(), np, np, cov_o.data() + k * m, p, p, even, xe.data());
+    kern.products(firsts.data() + even * np, np, np, cov_o.data() + k * m + even, p, p, m - even,
+                  xo.data());
+    for (Eigen::Index c = 0; c < p; ++c) {
+      for (Eigen::Index q = 0; q < np; ++q) {
+        X[k](slots.first[static_cast<std::size_t>(q)], c) = xe(q, c) + xo(q, c);
+        X[k](slots.second[static_cast<std::size_t>(q)], c) = xe(q, c) - xo(q, c);
+      }
+    }
+  }
   std::vector<double> S(static_cast<std::size_t>(36 * kTile * kTile));
-  std::vector<double> St(S.size());
+  std::vector<double> St(S.size()), odd(static_cast<std::size_t>(kTile * kTile / 2));
   auto tile = [](std::vector<double>& v, int k, int e) {
     return v.data() + (6 * k + e) * kTile * kTile;
   };
-  Eigen::MatrixXd l1 = Eigen::MatrixXd::Zero(na, 6);
-  for (Eigen::Index A = 0; A < na; A += kTile) {
-    const Eigen::Index nA = std::min(kTile, na - A);
-    for (Eigen::Index B = A; B < na; B += kTile) {
-      const Eigen::Index nB = std::min(kTile, na - B);
+  Eigen::MatrixXd l1 = Eigen::MatrixXd::Zero(ns, 6);
+  for (Eigen::Index A = 0; A < ns; A += kTile) {
+    const Eigen::Index nA = std::min(kTile, ns - A);
+    for (Eigen::Index B = A; B < ns; B += kTile) {
+      const Eigen::Index nB = std::min(kTile, ns - B);
       for (int k = 0; k < 6; ++k) {  // S_ke(A, B), nA x nB
-        for (int e = 0; e < 6; ++e)
-          kern.products(X[k].data() + e * m * na + A, na, nA, basis + B * m, m, nB, m,
-                        tile(S, k, e));
+        for (int e = 0; e < 6; ++e) {
+          double* to = tile(S, k, e);
+          const double* x = X[k].data() + e * m * ns + A;
+          if (!slots.paired) {
+            kern.products(x, ns, nA, basis + B * m, m, nB, m, to);
+            continue;
+          }
+          // Against B's first halves: the even sums into S's first half, the odd aside; then
+          // S(:, b) = E + O and S(:, b') = E - O.
+          const Eigen::Index hB = nB / 2;
+          kern.products(x, ns, nA, basis + B * m, m, hB, even, to);
+          kern.products(x + even * ns, ns, nA, basis + B * m + even, m, hB, m - even, odd.data());
+          for (Eigen::Index b = 0; b < hB; ++b) {
+            double* first = to + b * nA;
+            double* second = to + (hB + b) * nA;
+            const double* o = odd.data() + b * nA;
+            for (Eigen::Index r = 0; r < nA; ++r) {
+              const double ev = first[r];
+              first[r] = ev + o[r];
+              second[r] = ev - o[r];
+            }
+          }
+        }
       }
       // The values at A against the readings at B.
       for (int k = 0; k < 6; ++k) {
         for (Eigen::Index b = 0; b < nB; ++b) {
+          const AngleReadings r = readings(B + b);
+          if (r.count == 0) continue;
           const double* col[6];
           for (int e = 0; e < 6; ++e) col[e] = tile(S, k, e) + b * nA;
-          kern.abs_sums(col, nA, by.at(B + b), l1.col(k).data() + A);
+          kern.abs_sums(col, nA, r, l1.col(k).data() + A);
         }
       }
       if (B == A) continue;
@@ -295,14 +452,19 @@ Eigen::MatrixXd values_l1(const SeriesRows& s, const Eigen::MatrixXd& basis_t,
       }
       for (int e = 0; e < 6; ++e) {
         for (Eigen::Index a = 0; a < nA; ++a) {
+          const AngleReadings r = readings(A + a);
+          if (r.count == 0) continue;
           const double* col[6];
           for (int k = 0; k < 6; ++k) col[k] = tile(St, e, k) + a * nB;
-          kern.abs_sums(col, nB, by.at(A + a), l1.col(e).data() + B);
+          kern.abs_sums(col, nB, r, l1.col(e).data() + B);
         }
       }
     }
   }
-  return l1;
+  Eigen::MatrixXd at_angles(na, 6);
+  for (Eigen::Index a = 0; a < na; ++a)
+    at_angles.row(a) = l1.row(slots.of_angle[static_cast<std::size_t>(a)]);
+  return at_angles;
 }
 
 // Which rows of C are one error's value at one of the readings' angles: (error, angle), or
@@ -337,6 +499,10 @@ std::vector<std::pair<int, Eigen::Index>> values_at_angles(const FunctionRows& C
 }
 
 }  // namespace
+
+bool detail::series_angles_paired(const SeriesRows& s) {
+  return make_slots(s, s.basis.transpose()).paired;
+}
 
 Eigen::VectorXd Gain::left_l1(const FunctionRows& C) const {
   if (!series_l1()) throw std::logic_error("Gain::left_l1: not a series' implicit gain");

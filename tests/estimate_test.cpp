@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "../src/series_l1.hpp"
 #include "../src/simd.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/measurement.hpp"
@@ -237,43 +238,71 @@ Design twelve_installations(Design d) {
 }
 
 // Gain::left_l1 of a series runs its kernels four doubles wide where the processor has AVX
-// and two wide otherwise: both give the same bits, and both |C G|_1 of the dense gain. 91
-// angles and 553 functions leave tails in every loop (angles, chunks of 256, vector lanes).
-// On a processor without AVX both runs take the two-wide path.
+// and two wide otherwise: both give the same bits, and both |C G|_1 of the dense gain. Two
+// sets of angles: 91 at 360 i / 91 deg (few reflections to the bit: the angles in order) and
+// every 5 deg with 7, 13 and 101 deg added (paired with their reflections, 0, 180 and the
+// three added with none: 80 slots, two tiles and a half). Each leaves tails in every loop
+// (tiles, chunks of 256, vector lanes). On a processor without AVX both runs take the
+// two-wide path.
 TEST(Estimate, SeriesL1IsTheSameOnEveryVectorWidth) {
-  Design d = twelve_installations(test::paper_design('C'));
-  d.errors = {ErrorModel::Kind::kFourier, 20};
-  d.angles_deg.clear();
-  for (int i = 0; i < 91; ++i) d.angles_deg.push_back(360.0 * i / 91);
-  const Parameterisation param(d);
-  const LinearModel model = build_linear_model(d, param, nominal_readings(d));
-  const WlsSolver factored(model);
-  const WlsSolver::Gain& G = factored.J_theta_reading();
-  ASSERT_TRUE(G.series_l1());
-  std::vector<Eigen::Triplet<double>> t;
-  int row = 0;
-  for (int st = 0; st < param.n_stations(); ++st) {
-    const Eigen::SparseMatrix<double> E = param.error_functions(st);
-    for (int e = 0; e < 6; ++e, ++row) {
-      for (Eigen::SparseMatrix<double>::InnerIterator it(E, e); it; ++it)
-        t.emplace_back(row, static_cast<int>(it.row()), it.value());
+  std::vector<double> uneven, paired;
+  for (int i = 0; i < 91; ++i) uneven.push_back(360.0 * i / 91);
+  for (int a = 0; a < 360; a += 5) paired.push_back(a);
+  for (double a : {7.0, 13.0, 101.0}) paired.push_back(a);
+  for (const auto& [angles, pairs] :
+       {std::pair<std::vector<double>, bool>{uneven, false}, {paired, true}}) {
+    SCOPED_TRACE(angles.size());
+    Design d = twelve_installations(test::paper_design('C'));
+    d.errors = {ErrorModel::Kind::kFourier, 20};
+    d.angles_deg = angles;
+    const Parameterisation param(d);
+    const LinearModel model = build_linear_model(d, param, nominal_readings(d));
+    ASSERT_TRUE(model.series);
+    EXPECT_EQ(detail::series_angles_paired(*model.series), pairs);
+    const WlsSolver factored(model);
+    const WlsSolver::Gain& G = factored.J_theta_reading();
+    ASSERT_TRUE(G.series_l1());
+    std::vector<Eigen::Triplet<double>> t;
+    int row = 0;
+    for (int st = 0; st < param.n_stations(); ++st) {
+      const Eigen::SparseMatrix<double> E = param.error_functions(st);
+      for (int e = 0; e < 6; ++e, ++row) {
+        for (Eigen::SparseMatrix<double>::InnerIterator it(E, e); it; ++it)
+          t.emplace_back(row, static_cast<int>(it.row()), it.value());
+      }
+    }
+    std::mt19937 rng(11);
+    std::normal_distribution<double> z;
+    for (int r = 0; r < 7; ++r, ++row) {  // across the errors' coefficients
+      for (int j = 0; j < 9; ++j) t.emplace_back(row, (r * 31 + j * 17) % model.J.cols(), z(rng));
+    }
+    FunctionRows C(row, model.J.cols());
+    C.setFromTriplets(t.begin(), t.end());
+    ASSERT_EQ(C.rows(), 6 * static_cast<Eigen::Index>(angles.size()) + 7);
+    detail::wide_vectors_allowed() = false;
+    const Eigen::VectorXd narrow = G.left_l1(C);
+    detail::wide_vectors_allowed() = true;
+    const Eigen::VectorXd wide = G.left_l1(C);
+    for (Eigen::Index v = 0; v < C.rows(); ++v) EXPECT_EQ(narrow(v), wide(v)) << v;
+    const Eigen::VectorXd l1 =
+        (test::dense(C) * test::dense(G.sparse())).cwiseAbs().rowwise().sum();
+    EXPECT_TRUE(test::near(wide, l1, 0.0, 1e-9));
+  }
+}
+
+// The reflection the pairing rests on: the Fourier basis at a and at 360 - a (and -a) is the
+// same with the sines negated, to the bit, at the quadrants' halves too (45 deg and its
+// multiples by the harmonics), wherever 360 - a is exact.
+TEST(Estimate, FourierBasisIsEvenAndOddToTheBit) {
+  const std::vector<int> parity = basis_parity({ErrorModel::Kind::kFourier, 20});
+  for (double a : {0.0, 1.0, 9.0, 15.0, 45.0, 90.0, 135.0, 180.0, 33.75, 7.5}) {
+    const Eigen::VectorXd f = fourier_basis(20, a), g = fourier_basis(20, 360.0 - a),
+                          h = fourier_basis(20, -a);
+    for (Eigen::Index j = 0; j < f.size(); ++j) {
+      EXPECT_EQ(g(j), parity[static_cast<std::size_t>(j)] * f(j)) << a << " " << j;
+      EXPECT_EQ(h(j), parity[static_cast<std::size_t>(j)] * f(j)) << a << " " << j;
     }
   }
-  std::mt19937 rng(11);
-  std::normal_distribution<double> z;
-  for (int r = 0; r < 7; ++r, ++row) {  // across the errors' coefficients
-    for (int j = 0; j < 9; ++j) t.emplace_back(row, (r * 31 + j * 17) % model.J.cols(), z(rng));
-  }
-  FunctionRows C(row, model.J.cols());
-  C.setFromTriplets(t.begin(), t.end());
-  ASSERT_EQ(C.rows(), 6 * 91 + 7);
-  detail::wide_vectors_allowed() = false;
-  const Eigen::VectorXd narrow = G.left_l1(C);
-  detail::wide_vectors_allowed() = true;
-  const Eigen::VectorXd wide = G.left_l1(C);
-  for (Eigen::Index v = 0; v < C.rows(); ++v) EXPECT_EQ(narrow(v), wide(v)) << v;
-  const Eigen::VectorXd l1 = (test::dense(C) * test::dense(G.sparse())).cwiseAbs().rowwise().sum();
-  EXPECT_TRUE(test::near(wide, l1, 0.0, 1e-9));
 }
 
 }  // namespace

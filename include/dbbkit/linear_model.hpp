@@ -29,6 +29,7 @@ struct SeriesRows {
   Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> g;  // n x 6
   std::vector<int> angle;                                       // row -> row of basis
   Eigen::MatrixXd basis;                                        // distinct angles x m
+  std::vector<int> parity;  // each basis function's, under the basis' reflection (basis_parity)
 };
 
 struct LinearModel {

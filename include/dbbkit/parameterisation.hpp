@@ -27,6 +27,9 @@ int coefficients_per_error(const ErrorModel& model);
 // Legendre P_0..P_K at x in [-1, 1].
 Eigen::VectorXd fourier_basis(int order, double angle_deg);
 Eigen::VectorXd legendre_basis(int order, double x);
+// Each basis function's parity under the basis' reflection (Fourier: g -> -g, the sines odd;
+// Legendre: x -> -x, odd degrees odd): +1 even, -1 odd; empty for per angle.
+std::vector<int> basis_parity(const ErrorModel& model);
 
 class Parameterisation {
  public:
