@@ -6,9 +6,12 @@
 // same order as one formed alone, so the result does not depend on which path formed it
 // (Estimate::base_variance, the ISO 230 components' covariance).
 //
-// A function whose places in the block run consecutively (a series error's coefficients)
-// takes the path without an index per element: the same operations in the same order, read
-// contiguously (the compiler vectorises the inner loop across x).
+// When a's places ascend within a short span (a series error's coefficients, some of them
+// zero at an angle and left out) the inner sums run over the whole span, read contiguously
+// without an index per element (the compiler vectorises them). A place of the span that a
+// does not have gets an inner sum of its own, which a_x = 0 then drops: the outer sum gains
+// only zero terms, and as it starts at +0 each leaves it unchanged bit for bit (B finite).
+// The result is that of the sums over a's own places.
 
 #include <Eigen/Core>
 #include <cstddef>
@@ -16,34 +19,37 @@
 
 namespace dbbkit::detail {
 
-// The first place when places[0..n) are consecutive, else -1 (also for n == 0).
-template <class Index>
-Eigen::Index consecutive_start(const Index* places, std::size_t n) {
-  if (n == 0) return -1;
-  const Eigen::Index first = static_cast<Eigen::Index>(places[0]);
-  for (std::size_t k = 1; k < n; ++k) {
-    if (static_cast<Eigen::Index>(places[k]) != first + static_cast<Eigen::Index>(k)) return -1;
-  }
-  return first;
-}
-
-// `row` is work storage (resized here). ia / jb: the places of a and b in B; ia_start /
-// jb_start: consecutive_start of them (-1 when not consecutive).
+// `work` is storage reused from call to call (resized here).
 template <class IndexA, class IndexB>
-double block_form(const Eigen::MatrixXd& B, const double* a, const IndexA* ia,
-                  Eigen::Index ia_start, std::size_t na, const double* b, const IndexB* jb,
-                  std::size_t nb, std::vector<double>& row) {
-  row.assign(na, 0.0);
-  double* r = row.data();
+double block_form(const Eigen::MatrixXd& B, const double* a, const IndexA* ia, std::size_t na,
+                  const double* b, const IndexB* jb, std::size_t nb, std::vector<double>& work) {
+  if (na == 0) return 0.0;
+  const auto first = static_cast<Eigen::Index>(ia[0]);
+  bool ascending = true;
+  for (std::size_t x = 1; x < na && ascending; ++x) ascending = ia[x] > ia[x - 1];
+  const Eigen::Index span = static_cast<Eigen::Index>(ia[na - 1]) - first + 1;
+  if (ascending && span <= 2 * static_cast<Eigen::Index>(na)) {
+    const auto len = static_cast<std::size_t>(span);
+    work.assign(2 * len, 0.0);
+    double* dense = work.data();  // a over the span
+    double* r = work.data() + len;
+    for (std::size_t x = 0; x < na; ++x)
+      dense[static_cast<std::size_t>(static_cast<Eigen::Index>(ia[x]) - first)] = a[x];
+    for (std::size_t y = 0; y < nb; ++y) {
+      const double* c = B.col(static_cast<Eigen::Index>(jb[y])).data() + first;
+      const double by = b[y];
+      for (std::size_t x = 0; x < len; ++x) r[x] += c[x] * by;
+    }
+    double v = 0;
+    for (std::size_t x = 0; x < len; ++x) v += dense[x] * r[x];
+    return v;
+  }
+  work.assign(na, 0.0);
+  double* r = work.data();
   for (std::size_t y = 0; y < nb; ++y) {
     const double* col = B.col(static_cast<Eigen::Index>(jb[y])).data();
     const double by = b[y];
-    if (ia_start >= 0) {
-      const double* c = col + ia_start;
-      for (std::size_t x = 0; x < na; ++x) r[x] += c[x] * by;
-    } else {
-      for (std::size_t x = 0; x < na; ++x) r[x] += col[static_cast<Eigen::Index>(ia[x])] * by;
-    }
+    for (std::size_t x = 0; x < na; ++x) r[x] += col[static_cast<Eigen::Index>(ia[x])] * by;
   }
   double v = 0;
   for (std::size_t x = 0; x < na; ++x) v += a[x] * r[x];

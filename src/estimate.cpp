@@ -952,8 +952,7 @@ double Estimate::base_variance(const Function& c) const {
     }
     if (one_block) {
       return detail::block_form(covariance_blocks[static_cast<std::size_t>(block)], c.valuePtr(),
-                                places.data(), detail::consecutive_start(places.data(), nz), nz,
-                                c.valuePtr(), places.data(), nz, work);
+                                places.data(), nz, c.valuePtr(), places.data(), nz, work);
     }
     struct Entry {
       int block;

@@ -26,8 +26,7 @@ namespace {
 // One block (translations or rotations): the rows of the determined values and the
 // five unknowns' columns at each.
 struct Row {
-  int station = 0, error = 0;
-  Estimate::Function c;           // the value's function of theta
+  int station = 0, error = 0;     // the value's function of theta: its station's column `error`
   Eigen::Matrix<double, 1, 5> x;  // its row of the location model
 };
 
@@ -167,6 +166,13 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   functions.reserve(static_cast<std::size_t>(param.n_stations()));
   for (int st = 0; st < param.n_stations(); ++st)
     functions.push_back(error_functions(param, st, est.n_unknowns));
+  // Whether column e of a station's functions is determined: Estimate::determined, whose
+  // answer for readings without a null space (every function) is given without forming it.
+  const bool all_determined =
+      est.status != EstimateStatus::kNoReadings && est.null_space_scaled.cols() == 0;
+  auto determined = [&](const Eigen::SparseMatrix<double>& C, int e) {
+    return all_determined || est.determined(Estimate::Function(C.col(e)));
+  };
   for (int b = 0; b < 2; ++b) {
     std::vector<Row> rows;
     for (int st = 0; st < param.n_stations(); ++st) {
@@ -174,12 +180,10 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       const Eigen::Matrix3d R = axis_rotation(design.axis, param.station_angle_deg(st));
       const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - R;
       for (int k = 0; k < 3; ++k) {
-        const Estimate::Function c = C.col(3 * b + k);
-        if (!est.determined(c)) continue;
+        if (!determined(C, 3 * b + k)) continue;
         Row r;
         r.station = st;
         r.error = 3 * b + k;
-        r.c = c;
         r.x = location_row(b, k, IR, ia, ip1, ip2);
         rows.push_back(r);
       }
@@ -203,8 +207,10 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     const Eigen::MatrixXd H = XtX_inv * X.transpose();
     Q[b] = Eigen::MatrixXd::Zero(est.n_unknowns, 5);
     for (int i = 0; i < m; ++i) {
-      for (Estimate::Function::InnerIterator it(rows[i].c); it; ++it)
-        Q[b].row(it.index()) += it.value() * H.col(i).transpose();
+      for (Eigen::SparseMatrix<double>::InnerIterator it(
+               functions[static_cast<std::size_t>(rows[i].station)], rows[i].error);
+           it; ++it)
+        Q[b].row(it.row()) += it.value() * H.col(i).transpose();
     }
     fitted[b] = true;
   }
@@ -256,8 +262,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     std::vector<Eigen::Index> index;  // the nonzeros of c: their unknowns
     std::vector<double> coef;         // and coefficients
     int block = -1;                   // all of c in one block of the covariance: its number
-    std::vector<Eigen::Index> local;  // and each nonzero's place in it,
-    Eigen::Index local_start = -1;    // the first when the places run consecutively
+    std::vector<Eigen::Index> local;  // and each nonzero's place in it
     Eigen::Matrix<double, 1, 5> x, cSQ;
     Eigen::VectorXd Kc;  // K'c; empty without a low-rank part
   };
@@ -268,8 +273,8 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       // v = sum over x of c_x (sum over y of B(x, y) c_y), each sum in its order: the same
       // bits as Estimate::base_variance.
       v = detail::block_form(est.covariance_blocks[static_cast<std::size_t>(i.block)],
-                             i.coef.data(), i.local.data(), i.local_start, i.coef.size(),
-                             j.coef.data(), j.local.data(), j.coef.size(), row);
+                             i.coef.data(), i.local.data(), i.coef.size(), j.coef.data(),
+                             j.local.data(), j.coef.size(), row);
     } else {
       for (std::size_t x = 0; x < i.coef.size(); ++x) {
         for (std::size_t y = 0; y < j.coef.size(); ++y)
@@ -295,15 +300,18 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     std::array<Term, 6> station_terms;
     for (int e = 0; e < 6; ++e) {
       const int b = e / 3, k = e % 3;
-      const Estimate::Function c = C.col(e);
-      if (!fitted[b] || !est.determined(c)) continue;
+      if (!fitted[b] || !determined(C, e)) continue;
       Term& t = station_terms[e];
       t.b = b;
       t.x = location_row(b, k, IR, ia, ip1, ip2);
       t.cSQ.setZero();
       double value = 0;
-      for (Estimate::Function::InnerIterator it(c); it; ++it) {
-        const Eigen::Index a = it.index();
+      const auto nonzeros = static_cast<std::size_t>(C.col(e).nonZeros());
+      t.index.reserve(nonzeros);
+      t.coef.reserve(nonzeros);
+      t.local.reserve(nonzeros);
+      for (Eigen::SparseMatrix<double>::InnerIterator it(C, e); it; ++it) {
+        const Eigen::Index a = it.row();
         if (it.value() == 0.0) continue;
         t.index.push_back(a);
         t.coef.push_back(it.value());
@@ -316,9 +324,8 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
           if (est.covariance_block_of[static_cast<std::size_t>(a)] != t.block) t.block = -1;
           t.local.push_back(est.covariance_local[static_cast<std::size_t>(a)]);
         }
-        t.local_start = detail::consecutive_start(t.local.data(), t.local.size());
       }
-      if (low_rank) t.Kc = est.low_rank_coordinates(c);
+      if (low_rank) t.Kc = est.low_rank_coordinates(Estimate::Function(C.col(e)));
       Determined d;
       d.determined = true;
       d.value = value - Qtheta[b].dot(t.x);

@@ -84,30 +84,41 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
     m.row_angle_deg.push_back(r.angle_deg);
   }
   // The rows in column order, each entry g(k) phi_a (a series) or g(k) (per angle) as the
-  // error functions' product gives it, appended in order into the compressed storage.
+  // error functions' product gives it, written in order into the compressed storage (an
+  // entry is written, then kept if it is not zero: a product can underflow). per_row bounds
+  // the entries kept, so a write lands at most one past them.
   m.J.resize(n, p);
-  m.J.reserve(per_row.cast<Eigen::Index>().sum());
+  m.J.resizeNonZeros(per_row.cast<Eigen::Index>().sum() + 1);
+  int* const outer = m.J.outerIndexPtr();
+  int* const inner = m.J.innerIndexPtr();
+  double* const value = m.J.valuePtr();
+  int at = 0;
   for (int i = 0; i < n; ++i) {
-    m.J.startVec(i);
+    outer[i] = at;
+    const RowVector6d& g = gs[static_cast<std::size_t>(i)];
     if (per_angle) {
-      const RowVector6d& g = gs[static_cast<std::size_t>(i)];
       for (int k = 0; k < 6; ++k) {
-        if (g(k) != 0.0) m.J.insertBack(i, 6 * m.row_station[i] + k) = g(k);
+        inner[at] = 6 * m.row_station[i] + k;
+        value[at] = g(k);
+        at += g(k) != 0.0;
       }
       continue;
     }
     const Eigen::VectorXd& f = basis[static_cast<std::size_t>(series->angle[i])];
     const int per = series->per_error;
     for (int k = 0; k < 6; ++k) {
-      const double gk = gs[static_cast<std::size_t>(i)](k);
+      const double gk = g(k);
       if (gk == 0.0) continue;
       for (int a = 0; a < per; ++a) {
         const double v = f(a) * gk;
-        if (v != 0.0) m.J.insertBack(i, k * per + a) = v;
+        inner[at] = k * per + a;
+        value[at] = v;
+        at += v != 0.0;
       }
     }
   }
-  m.J.finalize();
+  outer[n] = at;
+  m.J.resizeNonZeros(at);
   if (!per_angle) {
     series->basis.resize(static_cast<Eigen::Index>(basis.size()), series->per_error);
     for (std::size_t b = 0; b < basis.size(); ++b)

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "../src/block_form.hpp"
 #include "../src/series_l1.hpp"
 #include "../src/simd.hpp"
 #include "dbbkit/linear_model.hpp"
@@ -547,6 +548,43 @@ TEST(Estimate, SeriesRowsGiveTheGeneralSolversResult) {
     }
   }
   EXPECT_EQ(fast, 3);
+}
+
+}  // namespace
+}  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// detail::block_form over a span with gaps (a's missing places summed and dropped) gives the
+// bits of the sums over a's own places in their order: the form as written out, for places
+// with gaps, without, and out of order (no span).
+TEST(Estimate, BlockFormOverASpanIsTheSumOverThePlaces) {
+  std::mt19937 rng(21);
+  std::normal_distribution<double> z;
+  Eigen::MatrixXd B(40, 40);
+  for (Eigen::Index i = 0; i < B.size(); ++i) B.data()[i] = z(rng);
+  B = (B + B.transpose()).eval();
+  const std::vector<std::vector<int>> places = {
+      {3, 4, 6, 7, 8, 10, 11, 12, 15}, {20, 21, 22, 23, 24}, {9, 2, 30, 5}, {0}, {1, 39}};
+  std::vector<double> work;
+  for (const std::vector<int>& ia : places) {
+    for (const std::vector<int>& jb : places) {
+      std::vector<double> a(ia.size()), b(jb.size());
+      for (double& v : a) v = z(rng);
+      for (double& v : b) v = z(rng);
+      double expected = 0;
+      for (std::size_t x = 0; x < ia.size(); ++x) {
+        double inner = 0;
+        for (std::size_t y = 0; y < jb.size(); ++y) inner += B(ia[x], jb[y]) * b[y];
+        expected += a[x] * inner;
+      }
+      EXPECT_EQ(detail::block_form(B, a.data(), ia.data(), ia.size(), b.data(), jb.data(),
+                                   jb.size(), work),
+                expected)
+          << ia.size() << " x " << jb.size();
+    }
+  }
 }
 
 }  // namespace
