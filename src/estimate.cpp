@@ -18,6 +18,7 @@
 
 #include "block_form.hpp"
 #include "small_eigen.hpp"
+#include "spd_inverse.hpp"
 
 namespace dbbkit {
 
@@ -772,8 +773,7 @@ bool WlsSolver::factorise_series(const std::shared_ptr<const SeriesRows>& series
     if (!(lambda(0) > 0) || !(bound <= options.normal_equations_tolerance)) return false;
     const Eigen::LLT<Eigen::MatrixXd> llt(sub);
     if (llt.info() != Eigen::Success) return false;
-    inverse[b] = llt.solve(Eigen::MatrixXd::Identity(c, c));
-    inverse[b] = 0.5 * (inverse[b] + inverse[b].transpose());
+    inverse[b] = detail::inverse_from_cholesky(llt.matrixLLT());  // symmetric as formed
     for (Eigen::Index k = 0; k < c; ++k) all_s.push_back(std::sqrt(lambda(k)));
     s_max = std::max(s_max, std::sqrt(lambda(c - 1)));
     s_min = std::min(s_min, std::sqrt(lambda(0)));

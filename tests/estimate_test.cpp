@@ -9,6 +9,7 @@
 #include "../src/block_form.hpp"
 #include "../src/series_l1.hpp"
 #include "../src/simd.hpp"
+#include "../src/spd_inverse.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/parameterisation.hpp"
@@ -584,6 +585,34 @@ TEST(Estimate, BlockFormOverASpanIsTheSumOverThePlaces) {
                 expected)
           << ia.size() << " x " << jb.size();
     }
+  }
+}
+
+}  // namespace
+}  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// detail::inverse_from_cholesky (potri by halves) against Eigen's solve of the identity, at
+// sizes below, at and past the unblocked size and odd splits; symmetric to the bit, and
+// A A^-1 = I.
+TEST(Estimate, InverseFromCholeskyIsTheInverse) {
+  std::mt19937 rng(17);
+  std::normal_distribution<double> z;
+  for (Eigen::Index n : {1, 2, 5, 24, 25, 49, 100, 246}) {
+    SCOPED_TRACE(n);
+    Eigen::MatrixXd R(n + 3, n);
+    for (Eigen::Index i = 0; i < R.size(); ++i) R.data()[i] = z(rng);
+    const Eigen::MatrixXd A = R.transpose() * R;
+    const Eigen::LLT<Eigen::MatrixXd> llt(A);
+    ASSERT_EQ(llt.info(), Eigen::Success);
+    const Eigen::MatrixXd X = detail::inverse_from_cholesky(llt.matrixLLT());
+    const Eigen::MatrixXd reference = llt.solve(Eigen::MatrixXd::Identity(n, n));
+    const double scale = reference.cwiseAbs().maxCoeff();
+    EXPECT_TRUE(test::near(X, reference, 1e-10 * scale));
+    EXPECT_EQ(X, X.transpose());
+    EXPECT_TRUE(test::near(A * X, Eigen::MatrixXd::Identity(n, n), 1e-9));
   }
 }
 
