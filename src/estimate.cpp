@@ -137,16 +137,30 @@ Border border_columns(const Jacobian& Js, const EstimateOptions& o) {
 
 }  // namespace
 
+// The sparse arguments' storage swapped in (a SparseMatrix's move would copy).
 Gain::Gain(Sparse sparse, Eigen::MatrixXd U, Eigen::MatrixXd V)
-    : sparse_(std::move(sparse)), U_(std::move(U)), V_(std::move(V)) {}
+    : U_(std::move(U)), V_(std::move(V)) {
+  sparse_.swap(sparse);
+}
 
 Gain::Gain(Sparse sparse, Sparse covariance, std::shared_ptr<const Jacobian> J,
            Eigen::VectorXd weight, std::shared_ptr<const SeriesRows> series)
-    : sparse_(std::move(sparse)),
-      cov_(std::move(covariance)),
-      J_(std::move(J)),
-      weight_(std::move(weight)),
-      series_(std::move(series)) {}
+    : J_(std::move(J)), weight_(std::move(weight)), series_(std::move(series)) {
+  sparse_.swap(sparse);
+  cov_.swap(covariance);
+}
+
+Gain& Gain::operator=(Gain&& other) noexcept {
+  sparse_.swap(other.sparse_);
+  U_ = std::move(other.U_);
+  V_ = std::move(other.V_);
+  cov_.swap(other.cov_);
+  J_ = std::move(other.J_);
+  weight_ = std::move(other.weight_);
+  series_ = std::move(other.series_);
+  formed_ = std::move(other.formed_);
+  return *this;
+}
 
 const Gain::Sparse& Gain::sparse() const {
   if (!implicit()) return sparse_;

@@ -24,6 +24,10 @@
 #include "function_rows.hpp"
 #include "simd.hpp"
 
+#if defined(__SSE2__) || DBBKIT_WIDE_VECTORS
+#include <immintrin.h>
+#endif
+
 // The kernels pass vectors by value only to functions always inlined into their caller, so no
 // call's ABI depends on AVX (which -Wpsabi warns of); popped at the end of the file (a unity
 // batch goes on with other files).
@@ -182,10 +186,20 @@ __attribute__((always_inline)) inline void abs_sums(const double* const* p, Eige
   }
 }
 
+// to = from' (from: n x nb, column-major, leading dimension n; to: nb x n, leading dimension
+// nb) on rows a0..a1 of from and its columns from b0 on: copies, the same bits at every width.
+inline void transpose_part(const double* from, Eigen::Index n, Eigen::Index nb, double* to,
+                           Eigen::Index a0, Eigen::Index a1, Eigen::Index b0) {
+  for (Eigen::Index a = a0; a < a1; ++a) {
+    for (Eigen::Index b = b0; b < nb; ++b) to[a * nb + b] = from[b * n + a];
+  }
+}
+
 struct Kernels {
   void (*products)(const double*, Eigen::Index, Eigen::Index, const double*, Eigen::Index,
                    Eigen::Index, Eigen::Index, double*);
   void (*abs_sums)(const double* const*, Eigen::Index, AngleReadings, double*);
+  void (*transpose)(const double*, Eigen::Index, Eigen::Index, double*);
 };
 
 using D2 = double __attribute__((vector_size(16)));
@@ -197,6 +211,25 @@ void products_portable(const double* Z, Eigen::Index ldz, Eigen::Index n, const 
 
 void abs_sums_portable(const double* const* p, Eigen::Index n, AngleReadings r, double* out) {
   abs_sums<D2>(p, n, r, out);
+}
+
+// Two by two blocks where SSE2 is the baseline (x86-64), element by element elsewhere.
+void transpose_portable(const double* from, Eigen::Index n, Eigen::Index nb, double* to) {
+#if defined(__SSE2__)
+  Eigen::Index a = 0;
+  for (; a + 2 <= n; a += 2) {
+    Eigen::Index b = 0;
+    for (; b + 2 <= nb; b += 2) {
+      const __m128d c0 = _mm_loadu_pd(from + b * n + a), c1 = _mm_loadu_pd(from + (b + 1) * n + a);
+      _mm_storeu_pd(to + a * nb + b, _mm_unpacklo_pd(c0, c1));
+      _mm_storeu_pd(to + (a + 1) * nb + b, _mm_unpackhi_pd(c0, c1));
+    }
+    transpose_part(from, n, nb, to, a, a + 2, b);
+  }
+  transpose_part(from, n, nb, to, a, n, 0);
+#else
+  transpose_part(from, n, nb, to, 0, n, 0);
+#endif
 }
 
 #if DBBKIT_WIDE_VECTORS
@@ -212,14 +245,37 @@ __attribute__((target("avx"))) void abs_sums_avx(const double* const* p, Eigen::
                                                  AngleReadings r, double* out) {
   abs_sums<D4>(p, n, r, out);
 }
+
+// Four by four blocks: four columns' rows a..a+3 loaded, paired within lanes, then halves.
+__attribute__((target("avx"))) void transpose_avx(const double* from, Eigen::Index n,
+                                                  Eigen::Index nb, double* to) {
+  Eigen::Index a = 0;
+  for (; a + 4 <= n; a += 4) {
+    Eigen::Index b = 0;
+    for (; b + 4 <= nb; b += 4) {
+      const __m256d c0 = _mm256_loadu_pd(from + b * n + a),
+                    c1 = _mm256_loadu_pd(from + (b + 1) * n + a),
+                    c2 = _mm256_loadu_pd(from + (b + 2) * n + a),
+                    c3 = _mm256_loadu_pd(from + (b + 3) * n + a);
+      const __m256d t0 = _mm256_unpacklo_pd(c0, c1), t1 = _mm256_unpackhi_pd(c0, c1),
+                    t2 = _mm256_unpacklo_pd(c2, c3), t3 = _mm256_unpackhi_pd(c2, c3);
+      _mm256_storeu_pd(to + a * nb + b, _mm256_permute2f128_pd(t0, t2, 0x20));
+      _mm256_storeu_pd(to + (a + 1) * nb + b, _mm256_permute2f128_pd(t1, t3, 0x20));
+      _mm256_storeu_pd(to + (a + 2) * nb + b, _mm256_permute2f128_pd(t0, t2, 0x31));
+      _mm256_storeu_pd(to + (a + 3) * nb + b, _mm256_permute2f128_pd(t1, t3, 0x31));
+    }
+    transpose_part(from, n, nb, to, a, a + 4, b);
+  }
+  transpose_part(from, n, nb, to, a, n, 0);
+}
 #endif
 
 // The kernels' width, chosen once a call (simd.hpp).
 Kernels kernels() {
 #if DBBKIT_WIDE_VECTORS
-  if (detail::use_wide_vectors()) return {products_avx, abs_sums_avx};
+  if (detail::use_wide_vectors()) return {products_avx, abs_sums_avx, transpose_avx};
 #endif
-  return {products_portable, abs_sums_portable};
+  return {products_portable, abs_sums_portable, transpose_portable};
 }
 
 // The readings angle by angle, their factors weighted: wg (6 a reading, in angle order).
@@ -387,10 +443,19 @@ Eigen::MatrixXd values_l1(const SeriesRows& s, const Eigen::MatrixXd& basis_t,
     kern.products(firsts.data(), np, np, cov_o.data() + k * m, p, p, even, xe.data());
     kern.products(firsts.data() + even * np, np, np, cov_o.data() + k * m + even, p, p, m - even,
                   xo.data());
+    // Tile by tile the pairs' first and second slots run on from the tile's start and middle.
     for (Eigen::Index c = 0; c < p; ++c) {
-      for (Eigen::Index q = 0; q < np; ++q) {
-        X[k](slots.first[static_cast<std::size_t>(q)], c) = xe(q, c) + xo(q, c);
-        X[k](slots.second[static_cast<std::size_t>(q)], c) = xe(q, c) - xo(q, c);
+      const double* e_c = xe.col(c).data();
+      const double* o_c = xo.col(c).data();
+      double* x_c = X[k].col(c).data();
+      for (Eigen::Index q0 = 0; q0 < np; q0 += kTile / 2) {
+        const Eigen::Index h = std::min(kTile / 2, np - q0);
+        double* first = x_c + slots.first[static_cast<std::size_t>(q0)];
+        double* second = first + h;
+        for (Eigen::Index i = 0; i < h; ++i) {
+          first[i] = e_c[q0 + i] + o_c[q0 + i];
+          second[i] = e_c[q0 + i] - o_c[q0 + i];
+        }
       }
     }
   }
@@ -442,13 +507,7 @@ Eigen::MatrixXd values_l1(const SeriesRows& s, const Eigen::MatrixXd& basis_t,
       if (B == A) continue;
       // The values at B against the readings at A: S_ek(B, A) = S_ke(A, B)'.
       for (int k = 0; k < 6; ++k) {
-        for (int e = 0; e < 6; ++e) {
-          const double* from = tile(S, k, e);
-          double* to = tile(St, e, k);
-          for (Eigen::Index a = 0; a < nA; ++a) {
-            for (Eigen::Index b = 0; b < nB; ++b) to[a * nB + b] = from[b * nA + a];
-          }
-        }
+        for (int e = 0; e < 6; ++e) kern.transpose(tile(S, k, e), nA, nB, tile(St, e, k));
       }
       for (int e = 0; e < 6; ++e) {
         for (Eigen::Index a = 0; a < nA; ++a) {

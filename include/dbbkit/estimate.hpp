@@ -152,6 +152,11 @@ class Gain {
   // The implicit part Cov J' diag(weight) beside the explicit one.
   Gain(Sparse sparse, Sparse covariance, std::shared_ptr<const Jacobian> J, Eigen::VectorXd weight,
        std::shared_ptr<const SeriesRows> series = nullptr);
+  Gain(const Gain&) = default;
+  Gain& operator=(const Gain&) = default;
+  // A move takes the sparse matrices' storage (Eigen 3.4's SparseMatrix would copy).
+  Gain(Gain&& other) noexcept { *this = std::move(other); }
+  Gain& operator=(Gain&& other) noexcept;
 
   Eigen::Index rows() const { return sparse_.rows(); }
   Eigen::Index cols() const { return sparse_.cols(); }
