@@ -35,7 +35,25 @@ double block_form(const Eigen::MatrixXd& B, const double* a, const IndexA* ia, s
     double* r = work.data() + len;
     for (std::size_t x = 0; x < na; ++x)
       dense[static_cast<std::size_t>(static_cast<Eigen::Index>(ia[x]) - first)] = a[x];
-    for (std::size_t y = 0; y < nb; ++y) {
+    // Four columns a pass (each sum still adds them in their order): a quarter of the
+    // sums' loads and stores.
+    std::size_t y = 0;
+    for (; y + 4 <= nb; y += 4) {
+      const double* c0 = B.col(static_cast<Eigen::Index>(jb[y])).data() + first;
+      const double* c1 = B.col(static_cast<Eigen::Index>(jb[y + 1])).data() + first;
+      const double* c2 = B.col(static_cast<Eigen::Index>(jb[y + 2])).data() + first;
+      const double* c3 = B.col(static_cast<Eigen::Index>(jb[y + 3])).data() + first;
+      const double b0 = b[y], b1 = b[y + 1], b2 = b[y + 2], b3 = b[y + 3];
+      for (std::size_t x = 0; x < len; ++x) {
+        double s = r[x];
+        s += c0[x] * b0;
+        s += c1[x] * b1;
+        s += c2[x] * b2;
+        s += c3[x] * b3;
+        r[x] = s;
+      }
+    }
+    for (; y < nb; ++y) {
       const double* c = B.col(static_cast<Eigen::Index>(jb[y])).data() + first;
       const double by = b[y];
       for (std::size_t x = 0; x < len; ++x) r[x] += c[x] * by;
