@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "block_form.hpp"
+#include "series_l1.hpp"
 #include "small_eigen.hpp"
 #include "spd_inverse.hpp"
 
@@ -661,12 +662,60 @@ bool WlsSolver::factorise_series(const std::shared_ptr<const SeriesRows>& series
   }
   const Eigen::MatrixXd& Phi = series.basis;
   Eigen::MatrixXd M(p, p);
-  Eigen::VectorXd d(na);
-  for (int k = 0; k < 6; ++k) {
-    for (int l = k; l < 6; ++l) {
-      for (Eigen::Index a = 0; a < na; ++a) d(a) = A[static_cast<std::size_t>(a)](k, l);
-      M.block(k * m, l * m, m, m).noalias() = Phi.transpose() * (d.asDiagonal() * Phi);
-      if (l != k) M.block(l * m, k * m, m, m) = M.block(k * m, l * m, m, m).transpose();
+  // With the basis' parity (series_l1.hpp) each block, symmetric, is its even-even, odd-odd
+  // and even-odd parts, and an angle a and its reflection a' (phi(a') = phi(a) with the odd
+  // functions negated) add up as one angle weighted A(a) + A(a') in the first two and
+  // A(a) - A(a') in the third: the products over the pairs, not the angles.
+  const detail::Reflection reflection = detail::reflection_pairs(series);
+  if (!reflection.odd.empty()) {
+    const std::vector<int>&even = reflection.even, &odd = reflection.odd;
+    const Eigen::Index np = static_cast<Eigen::Index>(reflection.pairs.size());
+    const Eigen::Index me = static_cast<Eigen::Index>(even.size()),
+                       mo = static_cast<Eigen::Index>(odd.size());
+    Eigen::MatrixXd PE(np, me), PO(np, mo), EE, OO, EO;
+    for (Eigen::Index q = 0; q < np; ++q) {
+      const Eigen::Index a = reflection.pairs[static_cast<std::size_t>(q)].first;
+      for (Eigen::Index i = 0; i < me; ++i) PE(q, i) = Phi(a, even[static_cast<std::size_t>(i)]);
+      for (Eigen::Index i = 0; i < mo; ++i) PO(q, i) = Phi(a, odd[static_cast<std::size_t>(i)]);
+    }
+    Eigen::VectorXd plus(np), minus(np);
+    for (int k = 0; k < 6; ++k) {
+      for (int l = k; l < 6; ++l) {
+        for (Eigen::Index q = 0; q < np; ++q) {
+          const auto [a, b] = reflection.pairs[static_cast<std::size_t>(q)];
+          const double da = A[static_cast<std::size_t>(a)](k, l),
+                       db = b >= 0 ? A[static_cast<std::size_t>(b)](k, l) : 0.0;
+          plus(q) = da + db;
+          minus(q) = da - db;
+        }
+        EE.noalias() = PE.transpose() * (plus.asDiagonal() * PE);
+        OO.noalias() = PO.transpose() * (plus.asDiagonal() * PO);
+        EO.noalias() = PE.transpose() * (minus.asDiagonal() * PO);
+        auto block = M.block(k * m, l * m, m, m);
+        for (Eigen::Index j = 0; j < me; ++j) {
+          const int fj = even[static_cast<std::size_t>(j)];
+          for (Eigen::Index i = 0; i < me; ++i)
+            block(even[static_cast<std::size_t>(i)], fj) = EE(i, j);
+          for (Eigen::Index i = 0; i < mo; ++i) {
+            block(odd[static_cast<std::size_t>(i)], fj) = EO(j, i);
+            block(fj, odd[static_cast<std::size_t>(i)]) = EO(j, i);
+          }
+        }
+        for (Eigen::Index j = 0; j < mo; ++j) {
+          for (Eigen::Index i = 0; i < mo; ++i)
+            block(odd[static_cast<std::size_t>(i)], odd[static_cast<std::size_t>(j)]) = OO(i, j);
+        }
+        if (l != k) M.block(l * m, k * m, m, m) = block.transpose();
+      }
+    }
+  } else {
+    Eigen::VectorXd d(na);
+    for (int k = 0; k < 6; ++k) {
+      for (int l = k; l < 6; ++l) {
+        for (Eigen::Index a = 0; a < na; ++a) d(a) = A[static_cast<std::size_t>(a)](k, l);
+        M.block(k * m, l * m, m, m).noalias() = Phi.transpose() * (d.asDiagonal() * Phi);
+        if (l != k) M.block(l * m, k * m, m, m) = M.block(k * m, l * m, m, m).transpose();
+      }
     }
   }
   // Column scaling: |column j of W^1/2 J| = sqrt(M_jj); a negligible column goes the general way.

@@ -330,36 +330,9 @@ struct Slots {
 Slots make_slots(const SeriesRows& s, const Eigen::MatrixXd& basis_t) {
   const Eigen::Index m = s.per_error, na = s.basis.rows();
   Slots out;
-  std::vector<int> even, odd;
-  if (static_cast<Eigen::Index>(s.parity.size()) == m) {
-    for (int j = 0; j < static_cast<int>(m); ++j) (s.parity[j] > 0 ? even : odd).push_back(j);
-  }
-  std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs;  // (angle, its reflection or -1)
-  if (!odd.empty()) {
-    std::map<std::vector<double>, Eigen::Index> angle_of;
-    std::vector<double> row(static_cast<std::size_t>(m));
-    for (Eigen::Index a = na - 1; a >= 0; --a) {  // a row's first angle kept
-      for (Eigen::Index j = 0; j < m; ++j) row[static_cast<std::size_t>(j)] = s.basis(a, j);
-      angle_of[row] = a;
-    }
-    std::vector<char> taken(static_cast<std::size_t>(na), 0);
-    for (Eigen::Index a = 0; a < na; ++a) {
-      if (taken[static_cast<std::size_t>(a)]) continue;
-      taken[static_cast<std::size_t>(a)] = 1;
-      bool own = true;  // the row is its own reflection (every odd function zero)
-      for (Eigen::Index j = 0; j < m; ++j) {
-        row[static_cast<std::size_t>(j)] = s.parity[static_cast<std::size_t>(j)] * s.basis(a, j);
-        own = own && row[static_cast<std::size_t>(j)] == s.basis(a, j);
-      }
-      Eigen::Index partner = -1;
-      const auto found = own ? angle_of.end() : angle_of.find(row);
-      if (found != angle_of.end() && !taken[static_cast<std::size_t>(found->second)]) {
-        partner = found->second;
-        taken[static_cast<std::size_t>(partner)] = 1;
-      }
-      pairs.emplace_back(a, partner);
-    }
-  }
+  const detail::Reflection reflection = detail::reflection_pairs(s);
+  const std::vector<int>&even = reflection.even, &odd = reflection.odd;
+  const std::vector<std::pair<Eigen::Index, Eigen::Index>>& pairs = reflection.pairs;
   // Pairing halves the products and adds a slot per unpaired angle: taken at up to 1.25 slots
   // an angle (the absolute sums grow with the slots).
   out.paired = !odd.empty() && 4 * 2 * static_cast<Eigen::Index>(pairs.size()) <= 5 * na;
@@ -558,6 +531,40 @@ std::vector<std::pair<int, Eigen::Index>> values_at_angles(const FunctionRows& C
 }
 
 }  // namespace
+
+detail::Reflection detail::reflection_pairs(const SeriesRows& s) {
+  const Eigen::Index m = s.per_error, na = s.basis.rows();
+  Reflection out;
+  if (static_cast<Eigen::Index>(s.parity.size()) == m) {
+    for (int j = 0; j < static_cast<int>(m); ++j)
+      (s.parity[static_cast<std::size_t>(j)] > 0 ? out.even : out.odd).push_back(j);
+  }
+  if (out.odd.empty()) return out;
+  std::map<std::vector<double>, Eigen::Index> angle_of;
+  std::vector<double> row(static_cast<std::size_t>(m));
+  for (Eigen::Index a = na - 1; a >= 0; --a) {  // a row's first angle kept
+    for (Eigen::Index j = 0; j < m; ++j) row[static_cast<std::size_t>(j)] = s.basis(a, j);
+    angle_of[row] = a;
+  }
+  std::vector<char> taken(static_cast<std::size_t>(na), 0);
+  for (Eigen::Index a = 0; a < na; ++a) {
+    if (taken[static_cast<std::size_t>(a)]) continue;
+    taken[static_cast<std::size_t>(a)] = 1;
+    bool own = true;  // the row is its own reflection (every odd function zero)
+    for (Eigen::Index j = 0; j < m; ++j) {
+      row[static_cast<std::size_t>(j)] = s.parity[static_cast<std::size_t>(j)] * s.basis(a, j);
+      own = own && row[static_cast<std::size_t>(j)] == s.basis(a, j);
+    }
+    Eigen::Index partner = -1;
+    const auto found = own ? angle_of.end() : angle_of.find(row);
+    if (found != angle_of.end() && !taken[static_cast<std::size_t>(found->second)]) {
+      partner = found->second;
+      taken[static_cast<std::size_t>(partner)] = 1;
+    }
+    out.pairs.emplace_back(a, partner);
+  }
+  return out;
+}
 
 bool detail::series_angles_paired(const SeriesRows& s) {
   return make_slots(s, s.basis.transpose()).paired;

@@ -1,9 +1,22 @@
 #pragma once
 // Internal: what Gain::left_l1 of a series (series_l1.cpp) does with the readings' angles.
 
+#include <utility>
+#include <vector>
+
 #include "dbbkit/linear_model.hpp"
 
 namespace dbbkit::detail {
+
+// The basis functions by parity (SeriesRows::parity: even, odd; both empty without one) and
+// the readings' angles paired with their reflections: (angle, the angle whose basis row is
+// its row with the odd functions negated, to the bit, or -1), every angle once, in order of
+// the first. No pairs without odd functions.
+struct Reflection {
+  std::vector<int> even, odd;
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs;
+};
+Reflection reflection_pairs(const SeriesRows& s);
 
 // Whether the bias bound's tiles pair the angles with their reflections (the even and odd
 // basis functions summed apart, half the products): the basis has odd functions and at most
