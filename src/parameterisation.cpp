@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
@@ -72,7 +74,7 @@ Parameterisation::Parameterisation(const Design& design)
   if (model_.kind != ErrorModel::Kind::kPerAngle) {
     station_basis_.resize(n_stations(), per_error_);
     for (int st = 0; st < n_stations(); ++st)
-      station_basis_.row(st) = series_basis(station_deg_[static_cast<std::size_t>(st)]).transpose();
+      station_basis_.row(st) = formed_basis(station_deg_[static_cast<std::size_t>(st)]).transpose();
   }
 }
 
@@ -124,6 +126,15 @@ Eigen::VectorXd legendre_basis(int order, double x) {
 }
 
 Eigen::VectorXd Parameterisation::series_basis(double angle_deg) const {
+  if (station_basis_.rows() > 0) {
+    const int st = station_of(angle_deg);
+    if (st >= 0 && station_deg_[static_cast<std::size_t>(st)] == angle_deg)
+      return station_basis_.row(st).transpose();
+  }
+  return formed_basis(angle_deg);
+}
+
+Eigen::VectorXd Parameterisation::formed_basis(double angle_deg) const {
   switch (model_.kind) {
     case ErrorModel::Kind::kFourier:
       return fourier_basis(model_.order, angle_deg);
@@ -140,7 +151,7 @@ Eigen::VectorXd Parameterisation::series_basis(double angle_deg) const {
 Eigen::SparseMatrix<double> Parameterisation::error_functions(int station,
                                                               Eigen::Index rows) const {
   if (model_.kind != ErrorModel::Kind::kPerAngle)
-    return series_error_functions(station_basis_.data() + station, station_basis_.rows(), rows);
+    return series_error_functions(station_basis_.row(station).data(), 1, rows);
   // Column by column, in order: no sort, no search.
   Eigen::SparseMatrix<double> E(std::max<Eigen::Index>(rows, n_parameters_), 6);
   E.reserve(6);
@@ -169,16 +180,27 @@ Eigen::SparseMatrix<double> Parameterisation::error_functions_at_angle(double an
 Eigen::SparseMatrix<double> Parameterisation::series_error_functions(const double* f,
                                                                      Eigen::Index stride,
                                                                      Eigen::Index rows) const {
+  // The basis' nonzeros once, then each error's column written straight into the compressed
+  // storage (the same entries, in order).
+  std::vector<std::pair<int, double>> nonzero;
+  nonzero.reserve(static_cast<std::size_t>(per_error_));
+  for (int j = 0; j < per_error_; ++j) {
+    if (f[j * stride] != 0.0) nonzero.emplace_back(j, f[j * stride]);
+  }
+  const int nz = static_cast<int>(nonzero.size());
   Eigen::SparseMatrix<double> E(std::max<Eigen::Index>(rows, n_parameters_), 6);
-  E.reserve(6 * per_error_);
+  E.resizeNonZeros(6 * nz);
+  int* outer = E.outerIndexPtr();
+  int* inner = E.innerIndexPtr();
+  double* value = E.valuePtr();
   for (int k = 0; k < 6; ++k) {
-    E.startVec(k);
-    for (int j = 0; j < per_error_; ++j) {
-      const double fj = f[j * stride];
-      if (fj != 0.0) E.insertBack(k * per_error_ + j, k) = fj;
+    outer[k] = k * nz;
+    for (int t = 0; t < nz; ++t) {
+      inner[k * nz + t] = k * per_error_ + nonzero[static_cast<std::size_t>(t)].first;
+      value[k * nz + t] = nonzero[static_cast<std::size_t>(t)].second;
     }
   }
-  E.finalize();
+  outer[6] = 6 * nz;
   return E;
 }
 

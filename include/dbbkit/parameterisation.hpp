@@ -83,8 +83,10 @@ class Parameterisation {
   int per_error_ = 1;
   int n_parameters_ = 0;
   double lo_deg_ = 0, hi_deg_ = 0;
-  // A series: series_basis at each station, formed once (row s; empty for per angle).
-  Eigen::MatrixXd station_basis_;
+  // A series: series_basis at each station, formed once (row s; empty for per angle);
+  // series_basis of a station's own angle reads it.
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> station_basis_;
+  Eigen::VectorXd formed_basis(double angle_deg) const;
   // A series' six error functions from the basis f (coefficients_per_error() values).
   Eigen::SparseMatrix<double> series_error_functions(const double* f, Eigen::Index stride,
                                                      Eigen::Index rows) const;
