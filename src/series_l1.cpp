@@ -308,8 +308,9 @@ constexpr Eigen::Index kTile = 32;  // slots a tile: 2 x 36 tiles of 8 KB stay i
 // The readings' angles in slots, tile by tile (tiles of kTile slots, the last shorter).
 // Paired (the basis has odd functions, and enough angles pair): a tile of 2h slots holds h
 // angles in its first h slots and, in the next h, each one's reflection: another of the
-// readings' angles whose basis row is the first's with the odd functions negated (to the bit),
-// or, for an angle without one (or its own reflection), a slot with that row and no readings.
+// readings' angles whose basis row is the first's with the odd functions negated (exactly,
+// detail::reflection_pairs), or, for an angle without one (or its own reflection), a slot
+// with that row and no readings.
 // The basis functions are then ordered even first. Unpaired: a slot per angle, in order.
 //
 // With the even and odd parts of phi, S(a, b) = phi(a)' Cov_ke phi(b) is E(a, b) + O(a, b)
@@ -317,13 +318,13 @@ constexpr Eigen::Index kTile = 32;  // slots a tile: 2 x 36 tiles of 8 KB stay i
 // reflection b' of b: a tile's rows against the first halves of the other's give both halves,
 // at half the products.
 struct Slots {
-  Eigen::MatrixXd basis;                    // slots x m, the functions in `order`
-  Eigen::MatrixXd basis_t;                  // its transpose (each slot's row contiguous)
-  std::vector<Eigen::Index> angle;          // slot -> the readings' angle, or -1 (no readings)
-  std::vector<Eigen::Index> of_angle;       // angle -> its slot
-  std::vector<int> order;                   // column j is basis function order[j]
-  std::vector<Eigen::Index> first, second;  // paired: the slots of pair q
-  Eigen::Index even = 0;                    // paired: the even functions (the first columns)
+  Eigen::MatrixXd basis;               // slots x m, the functions in `order`
+  Eigen::MatrixXd basis_t;             // its transpose (each slot's row contiguous)
+  std::vector<Eigen::Index> angle;     // slot -> the readings' angle, or -1 (no readings)
+  std::vector<Eigen::Index> of_angle;  // angle -> its slot
+  std::vector<int> order;              // column j is basis function order[j]
+  std::vector<Eigen::Index> first;     // paired: the first slot of pair q
+  Eigen::Index even = 0;               // paired: the even functions (the first columns)
   bool paired = false;
 };
 
@@ -364,7 +365,6 @@ Slots make_slots(const SeriesRows& s, const Eigen::MatrixXd& basis_t) {
       out.basis(second, j) = s.parity[static_cast<std::size_t>(f)] * s.basis(a, f);
     }
     out.first.push_back(first);
-    out.second.push_back(second);
     out.angle[static_cast<std::size_t>(first)] = a;
     out.of_angle[static_cast<std::size_t>(a)] = first;
     if (partner >= 0) {

@@ -10,8 +10,8 @@ namespace dbbkit::detail {
 
 // The basis functions by parity (SeriesRows::parity: even, odd; both empty without one) and
 // the readings' angles paired with their reflections: (angle, the angle whose basis row is
-// its row with the odd functions negated, to the bit, or -1), every angle once, in order of
-// the first. No pairs without odd functions.
+// its row with the odd functions negated, value for value (a zero's sign aside), or -1),
+// every angle once, in order of the first. No pairs without odd functions.
 struct Reflection {
   std::vector<int> even, odd;
   std::vector<std::pair<Eigen::Index, Eigen::Index>> pairs;
