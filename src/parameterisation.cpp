@@ -151,7 +151,7 @@ Eigen::VectorXd Parameterisation::formed_basis(double angle_deg) const {
 Eigen::SparseMatrix<double> Parameterisation::error_functions(int station,
                                                               Eigen::Index rows) const {
   if (model_.kind != ErrorModel::Kind::kPerAngle)
-    return series_error_functions(station_basis_.row(station).data(), 1, rows);
+    return series_error_functions(station_basis_.row(station).data(), rows);
   // Column by column, in order: no sort, no search.
   Eigen::SparseMatrix<double> E(std::max<Eigen::Index>(rows, n_parameters_), 6);
   E.reserve(6);
@@ -174,18 +174,17 @@ Eigen::SparseMatrix<double> Parameterisation::error_functions_at_angle(double an
     return error_functions(s, rows);
   }
   const Eigen::VectorXd f = series_basis(angle_deg);
-  return series_error_functions(f.data(), 1, rows);
+  return series_error_functions(f.data(), rows);
 }
 
 Eigen::SparseMatrix<double> Parameterisation::series_error_functions(const double* f,
-                                                                     Eigen::Index stride,
                                                                      Eigen::Index rows) const {
   // The basis' nonzeros once, then each error's column written straight into the compressed
   // storage (the same entries, in order).
   std::vector<std::pair<int, double>> nonzero;
   nonzero.reserve(static_cast<std::size_t>(per_error_));
   for (int j = 0; j < per_error_; ++j) {
-    if (f[j * stride] != 0.0) nonzero.emplace_back(j, f[j * stride]);
+    if (f[j] != 0.0) nonzero.emplace_back(j, f[j]);
   }
   const int nz = static_cast<int>(nonzero.size());
   Eigen::SparseMatrix<double> E(std::max<Eigen::Index>(rows, n_parameters_), 6);

@@ -588,12 +588,6 @@ TEST(Estimate, BlockFormOverASpanIsTheSumOverThePlaces) {
   }
 }
 
-}  // namespace
-}  // namespace dbbkit
-
-namespace dbbkit {
-namespace {
-
 // detail::inverse_from_cholesky (potri by halves) against Eigen's solve of the identity, at
 // sizes below, at and past the unblocked size and odd splits; symmetric to the bit, and
 // A A^-1 = I.

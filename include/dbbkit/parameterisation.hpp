@@ -88,8 +88,7 @@ class Parameterisation {
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> station_basis_;
   Eigen::VectorXd formed_basis(double angle_deg) const;
   // A series' six error functions from the basis f (coefficients_per_error() values).
-  Eigen::SparseMatrix<double> series_error_functions(const double* f, Eigen::Index stride,
-                                                     Eigen::Index rows) const;
+  Eigen::SparseMatrix<double> series_error_functions(const double* f, Eigen::Index rows) const;
 };
 
 }  // namespace dbbkit
