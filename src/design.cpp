@@ -8,15 +8,29 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/measurement.hpp"
+#include "dbbkit/user_text.hpp"
+#include "number_text.hpp"
 #include "tolerances.hpp"
 
 namespace dbbkit {
 
+namespace {
+// The parts of a message as a terminal may show them (user_text.hpp): a NUL, an escape
+// sequence or a value of megabytes is written as an escape or cut, never passed on.
+// At most kMaxMessageSource bytes of a source (a path), kMaxMessageWhere of a key path or
+// line, kMaxMessageDetail of what is wrong.
+constexpr std::size_t kMaxMessageSource = 1000, kMaxMessageWhere = 300, kMaxMessageDetail = 2000;
+std::string message_part(const std::string& s, std::size_t max_bytes) {
+  return printable(s, max_bytes, true);
+}
+}  // namespace
+
 InputError::InputError(std::string source, std::string where, std::string detail)
-    : std::runtime_error(source + ": " + (where.empty() ? "" : where + ": ") + detail),
-      source_(std::move(source)),
-      where_(std::move(where)),
-      detail_(std::move(detail)) {}
+    : std::runtime_error(""),
+      source_(message_part(source, kMaxMessageSource)),
+      where_(message_part(where, kMaxMessageWhere)),
+      detail_(message_part(detail, kMaxMessageDetail)),
+      what_(source_ + ": " + (where_.empty() ? "" : where_ + ": ") + detail_) {}
 
 InputError InputError::with_source(const std::string& source) const {
   return InputError(source, where_, detail_);
@@ -186,6 +200,17 @@ void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axi
 }
 
 void validate_design(const Design& d, const std::string& source) {
+  // Text is data (user_text.hpp): what no writer could carry safely is refused here.
+  if (const auto p = text_problem(d.name, limits::kMaxNameBytes))
+    throw InputError(source, "name", quote_value(d.name) + ": " + *p);
+  if (const auto p = text_problem(d.description, limits::kMaxTextBytes))
+    throw InputError(source, "description", quote_value(d.description) + ": " + *p);
+  for (const auto& [k, v] : d.assumed) {
+    if (const auto p = text_problem(k, limits::kMaxNameBytes))
+      throw InputError(source, "assumed", "the key " + quote_value(k) + ": " + *p);
+    if (const auto p = text_problem(v, limits::kMaxTextBytes))
+      throw InputError(source, "assumed." + k, quote_value(v) + ": " + *p);
+  }
   require(std::isfinite(d.instrument_range_mm) && d.instrument_range_mm > 0 &&
               d.instrument_range_mm * 1000.0 <= kMaxAbsReading_um,
           source, "instrument.range_mm", "must be a positive number of mm, at most 10 mm");
@@ -198,11 +223,11 @@ void validate_design(const Design& d, const std::string& source) {
     require(finite(a), source, key, "angle is not a finite number");
     if (d.axis == Axis::kB) {
       require(a >= -180.0 && a <= 180.0, source, key,
-              "angle " + std::to_string(a) +
+              "angle " + text::significant(a, 12) +
                   " deg is outside [-180, 180] deg, the most a swinging head B can reach");
     } else {
       require(std::abs(a) <= 3600.0, source, key,
-              "angle " + std::to_string(a) + " deg is beyond +-10 turns");
+              "angle " + text::significant(a, 12) + " deg is beyond +-10 turns");
     }
   }
   {
@@ -243,15 +268,14 @@ void validate_design(const Design& d, const std::string& source) {
   for (size_t i = 0; i < d.installations.size(); ++i) {
     const Installation& in = d.installations[i];
     const std::string key = "installations[" + std::to_string(i) + "]";
-    require(!in.id.empty(), source, key + ".id", "empty id");
+    if (const auto p = id_problem(in.id))
+      throw InputError(source, key + ".id", quote_value(in.id) + ": " + *p);
+    if (const auto p = text_problem(in.description, limits::kMaxTextBytes))
+      throw InputError(source, key + ".description", quote_value(in.description) + ": " + *p);
     validate_setup_uncertainty(in.setup_std.over(SetupUncertainty{}), d.axis, source,
                                key + ".setup_std");
-    for (char c : in.id) {
-      require(c != ',' && c != '"' && !std::isspace(static_cast<unsigned char>(c)), source,
-              key + ".id", "id '" + in.id + "' contains a comma, quote or white space");
-    }
     require(ids.insert(in.id).second, source, key + ".id",
-            "duplicate installation id '" + in.id + "'");
+            "duplicate installation id " + quote_value(in.id));
     require(length_ok(in.L_mm), source, key + ".ball_mm.L", kLengthLimit);
     require(length_ok(in.D_mm), source, key + ".ball_mm.D", kLengthLimit);
     require(length_ok(in.H_mm), source, key + ".ball_mm.H", kLengthLimit);

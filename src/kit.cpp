@@ -9,6 +9,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
+#include "dbbkit/user_text.hpp"
 #include "tolerances.hpp"
 
 namespace dbbkit {
@@ -171,6 +172,9 @@ void validate_pattern(const Kit& k, const std::string& source) {
         own >= 0 ? "pattern.positions[" + std::to_string(own) + "]" : "pattern.extends";
     any_required = any_required || !pos.optional;
     require(!pos.id.empty(), source, key + ".id", "is empty");
+    // The position's id plus its direction's letter is an installation id (user_text.hpp).
+    if (const auto problem = id_problem(pos.id + "r"))
+      throw InputError(source, key + ".id", quote_value(pos.id) + ": " + *problem);
     require(!pos.directions.empty(), source, key + ".directions", "no directions");
     for (Direction::Kind d : pos.directions) {
       require(d != Direction::Kind::kVector, source, key + ".directions",
@@ -231,6 +235,9 @@ void validate_pattern(const Kit& k, const std::string& source) {
 }  // namespace
 
 void validate_kit(const Kit& k, const std::string& source) {
+  // The kit's name names the designs optimize writes (user_text.hpp).
+  if (const auto p = text_problem(k.name, limits::kMaxNameBytes - 10))
+    throw InputError(source, "name", quote_value(k.name) + ": " + *p);
   validate_noise_and_model(k.noise, k.errors, k.axis, source);
   require(finite(k.reference_length_mm) && k.reference_length_mm > 0, source, "reference_length_mm",
           "must be a positive length in mm (it converts angular uncertainty to um)");

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 #include <unordered_map>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/parameterisation.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit {
 
@@ -33,13 +35,15 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
     const std::string where =
         r.line > 0 ? "line " + std::to_string(r.line) : "reading " + std::to_string(i);
     if (!index.count(r.installation)) {
-      throw InputError(source, where, "installation '" + r.installation + "' is not in the design");
+      throw InputError(source, where,
+                       "installation " + quote_value(r.installation) + " is not in the design");
     }
     if (!std::isfinite(r.angle_deg))
       throw InputError(source, where, "angle is not a finite number");
     if (positions.station_of(r.angle_deg) < 0) {
       std::ostringstream s;
-      s << "angle " << r.angle_deg << " deg is not a position of the design";
+      s << "angle " << std::setprecision(12) << r.angle_deg
+        << " deg is not a position of the design";
       if (design.axis == Axis::kB && (r.angle_deg < *lo || r.angle_deg > *hi)) {
         s << " (outside its range " << *lo << " .. " << *hi << " deg)";
       }

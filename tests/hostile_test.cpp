@@ -10,10 +10,13 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "cli_util.hpp"
+#include "dbbkit/user_text.hpp"
+#include "hostile_strings.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -181,6 +184,172 @@ TEST_F(Hostile, AnInterruptedRunLeavesNoTemporaryAnywhere) {
       const std::string n = e.path().filename().string();
       EXPECT_EQ(n.find(".dbbkit-"), std::string::npos) << n << " after " << delay << " s";
       if (n == "e.json") EXPECT_TRUE(nlohmann::json::parse(slurp(e.path().string())).is_object());
+    }
+  }
+}
+
+// Text is data (architecture.md): the admitted hostile strings as the design's name, its
+// description, an installation's description, an assumption and the kit's name reach every
+// writer, and each writer carries them as data. The refused ones end at the reader.
+TEST_F(Hostile, EveryWriterCarriesHostileNamesAsData) {
+  std::string name, text;
+  for (const auto& h : test::hostile_strings()) {
+    if (!h.admitted) continue;
+    text += (text.empty() ? "" : " ") + h.text;
+  }
+  name = text.substr(0, 150);
+  while (!name.empty() && (static_cast<unsigned char>(name.back()) & 0xC0) == 0x80) name.pop_back();
+  if (!name.empty() && static_cast<unsigned char>(name.back()) >= 0xC0) name.pop_back();
+  nlohmann::json d =
+      nlohmann::json::parse(slurp(test::source_path("designs/c-turntable-kit-optimized.json")));
+  d["name"] = name;
+  d["description"] = text;
+  d["assumed"] = {{name, text}};
+  d["installations"][0]["description"] = text;
+  write("d.json", d.dump());
+  nlohmann::json k =
+      nlohmann::json::parse(slurp(test::source_path("tests/fuzz/corpus/kit/small_c.json")));
+  k["name"] = name;
+  write("k.json", k.dump());
+  // A file name with an escape, a quote, markup and an invalid byte, for the JUnit report.
+  fs::copy_file(path("d.json"), path("zz\x1b'<&\xff.json"));
+  const std::string cd = "cd " + dir_ + " && " + std::string(DBBKIT_CLI) + " ";
+  const std::string truth = test::source_path("tests/data/truth_length_offset_2r.json");
+  for (const std::string& cmd : std::vector<std::string>{
+           "evaluate --quiet --design d.json --out e.json --report e.html --summary e.md",
+           "simulate --design d.json --truth " + truth + " --out m.csv",
+           "identify --quiet --design d.json --data m.csv --out i.json --report i.html --summary "
+           "i.md",
+           "diagnose --quiet --design d.json --data m.csv --out g.json --report g.html --summary "
+           "g.md",
+           std::string("program --quiet --design d.json --dialect iso --out p.nc"),
+           std::string("program --quiet --design d.json --dialect heidenhain --out p.h"),
+           std::string("setup-sheet --quiet --design d.json --report s.html --summary s.md"),
+           "optimize --quiet --kit k.json --out o.json --report o.html --summary o.md",
+           std::string("bench d.json zz* --junit j.xml --summary b.md")}) {
+    const CliRun r = run_cli_shell(cd + cmd);
+    EXPECT_TRUE(r.status == 0 || (r.status == 1 && cmd.rfind("bench", 0) == 0)) << cmd << "\n"
+                                                                                << r.err;
+    EXPECT_EQ(r.err.find('\x1b'), std::string::npos) << cmd;
+    EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << cmd;
+  }
+  EXPECT_FALSE(fs::exists(path("PWNED")));
+  for (const char* html : {"e.html", "i.html", "g.html", "s.html", "o.html"}) {
+    const std::string h = slurp(path(html));
+    ASSERT_FALSE(h.empty()) << html;
+    // The one script is the page's self-check; no element of the name became markup.
+    size_t scripts = 0;
+    for (size_t at = h.find("<script"); at != std::string::npos; at = h.find("<script", at + 1))
+      ++scripts;
+    EXPECT_EQ(scripts, 1u) << html;
+    EXPECT_EQ(h.find("<img"), std::string::npos) << html;
+    EXPECT_NE(h.find("&lt;script&gt;alert(1)&lt;/script&gt;"), std::string::npos) << html;
+  }
+  for (const char* md : {"e.md", "i.md", "g.md", "s.md", "o.md", "b.md"}) {
+    // Outside code blocks (text inside a fenced block is shown as it is, never as markup).
+    std::string m;
+    {
+      std::istringstream in(slurp(path(md)));
+      std::string fence;
+      for (std::string line; std::getline(in, line);) {
+        const size_t ticks = line.find_first_not_of('`');
+        if (line.rfind("```", 0) == 0) {
+          if (fence.empty()) {
+            fence = line.substr(0, ticks);
+          } else if (line.substr(0, ticks) == fence) {
+            fence.clear();
+          }
+          continue;
+        }
+        if (fence.empty()) m += line + "\n";
+      }
+      EXPECT_TRUE(fence.empty()) << md << ": a code block is left open";
+    }
+    ASSERT_FALSE(m.empty()) << md;
+    for (const char* tag : {"<script", "<img", "</script"}) {
+      for (size_t at = m.find(tag); at != std::string::npos; at = m.find(tag, at + 1))
+        EXPECT_TRUE(at > 0 && m[at - 1] == '\\') << md << " at " << at;
+    }
+    EXPECT_EQ(m.find("](javascript"), std::string::npos) << md;
+    EXPECT_EQ(m.find('\x1b'), std::string::npos) << md;
+  }
+  // The programs: printable ASCII, one comment per line at most and closed on it, % only as
+  // the ISO record's start and end, every line short enough for a control.
+  for (const char* prog : {"p.nc", "p.h"}) {
+    std::istringstream in(slurp(path(prog)));
+    int n = 0, percent = 0;
+    for (std::string line; std::getline(in, line); ++n) {
+      for (char c : line) EXPECT_TRUE(c >= 0x20 && c < 0x7F) << prog << " line " << n + 1;
+      EXPECT_LE(line.size(), 100u) << prog << " line " << n + 1;
+      if (line == "%") {
+        ++percent;
+        continue;
+      }
+      EXPECT_EQ(line.find('%'), std::string::npos) << prog << " line " << n + 1 << ": " << line;
+      const size_t open = line.find('(');
+      if (prog == std::string("p.nc") && open != std::string::npos) {
+        EXPECT_EQ(line.find('(', open + 1), std::string::npos) << line;
+        EXPECT_EQ(line.find(')'), line.size() - 1) << line;
+      }
+      if (prog == std::string("p.h")) {
+        const size_t semi = line.find(';');
+        if (semi != std::string::npos)
+          EXPECT_EQ(line.find(';', semi + 1), std::string::npos) << line;
+      }
+    }
+    EXPECT_GT(n, 50) << prog;
+    EXPECT_EQ(percent, prog == std::string("p.nc") ? 2 : 0) << prog;
+  }
+  // The JUnit report parses as XML 1.0.
+  const CliRun x = run_cli_shell("python3 -c \"import xml.etree.ElementTree as E; E.parse('" +
+                                 path("j.xml") + "')\"");
+  EXPECT_EQ(x.status, 0) << x.err;
+  // The readings carry the ids alone: a CSV with no text of the name.
+  EXPECT_EQ(slurp(path("m.csv")).find("script"), std::string::npos);
+}
+
+TEST_F(Hostile, TextNoWriterCouldCarryIsRefusedAtTheReader) {
+  const nlohmann::json base = nlohmann::json::parse(slurp(kDesignC));
+  for (const auto& h : test::hostile_strings()) {
+    if (h.admitted) continue;
+    for (const char* key : {"name", "description", "id"}) {
+      nlohmann::json d = base;
+      if (std::string(key) == "id") {
+        d["installations"][0]["id"] = h.text;
+      } else {
+        d[key] = h.text;
+      }
+      // A JSON string holds only valid UTF-8 (nlohmann escapes the controls); invalid
+      // bytes are written into the file as they are, in place of a marker.
+      std::string text;
+      try {
+        text = d.dump();
+      } catch (const nlohmann::json::type_error&) {
+        nlohmann::json marked = d;
+        if (std::string(key) == "id") {
+          marked["installations"][0]["id"] = "@@@";
+        } else {
+          marked[key] = "@@@";
+        }
+        text = marked.dump();
+        text.replace(text.find("@@@"), 3, h.text);
+      }
+      const bool utf8 = !text_problem(h.text, h.text.size()) ||
+                        text_problem(h.text, h.text.size())->find("UTF-8") == std::string::npos;
+      write("bad.json", text);
+      const CliRun r = run_cli("evaluate --quiet --design " + path("bad.json") + " --report " +
+                               path("r.html") + " --summary " + path("r.md"));
+      EXPECT_EQ(r.status, 2) << h.label << " as " << key << ": " << r.err;
+      EXPECT_NE(r.err.find("bad.json"), std::string::npos) << h.label;
+      // Bytes that are not UTF-8 are not JSON: the parser names the line and column.
+      EXPECT_NE(r.err.find(utf8 ? std::string(key) : "line 1, column"), std::string::npos)
+          << h.label << " as " << key << ": " << r.err;
+      EXPECT_LT(r.err.size(), 1000u) << h.label;
+      for (char c : r.err)
+        EXPECT_TRUE(c == '\n' || static_cast<unsigned char>(c) >= 0x20) << h.label;
+      EXPECT_FALSE(fs::exists(path("r.html")));
+      EXPECT_FALSE(fs::exists(path("PWNED")));
+      fs::remove(path("r.html"));
     }
   }
 }

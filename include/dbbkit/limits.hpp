@@ -26,6 +26,12 @@ constexpr std::size_t kMaxReadings = 10000000;
 // Bytes of one input file (design, kit, truth, measurement, baseline); a longer or
 // endless input (a FIFO, /dev/zero) is refused once this much has been read.
 constexpr std::size_t kMaxInputBytes = std::size_t{512} << 20;
+// Bytes of one JSON input (design, kit, truth, tolerances, baseline, result): parsing takes
+// about 20 times the text's size in memory, so 64 MiB of JSON costs about 1.3 GB. The
+// largest design the other limits allow (100,000 angles, 10,000 installations) is about
+// 5 MB. And the depth of its nesting (a design nests 4 levels).
+constexpr std::size_t kMaxJsonBytes = std::size_t{64} << 20;
+constexpr std::size_t kMaxJsonDepth = 64;
 // Memory of the dense solver for one model: the Jacobian and its whitened copy
 // (n x p each), the gain (p x n) and the covariance (p x p, twice), 8 bytes each:
 //   8 (4 n p + 3 p^2) <= kMaxDenseBytes.

@@ -212,25 +212,6 @@ void check_row(BenchRow& row, const BenchLimits& limits) {
           "the design states no measurement time (predicted.time_s, written by optimize)");
 }
 
-namespace {
-
-// XML text: html_escape's four entities and the apostrophe.
-std::string xml_escape(const std::string& text) {
-  std::string out;
-  for (char ch : html_escape(text)) out += ch == '\'' ? std::string("&apos;") : std::string(1, ch);
-  return out;
-}
-
-// A Markdown table cell: no pipe, no line break.
-std::string cell(std::string text) {
-  for (char& ch : text) {
-    if (ch == '|' || ch == '\n') ch = ' ';
-  }
-  return text;
-}
-
-}  // namespace
-
 std::string bench_junit(const std::vector<BenchRow>& rows) {
   int tests = 0, failures = 0;
   for (const BenchRow& r : rows) {
@@ -286,12 +267,12 @@ std::string bench_markdown(const std::vector<BenchRow>& rows, double tol,
     for (const BenchCheck& c : r.checks) {
       if (!c.passed) result += (result.empty() ? "" : "; ") + c.name + ": " + c.message;
     }
-    s << "| " << cell(r.key) << " | " << r.axis << " | " << cell(r.model) << " | " << r.now.rank
-      << "/" << r.now.n_unknowns << " | " << num(r.now.worst_std_um) << " | "
+    s << "| " << markdown_escape(r.key) << " | " << r.axis << " | " << markdown_escape(r.model)
+      << " | " << r.now.rank << "/" << r.now.n_unknowns << " | " << num(r.now.worst_std_um) << " | "
       << (r.baseline ? num(r.baseline->worst_std_um) : std::string("--")) << " | "
       << (r.now.worst_total_std_um ? num(r.now.worst_total_std_um) : std::string("--")) << " | "
-      << cell(result.empty() ? "pass (" + std::string(bench_state_name(r.state)) + ")"
-                             : "FAIL: " + result)
+      << markdown_escape(result.empty() ? "pass (" + std::string(bench_state_name(r.state)) + ")"
+                                        : "FAIL: " + result)
       << " |\n";
   }
   return s.str();
@@ -300,15 +281,15 @@ std::string bench_markdown(const std::vector<BenchRow>& rows, double tol,
 std::string bench_table(const std::vector<BenchRow>& rows, double tol) {
   std::ostringstream s;
   size_t w = 6;
-  for (const BenchRow& r : rows) w = std::max(w, r.key.size() + 2);
+  for (const BenchRow& r : rows) w = std::max(w, terminal_text(r.key).size() + 2);
   s << std::left << std::setw(static_cast<int>(w)) << "design" << std::right << std::setw(5)
     << "axis" << std::setw(16) << "model" << std::setw(12) << "rank" << std::setw(14)
     << "worst [um]" << std::setw(14) << "baseline" << std::setw(12) << "cond" << std::setw(10)
     << "status"
     << "\n";
   for (const BenchRow& r : rows) {
-    s << std::left << std::setw(static_cast<int>(w)) << r.key << std::right << std::setw(5)
-      << r.axis << std::setw(16) << r.model << std::setw(12)
+    s << std::left << std::setw(static_cast<int>(w)) << terminal_text(r.key) << std::right
+      << std::setw(5) << r.axis << std::setw(16) << r.model << std::setw(12)
       << (std::to_string(r.now.rank) + "/" + std::to_string(r.now.n_unknowns));
     // A rank-deficient design shows its worst determined value in brackets.
     auto worst = [](const BenchFigures& f) {

@@ -20,13 +20,6 @@
 
 namespace dbbkit::io {
 
-// A string for a gnuplot single-quoted literal.
-std::string gnuplot_quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
-  return out + "'";
-}
-
 std::string gnuplot_number(double x) {
   if (!std::isfinite(x)) return "NaN";
   std::ostringstream s;

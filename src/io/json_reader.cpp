@@ -13,6 +13,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/limits.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
 
@@ -111,20 +112,96 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
 
 }  // namespace
 
+namespace {
+
+// The byte at which the key token number `index` (0-based, in the order of the text) starts:
+// a key is a string followed by a colon. The parser reports keys in this order.
+std::size_t key_token_position(const std::string& text, std::size_t index) {
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] != '"') continue;
+    const std::size_t start = i;
+    for (++i; i < text.size() && text[i] != '"'; ++i) {
+      if (text[i] == '\\') ++i;
+    }
+    std::size_t j = i + 1;
+    while (j < text.size() &&
+           (text[j] == ' ' || text[j] == '\t' || text[j] == '\n' || text[j] == '\r'))
+      ++j;
+    if (j < text.size() && text[j] == ':' && count++ == index) return start;
+  }
+  return 0;
+}
+
+// Where the parser stands: for each open container, the key being read (an object) or the
+// number of elements read (a list).
+struct Frame {
+  bool object = true;
+  std::string key;
+  std::size_t elements = 0;
+  std::set<std::string> keys;
+};
+
+std::string frames_path(const std::vector<Frame>& frames, std::size_t depth) {
+  std::string path;
+  for (std::size_t i = 0; i < depth && i < frames.size(); ++i) {
+    const Frame& f = frames[i];
+    if (f.object) {
+      path += (path.empty() ? "" : ".") + f.key;
+    } else {
+      path += "[" + std::to_string(f.elements) + "]";
+    }
+  }
+  return path;
+}
+
+}  // namespace
+
 json parse_json(const std::string& text, const std::string& source) {
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) {
     throw InputError(source, "", "the file is empty");
   }
-  std::vector<std::set<std::string>> keys;
-  std::optional<std::string> duplicate;
-  json::parser_callback_t cb = [&](int, json::parse_event_t event, json& parsed) {
-    if (event == json::parse_event_t::object_start) {
-      keys.emplace_back();
-    } else if (event == json::parse_event_t::object_end) {
-      keys.pop_back();
-    } else if (event == json::parse_event_t::key && !duplicate) {
-      const std::string key = parsed.get<std::string>();
-      if (!keys.empty() && !keys.back().insert(key).second) duplicate = key;
+  if (text.size() > limits::kMaxJsonBytes) {
+    throw InputError(source, "",
+                     std::to_string(text.size() >> 20) + " MiB of JSON, more than the " +
+                         std::to_string(limits::kMaxJsonBytes >> 20) +
+                         " MiB dbbkit reads from one JSON input (README, \"Limits\")");
+  }
+  std::vector<Frame> frames;
+  std::size_t keys_seen = 0;
+  std::optional<std::size_t> duplicate_token;
+  std::string duplicate_path;
+  json::parser_callback_t cb = [&](int depth, json::parse_event_t event, json& parsed) {
+    if (static_cast<std::size_t>(depth) > limits::kMaxJsonDepth) {
+      throw InputError(source, frames_path(frames, frames.size()),
+                       "nested deeper than " + std::to_string(limits::kMaxJsonDepth) +
+                           " levels (README, \"Limits\")");
+    }
+    switch (event) {
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start:
+        frames.push_back(Frame{event == json::parse_event_t::object_start, "", 0, {}});
+        break;
+      case json::parse_event_t::key: {
+        const std::string key = parsed.get<std::string>();
+        if (!frames.empty()) {
+          frames.back().key = key;
+          if (!frames.back().keys.insert(key).second && !duplicate_token) {
+            duplicate_token = keys_seen;
+            duplicate_path = frames_path(frames, frames.size());
+          }
+        }
+        ++keys_seen;
+        break;
+      }
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        if (!frames.empty()) frames.pop_back();
+        if (!frames.empty() && !frames.back().object) ++frames.back().elements;
+        break;
+      case json::parse_event_t::value:
+        if (!frames.empty() && !frames.back().object) ++frames.back().elements;
+        break;
     }
     return true;
   };
@@ -152,9 +229,17 @@ json parse_json(const std::string& text, const std::string& source) {
       if (end > text.c_str() + i) i = static_cast<std::size_t>(end - text.c_str());
     }
     throw InputError(source, "", std::string("not valid JSON (") + e.what() + ")");
+  } catch (const std::bad_alloc&) {
+    throw InputError(source, "",
+                     "not enough memory to read the file (parsing JSON takes about 20 times its "
+                     "size)");
   }
-  if (duplicate)
-    throw InputError(source, "key '" + *duplicate + "'", "the key appears twice in one object");
+  if (duplicate_token) {
+    throw InputError(source,
+                     line_column(text, key_token_position(text, *duplicate_token)) + ", key '" +
+                         duplicate_path + "'",
+                     "the key appears twice in one object");
+  }
   return j;
 }
 
@@ -251,7 +336,11 @@ int as_integer(const json& v, const std::string& source, const std::string& path
 
 std::string as_string(const json& v, const std::string& source, const std::string& path) {
   if (!v.is_string()) throw InputError(source, path, "expected a string, found " + type_name(v));
-  return v.get<std::string>();
+  const std::string& s = v.get_ref<const std::string&>();
+  // Text is data (user_text.hpp): what no writer could carry is refused where it is read.
+  if (const auto p = text_problem(s, limits::kMaxTextBytes))
+    throw InputError(source, path, quote_value(s) + ": " + *p);
+  return s;
 }
 
 std::vector<double> read_numbers(const nlohmann::json& v, const std::string& source,

@@ -10,6 +10,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/limits.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
 
@@ -47,7 +48,7 @@ struct Cell {
       const bool spelled_number = text.find_first_of("0123456789") != std::string::npos ||
                                   text == "nan" || text == "NaN" || text == "inf" ||
                                   text == "-inf" || text == "+inf";
-      fail("'" + text + "' is not " +
+      fail(quote_value(text) + " is not " +
            (spelled_number ? "a finite number in decimal notation" : "a number"));
     }
     return x;
@@ -58,7 +59,7 @@ struct Cell {
     errno = 0;
     const long x = std::strtol(text.c_str(), &end, 10);
     if (end != text.c_str() + text.size() || errno == ERANGE || std::abs(x) > 2000000000L) {
-      fail("'" + text + "' is not an integer");
+      fail(quote_value(text) + " is not an integer");
     }
     return static_cast<int>(x);
   }
@@ -95,12 +96,12 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
         for (const auto& k : kKnownColumns) known = known || k == h;
         if (!known) {
           throw InputError(source, where,
-                           "unknown column '" + h +
-                               "' (expected installation, angle_deg, reading_mm or reading_um, "
+                           "unknown column " + quote_value(h) +
+                               " (expected installation, angle_deg, reading_mm or reading_um, "
                                "and optionally time_s, sweep, repeat)");
         }
         if (!col.emplace(h, static_cast<int>(i)).second)
-          throw InputError(source, where, "column '" + h + "' appears twice");
+          throw InputError(source, where, "column " + quote_value(h) + " appears twice");
       }
       for (const char* req : {"installation", "angle_deg"}) {
         if (!col.count(req))
@@ -142,7 +143,7 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
       } else if (s == "ccw") {
         r.sweep = Sweep::kCCW;
       } else {
-        cell("sweep").fail("'" + s + "' is not a sweep (expected cw or ccw)");
+        cell("sweep").fail(quote_value(s) + " is not a sweep (expected cw or ccw)");
       }
     }
     if (present("repeat")) r.repeat = cell("repeat").integer();

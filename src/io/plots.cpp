@@ -25,12 +25,7 @@ std::string series_block(const PlotSeries& s, int index) {
   for (size_t i = 0; i < s.x.size(); ++i) {
     b << gnuplot_number(s.x[i]) << " " << gnuplot_number(s.y[i]);
     if (!s.lo.empty()) b << " " << gnuplot_number(s.lo[i]) << " " << gnuplot_number(s.hi[i]);
-    if (s.lo.empty() && i < s.labels.size()) {
-      std::string label = s.labels[i];
-      for (char& c : label)
-        if (c == '"') c = '\'';
-      b << " \"" << label << "\"";
-    }
+    if (s.lo.empty() && i < s.labels.size()) b << " \"" << gnuplot_label(s.labels[i]) << "\"";
     b << "\n";
   }
   b << "EOD\n";
@@ -120,7 +115,8 @@ std::string plot_design(const Design& design) {
       if (sets[parity].empty()) continue;
       d << "$" << name << parity << " << EOD\n";
       for (const Point* q : sets[parity])
-        d << gnuplot_number(q->x) << " " << gnuplot_number(q->y) << " \"" << q->ids << "\"\n";
+        d << gnuplot_number(q->x) << " " << gnuplot_number(q->y) << " \"" << gnuplot_label(q->ids)
+          << "\"\n";
       d << "EOD\n";
       plot << ", $" << name << parity << " using 1:2 with points pt 7 ps 1.2 lc rgb '#d62728', $"
            << name << parity << " using 1:2:3 with labels offset 0," << (parity == 0 ? "1" : "-1")
@@ -135,8 +131,8 @@ std::string plot_design(const Design& design) {
   const auto [side_data, side_plot] = labels("side", 0, 2);
   std::ostringstream s;
   s << bars.str() << top_data << side_data << "set multiplot layout 1,2 title "
-    << gnuplot_quote("design " + design.name + " (axis " + axis_name(design.axis) +
-                     ", body frame = machine frame at angle 0; lines: " + what + ")")
+    << gnuplot_quote(std::string("axis ") + axis_name(design.axis) +
+                     ", body frame = machine frame at angle 0; lines: " + what)
     << "\nset size ratio -1\nset grid\nset key off\nset offsets graph 0.08, graph 0.08, graph "
        "0.08, graph 0.08\n";
   // Top view x, y; side view x, z. The axis of rotation is drawn: C about z, B about y.
@@ -208,7 +204,8 @@ std::string plot_heatmap(const std::string& title, const std::string& xlabel,
   if (!marks.empty()) {
     s << "$marks << EOD\n";
     for (const HeatmapMark& m : marks)
-      s << gnuplot_number(m.x) << " " << gnuplot_number(m.y) << " \"" << m.label << "\"\n";
+      s << gnuplot_number(m.x) << " " << gnuplot_number(m.y) << " \"" << gnuplot_label(m.label)
+        << "\"\n";
     s << "EOD\n";
   }
   s << "set title " << gnuplot_quote(title) << "\nset xlabel " << gnuplot_quote(xlabel)

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/io/escape.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
 
@@ -21,15 +22,26 @@ std::string coord(double x, bool plus_sign) {
   return buf;
 }
 
-// Text a comment can hold: ISO comments end at ')', so parentheses become brackets;
-// line breaks become spaces.
-std::string comment_safe(std::string s) {
-  for (char& c : s) {
-    if (c == '(') c = '[';
-    if (c == ')') c = ']';
-    if (c == '\n' || c == '\r') c = ' ';
+// The most characters of one text in a program's comments (a description, a stop's message):
+// at most four comment lines.
+constexpr std::size_t kMaxCommentText = 4 * kProgramCommentLine;
+
+// Text a comment can hold (escape.hpp), cut to kMaxCommentText characters.
+std::string comment_safe(const std::string& s) { return program_comment(s, kMaxCommentText); }
+
+// A comment's text in lines of at most kProgramCommentLine characters, broken at spaces where
+// it can be.
+std::vector<std::string> comment_lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::string rest = comment_safe(text);
+  while (rest.size() > kProgramCommentLine) {
+    size_t cut = rest.rfind(' ', kProgramCommentLine);
+    if (cut == std::string::npos || cut == 0) cut = kProgramCommentLine;
+    lines.push_back(rest.substr(0, cut));
+    rest = rest.substr(cut + (rest[cut] == ' ' ? 1 : 0));
   }
-  return s;
+  lines.push_back(rest);
+  return lines;
 }
 
 class Writer {
@@ -37,10 +49,12 @@ class Writer {
   Writer(Dialect d, char rotary) : dialect_(d), rotary_(rotary) {}
 
   void comment(const std::string& text) {
-    if (dialect_ == Dialect::kIso)
-      line(std::string("(").append(comment_safe(text)).append(")"));
-    else
-      line("; " + comment_safe(text));
+    for (const std::string& l : comment_lines(text)) {
+      if (dialect_ == Dialect::kIso)
+        line("(" + l + ")");
+      else
+        line("; " + l);
+    }
   }
   void raw(const std::string& text) { line(text); }
   void rapid_rotary(double angle) {
@@ -64,16 +78,16 @@ class Writer {
   }
   void stop(const std::string& why) {
     if (dialect_ == Dialect::kIso)
-      line("M00 (" + comment_safe(why) + ")");
+      line("M00 (" + program_comment(why, kProgramCommentLine) + ")");
     else
-      line("STOP ; " + comment_safe(why));
+      line("STOP ; " + program_comment(why, kProgramCommentLine));
   }
   void dwell(double seconds, const std::string& why) {
     if (dialect_ == Dialect::kIso) {
       line("G04 P" + std::to_string(static_cast<long long>(std::lround(seconds * 1000))) + " (" +
-           comment_safe(why) + ")");
+           program_comment(why, kProgramCommentLine) + ")");
     } else {
-      line("CYCL DEF 9.0 DWELL TIME ; " + comment_safe(why));
+      line("CYCL DEF 9.0 DWELL TIME ; " + program_comment(why, kProgramCommentLine));
       line("CYCL DEF 9.1 DWELL " + fmt_rounded(seconds, 3));
     }
   }
@@ -128,7 +142,8 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     w.raw("%");
     char o_number[16];
     std::snprintf(o_number, sizeof o_number, "O%04d", program_number);
-    w.raw(std::string(o_number) + " (DBB MEASUREMENT " + comment_safe(design.name) + ")");
+    w.raw(std::string(o_number) + " (DBB MEASUREMENT " +
+          program_comment(design.name, kProgramCommentLine - 24) + ")");
   } else {
     w.raw("BEGIN PGM " + name + " MM");
   }

@@ -1,34 +1,31 @@
 #include "dbbkit/io/report_writer.hpp"
 
+#include <algorithm>
 #include <sstream>
 
+#include "dbbkit/io/escape.hpp"
 #include "dbbkit/io/hashing.hpp"
 #include "dbbkit/io/text.hpp"
 
 namespace dbbkit::io {
 
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
+namespace {
+// The lines of a text, without their line feeds (a last line without one counts).
+std::vector<std::string> split_lines(const std::string& text) {
+  std::vector<std::string> lines;
+  size_t start = 0;
+  while (start < text.size()) {
+    const size_t end = text.find('\n', start);
+    if (end == std::string::npos) {
+      lines.push_back(text.substr(start));
+      break;
     }
+    lines.push_back(text.substr(start, end - start));
+    start = end + 1;
   }
-  return out;
+  return lines;
 }
+}  // namespace
 
 HtmlWriter::HtmlWriter(const std::string& title) : title_(title) {}
 
@@ -123,29 +120,35 @@ std::string HtmlWriter::str() const {
   return h.str();
 }
 
-MarkdownWriter::MarkdownWriter(const std::string& title) : text_("# " + title + "\n\n") {}
+MarkdownWriter::MarkdownWriter(const std::string& title)
+    : text_("# " + markdown_escape(title) + "\n\n") {}
 void MarkdownWriter::heading(const std::string& text, int level) {
-  text_ += std::string(static_cast<size_t>(level), '#') + " " + text + "\n\n";
+  text_ += std::string(static_cast<size_t>(level), '#') + " " + markdown_escape(text) + "\n\n";
 }
-void MarkdownWriter::paragraph(const std::string& text) { text_ += text + "\n\n"; }
+void MarkdownWriter::paragraph(const std::string& text) { text_ += markdown_escape(text) + "\n\n"; }
 void MarkdownWriter::preformatted(const std::string& text) {
-  text_ += "```\n" + text + (text.empty() || text.back() == '\n' ? "" : "\n") + "```\n\n";
+  // A fenced block ends at a fence at least as long as its opening one: the fence is longer
+  // than any run of backticks in the text. Control characters but the line feed become '?'.
+  std::string body;
+  size_t run = 0, longest = 0;
+  for (char c : text) {
+    run = c == '`' ? run + 1 : 0;
+    longest = std::max(longest, run);
+  }
+  for (const std::string& line : split_lines(text)) body += terminal_text(line) + "\n";
+  const std::string fence(std::max<size_t>(3, longest + 1), '`');
+  text_ += fence + "\n" + body + fence + "\n\n";
 }
 void MarkdownWriter::table(const std::vector<std::string>& header,
                            const std::vector<std::vector<std::string>>& rows) {
-  auto cell = [](std::string s) {
-    std::string out;
-    for (char c : s) out += c == '|' ? std::string("\\|") : std::string(1, c);
-    return out;
-  };
   std::string t = "|";
-  for (const std::string& h : header) t += " " + cell(h) + " |";
+  for (const std::string& h : header) t += " " + markdown_escape(h) + " |";
   t += "\n|";
   for (size_t i = 0; i < header.size(); ++i) t += i ? "---:|" : "---|";
   t += "\n";
   for (const auto& row : rows) {
     t += "|";
-    for (const std::string& c : row) t += " " + cell(c) + " |";
+    for (const std::string& c : row) t += " " + markdown_escape(c) + " |";
     t += "\n";
   }
   text_ += t + "\n";

@@ -152,7 +152,7 @@ void ball(std::ostringstream& s, const Panel& p, double x, double y, const std::
     << "' r='5' fill='" << fill << "' stroke='#222'/><text x='"
     << sheet_number(p.X(x) + (below ? -7 : 7)) << "' y='"
     << sheet_number(p.Y(y) + (below ? 16 : -7)) << "' font-size='11'"
-    << (below ? " text-anchor='end'" : "") << ">" << label << "</text>";
+    << (below ? " text-anchor='end'" : "") << ">" << html_escape(label) << "</text>";
 }
 void path(std::ostringstream& s, const Panel& p, double radius) {
   s << "<circle cx='" << sheet_number(p.X(0)) << "' cy='" << sheet_number(p.Y(0)) << "' r='"
@@ -166,7 +166,7 @@ void rect(std::ostringstream& s, const Panel& p, double x, double y, double w, d
 }
 void caption(std::ostringstream& s, const Panel& p, const std::string& text) {
   s << "<text x='" << sheet_number(p.x0 + 6) << "' y='" << sheet_number(p.y0 + 14)
-    << "' font-size='12'>" << text << "</text>";
+    << "' font-size='12'>" << html_escape(text) << "</text>";
 }
 
 }  // namespace

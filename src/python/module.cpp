@@ -9,6 +9,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -41,6 +42,7 @@
 #include "dbbkit/parallel.hpp"
 #include "dbbkit/setup.hpp"
 #include "dbbkit/simulate.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace py = pybind11;
 
@@ -87,7 +89,8 @@ std::string child(const std::string& path, const std::string& key) {
 // A dict, list, str, number, bool or None (and NumPy scalars and arrays, through tolist())
 // as the JSON the readers take; anything else, or a non-finite number, is an InputError
 // at its key (`source`: "design", "kit", ...).
-nlohmann::json from_python(py::handle h, const std::string& source, const std::string& path) {
+nlohmann::json from_python(py::handle h, const std::string& source, const std::string& path,
+                           std::vector<PyObject*>& open) {
   if (h.is_none()) return nullptr;
   if (py::isinstance<py::bool_>(h)) return h.cast<bool>();
   if (py::isinstance<py::int_>(h)) {
@@ -107,6 +110,28 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
     return x;
   }
   if (py::isinstance<py::str>(h)) return h.cast<std::string>();
+  const bool container =
+      py::isinstance<py::dict>(h) || py::isinstance<py::list>(h) || py::isinstance<py::tuple>(h);
+  if (container) {
+    // A container that holds itself would recurse for ever; one nested beyond the JSON
+    // readers' depth would exhaust the stack (both end as an InputError at their key).
+    if (std::find(open.begin(), open.end(), h.ptr()) != open.end())
+      throw InputError(source, path.empty() ? "top level" : path,
+                       "a dict or list that contains itself");
+    if (open.size() >= limits::kMaxJsonDepth) {
+      throw InputError(source, path.empty() ? "top level" : path,
+                       "nested deeper than " + std::to_string(limits::kMaxJsonDepth) +
+                           " levels (README, \"Limits\")");
+    }
+  }
+  struct Open {
+    std::vector<PyObject*>& open;
+    bool pushed;
+    ~Open() {
+      if (pushed) open.pop_back();
+    }
+  } guard{open, container};
+  if (container) open.push_back(h.ptr());
   if (py::isinstance<py::dict>(h)) {
     nlohmann::json j = nlohmann::json::object();
     for (auto item : py::reinterpret_borrow<py::dict>(h)) {
@@ -116,7 +141,7 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
             "a key that is not a string (" + py::repr(item.first).cast<std::string>() + ")");
       }
       const std::string key = item.first.cast<std::string>();
-      j[key] = from_python(item.second, source, child(path, key));
+      j[key] = from_python(item.second, source, child(path, key), open);
     }
     return j;
   }
@@ -124,13 +149,19 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
     nlohmann::json j = nlohmann::json::array();
     long i = 0;
     for (py::handle e : h)
-      j.push_back(from_python(e, source, path + "[" + std::to_string(i++) + "]"));
+      j.push_back(from_python(e, source, path + "[" + std::to_string(i++) + "]", open));
     return j;
   }
-  if (py::hasattr(h, "tolist")) return from_python(h.attr("tolist")(), source, path);  // NumPy
+  if (py::hasattr(h, "tolist"))
+    return from_python(h.attr("tolist")(), source, path, open);  // NumPy
   throw InputError(source, path,
                    "a value of type " + py::str(h.get_type().attr("__name__")).cast<std::string>() +
                        " (expected a dict, list, str, number, bool or None)");
+}
+
+nlohmann::json from_python(py::handle h, const std::string& source, const std::string& path) {
+  std::vector<PyObject*> open;
+  return from_python(h, source, path, open);
 }
 
 // A path given as str or os.PathLike; nullopt for anything else.
@@ -207,6 +238,7 @@ struct PyMeasurements {
   std::vector<Reading> readings;
   std::string source;
   bool from_file = false;
+  bool from_text = false;  // CSV text: its errors name lines, as a file's do
 };
 
 PyDesign make_design(py::handle source) {
@@ -217,13 +249,14 @@ PyKit make_kit(py::handle source) {
   return read_input<Kit>(source, "kit", &io::read_kit_file, &io::kit_from_json);
 }
 
-// validate_readings names "line N"; readings given as arrays are named by index.
+// validate_readings names "line N"; readings given as arrays (not read from a file or from
+// CSV text) are named by index.
 void validate_rows(const Design& design, const std::vector<Reading>& readings,
-                   const std::string& source) {
+                   const std::string& source, bool by_index) {
   try {
     validate_readings(design, readings, source);
   } catch (const InputError& e) {
-    if (e.where().rfind("line ", 0) == 0) {
+    if (by_index && e.where().rfind("line ", 0) == 0) {
       const long line = std::stol(e.where().substr(5));
       throw InputError(source, "index " + std::to_string(line - 1), e.detail());
     }
@@ -231,12 +264,53 @@ void validate_rows(const Design& design, const std::vector<Reading>& readings,
   }
 }
 
-PyMeasurements measurements_from_arrays(
-    const PyDesign& d, const std::vector<std::string>& installation,
-    const std::vector<double>& angle_deg, const std::vector<double>& reading_um,
-    const std::optional<std::vector<double>>& time_s,
-    const std::optional<std::vector<std::optional<std::string>>>& sweep,
-    const std::optional<std::vector<int>>& repeat) {
+PyMeasurements measurements_from_arrays(const PyDesign& d, py::object installation_seq,
+                                        py::object angle_deg_seq, py::object reading_um_seq,
+                                        py::object time_s_seq, py::object sweep_seq,
+                                        py::object repeat_seq) {
+  // Counted before anything is converted: more readings than a measurement file may hold
+  // are refused before they cost memory.
+  for (const auto& [name, seq] :
+       {std::pair<const char*, py::object*>{"installation", &installation_seq},
+        {"angle_deg", &angle_deg_seq},
+        {"reading_um", &reading_um_seq},
+        {"time_s", &time_s_seq},
+        {"sweep", &sweep_seq},
+        {"repeat", &repeat_seq}}) {
+    if (seq->is_none()) continue;
+    if (!py::hasattr(*seq, "__len__"))
+      throw InputError("measurements", name, "expected a list or an array (one value per reading)");
+    if (py::len(*seq) > limits::kMaxReadings) {
+      throw InputError("measurements", name,
+                       std::to_string(py::len(*seq)) + " values: more than the " +
+                           std::to_string(limits::kMaxReadings) +
+                           " readings one measurement may hold (README, \"Limits\")");
+    }
+  }
+  if (installation_seq.is_none() || angle_deg_seq.is_none() || reading_um_seq.is_none())
+    throw InputError("measurements", "", "installation, angle_deg and reading_um are required");
+  // A value of the wrong type is a TypeError, as pybind11's own argument conversion says.
+  auto as = [](const py::object& seq, const char* name, const char* what) {
+    return [&seq, name, what](auto tag) {
+      try {
+        return seq.cast<decltype(tag)>();
+      } catch (const py::cast_error&) {
+        throw py::type_error(std::string("from_arrays: ") + name + " must be " + what);
+      }
+    };
+  };
+  const auto installation =
+      as(installation_seq, "installation", "a list of str")(std::vector<std::string>{});
+  const auto angle_deg =
+      as(angle_deg_seq, "angle_deg", "a list or array of numbers")(std::vector<double>{});
+  const auto reading_um =
+      as(reading_um_seq, "reading_um", "a list or array of numbers")(std::vector<double>{});
+  const auto time_s = as(time_s_seq, "time_s", "a list or array of numbers, or None")(
+      std::optional<std::vector<double>>{});
+  const auto sweep = as(sweep_seq, "sweep", "a list of 'cw', 'ccw' or None, or None")(
+      std::optional<std::vector<std::optional<std::string>>>{});
+  const auto repeat =
+      as(repeat_seq, "repeat", "a list of int, or None")(std::optional<std::vector<int>>{});
   const size_t n = installation.size();
   auto same_length = [n](const char* name, size_t m) {
     if (m != n) {
@@ -268,12 +342,12 @@ PyMeasurements measurements_from_arrays(
         r.sweep = Sweep::kCCW;
       } else {
         throw InputError("measurements", "sweep[" + std::to_string(i) + "]",
-                         "'" + s + "' (expected cw, ccw or None)");
+                         quote_value(s) + " (expected cw, ccw or None)");
       }
     }
     if (repeat) r.repeat = (*repeat)[i];
   }
-  validate_rows(d.value, m.readings, m.source);
+  validate_rows(d.value, m.readings, m.source, true);
   return m;
 }
 
@@ -487,8 +561,8 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
                               long mc_batch, int mc_digits) {
   check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
   MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
-  validate_rows(d.value, m.readings,
-                m.source);  // the design may not be the one they were read with
+  // The design may not be the one they were read with.
+  validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
   PyIdentifyResult r;
   std::vector<Tolerance> tols;
   std::string tol_source;
@@ -524,7 +598,7 @@ PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double
                               int max_effects, bool exclude_gross) {
   check_finite_in("level", level, limits::kMinLevel, limits::kMaxLevel);
   check_integer_in("max_effects", max_effects, 0, limits::kMaxEffects);
-  validate_rows(d.value, m.readings, m.source);
+  validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
   PyDiagnoseResult r;
   r.design = std::make_shared<const PyDesign>(d);
   r.data = std::make_shared<const PyMeasurements>(m);
@@ -726,6 +800,7 @@ PYBIND11_MODULE(dbbkit, m) {
             mm.readings = io::parse_measurements(text, source);
             validate_readings(design.value, mm.readings, source);
             mm.source = source;
+            mm.from_text = true;
             return mm;
           },
           py::arg("text"), py::arg("design"), py::arg("source") = "csv", "The readings of CSV text")

@@ -261,6 +261,36 @@ class BadInput(InSource):
                               "csv", "line 2, column reading_um")
         self.assertInputError(lambda: dbbkit.identify(dbbkit.Design(PAPER_B), m), DATA_C)  # readings of another design
 
+    def test_hostile_inputs(self):
+        with open(PAPER_C) as f:
+            raw = json.load(f)
+        # Text that would end a gnuplot string or a program's comment is refused at the reader,
+        # so that displaying a result (_repr_html_) can never run it.
+        bad = dict(raw, name="x\n! touch PWNED\nset title 'y")
+        self.assertInputError(lambda: dbbkit.Design(bad), "design", "name", "control character")
+        # A dict that contains itself, a list nested 50,000 deep: an InputError, not a crash.
+        loop = dict(raw)
+        loop["assumed"] = loop
+        self.assertInputError(lambda: dbbkit.Design(loop), "design", "assumed", "contains itself")
+        deep = []
+        for _ in range(50000):
+            deep = [deep]
+        self.assertInputError(lambda: dbbkit.Design(dict(raw, angles_deg=deep)), "design", None, "nested deeper")
+        # More readings than a measurement may hold are refused before they are converted.
+        class Long:
+            def __len__(self):
+                return 10**7 + 1
+        d = dbbkit.Design(raw)
+        self.assertInputError(lambda: dbbkit.Measurements.from_arrays(d, Long(), [0.0], [0.0]),
+                              "measurements", "installation", "more than")
+        with self.assertRaises(TypeError):
+            dbbkit.Measurements.from_arrays(d, [1, 2], [0.0, 1.0], [0.0, 0.0])
+        # Readings read from a file keep their lines in a later check against another design.
+        m = dbbkit.Measurements(DATA_C, d)
+        other = dict(raw, installations=[i for i in raw["installations"] if i["id"] != "1a"])
+        e = self.assertInputError(lambda: dbbkit.identify(dbbkit.Design(other), m), DATA_C)
+        self.assertTrue(e.where.startswith("line "), e.where)
+
     def test_arguments(self):
         d = dbbkit.Design(PAPER_C)
         m = dbbkit.Measurements(DATA_C, d)

@@ -5,6 +5,8 @@
 
 #include <string>
 
+#include "dbbkit/io/escape.hpp"
+
 namespace dbbkit::io {
 
 // Runs gnuplot on a script (its terminal and output are set here: SVG, white
@@ -12,8 +14,7 @@ namespace dbbkit::io {
 // "--report" when gnuplot is not installed or fails.
 std::string gnuplot_svg(const std::string& script, int width_px = 760, int height_px = 380);
 
-// A string as a gnuplot single-quoted literal ('it''s').
-std::string gnuplot_quote(const std::string& s);
+// Strings reach a script through gnuplot_quote and gnuplot_label alone (escape.hpp).
 // A number with 10 significant digits; "NaN" (a gap in the plot) when not finite.
 std::string gnuplot_number(double x);
 

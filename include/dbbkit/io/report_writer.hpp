@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "dbbkit/design.hpp"
+#include "dbbkit/io/escape.hpp"
 
 namespace dbbkit::io {
 
@@ -65,7 +66,5 @@ class MarkdownWriter final : public ReportWriter {
 };
 
 std::unique_ptr<ReportWriter> make_report_writer(ReportFormat format, const std::string& title);
-
-std::string html_escape(const std::string& s);
 
 }  // namespace dbbkit::io

@@ -1,0 +1,53 @@
+#pragma once
+// One escaping function per target (architecture.md, "text is data"): every writer passes
+// text it did not write itself (a name, an id, a description, a file name, a message that
+// quotes them) through the function of its target, and nothing else turns text into a
+// script, a program or markup. The readers refuse what no function can make safe
+// (user_text.hpp); these functions make safe whatever reaches them all the same, so a
+// string built in code or by Python is no exception.
+//
+// Each returns valid text of its target for any bytes: an invalid UTF-8 byte and a control
+// character (user_text.hpp's list) become U+FFFD in the Unicode targets and '?' in the
+// ASCII ones.
+
+#include <cstddef>
+#include <string>
+#include <string_view>
+
+namespace dbbkit::io {
+
+// HTML and SVG text and attribute values (double or single quoted): & < > " ' as entities.
+std::string html_escape(std::string_view s);
+
+// XML 1.0 text and attribute values: html_escape's entities, and only the characters
+// XML 1.0 allows (no C0 control but tab, line feed and carriage return; no U+FFFE/FFFF).
+std::string xml_escape(std::string_view s);
+
+// Markdown text (CommonMark, GitHub), backslash-escaped where a character could start code
+// or markup: < before a letter, / ! or ? (raw HTML, a comment, an autolink); ( or [ after
+// ] (a link's or an image's destination or reference) and [ at the start (a link
+// definition); ` (code), | (a table cell) and the backslash itself. Emphasis is left as it
+// is: it changes the look, never what the text says. A control character becomes a space,
+// so a paragraph or a cell stays one.
+std::string markdown_escape(std::string_view s);
+
+// A gnuplot string: printable ASCII only (others become '?'), in single quotes with a
+// quote doubled. No line break, so nothing after it can become a command.
+std::string gnuplot_quote(std::string_view s);
+// A label inside a gnuplot data block: printable ASCII without the double quote, for
+// "label" fields (the same reason: no line can end the block or start a command).
+std::string gnuplot_label(std::string_view s);
+
+// Comment text of a part program, which many controls read as ASCII: printable ASCII only
+// (others become '?'); the characters a control reads as structure replaced: ( ) end an
+// ISO comment (become [ ]), % ends the record (becomes "pct"), ; starts a comment on some
+// controls (becomes ,). At most `max_chars` characters: a longer text is cut and ends in
+// "...". The writer breaks a comment into lines of kProgramCommentLine characters.
+inline constexpr std::size_t kProgramCommentLine = 72;
+std::string program_comment(std::string_view s, std::size_t max_chars);
+
+// Text for a terminal: every control character and invalid byte as an escape (\n, \x1B),
+// so no escape sequence reaches it.
+std::string terminal_text(std::string_view s);
+
+}  // namespace dbbkit::io

@@ -1,0 +1,164 @@
+// Text is data (architecture.md): the readers' rule (user_text.hpp) and one escaping
+// function per target (io/escape.hpp), each checked against the one corpus of hostile
+// strings (hostile_strings.hpp) for the property its target needs.
+
+#include "dbbkit/user_text.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/escape.hpp"
+#include "hostile_strings.hpp"
+
+namespace dbbkit {
+namespace {
+
+using test::hostile_strings;
+
+// Every byte is printable ASCII.
+bool printable_ascii(const std::string& s) {
+  for (char c : s) {
+    if (c < 0x20 || c > 0x7E) return false;
+  }
+  return true;
+}
+
+// Valid UTF-8 with no character the rule calls a control.
+bool clean_text(const std::string& s) { return !text_problem(s, s.size()).has_value(); }
+
+TEST(UserText, TheReadersRuleAdmitsExactlyTheAdmittedStrings) {
+  for (const auto& h : hostile_strings()) {
+    EXPECT_EQ(!text_problem(h.text, limits::kMaxTextBytes).has_value(), h.admitted) << h.label;
+  }
+  EXPECT_FALSE(text_problem("", limits::kMaxNameBytes).has_value());
+  EXPECT_NE(text_problem(std::string(201, 'a'), limits::kMaxNameBytes)->find("longer than 200"),
+            std::string::npos);
+  EXPECT_NE(text_problem("a\nb", 10)->find("U+000A at character 2"), std::string::npos);
+  EXPECT_NE(text_problem("ab\xff", 10)->find("byte 0xFF at byte 3"), std::string::npos);
+}
+
+TEST(UserText, AnIdIsAsciiLettersDigitsAndAFewMarks) {
+  for (const char* ok : {"1r", "2t", "a", "pos_3.r", "B+1", "x:y", "A-2"})
+    EXPECT_FALSE(id_problem(ok).has_value()) << ok;
+  for (const char* bad : {"", "-1", "+x", "=cmd", "@x", "1 r", "1,r", "1(r", "1%", "1\"", "1'",
+                          "1;", "\xc3\xa4", "a/b"})
+    EXPECT_TRUE(id_problem(bad).has_value()) << bad;
+  EXPECT_TRUE(id_problem(std::string("a\0b", 3)).has_value());
+  EXPECT_TRUE(id_problem(std::string(65, 'a')).has_value());
+  EXPECT_FALSE(id_problem(std::string(64, 'a')).has_value());
+}
+
+TEST(UserText, AQuotedValueIsShortAndPrintable) {
+  for (const auto& h : hostile_strings()) {
+    const std::string q = quote_value(h.text);
+    EXPECT_TRUE(clean_text(q)) << h.label << ": " << q;
+    EXPECT_LE(q.size(), 60u * 6 + 40) << h.label;  // 60 characters of at most \uXXXX each
+  }
+  EXPECT_EQ(quote_value("a\nb"), "'a\\nb'");
+  EXPECT_EQ(quote_value(std::string("a\0b", 3)), "'a\\0b'");
+  EXPECT_EQ(quote_value("it's"), "'it\\'s'");
+  EXPECT_EQ(quote_value(std::string(100, 'x'), 5), "'xxxxx'... (100 bytes)");
+}
+
+TEST(UserText, AnInputErrorCarriesNoControlCharacterAndNoMegabytes) {
+  const InputError e(std::string("f\0ile", 5), std::string(1 << 20, 'k'),
+                     "bad \x1b[2J value " + std::string(1 << 20, 'v'));
+  const std::string what = e.what();
+  EXPECT_EQ(what.find('\x1b'), std::string::npos);
+  EXPECT_EQ(what.find('\0'), std::string::npos);
+  EXPECT_NE(what.find("f\\0ile"), std::string::npos);
+  EXPECT_LT(what.size(), 4000u);
+  EXPECT_NE(what.find("(1048576 bytes)"), std::string::npos);
+  // Line breaks of a multi-line detail (gnuplot's messages) stay.
+  EXPECT_NE(InputError("f", "", "a\nb").detail().find('\n'), std::string::npos);
+}
+
+TEST(Escape, HtmlLeavesNoMarkupAndValidUtf8) {
+  for (const auto& h : hostile_strings()) {
+    const std::string e = io::html_escape(h.text);
+    EXPECT_EQ(e.find_first_of("<>\"'"), std::string::npos) << h.label;
+    EXPECT_TRUE(clean_text(e)) << h.label;
+    // Every & starts an entity this function wrote.
+    for (size_t at = e.find('&'); at != std::string::npos; at = e.find('&', at + 1)) {
+      const std::string rest = e.substr(at, 6);
+      EXPECT_TRUE(rest.rfind("&amp;", 0) == 0 || rest.rfind("&lt;", 0) == 0 ||
+                  rest.rfind("&gt;", 0) == 0 || rest.rfind("&quot;", 0) == 0 ||
+                  rest.rfind("&#39;", 0) == 0)
+          << h.label;
+    }
+  }
+  EXPECT_EQ(io::html_escape("<a href='x'>&"), "&lt;a href=&#39;x&#39;&gt;&amp;");
+}
+
+TEST(Escape, XmlHoldsOnlyCharactersXml10Allows) {
+  for (const auto& h : hostile_strings()) {
+    const std::string e = io::xml_escape(h.text);
+    EXPECT_TRUE(clean_text(e)) << h.label;
+    EXPECT_EQ(e.find("\xef\xbf\xbf"), std::string::npos) << h.label;  // U+FFFF
+    EXPECT_EQ(e.find_first_of("<>"), std::string::npos) << h.label;
+  }
+}
+
+TEST(Escape, MarkdownStartsNoHtmlLinkOrCodeAndStaysOneLine) {
+  for (const auto& h : hostile_strings()) {
+    const std::string e = io::markdown_escape(h.text);
+    EXPECT_EQ(e.find('\n'), std::string::npos) << h.label;
+    EXPECT_TRUE(clean_text(e)) << h.label;
+    for (size_t i = 0; i < e.size(); ++i) {
+      // Count the backslashes before i: an odd number escapes the character.
+      size_t k = 0;
+      while (k < i && e[i - 1 - k] == '\\') ++k;
+      const bool escaped = k % 2 == 1;
+      const char c = e[i], next = i + 1 < e.size() ? e[i + 1] : 0;
+      if (c == '<' && (std::isalpha(static_cast<unsigned char>(next)) || next == '/' ||
+                       next == '!' || next == '?'))
+        EXPECT_TRUE(escaped) << h.label << ": " << e;
+      if (c == '`' || c == '|') EXPECT_TRUE(escaped) << h.label << ": " << e;
+      if (c == '(' && i > 0 && e[i - 1] == ']') EXPECT_TRUE(escaped) << h.label << ": " << e;
+    }
+  }
+  EXPECT_EQ(io::markdown_escape("<b>x</b> p < 1"), "\\<b>x\\</b> p < 1");
+  EXPECT_EQ(io::markdown_escape("[x](y) length_offset[1r]"), "\\[x]\\(y) length_offset[1r]");
+}
+
+TEST(Escape, GnuplotStringsHaveNoLineBreakAndCloseWhereTheyShould) {
+  for (const auto& h : hostile_strings()) {
+    const std::string q = io::gnuplot_quote(h.text);
+    ASSERT_GE(q.size(), 2u);
+    EXPECT_TRUE(printable_ascii(q)) << h.label;
+    // Inside the quotes every ' is doubled: the literal ends only at the last one.
+    const std::string inner = q.substr(1, q.size() - 2);
+    for (size_t i = 0; i < inner.size(); ++i) {
+      if (inner[i] == '\'') {
+        ASSERT_LT(i + 1, inner.size()) << h.label;
+        EXPECT_EQ(inner[i + 1], '\'') << h.label;
+        ++i;
+      }
+    }
+    const std::string l = io::gnuplot_label(h.text);
+    EXPECT_TRUE(printable_ascii(l)) << h.label;
+    EXPECT_EQ(l.find('"'), std::string::npos) << h.label;
+  }
+}
+
+TEST(Escape, ProgramCommentsAreShortPrintableAsciiWithoutStructure) {
+  for (const auto& h : hostile_strings()) {
+    const std::string c = io::program_comment(h.text, 200);
+    EXPECT_TRUE(printable_ascii(c)) << h.label;
+    EXPECT_EQ(c.find_first_of("()%;"), std::string::npos) << h.label;
+    EXPECT_LE(c.size(), 200u) << h.label;
+  }
+  EXPECT_EQ(io::program_comment("(M30) 5 %", 100), "[M30] 5 pct");
+  EXPECT_EQ(io::program_comment(std::string(300, 'a'), 10), "aaaaaaa...");
+}
+
+TEST(Escape, TerminalTextHasNoControlCharacter) {
+  for (const auto& h : hostile_strings()) {
+    EXPECT_TRUE(clean_text(io::terminal_text(h.text))) << h.label;
+  }
+}
+
+}  // namespace
+}  // namespace dbbkit
