@@ -41,6 +41,10 @@ class SetDecision {
   explicit SetDecision(ConformanceResult& r) : r_(r) {}
   void undetermined() { ++r_.undetermined, ++r_.values; }
   void add(double value, double low, double high, std::optional<double> angle) {
+    if (!std::isfinite(value) || !std::isfinite(low) || !std::isfinite(high)) {
+      undetermined();  // no decision rests on a number that is not one
+      return;
+    }
     const Judged j = judge(low, high, r_.lower, r_.upper);
     ++r_.values;
     (j.decision == Decision::kConforms         ? r_.conforming
@@ -154,7 +158,7 @@ void check_tolerances(Axis axis, const std::vector<Tolerance>& tolerances,
 
 ConformanceReport decide_conformance(const Design& design, const IdentifyResult& result,
                                      const std::vector<Tolerance>& tolerances,
-                                     const std::string& source) {
+                                     const std::string& source, const MonteCarloResult* mc) {
   ConformanceReport rep;
   const double p = result.budget.coverage_probability;
   rep.coverage_probability = p;
@@ -168,11 +172,23 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
   if (!type_a && est.p_value && *est.p_value < kNoiseContradiction)
     rep.noise_contradiction_p = *est.p_value;
   rep.no_setup_tolerances = !result.setup_included;
+  {
+    const IsoNames names = iso230_names(design.axis);
+    rep.position_names = names.location[0] + ", " + names.location[1];
+  }
   const IsoResult& iso = result.iso;
   const std::vector<std::string> q = tolerance_quantities(design.axis);
   // The budget's value of each determined error, by station and error (station-major).
   std::vector<const ValueBudget*> budget_of(result.errors.size() * 6, nullptr);
   for (const ValueBudget& v : result.budget.values) budget_of[6 * v.station + v.error] = &v;
+  // The Monte Carlo values are in the order of the budget's.
+  std::vector<const MonteCarloValue*> mc_of(result.errors.size() * 6, nullptr);
+  if (mc && mc->values.size() == result.budget.values.size()) {
+    for (size_t k = 0; k < mc->values.size(); ++k) {
+      const ValueBudget& v = result.budget.values[k];
+      mc_of[6 * v.station + v.error] = &mc->values[k];
+    }
+  }
   for (const Tolerance& t : tolerances) {
     ConformanceResult r;
     r.quantity = t.quantity;
@@ -219,7 +235,11 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
       r.basis = ConformanceResult::Basis::kBudget;
       for (const ErrorsAtAngle& a : result.errors) {
         const ValueBudget* b = a.errors[e].determined ? budget_of[6 * a.station + e] : nullptr;
-        if (b) {
+        const MonteCarloValue* m = b ? mc_of[6 * a.station + e] : nullptr;
+        if (m && !m->validated) {
+          set.add(b->value, m->interval_low(), m->interval_high(), a.angle_deg);
+          ++r.monte_carlo_intervals;
+        } else if (b) {
           set.add(b->value, b->value - b->U, b->value + b->U, a.angle_deg);
         } else {
           set.undetermined();

@@ -163,11 +163,20 @@ void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std:
         {"centring_um", u.centring_um}}) {
     require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_um, source, key + "." + name,
             "must be a standard uncertainty in [0, 10000] um (README, \"Limits\")");
+    // The prior enters as 1 / u^2: a positive u far below any instrument underflows it.
+    require(x == 0 || x >= limits::kMinSetupStd_um, source, key + "." + name,
+            text::significant(x, 6) + " um: a positive tolerance is at least " +
+                text::significant(limits::kMinSetupStd_um, 6) +
+                " um (smaller ones are beyond the arithmetic: 1 / u^2 overflows); 0 declares "
+                "none");
   }
   for (const auto& [name, x] :
        {std::pair<const char*, double>{"L_mm", u.L_mm}, {"D_mm", u.D_mm}, {"H_mm", u.H_mm}}) {
     require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_mm, source, key + "." + name,
             "must be a standard uncertainty in [0, 100] mm (README, \"Limits\")");
+    require(x == 0 || x >= limits::kMinSetupStd_mm, source, key + "." + name,
+            text::significant(x, 6) + " mm: a positive tolerance is at least " +
+                text::significant(limits::kMinSetupStd_mm, 6) + " mm; 0 declares none");
   }
   if (axis == Axis::kB)
     require(u.H_mm == 0, source, key + ".H_mm", "H is not used for the swinging head B");
@@ -259,6 +268,22 @@ void validate_design(const Design& d, const std::string& source) {
             "reference_length_mm", "must be a positive length in mm, at most 10000 mm");
   }
 
+  if (d.predicted) {
+    // What optimize predicted: informative, but bench decides on its time, and a report shows
+    // it: numbers that can be.
+    const Prediction& p = *d.predicted;
+    for (const auto& [key, v] : {std::pair{"worst_std_um", p.worst_std_um},
+                                 {"worst_determined_std_um", p.worst_determined_std_um}}) {
+      require(!v || (std::isfinite(*v) && *v >= 0), source, std::string("predicted.") + key,
+              "must be a standard uncertainty >= 0 um (or null)");
+    }
+    require(p.n_unknowns >= 0 && p.rank >= 0 && p.rank <= p.n_unknowns, source, "predicted.rank",
+            "must be in [0, n_unknowns]");
+    require(!p.time_s || (std::isfinite(*p.time_s) && *p.time_s >= 0), source, "predicted.time_s",
+            "must be a time >= 0 s");
+    if (const auto problem = text_problem(p.criterion, limits::kMaxNameBytes))
+      throw InputError(source, "predicted.criterion", *problem);
+  }
   validate_setup_uncertainty(d.setup_std, d.axis, source, "setup_std");
   require(!d.installations.empty(), source, "installations", "no installations");
   require(d.installations.size() <= limits::kMaxInstallations, source, "installations",

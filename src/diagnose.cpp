@@ -310,7 +310,11 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   if (res.after.dof > 1) {
     res.gross = gross_readings(J, model.sigma_um, model.y_um, options.level, options.max_gross,
                                options.estimate);
-    for (GrossReading& g : res.gross) g.reading = readings[static_cast<std::size_t>(g.row)];
+    for (GrossReading& g : res.gross) {
+      g.reading = readings[static_cast<std::size_t>(g.row)];
+      for (int j : g.indistinguishable)
+        g.alternatives.push_back(readings[static_cast<std::size_t>(j)]);
+    }
     res.features_after =
         residual_features(design, readings, final_solver, final_fit, options.estimate);
     res.signature_after.dominant = most_significant(res.features_after);
@@ -369,16 +373,26 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   // Refit without the gross readings, in passes (one may mask another), as asked.
   std::vector<int> kept(readings.size());
   for (std::size_t j = 0; j < kept.size(); ++j) kept[j] = static_cast<int>(j);
-  std::vector<GrossReading> excluded;
+  std::vector<GrossReading> excluded, not_excluded;
+  // The rows of g (into the readings fitted) as rows of the readings given.
+  auto to_given = [&](GrossReading g) {
+    g.row = kept[static_cast<std::size_t>(g.row)];
+    for (int& j : g.indistinguishable) j = kept[static_cast<std::size_t>(j)];
+    return g;
+  };
   while (!res.gross.empty() && static_cast<int>(excluded.size()) < options.max_gross) {
     std::vector<int> drop;
+    not_excluded.clear();  // those of the last pass
     for (const GrossReading& g : res.gross) {
       if (static_cast<int>(excluded.size()) >= options.max_gross) break;
-      GrossReading e = g;
-      e.row = kept[static_cast<std::size_t>(g.row)];
-      excluded.push_back(e);
+      if (!g.indistinguishable.empty()) {  // which reading is gross is not known: none goes
+        not_excluded.push_back(to_given(g));
+        continue;
+      }
+      excluded.push_back(to_given(g));
       drop.push_back(g.row);
     }
+    if (drop.empty()) break;
     std::sort(drop.rbegin(), drop.rend());
     for (int r : drop) kept.erase(kept.begin() + r);
     std::vector<Reading> subset;
@@ -390,17 +404,20 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   std::sort(rows.begin(), rows.end());
   res.excluded_rows = rows;
   res.excluded = excluded;
+  res.not_excluded = not_excluded;
 
-  // Rows of the gross readings still found (max_gross reached) refer to the readings given.
-  for (GrossReading& g : res.gross) g.row = kept[static_cast<std::size_t>(g.row)];
+  // Rows of the gross readings still found (max_gross reached, or left in) refer to the
+  // readings given.
+  for (GrossReading& g : res.gross) g = to_given(g);
+  auto feature_to_given = [&](ResidualFeature& f) {
+    if (f.row >= 0) f.row = kept[static_cast<std::size_t>(f.row)];
+    for (int& j : f.indistinguishable) j = kept[static_cast<std::size_t>(j)];
+  };
   for (std::vector<ResidualFeature>* fs : {&res.features_before, &res.features_after}) {
-    for (ResidualFeature& f : *fs) {
-      if (f.row >= 0) f.row = kept[static_cast<std::size_t>(f.row)];
-    }
+    for (ResidualFeature& f : *fs) feature_to_given(f);
   }
   for (ResidualSignature* s : {&res.signature_before, &res.signature_after}) {
-    if (s->dominant && s->dominant->row >= 0)
-      s->dominant->row = kept[static_cast<std::size_t>(s->dominant->row)];
+    if (s->dominant) feature_to_given(*s->dominant);
   }
   return res;
 }

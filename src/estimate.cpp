@@ -193,6 +193,13 @@ Eigen::MatrixXd Gain::operator*(const Eigen::MatrixXd& M) const {
   return out;
 }
 
+double Gain::product_cost() const {
+  double cost = static_cast<double>(sparse_.nonZeros()) + static_cast<double>(U_.size()) +
+                static_cast<double>(V_.size());
+  if (implicit()) cost += static_cast<double>(cov_.nonZeros()) + 2.0 * J_->nonZeros();
+  return cost;
+}
+
 Eigen::VectorXd Gain::operator*(const Eigen::VectorXd& y) const {
   Eigen::VectorXd out = sparse_ * y;
   if (implicit()) out.noalias() += cov_ * (J_->transpose() * weight_.cwiseProduct(y));

@@ -71,6 +71,49 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
     if (r.repeat && *r.repeat < 0)
       throw InputError(source, where, "repeat must be an integer >= 0");
   }
+  // A row pasted twice would count as a new repeat and shrink every uncertainty: two rows of
+  // one installation, angle and sweep with the same repeat index, or with the same time,
+  // are one reading given twice.
+  struct Key {
+    std::string installation;
+    double angle;
+    int sweep;
+    int kind;  // 0: repeat index, 1: time
+    double value;
+    bool operator==(const Key& o) const {
+      return installation == o.installation && angle == o.angle && sweep == o.sweep &&
+             kind == o.kind && value == o.value;
+    }
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      return std::hash<std::string>()(k.installation) ^ (std::hash<double>()(k.angle) * 31) ^
+             (std::hash<double>()(k.value) * 131) ^ static_cast<size_t>(k.sweep * 7 + k.kind);
+    }
+  };
+  std::unordered_map<Key, size_t, KeyHash> seen;
+  for (size_t i = 0; i < readings.size(); ++i) {
+    const Reading& r = readings[i];
+    const int sweep = r.sweep ? static_cast<int>(*r.sweep) : -1;
+    for (int kind = 0; kind < 2; ++kind) {
+      const std::optional<double> v =
+          kind == 0 ? (r.repeat ? std::optional<double>(*r.repeat) : std::nullopt) : r.time_s;
+      if (!v) continue;
+      const auto [it, fresh] = seen.emplace(Key{r.installation, r.angle_deg, sweep, kind, *v}, i);
+      if (fresh) continue;
+      const Reading& first = readings[it->second];
+      auto where = [&](const Reading& x, size_t k) {
+        return x.line > 0 ? "line " + std::to_string(x.line) : "reading " + std::to_string(k);
+      };
+      std::ostringstream m;
+      m << std::setprecision(12) << "the same reading as " << where(first, it->second)
+        << " (installation " << r.installation << ", angle " << r.angle_deg << " deg"
+        << (r.sweep ? std::string(", sweep ") + sweep_name(*r.sweep) : std::string())
+        << (kind == 0 ? ", repeat " : ", time_s ") << *v
+        << "): a row given twice? Repeats of a reading differ in their repeat index or time";
+      throw InputError(source, where(r, i), m.str());
+    }
+  }
 }
 
 }  // namespace dbbkit

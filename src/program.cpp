@@ -107,6 +107,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   const bool tool_down = design.axis == Axis::kB && options.tool_down;
   const double first = sweeps.front() == Sweep::kCCW ? angles.front() : angles.back();
 
+  std::size_t positions = 0;
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
     const Installation& inst = design.installations[i];
     if (!inst.bar_mm) {
@@ -133,6 +134,14 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
       std::vector<double> order = angles;
       if (s == Sweep::kCW) std::reverse(order.begin(), order.end());
       auto add = [&](double a, bool reading) {
+        if (++positions > kMaxProgramPositions) {
+          throw InputError("program", "path_tolerance_mm",
+                           "the program would command more than " +
+                               std::to_string(kMaxProgramPositions) + " positions (installation " +
+                               inst.id + " needs many sub-steps at a path tolerance of " +
+                               text::significant(options.path_tolerance_mm, 6) +
+                               " mm): take a larger path tolerance or fewer angles");
+        }
         ProgramPosition p;
         p.angle_deg = a;
         p.linear_mm = commanded_point_mm(design.axis, inst, ip.bar_mm, a, first, tool_down);

@@ -154,9 +154,32 @@ ScanTest ColumnTester::scan_steps(const std::vector<int>& rows, int min_segment)
 
 ScanTest ColumnTester::scan_readings(const std::vector<int>& rows) const {
   ScanTest s;
+  std::vector<std::pair<int, ColumnTest>> tested;
   for (int i : rows) {
     const double h = solver_.leverage(i);
-    s.consider(i, one_column(w_(i) * fit_.residual_um(i), w_(i), w_(i) * (1.0 - h)));
+    const ColumnTest t = one_column(w_(i) * fit_.residual_um(i), w_(i), w_(i) * (1.0 - h));
+    s.consider(i, t);
+    if (t.added_rank > 0 && t.dof > 0) tested.emplace_back(i, t);
+  }
+  if (s.best < 0) return s;
+  // Ties: readings of the same F whose unexplained indicator is parallel to the best's. With
+  // M = I - J G the residual maker, the whitened unexplained parts of e_i and e_j correlate
+  // as sqrt(w_i / w_j) M_ij / sqrt((1 - h_i)(1 - h_j)) (the whitened M is symmetric).
+  const int b = s.best;
+  const Jacobian& J = solver_.J();
+  const double hb = solver_.leverage(b);
+  for (const auto& [j, t] : tested) {
+    if (j == b || std::abs(t.F - s.test.F) > 1e-6 * s.test.F) continue;
+    const Eigen::VectorXd g = solver_.J_theta_reading().col(j);
+    double Jg = 0;
+    for (Jacobian::InnerIterator x(J, b); x; ++x) Jg += x.value() * g(x.col());
+    const double hj = solver_.leverage(j);
+    const double corr =
+        std::sqrt(w_(b) / w_(j)) * (-Jg) / std::sqrt(std::max(0.0, (1.0 - hb) * (1.0 - hj)));
+    if (std::abs(corr) >= 1.0 - kIndistinguishable) {
+      s.ties.push_back(j);
+      s.tie_values.push_back(t.value);
+    }
   }
   return s;
 }
@@ -238,6 +261,10 @@ std::vector<ResidualFeature> residual_features(const Design& design,
     f.reading = readings[static_cast<std::size_t>(row)];
     f.test = st.test, f.tested = st.tested, f.p = st.p_scan, f.value = st.test.value,
     f.std = st.test.std;
+    if (f.kind == FeatureKind::kReading) {
+      f.indistinguishable = st.ties;
+      f.indistinguishable_values = st.tie_values;
+    }
     out.push_back(f);
   };
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -315,6 +342,8 @@ std::vector<GrossReading> gross_readings(const Jacobian& J, const Eigen::VectorX
     r.p = g.test.p;
     r.p_scan = g.p_scan;
     r.tested = g.tested;
+    r.indistinguishable = g.ties;
+    r.alternative_values_um = g.tie_values;
     out.push_back(r);
     rows.erase(std::find(rows.begin(), rows.end(), g.best));
     Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(A.rows(), 1);

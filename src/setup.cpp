@@ -220,6 +220,11 @@ Eigen::MatrixXd SetupSolver::setup_draw_map(const FunctionRows& C) const {
   return (C * K_) * S_inv_ * prior_std_.cwiseInverse().asDiagonal();
 }
 
+Eigen::MatrixXd SetupSolver::setup_noise_map() const {
+  if (!any()) return Eigen::MatrixXd::Zero(0, base_->J().rows());
+  return R_.transpose() * base_->sigma_um().cwiseInverse().asDiagonal();
+}
+
 SetupSolver::Parts SetupSolver::parts(const Estimate::Function& c) const {
   Parts p;
   p.noise = std::max(0.0, prior_.base_variance(c));  // c'C0c

@@ -50,8 +50,22 @@ double bar_length(const Installation& in) { return in.bar_mm.value_or(0.0); }
 // The installations at one ball position. Installations with the same bar form a class and
 // follow each other; any class may come first and any other last (the order of those between
 // does not change the count), so each (first, last) pair is one way to set the position up.
+// A way is kept as its pair alone: the cost of joining two positions depends only on the
+// installations at their ends, and the order is formed for the ways chosen (memory grows as
+// the square of the bar lengths at one position, not as their cube).
 struct Group {
-  std::vector<std::vector<int>> ways;  // installation orders, one per (first, last) pair
+  std::vector<std::vector<int>> classes;  // by bar length
+  std::vector<std::pair<int, int>> ways;  // (first class, last class)
+
+  int first(size_t w) const { return classes[ways[w].first].front(); }
+  int last(size_t w) const { return classes[ways[w].second].back(); }
+  void append_order(size_t w, std::vector<int>& order) const {
+    const auto [f, l] = ways[w];
+    order.insert(order.end(), classes[f].begin(), classes[f].end());
+    for (int c = 0; c < static_cast<int>(classes.size()); ++c)
+      if (c != f && c != l) order.insert(order.end(), classes[c].begin(), classes[c].end());
+    if (l != f) order.insert(order.end(), classes[l].begin(), classes[l].end());
+  }
 };
 
 // The steps along an order of installations: the cup moves (and the position number grows)
@@ -131,20 +145,17 @@ SetupOrder setup_order(const Design& design) {
       for (int l = 0; l < k; ++l) {
         if (k > 1 && f == l) continue;
         if (k == 1 && l != f) continue;
-        std::vector<int> order = classes[f];
-        for (int c = 0; c < k; ++c)
-          if (c != f && c != l) order.insert(order.end(), classes[c].begin(), classes[c].end());
-        if (l != f) order.insert(order.end(), classes[l].begin(), classes[l].end());
-        g.ways.push_back(order);
+        g.ways.emplace_back(f, l);
       }
     }
+    g.classes = std::move(classes);
     groups.push_back(std::move(g));
   }
   const int n = static_cast<int>(groups.size());
   size_t ways = 1;
   for (const Group& g : groups) ways = std::max(ways, g.ways.size());
   auto join = [&](int g, int gw, int h, int hw) -> long {
-    const Installation &a = ins[groups[g].ways[gw].back()], &b = ins[groups[h].ways[hw].front()];
+    const Installation &a = ins[groups[g].last(gw)], &b = ins[groups[h].first(hw)];
     return kStackWeight * !same_stack(design.axis, a, b) + !same_bar(a, b);
   };
   std::vector<std::pair<int, int>> path;  // (group, way)
@@ -210,8 +221,7 @@ SetupOrder setup_order(const Design& design) {
     }
   }
   std::vector<int> order, given(ins.size());
-  for (const auto& [g, w] : path)
-    order.insert(order.end(), groups[g].ways[w].begin(), groups[g].ways[w].end());
+  for (const auto& [g, w] : path) groups[g].append_order(w, order);
   for (size_t i = 0; i < ins.size(); ++i) given[i] = static_cast<int>(i);
   const std::vector<SetupStep> found = steps_along(design, order),
                                designed = steps_along(design, given);
@@ -266,6 +276,16 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
   if (resolution_mm) {
     sheet.rounding = round_design(design, *resolution_mm, kit);
     sheet.design = sheet.rounding->design;
+  }
+  if (kit) {
+    sheet.travel_checked = true;
+    for (const auto& [from, to] : {std::pair{&design, &sheet.outside_travel_as_given},
+                                   {&sheet.design, &sheet.outside_travel}}) {
+      for (const Installation& in : from->installations) {
+        const double v = travel_violation_mm(*kit, design.axis, in, from->angles_deg);
+        if (v > kAssemblyTolerance_mm) to->emplace_back(in.id, v);
+      }
+    }
   }
   sheet.order = setup_order(sheet.design);
   sheet.program = measurement_program(sheet.design, program);

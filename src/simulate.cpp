@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <random>
 #include <sstream>
 
@@ -281,6 +282,17 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
           J_reading_effect(design, reading, i, c.installation < 0 ? t_test : t0[i], c).dot(e.value);
     }
     reading.reading_um = value + draw();
+    // What the instrument could not read is not a reading: the truth is too large for the
+    // design's instrument (identify would refuse the file).
+    const double range_um = 1000.0 * design.instrument_range_mm;
+    if (!std::isfinite(reading.reading_um) || std::abs(reading.reading_um) > range_um) {
+      std::ostringstream m;
+      m << std::setprecision(6) << "the truth gives installation " << inst.id << " at "
+        << reading.angle_deg << " deg a reading of " << reading.reading_um
+        << " um, beyond the instrument's range of +-" << design.instrument_range_mm
+        << " mm (the design's instrument.range_mm): smaller errors or effects";
+      throw InputError("truth", "", m.str());
+    }
   }
   return out;
 }

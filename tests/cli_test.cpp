@@ -208,7 +208,26 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"tolerances_no_limit.json", kTolerancesC, "limits[0].upper",
                 "needs max_abs, lower or upper"},
         BadCase{"tolerances_reversed.json", kTolerancesC, "limits[0].upper", "must exceed lower"},
-        BadCase{"tolerances_unknown_key.json", kTolerancesC, "limits[0].level", "unknown key"}),
+        BadCase{"tolerances_unknown_key.json", kTolerancesC, "limits[0].level", "unknown key"},
+        // Silent wrong answers (a NaN, a row counted twice, an infinite zone) refused instead.
+        BadCase{"design_setup_underflow.json", kIdentifyDesign, "setup_std.length_offset_um",
+                "a positive tolerance is at least 0.0001 um"},
+        BadCase{"design_number_underflow.json", kIdentifyDesign, "line 22",
+                "below the smallest a double holds"},
+        BadCase{"design_predicted_negative_time.json", kIdentifyDesign, "predicted.time_s",
+                "must be a time >= 0 s"},
+        BadCase{"data_duplicate_row.csv", kIdentifyDataC, "line 4",
+                "the same reading as line 2 (installation 1r, angle 0 deg, repeat 0)"},
+        BadCase{"data_duplicate_time.csv", kIdentifyDataC, "line 4",
+                "the same reading as line 3 (installation 1r, angle 20 deg, time_s 6)"},
+        BadCase{"data_number_underflow.csv", kIdentifyDataC, "line 3, column reading_um",
+                "below the smallest number a double holds"},
+        BadCase{"data_angle_near_a_position.csv", kIdentifyDataC, "line 2",
+                "angle 20.000001 deg is not a position"},
+        BadCase{"truth_beyond_instrument_range.json", kSimulateC, "",
+                "beyond the instrument's range of +-1 mm"},
+        BadCase{"tolerances_limit_overflow.json", kTolerancesC, "limits[0].max_abs",
+                "beyond +-1e9 um"}),
     [](const auto& info) {
       std::string name = info.param.file;
       for (char& ch : name) {

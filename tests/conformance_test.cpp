@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "cli_util.hpp"
@@ -211,6 +212,56 @@ TEST(Conformance, ADesignWithSetUpTolerancesCarriesThem) {
   const ConformanceReport rep = decide_conformance(d, r, {zone("XOC", -100, 100)}, "test");
   EXPECT_TRUE(io::conformance_warnings(rep).empty()) << io::conformance_warnings(rep).at(0);
   EXPECT_EQ(rep.results[0].decision, Decision::kConforms);
+}
+
+// With a Monte Carlo run, an identified error is decided on the interval the result reports:
+// the Monte Carlo one where the linear one is not validated. Here the run says (for the test)
+// that every value's Monte Carlo interval lies wholly above the zone, the linear one inside it.
+TEST(Conformance, WithMonteCarloTheReportedIntervalDecides) {
+  const Design d = test::paper_design('C');
+  const IdentifyResult r = simulated_c();
+  const Tolerance t = zone("dz", -1000, 1000);
+  EXPECT_EQ(decide(d, r, t).decision, Decision::kConforms);
+  MonteCarloResult mc;
+  for (const ValueBudget& v : r.budget.values) {
+    MonteCarloValue m;
+    m.station = v.station, m.error = v.error;
+    m.linear_value = v.value, m.linear_U = v.U;
+    m.validated = v.error != 2;  // dz: not validated; its interval reaches beyond the zone
+    m.low = 1500, m.high = 1600;
+    mc.values.push_back(m);
+  }
+  const ConformanceReport rep = decide_conformance(d, r, {t}, "test", &mc);
+  EXPECT_EQ(rep.results[0].decision, Decision::kDoesNotConform);
+  EXPECT_EQ(rep.results[0].monte_carlo_intervals, static_cast<int>(r.errors.size()));
+  EXPECT_NE(io::conformance_basis(rep, rep.results[0]).find("Monte Carlo interval"),
+            std::string::npos);
+  // Validated: the linear interval, as without the run.
+  for (MonteCarloValue& m : mc.values) m.validated = true;
+  EXPECT_EQ(decide_conformance(d, r, {t}, "test", &mc).results[0].decision, Decision::kConforms);
+}
+
+// A value that is not a number is undetermined: it never conforms.
+TEST(Conformance, ANumberThatIsNotOneNeverConforms) {
+  const Design d = test::paper_design('C');
+  IdentifyResult r = simulated_c();
+  for (ValueBudget& v : r.budget.values) v.U = std::numeric_limits<double>::quiet_NaN();
+  const ConformanceResult c = decide(d, r, zone("dx", -1000, 1000));
+  EXPECT_EQ(c.decision, Decision::kNotProven);
+  EXPECT_EQ(c.conforming, 0);
+  EXPECT_EQ(c.undetermined, c.values);
+}
+
+// The warning without set-up tolerances names the axis' own position errors.
+TEST(Conformance, TheWarningNamesTheAxisOwnLocationErrors) {
+  const Design b = test::paper_design('B');
+  const IdentifyResult r = identify(
+      b, io::read_measurement_file(test::source_path("tests/data/paper/paper_b_head.csv"), b));
+  const ConformanceReport rep = decide_conformance(b, r, {zone("EXB", -1e6, 1e6)}, "test");
+  std::string all;
+  for (const std::string& w : io::conformance_warnings(rep)) all += w;
+  EXPECT_NE(all.find(iso230_names(Axis::kB).location[0]), std::string::npos) << all;
+  EXPECT_EQ(all.find(iso230_names(Axis::kC).location[0]), std::string::npos) << all;
 }
 
 TEST(Conformance, NamesAndUnitsAreChecked) {

@@ -404,6 +404,42 @@ TEST(Diagnose, ReportNamesTheReadingsGivenAfterExcludingGrossOnes) {
   EXPECT_GT(checked, 0);
 }
 
+// On the paper's C design one reading per angle is redundant: a gross reading in 2r at 100 deg
+// explains the residual exactly as one in 1r at that angle would (their unexplained indicators
+// are parallel). Both are named, with the offset each would have, and --exclude-gross leaves
+// both in: dropping one would be a guess (before, it dropped 1r, kept the bad reading and
+// reported dy 50.8 +- 1.3 um where the truth is 2).
+TEST(Diagnose, AGrossReadingTheDataCannotPlaceIsNamedWithItsTwinsAndNotExcluded) {
+  const Design d = test::paper_design('C');
+  const Truth t = io::read_truth_file(test::source_path("tests/data/truth_c_per_angle.json"));
+  std::vector<Reading> given = simulate(d, t, 3);
+  int bad = -1;
+  for (std::size_t j = 0; j < given.size(); ++j) {
+    if (given[j].installation == "2r" && given[j].angle_deg == 100) bad = static_cast<int>(j);
+  }
+  ASSERT_GE(bad, 0);
+  given[static_cast<std::size_t>(bad)].reading_um += 30;
+  DiagnoseOptions o;
+  o.exclude_gross = true;
+  const DiagnoseResult r = diagnose(d, given, o);
+  EXPECT_TRUE(r.excluded.empty());
+  ASSERT_EQ(r.not_excluded.size(), 1u);
+  const GrossReading& g = r.not_excluded[0];
+  std::vector<int> named = g.indistinguishable;
+  named.push_back(g.row);
+  EXPECT_NE(std::find(named.begin(), named.end(), bad), named.end());
+  for (int j : named) EXPECT_EQ(given[static_cast<std::size_t>(j)].angle_deg, 100);
+  // Each with its own offset: 2r's is the 30 um put in (within the noise).
+  for (std::size_t k = 0; k < g.indistinguishable.size(); ++k) {
+    if (g.indistinguishable[k] == bad) EXPECT_NEAR(g.alternative_values_um[k], 30, 3);
+  }
+  if (g.row == bad) EXPECT_NEAR(g.value_um, 30, 3);
+  const std::string verdict = io::diagnose_verdict(d, given, r);
+  EXPECT_NE(verdict.find("installation 2r at 100 deg"), std::string::npos) << verdict;
+  EXPECT_NE(verdict.find("the data cannot tell which"), std::string::npos) << verdict;
+  EXPECT_NE(verdict.find("Not excluded"), std::string::npos) << verdict;
+}
+
 }  // namespace
 }  // namespace dbbkit
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cli_util.hpp"
+#include "dbbkit/io/escape.hpp"
 #include "dbbkit/user_text.hpp"
 #include "hostile_strings.hpp"
 #include "test_util.hpp"
@@ -280,7 +281,7 @@ TEST_F(Hostile, EveryWriterCarriesHostileNamesAsData) {
     int n = 0, percent = 0;
     for (std::string line; std::getline(in, line); ++n) {
       for (char c : line) EXPECT_TRUE(c >= 0x20 && c < 0x7F) << prog << " line " << n + 1;
-      EXPECT_LE(line.size(), 100u) << prog << " line " << n + 1;
+      EXPECT_LE(line.size(), io::kProgramLine) << prog << " line " << n + 1;
       if (line == "%") {
         ++percent;
         continue;
@@ -352,6 +353,93 @@ TEST_F(Hostile, TextNoWriterCouldCarryIsRefusedAtTheReader) {
       fs::remove(path("r.html"));
     }
   }
+}
+
+// Resources bounded before they are spent: a JSON input beyond 64 MiB is refused unread (a
+// 200 MB design used to abort with bad_alloc, exit 134); an unusable TMPDIR is named (it was an
+// internal error, exit 3); a program that would command more than 200,000 positions is refused
+// naming the option (200 installations at a fine tolerance wrote 219 MB).
+TEST_F(Hostile, ResourcesAreBoundedBeforeTheyAreSpent) {
+  {
+    std::ofstream f(path("big.json"));
+    f << "{\"format\": \"dbbkit.design/1\", \"name\": \"";
+    f << std::string(65u << 20, 'x') << "\"}";
+  }
+  CliRun r = run_cli("evaluate --quiet --design " + path("big.json"));
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("big.json: 65 MiB of JSON, more than the 64 MiB"), std::string::npos)
+      << r.err;
+  fs::remove(path("big.json"));
+
+  r = run_cli_shell("TMPDIR=" + path("no-such-dir") + " " + std::string(DBBKIT_CLI) +
+                    " evaluate --quiet --design " + kDesignC + " --report " + path("r.html"));
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("TMPDIR=" + path("no-such-dir") + " is not one"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(path("r.html")));
+
+  nlohmann::json d =
+      nlohmann::json::parse(slurp(test::source_path("designs/c-turntable-kit-optimized.json")));
+  nlohmann::json many = nlohmann::json::array();
+  for (int k = 0; k < 200; ++k) {
+    nlohmann::json in = d["installations"][k % 7];
+    in["id"] = "i" + std::to_string(k);
+    many.push_back(in);
+  }
+  d["installations"] = many;
+  d.erase("predicted");
+  write("many.json", d.dump());
+  r = run_cli("program --quiet --dialect iso --design " + path("many.json") +
+              " --path-tolerance-mm 0.0001 --out " + path("p.nc"));
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("--path-tolerance-mm: the program would command more than 200000"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(path("p.nc")));
+}
+
+// The set-up order keeps a way of setting up a ball position as its first and last bar, not
+// as a copy of the order: 1000 bar lengths at one position took 3.95 GB (cubic), now a few MB.
+// Run under a 1.5 GB address-space limit (not in the sanitizer build, whose shadow memory
+// needs more).
+TEST_F(Hostile, ASetUpOfAThousandBarsAtOnePositionRunsUnderAMemoryLimit) {
+  nlohmann::json d =
+      nlohmann::json::parse(slurp(test::source_path("designs/c-turntable-kit-optimized.json")));
+  nlohmann::json many = nlohmann::json::array();
+  for (int k = 0; k < 1000; ++k) {
+    nlohmann::json in = d["installations"][0];
+    in["id"] = "b" + std::to_string(k);
+    in["bar_mm"] = 100.0 + 0.1 * k;
+    in.erase("bar_parts_mm");
+    many.push_back(in);
+  }
+  d["installations"] = many;
+  d["angles_deg"] = {0, 90, 180, 270};
+  d.erase("predicted");
+  write("bars.json", d.dump());
+  const CliRun r = run_cli_shell("ulimit -v 1500000; " + std::string(DBBKIT_CLI) +
+                                 " setup-sheet --quiet --design " + path("bars.json") +
+                                 " --summary " + path("s.md"));
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(slurp(path("s.md")).find("b999"), std::string::npos);
+}
+
+// A design whose following balls leave the kit's travel: the sheet says so without blaming the
+// rounding, and the check fails (exit 1); it used to blame the rounding and exit 0.
+TEST_F(Hostile, ASetUpOutsideTheTravelFailsTheCheckAndSaysWhy) {
+  nlohmann::json d =
+      nlohmann::json::parse(slurp(test::source_path("designs/c-turntable-kit-optimized.json")));
+  d["installations"][3]["ball_mm"]["L"] = 600.0;
+  write("far.json", d.dump());
+  const CliRun r = run_cli("setup-sheet --quiet --design " + path("far.json") + " --kit " +
+                           test::source_path("designs/kits/c-turntable-kit.json") +
+                           " --resolution-mm 0.5 --summary " + path("s.md"));
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("leave the kit's travel as designed"), std::string::npos) << r.err;
+  const std::string sheet = slurp(path("s.md"));
+  EXPECT_NE(sheet.find("OUTSIDE the kit's travel as designed (not from any rounding): 2r by"),
+            std::string::npos)
+      << sheet;
 }
 
 struct OptionCase {

@@ -548,7 +548,14 @@ namespace {
 TEST(LeftGain, IsTheEstimatesResponseAndItsRowNormsAreFormedWithoutIt) {
   Design fourier = test::paper_design('C');
   fourier.errors = {ErrorModel::Kind::kFourier, 3};
-  for (const Design& base : {test::paper_design('C'), fourier}) {
+  // The set-up kit's design detects its set-up effects (the paper's designs do not: there the
+  // correction is zero to rounding).
+  Design kit_design =
+      io::read_design_file(test::source_path("designs/c-turntable-kit-setup-optimized.json"));
+  kit_design.setup_std = {};
+  for (Installation& in : kit_design.installations) in.setup_std = {};
+  for (const Design& base :
+       {test::paper_design('C'), fourier, test::paper_design('B'), kit_design}) {
     for (const bool tolerances : {false, true}) {
       const Design d = tolerances ? with_setup(base, 10, 5) : base;
       const Parameterisation param(d);
@@ -565,6 +572,14 @@ TEST(LeftGain, IsTheEstimatesResponseAndItsRowNormsAreFormedWithoutIt) {
       for (Eigen::Index i = 0; i < y.size(); ++i) y(i) = z(rng);
       const Eigen::VectorXd response = C * setup.solve(y).theta;
       EXPECT_TRUE(test::near(A * y, response, 1e-9 * response.cwiseAbs().maxCoeff())) << tolerances;
+      // The same map as the gain without the set-up and its correction of rank q,
+      // C G0 - L N (setup_noise_map), also where J loses rank (B: rank 5 per station).
+      const FunctionRows Cs(C.sparseView());
+      const Eigen::MatrixXd A0 = Eigen::MatrixXd(solver.J_theta_reading().left(Cs));
+      const Eigen::MatrixXd low_rank = setup.left_gain_setup(Cs) * setup.setup_noise_map();
+      EXPECT_TRUE(test::near(A0 - low_rank, A, 1e-10 * A.cwiseAbs().maxCoeff())) << tolerances;
+      if (tolerances && &base == &kit_design)
+        EXPECT_GT(low_rank.cwiseAbs().maxCoeff(), 1e-2 * A.cwiseAbs().maxCoeff());
       const Eigen::VectorXd l1 = setup.left_gain_l1(FunctionRows(C.sparseView()));
       const Eigen::VectorXd expected = A.rowwise().lpNorm<1>();
       EXPECT_TRUE(test::near(l1, expected, 1e-12 * expected.maxCoeff(), 1e-10)) << tolerances;

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "dbbkit/identify.hpp"
+#include "dbbkit/monte_carlo.hpp"
 
 namespace dbbkit {
 
@@ -61,6 +62,9 @@ struct ConformanceResult {
   // names (io says why after the basis).
   std::optional<IsoMotionValue> uncomputed_motion;
   int uncomputed_index = -1;
+  // kBudget with a Monte Carlo run: the values decided on its interval (the one to report
+  // where the linear interval is not validated); the others on the linear interval.
+  int monte_carlo_intervals = 0;
 };
 
 struct ConformanceReport {
@@ -75,6 +79,9 @@ struct ConformanceReport {
   // only); no declared set-up tolerances.
   std::optional<double> noise_contradiction_p;
   bool no_setup_tolerances = false;
+  // The names of the axis' two position errors (location errors of the axis average line that
+  // a ball's centring moves), for the words that go with the decisions.
+  std::string position_names;
   bool any_nonconforming() const;
 };
 
@@ -93,8 +100,13 @@ void check_tolerances(Axis axis, const std::vector<Tolerance>& tolerances,
                       const std::string& source);
 
 // Decides every tolerance against an identification. Throws InputError as tolerance_unit.
+// With `mc` (a Monte Carlo run of the same result), an identified error's value is decided on
+// the interval that run reports (MonteCarloValue::interval_low/high): its own where the
+// linear interval is not validated. A value, or an end of its interval, that is not finite
+// counts as undetermined, never as conforming.
 ConformanceReport decide_conformance(const Design& design, const IdentifyResult& result,
                                      const std::vector<Tolerance>& tolerances,
-                                     const std::string& source);
+                                     const std::string& source,
+                                     const MonteCarloResult* mc = nullptr);
 
 }  // namespace dbbkit

@@ -120,6 +120,9 @@ struct DiagnoseResult {
   // Readings left out by exclude_gross: indices into the readings given, and their tests.
   std::vector<int> excluded_rows;
   std::vector<GrossReading> excluded;  // rows index the readings given
+  // Gross readings exclude_gross left in: the data cannot tell which of several readings is
+  // the gross one (GrossReading::indistinguishable), so excluding one would be a guess.
+  std::vector<GrossReading> not_excluded;  // rows index the readings given
   // The smallest p of the features after times their number, at most 1 (Bonferroni): below
   // the level, some feature explains the residual left.
   double features_p_all = 1;

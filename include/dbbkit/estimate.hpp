@@ -166,6 +166,9 @@ class Gain {
   const Eigen::MatrixXd& V() const { return V_; }
   bool low_rank() const { return U_.cols() > 0; }
   bool implicit() const { return J_ != nullptr; }
+  // The multiply-adds of G v for one vector v: the sparse part's nonzeros, the implicit
+  // part's covariance and two passes over J, the low-rank factors.
+  double product_cost() const;
 
   // G M and G y.
   Eigen::MatrixXd operator*(const Eigen::MatrixXd& M) const;

@@ -38,10 +38,15 @@ constexpr std::size_t kMaxJsonDepth = 64;
 // A larger model is refused before any allocation, naming the size. For a per-angle
 // C design of 7 installations this allows about 1,390 angles (a 0.26 deg step).
 constexpr double kMaxDenseBytes = 4.0 * (1 << 30);
-// Set-up standard uncertainty of a ball coordinate [mm].
+// Set-up standard uncertainty of a ball coordinate [mm]: 0 (none declared), or from 1e-7 mm
+// (0.1 nm) to 100 mm.
 constexpr double kMaxSetupStd_mm = 100.0;
-// Standard uncertainty of a length offset or a centring component [um].
+constexpr double kMinSetupStd_mm = 1e-7;
+// Standard uncertainty of a length offset or a centring component [um]: 0 (none declared), or
+// from 1e-4 um (as the reading noise) to 1e4 um. A positive value below the least enters the
+// prior as 1 / u^2 beyond the range of a double (1e-200 made every result NaN).
 constexpr double kMaxSetupStd_um = 1e4;
+constexpr double kMinSetupStd_um = 1e-4;
 
 // Ranges of the run options (command-line options and the Python module's arguments).
 // Coverage probability of an expanded uncertainty.

@@ -17,8 +17,8 @@ constexpr int kMaxThreads = 256;
 
 // Runs body(i) for i = 0 .. n - 1 on up to `threads` threads (the caller's among
 // them, never more than n), each taking the next index; which thread runs an index
-// does not affect the result. When the system refuses a thread the work goes on on
-// those already running. An exception thrown by body stops the handing out of new
+// does not affect the result. When the system refuses a thread (or the memory for one) the
+// work goes on on those already running. An exception thrown by body stops the handing out of new
 // indices and is rethrown here once every thread has finished.
 template <typename Body>
 void parallel_for(long n, int threads, Body&& body) {
@@ -42,8 +42,8 @@ void parallel_for(long n, int threads, Body&& body) {
   for (long t = 1; t < wanted; ++t) {
     try {
       pool.emplace_back(worker);
-    } catch (const std::system_error&) {
-      break;  // no more threads to be had: the ones running share the work
+    } catch (...) {
+      break;  // no more threads (or memory for one) to be had: the ones running share the work
     }
   }
   worker();

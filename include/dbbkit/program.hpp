@@ -32,6 +32,12 @@ namespace dbbkit {
 // design's own angles are kept as given). Positions are computed at the rounded angle.
 inline constexpr double kProgramAngleResolution_deg = 1e-4;
 
+// The most positions (program lines of moves) one program may hold: about 10 MB of text, far
+// beyond a real test (the paper's C design: 133 positions at the default tolerance; a 0.5 deg
+// design of 7 installations about 5,000). A program that would be longer is refused, naming
+// the path tolerance.
+inline constexpr std::size_t kMaxProgramPositions = 200000;
+
 struct ProgramOptions {
   // The sweeps of each installation: ccw = increasing angle (the design's order), cw =
   // decreasing; both = ccw then cw (the reverse sweep lets diagnose see a reversal error).

@@ -51,6 +51,10 @@ double f_test_p(int q, int dof, double F);
 // first of tied alternatives: equivalent features (a step in one installation and the opposite
 // step in another whose difference alone the data determine) tie exactly but for rounding.
 constexpr double kSignificanceTie = 1e-9;
+// Two readings' indicator columns are indistinguishable when the correlation of their
+// unexplained parts is at least 1 - kIndistinguishable in size (rounding of the projection
+// leaves them 1e-12 apart; distinct ones of a real design are farther than 1e-3).
+constexpr double kIndistinguishable = 1e-6;
 inline bool more_significant(double p_a, double F_a, double p_b, double F_b) {
   if (p_a < p_b * (1.0 - kSignificanceTie)) return true;
   if (!(p_a <= p_b * (1.0 + kSignificanceTie))) return false;  // clearly less significant, or NaN
@@ -63,6 +67,12 @@ struct ScanTest {
   int tested = 0;   // alternatives tested (m)
   ColumnTest test;  // of the best alternative
   double p_scan = 1;  // min(1, m p): the scan's p-value
+  // Readings (scan_readings) that the data cannot tell from the best: their indicator columns'
+  // unexplained parts are parallel to its own (|correlation| >= 1 - kIndistinguishable), so
+  // each explains the residual exactly as the best does (one residual degree of freedom at a
+  // station). Which of them is the gross one is not known.
+  std::vector<int> ties;
+  std::vector<double> tie_values;  // each tie's own offset (its indicator's coefficient)
 
   // Counts alternative `alt` when it can be tested (it adds rank and leaves degrees of freedom),
   // and keeps it when it is the most significant so far.
@@ -129,6 +139,10 @@ struct ResidualFeature {
   // Installations whose feature of the same kind this one makes confounded: only the
   // difference is determined (a mean of 1r against 2r when the model holds their sum).
   std::vector<int> difference_with;
+  // kReading: the readings the data cannot tell from `row` (ScanTest::ties), and the offset
+  // each would have.
+  std::vector<int> indistinguishable;
+  std::vector<double> indistinguishable_values;
 };
 
 // The amplitudes sqrt(a_k^2 + b_k^2) of the harmonics k = 1..K of a turntable's residual on the
@@ -152,7 +166,12 @@ std::vector<ResidualFeature> residual_features(const Design& design,
 // max_count. The residual is the fitted model's at the reading when it was flagged.
 struct GrossReading {
   int row = -1;
-  std::optional<Reading> reading;  // filled by the caller that has the readings (diagnose)
+  // The readings the data cannot tell from it (ScanTest::ties): any of them may be the gross
+  // one, so none is named alone and none is excluded.
+  std::vector<int> indistinguishable;
+  std::optional<Reading> reading;     // filled by the caller that has the readings (diagnose)
+  std::vector<Reading> alternatives;  // the readings of `indistinguishable`, likewise
+  std::vector<double> alternative_values_um;  // the offset each of them would have
   double residual_um = 0;
   double value_um = 0,
          std_um = 0;  // its offset from the rest (the indicator's coefficient) and uncertainty

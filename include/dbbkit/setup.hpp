@@ -103,6 +103,14 @@ class SetupSolver {
   // C G X diag(u): the change of C theta_hat per standard-normal draw of every set-up
   // column (beta = u z): C K S^-1 diag(1 / u).
   Eigen::MatrixXd setup_draw_map(const FunctionRows& C) const;
+  // N = R' W^1/2 (q x n), the map from readings to the set-up part of the gain, so that
+  //   C G v = C G0 v - L N v,  L = left_gain_setup(C):
+  // R = W^1/2 (I - J G0) X = (I - H) W^1/2 X with H = W^1/2 J G0 W^-1/2 the orthogonal
+  // projector onto the whitened model's range (G0 is J's weighted least-squares gain, its
+  // pseudo-inverse where J loses rank), so R' W^1/2 (I - J G0) = R' (I - H) W^1/2 = R' W^1/2:
+  // the reading's part the model explains need not be taken out. The whole set-up correction
+  // of C G v costs q (n + values) multiply-adds a vector, beside C G0's sparse product.
+  Eigen::MatrixXd setup_noise_map() const;
 
   // Variances of c.theta_hat: noise part, set-up part, and the set-up part split per column.
   struct Parts {

@@ -74,6 +74,11 @@ struct SetupSheet {
   std::optional<RoundedDesign> rounding;
   std::vector<double> setup_time_s;  // per step; empty without a kit
   double total_time_s = 0;           // set-ups (with a kit) plus moves and dwells
+  // With a kit: the installations whose following ball leaves its travel, and by how much
+  // [mm], as set up (rounded when asked) and as the design gives them (then the rounding is
+  // not the cause).
+  bool travel_checked = false;
+  std::vector<std::pair<std::string, double>> outside_travel, outside_travel_as_given;
 };
 
 SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,

@@ -1,5 +1,6 @@
 #include "app.hpp"
 
+#include <map>
 #include <set>
 #include <string>
 
@@ -18,6 +19,22 @@ void set_command_line(int argc, const char* const* argv) {
   std::string line = "dbbkit";
   for (int i = 1; i < argc; ++i) line += std::string(" ") + argv[i];
   g_command_line = line;
+}
+
+InputError as_command_line(const InputError& e) {
+  // The library's Options structs and the options of the command line that set them.
+  static const std::map<std::string, std::string> kOptions = {
+      {"max_trials", "--mc-max-trials"},
+      {"batch_trials", "--mc-batch"},
+      {"significant_digits", "--mc-digits"},
+      {"coverage_probability", "--coverage"},
+      {"path_tolerance_mm", "--path-tolerance-mm"},
+      {"dwell_s", "--dwell-s"},
+      {"feed_mm_per_min", "--feed-mm-min"}};
+  if (e.source() != "options" && e.source() != "program") return e;
+  const auto it = kOptions.find(e.where());
+  if (it == kOptions.end()) return e;
+  return InputError(it->second, "", e.detail());
 }
 
 std::unique_ptr<CommandLine> make_command_line() {

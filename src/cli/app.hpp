@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "dbbkit/error.hpp"
 
 namespace dbbkit::cli {
 
@@ -21,5 +22,9 @@ std::unique_ptr<CommandLine> make_command_line();
 
 // Records the command line as given, for the conditions of a report.
 void set_command_line(int argc, const char* const* argv);
+
+// An error the library raised about one of its options ("options: max_trials") as the user
+// wrote it ("--mc-max-trials"); any other error as it is.
+InputError as_command_line(const InputError& e);
 
 }  // namespace dbbkit::cli

@@ -64,13 +64,16 @@ Runner add_identify(CLI::App& app) {
     options.budget.coverage_probability = unc->coverage;
     options.iso_motion.seed = unc->mc.seed;
     const IdentifyResult result = identify(design, readings, options);
-    std::optional<ConformanceReport> conformance;
-    if (!tolerances.empty())
-      conformance = decide_conformance(design, result, tolerances, args->tolerances);
     std::optional<MonteCarloResult> mc;
     if (unc->monte_carlo) {
       report_progress(unc->mc, rep->quiet);
       mc = monte_carlo(design, result, unc->mc);
+    }
+    // On the intervals the result reports: Monte Carlo's where the linear one is not validated.
+    std::optional<ConformanceReport> conformance;
+    if (!tolerances.empty()) {
+      conformance =
+          decide_conformance(design, result, tolerances, args->tolerances, mc ? &*mc : nullptr);
     }
     nlohmann::json j = io::identify_to_json(design, readings, result, {args->design, args->data},
                                             mc ? &*mc : nullptr, false);

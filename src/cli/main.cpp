@@ -3,6 +3,7 @@
 #include "app.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/output.hpp"
+#include "report_options.hpp"
 
 int main(int argc, char** argv) {
   dbbkit::cli::set_command_line(argc, argv);
@@ -23,7 +24,11 @@ int main(int argc, char** argv) {
       }
     }
   } catch (const dbbkit::InputError& e) {
-    std::cerr << "dbbkit: error: " << e.what() << "\n";
+    std::cerr << "dbbkit: error: " << dbbkit::cli::as_command_line(e).what() << "\n";
+    return 2;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "dbbkit: error: not enough memory for these inputs ("
+              << dbbkit::cli::command_line().substr(0, 300) << ")\n";
     return 2;
   } catch (const std::exception& e) {
     std::cerr << "dbbkit: internal error: " << e.what() << "\n";

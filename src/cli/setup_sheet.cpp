@@ -71,6 +71,14 @@ Runner add_setup_sheet(CLI::App& app) {
                     io::setup_sheet_report(io::ReportFormat::kMarkdown, run, sheet, args->kit));
     outputs.commit();
     if (!to_stdout && !rep->quiet) std::cout << io::setup_sheet_summary(sheet);
+    // A following ball outside the kit's travel: the sheet is written, and the check fails.
+    if (!sheet.outside_travel.empty()) {
+      std::cerr << "dbbkit: setup-sheet: " << sheet.outside_travel.size()
+                << " installation(s) leave the kit's travel "
+                << (sheet.outside_travel_as_given.empty() ? "once rounded" : "as designed")
+                << " (the sheet says which)\n";
+      return 1;
+    }
     return 0;
   };
 }

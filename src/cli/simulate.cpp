@@ -49,8 +49,14 @@ Runner add_simulate(CLI::App& app) {
     if (!seed && !truth.noiseless) {
       throw InputError(args->truth, "seed", "no seed: give --seed or \"seed\" in the truth file");
     }
+    std::vector<Reading> readings;
+    try {
+      readings = simulate(design, truth, seed.value_or(0));
+    } catch (const InputError& e) {
+      throw e.source() == "truth" ? e.with_source(args->truth) : e;
+    }
     std::ostringstream csv;
-    io::write_measurements_csv(csv, simulate(design, truth, seed.value_or(0)));
+    io::write_measurements_csv(csv, readings);
     outputs.stage("--out", csv.str());
     if (!args->setup_out.empty()) {
       if (!truth.exact)

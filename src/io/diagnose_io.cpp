@@ -92,6 +92,14 @@ json gross_to_json(const std::vector<GrossReading>& gs) {
               {"p_value_over_readings", g.p_scan},
               {"readings_tested", g.tested}};
     if (g.reading) j["reading"] = reading_to_json(*g.reading);
+    // Readings the data cannot tell from it: any one of them may be the gross one.
+    json alt = json::array();
+    for (std::size_t k = 0; k < g.alternatives.size(); ++k) {
+      json a = reading_to_json(g.alternatives[k]);
+      if (k < g.alternative_values_um.size()) a["offset_um"] = r6(g.alternative_values_um[k]);
+      alt.push_back(a);
+    }
+    j["indistinguishable_from"] = alt;
     out.push_back(j);
   }
   return out;
@@ -280,6 +288,7 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
       {"selection_stopped_at_model_order_step",
        r.stopped_because == SelectionStop::kModelOrder ? json(r.stopped_at_step) : json(nullptr)},
       {"excluded_readings", gross_to_json(r.excluded)},
+      {"gross_readings_not_excluded", gross_to_json(r.not_excluded)},
       {"noise_larger_than_declared", r.noise_larger_than_declared}};
   if (r.noise) {
     checks["noise_scale"] = {{"ratio", r6(r.noise->ratio)},

@@ -22,6 +22,21 @@ std::string reading_text(const Reading& r) {
   return s;
 }
 
+// A reading and those the data cannot tell from it, each with the offset it would have:
+// "installation 2r at 100 deg, line 12" or "one of installation 2r at 100 deg, line 12 (off by
+// 30 um); installation 1r at 100 deg, line 5 (off by -31 um) (the data cannot tell which ...)".
+std::string readings_text(const Reading& r, double value_um,
+                          const std::vector<Reading>& alternatives,
+                          const std::vector<double>& values_um) {
+  if (alternatives.empty()) return reading_text(r);
+  std::string s = "one of " + reading_text(r) + " (off by " + fmt_num(value_um, 4) + " um)";
+  for (std::size_t k = 0; k < alternatives.size(); ++k) {
+    s += "; " + reading_text(alternatives[k]);
+    if (k < values_um.size()) s += " (off by " + fmt_num(values_um[k], 4) + " um)";
+  }
+  return s + ": the data cannot tell which, each explains the residual alike";
+}
+
 // "a + b" for a set of effects.
 std::string joined(const std::vector<std::string>& labels) {
   std::string out;
@@ -93,9 +108,12 @@ std::string describe_feature(const Design& design, const std::vector<Reading>& r
       s << "a step of " << pm("um") << " in installation " << inst << " from the reading "
         << reading_text(readings[f.row]);
       break;
-    case FeatureKind::kReading:
-      s << "one reading off by " << pm("um") << ": " << reading_text(readings[f.row]);
-      break;
+    case FeatureKind::kReading: {
+      std::vector<Reading> alternatives;
+      for (int j : f.indistinguishable) alternatives.push_back(readings[j]);
+      s << "one reading off by " << pm("um") << ": "
+        << readings_text(readings[f.row], f.value, alternatives, f.indistinguishable_values);
+    } break;
   }
   s << " (F = " << fmt_num(f.test.F, 4) << ", p " << p_text(f.test.p);
   if (f.tested > 1)
@@ -123,6 +141,18 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
         << " um (t = " << fmt_num(res.excluded[g].t, 4) << ")";
     }
     v << ". ";
+  }
+  if (!res.not_excluded.empty()) {
+    v << "Not excluded (--exclude-gross), since the data cannot tell which reading is the gross "
+         "one:";
+    for (std::size_t g = 0; g < res.not_excluded.size(); ++g) {
+      const GrossReading& gr = res.not_excluded[g];
+      v << (g ? ";" : "") << " "
+        << readings_text(readings[static_cast<std::size_t>(gr.row)], gr.value_um, gr.alternatives,
+                         gr.alternative_values_um)
+        << " (u = " << fmt_num(gr.std_um, 2) << " um)";
+    }
+    v << ". Measure that position again. ";
   }
   const std::string dominant_after =
       res.signature_after.dominant
@@ -226,13 +256,21 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
         << "residual, Bonferroni over the readings):";
       for (std::size_t g = 0; g < res.gross.size(); ++g) {
         const GrossReading& gr = res.gross[g];
-        v << (g ? ";" : "") << " " << reading_text(readings[gr.row]) << ", off by "
-          << fmt_num(gr.value_um, 4) << " +- " << fmt_num(gr.std_um, 2)
-          << " um (t = " << fmt_num(gr.t, 4) << ", p " << p_text(gr.p_scan) << " over " << gr.tested
+        v << (g ? ";" : "") << " ";
+        if (gr.alternatives.empty()) {
+          v << reading_text(readings[gr.row]) << ", off by " << fmt_num(gr.value_um, 4) << " +- "
+            << fmt_num(gr.std_um, 2) << " um";
+        } else {
+          v << readings_text(readings[gr.row], gr.value_um, gr.alternatives,
+                             gr.alternative_values_um)
+            << " (u = " << fmt_num(gr.std_um, 2) << " um)";
+        }
+        v << " (t = " << fmt_num(gr.t, 4) << ", p " << p_text(gr.p_scan) << " over " << gr.tested
           << " readings)";
       }
       v << ". Check them at the machine; dbbkit diagnose --exclude-gross refits without them and "
-           "says so. ";
+           "says so (not where the data cannot tell which reading is the gross one: measure that "
+           "position again). ";
     }
     if (res.significant_after) {
       v << "A significant residual remains that no effect of the library explains";

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -31,9 +32,23 @@ std::string gnuplot_svg(const std::string& script, int width_px, int height_px) 
   // A private directory (mkdtemp, mode 0700) holds the script, the plot and gnuplot's
   // messages: nothing in a shared temporary directory is ever opened by a guessable
   // name. The directory and its files are known to the signal handlers (output.hpp).
-  std::string dir = (std::filesystem::temp_directory_path() / "dbbkit-plot-XXXXXX").string();
-  if (!::mkdtemp(dir.data()))
-    throw InputError("--report", "", "cannot create a temporary directory for gnuplot");
+  std::filesystem::path tmp;
+  {
+    std::error_code ec;
+    tmp = std::filesystem::temp_directory_path(ec);
+    if (ec) {
+      const char* env = std::getenv("TMPDIR");
+      throw InputError("--report", "",
+                       std::string("the plots need a temporary directory and TMPDIR=") +
+                           (env ? env : "") + " is not one (" + ec.message() + ")");
+    }
+  }
+  std::string dir = (tmp / "dbbkit-plot-XXXXXX").string();
+  if (!::mkdtemp(dir.data())) {
+    throw InputError("--report", "",
+                     "cannot create a temporary directory for gnuplot in " + tmp.string() + " (" +
+                         std::strerror(errno) + ")");
+  }
   const int dir_slot = internal::register_temporary(dir, true);
   const std::string gp = dir + "/plot.gp", svg = dir + "/plot.svg", log = dir + "/plot.log";
   std::vector<int> slots;

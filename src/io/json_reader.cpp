@@ -6,8 +6,10 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <vector>
 
@@ -67,6 +69,16 @@ bool parse_decimal(const std::string& text, double& out) {
   if (errno == ERANGE || !std::isfinite(x)) return false;
   out = x;
   return true;
+}
+
+bool underflows(const std::string& text) {
+  // A number whose digits are not all zero and that strtod takes to 0 or below DBL_MIN.
+  if (text.find_first_of("123456789") == std::string::npos) return false;
+  const size_t e = text.find_first_of("eE");
+  if (text.find_first_of("123456789") > (e == std::string::npos ? text.size() : e)) return false;
+  errno = 0;
+  const double x = std::strtod(text.c_str(), nullptr);
+  return errno == ERANGE && std::abs(x) < std::numeric_limits<double>::min();
 }
 
 namespace {
@@ -233,6 +245,38 @@ json parse_json(const std::string& text, const std::string& source) {
     throw InputError(source, "",
                      "not enough memory to read the file (parsing JSON takes about 20 times its "
                      "size)");
+  }
+  // A number below the smallest a double holds is read as 0 or a denormal: refused, not
+  // silently taken for zero. Number tokens outside strings are checked when the text has an
+  // exponent at all.
+  if (text.find_first_of("eE") != std::string::npos) {
+    bool in_string = false;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+      const char c = text[i];
+      if (in_string) {
+        if (c == '\\')
+          ++i;
+        else if (c == '"')
+          in_string = false;
+        continue;
+      }
+      if (c == '"') {
+        in_string = true;
+        continue;
+      }
+      if (c == '-' || (c >= '0' && c <= '9')) {
+        std::size_t end = i;
+        while (end < text.size() && (std::isdigit(static_cast<unsigned char>(text[end])) ||
+                                     std::strchr("+-.eE", text[end])))
+          ++end;
+        if (underflows(text.substr(i, end - i))) {
+          throw InputError(source, line_column(text, i),
+                           "the number " + text.substr(i, std::min<std::size_t>(end - i, 40)) +
+                               " is below the smallest a double holds (it would be read as 0)");
+        }
+        i = end - 1;
+      }
+    }
   }
   if (duplicate_token) {
     throw InputError(source,

@@ -48,6 +48,8 @@ struct Cell {
       const bool spelled_number = text.find_first_of("0123456789") != std::string::npos ||
                                   text == "nan" || text == "NaN" || text == "inf" ||
                                   text == "-inf" || text == "+inf";
+      if (underflows(text))
+        fail(quote_value(text) + " is below the smallest number a double holds");
       fail(quote_value(text) + " is not " +
            (spelled_number ? "a finite number in decimal notation" : "a number"));
     }

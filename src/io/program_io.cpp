@@ -78,16 +78,16 @@ class Writer {
   }
   void stop(const std::string& why) {
     if (dialect_ == Dialect::kIso)
-      line("M00 (" + program_comment(why, kProgramCommentLine) + ")");
+      line("M00 (" + program_comment(why, kProgramMessage) + ")");
     else
-      line("STOP ; " + program_comment(why, kProgramCommentLine));
+      line("STOP ; " + program_comment(why, kProgramMessage));
   }
   void dwell(double seconds, const std::string& why) {
     if (dialect_ == Dialect::kIso) {
       line("G04 P" + std::to_string(static_cast<long long>(std::lround(seconds * 1000))) + " (" +
-           program_comment(why, kProgramCommentLine) + ")");
+           program_comment(why, kProgramMessage) + ")");
     } else {
-      line("CYCL DEF 9.0 DWELL TIME ; " + program_comment(why, kProgramCommentLine));
+      line("CYCL DEF 9.0 DWELL TIME ; " + program_comment(why, kProgramMessage));
       line("CYCL DEF 9.1 DWELL " + fmt_rounded(seconds, 3));
     }
   }
@@ -143,7 +143,7 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     char o_number[16];
     std::snprintf(o_number, sizeof o_number, "O%04d", program_number);
     w.raw(std::string(o_number) + " (DBB MEASUREMENT " +
-          program_comment(design.name, kProgramCommentLine - 24) + ")");
+          program_comment(design.name, kProgramMessage) + ")");
   } else {
     w.raw("BEGIN PGM " + name + " MM");
   }

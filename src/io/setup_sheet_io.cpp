@@ -295,13 +295,22 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
                     " mm (the largest shift " + mm(r.largest_shift_mm) +
                     " mm). worst_std_um (k = 1): " + fmt_opt(r.worst_std_um) + " um as designed, " +
                     fmt_opt(r.rounded_worst_std_um) + " um as rounded.";
-    if (!r.travel_checked) {
-      t += " The travel was not checked (give --kit).";
-    } else if (r.outside_travel.empty()) {
-      t += " Every following ball stays inside the kit's travel.";
+    if (!r.travel_checked) t += " The travel was not checked (give --kit).";
+    w.paragraph(t);
+  }
+  if (sheet.travel_checked) {
+    std::string t;
+    if (sheet.outside_travel.empty()) {
+      t = "Every following ball stays inside the kit's travel.";
+    } else if (!sheet.outside_travel_as_given.empty()) {
+      t = "OUTSIDE the kit's travel as designed (not from any rounding):";
+      for (const auto& [id, v] : sheet.outside_travel_as_given)
+        t += " " + id + " by " + mm(v) + " mm;";
+      t += " this design cannot be measured with this kit: move these balls or choose another "
+           "design.";
     } else {
-      t += " OUTSIDE the kit's travel once rounded:";
-      for (const auto& [id, v] : r.outside_travel) t += " " + id + " by " + mm(v) + " mm;";
+      t = "OUTSIDE the kit's travel once rounded:";
+      for (const auto& [id, v] : sheet.outside_travel) t += " " + id + " by " + mm(v) + " mm;";
       t += " choose a finer resolution or move these balls by hand.";
     }
     w.paragraph(t);
@@ -364,8 +373,12 @@ std::string setup_sheet_summary(const SetupSheet& sheet) {
     s << "rounded to " << fmt_num(sheet.rounding->resolution_mm) << " mm: worst_std_um (k = 1) "
       << fmt_opt(sheet.rounding->worst_std_um) << " -> "
       << fmt_opt(sheet.rounding->rounded_worst_std_um) << " um";
-    if (!sheet.rounding->outside_travel.empty())
-      s << "; " << sheet.rounding->outside_travel.size() << " installations outside the travel";
+    s << "\n";
+  }
+  if (!sheet.outside_travel.empty()) {
+    s << "OUTSIDE the kit's travel "
+      << (sheet.outside_travel_as_given.empty() ? "once rounded" : "as designed") << ":";
+    for (const auto& [id, v] : sheet.outside_travel) s << " " << id << " by " << mm(v) << " mm;";
     s << "\n";
   }
   return s.str();

@@ -35,6 +35,9 @@ bool unit_of(const std::string& u, std::string& dimension, double& factor) {
 
 }  // namespace
 
+// The largest limit a tolerance may have, in um or urad.
+constexpr double kMaxToleranceLimit = 1e9;
+
 std::vector<Tolerance> tolerances_from_json(const json& j, const std::string& source) {
   ObjectReader top(j, source, "");
   const std::string format = top.string("format");
@@ -77,6 +80,17 @@ std::vector<Tolerance> tolerances_from_json(const json& j, const std::string& so
       if (upper) t.upper = *upper * factor;
       if (lower && upper && !(*upper > *lower)) r.fail("upper", "must exceed lower");
     }
+    // In um or urad: finite, within +-1e9 (a metre, a thousand radians), and a zone that is
+    // not empty after the unit's conversion.
+    for (const auto& [key, v] : {std::pair{"lower", t.lower}, std::pair{"upper", t.upper}}) {
+      if (v && !(std::isfinite(*v) && std::abs(*v) <= kMaxToleranceLimit)) {
+        r.fail(max_abs ? "max_abs" : key, "a limit of " + fmt_num(*v / factor, 6) + " " + unit +
+                                              " is beyond +-1e9 " + t.unit + " (in " + t.unit +
+                                              ")");
+      }
+    }
+    if (t.lower && t.upper && !(*t.upper > *t.lower))
+      r.fail(max_abs ? "max_abs" : "upper", "the zone is empty in " + t.unit);
     r.finish();
     out.push_back(t);
   }
@@ -97,6 +111,7 @@ json conformance_to_json(const ConformanceReport& report, const std::string& tol
              {"upper", r.upper ? json(r6(*r.upper)) : json(nullptr)},
              {"decision", decision_name(r.decision)},
              {"basis", conformance_basis(report, r)},
+             {"monte_carlo_intervals", r.monte_carlo_intervals},
              {"values", r.values},
              {"conforming", r.conforming},
              {"nonconforming", r.nonconforming},
@@ -179,8 +194,8 @@ std::vector<std::string> conformance_warnings(const ConformanceReport& report) {
   if (report.no_setup_tolerances) {
     w.push_back(
         "the design declares no set-up tolerances (setup_std): the intervals leave out where the "
-        "balls were set, and a centring error of the balls moves the location errors (XOC, YOC "
-        "...) by as much as itself");
+        "balls were set, and a centring error of the balls moves the location errors (" +
+        report.position_names + ") by as much as itself");
   }
   return w;
 }
@@ -204,9 +219,16 @@ std::string conformance_basis(const ConformanceReport& report, const Conformance
         t += "; " + iso_motion_reason(*r.uncomputed_motion, r.uncomputed_index);
       return t;
     }
-    case ConformanceResult::Basis::kBudget:
-      return "value +- U of the uncertainty budget (k at each value's effective degrees of "
-             "freedom), at every measured angle";
+    case ConformanceResult::Basis::kBudget: {
+      std::string t =
+          "value +- U of the uncertainty budget (k at each value's effective degrees of "
+          "freedom), at every measured angle";
+      if (r.monte_carlo_intervals > 0) {
+        t += "; at " + std::to_string(r.monte_carlo_intervals) +
+             " angles the Monte Carlo interval, where the linear one is not validated";
+      }
+      return t;
+    }
   }
   return "";
 }

@@ -585,8 +585,11 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
     options.budget.coverage_probability = coverage;
     options.iso_motion.seed = mc_seed;
     r.held = std::make_shared<const IdentifyResult>(identify(d.value, m.readings, options));
-    if (!tols.empty()) r.conformance = decide_conformance(d.value, r.result(), tols, tol_source);
     if (monte_carlo) r.mc = dbbkit::monte_carlo(d.value, r.result(), mc);
+    if (!tols.empty()) {
+      r.conformance =
+          decide_conformance(d.value, r.result(), tols, tol_source, r.mc ? &*r.mc : nullptr);
+    }
   }
   r.json = io::identify_to_json(d.value, m.readings, r.result(), {d.source, m.source},
                                 r.mc ? &*r.mc : nullptr);

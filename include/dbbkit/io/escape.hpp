@@ -42,8 +42,12 @@ std::string gnuplot_label(std::string_view s);
 // (others become '?'); the characters a control reads as structure replaced: ( ) end an
 // ISO comment (become [ ]), % ends the record (becomes "pct"), ; starts a comment on some
 // controls (becomes ,). At most `max_chars` characters: a longer text is cut and ends in
-// "...". The writer breaks a comment into lines of kProgramCommentLine characters.
-inline constexpr std::size_t kProgramCommentLine = 72;
+// "...". The writer breaks a comment into lines of kProgramCommentLine characters, and keeps a
+// message on a line of code (a stop, a dwell) to kProgramMessage: no line of a program is
+// longer than kProgramLine characters, its block number included.
+inline constexpr std::size_t kProgramCommentLine = 64;
+inline constexpr std::size_t kProgramMessage = 40;
+inline constexpr std::size_t kProgramLine = 80;
 std::string program_comment(std::string_view s, std::size_t max_chars);
 
 // Text for a terminal: every control character and invalid byte as an escape (\n, \x1B),

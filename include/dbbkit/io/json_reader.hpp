@@ -17,6 +17,9 @@ std::string read_text_file(const std::string& path);
 // point, an optional exponent (1.5, -0.2, 3e-3). No hexadecimal, no "inf" or "nan",
 // no white space. Sets `out` and returns true when `text` is one and finite.
 bool parse_decimal(const std::string& text, double& out);
+// Whether a decimal number is one whose digits are not all zero but which is below the
+// smallest normal double (1e-400): parse_decimal refuses it, and its message says why.
+bool underflows(const std::string& text);
 
 // Parses JSON; a syntax error or a repeated key throws InputError naming the line.
 nlohmann::json parse_json(const std::string& text, const std::string& source);
