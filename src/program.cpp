@@ -2,9 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <stdexcept>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/limits.hpp"
+#include "dbbkit/setup_sheet.hpp"
 #include "number_text.hpp"
 
 namespace dbbkit {
@@ -79,18 +83,45 @@ void validate_program_options(const ProgramOptions& o, const std::string& source
       "path_tolerance_mm",
       "the path tolerance must be in [0.0001, 1] mm (a ballbar reads within about +-1 mm), got " +
           text::significant(o.path_tolerance_mm, 6));
+  check(o.tool_number >= 1 && o.tool_number <= 9999, "tool_number",
+        "a tool number is 1..9999, got " + std::to_string(o.tool_number));
+  check(std::isfinite(o.clearance_margin_mm) && o.clearance_margin_mm >= 1 &&
+            o.clearance_margin_mm <= 1000,
+        "clearance_margin_mm",
+        "the clearance margin must be in [1, 1000] mm, got " +
+            text::significant(o.clearance_margin_mm, 6));
+  check(!o.clearance_z_mm || (std::isfinite(*o.clearance_z_mm) &&
+                              std::abs(*o.clearance_z_mm) <= limits::kMaxLength_mm),
+        "clearance_z_mm", "the clearance plane must be a Z within +-10000 mm");
+  bool code_ok = o.orient_code.empty() || (o.orient_code.size() >= 2 && o.orient_code.size() <= 4 &&
+                                           o.orient_code[0] == 'M');
+  for (size_t i = 1; code_ok && i < o.orient_code.size(); ++i)
+    code_ok = o.orient_code[i] >= '0' && o.orient_code[i] <= '9';
+  check(code_ok, "orient_code",
+        "the spindle orientation is an M-code (M followed by 1 to 3 digits) or none");
 }
 
+namespace {
+// Turned by 180 deg about Y (x -> -x, z -> -z): the tool pointing to -Z at B0.
+Eigen::Vector3d turned(const Eigen::Vector3d& v, bool tool_down) {
+  return tool_down ? Eigen::Vector3d(-v.x(), v.y(), -v.z()) : v;
+}
+}  // namespace
+
 Eigen::Vector3d commanded_point_mm(Axis axis, const Installation& inst, double bar_mm,
-                                   double angle_deg, double first_angle_deg, bool tool_down) {
-  auto following = [&](double a) {
-    return Eigen::Vector3d(ball_position_mm(axis, inst, a) -
-                           inst.sign * bar_mm * direction_machine(axis, inst, a));
-  };
-  if (axis == Axis::kC) return following(angle_deg);
-  Eigen::Vector3d q = following(first_angle_deg) - following(angle_deg);
-  if (tool_down) q = Eigen::Vector3d(-q.x(), q.y(), -q.z());
-  return q;
+                                   double angle_deg, bool tool_down) {
+  const Eigen::Vector3d F = ball_position_mm(axis, inst, angle_deg) -
+                            inst.sign * bar_mm * direction_machine(axis, inst, angle_deg);
+  if (axis == Axis::kC) return F;
+  return turned(-F, tool_down);  // the pivot, with the table ball at the origin
+}
+
+const InstallationProgram& MeasurementProgram::of(int installation) const {
+  for (const InstallationProgram& ip : installations) {
+    if (ip.installation == installation) return ip;
+  }
+  throw std::out_of_range("MeasurementProgram::of: no installation " +
+                          std::to_string(installation));
 }
 
 MeasurementProgram measurement_program(const Design& design, const ProgramOptions& options) {
@@ -108,7 +139,13 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   const double first = sweeps.front() == Sweep::kCCW ? angles.front() : angles.back();
 
   std::size_t positions = 0;
-  for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
+  // The highest point anything reaches (work frame Z; the table surface (C) or the table ball
+  // (B) at 0), for the clearance plane; for B the longest pivot-to-ball distance, so that the
+  // head can turn at the plane with its ball above the table's.
+  double highest = 0, reach = 0;
+  std::optional<Eigen::Vector3d> previous_ball;  // the body-frame ball of the installation before
+  for (const SetupStep& step : setup_order(design).steps) {
+    const int i = step.installation;
     const Installation& inst = design.installations[i];
     if (!inst.bar_mm) {
       throw InputError("design", "installations[" + std::to_string(i) + "].bar_mm",
@@ -118,16 +155,23 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     InstallationProgram ip;
     ip.installation = i;
     ip.bar_mm = *inst.bar_mm;
-    ip.fixed_ball_mm =
-        design.axis == Axis::kC
-            ? ball_body_mm(design.axis, inst)
-            : Eigen::Vector3d(ball_position_mm(design.axis, inst, first) -
-                              inst.sign * ip.bar_mm * direction_machine(design.axis, inst, first));
-    if (tool_down)
-      ip.fixed_ball_mm =
-          Eigen::Vector3d(-ip.fixed_ball_mm.x(), ip.fixed_ball_mm.y(), -ip.fixed_ball_mm.z());
-    Eigen::Vector3d last =
-        commanded_point_mm(design.axis, inst, ip.bar_mm, first, first, tool_down);
+    const Eigen::Vector3d body = ball_body_mm(design.axis, inst);
+    ip.fixed_ball_mm = design.axis == Axis::kC ? body : Eigen::Vector3d::Zero();
+    // The table's cup is placed once per ball position (B: once, at the origin).
+    ip.places_cup = design.axis == Axis::kC
+                        ? !previous_ball || (*previous_ball - body).norm() > kAssemblyTolerance_mm
+                        : !previous_ball;
+    previous_ball = body;
+    const Eigen::Vector3d P_first = ball_position_mm(design.axis, inst, first);
+    ip.placement_mm = design.axis == Axis::kC ? P_first : turned(-P_first, tool_down);
+    if (design.axis == Axis::kC) {
+      highest = std::max(highest, P_first.z());
+    } else {
+      reach = std::max(reach, body.norm());
+    }
+    Eigen::Vector3d last = commanded_point_mm(design.axis, inst, ip.bar_mm, first, tool_down);
+    // The descent to the first position and the retract after the last, along Z at the feed,
+    // are counted once the clearance plane is known.
     for (const Sweep s : sweeps) {
       ProgramSweep ps;
       ps.direction = s;
@@ -144,11 +188,12 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
         }
         ProgramPosition p;
         p.angle_deg = a;
-        p.linear_mm = commanded_point_mm(design.axis, inst, ip.bar_mm, a, first, tool_down);
+        p.linear_mm = commanded_point_mm(design.axis, inst, ip.bar_mm, a, tool_down);
         p.reading = reading;
         ip.motion_time_s += 60.0 * (p.linear_mm - last).norm() / options.feed_mm_per_min;
         if (reading) ip.motion_time_s += options.dwell_s;
         last = p.linear_mm;
+        highest = std::max(highest, p.linear_mm.z());
         ps.positions.push_back(p);
       };
       add(order.front(), true);
@@ -165,9 +210,22 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
       ip.readings += static_cast<int>(order.size());
       ip.sweeps.push_back(std::move(ps));
     }
+    highest = std::max(highest, ip.placement_mm.z());
     program.readings += ip.readings;
-    program.motion_time_s += ip.motion_time_s;
     program.installations.push_back(std::move(ip));
+  }
+  program.clearance_z_mm =
+      options.clearance_z_mm.value_or(highest + reach + options.clearance_margin_mm);
+  // The descents and retracts along Z at the feed: to the first position and from the last,
+  // and to the cup's placement and back.
+  for (InstallationProgram& ip : program.installations) {
+    const double zc = program.clearance_z_mm;
+    const double start_z = ip.sweeps.front().positions.front().linear_mm.z();
+    const double end_z = ip.sweeps.back().positions.back().linear_mm.z();
+    double along_z = std::abs(zc - start_z) + std::abs(zc - end_z);
+    if (ip.places_cup) along_z += 2 * std::abs(zc - ip.placement_mm.z());
+    ip.motion_time_s += 60.0 * along_z / options.feed_mm_per_min;
+    program.motion_time_s += ip.motion_time_s;
   }
   return program;
 }

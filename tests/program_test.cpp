@@ -18,6 +18,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/program_io.hpp"
+#include "dbbkit/kinematics.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -51,6 +52,9 @@ struct Commanded {
   double angle = 0;
   Eigen::Vector3d xyz;
   bool mounted = false;  // after the stop that mounts the bar
+  bool rapid = false;
+  std::string axes;        // the axes the block names: "Z", "XY", "C", "XYZC", ...
+  Eigen::Vector3d before;  // the position before the block
 };
 struct Dwell {
   std::string installation;
@@ -60,8 +64,17 @@ struct Dwell {
 struct Parsed {
   std::vector<Commanded> moves;
   std::vector<Dwell> dwells;
-  int mounts = 0;
+  int mounts = 0, placements = 0;
+  // Lines before the first motion block (the safe start, the tool and its length).
+  std::vector<std::string> before_first_move;
+  std::string first_move;
 };
+
+// The stop where the bar is mounted (an air run's: where it would be).
+bool mount_stop(const std::string& comment) {
+  return comment.find("mount the bar") != std::string::npos ||
+         comment.find("check the gap") != std::string::npos;
+}
 
 Parsed parse(const std::string& text, io::Dialect dialect, char rotary) {
   Parsed out;
@@ -95,32 +108,42 @@ Parsed parse(const std::string& text, io::Dialect dialect, char rotary) {
       std::istringstream c(comment.substr(comment.find(marker) + marker.size()));
       c >> installation;
       mounted = false;
-      x = y = z = NAN;  // a position is not carried from one installation to the next
     }
     std::istringstream words(code);
     std::vector<std::string> w;
     for (std::string t; words >> t;) w.push_back(t);
     if (w.empty()) continue;
-    bool motion = false;
+    bool motion = false, rapid = false;
     if (dialect == io::Dialect::kIso) {
       for (const std::string& t : w) {
-        if (t == "G00" || t == "G01") motion = true;
-        if (t == "M00" && comment.find("mount") != std::string::npos) {
+        if (t == "G00" || t == "G01") motion = true, rapid = t == "G00";
+        if (t == "M00" && mount_stop(comment)) {
           mounted = true;
           ++out.mounts;
         }
+        if (t == "M00" && comment.find("place the table cup") != std::string::npos)
+          ++out.placements;
         if (t == "G04") out.dwells.push_back({installation, r, {x, y, z}});
       }
     } else {
       motion = w[0] == "L";
-      if (w[0] == "STOP" && comment.find("mount") != std::string::npos) {
+      rapid = std::find(w.begin(), w.end(), "FMAX") != w.end();
+      if (w[0] == "STOP" && mount_stop(comment)) {
         mounted = true;
         ++out.mounts;
       }
+      if (w[0] == "STOP" && comment.find("place the table cup") != std::string::npos)
+        ++out.placements;
       if (w.size() >= 4 && w[0] == "CYCL" && w[2] == "9.1")
         out.dwells.push_back({installation, r, {x, y, z}});
     }
-    if (!motion) continue;
+    if (!motion) {
+      if (out.first_move.empty()) out.before_first_move.push_back(code);
+      continue;
+    }
+    if (out.first_move.empty()) out.first_move = code;
+    const Eigen::Vector3d before(x, y, z);
+    std::string axes;
     for (const std::string& t : w) {
       if (t.size() < 2) continue;
       const char a = t[0];
@@ -128,8 +151,10 @@ Parsed parse(const std::string& text, io::Dialect dialect, char rotary) {
       if (t == "FMAX") continue;
       const double v = std::stod(t.substr(1));
       (a == 'X' ? x : a == 'Y' ? y : a == 'Z' ? z : r) = v;
+      axes += a;
     }
-    out.moves.push_back({installation, r, {x, y, z}, mounted});
+    if (axes.empty()) continue;  // an M function with the block
+    out.moves.push_back({installation, r, {x, y, z}, mounted, rapid, axes, before});
   }
   return out;
 }
@@ -185,18 +210,23 @@ TEST(Program, CommandedPositionsFollowTheNominalPathInBothDialectsAndAxes) {
       std::map<std::string, Eigen::Vector3d> table_ball;
       const Eigen::Vector3d flip =
           o.tool_down ? Eigen::Vector3d(-1, 1, -1) : Eigen::Vector3d(1, 1, 1);
+      // The positions of the measurement: every move of all axes at once, and where the bar is
+      // mounted (the end of the descent before it).
       for (const Commanded& m : p.moves) {
-        if (std::isnan(m.xyz.x())) continue;  // the rotary alone, before the first linear move
+        const bool measuring =
+            m.axes.size() == 4 || (m.mounted && m.axes == "Z" && !m.rapid &&
+                                   &m != &p.moves.back() && (&m + 1)->axes.size() == 4);
+        if (!measuring) continue;
         const Installation& in = d.installations[d.find_installation(m.installation)];
         const Eigen::Vector3d F = following(axis, in, m.angle);
         if (axis == Axis::kC) {
           EXPECT_LE((m.xyz - F).norm(), 1e-3) << m.installation << " at " << m.angle;
         } else {
-          // The pivot Q and the table ball T: T - Q = F (turned when the tool points down).
+          // The pivot Q and the table ball T: T - Q = F (turned when the tool points down); the
+          // table ball at the work frame's origin for every installation.
           const Eigen::Vector3d T = m.xyz + flip.cwiseProduct(F);
-          auto [it, fresh] = table_ball.emplace(m.installation, T);
-          EXPECT_LE((T - it->second).norm(), 1e-3) << m.installation << " at " << m.angle;
-          if (fresh) EXPECT_LE(m.xyz.norm(), 1e-3) << "the pivot starts at the origin";
+          table_ball.emplace(m.installation, T);
+          EXPECT_LE(T.norm(), 1e-3) << m.installation << " at " << m.angle;
         }
         ++moves;
       }
@@ -214,7 +244,8 @@ TEST(Program, CommandedPositionsFollowTheNominalPathInBothDialectsAndAxes) {
       // The bar along each interpolated move (mounted, within one installation).
       for (size_t k = 1; k < p.moves.size(); ++k) {
         const Commanded &a = p.moves[k - 1], &b = p.moves[k];
-        if (!a.mounted || !b.mounted || a.installation != b.installation) continue;
+        if (!a.mounted || !b.mounted || a.installation != b.installation || b.axes.size() != 4)
+          continue;
         const Installation& in = d.installations[d.find_installation(a.installation)];
         for (int j = 1; j < 10; ++j) {
           const double t = j / 10.0, ang = a.angle + t * (b.angle - a.angle);
@@ -234,6 +265,79 @@ TEST(Program, CommandedPositionsFollowTheNominalPathInBothDialectsAndAxes) {
   }
   EXPECT_EQ(designs, 40);
   EXPECT_GT(moves, 1000);
+}
+
+// What a careful operator checks before running a program: the safe start and the tool length
+// before the first move; every sideways rapid at the clearance plane with Z alone moved in
+// rapid and only upwards to it; every descent along Z alone at the feed; the bar mounted after
+// a descent; the cup placed once per ball position (B: once).
+void expect_safe(const Design& d, const MeasurementProgram& program, io::Dialect dialect) {
+  const Axis axis = d.axis;
+  const ProgramOptions& o = program.options;
+  const double zc = program.clearance_z_mm;
+  const std::string tool = std::to_string(o.tool_number);
+  const bool iso = dialect == io::Dialect::kIso;
+  const std::string text = io::program_text(d, program, dialect);
+  const Parsed p = parse(text, dialect, axis == Axis::kC ? 'C' : 'B');
+  std::string start;
+  for (const std::string& l : p.before_first_move) start += l + "\n";
+  for (const char* must :
+       iso ? std::vector<const char*>{"G17 G21 G40 G49 G69 G80 G90 G94", "M05", "M09", "G54"}
+           : std::vector<const char*>{"PLANE RESET STAY", "FUNCTION TCPM RESET"})
+    EXPECT_NE(start.find(must), std::string::npos) << must << "\n" << start;
+  EXPECT_NE(start.find(iso ? "T" + tool + " M06" : "TOOL CALL " + tool + " Z"), std::string::npos)
+      << start;
+  if (iso) EXPECT_NE(p.first_move.find("G43 H" + tool), std::string::npos) << p.first_move;
+  ASSERT_FALSE(p.moves.empty());
+  EXPECT_NEAR(p.moves.front().xyz.z(), zc, 1e-4);
+  EXPECT_EQ(p.moves.front().axes, "Z");
+  int descents = 0;
+  for (const Commanded& m : p.moves) {
+    if (m.rapid) {
+      // Sideways or rotary only at the plane; Z alone, and only up to the plane.
+      if (m.axes == "Z") {
+        EXPECT_NEAR(m.xyz.z(), zc, 1e-4);
+        if (!std::isnan(m.before.z())) EXPECT_GE(m.xyz.z(), m.before.z() - 1e-4);
+      } else {
+        EXPECT_EQ(m.axes.find('Z'), std::string::npos) << m.axes;
+        EXPECT_NEAR(m.before.z(), zc, 1e-4) << "a rapid " << m.axes << " off the plane";
+      }
+    } else if (m.axes == "Z") {
+      ++descents;
+      EXPECT_EQ(m.before.x(), m.xyz.x());
+      EXPECT_EQ(m.before.y(), m.xyz.y());
+    }
+    // The measurement's moves run below the plane.
+    if (m.axes.size() == 4) EXPECT_LT(m.xyz.z(), zc);
+  }
+  EXPECT_EQ(p.mounts, static_cast<int>(d.installations.size()));
+  // The ball positions in the program's order (the set-up sheet's): a cup placed at each change.
+  int positions = 1;
+  for (size_t k = 1; k < program.installations.size(); ++k) {
+    const Installation& a = d.installations[program.installations[k - 1].installation];
+    const Installation& b = d.installations[program.installations[k].installation];
+    positions += (ball_body_mm(axis, a) - ball_body_mm(axis, b)).norm() > kAssemblyTolerance_mm;
+  }
+  EXPECT_EQ(p.placements, axis == Axis::kC ? positions : 1);
+  // Down to each placement and each mounting, up after each: two feeds along Z apiece.
+  EXPECT_EQ(descents, 2 * (p.placements + static_cast<int>(d.installations.size())));
+  EXPECT_NE(text.find(o.air_run ? "AIR RUN" : "mount the bar"), std::string::npos);
+  if (o.air_run) EXPECT_EQ(text.find("mount the bar"), std::string::npos);
+}
+
+TEST(Program, SafeStartToolLengthAndClearanceMovesInBothDialects) {
+  std::mt19937_64 rng(20261126);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Axis axis = trial % 2 ? Axis::kB : Axis::kC;
+    const Design d = random_design(rng, axis);
+    ProgramOptions o;
+    o.tool_down = axis == Axis::kB && rng() % 2;
+    o.air_run = rng() % 2;
+    o.tool_number = 1 + static_cast<int>(rng() % 200);
+    const MeasurementProgram program = measurement_program(d, o);
+    for (const io::Dialect dialect : {io::Dialect::kIso, io::Dialect::kHeidenhain})
+      expect_safe(d, program, dialect);
+  }
 }
 
 TEST(Program, AnInstallationWithoutABarIsRefusedByName) {
@@ -299,6 +403,10 @@ TEST(ProgramCli, EveryCommittedDesignHasAProgramInBothDialects) {
       EXPECT_EQ(p.dwells.size(), 2 * d.installations.size() * d.angles_deg.size()) << entry.path();
       EXPECT_EQ(p.mounts, static_cast<int>(d.installations.size()));
     }
+    ProgramOptions o;
+    o.sweeps = ProgramOptions::Sweeps::kBoth;
+    for (const io::Dialect dialect : {io::Dialect::kIso, io::Dialect::kHeidenhain})
+      expect_safe(d, measurement_program(d, o), dialect);
     ++designs;
   }
   EXPECT_GE(designs, 8);

@@ -3,14 +3,17 @@
 // positions and the linear-axis positions that keep the following ball on its nominal
 // path (README, "Conventions": F = P - s bar u), indexed: move, dwell for the reading.
 //
-// What the linear axes command (the work offset and the controlled point):
+// What the linear axes command (one work offset for the whole test, and the controlled point):
 //   C turntable: the centre of the spindle's ball, in a work frame with its origin on
 //     the C axis at the table surface (the frame of model.md §3). Commanded = F(angle).
 //   B swinging head: the pivot (the intersection of the B swing axis with the spindle
-//     axis), in a work frame whose origin is where the pivot stands at the first angle
-//     of the installation, so that the table's ball sits at T = F(first angle) and the
-//     pivot is commanded to T - F(angle) (both balls keep their relative positions of
-//     model.md §4).
+//     axis), in a work frame whose origin is the centre of the table's ball: its cup stays
+//     where it is placed for the whole test, and the pivot is commanded to -F(angle) (both
+//     balls keep their relative positions of model.md §4).
+// Each installation is approached from the clearance plane: retract along Z alone, turn the
+// rotary axis, move sideways there (rapid), descend along Z alone at the feed; the same on
+// leaving. The table's cup is placed with the spindle's ball standing where the table ball
+// goes.
 // The rotary axis is commanded to the angle itself: +angle turns the moving body by the
 // right-hand rule about +Z (C) or +Y (B).
 //
@@ -20,6 +23,7 @@
 // bar length along the interpolated path stays within path_tolerance_mm of the bar.
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,6 +42,9 @@ inline constexpr double kProgramAngleResolution_deg = 1e-4;
 // the path tolerance.
 inline constexpr std::size_t kMaxProgramPositions = 200000;
 
+// The tool number of the ballbar's spindle cup when none is given.
+inline constexpr int kDefaultBallbarTool = 99;
+
 struct ProgramOptions {
   // The sweeps of each installation: ccw = increasing angle (the design's order), cw =
   // decreasing; both = ccw then cw (the reverse sweep lets diagnose see a reversal error).
@@ -51,10 +58,26 @@ struct ProgramOptions {
   // points turned by 180 deg about Y (x -> -x, z -> -z): a rotation about the swing axis,
   // so B and every relative position are unchanged.
   bool tool_down = false;
+  // The tool whose length reaches the controlled point: the ballbar's spindle cup, its length
+  // measured to the ball centre (C); the pivot (B). ISO: T<n> M06 and G43 H<n>; Heidenhain:
+  // TOOL CALL <n> Z. 1..9999.
+  int tool_number = kDefaultBallbarTool;
+  // The clearance plane (work frame Z) every sideways rapid runs at; absent: the highest point
+  // any commanded position, table ball or placement reaches, plus the margin (B: plus the
+  // longest pivot-to-ball distance, so that the head can turn there).
+  std::optional<double> clearance_z_mm;
+  double clearance_margin_mm = 50;
+  // The same moves with no bar: a stop at each installation and after the first step of each
+  // sweep, saying what to watch (the sense of the rotary axis, the clearance).
+  bool air_run = false;
+  // The M-code that orients (and, where the control has it, locks) the spindle; empty: none.
+  std::string orient_code = "M19";
 };
 
 // The limits of the options; throws InputError(source, key) outside them:
-//   0 < dwell_s <= 600, 0 < feed_mm_per_min <= 60000, 1e-4 <= path_tolerance_mm <= 1.
+//   0 < dwell_s <= 600, 0 < feed_mm_per_min <= 60000, 1e-4 <= path_tolerance_mm <= 1,
+//   1 <= tool_number <= 9999, 1 <= clearance_margin_mm <= 1000, |clearance_z_mm| <= 10000,
+//   orient_code empty or M followed by 1 to 3 digits.
 void validate_program_options(const ProgramOptions& options, const std::string& source);
 
 struct ProgramPosition {
@@ -71,9 +94,14 @@ struct ProgramSweep {
 struct InstallationProgram {
   int installation = 0;  // index into the design
   double bar_mm = 0;
-  // B: the table ball's centre in the work frame (= F at the first angle); C: the ball on
-  // the table at angle 0 (its cup position, table coordinates L, D, H).
+  // B: the table ball's centre in the work frame (the origin, for every installation); C: the
+  // ball on the table at angle 0 (its cup position, table coordinates L, D, H).
   Eigen::Vector3d fixed_ball_mm = Eigen::Vector3d::Zero();
+  // The table's cup is placed here (the first installation at its ball position): the
+  // controlled point stands at placement_mm, where the spindle's ball is at the table ball's
+  // centre, at the start angle; the operator seats the cup against it.
+  bool places_cup = false;
+  Eigen::Vector3d placement_mm = Eigen::Vector3d::Zero();
   std::vector<ProgramSweep> sweeps;
   double largest_bar_change_mm = 0;  // along the interpolated path, over every sub-step
   int readings = 0;
@@ -83,17 +111,24 @@ struct InstallationProgram {
 struct MeasurementProgram {
   Axis axis = Axis::kC;
   ProgramOptions options;
-  std::vector<InstallationProgram> installations;  // in the design's order
+  // In the order of the set-up sheet (setup_order): the installations at one ball position
+  // together, the stack rebuilt and the bar reassembled the fewest times.
+  std::vector<InstallationProgram> installations;
+  // The program of installation i of the design.
+  const InstallationProgram& of(int installation) const;
   int readings = 0;
-  double motion_time_s = 0;  // linear moves at the feed plus the dwells (no set-up time)
+  // The moves at the feed (the sweeps, every descent and retract) plus the dwells; rapids and
+  // set-ups not included.
+  double motion_time_s = 0;
+  // The plane (work frame Z) every sideways rapid runs at (options.clearance_z_mm when given).
+  double clearance_z_mm = 0;
 };
 
-// The point the linear axes command at an angle (see the header): C, F(angle); B,
-// F(first angle) - F(angle) with `first_angle_deg` the installation's first position,
-// turned by 180 deg about Y when `tool_down`.
+// The point the linear axes command at an angle (see the header): C, F(angle); B, -F(angle)
+// (the pivot, with the table ball at the work frame's origin), turned by 180 deg about Y
+// when `tool_down`.
 Eigen::Vector3d commanded_point_mm(Axis axis, const Installation& inst, double bar_mm,
-                                   double angle_deg, double first_angle_deg,
-                                   bool tool_down = false);
+                                   double angle_deg, bool tool_down = false);
 
 // The program of a design. Every installation needs bar_mm: without it the following
 // ball cannot be placed (InputError naming installations[i].bar_mm).

@@ -30,7 +30,11 @@ InputError as_command_line(const InputError& e) {
       {"coverage_probability", "--coverage"},
       {"path_tolerance_mm", "--path-tolerance-mm"},
       {"dwell_s", "--dwell-s"},
-      {"feed_mm_per_min", "--feed-mm-min"}};
+      {"feed_mm_per_min", "--feed-mm-min"},
+      {"tool_number", "--tool"},
+      {"clearance_z_mm", "--clearance-z-mm"},
+      {"clearance_margin_mm", "--clearance-margin-mm"},
+      {"orient_code", "--orient-code"}};
   if (e.source() != "options" && e.source() != "program") return e;
   const auto it = kOptions.find(e.where());
   if (it == kOptions.end()) return e;

@@ -35,6 +35,22 @@ inline void add_program_options(CLI::App* sub, const std::shared_ptr<ProgramArgs
       ->check(finite_in(1e-4, 1));
   sub->add_flag("--tool-down", args->options.tool_down,
                 "B only: the tool points to -Z at B0 (commanded points turned 180 deg about Y)");
+  sub->add_option("--tool", args->options.tool_number,
+                  "Tool number of the ballbar's spindle cup (T, H; default 99): its length "
+                  "measured to the ball centre (C), to the pivot (B)")
+      ->check(integer_in(1, 9999));
+  sub->add_option("--clearance-z-mm", args->options.clearance_z_mm,
+                  "Z of the clearance plane in the work frame, where every sideways rapid runs "
+                  "(default: the highest point reached plus --clearance-margin-mm)")
+      ->check(finite_in(-10000, 10000));
+  sub->add_option("--clearance-margin-mm", args->options.clearance_margin_mm,
+                  "Margin of the clearance plane above the highest point reached [mm] (default 50)")
+      ->check(finite_in(1, 1000));
+  sub->add_flag("--air-run", args->options.air_run,
+                "The same moves with no bar: a stop at each installation and after the first "
+                "step of each sweep, to check the sense of the rotary axis and the clearance");
+  sub->add_option("--orient-code", args->options.orient_code,
+                  "M-code that orients the spindle (default M19; 'none' for none)");
 }
 
 // The options as given, checked against the design's axis.
@@ -48,6 +64,8 @@ inline ProgramOptions program_options(const ProgramArgs& args, Axis axis,
       {"both", ProgramOptions::Sweeps::kBoth}};
   ProgramOptions o = args.options;
   o.sweeps = sweeps.at(args.sweeps);
+  if (o.orient_code == "none") o.orient_code.clear();
+  validate_program_options(o, "program");
   return o;
 }
 

@@ -22,18 +22,15 @@ std::string coord(double x, bool plus_sign) {
   return buf;
 }
 
-// The most characters of one text in a program's comments (a description, a stop's message):
-// at most four comment lines.
+// The most characters of one text in a program's comments (a description): at most four
+// comment lines.
 constexpr std::size_t kMaxCommentText = 4 * kProgramCommentLine;
 
-// Text a comment can hold (escape.hpp), cut to kMaxCommentText characters.
-std::string comment_safe(const std::string& s) { return program_comment(s, kMaxCommentText); }
-
-// A comment's text in lines of at most kProgramCommentLine characters, broken at spaces where
-// it can be.
+// A comment's text (escape.hpp) in lines of at most kProgramCommentLine characters, broken at
+// spaces where it can be.
 std::vector<std::string> comment_lines(const std::string& text) {
   std::vector<std::string> lines;
-  std::string rest = comment_safe(text);
+  std::string rest = program_comment(text, kMaxCommentText);
   while (rest.size() > kProgramCommentLine) {
     size_t cut = rest.rfind(' ', kProgramCommentLine);
     if (cut == std::string::npos || cut == 0) cut = kProgramCommentLine;
@@ -44,6 +41,11 @@ std::vector<std::string> comment_lines(const std::string& text) {
   return lines;
 }
 
+// One line of code per call; the moves a control makes, each on its own line:
+//   rapid_z / feed_z:    along Z alone (the clearance plane and the descents to it),
+//   rapid_rotary:        the rotary axis alone,
+//   rapid_xy:            sideways, at the plane,
+//   move:                X Y Z and the rotary axis together at the feed (the measurement).
 class Writer {
  public:
   Writer(Dialect d, char rotary) : dialect_(d), rotary_(rotary) {}
@@ -57,24 +59,37 @@ class Writer {
     }
   }
   void raw(const std::string& text) { line(text); }
+  void rapid_z(double z) {
+    if (dialect_ == Dialect::kIso)
+      line("G00 Z" + coord(z, false));
+    else
+      line("L Z" + coord(z, true) + " R0 FMAX");
+  }
+  void feed_z(double z, double feed) {
+    if (dialect_ == Dialect::kIso)
+      line("G01 Z" + coord(z, false) + " F" + f(feed));
+    else
+      line("L Z" + coord(z, true) + " R0 F" + f(feed));
+  }
   void rapid_rotary(double angle) {
     if (dialect_ == Dialect::kIso)
       line(std::string("G00 ") + rotary_ + coord(angle, false));
     else
-      line(std::string("L ") + rotary_ + coord(angle, true) + " FMAX");
+      line(std::string("L ") + rotary_ + coord(angle, true) + " R0 FMAX");
   }
-  void rapid_linear(const Eigen::Vector3d& p) {
+  void rapid_xy(const Eigen::Vector3d& p) {
+    const bool plus = dialect_ == Dialect::kHeidenhain;
+    const std::string xy = "X" + coord(p.x(), plus) + " Y" + coord(p.y(), plus);
     if (dialect_ == Dialect::kIso)
-      line("G00 " + xyz(p));
+      line("G00 " + xy);
     else
-      line("L " + xyz(p) + " FMAX");
+      line("L " + xy + " R0 FMAX");
   }
   void move(const Eigen::Vector3d& p, double angle, double feed) {
-    const std::string f = std::to_string(static_cast<long long>(std::lround(feed)));
     if (dialect_ == Dialect::kIso)
-      line("G01 " + xyz(p) + " " + rotary_ + coord(angle, false) + " F" + f);
+      line("G01 " + xyz(p) + " " + rotary_ + coord(angle, false) + " F" + f(feed));
     else
-      line("L " + xyz(p) + " " + rotary_ + coord(angle, true) + " R0 F" + f);
+      line("L " + xyz(p) + " " + rotary_ + coord(angle, true) + " R0 F" + f(feed));
   }
   void stop(const std::string& why) {
     if (dialect_ == Dialect::kIso)
@@ -94,6 +109,9 @@ class Writer {
   std::string text() const { return out_.str(); }
 
  private:
+  static std::string f(double feed) {
+    return std::to_string(static_cast<long long>(std::lround(feed)));
+  }
   std::string xyz(const Eigen::Vector3d& p) const {
     const bool plus = dialect_ == Dialect::kHeidenhain;
     std::string s = "X";
@@ -127,6 +145,23 @@ std::string program_ball_text(Axis axis, const Installation& inst) {
   return s;
 }
 
+std::string xyz_text(const Eigen::Vector3d& p) {
+  return "X" + coord(p.x(), false) + " Y" + coord(p.y(), false) + " Z" + coord(p.z(), false);
+}
+
+// How the table's cup goes on (the set-up sheet says the same, installation_placement).
+std::string placement_text(const Design& d, const Installation& inst) {
+  std::string what = "the table cup";
+  if (d.axis == Axis::kC && !inst.blocks_mm.empty()) {
+    what += " on blocks";
+    for (double b : inst.blocks_mm) what += " " + fmt_rounded(b, 3);
+    what += " mm";
+  }
+  return "place " + what +
+         " under the spindle ball: seat its ball against the spindle cup "
+         "(the setting ball between them), lock its base, remove the setting ball";
+}
+
 }  // namespace
 
 std::string program_text(const Design& design, const MeasurementProgram& program, Dialect dialect,
@@ -136,9 +171,12 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   const bool c = program.axis == Axis::kC;
   const char rotary = c ? 'C' : 'B';
   const ProgramOptions& o = program.options;
+  const double zc = program.clearance_z_mm;
   Writer w(dialect, rotary);
+  const bool iso = dialect == Dialect::kIso;
   const std::string name = heidenhain_name(design.name);
-  if (dialect == Dialect::kIso) {
+  const std::string tool = std::to_string(o.tool_number);
+  if (iso) {
     w.raw("%");
     char o_number[16];
     std::snprintf(o_number, sizeof o_number, "O%04d", program_number);
@@ -148,21 +186,29 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     w.raw("BEGIN PGM " + name + " MM");
   }
   std::vector<std::string> head = {
-      "dbbkit measurement program of design " + design.name + ", axis " + axis_name(program.axis) +
-          ", " + std::to_string(program.installations.size()) + " installations, " +
-          std::to_string(program.readings) + " readings",
+      std::string(o.air_run ? "AIR RUN (no bar) of the " : "") +
+          "dbbkit measurement program of design " + design.name + ", axis " +
+          axis_name(program.axis) + ", " + std::to_string(program.installations.size()) +
+          " installations, " + std::to_string(program.readings) + " readings; mm, deg",
   };
   if (c) {
-    head.push_back("work offset: origin on the C axis at the table surface, Z up along the C axis");
-    head.push_back(
-        "X Y Z command the centre of the spindle's ball: tool length to the ball centre, "
-        "no radius compensation");
-    head.push_back("C+ turns the table counter-clockwise seen from +Z (right-hand rule)");
+    head.push_back(std::string("work offset ") + (iso ? "G54" : "(the active preset") +
+                   (iso ? "" : ")") +
+                   ": origin on the C axis at the table surface, Z up along the C axis; teach it "
+                   "once: X Y on the C axis (centre of the table's rotation), Z on the table "
+                   "surface");
+    head.push_back("tool T" + tool +
+                   ": the ballbar's spindle cup with its ball, length measured to the ball "
+                   "centre; X Y Z command the ball centre, no radius compensation");
+    head.push_back("C+ turns the table counter-clockwise seen from +Z [right-hand rule]");
   } else {
+    head.push_back(std::string("work offset ") + (iso ? "G54" : "(the active preset)") +
+                   ": origin at the centre of the table ball, whose cup stays where it is "
+                   "placed for the whole test");
     head.push_back(
-        "work offset: origin where the pivot (B axis x spindle axis) stands at the first "
-        "angle of each installation");
-    head.push_back("X Y Z command the pivot: tool length 0 to the pivot, no radius compensation");
+        "tool T" + tool +
+        ": X Y Z command the pivot (B axis x spindle axis): its length register holds the "
+        "distance from the gauge line to the pivot, as the control's head kinematics has it");
     head.push_back(o.tool_down
                        ? "the tool points to -Z at B0; B+ turns the head by the right-hand "
                          "rule about +Y"
@@ -170,17 +216,52 @@ std::string program_text(const Design& design, const MeasurementProgram& program
                          "B+ turns the head by the right-hand rule about +Y [--tool-down for a "
                          "tool pointing to -Z]");
   }
+  head.push_back("clearance plane Z" + coord(zc, false) +
+                 (o.clearance_z_mm
+                      ? " [given]"
+                      : " [the highest point reached plus " +
+                            fmt_rounded(o.clearance_margin_mm, 3) + " mm" +
+                            std::string(c ? "" : " and the pivot-to-ball reach") + "]") +
+                 ": every sideways rapid runs there; each installation is left and reached "
+                 "along Z alone at the feed");
   head.push_back("no tool-centre-point control: each step is split so the bar changes by at most " +
                  fmt_rounded(o.path_tolerance_mm, 4) + " mm between positions");
-  head.push_back("readings: dwell " + fmt_rounded(o.dwell_s, 3) + " s at each design angle; feed " +
+  head.push_back("readings: dwell " + fmt_rounded(o.dwell_s, 3) + " s at each design angle, feed " +
                  fmt_rounded(o.feed_mm_per_min, 1) + " mm/min");
-  head.push_back("the approach to each installation's first position is not collision-checked");
-  head.push_back("moves and dwells take about " + fmt_rounded(program.motion_time_s / 60.0, 1) +
-                 " min, set-ups not included");
+  head.push_back("moves at the feed and dwells take about " +
+                 fmt_rounded(program.motion_time_s / 60.0, 1) +
+                 " min; rapids and set-ups not included");
+  head.push_back(o.air_run
+                     ? "AIR RUN: the same moves with no bar mounted, a stop at each installation "
+                       "and after the first step of each sweep: watch the sense of the rotary "
+                       "axis and the clearance before the measurement"
+                     : "run it first as an air run (program --air-run), with no bar, and check "
+                       "the sense of the rotary axis and every clearance");
   for (const std::string& h : head) w.comment(h);
-  if (dialect == Dialect::kIso) {
-    w.raw("G21 G90 G94 G17");
+
+  // Safe start, before any move: no compensation, cycle, tilted plane or tool-centre-point
+  // control left active; absolute, metric; the spindle stopped (oriented), coolant off; the
+  // tool and its length.
+  // One M function per block (many controls take no more).
+  if (iso) {
+    w.raw("G17 G21 G40 G49 G69 G80 G90 G94");
+    w.raw("M05");
+    w.raw("M09");
     w.raw("G54");
+    w.raw("T" + tool + " M06");
+    if (!o.orient_code.empty()) w.raw(o.orient_code);
+    w.raw("G00 G43 H" + tool + " Z" + coord(zc, false));
+  } else {
+    w.raw("PLANE RESET STAY");
+    w.raw("FUNCTION TCPM RESET");
+    w.raw("TOOL CALL " + tool + " Z S0");
+    w.raw("L Z" + coord(zc, true) + " R0 FMAX M5");
+    w.raw("L Z" + coord(zc, true) + " R0 FMAX M9");
+    if (!o.orient_code.empty()) {
+      w.raw("CYCL DEF 13.0 ORIENTATION");
+      w.raw("CYCL DEF 13.1 ANGLE 0");
+      w.raw("L Z" + coord(zc, true) + " R0 FMAX " + o.orient_code);
+    }
   }
 
   const int n = static_cast<int>(program.installations.size());
@@ -197,32 +278,53 @@ std::string program_text(const Design& design, const MeasurementProgram& program
               fmt_rounded(ip.bar_mm, 4) + " mm; sweep " + sweeps + ", " +
               std::to_string(ip.readings) + " readings");
     if (!inst.description.empty()) w.comment(inst.description);
-    const std::string fixed = "X" + coord(ip.fixed_ball_mm.x(), false) + " Y" +
-                              coord(ip.fixed_ball_mm.y(), false) + " Z" +
-                              coord(ip.fixed_ball_mm.z(), false);
-    w.comment(c ? "table ball centre at " + fixed + " at C0"
-                : "table ball centre at " + fixed + " with the pivot at the origin");
+    w.comment(c ? "table ball centre at " + xyz_text(ip.fixed_ball_mm) + " at C0"
+                : "table ball centre at the origin");
+    // Leave along Z alone, turn at the plane, move sideways there.
+    w.rapid_z(zc);
     w.rapid_rotary(start.angle_deg);
-    w.rapid_linear(start.linear_mm);
-    w.stop("mount the bar " + inst.id + ", then start");
+    if (ip.places_cup) {
+      w.comment("the spindle ball goes where the table ball goes: " + placement_text(design, inst));
+      w.rapid_xy(ip.placement_mm);
+      w.feed_z(ip.placement_mm.z(), o.feed_mm_per_min);
+      w.stop("place the table cup " + inst.id + ", then start");
+      w.feed_z(zc, o.feed_mm_per_min);
+    }
+    w.rapid_xy(start.linear_mm);
+    w.feed_z(start.linear_mm.z(), o.feed_mm_per_min);
+    w.stop(o.air_run ? "AIR RUN " + inst.id + ": check the gap, start"
+                     : "mount the bar " + inst.id + ", then start");
     for (size_t si = 0; si < ip.sweeps.size(); ++si) {
       const ProgramSweep& s = ip.sweeps[si];
       for (size_t pi = 0; pi < s.positions.size(); ++pi) {
         const ProgramPosition& p = s.positions[pi];
         if (pi > 0) w.move(p.linear_mm, p.angle_deg, o.feed_mm_per_min);
+        if (o.air_run && pi == 1) {
+          const double turned = p.angle_deg - s.positions.front().angle_deg;
+          w.comment(std::string("AIR RUN: ") + rotary + (turned > 0 ? "+" : "-") +
+                    " step: the ball on the rotating body must have moved " +
+                    (c ? (turned > 0 ? "counter-clockwise seen from +Z" : "clockwise seen from +Z")
+                       : (turned > 0 ? "by the right-hand rule about +Y"
+                                     : "against the right-hand rule about +Y")) +
+                    ", the spindle ball with it, the gap unchanged");
+          w.stop("AIR RUN: check the sense, then start");
+        }
         if (p.reading) {
           w.dwell(o.dwell_s, "reading " + inst.id + " " + fmt_rounded(p.angle_deg, 4) + " deg " +
                                  sweep_name(s.direction));
         }
       }
     }
-    w.stop("remove the bar " + inst.id);
+    w.stop(o.air_run ? "AIR RUN " + inst.id + " done, then start" : "remove the bar " + inst.id);
+    w.feed_z(zc, o.feed_mm_per_min);
   }
-  w.raw("M30");
-  if (dialect == Dialect::kIso)
+  if (iso) {
+    w.raw("M30");
     w.raw("%");
-  else
+  } else {
+    w.raw("L Z" + coord(zc, true) + " R0 FMAX M30");
     w.raw("END PGM " + name + " MM");
+  }
   return w.text();
 }
 

@@ -74,7 +74,7 @@ std::string instructions(const SetupSheet& sheet, int k) {
   const SetupStep& s = sheet.order.steps[k];
   const Axis axis = sheet.design.axis;
   const Installation& in = sheet.design.installations[s.installation];
-  const InstallationProgram& ip = sheet.program.installations[s.installation];
+  const InstallationProgram& ip = sheet.program.of(s.installation);
   std::string t;
   if (k == 0) {
     t = axis == Axis::kC
@@ -92,6 +92,17 @@ std::string instructions(const SetupSheet& sheet, int k) {
     t += ".";
   } else {
     t = axis == Axis::kC ? "Keep the cup." : "Keep the ball.";
+  }
+  if (ip.places_cup) {
+    // As the program does it (program_io.cpp): the spindle's ball shows where the ball goes.
+    t += axis == Axis::kC
+             ? " The program stops with the spindle's ball (a setting ball in its cup) at " +
+                   xyz(ip.placement_mm) + " mm, where the table's ball goes"
+             : " The program stops with the pivot at " + xyz(ip.placement_mm) +
+                   " mm, the spindle's ball (a setting ball in its cup) at the work frame's "
+                   "origin, where the table's ball goes for the whole test";
+    t += ": seat the table cup against it, lock its base, remove the setting ball; the program "
+         "retracts along Z.";
   }
   t += s.changes_bar ? " Assemble the bar of " + bar_text(in) + "." : " Keep the bar.";
   t += " Mount it " + in.direction.label() + " (sign " + (in.sign > 0 ? "+1" : "-1") + ")";
@@ -175,7 +186,7 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
   const SetupStep& st = sheet.order.steps[step];
   const Axis axis = sheet.design.axis;
   const Installation& in = sheet.design.installations[st.installation];
-  const InstallationProgram& ip = sheet.program.installations[st.installation];
+  const InstallationProgram& ip = sheet.program.of(st.installation);
   const double a = ip.sweeps.front().positions.front().angle_deg;
   const double bar = ip.bar_mm;
   const Eigen::Vector3d P = ball_position_mm(axis, in, a);
@@ -269,6 +280,14 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
   else
     intro += "; set-up times are not included (give --kit for them).";
   w.paragraph(intro);
+  w.paragraph(
+      "The program (dbbkit program) reaches and leaves every installation from the "
+      "clearance plane Z " +
+      mm(pr.clearance_z_mm) +
+      " mm of the work frame: sideways only there, along Z alone at the feed below it. "
+      "Run it first as an air run (program --air-run): no bar, a stop at each "
+      "installation and after the first step of each sweep, to see the rotary axis turn "
+      "the right way and every clearance before a bar is mounted.");
   std::string order;
   for (const SetupStep& s : o.steps)
     order += (order.empty() ? "" : " ") + d.installations[s.installation].id;
