@@ -135,6 +135,11 @@ int quantity_index(Axis axis, const std::vector<std::string>& q, const Tolerance
     length = i - 17 < 3;
   }
   unit = length ? "um" : "urad";
+  // An error motion value is a range (a peak-to-valley): never negative.
+  if (i >= 11 && i < 17 && t.upper && !(*t.upper > 0)) {
+    throw InputError(source, t.where + ".upper",
+                     t.quantity + " is a range, never negative: its upper limit must be > 0");
+  }
   if (!t.unit.empty() && t.unit != unit) {
     throw InputError(source, t.where + ".unit",
                      t.quantity + " is " + (length ? "a length (um)" : "an angle (urad)") +

@@ -20,16 +20,16 @@ namespace {
 // At most kMaxMessageSource bytes of a source (a path), kMaxMessageWhere of a key path or
 // line, kMaxMessageDetail of what is wrong.
 constexpr std::size_t kMaxMessageSource = 1000, kMaxMessageWhere = 300, kMaxMessageDetail = 2000;
-std::string message_part(const std::string& s, std::size_t max_bytes) {
-  return printable(s, max_bytes, true);
+std::string message_part(const std::string& s, std::size_t max_bytes, bool lines) {
+  return printable(s, max_bytes, lines);
 }
 }  // namespace
 
 InputError::InputError(std::string source, std::string where, std::string detail)
     : std::runtime_error(""),
-      source_(message_part(source, kMaxMessageSource)),
-      where_(message_part(where, kMaxMessageWhere)),
-      detail_(message_part(detail, kMaxMessageDetail)),
+      source_(message_part(source, kMaxMessageSource, false)),
+      where_(message_part(where, kMaxMessageWhere, false)),
+      detail_(message_part(detail, kMaxMessageDetail, true)),
       what_(source_ + ": " + (where_.empty() ? "" : where_ + ": ") + detail_) {}
 
 InputError InputError::with_source(const std::string& source) const {
@@ -220,9 +220,11 @@ void validate_design(const Design& d, const std::string& source) {
     if (const auto p = text_problem(v, limits::kMaxTextBytes))
       throw InputError(source, "assumed." + k, quote_value(v) + ": " + *p);
   }
-  require(std::isfinite(d.instrument_range_mm) && d.instrument_range_mm > 0 &&
-              d.instrument_range_mm * 1000.0 <= kMaxAbsReading_um,
-          source, "instrument.range_mm", "must be a positive number of mm, at most 10 mm");
+  require(
+      std::isfinite(d.instrument_range_mm) && d.instrument_range_mm >= kMinInstrumentRange_mm &&
+          d.instrument_range_mm * 1000.0 <= kMaxAbsReading_um,
+      source, "instrument.range_mm",
+      "must be from 0.001 mm (1 um) to 10 mm, got " + text::significant(d.instrument_range_mm, 6));
   require(!d.angles_deg.empty(), source, "angles_deg", "no angles");
   require(d.angles_deg.size() <= limits::kMaxAngles, source, "angles_deg",
           "more than " + std::to_string(limits::kMaxAngles) + " angles (README, \"Limits\")");
@@ -264,8 +266,11 @@ void validate_design(const Design& d, const std::string& source) {
     }
   }
   if (d.reference_length_mm) {
-    require(length_ok(*d.reference_length_mm) && *d.reference_length_mm > 0, source,
-            "reference_length_mm", "must be a positive length in mm, at most 10000 mm");
+    require(length_ok(*d.reference_length_mm) &&
+                *d.reference_length_mm >= limits::kMinReferenceLength_mm,
+            source, "reference_length_mm",
+            "must be a length from 0.001 to 10000 mm, got " +
+                text::significant(*d.reference_length_mm, 6));
   }
 
   if (d.predicted) {
@@ -301,9 +306,12 @@ void validate_design(const Design& d, const std::string& source) {
                                key + ".setup_std");
     require(ids.insert(in.id).second, source, key + ".id",
             "duplicate installation id " + quote_value(in.id));
-    require(length_ok(in.L_mm), source, key + ".ball_mm.L", kLengthLimit);
-    require(length_ok(in.D_mm), source, key + ".ball_mm.D", kLengthLimit);
-    require(length_ok(in.H_mm), source, key + ".ball_mm.H", kLengthLimit);
+    require(length_ok(in.L_mm), source, key + ".ball_mm.L",
+            kLengthLimit + ", got " + text::significant(in.L_mm, 6));
+    require(length_ok(in.D_mm), source, key + ".ball_mm.D",
+            kLengthLimit + ", got " + text::significant(in.D_mm, 6));
+    require(length_ok(in.H_mm), source, key + ".ball_mm.H",
+            kLengthLimit + ", got " + text::significant(in.H_mm, 6));
     if (d.axis == Axis::kC) {
       require(in.L_mm >= 0, source, key + ".ball_mm.L",
               "the radial distance L of a turntable ball must be >= 0 mm");
@@ -315,10 +323,12 @@ void validate_design(const Design& d, const std::string& source) {
     require(finite(norm) && std::abs(norm - 1.0) <= tol::kUnitVectorTolerance, source,
             key + ".direction",
             "an explicit direction must be a unit vector (|v| = " + std::to_string(norm) + ")");
-    require(in.sign == 1 || in.sign == -1, source, key + ".sign", "must be +1 or -1");
+    require(in.sign == 1 || in.sign == -1, source, key + ".sign",
+            "must be +1 or -1, got " + std::to_string(in.sign));
     if (in.bar_mm) {
-      require(length_ok(*in.bar_mm) && *in.bar_mm > 0, source, key + ".bar_mm",
-              "must be a positive length in mm, at most 10000 mm");
+      require(length_ok(*in.bar_mm) && *in.bar_mm >= kMinBar_mm, source, key + ".bar_mm",
+              "must be a length from 25 mm (two balls and their cups) to 10000 mm, got " +
+                  text::significant(*in.bar_mm, 6));
     }
     if (!in.bar_parts_mm.empty()) {
       require(in.bar_mm.has_value(), source, key + ".bar_parts_mm",

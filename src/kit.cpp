@@ -173,6 +173,13 @@ void validate_pattern(const Kit& k, const std::string& source) {
     any_required = any_required || !pos.optional;
     require(!pos.id.empty(), source, key + ".id", "is empty");
     // The position's id plus its direction's letter is an installation id (user_text.hpp).
+    if (pos.id.size() + 1 > limits::kMaxIdBytes) {
+      throw InputError(source, key + ".id",
+                       quote_value(pos.id) + ": at most " +
+                           std::to_string(limits::kMaxIdBytes - 1) +
+                           " bytes (with its direction's letter, an installation id of at most " +
+                           std::to_string(limits::kMaxIdBytes) + ")");
+    }
     if (const auto problem = id_problem(pos.id + "r"))
       throw InputError(source, key + ".id", quote_value(pos.id) + ": " + *problem);
     require(!pos.directions.empty(), source, key + ".directions", "no directions");

@@ -54,19 +54,24 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
     if (std::abs(r.reading_um) > 1000.0 * design.instrument_range_mm) {
       std::ostringstream s;
       if (r.in_mm) {
-        s << "reading_mm " << r.reading_um / 1000.0 << " is beyond the instrument's range of +-"
-          << design.instrument_range_mm
-          << " mm: are the readings in um? (give them in a reading_um column)";
+        s << std::setprecision(12) << "reading_mm " << r.reading_um / 1000.0
+          << " is beyond the instrument's range of +-" << design.instrument_range_mm << " mm";
+        // Twice the range or more: a unit mix-up, most likely (um written as mm).
+        if (std::abs(r.reading_um) >= 2.0 * 1000.0 * design.instrument_range_mm)
+          s << ": are the readings in um? (give them in a reading_um column)";
       } else {
-        s << "reading " << r.reading_um << " um is beyond the instrument's range of +-"
-          << design.instrument_range_mm << " mm";
+        s << std::setprecision(12) << "reading " << r.reading_um
+          << " um is beyond the instrument's range of +-" << design.instrument_range_mm << " mm";
       }
       s << "; the range is the design's instrument.range_mm (default " << kDefaultInstrumentRange_mm
         << " mm)";
       throw InputError(source, where, s.str());
     }
     if (r.time_s && (!std::isfinite(*r.time_s) || *r.time_s < 0)) {
-      throw InputError(source, where, "time_s must be a finite number of seconds >= 0");
+      std::ostringstream m;
+      m << "time_s must be a finite number of seconds >= 0, got " << std::setprecision(12)
+        << *r.time_s;
+      throw InputError(source, where, m.str());
     }
     if (r.repeat && *r.repeat < 0)
       throw InputError(source, where, "repeat must be an integer >= 0");

@@ -32,8 +32,8 @@ CodePoint decode_utf8(std::string_view s, std::size_t i) {
 }
 
 bool is_control(char32_t c) {
-  return c < 0x20 || (c >= 0x7F && c <= 0x9F) || c == 0x2028 || c == 0x2029 || c == 0x200E ||
-         c == 0x200F || (c >= 0x202A && c <= 0x202E) || (c >= 0x2066 && c <= 0x2069);
+  return c < 0x20 || (c >= 0x7F && c <= 0x9F) || c == 0x2028 || c == 0x2029 || c == 0x061C ||
+         c == 0x200E || c == 0x200F || (c >= 0x202A && c <= 0x202E) || (c >= 0x2066 && c <= 0x2069);
 }
 
 }  // namespace internal
@@ -107,9 +107,10 @@ std::optional<std::string> id_problem(std::string_view id) {
 }
 
 std::string printable(std::string_view text, std::size_t max_bytes, bool keep_lines) {
+  // max_bytes bounds the text read (an escape may make the output longer).
   std::string out;
   std::size_t i = 0;
-  for (; i < text.size() && out.size() < max_bytes;) {
+  for (; i < text.size() && i < max_bytes;) {
     const internal::CodePoint cp = internal::decode_utf8(text, i);
     if (cp.length == 0) {
       out += "\\x" + hex(static_cast<unsigned char>(text[i]), 2);

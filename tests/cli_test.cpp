@@ -181,7 +181,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"design_noise_huge.json", kIdentifyDesign, "noise.std_um", "[1e-4, 1e4]"},
         BadCase{"design_noise_tiny.json", kIdentifyDesign, "noise.std_um", "[1e-4, 1e4]"},
         BadCase{"design_instrument_range_huge.json", kIdentifyDesign, "instrument.range_mm",
-                "at most 10 mm"},
+                "to 10 mm, got 20"},
         BadCase{"design_order_huge.json", kIdentifyDesign, "errors.order", "at most 100"},
         BadCase{"design_too_many_angles.json", kIdentifyDesign, "angles_deg.step",
                 "more than 100000 angles"},
@@ -205,8 +205,8 @@ INSTANTIATE_TEST_SUITE_P(
                 "either max_abs or lower/upper"},
         BadCase{"tolerances_duplicate.json", kTolerancesC, "limits[1].quantity",
                 "has a limit already (limits[0])"},
-        BadCase{"tolerances_no_limit.json", kTolerancesC, "limits[0].upper",
-                "needs max_abs, lower or upper"},
+        BadCase{"tolerances_no_limit.json", kTolerancesC, "limits[0]",
+                "needs max_abs, lower or upper (none is given)"},
         BadCase{"tolerances_reversed.json", kTolerancesC, "limits[0].upper", "must exceed lower"},
         BadCase{"tolerances_unknown_key.json", kTolerancesC, "limits[0].level", "unknown key"},
         // Silent wrong answers (a NaN, a row counted twice, an infinite zone) refused instead.
@@ -227,7 +227,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"truth_beyond_instrument_range.json", kSimulateC, "",
                 "beyond the instrument's range of +-1 mm"},
         BadCase{"tolerances_limit_overflow.json", kTolerancesC, "limits[0].max_abs",
-                "beyond +-1e9 um"}),
+                "1e+307 mm is beyond +-1e9 um"}),
     [](const auto& info) {
       std::string name = info.param.file;
       for (char& ch : name) {

@@ -39,6 +39,10 @@ inline std::vector<HostileString> hostile_strings() {
        "a\xe2\x80\xae"
        "b",
        false},
+      {"arabic letter mark U+061C",
+       "a\xd8\x9c"
+       "b",
+       false},
       {"invalid UTF-8",
        "a\xff\xfe"
        "b",

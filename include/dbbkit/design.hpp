@@ -107,6 +107,10 @@ struct Prediction {
 };
 
 inline constexpr double kDefaultInstrumentRange_mm = 1.0;
+// The least instrument range a design may declare (instrument.range_mm): 1 um.
+inline constexpr double kMinInstrumentRange_mm = 1e-3;
+// The shortest bar (bar_mm): two balls of about 13 mm and their cups cannot come closer.
+inline constexpr double kMinBar_mm = 25.0;
 
 // The parts of a bar add up to bar_mm, and a cup and its blocks to H, when
 // |sum - value| <= kAssemblyTolerance_mm (lengths written with 6 decimals).

@@ -21,6 +21,10 @@
 
 namespace dbbkit {
 
+// A Type A evaluation needs a residual: its scale sqrt(chi2 / dof) (the scatter against the
+// declared noise) is at least this, or the evaluation is refused (InputError "--type-a").
+inline constexpr double kMinTypeAScale = 1e-6;
+
 struct BudgetOptions {
   bool type_a = false;  // evaluate the reading noise from the residual
   double coverage_probability = 0.95;

@@ -5,7 +5,7 @@
 //   - valid UTF-8 (no overlong forms, no surrogates, nothing above U+10FFFF);
 //   - no control character: C0 (U+0000..U+001F, so no NUL, tab, line feed or ESC), DEL,
 //     C1 (U+0080..U+009F), the line and paragraph separators U+2028, U+2029, and the
-//     bidirectional controls U+200E, U+200F, U+202A..U+202E, U+2066..U+2069 (they
+//     bidirectional controls U+061C, U+200E, U+200F, U+202A..U+202E, U+2066..U+2069 (they
 //     reorder what a reader sees without changing the bytes);
 //   - at most a stated number of bytes (limits below);
 //   - an installation id besides: ASCII letters, digits and - _ . + : , starting with a
@@ -40,7 +40,7 @@ std::optional<std::string> id_problem(std::string_view id);
 std::string quote_value(std::string_view text, std::size_t max_chars = 60);
 
 // `text` with every control character and invalid byte written as an escape (but line
-// feeds and tabs when `keep_lines`), and cut after `max_bytes` ("... (N bytes)"): a
+// feeds and tabs when `keep_lines`), and cut after `max_bytes` of the text ("... (N bytes)"): a
 // message's own safety net (InputError passes its parts through it).
 std::string printable(std::string_view text, std::size_t max_bytes, bool keep_lines = false);
 

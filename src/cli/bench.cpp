@@ -9,6 +9,8 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/bench_io.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/escape.hpp"
+#include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/observability.hpp"
 
@@ -116,7 +118,8 @@ Runner add_bench(CLI::App& app) {
     std::ostream& text = args->quiet ? discarded : stdout_taken ? std::cerr : std::cout;
     text << io::bench_table(rows, tol);
     for (const auto& [key, f] : baseline.designs) {
-      if (!keys.count(key)) text << "note: " << key << " is in the baseline but was not given\n";
+      if (!keys.count(key))
+        text << "note: " << io::terminal_text(key) << " is in the baseline but was not given\n";
     }
     int worse = 0, failed = 0;
     for (const io::BenchRow& r : rows)
@@ -125,7 +128,7 @@ Runner add_bench(CLI::App& app) {
       io::Baseline out;
       out.tolerance_relative = tol;
       for (const io::BenchRow& r : rows) out.designs[r.key] = r.now;
-      outputs.stage("--write-baseline", io::baseline_to_json(out).dump(2) + "\n");
+      outputs.stage("--write-baseline", io::dump_json(io::baseline_to_json(out)) + "\n");
     }
     if (!args->summary.empty()) outputs.stage("--summary", io::bench_markdown(rows, tol, limits));
     if (!args->junit.empty()) outputs.stage("--junit", io::bench_junit(rows));

@@ -8,6 +8,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/reports.hpp"
@@ -69,7 +70,8 @@ Runner add_diagnose(CLI::App& app) {
                                                      readings, result, a_priori_expansion()));
     }
     if (!json_out.empty())
-      outputs.stage("--out", io::diagnose_to_json(design, readings, result, inputs).dump(2) + "\n");
+      outputs.stage("--out",
+                    io::dump_json(io::diagnose_to_json(design, readings, result, inputs)) + "\n");
     outputs.commit();
     if (tables_to_stdout(args->out, rep->quiet))
       std::cout << io::diagnose_summary(design, readings, result);

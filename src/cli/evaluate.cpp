@@ -8,10 +8,12 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/sweep_io.hpp"
+#include "dbbkit/io/text.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/observability.hpp"
@@ -64,7 +66,20 @@ Runner add_evaluate(CLI::App& app) {
       throw InputError("--map-csv", "", "a design map needs at least one --sweep");
     }
     std::vector<SweepVariable> variables;
-    for (const std::string& spec : args->sweeps) variables.push_back(io::parse_sweep(design, spec));
+    double points = 1;
+    for (const std::string& spec : args->sweeps) {
+      variables.push_back(io::parse_sweep(design, spec));
+      // The map evaluates the design at every combination: their number is bounded, not only
+      // each sweep's.
+      points *= static_cast<double>(variables.back().values.size());
+      if (points > io::kMaxSweepPoints) {
+        throw InputError("--sweep", spec,
+                         "the sweeps give more than " +
+                             std::to_string(static_cast<long>(io::kMaxSweepPoints)) +
+                             " design points together (" + io::fmt_num(points, 6) +
+                             "): coarser steps or fewer sweeps");
+      }
+    }
     const DesignAssessment assessed = assess_design(design, *ref);
     const Evaluation& ev = assessed.evaluation;
     const std::vector<CandidateStatus>& effects = assessed.effects;
@@ -79,7 +94,7 @@ Runner add_evaluate(CLI::App& app) {
       nlohmann::json j = io::evaluate_to_json(design, ev, args->design, mc ? &*mc : nullptr);
       if (!variables.empty()) j["sweep"] = io::sweep_to_json(variables, map);
       j["effects"] = io::effects_to_json(effects);
-      outputs.stage("--out", j.dump(2) + "\n");
+      outputs.stage("--out", io::dump_json(j) + "\n");
     }
     if (!args->map_csv.empty()) outputs.stage("--map-csv", io::sweep_csv(variables, map));
     const io::RunContext run{command_line(), {args->design}};

@@ -2,6 +2,7 @@
 
 #include "app.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/io/escape.hpp"
 #include "dbbkit/io/output.hpp"
 #include "report_options.hpp"
 
@@ -11,8 +12,12 @@ int main(int argc, char** argv) {
   try {
     cl->app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = cl->app.exit(e);
-    return code == 0 ? 0 : 2;
+    // Help and the version as the parser writes them; an error with its values escaped, as
+    // every message of dbbkit (an option's value may hold any bytes).
+    if (e.get_exit_code() == 0) return cl->app.exit(e);
+    std::cerr << "dbbkit: error: " << dbbkit::io::terminal_text(e.what())
+              << "\nRun with --help for more information.\n";
+    return 2;
   }
   dbbkit::io::install_cleanup_handlers();
   try {

@@ -10,6 +10,7 @@
 #include "commands.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/optimize_io.hpp"
 #include "dbbkit/io/output.hpp"
@@ -112,8 +113,9 @@ Runner add_optimize(CLI::App& app) {
     const OptimizeResult res = optimize_kit(kit, options);
     const double seconds = elapsed();
     if (!args->result.empty()) {
-      outputs.stage("--result",
-                    io::optimize_to_json(kit, res, args->kit, seconds, reference).dump(2) + "\n");
+      outputs.stage(
+          "--result",
+          io::dump_json(io::optimize_to_json(kit, res, args->kit, seconds, reference)) + "\n");
     }
     if (!args->pareto_csv.empty()) outputs.stage("--pareto-csv", io::pareto_csv(kit, res));
     const io::RunContext run{command_line(), inputs};
@@ -131,7 +133,7 @@ Runner add_optimize(CLI::App& app) {
     const bool design_out = !args->out.empty() || json_to_stdout(args->out);
     if (res.best && design_out) {
       const Design d = io::optimized_design(kit, res, args->kit);
-      outputs.stage("--out", io::design_to_json(d).dump(2) + "\n");
+      outputs.stage("--out", io::dump_json(io::design_to_json(d)) + "\n");
     } else if (design_out) {
       outputs.withhold("--out");  // no design: the file given is left as it is
     }

@@ -8,6 +8,7 @@
 #include "commands.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/truth_io.hpp"
@@ -62,11 +63,10 @@ Runner add_simulate(CLI::App& app) {
       if (!truth.exact)
         throw InputError("--setup-out", "",
                          "set-up errors are simulated with \"geometry\": \"exact\" only");
-      outputs.stage(
-          "--setup-out",
-          io::setup_errors_to_json(design, simulated_setup_errors(design, truth, seed.value_or(0)))
-                  .dump(2) +
-              "\n");
+      outputs.stage("--setup-out",
+                    io::dump_json(io::setup_errors_to_json(
+                        design, simulated_setup_errors(design, truth, seed.value_or(0)))) +
+                        "\n");
     }
     outputs.commit();
     return 0;

@@ -9,6 +9,7 @@
 #include "dbbkit/io/report_writer.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
 
@@ -43,7 +44,7 @@ const char* bench_state_name(BenchState s) {
 }
 
 Baseline read_baseline_file(const std::string& path) {
-  const json j = parse_json(read_text_file(path), path);
+  const json j = parse_json(read_json_file(path), path);
   ObjectReader top(j, path, "");
   const std::string format = top.string("format");
   if (format != kBaselineFormat)
@@ -56,6 +57,9 @@ Baseline read_baseline_file(const std::string& path) {
   const json& designs = top.required("designs");
   ObjectReader dr(designs, path, "designs");
   for (auto it = designs.begin(); it != designs.end(); ++it) {
+    // A key names a design file: text (user_text.hpp), printed and written as data.
+    if (const auto problem = text_problem(it.key(), limits::kMaxTextBytes))
+      throw InputError(path, "designs", "the key " + quote_value(it.key()) + ": " + *problem);
     ObjectReader d = dr.object(it.key());
     BenchFigures f;
     f.rank = d.integer("rank");

@@ -4,6 +4,7 @@
 
 #include "../tolerances.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/io/text.hpp"
 
 namespace dbbkit::io {
 
@@ -73,7 +74,9 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
   if (dist == "uniform") {
     m.distribution = NoiseModel::Distribution::kUniform;
     m.half_width_um = noise.number("accuracy_um");
-    if (!(m.half_width_um > 0)) noise.fail("accuracy_um", "must be a positive number of um");
+    if (!(m.half_width_um > 0))
+      noise.fail("accuracy_um",
+                 "must be a positive number of um, got " + fmt_num(m.half_width_um, 6));
   } else if (dist == "normal") {
     m.distribution = NoiseModel::Distribution::kNormal;
     if (noise.has("accuracy_um")) {
@@ -82,7 +85,8 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
           "a normal distribution is declared by its standard deviation std_um, not by an accuracy");
     }
     m.std_um = noise.number("std_um");
-    if (!(m.std_um > 0)) noise.fail("std_um", "must be a positive number of um");
+    if (!(m.std_um > 0))
+      noise.fail("std_um", "must be a positive number of um, got " + fmt_num(m.std_um, 6));
   } else if (dist == "none" && allow_none) {
     noise.finish();
     return std::nullopt;
@@ -216,7 +220,8 @@ Design design_from_json(const json& j, const std::string& source) {
     ball.finish();
     inst.direction = read_direction(in.required("direction"), d.axis, source, path + ".direction");
     inst.sign = in.optional_integer("sign").value_or(1);
-    if (inst.sign != 1 && inst.sign != -1) in.fail("sign", "must be +1 or -1");
+    if (inst.sign != 1 && inst.sign != -1)
+      in.fail("sign", "must be +1 or -1, got " + std::to_string(inst.sign));
     inst.bar_mm = in.optional_number("bar_mm");
     inst.description = in.optional_string("description").value_or("");
     if (const json* parts = in.optional("bar_parts_mm"))
@@ -257,7 +262,7 @@ Design design_from_json(const json& j, const std::string& source) {
 }
 
 Design read_design_file(const std::string& path) {
-  return design_from_json(parse_json(read_text_file(path), path), path);
+  return design_from_json(parse_json(read_json_file(path), path), path);
 }
 
 json design_to_json(const Design& d) {

@@ -160,6 +160,6 @@ std::string program_comment(std::string_view s, std::size_t max_chars) {
   return out;
 }
 
-std::string terminal_text(std::string_view s) { return printable(s, s.size() + 1); }
+std::string terminal_text(std::string_view s) { return printable(s, s.size()); }
 
 }  // namespace dbbkit::io

@@ -6,13 +6,16 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
+#include <thread>
 #include <vector>
 
 #include "dbbkit/error.hpp"
@@ -27,6 +30,11 @@ std::string gnuplot_number(double x) {
   s << std::setprecision(10) << x;
   return s.str();
 }
+
+namespace {
+// The longest a plot may take.
+constexpr int kPlotTimeout_s = 120;
+}  // namespace
 
 std::string gnuplot_svg(const std::string& script, int width_px, int height_px) {
   // A private directory (mkdtemp, mode 0700) holds the script, the plot and gnuplot's
@@ -60,8 +68,8 @@ std::string gnuplot_svg(const std::string& script, int width_px, int height_px) 
     internal::unregister_temporary(dir_slot);
   };
   std::string out, err;
-  int status = -1;
-  bool not_found = false;
+  int status = -1, signal = 0;
+  bool not_found = false, timed_out = false;
   {
     std::ofstream f(gp);
     f << "set terminal svg size " << width_px << "," << height_px
@@ -85,20 +93,41 @@ std::string gnuplot_svg(const std::string& script, int width_px, int height_px) 
   if (rc != 0) {
     not_found = rc == ENOENT;
   } else {
+    // A plot takes well under a second; a gnuplot that hangs is stopped after kPlotTimeout_s.
     int wstatus = 0;
-    while (::waitpid(pid, &wstatus, 0) < 0 && errno == EINTR) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kPlotTimeout_s);
+    for (;;) {
+      const pid_t done = ::waitpid(pid, &wstatus, WNOHANG);
+      if (done == pid || (done < 0 && errno != EINTR)) break;
+      if (std::chrono::steady_clock::now() > deadline) {
+        ::kill(pid, SIGKILL);
+        while (::waitpid(pid, &wstatus, 0) < 0 && errno == EINTR) {
+        }
+        timed_out = true;
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     status = WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : -1;
+    signal = WIFSIGNALED(wstatus) ? WTERMSIG(wstatus) : 0;
     if (status == 0 && std::filesystem::exists(svg)) out = read_text_file(svg);
     if (std::filesystem::exists(log)) err = read_text_file(log);
   }
   cleanup();
   if (out.empty()) {
-    throw InputError(
-        "--report", "",
-        not_found
-            ? "gnuplot draws the plots and was not found; install gnuplot-nox (./setup.sh does)"
-            : "gnuplot failed: " + err.substr(0, 400));
+    std::string why;
+    if (not_found) {
+      why = "gnuplot draws the plots and was not found; install gnuplot-nox (./setup.sh does)";
+    } else if (timed_out) {
+      why = "gnuplot did not finish a plot in " + std::to_string(kPlotTimeout_s) + " s";
+    } else {
+      why = "gnuplot failed (" +
+            (signal ? "killed by signal " + std::to_string(signal)
+                    : "exit status " + std::to_string(status)) +
+            (err.empty() ? std::string(", no message") : "): " + err.substr(0, 400));
+      if (err.empty()) why += ")";
+    }
+    throw InputError("--report", "", why);
   }
   // Drop the XML prolog and DOCTYPE: the SVG is inlined in HTML.
   const size_t start = out.find("<svg");

@@ -22,6 +22,15 @@ namespace dbbkit::io {
 using nlohmann::json;
 
 std::string read_text_file(const std::string& path) {
+  return read_text_file(path, limits::kMaxInputBytes);
+}
+
+std::string read_json_file(const std::string& path) {
+  // One byte more than a JSON input may hold: parse_json names what is too long.
+  return read_text_file(path, limits::kMaxJsonBytes + 1);
+}
+
+std::string read_text_file(const std::string& path, std::size_t max_bytes) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw InputError(path, "", "is a directory, not a file");
@@ -33,7 +42,8 @@ std::string read_text_file(const std::string& path) {
   while (in) {
     in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
     text.append(buf.data(), static_cast<size_t>(in.gcount()));
-    if (text.size() > limits::kMaxInputBytes) {
+    if (text.size() > max_bytes) {
+      if (max_bytes < limits::kMaxInputBytes) break;  // the reader of the format says more
       throw InputError(path, "",
                        "longer than " + std::to_string(limits::kMaxInputBytes >> 20) +
                            " MiB, the most dbbkit reads from one input (README, \"Limits\")");
@@ -79,6 +89,10 @@ bool underflows(const std::string& text) {
   errno = 0;
   const double x = std::strtod(text.c_str(), nullptr);
   return errno == ERANGE && std::abs(x) < std::numeric_limits<double>::min();
+}
+
+std::string dump_json(const json& j, int indent) {
+  return j.dump(indent, ' ', false, json::error_handler_t::replace);
 }
 
 namespace {
@@ -173,11 +187,13 @@ json parse_json(const std::string& text, const std::string& source) {
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) {
     throw InputError(source, "", "the file is empty");
   }
+  // nlohmann's parser reads a NUL byte as the end of the input: what follows would be ignored.
+  if (const std::size_t nul = text.find('\0'); nul != std::string::npos)
+    throw InputError(source, line_column(text, nul), "a NUL byte: not JSON text");
   if (text.size() > limits::kMaxJsonBytes) {
     throw InputError(source, "",
-                     std::to_string(text.size() >> 20) + " MiB of JSON, more than the " +
-                         std::to_string(limits::kMaxJsonBytes >> 20) +
-                         " MiB dbbkit reads from one JSON input (README, \"Limits\")");
+                     "more than the " + std::to_string(limits::kMaxJsonBytes >> 20) +
+                         " MiB of JSON dbbkit reads from one input (README, \"Limits\")");
   }
   std::vector<Frame> frames;
   std::size_t keys_seen = 0;

@@ -1,8 +1,11 @@
 #include "dbbkit/io/kit_io.hpp"
 
+#include <cctype>
+
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
 
@@ -36,8 +39,14 @@ PatternCoordinate read_coordinate(ObjectReader& r, const std::string& key) {
   const json* v = r.optional(key);
   if (!v) return {};
   if (v->is_string()) {
-    const std::string name = v->get<std::string>();
+    const std::string name = as_string(*v, r.source(), r.key_path(key));
     if (name.empty()) r.fail(key, "a variable needs a name");
+    // A variable names a design's coordinate in messages and results: letters, digits, _.
+    for (char c : name) {
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_')
+        r.fail(key, "the variable " + quote_value(name) + " holds letters, digits and _ only");
+    }
+    if (name.size() > 32) r.fail(key, "the variable " + quote_value(name) + " is longer than 32");
     return {name, 0};
   }
   return {"", as_number(*v, r.source(), r.key_path(key))};
@@ -211,6 +220,6 @@ Kit kit_from_text(const std::string& text, const std::string& source) {
   return kit_from_json(parse_json(text, source), source);
 }
 
-Kit read_kit_file(const std::string& path) { return kit_from_text(read_text_file(path), path); }
+Kit read_kit_file(const std::string& path) { return kit_from_text(read_json_file(path), path); }
 
 }  // namespace dbbkit::io

@@ -133,6 +133,10 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
     r.angle_deg = cell("angle_deg").number();
     if (col.count("reading_mm")) {
       r.reading_um = 1000.0 * cell("reading_mm").number();
+      if (!std::isfinite(r.reading_um))
+        cell("reading_mm")
+            .fail(quote_value(cells[col.at("reading_mm")]) +
+                  " mm is beyond the range of any instrument");
       r.in_mm = true;
     } else {
       r.reading_um = cell("reading_um").number();

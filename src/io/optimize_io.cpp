@@ -11,6 +11,7 @@
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/observability.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
 
@@ -78,7 +79,8 @@ std::string detection_text(const Candidate::Detection& d) {
 Design optimized_design(const Kit& kit, const OptimizeResult& res, const std::string& kit_file) {
   Design d = res.best->design;
   const Evaluation& ev = res.best_evaluation;
-  d.description = "Found by dbbkit optimize in kit " + kit_file + " (criterion " +
+  // The kit's path as text the design may hold (user_text.hpp): escaped, at most 300 bytes.
+  d.description = "Found by dbbkit optimize in kit " + printable(kit_file, 300) + " (criterion " +
                   criterion_name(res.criterion) + "): " + choice_label(kit, res.best->choice) + ".";
   Prediction p;
   p.criterion = criterion_name(res.criterion);

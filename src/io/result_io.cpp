@@ -316,7 +316,7 @@ std::string json_text(const json& j, const std::string& key, std::size_t count,
   json doc = j;
   const std::string mark = "\\u0001rows\\u0001";
   doc[key] = "\x01rows\x01";
-  const std::string text = doc.dump(2);
+  const std::string text = dump_json(doc);
   const std::string slot = "\"" + mark + "\"";
   const std::size_t at = text.find(slot);
   if (at == std::string::npos) throw std::logic_error("json_text: placeholder not found");
@@ -326,7 +326,7 @@ std::string json_text(const json& j, const std::string& key, std::size_t count,
   } else {
     out += "[\n";
     for (std::size_t i = 0; i < count; ++i) {
-      const std::string r = row(i).dump(2);
+      const std::string r = dump_json(row(i));
       out += "    ";
       for (char c : r) {
         out += c;

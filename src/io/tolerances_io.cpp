@@ -75,7 +75,8 @@ std::vector<Tolerance> tolerances_from_json(const json& j, const std::string& so
       t.lower = -*max_abs * factor;
       t.upper = *max_abs * factor;
     } else {
-      if (!lower && !upper) r.fail("upper", "a limit needs max_abs, lower or upper");
+      if (!lower && !upper)
+        throw InputError(source, where, "a limit needs max_abs, lower or upper (none is given)");
       if (lower) t.lower = *lower * factor;
       if (upper) t.upper = *upper * factor;
       if (lower && upper && !(*upper > *lower)) r.fail("upper", "must exceed lower");
@@ -84,9 +85,9 @@ std::vector<Tolerance> tolerances_from_json(const json& j, const std::string& so
     // not empty after the unit's conversion.
     for (const auto& [key, v] : {std::pair{"lower", t.lower}, std::pair{"upper", t.upper}}) {
       if (v && !(std::isfinite(*v) && std::abs(*v) <= kMaxToleranceLimit)) {
-        r.fail(max_abs ? "max_abs" : key, "a limit of " + fmt_num(*v / factor, 6) + " " + unit +
-                                              " is beyond +-1e9 " + t.unit + " (in " + t.unit +
-                                              ")");
+        const double given = max_abs ? *max_abs : (std::string(key) == "lower" ? *lower : *upper);
+        r.fail(max_abs ? "max_abs" : key, fmt_num(given, 6) + " " + unit + " is beyond +-1e9 " +
+                                              t.unit + " (the most a limit may be)");
       }
     }
     if (t.lower && t.upper && !(*t.upper > *t.lower))
@@ -99,7 +100,7 @@ std::vector<Tolerance> tolerances_from_json(const json& j, const std::string& so
 }
 
 std::vector<Tolerance> read_tolerances_file(const std::string& path) {
-  return tolerances_from_json(parse_json(read_text_file(path), path), path);
+  return tolerances_from_json(parse_json(read_json_file(path), path), path);
 }
 
 json conformance_to_json(const ConformanceReport& report, const std::string& tolerances_path) {

@@ -232,7 +232,7 @@ nlohmann::json setup_errors_to_json(const Design& design, const std::vector<Setu
 }
 
 Truth read_truth_file(const std::string& path) {
-  return truth_from_json(parse_json(read_text_file(path), path), path);
+  return truth_from_json(parse_json(read_json_file(path), path), path);
 }
 
 }  // namespace dbbkit::io

@@ -86,6 +86,18 @@ std::string child(const std::string& path, const std::string& key) {
   return path.empty() ? key : path + "." + key;
 }
 
+// A str as UTF-8; one that cannot be (a lone surrogate) is an InputError at its key.
+std::string text_of(py::handle h, const std::string& source, const std::string& path) {
+  try {
+    return h.cast<std::string>();
+  } catch (py::error_already_set&) {
+  } catch (const py::cast_error&) {
+  }
+  PyErr_Clear();
+  throw InputError(source, path.empty() ? "top level" : path,
+                   "text that is not valid Unicode (a lone surrogate)");
+}
+
 // A dict, list, str, number, bool or None (and NumPy scalars and arrays, through tolist())
 // as the JSON the readers take; anything else, or a non-finite number, is an InputError
 // at its key (`source`: "design", "kit", ...).
@@ -98,8 +110,9 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
       if (h.cast<py::int_>() >= py::int_(0)) return h.cast<unsigned long long>();
       return h.cast<long long>();
     } catch (const py::cast_error&) {
-      throw InputError(source, path,
-                       "the integer " + py::str(h).cast<std::string>() + " is out of range");
+      throw InputError(
+          source, path,
+          "the integer " + quote_value(py::str(h).cast<std::string>(), 30) + " is out of range");
     }
   }
   if (py::isinstance<py::float_>(h)) {
@@ -109,7 +122,7 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
                        "not a finite number (" + py::repr(h).cast<std::string>() + ")");
     return x;
   }
-  if (py::isinstance<py::str>(h)) return h.cast<std::string>();
+  if (py::isinstance<py::str>(h)) return text_of(h, source, path);
   const bool container =
       py::isinstance<py::dict>(h) || py::isinstance<py::list>(h) || py::isinstance<py::tuple>(h);
   if (container) {
@@ -140,7 +153,7 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
             source, path,
             "a key that is not a string (" + py::repr(item.first).cast<std::string>() + ")");
       }
-      const std::string key = item.first.cast<std::string>();
+      const std::string key = text_of(item.first, source, path);
       j[key] = from_python(item.second, source, child(path, key), open);
     }
     return j;
@@ -164,11 +177,13 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
   return from_python(h, source, path, open);
 }
 
-// A path given as str or os.PathLike; nullopt for anything else.
+// A path given as str, bytes or os.PathLike, as the bytes the system names it by (a str with
+// the surrogates of undecodable bytes through os.fsencode); nullopt for anything else.
 std::optional<std::string> as_path(py::handle h) {
-  if (py::isinstance<py::str>(h)) return h.cast<std::string>();
-  if (py::hasattr(h, "__fspath__")) return h.attr("__fspath__")().cast<std::string>();
-  return std::nullopt;
+  if (!py::isinstance<py::str>(h) && !py::isinstance<py::bytes>(h) && !py::hasattr(h, "__fspath__"))
+    return std::nullopt;
+  const py::object bytes = py::module_::import("os").attr("fsencode")(h);
+  return bytes.cast<std::string>();
 }
 
 // ---------------------------------------------------------------- argument checks
@@ -280,6 +295,12 @@ PyMeasurements measurements_from_arrays(const PyDesign& d, py::object installati
     if (seq->is_none()) continue;
     if (!py::hasattr(*seq, "__len__"))
       throw InputError("measurements", name, "expected a list or an array (one value per reading)");
+    // NumPy: one value per reading, real (a complex array would be made real, a 2-D one flat).
+    if (py::hasattr(*seq, "ndim") && seq->attr("ndim").cast<long>() != 1)
+      throw InputError("measurements", name,
+                       "expected a one-dimensional array (one value per reading)");
+    if (py::hasattr(*seq, "dtype") && seq->attr("dtype").attr("kind").cast<std::string>() == "c")
+      throw InputError("measurements", name, "complex numbers: expected real ones");
     if (py::len(*seq) > limits::kMaxReadings) {
       throw InputError("measurements", name,
                        std::to_string(py::len(*seq)) + " values: more than the " +
@@ -798,7 +819,8 @@ PYBIND11_MODULE(dbbkit, m) {
            "Measurements(path, design): a measurement CSV (formats.md)")
       .def_static(
           "from_csv",
-          [](const std::string& text, const PyDesign& design, const std::string& source) {
+          [](const std::string& text, const PyDesign& design, py::object source_obj) {
+            const std::string source = text_of(source_obj, "argument", "source");
             PyMeasurements mm;
             mm.readings = io::parse_measurements(text, source);
             validate_readings(design.value, mm.readings, source);

@@ -285,6 +285,20 @@ class BadInput(InSource):
                               "measurements", "installation", "more than")
         with self.assertRaises(TypeError):
             dbbkit.Measurements.from_arrays(d, [1, 2], [0.0, 1.0], [0.0, 0.0])
+        # Complex or two-dimensional arrays are not made real or flat without a word.
+        self.assertInputError(lambda: dbbkit.Measurements.from_arrays(
+            d, ["1r"], np.array([0.0 + 1j]), [0.0]), "measurements", "angle_deg", "complex")
+        self.assertInputError(lambda: dbbkit.Measurements.from_arrays(
+            d, ["1r"], [0.0], np.array([[0.0]])), "measurements", "reading_um", "one-dimensional")
+        # A str that is not Unicode (a lone surrogate) is refused at its key; a path with the
+        # surrogates of undecodable bytes names the file by those bytes.
+        self.assertInputError(lambda: dbbkit.Design(dict(raw, name="a\ud800")), "design", "name",
+                              "not valid Unicode")
+        with tempfile.TemporaryDirectory() as tmp:
+            bad = os.path.join(os.fsencode(tmp), b"bad\xff.json")
+            with open(PAPER_C, "rb") as f, open(bad, "wb") as g:
+                g.write(f.read())
+            self.assertEqual(dbbkit.Design(os.fsdecode(bad)).to_dict()["name"], raw["name"])
         # Readings read from a file keep their lines in a later check against another design.
         m = dbbkit.Measurements(DATA_C, d)
         other = dict(raw, installations=[i for i in raw["installations"] if i["id"] != "1a"])
