@@ -1,20 +1,48 @@
 %
 O0001 (DBB MEASUREMENT c-turntable-kit-optimized)
-(dbbkit measurement program of design c-turntable-kit-optimized, axis C, 7 installations, 63 readings)
-(work offset: origin on the C axis at the table surface, Z up along the C axis)
-(X Y Z command the centre of the spindle's ball: tool length to the ball centre, no radius compensation)
-(C+ turns the table counter-clockwise seen from +Z [right-hand rule])
-(no tool-centre-point control: each step is split so the bar changes by at most 0.05 mm between positions)
-(readings: dwell 2 s at each design angle; feed 500 mm/min)
-(the approach to each installation's first position is not collision-checked)
-(moves and dwells take about 13.7 min, set-ups not included)
-G21 G90 G94 G17
+(dbbkit measurement program of design c-turntable-kit-optimized,)
+(axis C, 7 installations, 63 readings, mm, deg)
+(work offset G54: origin on the C axis at the table surface, Z up)
+(along the C axis, teach it once: X Y on the C axis [centre of)
+(the table's rotation], Z on the table surface)
+(tool T99: the ballbar's spindle cup with its ball, length)
+(measured to the ball centre, X Y Z command the ball centre, no)
+(radius compensation)
+(C+ turns the table counter-clockwise seen from +Z [right-hand)
+(rule])
+(clearance plane Z245.0000 [the highest point reached plus 50)
+(mm]: every sideways rapid runs there, each installation is left)
+(and reached along Z alone at the feed)
+(no tool-centre-point control: each step is split so the bar)
+(changes by at most 0.05 mm between positions)
+(readings: dwell 2 s at each design angle, feed 500 mm/min)
+(moves at the feed and dwells take about 20.3 min, rapids and)
+(set-ups not included)
+(run it first as an air run [program --air-run], with no bar, and)
+(check the sense of the rotary axis and every clearance)
+G17 G21 G40 G49 G69 G80 G90 G94
+M05
+M09
 G54
-(installation 1r [1 of 7]: ball L 20 mm, D 0 mm, H 45 mm, radial, sign +1, bar 100 mm; sweep ccw, 9 readings)
+T99 M06
+M19
+G00 G43 H99 Z245.0000
+(installation 1r [1 of 7]: ball L 20 mm, D 0 mm, H 45 mm, radial,)
+(sign +1, bar 100 mm, sweep ccw, 9 readings)
 (H1 = 45 mm [cup on the table], bar 100 mm)
 (table ball centre at X20.0000 Y0.0000 Z45.0000 at C0)
+G00 Z245.0000
 G00 C0.0000
-G00 X-80.0000 Y0.0000 Z45.0000
+(the spindle ball goes where the table ball goes: place the table)
+(cup under the spindle ball: seat its ball against the spindle)
+(cup [the setting ball between them], lock its base, remove the)
+(setting ball)
+G00 X20.0000 Y0.0000
+G01 Z45.0000 F500
+M00 (place the table cup 1r, then start)
+G01 Z245.0000 F500
+G00 X-80.0000 Y0.0000
+G01 Z45.0000 F500
 M00 (mount the bar 1r, then start)
 G04 P2000 (reading 1r 0 deg ccw)
 G01 X-79.8287 Y-5.2323 Z45.0000 C3.7500 F500
@@ -122,11 +150,15 @@ G01 X-79.8287 Y5.2323 Z45.0000 C356.2500 F500
 G01 X-80.0000 Y0.0000 Z45.0000 C360.0000 F500
 G04 P2000 (reading 1r 360 deg ccw)
 M00 (remove the bar 1r)
-(installation 1t [2 of 7]: ball L 20 mm, D 0 mm, H 45 mm, tangential, sign +1, bar 100 mm; sweep ccw, 9 readings)
+G01 Z245.0000 F500
+(installation 1t [2 of 7]: ball L 20 mm, D 0 mm, H 45 mm,)
+(tangential, sign +1, bar 100 mm, sweep ccw, 9 readings)
 (H1 = 45 mm [cup on the table], bar 100 mm)
 (table ball centre at X20.0000 Y0.0000 Z45.0000 at C0)
+G00 Z245.0000
 G00 C0.0000
-G00 X20.0000 Y-100.0000 Z45.0000
+G00 X20.0000 Y-100.0000
+G01 Z45.0000 F500
 M00 (mount the bar 1t, then start)
 G04 P2000 (reading 1t 0 deg ccw)
 G01 X26.0013 Y-98.6100 Z45.0000 C3.4615 F500
@@ -242,11 +274,23 @@ G01 X13.9257 Y-101.0251 Z45.0000 C356.5385 F500
 G01 X20.0000 Y-100.0000 Z45.0000 C360.0000 F500
 G04 P2000 (reading 1t 360 deg ccw)
 M00 (remove the bar 1t)
-(installation 1a [3 of 7]: ball L 0 mm, D 0 mm, H 45 mm, axial, sign -1, bar 100 mm; sweep ccw, 9 readings)
+G01 Z245.0000 F500
+(installation 1a [3 of 7]: ball L 0 mm, D 0 mm, H 45 mm, axial,)
+(sign -1, bar 100 mm, sweep ccw, 9 readings)
 (H1 = 45 mm [cup on the table], on the axis, bar 100 mm)
 (table ball centre at X0.0000 Y0.0000 Z45.0000 at C0)
+G00 Z245.0000
 G00 C0.0000
-G00 X0.0000 Y0.0000 Z145.0000
+(the spindle ball goes where the table ball goes: place the table)
+(cup under the spindle ball: seat its ball against the spindle)
+(cup [the setting ball between them], lock its base, remove the)
+(setting ball)
+G00 X0.0000 Y0.0000
+G01 Z45.0000 F500
+M00 (place the table cup 1a, then start)
+G01 Z245.0000 F500
+G00 X0.0000 Y0.0000
+G01 Z145.0000 F500
 M00 (mount the bar 1a, then start)
 G04 P2000 (reading 1a 0 deg ccw)
 G01 X0.0000 Y0.0000 Z145.0000 C45.0000 F500
@@ -266,11 +310,23 @@ G04 P2000 (reading 1a 315 deg ccw)
 G01 X0.0000 Y0.0000 Z145.0000 C360.0000 F500
 G04 P2000 (reading 1a 360 deg ccw)
 M00 (remove the bar 1a)
-(installation 2r [4 of 7]: ball L 198.69 mm, D 0 mm, H 45 mm, radial, sign +1, bar 100 mm; sweep ccw, 9 readings)
+G01 Z245.0000 F500
+(installation 2r [4 of 7]: ball L 198.69 mm, D 0 mm, H 45 mm,)
+(radial, sign +1, bar 100 mm, sweep ccw, 9 readings)
 (H1 = 45 mm [cup on the table], bar 100 mm)
 (table ball centre at X198.6897 Y0.0000 Z45.0000 at C0)
+G00 Z245.0000
 G00 C0.0000
-G00 X98.6897 Y0.0000 Z45.0000
+(the spindle ball goes where the table ball goes: place the table)
+(cup under the spindle ball: seat its ball against the spindle)
+(cup [the setting ball between them], lock its base, remove the)
+(setting ball)
+G00 X198.6897 Y0.0000
+G01 Z45.0000 F500
+M00 (place the table cup 2r, then start)
+G01 Z245.0000 F500
+G00 X98.6897 Y0.0000
+G01 Z45.0000 F500
 M00 (mount the bar 2r, then start)
 G04 P2000 (reading 2r 0 deg ccw)
 G01 X98.5096 Y5.9587 Z45.0000 C3.4615 F500
@@ -386,11 +442,15 @@ G01 X98.5096 Y-5.9587 Z45.0000 C356.5385 F500
 G01 X98.6897 Y0.0000 Z45.0000 C360.0000 F500
 G04 P2000 (reading 2r 360 deg ccw)
 M00 (remove the bar 2r)
-(installation 2t [5 of 7]: ball L 198.69 mm, D 0 mm, H 45 mm, tangential, sign +1, bar 100 mm; sweep ccw, 9 readings)
+G01 Z245.0000 F500
+(installation 2t [5 of 7]: ball L 198.69 mm, D 0 mm, H 45 mm,)
+(tangential, sign +1, bar 100 mm, sweep ccw, 9 readings)
 (H1 = 45 mm [cup on the table], bar 100 mm)
 (table ball centre at X198.6897 Y0.0000 Z45.0000 at C0)
+G00 Z245.0000
 G00 C0.0000
-G00 X198.6897 Y-100.0000 Z45.0000
+G00 X198.6897 Y-100.0000
+G01 Z45.0000 F500
 M00 (mount the bar 2t, then start)
 G04 P2000 (reading 2t 0 deg ccw)
 G01 X204.3650 Y-87.8211 Z45.0000 C3.4615 F500
@@ -506,11 +566,23 @@ G01 X192.2894 Y-111.8140 Z45.0000 C356.5385 F500
 G01 X198.6897 Y-100.0000 Z45.0000 C360.0000 F500
 G04 P2000 (reading 2t 360 deg ccw)
 M00 (remove the bar 2t)
-(installation 3r [6 of 7]: ball L 250 mm, D 0 mm, H 195 mm, radial, sign +1, bar 100 mm; sweep ccw, 9 readings)
+G01 Z245.0000 F500
+(installation 3r [6 of 7]: ball L 250 mm, D 0 mm, H 195 mm,)
+(radial, sign +1, bar 100 mm, sweep ccw, 9 readings)
 (H3 = 195 mm [cup of 45 mm on blocks 50 + 100 mm], bar 100 mm)
 (table ball centre at X250.0000 Y0.0000 Z195.0000 at C0)
+G00 Z245.0000
 G00 C0.0000
-G00 X150.0000 Y0.0000 Z195.0000
+(the spindle ball goes where the table ball goes: place the table)
+(cup on blocks 50 100 mm under the spindle ball: seat its ball)
+(against the spindle cup [the setting ball between them], lock)
+(its base, remove the setting ball)
+G00 X250.0000 Y0.0000
+G01 Z195.0000 F500
+M00 (place the table cup 3r, then start)
+G01 Z245.0000 F500
+G00 X150.0000 Y0.0000
+G01 Z195.0000 F500
 M00 (mount the bar 3r, then start)
 G04 P2000 (reading 3r 0 deg ccw)
 G01 X149.8193 Y7.3602 Z195.0000 C2.8125 F500
@@ -650,11 +722,15 @@ G01 X149.8193 Y-7.3602 Z195.0000 C357.1875 F500
 G01 X150.0000 Y0.0000 Z195.0000 C360.0000 F500
 G04 P2000 (reading 3r 360 deg ccw)
 M00 (remove the bar 3r)
-(installation 3t [7 of 7]: ball L 250 mm, D 0 mm, H 195 mm, tangential, sign +1, bar 100 mm; sweep ccw, 9 readings)
+G01 Z245.0000 F500
+(installation 3t [7 of 7]: ball L 250 mm, D 0 mm, H 195 mm,)
+(tangential, sign +1, bar 100 mm, sweep ccw, 9 readings)
 (H3 = 195 mm [cup of 45 mm on blocks 50 + 100 mm], bar 100 mm)
 (table ball centre at X250.0000 Y0.0000 Z195.0000 at C0)
+G00 Z245.0000
 G00 C0.0000
-G00 X250.0000 Y-100.0000 Z195.0000
+G00 X250.0000 Y-100.0000
+G01 Z195.0000 F500
 M00 (mount the bar 3t, then start)
 G04 P2000 (reading 3t 0 deg ccw)
 G01 X255.5817 Y-84.7231 Z195.0000 C3.4615 F500
@@ -770,5 +846,6 @@ G01 X243.5061 Y-114.9120 Z195.0000 C356.5385 F500
 G01 X250.0000 Y-100.0000 Z195.0000 C360.0000 F500
 G04 P2000 (reading 3t 360 deg ccw)
 M00 (remove the bar 3t)
+G01 Z245.0000 F500
 M30
 %

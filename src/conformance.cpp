@@ -99,7 +99,7 @@ bool ConformanceReport::any_nonconforming() const {
   });
 }
 
-std::vector<std::string> tolerance_quantities(Axis axis) {
+std::vector<std::string> tolerance_quantities(const AxisFrame& axis) {
   const IsoNames names = iso230_names(axis);
   std::vector<std::string> q(names.location.begin(), names.location.end());
   for (const std::string& c : names.components) q.push_back(c);
@@ -112,16 +112,15 @@ namespace {
 
 // The index of t's quantity among q (tolerance_quantities(axis)) and its unit, checked
 // against the limits' unit; throws as tolerance_unit.
-int quantity_index(Axis axis, const std::vector<std::string>& q, const Tolerance& t,
+int quantity_index(const AxisFrame& axis, const std::vector<std::string>& q, const Tolerance& t,
                    const std::string& source, std::string& unit) {
   const auto it = std::find(q.begin(), q.end(), t.quantity);
   if (it == q.end()) {
     std::string list;
     for (const std::string& n : q) list += (list.empty() ? "" : ", ") + n;
     throw InputError(source, t.where + ".quantity",
-                     "'" + t.quantity + "' is not a quantity of a" +
-                         std::string(axis == Axis::kC ? " C" : " B") +
-                         " axis; a tolerance names one of: " + list);
+                     "'" + t.quantity + "' is not a quantity of axis " + axis.label() +
+                         "; a tolerance names one of: " + list);
   }
   const int i = static_cast<int>(it - q.begin());
   // Location: XO., YO./ZO. in um, the rest in urad; components and ranges: X, Y, Z in um;
@@ -150,13 +149,13 @@ int quantity_index(Axis axis, const std::vector<std::string>& q, const Tolerance
 
 }  // namespace
 
-std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& source) {
+std::string tolerance_unit(const AxisFrame& axis, const Tolerance& t, const std::string& source) {
   std::string unit;
   quantity_index(axis, tolerance_quantities(axis), t, source, unit);
   return unit;
 }
 
-void check_tolerances(Axis axis, const std::vector<Tolerance>& tolerances,
+void check_tolerances(const AxisFrame& axis, const std::vector<Tolerance>& tolerances,
                       const std::string& source) {
   for (const Tolerance& t : tolerances) tolerance_unit(axis, t, source);
 }
@@ -197,6 +196,7 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
   for (const Tolerance& t : tolerances) {
     ConformanceResult r;
     r.quantity = t.quantity;
+    if (!t.alias.empty()) rep.aliases.emplace_back(t.alias, t.quantity);
     const int i = quantity_index(design.axis, q, t, source, r.unit);
     r.lower = t.lower;
     r.upper = t.upper;

@@ -36,20 +36,10 @@ InputError InputError::with_source(const std::string& source) const {
   return InputError(source, where_, detail_);
 }
 
-const char* axis_name(Axis axis) { return axis == Axis::kC ? "C" : "B"; }
-
-Direction Direction::named(Axis axis, Kind kind) {
+Direction Direction::named(const AxisFrame& axis, Kind kind) {
   Direction d;
   d.kind = kind;
-  if (axis == Axis::kC) {
-    d.body = kind == Kind::kRadial       ? Eigen::Vector3d::UnitX()
-             : kind == Kind::kTangential ? Eigen::Vector3d::UnitY()
-                                         : Eigen::Vector3d::UnitZ();
-  } else {
-    d.body = kind == Kind::kRadial       ? Eigen::Vector3d::UnitZ()
-             : kind == Kind::kTangential ? Eigen::Vector3d::UnitX()
-                                         : Eigen::Vector3d::UnitY();
-  }
+  d.body = axis.named_direction(kind == Kind::kRadial ? 0 : kind == Kind::kTangential ? 1 : 2);
   return d;
 }
 
@@ -156,8 +146,8 @@ bool noise_ok(double x) {
 
 }  // namespace
 
-void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std::string& source,
-                                const std::string& key) {
+void validate_setup_uncertainty(const SetupUncertainty& u, const AxisFrame& axis,
+                                const std::string& source, const std::string& key) {
   for (const auto& [name, x] :
        {std::pair<const char*, double>{"length_offset_um", u.length_offset_um},
         {"centring_um", u.centring_um}}) {
@@ -178,13 +168,13 @@ void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std:
             text::significant(x, 6) + " mm: a positive tolerance is at least " +
                 text::significant(limits::kMinSetupStd_mm, 6) + " mm; 0 declares none");
   }
-  if (axis == Axis::kB)
+  if (!axis.has_H())
     require(u.H_mm == 0, source, key + ".H_mm", "H is not used for the swinging head B");
 }
 
 bool length_within_limits(double x_mm) { return length_ok(x_mm); }
 
-void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axis,
+void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, const AxisFrame& axis,
                               const std::string& source) {
   if (n.distribution == NoiseModel::Distribution::kUniform) {
     require(noise_ok(n.half_width_um), source, "noise.accuracy_um",
@@ -196,15 +186,17 @@ void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, Axis axi
   require(m.order >= 0, source, "errors.order", "must be a non-negative integer");
   require(m.order <= limits::kMaxSeriesOrder, source, "errors.order",
           "must be at most " + std::to_string(limits::kMaxSeriesOrder) + " (README, \"Limits\")");
+  // The series follows the travel: a full turn is periodic, an arc is not.
   if (m.kind == ErrorModel::Kind::kFourier) {
-    require(
-        axis == Axis::kC, source, "errors.model",
-        "a Fourier series is for the full-turn axis C; use \"legendre\" for the swinging head B");
+    require(axis.full_turn(), source, "errors.model",
+            "a Fourier series is for a full-turn axis such as the turntable C; axis " +
+                axis.label() + " turns through an arc: use \"legendre\"");
   }
   if (m.kind == ErrorModel::Kind::kLegendre) {
-    require(
-        axis == Axis::kB, source, "errors.model",
-        "a Legendre series is for the partial-range axis B; use \"fourier\" for the turntable C");
+    require(!axis.full_turn(), source, "errors.model",
+            "a Legendre series is for an axis that turns through an arc such as the swinging "
+            "head B; axis " +
+                axis.label() + " turns fully: use \"fourier\"");
   }
 }
 
@@ -232,10 +224,12 @@ void validate_design(const Design& d, const std::string& source) {
     const std::string key = "angles_deg[" + std::to_string(i) + "]";
     const double a = d.angles_deg[i];
     require(finite(a), source, key, "angle is not a finite number");
-    if (d.axis == Axis::kB) {
-      require(a >= -180.0 && a <= 180.0, source, key,
-              "angle " + text::significant(a, 12) +
-                  " deg is outside [-180, 180] deg, the most a swinging head B can reach");
+    if (!d.axis.full_turn()) {
+      require(a >= d.axis.travel_min_deg() && a <= d.axis.travel_max_deg(), source, key,
+              "angle " + text::significant(a, 12) + " deg is outside [" +
+                  text::significant(d.axis.travel_min_deg(), 12) + ", " +
+                  text::significant(d.axis.travel_max_deg(), 12) + "] deg, the travel of axis " +
+                  d.axis.label());
     } else {
       require(std::abs(a) <= 3600.0, source, key,
               "angle " + text::significant(a, 12) + " deg is beyond +-10 turns");
@@ -312,10 +306,11 @@ void validate_design(const Design& d, const std::string& source) {
             kLengthLimit + ", got " + text::significant(in.D_mm, 6));
     require(length_ok(in.H_mm), source, key + ".ball_mm.H",
             kLengthLimit + ", got " + text::significant(in.H_mm, 6));
-    if (d.axis == Axis::kC) {
+    if (d.axis.table()) {
       require(in.L_mm >= 0, source, key + ".ball_mm.L",
-              "the radial distance L of a turntable ball must be >= 0 mm");
-    } else {
+              "the radial distance L of a ball on a table must be >= 0 mm");
+    }
+    if (!d.axis.has_H()) {
       require(in.H_mm == 0.0, source, key + ".ball_mm.H",
               "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
     }
@@ -345,8 +340,9 @@ void validate_design(const Design& d, const std::string& source) {
                   " mm, not bar_mm = " + std::to_string(*in.bar_mm) + " mm");
     }
     if (in.cup_mm) {
-      require(d.axis == Axis::kC, source, key + ".stack_mm",
-              "a cup on cushion blocks is a turntable (C) set-up");
+      require(d.axis.table(), source, key + ".stack_mm",
+              "a cup on cushion blocks stands on a table: axis " + d.axis.label() +
+                  " carries the head");
       require(length_ok(*in.cup_mm) && *in.cup_mm >= 0, source, key + ".stack_mm.cup",
               "must be a length >= 0 mm, at most 10000 mm");
       double sum = *in.cup_mm;

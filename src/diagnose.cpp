@@ -45,7 +45,7 @@ ResidualSignature residual_signature(const Design& design, const std::vector<Rea
     for (int j = 0; j < s.n; ++j) ri(j) = r(rows[j]);
     s.mean_um = ri.mean();
     s.rms_um = std::sqrt(ri.squaredNorm() / s.n);
-    if (design.axis == Axis::kC) s.harmonic_um = residual_harmonics(readings, rows, r);
+    if (design.axis.full_turn()) s.harmonic_um = residual_harmonics(readings, rows, r);
     double t_sum = 0, t2 = 0, tr = 0, t_min = 1e300, t_max = -1e300;
     int nt = 0;
     double cw_sum = 0, ccw_sum = 0;

@@ -132,7 +132,7 @@ double test_start_time(const std::vector<Reading>& readings) {
   return t0;
 }
 
-Eigen::Vector3d centring_row(Axis axis, const Installation& in, double angle_deg) {
+Eigen::Vector3d centring_row(const AxisFrame& axis, const Installation& in, double angle_deg) {
   return -in.sign * direction_machine(axis, in, angle_deg);
 }
 

@@ -49,8 +49,8 @@ RigidMotion rigid_motion(const Design& design, double angle_deg, const Eigen::Ve
   m.kind = std::abs(h) <= kNoPitch * (d.norm() + 1e-3 * e.norm()) ? RigidMotion::Kind::kRotation
                                                                   : RigidMotion::Kind::kScrew;
   m.tool_axis =
-      design.axis == Axis::kB && Q_mm.norm() < kOnLine_mm &&
-      a.cross(axis_rotation(Axis::kB, angle_deg) * Eigen::Vector3d::UnitZ()).norm() < kParallel;
+      design.axis.head() && Q_mm.norm() < kOnLine_mm &&
+      a.cross(axis_rotation(design.axis, angle_deg) * design.axis.reference()).norm() < kParallel;
   return m;
 }
 

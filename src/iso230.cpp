@@ -32,34 +32,44 @@ struct Row {
 
 // The row of the location model for component k of block b (0: d0 and o, 1: e0, c0 and
 // alpha) at an angle whose I - R is IR; ia, ip1, ip2 index the axis and its two normals.
-Eigen::Matrix<double, 1, 5> location_row(int b, int k, const Eigen::Matrix3d& IR, int ia, int ip1,
-                                         int ip2) {
+Eigen::Matrix<double, 1, 5> location_row(int b, int k, const Eigen::Matrix3d& IR,
+                                         const IsoFrame& f) {
   Eigen::Matrix<double, 1, 5> x = Eigen::Matrix<double, 1, 5>::Zero();
   if (b == 0) {  // d0 (x, y, z), then o along p1 and p2
     x(k) = 1.0;
-  } else {  // e0 along p1 and p2, c0 along a, then alpha along p1 and p2
-    if (k == ip1) x(0) = 1.0;
-    if (k == ip2) x(1) = 1.0;
-    if (k == ia) x(2) = 1.0;
+  } else {  // e0 along p1 and p2, c0 about q, then alpha along p1 and p2
+    x(0) = f.p1(k);
+    x(1) = f.p2(k);
+    x(2) = f.q(k);
   }
-  x(3) = IR(k, ip1);
-  x(4) = IR(k, ip2);
+  if (f.aligned) {  // the machine axes' columns of I - R as they are
+    x(3) = IR(k, f.ip1);
+    x(4) = IR(k, f.ip2);
+  } else {
+    x(3) = IR.row(k).dot(f.p1);
+    x(4) = IR.row(k).dot(f.p2);
+  }
   return x;
 }
 
-// The names of the error motion values of the six components (C: a = z; B: a = y).
-std::array<std::string, 6> motion_value_names(bool c_axis) {
-  if (c_axis) {
-    return {"radial error motion value, X",     "radial error motion value, Y",
-            "axial error motion value",         "tilt error motion value, about X",
-            "tilt error motion value, about Y", "range of the angular positioning error motion"};
+// The names of the error motion values of the six components (translations dx, dy, dz, then
+// rotations): radial, axial along the axis, tilt, and the angular positioning about it.
+std::array<std::string, 6> motion_value_names(const IsoFrame& f) {
+  std::array<std::string, 6> names;
+  for (int e = 0; e < 6; ++e) {
+    const int k = e % 3;
+    const std::string axis(1, "XYZ"[k]);
+    if (!f.aligned) {
+      names[e] =
+          std::string(e < 3 ? "error motion value along " : "error motion value about ") + axis;
+    } else if (e < 3) {
+      names[e] = k == f.ia ? "axial error motion value" : "radial error motion value, " + axis;
+    } else {
+      names[e] = k == f.ia ? "range of the angular positioning error motion"
+                           : "tilt error motion value, about " + axis;
+    }
   }
-  return {"radial error motion value, X",
-          "axial error motion value",
-          "radial error motion value, Z",
-          "tilt error motion value, about X",
-          "range of the angular positioning error motion",
-          "tilt error motion value, about Z"};
+  return names;
 }
 
 // One component's values at its angles: the estimate and a factor L of their covariance
@@ -135,20 +145,51 @@ void range_monte_carlo(const std::vector<ComponentDraw>& draws,
 
 }  // namespace
 
-IsoNames iso230_names(Axis axis) {
-  const std::string s = axis == Axis::kC ? "C" : "B";
-  return {{"XO" + s, (axis == Axis::kC ? "YO" : "ZO") + s, "AO" + s,
-           (axis == Axis::kC ? "BO" : "CO") + s, s + "0" + s},
-          {"EX" + s, "EY" + s, "EZ" + s, "EA" + s, "EB" + s, "EC" + s}};
+IsoFrame iso_frame(const AxisFrame& axis) {
+  IsoFrame f;
+  f.ia = axis.machine_axis();
+  f.aligned = f.ia >= 0;
+  if (f.aligned) {
+    // The two other machine axes in order, the axis' own machine axis positive (ISO 230-1:
+    // location errors are components along and rotations about the machine axes).
+    f.ip1 = f.ia == 0 ? 1 : 0;
+    f.ip2 = f.ia == 2 ? 1 : 2;
+    f.p1 = Eigen::Vector3d::Unit(f.ip1);
+    f.p2 = Eigen::Vector3d::Unit(f.ip2);
+    f.q = Eigen::Vector3d::Unit(f.ia);
+  } else {
+    // A nutating axis: its own frame, u = reference, v = direction x reference.
+    f.p1 = axis.reference();
+    f.p2 = axis.direction().cross(axis.reference());
+    f.q = axis.direction();
+  }
+  return f;
+}
+
+IsoNames iso230_names(const AxisFrame& axis) {
+  const IsoFrame f = iso_frame(axis);
+  const std::string s(1, axis.letter());
+  const char* kPosition = "XYZ";
+  const char* kRotation = "ABC";
+  IsoNames names;
+  if (f.aligned) {
+    names.location = {std::string(1, kPosition[f.ip1]) + "0" + s,
+                      std::string(1, kPosition[f.ip2]) + "0" + s,
+                      std::string(1, kRotation[f.ip1]) + "0" + s,
+                      std::string(1, kRotation[f.ip2]) + "0" + s, s + "0" + s};
+  } else {
+    names.location = {"U0" + s, "V0" + s, "AU0" + s, "AV0" + s, s + "0" + s};
+  }
+  names.components = {"EX" + s, "EY" + s, "EZ" + s, "EA" + s, "EB" + s, "EC" + s};
+  return names;
 }
 
 IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
                             const Estimate& est, double uncertainty_scale,
                             const IsoMotionOptions& motion) {
   IsoResult out;
-  const bool c_axis = design.axis == Axis::kC;
-  // The nominal axis a and the two directions p1, p2 perpendicular to it (machine frame).
-  const int ia = c_axis ? 2 : 1, ip1 = 0, ip2 = c_axis ? 1 : 2;
+  // The nominal axis q and the two directions p1, p2 perpendicular to it (machine frame).
+  const IsoFrame frame = iso_frame(design.axis);
   const IsoNames names = iso230_names(design.axis);
   const std::array<std::string, 5>& location_names = names.location;
   out.component_names = names.components;
@@ -184,7 +225,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
         Row r;
         r.station = st;
         r.error = 3 * b + k;
-        r.x = location_row(b, k, IR, ia, ip1, ip2);
+        r.x = location_row(b, k, IR, frame);
         rows.push_back(r);
       }
     }
@@ -248,8 +289,12 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   out.constants = {{"constant part of dx", um, quantity(0, 0)},
                    {"constant part of dy", um, quantity(0, 1)},
                    {"constant part of dz", um, quantity(0, 2)},
-                   {std::string("constant part of ") + kErrorNames[3 + ip1], urad, quantity(1, 0)},
-                   {std::string("constant part of ") + kErrorNames[3 + ip2], urad, quantity(1, 1)}};
+                   {frame.aligned ? std::string("constant part of ") + kErrorNames[3 + frame.ip1]
+                                  : std::string("constant part of e along u"),
+                    urad, quantity(1, 0)},
+                   {frame.aligned ? std::string("constant part of ") + kErrorNames[3 + frame.ip2]
+                                  : std::string("constant part of e along v"),
+                    urad, quantity(1, 1)}};
   // Components: each value c'theta less its fitted location and constant part x'Q'theta.
   // A component's term: c on its support, x, c' Sigma Q and K'c; the covariance of two
   // components of block b (the variance when they are one),
@@ -303,7 +348,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       if (!fitted[b] || !determined(C, e)) continue;
       Term& t = station_terms[e];
       t.b = b;
-      t.x = location_row(b, k, IR, ia, ip1, ip2);
+      t.x = location_row(b, k, IR, frame);
       t.cSQ.setZero();
       double value = 0;
       const auto nonzeros = static_cast<std::size_t>(C.col(e).nonZeros());
@@ -341,7 +386,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     IsoMotionValues& mv = out.motion_values;
     mv.seed = motion.seed;
     mv.coverage_probability = motion.coverage_probability;
-    const std::array<std::string, 6> value_names = motion_value_names(c_axis);
+    const std::array<std::string, 6> value_names = motion_value_names(frame);
     std::vector<ComponentDraw> draws;
     std::vector<int> drawn;
     mv.values.resize(6);

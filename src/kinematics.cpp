@@ -39,42 +39,23 @@ void sincos_deg(double angle_deg, double& s, double& c) {
   }
 }
 
-Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg) {
-  double s, c;
-  sincos_deg(angle_deg, s, c);
-  Eigen::Matrix3d R;
-  if (axis == Axis::kC) {
-    R << c, -s, 0, s, c, 0, 0, 0, 1;
-  } else {
-    R << c, 0, s, 0, 1, 0, -s, 0, c;
-  }
-  return R;
+Eigen::Matrix3d axis_rotation(const AxisFrame& axis, double angle_deg) {
+  return axis.rotation(angle_deg);
 }
 
-const RotationHarmonics& rotation_harmonics(Axis axis) {
-  auto make = [](Axis a) {
-    const Eigen::Matrix3d R0 = axis_rotation(a, 0.0), R90 = axis_rotation(a, 90.0),
-                          R180 = axis_rotation(a, 180.0);
-    RotationHarmonics h;
-    h.A0 = 0.5 * (R0 + R180);
-    h.A1 = 0.5 * (R0 - R180);
-    h.A2 = R90 - h.A0;
-    return h;
-  };
-  static const RotationHarmonics c_axis = make(Axis::kC), b_axis = make(Axis::kB);
-  return axis == Axis::kC ? c_axis : b_axis;
+const RotationHarmonics& rotation_harmonics(const AxisFrame& axis) { return axis.harmonics(); }
+
+Eigen::Vector3d ball_body_mm(const AxisFrame& axis, const Installation& inst) {
+  return axis.body_point(inst.L_mm, inst.D_mm, inst.H_mm);
 }
 
-Eigen::Vector3d ball_body_mm(Axis axis, const Installation& inst) {
-  if (axis == Axis::kC) return {inst.L_mm, inst.D_mm, inst.H_mm};
-  return {0.0, inst.D_mm, inst.L_mm};
-}
-
-Eigen::Vector3d ball_position_mm(Axis axis, const Installation& inst, double angle_deg) {
+Eigen::Vector3d ball_position_mm(const AxisFrame& axis, const Installation& inst,
+                                 double angle_deg) {
   return axis_rotation(axis, angle_deg) * ball_body_mm(axis, inst);
 }
 
-Eigen::Vector3d direction_machine(Axis axis, const Installation& inst, double angle_deg) {
+Eigen::Vector3d direction_machine(const AxisFrame& axis, const Installation& inst,
+                                  double angle_deg) {
   return axis_rotation(axis, angle_deg) * inst.direction.body;
 }
 
@@ -82,7 +63,7 @@ Eigen::Vector3d displacement_um(const Vector6d& e6, const Eigen::Vector3d& P_mm)
   return 1e-3 * e6.tail<3>().cross(P_mm) + e6.head<3>();
 }
 
-RowVector6d J_reading_error(Axis axis, const Installation& inst, double angle_deg) {
+RowVector6d J_reading_error(const AxisFrame& axis, const Installation& inst, double angle_deg) {
   const Eigen::Matrix3d R = axis_rotation(axis, angle_deg);
   const Eigen::Vector3d P = R * ball_body_mm(axis, inst);
   const Eigen::Vector3d u = R * inst.direction.body;
@@ -93,8 +74,8 @@ RowVector6d J_reading_error(Axis axis, const Installation& inst, double angle_de
   return row;
 }
 
-double exact_reading_um(Axis axis, const Installation& inst, double angle_deg, const Vector6d& e6,
-                        double bar_mm) {
+double exact_reading_um(const AxisFrame& axis, const Installation& inst, double angle_deg,
+                        const Vector6d& e6, double bar_mm) {
   const Eigen::Vector3d P = ball_position_mm(axis, inst, angle_deg);
   const Eigen::Vector3d u = direction_machine(axis, inst, angle_deg);
   const Eigen::Vector3d F = P - inst.sign * bar_mm * u;
@@ -106,12 +87,12 @@ double exact_reading_um(Axis axis, const Installation& inst, double angle_deg, c
   return 1e3 * ((P_actual - F).norm() - (P - F).norm());
 }
 
-double exact_setup_reading_um(Axis axis, const Installation& inst, double angle_deg,
+double exact_setup_reading_um(const AxisFrame& axis, const Installation& inst, double angle_deg,
                               const Vector6d& e6, double bar_mm, const SetupError& setup) {
   Installation placed = inst;
   placed.L_mm += setup.ball_mm(0);
   placed.D_mm += setup.ball_mm(1);
-  if (axis == Axis::kC) placed.H_mm += setup.ball_mm(2);
+  if (axis.has_H()) placed.H_mm += setup.ball_mm(2);
   const Eigen::Vector3d P_nominal = ball_position_mm(axis, inst, angle_deg);
   const Eigen::Vector3d u = direction_machine(axis, inst, angle_deg);
   const Eigen::Vector3d F = P_nominal - inst.sign * bar_mm * u + 1e-3 * setup.centring_um;

@@ -10,6 +10,7 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
+#include "number_text.hpp"
 #include "tolerances.hpp"
 
 namespace dbbkit {
@@ -86,7 +87,7 @@ double arc_travel_violation(const Kit& kit, const RotationHarmonics& h, const Ei
 
 }  // namespace
 
-std::optional<Pattern> builtin_pattern(const std::string& name, Axis axis) {
+std::optional<Pattern> builtin_pattern(const std::string& name, const AxisFrame& axis) {
   if (name != "three_position") return std::nullopt;
   using K = Direction::Kind;
   auto var = [](const char* v) { return PatternCoordinate{v, 0}; };
@@ -94,7 +95,7 @@ std::optional<Pattern> builtin_pattern(const std::string& name, Axis axis) {
   Pattern p;
   p.name = name;
   p.builtin = true;
-  if (axis == Axis::kC) {
+  if (axis.table()) {
     // Balls at (L1, D1, H1), (L2, D2, H1), (L3, D3, H3) read radially and tangentially, the
     // axial reading on the axis at H1; H1 != H3.
     p.positions = {
@@ -206,7 +207,7 @@ void validate_pattern(const Kit& k, const std::string& source) {
                   " and as " + std::string(1, name));
       if (name == 'H' && fresh) heights.push_back(c->variable);
     }
-    if (k.axis == Axis::kB) {
+    if (!k.axis.has_H()) {
       require(!pos.H.is_variable() && pos.H.value == 0, source, key + ".H",
               "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
     }
@@ -215,7 +216,7 @@ void validate_pattern(const Kit& k, const std::string& source) {
           "every position is optional: at least one must be required");
   require(heights.size() <= kMaxHeightVariables, source, "pattern.positions",
           "more than 4 height variables");
-  const size_t n_stacks = k.axis == Axis::kC ? block_stacks(k).size() : 0;
+  const size_t n_stacks = k.axis.table() ? block_stacks(k).size() : 0;
   for (size_t g = 0; g < p.distinct.size(); ++g) {
     const std::string key = "pattern.distinct[" + std::to_string(g) + "]";
     for (const std::string& v : p.distinct[g]) {
@@ -258,12 +259,12 @@ void validate_kit(const Kit& k, const std::string& source) {
   require(length_within_limits(k.D_mm.min) && length_within_limits(k.D_mm.max), source, "D_mm",
           "min and max must be finite numbers of mm within +-10000 mm");
   require(k.D_mm.min <= k.D_mm.max, source, "D_mm", "min is larger than max");
-  if (k.axis == Axis::kB) {
+  if (k.axis.head()) {
     require(k.D_mm.contains(0.0), source, "D_mm",
             "the B pattern puts two balls on the tool axis (D = 0): the range must include 0");
   }
 
-  if (k.axis == Axis::kC) {
+  if (k.axis.table()) {
     require(length_within_limits(k.H_base_mm) && k.H_base_mm >= 0, source, "H_mm.base",
             "must be a height in [0, 10000] mm");
     require(k.blocks_mm.size() <= kMaxBlocks, source, "H_mm.blocks", "more than 16 blocks");
@@ -307,12 +308,15 @@ void validate_kit(const Kit& k, const std::string& source) {
   const Interval& r = k.angle_range_deg;
   require(finite(r.min) && finite(r.max) && r.min < r.max, source, "angles_deg.range",
           "must be [first, last] with first < last, in degrees");
-  if (k.axis == Axis::kC) {
+  if (k.axis.full_turn()) {
     require(r.width() <= 360.0 + kAngleTolerance_deg, source, "angles_deg.range",
             "spans more than one turn");
   } else {
-    require(r.min >= -180.0 && r.max <= 180.0, source, "angles_deg.range",
-            "is outside [-180, 180] deg, the most a swinging head B can reach");
+    require(r.min >= k.axis.travel_min_deg() && r.max <= k.axis.travel_max_deg(), source,
+            "angles_deg.range",
+            "is outside [" + text::significant(k.axis.travel_min_deg(), 12) + ", " +
+                text::significant(k.axis.travel_max_deg(), 12) + "] deg, the travel of axis " +
+                k.axis.label());
   }
   require(!k.angle_steps_deg.empty(), source, "angles_deg.steps", "no angle steps");
   for (size_t i = 0; i < k.angle_steps_deg.size(); ++i) {
@@ -439,7 +443,7 @@ double design_time_s(const Kit& kit, const Design& design) {
          n_inst * static_cast<double>(design.angles_deg.size()) * kit.time_per_reading_s;
 }
 
-double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst,
+double travel_violation_mm(const Kit& kit, const AxisFrame& axis, const Installation& inst,
                            const std::vector<double>& angles_deg) {
   const std::optional<ArcEnds> ends = arc_of(angles_deg);
   if (!ends || !inst.bar_mm) return 0.0;
@@ -459,12 +463,12 @@ const std::vector<double>& sorted_bars(const Kit& kit, std::vector<double>& stor
   return storage;
 }
 
-double fit_bar_on(const Kit& kit, Axis axis, Installation& inst, const std::vector<double>& bars,
-                  const std::optional<ArcEnds>& ends);
+double fit_bar_on(const Kit& kit, const AxisFrame& axis, Installation& inst,
+                  const std::vector<double>& bars, const std::optional<ArcEnds>& ends);
 
 }  // namespace
 
-double fit_bar(const Kit& kit, Axis axis, Installation& inst,
+double fit_bar(const Kit& kit, const AxisFrame& axis, Installation& inst,
                const std::vector<double>& angles_deg) {
   std::vector<double> storage;
   return fit_bar_on(kit, axis, inst, sorted_bars(kit, storage), arc_of(angles_deg));
@@ -483,8 +487,8 @@ double fit_bars(const Kit& kit, Design& design) {
 namespace {
 
 // fit_bar with the bars sorted and the arc formed.
-double fit_bar_on(const Kit& kit, Axis axis, Installation& inst, const std::vector<double>& bars,
-                  const std::optional<ArcEnds>& ends) {
+double fit_bar_on(const Kit& kit, const AxisFrame& axis, Installation& inst,
+                  const std::vector<double>& bars, const std::optional<ArcEnds>& ends) {
   double best = std::numeric_limits<double>::infinity();
   double best_bar = bars.front();
   int best_sign = 1;

@@ -44,7 +44,7 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
       std::ostringstream s;
       s << "angle " << std::setprecision(12) << r.angle_deg
         << " deg is not a position of the design";
-      if (design.axis == Axis::kB && (r.angle_deg < *lo || r.angle_deg > *hi)) {
+      if (!design.axis.full_turn() && (r.angle_deg < *lo || r.angle_deg > *hi)) {
         s << " (outside its range " << *lo << " .. " << *hi << " deg)";
       }
       throw InputError(source, where, s.str());

@@ -424,7 +424,7 @@ struct PerAngleHarmonics {
 // sin g A2): row k of R is sum_h phi_h a_hk (a_hk the row k of A_h, phi = (1, cos g, sin g)),
 // so the variance of error k is phi' Q_k phi, Q_k(h, l) = a_hk' C a_lk (C its 3 x 3 block
 // of Cb). coef[u][e]: the coefficient of monomial u of (1, c, s, c^2, c s, s^2) for error e.
-void rotated_variance_coefficients(const Eigen::Matrix<double, 6, 6>& Cb, Axis axis,
+void rotated_variance_coefficients(const Eigen::Matrix<double, 6, 6>& Cb, const AxisFrame& axis,
                                    double (&coef)[6][6]) {
   const RotationHarmonics& rh = rotation_harmonics(axis);
   const Eigen::Matrix3d* A[3] = {&rh.A0, &rh.A1, &rh.A2};
@@ -454,7 +454,7 @@ const AngleStations& stations_of(const Design& design, const AngleStations* give
 
 }  // namespace
 
-AngleStations::AngleStations(Axis axis_, const std::vector<double>& angles)
+AngleStations::AngleStations(const AxisFrame& axis_, const std::vector<double>& angles)
     : axis(axis_), angles_deg(angles) {
   Design d;
   d.axis = axis;
@@ -473,7 +473,7 @@ AngleStations::AngleStations(Axis axis_, const std::vector<double>& angles)
 }
 
 bool AngleStations::serves(const Design& design) const {
-  return design.axis == axis && design.angles_deg == angles_deg;
+  return design.axis.same_as(axis) && design.angles_deg == angles_deg;
 }
 
 std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm,

@@ -588,7 +588,7 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
     for (int i : res.best->installation_position)
       best_off_axis = best_off_axis || off_axis(kit, kit.pattern.positions[i]);
   }
-  if (kit.axis == Axis::kB) {
+  if (kit.axis.head()) {
     if (!can_be_off_axis) {
       res.rank_five = OptimizeResult::RankFiveCause::kNoLateralOffset;
     } else if (!res.best || !best_off_axis) {
@@ -649,7 +649,7 @@ void resolve(const Kit& kit, PatternChoice& c) {
   for (PatternChoice::Placement& pl : c.placements) {
     const PatternPosition& p = kit.pattern.positions[pl.position];
     pl.D = variable(p.D, kit.D_mm);
-    if (kit.axis != Axis::kC) continue;
+    if (!kit.axis.table()) continue;
     pl.H_mm = p.H.value;
     for (const PatternChoice::Height& h : c.heights) {
       if (p.H.is_variable() && h.variable == p.H.variable) pl.H_mm = h.height_mm;
@@ -661,7 +661,7 @@ void resolve(const Kit& kit, PatternChoice& c) {
 
 std::vector<PatternChoice> pattern_choices(const Kit& kit) {
   std::vector<PatternChoice> out;
-  const std::vector<Stack> stacks = kit.axis == Axis::kC ? block_stacks(kit) : std::vector<Stack>{};
+  const std::vector<Stack> stacks = kit.axis.table() ? block_stacks(kit) : std::vector<Stack>{};
   const int n_offered = static_cast<int>(offered_optional_positions(kit).size());
   for (int n_opt = 0; n_opt <= n_offered; ++n_opt) {
     // The height variables of the positions included, in the order they first appear.
@@ -708,7 +708,7 @@ std::vector<PatternChoice> pattern_choices(const Kit& kit) {
 
 std::string choice_label(const Kit& kit, const PatternChoice& c) {
   std::string t;
-  if (kit.axis == Axis::kC) {
+  if (kit.axis.table()) {
     const std::vector<Stack> stacks = block_stacks(kit);
     for (const PatternChoice::Height& h : c.heights)
       t += h.variable + " = " + kit_stack_text(kit, stacks[h.stack]) + ", ";
@@ -813,14 +813,14 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice,
 
 void describe_installations(const Kit& kit, Candidate& c) {
   std::vector<Stack> stacks;
-  if (kit.axis == Axis::kC) stacks = block_stacks(kit);
+  if (kit.axis.table()) stacks = block_stacks(kit);
   for (size_t k = 0; k < c.design.installations.size(); ++k) {
     Installation& in = c.design.installations[k];
     const PatternPosition& p = kit.pattern.positions[c.installation_position[k]];
     std::string t;
     in.cup_mm.reset();
     in.blocks_mm.clear();
-    if (kit.axis == Axis::kC) {
+    if (kit.axis.table()) {
       if (p.H.is_variable()) {
         for (const PatternChoice::Height& h : c.choice.heights) {
           if (h.variable != p.H.variable) continue;
@@ -960,10 +960,10 @@ Reference make_reference(const Kit& kit, Design design, const std::string& file)
   Reference r;
   r.file = file;
   r.design = std::move(design);
-  if (r.design.axis != kit.axis) {
+  if (!r.design.axis.same_as(kit.axis)) {
     throw InputError(file, "axis",
-                     "the reference is for axis " + std::string(axis_name(r.design.axis)) +
-                         ", the kit for axis " + axis_name(kit.axis));
+                     "the reference is for axis " + std::string(r.design.axis.label()) +
+                         ", the kit for axis " + kit.axis.label());
   }
   if (std::abs(r.design.noise.sigma_um() - kit.noise.sigma_um()) >
       kSameNoiseRelative * kit.noise.sigma_um()) {

@@ -11,9 +11,9 @@
 
 namespace dbbkit {
 
-bool same_position(Axis axis, double a_deg, double b_deg) {
+bool same_position(const AxisFrame& axis, double a_deg, double b_deg) {
   double diff = std::abs(a_deg - b_deg);
-  if (axis == Axis::kC) {
+  if (axis.full_turn()) {
     if (!(diff < 360.0)) diff = std::fmod(diff, 360.0);  // fmod leaves [0, 360) unchanged
     diff = std::min(diff, 360.0 - diff);
   }
@@ -79,7 +79,7 @@ Parameterisation::Parameterisation(const Design& design)
 }
 
 double Parameterisation::key_of(double angle_deg) const {
-  if (axis_ != Axis::kC) return angle_deg;
+  if (!axis_.full_turn()) return angle_deg;
   double k = angle_deg >= 0.0 && angle_deg < 360.0 ? angle_deg : std::fmod(angle_deg, 360.0);
   if (k < 0) k += 360.0;
   return k;
@@ -101,7 +101,7 @@ int Parameterisation::station_of(double angle_deg) const {
   };
   const double tol = 2 * kAngleTolerance_deg;
   scan(k - tol, k + tol);
-  if (axis_ == Axis::kC) {
+  if (axis_.full_turn()) {
     if (k < tol) scan(360.0 + k - tol, 360.0 + tol);
     if (k > 360.0 - tol) scan(-tol, k - 360.0 + tol);
   }

@@ -25,7 +25,8 @@ constexpr int kMaxSubsteps = 1000000;
 
 // Largest | |P(a(t)) - F(t)| - bar | over the sub-step from angle a0 to a1, F interpolated
 // linearly between the nominal following-ball positions at its ends.
-double substep_bar_change(Axis axis, const Installation& inst, double bar, double a0, double a1) {
+double substep_bar_change(const AxisFrame& axis, const Installation& inst, double bar, double a0,
+                          double a1) {
   const Eigen::Vector3d P0 = ball_position_mm(axis, inst, a0),
                         P1 = ball_position_mm(axis, inst, a1);
   const Eigen::Vector3d F0 = P0 - inst.sign * bar * direction_machine(axis, inst, a0);
@@ -41,8 +42,8 @@ double substep_bar_change(Axis axis, const Installation& inst, double bar, doubl
 }
 
 // Sub-steps of the step a0 -> a1 so that every one keeps the bar within the tolerance.
-int substeps(Axis axis, const Installation& inst, double bar, double a0, double a1, double tol,
-             double& largest_change) {
+int substeps(const AxisFrame& axis, const Installation& inst, double bar, double a0, double a1,
+             double tol, double& largest_change) {
   const double whole = substep_bar_change(axis, inst, bar, a0, a1);
   if (whole <= tol) {
     largest_change = std::max(largest_change, whole);
@@ -101,19 +102,12 @@ void validate_program_options(const ProgramOptions& o, const std::string& source
         "the spindle orientation is an M-code (M followed by 1 to 3 digits) or none");
 }
 
-namespace {
-// Turned by 180 deg about Y (x -> -x, z -> -z): the tool pointing to -Z at B0.
-Eigen::Vector3d turned(const Eigen::Vector3d& v, bool tool_down) {
-  return tool_down ? Eigen::Vector3d(-v.x(), v.y(), -v.z()) : v;
-}
-}  // namespace
-
-Eigen::Vector3d commanded_point_mm(Axis axis, const Installation& inst, double bar_mm,
-                                   double angle_deg, bool tool_down) {
+Eigen::Vector3d commanded_point_mm(const AxisFrame& axis, const Installation& inst, double bar_mm,
+                                   double angle_deg) {
   const Eigen::Vector3d F = ball_position_mm(axis, inst, angle_deg) -
                             inst.sign * bar_mm * direction_machine(axis, inst, angle_deg);
-  if (axis == Axis::kC) return F;
-  return turned(-F, tool_down);  // the pivot, with the table ball at the origin
+  if (axis.table()) return F;
+  return -F;  // the pivot, with the table ball at the origin
 }
 
 const InstallationProgram& MeasurementProgram::of(int installation) const {
@@ -135,7 +129,6 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   std::vector<Sweep> sweeps;
   if (options.sweeps != ProgramOptions::Sweeps::kCW) sweeps.push_back(Sweep::kCCW);
   if (options.sweeps != ProgramOptions::Sweeps::kCCW) sweeps.push_back(Sweep::kCW);
-  const bool tool_down = design.axis == Axis::kB && options.tool_down;
   const double first = sweeps.front() == Sweep::kCCW ? angles.front() : angles.back();
 
   std::size_t positions = 0;
@@ -156,20 +149,20 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     ip.installation = i;
     ip.bar_mm = *inst.bar_mm;
     const Eigen::Vector3d body = ball_body_mm(design.axis, inst);
-    ip.fixed_ball_mm = design.axis == Axis::kC ? body : Eigen::Vector3d::Zero();
+    ip.fixed_ball_mm = design.axis.table() ? body : Eigen::Vector3d::Zero();
     // The table's cup is placed once per ball position (B: once, at the origin).
-    ip.places_cup = design.axis == Axis::kC
+    ip.places_cup = design.axis.table()
                         ? !previous_ball || (*previous_ball - body).norm() > kAssemblyTolerance_mm
                         : !previous_ball;
     previous_ball = body;
     const Eigen::Vector3d P_first = ball_position_mm(design.axis, inst, first);
-    ip.placement_mm = design.axis == Axis::kC ? P_first : turned(-P_first, tool_down);
-    if (design.axis == Axis::kC) {
+    ip.placement_mm = design.axis.table() ? P_first : Eigen::Vector3d(-P_first);
+    if (design.axis.table()) {
       highest = std::max(highest, P_first.z());
     } else {
       reach = std::max(reach, body.norm());
     }
-    Eigen::Vector3d last = commanded_point_mm(design.axis, inst, ip.bar_mm, first, tool_down);
+    Eigen::Vector3d last = commanded_point_mm(design.axis, inst, ip.bar_mm, first);
     // The descent to the first position and the retract after the last, along Z at the feed,
     // are counted once the clearance plane is known.
     for (const Sweep s : sweeps) {
@@ -188,7 +181,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
         }
         ProgramPosition p;
         p.angle_deg = a;
-        p.linear_mm = commanded_point_mm(design.axis, inst, ip.bar_mm, a, tool_down);
+        p.linear_mm = commanded_point_mm(design.axis, inst, ip.bar_mm, a);
         p.reading = reading;
         ip.motion_time_s += 60.0 * (p.linear_mm - last).norm() / options.feed_mm_per_min;
         if (reading) ip.motion_time_s += options.dwell_s;

@@ -21,16 +21,16 @@ double f_test_p(int q, int dof, double F) {
 namespace {
 
 // The distinct positions of the readings `rows` (all when null).
-// Sorted (a C angle taken into [0, 360)), a position is new when it is not the same as the one
-// before it; on C the last and the first may be one position across 0/360.
-int distinct_positions(Axis axis, const std::vector<Reading>& readings,
+// Sorted (on a full turn an angle taken into [0, 360)), a position is new when it is not the
+// same as the one before it; on a full turn the last and the first may be one across 0/360.
+int distinct_positions(const AxisFrame& axis, const std::vector<Reading>& readings,
                        const std::vector<int>* rows) {
   const std::size_t n = rows ? rows->size() : readings.size();
   std::vector<double> angles;
   angles.reserve(n);
   for (std::size_t j = 0; j < n; ++j) {
     double a = readings[rows ? static_cast<std::size_t>((*rows)[j]) : j].angle_deg;
-    if (axis == Axis::kC) {
+    if (axis.full_turn()) {
       a = std::fmod(a, 360.0);
       if (a < 0) a += 360.0;
     }
@@ -40,7 +40,7 @@ int distinct_positions(Axis axis, const std::vector<Reading>& readings,
   int count = 0;
   for (std::size_t j = 0; j < angles.size(); ++j)
     count += j == 0 || !same_position(axis, angles[j - 1], angles[j]);
-  if (axis == Axis::kC && count > 1 && same_position(axis, angles.front(), angles.back())) --count;
+  if (axis.full_turn() && count > 1 && same_position(axis, angles.front(), angles.back())) --count;
   return count;
 }
 
@@ -50,7 +50,8 @@ std::vector<double> residual_harmonics(const std::vector<Reading>& readings,
                                        const std::vector<int>& rows,
                                        const Eigen::VectorXd& residual_um) {
   std::vector<double> amplitude;
-  const int K = std::min(4, (distinct_positions(Axis::kC, readings, &rows) - 1) / 2);
+  const int K =
+      std::min(4, (distinct_positions(AxisFrame::c_turntable(), readings, &rows) - 1) / 2);
   if (K < 1) return amplitude;
   const Eigen::Index n = static_cast<Eigen::Index>(rows.size());
   Eigen::MatrixXd A(n, 2 * K + 1);
@@ -272,7 +273,7 @@ std::vector<ResidualFeature> residual_features(const Design& design,
     if (r.empty()) continue;
     const int inst = static_cast<int>(i);
     add(feature(FeatureKind::kMean, inst), column(FeatureKind::kMean, inst));
-    if (design.axis == Axis::kC) {
+    if (design.axis.full_turn()) {
       const std::vector<double> amplitude = residual_harmonics(readings, r, fit.residual_um);
       for (int k = 1; k <= static_cast<int>(amplitude.size()); ++k) {
         Eigen::MatrixXd h = Eigen::MatrixXd::Zero(n, 2);

@@ -31,8 +31,8 @@ bool same_ball_position(const Installation& a, const Installation& b) {
   return same(a.L_mm, b.L_mm) && same(a.D_mm, b.D_mm) && same(a.H_mm, b.H_mm);
 }
 
-bool same_stack(Axis axis, const Installation& a, const Installation& b) {
-  if (axis != Axis::kC) return true;
+bool same_stack(const AxisFrame& axis, const Installation& a, const Installation& b) {
+  if (!axis.table()) return true;
   if (a.cup_mm && b.cup_mm)
     return same(*a.cup_mm, *b.cup_mm) && same_lengths(a.blocks_mm, b.blocks_mm);
   return same(a.H_mm, b.H_mm);
@@ -82,7 +82,7 @@ std::vector<SetupStep> steps_along(const Design& d, const std::vector<int>& orde
     s.moves_cup = !prev || !same_ball_position(*prev, in);
     positions += s.moves_cup;
     s.position = positions;
-    s.changes_stack = d.axis == Axis::kC && (!prev || !same_stack(d.axis, *prev, in));
+    s.changes_stack = d.axis.table() && (!prev || !same_stack(d.axis, *prev, in));
     s.changes_bar = !prev || !same_bar(*prev, in);
     steps.push_back(s);
   }
@@ -102,10 +102,10 @@ std::tuple<int, int, int> changes(const std::vector<SetupStep>& steps) {
 
 // A kit of the design's axis, or none.
 void check_kit_axis(const Kit* kit, const Design& design) {
-  if (kit && kit->axis != design.axis)
+  if (kit && !kit->axis.same_as(design.axis))
     throw InputError("--kit", "axis",
-                     std::string("the kit is for axis ") + axis_name(kit->axis) +
-                         ", the design for axis " + axis_name(design.axis));
+                     std::string("the kit is for axis ") + kit->axis.label() +
+                         ", the design for axis " + design.axis.label());
 }
 
 }  // namespace
@@ -248,7 +248,7 @@ RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
   for (Installation& in : out.design.installations) {
     const double L = round(in.L_mm), D = round(in.D_mm);
     // H is set by the cup and its blocks when they are given: it is as exact as they are.
-    const double H = in.cup_mm || design.axis != Axis::kC ? in.H_mm : round(in.H_mm);
+    const double H = in.cup_mm || !design.axis.has_H() ? in.H_mm : round(in.H_mm);
     out.largest_shift_mm = std::max({out.largest_shift_mm, std::abs(L - in.L_mm),
                                      std::abs(D - in.D_mm), std::abs(H - in.H_mm)});
     in.L_mm = L, in.D_mm = D, in.H_mm = H;

@@ -12,7 +12,8 @@
 
 namespace dbbkit {
 
-Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg, const std::string& source) {
+Vector6d truth_errors(const Truth& truth, const AxisFrame& axis, double angle_deg,
+                      const std::string& source) {
   if (truth.model.kind == ErrorModel::Kind::kPerAngle) {
     for (const auto& [a, e] : truth.per_angle) {
       if (same_position(axis, a, angle_deg)) return e;
@@ -58,7 +59,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
       throw InputError(source, "setup.installations." + id,
                        "installation '" + id + "' is not in the design");
     }
-    if (design.axis == Axis::kB && given.ball_mm(2) != 0) {
+    if (!design.axis.has_H() && given.ball_mm(2) != 0) {
       throw InputError(source, "setup.installations." + id + ".ball_mm.H",
                        "H is not used for the swinging head B");
     }
@@ -90,7 +91,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     std::vector<std::pair<double, size_t>> keys;
     for (size_t i = 0; i < truth.per_angle.size(); ++i) {
       double a = truth.per_angle[i].first;
-      if (design.axis == Axis::kC) a = std::fmod(std::fmod(a, 360.0) + 360.0, 360.0);
+      if (design.axis.full_turn()) a = std::fmod(std::fmod(a, 360.0) + 360.0, 360.0);
       keys.emplace_back(a, i);
     }
     std::sort(keys.begin(), keys.end());
@@ -183,7 +184,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     for (double a : design.angles_deg) truth_errors(truth, design.axis, a, source);
     return;
   }
-  if (truth.model.kind == ErrorModel::Kind::kFourier && design.axis != Axis::kC) {
+  if (truth.model.kind == ErrorModel::Kind::kFourier && !design.axis.full_turn()) {
     throw InputError(source, "errors.model", "a Fourier truth is for the full-turn axis C");
   }
   if (truth.model.kind == ErrorModel::Kind::kLegendre) {
@@ -215,7 +216,7 @@ std::vector<SetupError> simulated_setup_errors(const Design& design, const Truth
     e.length_offset_um = s.length_offset_um * n01(rng);
     for (int k = 0; k < 3; ++k) e.centring_um(k) = s.centring_um * n01(rng);
     for (int k = 0; k < 3; ++k) e.ball_mm(k) = s.ball_mm(k) * n01(rng);
-    if (design.axis == Axis::kB) e.ball_mm(2) = 0;
+    if (!design.axis.has_H()) e.ball_mm(2) = 0;
   }
   for (const auto& [id, given] : truth.setup_given) {
     const int i = design.find_installation(id);

@@ -12,11 +12,11 @@
 namespace dbbkit {
 namespace {
 
-Installation ball(Axis axis, Direction::Kind kind) {
+Installation ball(const AxisFrame& axis, Direction::Kind kind) {
   Installation in;
   in.id = "1";
   in.L_mm = 120;
-  in.H_mm = axis == Axis::kC ? 60 : 0;
+  in.H_mm = axis == test::kAxisC ? 60 : 0;
   in.direction = Direction::named(axis, kind);
   return in;
 }
@@ -24,9 +24,9 @@ Installation ball(Axis axis, Direction::Kind kind) {
 // Radial: from the axis to the ball, perpendicular to the axis; tangential: the ball's path
 // (d P / d angle, central differences); axial: the axis. Both axes, at several angles.
 TEST(Direction, NamedDirectionsAreTheBallsRadialTangentialAndAxialDirections) {
-  for (Axis axis : {Axis::kC, Axis::kB}) {
+  for (Axis axis : {test::kAxisC, test::kAxisB}) {
     const Eigen::Vector3d along =
-        axis == Axis::kC ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
+        axis == test::kAxisC ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
     for (double a : {-100.0, -30.0, 0.0, 45.0, 170.0}) {
       const Eigen::Vector3d P = ball_position_mm(axis, ball(axis, Direction::Kind::kRadial), a);
       const Eigen::Vector3d radial = (P - P.dot(along) * along).normalized();

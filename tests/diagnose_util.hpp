@@ -77,7 +77,7 @@ std::pair<int, int> clean_runs(const Design& d, TruthFn truth, std::mt19937_64& 
 }
 
 // Counts the determined errors after and those within 3 standard uncertainties of the truth.
-inline void count_errors_within_3u(const DiagnoseResult& r, const Truth& t, Axis axis,
+inline void count_errors_within_3u(const DiagnoseResult& r, const Truth& t, const AxisFrame& axis,
                                    double& inside, double& total) {
   for (const ErrorsAtAngle& ea : r.errors_after) {
     const Vector6d truth = truth_errors(t, axis, ea.angle_deg);

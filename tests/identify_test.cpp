@@ -23,7 +23,7 @@ Design b_head_with_offset() {
     in.id = dir == Direction::Kind::kRadial ? "3r" : "3t";
     in.L_mm = 150;
     in.D_mm = 60;
-    in.direction = Direction::named(Axis::kB, dir);
+    in.direction = Direction::named(test::kAxisB, dir);
     d.installations.push_back(in);
   }
   return d;

@@ -39,7 +39,7 @@ struct AxisTruth {
 // location patterns: there their least-squares part on the constants and the location
 // patterns (the docs' derivation: d0 + (I - R) o, e0 + c0 a + (I - R) alpha) is removed,
 // as the axis average line is the least-squares line (ISO 230-7).
-std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t,
+std::vector<Vector6d> component_motions(const AxisFrame& axis, const AxisTruth& t,
                                         const std::vector<double>& g_deg) {
   const int n = static_cast<int>(g_deg.size());
   std::vector<Vector6d> out(n, Vector6d::Zero());
@@ -49,7 +49,7 @@ std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t,
       const double amp = k < 3 ? t.component_um : t.component_urad;
       out[i](k) += amp * (std::cos(2 * g + t.phases[k]) + 0.5 * std::sin(3 * g + t.phases[6 + k]));
     }
-    if (axis == Axis::kC) {
+    if (axis == test::kAxisC) {
       for (int b = 0; b < 2; ++b) {
         const double amp = b == 0 ? t.component_um : t.component_urad;
         const double u = amp * std::cos(t.phases[12 + b]), v = amp * std::sin(t.phases[12 + b]);
@@ -58,12 +58,13 @@ std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t,
       }
     }
   }
-  if (axis == Axis::kB) {
+  if (axis == test::kAxisB) {
     for (int b = 0; b < 2; ++b) {
       Eigen::MatrixXd X = Eigen::MatrixXd::Zero(3 * n, 5);
       Eigen::VectorXd y(3 * n);
       for (int i = 0; i < n; ++i) {
-        const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(Axis::kB, g_deg[i]);
+        const Eigen::Matrix3d IR =
+            Eigen::Matrix3d::Identity() - axis_rotation(test::kAxisB, g_deg[i]);
         for (int k = 0; k < 3; ++k) {
           const int r = 3 * i + k;
           if (b == 0) {
@@ -91,8 +92,10 @@ std::vector<Vector6d> component_motions(Axis axis, const AxisTruth& t,
 // axis at commanded angle g: P = o + Q (P0 - o), Q the rotation by g + c0 about the
 // tilted axis, against the nominal R(g) P0: R_err = Q R', d_err = (I - Q) o. Then the
 // constant parts and the component motions.
-Vector6d error_motion(Axis axis, const AxisTruth& t, double g_deg, const Vector6d& component) {
-  const Eigen::Vector3d a = axis == Axis::kC ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
+Vector6d error_motion(const AxisFrame& axis, const AxisTruth& t, double g_deg,
+                      const Vector6d& component) {
+  const Eigen::Vector3d a =
+      axis == test::kAxisC ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
   const Eigen::Vector3d alpha = 1e-6 * t.alpha;
   const Eigen::Matrix3d tilt =
       alpha.norm() > 0 ? Eigen::AngleAxisd(alpha.norm(), alpha.normalized()).toRotationMatrix()
@@ -111,10 +114,10 @@ Vector6d error_motion(Axis axis, const AxisTruth& t, double g_deg, const Vector6
   return out + t.constant + component;
 }
 
-AxisTruth random_truth(Axis axis, std::mt19937_64& rng, bool components) {
+AxisTruth random_truth(const AxisFrame& axis, std::mt19937_64& rng, bool components) {
   std::uniform_real_distribution<double> u(-1, 1), phase(0, 2 * M_PI);
   AxisTruth t;
-  const int p1 = 0, p2 = axis == Axis::kC ? 1 : 2, ax = axis == Axis::kC ? 2 : 1;
+  const int p1 = 0, p2 = axis == test::kAxisC ? 1 : 2, ax = axis == test::kAxisC ? 2 : 1;
   t.o(p1) = 20 * u(rng);
   t.o(p2) = 20 * u(rng);
   t.alpha(p1) = 50 * u(rng);
@@ -135,7 +138,7 @@ AxisTruth random_truth(Axis axis, std::mt19937_64& rng, bool components) {
 // The measured positions of d (360 is the position 0).
 std::vector<double> positions(const Design& d) {
   std::vector<double> g;
-  for (double a : d.angles_deg) g.push_back(d.axis == Axis::kC ? std::fmod(a, 360.0) : a);
+  for (double a : d.angles_deg) g.push_back(d.axis == test::kAxisC ? std::fmod(a, 360.0) : a);
   return g;
 }
 
@@ -151,8 +154,8 @@ Truth exact_truth(const Design& d, const AxisTruth& at) {
   return t;
 }
 
-std::array<double, 5> location_of(Axis axis, const AxisTruth& t) {
-  const int p1 = 0, p2 = axis == Axis::kC ? 1 : 2;
+std::array<double, 5> location_of(const AxisFrame& axis, const AxisTruth& t) {
+  const int p1 = 0, p2 = axis == test::kAxisC ? 1 : 2;
   return {t.o(p1), t.o(p2), t.alpha(p1), t.alpha(p2), t.c0};
 }
 
@@ -228,7 +231,7 @@ void check_recovery(const Design& d, int cases, bool components, std::uint64_t s
       "within 3 u: %d of %d; error motion values held by their interval: %d of %d (U / value %.2f "
       "on "
       "average); noise-free: largest difference %.2e (um, urad)\n",
-      d.axis == Axis::kC ? "C" : "B", d.name.c_str(), cases,
+      d.axis == test::kAxisC ? "C" : "B", d.name.c_str(), cases,
       components ? " with component motions" : "", held, checked, held1, comp_held, comp_checked,
       range_held, range_checked, range_checked ? width / range_checked : 0.0, worst_noise_free);
   // The uncertainty is the right size, not only large enough: about 68 % within 1 u.
@@ -293,7 +296,7 @@ TEST(Iso230, NamesAndUndeterminedBlocks) {
   const IdentifyResult r = identify(c, simulate(c, t, 3));
   const IsoResult iso = iso230_quantities(c, r.param, r.estimate);
   ASSERT_EQ(iso.location.size(), 5u);
-  const char* names[] = {"XOC", "YOC", "AOC", "BOC", "C0C"};
+  const char* names[] = {"X0C", "Y0C", "A0C", "B0C", "C0C"};
   for (int j = 0; j < 5; ++j) EXPECT_EQ(iso.location[j].name, names[j]);
   EXPECT_EQ(iso.component_names[5], "ECC");
   EXPECT_EQ(iso.constants[4].name, "constant part of ey");
@@ -302,7 +305,7 @@ TEST(Iso230, NamesAndUndeterminedBlocks) {
   const Design b = test::paper_design('B');
   const IdentifyResult rb = identify(b, simulate(b, exact_truth(b, AxisTruth{}), 3));
   const IsoResult ib = iso230_quantities(b, rb.param, rb.estimate);
-  EXPECT_EQ(ib.location[0].name, "XOB");
+  EXPECT_EQ(ib.location[0].name, "X0B");
   EXPECT_EQ(ib.location[4].name, "B0B");
   EXPECT_FALSE(ib.location[2].value.determined);
   ASSERT_FALSE(ib.gaps.empty());

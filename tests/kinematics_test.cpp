@@ -54,8 +54,8 @@ TEST(Kinematics, TurntableRowsMatchPaperEquation9) {
                                                                 {Direction::Kind::kTangential, u_t},
                                                                 {Direction::Kind::kAxial, u_a}};
     for (const auto& [kind, u] : dirs) {
-      const Installation in = make(L, 0, H, Direction::named(Axis::kC, kind));
-      EXPECT_TRUE(test::near(J_reading_error(Axis::kC, in, g_deg), u.transpose() * dP, 1e-12))
+      const Installation in = make(L, 0, H, Direction::named(test::kAxisC, kind));
+      EXPECT_TRUE(test::near(J_reading_error(test::kAxisC, in, g_deg), u.transpose() * dP, 1e-12))
           << g_deg;
     }
   }
@@ -77,31 +77,32 @@ TEST(Kinematics, SwingingHeadRowsMatchModel) {
                                                                 {Direction::Kind::kTangential, u_t},
                                                                 {Direction::Kind::kAxial, u_a}};
     for (const auto& [kind, u] : dirs) {
-      const Installation in = make(L, 0, 0, Direction::named(Axis::kB, kind));
-      EXPECT_TRUE(test::near(J_reading_error(Axis::kB, in, b_deg), u.transpose() * dP, 1e-12))
+      const Installation in = make(L, 0, 0, Direction::named(test::kAxisB, kind));
+      EXPECT_TRUE(test::near(J_reading_error(test::kAxisB, in, b_deg), u.transpose() * dP, 1e-12))
           << b_deg;
-      EXPECT_TRUE(test::near(ball_position_mm(Axis::kB, in, b_deg),
+      EXPECT_TRUE(test::near(ball_position_mm(test::kAxisB, in, b_deg),
                              Eigen::Vector3d(L * std::sin(b), 0, L * std::cos(b)), 1e-12));
     }
   }
 }
 
 TEST(Kinematics, SignFlipsTheRow) {
-  Installation in = make(100, 5, 60, Direction::named(Axis::kC, Direction::Kind::kRadial));
-  const RowVector6d plus = J_reading_error(Axis::kC, in, 40);
+  Installation in = make(100, 5, 60, Direction::named(test::kAxisC, Direction::Kind::kRadial));
+  const RowVector6d plus = J_reading_error(test::kAxisC, in, 40);
   in.sign = -1;
-  EXPECT_TRUE(test::near(J_reading_error(Axis::kC, in, 40), -plus, 0.0));
+  EXPECT_TRUE(test::near(J_reading_error(test::kAxisC, in, 40), -plus, 0.0));
 }
 
 TEST(Kinematics, ExplicitVectorEqualsNamedDirection) {
   // An explicit body vector equal to the named one gives the same row; the body frame is the
   // machine frame at 0.
-  for (Axis axis : {Axis::kC, Axis::kB}) {
+  for (Axis axis : {test::kAxisC, test::kAxisB}) {
     for (auto kind :
          {Direction::Kind::kRadial, Direction::Kind::kTangential, Direction::Kind::kAxial}) {
       const Direction named = Direction::named(axis, kind);
-      const Installation a = make(80, 10, axis == Axis::kC ? 40 : 0, named);
-      const Installation b = make(80, 10, axis == Axis::kC ? 40 : 0, Direction::vector(named.body));
+      const Installation a = make(80, 10, axis == test::kAxisC ? 40 : 0, named);
+      const Installation b =
+          make(80, 10, axis == test::kAxisC ? 40 : 0, Direction::vector(named.body));
       EXPECT_TRUE(test::near(J_reading_error(axis, a, 33), J_reading_error(axis, b, 33), 0.0));
     }
   }
@@ -113,7 +114,7 @@ TEST(Kinematics, ExplicitVectorEqualsNamedDirection) {
 TEST(Kinematics, RowIsTheDerivativeOfTheExactReading) {
   std::mt19937_64 rng(8);
   std::uniform_real_distribution<double> uni(-1, 1);
-  for (Axis axis : {Axis::kC, Axis::kB}) {
+  for (Axis axis : {test::kAxisC, test::kAxisB}) {
     for (int trial = 0; trial < 40; ++trial) {
       const int k = trial % 4;
       const Direction dir =
@@ -121,14 +122,14 @@ TEST(Kinematics, RowIsTheDerivativeOfTheExactReading) {
                 : Direction::vector(Eigen::Vector3d(uni(rng), uni(rng), uni(rng)).normalized());
       const Installation in =
           make(250 * std::abs(uni(rng)), 50 * uni(rng),
-               axis == Axis::kC ? 200 * std::abs(uni(rng)) : 0, dir, trial % 2 ? 1 : -1);
+               axis == test::kAxisC ? 200 * std::abs(uni(rng)) : 0, dir, trial % 2 ? 1 : -1);
       const double angle = 180 * uni(rng);
       auto exact = [&](const Eigen::VectorXd& e) {
         return Eigen::VectorXd::Constant(1, exact_reading_um(axis, in, angle, e, 150.0));
       };
       EXPECT_TRUE(test::jacobian_matches(exact, Eigen::VectorXd::Zero(6),
                                          J_reading_error(axis, in, angle), 1.0, 1e-8, 1e-7))
-          << "axis " << axis_name(axis) << " trial " << trial;
+          << "axis " << axis.label() << " trial " << trial;
     }
   }
 }
@@ -139,7 +140,7 @@ TEST(Kinematics, RowAgreesWithExactTransformToSecondOrder) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> uni(-1, 1);
   int checked = 0;
-  for (Axis axis : {Axis::kC, Axis::kB}) {
+  for (Axis axis : {test::kAxisC, test::kAxisB}) {
     for (int trial = 0; trial < 40; ++trial) {
       Direction dir;
       const int k = trial % 4;
@@ -150,7 +151,7 @@ TEST(Kinematics, RowAgreesWithExactTransformToSecondOrder) {
       }
       const Installation in =
           make(250 * std::abs(uni(rng)), 50 * uni(rng),
-               axis == Axis::kC ? 200 * std::abs(uni(rng)) : 0, dir, trial % 2 ? 1 : -1);
+               axis == test::kAxisC ? 200 * std::abs(uni(rng)) : 0, dir, trial % 2 ? 1 : -1);
       const double angle = 180 * uni(rng);
       Vector6d e;
       for (int i = 0; i < 6; ++i) e(i) = 50 * uni(rng);  // um and urad
@@ -161,7 +162,7 @@ TEST(Kinematics, RowAgreesWithExactTransformToSecondOrder) {
         const double err = std::abs(exact_reading_um(axis, in, angle, t * e, bar) - t * row.dot(e));
         if (previous > 1e-9) {  // above rounding of the exact reading (~1e-10 um)
           EXPECT_NEAR(previous / err, 4.0, 0.25)
-              << "axis " << axis_name(axis) << " trial " << trial << " t " << t;
+              << "axis " << axis.label() << " trial " << trial << " t " << t;
           ++checked;
         }
         previous = err;

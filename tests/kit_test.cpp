@@ -38,18 +38,19 @@ TEST(Kit, TravelExtentIsExactOverTheArc) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-1, 1);
   for (int t = 0; t < 300; ++t) {
-    const Axis axis = t % 2 ? Axis::kC : Axis::kB;
+    const AxisFrame& axis = t % 2 ? test::kAxisC : test::kAxisB;
     Installation in;
     in.L_mm = 150 + 100 * u(rng);
     in.D_mm = 40 * u(rng);
-    in.H_mm = axis == Axis::kC ? 100 + 50 * u(rng) : 0;
+    in.H_mm = axis == test::kAxisC ? 100 + 50 * u(rng) : 0;
     in.direction = Direction::named(axis, static_cast<Direction::Kind>(t % 3));
     in.sign = u(rng) > 0 ? 1 : -1;
     in.bar_mm = 150;
-    const double lo = axis == Axis::kC ? 360 * u(rng) : -100 + 30 * u(rng);
+    const double lo = axis == test::kAxisC ? 360 * u(rng) : -100 + 30 * u(rng);
     // Every fifth C arc a whole turn or more (its extremes are reached wherever they fall).
-    const double hi = lo + (axis == Axis::kC ? (t % 5 == 1 ? 400 + 40 * u(rng) : 180 + 180 * u(rng))
-                                             : 90 + 20 * u(rng));
+    const double hi =
+        lo + (axis == test::kAxisC ? (t % 5 == 1 ? 400 + 40 * u(rng) : 180 + 180 * u(rng))
+                                   : 90 + 20 * u(rng));
     const double v = travel_violation_mm(kit, axis, in, {lo, hi});
     // Dense sampling can only find less (or equal) excursion, and nearly as much.
     double sampled = -1e300;
@@ -75,13 +76,13 @@ TEST(Kit, FitBarsIsFitBarForEachInstallation) {
   std::uniform_real_distribution<double> u(-1, 1);
   for (int t = 0; t < 100; ++t) {
     Design d;
-    d.axis = t % 2 ? Axis::kC : Axis::kB;
+    d.axis = t % 2 ? test::kAxisC : test::kAxisB;
     d.angles_deg = t % 3 ? kit_angles(kit, 15) : std::vector<double>{-40 + 10 * u(rng), 30};
     for (int i = 0; i < 5; ++i) {
       Installation in;
       in.L_mm = 150 + 150 * u(rng);
       in.D_mm = 60 * u(rng);
-      in.H_mm = d.axis == Axis::kC ? 100 + 80 * u(rng) : 0;
+      in.H_mm = d.axis == test::kAxisC ? 100 + 80 * u(rng) : 0;
       in.direction = Direction::named(d.axis, static_cast<Direction::Kind>(i % 3));
       d.installations.push_back(in);
     }
@@ -103,14 +104,15 @@ TEST(Kit, FitBarTakesTheShortestBarThatFits) {
   Installation in;
   in.L_mm = 250;
   in.H_mm = 45;
-  in.direction = Direction::named(Axis::kC, Direction::Kind::kTangential);
+  in.direction = Direction::named(test::kAxisC, Direction::Kind::kTangential);
   const std::vector<double> turn = kit_angles(kit, 20);
-  EXPECT_LE(fit_bar(kit, Axis::kC, in, turn), 0);
+  EXPECT_LE(fit_bar(kit, test::kAxisC, in, turn), 0);
   EXPECT_EQ(*in.bar_mm,
             100);  // sqrt(250^2 + 100^2) = 269 <= 300; 150 gives 292 too, but 100 is shorter
   kit.bars_mm = {250, 300};
-  EXPECT_GT(fit_bar(kit, Axis::kC, in, turn), 0);  // sqrt(250^2 + 250^2) = 354 > 300: nothing fits
-  EXPECT_NEAR(fit_bar(kit, Axis::kC, in, turn), std::hypot(250.0, 250.0) - 300, 1e-9);
+  EXPECT_GT(fit_bar(kit, test::kAxisC, in, turn),
+            0);  // sqrt(250^2 + 250^2) = 354 > 300: nothing fits
+  EXPECT_NEAR(fit_bar(kit, test::kAxisC, in, turn), std::hypot(250.0, 250.0) - 300, 1e-9);
 }
 
 // A small C kit whose travel binds: x, y within +-220 mm, so a tangential bar of
@@ -184,7 +186,7 @@ TEST(Kit, DesignTimeCountsEachBallPositionOnce) {
     Installation in;
     in.L_mm = L;
     in.H_mm = H;
-    in.direction = Direction::named(Axis::kC, kind);
+    in.direction = Direction::named(test::kAxisC, kind);
     d.installations.push_back(in);
   }
   EXPECT_EQ(ball_positions(d), 3);

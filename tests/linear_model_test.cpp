@@ -24,7 +24,7 @@ TEST(SetupJacobian, IsTheDerivativeOfTheExactReadingOfTheErrorsWithTheBallMoved)
   for (char which : {'C', 'B'}) {
     Design d = test::paper_design(which);
     d.setup_std.L_mm = d.setup_std.D_mm = 0.1;
-    d.setup_std.H_mm = d.axis == Axis::kC ? 0.1 : 0.0;  // B: the ball is (0, D, L)
+    d.setup_std.H_mm = d.axis == test::kAxisC ? 0.1 : 0.0;  // B: the ball is (0, D, L)
     for (Installation& in : d.installations) {
       if (!in.bar_mm) in.bar_mm = kBar;
     }

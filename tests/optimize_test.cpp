@@ -22,20 +22,20 @@
 namespace dbbkit {
 namespace {
 
-Design random_design(std::mt19937& rng, Axis axis) {
+Design random_design(std::mt19937& rng, const AxisFrame& axis) {
   std::uniform_real_distribution<double> L(0, 300), D(-80, 80), H(0, 200), unit(-1, 1);
   Design d;
   d.axis = axis;
-  d.angles_deg = axis == Axis::kC ? std::vector<double>{0, 30, 60, 90, 135, 200, 270, 330, 360}
-                                  : std::vector<double>{-100, -75, -50, -20, 0};
+  d.angles_deg = axis == test::kAxisC ? std::vector<double>{0, 30, 60, 90, 135, 200, 270, 330, 360}
+                                      : std::vector<double>{-100, -75, -50, -20, 0};
   d.noise.half_width_um = 1.0 + unit(rng) * 0.5;
   const int n = 6 + static_cast<int>(rng() % 4);
   for (int i = 0; i < n; ++i) {
     Installation in;
     in.id = "i" + std::to_string(i);
-    in.L_mm = axis == Axis::kC ? L(rng) : 50 + L(rng);
+    in.L_mm = axis == test::kAxisC ? L(rng) : 50 + L(rng);
     in.D_mm = D(rng);
-    in.H_mm = axis == Axis::kC ? H(rng) : 0.0;
+    in.H_mm = axis == test::kAxisC ? H(rng) : 0.0;
     if (rng() % 2) {
       in.direction = Direction::named(axis, static_cast<Direction::Kind>(rng() % 3));
     } else {
@@ -53,10 +53,10 @@ TEST(FastWorstCase, MatchesTheFullEvaluation) {
   std::mt19937 rng(7);
   int fast = 0;
   for (int t = 0; t < 300; ++t) {
-    const Axis axis = t % 2 ? Axis::kC : Axis::kB;
+    const AxisFrame& axis = t % 2 ? test::kAxisC : test::kAxisB;
     Design d = random_design(rng, axis);
     if (t % 3 == 1) {  // a series model on a third of the designs
-      d.errors = {axis == Axis::kC ? ErrorModel::Kind::kFourier : ErrorModel::Kind::kLegendre,
+      d.errors = {axis == test::kAxisC ? ErrorModel::Kind::kFourier : ErrorModel::Kind::kLegendre,
                   static_cast<int>(rng() % 3)};
     }
     const std::optional<WorstCase> w = fast_worst_case(d, 120.0);
@@ -80,7 +80,7 @@ TEST(FastWorstTotal, MatchesTheStackedSetupSolver) {
   int fast = 0;
   double worst_total_rel = 0, worst_noise_rel = 0;
   for (int t = 0; t < 120; ++t) {
-    const Axis axis = t % 2 ? Axis::kC : Axis::kB;
+    const AxisFrame& axis = t % 2 ? test::kAxisC : test::kAxisB;
     Design d = random_design(rng, axis);
     d.setup_std.length_offset_um = t % 3 == 0 ? 0.0 : 20 * unit(rng);
     d.setup_std.centring_um = t % 3 == 1 ? 0.0 : 10 * unit(rng);
@@ -142,7 +142,7 @@ TEST(FastSetupInformation, MatchesTheStackedModel) {
   std::uniform_real_distribution<double> unit(0, 1);
   int fast = 0, detectable = 0, not_detectable = 0;
   for (int t = 0; t < 80; ++t) {
-    const Axis axis = t % 2 ? Axis::kC : Axis::kB;
+    const AxisFrame& axis = t % 2 ? test::kAxisC : test::kAxisB;
     Design d = random_design(rng, axis);
     d.setup_std.length_offset_um = t % 3 == 0 ? 0.0 : 1 + 20 * unit(rng);
     d.setup_std.centring_um = t % 3 == 1 ? 0.0 : 1 + 10 * unit(rng);
@@ -198,11 +198,11 @@ TEST(AngleStations, GivenStationsGiveTheSameAnswersAndOthersAreNotUsed) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> unit(0, 1);
   for (int t = 0; t < 40; ++t) {
-    const Axis axis = t % 2 ? Axis::kC : Axis::kB;
+    const AxisFrame& axis = t % 2 ? test::kAxisC : test::kAxisB;
     Design d = random_design(rng, axis);
     if (t % 4 < 2) {  // repeated angles and angles a turn apart are one station
       d.angles_deg.push_back(d.angles_deg[1]);
-      if (axis == Axis::kC) d.angles_deg.push_back(d.angles_deg[2] + 360);
+      if (axis == test::kAxisC) d.angles_deg.push_back(d.angles_deg[2] + 360);
     }
     if (t % 3) {
       d.setup_std.length_offset_um = 20 * unit(rng);
@@ -215,7 +215,7 @@ TEST(AngleStations, GivenStationsGiveTheSameAnswersAndOthersAreNotUsed) {
     std::vector<double> shifted = d.angles_deg;
     shifted.back() += 1;
     const AngleStations other(axis, shifted);
-    const AngleStations turned(axis == Axis::kC ? Axis::kB : Axis::kC, d.angles_deg);
+    const AngleStations turned(axis == test::kAxisC ? test::kAxisB : test::kAxisC, d.angles_deg);
     EXPECT_FALSE(other.serves(d));
     EXPECT_FALSE(turned.serves(d));
     const std::optional<TotalWorstCase> ref = fast_worst_total(d, 100.0);
@@ -275,8 +275,8 @@ Kit formats_kit() {
 Kit small_c_kit() {
   Kit k;
   k.name = "small-c";
-  k.axis = Axis::kC;
-  k.pattern = *builtin_pattern("three_position", Axis::kC);
+  k.axis = test::kAxisC;
+  k.pattern = *builtin_pattern("three_position", test::kAxisC);
   k.reference_length_mm = 100;
   k.L_mm = {20, 250};
   k.D_mm = {0, 0};
@@ -300,8 +300,8 @@ Kit small_c_kit() {
 Kit small_b_kit() {
   Kit k;
   k.name = "small-b";
-  k.axis = Axis::kB;
-  k.pattern = *builtin_pattern("three_position", Axis::kB);
+  k.axis = test::kAxisB;
+  k.pattern = *builtin_pattern("three_position", test::kAxisB);
   k.reference_length_mm = 100;
   k.L_mm = {100, 260};
   k.D_mm = {0, 150};

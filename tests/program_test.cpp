@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -27,22 +28,21 @@ namespace {
 using test::kPi;
 
 // --- the geometry, independently of kinematics.cpp -------------------------------------
-Eigen::Matrix3d rotation(Axis axis, double deg) {
-  const double a = deg * kPi / 180, c = std::cos(a), s = std::sin(a);
-  Eigen::Matrix3d R;
-  if (axis == Axis::kC)
-    R << c, -s, 0, s, c, 0, 0, 0, 1;  // about +Z
-  else
-    R << c, 0, s, 0, 1, 0, -s, 0, c;  // about +Y
-  return R;
+// formats.md's definitions: a positive angle turns by the right-hand rule about the direction;
+// the ball at L reference + D (direction x reference) + H direction (the B shorthand: L along
+// +Z, D along +Y).
+Eigen::Matrix3d rotation(const AxisFrame& axis, double deg) {
+  return Eigen::AngleAxisd(deg * kPi / 180, axis.direction()).toRotationMatrix();
 }
 // The ball (moving body) and the following ball at an angle, model frame.
-Eigen::Vector3d ball(Axis axis, const Installation& in, double deg) {
-  const Eigen::Vector3d body = axis == Axis::kC ? Eigen::Vector3d(in.L_mm, in.D_mm, in.H_mm)
-                                                : Eigen::Vector3d(0, in.D_mm, in.L_mm);
+Eigen::Vector3d ball(const AxisFrame& axis, const Installation& in, double deg) {
+  const Eigen::Vector3d a = axis.direction(), r = axis.reference();
+  const Eigen::Vector3d body =
+      axis.shorthand() == "B" ? Eigen::Vector3d(0, in.D_mm, in.L_mm)
+                              : Eigen::Vector3d(in.L_mm * r + in.D_mm * a.cross(r) + in.H_mm * a);
   return rotation(axis, deg) * body;
 }
-Eigen::Vector3d following(Axis axis, const Installation& in, double deg) {
+Eigen::Vector3d following(const AxisFrame& axis, const Installation& in, double deg) {
   return ball(axis, in, deg) - in.sign * *in.bar_mm * (rotation(axis, deg) * in.direction.body);
 }
 
@@ -160,14 +160,32 @@ Parsed parse(const std::string& text, io::Dialect dialect, char rotary) {
 }
 
 // --- random designs ----------------------------------------------------------------------
-Design random_design(std::mt19937_64& rng, Axis axis) {
+// The shorthands, a B head whose spindle points down at B0, an A trunnion, an A head pointing
+// down and a primed C table.
+const std::vector<AxisFrame>& program_frames() {
+  using S = AxisFrame::Side;
+  static const std::vector<AxisFrame> frames = {
+      test::kAxisC,
+      test::kAxisB,
+      AxisFrame::general('B', S::kHead, Eigen::Vector3d::UnitY(), -Eigen::Vector3d::UnitZ(), false,
+                         -180, 180),
+      AxisFrame::general('A', S::kTable, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ(), false,
+                         -120, 120),
+      AxisFrame::general('A', S::kHead, Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitZ(), false,
+                         -120, 120),
+      AxisFrame::general('C', S::kTable, -Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(),
+                         true)};
+  return frames;
+}
+
+Design random_design(std::mt19937_64& rng, const AxisFrame& axis) {
   std::uniform_real_distribution<double> U(0, 1);
   Design d;
   d.name = "random";
   d.axis = axis;
   const double step = std::vector<double>{5, 10, 15, 20, 30, 45}[rng() % 6];
-  const double start = axis == Axis::kC ? 0 : -120 + 5 * static_cast<int>(rng() % 8);
-  const int steps = axis == Axis::kC ? static_cast<int>(std::lround(360 / step))
+  const double start = axis.full_turn() ? 0 : -120 + 5 * static_cast<int>(rng() % 8);
+  const int steps = axis.full_turn() ? static_cast<int>(std::lround(360 / step))
                                      : std::max(2, static_cast<int>(std::lround(100 / step)));
   for (int k = 0; k <= steps; ++k) d.angles_deg.push_back(start + k * step);
   const int n = 1 + static_cast<int>(rng() % 5);
@@ -176,7 +194,7 @@ Design random_design(std::mt19937_64& rng, Axis axis) {
     in.id = "i" + std::to_string(i);
     in.L_mm = 20 + 380 * U(rng);
     in.D_mm = U(rng) < 0.5 ? 0 : -100 + 200 * U(rng);
-    in.H_mm = axis == Axis::kC ? 20 + 300 * U(rng) : 0;
+    in.H_mm = axis.table() ? 20 + 300 * U(rng) : 0;
     const int kind = static_cast<int>(rng() % 4);
     if (kind < 3) {
       in.direction = Direction::named(axis, static_cast<Direction::Kind>(kind));
@@ -195,21 +213,18 @@ TEST(Program, CommandedPositionsFollowTheNominalPathInBothDialectsAndAxes) {
   std::mt19937_64 rng(20261125);
   int designs = 0, moves = 0;
   for (int trial = 0; trial < 40; ++trial) {
-    const Axis axis = trial % 2 ? Axis::kB : Axis::kC;
+    const AxisFrame& axis = program_frames()[trial % program_frames().size()];
     const Design d = random_design(rng, axis);
     ProgramOptions o;
     o.sweeps = static_cast<ProgramOptions::Sweeps>(rng() % 3);
     o.path_tolerance_mm = std::vector<double>{0.01, 0.05, 0.2}[rng() % 3];
-    o.tool_down = axis == Axis::kB && rng() % 2;
     const MeasurementProgram program = measurement_program(d, o);
     for (const io::Dialect dialect : {io::Dialect::kIso, io::Dialect::kHeidenhain}) {
-      const char rotary = axis == Axis::kC ? 'C' : 'B';
+      const char rotary = axis.letter();
       const Parsed p = parse(io::program_text(d, program, dialect), dialect, rotary);
       ASSERT_EQ(p.mounts, static_cast<int>(d.installations.size()));
       // The commanded point against the nominal path, and the table ball's position for B.
       std::map<std::string, Eigen::Vector3d> table_ball;
-      const Eigen::Vector3d flip =
-          o.tool_down ? Eigen::Vector3d(-1, 1, -1) : Eigen::Vector3d(1, 1, 1);
       // The positions of the measurement: every move of all axes at once, and where the bar is
       // mounted (the end of the descent before it).
       for (const Commanded& m : p.moves) {
@@ -219,12 +234,12 @@ TEST(Program, CommandedPositionsFollowTheNominalPathInBothDialectsAndAxes) {
         if (!measuring) continue;
         const Installation& in = d.installations[d.find_installation(m.installation)];
         const Eigen::Vector3d F = following(axis, in, m.angle);
-        if (axis == Axis::kC) {
+        if (axis.table()) {
           EXPECT_LE((m.xyz - F).norm(), 1e-3) << m.installation << " at " << m.angle;
         } else {
-          // The pivot Q and the table ball T: T - Q = F (turned when the tool points down); the
-          // table ball at the work frame's origin for every installation.
-          const Eigen::Vector3d T = m.xyz + flip.cwiseProduct(F);
+          // The pivot Q and the table ball T: T - Q = F; the table ball at the work frame's
+          // origin for every installation.
+          const Eigen::Vector3d T = m.xyz + F;
           table_ball.emplace(m.installation, T);
           EXPECT_LE(T.norm(), 1e-3) << m.installation << " at " << m.angle;
         }
@@ -251,11 +266,9 @@ TEST(Program, CommandedPositionsFollowTheNominalPathInBothDialectsAndAxes) {
           const double t = j / 10.0, ang = a.angle + t * (b.angle - a.angle);
           const Eigen::Vector3d q = a.xyz + t * (b.xyz - a.xyz);
           // C: the spindle ball at q; B: the head ball at q + P, the table ball fixed.
-          const double bar =
-              axis == Axis::kC
-                  ? (ball(axis, in, ang) - q).norm()
-                  : (flip.cwiseProduct(ball(axis, in, ang)) + q - table_ball[a.installation])
-                        .norm();
+          const double bar = axis.table()
+                                 ? (ball(axis, in, ang) - q).norm()
+                                 : (ball(axis, in, ang) + q - table_ball[a.installation]).norm();
           EXPECT_LE(std::abs(bar - *in.bar_mm), o.path_tolerance_mm + 1e-3)
               << in.id << " between " << a.angle << " and " << b.angle;
         }
@@ -272,13 +285,13 @@ TEST(Program, CommandedPositionsFollowTheNominalPathInBothDialectsAndAxes) {
 // rapid and only upwards to it; every descent along Z alone at the feed; the bar mounted after
 // a descent; the cup placed once per ball position (B: once).
 void expect_safe(const Design& d, const MeasurementProgram& program, io::Dialect dialect) {
-  const Axis axis = d.axis;
+  const AxisFrame& axis = d.axis;
   const ProgramOptions& o = program.options;
   const double zc = program.clearance_z_mm;
   const std::string tool = std::to_string(o.tool_number);
   const bool iso = dialect == io::Dialect::kIso;
   const std::string text = io::program_text(d, program, dialect);
-  const Parsed p = parse(text, dialect, axis == Axis::kC ? 'C' : 'B');
+  const Parsed p = parse(text, dialect, axis.letter());
   std::string start;
   for (const std::string& l : p.before_first_move) start += l + "\n";
   for (const char* must :
@@ -318,7 +331,7 @@ void expect_safe(const Design& d, const MeasurementProgram& program, io::Dialect
     const Installation& b = d.installations[program.installations[k].installation];
     positions += (ball_body_mm(axis, a) - ball_body_mm(axis, b)).norm() > kAssemblyTolerance_mm;
   }
-  EXPECT_EQ(p.placements, axis == Axis::kC ? positions : 1);
+  EXPECT_EQ(p.placements, axis.table() ? positions : 1);
   // Down to each placement and each mounting, up after each: two feeds along Z apiece.
   EXPECT_EQ(descents, 2 * (p.placements + static_cast<int>(d.installations.size())));
   EXPECT_NE(text.find(o.air_run ? "AIR RUN" : "mount the bar"), std::string::npos);
@@ -328,10 +341,9 @@ void expect_safe(const Design& d, const MeasurementProgram& program, io::Dialect
 TEST(Program, SafeStartToolLengthAndClearanceMovesInBothDialects) {
   std::mt19937_64 rng(20261126);
   for (int trial = 0; trial < 20; ++trial) {
-    const Axis axis = trial % 2 ? Axis::kB : Axis::kC;
+    const AxisFrame& axis = program_frames()[trial % program_frames().size()];
     const Design d = random_design(rng, axis);
     ProgramOptions o;
-    o.tool_down = axis == Axis::kB && rng() % 2;
     o.air_run = rng() % 2;
     o.tool_number = 1 + static_cast<int>(rng() % 200);
     const MeasurementProgram program = measurement_program(d, o);
@@ -399,7 +411,7 @@ TEST(ProgramCli, EveryCommittedDesignHasAProgramInBothDialects) {
                                dialect + " --sweeps both");
       ASSERT_EQ(r.status, 0) << entry.path() << r.err;
       const Parsed p = parse(r.out, dialect == "iso" ? io::Dialect::kIso : io::Dialect::kHeidenhain,
-                             d.axis == Axis::kC ? 'C' : 'B');
+                             d.axis.letter());
       EXPECT_EQ(p.dwells.size(), 2 * d.installations.size() * d.angles_deg.size()) << entry.path();
       EXPECT_EQ(p.mounts, static_cast<int>(d.installations.size()));
     }
@@ -414,9 +426,11 @@ TEST(ProgramCli, EveryCommittedDesignHasAProgramInBothDialects) {
 
 TEST(ProgramCli, BadRequestsExitTwoSayingWhy) {
   const std::string c = DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json";
+  // Retired: a spindle pointing down is the design's frame, so that identify models it too.
   CliRun r = run_cli("program --design " + c + " --dialect iso --tool-down");
   EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.err.find("--tool-down"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--tool-down is retired"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("\"reference\": [0, 0, -1]"), std::string::npos) << r.err;
   r = run_cli("program --design " + c + " --dialect fanuc");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("--dialect"), std::string::npos) << r.err;

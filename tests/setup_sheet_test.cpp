@@ -75,7 +75,7 @@ std::tuple<int, int, int> exhaustive_least(const Design& d) {
 Design random_c_design(std::mt19937_64& rng) {
   Design d;
   d.name = "random";
-  d.axis = Axis::kC;
+  d.axis = test::kAxisC;
   d.angles_deg = {0, 90, 180, 270, 360};
   d.reference_length_mm = 100;
   const int positions = 2 + static_cast<int>(rng() % 4);
@@ -88,7 +88,7 @@ Design random_c_design(std::mt19937_64& rng) {
       in.id = std::to_string(id++);
       in.L_mm = L;
       in.H_mm = H;
-      in.direction = Direction::named(Axis::kC, static_cast<Direction::Kind>(k % 3));
+      in.direction = Direction::named(test::kAxisC, static_cast<Direction::Kind>(k % 3));
       in.bar_mm = std::vector<double>{100, 150, 250}[rng() % 3];
       d.installations.push_back(in);
     }
@@ -164,7 +164,7 @@ TEST(RoundDesign, RoundsScoresAgainAndChecksTheTravel) {
   kit.travel_mm = {Interval{-49.8, 49.8}, Interval{-400, 400}, Interval{-200, 500}};
   Design only = d;
   only.installations = {d.installations[0]};
-  EXPECT_LE(travel_violation_mm(kit, Axis::kC, only.installations[0], d.angles_deg), 0);
+  EXPECT_LE(travel_violation_mm(kit, test::kAxisC, only.installations[0], d.angles_deg), 0);
   const RoundedDesign t = round_design(only, 1.0, &kit);
   ASSERT_TRUE(t.travel_checked);
   ASSERT_EQ(t.outside_travel.size(), 1u);

@@ -15,7 +15,17 @@
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/simulate.hpp"
 
+namespace dbbkit {
+// Two frames are the same axis (AxisFrame::same_as): the tests compare frames as values.
+inline bool operator==(const AxisFrame& a, const AxisFrame& b) { return a.same_as(b); }
+inline bool operator!=(const AxisFrame& a, const AxisFrame& b) { return !a.same_as(b); }
+}  // namespace dbbkit
+
 namespace dbbkit::test {
+
+// The two shorthands' frames.
+inline const AxisFrame kAxisC = AxisFrame::c_turntable();
+inline const AxisFrame kAxisB = AxisFrame::b_head();
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kBar = 150.0;  // mm, a bar length where the design gives none
@@ -76,7 +86,7 @@ inline Jacobian sparse(const Eigen::MatrixXd& J) { return Jacobian(J.sparseView(
 
 // Adds the errors of one angle to a per-angle truth; an angle at the position of one
 // already given (C: 360 repeats 0) takes that one's values, as the axis is one body.
-inline void add_truth_value(Truth& t, Axis axis, double angle_deg, const Vector6d& e) {
+inline void add_truth_value(Truth& t, const AxisFrame& axis, double angle_deg, const Vector6d& e) {
   for (const auto& [a, v] : t.per_angle) {
     if (same_position(axis, a, angle_deg)) {
       t.per_angle.emplace_back(angle_deg, v);

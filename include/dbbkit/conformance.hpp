@@ -30,7 +30,10 @@ namespace dbbkit {
 
 // One tolerance zone, in the quantity's unit (um or urad); at least one limit.
 struct Tolerance {
-  std::string quantity;  // "XOC", "EXC", "EZC range", "dx", ...
+  std::string quantity;  // "X0C", "EXC", "EZC range", "dx", ...
+  // The spelling the file used when it was the alias of the letter O ("XOC" for X0C, as an
+  // earlier sketch of ISO 230-1's names wrote them); empty otherwise.
+  std::string alias;
   std::optional<double> lower, upper;
   std::string unit;   // the limits' unit, "um" or "urad"; it must be the quantity's
   std::string where;  // where it was declared (e.g. "limits.XOC"), for messages
@@ -82,6 +85,9 @@ struct ConformanceReport {
   // The names of the axis' two position errors (location errors of the axis average line that
   // a ball's centring moves), for the words that go with the decisions.
   std::string position_names;
+  // Quantities the tolerance file named by the alias with the letter O ("XOC"): read as the
+  // ISO 230-1 spelling with the digit zero ("X0C"), said once.
+  std::vector<std::pair<std::string, std::string>> aliases;  // (as given, as read)
   bool any_nonconforming() const;
 };
 
@@ -89,14 +95,14 @@ struct ConformanceReport {
 inline constexpr double kNoiseContradiction = 0.01;
 
 // The quantities a tolerance can name for `axis`, for messages and documentation.
-std::vector<std::string> tolerance_quantities(Axis axis);
+std::vector<std::string> tolerance_quantities(const AxisFrame& axis);
 
 // The unit of a quantity ("um" or "urad"); throws InputError(source, t.where) when the
 // quantity is not one of tolerance_quantities(axis) or its limits are in the other unit.
-std::string tolerance_unit(Axis axis, const Tolerance& t, const std::string& source);
+std::string tolerance_unit(const AxisFrame& axis, const Tolerance& t, const std::string& source);
 
 // tolerance_unit of every tolerance: the quantities and units checked before any work.
-void check_tolerances(Axis axis, const std::vector<Tolerance>& tolerances,
+void check_tolerances(const AxisFrame& axis, const std::vector<Tolerance>& tolerances,
                       const std::string& source);
 
 // Decides every tolerance against an identification. Throws InputError as tolerance_unit.

@@ -10,24 +10,25 @@
 #include <unordered_map>
 #include <vector>
 
+#include "dbbkit/axis_frame.hpp"
+
 namespace dbbkit {
 
-// C: turntable about Z, ball at table coordinates (L, D, H).
-// B: swinging head about Y, ball at (L sin b, D, L cos b) (model.md §3-4).
-enum class Axis { kC, kB };
-
-const char* axis_name(Axis axis);
+// The rotary axis under test (axis_frame.hpp): C, a turntable about Z, ball at table
+// coordinates (L, D, H); B, a swinging head about Y, ball at (L sin b, D, L cos b) (model.md
+// §3-4); any other axis in the general form.
+using Axis = AxisFrame;
 
 // Reading direction in the rotating (body) frame. The body frame coincides
 // with the machine frame at angle 0, so `body` is the machine-frame direction
-// at angle 0: C radial = X, tangential = Y, axial = Z; B radial = Z (tool
-// axis), tangential = X, axial = Y (swing axis).
+// at angle 0: radial = the axis' reference, tangential = direction x reference, axial = its
+// direction (C: X, Y, Z; B: Z (tool axis), X, Y (swing axis)).
 struct Direction {
   enum class Kind { kRadial, kTangential, kAxial, kVector };
   Kind kind = Kind::kRadial;
   Eigen::Vector3d body = Eigen::Vector3d::UnitX();  // unit vector
 
-  static Direction named(Axis axis, Kind kind);
+  static Direction named(const AxisFrame& axis, Kind kind);
   static Direction vector(const Eigen::Vector3d& unit_body);
   std::string label() const;  // "radial", ..., or "[x, y, z]"
 };
@@ -60,9 +61,12 @@ struct SetupOverride {
 
 struct Installation {
   std::string id;
-  double L_mm = 0.0;  // C: radial distance from the axis; B: distance along the tool axis
-  double D_mm = 0.0;  // lateral offset (C: along body Y; B: along the swing axis Y)
-  double H_mm = 0.0;  // C: height above the table surface; unused for B
+  // Body coordinates (axis_frame.hpp): L along the reference (C: radial distance from the
+  // axis; B: distance along the tool axis), D (C: along body Y; B: along the swing axis Y),
+  // H along the axis (C: height above the table surface; unused for B).
+  double L_mm = 0.0;
+  double D_mm = 0.0;
+  double H_mm = 0.0;
   Direction direction;
   int sign = +1;                 // s of model.md §2: reading = s * u . dP
   std::optional<double> bar_mm;  // bar length, when declared
@@ -120,8 +124,8 @@ struct Design {
   std::string name;
   std::string description;
   std::map<std::string, std::string>
-      assumed;  // declared assumptions, e.g. "L1": "100 mm, not given by the paper"
-  Axis axis = Axis::kC;
+      assumed;     // declared assumptions, e.g. "L1": "100 mm, not given by the paper"
+  AxisFrame axis;  // default: the C turntable
   std::vector<double> angles_deg;
   NoiseModel noise;
   ErrorModel errors;
@@ -147,13 +151,14 @@ struct Design {
   std::unordered_map<std::string, int> installation_index() const;
 };
 
-// The noise is positive and finite; a series suits the axis (Fourier: C, Legendre: B).
-void validate_noise_and_model(const NoiseModel& noise, const ErrorModel& errors, Axis axis,
-                              const std::string& source);
+// The noise is positive and finite; a series suits the axis' travel (Fourier: a full turn,
+// Legendre: an arc).
+void validate_noise_and_model(const NoiseModel& noise, const ErrorModel& errors,
+                              const AxisFrame& axis, const std::string& source);
 
 // Set-up tolerances within the documented limits; throws InputError(source, key.<name>).
-void validate_setup_uncertainty(const SetupUncertainty& u, Axis axis, const std::string& source,
-                                const std::string& key);
+void validate_setup_uncertainty(const SetupUncertainty& u, const AxisFrame& axis,
+                                const std::string& source, const std::string& key);
 
 // A finite length within +-limits::kMaxLength_mm.
 bool length_within_limits(double x_mm);
@@ -163,7 +168,7 @@ bool length_within_limits(double x_mm);
 void validate_design(const Design& design, const std::string& source = "design");
 
 // Tolerance on angles: two angles closer than this are the same position.
-// |a - b| < kAngleTolerance_deg  (C: compared modulo 360).
+// |a - b| < kAngleTolerance_deg  (a full turn: compared modulo 360).
 inline constexpr double kAngleTolerance_deg = 1e-6;
 
 }  // namespace dbbkit

@@ -80,7 +80,8 @@ Eigen::VectorXd J_reading_effect(const Design& design, const Reading& reading, i
 // the length offset's row is 1 at every angle; the centring's is -s u(angle) (3 components).
 // J_reading_effect answers with these.
 inline constexpr double kLengthOffsetRow = 1.0;
-Eigen::Vector3d centring_row(Axis axis, const Installation& installation, double angle_deg);
+Eigen::Vector3d centring_row(const AxisFrame& axis, const Installation& installation,
+                             double angle_deg);
 
 // First time_s of every installation (NaN when it has no time).
 std::vector<double> installation_start_times(const Design& design,

@@ -16,8 +16,8 @@
 // covariance (reading noise and declared set-up tolerances; Type A scaled as the budget
 // is). The component error motions are what remains of each value, with the uncertainty
 // of that difference.
-//   C (a = z): XOC, YOC [um]; AOC, BOC, C0C [urad]; components EXC, EYC, EZC, EAC, EBC, ECC
-//   B (a = y): XOB, ZOB [um]; AOB, COB, B0B [urad]; components EXB, EYB, EZB, EAB, EBB, ECB
+//   C (a = z): X0C, Y0C [um]; A0C, B0C, C0C [urad]; components EXC, EYC, EZC, EAC, EBC, ECC
+//   B (a = y): X0B, Z0B [um]; A0B, C0B, B0B [urad]; components EXB, EYB, EZB, EAB, EBB, ECB
 // Error motion values (ISO 230-7, fixed sensitive direction): the range (peak-to-valley)
 // of each component error motion over the measured angles: radial (the two translations
 // perpendicular to the axis), axial (along it), tilt (the two rotations perpendicular to
@@ -49,7 +49,7 @@
 namespace dbbkit {
 
 struct IsoQuantity {
-  std::string name;  // e.g. "XOC", or "constant part of dx"
+  std::string name;  // e.g. "X0C", or "constant part of dx"
   std::string unit;  // "um" or "urad"
   Determined value;  // value and standard uncertainty (k = 1); determined = false: not determined
 };
@@ -123,7 +123,21 @@ struct IsoNames {
   std::array<std::string, 5> location;
   std::array<std::string, 6> components;
 };
-IsoNames iso230_names(Axis axis);
+// ISO 230-1: a location error is the direction, the digit zero, the axis' letter. For an axis
+// along a machine axis (either sense): the positions along the two other machine axes, the
+// orientations about them, the zero position about the machine axis (C: X0C, Y0C, A0C, B0C,
+// C0C; B: X0B, Z0B, A0B, C0B, B0B; A: Y0A, Z0A, B0A, C0A, A0A). A nutating axis is named in
+// its own frame, u = reference, v = direction x reference: U0C, V0C, AU0C, AV0C, C0C.
+IsoNames iso230_names(const AxisFrame& axis);
+
+// The frame the location errors are fitted in: p1, p2 perpendicular to the axis and q along
+// it (the machine axes, positive, for an axis along one; else the axis' own frame).
+struct IsoFrame {
+  bool aligned = true;
+  int ia = 2, ip1 = 0, ip2 = 1;  // the machine axes (aligned)
+  Eigen::Vector3d p1, p2, q;
+};
+IsoFrame iso_frame(const AxisFrame& axis);
 
 // `uncertainty_scale` multiplies every standard uncertainty (the budget's Type A scale, 1 for Type
 // B). Error motion values with `motion.enabled`.

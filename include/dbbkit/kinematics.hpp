@@ -24,36 +24,33 @@ inline constexpr std::array<const char*, 6> kErrorUnits = {"um",   "um",   "um",
 // so that a lever arm times cos(90 deg) is 0 and not 6e-17.
 void sincos_deg(double angle_deg, double& s, double& c);
 
-// Rotation of the axis at `angle_deg`: Rz for C, Ry for B.
-Eigen::Matrix3d axis_rotation(Axis axis, double angle_deg);
+// Rotation of the axis at `angle_deg` (AxisFrame::rotation): Rz for C, Ry for B.
+Eigen::Matrix3d axis_rotation(const AxisFrame& axis, double angle_deg);
 
-// The rotation about the axis as harmonics of the angle: R(g) = A0 + cos g A1 + sin g A2,
-// A0 = (R(0) + R(180)) / 2, A1 = (R(0) - R(180)) / 2, A2 = R(90) - A0 (formed once per axis).
-struct RotationHarmonics {
-  Eigen::Matrix3d A0, A1, A2;
-};
-const RotationHarmonics& rotation_harmonics(Axis axis);
+// The rotation about the axis as harmonics of the angle (formed once per frame).
+const RotationHarmonics& rotation_harmonics(const AxisFrame& axis);
 
-// Ball position in the body frame (= machine frame at angle 0):
+// Ball position in the body frame (= machine frame at angle 0), AxisFrame::body_point:
 // C: (L, D, H) (model.md §3); B: (0, D, L), so that P(b) = (L sin b, D, L cos b) (§4).
-Eigen::Vector3d ball_body_mm(Axis axis, const Installation& inst);
+Eigen::Vector3d ball_body_mm(const AxisFrame& axis, const Installation& inst);
 
 // Nominal ball position and unit reading direction in the machine frame at an angle.
-Eigen::Vector3d ball_position_mm(Axis axis, const Installation& inst, double angle_deg);
-Eigen::Vector3d direction_machine(Axis axis, const Installation& inst, double angle_deg);
+Eigen::Vector3d ball_position_mm(const AxisFrame& axis, const Installation& inst, double angle_deg);
+Eigen::Vector3d direction_machine(const AxisFrame& axis, const Installation& inst,
+                                  double angle_deg);
 
 // First-order displacement of a point of the moving body [um].
 Eigen::Vector3d displacement_um(const Vector6d& e6, const Eigen::Vector3d& P_mm);
 
 // d(reading [um]) / d(e6): reading = s u.dP = s u.d + 1e-3 s (P x u).e   (model.md §2).
-RowVector6d J_reading_error(Axis axis, const Installation& inst, double angle_deg);
+RowVector6d J_reading_error(const AxisFrame& axis, const Installation& inst, double angle_deg);
 
 // The reading computed through the exact homogeneous transform
 // E = Trans(d) Rx(ex) Ry(ey) Rz(ez) applied to the ball, with the following ball
 // at F = P - s * bar * u on the nominal path: reading = |E P - F| - |P - F| [um].
 // No small-angle approximation; used to check J_reading_error.
-double exact_reading_um(Axis axis, const Installation& inst, double angle_deg, const Vector6d& e6,
-                        double bar_mm);
+double exact_reading_um(const AxisFrame& axis, const Installation& inst, double angle_deg,
+                        const Vector6d& e6, double bar_mm);
 
 // The set-up of one installation as it really is, against the design.
 struct SetupError {
@@ -71,7 +68,7 @@ struct SetupError {
 //        path the machine was programmed for, shifted by the centring c,
 //   reading = |P - F| - bar + length_offset   [um].
 // With a zero set-up and zero errors it reads 0 exactly.
-double exact_setup_reading_um(Axis axis, const Installation& inst, double angle_deg,
+double exact_setup_reading_um(const AxisFrame& axis, const Installation& inst, double angle_deg,
                               const Vector6d& e6, double bar_mm, const SetupError& setup);
 
 }  // namespace dbbkit

@@ -52,7 +52,7 @@ struct Pattern {
 };
 
 // The built-in patterns by name ("three_position"); absent for an unknown name.
-std::optional<Pattern> builtin_pattern(const std::string& name, Axis axis);
+std::optional<Pattern> builtin_pattern(const std::string& name, const AxisFrame& axis);
 
 // Bars as sold: a base bar and extensions screwed onto it, each extension used at most once
 // (a QC20-W: a 100 mm base with 50, 150 and 300 mm extensions).
@@ -67,7 +67,7 @@ inline constexpr int kMaxBarExtensions = 8;
 
 struct Kit {
   std::string name;
-  Axis axis = Axis::kC;
+  AxisFrame axis;
   Pattern pattern;
   NoiseModel noise;
   ErrorModel errors;
@@ -145,13 +145,13 @@ double design_time_s(const Kit& kit, const Design& design);
 // coordinates are sinusoids of the angle, so the extent over the whole arc is
 // exact (end points and stationary points). Returns the largest excursion
 // outside travel_mm in mm (<= 0: inside everywhere).
-double travel_violation_mm(const Kit& kit, Axis axis, const Installation& inst,
+double travel_violation_mm(const Kit& kit, const AxisFrame& axis, const Installation& inst,
                            const std::vector<double>& angles_deg);
 
 // Chooses the bar and the sign of an installation: the shortest bar, sign +1
 // before -1, that keeps the following ball inside the travel. When none does,
 // the choice with the smallest excursion is set. Returns the excursion (<= 0: fits).
-double fit_bar(const Kit& kit, Axis axis, Installation& inst,
+double fit_bar(const Kit& kit, const AxisFrame& axis, Installation& inst,
                const std::vector<double>& angles_deg);
 // fit_bar for every installation of the design (its axis and angles, the arc formed once);
 // returns the largest excursion (-infinity without installations).

@@ -58,9 +58,9 @@ WorstCase worst_case(const std::vector<ErrorsAtAngle>& errors, double reference_
 // candidates, which share their angles; the fast paths below form their own for a design
 // whose axis or angles differ.
 struct AngleStations {
-  AngleStations(Axis axis, const std::vector<double>& angles_deg);
+  AngleStations(const AxisFrame& axis, const std::vector<double>& angles_deg);
   bool serves(const Design& design) const;  // the same axis and the same angles, in order
-  Axis axis;
+  AxisFrame axis;
   std::vector<double> angles_deg;
   std::vector<double> station_deg, sin, cos;
   std::vector<int> count;

@@ -17,7 +17,7 @@ namespace dbbkit {
 
 // Two angles are the same position of the axis: |a - b| < kAngleTolerance_deg,
 // for C modulo 360 deg.
-bool same_position(Axis axis, double a_deg, double b_deg);
+bool same_position(const AxisFrame& axis, double a_deg, double b_deg);
 
 // Series coefficients per error: Fourier 2K + 1, Legendre K + 1, per_angle 1.
 int coefficients_per_error(const ErrorModel& model);
@@ -36,7 +36,7 @@ class Parameterisation {
   explicit Parameterisation(const Design& design);
 
   const ErrorModel& model() const { return model_; }
-  Axis axis() const { return axis_; }
+  const AxisFrame& axis() const { return axis_; }
   int n_parameters() const { return n_parameters_; }
   int n_stations() const { return static_cast<int>(station_deg_.size()); }
   double station_angle_deg(int station) const { return station_deg_[station]; }
@@ -73,7 +73,7 @@ class Parameterisation {
   Eigen::VectorXd series_basis(double angle_deg) const;
 
  private:
-  Axis axis_;
+  AxisFrame axis_;
   ErrorModel model_;
   std::vector<double> station_deg_;
   std::vector<int> design_stations_;

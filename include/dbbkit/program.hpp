@@ -53,11 +53,6 @@ struct ProgramOptions {
   double dwell_s = 2.0;             // at each reading position
   double feed_mm_per_min = 500.0;   // of the linear axes between positions
   double path_tolerance_mm = 0.05;  // largest bar-length change between positions
-  // B only. The frame of model.md §4 has the ball at +L along Z from the pivot at B0. On a
-  // machine whose tool points to -Z (the usual vertical head), true writes the commanded
-  // points turned by 180 deg about Y (x -> -x, z -> -z): a rotation about the swing axis,
-  // so B and every relative position are unchanged.
-  bool tool_down = false;
   // The tool whose length reaches the controlled point: the ballbar's spindle cup, its length
   // measured to the ball centre (C); the pivot (B). ISO: T<n> M06 and G43 H<n>; Heidenhain:
   // TOOL CALL <n> Z. 1..9999.
@@ -109,7 +104,7 @@ struct InstallationProgram {
 };
 
 struct MeasurementProgram {
-  Axis axis = Axis::kC;
+  AxisFrame axis;
   ProgramOptions options;
   // In the order of the set-up sheet (setup_order): the installations at one ball position
   // together, the stack rebuilt and the bar reassembled the fewest times.
@@ -124,11 +119,11 @@ struct MeasurementProgram {
   double clearance_z_mm = 0;
 };
 
-// The point the linear axes command at an angle (see the header): C, F(angle); B, -F(angle)
-// (the pivot, with the table ball at the work frame's origin), turned by 180 deg about Y
-// when `tool_down`.
-Eigen::Vector3d commanded_point_mm(Axis axis, const Installation& inst, double bar_mm,
-                                   double angle_deg, bool tool_down = false);
+// The point the linear axes command at an angle (see the header): a table, F(angle); a head,
+// -F(angle) (the pivot, with the table ball at the work frame's origin). A spindle pointing
+// down is the frame's reference [0, 0, -1].
+Eigen::Vector3d commanded_point_mm(const AxisFrame& axis, const Installation& inst, double bar_mm,
+                                   double angle_deg);
 
 // The program of a design. Every installation needs bar_mm: without it the following
 // ball cannot be placed (InputError naming installations[i].bar_mm).

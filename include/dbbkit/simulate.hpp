@@ -68,7 +68,7 @@ std::vector<SetupError> simulated_setup_errors(const Design& design, const Truth
 
 // The true errors at an angle. Throws InputError when a per-angle truth has no
 // value at that position.
-Vector6d truth_errors(const Truth& truth, Axis axis, double angle_deg,
+Vector6d truth_errors(const Truth& truth, const AxisFrame& axis, double angle_deg,
                       const std::string& source = "truth");
 
 // Checks a truth against a design (every position covered, coefficients of the right length).

@@ -93,7 +93,7 @@ Runner add_bench(CLI::App& app) {
       }
       const Evaluation ev = evaluate_design(d, *d.reference_length_mm);
       row.name = d.name;
-      row.axis = axis_name(d.axis);
+      row.axis = d.axis.label();
       row.model = d.errors.describe();
       row.now = {ev.prior.rank,         ev.prior.n_unknowns,
                  ev.worst.worst_std_um, ev.worst.worst_determined_std_um,

@@ -17,6 +17,7 @@ namespace dbbkit::cli {
 struct ProgramArgs {
   ProgramOptions options;
   std::string sweeps = "ccw";
+  bool tool_down = false;  // retired: refused with the frame to write instead
 };
 
 inline void add_program_options(CLI::App* sub, const std::shared_ptr<ProgramArgs>& args) {
@@ -33,8 +34,9 @@ inline void add_program_options(CLI::App* sub, const std::shared_ptr<ProgramArgs
                   "Largest bar-length change along the interpolated move between two "
                   "positions [mm] (default 0.05)")
       ->check(finite_in(1e-4, 1));
-  sub->add_flag("--tool-down", args->options.tool_down,
-                "B only: the tool points to -Z at B0 (commanded points turned 180 deg about Y)");
+  sub->add_flag(
+      "--tool-down", args->tool_down,
+      "Retired: a spindle pointing down is the design's axis frame (reference [0, 0, -1])");
   sub->add_option("--tool", args->options.tool_number,
                   "Tool number of the ballbar's spindle cup (T, H; default 99): its length "
                   "measured to the ball centre (C), to the pivot (B)")
@@ -54,10 +56,19 @@ inline void add_program_options(CLI::App* sub, const std::shared_ptr<ProgramArgs
 }
 
 // The options as given, checked against the design's axis.
-inline ProgramOptions program_options(const ProgramArgs& args, Axis axis,
+inline ProgramOptions program_options(const ProgramArgs& args, const AxisFrame& axis,
                                       const std::string& design_file) {
-  if (args.options.tool_down && axis != Axis::kB)
-    throw InputError("--tool-down", "", "applies to a B design; " + design_file + " is C");
+  (void)axis;
+  if (args.tool_down) {
+    throw InputError(
+        "--tool-down", "",
+        "--tool-down is retired: it turned the program but not the model, so identify reported "
+        "dx, dz, ex, ez of a head whose spindle points down with the wrong sign. Write the "
+        "spindle's direction in the design instead (formats.md, general axis form), e.g. "
+        "\"axis\": {\"letter\": \"B\", \"side\": \"head\", \"direction\": [0, 1, 0], "
+        "\"reference\": [0, 0, -1]} (the B shorthand's D is that form's H); " +
+            design_file + " is read as it is written");
+  }
   const std::map<std::string, ProgramOptions::Sweeps> sweeps = {
       {"ccw", ProgramOptions::Sweeps::kCCW},
       {"cw", ProgramOptions::Sweeps::kCW},

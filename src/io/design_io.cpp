@@ -5,6 +5,7 @@
 #include "../tolerances.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/text.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
 
@@ -41,7 +42,7 @@ std::vector<double> read_angles(ObjectReader& top) {
   return angles;
 }
 
-Direction read_direction(const json& v, Axis axis, const std::string& source,
+Direction read_direction(const json& v, const AxisFrame& axis, const std::string& source,
                          const std::string& path) {
   if (v.is_string()) {
     const std::string s = v.get<std::string>();
@@ -98,11 +99,80 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
   return m;
 }
 
-Axis read_axis(ObjectReader& top) {
-  const std::string axis = top.string("axis");
-  if (axis == "B") return Axis::kB;
-  if (axis != "C") top.fail("axis", "unknown axis '" + axis + "' (expected \"C\" or \"B\")");
-  return Axis::kC;
+AxisFrame read_axis(ObjectReader& top) {
+  const json& v = top.required("axis");
+  if (v.is_string()) {
+    const std::string axis = v.get<std::string>();
+    if (axis == "B") return AxisFrame::b_head();
+    if (axis != "C") {
+      top.fail("axis", "unknown axis " + quote_value(axis) +
+                           " (expected \"C\", \"B\" or the general form {letter, side, "
+                           "direction, reference})");
+    }
+    return AxisFrame::c_turntable();
+  }
+  // The general form (formats.md, "General axis form").
+  ObjectReader a(v, top.source(), "axis");
+  const std::string letter = a.string("letter");
+  if (letter != "A" && letter != "B" && letter != "C")
+    a.fail("letter", quote_value(letter) + " is not a rotary axis' letter (A, B or C)");
+  const std::string side = a.string("side");
+  if (side != "table" && side != "head")
+    a.fail("side", quote_value(side) + " (expected \"table\" or \"head\")");
+  auto vector3 = [&](const char* key) {
+    const std::vector<double> x = read_numbers(a.required(key), top.source(), a.key_path(key));
+    if (x.size() != 3) a.fail(key, "expected a vector [x, y, z]");
+    return Eigen::Vector3d(x[0], x[1], x[2]);
+  };
+  const Eigen::Vector3d direction = vector3("direction"), reference = vector3("reference");
+  if (const std::string p = axis_frame_problem(direction, reference); !p.empty())
+    a.fail(p.rfind("direction", 0) == 0 ? "direction" : "reference", p);
+  const bool table = side == "table";
+  bool full_turn = table;
+  double lo = -180, hi = 180;
+  if (const json* t = a.optional("travel_deg")) {
+    if (t->is_string() && t->get<std::string>() == "full_turn") {
+      full_turn = true;
+    } else {
+      const std::vector<double> x = read_numbers(*t, top.source(), a.key_path("travel_deg"));
+      if (x.size() != 2 || !(x[0] < x[1]) || x[0] < -360 || x[1] > 360 || x[1] - x[0] > 360)
+        a.fail("travel_deg", "expected \"full_turn\" or an arc [min, max] within one turn");
+      full_turn = false, lo = x[0], hi = x[1];
+    }
+  }
+  a.finish();
+  return AxisFrame::general(letter[0], table ? AxisFrame::Side::kTable : AxisFrame::Side::kHead,
+                            direction, reference, full_turn, lo, hi);
+}
+
+json axis_to_json(const AxisFrame& axis) {
+  if (!axis.shorthand().empty()) return axis.shorthand();
+  json j = {{"letter", std::string(1, axis.letter())},
+            {"side", axis.table() ? "table" : "head"},
+            {"direction", {axis.direction().x(), axis.direction().y(), axis.direction().z()}},
+            {"reference", {axis.reference().x(), axis.reference().y(), axis.reference().z()}}};
+  if (axis.full_turn() != axis.table() || !axis.full_turn()) {
+    j["travel_deg"] = axis.full_turn()
+                          ? json("full_turn")
+                          : json::array({axis.travel_min_deg(), axis.travel_max_deg()});
+  }
+  return j;
+}
+
+json axis_frame_to_json(const AxisFrame& axis) {
+  auto vec = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
+  json j = {{"letter", std::string(1, axis.letter())},
+            {"side", axis.table() ? "table" : "head"},
+            {"direction", vec(axis.direction())},
+            {"reference", vec(axis.reference())},
+            {"travel_deg", axis.full_turn()
+                               ? json("full_turn")
+                               : json::array({axis.travel_min_deg(), axis.travel_max_deg()})},
+            {"shorthand", axis.shorthand().empty() ? json(nullptr) : json(axis.shorthand())}};
+  j["ball_axes"] = {{"L", vec(axis.e_L())},
+                    {"D", vec(axis.e_D())},
+                    {"H", axis.has_H() ? vec(axis.e_H()) : json(nullptr)}};
+  return j;
 }
 
 ErrorModel read_error_model(ObjectReader errors) {
@@ -134,12 +204,12 @@ SetupOverride read_setup_override(ObjectReader r) {
   return o;
 }
 
-json setup_to_json(const SetupUncertainty& u, Axis axis) {
+json setup_to_json(const SetupUncertainty& u, const AxisFrame& axis) {
   json j = {{"length_offset_um", u.length_offset_um},
             {"centring_um", u.centring_um},
             {"L_mm", u.L_mm},
             {"D_mm", u.D_mm}};
-  if (axis == Axis::kC) j["H_mm"] = u.H_mm;
+  if (axis.has_H()) j["H_mm"] = u.H_mm;
   return j;
 }
 
@@ -212,8 +282,10 @@ Design design_from_json(const json& j, const std::string& source) {
     ObjectReader ball = in.object("ball_mm");
     inst.L_mm = ball.number("L");
     inst.D_mm = ball.optional_number("D").value_or(0.0);
-    if (d.axis == Axis::kC) {
+    if (d.axis.table()) {
       inst.H_mm = ball.number("H");
+    } else if (d.axis.has_H()) {
+      inst.H_mm = ball.optional_number("H").value_or(0.0);
     } else if (ball.has("H")) {
       ball.fail("H", "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
     }
@@ -227,8 +299,9 @@ Design design_from_json(const json& j, const std::string& source) {
     if (const json* parts = in.optional("bar_parts_mm"))
       inst.bar_parts_mm = read_numbers(*parts, source, path + ".bar_parts_mm");
     if (const json* st = in.optional("stack_mm")) {
-      if (d.axis != Axis::kC)
-        in.fail("stack_mm", "a cup on cushion blocks is a turntable (C) set-up");
+      if (!d.axis.table())
+        in.fail("stack_mm", "a cup on cushion blocks stands on a table: axis " + d.axis.label() +
+                                " carries the head");
       ObjectReader stack(*st, source, path + ".stack_mm");
       inst.cup_mm = stack.number("cup");
       if (const json* b = stack.optional("blocks"))
@@ -271,7 +344,7 @@ json design_to_json(const Design& d) {
   if (!d.name.empty()) j["name"] = d.name;
   if (!d.description.empty()) j["description"] = d.description;
   if (!d.assumed.empty()) j["assumed"] = d.assumed;
-  j["axis"] = axis_name(d.axis);
+  j["axis"] = axis_to_json(d.axis);
   j["angles_deg"] = d.angles_deg;
   j["noise"] = noise_to_json(d.noise);
   json errors;
@@ -289,7 +362,7 @@ json design_to_json(const Design& d) {
     j["setup_std"] = setup_to_json(d.setup_std, d.axis);
   } else if (d.setup_std.any()) {
     j["setup_std_mm"] = {{"L", d.setup_std.L_mm}, {"D", d.setup_std.D_mm}};
-    if (d.axis == Axis::kC) j["setup_std_mm"]["H"] = d.setup_std.H_mm;
+    if (d.axis.has_H()) j["setup_std_mm"]["H"] = d.setup_std.H_mm;
   }
   json list = json::array();
   for (const Installation& in : d.installations) {
@@ -297,7 +370,7 @@ json design_to_json(const Design& d) {
     i["id"] = in.id;
     json ball = {{"L", in.L_mm}};
     if (in.D_mm != 0.0) ball["D"] = in.D_mm;
-    if (d.axis == Axis::kC) ball["H"] = in.H_mm;
+    if (d.axis.table() || (d.axis.has_H() && in.H_mm != 0.0)) ball["H"] = in.H_mm;
     i["ball_mm"] = ball;
     if (in.direction.kind == Direction::Kind::kVector) {
       i["direction"] = {in.direction.body.x(), in.direction.body.y(), in.direction.body.z()};

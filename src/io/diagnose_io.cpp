@@ -122,22 +122,22 @@ double unsigned_zero(double x, int decimals) {
 
 std::string signature_text(const ResidualSignature& s, const Design& design,
                            const std::vector<Reading>& readings) {
-  const Axis axis = design.axis;
+  const AxisFrame& axis = design.axis;
   std::ostringstream o;
   o << std::setw(8) << "inst" << std::setw(8) << "L_mm" << std::setw(8)
-    << (axis == Axis::kC ? "H_mm" : "D_mm") << std::setw(5) << "n" << std::setw(10) << "mean"
+    << (axis.has_H() ? "H_mm" : "D_mm") << std::setw(5) << "n" << std::setw(10) << "mean"
     << std::setw(10) << "rms";
-  if (axis == Axis::kC)
+  if (axis.full_turn())
     o << std::setw(9) << "1/turn" << std::setw(9) << "2/turn" << std::setw(9) << "3/turn"
       << std::setw(9) << "4/turn";
   o << std::setw(12) << "um/min" << std::setw(10) << "cw-ccw"
     << "\n";
   for (const auto& i : s.installations) {
     o << std::setw(8) << i.id << std::fixed << std::setprecision(1) << std::setw(8) << i.L_mm
-      << std::setw(8) << (axis == Axis::kC ? i.H_mm : i.D_mm) << std::setw(5) << i.n << std::fixed
+      << std::setw(8) << (axis.has_H() ? i.H_mm : i.D_mm) << std::setw(5) << i.n << std::fixed
       << std::setprecision(2) << std::setw(10) << unsigned_zero(i.mean_um, 2) << std::setw(10)
       << i.rms_um;
-    if (axis == Axis::kC) {
+    if (axis.full_turn()) {
       for (int k = 0; k < 4; ++k) {
         if (k < static_cast<int>(i.harmonic_um.size())) {
           o << std::setw(9) << i.harmonic_um[k];
@@ -327,7 +327,7 @@ std::string diagnose_summary(const Design& design, const std::vector<Reading>& r
                              const DiagnoseResult& r) {
   std::ostringstream s;
   s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
-    << axis_name(design.axis) << "  errors " << design.errors.describe() << "\n";
+    << design.axis.label() << "  errors " << design.errors.describe() << "\n";
   s << "noise: " << design.noise.describe() << "\n";
   s << "before: " << residual_text(r.before) << "\n";
   s << "after:  " << residual_text(r.after) << "\n\n";

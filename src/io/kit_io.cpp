@@ -83,7 +83,7 @@ PatternPosition read_position(ObjectReader r) {
 }
 
 // "pattern": a built-in name, or {name, extends, positions, distinct}.
-Pattern read_pattern(ObjectReader& top, Axis axis) {
+Pattern read_pattern(ObjectReader& top, const AxisFrame& axis) {
   const json& v = top.required("pattern");
   const std::string& source = top.source();
   auto named = [&](const std::string& name, const std::string& key) {
@@ -160,14 +160,15 @@ Kit kit_from_json(const json& j, const std::string& source) {
   }
   k.L_mm = read_min_max(top.object("L_mm"));
   if (top.has("D_mm")) k.D_mm = read_min_max(top.object("D_mm"));
-  if (k.axis == Axis::kC) {
+  if (k.axis.table()) {
     ObjectReader h = top.object("H_mm");
     k.H_base_mm = h.number("base");
     k.blocks_mm = read_numbers(h.required("blocks"), source, h.key_path("blocks"));
     k.max_stack = h.integer("max_stack");
     h.finish();
   } else if (top.has("H_mm")) {
-    top.fail("H_mm", "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
+    top.fail("H_mm", "cushion blocks and a cup height are a table's: axis " + k.axis.label() +
+                         " carries the head");
   }
   if (top.has("bars") && top.has("bars_mm"))
     top.fail("bars", "give the bars either as sold (bars) or as assembled (bars_mm), not both");

@@ -196,7 +196,7 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   j["format"] = "dbbkit.optimize/1";
   j["dbbkit_version"] = DBBKIT_VERSION;
   j["kit_file"] = kit_file;
-  j["axis"] = axis_name(kit.axis);
+  j["axis"] = axis_to_json(kit.axis);
   j["pattern"] = kit.pattern.name;
   j["criterion"] = criterion_name(res.criterion);
   j["reference_length_mm"] = kit.reference_length_mm;
@@ -281,7 +281,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   std::ostringstream s;
   int searched = 0;
   for (const ChoiceResult& cr : res.choices) searched += cr.state == ChoiceState::kSearched;
-  s << "kit " << kit_file << ": axis " << axis_name(kit.axis) << ", pattern " << kit.pattern.name
+  s << "kit " << kit_file << ": axis " << kit.axis.label() << ", pattern " << kit.pattern.name
     << ", " << kit.errors.describe() << ", noise " << kit.noise.describe() << "\n";
   s << "criterion " << criterion_name(res.criterion) << "; " << res.choices.size()
     << " discrete choices, " << searched << " feasible; " << res.evaluations
@@ -296,13 +296,13 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   const Evaluation& ev = res.best_evaluation;
   s << "\nbest: " << choice_label(kit, b.choice) << "\n";
   s << std::setw(4) << "id" << std::setw(10) << "L [mm]" << std::setw(10) << "D [mm]";
-  if (kit.axis == Axis::kC) s << std::setw(10) << "H [mm]";
+  if (kit.axis.has_H()) s << std::setw(10) << "H [mm]";
   s << std::setw(13) << "direction" << std::setw(10) << "bar [mm]" << std::setw(6) << "sign"
     << "\n";
   for (const Installation& in : b.design.installations) {
     s << std::setw(4) << in.id << std::fixed << std::setprecision(2) << std::setw(10) << in.L_mm
       << std::setw(10) << in.D_mm;
-    if (kit.axis == Axis::kC) s << std::setw(10) << in.H_mm;
+    if (kit.axis.has_H()) s << std::setw(10) << in.H_mm;
     s << std::setw(13) << in.direction.label() << std::setw(10) << *in.bar_mm << std::setw(6)
       << in.sign << "\n";
     s.unsetf(std::ios::fixed);

@@ -60,7 +60,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   int feasible = 0;
   for (const ChoiceResult& c : res.choices) feasible += c.state == ChoiceState::kSearched;
   p.heading("Search");
-  p.paragraph("Axis " + std::string(axis_name(kit.axis)) + ", pattern " + kit.pattern.name +
+  p.paragraph("Axis " + std::string(kit.axis.label()) + ", pattern " + kit.pattern.name +
               ", criterion " + criterion_name(res.criterion) + "; " +
               std::to_string(res.choices.size()) + " discrete choices, " +
               std::to_string(feasible) + " feasible; " + std::to_string(res.evaluations) +
@@ -164,8 +164,8 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   if (!runners.empty()) {
     p.heading("Runner-up designs");
     p.paragraph("The best design with each other " +
-                std::string(kit.axis == Axis::kC ? "set of block stacks"
-                                                 : "angle step and set of optional positions") +
+                std::string(kit.axis.table() ? "set of block stacks"
+                                             : "angle step and set of optional positions") +
                 " (as searched, not rounded), and how much worse each is than the best (" +
                 fmt_num(b.objective, 5) +
                 "): one within a few per cent may be the easier to set up.");

@@ -124,27 +124,37 @@ std::string plot_design(const Design& design) {
     }
     return std::make_pair(d.str(), plot.str());
   };
-  const bool c = design.axis == Axis::kC;
+  // The axis of rotation is drawn where it lies in a view's plane (a dashed line through the
+  // origin) or where it pierces it (a cross): about z (C), y (B) or x (A); a nutating axis is
+  // not drawn.
+  const int along = design.axis.machine_axis();
   const std::string what =
       design.installations.front().bar_mm ? "bar to the following ball" : "reading direction";
   const auto [top_data, top_plot] = labels("top", 0, 1);
   const auto [side_data, side_plot] = labels("side", 0, 2);
   std::ostringstream s;
   s << bars.str() << top_data << side_data << "set multiplot layout 1,2 title "
-    << gnuplot_quote(std::string("axis ") + axis_name(design.axis) +
+    << gnuplot_quote(std::string("axis ") + design.axis.label() +
                      ", body frame = machine frame at angle 0; lines: " + what)
     << "\nset size ratio -1\nset grid\nset key off\nset offsets graph 0.08, graph 0.08, graph "
        "0.08, graph 0.08\n";
-  // Top view x, y; side view x, z. The axis of rotation is drawn: C about z, B about y.
+  // Top view x, y (the axis z pierces it); side view x, z (the axis y pierces it). A line
+  // along the view's vertical axis (x = 0) or its horizontal one (the other = 0).
+  const char* vertical = "set arrow 1 from 0,graph 0 to 0,graph 1 nohead dt 2 lc rgb '#888888'\n";
+  const char* horizontal =
+      "set arrow 1 from graph 0,first 0 to graph 1,first 0 nohead dt 2 lc rgb '#888888'\n";
+  const char* cross = ", '+' using (0):(0) with points pt 2 ps 2 lc rgb '#888888'";
   s << "set title 'top view (x, y) [mm]'\nset xlabel 'x [mm]'\nset ylabel 'y [mm]'\n";
-  if (!c) s << "set arrow 1 from 0,graph 0 to 0,graph 1 nohead dt 2 lc rgb '#888888'\n";
+  if (along == 1) s << vertical;
+  if (along == 0) s << horizontal;
   s << "plot $bars using 1:2:4:5 with vectors nohead lw 2 lc rgb '#1f77b4'" << top_plot
-    << (c ? ", '+' using (0):(0) with points pt 2 ps 2 lc rgb '#888888'" : "") << "\n";
+    << (along == 2 ? cross : "") << "\n";
   s << "unset arrow 1\nset title 'side view (x, z) [mm]'\nset xlabel 'x [mm]'\nset ylabel 'z "
        "[mm]'\n";
-  if (c) s << "set arrow 1 from 0,graph 0 to 0,graph 1 nohead dt 2 lc rgb '#888888'\n";
+  if (along == 2) s << vertical;
+  if (along == 0) s << horizontal;
   s << "plot $bars using 1:3:4:6 with vectors nohead lw 2 lc rgb '#1f77b4'" << side_plot
-    << (c ? "" : ", '+' using (0):(0) with points pt 2 ps 2 lc rgb '#888888'") << "\n";
+    << (along == 1 ? cross : "") << "\n";
   s << "unset multiplot\n";
   return gnuplot_svg(s.str(), 900, 420);
 }

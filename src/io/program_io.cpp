@@ -138,11 +138,26 @@ std::string heidenhain_name(const std::string& name) {
   return s.substr(0, 24);
 }
 
-std::string program_ball_text(Axis axis, const Installation& inst) {
+std::string program_ball_text(const AxisFrame& axis, const Installation& inst) {
   std::string s =
       "ball L " + fmt_rounded(inst.L_mm, 4) + " mm, D " + fmt_rounded(inst.D_mm, 4) + " mm";
-  if (axis == Axis::kC) s += ", H " + fmt_rounded(inst.H_mm, 4) + " mm";
+  if (axis.has_H()) s += ", H " + fmt_rounded(inst.H_mm, 4) + " mm";
   return s;
+}
+
+// A direction as the person at the machine names it: "+Z", "-X", or the vector.
+std::string direction_text(const Eigen::Vector3d& v) {
+  for (int k = 0; k < 3; ++k) {
+    if (std::abs(v(k)) == 1.0) return std::string(v(k) > 0 ? "+" : "-") + "XYZ"[k];
+  }
+  return "[" + fmt_num(v.x(), 6) + ", " + fmt_num(v.y(), 6) + ", " + fmt_num(v.z(), 6) + "]";
+}
+
+// How the rotating body turns for a positive (or negative) step, seen from the tip of the
+// axis' direction: counter-clockwise (right-hand rule) for a positive one.
+std::string sense_text(const AxisFrame& axis, bool positive) {
+  return std::string(positive ? "counter-clockwise" : "clockwise") + " seen from " +
+         direction_text(axis.direction());
 }
 
 std::string xyz_text(const Eigen::Vector3d& p) {
@@ -152,7 +167,7 @@ std::string xyz_text(const Eigen::Vector3d& p) {
 // How the table's cup goes on (the set-up sheet says the same, installation_placement).
 std::string placement_text(const Design& d, const Installation& inst) {
   std::string what = "the table cup";
-  if (d.axis == Axis::kC && !inst.blocks_mm.empty()) {
+  if (d.axis.table() && !inst.blocks_mm.empty()) {
     what += " on blocks";
     for (double b : inst.blocks_mm) what += " " + fmt_rounded(b, 3);
     what += " mm";
@@ -168,8 +183,8 @@ std::string program_text(const Design& design, const MeasurementProgram& program
                          int program_number) {
   if (program_number < 1 || program_number > 9999)
     throw InputError("--program-number", "", "an O-number is 1..9999");
-  const bool c = program.axis == Axis::kC;
-  const char rotary = c ? 'C' : 'B';
+  const bool c = program.axis.table();
+  const char rotary = program.axis.letter();
   const ProgramOptions& o = program.options;
   const double zc = program.clearance_z_mm;
   Writer w(dialect, rotary);
@@ -187,34 +202,39 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   }
   std::vector<std::string> head = {
       std::string(o.air_run ? "AIR RUN (no bar) of the " : "") +
-          "dbbkit measurement program of design " + design.name + ", axis " +
-          axis_name(program.axis) + ", " + std::to_string(program.installations.size()) +
-          " installations, " + std::to_string(program.readings) + " readings; mm, deg",
+          "dbbkit measurement program of design " + design.name + ", axis " + program.axis.label() +
+          ", " + std::to_string(program.installations.size()) + " installations, " +
+          std::to_string(program.readings) + " readings; mm, deg",
   };
+  const std::string L(1, rotary);
   if (c) {
     head.push_back(std::string("work offset ") + (iso ? "G54" : "(the active preset") +
                    (iso ? "" : ")") +
-                   ": origin on the C axis at the table surface, Z up along the C axis; teach it "
-                   "once: X Y on the C axis (centre of the table's rotation), Z on the table "
-                   "surface");
+                   (program.axis.shorthand() == "C"
+                        ? ": origin on the C axis at the table surface, Z up along the C axis; "
+                          "teach it once: X Y on the C axis (centre of the table's rotation), Z "
+                          "on the table surface"
+                        : ": origin on the " + L + " axis line where the design's H is 0 (H " +
+                              "along " + direction_text(program.axis.direction()) + ", L along " +
+                              direction_text(program.axis.reference()) + " at " + L +
+                              "0); teach it once on the axis line"));
     head.push_back("tool T" + tool +
                    ": the ballbar's spindle cup with its ball, length measured to the ball "
                    "centre; X Y Z command the ball centre, no radius compensation");
-    head.push_back("C+ turns the table counter-clockwise seen from +Z [right-hand rule]");
+    head.push_back(L + "+ turns the table " + sense_text(program.axis, true) +
+                   " [right-hand rule]");
   } else {
     head.push_back(std::string("work offset ") + (iso ? "G54" : "(the active preset)") +
                    ": origin at the centre of the table ball, whose cup stays where it is "
                    "placed for the whole test");
     head.push_back(
-        "tool T" + tool +
-        ": X Y Z command the pivot (B axis x spindle axis): its length register holds the "
+        "tool T" + tool + ": X Y Z command the pivot (" + L +
+        " axis x spindle axis): its length register holds the "
         "distance from the gauge line to the pivot, as the control's head kinematics has it");
-    head.push_back(o.tool_down
-                       ? "the tool points to -Z at B0; B+ turns the head by the right-hand "
-                         "rule about +Y"
-                       : "frame of the design: at B0 the ball is +L along Z from the pivot; "
-                         "B+ turns the head by the right-hand rule about +Y [--tool-down for a "
-                         "tool pointing to -Z]");
+    head.push_back("frame of the design: at " + L + "0 the spindle points " +
+                   direction_text(program.axis.reference()) +
+                   " from the pivot, the ball L along it; " + L + "+ turns the head " +
+                   sense_text(program.axis, true));
   }
   head.push_back("clearance plane Z" + coord(zc, false) +
                  (o.clearance_z_mm
@@ -303,9 +323,7 @@ std::string program_text(const Design& design, const MeasurementProgram& program
           const double turned = p.angle_deg - s.positions.front().angle_deg;
           w.comment(std::string("AIR RUN: ") + rotary + (turned > 0 ? "+" : "-") +
                     " step: the ball on the rotating body must have moved " +
-                    (c ? (turned > 0 ? "counter-clockwise seen from +Z" : "clockwise seen from +Z")
-                       : (turned > 0 ? "by the right-hand rule about +Y"
-                                     : "against the right-hand rule about +Y")) +
+                    sense_text(program.axis, turned > 0) +
                     ", the spindle ball with it, the gap unchanged");
           w.stop("AIR RUN: check the sense, then start");
         }

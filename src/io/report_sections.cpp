@@ -17,7 +17,7 @@ std::vector<std::vector<std::string>> installation_rows(const Design& d) {
   std::vector<std::vector<std::string>> rows;
   for (const Installation& in : d.installations) {
     rows.push_back({in.id, fmt_num(in.L_mm, 6), fmt_num(in.D_mm, 6),
-                    d.axis == Axis::kC ? fmt_num(in.H_mm, 6) : "--", in.direction.label(),
+                    d.axis.has_H() ? fmt_num(in.H_mm, 6) : "--", in.direction.label(),
                     std::to_string(in.sign), in.bar_mm ? fmt_num(*in.bar_mm, 6) : "--",
                     in.description});
   }
@@ -26,7 +26,7 @@ std::vector<std::vector<std::string>> installation_rows(const Design& d) {
 
 void design_section(ReportWriter& p, const Design& d) {
   p.heading("Design");
-  p.paragraph(d.name + ": axis " + axis_name(d.axis) + ", " + std::to_string(d.angles_deg.size()) +
+  p.paragraph(d.name + ": axis " + d.axis.label() + ", " + std::to_string(d.angles_deg.size()) +
               " angles from " +
               fmt_num(*std::min_element(d.angles_deg.begin(), d.angles_deg.end()), 6) + " to " +
               fmt_num(*std::max_element(d.angles_deg.begin(), d.angles_deg.end()), 6) + " deg, " +

@@ -68,7 +68,7 @@ json result_header(const std::string& format, const Design& design, const InputF
   j["dbbkit_version"] = DBBKIT_VERSION;
   j["inputs"] = {{"design", inputs.design}, {"data", inputs.data}};
   j["design"] = {{"name", design.name},
-                 {"axis", axis_name(design.axis)},
+                 {"axis", design.axis.label()},
                  {"errors_model", design.errors.describe()}};
   if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
   j["noise"] = noise_to_json(design.noise);
@@ -344,7 +344,7 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
   const Estimate& est = result.estimate;
   std::ostringstream s;
   s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
-    << axis_name(design.axis) << "  errors " << design.errors.describe() << "\n";
+    << design.axis.label() << "  errors " << design.errors.describe() << "\n";
   s << "noise: " << design.noise.describe() << "\n";
   s << estimate_message(est) << "\n";
   if (est.condition_number) {
@@ -511,7 +511,7 @@ std::string evaluate_summary(const Design& design, const Evaluation& ev) {
   const Estimate& est = ev.prior;
   std::ostringstream s;
   s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
-    << axis_name(design.axis) << "  errors " << design.errors.describe() << "  " << est.n_readings
+    << design.axis.label() << "  errors " << design.errors.describe() << "  " << est.n_readings
     << " readings\n";
   s << "noise: " << design.noise.describe() << "\n";
   s << estimate_message(est) << "\n";
@@ -627,7 +627,7 @@ json setup_tolerances_to_json(const Design& design) {
               {"centring_um", u.centring_um},
               {"L_mm", u.L_mm},
               {"D_mm", u.D_mm}};
-    if (design.axis == Axis::kC) e["H_mm"] = u.H_mm;
+    if (design.axis.has_H()) e["H_mm"] = u.H_mm;
     list.push_back(e);
   }
   return list;

@@ -1,5 +1,6 @@
 #include "dbbkit/io/setup_sheet_io.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -21,14 +22,14 @@ std::string lengths(const std::vector<double>& v) {
   return t;
 }
 
-std::string sheet_ball_text(Axis axis, const Installation& in) {
+std::string sheet_ball_text(const AxisFrame& axis, const Installation& in) {
   std::string t = "L " + mm(in.L_mm) + ", D " + mm(in.D_mm);
-  if (axis == Axis::kC) t += ", H " + mm(in.H_mm);
+  if (axis.has_H()) t += ", H " + mm(in.H_mm);
   return t;
 }
 
-std::string stack_text(Axis axis, const Installation& in) {
-  if (axis != Axis::kC) return "tool side: ball " + mm(in.L_mm) + " mm from the pivot";
+std::string stack_text(const AxisFrame& axis, const Installation& in) {
+  if (!axis.table()) return "tool side: ball " + mm(in.L_mm) + " mm from the pivot";
   if (!in.cup_mm) return "H " + mm(in.H_mm) + " mm (cup and blocks not given in the design)";
   if (in.blocks_mm.empty()) return "cup on the table (" + mm(*in.cup_mm) + " mm)";
   return "cup (" + mm(*in.cup_mm) + " mm) on blocks " + lengths(in.blocks_mm) + " mm";
@@ -72,30 +73,29 @@ std::string sweeps_text(const InstallationProgram& ip) {
 // What the person does before this step, in words.
 std::string instructions(const SetupSheet& sheet, int k) {
   const SetupStep& s = sheet.order.steps[k];
-  const Axis axis = sheet.design.axis;
+  const AxisFrame& axis = sheet.design.axis;
   const Installation& in = sheet.design.installations[s.installation];
   const InstallationProgram& ip = sheet.program.of(s.installation);
   std::string t;
   if (k == 0) {
-    t = axis == Axis::kC
-            ? "Place the cup" + cup_on(in) + " with the ball at " + sheet_ball_text(axis, in) +
-                  " mm (table coordinates at C " +
-                  mm(ip.sweeps.front().positions.front().angle_deg) + " deg)."
-            : "Set the ball at " + sheet_ball_text(axis, in) + " mm (head coordinates).";
-  } else if (s.moves_cup && axis == Axis::kB) {
+    t = axis.table() ? "Place the cup" + cup_on(in) + " with the ball at " +
+                           sheet_ball_text(axis, in) + " mm (table coordinates at C " +
+                           mm(ip.sweeps.front().positions.front().angle_deg) + " deg)."
+                     : "Set the ball at " + sheet_ball_text(axis, in) + " mm (head coordinates).";
+  } else if (s.moves_cup && axis.head()) {
     t = "Move the ball to " + sheet_ball_text(axis, in) + " mm (tool cup and holder).";
   } else if (s.moves_cup) {
     t = "Move the cup" + std::string(s.changes_stack ? "" : ", on the same stack,") + " to " +
         sheet_ball_text(axis, in) + " mm";
-    if (axis == Axis::kC && s.changes_stack)
+    if (axis.table() && s.changes_stack)
       t += in.cup_mm ? "; rebuild the stack: the cup" + cup_on(in) : "; rebuild the stack to H";
     t += ".";
   } else {
-    t = axis == Axis::kC ? "Keep the cup." : "Keep the ball.";
+    t = axis.table() ? "Keep the cup." : "Keep the ball.";
   }
   if (ip.places_cup) {
     // As the program does it (program_io.cpp): the spindle's ball shows where the ball goes.
-    t += axis == Axis::kC
+    t += axis.table()
              ? " The program stops with the spindle's ball (a setting ball in its cup) at " +
                    xyz(ip.placement_mm) + " mm, where the table's ball goes"
              : " The program stops with the pivot at " + xyz(ip.placement_mm) +
@@ -106,7 +106,7 @@ std::string instructions(const SetupSheet& sheet, int k) {
   }
   t += s.changes_bar ? " Assemble the bar of " + bar_text(in) + "." : " Keep the bar.";
   t += " Mount it " + in.direction.label() + " (sign " + (in.sign > 0 ? "+1" : "-1") + ")";
-  if (axis == Axis::kC) {
+  if (axis.table()) {
     const Eigen::Vector3d& f = ip.sweeps.front().positions.front().linear_mm;
     t += " with the spindle's ball at " + xyz(f) + " mm.";
     double lowest = f.z();
@@ -184,13 +184,30 @@ void caption(std::ostringstream& s, const Panel& p, const std::string& text) {
 
 std::string installation_drawing(const SetupSheet& sheet, int step) {
   const SetupStep& st = sheet.order.steps[step];
-  const Axis axis = sheet.design.axis;
+  const AxisFrame& axis = sheet.design.axis;
   const Installation& in = sheet.design.installations[st.installation];
   const InstallationProgram& ip = sheet.program.of(st.installation);
   const double a = ip.sweeps.front().positions.front().angle_deg;
   const double bar = ip.bar_mm;
-  const Eigen::Vector3d P = ball_position_mm(axis, in, a);
-  const Eigen::Vector3d F = P - in.sign * bar * direction_machine(axis, in, a);
+  // Drawn in the axis' own frame: table, (L, D, H) = (reference, direction x reference,
+  // direction), the C shorthand's X, Y, Z; head, (direction x reference, direction, reference),
+  // the B shorthand's X, Y, Z.
+  const Eigen::Vector3d d_x_r = axis.direction().cross(axis.reference());
+  Eigen::Matrix3d to_view;
+  if (axis.table()) {
+    to_view << axis.reference().transpose(), d_x_r.transpose(), axis.direction().transpose();
+  } else {
+    // A spindle pointing down at angle 0 is drawn down: the view turned 180 deg about the axis.
+    const double up = axis.reference().z() < 0 ? -1 : 1;
+    to_view << up * d_x_r.transpose(), axis.direction().transpose(),
+        up * axis.reference().transpose();
+  }
+  const bool shorthand = !axis.shorthand().empty();
+  const std::string letter(1, axis.letter());
+  const Eigen::Vector3d P_machine = ball_position_mm(axis, in, a);
+  const Eigen::Vector3d P = (to_view * P_machine).array() + 0.0;
+  const Eigen::Vector3d F =
+      (to_view * (P_machine - in.sign * bar * direction_machine(axis, in, a))).array() + 0.0;
   std::ostringstream s;
   const double W = 640, H = 320;
   s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H
@@ -198,11 +215,15 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
   s << "<rect width='" << W << "' height='" << H << "' fill='white'/><g class='data'>";
   const std::string bar_style = "stroke:#1f77b4;stroke-width:3";
   const std::string axis_style = "stroke:#888;stroke-dasharray:4 3";
-  if (axis == Axis::kC) {
+  if (axis.table()) {
     // From above: the axis, the paths of both balls (dashed), the balls and the bar.
     const double R = std::max({P.head<2>().norm(), F.head<2>().norm(), 50.0}) * 1.1;
     const Panel top(0, 0, 320, {{-R, -R}, {R, R}});
-    caption(s, top, "from above (X right, Y up), C " + mm(a) + " deg; dashed: the paths");
+    caption(s, top,
+            (shorthand ? std::string("from above (X right, Y up), C ")
+                       : "along the axis (L at " + letter + "0 right, direction x L up), " +
+                             letter + " ") +
+                mm(a) + " deg; dashed: the paths");
     line(s, top, -R, 0, R, 0, axis_style);
     line(s, top, 0, -R, 0, R, axis_style);
     path(s, top, P.head<2>().norm());
@@ -221,7 +242,9 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
                  top_z = std::max({P.z(), F.z(), 0.0}) + 20, low_z = std::min(F.z(), 0.0);
     const double wide = std::max(0.0, 200 - (hi - lo)) / 2;
     const Panel side(320, 0, 320, {{lo - wide, low_z}, {hi + wide, std::max(top_z, low_z + 200)}});
-    caption(s, side, "from the side (radial right, Z up)");
+    caption(s, side,
+            shorthand ? "from the side (radial right, Z up)"
+                      : "across the axis (radial right, along the axis up)");
     line(s, side, side.cx - 0.5 * side.size / side.scale, 0, side.cx + 0.5 * side.size / side.scale,
          0, "stroke:#333;stroke-width:2");
     line(s, side, 0, 0, 0, std::max(P.z(), F.z()) + 20, axis_style);
@@ -236,21 +259,26 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
     ball(s, side, fr, F.z(), "#2ca02c", "spindle", true);
   } else {
     // The swing plane X-Z: pivot, tool axis to the ball, the table's ball and the bar.
-    const double sx = sheet.program.options.tool_down ? -1 : 1;
-    const Panel plane(0, 0, 320, {{sx * P.x(), sx * P.z()}, {sx * F.x(), sx * F.z()}, {0, 0}});
-    caption(s, plane, "swing plane (X right, Z up), B " + mm(a) + " deg");
-    line(s, plane, 0, 0, sx * P.x(), sx * P.z(), "stroke:#555;stroke-width:4");
-    line(s, plane, sx * P.x(), sx * P.z(), sx * F.x(), sx * F.z(), bar_style);
+    const Panel plane(0, 0, 320, {{P.x(), P.z()}, {F.x(), F.z()}, {0, 0}});
+    caption(s, plane,
+            (shorthand ? std::string("swing plane (X right, Z up), B ")
+                       : "swing plane (direction x spindle right, spindle at " + letter + "0 " +
+                             (axis.reference().z() < 0 ? "down" : "up") + "), " + letter + " ") +
+                mm(a) + " deg");
+    line(s, plane, 0, 0, P.x(), P.z(), "stroke:#555;stroke-width:4");
+    line(s, plane, P.x(), P.z(), F.x(), F.z(), bar_style);
     ball(s, plane, 0, 0, "#ffffff", "pivot");
-    ball(s, plane, sx * P.x(), sx * P.z(), "#d62728", "ball " + in.id);
-    ball(s, plane, sx * F.x(), sx * F.z(), "#2ca02c", "table ball", true);
-    const Panel front(320, 0, 320, {{P.y(), sx * P.z()}, {F.y(), sx * F.z()}, {0, 0}});
-    caption(s, front, "along X (Y right, Z up): the offset D");
-    line(s, front, 0, 0, P.y(), sx * P.z(), "stroke:#555;stroke-width:4");
-    line(s, front, P.y(), sx * P.z(), F.y(), sx * F.z(), bar_style);
+    ball(s, plane, P.x(), P.z(), "#d62728", "ball " + in.id);
+    ball(s, plane, F.x(), F.z(), "#2ca02c", "table ball", true);
+    const Panel front(320, 0, 320, {{P.y(), P.z()}, {F.y(), F.z()}, {0, 0}});
+    caption(s, front,
+            shorthand ? "along X (Y right, Z up): the offset D"
+                      : "across the swing plane (along the axis right): the offset H");
+    line(s, front, 0, 0, P.y(), P.z(), "stroke:#555;stroke-width:4");
+    line(s, front, P.y(), P.z(), F.y(), F.z(), bar_style);
     ball(s, front, 0, 0, "#ffffff", "pivot");
-    ball(s, front, P.y(), sx * P.z(), "#d62728", "ball");
-    ball(s, front, F.y(), sx * F.z(), "#2ca02c", "table ball", true);
+    ball(s, front, P.y(), P.z(), "#d62728", "ball");
+    ball(s, front, F.y(), F.z(), "#2ca02c", "table ball", true);
   }
   s << "</g></svg>";
   return s.str();
@@ -266,7 +294,7 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
   for (const SetupStep& s : o.steps) positions = std::max(positions, s.position);
   if (level > 1) w.heading("Set-up sheet: " + d.name, level);
   std::string intro =
-      "Axis " + std::string(axis_name(d.axis)) + ", " + std::to_string(d.installations.size()) +
+      "Axis " + std::string(d.axis.label()) + ", " + std::to_string(d.installations.size()) +
       " installations at " + std::to_string(positions) + " ball positions, " +
       std::to_string(d.angles_deg.size()) + " angles from " +
       mm(*std::min_element(d.angles_deg.begin(), d.angles_deg.end())) + " to " +
@@ -292,7 +320,7 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
   for (const SetupStep& s : o.steps)
     order += (order.empty() ? "" : " ") + d.installations[s.installation].id;
   const std::string changes =
-      d.axis == Axis::kC
+      d.axis.table()
           ? "the cup moves " + times(o.cup_moves) + ", the block stack is rebuilt " +
                 times(o.stack_changes) + " and the bar reassembled " + times(o.bar_changes) +
                 " (in the design's order: " + times(o.design_cup_moves) + ", " +
@@ -303,7 +331,7 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
   w.paragraph("Order: " + order + ". After the first set-up " + changes +
               ". The installations at one ball position follow each other, and the positions "
               "are ordered to " +
-              (d.axis == Axis::kC ? "rebuild the block stack the fewest times, then to " : "") +
+              (d.axis.table() ? "rebuild the block stack the fewest times, then to " : "") +
               "reassemble the bar the fewest times" +
               (o.exhaustive ? " (the least over every order of the positions; the design's own "
                               "order where none changes less)."
@@ -340,7 +368,7 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
     const Installation& in = d.installations[s.installation];
     const InstallationProgram& ip = pr.installations[s.installation];
     const Eigen::Vector3d follow =
-        d.axis == Axis::kC ? ip.sweeps.front().positions.front().linear_mm : ip.fixed_ball_mm;
+        d.axis.table() ? ip.sweeps.front().positions.front().linear_mm : ip.fixed_ball_mm;
     double t = ip.motion_time_s;
     if (!sheet.setup_time_s.empty()) t += sheet.setup_time_s[k];
     rows.push_back({std::to_string(k + 1), in.id, std::to_string(s.position),
@@ -348,20 +376,20 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
                     in.direction.label() + (in.sign > 0 ? " +1" : " -1"), xyz(follow),
                     sweeps_text(ip), std::to_string(ip.readings), fmt_rounded(t, 0)});
   }
-  w.table({"step", "installation", "position", "ball [mm]", "cup and blocks", "bar [mm]",
-           "direction, sign",
-           d.axis == Axis::kC ? "spindle ball at the first angle [mm]"
-                              : "table ball from the pivot [mm]",
-           "sweep", "readings",
-           sheet.setup_time_s.empty() ? "moves and dwells [s]" : "time with set-up [s]"},
-          rows);
+  w.table(
+      {"step", "installation", "position", "ball [mm]", "cup and blocks", "bar [mm]",
+       "direction, sign",
+       d.axis.table() ? "spindle ball at the first angle [mm]" : "table ball from the pivot [mm]",
+       "sweep", "readings",
+       sheet.setup_time_s.empty() ? "moves and dwells [s]" : "time with set-up [s]"},
+      rows);
   for (size_t k = 0; k < o.steps.size(); ++k) {
     const Installation& in = d.installations[o.steps[k].installation];
     w.heading("Step " + std::to_string(k + 1) + ": installation " + in.id, std::max(2, level + 1));
     w.paragraph(instructions(sheet, static_cast<int>(k)));
     w.figure([&sheet, k] { return installation_drawing(sheet, static_cast<int>(k)); },
              "Installation " + in.id + " to scale at the first angle: the ball (red), the " +
-                 (d.axis == Axis::kC ? std::string("spindle's ball") : "table's ball") +
+                 (d.axis.table() ? std::string("spindle's ball") : "table's ball") +
                  " (green) and the bar (blue).");
   }
 }

@@ -34,7 +34,7 @@ SweepVariable parse_sweep(const Design& design, const std::string& spec) {
     throw InputError("--sweep", spec, "the name must start with L, D or H");
   }
   v.coord = v.name[0] == 'L' ? 0 : v.name[0] == 'D' ? 1 : 2;
-  if (v.coord == 2 && design.axis == Axis::kB)
+  if (v.coord == 2 && !design.axis.has_H())
     throw InputError("--sweep", spec, "H is not used for the swinging head B");
   std::string rest = v.name.substr(1);
   if (!rest.empty() && rest[0] == '@') {

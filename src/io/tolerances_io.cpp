@@ -58,6 +58,13 @@ std::vector<Tolerance> tolerances_from_json(const json& j, const std::string& so
     Tolerance t;
     t.quantity = r.string("quantity");
     t.where = where;
+    // A location error spelt with the letter O (XOC): ISO 230-1 writes the digit zero (X0C).
+    if (t.quantity.size() == 3 && t.quantity[1] == 'O' &&
+        std::string("XYZABC").find(t.quantity[0]) != std::string::npos &&
+        std::string("ABC").find(t.quantity[2]) != std::string::npos) {
+      t.alias = t.quantity;
+      t.quantity[1] = '0';
+    }
     for (const Tolerance& o : out) {
       if (o.quantity == t.quantity)
         r.fail("quantity", "'" + t.quantity + "' has a limit already (" + o.where + ")");
@@ -129,13 +136,26 @@ json conformance_to_json(const ConformanceReport& report, const std::string& tol
          {"results", rows},
          {"verdict", report.any_nonconforming() ? "does not conform" : "no nonconformity proven"}};
   j["warnings"] = conformance_warnings(report);
+  json notes = json::array();
+  if (const std::string n = conformance_alias_note(report); !n.empty()) notes.push_back(n);
+  j["notes"] = notes;
   return j;
+}
+
+std::string conformance_alias_note(const ConformanceReport& report) {
+  if (report.aliases.empty()) return "";
+  std::string t = "the tolerance file names";
+  for (std::size_t k = 0; k < report.aliases.size(); ++k)
+    t += (k ? ", " : " ") + report.aliases[k].first + " (read as " + report.aliases[k].second + ")";
+  return t + ": ISO 230-1 writes a location error with the digit zero";
 }
 
 std::string conformance_text(const ConformanceReport& report) {
   std::ostringstream s;
   s << "\nconformance (" << conformance_rule(report) << "):\n";
   for (const std::string& w : conformance_warnings(report)) s << "  WARNING: " << w << "\n";
+  if (const std::string n = conformance_alias_note(report); !n.empty())
+    s << "  note: " << n << "\n";
   s << "  " << std::left << std::setw(12) << "quantity" << std::setw(22) << "tolerance zone"
     << std::setw(18) << "decision"
     << "deciding value [interval]\n";

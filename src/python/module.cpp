@@ -773,8 +773,14 @@ PYBIND11_MODULE(dbbkit, m) {
            "naming the key.")
       .def_property_readonly("source", [](const PyDesign& d) { return d.source; })
       .def_property_readonly("name", [](const PyDesign& d) { return d.value.name; })
-      .def_property_readonly("axis",
-                             [](const PyDesign& d) { return std::string(axis_name(d.value.axis)); })
+      .def_property_readonly(
+          "axis", [](const PyDesign& d) { return std::string(1, d.value.axis.letter()); },
+          "The letter of the axis under test (A, B or C)")
+      .def_property_readonly(
+          "axis_frame",
+          [](const PyDesign& d) { return to_python(io::axis_frame_to_json(d.value.axis)); },
+          "The axis as a dict: letter, side, direction, reference, travel_deg, shorthand, "
+          "ball_axes")
       .def_property_readonly("angles_deg",
                              [](const PyDesign& d) {
                                return Eigen::Map<const Eigen::VectorXd>(
@@ -792,7 +798,7 @@ PYBIND11_MODULE(dbbkit, m) {
           "to_dict", [](const PyDesign& d) { return to_python(io::design_to_json(d.value)); },
           "The design as the dict a design file holds")
       .def("__repr__", [](const PyDesign& d) {
-        return "<dbbkit.Design '" + d.value.name + "' axis " + axis_name(d.value.axis) + ", " +
+        return "<dbbkit.Design '" + d.value.name + "' axis " + d.value.axis.label() + ", " +
                std::to_string(d.value.installations.size()) + " installations, " +
                std::to_string(d.value.angles_deg.size()) + " angles, " + d.value.errors.describe() +
                ">";
@@ -802,10 +808,15 @@ PYBIND11_MODULE(dbbkit, m) {
       .def(py::init([](py::handle source) { return make_kit(source); }), py::arg("source"))
       .def_property_readonly("source", [](const PyKit& k) { return k.source; })
       .def_property_readonly("name", [](const PyKit& k) { return k.value.name; })
-      .def_property_readonly("axis",
-                             [](const PyKit& k) { return std::string(axis_name(k.value.axis)); })
+      .def_property_readonly(
+          "axis", [](const PyKit& k) { return std::string(1, k.value.axis.letter()); },
+          "The letter of the axis under test (A, B or C)")
+      .def_property_readonly(
+          "axis_frame",
+          [](const PyKit& k) { return to_python(io::axis_frame_to_json(k.value.axis)); },
+          "The axis as a dict, as Design.axis_frame")
       .def("__repr__", [](const PyKit& k) {
-        return "<dbbkit.Kit '" + k.value.name + "' axis " + axis_name(k.value.axis) + ">";
+        return "<dbbkit.Kit '" + k.value.name + "' axis " + k.value.axis.label() + ">";
       });
 
   py::class_<PyMeasurements>(m, "Measurements", "DBB readings checked against a design")

@@ -11,7 +11,7 @@ int main() {
   using namespace dbbkit;
   Design d;
   d.name = "three positions";
-  d.axis = Axis::kC;
+  d.axis = AxisFrame::c_turntable();
   for (int a = 0; a <= 360; a += 30) d.angles_deg.push_back(a);
   d.noise.half_width_um = 1.25;  // rectangular +-1.25 um
   auto ball = [&](const char* id, double L, double H, Direction::Kind k) {
@@ -19,7 +19,7 @@ int main() {
     in.id = id;
     in.L_mm = L;
     in.H_mm = H;
-    in.direction = Direction::named(Axis::kC, k);
+    in.direction = Direction::named(AxisFrame::c_turntable(), k);
     d.installations.push_back(in);
   };
   using K = Direction::Kind;

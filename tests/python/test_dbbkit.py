@@ -140,6 +140,29 @@ class RoundTrips(InSource):
         from_dict["inputs"] = from_file["inputs"]
         self.assertEqual(from_dict, from_file)
 
+    def test_axis_letter_and_frame(self):
+        c = dbbkit.Design(PAPER_C)
+        self.assertEqual(c.axis, "C")
+        self.assertEqual(c.axis_frame["shorthand"], "C")
+        self.assertEqual(c.axis_frame["direction"], [0.0, 0.0, 1.0])
+        self.assertEqual(c.axis_frame["travel_deg"], "full_turn")
+        b = dbbkit.Design("designs/paper-b-head.json")
+        self.assertEqual(b.axis, "B")
+        self.assertEqual(b.axis_frame["side"], "head")
+        self.assertEqual(b.axis_frame["ball_axes"]["D"], [0.0, 1.0, 0.0])  # the shorthand's D
+        self.assertIsNone(b.axis_frame["ball_axes"]["H"])
+        with open(PAPER_C) as f:
+            raw = json.load(f)
+        raw["axis"] = {"letter": "A", "side": "table", "direction": [1, 0, 0], "reference": [0, 0, 1],
+                       "travel_deg": [-120, 120]}
+        raw["angles_deg"] = {"start": -100, "stop": 100, "step": 20}
+        a = dbbkit.Design(raw)
+        self.assertEqual(a.axis, "A")
+        self.assertIsNone(a.axis_frame["shorthand"])
+        self.assertEqual(a.axis_frame["travel_deg"], [-120.0, 120.0])
+        self.assertEqual(a.axis_frame["ball_axes"]["H"], [1.0, 0.0, 0.0])
+        self.assertEqual(dbbkit.Design(a.to_dict()).axis_frame, a.axis_frame)
+
     def test_measurements_from_arrays_and_csv(self):
         d = dbbkit.Design(PAPER_C)
         m = dbbkit.Measurements(DATA_C, d)

@@ -25,11 +25,17 @@ nlohmann::json noise_to_json(const NoiseModel& noise);
 // Set-up tolerances {"length_offset_um", "centring_um", "L_mm", "D_mm", "H_mm"}, each
 // optional: a design's default (`setup_std`) or one installation's override.
 SetupOverride read_setup_override(ObjectReader r);
-nlohmann::json setup_to_json(const SetupUncertainty& u, Axis axis);
+nlohmann::json setup_to_json(const SetupUncertainty& u, const AxisFrame& axis);
 nlohmann::json setup_override_to_json(const SetupOverride& o);
 
 // "axis": "C" or "B".
-Axis read_axis(ObjectReader& top);
+AxisFrame read_axis(ObjectReader& top);
+// The axis as a design or kit writes it: the shorthand "C" or "B", else the general form.
+nlohmann::json axis_to_json(const AxisFrame& axis);
+// The frame written out whatever the design used: letter, side, direction, reference,
+// travel_deg, shorthand ("C", "B" or null) and ball_axes (the machine directions of L, D and
+// H at angle 0; H null where the frame has none).
+nlohmann::json axis_frame_to_json(const AxisFrame& axis);
 
 // {"model": "per_angle"} or {"model": "fourier" | "legendre", "order": K}.
 ErrorModel read_error_model(ObjectReader errors);

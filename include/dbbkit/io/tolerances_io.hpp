@@ -14,6 +14,8 @@ inline constexpr const char* kTolerancesFormat = "dbbkit.tolerances/1";
 
 std::vector<Tolerance> read_tolerances_file(const std::string& path);
 std::vector<Tolerance> tolerances_from_json(const nlohmann::json& j, const std::string& source);
+// Said once when the file used the alias with the letter O ("XOC"); empty otherwise.
+std::string conformance_alias_note(const ConformanceReport& report);
 
 nlohmann::json conformance_to_json(const ConformanceReport& report,
                                    const std::string& tolerances_path);
