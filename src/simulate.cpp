@@ -7,12 +7,54 @@
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/iso230.hpp"
+#include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/parameterisation.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit {
 
+Vector6d given_errors(const Truth& truth, const AxisFrame& axis, double angle_deg,
+                      const std::string& source);
+
+namespace {
+
+// The errors the location of the axis adds at angle_deg (iso230.md); unknown names throw.
+Vector6d location_errors(const Truth& truth, const AxisFrame& axis, double angle_deg,
+                         const std::string& source) {
+  Vector6d e = Vector6d::Zero();
+  if (truth.location.empty()) return e;
+  const IsoNames names = iso230_names(axis);
+  const IsoFrame f = iso_frame(axis);
+  std::array<double, 5> v{};
+  for (const auto& [name, value] : truth.location) {
+    const auto it = std::find(names.location.begin(), names.location.end(), name);
+    if (it == names.location.end()) {
+      std::string known;
+      for (const std::string& n : names.location) known += (known.empty() ? "" : ", ") + n;
+      throw InputError(source, "location." + name,
+                       quote_value(name) + " is not a location error of axis " + axis.label() +
+                           " (one of " + known + "; um for positions, urad for angles)");
+    }
+    v[static_cast<std::size_t>(it - names.location.begin())] = value;
+  }
+  const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(axis, angle_deg);
+  e.head<3>() = IR * (v[0] * f.p1 + v[1] * f.p2);
+  e.tail<3>() = IR * (v[2] * f.p1 + v[3] * f.p2) + v[4] * f.q;
+  return e;
+}
+
+}  // namespace
+
 Vector6d truth_errors(const Truth& truth, const AxisFrame& axis, double angle_deg,
+                      const std::string& source) {
+  const Vector6d located = location_errors(truth, axis, angle_deg, source);
+  if (!truth.errors_given) return located;
+  return located + given_errors(truth, axis, angle_deg, source);
+}
+
+Vector6d given_errors(const Truth& truth, const AxisFrame& axis, double angle_deg,
                       const std::string& source) {
   if (truth.model.kind == ErrorModel::Kind::kPerAngle) {
     for (const auto& [a, e] : truth.per_angle) {
@@ -180,12 +222,18 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     if (truth.schedule->sweeps.empty())
       throw InputError(source, "schedule.sweeps", "needs at least one sweep");
   }
+  for (const auto& [name, v] : truth.location) check_value(v, "location." + name);
+  if (!design.angles_deg.empty())
+    location_errors(truth, design.axis, design.angles_deg.front(), source);
+  if (!truth.errors_given) return;
   if (truth.model.kind == ErrorModel::Kind::kPerAngle) {
     for (double a : design.angles_deg) truth_errors(truth, design.axis, a, source);
     return;
   }
   if (truth.model.kind == ErrorModel::Kind::kFourier && !design.axis.full_turn()) {
-    throw InputError(source, "errors.model", "a Fourier truth is for the full-turn axis C");
+    throw InputError(source, "errors.model",
+                     "a Fourier truth is for a full-turn axis; axis " + design.axis.label() +
+                         " turns through an arc: use \"legendre\"");
   }
   if (truth.model.kind == ErrorModel::Kind::kLegendre) {
     if (!truth.range_deg || !(truth.range_deg->second > truth.range_deg->first)) {

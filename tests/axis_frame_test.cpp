@@ -1,8 +1,8 @@
 // The axis under test as data (formats.md, "General axis form"). The shorthands "C" and "B"
 // against the same axes written in the general form; then, for each kind the shorthands do
-// not cover (an A trunnion, a machining centre's B table, a primed C table, an A head whose
-// spindle points down, a 45 deg nutating table), readings from the exact two-ball geometry
-// of a real axis (displaced, tilted, its zero offset, with constant parts and component
+// not cover (an A trunnion, a machining centre's B table, a primed C table, an A head and a B
+// head whose spindle points down, a 45 deg nutating table), readings from the exact two-ball
+// geometry of a real axis (displaced, tilted, its zero offset, with constant parts and component
 // motions) written here from the format's definitions alone (Eigen's AngleAxis, not the
 // library's kinematics), identified, and mapped to the axis' own ISO 230-1 names.
 
@@ -14,10 +14,12 @@
 #include <cstdio>
 #include <random>
 
+#include "dbbkit/error.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/measurement_io.hpp"
+#include "dbbkit/io/truth_io.hpp"
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "test_util.hpp"
@@ -183,6 +185,10 @@ std::vector<Kind> new_kinds() {
        AxisFrame::general('A', S::kHead, Vector3d::UnitX(), -Vector3d::UnitZ(), false, -100, 100),
        steps(-90, 90, 10),
        {"Y0A", "Z0A", "B0A", "C0A", "A0A"}},
+      {"B head, spindle pointing down at B0 (what --tool-down was)",
+       AxisFrame::general('B', S::kHead, Vector3d::UnitY(), -Vector3d::UnitZ(), false, -120, 120),
+       steps(-100, 60, 10),
+       {"X0B", "Z0B", "A0B", "C0B", "B0B"}},
       {"45 deg nutating table",
        AxisFrame::general('B', S::kTable, nut, Vector3d::UnitX(), true),
        steps(0, 340, 20),
@@ -394,6 +400,31 @@ TEST(AxisFrame, EveryNewKindRecoversARealAxisUnderItsOwnNames) {
     EXPECT_NEAR(static_cast<double>(held1) / checked, 0.6827, 0.08) << k.what;
     EXPECT_GE(comp_held, 0.99 * comp_checked) << k.what;
     EXPECT_LT(worst_noise_free, 0.02) << k.what;
+  }
+}
+
+// A truth file names the axis' location errors by the design's own ISO names: simulated
+// without noise (first order) they come back as given; a name of another axis is refused.
+TEST(AxisFrame, ATruthsLocationErrorsComeBackUnderTheirNames) {
+  for (const Kind& k : new_kinds()) {
+    const Design d = design_for(k);
+    nlohmann::json j = {{"format", "dbbkit.truth/1"}, {"noise", {{"distribution", "none"}}}};
+    const double given[] = {12, -8, 25, -15, 40};
+    for (int i = 0; i < 5; ++i) j["location"][k.names[i]] = given[i];
+    const Truth t = io::truth_from_json(j, "truth");
+    const IdentifyResult r = identify(d, simulate(d, t, 1));
+    const IsoResult iso = iso230_quantities(d, r.param, r.estimate);
+    for (int i = 0; i < 5; ++i) EXPECT_NEAR(iso.location[i].value.value, given[i], 1e-6) << k.what;
+    nlohmann::json wrong = j;
+    wrong["location"]["Q0Q"] = 1;
+    try {
+      simulate(d, io::truth_from_json(wrong, "truth"), 1);
+      ADD_FAILURE() << "Q0Q accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("location.Q0Q"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(std::string("one of ") + k.names[0]), std::string::npos)
+          << e.what();
+    }
   }
 }
 

@@ -156,6 +156,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"kit_wrong_format.json", kOptimize, "format", "expected \"dbbkit.kit/1\""},
         BadCase{"kit_unknown_key.json", kOptimize, "bars_mm", "misspelling"},
         BadCase{"kit_free_pattern.json", kOptimize, "pattern", "\"free\" is not supported"},
+        BadCase{"kit_general_axis.json", kOptimize, "axis",
+                "changes the radius instead. For A (table, about +X)"},
         BadCase{"kit_L_min_above_max.json", kOptimize, "L_mm", "min is larger than max"},
         BadCase{"kit_pattern_bad_direction.json", kOptimize, "pattern.positions[0].directions[1]",
                 "unknown direction 'sideways'"},

@@ -46,6 +46,11 @@ struct Truth {
   std::optional<std::uint64_t> seed;
   std::vector<TruthEffect> effects;
   std::optional<Schedule> schedule;  // absent: no time_s and no sweep in the readings
+  // The axis' location errors by their ISO 230-1 names (um, urad), added to the errors as
+  // the real axis adds them to first order (iso230.md): d += (I - R) o, e += (I - R) alpha +
+  // c0 q. errors_given false: no "errors" in the file, the errors are the location's alone.
+  std::vector<std::pair<std::string, double>> location;
+  bool errors_given = true;
 
   // Exact two-ball geometry (exact_setup_reading_um) instead of the first-order rows.
   bool exact = false;

@@ -302,6 +302,13 @@ Design design_from_json(const json& j, const std::string& source) {
       if (!d.axis.table())
         in.fail("stack_mm", "a cup on cushion blocks stands on a table: axis " + d.axis.label() +
                                 " carries the head");
+      if (d.axis.shorthand().empty())
+        in.fail("stack_mm",
+                "the cup and blocks add up to H, along the axis, as on the C turntable whose "
+                "table's normal is its axis; on axis " +
+                    d.axis.label() +
+                    " their direction is the table's normal, which the design does not state: "
+                    "give the ball's L, D and H alone");
       ObjectReader stack(*st, source, path + ".stack_mm");
       inst.cup_mm = stack.number("cup");
       if (const json* b = stack.optional("blocks"))

@@ -143,6 +143,18 @@ Kit kit_from_json(const json& j, const std::string& source) {
   k.name = top.optional_string("name").value_or("");
   top.optional_string("description");
   k.axis = read_axis(top);
+  // A kit's blocks raise the ball along the table's normal, and its patterns place balls on
+  // and off the tool line: both are written for the C turntable (normal = axis) and the B
+  // head. Another axis is refused rather than searched with the wrong hardware model.
+  if (k.axis.shorthand().empty()) {
+    top.fail("axis",
+             "a kit is read for the shorthands \"C\" and \"B\" only: for a table its cushion "
+             "blocks raise the ball along the axis, which on a trunnion (the table's normal "
+             "across the axis) changes the radius instead. For " +
+                 k.axis.label() +
+                 ", write the design in the general axis form and evaluate it (dbbkit evaluate "
+                 "--design)");
+  }
   k.pattern = read_pattern(top, k.axis);
   if (const json* n = top.optional("noise"))
     k.noise = *read_noise(ObjectReader(*n, source, "noise"), false);

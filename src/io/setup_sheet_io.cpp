@@ -30,6 +30,8 @@ std::string sheet_ball_text(const AxisFrame& axis, const Installation& in) {
 
 std::string stack_text(const AxisFrame& axis, const Installation& in) {
   if (!axis.table()) return "tool side: ball " + mm(in.L_mm) + " mm from the pivot";
+  if (!in.cup_mm && axis.shorthand().empty())
+    return "as the design places the ball (L, D, H; its stack not given)";
   if (!in.cup_mm) return "H " + mm(in.H_mm) + " mm (cup and blocks not given in the design)";
   if (in.blocks_mm.empty()) return "cup on the table (" + mm(*in.cup_mm) + " mm)";
   return "cup (" + mm(*in.cup_mm) + " mm) on blocks " + lengths(in.blocks_mm) + " mm";
@@ -221,8 +223,7 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
     const Panel top(0, 0, 320, {{-R, -R}, {R, R}});
     caption(s, top,
             (shorthand ? std::string("from above (X right, Y up), C ")
-                       : "along the axis (L at " + letter + "0 right, direction x L up), " +
-                             letter + " ") +
+                       : "along " + letter + ", " + letter + " ") +
                 mm(a) + " deg; dashed: the paths");
     line(s, top, -R, 0, R, 0, axis_style);
     line(s, top, 0, -R, 0, R, axis_style);
@@ -244,16 +245,22 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
     const Panel side(320, 0, 320, {{lo - wide, low_z}, {hi + wide, std::max(top_z, low_z + 200)}});
     caption(s, side,
             shorthand ? "from the side (radial right, Z up)"
-                      : "across the axis (radial right, along the axis up)");
-    line(s, side, side.cx - 0.5 * side.size / side.scale, 0, side.cx + 0.5 * side.size / side.scale,
-         0, "stroke:#333;stroke-width:2");
-    line(s, side, 0, 0, 0, std::max(P.z(), F.z()) + 20, axis_style);
-    double z = 0;
-    for (double b : in.blocks_mm) {
-      rect(s, side, pr - 20, z, 40, b, "#e0c080");
-      z += b;
+                      : "across " + letter + " (radial right, along " + letter + " up)");
+    // The table surface and the ball's stack on it: the C turntable's, whose normal is its axis
+    // (another table's normal is not in the design: its balls alone are drawn).
+    if (shorthand) {
+      line(s, side, side.cx - 0.5 * side.size / side.scale, 0,
+           side.cx + 0.5 * side.size / side.scale, 0, "stroke:#333;stroke-width:2");
     }
-    rect(s, side, pr - 10, z, 20, std::max(P.z() - z, 0.0), "#bbbbbb");
+    line(s, side, 0, 0, 0, std::max(P.z(), F.z()) + 20, axis_style);
+    if (shorthand) {
+      double z = 0;
+      for (double b : in.blocks_mm) {
+        rect(s, side, pr - 20, z, 40, b, "#e0c080");
+        z += b;
+      }
+      rect(s, side, pr - 10, z, 20, std::max(P.z() - z, 0.0), "#bbbbbb");
+    }
     line(s, side, pr, P.z(), fr, F.z(), bar_style);
     ball(s, side, pr, P.z(), "#d62728", "ball");
     ball(s, side, fr, F.z(), "#2ca02c", "spindle", true);

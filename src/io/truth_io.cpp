@@ -5,18 +5,16 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
 
 using nlohmann::json;
 
-Truth truth_from_json(const json& j, const std::string& source) {
-  ObjectReader top(j, source, "");
-  Truth t;
-  const std::string format = top.string("format");
-  if (format != kTruthFormat)
-    top.fail("format", "expected \"" + std::string(kTruthFormat) + "\", found \"" + format + "\"");
-  top.optional_string("description");
+namespace {
+
+// The "errors" object: per_angle values or series coefficients.
+void read_errors(ObjectReader& top, const std::string& source, Truth& t) {
   ObjectReader errors = top.object("errors");
   const std::string model = errors.string("model");
   if (model == "per_angle") {
@@ -58,6 +56,34 @@ Truth truth_from_json(const json& j, const std::string& source) {
     errors.fail("model", "unknown model '" + model + "' (expected per_angle, fourier or legendre)");
   }
   errors.finish();
+}
+
+}  // namespace
+
+Truth truth_from_json(const json& j, const std::string& source) {
+  ObjectReader top(j, source, "");
+  Truth t;
+  const std::string format = top.string("format");
+  if (format != kTruthFormat)
+    top.fail("format", "expected \"" + std::string(kTruthFormat) + "\", found \"" + format + "\"");
+  top.optional_string("description");
+  // A location of the axis (ISO 230-1 names of the design's axis, um and urad), resolved
+  // against the design by validate_truth; with it the errors may be left out (zero).
+  if (const json* loc = top.optional("location")) {
+    if (!loc->is_object() || loc->empty())
+      top.fail("location",
+               "expected an object of location errors, e.g. {\"X0C\": 10, \"B0C\": -20}");
+    for (auto it = loc->begin(); it != loc->end(); ++it) {
+      if (const auto p = id_problem(it.key()))
+        throw InputError(source, "location", quote_value(it.key()) + ": " + *p);
+      t.location.emplace_back(it.key(), as_number(it.value(), source, "location." + it.key()));
+    }
+  }
+  if (t.location.empty() || top.optional("errors")) {
+    read_errors(top, source, t);
+  } else {
+    t.errors_given = false;
+  }
   if (const json* n = top.optional("noise")) {
     t.noise = read_noise(ObjectReader(*n, source, "noise"), true);
     t.noiseless = !t.noise.has_value();
