@@ -200,6 +200,10 @@ void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, const Ax
   }
 }
 
+bool table_ball_beyond_tool(const AxisFrame& axis, const Direction& direction, int sign) {
+  return !axis.head() || sign * direction.body.dot(axis.reference()) <= kBeyondTool;
+}
+
 void validate_design(const Design& d, const std::string& source) {
   // Text is data (user_text.hpp): what no writer could carry safely is refused here.
   if (const auto p = text_problem(d.name, limits::kMaxNameBytes))
@@ -309,6 +313,19 @@ void validate_design(const Design& d, const std::string& source) {
     if (d.axis.table()) {
       require(in.L_mm >= 0, source, key + ".ball_mm.L",
               "the radial distance L of a ball on a table must be >= 0 mm");
+    }
+    require(in.reading_sign == 1 || in.reading_sign == -1, source, key + ".reading_sign",
+            "must be +1 or -1, got " + std::to_string(in.reading_sign));
+    if (!table_ball_beyond_tool(d.axis, in.direction, in.sign)) {
+      throw InputError(
+          source, key + ".sign",
+          "installation " + in.id + " (" + in.direction.label() + ", sign " +
+              std::to_string(in.sign) +
+              ") puts the table ball on the pivot's side of the spindle ball (F = P - s bar u): "
+              "on a head the table ball lies beyond the tool tip; the sign is geometry, so write "
+              "sign " +
+              std::to_string(-in.sign) +
+              " (and, for data recorded with the other count, \"reading_sign\": -1)");
     }
     if (!d.axis.has_H()) {
       require(in.H_mm == 0.0, source, key + ".ball_mm.H",

@@ -331,6 +331,16 @@ void validate_kit(const Kit& k, const std::string& source) {
       require(std::abs(k.angle_steps_deg[j] - st) > kAngleTolerance_deg, source, key,
               "repeats angles_deg.steps[" + std::to_string(j) + "]");
     }
+    // Over an arc through 0 the designs measure the axis' zero (the reference position the
+    // location errors and the other axes are set at).
+    if (!k.axis.full_turn() && r.min < 0 && r.max > 0) {
+      const double z = -r.min / st;
+      require(std::abs(z - std::round(z)) <= tol::kWholeSteps * std::max(1.0, z), source, key,
+              "steps of " + text::significant(st, 12) + " deg from " +
+                  text::significant(r.min, 12) + " deg never reach " +
+                  std::string(1, k.axis.letter()) +
+                  " = 0, which the range includes: take a range or step that does");
+    }
   }
   require(finite(k.time_per_reading_s) && k.time_per_reading_s >= 0, source, "time_s.per_reading",
           "must be a time >= 0 s");
@@ -491,12 +501,13 @@ double fit_bar_on(const Kit& kit, const AxisFrame& axis, Installation& inst,
                   const std::vector<double>& bars, const std::optional<ArcEnds>& ends) {
   double best = std::numeric_limits<double>::infinity();
   double best_bar = bars.front();
-  int best_sign = 1;
+  int best_sign = table_ball_beyond_tool(axis, inst.direction, 1) ? 1 : -1;
   // Each bar and sign moves only the following ball.
   const RotationHarmonics& h = rotation_harmonics(axis);
   const Eigen::Vector3d ball = ball_body_mm(axis, inst);
   for (double bar : bars) {
     for (int sign : {1, -1}) {
+      if (!table_ball_beyond_tool(axis, inst.direction, sign)) continue;  // inside the head
       const double v =
           ends ? arc_travel_violation(kit, h, ball - sign * bar * inst.direction.body, *ends)
                : 0.0;  // no angle: nothing turns (travel_violation_mm)

@@ -136,7 +136,10 @@ LinearModel build_linear_model(const Design& design, const Parameterisation& par
   rows.reserve(readings.size());
   const auto index = design.installation_index();
   for (const Reading& r : readings) {
-    rows.push_back({index.at(r.installation), r.angle_deg, r.reading_um});
+    // The bar's length change: the reading as the instrument counted it, times its count.
+    const int i = index.at(r.installation);
+    const double count = design.installations[static_cast<std::size_t>(i)].reading_sign;
+    rows.push_back({i, r.angle_deg, count == 1 ? r.reading_um : count * r.reading_um});
   }
   return assemble(design, param, rows);
 }

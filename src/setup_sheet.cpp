@@ -103,9 +103,14 @@ std::tuple<int, int, int> changes(const std::vector<SetupStep>& steps) {
 // A kit of the design's axis, or none.
 void check_kit_axis(const Kit* kit, const Design& design) {
   if (kit && !kit->axis.same_as(design.axis))
-    throw InputError("--kit", "axis",
-                     std::string("the kit is for axis ") + kit->axis.label() +
-                         ", the design for axis " + design.axis.label());
+    throw InputError(
+        "--kit", "axis",
+        std::string("the kit is for axis ") + kit->axis.label() +
+            (design.axis.shorthand().empty()
+                 ? ", the design's axis is written in the general form, " + design.axis.label() +
+                       ": a kit is read for the shorthands \"C\" and \"B\" only, so give the "
+                       "design as the shorthand or leave out --kit"
+                 : ", the design for axis " + design.axis.label()));
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "dbbkit/limits.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/user_text.hpp"
+#include "number_text.hpp"
 
 namespace dbbkit {
 
@@ -33,9 +34,11 @@ Vector6d location_errors(const Truth& truth, const AxisFrame& axis, double angle
     if (it == names.location.end()) {
       std::string known;
       for (const std::string& n : names.location) known += (known.empty() ? "" : ", ") + n;
+      const bool letter_o = name.size() == 3 && name[1] == 'O';
       throw InputError(source, "location." + name,
                        quote_value(name) + " is not a location error of axis " + axis.label() +
-                           " (one of " + known + "; um for positions, urad for angles)");
+                           " (one of " + known + "; um for positions, urad for angles)" +
+                           (letter_o ? "; ISO 230-1 writes the digit zero, not the letter O" : ""));
     }
     v[static_cast<std::size_t>(it - names.location.begin())] = value;
   }
@@ -240,6 +243,18 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
       throw InputError(source, "errors.range_deg",
                        "a Legendre truth needs its range [min, max] with max > min");
     }
+    // A series is a truth over its range only: beyond it a polynomial is extrapolated.
+    for (double a : design.angles_deg) {
+      if (a < truth.range_deg->first - kAngleTolerance_deg ||
+          a > truth.range_deg->second + kAngleTolerance_deg) {
+        throw InputError(source, "errors.range_deg",
+                         "the design measures at " + text::significant(a, 12) +
+                             " deg, outside the truth's range [" +
+                             text::significant(truth.range_deg->first, 12) + ", " +
+                             text::significant(truth.range_deg->second, 12) +
+                             "] deg: a Legendre series is not extrapolated");
+      }
+    }
   }
   const size_t m = static_cast<size_t>(coefficients_per_error(truth.model));
   for (int k = 0; k < 6; ++k) {
@@ -331,6 +346,8 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
           J_reading_effect(design, reading, i, c.installation < 0 ? t_test : t0[i], c).dot(e.value);
     }
     reading.reading_um = value + draw();
+    if (inst.reading_sign != 1)
+      reading.reading_um *= inst.reading_sign;  // as the instrument counts
     // What the instrument could not read is not a reading: the truth is too large for the
     // design's instrument (identify would refuse the file).
     const double range_um = 1000.0 * design.instrument_range_mm;

@@ -214,6 +214,7 @@ Design design_for(const Kind& k) {
     in.H_mm = H;
     in.bar_mm = 150;
     in.direction = Direction::named(d.axis, kind);
+    if (!table_ball_beyond_tool(d.axis, in.direction, in.sign)) in.sign = -1;  // beyond the tool
     d.installations.push_back(in);
   };
   if (k.frame.table()) {
@@ -348,10 +349,12 @@ std::vector<Reading> exact_readings(const Design& d, const RealAxis& t, std::mt1
 
 // For every new kind: the location errors come back under the axis' own names within 3 u
 // (at least 98 % of them: a case's X0 and its tilt are correlated, so misses come in pairs;
-// 0.47 % missed over 300 cases of each kind) and about 68 % within 1 u; the component
-// motions within 3 u of the truth; without noise, to first order.
+// 0.2-0.5 % missed over 300 cases of each kind) and 68 % +- 9 % within 1 u (66.7-69.9 % over
+// 300 cases; the band is about three standard deviations of the share over 100 cases of
+// correlated pairs); the component motions within 3 u of the truth; without noise, to first
+// order.
 TEST(AxisFrame, EveryNewKindRecoversARealAxisUnderItsOwnNames) {
-  constexpr int kCases = 60;
+  constexpr int kCases = 100;
   for (const Kind& k : new_kinds()) {
     const Design d = design_for(k);
     std::mt19937_64 rng(2024);
@@ -397,7 +400,7 @@ TEST(AxisFrame, EveryNewKindRecoversARealAxisUnderItsOwnNames) {
         "3 u: %d of %d; noise-free: largest difference %.2e (um, urad)\n",
         k.what, held, checked, held1, comp_held, comp_checked, worst_noise_free);
     EXPECT_GE(held, 0.98 * checked) << k.what;
-    EXPECT_NEAR(static_cast<double>(held1) / checked, 0.6827, 0.08) << k.what;
+    EXPECT_NEAR(static_cast<double>(held1) / checked, 0.6827, 0.09) << k.what;
     EXPECT_GE(comp_held, 0.99 * comp_checked) << k.what;
     EXPECT_LT(worst_noise_free, 0.02) << k.what;
   }
@@ -425,6 +428,35 @@ TEST(AxisFrame, ATruthsLocationErrorsComeBackUnderTheirNames) {
       EXPECT_NE(std::string(e.what()).find(std::string("one of ") + k.names[0]), std::string::npos)
           << e.what();
     }
+  }
+  // The letter O for the zero is named as such; an empty location is refused.
+  const Design a = design_for(new_kinds()[0]);
+  nlohmann::json o = {{"format", "dbbkit.truth/1"}, {"location", {{"YOA", 1}}}, {"seed", 1u}};
+  try {
+    simulate(a, io::truth_from_json(o, "truth"), 1);
+    ADD_FAILURE() << "YOA accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("the digit zero, not the letter O"), std::string::npos)
+        << e.what();
+  }
+  o["location"] = nlohmann::json::object();
+  EXPECT_THROW(io::truth_from_json(o, "truth"), InputError);
+  // A Legendre truth over part of the design's arc is not extrapolated.
+  nlohmann::json leg = {
+      {"format", "dbbkit.truth/1"},
+      {"errors",
+       {{"model", "legendre"},
+        {"order", 0},
+        {"range_deg", {-50, 50}},
+        {"coefficients",
+         {{"dx", {1}}, {"dy", {0}}, {"dz", {0}}, {"ex", {0}}, {"ey", {0}}, {"ez", {0}}}}}},
+      {"seed", 1u}};
+  try {
+    simulate(a, io::truth_from_json(leg, "truth"), 1);
+    ADD_FAILURE() << "extrapolated";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("outside the truth's range [-50, 50]"), std::string::npos)
+        << e.what();
   }
 }
 

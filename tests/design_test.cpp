@@ -6,7 +6,10 @@
 #include <gtest/gtest.h>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/identify.hpp"
+#include "dbbkit/io/design_io.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -102,6 +105,80 @@ TEST(SetupOverride, ReplacesOnlyTheKeysGiven) {
   EXPECT_EQ(u.H_mm, 0.05);
   EXPECT_TRUE(u.placement() && u.nuisance());
   EXPECT_FALSE(SetupOverride{}.any());
+}
+
+}  // namespace
+}  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// A head's table ball lies beyond the tool tip: a radial bar with sign +1 (the table ball
+// between the pivot and the spindle ball) is refused naming the installation's sign; across
+// the tool either sign stands; every committed head design keeps the rule.
+TEST(HeadGeometry, TheTableBallLiesBeyondTheToolTip) {
+  Design d = test::paper_design('B');
+  for (const Installation& in : d.installations) {
+    const Eigen::Vector3d P = ball_position_mm(d.axis, in, 0);
+    const Eigen::Vector3d F = P - in.sign * *in.bar_mm * direction_machine(d.axis, in, 0);
+    EXPECT_GE((F - P).dot(d.axis.reference()), -1e-9) << in.id;
+    EXPECT_GE(F.norm(), P.norm()) << in.id;
+  }
+  d.installations[0].sign = 1;  // 1r radial: the table ball 150 mm toward the pivot
+  try {
+    validate_design(d, "d.json");
+    ADD_FAILURE() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("installations[0].sign"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("beyond the tool tip"), std::string::npos) << e.what();
+  }
+  for (int sign : {1, -1}) {
+    EXPECT_TRUE(table_ball_beyond_tool(
+        d.axis, Direction::named(d.axis, Direction::Kind::kTangential), sign));
+    EXPECT_TRUE(
+        table_ball_beyond_tool(d.axis, Direction::named(d.axis, Direction::Kind::kAxial), sign));
+  }
+  // A table takes either sign.
+  EXPECT_TRUE(table_ball_beyond_tool(test::kAxisC,
+                                     Direction::named(test::kAxisC, Direction::Kind::kRadial), 1));
+  for (const char* f : {"designs/b-head-kit-optimized.json",
+                        "designs/b-head-kit-on-axis-optimized.json", "designs/paper-b-head.json"})
+    EXPECT_NO_THROW(io::read_design_file(test::source_path(f))) << f;
+}
+
+// reading_sign is how the instrument counted, not geometry: readings recorded with the
+// opposite count, declared so, identify to the same errors as the bar's length changes.
+TEST(ReadingSign, DataCountedTheOtherWayIdentifyTheSame) {
+  Design d = test::paper_design('C');
+  Truth t;
+  t.model = {ErrorModel::Kind::kFourier, 2};
+  for (int k = 0; k < 6; ++k) t.coefficients[k] = {1.0 + k, 2.0, -1.0, 0.5, 0.25};
+  t.seed = 3;
+  const std::vector<Reading> plain = simulate(d, t, 3);
+  Design counted = d;
+  counted.installations[1].reading_sign = -1;
+  counted.installations[3].reading_sign = -1;
+  const std::vector<Reading> flipped = simulate(counted, t, 3);
+  ASSERT_EQ(plain.size(), flipped.size());
+  int negated = 0;
+  for (size_t i = 0; i < plain.size(); ++i) {
+    const bool other = plain[i].installation == d.installations[1].id ||
+                       plain[i].installation == d.installations[3].id;
+    EXPECT_EQ(flipped[i].reading_um, other ? -plain[i].reading_um : plain[i].reading_um);
+    negated += other;
+  }
+  EXPECT_GT(negated, 0);
+  const IdentifyResult a = identify(d, plain), b = identify(counted, flipped);
+  for (size_t s = 0; s < a.errors.size(); ++s) {
+    for (int k = 0; k < 6; ++k) {
+      EXPECT_NEAR(a.errors[s].errors[k].value, b.errors[s].errors[k].value, 1e-9);
+      EXPECT_NEAR(a.errors[s].errors[k].std, b.errors[s].errors[k].std, 1e-12);
+    }
+  }
+  // The file keeps it.
+  const Design again = io::design_from_json(io::design_to_json(counted), "again");
+  EXPECT_EQ(again.installations[1].reading_sign, -1);
+  EXPECT_EQ(again.installations[0].reading_sign, 1);
 }
 
 }  // namespace

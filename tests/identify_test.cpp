@@ -24,6 +24,7 @@ Design b_head_with_offset() {
     in.L_mm = 150;
     in.D_mm = 60;
     in.direction = Direction::named(test::kAxisB, dir);
+    if (dir == Direction::Kind::kRadial) in.sign = -1;  // the table ball beyond the tool tip
     d.installations.push_back(in);
   }
   return d;

@@ -43,6 +43,8 @@ Design random_design(std::mt19937& rng, const AxisFrame& axis) {
           Direction::vector(Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized());
     }
     in.sign = rng() % 2 ? 1 : -1;
+    if (!table_ball_beyond_tool(axis, in.direction, in.sign))
+      in.sign = -in.sign;  // beyond the tool
     d.installations.push_back(in);
   }
   validate_design(d);
@@ -354,6 +356,11 @@ TEST(Optimize, BKitWithOffsetGivesRankSix) {
   EXPECT_TRUE(r.best_evaluation.unidentifiable.empty());
   EXPECT_NE(r.best->design.installations.back().D_mm, 0.0);
   EXPECT_EQ(r.rank_five, OptimizeResult::RankFiveCause::kNone);
+  // Every installation it writes has its table ball beyond the tool tip, and the design passes
+  // validation as read back.
+  for (const Installation& in : r.best->design.installations)
+    EXPECT_TRUE(table_ball_beyond_tool(r.best->design.axis, in.direction, in.sign)) << in.id;
+  EXPECT_NO_THROW(io::design_from_json(io::design_to_json(r.best->design), "optimised"));
 }
 
 TEST(Optimize, BKitWithoutOffsetGivesRankFiveAndNamesTheMissingRotation) {

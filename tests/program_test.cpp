@@ -203,6 +203,8 @@ Design random_design(std::mt19937_64& rng, const AxisFrame& axis) {
       in.direction = Direction::vector(v.normalized());
     }
     in.sign = U(rng) < 0.5 ? 1 : -1;
+    // A head's table ball lies beyond the tool tip (validate_design).
+    if (!table_ball_beyond_tool(axis, in.direction, in.sign)) in.sign = -in.sign;
     in.bar_mm = std::vector<double>{100, 150, 250, 300, 400}[rng() % 5];
     d.installations.push_back(in);
   }
@@ -335,6 +337,12 @@ void expect_safe(const Design& d, const MeasurementProgram& program, io::Dialect
   // Down to each placement and each mounting, up after each: two feeds along Z apiece.
   EXPECT_EQ(descents, 2 * (p.placements + static_cast<int>(d.installations.size())));
   EXPECT_NE(text.find(o.air_run ? "AIR RUN" : "mount the bar"), std::string::npos);
+  // Every angle the comments name is the design's own axis (an A/C trunnion has a C axis too).
+  for (const char other : {'A', 'B', 'C'}) {
+    if (other == axis.letter()) continue;
+    EXPECT_EQ(text.find(std::string(" at ") + other + "0"), std::string::npos) << other;
+    EXPECT_EQ(text.find(std::string(1, other) + "+ turns"), std::string::npos) << other;
+  }
   if (o.air_run) EXPECT_EQ(text.find("mount the bar"), std::string::npos);
 }
 

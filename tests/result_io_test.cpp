@@ -49,7 +49,7 @@ TEST(JsonText, IdentifyRowsMatchTheWholeDocument) {
   EXPECT_FALSE(head.contains("readings"));
   ASSERT_EQ(whole["readings"].size(), readings.size());
   const std::string text = io::json_text(head, "readings", readings.size(), [&](std::size_t i) {
-    return io::identify_reading_row(readings, result.estimate, i);
+    return io::identify_reading_row(d, readings, result.estimate, i);
   });
   EXPECT_EQ(text, whole.dump(2));
 }

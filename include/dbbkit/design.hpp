@@ -68,7 +68,11 @@ struct Installation {
   double D_mm = 0.0;
   double H_mm = 0.0;
   Direction direction;
-  int sign = +1;                 // s of model.md §2: reading = s * u . dP
+  int sign = +1;  // s of model.md §2: F = P - s bar u (geometry)
+  // How the instrument counted (formats.md, sign): +1, a positive reading is a longer bar (as a
+  // QC20-W counts); -1, the data were recorded with the opposite count. The model reads
+  // reading_sign * reading as the bar's length change; sign stays geometry.
+  int reading_sign = +1;
   std::optional<double> bar_mm;  // bar length, when declared
   std::string description;       // free text for the person setting it up
   SetupOverride setup_std;       // this installation's set-up tolerances, over the design's default
@@ -165,6 +169,15 @@ bool length_within_limits(double x_mm);
 
 // Checks a design built in code or read from a file; throws InputError with
 // `source` and the key of the first problem.
+// The largest sign (u . reference) a head installation may have: a bar across the tool written
+// with 12 digits.
+inline constexpr double kBeyondTool = 1e-9;
+
+// On a head the table ball lies beyond the spindle ball along the tool (the table is there):
+// (F - P) . tool >= 0 at every angle, F - P = -sign bar u, so sign (u . reference) <= 0.
+// A bar across the tool (tangential, axial) may take either sign.
+bool table_ball_beyond_tool(const AxisFrame& axis, const Direction& direction, int sign);
+
 void validate_design(const Design& design, const std::string& source = "design");
 
 // Tolerance on angles: two angles closer than this are the same position.

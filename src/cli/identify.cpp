@@ -93,7 +93,8 @@ Runner add_identify(CLI::App& app) {
       const std::size_t rows =
           std::min(readings.size(), static_cast<std::size_t>(result.estimate.residual_um.size()));
       outputs.stage("--out", io::json_text(j, "readings", rows, [&](std::size_t i) {
-                               return io::identify_reading_row(readings, result.estimate, i);
+                               return io::identify_reading_row(design, readings, result.estimate,
+                                                               i);
                              }) + "\n");
     }
     outputs.commit();

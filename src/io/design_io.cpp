@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "../number_text.hpp"
 #include "../tolerances.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/text.hpp"
@@ -117,6 +118,7 @@ AxisFrame read_axis(ObjectReader& top) {
   if (letter != "A" && letter != "B" && letter != "C")
     a.fail("letter", quote_value(letter) + " is not a rotary axis' letter (A, B or C)");
   const std::string side = a.string("side");
+  const char* kMachineAxes = "XYZ";
   if (side != "table" && side != "head")
     a.fail("side", quote_value(side) + " (expected \"table\" or \"head\")");
   auto vector3 = [&](const char* key) {
@@ -127,6 +129,16 @@ AxisFrame read_axis(ObjectReader& top) {
   const Eigen::Vector3d direction = vector3("direction"), reference = vector3("reference");
   if (const std::string p = axis_frame_problem(direction, reference); !p.empty())
     a.fail(p.rfind("direction", 0) == 0 ? "direction" : "reference", p);
+  // ISO 841: the rotary axis about X is A, about Y is B, about Z is C (a primed axis turns the
+  // other way about the same line); an axis along none of them (nutating) takes any letter.
+  for (int k = 0; k < 3; ++k) {
+    if (std::abs(std::abs(direction(k)) - 1.0) <= kFrameTolerance && letter[0] != "ABC"[k]) {
+      a.fail("letter", "an axis along " + std::string(direction(k) > 0 ? "+" : "-") +
+                           kMachineAxes[k] + " is " + std::string(1, "ABC"[k]) +
+                           " (ISO 841), not " + quote_value(letter) +
+                           ": its location errors would be named after the other axis");
+    }
+  }
   const bool table = side == "table";
   bool full_turn = table;
   double lo = -180, hi = 180;
@@ -134,9 +146,18 @@ AxisFrame read_axis(ObjectReader& top) {
     if (t->is_string() && t->get<std::string>() == "full_turn") {
       full_turn = true;
     } else {
+      if (t->is_string())
+        a.fail("travel_deg", quote_value(t->get<std::string>()) +
+                                 ": expected \"full_turn\" or an arc [min, max] in degrees");
       const std::vector<double> x = read_numbers(*t, top.source(), a.key_path("travel_deg"));
-      if (x.size() != 2 || !(x[0] < x[1]) || x[0] < -360 || x[1] > 360 || x[1] - x[0] > 360)
-        a.fail("travel_deg", "expected \"full_turn\" or an arc [min, max] within one turn");
+      if (x.size() != 2)
+        a.fail("travel_deg", "expected \"full_turn\" or an arc [min, max] in degrees");
+      if (!(x[0] < x[1]))
+        a.fail("travel_deg", "min " + text::significant(x[0], 12) + " must be below max " +
+                                 text::significant(x[1], 12));
+      if (x[0] < -360 || x[1] > 360) a.fail("travel_deg", "the ends must lie within -360..360 deg");
+      if (x[1] - x[0] > 360)
+        a.fail("travel_deg", "an arc of at most one turn (360 deg); a whole turn is \"full_turn\"");
       full_turn = false, lo = x[0], hi = x[1];
     }
   }
@@ -292,6 +313,9 @@ Design design_from_json(const json& j, const std::string& source) {
     ball.finish();
     inst.direction = read_direction(in.required("direction"), d.axis, source, path + ".direction");
     inst.sign = in.optional_integer("sign").value_or(1);
+    inst.reading_sign = in.optional_integer("reading_sign").value_or(1);
+    if (inst.reading_sign != 1 && inst.reading_sign != -1)
+      in.fail("reading_sign", "must be +1 or -1, got " + std::to_string(inst.reading_sign));
     if (inst.sign != 1 && inst.sign != -1)
       in.fail("sign", "must be +1 or -1, got " + std::to_string(inst.sign));
     inst.bar_mm = in.optional_number("bar_mm");
@@ -385,6 +409,7 @@ json design_to_json(const Design& d) {
       i["direction"] = in.direction.label();
     }
     if (in.sign != 1) i["sign"] = in.sign;
+    if (in.reading_sign != 1) i["reading_sign"] = in.reading_sign;
     if (in.bar_mm) i["bar_mm"] = *in.bar_mm;
     if (!in.bar_parts_mm.empty()) i["bar_parts_mm"] = in.bar_parts_mm;
     if (in.cup_mm) i["stack_mm"] = {{"cup", *in.cup_mm}, {"blocks", in.blocks_mm}};

@@ -298,7 +298,7 @@ std::string program_text(const Design& design, const MeasurementProgram& program
               fmt_rounded(ip.bar_mm, 4) + " mm; sweep " + sweeps + ", " +
               std::to_string(ip.readings) + " readings");
     if (!inst.description.empty()) w.comment(inst.description);
-    w.comment(c ? "table ball centre at " + xyz_text(ip.fixed_ball_mm) + " at C0"
+    w.comment(c ? "table ball centre at " + xyz_text(ip.fixed_ball_mm) + " at " + L + "0"
                 : "table ball centre at the origin");
     // Leave along Z alone, turn at the plane, move sideways there.
     w.rapid_z(zc);

@@ -289,22 +289,26 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
     json rows = json::array();
     for (std::size_t i = 0;
          i < readings.size() && i < static_cast<std::size_t>(est.residual_um.size()); ++i) {
-      rows.push_back(identify_reading_row(readings, est, i));
+      rows.push_back(identify_reading_row(design, readings, est, i));
     }
     j["readings"] = rows;
   }
   return j;
 }
 
-json identify_reading_row(const std::vector<Reading>& readings, const Estimate& est,
-                          std::size_t i) {
+json identify_reading_row(const Design& design, const std::vector<Reading>& readings,
+                          const Estimate& est, std::size_t i) {
   const Reading& r = readings[i];
   const Eigen::Index k = static_cast<Eigen::Index>(i);
+  const int at = design.find_installation(r.installation);
+  const double count =
+      at < 0 ? 1.0 : design.installations[static_cast<std::size_t>(at)].reading_sign;
+  const double residual = count == 1 ? est.residual_um(k) : count * est.residual_um(k);
   return {{"installation", r.installation},
           {"angle_deg", r.angle_deg},
           {"reading_um", r6(r.reading_um)},
-          {"fitted_um", r6(r.reading_um - est.residual_um(k))},
-          {"residual_um", r6(est.residual_um(k))}};
+          {"fitted_um", r6(r.reading_um - residual)},
+          {"residual_um", r6(residual)}};
 }
 
 std::string json_text(const json& j, const std::string& key, std::size_t count,

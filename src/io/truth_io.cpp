@@ -70,9 +70,11 @@ Truth truth_from_json(const json& j, const std::string& source) {
   // A location of the axis (ISO 230-1 names of the design's axis, um and urad), resolved
   // against the design by validate_truth; with it the errors may be left out (zero).
   if (const json* loc = top.optional("location")) {
-    if (!loc->is_object() || loc->empty())
+    if (!loc->is_object())
       top.fail("location",
                "expected an object of location errors, e.g. {\"X0C\": 10, \"B0C\": -20}");
+    if (loc->empty())
+      top.fail("location", "is empty: name at least one location error, e.g. {\"X0C\": 10}");
     for (auto it = loc->begin(); it != loc->end(); ++it) {
       if (const auto p = id_problem(it.key()))
         throw InputError(source, "location", quote_value(it.key()) + ": " + *p);

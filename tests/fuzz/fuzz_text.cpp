@@ -46,7 +46,7 @@ bool clean(const std::string& s, bool line_feeds) {
 dbbkit::Design base_design() {
   dbbkit::Design d;
   d.name = "fuzz";
-  d.axis = dbbkit::test::kAxisC;
+  d.axis = dbbkit::AxisFrame::c_turntable();
   d.angles_deg = {0, 90, 180, 270};
   d.reference_length_mm = 100;
   for (int k = 0; k < 3; ++k) {
@@ -54,7 +54,8 @@ dbbkit::Design base_design() {
     in.id = std::string(1, static_cast<char>('a' + k));
     in.L_mm = 100 + 50 * k;
     in.H_mm = 60;
-    in.direction = dbbkit::Direction::named(dbbkit::test::kAxisC, dbbkit::Direction::Kind::kRadial);
+    in.direction = dbbkit::Direction::named(dbbkit::AxisFrame::c_turntable(),
+                                            dbbkit::Direction::Kind::kRadial);
     in.bar_mm = 150;
     d.installations.push_back(in);
   }

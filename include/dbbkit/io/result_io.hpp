@@ -32,9 +32,10 @@ void add_rank_block(nlohmann::json& j, const Estimate& est);
 nlohmann::json identify_to_json(const Design& design, const std::vector<Reading>& readings,
                                 const IdentifyResult& result, const InputFiles& inputs,
                                 const MonteCarloResult* mc = nullptr, bool with_readings = true);
-// Row i of the "readings" array of `dbbkit.identify/1`.
-nlohmann::json identify_reading_row(const std::vector<Reading>& readings, const Estimate& est,
-                                    std::size_t i);
+// Row i of the "readings" array of `dbbkit.identify/1`: the reading, the fitted value and
+// the residual as the instrument counted (the installation's reading_sign).
+nlohmann::json identify_reading_row(const Design& design, const std::vector<Reading>& readings,
+                                    const Estimate& est, std::size_t i);
 
 // j.dump(2) with an array of `count` rows, row(i) each, under `key` (absent from j): the
 // same text as with the array in j, without holding the rows as JSON nodes at once (about
