@@ -21,14 +21,14 @@ int along_machine_axis(const Eigen::Vector3d& v) {
   return -1;
 }
 
-std::string vector_text(const Eigen::Vector3d& v) {
+}  // namespace
+
+std::string direction_text(const Eigen::Vector3d& v) {
   const int k = along_machine_axis(v);
   if (k >= 0) return std::string(v(k) > 0 ? "+" : "-") + kMachineAxes[k];
   return "[" + text::significant(v.x(), 6) + ", " + text::significant(v.y(), 6) + ", " +
          text::significant(v.z(), 6) + "]";
 }
-
-}  // namespace
 
 AxisFrame AxisFrame::c_turntable() {
   AxisFrame f =
@@ -112,7 +112,7 @@ Eigen::Matrix3d AxisFrame::rotation(double angle_deg) const {
 std::string AxisFrame::label() const {
   if (!shorthand_.empty()) return shorthand_;
   return std::string(1, letter_) + " (" + (table() ? "table" : "head") + ", about " +
-         vector_text(direction_) + ")";
+         direction_text(direction_) + ")";
 }
 
 int AxisFrame::machine_axis() const { return along_machine_axis(direction_); }

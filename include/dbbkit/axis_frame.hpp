@@ -90,6 +90,10 @@ class AxisFrame {
   void form_harmonics();
 };
 
+// A direction as the person at the machine names it: "+Z", "-X" along a machine axis, else
+// "[x, y, z]" to 6 significant digits.
+std::string direction_text(const Eigen::Vector3d& v);
+
 // The largest |v| - 1 of a unit vector and |d . r| of perpendicular ones the frame accepts.
 inline constexpr double kFrameTolerance = 1e-9;
 

@@ -145,14 +145,6 @@ std::string program_ball_text(const AxisFrame& axis, const Installation& inst) {
   return s;
 }
 
-// A direction as the person at the machine names it: "+Z", "-X", or the vector.
-std::string direction_text(const Eigen::Vector3d& v) {
-  for (int k = 0; k < 3; ++k) {
-    if (std::abs(v(k)) == 1.0) return std::string(v(k) > 0 ? "+" : "-") + "XYZ"[k];
-  }
-  return "[" + fmt_num(v.x(), 6) + ", " + fmt_num(v.y(), 6) + ", " + fmt_num(v.z(), 6) + "]";
-}
-
 // How the rotating body turns for a positive (or negative) step, seen from the tip of the
 // axis' direction: counter-clockwise (right-hand rule) for a positive one.
 std::string sense_text(const AxisFrame& axis, bool positive) {
