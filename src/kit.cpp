@@ -356,6 +356,34 @@ void validate_kit(const Kit& k, const std::string& source) {
     require(finite(*k.time_budget_s) && *k.time_budget_s > 0, source, "time_s.budget",
             "must be a positive time in s");
   }
+  if (k.workspace) {
+    const Workspace& w = *k.workspace;
+    auto length = [&](std::optional<double> v, const std::string& key, bool positive) {
+      if (!v) return;
+      require(length_within_limits(*v) && (positive ? *v > 0 : *v >= 0), source, "workspace." + key,
+              positive ? "must be a positive length in mm, at most 10000 mm"
+                       : "must be a length in [0, 10000] mm");
+    };
+    length(w.table_diameter_mm, "table.diameter_mm", true);
+    for (const auto& [iv, key] :
+         {std::pair{&w.table_x_mm, "table.x_mm"}, std::pair{&w.table_y_mm, "table.y_mm"}}) {
+      if (*iv) {
+        require(length_within_limits((*iv)->min) && length_within_limits((*iv)->max) &&
+                    (*iv)->min < (*iv)->max,
+                source, std::string("workspace.") + key,
+                "must be [min, max] with min < max, in mm, within +-10000 mm");
+      }
+    }
+    length(w.footprint_mm, "footprint_mm", false);
+    length(w.table_ball_height_mm, "table_ball_height_mm", false);
+    length(w.spindle_diameter_mm, "spindle.diameter_mm", false);
+    length(w.ball_to_nose_mm, "spindle.ball_to_nose_mm", false);
+    length(w.clearance_mm, "clearance_mm", false);
+    if (w.table_diameter_mm) {
+      require(w.footprint_mm < *w.table_diameter_mm, source, "workspace.footprint_mm",
+              "is as wide as the table");
+    }
+  }
   validate_pattern(k, source);
 }
 
@@ -446,11 +474,20 @@ int ball_positions(const Design& design) {
   return static_cast<int>(seen.size());
 }
 
+TimeEstimate design_time(const Kit& kit, const Design& design, int sweeps) {
+  TimeEstimate t;
+  t.positions = ball_positions(design);
+  t.installations = static_cast<int>(design.installations.size());
+  t.readings = t.installations * static_cast<int>(design.angles_deg.size()) * sweeps;
+  t.setups_s = (kit.time_per_position_s > 0 ? t.positions * kit.time_per_position_s : 0.0) +
+               t.installations * kit.time_per_installation_s;
+  t.readings_s = t.readings * kit.time_per_reading_s;
+  t.total_s = t.setups_s + t.readings_s;
+  return t;
+}
+
 double design_time_s(const Kit& kit, const Design& design) {
-  const double n_inst = static_cast<double>(design.installations.size());
-  return (kit.time_per_position_s > 0 ? ball_positions(design) * kit.time_per_position_s : 0.0) +
-         n_inst * kit.time_per_installation_s +
-         n_inst * static_cast<double>(design.angles_deg.size()) * kit.time_per_reading_s;
+  return design_time(kit, design).total_s;
 }
 
 double travel_violation_mm(const Kit& kit, const AxisFrame& axis, const Installation& inst,
@@ -461,6 +498,141 @@ double travel_violation_mm(const Kit& kit, const AxisFrame& axis, const Installa
       ball_body_mm(axis, inst) - inst.sign * *inst.bar_mm * inst.direction.body;
   // R(g) = A0 + cos g A1 + sin g A2
   return arc_travel_violation(kit, rotation_harmonics(axis), G, *ends);
+}
+
+namespace {
+
+// The lowest value of a + b cos g + c sin g over the arc.
+double arc_min(double a, double b, double c, const ArcEnds& ends) {
+  return arc_extent(a, b, c, ends).first;
+}
+
+// Distance from the point q to the segment [p0, p1].
+double segment_distance(const Eigen::Vector3d& q, const Eigen::Vector3d& p0,
+                        const Eigen::Vector3d& p1) {
+  const Eigen::Vector3d d = p1 - p0;
+  const double n2 = d.squaredNorm();
+  const double t = n2 > 0 ? std::clamp((q - p0).dot(d) / n2, 0.0, 1.0) : 0.0;
+  return (q - (p0 + t * d)).norm();
+}
+
+// The clashes of installation_clashes over the arc; with `out`, each kind's by_mm listed
+// (whatever its sign); returns the largest (-infinity when no check applies).
+double clash_extent(const Kit& kit, const AxisFrame& axis, const Installation& inst,
+                    const ArcEnds& ends, std::vector<Clash>* out) {
+  double worst = -std::numeric_limits<double>::infinity();
+  auto note = [&](const char* what, double by) {
+    worst = std::max(worst, by);
+    if (out) out->push_back({what, by});
+  };
+  if (!inst.bar_mm) return worst;
+  const RotationHarmonics& h = rotation_harmonics(axis);
+  const Eigen::Vector3d P0 = ball_body_mm(axis, inst);
+  const Eigen::Vector3d G = P0 - inst.sign * *inst.bar_mm * inst.direction.body;
+  const Workspace* w = kit.workspace ? &*kit.workspace : nullptr;
+  if (axis.table()) {
+    // C: the table turns about +Z with its surface at z = 0; ball and spindle ball turn together,
+    // so their heights and horizontal distance do not change over the arc.
+    if (w && (w->table_diameter_mm || w->table_x_mm)) {
+      const double f = w->footprint_mm / 2;
+      double by;
+      if (w->table_diameter_mm) {
+        by = std::hypot(P0.x(), P0.y()) + f - *w->table_diameter_mm / 2;
+      } else {
+        by = std::max({w->table_x_mm->min - (P0.x() - f), (P0.x() + f) - w->table_x_mm->max,
+                       w->table_y_mm->min - (P0.y() - f), (P0.y() + f) - w->table_y_mm->max});
+      }
+      note("the cup and blocks overhang the table", by);
+    }
+    const Eigen::Vector3d a = h.A0 * G, b = h.A1 * G, c = h.A2 * G;
+    const double z_low = arc_min(a.z(), b.z(), c.z(), ends);
+    note("the spindle ball is below a cup's height", kit.H_base_mm - z_low);
+    if (w && w->ball_to_nose_mm > 0) {
+      const double nose_z = z_low + w->ball_to_nose_mm;
+      note("the spindle nose reaches the table", w->clearance_mm - nose_z);
+      const double apart = std::hypot(G.x() - P0.x(), G.y() - P0.y());
+      if (apart < (w->spindle_diameter_mm + w->footprint_mm) / 2)
+        note("the spindle nose reaches the table cup", P0.z() + w->clearance_mm - nose_z);
+    }
+    return worst;
+  }
+  // Head: the table ball stays put (work frame origin); a head point X (pivot frame at angle
+  // 0) stands at R(g) (X - G). The spindle at the axis' zero points at the table: heights are
+  // along up = -reference, the table surface table_ball_height_mm below the origin.
+  if (!w || !w->table_ball_height_mm) return worst;
+  const Eigen::Vector3d up = -axis.reference();
+  const double surface = -*w->table_ball_height_mm;
+  auto lowest = [&](const Eigen::Vector3d& X) {
+    const Eigen::Vector3d d = X - G;
+    return arc_min(up.dot(h.A0 * d), up.dot(h.A1 * d), up.dot(h.A2 * d), ends);
+  };
+  note("the spindle ball nears the table", surface + w->clearance_mm - lowest(P0));
+  if (w->ball_to_nose_mm > 0) {
+    const Eigen::Vector3d& ref = axis.reference();
+    const double along = std::max(0.0, P0.dot(ref) - w->ball_to_nose_mm);
+    const Eigen::Vector3d X1 = along * ref, X2 = Eigen::Vector3d::Zero();
+    const double r = w->spindle_diameter_mm / 2;
+    // The cylinder's lowest point is an end's centre less r times the tool's tilt from the
+    // vertical: sampled at most 0.25 deg apart (the error below 1e-5 of the head's size).
+    const double span = ends.hi_deg - ends.lo_deg;
+    const int n = std::max(1, static_cast<int>(std::ceil(span / 0.25)));
+    double low = std::numeric_limits<double>::infinity();
+    for (int k = 0; k <= n; ++k) {
+      const Eigen::Matrix3d R = axis_rotation(axis, ends.lo_deg + span * k / n);
+      const double tz = (R * ref).dot(up);
+      const double tilt = r * std::sqrt(std::max(0.0, 1 - tz * tz));
+      low = std::min({low, (R * (X1 - G)).dot(up) - tilt, (R * (X2 - G)).dot(up) - tilt});
+    }
+    note("the spindle nose reaches the table", surface + w->clearance_mm - low);
+    note("the spindle nose reaches the table ball",
+         r + w->clearance_mm - segment_distance(G, X1, X2));
+  }
+  return worst;
+}
+
+}  // namespace
+
+std::vector<Clash> installation_clashes(const Kit& kit, const AxisFrame& axis,
+                                        const Installation& inst,
+                                        const std::vector<double>& angles_deg,
+                                        double tolerance_mm) {
+  std::vector<Clash> all, out;
+  const std::optional<ArcEnds> ends = arc_of(angles_deg);
+  if (!ends) return out;
+  clash_extent(kit, axis, inst, *ends, &all);
+  for (const Clash& c : all)
+    if (c.by_mm > tolerance_mm) out.push_back(c);
+  return out;
+}
+
+std::vector<std::string> workspace_checks(const Kit& kit) {
+  std::vector<std::string> out;
+  const Workspace* w = kit.workspace ? &*kit.workspace : nullptr;
+  if (kit.axis.table()) {
+    if (w && (w->table_diameter_mm || w->table_x_mm))
+      out.push_back("the cup's and blocks' footprint (" + text::significant(w->footprint_mm, 6) +
+                    " mm) on the table");
+    out.push_back("the spindle ball at least a cup's height (" +
+                  text::significant(kit.H_base_mm, 6) + " mm) above the table surface");
+    if (w && w->ball_to_nose_mm > 0)
+      out.push_back("the spindle nose clear of the table and the table cup by " +
+                    text::significant(w->clearance_mm, 6) + " mm");
+  } else if (w && w->table_ball_height_mm) {
+    out.push_back("the spindle ball at least " + text::significant(w->clearance_mm, 6) +
+                  " mm above the table surface (" + text::significant(*w->table_ball_height_mm, 6) +
+                  " mm below the table ball)");
+    if (w->ball_to_nose_mm > 0)
+      out.push_back("the spindle nose clear of the table and the table ball by " +
+                    text::significant(w->clearance_mm, 6) + " mm");
+  }
+  return out;
+}
+
+double workspace_violation_mm(const Kit& kit, const AxisFrame& axis, const Installation& inst,
+                              const std::vector<double>& angles_deg) {
+  const std::optional<ArcEnds> ends = arc_of(angles_deg);
+  if (!ends) return -std::numeric_limits<double>::infinity();
+  return clash_extent(kit, axis, inst, *ends, nullptr);
 }
 
 namespace {
@@ -508,9 +680,14 @@ double fit_bar_on(const Kit& kit, const AxisFrame& axis, Installation& inst,
   for (double bar : bars) {
     for (int sign : {1, -1}) {
       if (!table_ball_beyond_tool(axis, inst.direction, sign)) continue;  // inside the head
-      const double v =
-          ends ? arc_travel_violation(kit, h, ball - sign * bar * inst.direction.body, *ends)
-               : 0.0;  // no angle: nothing turns (travel_violation_mm)
+      double v = ends ? arc_travel_violation(kit, h, ball - sign * bar * inst.direction.body, *ends)
+                      : 0.0;  // no angle: nothing turns (travel_violation_mm)
+      if (ends && (kit.workspace || axis.table())) {
+        Installation trial = inst;
+        trial.bar_mm = bar;
+        trial.sign = sign;
+        v = std::max(v, clash_extent(kit, axis, trial, *ends, nullptr));
+      }
       if (v <= 0) {
         inst.bar_mm = bar;
         inst.sign = sign;

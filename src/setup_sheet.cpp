@@ -292,16 +292,33 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
       }
     }
   }
+  if (kit) {
+    sheet.workspace_checks = workspace_checks(*kit);
+    sheet.workspace_checked = !sheet.workspace_checks.empty();
+    sheet.workspace_stated = kit->workspace.has_value();
+    for (const Installation& in : sheet.design.installations) {
+      for (const Clash& c : installation_clashes(*kit, design.axis, in, sheet.design.angles_deg,
+                                                 kAssemblyTolerance_mm))
+        sheet.clashes.emplace_back(in.id, c);
+    }
+  }
   sheet.order = setup_order(sheet.design);
   sheet.program = measurement_program(sheet.design, program);
   sheet.total_time_s = sheet.program.motion_time_s;
   if (kit) {
+    const int sweeps = program.sweeps == ProgramOptions::Sweeps::kBoth ? 2 : 1;
+    sheet.time = design_time(*kit, sheet.design, sweeps);
+    const double per_sweep =
+        static_cast<double>(sheet.design.angles_deg.size()) * sweeps * kit->time_per_reading_s;
     for (const SetupStep& s : sheet.order.steps) {
       const double t =
           (s.moves_cup ? kit->time_per_position_s : 0.0) + kit->time_per_installation_s;
       sheet.setup_time_s.push_back(t);
-      sheet.total_time_s += t;
+      sheet.step_time_s.push_back(t + per_sweep);
     }
+    sheet.total_time_s = sheet.time->total_s;
+    if (design.axis.table())
+      sheet.clearance_above_travel_mm = sheet.program.clearance_z_mm - kit->travel_mm[2].max;
   }
   return sheet;
 }

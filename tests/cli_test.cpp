@@ -784,5 +784,22 @@ TEST(Cli, ReportsListUndetectableEffectsTheChangeOfTheErrorsAndRunnerUps) {
   std::filesystem::remove_all(dir);
 }
 
+// The paper's B design lacks the rotation about the tool line at every L: a map over L1 is
+// undetermined everywhere. The report says so instead of failing in the plot, and the map's
+// CSV is written.
+TEST(Cli, ADesignMapUndeterminedEverywhereIsReportedNotPlotted) {
+  const std::string dir =
+      (std::filesystem::temp_directory_path() / ("dbbkit_map_" + std::to_string(::getpid())))
+          .string();
+  std::filesystem::create_directories(dir);
+  const CliRun r = run_cli("evaluate --design " + kDesignB + " --sweep L1=100:200:50 --report " +
+                           dir + "/e.html --map-csv " + dir + "/m.csv --quiet");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(slurp(dir + "/e.html").find("undetermined everywhere"), std::string::npos);
+  const std::string csv = slurp(dir + "/m.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 4) << csv;  // the header and 3 points
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace dbbkit

@@ -274,27 +274,7 @@ Kit formats_kit() {
   return io::read_kit_file(test::source_path("designs/kits/c-turntable-kit.json"));
 }
 
-Kit small_c_kit() {
-  Kit k;
-  k.name = "small-c";
-  k.axis = test::kAxisC;
-  k.pattern = *builtin_pattern("three_position", test::kAxisC);
-  k.reference_length_mm = 100;
-  k.L_mm = {20, 250};
-  k.D_mm = {0, 0};
-  k.H_base_mm = 45;
-  k.blocks_mm = {150};
-  k.max_stack = 1;
-  k.bars_mm = {100, 150};
-  k.travel_mm = {Interval{-220, 220}, Interval{-220, 220}, Interval{-50, 400}};
-  k.min_separation_mm = 30;
-  k.angle_range_deg = {0, 360};
-  k.angle_steps_deg = {30};
-  k.time_per_reading_s = 3;
-  k.time_per_installation_s = 240;
-  validate_kit(k);
-  return k;
-}
+Kit small_c_kit() { return test::small_c_kit(); }
 
 // A small B kit: L along the tool axis 100..260 mm and a holder that offsets the
 // ball up to 150 mm along the swing axis; the following ball of an offset ball
@@ -416,11 +396,13 @@ TEST(Optimize, EachChoicesBestIsTheCandidateMadeAfreshAtItsPoint) {
     }
     EXPECT_EQ(cr.best->travel_violation_mm, fresh.travel_violation_mm);
     EXPECT_EQ(cr.best->separation_violation_mm, fresh.separation_violation_mm);
-    // The same two by hand: the travel of each installation with its bar, the separation of
-    // each pair of separated positions.
+    // The same two by hand: the travel and the workspace of each installation with its bar
+    // (on C the spindle ball at least a cup's height above the table), the separation of each
+    // pair of separated positions.
     double travel = -std::numeric_limits<double>::infinity();
     for (const Installation& in : a.installations)
-      travel = std::max(travel, travel_violation_mm(k, k.axis, in, a.angles_deg));
+      travel = std::max({travel, travel_violation_mm(k, k.axis, in, a.angles_deg),
+                         workspace_violation_mm(k, k.axis, in, a.angles_deg)});
     EXPECT_EQ(cr.best->travel_violation_mm, travel);
     double separation = -std::numeric_limits<double>::infinity();
     std::vector<Eigen::Vector3d> seen;

@@ -205,7 +205,7 @@ TEST(SetupSheetCli, WithAKitItStatesSetUpTimesRoundsAndDrawsEachStep) {
   for (size_t at = page.find("<svg"); at != std::string::npos; at = page.find("<svg", at + 1))
     ++svgs;
   EXPECT_EQ(svgs, d.installations.size());
-  EXPECT_NE(page.find("with the set-up times of the kit"), std::string::npos);
+  EXPECT_NE(page.find("Time, by the kit&#39;s model"), std::string::npos);
   // A kit of the other axis is refused, naming it.
   r = run_cli("setup-sheet --design " + design + " --kit " +
               test::source_path("designs/kits/b-head-kit.json"));
@@ -247,7 +247,8 @@ TEST(Readme, TheJourneyPrintsWhatTheReadmeShows) {
        {" optimize --kit " + src + "/designs/kits/qc20-c-turntable-kit.json --out best.json",
         " setup-sheet --design best.json --kit " + src +
             "/designs/kits/qc20-c-turntable-kit.json --report sheet.html --summary sheet.md",
-        std::string(" program --design best.json --dialect heidenhain --out best.h"),
+        " program --design best.json --kit " + src +
+            "/designs/kits/qc20-c-turntable-kit.json --dialect heidenhain --out best.h",
         " simulate --design best.json --truth " + src +
             "/tests/data/truth_length_offset_2r.json --out readings.csv",
         std::string(" identify --design best.json --data readings.csv --out id.json"),

@@ -11,6 +11,7 @@
 
 #include "dbbkit/design.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/kit.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/simulate.hpp"
@@ -94,6 +95,31 @@ inline void add_truth_value(Truth& t, const AxisFrame& axis, double angle_deg, c
     }
   }
   t.per_angle.emplace_back(angle_deg, e);
+}
+
+// A small C kit whose travel binds: x, y within +-220 mm, so a tangential bar of 100 mm allows
+// L <= sqrt(220^2 - 100^2) = 196 mm of the 250 the table offers (a 150 mm block sets the
+// heights apart, so that the radii limit the worst case).
+inline Kit small_c_kit() {
+  Kit k;
+  k.name = "small-c";
+  k.axis = kAxisC;
+  k.pattern = *builtin_pattern("three_position", kAxisC);
+  k.reference_length_mm = 100;
+  k.L_mm = {20, 250};
+  k.D_mm = {0, 0};
+  k.H_base_mm = 45;
+  k.blocks_mm = {150};
+  k.max_stack = 1;
+  k.bars_mm = {100, 150};
+  k.travel_mm = {Interval{-220, 220}, Interval{-220, 220}, Interval{-50, 400}};
+  k.min_separation_mm = 30;
+  k.angle_range_deg = {0, 360};
+  k.angle_steps_deg = {30};
+  k.time_per_reading_s = 3;
+  k.time_per_installation_s = 240;
+  validate_kit(k);
+  return k;
 }
 
 inline std::string source_path(const std::string& relative) {

@@ -65,6 +65,28 @@ struct BarSet {
 // tries each for each installation it places).
 inline constexpr int kMaxBarExtensions = 8;
 
+// Where the set-up lives (optional in a kit; without it the table, the cup's footprint and
+// the spindle are not checked, and every output says so). Lengths in mm.
+//   Table side (C): the table's outline in table coordinates at angle 0 (x along L, y along
+//     D; its surface is H = 0): a circle of table_diameter_mm about the axis, or the
+//     rectangle table_x_mm x table_y_mm. footprint_mm: the diameter of the circle about a
+//     ball position that its cup and blocks cover.
+//   Head side (B): table_ball_height_mm, the table ball's centre above the table surface
+//     (the table itself does not move, and the cup's place on it is the work offset). The
+//     spindle at the axis' zero points at the table: the table's normal is -reference.
+//   Both: the spindle nose as a cylinder of spindle_diameter_mm about the tool line, from
+//     ball_to_nose_mm beyond the spindle ball's centre (towards the spindle) upwards;
+//     clearance_mm: the least gap kept between them and the table, a cup or a ball.
+struct Workspace {
+  std::optional<double> table_diameter_mm;
+  std::optional<Interval> table_x_mm, table_y_mm;
+  double footprint_mm = 0;
+  std::optional<double> table_ball_height_mm;
+  double spindle_diameter_mm = 0;
+  double ball_to_nose_mm = 0;
+  double clearance_mm = 10;
+};
+
 struct Kit {
   std::string name;
   AxisFrame axis;
@@ -99,6 +121,7 @@ struct Kit {
   // share it). 0 when the kit does not give it: per_installation then covers both.
   double time_per_position_s = 0;
   std::optional<double> time_budget_s;  // absent: no limit
+  std::optional<Workspace> workspace;   // absent: not checked (only the travel is)
 };
 
 // The installation id of a direction at a position: id + "r", "t" or "a".
@@ -136,8 +159,19 @@ std::vector<double> bar_parts(const Kit& kit, double length_mm);
 // within kAssemblyTolerance_mm share one): each is one set-up of the cup.
 int ball_positions(const Design& design);
 
-// positions x time_per_position + installations x time_per_installation + readings x
-// time_per_reading, one reading per installation and angle.
+// The one time model of a measurement (formats.md, kit file "time_s"): what optimize plans
+// with, the set-up sheet and the program state. Set-ups: positions x per_position +
+// installations x per_installation; readings: readings x per_reading (the moves between
+// angles and the dwells), one reading per installation, angle and sweep (optimize plans one
+// sweep; a program of both sweeps reads each angle twice).
+struct TimeEstimate {
+  int positions = 0, installations = 0, readings = 0;
+  double setups_s = 0;    // the cup placed and the bar mounted
+  double readings_s = 0;  // the moves and dwells of the sweeps
+  double total_s = 0;
+};
+TimeEstimate design_time(const Kit& kit, const Design& design, int sweeps = 1);
+// design_time(kit, design).total_s.
 double design_time_s(const Kit& kit, const Design& design);
 
 // The following ball sits at F = P - s bar u (README, "Conventions") and, as the
@@ -148,9 +182,34 @@ double design_time_s(const Kit& kit, const Design& design);
 double travel_violation_mm(const Kit& kit, const AxisFrame& axis, const Installation& inst,
                            const std::vector<double>& angles_deg);
 
+// What a set-up touches that it must not (mm by which it does; <= 0: clear), over the arc of
+// the measured angles, each a check of the kit's workspace:
+//   "the cup and blocks overhang the table"      (table side, with a table outline)
+//   "the spindle ball is below a cup's height"    (table: H_base above the table surface,
+//        on C always)
+//   "the spindle ball nears the table"            (head, with a workspace: clearance_mm)
+//   "the spindle nose reaches the table cup"      (table side, with a spindle)
+//   "the spindle nose reaches the table"          (with a spindle)
+struct Clash {
+  std::string what;
+  double by_mm = 0;
+};
+// The worst of each kind whose by_mm exceeds tolerance_mm, in the order above; empty: clear.
+std::vector<Clash> installation_clashes(const Kit& kit, const AxisFrame& axis,
+                                        const Installation& inst,
+                                        const std::vector<double>& angles_deg,
+                                        double tolerance_mm = 0);
+// The checks installation_clashes makes with this kit (the `what` of each, without "the ..."
+// clash wording: "the cup's footprint on the table", ...), in the order above.
+std::vector<std::string> workspace_checks(const Kit& kit);
+// The largest by_mm of every check (-infinity when none applies): <= 0 clear.
+double workspace_violation_mm(const Kit& kit, const AxisFrame& axis, const Installation& inst,
+                              const std::vector<double>& angles_deg);
+
 // Chooses the bar and the sign of an installation: the shortest bar, sign +1
-// before -1, that keeps the following ball inside the travel. When none does,
-// the choice with the smallest excursion is set. Returns the excursion (<= 0: fits).
+// before -1, that keeps the following ball inside the travel and the set-up clear of the
+// workspace (installation_clashes). When none does, the choice with the smallest excursion
+// is set. Returns the excursion (<= 0: fits).
 double fit_bar(const Kit& kit, const AxisFrame& axis, Installation& inst,
                const std::vector<double>& angles_deg);
 // fit_bar for every installation of the design (its axis and angles, the arc formed once);

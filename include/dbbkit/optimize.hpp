@@ -73,8 +73,10 @@ struct Candidate {
   std::vector<double> x;  // the continuous variables
   Design design;          // bars and signs fitted to the travel
   std::vector<int>
-      installation_position;           // per installation: its position in kit.pattern.positions
-  double travel_violation_mm = 0;      // <= 0: the following ball stays inside travel
+      installation_position;  // per installation: its position in kit.pattern.positions
+  // <= 0: the following ball stays inside travel and the set-up clear of the kit's workspace
+  // (kit.hpp installation_clashes), the larger of the two
+  double travel_violation_mm = 0;
   double separation_violation_mm = 0;  // <= 0: ball positions at least min_separation apart
   double time_s = 0;
   bool feasible = false;  // inside travel, separation and the time budget

@@ -72,8 +72,28 @@ struct SetupSheet {
   SetupOrder order;
   MeasurementProgram program;
   std::optional<RoundedDesign> rounding;
-  std::vector<double> setup_time_s;  // per step; empty without a kit
-  double total_time_s = 0;           // set-ups (with a kit) plus moves and dwells
+  // With a kit, the one time model (design_time, what optimize plans with): per step its
+  // set-up and its readings at the kit's per_reading, and the total. Without a kit,
+  // setup_time_s is empty and total_time_s the program's moves and dwells.
+  std::vector<double> setup_time_s;  // per step: per_position when the cup moves + per_installation
+  std::vector<double> step_time_s;   // per step: its set-up plus its readings x per_reading
+  std::optional<TimeEstimate> time;  // with a kit
+  double total_time_s = 0;
+  // With a kit that states a workspace (and on a C table, always: the spindle ball above a
+  // cup's height): every clash of the set-up design's installations, by installation id.
+  bool workspace_checked = false;
+  std::vector<std::string> workspace_checks;  // workspace_checks(kit)
+  bool workspace_stated = false;              // the kit has a workspace
+  std::vector<std::pair<std::string, Clash>> clashes;
+  // With a kit, on a table axis: how far the program's clearance plane (where the spindle ball
+  // travels sideways) lies above the kit's travel in z (<= 0: inside). Absent on a head, whose
+  // commanded point is the pivot, not the following ball.
+  std::optional<double> clearance_above_travel_mm;
+  // Nothing the kit can check fails: no travel left, no clash, the clearance plane in travel.
+  bool fits_kit() const {
+    return outside_travel.empty() && clashes.empty() &&
+           (!clearance_above_travel_mm || *clearance_above_travel_mm <= 0);
+  }
   // With a kit: the installations whose following ball leaves its travel, and by how much
   // [mm], as set up (rounded when asked) and as the design gives them (then the rounding is
   // not the cause).

@@ -8,16 +8,19 @@
 #include "commands.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/program_io.hpp"
+#include "dbbkit/io/setup_sheet_io.hpp"
 #include "dbbkit/io/text.hpp"
+#include "dbbkit/setup_sheet.hpp"
 #include "program_options.hpp"
 
 namespace dbbkit::cli {
 
 namespace {
 struct ProgramCommandArgs {
-  std::string design, out, dialect;
+  std::string design, kit, out, dialect;
   int program_number = 1;
   bool quiet = false;
 };
@@ -35,19 +38,39 @@ Runner add_program(CLI::App& app) {
       ->required()
       ->check(CLI::IsMember({"iso", "heidenhain"}));
   sub->add_option("--out", args->out, "Program file; '-' or absent: stdout");
+  sub->add_option("--kit", args->kit,
+                  "Kit file (dbbkit.kit/1): the program is written only when every following "
+                  "ball stays in its travel, the clearance plane too, and nothing clashes with "
+                  "its workspace; its time model is stated");
   add_program_options(sub, prog);
   sub->add_option("--program-number", args->program_number, "ISO O-number (default 1)")
       ->check(integer_in(1, 9999));
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the files asked for");
   return [args, prog]() {
-    io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}}, {args->design});
+    io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}},
+                          {args->design, args->kit});
     const Design design = io::read_design_file(args->design);
     const ProgramOptions options = program_options(*prog, design.axis, args->design);
+    std::optional<Kit> kit;
+    if (!args->kit.empty()) kit = io::read_kit_file(args->kit);
     MeasurementProgram program;
+    std::optional<SetupSheet> sheet;
     try {
-      program = measurement_program(design, options);
+      if (kit) {
+        // The set-up sheet's checks, on the design as given (no rounding).
+        sheet = make_setup_sheet(design, options, std::nullopt, &*kit);
+        program = sheet->program;
+      } else {
+        program = measurement_program(design, options);
+      }
     } catch (const InputError& e) {
       throw e.source() == "design" ? e.with_source(args->design) : e;
+    }
+    if (sheet && !sheet->fits_kit()) {
+      std::cerr << "dbbkit: program: not written: the design does not fit the kit " << args->kit
+                << ":\n"
+                << io::setup_sheet_summary(*sheet);
+      return 1;
     }
     const io::Dialect dialect =
         args->dialect == "iso" ? io::Dialect::kIso : io::Dialect::kHeidenhain;
@@ -64,6 +87,10 @@ Runner add_program(CLI::App& app) {
                 << " min; largest bar change between positions " << io::fmt_num(worst * 1e3, 3)
                 << " um (tolerance " << io::fmt_rounded(options.path_tolerance_mm * 1e3, 1)
                 << " um)\n";
+      if (sheet)
+        std::cout << "the kit's time model (set-ups and readings, as optimize plans): about "
+                  << io::fmt_rounded(sheet->time->total_s / 60.0, 1)
+                  << " min; every installation fits the kit's travel and workspace\n";
     }
     return 0;
   };

@@ -72,6 +72,10 @@ Runner add_setup_sheet(CLI::App& app) {
     outputs.commit();
     if (!to_stdout && !rep->quiet) std::cout << io::setup_sheet_summary(sheet);
     // A following ball outside the kit's travel: the sheet is written, and the check fails.
+    if (!sheet.clashes.empty()) {
+      std::cerr << "dbbkit: setup-sheet: " << sheet.clashes.size()
+                << " clash(es) with the kit's workspace (the sheet says which)\n";
+    }
     if (!sheet.outside_travel.empty()) {
       std::cerr << "dbbkit: setup-sheet: " << sheet.outside_travel.size()
                 << " installation(s) leave the kit's travel "
@@ -79,7 +83,7 @@ Runner add_setup_sheet(CLI::App& app) {
                 << " (the sheet says which)\n";
       return 1;
     }
-    return 0;
+    return sheet.fits_kit() ? 0 : 1;
   };
 }
 

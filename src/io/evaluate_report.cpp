@@ -140,7 +140,13 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
                          fmt_opt(pt.condition_number), fmt_opt(pt.worst_std_um)});
       rows.push_back(r);
     }
-    if (variables.size() == 2) {
+    const bool any_determined = std::any_of(
+        map.begin(), map.end(), [](const SweepPoint& pt) { return pt.worst_std_um.has_value(); });
+    if (!any_determined) {
+      p.paragraph(
+          "No point of the map determines every error: worst_std_um is undetermined "
+          "everywhere (rank below the unknowns), so there is nothing to plot.");
+    } else if (variables.size() == 2) {
       p.figure(
           [&] {
             std::vector<double> z;

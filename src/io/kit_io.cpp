@@ -224,6 +224,46 @@ Kit kit_from_json(const json& j, const std::string& source) {
     k.time_budget_s = t.optional_number("budget");
     t.finish();
   }
+  if (const json* wj = top.optional("workspace")) {
+    ObjectReader w(*wj, source, "workspace");
+    Workspace ws;
+    if (k.axis.table()) {
+      if (const json* tj = w.optional("table")) {
+        ObjectReader t(*tj, source, w.key_path("table"));
+        if (t.has("diameter_mm") && (t.has("x_mm") || t.has("y_mm")))
+          t.fail("diameter_mm",
+                 "give the table as a circle (diameter_mm) or a rectangle (x_mm "
+                 "and y_mm), not both");
+        ws.table_diameter_mm = t.optional_number("diameter_mm");
+        if (!ws.table_diameter_mm) {
+          ws.table_x_mm = read_pair(t.required("x_mm"), source, t.key_path("x_mm"));
+          ws.table_y_mm = read_pair(t.required("y_mm"), source, t.key_path("y_mm"));
+        }
+        t.finish();
+      }
+      ws.footprint_mm = w.optional_number("footprint_mm").value_or(0.0);
+      if (w.has("table_ball_height_mm"))
+        w.fail("table_ball_height_mm",
+               "is a head's: on a table the ball's height is H_mm (the cup and its blocks)");
+    } else {
+      if (w.has("table"))
+        w.fail("table",
+               "the table of a head machine does not turn: give table_ball_height_mm "
+               "(the table ball's centre above its surface)");
+      if (w.has("footprint_mm"))
+        w.fail("footprint_mm", "is a table's: the head's table ball stays where it is placed");
+      ws.table_ball_height_mm = w.number("table_ball_height_mm");
+    }
+    if (const json* sj = w.optional("spindle")) {
+      ObjectReader t(*sj, source, w.key_path("spindle"));
+      ws.spindle_diameter_mm = t.number("diameter_mm");
+      ws.ball_to_nose_mm = t.number("ball_to_nose_mm");
+      t.finish();
+    }
+    if (const auto c = w.optional_number("clearance_mm")) ws.clearance_mm = *c;
+    w.finish();
+    k.workspace = ws;
+  }
   top.finish();
   validate_kit(k, source);
   return k;

@@ -112,7 +112,11 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
              list + " at every position of this choice";
     }
     case ChoiceState::kOutsideTravel:
-      return "no position keeps the following ball inside travel (least excursion " +
+      return std::string(kit.workspace || kit.axis.table()
+                             ? "no position keeps the following ball inside travel and the "
+                               "set-up clear of the workspace (least excursion "
+                             : "no position keeps the following ball inside travel (least "
+                               "excursion ") +
              mm(cr.best ? cr.best->travel_violation_mm : 0.0) + " mm)";
     case ChoiceState::kTooClose:
       return "no position keeps the balls min_separation_mm apart";

@@ -47,6 +47,61 @@ std::string bar_text(const Installation& in) {
   return t;
 }
 
+// The measurement's time: the program's moves and dwells and, with a kit, the one time model
+// (design_time) that optimize plans with, and whether the two agree.
+std::string time_text(const SetupSheet& sheet, const std::string& kit_file) {
+  const MeasurementProgram& pr = sheet.program;
+  const ProgramOptions& po = pr.options;
+  const std::string moves = "the program's moves and dwells (dwell " + fmt_num(po.dwell_s) +
+                            " s, feed " + fmt_num(po.feed_mm_per_min) + " mm/min) take about " +
+                            fmt_rounded(pr.motion_time_s / 60.0, 1) + " min";
+  if (!sheet.time) {
+    std::string t = moves + "; set-up times are not included (give --kit for them).";
+    t[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(t[0])));
+    return t;
+  }
+  const TimeEstimate& e = *sheet.time;
+  const double per_reading = e.readings > 0 ? e.readings_s / e.readings : 0.0;
+  const double program_per_reading = pr.readings > 0 ? pr.motion_time_s / pr.readings : 0.0;
+  std::string t = "Time, by the kit's model (" + kit_file +
+                  ", what optimize plans with): set-ups " + fmt_rounded(e.setups_s / 60.0, 1) +
+                  " min (" + std::to_string(e.positions) + " ball positions, " +
+                  std::to_string(e.installations) + " installations), " +
+                  std::to_string(e.readings) + " readings at " + fmt_num(per_reading) + " s " +
+                  fmt_rounded(e.readings_s / 60.0, 1) + " min: about " +
+                  fmt_rounded(e.total_s / 60.0, 1) + " min in all. Of the readings, " + moves +
+                  ", " + fmt_rounded(program_per_reading, 1) + " s per reading";
+  if (program_per_reading > 1.1 * per_reading) {
+    t += ": MORE than the kit's per_reading, so the time above is short by about " +
+         fmt_rounded((pr.motion_time_s - e.readings_s) / 60.0, 1) +
+         " min; set time_s.per_reading to " + fmt_rounded(std::ceil(program_per_reading), 0) +
+         " s in the kit for optimize to plan with it.";
+  } else {
+    t += ", within the kit's per_reading.";
+  }
+  return t;
+}
+
+// What the workspace check covered, and every clash.
+std::string workspace_text(const SetupSheet& sheet) {
+  if (!sheet.time) return "";  // no kit
+  if (!sheet.workspace_checked)
+    return "The kit states no workspace (workspace.table_ball_height_mm, workspace.spindle): "
+           "the head's clearance from the table is not checked; the air run must show it.";
+  if (!sheet.clashes.empty()) {
+    std::string t = "CLASH: this set-up cannot stand on the machine as designed:";
+    for (const auto& [id, c] : sheet.clashes)
+      t += " " + id + ": " + c.what + " by " + mm(c.by_mm) + " mm;";
+    return t + " move these balls, choose other bars or blocks, or choose another design.";
+  }
+  std::string checked;
+  for (const std::string& c : sheet.workspace_checks) checked += (checked.empty() ? "" : "; ") + c;
+  return "Every installation clears the kit's workspace: " + checked +
+         (sheet.workspace_stated ? "."
+                                 : ". The kit states no workspace: the table's outline, the "
+                                   "cup's footprint and the spindle nose are not checked.");
+}
+
 std::string times(int n) {
   if (n == 0) return "never";
   if (n == 1) return "once";
@@ -118,7 +173,8 @@ std::string instructions(const SetupSheet& sheet, int k) {
       t += " CHECK: the spindle's ball would go " + mm(-lowest) +
            " mm below the table surface; is the installation's sign right?";
   } else {
-    t += " with the table's ball at " + xyz(ip.fixed_ball_mm) + " mm from the pivot.";
+    t += " with the table's ball at " + xyz(-ip.sweeps.front().positions.front().linear_mm) +
+         " mm from the pivot.";
   }
   t += " Sweep " + sweeps_text(ip) + ", " + std::to_string(ip.readings) + " readings.";
   return t;
@@ -159,13 +215,20 @@ void line(std::ostringstream& s, const Panel& p, double x1, double y1, double x2
 }
 // A ball and its label: above right (the ball) or below left (the other ball), so that two
 // balls drawn at one point keep both labels readable.
+// A label that would leave its panel (about 6.5 px per character at this size) is set on the
+// ball's other side.
 void ball(std::ostringstream& s, const Panel& p, double x, double y, const std::string& fill,
           const std::string& label, bool below = false) {
+  const double width = 6.5 * static_cast<double>(label.size());
+  bool left = below;
+  if (left && p.X(x) - 7 - width < p.x0 + 2) left = false;
+  if (!left && p.X(x) + 7 + width > p.x0 + p.size - 2 && p.X(x) - 7 - width >= p.x0 + 2)
+    left = true;
   s << "<circle cx='" << sheet_number(p.X(x)) << "' cy='" << sheet_number(p.Y(y))
     << "' r='5' fill='" << fill << "' stroke='#222'/><text x='"
-    << sheet_number(p.X(x) + (below ? -7 : 7)) << "' y='"
-    << sheet_number(p.Y(y) + (below ? 16 : -7)) << "' font-size='11'"
-    << (below ? " text-anchor='end'" : "") << ">" << html_escape(label) << "</text>";
+    << sheet_number(p.X(x) + (left ? -7 : 7)) << "' y='" << sheet_number(p.Y(y) + (below ? 16 : -7))
+    << "' font-size='11'" << (left ? " text-anchor='end'" : "") << ">" << html_escape(label)
+    << "</text>";
 }
 void path(std::ostringstream& s, const Panel& p, double radius) {
   s << "<circle cx='" << sheet_number(p.X(0)) << "' cy='" << sheet_number(p.Y(0)) << "' r='"
@@ -296,7 +359,6 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
   const Design& d = sheet.design;
   const SetupOrder& o = sheet.order;
   const MeasurementProgram& pr = sheet.program;
-  const ProgramOptions& po = pr.options;
   int positions = 0;
   for (const SetupStep& s : o.steps) positions = std::max(positions, s.position);
   if (level > 1) w.heading("Set-up sheet: " + d.name, level);
@@ -306,14 +368,7 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
       std::to_string(d.angles_deg.size()) + " angles from " +
       mm(*std::min_element(d.angles_deg.begin(), d.angles_deg.end())) + " to " +
       mm(*std::max_element(d.angles_deg.begin(), d.angles_deg.end())) +
-      " deg: " + std::to_string(pr.readings) + " readings. Moves and dwells take about " +
-      fmt_rounded(pr.motion_time_s / 60.0, 1) + " min (dwell " + fmt_num(po.dwell_s) + " s, feed " +
-      fmt_num(po.feed_mm_per_min) + " mm/min)";
-  if (!sheet.setup_time_s.empty())
-    intro += "; with the set-up times of the kit " + kit_file + ", about " +
-             fmt_rounded(sheet.total_time_s / 60.0, 1) + " min in all.";
-  else
-    intro += "; set-up times are not included (give --kit for them).";
+      " deg: " + std::to_string(pr.readings) + " readings. " + time_text(sheet, kit_file);
   w.paragraph(intro);
   w.paragraph(
       "The program (dbbkit program) reaches and leaves every installation from the "
@@ -369,27 +424,49 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
     }
     w.paragraph(t);
   }
+  if (const std::string t = workspace_text(sheet); !t.empty()) w.paragraph(t);
+  if (sheet.clearance_above_travel_mm && *sheet.clearance_above_travel_mm > 0)
+    w.paragraph("OUTSIDE the kit's travel: the clearance plane Z " + mm(pr.clearance_z_mm) +
+                " mm lies " + mm(*sheet.clearance_above_travel_mm) +
+                " mm above the travel in z; give a lower --clearance-z-mm or a smaller "
+                "--clearance-margin-mm, or choose lower balls.");
   std::vector<std::vector<std::string>> rows;
   for (size_t k = 0; k < o.steps.size(); ++k) {
     const SetupStep& s = o.steps[k];
     const Installation& in = d.installations[s.installation];
     const InstallationProgram& ip = pr.installations[s.installation];
-    const Eigen::Vector3d follow =
-        d.axis.table() ? ip.sweeps.front().positions.front().linear_mm : ip.fixed_ball_mm;
-    double t = ip.motion_time_s;
-    if (!sheet.setup_time_s.empty()) t += sheet.setup_time_s[k];
-    rows.push_back({std::to_string(k + 1), in.id, std::to_string(s.position),
-                    sheet_ball_text(d.axis, in), stack_text(d.axis, in), bar_text(in),
-                    in.direction.label() + (in.sign > 0 ? " +1" : " -1"), xyz(follow),
-                    sweeps_text(ip), std::to_string(ip.readings), fmt_rounded(t, 0)});
+    // Table: the spindle ball (the commanded point); head: the table ball from the pivot, the
+    // commanded pivot seen from the table ball at the work frame's origin.
+    const Eigen::Vector3d first = ip.sweeps.front().positions.front().linear_mm;
+    const Eigen::Vector3d follow = d.axis.table() ? first : Eigen::Vector3d(-first);
+    std::vector<std::string> row = {std::to_string(k + 1),
+                                    in.id,
+                                    std::to_string(s.position),
+                                    sheet_ball_text(d.axis, in),
+                                    stack_text(d.axis, in),
+                                    bar_text(in),
+                                    in.direction.label() + (in.sign > 0 ? " +1" : " -1"),
+                                    xyz(follow),
+                                    sweeps_text(ip),
+                                    std::to_string(ip.readings),
+                                    fmt_rounded(ip.motion_time_s, 0)};
+    if (!sheet.step_time_s.empty()) row.push_back(fmt_rounded(sheet.step_time_s[k], 0));
+    rows.push_back(std::move(row));
   }
-  w.table(
-      {"step", "installation", "position", "ball [mm]", "cup and blocks", "bar [mm]",
-       "direction, sign",
-       d.axis.table() ? "spindle ball at the first angle [mm]" : "table ball from the pivot [mm]",
-       "sweep", "readings",
-       sheet.setup_time_s.empty() ? "moves and dwells [s]" : "time with set-up [s]"},
-      rows);
+  std::vector<std::string> head = {
+      "step",
+      "installation",
+      "position",
+      "ball [mm]",
+      "cup and blocks",
+      "bar [mm]",
+      "direction, sign",
+      d.axis.table() ? "spindle ball at the first angle [mm]" : "table ball from the pivot [mm]",
+      "sweep",
+      "readings",
+      "program's moves and dwells [s]"};
+  if (!sheet.step_time_s.empty()) head.push_back("set-up and readings, the kit's model [s]");
+  w.table(head, rows);
   for (size_t k = 0; k < o.steps.size(); ++k) {
     const Installation& in = d.installations[o.steps[k].installation];
     w.heading("Step " + std::to_string(k + 1) + ": installation " + in.id, std::max(2, level + 1));
@@ -413,10 +490,11 @@ std::string setup_sheet_summary(const SetupSheet& sheet) {
   std::ostringstream s;
   const Design& d = sheet.design;
   s << "set-up sheet of " << d.name << ": " << d.installations.size() << " installations, "
-    << sheet.program.readings << " readings, moves and dwells about "
+    << sheet.program.readings << " readings, the program's moves and dwells about "
     << fmt_rounded(sheet.program.motion_time_s / 60.0, 1) << " min";
-  if (!sheet.setup_time_s.empty())
-    s << ", with set-ups about " << fmt_rounded(sheet.total_time_s / 60.0, 1) << " min";
+  if (sheet.time)
+    s << "; the kit's time model (set-ups and readings, as optimize plans) about "
+      << fmt_rounded(sheet.time->total_s / 60.0, 1) << " min";
   s << "\norder:";
   for (const SetupStep& st : sheet.order.steps) s << " " << d.installations[st.installation].id;
   s << " (cup moved " << sheet.order.cup_moves << ", stack rebuilt " << sheet.order.stack_changes
@@ -429,6 +507,11 @@ std::string setup_sheet_summary(const SetupSheet& sheet) {
       << fmt_opt(sheet.rounding->rounded_worst_std_um) << " um";
     s << "\n";
   }
+  if (sheet.clearance_above_travel_mm && *sheet.clearance_above_travel_mm > 0)
+    s << "OUTSIDE the kit's travel: the clearance plane Z " << mm(sheet.program.clearance_z_mm)
+      << " mm, " << mm(*sheet.clearance_above_travel_mm) << " mm above the travel\n";
+  for (const auto& [id, c] : sheet.clashes)
+    s << "CLASH " << id << ": " << c.what << " by " << mm(c.by_mm) << " mm\n";
   if (!sheet.outside_travel.empty()) {
     s << "OUTSIDE the kit's travel "
       << (sheet.outside_travel_as_given.empty() ? "once rounded" : "as designed") << ":";
