@@ -4,7 +4,7 @@
 #   1. the unit and property tests (ctest), then the design gate (`dbbkit bench`);
 #   2. the same suite built by clang with AddressSanitizer and UndefinedBehaviorSanitizer
 #      (less the long statistical studies of stage 1);
-#   3. a short libFuzzer run of every file reader (design, measurement, truth, kit), of the
+#   3. a short libFuzzer run of every file reader (design, measurement, truth, kit, result), of the
 #      text writers (text: any bytes through every escaping function and, as a design's names,
 #      through the part program and the report writers) and of the command line's options
 #      (cli); 20 s each, on a copy of the committed corpus.
@@ -52,7 +52,7 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 passed=0
 failed=0
-for target in design measurement truth kit text cli; do
+for target in design measurement truth kit text result cli; do
   mkdir -p "$work/$target"
   cp tests/fuzz/corpus/"$target"/* "$work/$target/"
   if ./build-san/tests/fuzz/fuzz_"$target" -max_total_time=20 -timeout=10 -rss_limit_mb=2048 \

@@ -10,6 +10,7 @@
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/setup.hpp"
+#include "dbbkit/warnings.hpp"
 #include "tolerances.hpp"
 
 namespace dbbkit {
@@ -176,14 +177,45 @@ std::string joined(const std::vector<std::string>& labels) {
 // and each substitution, are put in place of what they replace, one at a time. The largest change
 // of each error at each position over one effect's (or substitution's) alternatives is its
 // half-width; the half-widths combine in quadrature, u^2 += w^2 / 3.
-std::vector<Attribution> attribute(const Parameterisation& param, const LinearModel& model,
-                                   const std::vector<AddedEffect>& added,
+// The ISO quantities of an estimate as one list (location, constant parts, components), for the
+// attribution's share: their values, determined or not.
+std::vector<Determined> iso_values(const IsoResult& iso) {
+  std::vector<Determined> v;
+  for (const IsoQuantity& q : iso.location) v.push_back(q.value);
+  for (const IsoQuantity& q : iso.constants) v.push_back(q.value);
+  for (const IsoComponentsAtAngle& a : iso.components)
+    for (const Determined& m : a.motions) v.push_back(m);
+  return v;
+}
+
+// Adds a rectangular share w / sqrt(3) (w2: the sum of the squared half-widths) to each.
+void add_iso_share(IsoResult& iso, const std::vector<double>& w2) {
+  std::size_t i = 0;
+  auto add = [&](Determined& d) {
+    if (d.determined) d.std = std::sqrt(d.std * d.std + w2[i] / 3.0);
+    ++i;
+  };
+  for (IsoQuantity& q : iso.location) add(q.value);
+  for (IsoQuantity& q : iso.constants) add(q.value);
+  for (IsoComponentsAtAngle& a : iso.components)
+    for (Determined& m : a.motions) add(m);
+}
+
+// With `iso` (the ISO quantities of `after`), each alternative's ISO quantities are computed as
+// well and the attribution's share added to theirs as to the errors'.
+std::vector<Attribution> attribute(const Design& design, const Parameterisation& param,
+                                   const LinearModel& model, const std::vector<AddedEffect>& added,
                                    const std::vector<Substitution>& substitutions,
                                    const Estimate& after, std::vector<ErrorsAtAngle>& errors,
-                                   const EstimateOptions& options) {
+                                   const EstimateOptions& options, IsoResult* iso) {
   std::vector<Attribution> out;
   if (after.dof < 1) return out;
   std::vector<std::array<double, 6>> w2(errors.size(), std::array<double, 6>{});
+  const std::vector<Determined> iso_base = iso ? iso_values(*iso) : std::vector<Determined>{};
+  std::vector<double> iso_w2(iso_base.size(), 0.0);
+  IsoMotionOptions no_motion;
+  no_motion.enabled = false;
+  std::vector<Determined> iso_alternative;  // of the last refit
   // The errors with the added effects `out_labels` replaced by `in`; nullopt when that model
   // does not have the rank the swap should give.
   auto refit =
@@ -207,6 +239,7 @@ std::vector<Attribution> attribute(const Parameterisation& param, const LinearMo
     const Jacobian A = append_columns(model.J, X);
     const Estimate fit = WlsSolver(A, model.sigma_um, options).solve(model.y_um);
     if (fit.rank != after.rank - removed + inserted) return std::nullopt;
+    if (iso) iso_alternative = iso_values(iso230_quantities(design, param, fit, 1.0, no_motion));
     return errors_at_stations(param, fit);
   };
   auto attribution = [&](const std::vector<std::string>& out_labels,
@@ -214,9 +247,14 @@ std::vector<Attribution> attribute(const Parameterisation& param, const LinearMo
     Attribution at;
     at.effect = joined(out_labels);
     std::vector<std::array<double, 6>> w(errors.size(), std::array<double, 6>{});
+    std::vector<double> iso_w(iso_base.size(), 0.0);
     for (const std::vector<const EffectBlock*>& in : alternatives) {
       const std::optional<std::vector<ErrorsAtAngle>> e = refit(out_labels, in);
       if (!e) continue;
+      for (std::size_t i = 0; i < iso_base.size() && i < iso_alternative.size(); ++i) {
+        if (iso_base[i].determined && iso_alternative[i].determined)
+          iso_w[i] = std::max(iso_w[i], std::abs(iso_alternative[i].value - iso_base[i].value));
+      }
       for (std::size_t s = 0; s < errors.size() && s < e->size(); ++s) {
         for (int k = 0; k < 6; ++k) {
           if (!errors[s].errors[k].determined || !(*e)[s].errors[k].determined) continue;
@@ -233,6 +271,7 @@ std::vector<Attribution> attribute(const Parameterisation& param, const LinearMo
     for (std::size_t s = 0; s < errors.size(); ++s) {
       for (int k = 0; k < 6; ++k) w2[s][k] += w[s][k] * w[s][k];
     }
+    for (std::size_t i = 0; i < iso_w.size(); ++i) iso_w2[i] += iso_w[i] * iso_w[i];
     out.push_back(std::move(at));
   };
   for (const AddedEffect& a : added) {
@@ -251,6 +290,7 @@ std::vector<Attribution> attribute(const Parameterisation& param, const LinearMo
       if (d.determined) d.std = std::sqrt(d.std * d.std + w2[s][k] / 3.0);
     }
   }
+  if (iso) add_iso_share(*iso, iso_w2);
   return out;
 }
 
@@ -279,8 +319,9 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.after = current;
   res.errors_after = errors_at_stations(param, current);
   res.substitutions = std::move(sel.substitutions);
-  res.attributions = attribute(param, model, res.added, res.substitutions, current,
-                               res.errors_after, options.estimate);
+  res.iso_after = iso230_quantities(design, param, current, 1.0, options.iso_motion);
+  res.attributions = attribute(design, param, model, res.added, res.substitutions, current,
+                               res.errors_after, options.estimate, &res.iso_after);
   {
     // Null space of the final model over the axis-error unknowns (effects are all determined when
     // added).
@@ -369,6 +410,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
 DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readings,
                         const DiagnoseOptions& options) {
   DiagnoseResult res = diagnose_once(design, readings, options);
+  res.warnings = diagnose_warnings(res);
   if (!options.exclude_gross || res.gross.empty()) return res;
   // Refit without the gross readings, in passes (one may mask another), as asked.
   std::vector<int> kept(readings.size());
@@ -419,6 +461,7 @@ DiagnoseResult diagnose(const Design& design, const std::vector<Reading>& readin
   for (ResidualSignature* s : {&res.signature_before, &res.signature_after}) {
     if (s->dominant) feature_to_given(*s->dominant);
   }
+  res.warnings = diagnose_warnings(res);
   return res;
 }
 

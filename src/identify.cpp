@@ -11,6 +11,7 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/setup.hpp"
+#include "dbbkit/warnings.hpp"
 
 namespace dbbkit {
 
@@ -189,6 +190,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                                      std::sqrt(setup.beta_covariance()(j, j)), declared[e].std_um});
     }
   }
+  res.warnings = identify_warnings(design, res);
   return res;
 }
 

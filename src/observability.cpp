@@ -10,6 +10,7 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
+#include "dbbkit/warnings.hpp"
 #include "small_eigen.hpp"
 #include "tolerances.hpp"
 
@@ -827,6 +828,10 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
     ev.worst_total = worst_case(ev.total_errors, reference_length_mm);
   }
   ev.worst = worst_case(ev.errors, reference_length_mm);
+  if (auto w = setup_undeclared_warning(
+          hidden_setup_effects(design, param, model, solver, reference_length_mm),
+          reference_length_mm))
+    ev.warnings.push_back(*w);
   return ev;
 }
 

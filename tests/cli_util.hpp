@@ -8,7 +8,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <string>
+#include <vector>
 
 namespace dbbkit {
 
@@ -40,6 +42,34 @@ inline CliRun run_cli_shell(const std::string& command) {
 
 inline CliRun run_cli(const std::string& args) {
   return run_cli_shell(std::string(DBBKIT_CLI) + " " + args);
+}
+
+// The README section's output lines (those of its plain ``` blocks and, with table_rows, its
+// Markdown table rows; "...", empty lines and lines holding `skip` aside) that `printed` does
+// not hold, and how many were checked.
+inline std::vector<std::string> readme_lines_not_printed(const std::string& section,
+                                                         const std::string& printed,
+                                                         bool table_rows, int& checked,
+                                                         const std::string& skip = "") {
+  std::vector<std::string> missing;
+  std::istringstream in(section);
+  bool in_text = false, in_block = false;
+  checked = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("```", 0) == 0) {
+      in_text = !in_block && line == "```";
+      in_block = !in_block;
+      continue;
+    }
+    const bool row = table_rows && !in_block && line.rfind("| ", 0) == 0 &&
+                     line.find("---") == std::string::npos;
+    if (!((in_block && in_text) || row) || line == "..." || line.empty() ||
+        (!skip.empty() && line.find(skip) != std::string::npos))
+      continue;
+    if (printed.find(line) == std::string::npos) missing.push_back(line);
+    ++checked;
+  }
+  return missing;
 }
 
 }  // namespace dbbkit

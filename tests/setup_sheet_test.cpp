@@ -262,22 +262,10 @@ TEST(Readme, TheJourneyPrintsWhatTheReadmeShows) {
   const std::string kit_path = src + "/designs/kits/";
   for (size_t at = printed.find(kit_path); at != std::string::npos; at = printed.find(kit_path))
     printed.replace(at, kit_path.size(), "designs/kits/");
-  std::istringstream in(section);
-  bool in_text = false, in_block = false;
   int checked = 0;
-  for (std::string line; std::getline(in, line);) {
-    if (line.rfind("```", 0) == 0) {
-      in_text = !in_block && line == "```";
-      in_block = !in_block;
-      continue;
-    }
-    const bool row = !in_block && line.rfind("| ", 0) == 0 && line.find("---") == std::string::npos;
-    if (!((in_block && in_text) || row) || line == "..." || line.empty() ||
-        line.find("designs scored in") != std::string::npos)
-      continue;
-    EXPECT_NE(printed.find(line), std::string::npos) << "README line not printed:\n" << line;
-    ++checked;
-  }
+  for (const std::string& line :
+       readme_lines_not_printed(section, printed, true, checked, "designs scored in"))
+    ADD_FAILURE() << "README line not printed:\n" << line;
   EXPECT_GT(checked, 40);
   std::filesystem::remove_all(dir);
 }

@@ -28,6 +28,8 @@ struct DiagnoseOptions {
   bool exclude_gross = false;
   int max_gross = 10;
   EstimateOptions estimate;
+  // The corrected errors' ISO 230-7 error motion values (a Monte Carlo, iso230.hpp).
+  IsoMotionOptions iso_motion;
 };
 
 // The size of a library effect that diagnose's first step would find with the given power
@@ -129,6 +131,14 @@ struct DiagnoseResult {
   // Per error (dx..ez), the largest |after - before| over the positions where both are
   // determined; absent where none is.
   std::array<std::optional<double>, 6> largest_change_of_errors;
+  // The corrected errors in ISO 230 terms (iso230.hpp): location errors, constant parts and
+  // component error motions of the final model, each with the attributions' share in its
+  // standard uncertainty as the errors have it; the error motion values from the final model's
+  // covariance (the attributions' share not in them).
+  IsoResult iso_after;
+  // What makes the corrected errors' uncertainties unreliable (warnings.hpp): the residual
+  // after the effects found still contradicting the declared noise.
+  std::vector<Warning> warnings;
 };
 
 ResidualSignature residual_signature(const Design& design, const std::vector<Reading>& readings,

@@ -17,6 +17,7 @@
 #include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/uncertainty.hpp"
+#include "dbbkit/warning.hpp"
 
 namespace dbbkit {
 
@@ -125,6 +126,8 @@ struct IdentifyResult {
   FirstOrderCheck first_order;
   // ISO 230-7 location errors, constant parts and component error motions (iso230.hpp).
   IsoResult iso;
+  // What makes the stated uncertainties unreliable here (warnings.hpp); empty: nothing.
+  std::vector<Warning> warnings;
 };
 
 // The six functions c.theta that are the errors dx..ez at `station`: column k is

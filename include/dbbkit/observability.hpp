@@ -12,6 +12,7 @@
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/setup.hpp"
+#include "dbbkit/warning.hpp"
 
 namespace dbbkit {
 
@@ -138,6 +139,8 @@ struct Evaluation {
   std::vector<ErrorsAtAngle> setup_errors, total_errors;
   std::optional<WorstCase> worst_total;
   std::vector<SetupEffectCheck> setup_checks;
+  // What makes the stated uncertainties unreliable (warnings.hpp: setup_undeclared).
+  std::vector<Warning> warnings;
   DetectionSettings detection;
 };
 

@@ -58,6 +58,8 @@ std::unique_ptr<CommandLine> make_command_line() {
   add(add_optimize);
   add(add_program);
   add(add_setup_sheet);
+  add(add_compensation);
+  add(add_compare);
   add(add_bench);
   // Every option that names a file: an empty path is refused where it is read.
   const std::set<std::string> path_options = {

@@ -18,5 +18,7 @@ Runner add_optimize(CLI::App& app);
 Runner add_bench(CLI::App& app);
 Runner add_program(CLI::App& app);
 Runner add_setup_sheet(CLI::App& app);
+Runner add_compensation(CLI::App& app);
+Runner add_compare(CLI::App& app);
 
 }  // namespace dbbkit::cli

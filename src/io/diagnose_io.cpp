@@ -165,6 +165,16 @@ std::string signature_text(const ResidualSignature& s, const Design& design,
 
 }  // namespace
 
+std::string diagnose_iso_note(const DiagnoseResult& r) {
+  return "of the corrected errors: standard uncertainty (k = 1) from the final model's covariance "
+         "(the declared reading noise)" +
+         std::string(r.attributions.empty()
+                         ? ""
+                         : " and the share of the alternatives that fit almost as well "
+                           "(rectangular, as the errors carry it; the error motion values "
+                           "without it)");
+}
+
 json diagnose_to_json(const Design& design, const std::vector<Reading>& readings,
                       const DiagnoseResult& r, const InputFiles& inputs) {
   json j = result_header("dbbkit.diagnose/1", design, inputs);
@@ -175,6 +185,8 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
       "of columns is "
       "confounded and never added";
   j["level"] = r.level;
+  j["warnings"] = warnings_to_json(r.warnings);
+  j["iso230"] = iso230_to_json(r.iso_after, diagnose_iso_note(r));
   j["before"] = residual_to_json(r.before);
   j["after"] = residual_to_json(r.after);
   j["residual"] = j["after"];
@@ -326,6 +338,7 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
 std::string diagnose_summary(const Design& design, const std::vector<Reading>& readings,
                              const DiagnoseResult& r) {
   std::ostringstream s;
+  s << warnings_text(r.warnings);
   s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
     << design.axis.label() << "  errors " << design.errors.describe() << "\n";
   s << "noise: " << design.noise.describe() << "\n";
@@ -373,6 +386,7 @@ std::string diagnose_summary(const Design& design, const std::vector<Reading>& r
   s << "\nerrors after (value +- standard uncertainty, k = 1); '--' = not determined\n";
   s << errors_table(r.errors_after, true);
   s << unidentifiable_text(r.unidentifiable_after);
+  s << iso230_text(design, r.iso_after, diagnose_iso_note(r));
   return s.str();
 }
 

@@ -28,6 +28,7 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
   const std::unique_ptr<ReportWriter> page =
       make_report_writer(f, "dbbkit diagnose: " + design.name);
   ReportWriter& p = *page;
+  warnings_section(p, r.warnings);
   p.heading("Verdict");
   p.paragraph(diagnose_verdict(design, given, r));
   p.table({"", "rms [um]", "chi2", "dof", "p"},
@@ -135,6 +136,7 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
   errors_section(p, expanded_errors(r.errors_after, expansion.k), true,
                  "errors with the effects added, " + design.name, expansion.coverage_probability);
   unidentifiable_section(p, r.unidentifiable_after);
+  iso230_section(p, r.iso_after, diagnose_iso_note(r));
   p.heading("Details");
   p.preformatted(diagnose_summary(design, given, r));
   std::vector<std::vector<std::string>> cand;

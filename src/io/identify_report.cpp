@@ -20,56 +20,6 @@ namespace {
 
 // The ISO 230-7 quantities (iso230.hpp): location errors and constant parts with u (k = 1),
 // then the component error motions.
-void iso230_section(ReportWriter& p, const IdentifyResult& r) {
-  const IsoResult& iso = r.iso;
-  p.heading("In ISO 230-7 terms");
-  p.paragraph(
-      "First order. Location errors of the axis average line and the constant parts, fitted by "
-      "least squares "
-      "to the determined values; the component error motions are what remains. " +
-      as_sentence(iso_uncertainty_note(r)));
-  std::vector<std::vector<std::string>> rows;
-  for (const auto* list : {&iso.location, &iso.constants}) {
-    for (const IsoQuantity& q : *list) {
-      rows.push_back({q.name, q.value.determined ? fmt_num(q.value.value) : "--",
-                      q.value.determined ? fmt_num(q.value.std) : "--", q.unit});
-    }
-  }
-  p.table({"quantity", "value", "u (k = 1)", "unit"}, rows);
-  std::vector<std::string> header = {"angle [deg]"};
-  for (int e = 0; e < 6; ++e)
-    header.push_back(iso.component_names[e] + (e < 3 ? " [um]" : " [urad]"));
-  std::vector<std::vector<std::string>> comp;
-  for (const IsoComponentsAtAngle& a : iso.components) {
-    std::vector<std::string> row = {fmt_num(a.angle_deg)};
-    for (const Determined& m : a.motions)
-      row.push_back(m.determined ? fmt_num(m.value) + " ± " + fmt_num(m.std) : "--");
-    comp.push_back(row);
-  }
-  p.table(header, comp);
-  const IsoMotionValues& mv = iso.motion_values;
-  if (!mv.values.empty()) {
-    std::vector<std::vector<std::string>> vals;
-    for (std::size_t e = 0; e < mv.values.size(); ++e) {
-      const IsoMotionValue& v = mv.values[e];
-      if (v.computed) {
-        vals.push_back({v.name, v.component, fmt_num(v.value), fmt_num(v.U),
-                        "[" + fmt_num(v.low) + ", " + fmt_num(v.high) + "]", v.unit});
-      } else {
-        vals.push_back(
-            {v.name, v.component, "--", "--", iso_motion_reason(v, static_cast<int>(e)), v.unit});
-      }
-    }
-    p.paragraph("Error motion values (ISO 230-7, fixed sensitive direction). " +
-                as_sentence(iso_motion_note(mv)));
-    p.table({"quantity", "component", "value", "U",
-             "interval (at least " + fmt_num(100 * mv.coverage_probability) + " %)", "unit"},
-            vals);
-  }
-  if (!iso.gaps.empty()) p.paragraph(as_sentence(iso_gaps_note(iso)));
-}
-
-// The conformance decisions (conformance.hpp): the rule, then one row per tolerance.
 void conformance_section(ReportWriter& p, const ConformanceReport& c) {
   p.heading("Conformance");
   p.paragraph(
@@ -116,6 +66,7 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
       make_report_writer(f, "dbbkit identify: " + design.name);
   ReportWriter& p = *page;
   const Estimate& est = r.estimate;
+  warnings_section(p, r.warnings);
   p.heading("Result");
   p.paragraph(std::to_string(est.n_readings) + " readings, " + std::to_string(est.n_unknowns) +
               " unknowns, rank " + std::to_string(est.rank) +
@@ -129,7 +80,7 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
   errors_section(p, expanded_errors(r.errors, r.budget), true,
                  "identified errors of " + design.name, r.budget.coverage_probability);
   unidentifiable_section(p, r.unidentifiable);
-  iso230_section(p, r);
+  iso230_section(p, r.iso, iso_uncertainty_note(r));
   if (conformance) conformance_section(p, *conformance);
   p.heading("Residuals");
   p.figure(

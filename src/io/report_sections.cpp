@@ -73,6 +73,61 @@ std::vector<ResidualPanel> residual_panels(const Design& d, const std::vector<Re
   return out;
 }
 
+void iso230_section(ReportWriter& p, const IsoResult& iso, const std::string& note) {
+  p.heading("In ISO 230-7 terms");
+  p.paragraph(
+      "First order. Location errors of the axis average line and the constant parts, fitted by "
+      "least squares "
+      "to the determined values; the component error motions are what remains. " +
+      as_sentence(note));
+  std::vector<std::vector<std::string>> rows;
+  for (const auto* list : {&iso.location, &iso.constants}) {
+    for (const IsoQuantity& q : *list) {
+      rows.push_back({q.name, q.value.determined ? fmt_num(q.value.value) : "--",
+                      q.value.determined ? fmt_num(q.value.std) : "--", q.unit});
+    }
+  }
+  p.table({"quantity", "value", "u (k = 1)", "unit"}, rows);
+  std::vector<std::string> header = {"angle [deg]"};
+  for (int e = 0; e < 6; ++e)
+    header.push_back(iso.component_names[e] + (e < 3 ? " [um]" : " [urad]"));
+  std::vector<std::vector<std::string>> comp;
+  for (const IsoComponentsAtAngle& a : iso.components) {
+    std::vector<std::string> row = {fmt_num(a.angle_deg)};
+    for (const Determined& m : a.motions)
+      row.push_back(m.determined ? fmt_num(m.value) + " ± " + fmt_num(m.std) : "--");
+    comp.push_back(row);
+  }
+  p.table(header, comp);
+  const IsoMotionValues& mv = iso.motion_values;
+  if (!mv.values.empty()) {
+    std::vector<std::vector<std::string>> vals;
+    for (std::size_t e = 0; e < mv.values.size(); ++e) {
+      const IsoMotionValue& v = mv.values[e];
+      if (v.computed) {
+        vals.push_back({v.name, v.component, fmt_num(v.value), fmt_num(v.U),
+                        "[" + fmt_num(v.low) + ", " + fmt_num(v.high) + "]", v.unit});
+      } else {
+        vals.push_back(
+            {v.name, v.component, "--", "--", iso_motion_reason(v, static_cast<int>(e)), v.unit});
+      }
+    }
+    p.paragraph("Error motion values (ISO 230-7, fixed sensitive direction). " +
+                as_sentence(iso_motion_note(mv)));
+    p.table({"quantity", "component", "value", "U",
+             "interval (at least " + fmt_num(100 * mv.coverage_probability) + " %)", "unit"},
+            vals);
+  }
+  if (!iso.gaps.empty()) p.paragraph(as_sentence(iso_gaps_note(iso)));
+}
+
+// The conformance decisions (conformance.hpp): the rule, then one row per tolerance.
+void warnings_section(ReportWriter& p, const std::vector<Warning>& warnings) {
+  if (warnings.empty()) return;
+  p.heading("Warnings");
+  for (const Warning& w : warnings) p.paragraph("WARNING: " + w.text);
+}
+
 void unidentifiable_section(ReportWriter& p, const std::vector<Unidentifiable>& list) {
   if (list.empty()) return;
   p.heading("Not determined");

@@ -24,6 +24,11 @@ void design_section(ReportWriter& p, const Design& d);
 // The residual of each installation, each sweep (and repeat) a line in angle order.
 std::vector<ResidualPanel> residual_panels(const Design& d, const std::vector<Reading>& readings,
                                            const Eigen::VectorXd& residual);
+// The ISO 230-7 quantities (location errors, constant parts, component motions, error motion
+// values), with what their uncertainty holds.
+void iso230_section(ReportWriter& p, const IsoResult& iso, const std::string& note);
+// The warnings (warnings.hpp), first on the page, when there are any.
+void warnings_section(ReportWriter& p, const std::vector<Warning>& warnings);
 // The combinations of the errors no reading sees, when there are any.
 void unidentifiable_section(ReportWriter& p, const std::vector<Unidentifiable>& list);
 // The errors (values with +-U, or U alone) as a plot and a table; `coverage`: the coverage

@@ -62,6 +62,18 @@ json residual_to_json(const Estimate& est) {
           {"p_value", optional_number(est.p_value)}};
 }
 
+json warnings_to_json(const std::vector<Warning>& warnings) {
+  json list = json::array();
+  for (const Warning& w : warnings) list.push_back({{"kind", w.kind}, {"text", w.text}});
+  return list;
+}
+
+std::string warnings_text(const std::vector<Warning>& warnings) {
+  std::string t;
+  for (const Warning& w : warnings) t += "WARNING: " + w.text + "\n";
+  return t;
+}
+
 json result_header(const std::string& format, const Design& design, const InputFiles& inputs) {
   json j;
   j["format"] = format;
@@ -70,6 +82,8 @@ json result_header(const std::string& format, const Design& design, const InputF
   j["design"] = {{"name", design.name},
                  {"axis", design.axis.label()},
                  {"errors_model", design.errors.describe()}};
+  // The axis as the design gave it (shorthand or general form), for compare and compensation.
+  j["design"]["axis_definition"] = axis_to_json(design.axis);
   if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
   j["noise"] = noise_to_json(design.noise);
   j["noise"]["sigma_um"] = design.noise.sigma_um();
@@ -253,6 +267,7 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
   j["uncertainty"] =
       "std: combined standard uncertainty u_c (k = 1); U: expanded uncertainty k u_c (see budget)";
   add_rank_block(j, est);
+  j["warnings"] = warnings_to_json(result.warnings);
 
   j["errors"] = errors_to_json(result.errors, true);
   for (json& e : j["errors"]) {
@@ -347,6 +362,7 @@ std::string json_text(const json& j, const std::string& key, std::size_t count,
 std::string identify_summary(const Design& design, const IdentifyResult& result) {
   const Estimate& est = result.estimate;
   std::ostringstream s;
+  s << warnings_text(result.warnings);
   s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
     << design.axis.label() << "  errors " << design.errors.describe() << "\n";
   s << "noise: " << design.noise.describe() << "\n";
@@ -390,7 +406,10 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
 }
 
 nlohmann::json iso230_to_json(const IdentifyResult& result) {
-  const IsoResult& iso = result.iso;
+  return iso230_to_json(result.iso, iso_uncertainty_note(result));
+}
+
+nlohmann::json iso230_to_json(const IsoResult& iso, const std::string& uncertainty_note) {
   auto quantity = [](const IsoQuantity& q) {
     return json{{"name", q.name},
                 {"unit", q.unit},
@@ -402,7 +421,7 @@ nlohmann::json iso230_to_json(const IdentifyResult& result) {
       "ISO 230-1 / ISO 230-7, first order: location errors of the axis average line (least squares "
       "over the "
       "determined values), constant parts, component error motions";
-  j["uncertainty"] = iso_uncertainty_note(result);
+  j["uncertainty"] = uncertainty_note;
   json loc = json::array(), con = json::array(), comp = json::array();
   for (const IsoQuantity& q : iso.location) loc.push_back(quantity(q));
   for (const IsoQuantity& q : iso.constants) con.push_back(quantity(q));
@@ -446,9 +465,12 @@ nlohmann::json iso230_to_json(const IdentifyResult& result) {
 }
 
 std::string iso230_text(const Design& design, const IdentifyResult& result) {
-  const IsoResult& iso = result.iso;
+  return iso230_text(design, result.iso, iso_uncertainty_note(result));
+}
+
+std::string iso230_text(const Design& design, const IsoResult& iso, const std::string& note) {
   std::ostringstream s;
-  s << "\nISO 230-7 (first order; " << iso_uncertainty_note(result) << "):\n";
+  s << "\nISO 230-7 (first order; " << note << "):\n";
   s << "  location errors of the axis average line (value +- u, k = 1):\n";
   auto line = [&](const IsoQuantity& q) {
     s << "    " << std::left << std::setw(22) << q.name << std::right;
@@ -514,6 +536,7 @@ json effects_to_json(const std::vector<CandidateStatus>& effects) {
 std::string evaluate_summary(const Design& design, const Evaluation& ev) {
   const Estimate& est = ev.prior;
   std::ostringstream s;
+  s << warnings_text(ev.warnings);
   s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
     << design.axis.label() << "  errors " << design.errors.describe() << "  " << est.n_readings
     << " readings\n";
@@ -695,6 +718,7 @@ json evaluate_to_json(const Design& design, const Evaluation& ev, const std::str
   json j = result_header("dbbkit.evaluate/1", design, {design_file, ""});
   j["inputs"].erase("data");
   add_rank_block(j, est);
+  j["warnings"] = warnings_to_json(ev.warnings);
   j["singular_values"] = std::vector<double>(
       est.singular_values.data(), est.singular_values.data() + est.singular_values.size());
   const ObservabilityIndices& o = ev.indices;

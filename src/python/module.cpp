@@ -23,6 +23,8 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/identify.hpp"
+#include "dbbkit/io/compare_io.hpp"
+#include "dbbkit/io/compensation_io.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
@@ -32,6 +34,7 @@
 #include "dbbkit/io/optimize_io.hpp"
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/result_read.hpp"
 #include "dbbkit/io/tolerances_io.hpp"
 #include "dbbkit/io/truth_io.hpp"
 #include "dbbkit/kinematics.hpp"
@@ -461,6 +464,17 @@ std::vector<std::string> files_of(const Inputs&... inputs) {
   std::vector<std::string> f;
   ((inputs.from_file ? f.push_back(inputs.source) : void()), ...);
   return f;
+}
+
+py::list warnings_list(const std::vector<Warning>& warnings) {
+  py::list out;
+  for (const Warning& w : warnings) {
+    py::dict d;
+    d["kind"] = w.kind;
+    d["text"] = w.text;
+    out.append(d);
+  }
+  return out;
 }
 
 struct PyEvaluateResult {
@@ -932,6 +946,9 @@ PYBIND11_MODULE(dbbkit, m) {
       .def_property_readonly("singular_values",
                              [](const PyEvaluateResult& r) { return r.ev.prior.singular_values; })
       .def_property_readonly("rank", [](const PyEvaluateResult& r) { return r.ev.prior.rank; })
+      .def_property_readonly(
+          "warnings", [](const PyEvaluateResult& r) { return warnings_list(r.ev.warnings); },
+          "What makes the stated uncertainties unreliable: a list of {'kind', 'text'}")
       .def_property_readonly("n_unknowns",
                              [](const PyEvaluateResult& r) { return r.ev.prior.n_unknowns; })
       .def_property_readonly("monte_carlo",
@@ -986,6 +1003,10 @@ PYBIND11_MODULE(dbbkit, m) {
           "n_unknowns", [](const PyIdentifyResult& r) { return r.result().estimate.n_unknowns; })
       .def_property_readonly(
           "n_readings", [](const PyIdentifyResult& r) { return r.result().estimate.n_readings; })
+      .def_property_readonly(
+          "warnings", [](const PyIdentifyResult& r) { return warnings_list(r.result().warnings); },
+          "What makes the stated uncertainties unreliable here: a list of {'kind', 'text'}, "
+          "empty when nothing does")
       .def_property_readonly("chi2",
                              [](const PyIdentifyResult& r) { return r.result().estimate.chi2; })
       .def_property_readonly("dof",
@@ -1024,6 +1045,9 @@ PYBIND11_MODULE(dbbkit, m) {
       .def_property_readonly(
           "json", [](const PyDiagnoseResult& r) { return to_python(r.json); },
           "The dict `dbbkit diagnose --out` writes")
+      .def_property_readonly(
+          "warnings", [](const PyDiagnoseResult& r) { return warnings_list(r.result.warnings); },
+          "What makes the corrected errors' uncertainties unreliable: a list of {'kind', 'text'}")
       .def_property_readonly(
           "angles_deg",
           [](const PyDiagnoseResult& r) { return angles_array(r.result.errors_before); })
@@ -1087,6 +1111,61 @@ PYBIND11_MODULE(dbbkit, m) {
           py::arg("pareto") = false)
       .def("report", &PyOptimizeResult::report, py::arg("format") = "html")
       .def("_repr_html_", [](const PyOptimizeResult& r) { return iframe(r.report("html")); });
+
+  // A result for compare and compensation: a path, an IdentifyResult or DiagnoseResult, or the
+  // dict their json gives.
+  auto result_of = [](py::handle h, const char* name) {
+    if (const auto path = as_path(h)) return io::read_result_file(*path);
+    nlohmann::json j;
+    if (py::isinstance<PyIdentifyResult>(h)) {
+      j = h.cast<const PyIdentifyResult&>().json;
+    } else if (py::isinstance<PyDiagnoseResult>(h)) {
+      j = h.cast<const PyDiagnoseResult&>().json;
+    } else {
+      j = from_python(h, name, "");
+    }
+    return io::result_from_text(io::dump_json(j), name);
+  };
+  m.def(
+      "compare",
+      [result_of](py::handle a, py::handle b, double level) {
+        check_finite_in("level", level, 1e-6, 0.5);
+        return to_python(io::comparison_to_json(
+            io::compare_results(result_of(a, "a"), result_of(b, "b"), level)));
+      },
+      py::arg("a"), py::arg("b"), py::arg("level") = 0.05,
+      "`dbbkit compare`: the change B - A of every location error, constant part and error motion "
+      "value of two results of one axis (paths, results or their json), its uncertainty and "
+      "whether it is significant at the family-wise level; the dict `compare --out` writes");
+  m.def(
+      "compensation",
+      [result_of](py::handle result, const std::string& format, const std::string& kins,
+                  const std::map<std::string, double>& current, double k) {
+        check_finite_in("k", k, 1, 10);
+        io::CompensationFormat f;
+        if (format == "isg") {
+          f = io::CompensationFormat::kIsg;
+        } else if (format == "linuxcnc") {
+          f = io::CompensationFormat::kLinuxCnc;
+        } else if (format == "table") {
+          f = io::CompensationFormat::kTable;
+        } else {
+          throw InputError("argument", "format",
+                           quote_value(format) + " (expected isg, linuxcnc or table)");
+        }
+        io::CompensationOptions o;
+        o.k = k;
+        o.linuxcnc_kins = kins;
+        for (const auto& [pin, v] : current) {
+          check_finite_in("current", v, -1e5, 1e5);
+          o.current_mm[pin] = v;
+        }
+        return io::compensation_text(result_of(result, "result"), f, o);
+      },
+      py::arg("result"), py::arg("format"), py::arg("kins") = "",
+      py::arg("current") = std::map<std::string, double>{}, py::arg("k") = 2.0,
+      "`dbbkit compensation`: the location errors for a controller (format isg, linuxcnc or "
+      "table), as the text the command writes");
 
   constexpr std::uint64_t kSeed = 1;
   m.def("evaluate", &run_evaluate, py::arg("design"), py::arg("reference_length_mm") = py::none(),

@@ -66,6 +66,32 @@ class RoundTrips(InSource):
             r = dbbkit.identify(d, dbbkit.Measurements(data, d))
             self.assertEqual(r.json, cli_json("identify", "--design", design, "--data", data), design)
 
+    def test_warnings_come_first_as_in_the_json(self):
+        d = dbbkit.Design(PAPER_C)
+        r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d))
+        self.assertEqual(r.warnings, r.json["warnings"])
+        self.assertEqual(r.warnings[0]["kind"], "residual")
+        self.assertIn("dbbkit diagnose", r.warnings[0]["text"])
+        e = dbbkit.evaluate(d)
+        self.assertEqual([w["kind"] for w in e.warnings], ["setup_undeclared"])
+        g = dbbkit.diagnose(d, dbbkit.Measurements(DATA_C, d))
+        self.assertEqual(g.warnings, g.json["warnings"])
+
+    def test_compare_and_compensation_as_the_command_line(self):
+        d = dbbkit.Design(PAPER_C)
+        r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d))
+        with tempfile.TemporaryDirectory() as tmp:
+            a = os.path.join(tmp, "a.json")
+            with open(a, "w") as f:
+                json.dump(r.json, f)
+            c = dbbkit.compare(r, a)
+            self.assertEqual(c, cli_json("compare", a, a) | {"inputs": c["inputs"]})
+            self.assertEqual(c["significant_changes"], 0)
+            text = dbbkit.compensation(r, "isg")
+            self.assertEqual(text, cli_text("compensation", "--result", a, "--format", "isg").replace(a, "result"))
+        with self.assertRaises(dbbkit.InputError):
+            dbbkit.compensation(r, "linuxcnc")  # a C table: the module must be named
+
     def test_identify_with_tolerances_type_a_and_coverage(self):
         tol = "designs/tolerances/c-turntable-acceptance.json"
         d = dbbkit.Design(PAPER_C)

@@ -14,6 +14,7 @@
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/observability.hpp"
+#include "dbbkit/warning.hpp"
 
 namespace dbbkit::io {
 
@@ -56,6 +57,11 @@ inline double r6(double x) { return std::round(x * 1e6) / 1e6; }
 nlohmann::json optional_number(const std::optional<double>& x);
 // The residual block {rms_um, chi2, dof, p_value}.
 nlohmann::json residual_to_json(const Estimate& est);
+// formats.md "Results: warnings": [{"kind", "text"}], empty when nothing makes a stated
+// uncertainty unreliable.
+nlohmann::json warnings_to_json(const std::vector<Warning>& warnings);
+// "WARNING: <text>" per line, for the terminal's first lines; empty without warnings.
+std::string warnings_text(const std::vector<Warning>& warnings);
 
 // `dbbkit.evaluate/1`.
 // The set-up tolerances of every installation; what the design can tell of each set-up
@@ -90,6 +96,9 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
 // The ISO 230-7 quantities of an identification (iso230.hpp): JSON and the terminal's text.
 nlohmann::json iso230_to_json(const IdentifyResult& result);
 std::string iso230_text(const Design& design, const IdentifyResult& result);
+// The same of any ISO result (diagnose's corrected errors), with what its uncertainty holds.
+nlohmann::json iso230_to_json(const IsoResult& iso, const std::string& uncertainty_note);
+std::string iso230_text(const Design& design, const IsoResult& iso, const std::string& note);
 
 // The words of the structured results (the library builds none):
 // "full rank: 42 unknowns from 49 readings", "rank 40 of 42: 2 combination(s) ...".

@@ -1,0 +1,47 @@
+#pragma once
+// From a result to the controller (formats.md, "Comparing two results, and compensation"):
+//   isg       the ISG kernel's CSV (Beckhoff TF5280 volumetric compensation): a header row of
+//             ISO 230-1 names, a row of values, `//` comments, `#` between blocks; offsets in
+//             mm, angles in rad. The location errors, then the component errors as a table over
+//             the axis' angle (the argument, in rad) where every one is determined.
+//   linuxcnc  HAL `setp` lines for the position pins of LinuxCNC's xyzac-trt-kins or
+//             xyzbc-trt-kins (positions only; the module takes no tilt and no zero): each pin's
+//             new value is its current value (--current) plus the change; without a current
+//             value the change is written as a comment only.
+//   table     a plain table for controls whose tables are entered by hand (Heidenhain, Siemens,
+//             Fanuc): each value with its unit (angles also in degrees), its expanded
+//             uncertainty, and whether it is worth entering.
+// Every value is the location error as measured: the axis' actual location minus its nominal
+// (ISO 230-1), from the work frame the measurement was taught in. A value whose expanded
+// uncertainty is as large as the value itself (|value| <= U) is not distinguishable from zero
+// and is said to be too uncertain to enter; an undetermined one is never written as a number.
+
+#include <map>
+#include <string>
+
+#include "dbbkit/io/result_read.hpp"
+
+namespace dbbkit::io {
+
+enum class CompensationFormat { kIsg, kLinuxCnc, kTable };
+
+struct CompensationOptions {
+  double k = 2.0;  // coverage factor of the expanded uncertainties stated (about 95 %)
+  // linuxcnc: "xyzac-trt" or "xyzbc-trt" (absent: the one the axis belongs to, C: required).
+  std::string linuxcnc_kins;
+  // linuxcnc: the pins' current values [mm], by pin name without the module prefix
+  // ("x-rot-point").
+  std::map<std::string, double> current_mm;
+};
+
+// Throws InputError (source "--format", "--kins", "--current") when the result cannot be
+// written for the target: an axis the target does not take, an unknown pin.
+std::string compensation_text(const ResultFile& result, CompensationFormat format,
+                              const CompensationOptions& options);
+
+// The pins of a LinuxCNC trt module a location error moves, and by how much per unit of it:
+// (pin, factor) pairs. Empty: the module takes no such quantity.
+std::vector<std::pair<std::string, double>> linuxcnc_pins(const std::string& kins,
+                                                          const std::string& iso_name);
+
+}  // namespace dbbkit::io

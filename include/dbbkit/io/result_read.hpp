@@ -1,0 +1,61 @@
+#pragma once
+// An identify or diagnose result read back (the JSON `--out` writes, formats.md) for what
+// follows it: `compare` of two results and `compensation` for a controller. Only the keys
+// these need are read; each is checked, and a missing or malformed one is an InputError naming
+// the file and the key.
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/axis_frame.hpp"
+
+namespace dbbkit::io {
+
+// One ISO 230 quantity as written: a value and its standard uncertainty (k = 1), absent where
+// the data do not determine it.
+struct ResultQuantity {
+  std::string name, unit;  // "X0C", "um"
+  std::optional<double> value, std;
+};
+
+// The component error motions (EXC .. ECC) at one angle.
+struct ResultComponents {
+  double angle_deg = 0;
+  std::vector<ResultQuantity> motions;  // in the file's order
+};
+
+// An error motion value (ISO 230-7 range of a component) and its expanded uncertainty.
+struct ResultMotionValue {
+  std::string component, name, unit;
+  std::optional<double> value, U;
+};
+
+// The errors dx..ez at one angle.
+struct ResultErrors {
+  double angle_deg = 0;
+  std::array<std::optional<double>, 6> value, std;
+};
+
+struct ResultFile {
+  std::string source;       // the file
+  std::string format;       // dbbkit.identify/1 or dbbkit.diagnose/1
+  std::string design_name;  // as written
+  std::string data_source;  // inputs.data: the readings' file (empty when not written)
+  AxisFrame axis;           // from design.axis_frame (or the shorthand label)
+  std::string errors_model;
+  std::vector<ResultQuantity> location, constants;
+  std::vector<ResultComponents> components;
+  std::vector<ResultMotionValue> motion_values;
+  double motion_coverage = 0.95;
+  std::vector<ResultErrors> errors;
+  bool setup_included = false;  // the design's set-up tolerances are in the uncertainties
+  std::string uncertainty_note;
+};
+
+// Reads an identify or diagnose result (a diagnose result must carry its iso230 block).
+ResultFile read_result_file(const std::string& path);
+ResultFile result_from_text(const std::string& text, const std::string& source);
+
+}  // namespace dbbkit::io

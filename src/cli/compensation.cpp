@@ -1,0 +1,86 @@
+#include <cmath>
+#include <iostream>
+#include <memory>
+
+#include "checks.hpp"
+#include "commands.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/compensation_io.hpp"
+#include "dbbkit/io/output.hpp"
+#include "dbbkit/io/result_read.hpp"
+#include "dbbkit/user_text.hpp"
+
+namespace dbbkit::cli {
+
+namespace {
+struct CompensationArgs {
+  std::string result, format, out, kins;
+  std::vector<std::string> current;
+  double k = 2.0;
+  bool quiet = false;
+};
+}  // namespace
+
+Runner add_compensation(CLI::App& app) {
+  auto args = std::make_shared<CompensationArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "compensation",
+      "The location errors of an identify result for a controller: the ISG kernel's CSV, "
+      "LinuxCNC HAL settings, or a table to enter by hand");
+  sub->add_option("--result", args->result, "Result of dbbkit identify (--out)")->required();
+  sub->add_option("--format", args->format, "isg, linuxcnc or table")
+      ->required()
+      ->check(CLI::IsMember({"isg", "linuxcnc", "table"}));
+  sub->add_option("--out", args->out, "Output file; '-' or absent: stdout");
+  sub->add_option("--kins", args->kins,
+                  "linuxcnc: xyzac-trt or xyzbc-trt (an A table: xyzac-trt, a B table: "
+                  "xyzbc-trt by default; a C table: required)");
+  sub->add_option("--current", args->current,
+                  "linuxcnc: a position pin's current value, PIN=VALUE in mm (repeatable); "
+                  "without it the change is written as a comment")
+      ->take_all();
+  sub->add_option("--k", args->k, "Coverage factor of the expanded uncertainties (default 2)")
+      ->check(finite_in(1, 10));
+  sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the file asked for");
+  return [args]() {
+    io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}}, {args->result});
+    const io::ResultFile result = io::read_result_file(args->result);
+    io::CompensationOptions o;
+    o.k = args->k;
+    o.linuxcnc_kins = args->kins;
+    for (const std::string& c : args->current) {
+      const std::size_t eq = c.find('=');
+      if (eq == std::string::npos || eq == 0)
+        throw InputError("--current", "", "expected PIN=VALUE, got " + quote_value(c));
+      // A decimal number: no leading space, no hexadecimal or other forms strtod reads.
+      const std::string number = c.substr(eq + 1);
+      if (number.empty() || number.find_first_not_of("0123456789+-.eE") != std::string::npos)
+        throw InputError("--current", "",
+                         "the value of " + quote_value(c) + " is not a decimal number of mm");
+      std::size_t used = 0;
+      double v = 0;
+      try {
+        v = std::stod(c.substr(eq + 1), &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != c.size() - eq - 1 || !std::isfinite(v) || std::abs(v) > 1e5)
+        throw InputError(
+            "--current", "",
+            "the value of " + quote_value(c) + " is not a number of mm within +-100000");
+      if (!o.current_mm.emplace(c.substr(0, eq), v).second)
+        throw InputError("--current", "", quote_value(c.substr(0, eq)) + " is given twice");
+    }
+    if (args->format != "linuxcnc" && (!args->kins.empty() || !args->current.empty()))
+      throw InputError("--kins", "", "--kins and --current are for --format linuxcnc");
+    const io::CompensationFormat f = args->format == "isg" ? io::CompensationFormat::kIsg
+                                     : args->format == "linuxcnc"
+                                         ? io::CompensationFormat::kLinuxCnc
+                                         : io::CompensationFormat::kTable;
+    outputs.stage("--out", io::compensation_text(result, f, o));
+    outputs.commit();
+    return 0;
+  };
+}
+
+}  // namespace dbbkit::cli

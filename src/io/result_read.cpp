@@ -1,0 +1,259 @@
+#include "dbbkit/io/result_read.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/iso230.hpp"
+#include "dbbkit/kinematics.hpp"
+#include "dbbkit/user_text.hpp"
+
+namespace dbbkit::io {
+
+using nlohmann::json;
+
+namespace {
+
+// A number or null.
+std::optional<double> number_or_null(const json& v, const std::string& source,
+                                     const std::string& path) {
+  if (v.is_null()) return std::nullopt;
+  return as_number(v, source, path);
+}
+
+const json& member(const json& obj, const std::string& key, const std::string& source,
+                   const std::string& path) {
+  if (!obj.is_object()) throw InputError(source, path, "expected an object");
+  const auto it = obj.find(key);
+  if (it == obj.end())
+    throw InputError(source, path.empty() ? key : path + "." + key,
+                     "missing: is this a result of dbbkit identify or diagnose (--out)?");
+  return *it;
+}
+
+std::string text_of(const json& v, const std::string& source, const std::string& path) {
+  if (!v.is_string()) throw InputError(source, path, "expected a string");
+  return v.get<std::string>();
+}
+
+const json& list_of(const json& v, const std::string& source, const std::string& path) {
+  if (!v.is_array()) throw InputError(source, path, "expected a list");
+  return v;
+}
+
+// The largest value or uncertainty a result may hold [um, urad]: beyond it a number is not a
+// machine's error (and sums of two would overflow).
+constexpr double kMaxResultValue = 1e9;
+
+std::optional<double> bounded(std::optional<double> v, const std::string& source,
+                              const std::string& path, bool uncertainty) {
+  if (!v) return v;
+  if (!(std::abs(*v) <= kMaxResultValue))
+    throw InputError(source, path, "beyond +-1e9 (um or urad): not a result of dbbkit");
+  if (uncertainty && *v < 0) throw InputError(source, path, "is negative");
+  return v;
+}
+
+using Names = std::vector<std::pair<std::string, std::string>>;  // name, unit
+
+// A quantity whose name must be one of `names` and whose unit is the one the name takes.
+ResultQuantity quantity(const json& q, const std::string& source, const std::string& path,
+                        const Names& names) {
+  ResultQuantity r;
+  r.name = text_of(member(q, "name", source, path), source, path + ".name");
+  const auto it =
+      std::find_if(names.begin(), names.end(), [&](const auto& n) { return n.first == r.name; });
+  if (it == names.end()) {
+    std::string list;
+    for (const auto& n : names) list += (list.empty() ? "" : ", ") + n.first;
+    throw InputError(source, path + ".name",
+                     quote_value(r.name) + " is not one of this axis' quantities (" + list + ")");
+  }
+  r.unit = text_of(member(q, "unit", source, path), source, path + ".unit");
+  if (r.unit != it->second)
+    throw InputError(source, path + ".unit",
+                     quote_value(r.unit) + ": " + r.name + " is in " + it->second);
+  r.value = bounded(number_or_null(member(q, "value", source, path), source, path + ".value"),
+                    source, path + ".value", false);
+  r.std = bounded(number_or_null(member(q, "std", source, path), source, path + ".std"), source,
+                  path + ".std", true);
+  if (r.value.has_value() != r.std.has_value())
+    throw InputError(source, path, "a value without its std (or the other way round)");
+  return r;
+}
+
+void no_repeats(const std::vector<ResultQuantity>& list, const std::string& source,
+                const std::string& path) {
+  for (std::size_t i = 0; i < list.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (list[i].name == list[j].name)
+        throw InputError(source, path + "[" + std::to_string(i) + "].name",
+                         list[i].name + " is given twice");
+}
+
+double angle_of(const json& v, const std::string& source, const std::string& path) {
+  const double a = as_number(v, source, path);
+  if (!(std::abs(a) <= 36000)) throw InputError(source, path, "beyond +-36000 deg");
+  return a;
+}
+
+}  // namespace
+
+ResultFile result_from_text(const std::string& text, const std::string& source) {
+  const json j = parse_json(text, source);
+  ResultFile r;
+  r.source = source;
+  r.format = text_of(member(j, "format", source, ""), source, "format");
+  if (r.format != "dbbkit.identify/1" && r.format != "dbbkit.diagnose/1")
+    throw InputError(source, "format",
+                     quote_value(r.format) +
+                         " is not a result of dbbkit identify or diagnose (dbbkit.identify/1, "
+                         "dbbkit.diagnose/1)");
+  if (j.contains("inputs") && j["inputs"].is_object() && j["inputs"].contains("data") &&
+      j["inputs"]["data"].is_string())
+    r.data_source = j["inputs"]["data"].get<std::string>();
+  const json& design = member(j, "design", source, "");
+  r.design_name = text_of(member(design, "name", source, "design"), source, "design.name");
+  r.errors_model =
+      text_of(member(design, "errors_model", source, "design"), source, "design.errors_model");
+  {
+    // The axis as the design wrote it (the shorthand or the general form).
+    const json* form = design.contains("axis_definition")
+                           ? &design["axis_definition"]
+                           : &member(design, "axis", source, "design");
+    json holder = {{"axis", *form}};
+    ObjectReader top(holder, source, "design");
+    r.axis = read_axis(top);
+  }
+  if (!j.contains("iso230")) {
+    throw InputError(source, "iso230",
+                     r.format == "dbbkit.diagnose/1"
+                         ? "missing: this diagnose result carries no ISO 230 quantities (written "
+                           "by an earlier version); run diagnose again"
+                         : "missing: is this a result of dbbkit identify (--out)?");
+  }
+  const json& iso = j["iso230"];
+  // The names this axis' quantities take (iso230.hpp), with their units.
+  const IsoNames names = iso230_names(r.axis);
+  Names location_names, constant_names, motion_names;
+  for (int k = 0; k < 5; ++k) location_names.emplace_back(names.location[k], k < 2 ? "um" : "urad");
+  for (int k = 0; k < 6; ++k) {
+    constant_names.emplace_back(std::string("constant part of ") + kErrorNames[k], kErrorUnits[k]);
+    motion_names.emplace_back(names.components[k], kErrorUnits[k]);
+  }
+  for (const auto& [key, out, allowed] :
+       {std::tuple{"location", &r.location, &location_names},
+        std::tuple{"constant_parts", &r.constants, &constant_names}}) {
+    const std::string path = std::string("iso230.") + key;
+    const json& list = list_of(member(iso, key, source, "iso230"), source, path);
+    for (std::size_t i = 0; i < list.size(); ++i)
+      out->push_back(quantity(list[i], source, path + "[" + std::to_string(i) + "]", *allowed));
+    no_repeats(*out, source, path);
+  }
+  const json& comps =
+      list_of(member(iso, "components", source, "iso230"), source, "iso230.components");
+  for (std::size_t i = 0; i < comps.size(); ++i) {
+    const std::string path = "iso230.components[" + std::to_string(i) + "]";
+    ResultComponents c;
+    c.angle_deg =
+        angle_of(member(comps[i], "angle_deg", source, path), source, path + ".angle_deg");
+    for (const ResultComponents& other : r.components)
+      if (other.angle_deg == c.angle_deg)
+        throw InputError(source, path + ".angle_deg", "an angle given twice");
+    for (const auto& [name, q] : comps[i].items()) {
+      if (name == "angle_deg") continue;
+      json named = q;
+      if (!named.is_object()) throw InputError(source, path + "." + name, "expected an object");
+      named["name"] = name;
+      c.motions.push_back(quantity(named, source, path + "." + name, motion_names));
+    }
+    // ISO 230-1's order: the translations, then the rotations (the file's keys are sorted).
+    auto rank = [&](const ResultQuantity& q) {
+      return std::find_if(motion_names.begin(), motion_names.end(),
+                          [&](const auto& n) { return n.first == q.name; }) -
+             motion_names.begin();
+    };
+    std::stable_sort(
+        c.motions.begin(), c.motions.end(),
+        [&](const ResultQuantity& x, const ResultQuantity& y) { return rank(x) < rank(y); });
+    r.components.push_back(std::move(c));
+  }
+  if (iso.contains("error_motion_values") && iso["error_motion_values"].contains("values")) {
+    const json& m = iso["error_motion_values"];
+    if (m.contains("coverage_probability")) {
+      r.motion_coverage = as_number(m["coverage_probability"], source,
+                                    "iso230.error_motion_values.coverage_probability");
+      if (!(r.motion_coverage >= 0.5 && r.motion_coverage < 1))
+        throw InputError(source, "iso230.error_motion_values.coverage_probability",
+                         "must be in [0.5, 1)");
+    }
+    const json& list = list_of(m["values"], source, "iso230.error_motion_values.values");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string path = "iso230.error_motion_values.values[" + std::to_string(i) + "]";
+      ResultMotionValue v;
+      v.component = text_of(member(list[i], "component", source, path), source, path);
+      const auto it = std::find_if(motion_names.begin(), motion_names.end(),
+                                   [&](const auto& n) { return n.first == v.component; });
+      if (it == motion_names.end())
+        throw InputError(source, path + ".component",
+                         quote_value(v.component) + " is not one of this axis' components");
+      for (const ResultMotionValue& other : r.motion_values)
+        if (other.component == v.component)
+          throw InputError(source, path + ".component", v.component + " is given twice");
+      v.name = text_of(member(list[i], "name", source, path), source, path + ".name");
+      v.unit = text_of(member(list[i], "unit", source, path), source, path + ".unit");
+      if (v.unit != it->second)
+        throw InputError(source, path + ".unit",
+                         quote_value(v.unit) + ": " + v.component + " is in " + it->second);
+      v.value =
+          bounded(number_or_null(member(list[i], "value", source, path), source, path + ".value"),
+                  source, path + ".value", true);
+      // A value not computed has no U (identify leaves it out and gives the reason).
+      if (v.value) {
+        v.U = bounded(number_or_null(member(list[i], "U", source, path), source, path + ".U"),
+                      source, path + ".U", true);
+        if (!v.U) throw InputError(source, path + ".U", "a value without its U");
+      }
+      r.motion_values.push_back(v);
+    }
+  }
+  const json& errors = list_of(member(j, "errors", source, ""), source, "errors");
+  for (std::size_t i = 0; i < errors.size(); ++i) {
+    const std::string path = "errors[" + std::to_string(i) + "]";
+    ResultErrors e;
+    e.angle_deg =
+        angle_of(member(errors[i], "angle_deg", source, path), source, path + ".angle_deg");
+    for (const ResultErrors& other : r.errors)
+      if (other.angle_deg == e.angle_deg)
+        throw InputError(source, path + ".angle_deg", "an angle given twice");
+    const json& value = member(errors[i], "value", source, path);
+    const json& std = member(errors[i], "std", source, path);
+    for (int k = 0; k < 6; ++k) {
+      const std::string vp = path + ".value." + kErrorNames[k];
+      const std::string sp = path + ".std." + kErrorNames[k];
+      e.value[k] = bounded(
+          number_or_null(member(value, kErrorNames[k], source, path + ".value"), source, vp),
+          source, vp, false);
+      e.std[k] =
+          bounded(number_or_null(member(std, kErrorNames[k], source, path + ".std"), source, sp),
+                  source, sp, true);
+      if (e.value[k].has_value() != e.std[k].has_value())
+        throw InputError(source, vp, "a value without its std (or the other way round)");
+    }
+    r.errors.push_back(e);
+  }
+  if (j.contains("setup") && j["setup"].contains("included") && j["setup"]["included"].is_boolean())
+    r.setup_included = j["setup"]["included"].get<bool>();
+  if (iso.contains("uncertainty") && iso["uncertainty"].is_string())
+    r.uncertainty_note = iso["uncertainty"].get<std::string>();
+  return r;
+}
+
+ResultFile read_result_file(const std::string& path) {
+  return result_from_text(read_json_file(path), path);
+}
+
+}  // namespace dbbkit::io

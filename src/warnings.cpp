@@ -1,0 +1,195 @@
+#include "dbbkit/warnings.hpp"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+
+#include "dbbkit/diagnose.hpp"
+#include "dbbkit/kinematics.hpp"
+#include "number_text.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+std::string chi2_text(const Estimate& est) {
+  std::string t =
+      "chi2 " + text::significant(est.chi2, 4) + " on " + std::to_string(est.dof) + " dof, p ";
+  if (*est.p_value < 1e-300) return t + "< 1e-300";
+  return t + "= " + text::significant(*est.p_value, 2);
+}
+
+}  // namespace
+
+std::optional<Warning> residual_warning(const Estimate& est, bool type_a) {
+  if (!est.p_value || *est.p_value >= kWarningLevel) return std::nullopt;
+  const double ratio = est.dof > 0 ? std::sqrt(est.chi2 / est.dof) : 0.0;
+  if (type_a) {
+    return Warning{"residual",
+                   "The residual is " + text::significant(ratio, 2) +
+                       " times the declared noise (" + chi2_text(est) +
+                       "): the uncertainties are stated from the scatter (--type-a), but an "
+                       "effect the model lacks still biases the values. Run dbbkit diagnose to "
+                       "find it."};
+  }
+  return Warning{"residual",
+                 "The residual contradicts the declared noise (" + chi2_text(est) + ", " +
+                     text::significant(ratio, 2) +
+                     " times the noise): the stated uncertainties hold only for a model that "
+                     "explains the readings. Run dbbkit diagnose to find the effect, or identify "
+                     "--type-a to state the uncertainty from the scatter."};
+}
+
+std::optional<Warning> first_order_warning(const FirstOrderCheck& f) {
+  if (!f.computed || !f.warn || !f.bias_bound_std || *f.bias_bound_std < 1) return std::nullopt;
+  return Warning{
+      "first_order",
+      "The first-order reading model is not adequate for this set-up: the term it neglects "
+      "reaches " +
+          text::significant(f.largest_term_um, 3) + " um (" + f.installation + " at " +
+          text::significant(f.angle_deg, 6) + " deg) and can bias an error by up to " +
+          text::significant(*f.bias_bound_std, 2) + " standard uncertainties (" +
+          kErrorNames[f.bias_error] + " at " + text::significant(f.bias_angle_deg, 6) +
+          " deg), which the stated uncertainty does not cover. Correct the largest errors and "
+          "measure again, or use longer bars."};
+}
+
+std::vector<HiddenSetupEffect> hidden_setup_effects(const Design& design,
+                                                    const Parameterisation& param,
+                                                    const LinearModel& model,
+                                                    const WlsSolver& solver,
+                                                    double reference_length_mm) {
+  std::vector<HiddenSetupEffect> out;
+  const Eigen::VectorXd& sigma = solver.sigma_um();
+  for (const SetupEffect& e : setup_effects(design, model, false)) {
+    if (e.std_um > 0) continue;
+    const Eigen::Index q = e.J_reading_effect.cols();
+    Eigen::MatrixXd R(e.J_reading_effect.rows(), q);  // whitened residual of each column's fit
+    std::vector<std::vector<ErrorsAtAngle>> moved;    // G X_e column by column, as errors
+    double scale = 0;
+    for (Eigen::Index c = 0; c < q; ++c) {
+      const Eigen::VectorXd x = e.J_reading_effect.col(c);
+      const Estimate fit = solver.solve(x);
+      R.col(c) = fit.residual_um.cwiseQuotient(sigma);
+      scale = std::max(scale, x.cwiseQuotient(sigma).norm());
+      moved.push_back(errors_at_stations(param, fit));
+    }
+    if (scale <= 0) continue;
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(R, Eigen::ComputeFullV);
+    const Eigen::VectorXd& sv = svd.singularValues();
+    std::vector<Eigen::Index> hidden_dirs;
+    for (Eigen::Index k = 0; k < q; ++k) {
+      if ((k < sv.size() ? sv(k) : 0.0) <= 1e-8 * scale) hidden_dirs.push_back(k);
+    }
+    if (hidden_dirs.empty()) continue;  // every direction shows in the residual
+    HiddenSetupEffect h{e.label, 0, 0, 0};
+    for (std::size_t s = 0; s < moved.front().size(); ++s) {
+      for (int k = 0; k < 6; ++k) {
+        if (!moved.front()[s].errors[k].determined) continue;
+        double norm2 = 0;  // |c'G X_e V_null|^2
+        for (Eigen::Index d : hidden_dirs) {
+          double along = 0;
+          for (Eigen::Index c = 0; c < q; ++c)
+            along += moved[static_cast<std::size_t>(c)][s].errors[k].value * svd.matrixV()(c, d);
+          norm2 += along * along;
+        }
+        const double b = std::sqrt(norm2) * (k < 3 ? 1.0 : 1e-3 * reference_length_mm);
+        if (b > h.bias_um_per_um) h = {e.label, b, k, moved.front()[s].angle_deg};
+      }
+    }
+    if (h.bias_um_per_um > 1e-9) out.push_back(h);
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const HiddenSetupEffect& a, const HiddenSetupEffect& b) {
+                     return a.bias_um_per_um > b.bias_um_per_um;
+                   });
+  return out;
+}
+
+std::optional<Warning> setup_undeclared_warning(const std::vector<HiddenSetupEffect>& hidden,
+                                                double reference_length_mm) {
+  if (hidden.empty()) return std::nullopt;
+  const HiddenSetupEffect& worst = hidden.front();
+  std::string names;
+  const size_t shown = std::min<size_t>(hidden.size(), 3);
+  for (size_t i = 0; i < shown; ++i) names += (i ? ", " : "") + hidden[i].label;
+  if (hidden.size() > shown) names += " and " + std::to_string(hidden.size() - shown) + " more";
+  const bool angular = worst.error >= 3;
+  return Warning{
+      "setup_undeclared",
+      std::to_string(hidden.size()) + " set-up effect" + (hidden.size() > 1 ? "s" : "") + " (" +
+          names +
+          ") cannot be told from the axis errors and leave no trace in the residual: each um of " +
+          worst.label + " moves " + kErrorNames[worst.error] + " at " +
+          text::significant(worst.angle_deg, 6) + " deg by " +
+          text::significant(worst.bias_um_per_um, 3) + " um" +
+          (angular ? " at " + text::significant(reference_length_mm, 6) + " mm" : "") +
+          ". The stated uncertainties assume a perfect set-up: declare setup_std "
+          "(length_offset_um, centring_um) in the design for intervals that include it."};
+}
+
+namespace {
+
+std::vector<Warning> residual_after_warnings(const DiagnoseResult& r) {
+  std::vector<Warning> out;
+  if (!r.significant_after || !r.after.p_value) return out;
+  const double ratio = r.after.dof > 0 ? std::sqrt(r.after.chi2 / r.after.dof) : 0.0;
+  if (r.noise_larger_than_declared) {
+    out.push_back({"noise_scale",
+                   "After the effects found, the residual is still " + text::significant(ratio, 2) +
+                       " times the declared noise (" + chi2_text(r.after) +
+                       ") and no check explains it: the noise may be larger than declared. The "
+                       "corrected errors' uncertainties assume the declared noise; identify "
+                       "--type-a states them from the scatter."});
+  } else {
+    out.push_back({"residual",
+                   "After the effects found, the residual still contradicts the declared noise (" +
+                       chi2_text(r.after) +
+                       "): something outside the library remains (see the checks of the "
+                       "residual), and the corrected errors' uncertainties do not cover it."});
+  }
+  return out;
+}
+
+// Set-up effects diagnose cannot detect that move an error by its stated uncertainty at a size
+// below their threshold, without a declared tolerance (setup_risks, most dangerous first).
+std::optional<Warning> setup_risk_warning(const std::vector<SetupRisk>& risks) {
+  std::vector<const SetupRisk*> undeclared;
+  for (const SetupRisk& r : risks)
+    if (r.declared_std_um <= 0) undeclared.push_back(&r);
+  if (undeclared.empty()) return std::nullopt;
+  const SetupRisk& r = *undeclared.front();
+  const std::string unit = r.error < 3 ? " um" : " urad";
+  return Warning{
+      "setup_undeclared",
+      std::to_string(undeclared.size()) + " set-up effect" + (undeclared.size() > 1 ? "s" : "") +
+          " this design cannot detect move the corrected errors without a trace in the "
+          "residual: " +
+          r.label + " of " + text::significant(r.threshold_um, 3) + " um already moves " +
+          kErrorNames[r.error] + " at " + text::significant(r.angle_deg, 6) +
+          " deg by its stated uncertainty (" + text::significant(r.stated_std, 3) + unit +
+          "). Declare setup_std (length_offset_um, centring_um) in the design for "
+          "intervals that include them."};
+}
+
+}  // namespace
+
+std::vector<Warning> diagnose_warnings(const DiagnoseResult& r) {
+  std::vector<Warning> out = residual_after_warnings(r);
+  if (auto w = setup_risk_warning(r.setup_risks)) out.push_back(*w);
+  return out;
+}
+
+std::vector<Warning> identify_warnings(const Design& design, const IdentifyResult& result) {
+  std::vector<Warning> out;
+  if (auto w = residual_warning(result.estimate, result.budget.type_a_scale.has_value()))
+    out.push_back(*w);
+  if (auto w = first_order_warning(result.first_order)) out.push_back(*w);
+  const double L = design.reference_length_mm.value_or(100.0);
+  if (auto w = setup_undeclared_warning(
+          hidden_setup_effects(design, result.param, result.model, result.solver, L), L))
+    out.push_back(*w);
+  return out;
+}
+
+}  // namespace dbbkit

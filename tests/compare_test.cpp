@@ -1,0 +1,331 @@
+// compare and compensation (compare_io.hpp, compensation_io.hpp): a known location error,
+// simulated through the exact two-ball geometry, identified, is found as the change between two
+// measurements and reads back as itself from every compensation format in the target's units;
+// two measurements of one truth show no change at the nominal family-wise rate; results of
+// different axes are refused.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "cli_util.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/compare_io.hpp"
+#include "dbbkit/io/compensation_io.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/io/measurement_io.hpp"
+#include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/truth_io.hpp"
+#include "dbbkit/simulate.hpp"
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace {
+
+// An identify result of the design on readings of the truth, written and read back as a file
+// would be.
+io::ResultFile measured(const Design& d, const Truth& t, std::uint64_t seed,
+                        const std::string& name) {
+  IdentifyOptions o;
+  o.iso_motion.enabled = false;  // the error motion values' Monte Carlo: not needed here
+  const std::vector<Reading> readings = simulate(d, t, seed);
+  const IdentifyResult r = identify(d, readings, o);
+  const nlohmann::json j = io::identify_to_json(d, readings, r, {"d.json", name}, nullptr, false);
+  return io::result_from_text(io::dump_json(j), name);
+}
+
+Truth located(const Design& d, const std::map<std::string, double>& location) {
+  Truth t;
+  t.model = d.errors;
+  t.exact = true;
+  t.errors_given = false;  // the errors are the location's alone
+  for (const auto& [name, value] : location) t.location.emplace_back(name, value);
+  return t;
+}
+
+const io::ComparedQuantity& quantity(const io::Comparison& c, const std::string& name) {
+  for (const io::ComparedQuantity& q : c.quantities)
+    if (q.name == name) return q;
+  throw std::logic_error("no " + name);
+}
+
+TEST(Compare, AKnownLocationChangeIsFoundAndNothingElse) {
+  const Design d = io::read_design_file(test::kDesignC);
+  const io::ResultFile a = measured(d, located(d, {{"X0C", 3}, {"B0C", 10}}), 1, "a.json");
+  const io::ResultFile b =
+      measured(d, located(d, {{"X0C", 3 + 12}, {"B0C", 10}}), 2, "b.json");  // X0C moved 12 um
+  const io::Comparison c = io::compare_results(a, b);
+  const io::ComparedQuantity& x = quantity(c, "X0C");
+  ASSERT_TRUE(x.change);
+  EXPECT_NEAR(*x.change, 12, 4 * *x.u);
+  EXPECT_TRUE(x.significant);
+  for (const io::ComparedQuantity& q : c.quantities)
+    if (q.name != "X0C") EXPECT_FALSE(q.significant) << q.name;
+  EXPECT_EQ(c.significant(), 1);
+}
+
+// Pairs of measurements of one truth: a change found in any quantity is a false alarm, at most
+// at the family-wise level (Bonferroni is conservative: at or below it).
+TEST(Compare, OneTruthMeasuredTwiceShowsNoChangeAtTheNominalRate) {
+  const Design d = io::read_design_file(test::kDesignC);
+  const Truth t = located(d, {{"X0C", 5}, {"Y0C", -7}, {"A0C", 20}, {"B0C", -15}});
+  const int n = 200;
+  int alarms = 0;
+  for (int k = 0; k < n; ++k) {
+    const io::Comparison c = io::compare_results(measured(d, t, 100 + 2 * k, "a"),
+                                                 measured(d, t, 101 + 2 * k, "b"), 0.05);
+    EXPECT_GE(c.tested, 5);
+    alarms += c.significant() > 0;
+  }
+  std::cout << "pairs of one truth with a significant change: " << alarms << " of " << n
+            << " (family-wise level 0.05)\n";
+  EXPECT_LE(alarms, n * 0.05 + 3.5 * std::sqrt(n * 0.05 * 0.95));
+}
+
+TEST(Compare, ResultsOfDifferentAxesAreRefused) {
+  const Design c = io::read_design_file(test::kDesignC);
+  const Design b = io::read_design_file(test::kDesignB);
+  const io::ResultFile rc = measured(c, located(c, {}), 1, "c.json");
+  const io::ResultFile rb = measured(b, located(b, {}), 1, "b.json");
+  try {
+    io::compare_results(rc, rb);
+    FAIL() << "compared a C with a B";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("only two measurements of one axis"), std::string::npos)
+        << e.what();
+  }
+}
+
+// The ISG file read as the kernel would: the header's names, the row of values.
+std::map<std::string, double> isg_location(const std::string& text) {
+  std::istringstream in(text);
+  std::vector<std::string> names, rows;
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("//", 0) == 0) continue;
+    if (line == "#") break;
+    rows.push_back(line);
+  }
+  std::map<std::string, double> out;
+  if (rows.size() != 2) return out;
+  std::istringstream h(rows[0]), v(rows[1]);
+  for (std::string n; h >> n;) {
+    double x = 0;
+    v >> x;
+    out[n] = x;
+  }
+  return out;
+}
+
+// A known location error of a C table and of an A trunnion through the exact geometry reads
+// back as itself from the ISG file (mm, rad) and the table, within 3 standard uncertainties.
+TEST(Compensation, AKnownLocationErrorReadsBackAsItselfInTheTargetsUnits) {
+  struct Case {
+    std::string design;
+    std::map<std::string, double> truth;  // um, urad
+  };
+  for (const Case& k :
+       {Case{"designs/paper-c-turntable.json",
+             {{"X0C", 12}, {"Y0C", -8}, {"A0C", 25}, {"B0C", -15}}},
+        Case{"designs/a-trunnion.json", {{"Y0A", 12}, {"Z0A", -8}, {"B0A", 25}, {"C0A", -15}}}}) {
+    const Design d = io::read_design_file(test::source_path(k.design));
+    const io::ResultFile r = measured(d, located(d, k.truth), 5, "r.json");
+    const std::map<std::string, double> isg =
+        isg_location(io::compensation_text(r, io::CompensationFormat::kIsg, {}));
+    ASSERT_FALSE(isg.empty()) << k.design;
+    for (const auto& [name, value] : k.truth) {
+      const auto it = isg.find(name);
+      ASSERT_NE(it, isg.end()) << k.design << " " << name;
+      double u = 0;
+      for (const io::ResultQuantity& q : r.location)
+        if (q.name == name) u = *q.std;
+      const bool angle = name[1] == '0' && (name[0] == 'A' || name[0] == 'B' || name[0] == 'C');
+      const double si = angle ? value * 1e-6 : value * 1e-3;  // rad, mm
+      EXPECT_NEAR(it->second, si, 3 * (angle ? u * 1e-6 : u * 1e-3)) << k.design << " " << name;
+    }
+  }
+}
+
+TEST(Compensation, LinuxCncTakesPositionsOnlyAndKeepsTheOtherAxis) {
+  const Design d = io::read_design_file(test::kDesignC);
+  const io::ResultFile r = measured(d, located(d, {{"X0C", 40}, {"Y0C", -30}}), 5, "r.json");
+  io::CompensationOptions o;
+  o.linuxcnc_kins = "xyzac-trt";
+  o.current_mm = {{"x-rot-point", 100}, {"y-rot-point", 50}, {"y-offset", 20}};
+  const std::string hal = io::compensation_text(r, io::CompensationFormat::kLinuxCnc, o);
+  double x = 0, y = 0, yo = 0;
+  std::istringstream in(hal);
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream l(line);
+    std::string setp, pin;
+    double v = 0;
+    if (!(l >> setp >> pin >> v) || setp != "setp") continue;
+    if (pin == "xyzac-trt-kins.x-rot-point") x = v;
+    if (pin == "xyzac-trt-kins.y-rot-point") y = v;
+    if (pin == "xyzac-trt-kins.y-offset") yo = v;
+  }
+  EXPECT_NEAR(x, 100.040, 0.003) << hal;
+  EXPECT_NEAR(y, 49.970, 0.003) << hal;
+  // The A axis turns about y-rot-point + y-offset: unchanged.
+  EXPECT_NEAR(y + yo, 70, 1e-9) << hal;
+  EXPECT_NE(hal.find("takes no tilt and no zero"), std::string::npos) << hal;
+  // A C table needs the module named; a head is refused.
+  EXPECT_THROW(io::compensation_text(r, io::CompensationFormat::kLinuxCnc, {}), InputError);
+  const Design b = io::read_design_file(test::kDesignB);
+  EXPECT_THROW(io::compensation_text(measured(b, located(b, {}), 1, "b.json"),
+                                     io::CompensationFormat::kLinuxCnc, {}),
+               InputError);
+}
+
+// From a hostile round: a file's names never become structure in an output, a coupled change
+// is never half written, a rank-deficient result (values not computed have no U) is read, and a
+// quantity in one result only is listed as such.
+TEST(Compensation, NamesAreTheAxisOwnAndCoupledPinsGoTogether) {
+  const Design d = io::read_design_file(test::kDesignC);
+  IdentifyOptions o;
+  o.iso_motion.enabled = false;
+  const std::vector<Reading> readings = simulate(d, located(d, {{"Y0C", 30}}), 3);
+  const nlohmann::json good = io::identify_to_json(d, readings, identify(d, readings, o),
+                                                   {"d.json", "m.csv"}, nullptr, false);
+  nlohmann::json evil = good;
+  evil["iso230"]["location"][0]["name"] = "X0C\nsetp xyzac-trt-kins.x-rot-point 99\n#";
+  EXPECT_THROW(io::result_from_text(io::dump_json(evil), "evil.json"), InputError);
+  nlohmann::json twice = good;
+  twice["iso230"]["location"][1]["name"] = "X0C";
+  EXPECT_THROW(io::result_from_text(io::dump_json(twice), "twice.json"), InputError);
+  nlohmann::json unit = good;
+  unit["iso230"]["location"][0]["unit"] = "mm";
+  EXPECT_THROW(io::result_from_text(io::dump_json(unit), "unit.json"), InputError);
+  nlohmann::json huge = good;
+  huge["iso230"]["location"][0]["value"] = 1e308;
+  EXPECT_THROW(io::result_from_text(io::dump_json(huge), "huge.json"), InputError);
+  // Y0C moves y-rot-point and y-offset together (xyzac-trt): one of them alone is refused.
+  const io::ResultFile r = io::result_from_text(io::dump_json(good), "r.json");
+  io::CompensationOptions half;
+  half.linuxcnc_kins = "xyzac-trt";
+  half.current_mm = {{"y-rot-point", 20}};
+  EXPECT_THROW(io::compensation_text(r, io::CompensationFormat::kLinuxCnc, half), InputError);
+  // One location error left out of B: listed, with no change, and said.
+  nlohmann::json fewer = good;
+  fewer["iso230"]["location"].erase(1);
+  const io::Comparison c =
+      io::compare_results(r, io::result_from_text(io::dump_json(fewer), "fewer.json"));
+  EXPECT_FALSE(quantity(c, "Y0C").change);
+  EXPECT_NE(std::find(c.notes.begin(), c.notes.end(), "Y0C is not in B"), c.notes.end());
+  // The paper's B head: rank 5, most location errors and every error motion value not computed.
+  const Design b = io::read_design_file(test::kDesignB);
+  const std::vector<Reading> rb =
+      io::read_measurement_file(test::source_path("tests/data/paper/paper_b_head.csv"), b);
+  const nlohmann::json jb =
+      io::identify_to_json(b, rb, identify(b, rb), {"b.json", "m.csv"}, nullptr, false);
+  const io::ResultFile fb = io::result_from_text(io::dump_json(jb), "b.json");
+  const std::string isg = io::compensation_text(fb, io::CompensationFormat::kIsg, {});
+  EXPECT_NE(isg.find("not determined by the measurement, not written:"), std::string::npos) << isg;
+}
+
+TEST(CompareCli, CompareAndCompensationFromTheCommandLine) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("dbbkit_cmp_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string D = test::kDesignC, a = (dir / "a.json").string(),
+                    b = (dir / "b.json").string();
+  std::ofstream(dir / "ta.json") << R"({"format": "dbbkit.truth/1", "location": {"X0C": 3},
+                                       "geometry": "exact", "seed": 1})";
+  std::ofstream(dir / "tb.json") << R"({"format": "dbbkit.truth/1", "location": {"X0C": 15},
+                                       "geometry": "exact", "seed": 2})";
+  for (const auto& [t, out] : {std::pair{"ta", a}, std::pair{"tb", b}}) {
+    const std::string csv = (dir / (std::string(t) + ".csv")).string();
+    ASSERT_EQ(run_cli("simulate --design " + D + " --truth " + (dir / t).string() + ".json --out " +
+                      csv + " --quiet")
+                  .status,
+              0);
+    ASSERT_EQ(
+        run_cli("identify --design " + D + " --data " + csv + " --out " + out + " --quiet").status,
+        0);
+  }
+  CliRun r = run_cli("compare " + a + " " + b + " --out " + (dir / "c.json").string() +
+                     " --report " + (dir / "c.html").string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("changed significantly"), std::string::npos) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(slurp((dir / "c.json").string()));
+  EXPECT_EQ(j["format"], "dbbkit.compare/1");
+  bool found = false;
+  for (const auto& q : j["quantities"]) {
+    if (q["name"] == "X0C") {
+      found = true;
+      EXPECT_TRUE(q["significant"].get<bool>());
+      EXPECT_NEAR(q["change"].get<double>(), 12, 4 * q["u"].get<double>());
+    }
+  }
+  EXPECT_TRUE(found);
+  EXPECT_NE(slurp((dir / "c.html").string()).find("<svg"), std::string::npos);
+  r = run_cli("compensation --result " + b + " --format isg --out " + (dir / "c.csv").string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NEAR(isg_location(slurp((dir / "c.csv").string()))["X0C"], 0.015, 0.003);
+  r = run_cli("compensation --result " + b + " --format table");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("X0C"), std::string::npos) << r.out;
+  // Bad input: a design file for a result, a pin that is not one.
+  r = run_cli("compensation --result " + D + " --format isg");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("format"), std::string::npos) << r.err;
+  r = run_cli("compensation --result " + b +
+              " --format linuxcnc --kins xyzac-trt --current "
+              "w-rot-point=3");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("w-rot-point"), std::string::npos) << r.err;
+  r = run_cli("compare " + a + " " + D);
+  EXPECT_EQ(r.status, 2);
+  fs::remove_all(dir);
+}
+
+// The README's walk from a warning to the controller prints what the README shows: every line
+// of its output blocks ("..." aside) is printed by the commands it names, run here on the same
+// files.
+TEST(Readme, FromAWarningToTheControllerPrintsWhatTheReadmeShows) {
+  namespace fs = std::filesystem;
+  const std::string readme = slurp(DBBKIT_SOURCE_DIR "/README.md");
+  const std::string title = "## Worked example: from a warning to the controller";
+  const size_t from = readme.find(title);
+  ASSERT_NE(from, std::string::npos);
+  const std::string section = readme.substr(from, readme.find("\n## ", from + 1) - from);
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_readme_wc_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string src = DBBKIT_SOURCE_DIR;
+  const std::string D = src + "/designs/paper-c-turntable.json";
+  const std::string data = src + "/tests/data/paper/paper_c_turntable.csv";
+  std::string printed;
+  for (const std::string& cmd :
+       {"identify --design " + D + " --data " + data + " --out id.json",
+        "diagnose --design " + D + " --data " + data + " --out dg.json",
+        std::string("compensation --result dg.json --format isg --out comp.csv"),
+        std::string("compensation --result dg.json --format table"),
+        "simulate --design " + D + " --truth " + src +
+            "/tests/data/truth_location_before.json --out before.csv --quiet",
+        "simulate --design " + D + " --truth " + src +
+            "/tests/data/truth_location_after.json --out after.csv --quiet",
+        "identify --design " + D + " --data before.csv --out before.json --quiet",
+        "identify --design " + D + " --data after.csv --out after.json --quiet",
+        std::string("compare before.json after.json --out change.json --report change.html")}) {
+    const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " " + cmd);
+    ASSERT_EQ(r.status, 0) << cmd << "\n" << r.err;
+    printed += r.out;
+  }
+  printed += slurp((dir / "comp.csv").string());
+  int checked = 0;
+  for (const std::string& line : readme_lines_not_printed(section, printed, false, checked))
+    ADD_FAILURE() << "README line not printed:\n" << line;
+  EXPECT_GT(checked, 30);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace dbbkit
