@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job: install what is missing, build, and run the closed-loop analysis
 # of the paper's data (identify, then diagnose: what the model lacks, before and
-# after), writing the results under reports/.
+# after; the corrected location errors as a compensation file), writing the results under
+# reports/.
 set -euo pipefail
 cd "$(dirname "$0")"
 ./setup.sh
@@ -20,8 +21,14 @@ for axis in c-turntable b-head; do
   ./build/dbbkit evaluate --design "$design" --quiet --out "reports/paper-${axis}-evaluate.json" \
     --report "reports/paper-${axis}-evaluate.html" --summary "reports/paper-${axis}-evaluate.md"
   echo "== ${axis}"
-  sed -n '3,4p' "reports/paper-${axis}-diagnose.txt"
+  grep -E '^(before|after): ' "reports/paper-${axis}-diagnose.txt"
 done
+# The C table's corrected location errors for a controller: the ISG kernel's CSV and a table to
+# enter by hand (each value with its expanded uncertainty, those too uncertain to enter said).
+./build/dbbkit compensation --result reports/paper-c-turntable-diagnose.json --format isg \
+  --out reports/paper-c-turntable-compensation.csv
+./build/dbbkit compensation --result reports/paper-c-turntable-diagnose.json --format table \
+  --out reports/paper-c-turntable-compensation.txt
 # The C table in ISO 230-7 terms against an example acceptance (ISO 14253-1 decisions,
 # Type A: the residual contradicts the declared noise). Exit code 1 means "does not
 # conform", a result, not a failure of the run.
