@@ -13,8 +13,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
     const dbbkit::io::ResultFile r = dbbkit::io::result_from_text(text, "fuzz");
-    for (const auto f : {dbbkit::io::CompensationFormat::kIsg, dbbkit::io::CompensationFormat::kTable,
-                         dbbkit::io::CompensationFormat::kLinuxCnc}) {
+    for (const auto f :
+         {dbbkit::io::CompensationFormat::kIsg, dbbkit::io::CompensationFormat::kTable,
+          dbbkit::io::CompensationFormat::kLinuxCnc}) {
       try {
         dbbkit::io::CompensationOptions o;
         o.linuxcnc_kins = "xyzac-trt";
