@@ -518,17 +518,15 @@ double segment_distance(const Eigen::Vector3d& q, const Eigen::Vector3d& p0,
 
 // The clashes of installation_clashes over the arc; with `out`, each kind's by_mm listed
 // (whatever its sign); returns the largest (-infinity when no check applies).
-double clash_extent(const Kit& kit, const AxisFrame& axis, const Installation& inst,
-                    const ArcEnds& ends, std::vector<Clash>* out) {
+// The same for the ball P0 and the following ball G = P0 - s bar u, body frame at angle 0.
+double clash_extent(const Kit& kit, const AxisFrame& axis, const Eigen::Vector3d& P0,
+                    const Eigen::Vector3d& G, const ArcEnds& ends, std::vector<Clash>* out) {
   double worst = -std::numeric_limits<double>::infinity();
   auto note = [&](const char* what, double by) {
     worst = std::max(worst, by);
     if (out) out->push_back({what, by});
   };
-  if (!inst.bar_mm) return worst;
   const RotationHarmonics& h = rotation_harmonics(axis);
-  const Eigen::Vector3d P0 = ball_body_mm(axis, inst);
-  const Eigen::Vector3d G = P0 - inst.sign * *inst.bar_mm * inst.direction.body;
   const Workspace* w = kit.workspace ? &*kit.workspace : nullptr;
   if (axis.table()) {
     // C: the table turns about +Z with its surface at z = 0; ball and spindle ball turn together,
@@ -588,6 +586,14 @@ double clash_extent(const Kit& kit, const AxisFrame& axis, const Installation& i
          r + w->clearance_mm - segment_distance(G, X1, X2));
   }
   return worst;
+}
+
+double clash_extent(const Kit& kit, const AxisFrame& axis, const Installation& inst,
+                    const ArcEnds& ends, std::vector<Clash>* out) {
+  if (!inst.bar_mm) return -std::numeric_limits<double>::infinity();
+  const Eigen::Vector3d P0 = ball_body_mm(axis, inst);
+  return clash_extent(kit, axis, P0, P0 - inst.sign * *inst.bar_mm * inst.direction.body, ends,
+                      out);
 }
 
 }  // namespace
@@ -682,12 +688,9 @@ double fit_bar_on(const Kit& kit, const AxisFrame& axis, Installation& inst,
       if (!table_ball_beyond_tool(axis, inst.direction, sign)) continue;  // inside the head
       double v = ends ? arc_travel_violation(kit, h, ball - sign * bar * inst.direction.body, *ends)
                       : 0.0;  // no angle: nothing turns (travel_violation_mm)
-      if (ends && (kit.workspace || axis.table())) {
-        Installation trial = inst;
-        trial.bar_mm = bar;
-        trial.sign = sign;
-        v = std::max(v, clash_extent(kit, axis, trial, *ends, nullptr));
-      }
+      if (ends && (kit.workspace || axis.table()))
+        v = std::max(v, clash_extent(kit, axis, ball, ball - sign * bar * inst.direction.body,
+                                     *ends, nullptr));
       if (v <= 0) {
         inst.bar_mm = bar;
         inst.sign = sign;
