@@ -73,10 +73,7 @@ Runner add_compensation(CLI::App& app) {
     }
     if (args->format != "linuxcnc" && (!args->kins.empty() || !args->current.empty()))
       throw InputError("--kins", "", "--kins and --current are for --format linuxcnc");
-    const io::CompensationFormat f = args->format == "isg" ? io::CompensationFormat::kIsg
-                                     : args->format == "linuxcnc"
-                                         ? io::CompensationFormat::kLinuxCnc
-                                         : io::CompensationFormat::kTable;
+    const io::CompensationFormat f = io::compensation_format(args->format, "--format");
     outputs.stage("--out", io::compensation_text(result, f, o));
     outputs.commit();
     return 0;

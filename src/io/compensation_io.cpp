@@ -275,6 +275,13 @@ std::vector<std::pair<std::string, double>> linuxcnc_pins(const std::string& kin
   return {};
 }
 
+CompensationFormat compensation_format(const std::string& name, const std::string& source) {
+  if (name == "isg") return CompensationFormat::kIsg;
+  if (name == "linuxcnc") return CompensationFormat::kLinuxCnc;
+  if (name == "table") return CompensationFormat::kTable;
+  throw InputError(source, "format", quote_value(name) + " (expected isg, linuxcnc or table)");
+}
+
 std::string compensation_text(const ResultFile& result, CompensationFormat format,
                               const CompensationOptions& options) {
   switch (format) {

@@ -1142,17 +1142,7 @@ PYBIND11_MODULE(dbbkit, m) {
       [result_of](py::handle result, const std::string& format, const std::string& kins,
                   const std::map<std::string, double>& current, double k) {
         check_finite_in("k", k, 1, 10);
-        io::CompensationFormat f;
-        if (format == "isg") {
-          f = io::CompensationFormat::kIsg;
-        } else if (format == "linuxcnc") {
-          f = io::CompensationFormat::kLinuxCnc;
-        } else if (format == "table") {
-          f = io::CompensationFormat::kTable;
-        } else {
-          throw InputError("argument", "format",
-                           quote_value(format) + " (expected isg, linuxcnc or table)");
-        }
+        const io::CompensationFormat f = io::compensation_format(format, "argument");
         io::CompensationOptions o;
         o.k = k;
         o.linuxcnc_kins = kins;

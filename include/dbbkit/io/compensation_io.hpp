@@ -24,6 +24,8 @@
 namespace dbbkit::io {
 
 enum class CompensationFormat { kIsg, kLinuxCnc, kTable };
+// "isg", "linuxcnc", "table"; InputError(source, "format") for any other name.
+CompensationFormat compensation_format(const std::string& name, const std::string& source);
 
 struct CompensationOptions {
   double k = 2.0;  // coverage factor of the expanded uncertainties stated (about 95 %)
