@@ -160,39 +160,34 @@ void check_tolerances(const AxisFrame& axis, const std::vector<Tolerance>& toler
   for (const Tolerance& t : tolerances) tolerance_unit(axis, t, source);
 }
 
-ConformanceReport decide_conformance(const Design& design, const IdentifyResult& result,
-                                     const std::vector<Tolerance>& tolerances,
-                                     const std::string& source, const MonteCarloResult* mc) {
-  ConformanceReport rep;
-  const double p = result.budget.coverage_probability;
-  rep.coverage_probability = p;
-  const Estimate& est = result.estimate;
-  const bool type_a = result.budget.type_a_scale.has_value();
-  // k of the ISO quantities: their u carries the Type A scale, with the residual's
-  // degrees of freedom; Type B: infinite.
-  const double k_iso = coverage_factor(type_a ? std::optional<double>(est.dof) : std::nullopt, p);
-  rep.k_iso = k_iso;
-  if (type_a) rep.type_a_dof = est.dof;
-  if (!type_a && est.p_value && *est.p_value < kNoiseContradiction)
-    rep.noise_contradiction_p = *est.p_value;
-  rep.no_setup_tolerances = !result.setup_included;
+namespace {
+
+// One identified error's interval at one position: its value and the ends, and whether they
+// are a Monte Carlo run's.
+struct ErrorInterval {
+  double value = 0, low = 0, high = 0;
+  bool monte_carlo = false;
+};
+
+// What the decisions are made on: the ISO 230 quantities with their standard uncertainties,
+// and the six errors' intervals at each station (station-major; absent where undetermined).
+struct DecisionInputs {
+  const IsoResult* iso = nullptr;
+  std::vector<double> station_angle_deg;
+  std::vector<std::optional<ErrorInterval>> errors;  // 6 per station
+  ConformanceResult::Basis error_basis = ConformanceResult::Basis::kBudget;
+};
+
+void decide(const Design& design, const DecisionInputs& in,
+            const std::vector<Tolerance>& tolerances, const std::string& source,
+            ConformanceReport& rep) {
   {
     const IsoNames names = iso230_names(design.axis);
     rep.position_names = names.location[0] + ", " + names.location[1];
   }
-  const IsoResult& iso = result.iso;
+  const double k_iso = rep.k_iso;
+  const IsoResult& iso = *in.iso;
   const std::vector<std::string> q = tolerance_quantities(design.axis);
-  // The budget's value of each determined error, by station and error (station-major).
-  std::vector<const ValueBudget*> budget_of(result.errors.size() * 6, nullptr);
-  for (const ValueBudget& v : result.budget.values) budget_of[6 * v.station + v.error] = &v;
-  // The Monte Carlo values are in the order of the budget's.
-  std::vector<const MonteCarloValue*> mc_of(result.errors.size() * 6, nullptr);
-  if (mc && mc->values.size() == result.budget.values.size()) {
-    for (size_t k = 0; k < mc->values.size(); ++k) {
-      const ValueBudget& v = result.budget.values[k];
-      mc_of[6 * v.station + v.error] = &mc->values[k];
-    }
-  }
   for (const Tolerance& t : tolerances) {
     ConformanceResult r;
     r.quantity = t.quantity;
@@ -235,17 +230,14 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
           r.uncomputed_index = i - 11;
         }
       }
-    } else {  // an identified error at every angle, with the budget's U
+    } else {  // an identified error at every angle
       const int e = i - 17;
-      r.basis = ConformanceResult::Basis::kBudget;
-      for (const ErrorsAtAngle& a : result.errors) {
-        const ValueBudget* b = a.errors[e].determined ? budget_of[6 * a.station + e] : nullptr;
-        const MonteCarloValue* m = b ? mc_of[6 * a.station + e] : nullptr;
-        if (m && !m->validated) {
-          set.add(b->value, m->interval_low(), m->interval_high(), a.angle_deg);
-          ++r.monte_carlo_intervals;
-        } else if (b) {
-          set.add(b->value, b->value - b->U, b->value + b->U, a.angle_deg);
+      r.basis = in.error_basis;
+      for (std::size_t s = 0; s < in.station_angle_deg.size(); ++s) {
+        const std::optional<ErrorInterval>& v = in.errors[6 * s + e];
+        if (v) {
+          set.add(v->value, v->low, v->high, in.station_angle_deg[s]);
+          r.monte_carlo_intervals += v->monte_carlo;
         } else {
           set.undetermined();
         }
@@ -254,6 +246,74 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
     set.finish();
     rep.results.push_back(r);
   }
+}
+
+}  // namespace
+
+ConformanceReport decide_conformance(const Design& design, const IdentifyResult& result,
+                                     const std::vector<Tolerance>& tolerances,
+                                     const std::string& source, const MonteCarloResult* mc) {
+  ConformanceReport rep;
+  const double p = result.budget.coverage_probability;
+  rep.coverage_probability = p;
+  const Estimate& est = result.estimate;
+  const bool type_a = result.budget.type_a_scale.has_value();
+  // k of the ISO quantities: their u carries the Type A scale, with the residual's
+  // degrees of freedom; Type B: infinite.
+  rep.k_iso = coverage_factor(type_a ? std::optional<double>(est.dof) : std::nullopt, p);
+  if (type_a) rep.type_a_dof = est.dof;
+  if (!type_a && est.p_value && *est.p_value < kNoiseContradiction)
+    rep.noise_contradiction_p = *est.p_value;
+  rep.no_setup_tolerances = !result.setup_included;
+  DecisionInputs in;
+  in.iso = &result.iso;
+  for (const ErrorsAtAngle& a : result.errors) in.station_angle_deg.push_back(a.angle_deg);
+  in.errors.resize(6 * result.errors.size());
+  // The budget's value of each determined error (station-major), on the interval the result
+  // reports: Monte Carlo's (in the budget's order) where the linear one is not validated.
+  const bool with_mc = mc && mc->values.size() == result.budget.values.size();
+  for (std::size_t k = 0; k < result.budget.values.size(); ++k) {
+    const ValueBudget& v = result.budget.values[k];
+    const MonteCarloValue* m = with_mc ? &mc->values[k] : nullptr;
+    ErrorInterval x{v.value, v.value - v.U, v.value + v.U, false};
+    if (m && !m->validated) x = {v.value, m->interval_low(), m->interval_high(), true};
+    in.errors[6 * static_cast<std::size_t>(v.station) + static_cast<std::size_t>(v.error)] = x;
+  }
+  decide(design, in, tolerances, source, rep);
+  return rep;
+}
+
+ConformanceReport decide_conformance(const Design& design, const DiagnoseResult& result,
+                                     const std::vector<Tolerance>& tolerances,
+                                     const std::string& source, double coverage_probability) {
+  if (!(coverage_probability > 0 && coverage_probability < 1))
+    throw InputError("options", "coverage_probability", "must lie strictly between 0 and 1");
+  ConformanceReport rep;
+  rep.coverage_probability = coverage_probability;
+  rep.corrected = true;
+  // The corrected errors' uncertainties are Type B (the declared noise, the attributions'
+  // share): the normal quantile.
+  rep.k_iso = coverage_factor(std::nullopt, coverage_probability);
+  const Estimate& est = result.after;
+  if (est.p_value && *est.p_value < kNoiseContradiction) rep.noise_contradiction_p = *est.p_value;
+  for (int i = 0; i < static_cast<int>(design.installations.size()); ++i)
+    rep.setup_declared_left_out = rep.setup_declared_left_out || design.setup_of(i).any();
+  rep.no_setup_tolerances = !rep.setup_declared_left_out;
+  DecisionInputs in;
+  in.iso = &result.iso_after;
+  in.error_basis = ConformanceResult::Basis::kCorrectedErrors;
+  in.errors.resize(6 * result.errors_after.size());
+  for (std::size_t s = 0; s < result.errors_after.size(); ++s) {
+    const ErrorsAtAngle& a = result.errors_after[s];
+    in.station_angle_deg.push_back(a.angle_deg);
+    for (int e = 0; e < 6; ++e) {
+      const Determined& d = a.errors[e];
+      if (d.determined)
+        in.errors[6 * s + e] =
+            ErrorInterval{d.value, d.value - rep.k_iso * d.std, d.value + rep.k_iso * d.std};
+    }
+  }
+  decide(design, in, tolerances, source, rep);
   return rep;
 }
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <locale>
+#include <optional>
 #include <sstream>
 
 #include "dbbkit/error.hpp"
@@ -92,6 +94,142 @@ std::string EffectCandidate::label(const Design& design) const {
   if (kind == EffectKind::kStep && std::isfinite(at_s)) s += "(t=" + short_number(at_s) + "s)";
   if (kind == EffectKind::kThermal) s += "(tau=" + short_number(tau_min) + "min)";
   return s;
+}
+
+namespace {
+
+// A finite number that is the whole of `text` (no hex, no trailing text), and positive when
+// asked.
+std::optional<double> label_number(const std::string& text, bool positive) {
+  if (text.empty() || text.size() > 32 ||
+      text.find_first_not_of("0123456789.eE+-") != std::string::npos)
+    return std::nullopt;
+  std::istringstream in(text);
+  in.imbue(std::locale::classic());
+  double x = 0;
+  if (!(in >> x) || in.peek() != std::char_traits<char>::eof() || !std::isfinite(x) ||
+      (positive && !(x > 0)))
+    return std::nullopt;
+  return x;
+}
+
+}  // namespace
+
+std::string not_applicable_text(const Applicability& a) {
+  switch (a.why) {
+    case NotApplicable::kNone:
+      return "";
+    case NotApplicable::kNeedsTimes:
+      return "needs time_s on every reading it applies to";
+    case NotApplicable::kNeedsBothSweeps:
+      return "needs readings of both sweeps (cw and ccw)";
+    case NotApplicable::kNeedsBar:
+      return "needs bar_mm on every installation (the following ball's position)";
+    case NotApplicable::kChangesNoReading:
+      return "changes no reading of this design";
+    case NotApplicable::kNeedsEveryTime:
+      return "needs time_s on every reading";
+    case NotApplicable::kNeedsSeveralTimes:
+      return "needs readings at more than one time";
+    case NotApplicable::kTooFewReadings:
+      return "needs at least " + std::to_string(a.min_readings) + " readings of the installation";
+  }
+  return "";
+}
+
+EffectCandidate effect_from_label(const Design& design, const std::string& label,
+                                  const std::string& source, const std::string& key) {
+  auto fail = [&](const std::string& why) {
+    throw InputError(source, key, "'" + label + "': " + why);
+  };
+  const std::string forms =
+      "write name[installation], e.g. length_offset[2r], centring[1a], drift[all], "
+      "reversal[3t], scale.x, squareness.xy, step[2r](t=120s), thermal[all](tau=30min)";
+  const std::size_t name_end = label.find_first_of(".[(");
+  EffectCandidate e;
+  e.kind = effect_kind(label.substr(0, name_end), source, key);
+  if (e.kind == EffectKind::kPeriodic)
+    fail("a periodic effect is a simulated truth's (its phase is not in the label); " + forms);
+  std::size_t at = name_end == std::string::npos ? label.size() : name_end;
+  if (at < label.size() && label[at] == '.') {  // one component of a vector effect
+    const std::size_t end = label.find_first_of("[(", at + 1);
+    const std::string c = label.substr(at + 1, end == std::string::npos ? end : end - at - 1);
+    const std::vector<std::string> names = effect_parameter_names(e.kind);
+    const auto it = std::find(names.begin(), names.end(), c);
+    if (names.size() < 2 || it == names.end()) {
+      std::string list;
+      for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+      fail(names.size() < 2 ? "has one parameter, no component"
+                            : "no component '" + c + "' (one of " + list + ")");
+    }
+    e.component = static_cast<int>(it - names.begin());
+    at = end == std::string::npos ? label.size() : end;
+  }
+  bool bracket = false;
+  if (at < label.size() && label[at] == '[') {
+    const std::size_t close = label.find(']', at);
+    if (close == std::string::npos) fail("no closing ']'; " + forms);
+    const std::string id = label.substr(at + 1, close - at - 1);
+    bracket = true;
+    if (id == "all") {
+      if (!effect_has_whole_test_form(e.kind))
+        fail(std::string(effect_name(e.kind)) + " has no whole-test form [all]");
+    } else {
+      const auto index = design.installation_index();
+      const auto it = index.find(id);
+      if (it == index.end()) fail("'" + id + "' is no installation of the design");
+      e.installation = it->second;
+    }
+    at = close + 1;
+  }
+  if (effect_is_shared(e.kind) && bracket)
+    fail(std::string(effect_name(e.kind)) + " is shared by every installation: no [...]");
+  if (!effect_is_shared(e.kind) && !bracket)
+    fail("which installation ([id], or [all] where the effect has a whole-test form)? " + forms);
+  if (e.kind == EffectKind::kThermal && e.installation >= 0)
+    fail("a warm-up is the whole test's: thermal[all](tau=...min)");
+  if (at < label.size()) {
+    if (label[at] != '(' || label.back() != ')') fail("unexpected text after the name; " + forms);
+    const std::string arg = label.substr(at + 1, label.size() - at - 2);
+    if (e.kind == EffectKind::kStep && arg.rfind("t=", 0) == 0 && arg.back() == 's') {
+      const std::optional<double> t = label_number(arg.substr(2, arg.size() - 3), false);
+      if (!t) fail("the step's time must be a number of seconds, e.g. (t=120s)");
+      e.at_s = *t;
+    } else if (e.kind == EffectKind::kThermal && arg.rfind("tau=", 0) == 0 && arg.size() > 7 &&
+               arg.compare(arg.size() - 3, 3, "min") == 0) {
+      const std::optional<double> t = label_number(arg.substr(4, arg.size() - 7), true);
+      if (!t) fail("the time constant must be a positive number of minutes, e.g. (tau=30min)");
+      e.tau_min = *t;
+    } else {
+      fail("'(" + arg + ")' is not a position of " + effect_name(e.kind) + "; " + forms);
+    }
+  } else if (e.kind == EffectKind::kStep) {
+    fail(
+        "a step needs its time on the test's clock: step[id](t=...s) (a step found in readings "
+        "without time_s has no time to name)");
+  } else if (e.kind == EffectKind::kThermal) {
+    fail("a warm-up needs its time constant: thermal[all](tau=...min)");
+  }
+  return e;
+}
+
+std::vector<EffectCandidate> effects_from_list(const Design& design, const std::string& list,
+                                               const std::string& source) {
+  std::vector<EffectCandidate> out;
+  if (list.find_first_not_of(" \t") == std::string::npos) return out;
+  std::size_t at = 0;
+  while (true) {
+    const std::size_t comma = list.find(',', at);
+    std::string label = list.substr(at, comma == std::string::npos ? comma : comma - at);
+    const std::size_t b = label.find_first_not_of(" \t"), e = label.find_last_not_of(" \t");
+    label = b == std::string::npos ? "" : label.substr(b, e - b + 1);
+    const std::string key = "effect " + std::to_string(out.size() + 1);
+    if (label.empty()) throw InputError(source, key, "an empty label in the list");
+    out.push_back(effect_from_label(design, label, source, key));
+    if (comma == std::string::npos) break;
+    at = comma + 1;
+  }
+  return out;
 }
 
 namespace {
@@ -246,7 +384,9 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
     const double start = e.installation < 0 ? layout.test_start_s : layout.start_s[inst];
     full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, start, e).transpose();
   }
-  if ((e.kind == EffectKind::kDrift || e.kind == EffectKind::kThermal) && time_missing)
+  if ((e.kind == EffectKind::kDrift || e.kind == EffectKind::kThermal ||
+       (e.kind == EffectKind::kStep && std::isfinite(e.at_s))) &&
+      time_missing)
     b.applicability.why = NotApplicable::kNeedsTimes;
   if (e.kind == EffectKind::kReversal && !(cw && ccw))
     b.applicability.why = NotApplicable::kNeedsBothSweeps;

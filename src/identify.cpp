@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/setup.hpp"
@@ -116,6 +117,10 @@ std::vector<Unidentifiable> describe_null_space(const Design& design, const Para
     for (int j = 0; j < N.rows(); ++j) {
       if (N(j, c) == 0.0) continue;
       const int k = param.parameter_error(j);
+      if (k < 0) {  // an effect fitted with the errors (IdentifyOptions::effects)
+        u.terms.emplace_back(param.parameter_name(j), N(j, c));
+        continue;
+      }
       u.terms.emplace_back(local ? std::string(kErrorNames[k]) : param.parameter_name(j), N(j, c));
       if (k < 3) {
         d(k) = N(j, c);
@@ -132,10 +137,70 @@ std::vector<Unidentifiable> describe_null_space(const Design& design, const Para
   return out;
 }
 
+namespace {
+
+// The effects' columns appended to the model and their parameters to the unknowns; the
+// blocks, in the order given. Throws InputError(options.effects_source) for an effect given
+// twice or one the readings cannot form.
+std::vector<EffectBlock> append_effects(const Design& design, const std::vector<Reading>& readings,
+                                        const IdentifyOptions& options, Parameterisation& param,
+                                        LinearModel& model) {
+  std::vector<EffectBlock> blocks;
+  if (options.effects.empty()) return blocks;
+  const ReadingLayout layout(design, readings);
+  std::vector<std::string> names;
+  Eigen::Index columns = 0;
+  for (const EffectCandidate& e : options.effects) {
+    EffectBlock b = effect_block(design, readings, layout, e);
+    for (const EffectBlock& o : blocks) {
+      if (o.label == b.label)
+        throw InputError(options.effects_source, b.label, "the effect is given twice");
+    }
+    if (!b.applicability.applicable() || b.parameters.empty()) {
+      throw InputError(options.effects_source, b.label,
+                       "cannot be fitted on these readings: " +
+                           (b.applicability.applicable() ? std::string("it changes no reading")
+                                                         : not_applicable_text(b.applicability)));
+    }
+    for (const std::string& q : b.parameters)
+      names.push_back(b.parameters.size() > 1 ? b.label + "." + q : b.label);
+    columns += b.J_reading_effect.cols();
+    blocks.push_back(std::move(b));
+  }
+  Eigen::MatrixXd X(model.J.rows(), columns);
+  Eigen::Index c = 0;
+  for (const EffectBlock& b : blocks) {
+    X.middleCols(c, b.J_reading_effect.cols()) = b.J_reading_effect;
+    c += b.J_reading_effect.cols();
+  }
+  model.J = append_columns(model.J, X);
+  model.series = nullptr;  // the factored rows are the axis errors' alone
+  param.append_unknowns(names);
+  return blocks;
+}
+
+// The set-up effects with a declared tolerance, less those fitted freely (an effect fitted with
+// the errors replaces its set-up prior: its value is then the whole offset, not what the prior
+// leaves). `fitted`: anything with a label.
+template <typename Fitted>
+std::vector<SetupEffect> declared_setup(const Design& design, const LinearModel& model,
+                                        const std::vector<Fitted>& fitted) {
+  std::vector<SetupEffect> out;
+  for (SetupEffect& e : setup_effects(design, model, true)) {
+    const bool free = std::any_of(fitted.begin(), fitted.end(),
+                                  [&](const Fitted& f) { return f.label == e.label; });
+    if (!free) out.push_back(std::move(e));
+  }
+  return out;
+}
+
+}  // namespace
+
 IdentifyResult identify(const Design& design, const std::vector<Reading>& readings,
                         const IdentifyOptions& options) {
   Parameterisation param(design);
   LinearModel model = build_linear_model(design, param, readings);
+  const std::vector<EffectBlock> blocks = append_effects(design, readings, options, param, model);
   WlsSolver solver(model, options.estimate);
   IdentifyResult res{std::move(param),
                      std::move(model),
@@ -150,7 +215,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                      {},
                      {}};
   // The set-up solver refers to res.solver, which stays in place until the return.
-  const std::vector<SetupEffect> declared = setup_effects(design, res.model, true);
+  const std::vector<SetupEffect> declared = declared_setup(design, res.model, blocks);
   const SetupSolver setup(res.solver, declared);
   res.estimate = setup.solve(res.model.y_um);
   res.budget = uncertainty_budget(design, res.param, res.model, res.solver, res.estimate,
@@ -190,19 +255,33 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                                      std::sqrt(setup.beta_covariance()(j, j)), declared[e].std_um});
     }
   }
+  // The effects' values, with the budget's noise scale (Type A) on the estimate's covariance.
+  const double scale = res.budget.type_a_scale.value_or(1.0);
+  int j = res.param.n_axis_parameters();
+  for (const EffectBlock& b : blocks) {
+    FittedEffect f{b.label, b.unit, b.parameters, {}};
+    for (std::size_t q = 0; q < b.parameters.size(); ++q, ++j) {
+      Estimate::Function c(res.estimate.n_unknowns);
+      c.insert(j) = 1.0;
+      Determined d = res.estimate.evaluate(c);
+      d.std *= scale;
+      f.values.push_back(d);
+    }
+    res.effects.push_back(std::move(f));
+  }
   res.warnings = identify_warnings(design, res);
   return res;
 }
 
 Eigen::MatrixXd budget_covariance(const Design& design, const IdentifyResult& result) {
-  const SetupSolver setup(result.solver, setup_effects(design, result.model, true));
+  const SetupSolver setup(result.solver, declared_setup(design, result.model, result.effects));
   return budget_covariance(design, result.param, result.model, result.solver, result.estimate,
                            result.budget, &setup);
 }
 
 MonteCarloResult monte_carlo(const Design& design, const IdentifyResult& result,
                              const MonteCarloOptions& options) {
-  const SetupSolver setup(result.solver, setup_effects(design, result.model, true));
+  const SetupSolver setup(result.solver, declared_setup(design, result.model, result.effects));
   return monte_carlo(design, result.param, result.model, result.solver, result.estimate,
                      result.budget, options, &setup);
 }

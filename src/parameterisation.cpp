@@ -227,15 +227,24 @@ Eigen::Matrix<double, 6, 1> Parameterisation::errors_at_angle(double angle_deg,
   return e;
 }
 
+void Parameterisation::append_unknowns(const std::vector<std::string>& names) {
+  extra_names_.insert(extra_names_.end(), names.begin(), names.end());
+  n_parameters_ += static_cast<int>(names.size());
+}
+
 int Parameterisation::parameter_error(int j) const {
+  if (j >= n_axis_parameters()) return -1;
   return model_.kind == ErrorModel::Kind::kPerAngle ? j % 6 : j / per_error_;
 }
 
 int Parameterisation::parameter_station(int j) const {
+  if (j >= n_axis_parameters()) return -1;
   return model_.kind == ErrorModel::Kind::kPerAngle ? j / 6 : -1;
 }
 
 std::string Parameterisation::parameter_name(int j) const {
+  if (j >= n_axis_parameters())
+    return extra_names_[static_cast<std::size_t>(j - n_axis_parameters())];
   const std::string error = kErrorNames[parameter_error(j)];
   if (model_.kind == ErrorModel::Kind::kPerAngle) {
     return error + "@" + format_angle(station_deg_[parameter_station(j)]);

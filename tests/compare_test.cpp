@@ -306,6 +306,10 @@ TEST(Readme, FromAWarningToTheControllerPrintsWhatTheReadmeShows) {
   for (const std::string& cmd :
        {"identify --design " + D + " --data " + data + " --out id.json",
         "diagnose --design " + D + " --data " + data + " --out dg.json",
+        "diagnose --design " + D + " --data " + data + " --tolerances " + src +
+            "/designs/tolerances/c-turntable-acceptance.json --out dg.json",
+        "identify --design " + D + " --data " + data +
+            " --effects 'length_offset[2r],centring[2r]' --out fx.json",
         std::string("compensation --result dg.json --format isg --out comp.csv"),
         std::string("compensation --result dg.json --format table"),
         "simulate --design " + D + " --truth " + src +
@@ -316,7 +320,9 @@ TEST(Readme, FromAWarningToTheControllerPrintsWhatTheReadmeShows) {
         "identify --design " + D + " --data after.csv --out after.json --quiet",
         std::string("compare before.json after.json --out change.json --report change.html")}) {
     const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " " + cmd);
-    ASSERT_EQ(r.status, 0) << cmd << "\n" << r.err;
+    // The paper's axis does not conform to the example acceptance: exit 1.
+    ASSERT_EQ(r.status, cmd.find("--tolerances") != std::string::npos ? 1 : 0) << cmd << "\n"
+                                                                               << r.err;
     printed += r.out;
   }
   printed += slurp((dir / "comp.csv").string());

@@ -18,6 +18,7 @@
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/tolerances_io.hpp"
+#include "dbbkit/io/truth_io.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
 
@@ -287,6 +288,70 @@ TEST(Conformance, NamesAndUnitsAreChecked) {
   EXPECT_EQ(read[0].unit, "urad");
 }
 
+// diagnose's corrected errors: each value decided on value +- 1.96 u with the u diagnose states
+// (the attributions' share in it), counted here by hand from the result; the report says which
+// errors it decided on and what their intervals leave out.
+TEST(Conformance, DiagnoseDecidesOnTheCorrectedErrors) {
+  const Design d = test::paper_design('C');
+  const Truth t = io::read_truth_file(test::source_path("tests/data/truth_length_offset_2r.json"));
+  const DiagnoseResult g = diagnose(d, simulate(d, t, 11));
+  ASSERT_FALSE(g.added.empty());
+  EXPECT_EQ(g.added[0].block.label, "length_offset[2r]");
+  const double k = 1.959964;
+  // A location error: the corrected ISO quantity's interval.
+  const Determined& x = g.iso_after.location[0].value;  // X0C
+  ASSERT_TRUE(x.determined);
+  ConformanceReport rep = decide_conformance(d, g, {zone("X0C", -100, 100)}, "test");
+  EXPECT_TRUE(rep.corrected);
+  EXPECT_NEAR(*rep.results[0].low, x.value - k * x.std, 1e-5);
+  EXPECT_NEAR(*rep.results[0].high, x.value + k * x.std, 1e-5);
+  EXPECT_EQ(rep.results[0].decision, Decision::kConforms);
+  // dx at every angle against +-12 um: the counts of each outcome by the rule, by hand.
+  int in = 0, out = 0, straddle = 0, n = 0;
+  for (const ErrorsAtAngle& a : g.errors_after) {
+    const Determined& x = a.errors[0];
+    ASSERT_TRUE(x.determined);
+    ++n;
+    const double lo = x.value - k * x.std, hi = x.value + k * x.std;
+    if (hi < -12 || lo > 12) {
+      ++out;
+    } else if (lo >= -12 && hi <= 12) {
+      ++in;
+    } else {
+      ++straddle;
+    }
+  }
+  rep = decide_conformance(d, g, {zone("dx", -12, 12)}, "test");
+  const ConformanceResult& c = rep.results[0];
+  EXPECT_EQ(c.values, n);
+  EXPECT_EQ(c.conforming, in);
+  EXPECT_EQ(c.nonconforming, out);
+  EXPECT_EQ(c.not_proven, straddle);
+  EXPECT_EQ(c.basis, ConformanceResult::Basis::kCorrectedErrors);
+  EXPECT_NE(io::conformance_basis(rep, c).find("corrected errors"), std::string::npos);
+  // dx truth 2 + 3 cos - sin (within [-1.2, 5.2] um): the corrected values conform to +-12 um;
+  // identify's, biased by the 15 um offset of one installation's bar (17 um at 0 deg), do not.
+  EXPECT_EQ(in, n);
+  EXPECT_EQ(decide_conformance(d, identify(d, simulate(d, t, 11)), {zone("dx", -12, 12)}, "test")
+                .results[0]
+                .decision,
+            Decision::kDoesNotConform);
+  EXPECT_TRUE(rep.no_setup_tolerances);
+  EXPECT_FALSE(rep.setup_declared_left_out);
+  EXPECT_NE(io::conformance_text(rep).find("conformance of the corrected errors"),
+            std::string::npos);
+  // A design that declares set-up tolerances: diagnose's intervals leave them out, said so.
+  Design ds = d;
+  ds.setup_std.centring_um = 2.0;
+  const DiagnoseResult gs = diagnose(ds, simulate(d, t, 11));
+  rep = decide_conformance(ds, gs, {zone("X0C", -100, 100)}, "test");
+  EXPECT_TRUE(rep.setup_declared_left_out);
+  const std::vector<std::string> w = io::conformance_warnings(rep);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("identify --effects"), std::string::npos) << w[0];
+  EXPECT_THROW(decide_conformance(d, g, {zone("X0C", -1, 1)}, "test", 1.0), InputError);
+}
+
 // The command line: exit 1 when something does not conform, 0 otherwise; the decisions
 // in the JSON.
 TEST(Conformance, CommandLineExitCodes) {
@@ -319,6 +384,18 @@ TEST(Conformance, CommandLineExitCodes) {
   EXPECT_TRUE(j["conformance"]["notes"].empty());
   EXPECT_EQ(j["conformance"]["results"][1]["decision"], "does not conform");  // Y0C about -153 um
   EXPECT_EQ(j["conformance"]["results"][1]["upper"], 100.0);                  // 0.1 mm in um
+  // diagnose decides on the corrected errors, with the same exit codes.
+  const std::string diag = "diagnose --design " +
+                           test::source_path("designs/paper-c-turntable.json") + " --data " +
+                           test::source_path("tests/data/paper/paper_c_turntable.csv") + " --out -";
+  r = run_cli(diag + " --tolerances " + fail);
+  ASSERT_EQ(r.status, 1) << r.err;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["conformance"]["errors"], "corrected");
+  EXPECT_EQ(j["conformance"]["results"][1]["decision"], "does not conform");
+  r = run_cli(diag + " --tolerances " + pass);
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["conformance"]["verdict"], "no nonconformity proven");
   std::filesystem::remove_all(dir);
 }
 

@@ -10,7 +10,7 @@
 // determine cannot prove conformity (not proven, said so).
 //
 // The quantities and their intervals:
-//   ISO location errors (XOC ...) and component error motions (EXC ... at every angle):
+//   ISO location errors (X0C ...) and component error motions (EXC ... at every angle):
 //     y +- k u, u from iso230.hpp, k the coverage factor at the budget's coverage
 //     probability (normal, or Student's t at the residual's degrees of freedom with
 //     a Type A budget);
@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/monte_carlo.hpp"
 
@@ -58,7 +59,8 @@ struct ConformanceResult {
   // What the intervals are: a location error's value +- k_iso u, the same at every measured
   // angle (component error motions), an error motion value's interval, or an identified
   // error's value +- U of its budget at every measured angle.
-  enum class Basis { kIsoQuantity, kIsoAtEveryAngle, kMotionValue, kBudget };
+  // kCorrectedErrors: diagnose's corrected errors, value +- k u with the attributions' share in u.
+  enum class Basis { kIsoQuantity, kIsoAtEveryAngle, kMotionValue, kBudget, kCorrectedErrors };
   Basis basis = Basis::kIsoQuantity;
   bool motion_values_computed = true;  // kMotionValue: false when none was asked for
   // An error motion value that was not computed, and its index in the order of the component
@@ -82,6 +84,11 @@ struct ConformanceReport {
   // only); no declared set-up tolerances.
   std::optional<double> noise_contradiction_p;
   bool no_setup_tolerances = false;
+  // Decisions on diagnose's corrected errors (decide_conformance of a DiagnoseResult), whose
+  // uncertainties leave out the design's declared set-up tolerances when it has any
+  // (setup_declared_left_out: diagnose states them as set-up risks instead).
+  bool corrected = false;
+  bool setup_declared_left_out = false;
   // The names of the axis' two position errors (location errors of the axis average line that
   // a ball's centring moves), for the words that go with the decisions.
   std::string position_names;
@@ -114,5 +121,13 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
                                      const std::vector<Tolerance>& tolerances,
                                      const std::string& source,
                                      const MonteCarloResult* mc = nullptr);
+
+// Decides every tolerance against diagnose's corrected errors (DiagnoseResult::errors_after
+// and iso_after, the attributions' share in their standard uncertainties): value +- k u, k the
+// normal quantile at the coverage probability (the corrected errors' uncertainties are Type B).
+// Their intervals leave out the design's declared set-up tolerances (the report says so).
+ConformanceReport decide_conformance(const Design& design, const DiagnoseResult& result,
+                                     const std::vector<Tolerance>& tolerances,
+                                     const std::string& source, double coverage_probability = 0.95);
 
 }  // namespace dbbkit

@@ -68,6 +68,17 @@ struct EffectCandidate {
   std::string label(const Design& design) const;  // e.g. "centring[2r]", "squareness.xy"
 };
 
+// The effect a label names (EffectCandidate::label's form, as diagnose writes it):
+// name[.component][[installation id | all]][(t=<s>s) | (tau=<min>min)]. Throws
+// InputError(source, key) naming what is wrong; a periodic effect (whose label has no phase)
+// is refused.
+EffectCandidate effect_from_label(const Design& design, const std::string& label,
+                                  const std::string& source, const std::string& key);
+// The effects of a comma-separated list of labels (spaces around a label ignored); empty for
+// an empty list. Throws InputError(source, the label) as effect_from_label.
+std::vector<EffectCandidate> effects_from_list(const Design& design, const std::string& list,
+                                               const std::string& source);
+
 // Per reading, the full-length row of the effect; `t0_s` the first time of the readings the effect
 // spans: the reading's installation, or the whole test for a whole-test drift (test_start_time).
 Eigen::VectorXd J_reading_effect(const Design& design, const Reading& reading, double t0_s,
@@ -109,6 +120,10 @@ struct Applicability {
   int min_readings = 0;  // kTooFewReadings
   bool applicable() const { return why == NotApplicable::kNone; }
 };
+
+// Why an effect cannot be formed from the readings: "needs readings of both sweeps (cw and
+// ccw)", ...; empty when it can.
+std::string not_applicable_text(const Applicability& a);
 
 struct EffectBlock {
   EffectCandidate effect;

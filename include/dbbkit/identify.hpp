@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "dbbkit/design.hpp"
+#include "dbbkit/effects.hpp"
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/linear_model.hpp"
@@ -76,6 +77,19 @@ struct IdentifyOptions {
   // The ISO 230-7 error motion values (iso230.hpp; a Monte Carlo); their coverage
   // probability and, with a Type A budget, degrees of freedom follow the budget.
   IsoMotionOptions iso_motion;
+  // Effects fitted with the axis errors as free unknowns (a model fixed once, e.g. the effects
+  // diagnose added, effect_from_label); `effects_source` names them in messages.
+  std::vector<EffectCandidate> effects;
+  std::string effects_source = "--effects";
+};
+
+// An effect fitted with the axis errors (IdentifyOptions::effects): its parameters' values and
+// standard uncertainties (the reading noise, with the Type A factor when the budget has one,
+// and the declared set-up tolerances).
+struct FittedEffect {
+  std::string label, unit;
+  std::vector<std::string> parameters;
+  std::vector<Determined> values;
 };
 
 // A set-up effect estimated with its prior (setup.hpp): the posterior value and
@@ -126,6 +140,8 @@ struct IdentifyResult {
   FirstOrderCheck first_order;
   // ISO 230-7 location errors, constant parts and component error motions (iso230.hpp).
   IsoResult iso;
+  // The effects fitted with the axis errors (IdentifyOptions::effects), in their order.
+  std::vector<FittedEffect> effects;
   // What makes the stated uncertainties unreliable here (warnings.hpp); empty: nothing.
   std::vector<Warning> warnings;
 };

@@ -37,7 +37,12 @@ class Parameterisation {
 
   const ErrorModel& model() const { return model_; }
   const AxisFrame& axis() const { return axis_; }
+  // The unknowns: the axis errors' parameters, then any appended (append_unknowns).
   int n_parameters() const { return n_parameters_; }
+  int n_axis_parameters() const { return n_parameters_ - static_cast<int>(extra_names_.size()); }
+  // Unknowns after the axis errors' (effects fitted with them, identify's IdentifyOptions::
+  // effects), read by no error: every error function has zeros in their rows.
+  void append_unknowns(const std::vector<std::string>& names);
   int n_stations() const { return static_cast<int>(station_deg_.size()); }
   double station_angle_deg(int station) const { return station_deg_[station]; }
   // The station of an angle, or -1 when the angle is no position of the design.
@@ -59,7 +64,8 @@ class Parameterisation {
   // The six errors at an angle, e6 = E theta.
   Eigen::Matrix<double, 6, 1> errors_at_angle(double angle_deg, const Eigen::VectorXd& theta) const;
 
-  // Parameter j: which error (0..5 = dx..ez), which station (per_angle; else -1), name.
+  // Parameter j: which error (0..5 = dx..ez), which station (per_angle; else -1), name; an
+  // appended unknown: error and station -1, its name.
   int parameter_error(int j) const;
   int parameter_station(int j) const;
   std::string parameter_name(int j) const;
@@ -82,6 +88,7 @@ class Parameterisation {
   double key_of(double angle_deg) const;  // C: angle modulo 360 in [0, 360); B: the angle
   int per_error_ = 1;
   int n_parameters_ = 0;
+  std::vector<std::string> extra_names_;
   double lo_deg_ = 0, hi_deg_ = 0;
   // A series: series_basis at each station, formed once (row s; empty for per angle);
   // series_basis of a station's own angle reads it.

@@ -20,7 +20,7 @@ namespace dbbkit::cli {
 
 namespace {
 struct IdentifyArgs {
-  std::string design, data, out, tolerances;
+  std::string design, data, out, tolerances, effects;
   bool type_a = false;
 };
 }  // namespace
@@ -43,6 +43,9 @@ Runner add_identify(CLI::App& app) {
                   "Tolerance file (dbbkit.tolerances/1): decide conformance after ISO 14253-1; "
                   "exit code 1 when a "
                   "quantity does not conform");
+  sub->add_option("--effects", args->effects,
+                  "Effects fitted with the errors, as diagnose names them, comma-separated (e.g. "
+                  "length_offset[2r],drift[all]): a model fixed once");
   auto unc = std::make_shared<UncertaintyArgs>();
   add_uncertainty_options(sub, unc);
   auto rep = std::make_shared<ReportArgs>();
@@ -60,6 +63,7 @@ Runner add_identify(CLI::App& app) {
       check_tolerances(design.axis, tolerances, args->tolerances);  // before the work
     }
     IdentifyOptions options;
+    options.effects = effects_from_list(design, args->effects, "--effects");  // before the work
     options.budget.type_a = args->type_a;
     options.budget.coverage_probability = unc->coverage;
     options.iso_motion.seed = unc->mc.seed;
@@ -103,10 +107,7 @@ Runner add_identify(CLI::App& app) {
       if (mc) std::cout << io::monte_carlo_summary(*mc);
       if (conformance) std::cout << io::conformance_text(*conformance);
     } else if (conformance && !rep->quiet) {
-      std::cerr << "conformance: "
-                << (conformance->any_nonconforming() ? "does not conform"
-                                                     : "no nonconformity proven")
-                << " (" << args->tolerances << "; the decisions in the JSON)\n";
+      std::cerr << io::conformance_line(*conformance, args->tolerances);
     }
     return conformance && conformance->any_nonconforming() ? 1 : 0;
   };

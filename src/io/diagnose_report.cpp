@@ -18,7 +18,7 @@ using namespace detail;
 
 std::string diagnose_report(ReportFormat f, const RunContext& run, const Design& design,
                             const std::vector<Reading>& given, const DiagnoseResult& r,
-                            const Expansion& expansion) {
+                            const Expansion& expansion, const ConformanceReport* conformance) {
   // The readings fitted: those given, less any the user asked to exclude (--exclude-gross).
   std::vector<Reading> readings;
   for (std::size_t j = 0; j < given.size(); ++j) {
@@ -137,6 +137,7 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
                  "errors with the effects added, " + design.name, expansion.coverage_probability);
   unidentifiable_section(p, r.unidentifiable_after);
   iso230_section(p, r.iso_after, diagnose_iso_note(r));
+  if (conformance) conformance_section(p, *conformance);
   p.heading("Details");
   p.preformatted(diagnose_summary(design, given, r));
   std::vector<std::vector<std::string>> cand;

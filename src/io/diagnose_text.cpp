@@ -417,26 +417,4 @@ std::string candidate_detail(const CandidateStatus& c) {
   return t;
 }
 
-std::string not_applicable_text(const Applicability& a) {
-  switch (a.why) {
-    case NotApplicable::kNone:
-      return "";
-    case NotApplicable::kNeedsTimes:
-      return "needs time_s on every reading it applies to";
-    case NotApplicable::kNeedsBothSweeps:
-      return "needs readings of both sweeps (cw and ccw)";
-    case NotApplicable::kNeedsBar:
-      return "needs bar_mm on every installation (the following ball's position)";
-    case NotApplicable::kChangesNoReading:
-      return "changes no reading of this design";
-    case NotApplicable::kNeedsEveryTime:
-      return "needs time_s on every reading";
-    case NotApplicable::kNeedsSeveralTimes:
-      return "needs readings at more than one time";
-    case NotApplicable::kTooFewReadings:
-      return "needs at least " + std::to_string(a.min_readings) + " readings of the installation";
-  }
-  return "";
-}
-
 }  // namespace dbbkit::io

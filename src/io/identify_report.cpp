@@ -8,56 +8,12 @@
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
-#include "dbbkit/io/tolerances_io.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "report_sections.hpp"
 
 namespace dbbkit::io {
 
 using namespace detail;
-
-namespace {
-
-// The ISO 230-7 quantities (iso230.hpp): location errors and constant parts with u (k = 1),
-// then the component error motions.
-void conformance_section(ReportWriter& p, const ConformanceReport& c) {
-  p.heading("Conformance");
-  p.paragraph(
-      std::string("Verdict: ") +
-      (c.any_nonconforming() ? "DOES NOT CONFORM (exit code 1)." : "no nonconformity proven.") +
-      " " + as_sentence(conformance_rule(c)));
-  for (const std::string& w : conformance_warnings(c)) p.paragraph("Warning: " + as_sentence(w));
-  bool sets = false;  // a quantity at every angle: its counts get a column
-  for (const ConformanceResult& r : c.results) sets = sets || r.values > 1;
-  std::vector<std::vector<std::string>> rows;
-  for (const ConformanceResult& r : c.results) {
-    std::string zone = r.lower && r.upper ? "[" + fmt_num(*r.lower) + ", " + fmt_num(*r.upper) + "]"
-                       : r.upper          ? "≤ " + fmt_num(*r.upper)
-                                          : "≥ " + fmt_num(*r.lower);
-    std::string deciding = "--";
-    if (r.value) {
-      deciding = fmt_num(*r.value) + " [" + fmt_num(*r.low) + ", " + fmt_num(*r.high) + "]";
-      if (r.angle_deg) deciding += " at " + fmt_num(*r.angle_deg) + "°";
-    }
-    std::vector<std::string> row = {r.quantity, zone + " " + r.unit, decision_name(r.decision),
-                                    deciding};
-    if (sets) {
-      row.push_back(r.values > 1
-                        ? std::to_string(r.conforming) + " / " + std::to_string(r.nonconforming) +
-                              " / " + std::to_string(r.not_proven + r.undetermined)
-                        : "");
-    }
-    row.push_back(conformance_basis(c, r));
-    rows.push_back(row);
-  }
-  std::vector<std::string> header = {"quantity", "tolerance zone", "decision",
-                                     "deciding value [interval]"};
-  if (sets) header.push_back("conform / do not / not proven");
-  header.push_back("interval");
-  p.table(header, rows);
-}
-
-}  // namespace
 
 std::string identify_report(ReportFormat f, const RunContext& run, const Design& design,
                             const std::vector<Reading>& readings, const IdentifyResult& r,
@@ -80,6 +36,18 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
   errors_section(p, expanded_errors(r.errors, r.budget), true,
                  "identified errors of " + design.name, r.budget.coverage_probability);
   unidentifiable_section(p, r.unidentifiable);
+  if (!r.effects.empty()) {
+    p.heading("Effects fitted with the errors");
+    std::vector<std::vector<std::string>> rows;
+    for (const FittedEffect& f : r.effects) {
+      for (std::size_t k = 0; k < f.values.size(); ++k) {
+        const Determined& v = f.values[k];
+        rows.push_back({f.label, f.parameters[k], v.determined ? fmt_num(v.value) : "--",
+                        v.determined ? fmt_num(v.std) : "--", f.unit});
+      }
+    }
+    p.table({"effect", "parameter", "value", "u", "unit"}, rows);
+  }
   iso230_section(p, r.iso, iso_uncertainty_note(r));
   if (conformance) conformance_section(p, *conformance);
   p.heading("Residuals");

@@ -9,6 +9,7 @@
 #include "dbbkit/io/plots.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
+#include "dbbkit/io/tolerances_io.hpp"
 #include "dbbkit/kinematics.hpp"
 
 namespace dbbkit::io::detail {
@@ -194,6 +195,43 @@ std::vector<std::vector<std::string>> errors_rows(const std::vector<ExpandedErro
 
 void conditions(ReportWriter& p, const RunContext& run, const Design* design) {
   p.conditions(run.command, run.inputs, design);
+}
+
+void conformance_section(ReportWriter& p, const ConformanceReport& c) {
+  p.heading(c.corrected ? "Conformance of the corrected errors" : "Conformance");
+  p.paragraph(
+      std::string("Verdict: ") +
+      (c.any_nonconforming() ? "DOES NOT CONFORM (exit code 1)." : "no nonconformity proven.") +
+      " " + as_sentence(conformance_rule(c)));
+  for (const std::string& w : conformance_warnings(c)) p.paragraph("Warning: " + as_sentence(w));
+  bool sets = false;  // a quantity at every angle: its counts get a column
+  for (const ConformanceResult& r : c.results) sets = sets || r.values > 1;
+  std::vector<std::vector<std::string>> rows;
+  for (const ConformanceResult& r : c.results) {
+    std::string zone = r.lower && r.upper ? "[" + fmt_num(*r.lower) + ", " + fmt_num(*r.upper) + "]"
+                       : r.upper          ? "≤ " + fmt_num(*r.upper)
+                                          : "≥ " + fmt_num(*r.lower);
+    std::string deciding = "--";
+    if (r.value) {
+      deciding = fmt_num(*r.value) + " [" + fmt_num(*r.low) + ", " + fmt_num(*r.high) + "]";
+      if (r.angle_deg) deciding += " at " + fmt_num(*r.angle_deg) + "°";
+    }
+    std::vector<std::string> row = {r.quantity, zone + " " + r.unit, decision_name(r.decision),
+                                    deciding};
+    if (sets) {
+      row.push_back(r.values > 1
+                        ? std::to_string(r.conforming) + " / " + std::to_string(r.nonconforming) +
+                              " / " + std::to_string(r.not_proven + r.undetermined)
+                        : "");
+    }
+    row.push_back(conformance_basis(c, r));
+    rows.push_back(row);
+  }
+  std::vector<std::string> header = {"quantity", "tolerance zone", "decision",
+                                     "deciding value [interval]"};
+  if (sets) header.push_back("conform / do not / not proven");
+  header.push_back("interval");
+  p.table(header, rows);
 }
 
 }  // namespace dbbkit::io::detail

@@ -27,6 +27,8 @@ std::vector<ResidualPanel> residual_panels(const Design& d, const std::vector<Re
 // The ISO 230-7 quantities (location errors, constant parts, component motions, error motion
 // values), with what their uncertainty holds.
 void iso230_section(ReportWriter& p, const IsoResult& iso, const std::string& note);
+// The conformance decisions (conformance.hpp): verdict, rule, warnings, a row per tolerance.
+void conformance_section(ReportWriter& p, const ConformanceReport& c);
 // The warnings (warnings.hpp), first on the page, when there are any.
 void warnings_section(ReportWriter& p, const std::vector<Warning>& warnings);
 // The combinations of the errors no reading sees, when there are any.

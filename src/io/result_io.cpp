@@ -284,12 +284,13 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
   j["unidentifiable"] = unidentifiable_to_json(result.unidentifiable);
   j["residual"] = residual_to_json(est);
   j["setup"] = identify_setup_to_json(design, result);
+  j["effects"] = fitted_effects_to_json(result.effects);
 
   if (design.errors.kind != ErrorModel::Kind::kPerAngle) {
     const Parameterisation param(design);
     json params = json::array();
     for (int p = 0; p < param.n_parameters(); ++p) {
-      Eigen::VectorXd c = Eigen::VectorXd::Zero(param.n_parameters());
+      Eigen::VectorXd c = Eigen::VectorXd::Zero(est.n_unknowns);
       c(p) = 1.0;
       const Determined d = est.evaluate(c);
       params.push_back({{"name", param.parameter_name(p)},
@@ -309,6 +310,41 @@ json identify_to_json(const Design& design, const std::vector<Reading>& readings
     j["readings"] = rows;
   }
   return j;
+}
+
+json fitted_effects_to_json(const std::vector<FittedEffect>& effects) {
+  json out = json::array();
+  for (const FittedEffect& f : effects) {
+    json value = json::object(), std = json::object();
+    for (std::size_t k = 0; k < f.values.size(); ++k) {
+      const Determined& d = f.values[k];
+      value[f.parameters[k]] = d.determined ? json(r6(d.value)) : json(nullptr);
+      std[f.parameters[k]] = d.determined ? json(r6(d.std)) : json(nullptr);
+    }
+    out.push_back({{"label", f.label}, {"value", value}, {"std", std}, {"unit", f.unit}});
+  }
+  return out;
+}
+
+std::string fitted_effects_text(const std::vector<FittedEffect>& effects) {
+  if (effects.empty()) return "";
+  std::ostringstream s;
+  s << "\neffects fitted with the errors (value +- standard uncertainty):\n";
+  for (const FittedEffect& f : effects) {
+    for (std::size_t k = 0; k < f.values.size(); ++k) {
+      const Determined& d = f.values[k];
+      s << "  " << std::left << std::setw(28)
+        << (f.values.size() > 1 ? f.label + "." + f.parameters[k] : f.label) << std::right;
+      if (d.determined) {
+        s << std::setw(10) << fmt_num(d.value, 4) << " +- " << fmt_num(d.std, 3);
+      } else {
+        s << std::setw(10) << "--"
+          << " (not determined by the data)";
+      }
+      s << " " << f.unit << "\n";
+    }
+  }
+  return s.str();
 }
 
 json identify_reading_row(const Design& design, const std::vector<Reading>& readings,
@@ -390,6 +426,7 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
        "data\n";
   s << errors_table(result.errors, true);
   s << unidentifiable_text(result.unidentifiable);
+  s << fitted_effects_text(result.effects);
   if (!result.setup_estimates.empty()) {
     s << "\nset-up effects estimated with their prior (value +- posterior standard uncertainty; "
          "declared):\n";

@@ -131,6 +131,7 @@ json conformance_to_json(const ConformanceReport& report, const std::string& tol
     rows.push_back(row);
   }
   json j{{"tolerances", tolerances_path},
+         {"errors", report.corrected ? "corrected" : "identified"},
          {"rule", conformance_rule(report)},
          {"coverage_probability", report.coverage_probability},
          {"results", rows},
@@ -152,7 +153,8 @@ std::string conformance_alias_note(const ConformanceReport& report) {
 
 std::string conformance_text(const ConformanceReport& report) {
   std::ostringstream s;
-  s << "\nconformance (" << conformance_rule(report) << "):\n";
+  s << "\nconformance" << (report.corrected ? " of the corrected errors" : "") << " ("
+    << conformance_rule(report) << "):\n";
   for (const std::string& w : conformance_warnings(report)) s << "  WARNING: " << w << "\n";
   if (const std::string n = conformance_alias_note(report); !n.empty())
     s << "  note: " << n << "\n";
@@ -192,6 +194,12 @@ std::string conformance_text(const ConformanceReport& report) {
   return s.str();
 }
 
+std::string conformance_line(const ConformanceReport& report, const std::string& tolerances_path) {
+  return std::string("conformance: ") +
+         (report.any_nonconforming() ? "does not conform" : "no nonconformity proven") + " (" +
+         tolerances_path + "; the decisions in the JSON)\n";
+}
+
 std::string conformance_rule(const ConformanceReport& report) {
   const std::string pct = fmt_num(100 * report.coverage_probability, 4) + " %";
   return "ISO 14253-1:2017 default decision rule: conformity is proven when the interval (value "
@@ -212,7 +220,12 @@ std::vector<std::string> conformance_warnings(const ConformanceReport& report) {
                 "the residual (--type-a) or find what the model lacks (diagnose) before relying "
                 "on these decisions");
   }
-  if (report.no_setup_tolerances) {
+  if (report.setup_declared_left_out) {
+    w.push_back(
+        "the corrected errors' intervals leave out the design's set-up tolerances (diagnose "
+        "states them as set-up risks): for intervals that include them, identify with the "
+        "effects diagnose added (identify --effects) and decide there");
+  } else if (report.no_setup_tolerances) {
     w.push_back(
         "the design declares no set-up tolerances (setup_std): the intervals leave out where the "
         "balls were set, and a centring error of the balls moves the location errors (" +
@@ -250,6 +263,9 @@ std::string conformance_basis(const ConformanceReport& report, const Conformance
       }
       return t;
     }
+    case ConformanceResult::Basis::kCorrectedErrors:
+      return "value +- k u of the corrected errors (u with the attributions' share), k = " +
+             fmt_num(report.k_iso, 4) + " (normal), at every measured angle";
   }
   return "";
 }

@@ -535,11 +535,15 @@ struct PyDiagnoseResult {
   std::shared_ptr<const PyDesign> design;
   std::shared_ptr<const PyMeasurements> data;
   DiagnoseResult result;
+  std::optional<ConformanceReport> conformance;
+  std::vector<std::string> tolerance_files;  // the tolerance file, when read from one
   nlohmann::json json;
   std::string report(const std::string& format) const {
-    return io::diagnose_report(report_format(format),
-                               io::RunContext{"dbbkit.diagnose (Python)", files_of(*design, *data)},
-                               design->value, data->readings, result, a_priori_expansion());
+    std::vector<std::string> files = files_of(*design, *data);
+    files.insert(files.end(), tolerance_files.begin(), tolerance_files.end());
+    return io::diagnose_report(
+        report_format(format), io::RunContext{"dbbkit.diagnose (Python)", files}, design->value,
+        data->readings, result, a_priori_expansion(), conformance ? &*conformance : nullptr);
   }
 };
 
@@ -590,25 +594,55 @@ PyEvaluateResult run_evaluate(const PyDesign& d, std::optional<double> reference
   return r;
 }
 
+// A tolerance argument (None, a path or a dict), read and checked against the design's axis
+// before the work.
+struct PyTolerances {
+  std::vector<Tolerance> tolerances;
+  std::string source;
+  std::vector<std::string> files;  // the file, when read from one
+};
+PyTolerances read_tolerances(const PyDesign& d, const py::object& tolerances) {
+  PyTolerances t;
+  if (tolerances.is_none()) return t;
+  Input<std::vector<Tolerance>> in = read_input<std::vector<Tolerance>>(
+      tolerances, "tolerances", &io::read_tolerances_file, &io::tolerances_from_json);
+  t.tolerances = std::move(in.value);
+  t.source = in.source;
+  check_tolerances(d.value.axis, t.tolerances, t.source);
+  if (in.from_file) t.files.push_back(in.source);
+  return t;
+}
+
 PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool type_a,
                               double coverage, py::object tolerances, bool monte_carlo,
                               std::uint64_t mc_seed, int mc_threads, long mc_max_trials,
-                              long mc_batch, int mc_digits) {
+                              long mc_batch, int mc_digits, const py::object& effects) {
   check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
+  // A comma-separated string of labels or a list of them, as diagnose names them.
+  std::string effect_list;
+  if (py::isinstance<py::str>(effects)) {
+    effect_list = effects.cast<std::string>();
+  } else if (!effects.is_none()) {
+    if (!py::isinstance<py::sequence>(effects))
+      throw InputError("argument", "effects", "expected None, a string or a list of strings");
+    for (const py::handle h : effects) {
+      if (!py::isinstance<py::str>(h))
+        throw InputError("argument", "effects", "expected a list of strings (effect labels)");
+      const std::string label = h.cast<std::string>();
+      if (label.find(',') != std::string::npos)
+        throw InputError("argument", "effects", "a label holds no comma: '" + label + "'");
+      effect_list += (effect_list.empty() ? "" : ",") + label;
+    }
+  }
+  const std::vector<EffectCandidate> fitted = effects_from_list(d.value, effect_list, "effects");
   MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
   // The design may not be the one they were read with.
   validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
   PyIdentifyResult r;
-  std::vector<Tolerance> tols;
-  std::string tol_source;
-  if (!tolerances.is_none()) {
-    Input<std::vector<Tolerance>> in = read_input<std::vector<Tolerance>>(
-        tolerances, "tolerances", &io::read_tolerances_file, &io::tolerances_from_json);
-    tols = std::move(in.value);
-    tol_source = in.source;
-    check_tolerances(d.value.axis, tols, tol_source);  // before the work
-    if (in.from_file) r.tolerance_files.push_back(in.source);
-  }
+  const PyTolerances tol = read_tolerances(d, tolerances);
+  const std::vector<Tolerance>& tols = tol.tolerances;
+  const std::string& tol_source = tol.source;
+  r.tolerance_files = tol.files;
   r.design = std::make_shared<const PyDesign>(d);
   r.data = std::make_shared<const PyMeasurements>(m);
   const SignalCheck check;
@@ -616,6 +650,8 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
   {
     py::gil_scoped_release release;
     IdentifyOptions options;
+    options.effects = fitted;
+    options.effects_source = "effects";
     options.budget.type_a = type_a;
     options.budget.coverage_probability = coverage;
     options.iso_motion.seed = mc_seed;
@@ -633,11 +669,13 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
 }
 
 PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double level,
-                              int max_effects, bool exclude_gross) {
+                              int max_effects, bool exclude_gross, const py::object& tolerances) {
   check_finite_in("level", level, limits::kMinLevel, limits::kMaxLevel);
   check_integer_in("max_effects", max_effects, 0, limits::kMaxEffects);
   validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
   PyDiagnoseResult r;
+  const PyTolerances tol = read_tolerances(d, tolerances);
+  r.tolerance_files = tol.files;
   r.design = std::make_shared<const PyDesign>(d);
   r.data = std::make_shared<const PyMeasurements>(m);
   {
@@ -647,8 +685,11 @@ PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double
     options.max_effects = max_effects;
     options.exclude_gross = exclude_gross;
     r.result = dbbkit::diagnose(d.value, m.readings, options);
+    if (!tol.tolerances.empty())
+      r.conformance = decide_conformance(d.value, r.result, tol.tolerances, tol.source);
   }
   r.json = io::diagnose_to_json(d.value, m.readings, r.result, {d.source, m.source});
+  if (r.conformance) r.json["conformance"] = io::conformance_to_json(*r.conformance, tol.source);
   return r;
 }
 
@@ -1079,10 +1120,20 @@ PYBIND11_MODULE(dbbkit, m) {
                                return io::diagnose_verdict(r.design->value, r.data->readings,
                                                            r.result);
                              })
+      .def_property_readonly(
+          "conforms",
+          [](const PyDiagnoseResult& r) -> py::object {
+            if (!r.conformance) return py::none();
+            return py::bool_(!r.conformance->any_nonconforming());
+          },
+          "With tolerances: False when a corrected quantity does not conform (ISO 14253-1), else "
+          "True; None without tolerances")
       .def(
           "summary",
           [](const PyDiagnoseResult& r) {
-            return io::diagnose_summary(r.design->value, r.data->readings, r.result);
+            std::string s = io::diagnose_summary(r.design->value, r.data->readings, r.result);
+            if (r.conformance) s += io::conformance_text(*r.conformance);
+            return s;
           },
           "The tables `dbbkit diagnose` prints")
       .def("report", &PyDiagnoseResult::report, py::arg("format") = "html")
@@ -1167,14 +1218,17 @@ PYBIND11_MODULE(dbbkit, m) {
         py::arg("type_a") = false, py::arg("coverage") = 0.95, py::arg("tolerances") = py::none(),
         py::arg("monte_carlo") = false, py::arg("mc_seed") = kSeed, py::arg("mc_threads") = 1,
         py::arg("mc_max_trials") = 2000000L, py::arg("mc_batch") = 10000L, py::arg("mc_digits") = 2,
+        py::arg("effects") = py::none(),
         "`dbbkit identify`: the six errors from the readings, their budget (JCGM 100), ISO 230-7 "
-        "terms, and with "
-        "tolerances (a path or dict, dbbkit.tolerances/1) the conformance decisions");
+        "terms, with tolerances (a path or dict, dbbkit.tolerances/1) the conformance "
+        "decisions, and with effects (labels as diagnose names them, a list or a comma-separated "
+        "string) those effects fitted with the errors");
   m.def("diagnose", &run_diagnose, py::arg("design"), py::arg("measurements"),
         py::arg("level") = 0.01, py::arg("max_effects") = 12, py::arg("exclude_gross") = false,
+        py::arg("tolerances") = py::none(),
         "`dbbkit diagnose`: the closed loop, before and after (exclude_gross: refit without the "
-        "gross readings "
-        "found, and say so)");
+        "gross readings found, and say so; tolerances, a path or dict, dbbkit.tolerances/1: the "
+        "conformance of the corrected errors)");
   m.def("optimize", &run_optimize, py::arg("kit"), py::arg("criterion") = py::none(),
         py::arg("threads") = 0, py::arg("require_setup_detection") = false,
         py::arg("reference") = py::none(),

@@ -105,6 +105,34 @@ class RoundTrips(InSource):
         self.assertEqual(r.conforms, cli.returncode == 0, verdict)  # exit 1: does not conform
         self.assertIn(tol, r.report("markdown"))  # the conditions name (and hash) the tolerance file, as the CLI's
 
+    def test_diagnose_with_tolerances(self):
+        tol = "designs/tolerances/c-turntable-acceptance.json"
+        d = dbbkit.Design(PAPER_C)
+        r = dbbkit.diagnose(d, dbbkit.Measurements(DATA_C, d), tolerances=tol)
+        expected = cli_json("diagnose", "--design", PAPER_C, "--data", DATA_C, "--tolerances", tol)
+        self.assertEqual(r.json, expected)
+        self.assertEqual(expected["conformance"]["errors"], "corrected")
+        self.assertFalse(r.conforms)  # the paper's axis lies 153 um off centre: Y0C does not conform
+        self.assertIn("conformance of the corrected errors", r.summary())
+        self.assertIn(tol, r.report("markdown"))
+        self.assertIsNone(dbbkit.diagnose(d, dbbkit.Measurements(DATA_C, d)).conforms)
+
+    def test_identify_with_effects(self):
+        d = dbbkit.Design(PAPER_C)
+        m = dbbkit.Measurements(DATA_C, d)
+        r = dbbkit.identify(d, m, effects=["length_offset[2r]", "centring[2r]"])
+        self.assertEqual(r.json, cli_json("identify", "--design", PAPER_C, "--data", DATA_C,
+                                          "--effects", "length_offset[2r],centring[2r]"))
+        self.assertEqual([e["label"] for e in r.json["effects"]], ["length_offset[2r]", "centring[2r]"])
+        self.assertEqual(dbbkit.identify(d, m, effects="length_offset[2r], centring[2r]").json, r.json)
+        self.assertIn("effects fitted with the errors", r.summary())
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.identify(d, m, effects=["length_offset[9z]"])
+        self.assertEqual(ctx.exception.source, "effects")
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.identify(d, m, effects=[3])
+        self.assertEqual(ctx.exception.where, "effects")
+
     def test_identify_with_monte_carlo(self):
         d = dbbkit.Design(PAPER_C)
         r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d), monte_carlo=True, mc_seed=7, mc_threads=2)

@@ -28,8 +28,6 @@ std::string describe_feature(const Design& design, const std::vector<Reading>& r
 // was not tested.
 std::string candidate_detail(const CandidateStatus& c);
 
-// Why an effect cannot be formed from the readings: "needs readings of both sweeps (cw and
-// ccw)", ...; empty when it can.
-std::string not_applicable_text(const Applicability& a);
+using dbbkit::not_applicable_text;  // effects.hpp
 
 }  // namespace dbbkit::io

@@ -47,6 +47,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
                             const SetupSheet* sheet = nullptr);
 std::string diagnose_report(ReportFormat f, const RunContext& run, const Design& design,
                             const std::vector<Reading>& readings, const DiagnoseResult& result,
-                            const Expansion& expansion);
+                            const Expansion& expansion,
+                            const ConformanceReport* conformance = nullptr);
 
 }  // namespace dbbkit::io

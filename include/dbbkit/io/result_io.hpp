@@ -33,6 +33,10 @@ void add_rank_block(nlohmann::json& j, const Estimate& est);
 nlohmann::json identify_to_json(const Design& design, const std::vector<Reading>& readings,
                                 const IdentifyResult& result, const InputFiles& inputs,
                                 const MonteCarloResult* mc = nullptr, bool with_readings = true);
+// The effects fitted with the errors (identify --effects): JSON (label, value and std by
+// parameter, unit) and terminal lines (empty without effects).
+nlohmann::json fitted_effects_to_json(const std::vector<FittedEffect>& effects);
+std::string fitted_effects_text(const std::vector<FittedEffect>& effects);
 // Row i of the "readings" array of `dbbkit.identify/1`: the reading, the fitted value and
 // the residual as the instrument counted (the installation's reading_sign).
 nlohmann::json identify_reading_row(const Design& design, const std::vector<Reading>& readings,

@@ -20,6 +20,8 @@ std::string conformance_alias_note(const ConformanceReport& report);
 nlohmann::json conformance_to_json(const ConformanceReport& report,
                                    const std::string& tolerances_path);
 std::string conformance_text(const ConformanceReport& report);
+// One line for the terminal when the decisions go to a file: the verdict and where they are.
+std::string conformance_line(const ConformanceReport& report, const std::string& tolerances_path);
 
 // The decision rule (ISO 14253-1 at the report's coverage), the warnings, and the basis of a
 // decision (with why an error motion value it needed was not computed), in words.
