@@ -39,6 +39,15 @@ status=0
   --summary reports/paper-c-turntable-conformance.md > reports/paper-c-turntable-conformance.txt || status=$?
 if [ "$status" -gt 1 ]; then exit "$status"; fi
 echo "== C table against designs/tolerances/c-turntable-acceptance.json: $(grep -m1 'verdict' reports/paper-c-turntable-conformance.txt | sed 's/^ *//')"
+# The same acceptance on diagnose's corrected errors (the effects it found taken out).
+status=0
+./build/dbbkit diagnose --design designs/paper-c-turntable.json --data tests/data/paper/paper_c_turntable.csv \
+  --tolerances designs/tolerances/c-turntable-acceptance.json \
+  --out reports/paper-c-turntable-diagnose-conformance.json \
+  --report reports/paper-c-turntable-diagnose-conformance.html \
+  --summary reports/paper-c-turntable-diagnose-conformance.md > reports/paper-c-turntable-diagnose-conformance.txt || status=$?
+if [ "$status" -gt 1 ]; then exit "$status"; fi
+echo "== C table's corrected errors against the same acceptance: $(grep -m1 'verdict' reports/paper-c-turntable-diagnose-conformance.txt | sed 's/^ *//')"
 # What the kit of formats.md allows, against the paper-like design.
 ./build/dbbkit optimize --kit designs/kits/c-turntable-kit.json --reference designs/paper-c-turntable.json \
   --out reports/c-turntable-kit-optimized.json --result reports/c-turntable-kit-optimize.json \
