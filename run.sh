@@ -48,6 +48,17 @@ status=0
   --summary reports/paper-c-turntable-diagnose-conformance.md > reports/paper-c-turntable-diagnose-conformance.txt || status=$?
 if [ "$status" -gt 1 ]; then exit "$status"; fi
 echo "== C table's corrected errors against the same acceptance: $(grep -m1 'verdict' reports/paper-c-turntable-diagnose-conformance.txt | sed 's/^ *//')"
+# From the instrument's traces: simulated 1 kHz traces of the paper's C design (moves, settling,
+# noise), their dwells found and matched to the sweep (reports/paper-c-turntable-readings.*).
+traces="$(mktemp -d)"
+trap 'rm -rf "$traces"' EXIT
+./build/dbbkit simulate --design designs/paper-c-turntable.json --truth tests/data/truth_c_per_angle.json \
+  --seed 4 --out "$traces/sim.csv" --trace-out "$traces/"
+./build/dbbkit readings --design designs/paper-c-turntable.json --quiet \
+  $(for id in 1r 1t 1a 2r 2t 3r 3t; do printf -- '--trace %s=%s/%s.csv ' "$id" "$traces" "$id"; done) \
+  --out reports/paper-c-turntable-readings.csv --report reports/paper-c-turntable-readings.html \
+  --summary reports/paper-c-turntable-readings.md
+echo "== readings from simulated traces: $(($(wc -l < reports/paper-c-turntable-readings.csv) - 1)) readings (reports/paper-c-turntable-readings.html)"
 # What the kit of formats.md allows, against the paper-like design.
 ./build/dbbkit optimize --kit designs/kits/c-turntable-kit.json --reference designs/paper-c-turntable.json \
   --out reports/c-turntable-kit-optimized.json --result reports/c-turntable-kit-optimize.json \

@@ -5,9 +5,13 @@
 //   identify 360 angles, 12 installations, Fourier order 20: <= 25 ms, >= 15x the NumPy peer
 //   optimize the formats.md C kit (designs/kits/c-turntable-kit.json): <= 0.5 s on one thread
 //   the set-up-inclusive total worst case:                >= 200,000 designs/s
+//   readings from a raw trace of 10^7 samples (read and dwells found): in seconds, memory
+//   linear in the samples
 
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
+#include <fstream>
 #include <string>
 
 #include "../src/random.hpp"
@@ -15,12 +19,14 @@
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/kit_io.hpp"
+#include "dbbkit/io/trace_io.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/optimize.hpp"
 #include "dbbkit/setup.hpp"
 #include "dbbkit/simulate.hpp"
+#include "dbbkit/trace.hpp"
 #include "dbbkit/uncertainty.hpp"
 
 namespace {
@@ -442,5 +448,40 @@ BENCHMARK(BM_DiagnoseGrowthAngles)
     ->Complexity()
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
+
+// dbbkit readings on one installation's raw trace of 10^7 samples at 1 kHz (2.8 h: the paper's
+// C design swept both ways, 40 s dwells, slow moves), written once as CSV: the reader and the
+// dwell search, items = samples.
+void BM_ReadingsFromTrace(benchmark::State& state) {
+  const Design d = paper_c();
+  const std::vector<Sweep> sweeps = {Sweep::kCCW, Sweep::kCW};
+  const std::vector<Stop> stops = program_stops(d, sweeps);
+  std::vector<double> levels;
+  for (const Stop& s : stops)
+    for (std::size_t q = 0; q < s.sweeps.size(); ++q)
+      levels.push_back(0.5 * static_cast<double>(levels.size()));
+  TraceSimulation o;
+  o.dwell_s = 40;  // 10^4 s in all at 1 kHz: the moves take what the dwells leave
+  o.move_s_min = o.move_s_max = (1.0e4 - o.dwell_s * static_cast<double>(levels.size())) /
+                                static_cast<double>(stops.size() - 1);
+  const SimulatedTrace sim = simulate_trace(stops, levels, o);
+  const std::string path = "/tmp/dbbkit_bench_trace.csv";
+  {
+    std::ofstream out(path);
+    io::write_trace_csv(out, sim.trace, {"benchmark trace"});
+  }
+  DwellOptions dwell;
+  dwell.dwell_s = o.dwell_s;
+  std::size_t n = 0;
+  for (auto _ : state) {
+    const Trace t = io::read_trace_file(path, {});
+    n = t.time_s.size();
+    benchmark::DoNotOptimize(readings_from_trace(d, "1r", t, sweeps, dwell, path).readings.size());
+  }
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * n));
+  state.counters["samples"] = static_cast<double>(n);
+  std::remove(path.c_str());
+}
+BENCHMARK(BM_ReadingsFromTrace)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 BENCHMARK_MAIN();

@@ -21,6 +21,9 @@ struct Reading {
   std::optional<double> time_s;  // absent: not recorded
   std::optional<Sweep> sweep;
   std::optional<int> repeat;
+  // From a trace (dbbkit readings): the scatter of the samples averaged and their number.
+  std::optional<double> std_um;
+  std::optional<int> samples;
   int line = 0;        // line in the source file (0: not from a file)
   bool in_mm = false;  // read from a reading_mm column (for the message of a unit mix-up)
 };

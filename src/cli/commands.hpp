@@ -20,5 +20,6 @@ Runner add_program(CLI::App& app);
 Runner add_setup_sheet(CLI::App& app);
 Runner add_compensation(CLI::App& app);
 Runner add_compare(CLI::App& app);
+Runner add_readings(CLI::App& app);
 
 }  // namespace dbbkit::cli

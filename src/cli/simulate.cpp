@@ -11,16 +11,74 @@
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/output.hpp"
+#include "dbbkit/io/text.hpp"
+#include "dbbkit/io/trace_io.hpp"
 #include "dbbkit/io/truth_io.hpp"
+#include "dbbkit/trace.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::cli {
 
 namespace {
 struct SimulateArgs {
-  std::string design, truth, out, setup_out;
+  std::string design, truth, out, setup_out, trace_out;
   std::optional<std::uint64_t> seed;
   bool quiet = false;
+  TraceSimulation trace;
 };
+
+// An installation id as a file name: letters, digits, '_', '-' and '.', not first.
+void check_file_id(const std::string& id) {
+  const bool ok = !id.empty() && id.size() <= 64 && id[0] != '.' &&
+                  id.find_first_not_of(
+                      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+                      "0123456789_-.") == std::string::npos;
+  if (!ok) {
+    throw InputError("--trace-out", quote_value(id),
+                     "an installation id that names a trace file must be letters, digits, '_', "
+                     "'-' or '.' (not first)");
+  }
+}
+
+// Each installation's trace, its levels the simulated readings in the program's order (the
+// truth's sweeps, else ccw). Throws InputError when the readings are not one per angle and sweep.
+std::vector<std::pair<std::string, SimulatedTrace>> simulated_traces(
+    const Design& design, const Truth& truth, const std::vector<Reading>& readings,
+    TraceSimulation options, const std::string& source) {
+  const std::vector<Sweep> sweeps =
+      truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::kCCW};
+  if (truth.repeats != 1)
+    throw InputError(source, "repeats", "a simulated trace takes one reading per angle and sweep");
+  const std::vector<Stop> stops = program_stops(design, sweeps);
+  const std::size_t per_sweep = design.angles_deg.size();
+  std::vector<std::pair<std::string, SimulatedTrace>> out;
+  for (std::size_t i = 0; i < design.installations.size(); ++i) {
+    const std::string& id = design.installations[i].id;
+    check_file_id(id);
+    std::vector<const Reading*> own;
+    for (const Reading& r : readings)
+      if (r.installation == id) own.push_back(&r);
+    if (own.size() != per_sweep * sweeps.size())
+      throw std::logic_error("simulate --trace-out: readings not one per angle and sweep");
+    // Sweep entry j holds readings [j per_sweep, (j + 1) per_sweep) (simulate.hpp); the stops
+    // take them by angle in the program's order.
+    std::vector<double> levels;
+    std::size_t entry = 0;
+    for (const Stop& s : stops) {
+      for (std::size_t q = 0; q < s.sweeps.size(); ++q, ++entry) {
+        const std::size_t j = entry / per_sweep;
+        const Reading* hit = nullptr;
+        for (std::size_t k = j * per_sweep; k < (j + 1) * per_sweep; ++k)
+          if (own[k]->angle_deg == s.angle_deg) hit = own[k];
+        if (!hit) throw std::logic_error("simulate --trace-out: no reading at a stop");
+        levels.push_back(hit->reading_um);
+      }
+    }
+    options.seed = options.seed * 1000003ULL + i;
+    out.emplace_back(id, simulate_trace(stops, levels, options));
+  }
+  return out;
+}
 }  // namespace
 
 Runner add_simulate(CLI::App& app) {
@@ -36,14 +94,41 @@ Runner add_simulate(CLI::App& app) {
   sub->add_option(
       "--setup-out", args->setup_out,
       "The set-up errors used (dbbkit.setup-errors/1 JSON; exact geometry), drawn or given");
+  sub->add_option("--trace-out", args->trace_out,
+                  "Also a raw 1 kHz trace of each installation, as the instrument records it, to "
+                  "PREFIX<id>.csv (e.g. traces/): dwells at the readings, moves with bar "
+                  "excursions, settling, noise");
+  sub->add_option("--trace-dwell-s", args->trace.dwell_s, "The traces' dwell at each angle [s]")
+      ->check(finite_in(0.05, 600))
+      ->capture_default_str();
+  sub->add_option("--trace-rate-hz", args->trace.rate_hz, "The traces' sample rate [Hz]")
+      ->check(finite_in(10, 100000))
+      ->capture_default_str();
+  sub->add_option("--trace-noise-um", args->trace.noise_um, "The traces' sample noise [um]")
+      ->check(finite_in(0, 100))
+      ->capture_default_str();
+  sub->add_option("--trace-excursion-um", args->trace.excursion_um,
+                  "The largest bar excursion of a move [um]")
+      ->check(finite_in(0, 1000))
+      ->capture_default_str();
+  sub->add_option("--trace-drift-um-per-min", args->trace.drift_um_per_min,
+                  "A drift of the traces on their own clock [um/min]")
+      ->check(finite_in(-100, 100))
+      ->capture_default_str();
   // simulate prints nothing but the files asked for; --quiet is accepted as by every command.
   sub->add_flag("--quiet", args->quiet,
                 "Nothing on the terminal but the files asked for (the default)");
   return [args]() {
     std::vector<io::OutputTarget> targets = {{"--out", args->out.empty() ? "-" : args->out}};
     if (!args->setup_out.empty()) targets.push_back({"--setup-out", args->setup_out});
-    io::OutputSet outputs(targets, {args->design, args->truth});
     const Design design = io::read_design_file(args->design);
+    if (!args->trace_out.empty()) {
+      for (const Installation& in : design.installations) {
+        check_file_id(in.id);
+        targets.push_back({"--trace-out " + in.id, args->trace_out + in.id + ".csv"});
+      }
+    }
+    io::OutputSet outputs(targets, {args->design, args->truth});
     const Truth truth = io::read_truth_file(args->truth);
     validate_truth(truth, design, args->truth);
     const std::optional<std::uint64_t> seed = args->seed ? args->seed : truth.seed;
@@ -67,6 +152,20 @@ Runner add_simulate(CLI::App& app) {
                     io::dump_json(io::setup_errors_to_json(
                         design, simulated_setup_errors(design, truth, seed.value_or(0)))) +
                         "\n");
+    }
+    if (!args->trace_out.empty()) {
+      TraceSimulation options = args->trace;
+      options.seed = seed.value_or(0);
+      for (const auto& [id, sim] :
+           simulated_traces(design, truth, readings, options, args->truth)) {
+        std::ostringstream text;
+        io::write_trace_csv(
+            text, sim.trace,
+            {"dbbkit simulate --trace-out: installation " + id + " of design " + design.name +
+             ", " + std::to_string(sim.level_um.size()) + " dwells of " +
+             io::fmt_num(options.dwell_s, 4) + " s at " + io::fmt_num(options.rate_hz, 4) + " Hz"});
+        outputs.stage("--trace-out " + id, text.str());
+      }
     }
     outputs.commit();
     return 0;

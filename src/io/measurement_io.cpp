@@ -67,8 +67,9 @@ struct Cell {
   }
 };
 
-const std::vector<std::string> kKnownColumns = {
-    "installation", "angle_deg", "reading_mm", "reading_um", "time_s", "sweep", "repeat"};
+const std::vector<std::string> kKnownColumns = {"installation", "angle_deg", "reading_mm",
+                                                "reading_um",   "time_s",    "sweep",
+                                                "repeat",       "std_um",    "samples"};
 
 }  // namespace
 
@@ -100,7 +101,7 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
           throw InputError(source, where,
                            "unknown column " + quote_value(h) +
                                " (expected installation, angle_deg, reading_mm or reading_um, "
-                               "and optionally time_s, sweep, repeat)");
+                               "and optionally time_s, sweep, repeat, std_um, samples)");
         }
         if (!col.emplace(h, static_cast<int>(i)).second)
           throw InputError(source, where, "column " + quote_value(h) + " appears twice");
@@ -153,6 +154,16 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
       }
     }
     if (present("repeat")) r.repeat = cell("repeat").integer();
+    if (present("std_um")) {
+      r.std_um = cell("std_um").number();
+      if (!(*r.std_um >= 0) || *r.std_um > kMaxAbsReading_um)
+        cell("std_um").fail(quote_value(cells[col.at("std_um")]) +
+                            " is not a scatter (>= 0 and at most the largest range, in um)");
+    }
+    if (present("samples")) {
+      r.samples = cell("samples").integer();
+      if (*r.samples < 1) cell("samples").fail("the number of samples must be at least 1");
+    }
     if (readings.size() >= limits::kMaxReadings) {
       throw InputError(source, where,
                        "more than " + std::to_string(limits::kMaxReadings) +
@@ -172,16 +183,20 @@ std::vector<Reading> read_measurement_file(const std::string& path, const Design
 }
 
 void write_measurements_csv(std::ostream& out, const std::vector<Reading>& readings) {
-  bool time = false, sweep = false, repeat = false;
+  bool time = false, sweep = false, repeat = false, scatter = false, samples = false;
   for (const Reading& r : readings) {
     time = time || r.time_s.has_value();
     sweep = sweep || r.sweep.has_value();
     repeat = repeat || r.repeat.has_value();
+    scatter = scatter || r.std_um.has_value();
+    samples = samples || r.samples.has_value();
   }
   out << "installation,angle_deg,reading_um";
   if (time) out << ",time_s";
   if (sweep) out << ",sweep";
   if (repeat) out << ",repeat";
+  if (scatter) out << ",std_um";
+  if (samples) out << ",samples";
   out << "\n";
   for (const Reading& r : readings) {
     out << r.installation << "," << std::setprecision(12) << r.angle_deg << "," << std::fixed
@@ -197,6 +212,14 @@ void write_measurements_csv(std::ostream& out, const std::vector<Reading>& readi
     if (repeat) {
       out << ",";
       if (r.repeat) out << *r.repeat;
+    }
+    if (scatter) {
+      out << ",";
+      if (r.std_um) out << std::fixed << std::setprecision(6) << *r.std_um << std::defaultfloat;
+    }
+    if (samples) {
+      out << ",";
+      if (r.samples) out << *r.samples;
     }
     out << "\n";
   }

@@ -36,6 +36,7 @@
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/result_read.hpp"
 #include "dbbkit/io/tolerances_io.hpp"
+#include "dbbkit/io/trace_io.hpp"
 #include "dbbkit/io/truth_io.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
@@ -45,6 +46,7 @@
 #include "dbbkit/parallel.hpp"
 #include "dbbkit/setup.hpp"
 #include "dbbkit/simulate.hpp"
+#include "dbbkit/trace.hpp"
 #include "dbbkit/user_text.hpp"
 
 namespace py = pybind11;
@@ -477,6 +479,80 @@ py::list warnings_list(const std::vector<Warning>& warnings) {
   return out;
 }
 
+// Measurements.from_trace: the readings of every installation's trace, and the dwells found.
+py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces, double dwell_s,
+                                  const std::string& sweeps, double min_share,
+                                  std::optional<std::string> columns,
+                                  std::optional<std::string> unit,
+                                  std::optional<double> sample_rate_hz) {
+  check_finite_in("dwell_s", dwell_s, 0.01, 600);
+  check_finite_in("min_share", min_share, 0.05, 1);
+  const std::vector<Sweep> sw = sweeps_by_name(sweeps, "sweeps");
+  io::TraceFormat format;
+  if (columns) io::parse_trace_columns(*columns, format);
+  if (unit) format.unit = *unit;
+  format.sample_rate_hz = sample_rate_hz;
+  DwellOptions options;
+  options.dwell_s = dwell_s;
+  options.min_share = min_share;
+  PyMeasurements mm;
+  mm.source = "traces";
+  py::dict found;
+  std::vector<Warning> warnings;
+  for (const auto& [key, value] : traces) {
+    if (!py::isinstance<py::str>(key))
+      throw InputError("argument", "traces", "keys are installation ids (str)");
+    const std::string id = key.cast<std::string>();
+    Trace trace;
+    std::string source = "traces[" + quote_value(id) + "]";
+    if (const auto path = as_path(value)) {
+      trace = io::read_trace_file(*path, format);
+      source = *path;
+    } else if (py::isinstance<py::tuple>(value) && py::len(value) == 2) {
+      const auto t = value.cast<py::tuple>();
+      const auto time = t[0].cast<std::vector<double>>();
+      const auto reading = t[1].cast<std::vector<double>>();
+      if (time.size() != reading.size())
+        throw InputError(source, "", "times and readings differ in number");
+      trace.time_s = time;
+      trace.reading_um = reading;
+    } else {
+      throw InputError("argument", "traces",
+                       "each value is a trace file path or a (time_s, reading_um) pair of arrays");
+    }
+    TraceReadings r;
+    {
+      py::gil_scoped_release release;
+      r = readings_from_trace(design.value, id, trace, sw, options, source);
+    }
+    mm.readings.insert(mm.readings.end(), r.readings.begin(), r.readings.end());
+    warnings.insert(warnings.end(), r.warnings.begin(), r.warnings.end());
+    const std::size_t n = r.search.plateaus.size();
+    Eigen::VectorXd a(n), b(n), c(n), e(n), level(n), scatter(n), count(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const Plateau& p = r.search.plateaus[k];
+      const auto i = static_cast<Eigen::Index>(k);
+      a(i) = p.start_s, b(i) = p.end_s, c(i) = p.settled_start_s, e(i) = p.settled_end_s;
+      level(i) = p.level_um, scatter(i) = p.std_um, count(i) = static_cast<double>(p.samples);
+    }
+    py::dict d;
+    d["start_s"] = a;
+    d["end_s"] = b;
+    d["settled_start_s"] = c;
+    d["settled_end_s"] = e;
+    d["level_um"] = level;
+    d["std_um"] = scatter;
+    d["samples"] = count;
+    d["noise_um"] = r.search.noise_um;
+    found[py::str(id)] = d;
+  }
+  validate_readings(design.value, mm.readings, "traces");
+  py::dict out;
+  out["dwells"] = found;
+  out["warnings"] = warnings_list(warnings);
+  return py::make_tuple(mm, out);
+}
+
 struct PyEvaluateResult {
   std::shared_ptr<const PyDesign> design;
   Evaluation ev;
@@ -902,6 +978,14 @@ PYBIND11_MODULE(dbbkit, m) {
                   "One reading per index: installation id, angle [deg], reading [um]; optional "
                   "time [s] (NaN: "
                   "not recorded), sweep ('cw', 'ccw' or None) and repeat")
+      .def_static("from_trace", &measurements_from_trace, py::arg("design"), py::arg("traces"),
+                  py::arg("dwell_s") = 2.0, py::arg("sweeps") = "ccw", py::arg("min_share") = 0.5,
+                  py::arg("columns") = py::none(), py::arg("unit") = py::none(),
+                  py::arg("sample_rate_hz") = py::none(),
+                  "`dbbkit readings`: traces (installation id -> a trace file or a (time_s, "
+                  "reading_um) pair of arrays) to (Measurements, {'dwells': per id the dwells' "
+                  "start_s, end_s, settled_start_s, settled_end_s, level_um, std_um, samples "
+                  "arrays and noise_um, 'warnings': [...]})")
       .def_property_readonly("source", [](const PyMeasurements& mm) { return mm.source; })
       .def("__len__", [](const PyMeasurements& mm) { return mm.readings.size(); })
       .def_property_readonly("installation",
@@ -933,6 +1017,26 @@ PYBIND11_MODULE(dbbkit, m) {
                                }
                                return v;
                              })
+      .def_property_readonly(
+          "std_um",
+          [](const PyMeasurements& mm) {
+            Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
+            for (size_t i = 0; i < mm.readings.size(); ++i)
+              v(static_cast<Eigen::Index>(i)) = mm.readings[i].std_um.value_or(kNaN);
+            return v;
+          },
+          "Per reading from a trace: the scatter of its samples [um] (NaN: not from a trace)")
+      .def_property_readonly(
+          "samples",
+          [](const PyMeasurements& mm) {
+            Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
+            for (size_t i = 0; i < mm.readings.size(); ++i) {
+              v(static_cast<Eigen::Index>(i)) =
+                  mm.readings[i].samples ? static_cast<double>(*mm.readings[i].samples) : kNaN;
+            }
+            return v;
+          },
+          "Per reading from a trace: the number of samples averaged (NaN: not from a trace)")
       .def(
           "to_csv",
           [](const PyMeasurements& mm) {

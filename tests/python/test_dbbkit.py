@@ -133,6 +133,30 @@ class RoundTrips(InSource):
             dbbkit.identify(d, m, effects=[3])
         self.assertEqual(ctx.exception.where, "effects")
 
+    def test_measurements_from_trace(self):
+        d = dbbkit.Design(PAPER_C)
+        with tempfile.TemporaryDirectory() as tmp:
+            subprocess.run([CLI, "simulate", "--design", PAPER_C, "--truth", "tests/data/truth_c_per_angle.json",
+                            "--seed", "4", "--out", os.path.join(tmp, "sim.csv"),
+                            "--trace-out", tmp + "/"], cwd=SOURCE, check=True)
+            ids = d.installations
+            self.assertTrue(all(os.path.exists(os.path.join(tmp, i + ".csv")) for i in ids))
+            traces = {i: os.path.join(tmp, i + ".csv") for i in ids}
+            m, found = dbbkit.Measurements.from_trace(d, traces)
+            args = ["readings", "--design", PAPER_C, "--quiet"]
+            for i in ids:
+                args += ["--trace", f"{i}={traces[i]}"]
+            self.assertEqual(m.to_csv(), cli_text(*args))
+            dw = found["dwells"][ids[0]]
+            self.assertEqual(len(dw["level_um"]), len(d.angles_deg))
+            self.assertTrue(all(s > 100 for s in m.samples))
+            # The same trace as arrays.
+            data = np.loadtxt(traces[ids[0]], delimiter=",", comments="#", skiprows=2)
+            m2, _ = dbbkit.Measurements.from_trace(d, {ids[0]: (data[:, 0], data[:, 1])})
+            np.testing.assert_allclose(m2.reading_um, m.reading_um[: len(m2)], atol=1e-9)
+            with self.assertRaises(dbbkit.InputError):
+                dbbkit.Measurements.from_trace(d, {ids[0]: traces[ids[0]]}, dwell_s=6)
+
     def test_identify_with_monte_carlo(self):
         d = dbbkit.Design(PAPER_C)
         r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d), monte_carlo=True, mc_seed=7, mc_threads=2)

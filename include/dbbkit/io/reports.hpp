@@ -20,6 +20,7 @@
 #include "dbbkit/optimize.hpp"
 #include "dbbkit/selection.hpp"
 #include "dbbkit/setup_sheet.hpp"
+#include "dbbkit/trace.hpp"
 
 namespace dbbkit::io {
 
@@ -49,5 +50,16 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
                             const std::vector<Reading>& readings, const DiagnoseResult& result,
                             const Expansion& expansion,
                             const ConformanceReport* conformance = nullptr);
+
+// One installation's trace and what `readings` found in it.
+struct TraceRun {
+  std::string installation, path;
+  const Trace* trace = nullptr;
+  const TraceReadings* found = nullptr;
+};
+// The report of `readings`: the warnings, then per installation the trace with its dwells
+// marked (the samples averaged, at their mean) and a row per reading.
+std::string readings_report(ReportFormat f, const RunContext& run, const Design& design,
+                            const std::vector<TraceRun>& runs);
 
 }  // namespace dbbkit::io

@@ -1,0 +1,129 @@
+#pragma once
+// Readings from the instrument's own time series (formats: "Raw traces"): the machine dwells at
+// each angle of a sweep while the bar reads a constant length; between dwells the axes move and
+// the length wanders. find_plateaus finds where the trace stood still; readings_from_trace
+// matches the plateaus in order to the program's stops of one installation and takes each
+// plateau's settled mean as the reading.
+//
+// A plateau: a run of windows of window_s whose scatter stays within the sample noise and whose
+// means agree with their neighbours' within their standard errors (the noise is the lower
+// quartile of the windows' scatters unless given: a quarter of the trace or more must be still),
+// at least min_share of the programmed dwell long. A bar excursion that turns at a flat top is
+// still for far less than that and is no plateau; a move that leaves the bar's length unchanged
+// cannot be seen, and its two dwells are one. Its settled part
+// starts where the signal, smoothed over settle_window_s, has come within the noise of the
+// plateau's final level (the transient after the move left out) and ends window_s before the
+// plateau's end (the next move's onset left out).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/measurement.hpp"
+#include "dbbkit/warning.hpp"
+
+namespace dbbkit {
+
+// One installation's samples, in time order.
+struct Trace {
+  std::vector<double> time_s;
+  std::vector<double> reading_um;
+};
+
+struct DwellOptions {
+  double dwell_s = 2.0;    // the programmed dwell at each reading position
+  double min_share = 0.5;  // a plateau is at least this share of the dwell long
+  double window_s = 0.1;   // the window of the stillness test
+  // Still: the window's scatter <= scatter_factor times the sample noise, and its mean within
+  // mean_factor standard errors (noise sqrt(2 / samples)) of its neighbours' means.
+  double scatter_factor = 2.0;
+  double mean_factor = 6.0;
+  double settle_window_s = 0.05;  // smoothing of the settling test
+  // The sample noise (standard deviation) in um; absent: estimated from the trace.
+  std::optional<double> noise_um;
+};
+
+struct Plateau {
+  double start_s = 0, end_s = 0;  // the still run
+  double settled_start_s = 0, settled_end_s = 0;
+  double level_um = 0;  // mean over the settled part
+  double std_um = 0;    // the samples' standard deviation over it
+  long samples = 0;     // in the settled part
+};
+
+struct PlateauSearch {
+  std::vector<Plateau> plateaus;
+  double noise_um = 0;           // the sample noise used
+  double sample_interval_s = 0;  // the median interval between samples
+};
+
+// Throws InputError(source, ...) for a trace that is not one: fewer than 10 samples, times not
+// finite or not increasing, readings not finite.
+PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& options,
+                            const std::string& source);
+
+// The program's stops of one installation with readings, in the order it makes them (the
+// design's angles sorted, ccw increasing, cw decreasing; ccw first with both): consecutive
+// readings at one position without a move between them (the turn of the sweep with both) are one
+// stop of several readings.
+struct Stop {
+  double angle_deg = 0;
+  std::vector<Sweep> sweeps;  // one per reading taken there, in order
+};
+std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& sweeps);
+// The sweeps a program makes by name: "ccw", "cw" or "both" (ccw then cw); throws
+// InputError(source, "", ...) for another name.
+std::vector<Sweep> sweeps_by_name(const std::string& name, const std::string& source);
+
+struct TraceReadings {
+  // In the order taken, each with time_s (the middle of its samples), sweep, std_um (their
+  // scatter) and samples (their number).
+  std::vector<Reading> readings;
+  PlateauSearch search;
+  std::vector<Warning> warnings;  // plateaus of abnormal scatter or length
+};
+
+// The readings of installation `installation` (its id) from its trace. A stop of several
+// readings is split into equal consecutive parts of its settled plateau. Throws InputError
+// naming the installation, both counts and the times of the plateaus found when the plateaus
+// are not as many as the stops.
+TraceReadings readings_from_trace(const Design& design, const std::string& installation,
+                                  const Trace& trace, const std::vector<Sweep>& sweeps,
+                                  const DwellOptions& options, const std::string& source);
+
+// A trace as the instrument would record one installation's run (simulate --trace): a first
+// plateau of extra length (capture started before), then for each stop its dwell at its level
+// (a stop of several readings holds their mean: without a move the bar does not change), a move to
+// the next stop with a bar excursion (a smooth bump of random sign and size up to excursion_um) and
+// servo jitter, a damped settling oscillation after it, sample noise, the instrument's resolution,
+// a drift on the trace's clock, and a last plateau of extra length.
+struct TraceSimulation {
+  double rate_hz = 1000;
+  double dwell_s = 2.0;
+  double first_extra_s = 1.5, last_extra_s = 1.5;  // beyond the dwell of the first and last stop
+  double move_s_min = 1.0, move_s_max = 3.0;       // each move's duration, uniform
+  double excursion_um = 20;  // a move's bump: uniform in [0.2, 1] times this, either sign
+  double jitter_um = 0.3;    // servo jitter while moving (normal)
+  double settle_um = 3;      // the settling oscillation's amplitude after a move
+  double settle_tau_s = 0.08, settle_hz = 12;
+  double noise_um = 0.15;       // sample noise (normal)
+  double resolution_um = 0.01;  // the readings' quantum (0: none)
+  double drift_um_per_min = 0;
+  std::uint64_t seed = 1;
+};
+
+struct SimulatedTrace {
+  Trace trace;
+  // Per reading in the order taken: its level (the given reading; a stop's mean) and when its
+  // dwell was.
+  std::vector<double> level_um;
+  std::vector<std::pair<double, double>> dwell_s;
+};
+
+// `levels`: one per reading of program_stops(design, sweeps), in order.
+SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<double>& levels,
+                              const TraceSimulation& options);
+
+}  // namespace dbbkit

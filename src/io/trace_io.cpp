@@ -1,0 +1,206 @@
+#include "dbbkit/io/trace_io.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/user_text.hpp"
+
+namespace dbbkit::io {
+
+namespace {
+
+std::string_view trim(std::string_view s) {
+  const std::size_t a = s.find_first_not_of(" \t\r");
+  if (a == std::string_view::npos) return {};
+  return s.substr(a, s.find_last_not_of(" \t\r") - a + 1);
+}
+
+// The fields of a line: split at `delimiter`, or at runs of spaces and tabs when it is ' '.
+void split(std::string_view line, char delimiter, std::vector<std::string_view>& out) {
+  out.clear();
+  if (delimiter == ' ') {
+    std::size_t i = 0;
+    while (true) {
+      i = line.find_first_not_of(" \t\r", i);
+      if (i == std::string_view::npos) return;
+      const std::size_t e = std::min(line.find_first_of(" \t\r", i), line.size());
+      out.push_back(line.substr(i, e - i));
+      i = e;
+    }
+  }
+  std::size_t i = 0;
+  while (true) {
+    const std::size_t e = line.find(delimiter, i);
+    out.push_back(trim(line.substr(i, e == std::string_view::npos ? e : e - i)));
+    if (e == std::string_view::npos) return;
+    i = e + 1;
+  }
+}
+
+// A number of a field; `decimal_comma`: a comma is the decimal point. No hex, no inf, no nan.
+bool number(std::string_view field, bool decimal_comma, double& x) {
+  if (field.empty() || field.size() > 64) return false;
+  char buffer[65];
+  std::size_t n = 0;
+  for (const char c : field) {
+    const char d = decimal_comma && c == ',' ? '.' : c;
+    if (!((d >= '0' && d <= '9') || d == '.' || d == '-' || d == '+' || d == 'e' || d == 'E'))
+      return false;
+    buffer[n++] = d;
+  }
+  const char* begin = buffer + (buffer[0] == '+' ? 1 : 0);
+  const auto [end, ec] = std::from_chars(begin, buffer + n, x);
+  return ec == std::errc() && end == buffer + n && std::isfinite(x);
+}
+
+}  // namespace
+
+void parse_trace_columns(const std::string& text, TraceFormat& format) {
+  std::vector<std::string_view> parts;
+  split(text, ',', parts);
+  for (const std::string_view p : parts) {
+    const std::size_t eq = p.find('=');
+    const std::string key(trim(p.substr(0, eq)));
+    const std::string value(eq == std::string_view::npos ? "" : trim(p.substr(eq + 1)));
+    if (eq == std::string_view::npos || value.empty() || (key != "time" && key != "reading")) {
+      throw InputError("--columns", quote_value(std::string(p)),
+                       "expected time=NAME and/or reading=NAME, comma-separated");
+    }
+    (key == "time" ? format.time_column : format.reading_column) = value;
+  }
+}
+
+Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string& source) {
+  if (!format.reading_column.empty() && format.unit != "um" && format.unit != "mm") {
+    throw InputError(
+        "--unit", "",
+        "the reading column " + quote_value(format.reading_column) + " needs its unit: um or mm");
+  }
+  if (format.sample_rate_hz && !(*format.sample_rate_hz > 0 && *format.sample_rate_hz <= 1e7))
+    throw InputError("--sample-rate-hz", "", "must lie in (0, 1e7] Hz");
+  Trace trace;
+  std::string raw;
+  std::vector<std::string_view> fields;
+  long line_no = 0;
+  char delimiter = 0;
+  bool decimal_comma = false;
+  int time_col = -1, reading_col = -1;
+  std::size_t columns = 0;
+  double factor = 1.0;  // to um
+  long row = 0;
+  while (std::getline(in, raw)) {
+    ++line_no;
+    std::string_view line(raw);
+    if (line_no == 1 && line.size() >= 3 && line.substr(0, 3) == "\xEF\xBB\xBF")
+      line.remove_prefix(3);
+    const std::string_view t = trim(line);
+    if (t.empty() || t[0] == '#') continue;
+    const std::string where = "line " + std::to_string(line_no);
+    if (!delimiter) {  // the header
+      delimiter = t.find(';') != std::string_view::npos    ? ';'
+                  : t.find('\t') != std::string_view::npos ? '\t'
+                  : t.find(',') != std::string_view::npos  ? ','
+                                                           : ' ';
+      decimal_comma = delimiter != ',';
+      split(t, delimiter, fields);
+      columns = fields.size();
+      std::string names;
+      for (std::size_t c = 0; c < fields.size(); ++c) {
+        const std::string_view f = fields[c];
+        names += (c ? ", " : "") + quote_value(std::string(f));
+        auto take = [&](int& col, const char* what) {
+          if (col >= 0)
+            throw InputError(source, where, std::string("two ") + what + " columns in the header");
+          col = static_cast<int>(c);
+        };
+        if (f == format.time_column) take(time_col, "time");
+        if (format.reading_column.empty()) {
+          if (f == "reading_um" || f == "reading_mm") {
+            take(reading_col, "reading");
+            factor = f == "reading_mm" ? 1000.0 : 1.0;
+          }
+        } else if (f == format.reading_column) {
+          take(reading_col, "reading");
+          factor = format.unit == "mm" ? 1000.0 : 1.0;
+        }
+      }
+      if (reading_col < 0) {
+        throw InputError(
+            source, where,
+            "no reading column (" +
+                (format.reading_column.empty() ? std::string("reading_um or reading_mm")
+                                               : quote_value(format.reading_column)) +
+                ") among " + names + "; name another with --columns reading=NAME and --unit um|mm");
+      }
+      if (time_col < 0 && !format.sample_rate_hz) {
+        throw InputError(source, where,
+                         "no time column " + quote_value(format.time_column) + " among " + names +
+                             "; name it with --columns time=NAME, or give --sample-rate-hz");
+      }
+      continue;
+    }
+    split(t, delimiter, fields);
+    if (fields.size() != columns) {
+      throw InputError(source, where,
+                       "expected " + std::to_string(columns) + " fields, found " +
+                           std::to_string(fields.size()));
+    }
+    double x = 0, time = 0;
+    if (!number(fields[static_cast<std::size_t>(reading_col)], decimal_comma, x)) {
+      throw InputError(source, where,
+                       quote_value(std::string(fields[static_cast<std::size_t>(reading_col)])) +
+                           " is not a reading");
+    }
+    if (time_col >= 0) {
+      if (!number(fields[static_cast<std::size_t>(time_col)], decimal_comma, time)) {
+        throw InputError(source, where,
+                         quote_value(std::string(fields[static_cast<std::size_t>(time_col)])) +
+                             " is not a time");
+      }
+      if (format.sample_rate_hz) time /= *format.sample_rate_hz;
+    } else {
+      time = static_cast<double>(row) / *format.sample_rate_hz;
+    }
+    if (!trace.time_s.empty() && !(time > trace.time_s.back())) {
+      throw InputError(source, where,
+                       "the time does not increase (" + std::to_string(time) + " s after " +
+                           std::to_string(trace.time_s.back()) + " s)");
+    }
+    if (trace.time_s.size() >= kMaxTraceSamples) {
+      throw InputError(source, where,
+                       "more than " + std::to_string(kMaxTraceSamples) +
+                           " samples, the most one trace may hold (README, \"Limits\")");
+    }
+    trace.time_s.push_back(time);
+    trace.reading_um.push_back(factor * x);
+    ++row;
+  }
+  if (!delimiter) throw InputError(source, "", "no header row (only comments or blank lines)");
+  if (trace.time_s.empty()) throw InputError(source, "", "no samples after the header row");
+  return trace;
+}
+
+Trace read_trace_file(const std::string& path, const TraceFormat& format) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "", "cannot open the file");
+  return parse_trace(in, format, path);
+}
+
+void write_trace_csv(std::ostream& out, const Trace& trace,
+                     const std::vector<std::string>& comments) {
+  // A comment is one line whatever it quotes (a design's name from its file).
+  for (const std::string& c : comments) out << "# " << printable(c, 400) << "\n";
+  out << "time_s,reading_um\n";
+  char buffer[64];
+  for (std::size_t i = 0; i < trace.time_s.size(); ++i) {
+    const int n =
+        std::snprintf(buffer, sizeof buffer, "%.4f,%.4f\n", trace.time_s[i], trace.reading_um[i]);
+    out.write(buffer, n);
+  }
+}
+
+}  // namespace dbbkit::io

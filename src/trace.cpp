@@ -1,0 +1,309 @@
+#include "dbbkit/trace.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "dbbkit/error.hpp"
+#include "number_text.hpp"
+#include "random.hpp"
+
+namespace dbbkit {
+
+namespace {
+
+// Mean and standard deviation of x[a, b) (two passes: exact for any offset of the values).
+struct Moments {
+  double mean = 0, std = 0;
+};
+Moments moments(const std::vector<double>& x, std::size_t a, std::size_t b) {
+  Moments m;
+  const std::size_t n = b - a;
+  if (n == 0) return m;
+  double s = 0;
+  for (std::size_t i = a; i < b; ++i) s += x[i];
+  m.mean = s / static_cast<double>(n);
+  double q = 0;
+  for (std::size_t i = a; i < b; ++i) q += (x[i] - m.mean) * (x[i] - m.mean);
+  m.std = n > 1 ? std::sqrt(q / static_cast<double>(n - 1)) : 0.0;
+  return m;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  const std::size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+  return v[mid];
+}
+
+std::string seconds(double t) { return text::significant(t, 6) + " s"; }
+
+// The smallest noise the stillness test uses (um): a trace quantised without noise has none.
+constexpr double kNoiseFloor_um = 0.005;
+
+}  // namespace
+
+PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std::string& source) {
+  const std::vector<double>& t = trace.time_s;
+  const std::vector<double>& x = trace.reading_um;
+  const std::size_t n = t.size();
+  if (n != x.size()) throw std::logic_error("find_plateaus: times and readings differ in number");
+  if (n < 10) {
+    throw InputError(source, "", "a trace needs at least 10 samples, found " + std::to_string(n));
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(t[i]) || !std::isfinite(x[i]))
+      throw InputError(source, "sample " + std::to_string(i + 1), "not a finite number");
+    if (i > 0 && !(t[i] > t[i - 1])) {
+      throw InputError(
+          source, "sample " + std::to_string(i + 1),
+          "the time " + seconds(t[i]) + " does not increase (after " + seconds(t[i - 1]) + ")");
+    }
+  }
+  if (!(o.dwell_s > 0 && o.min_share > 0 && o.min_share <= 1 && o.window_s > 0 &&
+        o.scatter_factor > 0 && o.mean_factor > 0 && o.settle_window_s > 0))
+    throw std::logic_error("find_plateaus: options out of range");
+  PlateauSearch out;
+  {
+    std::vector<double> dt(n - 1);
+    for (std::size_t i = 1; i < n; ++i) dt[i - 1] = t[i] - t[i - 1];
+    out.sample_interval_s = median(dt);
+  }
+  const double dt = out.sample_interval_s;
+  // Consecutive windows of w samples: their means and scatters.
+  const auto w = static_cast<std::size_t>(std::max(5.0, std::round(o.window_s / dt)));
+  const std::size_t blocks = n / w;
+  std::vector<Moments> block(blocks);
+  for (std::size_t b = 0; b < blocks; ++b) block[b] = moments(x, b * w, (b + 1) * w);
+  // The sample noise: the lower quartile of the windows' scatters (the still ones, when a quarter
+  // of the trace or more is still: the scatter of white noise over a window varies by a few per
+  // cent, a moving bar's is larger), unless given.
+  if (o.noise_um) {
+    out.noise_um = *o.noise_um;
+  } else {
+    std::vector<double> scatter(blocks);
+    for (std::size_t b = 0; b < blocks; ++b) scatter[b] = block[b].std;
+    if (!scatter.empty()) {
+      const std::size_t q = scatter.size() / 4;
+      std::nth_element(scatter.begin(), scatter.begin() + static_cast<std::ptrdiff_t>(q),
+                       scatter.end());
+      out.noise_um = scatter[q];
+    }
+  }
+  const double noise = std::max(out.noise_um, kNoiseFloor_um);
+  // Still: the window's scatter within the noise, and its mean within the noise of the means of
+  // its neighbours (a bar moving at a fraction of a um/s changes the mean from window to window
+  // long before it widens a window's scatter).
+  const double mean_tol = o.mean_factor * noise * std::sqrt(2.0 / static_cast<double>(w));
+  std::vector<char> still(blocks, 0);
+  for (std::size_t b = 0; b < blocks; ++b) {
+    const bool quiet = block[b].std <= o.scatter_factor * noise;
+    const bool before = b == 0 || std::abs(block[b].mean - block[b - 1].mean) <= mean_tol;
+    const bool after = b + 1 == blocks || std::abs(block[b + 1].mean - block[b].mean) <= mean_tol;
+    still[b] = quiet && before && after;
+  }
+  const double min_length_s = o.min_share * o.dwell_s;
+  const auto m = static_cast<std::size_t>(std::max(3.0, std::round(o.settle_window_s / dt)));
+  for (std::size_t b = 0; b < blocks;) {
+    if (!still[b]) {
+      ++b;
+      continue;
+    }
+    std::size_t e = b;
+    while (e < blocks && still[e]) ++e;
+    const std::size_t a = b * w, z = e * w;  // samples [a, z)
+    b = e;
+    if (t[z - 1] - t[a] + dt < min_length_s) continue;
+    Plateau p;
+    p.start_s = t[a];
+    p.end_s = t[z - 1];
+    // The end: one window before the run's end (the next move's onset); the level: the mean of
+    // the second half of what is left; the start: the first smoothing block from which every
+    // block mean stays within the noise of that level.
+    const std::size_t end = z - std::min(w, (z - a) / 4);
+    const double level = moments(x, a + (end - a) / 2, end).mean;
+    const double tol = 4.0 * noise / std::sqrt(static_cast<double>(m));
+    std::size_t start = a;
+    for (std::size_t k = a; k + m <= end; k += m) {
+      if (std::abs(moments(x, k, k + m).mean - level) > tol) start = k + m;
+    }
+    if (end - start < 2 * m) start = a + (end - a) / 2;  // never settled: the second half, warned
+    const Moments s = moments(x, start, end);
+    p.settled_start_s = t[start];
+    p.settled_end_s = t[end - 1];
+    p.level_um = s.mean;
+    p.std_um = s.std;
+    p.samples = static_cast<long>(end - start);
+    out.plateaus.push_back(p);
+  }
+  return out;
+}
+
+std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& sweeps) {
+  std::vector<double> angles = design.angles_deg;
+  std::sort(angles.begin(), angles.end());
+  std::vector<Stop> stops;
+  for (const Sweep s : sweeps) {
+    std::vector<double> order = angles;
+    if (s == Sweep::kCW) std::reverse(order.begin(), order.end());
+    for (const double a : order) {
+      if (!stops.empty() && stops.back().angle_deg == a) {
+        stops.back().sweeps.push_back(s);  // no move between: one stop
+      } else {
+        stops.push_back({a, {s}});
+      }
+    }
+  }
+  return stops;
+}
+
+std::vector<Sweep> sweeps_by_name(const std::string& name, const std::string& source) {
+  if (name == "ccw") return {Sweep::kCCW};
+  if (name == "cw") return {Sweep::kCW};
+  if (name == "both") return {Sweep::kCCW, Sweep::kCW};
+  throw InputError(source, "", "'" + name + "' is not ccw, cw or both");
+}
+
+TraceReadings readings_from_trace(const Design& design, const std::string& installation,
+                                  const Trace& trace, const std::vector<Sweep>& sweeps,
+                                  const DwellOptions& options, const std::string& source) {
+  if (design.find_installation(installation) < 0)
+    throw InputError(source, "installation",
+                     "'" + installation + "' is no installation of the design");
+  TraceReadings out;
+  out.search = find_plateaus(trace, options, source);
+  const std::vector<Plateau>& P = out.search.plateaus;
+  const std::vector<Stop> stops = program_stops(design, sweeps);
+  if (P.size() != stops.size()) {
+    std::string found;
+    for (std::size_t k = 0; k < P.size() && k < 40; ++k) {
+      found += (k ? ", " : "") + text::significant(P[k].start_s, 6) + "-" +
+               text::significant(P[k].end_s, 6);
+    }
+    if (P.size() > 40) found += ", ...";
+    throw InputError(
+        source, "installation " + installation,
+        "found " + std::to_string(P.size()) + " dwells, the sweep" +
+            (sweeps.size() > 1 ? "s have " : " has ") + std::to_string(stops.size()) + " stops (" +
+            std::to_string(design.angles_deg.size()) + " angles" +
+            (sweeps.size() > 1 ? ", both sweeps" : "") +
+            "); dwells found (s): " + (found.empty() ? "none" : found) +
+            ". Check --dwell-s (the program's dwell), --sweeps, and that the trace is this "
+            "installation's whole run (a move must show in the bar's length)");
+  }
+  const double noise = std::max(out.search.noise_um, kNoiseFloor_um);
+  for (std::size_t k = 0; k < P.size(); ++k) {
+    const Plateau& p = P[k];
+    const Stop& stop = stops[k];
+    const std::size_t parts = stop.sweeps.size();
+    // The settled samples, split into equal parts for a stop of several readings.
+    const auto first = static_cast<std::size_t>(
+        std::lower_bound(trace.time_s.begin(), trace.time_s.end(), p.settled_start_s) -
+        trace.time_s.begin());
+    const std::size_t count = static_cast<std::size_t>(p.samples);
+    for (std::size_t q = 0; q < parts; ++q) {
+      const std::size_t a = first + count * q / parts, b = first + count * (q + 1) / parts;
+      const Moments s = moments(trace.reading_um, a, b);
+      Reading r;
+      r.installation = installation;
+      r.angle_deg = stop.angle_deg;
+      r.reading_um = s.mean;
+      r.time_s = 0.5 * (trace.time_s[a] + trace.time_s[b - 1]);
+      r.sweep = stop.sweeps[q];
+      r.std_um = s.std;
+      r.samples = static_cast<int>(b - a);
+      out.readings.push_back(r);
+    }
+    const bool inner = k > 0 && k + 1 < P.size();  // the first and last are of unknown length
+    const double length = p.end_s - p.start_s;
+    const std::string where = "installation " + installation + ", dwell " + std::to_string(k + 1) +
+                              " at " + text::significant(stop.angle_deg, 6) + " deg (" +
+                              text::significant(p.start_s, 6) + "-" +
+                              text::significant(p.end_s, 6) + " s)";
+    if (p.std_um > 1.4 * noise) {
+      out.warnings.push_back(
+          {"trace_scatter", where + ": its scatter " + text::significant(p.std_um, 3) +
+                                " um is more than 1.4 times the trace's sample noise " +
+                                text::significant(noise, 3) +
+                                " um: the machine may not have stood still"});
+    }
+    if (inner && length > 1.5 * options.dwell_s * static_cast<double>(parts) + 1.0) {
+      out.warnings.push_back(
+          {"trace_length", where + ": " + text::significant(length, 3) + " s long against a " +
+                               text::significant(options.dwell_s * static_cast<double>(parts), 3) +
+                               " s dwell: a pause, or two stops without a move between them"});
+    }
+    if (p.settled_end_s - p.settled_start_s < 0.25 * options.dwell_s * static_cast<double>(parts)) {
+      out.warnings.push_back(
+          {"trace_settling", where + ": settled for only " +
+                                 text::significant(p.settled_end_s - p.settled_start_s, 3) +
+                                 " s: the reading rests on few samples"});
+    }
+  }
+  return out;
+}
+
+SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<double>& levels,
+                              const TraceSimulation& o) {
+  std::size_t readings = 0;
+  for (const Stop& s : stops) readings += s.sweeps.size();
+  if (readings != levels.size())
+    throw std::logic_error("simulate_trace: one level per reading of the stops");
+  if (!(o.rate_hz > 0 && o.dwell_s > 0 && o.move_s_min > 0 && o.move_s_max >= o.move_s_min))
+    throw std::logic_error("simulate_trace: options out of range");
+  detail::Xoshiro256pp rng(o.seed);
+  const detail::NormalZiggurat normal;
+  SimulatedTrace out;
+  const double dt = 1.0 / o.rate_hz;
+  double t = 0;
+  // The settling oscillation left by the last move: amplitude, phase and when it began.
+  double settle = 0, settle_from = 0;
+  auto sample = [&](double level, double extra) {
+    double x = level + extra + o.drift_um_per_min * t / 60.0 + o.noise_um * normal(rng);
+    if (settle != 0) {
+      const double u = t - settle_from;
+      x += settle * std::exp(-u / o.settle_tau_s) * std::cos(2 * M_PI * o.settle_hz * u);
+    }
+    if (o.resolution_um > 0) x = o.resolution_um * std::round(x / o.resolution_um);
+    out.trace.time_s.push_back(t);
+    out.trace.reading_um.push_back(x);
+    t += dt;
+  };
+  auto hold = [&](double level, double seconds) {
+    const auto n = static_cast<long>(std::llround(seconds * o.rate_hz));
+    for (long i = 0; i < n; ++i) sample(level, 0);
+  };
+  std::size_t r = 0;
+  for (std::size_t k = 0; k < stops.size(); ++k) {
+    const std::size_t parts = stops[k].sweeps.size();
+    if (k > 0) {  // the move from the last level to this stop's first
+      const double a = levels[r - 1], b = levels[r];
+      const double T = o.move_s_min + (o.move_s_max - o.move_s_min) * rng.uniform01();
+      const double bump =
+          o.excursion_um * (0.2 + 0.8 * rng.uniform01()) * (rng.uniform01() < 0.5 ? -1 : 1);
+      const auto n = static_cast<long>(std::llround(T * o.rate_hz));
+      for (long i = 0; i < n; ++i) {
+        const double u = static_cast<double>(i) / static_cast<double>(n);
+        const double step = 0.5 * (1 - std::cos(M_PI * u)), s = std::sin(M_PI * u);
+        sample(a + (b - a) * step, bump * s * s + o.jitter_um * normal(rng));
+      }
+      settle = o.settle_um * (rng.uniform01() < 0.5 ? -1 : 1);
+      settle_from = t;
+    }
+    // Without a move between them the bar does not change: the readings of one stop hold one
+    // level, their mean.
+    double level = 0;
+    for (std::size_t q = 0; q < parts; ++q) level += levels[r + q] / static_cast<double>(parts);
+    for (std::size_t q = 0; q < parts; ++q, ++r) {
+      double length = o.dwell_s;
+      if (k == 0 && q == 0) length += o.first_extra_s;
+      if (k + 1 == stops.size() && q + 1 == parts) length += o.last_extra_s;
+      const double from = t;
+      hold(level, length);
+      out.level_um.push_back(level);
+      out.dwell_s.emplace_back(from, t);
+    }
+  }
+  return out;
+}
+
+}  // namespace dbbkit

@@ -1,0 +1,316 @@
+// Raw traces in: the reader's dialects and refusals, the dwells found against the simulator's
+// plateau levels over varied traces, the refusals and warnings when the trace does not fit the
+// sweep, and the command line from simulate --trace-out through readings to identify.
+
+#include "dbbkit/trace.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "cli_util.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/measurement_io.hpp"
+#include "dbbkit/io/trace_io.hpp"
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace {
+
+Trace parse(const std::string& text, const io::TraceFormat& f = {}) {
+  std::istringstream in(text);
+  return io::parse_trace(in, f, "t.csv");
+}
+
+TEST(TraceReader, DelimitersDecimalCommaCommentsAndUnits) {
+  Trace t = parse("\xEF\xBB\xBF# QC20 export\ntime_s,reading_um,extra\n0,1.5,x\n0.001,-2,y\n");
+  ASSERT_EQ(t.time_s.size(), 2u);
+  EXPECT_DOUBLE_EQ(t.reading_um[1], -2.0);
+  t = parse("time_s;reading_mm\n0,000;0,0015\n0,001;-0,002\n");
+  EXPECT_DOUBLE_EQ(t.time_s[1], 0.001);
+  EXPECT_DOUBLE_EQ(t.reading_um[0], 1.5);  // mm to um, decimal comma
+  t = parse("time_s\treading_um\n0\t1\n# a comment between samples\n\n1\t2\n");
+  EXPECT_EQ(t.time_s.size(), 2u);
+  t = parse("  time_s   reading_um\n 0   1.25\n 0.5  +2e-1\n");
+  EXPECT_DOUBLE_EQ(t.reading_um[1], 0.2);
+  // Another vendor's names and units, mapped; a sample index at a rate; the row's number.
+  io::TraceFormat f;
+  io::parse_trace_columns("time=Sample, reading=Deviation", f);
+  f.unit = "mm";
+  f.sample_rate_hz = 1000.0;
+  t = parse("Sample;Deviation\n10;0,001\n11;0,002\n", f);
+  EXPECT_DOUBLE_EQ(t.time_s[0], 0.01);
+  EXPECT_DOUBLE_EQ(t.reading_um[1], 2.0);
+  f = {};
+  f.reading_column = "dev";
+  f.unit = "um";
+  f.sample_rate_hz = 500.0;
+  t = parse("dev\n1\n2\n3\n", f);
+  EXPECT_DOUBLE_EQ(t.time_s[2], 0.004);
+}
+
+TEST(TraceReader, RefusesWhatIsNotATrace) {
+  for (const char* bad : {"", "# only a comment\n", "time_s,reading_um\n", "time,reading\n0,1\n",
+                          "time_s,reading_um\n0,1\n0,2\n", "time_s,reading_um\n0,1\n1,nan\n",
+                          "time_s,reading_um\n0,1\n1,1e400\n", "time_s,reading_um\n0,0x10\n",
+                          "time_s,reading_um\n0,1,2\n", "time_s,reading_um,reading_mm\n0,1,2\n",
+                          "time_s,reading_um\n0,1\n1,inf\n", "time_s,reading_um\n1,1\n0.5,1\n"}) {
+    EXPECT_THROW(parse(bad), InputError) << bad;
+  }
+  io::TraceFormat f;
+  EXPECT_THROW(io::parse_trace_columns("time", f), InputError);
+  EXPECT_THROW(io::parse_trace_columns("speed=a", f), InputError);
+  f.reading_column = "dev";  // without its unit
+  EXPECT_THROW(parse("dev,time_s\n1,0\n", f), InputError);
+  try {
+    parse("time_s,reading_um\n0,1\n1,abc\n");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), "line 3");
+  }
+}
+
+// A trace of `stops` at random levels, simulated with `o`; the readings found against the levels
+// (with the drift the simulator adds on its clock at each reading's time).
+double worst_error(const Design& d, const std::vector<Sweep>& sweeps, const TraceSimulation& o,
+                   std::uint64_t seed, DwellOptions dwell = {}) {
+  const std::vector<Stop> stops = program_stops(d, sweeps);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> level(-50, 50);
+  std::vector<double> levels;
+  for (const Stop& s : stops)
+    for (std::size_t q = 0; q < s.sweeps.size(); ++q) levels.push_back(level(rng));
+  const SimulatedTrace sim = simulate_trace(stops, levels, o);
+  dwell.dwell_s = o.dwell_s;
+  const TraceReadings r =
+      readings_from_trace(d, d.installations[0].id, sim.trace, sweeps, dwell, "trace");
+  EXPECT_EQ(r.readings.size(), levels.size());
+  double worst = 0;
+  for (std::size_t k = 0; k < r.readings.size() && k < levels.size(); ++k) {
+    const double expected = sim.level_um[k] + o.drift_um_per_min * *r.readings[k].time_s / 60.0;
+    worst = std::max(worst, std::abs(r.readings[k].reading_um - expected));
+    // The reading's time lies within its dwell.
+    EXPECT_GE(*r.readings[k].time_s, sim.dwell_s[k].first);
+    EXPECT_LE(*r.readings[k].time_s, sim.dwell_s[k].second);
+    EXPECT_GT(*r.readings[k].samples, 100);
+  }
+  return worst;
+}
+
+// Every parameter of the simulator varied: the readings come back within 0.05 um at 0.15 um
+// sample noise and 2 s dwells.
+TEST(TraceDwells, RecoverTheSimulatorsLevelsOverVariedTraces) {
+  const Design d = test::paper_design('C');
+  int cases = 0;
+  for (int v = 0; v < 8; ++v) {
+    TraceSimulation o;
+    o.seed = 100 + static_cast<std::uint64_t>(v);
+    o.rate_hz = v % 3 == 0 ? 1000 : v % 3 == 1 ? 500 : 2000;
+    o.excursion_um = 5 + 10 * v;
+    o.move_s_min = 0.6 + 0.2 * (v % 3);
+    o.move_s_max = o.move_s_min + 0.5 * v;
+    o.settle_um = (v % 4) * 2.0;
+    o.settle_tau_s = 0.05 + 0.03 * (v % 3);
+    o.jitter_um = 0.1 * v;
+    o.resolution_um = v % 2 ? 0.1 : 0.01;
+    o.drift_um_per_min = v % 3 == 2 ? 0.4 : 0.0;
+    o.first_extra_s = 0.2 + v;
+    o.last_extra_s = 4.0 - 0.4 * v;
+    const std::vector<Sweep> sweeps =
+        v % 2 ? std::vector<Sweep>{Sweep::kCCW, Sweep::kCW} : std::vector<Sweep>{Sweep::kCW};
+    const double worst = worst_error(d, sweeps, o, 7 + v);
+    EXPECT_LT(worst, 0.05) << "case " << v;
+    std::printf("trace case %d: worst |reading - level| %.4f um\n", v, worst);
+    ++cases;
+  }
+  EXPECT_EQ(cases, 8);
+}
+
+TEST(TraceDwells, TooManyOrTooFewDwellsNameTheInstallationAndBothCounts) {
+  const Design d = test::paper_design('C');
+  TraceSimulation o;
+  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW, Sweep::kCW});
+  ASSERT_EQ(stops.size(), 2 * d.angles_deg.size() - 1);  // the turn: one stop, two readings
+  const SimulatedTrace sim =
+      simulate_trace(stops, std::vector<double>(2 * d.angles_deg.size(), 1.0), o);
+  DwellOptions dwell;
+  // Read as one sweep: more dwells than stops.
+  try {
+    readings_from_trace(d, "1r", sim.trace, {Sweep::kCCW}, dwell, "1r.csv");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("installation 1r"), std::string::npos) << w;
+    EXPECT_NE(w.find("found " + std::to_string(stops.size()) + " dwells"), std::string::npos) << w;
+    EXPECT_NE(w.find(std::to_string(d.angles_deg.size()) + " stops"), std::string::npos) << w;
+  }
+  // A dwell of 5 s declared: none of the 2 s dwells is long enough.
+  dwell.dwell_s = 5;
+  EXPECT_THROW(readings_from_trace(d, "1r", sim.trace, {Sweep::kCCW, Sweep::kCW}, dwell, "1r.csv"),
+               InputError);
+  EXPECT_THROW(readings_from_trace(d, "9z", sim.trace, {Sweep::kCCW}, DwellOptions{}, "9z.csv"),
+               InputError);
+}
+
+// A pause in the middle of a sweep and a dwell where the machine did not stand still: the
+// readings are taken, and the abnormal dwells named in warnings.
+TEST(TraceDwells, AbnormalDwellsAreNamed) {
+  const Design d = test::paper_design('C');
+  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  TraceSimulation o;
+  SimulatedTrace sim = simulate_trace(stops, std::vector<double>(stops.size(), 0.0), o);
+  // Stretch dwell 5 to 8 s (a pause) by inserting still samples; add noise to dwell 9.
+  Trace t;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const double dt = 1.0 / o.rate_hz;
+  double shift = 0;
+  for (std::size_t i = 0; i < sim.trace.time_s.size(); ++i) {
+    const double time = sim.trace.time_s[i];
+    double x = sim.trace.reading_um[i];
+    if (time >= sim.dwell_s[9].first + 0.5 && time < sim.dwell_s[9].second)
+      x += 0.18 * normal(rng);  // noisier than the trace: still by the test, but not quiet
+    t.time_s.push_back(time + shift);
+    t.reading_um.push_back(x);
+    if (std::abs(time - 0.5 * (sim.dwell_s[5].first + sim.dwell_s[5].second)) < dt / 2) {
+      for (int k = 0; k < 6000; ++k) {
+        shift += dt;
+        t.time_s.push_back(time + shift);
+        t.reading_um.push_back(x);
+      }
+    }
+  }
+  const TraceReadings r = readings_from_trace(d, "1r", t, {Sweep::kCCW}, DwellOptions{}, "1r.csv");
+  std::string kinds;
+  for (const Warning& w : r.warnings) kinds += w.kind + " (" + w.text + ")\n";
+  EXPECT_NE(kinds.find("trace_length (installation 1r, dwell 6"), std::string::npos) << kinds;
+  EXPECT_NE(kinds.find("trace_scatter (installation 1r, dwell 10"), std::string::npos) << kinds;
+}
+
+TEST(TraceMeasurementFile, ScatterAndSamplesColumns) {
+  std::vector<Reading> r = io::parse_measurements(
+      "installation,angle_deg,reading_um,std_um,samples\n1r,0,1.5,0.15,1800\n", "m.csv");
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_DOUBLE_EQ(*r[0].std_um, 0.15);
+  EXPECT_EQ(*r[0].samples, 1800);
+  std::ostringstream out;
+  io::write_measurements_csv(out, r);
+  EXPECT_EQ(out.str(),
+            "installation,angle_deg,reading_um,std_um,samples\n1r,0,1.500000,0.150000,1800\n");
+  EXPECT_THROW(io::parse_measurements("installation,angle_deg,reading_um,std_um\n1r,0,1,-1\n", "m"),
+               InputError);
+  EXPECT_THROW(io::parse_measurements("installation,angle_deg,reading_um,samples\n1r,0,1,0\n", "m"),
+               InputError);
+}
+
+// simulate --trace-out writes a trace per installation; readings turns them back into the
+// readings simulate wrote (within 0.05 um); identify reads them.
+TEST(TraceCommandLine, FromSimulatedTracesToIdentify) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("dbbkit_trace_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "traces");
+  const std::string D = test::source_path("designs/paper-c-turntable.json");
+  const std::string truth = test::source_path("tests/data/truth_c_per_angle.json");
+  const std::string cd = "cd " + dir.string() + " && " + DBBKIT_CLI + " ";
+  CliRun r = run_cli_shell(cd + "simulate --design " + D + " --truth " + truth +
+                           " --seed 4 --out sim.csv --trace-out traces/");
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::string cmd = "readings --design " + D + " --out m.csv";
+  for (const char* id : {"1r", "1t", "1a", "2r", "2t", "2a", "3r", "3t", "3a"}) {
+    if (fs::exists(dir / "traces" / (std::string(id) + ".csv")))
+      cmd += std::string(" --trace ") + id + "=traces/" + id + ".csv";
+  }
+  r = run_cli_shell(cd + cmd);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Design d = test::paper_design('C');
+  const std::vector<Reading> sim = io::read_measurement_file((dir / "sim.csv").string(), d);
+  const std::vector<Reading> got = io::read_measurement_file((dir / "m.csv").string(), d);
+  ASSERT_EQ(got.size(), sim.size());
+  for (const Reading& g : got) {
+    bool matched = false;
+    for (const Reading& s : sim) {
+      if (s.installation == g.installation && s.angle_deg == g.angle_deg) {
+        EXPECT_NEAR(g.reading_um, s.reading_um, 0.05) << g.installation << " " << g.angle_deg;
+        matched = true;
+      }
+    }
+    EXPECT_TRUE(matched);
+    EXPECT_TRUE(g.std_um && g.samples && g.time_s);
+  }
+  r = run_cli_shell(cd + "identify --design " + D + " --data m.csv --out id.json --quiet");
+  EXPECT_EQ(r.status, 0) << r.err;
+  // A trace of another dwell: refused with both counts, exit 2, nothing written.
+  r = run_cli_shell(cd + "readings --design " + D +
+                    " --trace 1r=traces/1r.csv --dwell-s 6 --out x.csv");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("installation 1r"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "x.csv"));
+  fs::remove_all(dir);
+}
+
+// The README's worked example prints what the README shows: every line of its output blocks
+// ("..." aside) is printed by the commands it names, or is in the file they write.
+TEST(Readme, FromTheInstrumentsTracePrintsWhatTheReadmeShows) {
+  namespace fs = std::filesystem;
+  const std::string readme = slurp(DBBKIT_SOURCE_DIR "/README.md");
+  const std::string title = "## Worked example: from the instrument's trace to identify";
+  const std::size_t from = readme.find(title);
+  ASSERT_NE(from, std::string::npos);
+  const std::string section = readme.substr(from, readme.find("\n## ", from + 1) - from);
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_readme_tr_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "traces");
+  const std::string src = DBBKIT_SOURCE_DIR;
+  const std::string D = src + "/designs/paper-c-turntable.json";
+  std::string traces;
+  for (const char* id : {"1r", "1t", "1a", "2r", "2t", "3r", "3t"})
+    traces += std::string(" --trace ") + id + "=traces/" + id + ".csv";
+  std::string printed;
+  for (
+      const auto& [cmd, status] : std::vector<std::pair<std::string, int>>{
+          {"simulate --design " + D + " --truth " + src +
+               "/tests/data/truth_c_per_angle.json --seed 4 --out sim.csv --trace-out traces/",
+           0},
+          {"readings --design " + D + traces + " --out m.csv --report readings.html", 0},
+          {"identify --design " + D + " --data m.csv --out id.json", 0},
+          {"readings --design " + D +
+               " --trace 1r=tests/data/trace_vendor_1r.csv --columns time=Sample,reading=Deviation "
+               "--unit mm --sample-rate-hz 100 --out m1r.csv",
+           0},
+          {"readings --design " + D +
+               " --trace 1r=tests/data/trace_vendor_1r.csv --columns time=Sample,reading=Deviation "
+               "--unit mm --sample-rate-hz 100 --dwell-s 5 --out m5.csv",
+           2}}) {
+    // The vendor file by the path the README gives, relative to the source tree.
+    const std::string at = cmd.find("tests/data/trace_vendor") != std::string::npos
+                               ? "cd " + src + " && "
+                               : "cd " + dir.string() + " && ";
+    std::string c = cmd;
+    if (at.find(src) != std::string::npos) {
+      // Write its outputs into the test's directory, not the source tree.
+      for (const char* f : {"m1r.csv", "m5.csv"}) {
+        const std::size_t k = c.find(f);
+        if (k != std::string::npos) c.replace(k, std::string(f).size(), (dir / f).string());
+      }
+    }
+    const CliRun r = run_cli_shell(at + DBBKIT_CLI + " " + c);
+    ASSERT_EQ(r.status, status) << c << "\n" << r.err;
+    printed += r.out + r.err;
+  }
+  printed += slurp((dir / "m.csv").string());
+  int checked = 0;
+  for (const std::string& line : readme_lines_not_printed(section, printed, false, checked))
+    ADD_FAILURE() << "README line not printed:\n" << line;
+  EXPECT_GE(checked, 7);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace dbbkit
