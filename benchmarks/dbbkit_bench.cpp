@@ -10,6 +10,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -473,13 +474,17 @@ void BM_ReadingsFromTrace(benchmark::State& state) {
   DwellOptions dwell;
   dwell.dwell_s = o.dwell_s;
   std::size_t n = 0;
+  double read_s = 0;
   for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
     const Trace t = io::read_trace_file(path, {});
+    read_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     n = t.time_s.size();
     benchmark::DoNotOptimize(readings_from_trace(d, "1r", t, sweeps, dwell, path).readings.size());
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * n));
   state.counters["samples"] = static_cast<double>(n);
+  state.counters["read_s"] = read_s / static_cast<double>(state.iterations());
   std::remove(path.c_str());
 }
 BENCHMARK(BM_ReadingsFromTrace)->Unit(benchmark::kMillisecond)->Iterations(1);

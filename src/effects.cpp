@@ -10,6 +10,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
 #include "tolerances.hpp"
 
@@ -140,7 +141,7 @@ std::string not_applicable_text(const Applicability& a) {
 EffectCandidate effect_from_label(const Design& design, const std::string& label,
                                   const std::string& source, const std::string& key) {
   auto fail = [&](const std::string& why) {
-    throw InputError(source, key, "'" + label + "': " + why);
+    throw InputError(source, key, quote_value(label) + ": " + why);
   };
   const std::string forms =
       "write name[installation], e.g. length_offset[2r], centring[1a], drift[all], "

@@ -39,6 +39,9 @@ std::string seconds(double t) { return text::significant(t, 6) + " s"; }
 
 // The smallest noise the stillness test uses (um): a trace quantised without noise has none.
 constexpr double kNoiseFloor_um = 0.005;
+// The fewest samples of a stillness window, and the closest samples a trace may have.
+constexpr double kMinWindowSamples = 20;
+constexpr double kMinSampleInterval_s = 1e-6;
 
 }  // namespace
 
@@ -69,8 +72,22 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
     out.sample_interval_s = median(dt);
   }
   const double dt = out.sample_interval_s;
-  // Consecutive windows of w samples: their means and scatters.
-  const auto w = static_cast<std::size_t>(std::max(5.0, std::round(o.window_s / dt)));
+  if (!(dt >= kMinSampleInterval_s)) {
+    throw InputError(source, "",
+                     "the samples are " + seconds(dt) +
+                         " apart (median): below 1 us, a rate above 1 MHz; check the time "
+                         "column's unit (or --sample-rate-hz)");
+  }
+  // Consecutive windows of w samples (at least kMinWindowSamples, so that each window's mean and
+  // scatter are estimates): their means and scatters.
+  const double per_window = std::max(static_cast<double>(kMinWindowSamples), o.window_s / dt);
+  if (per_window * 4 > static_cast<double>(n)) {
+    throw InputError(source, "",
+                     "a trace of " + std::to_string(n) + " samples every " + seconds(dt) +
+                         " is too short to find dwells in (fewer than four windows of " +
+                         text::significant(std::round(per_window), 6) + " samples)");
+  }
+  const auto w = static_cast<std::size_t>(std::round(per_window));
   const std::size_t blocks = n / w;
   std::vector<Moments> block(blocks);
   for (std::size_t b = 0; b < blocks; ++b) block[b] = moments(x, b * w, (b + 1) * w);
@@ -102,7 +119,8 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
     still[b] = quiet && before && after;
   }
   const double min_length_s = o.min_share * o.dwell_s;
-  const auto m = static_cast<std::size_t>(std::max(3.0, std::round(o.settle_window_s / dt)));
+  const auto m = static_cast<std::size_t>(
+      std::min(static_cast<double>(w), std::max(3.0, std::round(o.settle_window_s / dt))));
   for (std::size_t b = 0; b < blocks;) {
     if (!still[b]) {
       ++b;

@@ -176,6 +176,21 @@ std::optional<Warning> setup_risk_warning(const std::vector<SetupRisk>& risks) {
 
 std::vector<Warning> diagnose_warnings(const DiagnoseResult& r) {
   std::vector<Warning> out = residual_after_warnings(r);
+  // An effect chosen by convention among equivalent ones: the readings fit each the same, and
+  // the corrected errors differ between them by amounts no uncertainty here carries.
+  for (const AddedEffect& a : r.added) {
+    if (a.equivalent_to.empty()) continue;
+    std::string others;
+    for (const std::string& e : a.equivalent_to) others += (others.empty() ? "" : ", ") + e;
+    out.push_back(
+        {"equivalent_effects",
+         a.block.label +
+             " was chosen by convention among effects the readings cannot tell apart (" + others +
+             "): the corrected errors and their ISO terms depend on the choice, and their "
+             "uncertainties leave the difference out. Before deciding conformance or entering a "
+             "compensation, fit each with dbbkit identify --effects to see the difference, or "
+             "measure an installation that tells them apart."});
+  }
   if (auto w = setup_risk_warning(r.setup_risks)) out.push_back(*w);
   return out;
 }

@@ -64,9 +64,9 @@ std::unique_ptr<CommandLine> make_command_line() {
   add(add_bench);
   // Every option that names a file: an empty path is refused where it is read.
   const std::set<std::string> path_options = {
-      "--design",   "--data",           "--out",        "--report",   "--summary", "--kit",
-      "--result",   "--reference",      "--pareto-csv", "--map-csv",  "--truth",   "--setup-out",
-      "--baseline", "--write-baseline", "designs",      "--trace-out"};
+      "--design",   "--data",           "--out",        "--report",    "--summary",   "--kit",
+      "--result",   "--reference",      "--pareto-csv", "--map-csv",   "--truth",     "--setup-out",
+      "--baseline", "--write-baseline", "designs",      "--trace-out", "--tolerances"};
   for (auto& [sub, run] : cl->commands) {
     for (CLI::Option* opt : sub->get_options()) {
       if (path_options.count(opt->get_name()) || path_options.count(opt->get_single_name())) {

@@ -64,6 +64,10 @@ Runner add_readings(CLI::App& app) {
       const std::size_t eq = t.find('=');
       if (eq == std::string::npos || eq == 0 || eq + 1 == t.size())
         throw InputError("--trace", quote_value(t), "expected ID=FILE");
+      for (const auto& [id, path] : traces) {
+        if (id == t.substr(0, eq))
+          throw InputError("--trace", quote_value(id), "two traces of one installation");
+      }
       traces.emplace_back(t.substr(0, eq), t.substr(eq + 1));
       inputs.push_back(t.substr(eq + 1));
     }
@@ -88,20 +92,17 @@ Runner add_readings(CLI::App& app) {
     std::vector<io::TraceRun> runs;
     for (std::size_t k = 0; k < traces.size(); ++k) {
       const auto& [id, path] = traces[k];
-      for (std::size_t j = 0; j < k; ++j) {
-        if (traces[j].first == id)
-          throw InputError("--trace", quote_value(id), "two traces of one installation");
-      }
       auto trace = std::make_unique<Trace>(io::read_trace_file(path, format));
       auto r = std::make_unique<TraceReadings>(
           readings_from_trace(design, id, *trace, sweeps, options, path));
+      validate_readings(design, r->readings, path);  // its range, before it is counted in
       readings.insert(readings.end(), r->readings.begin(), r->readings.end());
       warnings.insert(warnings.end(), r->warnings.begin(), r->warnings.end());
       if (!rep->quiet) {
-        std::cerr << "readings: " << id << ": " << r->readings.size() << " readings from "
-                  << r->search.plateaus.size() << " dwells of " << path << " ("
-                  << trace->time_s.size() << " samples, sample noise "
-                  << io::fmt_num(r->search.noise_um, 3) << " um)\n";
+        std::cerr << "readings: " << printable(id, 80) << ": " << r->readings.size()
+                  << " readings from " << r->search.plateaus.size() << " dwells of "
+                  << printable(path, 400) << " (" << trace->time_s.size()
+                  << " samples, sample noise " << io::fmt_num(r->search.noise_um, 3) << " um)\n";
       }
       if (keep) {
         runs.push_back({id, path, trace.get(), r.get()});

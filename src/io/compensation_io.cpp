@@ -45,12 +45,22 @@ Verdict verdict(const ResultQuantity& q, double k) {
 }
 
 // The header's lines: what, from where, units, k.
+// The result's warnings, one comment line each: what makes its values unreliable reaches
+// whoever enters them.
+std::string result_warnings(const ResultFile& r, const std::string& prefix) {
+  std::string out;
+  for (const std::string& w : r.warnings)
+    out += prefix + "WARNING (from the result): " + program_comment(w, 1000) + "\n";
+  return out;
+}
+
 std::string provenance(const ResultFile& r, const std::string& prefix) {
   return prefix + "dbbkit compensation of axis " + std::string(1, r.axis.letter()) + " (design " +
          program_comment(r.design_name, 120) + ", " + r.format + ", " +
          program_comment(r.source, 200) + ")\n" + prefix +
          "each value is the location error as measured: the axis' actual location minus its "
-         "nominal (ISO 230-1), in the work frame the measurement was taught in\n";
+         "nominal (ISO 230-1), in the work frame the measurement was taught in\n" +
+         result_warnings(r, prefix);
 }
 
 std::string isg(const ResultFile& r, const CompensationOptions& o) {

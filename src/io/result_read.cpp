@@ -128,6 +128,14 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
     ObjectReader top(holder, source, "design");
     r.axis = read_axis(top);
   }
+  if (j.contains("warnings")) {
+    const json& w = j["warnings"];
+    if (!w.is_array()) throw InputError(source, "warnings", "expected a list of {kind, text}");
+    for (std::size_t k = 0; k < w.size(); ++k) {
+      const std::string where = "warnings[" + std::to_string(k) + "]";
+      r.warnings.push_back(text_of(member(w[k], "text", source, where), source, where + ".text"));
+    }
+  }
   if (!j.contains("iso230")) {
     throw InputError(source, "iso230",
                      r.format == "dbbkit.diagnose/1"

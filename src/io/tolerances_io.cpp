@@ -8,6 +8,7 @@
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
 
@@ -197,7 +198,7 @@ std::string conformance_text(const ConformanceReport& report) {
 std::string conformance_line(const ConformanceReport& report, const std::string& tolerances_path) {
   return std::string("conformance: ") +
          (report.any_nonconforming() ? "does not conform" : "no nonconformity proven") + " (" +
-         tolerances_path + "; the decisions in the JSON)\n";
+         printable(tolerances_path, 400) + "; the decisions in the JSON)\n";
 }
 
 std::string conformance_rule(const ConformanceReport& report) {

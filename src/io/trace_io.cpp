@@ -57,11 +57,18 @@ bool number(std::string_view field, bool decimal_comma, double& x) {
   return ec == std::errc() && end == buffer + n && std::isfinite(x);
 }
 
+std::string number_text(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.9g", x);
+  return b;
+}
+
 }  // namespace
 
 void parse_trace_columns(const std::string& text, TraceFormat& format) {
   std::vector<std::string_view> parts;
   split(text, ',', parts);
+  bool seen_time = false, seen_reading = false;
   for (const std::string_view p : parts) {
     const std::size_t eq = p.find('=');
     const std::string key(trim(p.substr(0, eq)));
@@ -70,8 +77,14 @@ void parse_trace_columns(const std::string& text, TraceFormat& format) {
       throw InputError("--columns", quote_value(std::string(p)),
                        "expected time=NAME and/or reading=NAME, comma-separated");
     }
-    (key == "time" ? format.time_column : format.reading_column) = value;
+    std::string& column = key == "time" ? format.time_column : format.reading_column;
+    if ((key == "time" && seen_time) || (key == "reading" && seen_reading))
+      throw InputError("--columns", key, "given twice");
+    (key == "time" ? seen_time : seen_reading) = true;
+    column = value;
   }
+  if (format.time_column == format.reading_column)
+    throw InputError("--columns", "", "the time and the reading are one column");
 }
 
 Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string& source) {
@@ -136,6 +149,12 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
                                                : quote_value(format.reading_column)) +
                 ") among " + names + "; name another with --columns reading=NAME and --unit um|mm");
       }
+      if (time_col < 0 && format.sample_rate_hz && format.time_column != "time_s") {
+        throw InputError(source, where,
+                         "no time column " + quote_value(format.time_column) + " among " + names +
+                             " (--columns time=...); without it, give --sample-rate-hz alone "
+                             "and the rows are counted");
+      }
       if (time_col < 0 && !format.sample_rate_hz) {
         throw InputError(source, where,
                          "no time column " + quote_value(format.time_column) + " among " + names +
@@ -167,8 +186,8 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
     }
     if (!trace.time_s.empty() && !(time > trace.time_s.back())) {
       throw InputError(source, where,
-                       "the time does not increase (" + std::to_string(time) + " s after " +
-                           std::to_string(trace.time_s.back()) + " s)");
+                       "the time does not increase (" + number_text(time) + " s after " +
+                           number_text(trace.time_s.back()) + " s)");
     }
     if (trace.time_s.size() >= kMaxTraceSamples) {
       throw InputError(source, where,

@@ -52,6 +52,7 @@ struct ResultFile {
   std::vector<ResultErrors> errors;
   bool setup_included = false;  // the design's set-up tolerances are in the uncertainties
   std::string uncertainty_note;
+  std::vector<std::string> warnings;  // the texts of the result's warnings, as written
 };
 
 // Reads an identify or diagnose result (a diagnose result must carry its iso230 block).
