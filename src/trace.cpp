@@ -151,6 +151,7 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
     p.level_um = s.mean;
     p.std_um = s.std;
     p.samples = static_cast<long>(end - start);
+    p.first_sample = start;
     out.plateaus.push_back(p);
   }
   return out;
@@ -214,9 +215,7 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
     const Stop& stop = stops[k];
     const std::size_t parts = stop.sweeps.size();
     // The settled samples, split into equal parts for a stop of several readings.
-    const auto first = static_cast<std::size_t>(
-        std::lower_bound(trace.time_s.begin(), trace.time_s.end(), p.settled_start_s) -
-        trace.time_s.begin());
+    const std::size_t first = p.first_sample;
     const std::size_t count = static_cast<std::size_t>(p.samples);
     for (std::size_t q = 0; q < parts; ++q) {
       const std::size_t a = first + count * q / parts, b = first + count * (q + 1) / parts;

@@ -48,9 +48,10 @@ struct DwellOptions {
 struct Plateau {
   double start_s = 0, end_s = 0;  // the still run
   double settled_start_s = 0, settled_end_s = 0;
-  double level_um = 0;  // mean over the settled part
-  double std_um = 0;    // the samples' standard deviation over it
-  long samples = 0;     // in the settled part
+  double level_um = 0;           // mean over the settled part
+  double std_um = 0;             // the samples' standard deviation over it
+  long samples = 0;              // in the settled part
+  std::size_t first_sample = 0;  // the settled part's first sample (index into the trace)
 };
 
 struct PlateauSearch {

@@ -695,22 +695,19 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
                               long mc_batch, int mc_digits, const py::object& effects) {
   check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
   // A comma-separated string of labels or a list of them, as diagnose names them.
-  std::string effect_list;
+  std::vector<EffectCandidate> fitted;
   if (py::isinstance<py::str>(effects)) {
-    effect_list = effects.cast<std::string>();
+    fitted = effects_from_list(d.value, effects.cast<std::string>(), "effects");
   } else if (!effects.is_none()) {
     if (!py::isinstance<py::sequence>(effects))
       throw InputError("argument", "effects", "expected None, a string or a list of strings");
     for (const py::handle h : effects) {
       if (!py::isinstance<py::str>(h))
         throw InputError("argument", "effects", "expected a list of strings (effect labels)");
-      const std::string label = h.cast<std::string>();
-      if (label.find(',') != std::string::npos)
-        throw InputError("argument", "effects", "a label holds no comma: '" + label + "'");
-      effect_list += (effect_list.empty() ? "" : ",") + label;
+      fitted.push_back(effect_from_label(d.value, h.cast<std::string>(), "effects",
+                                         "effect " + std::to_string(fitted.size() + 1)));
     }
   }
-  const std::vector<EffectCandidate> fitted = effects_from_list(d.value, effect_list, "effects");
   MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
   // The design may not be the one they were read with.
   validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
