@@ -174,9 +174,11 @@ std::string joined(const std::vector<std::string>& labels) {
 
 // The attribution uncertainty of the errors after (Attribution). Each added effect's
 // alternatives that still fit almost as well in its place in the final model (close_in_final),
-// and each substitution, are put in place of what they replace, one at a time. The largest change
-// of each error at each position over one effect's (or substitution's) alternatives is its
-// half-width; the half-widths combine in quadrature, u^2 += w^2 / 3.
+// each substitution, and the effects chosen by convention among equivalent ones (all of them
+// together: every combination of their equivalents that fits exactly as well) are put in place of
+// what they replace, one attribution at a time. The largest change of each error at each position
+// over one attribution's alternatives is its half-width; the half-widths combine in quadrature,
+// u^2 += w^2 / 3.
 // The ISO quantities of an estimate as one list (location, constant parts, components), for the
 // attribution's share: their values, determined or not.
 std::vector<Determined> iso_values(const IsoResult& iso) {
@@ -206,7 +208,8 @@ void add_iso_share(IsoResult& iso, const std::vector<double>& w2) {
 std::vector<Attribution> attribute(const Design& design, const Parameterisation& param,
                                    const LinearModel& model, const std::vector<AddedEffect>& added,
                                    const std::vector<Substitution>& substitutions,
-                                   const Estimate& after, std::vector<ErrorsAtAngle>& errors,
+                                   const std::vector<EffectBlock>& pool, const Estimate& after,
+                                   std::vector<ErrorsAtAngle>& errors,
                                    const EstimateOptions& options, IsoResult* iso) {
   std::vector<Attribution> out;
   if (after.dof < 1) return out;
@@ -216,6 +219,7 @@ std::vector<Attribution> attribute(const Design& design, const Parameterisation&
   IsoMotionOptions no_motion;
   no_motion.enabled = false;
   std::vector<Determined> iso_alternative;  // of the last refit
+  bool exact = false;                       // refit: only alternatives that fit exactly as well
   // The errors with the added effects `out_labels` replaced by `in`; nullopt when that model
   // does not have the rank the swap should give.
   auto refit =
@@ -239,6 +243,9 @@ std::vector<Attribution> attribute(const Design& design, const Parameterisation&
     const Jacobian A = append_columns(model.J, X);
     const Estimate fit = WlsSolver(A, model.sigma_um, options).solve(model.y_um);
     if (fit.rank != after.rank - removed + inserted) return std::nullopt;
+    // An equivalent combination fits exactly as well (to rounding); one that does not is no
+    // alternative of the convention.
+    if (exact && fit.chi2 > after.chi2 + 1e-6 * std::max(1.0, after.chi2)) return std::nullopt;
     if (iso) iso_alternative = iso_values(iso230_quantities(design, param, fit, 1.0, no_motion));
     return errors_at_stations(param, fit);
   };
@@ -246,6 +253,7 @@ std::vector<Attribution> attribute(const Design& design, const Parameterisation&
                          const std::vector<std::vector<const EffectBlock*>>& alternatives) {
     Attribution at;
     at.effect = joined(out_labels);
+    at.convention = exact;
     std::vector<std::array<double, 6>> w(errors.size(), std::array<double, 6>{});
     std::vector<double> iso_w(iso_base.size(), 0.0);
     for (const std::vector<const EffectBlock*>& in : alternatives) {
@@ -284,6 +292,41 @@ std::vector<Attribution> attribute(const Design& design, const Parameterisation&
     for (const EffectBlock& b : s.by) in.push_back(&b);
     attribution(s.replaced, {in});
   }
+  // The effects chosen by convention: each is kept or replaced by one of its equivalents, every
+  // combination but the chosen one (at most kMaxCombinations, the first effects' first).
+  {
+    constexpr std::size_t kMaxCombinations = 256;
+    std::vector<std::string> out_labels;
+    std::vector<std::vector<const EffectBlock*>> options_of;  // [0]: the chosen effect
+    for (const AddedEffect& a : added) {
+      if (a.equivalent_to.empty()) continue;
+      std::vector<const EffectBlock*> o{&a.block};
+      for (const std::string& l : a.equivalent_to) {
+        const auto it = std::find_if(pool.begin(), pool.end(),
+                                     [&](const EffectBlock& b) { return b.label == l; });
+        if (it != pool.end()) o.push_back(&*it);
+      }
+      if (o.size() < 2) continue;
+      out_labels.push_back(a.block.label);
+      options_of.push_back(std::move(o));
+    }
+    std::vector<std::vector<const EffectBlock*>> combinations;
+    std::vector<std::size_t> pick(options_of.size(), 0);
+    while (!options_of.empty() && combinations.size() < kMaxCombinations) {
+      // The next combination (odometer order, the last effect fastest).
+      std::size_t k = options_of.size();
+      while (k > 0 && ++pick[k - 1] == options_of[k - 1].size()) pick[--k] = 0;
+      if (k == 0) break;
+      std::vector<const EffectBlock*> in;
+      for (std::size_t e = 0; e < options_of.size(); ++e) in.push_back(options_of[e][pick[e]]);
+      combinations.push_back(std::move(in));
+    }
+    if (!combinations.empty()) {
+      exact = true;
+      attribution(out_labels, combinations);
+      exact = false;
+    }
+  }
   for (std::size_t s = 0; s < errors.size(); ++s) {
     for (int k = 0; k < 6; ++k) {
       Determined& d = errors[s].errors[k];
@@ -320,7 +363,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.errors_after = errors_at_stations(param, current);
   res.substitutions = std::move(sel.substitutions);
   res.iso_after = iso230_quantities(design, param, current, 1.0, options.iso_motion);
-  res.attributions = attribute(design, param, model, res.added, res.substitutions, current,
+  res.attributions = attribute(design, param, model, res.added, res.substitutions, pool, current,
                                res.errors_after, options.estimate, &res.iso_after);
   {
     // Null space of the final model over the axis-error unknowns (effects are all determined when

@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
@@ -194,6 +195,55 @@ std::vector<SetupEffect> declared_setup(const Design& design, const LinearModel&
   return out;
 }
 
+// Each fitted effect's equivalents among the library's candidates (FittedEffect::equivalent_to):
+// a candidate of as many columns that lies in the span of the fitted model and, in the effect's
+// place, keeps its rank spans the same space, so the readings fit either exactly as well.
+void find_equivalents(const Design& design, const std::vector<Reading>& readings,
+                      const std::vector<EffectBlock>& blocks, const EstimateOptions& options,
+                      std::vector<FittedEffect>& effects) {
+  if (blocks.empty()) return;
+  const Parameterisation param(design);
+  const LinearModel base = build_linear_model(design, param, readings);
+  auto fit = [&](const std::vector<const Eigen::MatrixXd*>& xs) {
+    Eigen::Index cols = 0;
+    for (const Eigen::MatrixXd* x : xs) cols += x->cols();
+    Eigen::MatrixXd X(base.J.rows(), cols);
+    Eigen::Index c = 0;
+    for (const Eigen::MatrixXd* x : xs) X.middleCols(c, x->cols()) = *x, c += x->cols();
+    return WlsSolver(append_columns(base.J, X), base.sigma_um, options).solve(base.y_um);
+  };
+  std::vector<const Eigen::MatrixXd*> chosen_blocks;
+  for (const EffectBlock& b : blocks) chosen_blocks.push_back(&b.J_reading_effect);
+  const Estimate chosen = fit(chosen_blocks);
+  const std::vector<ErrorsAtAngle> chosen_errors = errors_at_stations(param, chosen);
+  for (const EffectBlock& candidate : candidate_effects(design, readings)) {
+    if (!candidate.applicability.applicable() || candidate.parameters.empty()) continue;
+    if (std::any_of(blocks.begin(), blocks.end(),
+                    [&](const EffectBlock& b) { return b.label == candidate.label; }))
+      continue;
+    std::vector<const Eigen::MatrixXd*> with = chosen_blocks;
+    with.push_back(&candidate.J_reading_effect);
+    if (fit(with).rank != chosen.rank) continue;  // it adds something: not in the span
+    for (std::size_t e = 0; e < blocks.size(); ++e) {
+      if (blocks[e].J_reading_effect.cols() != candidate.J_reading_effect.cols()) continue;
+      std::vector<const Eigen::MatrixXd*> swapped = chosen_blocks;
+      swapped[e] = &candidate.J_reading_effect;
+      const Estimate other = fit(swapped);
+      if (other.rank != chosen.rank) continue;
+      const std::vector<ErrorsAtAngle> other_errors = errors_at_stations(param, other);
+      FittedEffect& f = effects[e];
+      f.equivalent_to.push_back(candidate.label);
+      for (std::size_t s = 0; s < chosen_errors.size() && s < other_errors.size(); ++s) {
+        for (int k = 0; k < 6; ++k) {
+          const Determined &a = chosen_errors[s].errors[k], &b = other_errors[s].errors[k];
+          if (a.determined && b.determined)
+            f.largest_change[k] = std::max(f.largest_change[k], std::abs(a.value - b.value));
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 
 IdentifyResult identify(const Design& design, const std::vector<Reading>& readings,
@@ -211,6 +261,8 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                      {},
                      false,
                      false,
+                     {},
+                     {},
                      {},
                      {},
                      {}};
@@ -269,6 +321,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
     }
     res.effects.push_back(std::move(f));
   }
+  find_equivalents(design, readings, blocks, options.estimate, res.effects);
   res.warnings = identify_warnings(design, res);
   return res;
 }

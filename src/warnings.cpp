@@ -176,20 +176,45 @@ std::optional<Warning> setup_risk_warning(const std::vector<SetupRisk>& risks) {
 
 std::vector<Warning> diagnose_warnings(const DiagnoseResult& r) {
   std::vector<Warning> out = residual_after_warnings(r);
-  // An effect chosen by convention among equivalent ones: the readings fit each the same, and
-  // the corrected errors differ between them by amounts no uncertainty here carries.
+  // Effects chosen by convention among equivalent ones: the readings fit each the same, and the
+  // corrected errors differ between them; the attribution carries the difference when the
+  // combinations could be refitted.
+  const Attribution* convention = nullptr;
+  for (const Attribution& at : r.attributions) {
+    if (at.convention) convention = &at;
+  }
+  std::string chosen;  // "a (or b, c) and d (or e)"
+  int n_chosen = 0;
   for (const AddedEffect& a : r.added) {
     if (a.equivalent_to.empty()) continue;
     std::string others;
     for (const std::string& e : a.equivalent_to) others += (others.empty() ? "" : ", ") + e;
-    out.push_back(
-        {"equivalent_effects",
-         a.block.label +
-             " was chosen by convention among effects the readings cannot tell apart (" + others +
-             "): the corrected errors and their ISO terms depend on the choice, and their "
-             "uncertainties leave the difference out. Before deciding conformance or entering a "
-             "compensation, fit each with dbbkit identify --effects to see the difference, or "
-             "measure an installation that tells them apart."});
+    chosen += (n_chosen++ ? " and " : "") + a.block.label + " (or " + others + ")";
+  }
+  if (n_chosen > 0) {
+    std::string consequence;
+    if (convention) {
+      const double um = *std::max_element(convention->largest_change.begin(),
+                                          convention->largest_change.begin() + 3);
+      const double urad = *std::max_element(convention->largest_change.begin() + 3,
+                                            convention->largest_change.end());
+      consequence =
+          "the corrected errors and their ISO terms carry the difference in their uncertainties "
+          "(a rectangular share, half-width up to " +
+          text::significant(um, 3) + " um, " + text::significant(urad, 3) +
+          " urad), so they may be too uncertain to enter or to decide. To remove it, measure an "
+          "installation that tells them apart; dbbkit identify --effects fits each choice.";
+    } else {
+      consequence =
+          "the corrected errors and their ISO terms depend on the choice, and their "
+          "uncertainties leave the difference out. Before deciding conformance or entering a "
+          "compensation, fit each with dbbkit identify --effects to see the difference, or "
+          "measure an installation that tells them apart.";
+    }
+    out.push_back({"equivalent_effects", chosen + (n_chosen == 1 ? " was" : " were") +
+                                             " chosen by convention among effects the readings "
+                                             "cannot tell apart: " +
+                                             consequence});
   }
   if (auto w = setup_risk_warning(r.setup_risks)) out.push_back(*w);
   return out;
@@ -200,6 +225,29 @@ std::vector<Warning> identify_warnings(const Design& design, const IdentifyResul
   if (auto w = residual_warning(result.estimate, result.budget.type_a_scale.has_value()))
     out.push_back(*w);
   if (auto w = first_order_warning(result.first_order)) out.push_back(*w);
+  // Fitted effects the readings cannot tell from others of the library: the values hold for
+  // the model as given, not for the effect the machine has.
+  std::string chosen;
+  int n_chosen = 0;
+  std::array<double, 6> change{};
+  for (const FittedEffect& f : result.effects) {
+    if (f.equivalent_to.empty()) continue;
+    std::string others;
+    for (const std::string& e : f.equivalent_to) others += (others.empty() ? "" : ", ") + e;
+    chosen += (n_chosen++ ? " and " : "") + f.label + " (or " + others + ")";
+    for (int k = 0; k < 6; ++k) change[k] = std::max(change[k], f.largest_change[k]);
+  }
+  if (n_chosen > 0) {
+    const double um = *std::max_element(change.begin(), change.begin() + 3);
+    const double urad = *std::max_element(change.begin() + 3, change.end());
+    out.push_back(
+        {"equivalent_effects",
+         "The readings fit " + chosen + " exactly as well: the errors and their uncertainties " +
+             "hold for the effects as given, and move by up to " + text::significant(um, 3) +
+             " um, " + text::significant(urad, 3) +
+             " urad should another be the machine's. dbbkit diagnose carries the difference in "
+             "its uncertainties; measure an installation that tells them apart to remove it."});
+  }
   const double L = design.reference_length_mm.value_or(100.0);
   if (auto w = setup_undeclared_warning(
           hidden_setup_effects(design, result.param, result.model, result.solver, L), L))

@@ -14,10 +14,13 @@
 
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/effects.hpp"
+#include "dbbkit/identify.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
+#include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/simulate.hpp"
+#include "dbbkit/warnings.hpp"
 #include "diagnose_util.hpp"
 #include "test_util.hpp"
 
@@ -219,22 +222,104 @@ TEST(DiagnoseOnDesigns, StatedDetectionLimitHasItsPower) {
 // The errors after are the chosen fit's values, with the change to the other fit as a
 // rectangular component of their standard uncertainty (one alternative): u = hypot(u_chosen,
 // |change| / sqrt(3)). Some error must change.
+// Each error after is the chosen model's, its uncertainty the chosen one combined with one
+// rectangular share per attribution: half-width the largest change over that attribution's
+// refits (`others`, one list per attribution).
 void expect_errors_carry(const DiagnoseResult& r, const std::vector<ErrorsAtAngle>& chosen,
-                         const std::vector<ErrorsAtAngle>& other) {
+                         const std::vector<std::vector<std::vector<ErrorsAtAngle>>>& others) {
   ASSERT_EQ(chosen.size(), r.errors_after.size());
-  ASSERT_EQ(other.size(), r.errors_after.size());
   double largest = 0;
   for (std::size_t i = 0; i < chosen.size(); ++i) {
     for (int k = 0; k < 6; ++k) {
       if (!chosen[i].errors[k].determined) continue;
-      const double w = std::abs(other[i].errors[k].value - chosen[i].errors[k].value);
-      const double u = std::hypot(chosen[i].errors[k].std, w / std::sqrt(3.0));
-      EXPECT_NEAR(r.errors_after[i].errors[k].value, chosen[i].errors[k].value, 1e-9 * (1 + w));
-      EXPECT_NEAR(r.errors_after[i].errors[k].std, u, 1e-9 * u);
-      largest = std::max(largest, w);
+      double u2 = chosen[i].errors[k].std * chosen[i].errors[k].std;
+      for (const std::vector<std::vector<ErrorsAtAngle>>& refits : others) {
+        double w = 0;
+        for (const std::vector<ErrorsAtAngle>& other : refits) {
+          EXPECT_EQ(other.size(), chosen.size());
+          w = std::max(w, std::abs(other[i].errors[k].value - chosen[i].errors[k].value));
+        }
+        u2 += w * w / 3.0;
+        largest = std::max(largest, w);
+      }
+      EXPECT_NEAR(r.errors_after[i].errors[k].value, chosen[i].errors[k].value,
+                  1e-9 * (1 + std::sqrt(u2)));
+      EXPECT_NEAR(r.errors_after[i].errors[k].std, std::sqrt(u2), 1e-9 * std::sqrt(u2));
     }
   }
   EXPECT_GT(largest, 0.0);
+}
+
+void expect_errors_carry(const DiagnoseResult& r, const std::vector<ErrorsAtAngle>& chosen,
+                         const std::vector<ErrorsAtAngle>& other) {
+  const std::vector<std::vector<std::vector<ErrorsAtAngle>>> others{{other}};
+  expect_errors_carry(r, chosen, others);
+}
+
+// The errors refitted by hand: the model J with the effects' columns appended.
+std::vector<ErrorsAtAngle> errors_with(const Parameterisation& param, const LinearModel& model,
+                                       const std::vector<const Eigen::MatrixXd*>& blocks) {
+  Eigen::MatrixXd A = test::dense(model.J);
+  for (const Eigen::MatrixXd* X : blocks) {
+    A.conservativeResize(Eigen::NoChange, A.cols() + X->cols());
+    A.rightCols(X->cols()) = *X;
+  }
+  return errors_at_stations(param, WlsSolver(A, model.sigma_um).solve(model.y_um));
+}
+
+const EffectBlock& pool_block(const std::vector<EffectBlock>& pool, const std::string& label) {
+  const auto b = std::find_if(pool.begin(), pool.end(),
+                              [&](const EffectBlock& e) { return e.label == label; });
+  EXPECT_NE(b, pool.end()) << label;
+  return b == pool.end() ? pool.front() : *b;
+}
+
+// Effects chosen by convention among equivalent ones (the paper's C data: length_offset and
+// centring of 2r, each equivalent to 1r's) put the change under every other choice into the
+// errors' uncertainty, as one rectangular share: each combination refitted here by hand, the
+// half-width the largest change over the three; the corrected X0C interval then covers X0C under
+// either choice.
+TEST(DiagnoseOnDesigns, EffectsChosenByConventionEnterTheErrorsUncertainty) {
+  const Design d = test::paper_design('C');
+  const Parameterisation param(d);
+  const std::vector<Reading> readings =
+      io::read_measurement_file(test::source_path("tests/data/paper/paper_c_turntable.csv"), d);
+  const DiagnoseResult r = diagnose(d, readings);
+  ASSERT_EQ(r.added.size(), 2u);
+  ASSERT_EQ(r.added[0].equivalent_to, std::vector<std::string>{"length_offset[1r]"});
+  ASSERT_EQ(r.added[1].equivalent_to, std::vector<std::string>{"centring[1r]"});
+  ASSERT_EQ(r.attributions.size(), 1u);
+  const Attribution& at = r.attributions[0];
+  EXPECT_TRUE(at.convention);
+  EXPECT_EQ(at.effect, "length_offset[2r] + centring[2r]");
+  EXPECT_EQ(at.alternatives, (std::vector<std::string>{"length_offset[2r] + centring[1r]",
+                                                       "length_offset[1r] + centring[2r]",
+                                                       "length_offset[1r] + centring[1r]"}));
+  const LinearModel model = build_linear_model(d, param, readings);
+  const std::vector<EffectBlock> pool = candidate_effects(d, readings);
+  const Eigen::MatrixXd& l2 = pool_block(pool, "length_offset[2r]").J_reading_effect;
+  const Eigen::MatrixXd& c2 = pool_block(pool, "centring[2r]").J_reading_effect;
+  const Eigen::MatrixXd& l1 = pool_block(pool, "length_offset[1r]").J_reading_effect;
+  const Eigen::MatrixXd& c1 = pool_block(pool, "centring[1r]").J_reading_effect;
+  const std::vector<ErrorsAtAngle> chosen = errors_with(param, model, {&l2, &c2});
+  const std::vector<std::vector<std::vector<ErrorsAtAngle>>> combinations{
+      {errors_with(param, model, {&l2, &c1}), errors_with(param, model, {&l1, &c2}),
+       errors_with(param, model, {&l1, &c1})}};
+  expect_errors_carry(r, chosen, combinations);
+  // X0C under the other choice (identify --effects), inside the corrected interval at k = 2.
+  IdentifyOptions o;
+  o.effects = {effect_from_label(d, "length_offset[1r]", "test", "effects"),
+               effect_from_label(d, "centring[1r]", "test", "effects")};
+  const IdentifyResult other = identify(d, readings, o);
+  const Determined& x = r.iso_after.location[0].value;
+  ASSERT_TRUE(x.determined);
+  EXPECT_GT(std::abs(other.iso.location[0].value.value - x.value), 20.0);
+  EXPECT_LT(std::abs(other.iso.location[0].value.value - x.value), 2 * x.std);
+  // The warning says the share is carried.
+  const std::vector<Warning> w = diagnose_warnings(r);
+  ASSERT_FALSE(w.empty());
+  EXPECT_EQ(w[0].kind, "equivalent_effects");
+  EXPECT_NE(w[0].text.find("carry the difference in their uncertainties"), std::string::npos);
 }
 
 // Where a candidate fits almost as well as an added effect, every error's standard
@@ -297,35 +382,45 @@ TEST(DiagnoseOnDesigns, SubstitutionEntersTheErrorsUncertainty) {
     t.effects = effects;
     const std::vector<Reading> readings = simulate(d, t, 25000 + s);
     const DiagnoseResult r = diagnose(d, readings);
-    if (r.substitutions.size() != 1 || r.attributions.size() != 1) continue;
+    if (r.substitutions.size() != 1) continue;
+    // The substitution's attribution, and the convention's when an added effect has equivalents.
+    const Attribution* sub_at = nullptr;
+    const Attribution* convention = nullptr;
+    for (const Attribution& at : r.attributions) (at.convention ? convention : sub_at) = &at;
+    if (!sub_at || r.attributions.size() != (convention ? 2u : 1u)) continue;
     const Substitution& sub = r.substitutions[0];
     std::vector<std::string> by;
     for (const EffectBlock& b : sub.by) by.push_back(b.label);
-    ASSERT_EQ(r.attributions[0].alternatives.size(), 1u);
+    ASSERT_EQ(sub_at->alternatives.size(), 1u);
     std::string joined_by;
     for (const std::string& l : by) joined_by += (joined_by.empty() ? "" : " + ") + l;
-    EXPECT_EQ(r.attributions[0].alternatives[0], joined_by);
+    EXPECT_EQ(sub_at->alternatives[0], joined_by);
     const LinearModel model = build_linear_model(d, param, readings);
-    auto fit_with = [&](const std::vector<const Eigen::MatrixXd*>& blocks) {
-      Eigen::MatrixXd A = model.J;
-      for (const Eigen::MatrixXd* X : blocks) {
-        A.conservativeResize(Eigen::NoChange, A.cols() + X->cols());
-        A.rightCols(X->cols()) = *X;
-      }
-      return errors_at_stations(param, WlsSolver(A, model.sigma_um).solve(model.y_um));
-    };
-    std::vector<const Eigen::MatrixXd*> chosen_blocks, other_blocks;
+    const std::vector<EffectBlock> pool = candidate_effects(d, readings);
+    std::vector<const Eigen::MatrixXd*> chosen_blocks, other_blocks, convention_blocks;
     for (const AddedEffect& a : r.added) {
       chosen_blocks.push_back(&a.block.J_reading_effect);
       if (std::find(sub.replaced.begin(), sub.replaced.end(), a.block.label) ==
           sub.replaced.end()) {
         other_blocks.push_back(&a.block.J_reading_effect);
       }
+      // One effect with one equivalent: the convention's only other choice.
+      if (a.equivalent_to.empty()) {
+        convention_blocks.push_back(&a.block.J_reading_effect);
+      } else {
+        ASSERT_EQ(a.equivalent_to.size(), 1u);
+        convention_blocks.push_back(&pool_block(pool, a.equivalent_to[0]).J_reading_effect);
+      }
     }
     for (const EffectBlock& b : sub.by) other_blocks.push_back(&b.J_reading_effect);
-    const std::vector<ErrorsAtAngle> chosen = fit_with(chosen_blocks);
-    const std::vector<ErrorsAtAngle> other = fit_with(other_blocks);
-    expect_errors_carry(r, chosen, other);
+    const std::vector<ErrorsAtAngle> chosen = errors_with(param, model, chosen_blocks);
+    std::vector<std::vector<std::vector<ErrorsAtAngle>>> others{
+        {errors_with(param, model, other_blocks)}};
+    if (convention) {
+      ASSERT_EQ(convention->alternatives.size(), 1u);
+      others.push_back({errors_with(param, model, convention_blocks)});
+    }
+    expect_errors_carry(r, chosen, others);
     const std::string verdict = io::diagnose_verdict(d, readings, r);
     EXPECT_NE(verdict.find(joined_by + " in place of "), std::string::npos) << verdict;
     ++checked;

@@ -112,6 +112,8 @@ TEST(IdentifyEffects, DiagnoseModelReusedGivesItsValues) {
   ASSERT_NE(drift, nullptr) << list;
   EXPECT_EQ(drift->unit, "um/min");
   EXPECT_NEAR(drift->values[0].value, 0.4, 3 * drift->values[0].std);
+  // A drift of one installation's readings is no other effect of the library.
+  EXPECT_TRUE(drift->equivalent_to.empty());
   // Without the effect the residual contradicts the noise; with it, it does not.
   EXPECT_LT(*identify(d, readings).estimate.p_value, 0.01);
   EXPECT_GT(*r.estimate.p_value, 0.01);
@@ -154,6 +156,36 @@ TEST(IdentifyEffects, SetUpPriorReplacedAndConfoundedEffectNamed) {
   EXPECT_TRUE(named) << confounded;
 }
 
+// An effect the readings cannot tell from another of the library (a bar offset of 2r and one of
+// 1r on the paper's C design): identify names the other, and the largest change of the errors
+// is that between the two fits, each run here with identify; the warning says so.
+TEST(IdentifyEffects, EquivalentEffectIsNamedWithTheChange) {
+  const Design d = test::paper_design('C');
+  const Truth t = io::read_truth_file(test::source_path("tests/data/truth_length_offset_2r.json"));
+  const std::vector<Reading> readings = simulate(d, t, 11);
+  IdentifyOptions o;
+  o.effects = effects_from_list(d, "length_offset[2r]", "--effects");
+  const IdentifyResult r = identify(d, readings, o);
+  o.effects = effects_from_list(d, "length_offset[1r]", "--effects");
+  const IdentifyResult other = identify(d, readings, o);
+  ASSERT_EQ(r.effects.size(), 1u);
+  EXPECT_EQ(r.effects[0].equivalent_to, std::vector<std::string>{"length_offset[1r]"});
+  EXPECT_NEAR(other.estimate.chi2, r.estimate.chi2, 1e-6 * (1 + r.estimate.chi2));
+  std::array<double, 6> change{};
+  for (std::size_t s = 0; s < r.errors.size(); ++s) {
+    for (int k = 0; k < 6; ++k) {
+      if (r.errors[s].errors[k].determined && other.errors[s].errors[k].determined)
+        change[k] = std::max(
+            change[k], std::abs(r.errors[s].errors[k].value - other.errors[s].errors[k].value));
+    }
+  }
+  for (int k = 0; k < 6; ++k) EXPECT_NEAR(r.effects[0].largest_change[k], change[k], 1e-6) << k;
+  EXPECT_GT(change[0], 10.0);  // dx: the 15 um offset, seen from the other installation
+  bool warned = false;
+  for (const Warning& w : r.warnings) warned = warned || w.kind == "equivalent_effects";
+  EXPECT_TRUE(warned);
+}
+
 // The command line: --effects fits them, the JSON lists them; a bad label exits 2 naming it.
 TEST(IdentifyEffects, CommandLine) {
   const std::string base = "identify --design " +
@@ -165,6 +197,8 @@ TEST(IdentifyEffects, CommandLine) {
   ASSERT_EQ(j["effects"].size(), 2u);
   EXPECT_EQ(j["effects"][1]["label"], "centring[2r]");
   EXPECT_TRUE(j["effects"][1]["value"].contains("cx"));
+  EXPECT_EQ(j["effects"][0]["equivalent_to"][0], "length_offset[1r]");
+  EXPECT_GT(j["effects"][0]["largest_change"]["dx"].get<double>(), 30.0);
   r = run_cli(base + " --effects 'length_offset[7q]'");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("'7q' is no installation"), std::string::npos) << r.err;

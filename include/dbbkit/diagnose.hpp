@@ -83,6 +83,10 @@ struct Attribution {
   std::string effect;                      // an added effect, or "a + b" for a substitution's
   std::vector<std::string> alternatives;   // labels, or "c + d" for a substitution's
   std::array<double, 6> largest_change{};  // um, urad
+  // The effects were chosen by convention among equivalent ones (AddedEffect::equivalent_to):
+  // `effect` lists them all, each alternative is one combination of their equivalents, and the
+  // readings fit every combination exactly as well.
+  bool convention = false;
 };
 
 // Why forward selection stopped before no candidate passed (selection.hpp).

@@ -90,6 +90,11 @@ struct FittedEffect {
   std::string label, unit;
   std::vector<std::string> parameters;
   std::vector<Determined> values;
+  // Candidates of the library that fit exactly as well in its place (the same column space with
+  // the axis errors and the other effects): the values are conditional on the choice of this
+  // one. largest_change: of any error at any angle should one of them take its place (um, urad).
+  std::vector<std::string> equivalent_to;
+  std::array<double, 6> largest_change{};
 };
 
 // A set-up effect estimated with its prior (setup.hpp): the posterior value and

@@ -170,8 +170,8 @@ std::string diagnose_iso_note(const DiagnoseResult& r) {
          "(the declared reading noise)" +
          std::string(r.attributions.empty()
                          ? ""
-                         : " and the share of the alternatives that fit almost as well "
-                           "(rectangular, as the errors carry it; the error motion values "
+                         : " and the share of the alternatives that fit almost as well or "
+                           "equally (rectangular, as the errors carry it; the error motion values "
                            "without it)");
 }
 
@@ -247,6 +247,7 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
     for (int k = 0; k < 6; ++k) change[kErrorNames[k]] = r6(at.largest_change[k]);
     attributions.push_back(
         {{"effect", at.effect},
+         {"kind", at.convention ? "equivalent" : "fits almost as well"},
          {"alternatives", at.alternatives},
          {"largest_change", change},
          {"distribution", "rectangular, half-width the change, in the errors' std"}});

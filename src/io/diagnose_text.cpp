@@ -183,9 +183,9 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
       v << "No effect of the library is justified. ";
     } else {
       // The change of the errors should the alternatives of `effect` be the true ones.
-      auto attribution_sentence = [&](const std::string& effect) {
+      auto attribution_sentence = [&](const std::string& effect, bool convention) {
         for (const Attribution& at : res.attributions) {
-          if (at.effect != effect) continue;
+          if (at.effect != effect || at.convention != convention) continue;
           const double um =
               *std::max_element(at.largest_change.begin(), at.largest_change.begin() + 3);
           const double urad =
@@ -206,14 +206,17 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
           for (std::size_t i = 0; i < a.close_alternatives.size(); ++i)
             v << (i ? " or " : " ") << a.close_alternatives[i];
           v << ", which fit almost as well: these readings cannot tell them apart reliably. ";
-          attribution_sentence(a.block.label);
+          attribution_sentence(a.block.label, false);
         }
         if (a.equivalent_to.empty()) continue;
         v << a.block.label << " is equivalent to";
         for (const std::string& l : a.equivalent_to) v << " " << l;
         v << ": the data determine only their difference, so it is attributed by convention to the "
              "later "
-             "installation, and the errors after are conditional on that choice. ";
+             "installation. ";
+      }
+      for (const Attribution& at : res.attributions) {
+        if (at.convention) attribution_sentence(at.effect, true);
       }
       for (const Substitution& sub : res.substitutions) {
         std::vector<std::string> by;
@@ -221,7 +224,7 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
         v << joined(by) << " in place of " << joined(sub.replaced) << " fit"
           << (by.size() == 1 ? "s" : "")
           << " almost as well: these readings cannot tell the two explanations apart reliably. ";
-        attribution_sentence(joined(sub.replaced));
+        attribution_sentence(joined(sub.replaced), false);
       }
     }
     for (const StructureComparison& c : res.structures) {

@@ -321,7 +321,14 @@ json fitted_effects_to_json(const std::vector<FittedEffect>& effects) {
       value[f.parameters[k]] = d.determined ? json(r6(d.value)) : json(nullptr);
       std[f.parameters[k]] = d.determined ? json(r6(d.std)) : json(nullptr);
     }
-    out.push_back({{"label", f.label}, {"value", value}, {"std", std}, {"unit", f.unit}});
+    json change = json::object();
+    for (int k = 0; k < 6; ++k) change[kErrorNames[k]] = r6(f.largest_change[k]);
+    out.push_back({{"label", f.label},
+                   {"value", value},
+                   {"std", std},
+                   {"unit", f.unit},
+                   {"equivalent_to", f.equivalent_to},
+                   {"largest_change", f.equivalent_to.empty() ? json(nullptr) : change}});
   }
   return out;
 }
