@@ -134,6 +134,9 @@ std::string not_applicable_text(const Applicability& a) {
       return "needs readings at more than one time";
     case NotApplicable::kTooFewReadings:
       return "needs at least " + std::to_string(a.min_readings) + " readings of the installation";
+    case NotApplicable::kNeedsCommonClock:
+      return "needs the installations' times on one clock (their spans of time_s overlap, as when "
+             "each trace's clock starts at zero: dbbkit readings --start)";
   }
   return "";
 }
@@ -355,6 +358,25 @@ ReadingLayout::ReadingLayout(const Design& design, const std::vector<Reading>& r
   installation.reserve(readings.size());
   for (const Reading& r : readings) installation.push_back(index.at(r.installation));
   start_s = start_times(design, readings, installation);
+  // Each installation's span of time_s; two that overlap cannot be on one clock.
+  std::vector<std::pair<double, double>> span(
+      design.installations.size(),
+      {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()});
+  for (std::size_t k = 0; k < readings.size(); ++k) {
+    if (!readings[k].time_s) continue;
+    auto& [lo, hi] = span[static_cast<std::size_t>(installation[k])];
+    lo = std::min(lo, *readings[k].time_s), hi = std::max(hi, *readings[k].time_s);
+  }
+  std::vector<std::pair<double, double>> timed;
+  for (const auto& s : span)
+    if (s.first <= s.second) timed.push_back(s);
+  std::sort(timed.begin(), timed.end());
+  for (std::size_t i = 1; i < timed.size(); ++i)
+    common_clock = common_clock && timed[i].first > timed[i - 1].second;
+}
+
+bool readings_on_one_clock(const Design& design, const std::vector<Reading>& readings) {
+  return ReadingLayout(design, readings).common_clock;
 }
 
 EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings,
@@ -385,10 +407,13 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
     const double start = e.installation < 0 ? layout.test_start_s : layout.start_s[inst];
     full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, start, e).transpose();
   }
-  if ((e.kind == EffectKind::kDrift || e.kind == EffectKind::kThermal ||
-       (e.kind == EffectKind::kStep && std::isfinite(e.at_s))) &&
-      time_missing)
+  const bool timed_effect = e.kind == EffectKind::kDrift || e.kind == EffectKind::kThermal ||
+                            (e.kind == EffectKind::kStep && std::isfinite(e.at_s));
+  if (timed_effect && time_missing) {
     b.applicability.why = NotApplicable::kNeedsTimes;
+  } else if (timed_effect && e.installation < 0 && !layout.common_clock) {
+    b.applicability.why = NotApplicable::kNeedsCommonClock;
+  }
   if (e.kind == EffectKind::kReversal && !(cw && ccw))
     b.applicability.why = NotApplicable::kNeedsBothSweeps;
   if ((e.kind == EffectKind::kScale || e.kind == EffectKind::kSquareness) && bar_missing) {
@@ -495,6 +520,8 @@ std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Re
     th.applicability.why = NotApplicable::kNeedsEveryTime;
   } else if (!(t1 > t0)) {
     th.applicability.why = NotApplicable::kNeedsSeveralTimes;
+  } else if (!readings_on_one_clock(design, readings)) {
+    th.applicability.why = NotApplicable::kNeedsCommonClock;
   } else {
     const double T_min = (t1 - t0) / 60.0;
     const ReadingLayout layout(design, readings);

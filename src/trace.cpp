@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
 #include "number_text.hpp"
 #include "random.hpp"
@@ -260,11 +261,11 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
 }
 
 SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<double>& levels,
-                              const TraceSimulation& o) {
+                              const TraceSimulation& o, const std::vector<double>& times_s) {
   std::size_t readings = 0;
   for (const Stop& s : stops) readings += s.sweeps.size();
-  if (readings != levels.size())
-    throw std::logic_error("simulate_trace: one level per reading of the stops");
+  if (readings != levels.size() || !(times_s.empty() || times_s.size() == readings))
+    throw std::logic_error("simulate_trace: one level (and time) per reading of the stops");
   if (!(o.rate_hz > 0 && o.dwell_s > 0 && o.move_s_min > 0 && o.move_s_max >= o.move_s_min))
     throw std::logic_error("simulate_trace: options out of range");
   detail::Xoshiro256pp rng(o.seed);
@@ -289,6 +290,13 @@ SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<
     const auto n = static_cast<long>(std::llround(seconds * o.rate_hz));
     for (long i = 0; i < n; ++i) sample(level, 0);
   };
+  // With times: the trace's zero on the test's clock puts the first dwell's middle at the first
+  // reading's time, and the machine waits at each stop after the move so that the stop's middle
+  // is at its readings' mean time (a dwell at least the programmed one).
+  // (Not before the test's clock began: the first reading is then up to half the first dwell
+  // later than its time.)
+  if (!times_s.empty())
+    out.zero_s = std::max(0.0, times_s[0] - 0.5 * (o.dwell_s + o.first_extra_s));
   std::size_t r = 0;
   for (std::size_t k = 0; k < stops.size(); ++k) {
     const std::size_t parts = stops[k].sweeps.size();
@@ -310,8 +318,15 @@ SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<
     // level, their mean.
     double level = 0;
     for (std::size_t q = 0; q < parts; ++q) level += levels[r + q] / static_cast<double>(parts);
+    // With times, the stop's middle at its readings' mean time, its parts of equal length.
+    double part = o.dwell_s;
+    if (k > 0 && !times_s.empty()) {
+      double middle = 0;
+      for (std::size_t q = 0; q < parts; ++q) middle += times_s[r + q] / static_cast<double>(parts);
+      part = std::max(o.dwell_s, 2 * (middle - *out.zero_s - t) / static_cast<double>(parts));
+    }
     for (std::size_t q = 0; q < parts; ++q, ++r) {
-      double length = o.dwell_s;
+      double length = part;
       if (k == 0 && q == 0) length += o.first_extra_s;
       if (k + 1 == stops.size() && q + 1 == parts) length += o.last_extra_s;
       const double from = t;
@@ -321,6 +336,38 @@ SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<
     }
   }
   return out;
+}
+
+std::optional<Warning> put_on_test_clock(const Design& design, std::vector<Reading>& readings,
+                                         const std::map<std::string, double>& start_s,
+                                         const std::string& source) {
+  if (!start_s.empty()) {
+    for (const Reading& r : readings) {
+      if (!start_s.count(r.installation))
+        throw InputError(source, r.installation,
+                         "no start for this trace: give one for every trace, or none");
+    }
+    for (Reading& r : readings) {
+      if (!r.time_s) continue;
+      *r.time_s += start_s.at(r.installation);
+      if (!(*r.time_s >= 0))
+        throw InputError(source, r.installation,
+                         "with this start a reading falls at " + text::significant(*r.time_s, 6) +
+                             " s, before the test's clock began (times are >= 0)");
+    }
+  }
+  if (readings_on_one_clock(design, readings)) return std::nullopt;
+  if (!start_s.empty()) {
+    throw InputError(source, "",
+                     "with these starts the traces overlap in time (a ball bar measures one "
+                     "installation at a time): each start is when its trace's clock read zero, "
+                     "on the test's clock");
+  }
+  return Warning{"trace_clock",
+                 "Each trace keeps its own clock: the readings' times restart with every "
+                 "installation, so effects over the whole test (a drift or warm-up of the whole "
+                 "test) cannot be formed from them. Give the start of every trace on the test's "
+                 "clock (dbbkit readings --start ID=SECONDS) to put them on one clock."};
 }
 
 }  // namespace dbbkit

@@ -10,11 +10,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
 
 #include "cli_util.hpp"
+#include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/trace_io.hpp"
 #include "test_util.hpp"
@@ -280,6 +283,113 @@ TEST(TraceCommandLine, FromSimulatedTracesToIdentify) {
                     " --trace 1r=traces/1r.csv --dwell-s 6 --out x.csv");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("installation 1r"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "x.csv"));
+  fs::remove_all(dir);
+}
+
+// The test's clock: a drift of the whole test (0.3 um/min, the truth's schedule) hidden in the
+// traces. Each trace's clock starts at zero: without --start the readings' times overlap, the
+// terminal says so and diagnose cannot form the whole test's drift; with the starts the
+// simulator wrote in each trace's comments, diagnose finds it. Starts for some traces only, for
+// an installation without a trace, or making two traces overlap are refused (exit 2).
+TEST(TraceCommandLine, TracesOnTheTestsClock) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_trace_clock_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "tr");
+  const std::string D = test::source_path("tests/data/c_fourier2_bar150.json");
+  {
+    std::ifstream in(test::source_path("tests/data/truth_whole_test.json"));
+    nlohmann::json t = nlohmann::json::parse(in);
+    t["schedule"]["sweeps"] = {"ccw", "cw"};
+    std::ofstream(dir / "truth.json") << t.dump();
+  }
+  const std::string cd = "cd " + dir.string() + " && " + DBBKIT_CLI + " ";
+  CliRun r = run_cli_shell(cd + "simulate --design " + D +
+                           " --truth truth.json --out sim.csv --trace-out tr/");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Design d = io::read_design_file(D);
+  std::string traces, starts;
+  for (const Installation& in : d.installations) {
+    traces += " --trace " + in.id + "=tr/" + in.id + ".csv";
+    std::ifstream f(dir / "tr" / (in.id + ".csv"));
+    std::string line, start;
+    while (std::getline(f, line) && line.rfind('#', 0) == 0) {
+      const std::size_t at = line.find("--start " + in.id + "=");
+      if (at != std::string::npos) start = line.substr(at + 8);
+    }
+    ASSERT_FALSE(start.empty()) << in.id;
+    starts += " --start " + start;
+  }
+  const std::string readings = cd + "readings --design " + D + " --sweeps both" + traces;
+  r = run_cli_shell(readings + " --out own.csv");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("Each trace keeps its own clock"), std::string::npos) << r.err;
+  r = run_cli_shell(readings + starts + " --out test.csv");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err.find("own clock"), std::string::npos) << r.err;
+  const std::vector<Reading> own = io::read_measurement_file((dir / "own.csv").string(), d);
+  const std::vector<Reading> on_test = io::read_measurement_file((dir / "test.csv").string(), d);
+  EXPECT_FALSE(readings_on_one_clock(d, own));
+  EXPECT_TRUE(readings_on_one_clock(d, on_test));
+  // The readings' times follow the schedule's (the simulator's readings): the median within
+  // half a second, each within 5 s (a turn's two readings, 10 s apart in the schedule, split one
+  // plateau in halves).
+  const std::vector<Reading> sim = io::read_measurement_file((dir / "sim.csv").string(), d);
+  ASSERT_EQ(sim.size(), on_test.size());
+  std::vector<double> lag;
+  for (const Reading& g : on_test) {
+    for (const Reading& s : sim) {
+      if (s.installation == g.installation && s.angle_deg == g.angle_deg && s.sweep == g.sweep)
+        lag.push_back(std::abs(*g.time_s - *s.time_s));
+    }
+  }
+  ASSERT_EQ(lag.size(), sim.size());
+  std::sort(lag.begin(), lag.end());
+  EXPECT_LT(lag[lag.size() / 2], 0.5);
+  EXPECT_LT(lag.back(), 5.0);
+  auto added = [&](const std::string& data) {
+    const CliRun g =
+        run_cli_shell(cd + "diagnose --design " + D + " --data " + data + " --out - --quiet");
+    EXPECT_EQ(g.status, 0) << g.err;
+    return nlohmann::json::parse(g.out);
+  };
+  const nlohmann::json a = added("own.csv");
+  for (const auto& e : a["added_effects"]) EXPECT_NE(e["label"], "drift[all]");
+  bool not_applicable = false;
+  for (const auto& c : a["candidates"]) {
+    if (c["label"] == "drift[all]")
+      not_applicable = c["detail"].get<std::string>().find("one clock") != std::string::npos;
+  }
+  EXPECT_TRUE(not_applicable) << a["candidates"].dump();
+  const nlohmann::json b = added("test.csv");
+  bool found = false;
+  for (const auto& e : b["added_effects"]) {
+    if (e["label"] != "drift[all]") continue;
+    found = true;
+    EXPECT_NEAR(e["value"]["value"].get<double>(), 0.3, 3 * e["std"]["value"].get<double>());
+  }
+  EXPECT_TRUE(found) << b["added_effects"].dump();
+  // Refusals.
+  const std::string one = readings + " --out x.csv --start 1r=0";
+  r = run_cli_shell(one);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("give one for every trace"), std::string::npos) << r.err;
+  r = run_cli_shell(readings + starts + " --start 9z=3 --out x.csv");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("no --trace of this installation"), std::string::npos) << r.err;
+  std::string zeros;
+  for (const Installation& in : d.installations) zeros += " --start " + in.id + "=0";
+  r = run_cli_shell(readings + zeros + " --out x.csv");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("overlap in time"), std::string::npos) << r.err;
+  r = run_cli_shell(readings + starts + " --start 1r=-100 --out x.csv");
+  EXPECT_EQ(r.status, 2);
+  r = run_cli_shell(readings + " --start 1r=-100" + starts.substr(starts.find(" --start 1t")) +
+                    " --out x.csv");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("before the test's clock began"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "x.csv"));
   fs::remove_all(dir);
 }

@@ -114,6 +114,7 @@ enum class NotApplicable {
   kNeedsEveryTime,
   kNeedsSeveralTimes,
   kTooFewReadings,
+  kNeedsCommonClock,  // an effect over the whole test: the installations' times overlap
 };
 struct Applicability {
   NotApplicable why = NotApplicable::kNone;
@@ -142,7 +143,13 @@ struct ReadingLayout {
   std::vector<int> installation;  // per reading, its installation's index
   std::vector<double> start_s;    // per installation, installation_start_times
   double test_start_s;            // test_start_time
+  // The installations' times lie on one clock: no two installations' spans of time_s overlap
+  // (a ball bar measures one installation at a time). False when each trace's clock restarted.
+  bool common_clock = true;
 };
+
+// Whether the readings' times can be those of one clock (ReadingLayout::common_clock).
+bool readings_on_one_clock(const Design& design, const std::vector<Reading>& readings);
 
 // The columns of an effect over the readings; all-zero columns are dropped.
 EffectBlock effect_block(const Design& design, const std::vector<Reading>& readings,

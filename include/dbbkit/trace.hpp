@@ -16,6 +16,7 @@
 // plateau's end (the next move's onset left out).
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -94,6 +95,16 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
                                   const Trace& trace, const std::vector<Sweep>& sweeps,
                                   const DwellOptions& options, const std::string& source);
 
+// Puts the readings of several traces on the test's clock. `start_s`: when each trace's clock
+// read zero on the test's clock, by installation id, for every installation of the readings or
+// for none. Throws InputError(source, id) when some have a start and others not, and
+// InputError(source) when with the starts two installations overlap in time. Without starts,
+// returns the warning (kind trace_clock) when the traces' times overlap (each kept its own
+// clock: effects over the whole test cannot be formed).
+std::optional<Warning> put_on_test_clock(const Design& design, std::vector<Reading>& readings,
+                                         const std::map<std::string, double>& start_s,
+                                         const std::string& source);
+
 // A trace as the instrument would record one installation's run (simulate --trace): a first
 // plateau of extra length (capture started before), then for each stop its dwell at its level
 // (a stop of several readings holds their mean: without a move the bar does not change), a move to
@@ -121,10 +132,15 @@ struct SimulatedTrace {
   // dwell was.
   std::vector<double> level_um;
   std::vector<std::pair<double, double>> dwell_s;
+  // With the readings' times: the test's clock when the trace's read zero.
+  std::optional<double> zero_s;
 };
 
-// `levels`: one per reading of program_stops(design, sweeps), in order.
+// `levels`: one per reading of program_stops(design, sweeps), in order. `times_s` (empty, or one
+// per reading on the test's clock): the dwells follow them, the machine waiting at each stop so
+// that the stop's middle is at its readings' mean time (a dwell at least the programmed one).
 SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<double>& levels,
-                              const TraceSimulation& options);
+                              const TraceSimulation& options,
+                              const std::vector<double>& times_s = {});
 
 }  // namespace dbbkit

@@ -1,4 +1,8 @@
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <sstream>
 
@@ -21,7 +25,7 @@ namespace dbbkit::cli {
 namespace {
 struct ReadingsArgs {
   std::string design, out, columns, unit, sweeps = "ccw";
-  std::vector<std::string> traces;
+  std::vector<std::string> traces, starts;
   double dwell_s = 2.0, min_share = 0.5;
   std::optional<double> sample_rate_hz;
 };
@@ -38,6 +42,10 @@ Runner add_readings(CLI::App& app) {
   sub->add_option("--trace", args->traces,
                   "ID=FILE: the trace of installation ID (repeat for each installation)")
       ->required();
+  sub->add_option("--start", args->starts,
+                  "ID=SECONDS: when the trace of ID began on the test's clock (one for every "
+                  "trace, or none: then each trace keeps its own clock and effects over the "
+                  "whole test cannot be formed)");
   sub->add_option("--out", args->out, "Measurement CSV; '-' or absent: stdout");
   sub->add_option("--dwell-s", args->dwell_s, "The program's dwell at each angle [s]")
       ->check(finite_in(0.01, 600))
@@ -70,6 +78,23 @@ Runner add_readings(CLI::App& app) {
       }
       traces.emplace_back(t.substr(0, eq), t.substr(eq + 1));
       inputs.push_back(t.substr(eq + 1));
+    }
+    // --start: each trace's zero on the test's clock, for every trace or none.
+    std::map<std::string, double> start;
+    for (const std::string& t : args->starts) {
+      const std::size_t eq = t.find('=');
+      if (eq == std::string::npos || eq == 0 || eq + 1 == t.size())
+        throw InputError("--start", quote_value(t), "expected ID=SECONDS");
+      const std::string id = t.substr(0, eq);
+      if (std::none_of(traces.begin(), traces.end(), [&](const auto& p) { return p.first == id; }))
+        throw InputError("--start", quote_value(id), "no --trace of this installation");
+      if (start.count(id)) throw InputError("--start", quote_value(id), "given twice");
+      const std::string v = t.substr(eq + 1);
+      char* end = nullptr;
+      const double s = std::strtod(v.c_str(), &end);
+      if (end != v.c_str() + v.size() || !std::isfinite(s) || std::abs(s) > 1e9)
+        throw InputError("--start", quote_value(t), "expected a number of seconds");
+      start[id] = s;
     }
     io::TraceFormat format;
     if (!args->columns.empty()) io::parse_trace_columns(args->columns, format);
@@ -111,6 +136,7 @@ Runner add_readings(CLI::App& app) {
       }
     }
     validate_readings(design, readings, "readings");
+    if (auto w = put_on_test_clock(design, readings, start, "--start")) warnings.push_back(*w);
     std::ostringstream csv;
     io::write_measurements_csv(csv, readings);
     outputs.stage("--out", csv.str());

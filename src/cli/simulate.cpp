@@ -62,7 +62,8 @@ std::vector<std::pair<std::string, SimulatedTrace>> simulated_traces(
       throw std::logic_error("simulate --trace-out: readings not one per angle and sweep");
     // Sweep entry j holds readings [j per_sweep, (j + 1) per_sweep) (simulate.hpp); the stops
     // take them by angle in the program's order.
-    std::vector<double> levels;
+    std::vector<double> levels, times;
+    bool timed = true;
     std::size_t entry = 0;
     for (const Stop& s : stops) {
       for (std::size_t q = 0; q < s.sweeps.size(); ++q, ++entry) {
@@ -72,10 +73,13 @@ std::vector<std::pair<std::string, SimulatedTrace>> simulated_traces(
           if (own[k]->angle_deg == s.angle_deg) hit = own[k];
         if (!hit) throw std::logic_error("simulate --trace-out: no reading at a stop");
         levels.push_back(hit->reading_um);
+        timed = timed && hit->time_s;
+        times.push_back(hit->time_s.value_or(0.0));
       }
     }
     options.seed = options.seed * 1000003ULL + i;
-    out.emplace_back(id, simulate_trace(stops, levels, options));
+    out.emplace_back(id,
+                     simulate_trace(stops, levels, options, timed ? times : std::vector<double>{}));
   }
   return out;
 }
@@ -158,12 +162,18 @@ Runner add_simulate(CLI::App& app) {
       options.seed = seed.value_or(0);
       for (const auto& [id, sim] :
            simulated_traces(design, truth, readings, options, args->truth)) {
+        std::vector<std::string> comments{
+            "dbbkit simulate --trace-out: installation " + id + " of design " + design.name + ", " +
+            std::to_string(sim.level_um.size()) + " dwells of " + io::fmt_num(options.dwell_s, 4) +
+            " s at " + io::fmt_num(options.rate_hz, 4) + " Hz"};
+        // The trace's clock starts at zero; with the truth's schedule, its zero on the test's.
+        if (sim.zero_s) {
+          comments.push_back("on the test's clock this trace starts at " +
+                             io::fmt_num(*sim.zero_s, 6) + " s: dbbkit readings --start " + id +
+                             "=" + io::fmt_num(*sim.zero_s, 6));
+        }
         std::ostringstream text;
-        io::write_trace_csv(
-            text, sim.trace,
-            {"dbbkit simulate --trace-out: installation " + id + " of design " + design.name +
-             ", " + std::to_string(sim.level_um.size()) + " dwells of " +
-             io::fmt_num(options.dwell_s, 4) + " s at " + io::fmt_num(options.rate_hz, 4) + " Hz"});
+        io::write_trace_csv(text, sim.trace, comments);
         outputs.stage("--trace-out " + id, text.str());
       }
     }

@@ -484,8 +484,14 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
                                   const std::string& sweeps, double min_share,
                                   std::optional<std::string> columns,
                                   std::optional<std::string> unit,
-                                  std::optional<double> sample_rate_hz) {
+                                  std::optional<double> sample_rate_hz,
+                                  const std::map<std::string, double>& start_s) {
   check_finite_in("dwell_s", dwell_s, 0.01, 600);
+  for (const auto& [id, s] : start_s) {
+    if (!traces.contains(py::str(id)))
+      throw InputError("start_s", quote_value(id), "no trace of this installation");
+    check_finite_in("start_s", s, -1e9, 1e9);
+  }
   check_finite_in("min_share", min_share, 0.05, 1);
   const std::vector<Sweep> sw = sweeps_by_name(sweeps, "sweeps");
   io::TraceFormat format;
@@ -547,6 +553,8 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
     found[py::str(id)] = d;
   }
   validate_readings(design.value, mm.readings, "traces");
+  if (auto w = put_on_test_clock(design.value, mm.readings, start_s, "start_s"))
+    warnings.push_back(*w);
   py::dict out;
   out["dwells"] = found;
   out["warnings"] = warnings_list(warnings);
@@ -979,10 +987,12 @@ PYBIND11_MODULE(dbbkit, m) {
                   py::arg("dwell_s") = 2.0, py::arg("sweeps") = "ccw", py::arg("min_share") = 0.5,
                   py::arg("columns") = py::none(), py::arg("unit") = py::none(),
                   py::arg("sample_rate_hz") = py::none(),
+                  py::arg("start_s") = std::map<std::string, double>{},
                   "`dbbkit readings`: traces (installation id -> a trace file or a (time_s, "
                   "reading_um) pair of arrays) to (Measurements, {'dwells': per id the dwells' "
                   "start_s, end_s, settled_start_s, settled_end_s, level_um, std_um, samples "
-                  "arrays and noise_um, 'warnings': [...]})")
+                  "arrays and noise_um, 'warnings': [...]}); start_s: {id: seconds}, each "
+                  "trace's zero on the test's clock, for every trace or none")
       .def_property_readonly("source", [](const PyMeasurements& mm) { return mm.source; })
       .def("__len__", [](const PyMeasurements& mm) { return mm.readings.size(); })
       .def_property_readonly("installation",

@@ -156,6 +156,17 @@ class RoundTrips(InSource):
             np.testing.assert_allclose(m2.reading_um, m.reading_um[: len(m2)], atol=1e-9)
             with self.assertRaises(dbbkit.InputError):
                 dbbkit.Measurements.from_trace(d, {ids[0]: traces[ids[0]]}, dwell_s=6)
+            # Each trace on its own clock: said; on the test's clock with a start for each.
+            self.assertTrue(any(w["kind"] == "trace_clock" for w in found["warnings"]))
+            starts = {i: 1000.0 * k for k, i in enumerate(ids)}
+            m3, found3 = dbbkit.Measurements.from_trace(d, traces, start_s=starts)
+            self.assertFalse(any(w["kind"] == "trace_clock" for w in found3["warnings"]))
+            np.testing.assert_allclose(np.array(m3.time_s) - np.array(m.time_s),
+                                       [starts[i] for i in m.installation])
+            args += [f"--start={i}={starts[i]:g}" for i in ids]
+            self.assertEqual(m3.to_csv(), cli_text(*args))
+            with self.assertRaises(dbbkit.InputError):
+                dbbkit.Measurements.from_trace(d, traces, start_s={ids[0]: 0.0})
 
     def test_identify_with_monte_carlo(self):
         d = dbbkit.Design(PAPER_C)
