@@ -13,7 +13,9 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/setup.hpp"
+#include "dbbkit/user_text.hpp"
 #include "dbbkit/warnings.hpp"
+#include "number_text.hpp"
 
 namespace dbbkit {
 
@@ -246,11 +248,42 @@ void find_equivalents(const Design& design, const std::vector<Reading>& readings
 
 }  // namespace
 
+BudgetOptions with_reading_type_a(BudgetOptions options, const std::vector<Reading>& readings,
+                                  const std::string& source) {
+  if (options.type_a)
+    throw InputError(source, "",
+                     "the readings' own Type A and a Type A from the residual (--type-a) are two "
+                     "evaluations of one noise: give one");
+  options.reading_u_a_um.clear();
+  options.reading_u_a_dof.clear();
+  for (std::size_t i = 0; i < readings.size(); ++i) {
+    const Reading& r = readings[i];
+    if (!r.u_a_um || !r.u_a_dof) {
+      throw InputError(
+          source, r.line > 0 ? "line " + std::to_string(r.line) : "reading " + std::to_string(i),
+          "reading of " + quote_value(r.installation) + " at " + text::significant(r.angle_deg, 6) +
+              " deg has no u_a_um and u_a_dof (a measurement file of dbbkit readings "
+              "carries them for every dwell of at least two 0.1 s batches)");
+    }
+    options.reading_u_a_um.push_back(*r.u_a_um);
+    options.reading_u_a_dof.push_back(*r.u_a_dof);
+  }
+  return options;
+}
+
 IdentifyResult identify(const Design& design, const std::vector<Reading>& readings,
                         const IdentifyOptions& options) {
   Parameterisation param(design);
   LinearModel model = build_linear_model(design, param, readings);
   const std::vector<EffectBlock> blocks = append_effects(design, readings, options, param, model);
+  if (!options.budget.reading_u_a_um.empty()) {
+    // Each reading weighted by its whole noise: the declared instrument and its repeatability.
+    const double b = design.noise.sigma_um();
+    for (Eigen::Index i = 0; i < model.sigma_um.size(); ++i) {
+      const double a = options.budget.reading_u_a_um[static_cast<std::size_t>(i)];
+      model.sigma_um(i) = std::sqrt(b * b + a * a);
+    }
+  }
   WlsSolver solver(model, options.estimate);
   IdentifyResult res{std::move(param),
                      std::move(model),

@@ -229,6 +229,20 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
       r.sweep = stop.sweeps[q];
       r.std_um = s.std;
       r.samples = static_cast<int>(b - a);
+      // Type A of the mean by batch means (the samples are correlated over the servo's and the
+      // instrument's time constants; batches of 0.1 s, at least 20 samples, are nearly not).
+      const double dt = (trace.time_s[b - 1] - trace.time_s[a]) / static_cast<double>(b - a - 1);
+      const std::size_t batch =
+          std::max<std::size_t>(20, static_cast<std::size_t>(std::llround(0.1 / dt)));
+      const std::size_t batches = (b - a) / batch;
+      if (batches >= 2) {
+        std::vector<double> means;
+        for (std::size_t j = 0; j < batches; ++j)
+          means.push_back(moments(trace.reading_um, a + j * batch, a + (j + 1) * batch).mean);
+        const Moments m = moments(means, 0, batches);
+        r.u_a_um = m.std / std::sqrt(static_cast<double>(batches));
+        r.u_a_dof = static_cast<int>(batches) - 1;
+      }
       out.readings.push_back(r);
     }
     const bool inner = k > 0 && k + 1 < P.size();  // the first and last are of unknown length

@@ -98,6 +98,37 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param,
   const std::vector<SetupInput> inputs = setup_inputs(design);
   const Eigen::MatrixXd GD = input_gain(design, param, model, solver, est, setup, inputs);
   const bool nuisance = setup && setup->any();
+  const bool per_reading = !options.reading_u_a_um.empty();
+  if (per_reading && (options.type_a ||
+                      options.reading_u_a_um.size() != static_cast<std::size_t>(model.J.rows()) ||
+                      options.reading_u_a_dof.size() != options.reading_u_a_um.size()))
+    throw std::logic_error("uncertainty_budget: per-reading Type A needs one value per reading");
+  b.reading_type_a = per_reading;
+  // The reading noise of value c' theta: one component, or with per-reading Type A, the
+  // declared noise and the readings' repeatability through the value's gain on each reading.
+  const double sigma_b = design.noise.sigma_um();
+  auto noise_components = [&](ValueBudget& v, const Estimate::Function& c, double u_noise) {
+    if (!per_reading) {
+      v.components.push_back({"reading noise", options.type_a ? "A" : "B", u_noise, noise_dof});
+      return;
+    }
+    FunctionRows C(1, c.size());
+    for (Estimate::Function::InnerIterator it(c); it; ++it) C.insert(0, it.index()) = it.value();
+    const Eigen::MatrixXd g =
+        nuisance ? setup->left_gain(C) : Eigen::MatrixXd(solver.J_theta_reading().left(C));
+    double b2 = 0, a2 = 0, den = 0;
+    for (Eigen::Index i = 0; i < g.cols(); ++i) {
+      const double g2 = g(0, i) * g(0, i);
+      const double a = g2 * options.reading_u_a_um[static_cast<std::size_t>(i)] *
+                       options.reading_u_a_um[static_cast<std::size_t>(i)];
+      b2 += g2 * sigma_b * sigma_b;
+      a2 += a;
+      den += a * a / options.reading_u_a_dof[static_cast<std::size_t>(i)];
+    }
+    v.components.push_back({"reading noise", "B", std::sqrt(b2), std::nullopt});
+    v.components.push_back({"reading repeatability", "A", std::sqrt(a2),
+                            den > 0 ? std::optional<double>(a2 * a2 / den) : std::nullopt});
+  };
   static const char* kSetupNames[3] = {"set-up L", "set-up D", "set-up H"};
 
   for (int s = 0; s < param.n_stations(); ++s) {
@@ -113,8 +144,7 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param,
       v.value = d.value;
       if (nuisance) {
         const SetupSolver::Parts parts = setup->parts(c);
-        v.components.push_back({"reading noise", options.type_a ? "A" : "B",
-                                std::sqrt(parts.noise) * noise_scale, noise_dof});
+        noise_components(v, c, std::sqrt(parts.noise) * noise_scale);
         double u2[2] = {0, 0};  // length offset, centring
         for (int j = 0; j < setup->n_columns(); ++j) {
           u2[setup->column_kind(j) == EffectKind::kLengthOffset ? 0 : 1] +=
@@ -125,8 +155,7 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param,
         if (u2[1] > 0)
           v.components.push_back({"set-up centring", "B", std::sqrt(u2[1]), std::nullopt});
       } else {
-        v.components.push_back(
-            {"reading noise", options.type_a ? "A" : "B", d.std * noise_scale, noise_dof});
+        noise_components(v, c, d.std * noise_scale);
       }
       if (!inputs.empty()) {
         double u2[3] = {0, 0, 0};

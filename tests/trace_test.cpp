@@ -17,9 +17,11 @@
 #include "cli_util.hpp"
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/trace_io.hpp"
+#include "dbbkit/uncertainty.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -78,10 +80,16 @@ TEST(TraceReader, RefusesWhatIsNotATrace) {
   }
 }
 
+// Readings whose level lies within their Type A interval (u_a_um at 95 %, Student's t at
+// u_a_dof), of those that have one.
+struct TypeACount {
+  int covered = 0, total = 0;
+};
+
 // A trace of `stops` at random levels, simulated with `o`; the readings found against the levels
 // (with the drift the simulator adds on its clock at each reading's time).
 double worst_error(const Design& d, const std::vector<Sweep>& sweeps, const TraceSimulation& o,
-                   std::uint64_t seed, DwellOptions dwell = {}) {
+                   std::uint64_t seed, DwellOptions dwell = {}, TypeACount* type_a = nullptr) {
   const std::vector<Stop> stops = program_stops(d, sweeps);
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> level(-50, 50);
@@ -97,6 +105,11 @@ double worst_error(const Design& d, const std::vector<Sweep>& sweeps, const Trac
   for (std::size_t k = 0; k < r.readings.size() && k < levels.size(); ++k) {
     const double expected = sim.level_um[k] + o.drift_um_per_min * *r.readings[k].time_s / 60.0;
     worst = std::max(worst, std::abs(r.readings[k].reading_um - expected));
+    if (type_a && r.readings[k].u_a_um) {
+      const double U = coverage_factor(*r.readings[k].u_a_dof, 0.95) * *r.readings[k].u_a_um;
+      type_a->covered += std::abs(r.readings[k].reading_um - expected) <= U;
+      ++type_a->total;
+    }
     // The reading's time lies within its dwell.
     EXPECT_GE(*r.readings[k].time_s, sim.dwell_s[k].first);
     EXPECT_LE(*r.readings[k].time_s, sim.dwell_s[k].second);
@@ -110,6 +123,7 @@ double worst_error(const Design& d, const std::vector<Sweep>& sweeps, const Trac
 TEST(TraceDwells, RecoverTheSimulatorsLevelsOverVariedTraces) {
   const Design d = test::paper_design('C');
   int cases = 0;
+  TypeACount type_a;
   for (int v = 0; v < 8; ++v) {
     TraceSimulation o;
     o.seed = 100 + static_cast<std::uint64_t>(v);
@@ -126,12 +140,19 @@ TEST(TraceDwells, RecoverTheSimulatorsLevelsOverVariedTraces) {
     o.last_extra_s = 4.0 - 0.4 * v;
     const std::vector<Sweep> sweeps =
         v % 2 ? std::vector<Sweep>{Sweep::kCCW, Sweep::kCW} : std::vector<Sweep>{Sweep::kCW};
-    const double worst = worst_error(d, sweeps, o, 7 + v);
+    const double worst = worst_error(d, sweeps, o, 7 + v, {}, &type_a);
     EXPECT_LT(worst, 0.05) << "case " << v;
     std::printf("trace case %d: worst |reading - level| %.4f um\n", v, worst);
     ++cases;
   }
   EXPECT_EQ(cases, 8);
+  // Each reading's Type A (batch means) covers its level at about the stated 95 %.
+  EXPECT_GT(type_a.total, 150);
+  const double share = static_cast<double>(type_a.covered) / type_a.total;
+  std::printf("Type A of the readings: %d of %d levels within U (95 %%)\n", type_a.covered,
+              type_a.total);
+  EXPECT_GT(share, 0.90);
+  EXPECT_LT(share, 0.99);
 }
 
 TEST(TraceDwells, TooManyOrTooFewDwellsNameTheInstallationAndBothCounts) {
@@ -239,6 +260,61 @@ TEST(TraceMeasurementFile, ScatterAndSamplesColumns) {
                InputError);
   EXPECT_THROW(io::parse_measurements("installation,angle_deg,reading_um,samples\n1r,0,1,0\n", "m"),
                InputError);
+  // The Type A columns: read, written back, the two together.
+  r = io::parse_measurements(
+      "installation,angle_deg,reading_um,u_a_um,u_a_dof\n1r,0,1.5,0.004,14\n", "m.csv");
+  EXPECT_DOUBLE_EQ(*r[0].u_a_um, 0.004);
+  EXPECT_EQ(*r[0].u_a_dof, 14);
+  out.str("");
+  io::write_measurements_csv(out, r);
+  EXPECT_EQ(out.str(),
+            "installation,angle_deg,reading_um,u_a_um,u_a_dof\n1r,0,1.500000,0.004000,14\n");
+  EXPECT_THROW(
+      io::parse_measurements("installation,angle_deg,reading_um,u_a_um\n1r,0,1,0.1\n", "m"),
+      InputError);
+  EXPECT_THROW(io::parse_measurements(
+                   "installation,angle_deg,reading_um,u_a_um,u_a_dof\n1r,0,1,0.1,0\n", "m"),
+               InputError);
+}
+
+// identify --type-a-readings: each reading's Type A beside the declared noise, by hand. With
+// every reading at u_a = a (dof nu) the weights scale alike, so every u_c is the declared-only
+// one times sqrt(sigma^2 + a^2) / sigma, its repeatability component that times a / sigma, and
+// the component's Welch-Satterthwaite dof nu (sum g^2)^2 / sum g^4 >= nu.
+TEST(TraceTypeA, ReadingsTypeAEntersTheBudget) {
+  const Design d = test::paper_design('C');
+  std::vector<Reading> readings =
+      io::read_measurement_file(test::source_path("tests/data/paper/paper_c_turntable.csv"), d);
+  const IdentifyResult plain = identify(d, readings);
+  const double a = 0.5, sigma = d.noise.sigma_um();
+  for (Reading& r : readings) r.u_a_um = a, r.u_a_dof = 10;
+  IdentifyOptions o;
+  o.budget = with_reading_type_a(o.budget, readings, "test");
+  const IdentifyResult r = identify(d, readings, o);
+  ASSERT_EQ(r.budget.values.size(), plain.budget.values.size());
+  EXPECT_TRUE(r.budget.reading_type_a);
+  for (std::size_t i = 0; i < r.budget.values.size(); ++i) {
+    const ValueBudget &v = r.budget.values[i], &p = plain.budget.values[i];
+    EXPECT_NEAR(v.value, p.value, 1e-9);
+    EXPECT_NEAR(v.u_c, p.u_c * std::sqrt(sigma * sigma + a * a) / sigma, 1e-9 * (1 + p.u_c));
+    ASSERT_EQ(v.components.size(), 2u);
+    EXPECT_EQ(v.components[0].name, "reading noise");
+    EXPECT_NEAR(v.components[0].u, p.u_c, 1e-9 * (1 + p.u_c));
+    EXPECT_EQ(v.components[1].name, "reading repeatability");
+    EXPECT_EQ(v.components[1].type, "A");
+    EXPECT_NEAR(v.components[1].u, p.u_c * a / sigma, 1e-9 * (1 + p.u_c));
+    ASSERT_TRUE(v.components[1].dof);
+    EXPECT_GE(*v.components[1].dof, 10 - 1e-9);
+    ASSERT_TRUE(v.nu_eff);
+    EXPECT_GT(v.k, 1.959963);  // Student's t at a finite nu_eff
+  }
+  // A reading without its Type A is named; --type-a with it is refused.
+  readings[3].u_a_um.reset();
+  readings[3].u_a_dof.reset();
+  EXPECT_THROW(with_reading_type_a(BudgetOptions{}, readings, "test"), InputError);
+  BudgetOptions both;
+  both.type_a = true;
+  EXPECT_THROW(with_reading_type_a(both, readings, "test"), InputError);
 }
 
 // simulate --trace-out writes a trace per installation; readings turns them back into the
@@ -278,6 +354,20 @@ TEST(TraceCommandLine, FromSimulatedTracesToIdentify) {
   }
   r = run_cli_shell(cd + "identify --design " + D + " --data m.csv --out id.json --quiet");
   EXPECT_EQ(r.status, 0) << r.err;
+  // Each reading's Type A: a budget component; refused on readings without it and with Monte
+  // Carlo (which draws the declared noise only).
+  r = run_cli_shell(cd + "identify --design " + D + " --data m.csv --type-a-readings --out -");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["budget"]["values"][0]["components"][1]["name"], "reading repeatability");
+  EXPECT_NE(j["budget"]["noise_evaluation"].get<std::string>().find("repeatability"),
+            std::string::npos);
+  r = run_cli_shell(cd + "identify --design " + D + " --data sim.csv --type-a-readings --out -");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("has no u_a_um"), std::string::npos) << r.err;
+  r = run_cli_shell(cd + "identify --design " + D +
+                    " --data m.csv --type-a-readings --monte-carlo --out -");
+  EXPECT_EQ(r.status, 2);
   // A trace of another dwell: refused with both counts, exit 2, nothing written.
   r = run_cli_shell(cd + "readings --design " + D +
                     " --trace 1r=traces/1r.csv --dwell-s 6 --out x.csv");

@@ -24,6 +24,10 @@ struct Reading {
   // From a trace (dbbkit readings): the scatter of the samples averaged and their number.
   std::optional<double> std_um;
   std::optional<int> samples;
+  // The Type A standard uncertainty of the reading (the mean) from its dwell's repeatability and
+  // its degrees of freedom: batch means of 0.1 s, u = their scatter / sqrt(batches), batches - 1.
+  std::optional<double> u_a_um;
+  std::optional<int> u_a_dof;
   int line = 0;        // line in the source file (0: not from a file)
   bool in_mm = false;  // read from a reading_mm column (for the message of a unit mix-up)
 };

@@ -28,6 +28,12 @@ inline constexpr double kMinTypeAScale = 1e-6;
 struct BudgetOptions {
   bool type_a = false;  // evaluate the reading noise from the residual
   double coverage_probability = 0.95;
+  // Per reading, a Type A standard uncertainty of its repeatability (Reading::u_a_um) and its
+  // degrees of freedom, beside the declared instrument (empty: none). The model's weights then
+  // hold both (model.sigma_um); the budget states the reading noise (Type B) and the readings'
+  // repeatability (Type A, Welch-Satterthwaite over the readings) as two components.
+  std::vector<double> reading_u_a_um;
+  std::vector<int> reading_u_a_dof;
 };
 
 struct BudgetComponent {
@@ -57,6 +63,9 @@ struct Budget {
   std::optional<int> type_a_dof;
   std::optional<double> type_a_scale;
   NoiseModel declared_noise;
+  // Each reading's repeatability is a Type A component beside the declared noise
+  // (BudgetOptions::reading_u_a_um).
+  bool reading_type_a = false;
   std::vector<ValueBudget> values;  // determined values only, station-major
 };
 

@@ -21,7 +21,7 @@ namespace dbbkit::cli {
 namespace {
 struct IdentifyArgs {
   std::string design, data, out, tolerances, effects;
-  bool type_a = false;
+  bool type_a = false, type_a_readings = false;
 };
 }  // namespace
 
@@ -39,6 +39,9 @@ Runner add_identify(CLI::App& app) {
       "--type-a", args->type_a,
       "Evaluate the reading noise from the residual (Type A, n - rank degrees of freedom) "
       "instead of the declared instrument accuracy");
+  sub->add_flag("--type-a-readings", args->type_a_readings,
+                "Add each reading's own Type A (the measurement file's u_a_um and u_a_dof, from "
+                "its dwell's repeatability: dbbkit readings) to the declared instrument accuracy");
   sub->add_option("--tolerances", args->tolerances,
                   "Tolerance file (dbbkit.tolerances/1): decide conformance after ISO 14253-1; "
                   "exit code 1 when a "
@@ -66,6 +69,12 @@ Runner add_identify(CLI::App& app) {
     options.effects = effects_from_list(design, args->effects, "--effects");  // before the work
     options.budget.type_a = args->type_a;
     options.budget.coverage_probability = unc->coverage;
+    if (args->type_a_readings) {
+      if (unc->monte_carlo)
+        throw InputError("--type-a-readings", "",
+                         "Monte Carlo draws the declared noise only: leave out --monte-carlo");
+      options.budget = with_reading_type_a(options.budget, readings, "--type-a-readings");
+    }
     options.iso_motion.seed = unc->mc.seed;
     const IdentifyResult result = identify(design, readings, options);
     std::optional<MonteCarloResult> mc;

@@ -67,9 +67,9 @@ struct Cell {
   }
 };
 
-const std::vector<std::string> kKnownColumns = {"installation", "angle_deg", "reading_mm",
-                                                "reading_um",   "time_s",    "sweep",
-                                                "repeat",       "std_um",    "samples"};
+const std::vector<std::string> kKnownColumns = {
+    "installation", "angle_deg", "reading_mm", "reading_um", "time_s", "sweep",
+    "repeat",       "std_um",    "samples",    "u_a_um",     "u_a_dof"};
 
 }  // namespace
 
@@ -98,10 +98,11 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
         bool known = false;
         for (const auto& k : kKnownColumns) known = known || k == h;
         if (!known) {
-          throw InputError(source, where,
-                           "unknown column " + quote_value(h) +
-                               " (expected installation, angle_deg, reading_mm or reading_um, "
-                               "and optionally time_s, sweep, repeat, std_um, samples)");
+          throw InputError(
+              source, where,
+              "unknown column " + quote_value(h) +
+                  " (expected installation, angle_deg, reading_mm or reading_um, "
+                  "and optionally time_s, sweep, repeat, std_um, samples, u_a_um, u_a_dof)");
         }
         if (!col.emplace(h, static_cast<int>(i)).second)
           throw InputError(source, where, "column " + quote_value(h) + " appears twice");
@@ -164,6 +165,22 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
       r.samples = cell("samples").integer();
       if (*r.samples < 1) cell("samples").fail("the number of samples must be at least 1");
     }
+    if (present("u_a_um")) {
+      r.u_a_um = cell("u_a_um").number();
+      if (!(*r.u_a_um >= 0) || *r.u_a_um > kMaxAbsReading_um)
+        cell("u_a_um").fail(quote_value(cells[col.at("u_a_um")]) +
+                            " is not a standard uncertainty (>= 0 and at most the largest "
+                            "range, in um)");
+    }
+    if (present("u_a_dof")) {
+      r.u_a_dof = cell("u_a_dof").integer();
+      if (*r.u_a_dof < 1) cell("u_a_dof").fail("the degrees of freedom must be at least 1");
+    }
+    if (r.u_a_um.has_value() != r.u_a_dof.has_value()) {
+      throw InputError(source, where,
+                       "u_a_um and u_a_dof go together (a Type A uncertainty and its degrees of "
+                       "freedom)");
+    }
     if (readings.size() >= limits::kMaxReadings) {
       throw InputError(source, where,
                        "more than " + std::to_string(limits::kMaxReadings) +
@@ -183,13 +200,15 @@ std::vector<Reading> read_measurement_file(const std::string& path, const Design
 }
 
 void write_measurements_csv(std::ostream& out, const std::vector<Reading>& readings) {
-  bool time = false, sweep = false, repeat = false, scatter = false, samples = false;
+  bool time = false, sweep = false, repeat = false, scatter = false, samples = false,
+       type_a = false;
   for (const Reading& r : readings) {
     time = time || r.time_s.has_value();
     sweep = sweep || r.sweep.has_value();
     repeat = repeat || r.repeat.has_value();
     scatter = scatter || r.std_um.has_value();
     samples = samples || r.samples.has_value();
+    type_a = type_a || r.u_a_um.has_value();
   }
   out << "installation,angle_deg,reading_um";
   if (time) out << ",time_s";
@@ -197,6 +216,7 @@ void write_measurements_csv(std::ostream& out, const std::vector<Reading>& readi
   if (repeat) out << ",repeat";
   if (scatter) out << ",std_um";
   if (samples) out << ",samples";
+  if (type_a) out << ",u_a_um,u_a_dof";
   out << "\n";
   for (const Reading& r : readings) {
     out << r.installation << "," << std::setprecision(12) << r.angle_deg << "," << std::fixed
@@ -220,6 +240,12 @@ void write_measurements_csv(std::ostream& out, const std::vector<Reading>& readi
     if (samples) {
       out << ",";
       if (r.samples) out << *r.samples;
+    }
+    if (type_a) {
+      out << ",";
+      if (r.u_a_um) out << std::fixed << std::setprecision(6) << *r.u_a_um << std::defaultfloat;
+      out << ",";
+      if (r.u_a_dof) out << *r.u_a_dof;
     }
     out << "\n";
   }

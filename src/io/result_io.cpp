@@ -978,7 +978,11 @@ std::string unidentifiable_interpretation(const Unidentifiable& u) {
 std::string noise_evaluation_text(const Budget& b) {
   return b.type_a_dof
              ? "Type A (residual, " + std::to_string(*b.type_a_dof) + " degrees of freedom)"
-             : "Type B (declared instrument: " + b.declared_noise.describe() + ")";
+             : "Type B (declared instrument: " + b.declared_noise.describe() + ")" +
+                   (b.reading_type_a ? " and each reading's repeatability, Type A (its dwell's "
+                                       "0.1 s batch means: u_a_um, u_a_dof of the measurement "
+                                       "file; component 'reading repeatability')"
+                                     : "");
 }
 
 }  // namespace dbbkit::io

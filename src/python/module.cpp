@@ -700,8 +700,12 @@ PyTolerances read_tolerances(const PyDesign& d, const py::object& tolerances) {
 PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool type_a,
                               double coverage, py::object tolerances, bool monte_carlo,
                               std::uint64_t mc_seed, int mc_threads, long mc_max_trials,
-                              long mc_batch, int mc_digits, const py::object& effects) {
+                              long mc_batch, int mc_digits, const py::object& effects,
+                              bool type_a_readings) {
   check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
+  if (type_a_readings && monte_carlo)
+    throw InputError("type_a_readings", "",
+                     "Monte Carlo draws the declared noise only: leave out monte_carlo");
   // A comma-separated string of labels or a list of them, as diagnose names them.
   std::vector<EffectCandidate> fitted;
   if (py::isinstance<py::str>(effects)) {
@@ -735,6 +739,8 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
     options.effects_source = "effects";
     options.budget.type_a = type_a;
     options.budget.coverage_probability = coverage;
+    if (type_a_readings)
+      options.budget = with_reading_type_a(options.budget, m.readings, "type_a_readings");
     options.iso_motion.seed = mc_seed;
     r.held = std::make_shared<const IdentifyResult>(identify(d.value, m.readings, options));
     if (monte_carlo) r.mc = dbbkit::monte_carlo(d.value, r.result(), mc);
@@ -1044,6 +1050,27 @@ PYBIND11_MODULE(dbbkit, m) {
             return v;
           },
           "Per reading from a trace: the number of samples averaged (NaN: not from a trace)")
+      .def_property_readonly(
+          "u_a_um",
+          [](const PyMeasurements& mm) {
+            Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
+            for (size_t i = 0; i < mm.readings.size(); ++i)
+              v(static_cast<Eigen::Index>(i)) = mm.readings[i].u_a_um.value_or(kNaN);
+            return v;
+          },
+          "Per reading from a trace: the Type A standard uncertainty of its mean from the "
+          "dwell's 0.1 s batch means [um] (NaN: none)")
+      .def_property_readonly(
+          "u_a_dof",
+          [](const PyMeasurements& mm) {
+            Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
+            for (size_t i = 0; i < mm.readings.size(); ++i) {
+              v(static_cast<Eigen::Index>(i)) =
+                  mm.readings[i].u_a_dof ? static_cast<double>(*mm.readings[i].u_a_dof) : kNaN;
+            }
+            return v;
+          },
+          "Per reading from a trace: the degrees of freedom of u_a_um (batches - 1; NaN: none)")
       .def(
           "to_csv",
           [](const PyMeasurements& mm) {
@@ -1329,11 +1356,12 @@ PYBIND11_MODULE(dbbkit, m) {
         py::arg("type_a") = false, py::arg("coverage") = 0.95, py::arg("tolerances") = py::none(),
         py::arg("monte_carlo") = false, py::arg("mc_seed") = kSeed, py::arg("mc_threads") = 1,
         py::arg("mc_max_trials") = 2000000L, py::arg("mc_batch") = 10000L, py::arg("mc_digits") = 2,
-        py::arg("effects") = py::none(),
+        py::arg("effects") = py::none(), py::arg("type_a_readings") = false,
         "`dbbkit identify`: the six errors from the readings, their budget (JCGM 100), ISO 230-7 "
         "terms, with tolerances (a path or dict, dbbkit.tolerances/1) the conformance "
         "decisions, and with effects (labels as diagnose names them, a list or a comma-separated "
-        "string) those effects fitted with the errors");
+        "string) those effects fitted with the errors; type_a_readings: each reading's own Type "
+        "A (u_a_um, u_a_dof from dbbkit readings) beside the declared instrument");
   m.def("diagnose", &run_diagnose, py::arg("design"), py::arg("measurements"),
         py::arg("level") = 0.01, py::arg("max_effects") = 12, py::arg("exclude_gross") = false,
         py::arg("tolerances") = py::none(),

@@ -167,6 +167,13 @@ class RoundTrips(InSource):
             self.assertEqual(m3.to_csv(), cli_text(*args))
             with self.assertRaises(dbbkit.InputError):
                 dbbkit.Measurements.from_trace(d, traces, start_s={ids[0]: 0.0})
+            # Each reading's Type A, into identify's budget beside the declared noise.
+            self.assertTrue(all(u > 0 for u in m.u_a_um) and all(n >= 1 for n in m.u_a_dof))
+            r = dbbkit.identify(d, m, type_a_readings=True)
+            names = [c["name"] for c in r.json["budget"]["values"][0]["components"]]
+            self.assertEqual(names, ["reading noise", "reading repeatability"])
+            with self.assertRaises(dbbkit.InputError):
+                dbbkit.identify(d, m, type_a_readings=True, monte_carlo=True)
 
     def test_identify_with_monte_carlo(self):
         d = dbbkit.Design(PAPER_C)
