@@ -124,12 +124,8 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   MeasurementProgram program;
   program.axis = design.axis;
   program.options = options;
-  std::vector<double> angles = design.angles_deg;
-  std::sort(angles.begin(), angles.end());
-  std::vector<Sweep> sweeps;
-  if (options.sweeps != ProgramOptions::Sweeps::kCW) sweeps.push_back(Sweep::kCCW);
-  if (options.sweeps != ProgramOptions::Sweeps::kCCW) sweeps.push_back(Sweep::kCW);
-  const double first = sweeps.front() == Sweep::kCCW ? angles.front() : angles.back();
+  const std::vector<Sweep> sweeps = program_sweeps(options.sweeps);
+  const double first = sweep_angles(design, sweeps.front()).front();
 
   std::size_t positions = 0;
   // The highest point anything reaches (work frame Z; the table surface (C) or the table ball
@@ -168,8 +164,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     for (const Sweep s : sweeps) {
       ProgramSweep ps;
       ps.direction = s;
-      std::vector<double> order = angles;
-      if (s == Sweep::kCW) std::reverse(order.begin(), order.end());
+      const std::vector<double> order = sweep_angles(design, s);
       auto add = [&](double a, bool reading) {
         if (++positions > kMaxProgramPositions) {
           throw InputError("program", "path_tolerance_mm",
@@ -221,6 +216,27 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     program.motion_time_s += ip.motion_time_s;
   }
   return program;
+}
+
+std::vector<Sweep> program_sweeps(ProgramOptions::Sweeps sweeps) {
+  std::vector<Sweep> out;
+  if (sweeps != ProgramOptions::Sweeps::kCW) out.push_back(Sweep::kCCW);
+  if (sweeps != ProgramOptions::Sweeps::kCCW) out.push_back(Sweep::kCW);
+  return out;
+}
+
+std::optional<ProgramOptions::Sweeps> program_sweeps_named(const std::string& name) {
+  if (name == "ccw") return ProgramOptions::Sweeps::kCCW;
+  if (name == "cw") return ProgramOptions::Sweeps::kCW;
+  if (name == "both") return ProgramOptions::Sweeps::kBoth;
+  return std::nullopt;
+}
+
+std::vector<double> sweep_angles(const Design& design, Sweep sweep) {
+  std::vector<double> angles = design.angles_deg;
+  std::sort(angles.begin(), angles.end());
+  if (sweep == Sweep::kCW) std::reverse(angles.begin(), angles.end());
+  return angles;
 }
 
 }  // namespace dbbkit

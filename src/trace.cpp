@@ -5,6 +5,8 @@
 
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/program.hpp"
+#include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
 #include "random.hpp"
 
@@ -159,13 +161,9 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
 }
 
 std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& sweeps) {
-  std::vector<double> angles = design.angles_deg;
-  std::sort(angles.begin(), angles.end());
   std::vector<Stop> stops;
   for (const Sweep s : sweeps) {
-    std::vector<double> order = angles;
-    if (s == Sweep::kCW) std::reverse(order.begin(), order.end());
-    for (const double a : order) {
+    for (const double a : sweep_angles(design, s)) {
       if (!stops.empty() && stops.back().angle_deg == a) {
         stops.back().sweeps.push_back(s);  // no move between: one stop
       } else {
@@ -177,10 +175,8 @@ std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& 
 }
 
 std::vector<Sweep> sweeps_by_name(const std::string& name, const std::string& source) {
-  if (name == "ccw") return {Sweep::kCCW};
-  if (name == "cw") return {Sweep::kCW};
-  if (name == "both") return {Sweep::kCCW, Sweep::kCW};
-  throw InputError(source, "", "'" + name + "' is not ccw, cw or both");
+  if (const auto s = program_sweeps_named(name)) return program_sweeps(*s);
+  throw InputError(source, "", quote_value(name) + " is not ccw, cw or both");
 }
 
 TraceReadings readings_from_trace(const Design& design, const std::string& installation,

@@ -69,6 +69,14 @@ struct ProgramOptions {
   std::string orient_code = "M19";
 };
 
+// The sweeps the program runs for `sweeps`, in order, and a name (ccw, cw, both) as one; nullopt
+// for another name. The one definition readings matches a trace's dwells against.
+std::vector<Sweep> program_sweeps(ProgramOptions::Sweeps sweeps);
+std::optional<ProgramOptions::Sweeps> program_sweeps_named(const std::string& name);
+// The angles of one sweep in the order the program visits them: the design's sorted, increasing
+// for ccw, decreasing for cw.
+std::vector<double> sweep_angles(const Design& design, Sweep sweep);
+
 // The limits of the options; throws InputError(source, key) outside them:
 //   0 < dwell_s <= 600, 0 < feed_mm_per_min <= 60000, 1e-4 <= path_tolerance_mm <= 1,
 //   1 <= tool_number <= 9999, 1 <= clearance_margin_mm <= 1000, |clearance_z_mm| <= 10000,

@@ -11,6 +11,7 @@
 #include "checks.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/program.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::cli {
 
@@ -69,12 +70,10 @@ inline ProgramOptions program_options(const ProgramArgs& args, const AxisFrame& 
         "\"reference\": [0, 0, -1]} (the B shorthand's D is that form's H); " +
             design_file + " is read as it is written");
   }
-  const std::map<std::string, ProgramOptions::Sweeps> sweeps = {
-      {"ccw", ProgramOptions::Sweeps::kCCW},
-      {"cw", ProgramOptions::Sweeps::kCW},
-      {"both", ProgramOptions::Sweeps::kBoth}};
   ProgramOptions o = args.options;
-  o.sweeps = sweeps.at(args.sweeps);
+  const auto sweeps = program_sweeps_named(args.sweeps);
+  if (!sweeps) throw InputError("--sweeps", quote_value(args.sweeps), "is not ccw, cw or both");
+  o.sweeps = *sweeps;
   if (o.orient_code == "none") o.orient_code.clear();
   validate_program_options(o, "program");
   return o;

@@ -284,6 +284,17 @@ void validate_rows(const Design& design, const std::vector<Reading>& readings,
   }
 }
 
+// An optional column of the readings as an array, NaN where a reading has none.
+template <typename T>
+Eigen::VectorXd optional_column(const PyMeasurements& mm, std::optional<T> Reading::*field) {
+  Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
+  for (size_t i = 0; i < mm.readings.size(); ++i) {
+    const std::optional<T>& x = mm.readings[i].*field;
+    v(static_cast<Eigen::Index>(i)) = x ? static_cast<double>(*x) : kNaN;
+  }
+  return v;
+}
+
 PyMeasurements measurements_from_arrays(const PyDesign& d, py::object installation_seq,
                                         py::object angle_deg_seq, py::object reading_um_seq,
                                         py::object time_s_seq, py::object sweep_seq,
@@ -1031,45 +1042,19 @@ PYBIND11_MODULE(dbbkit, m) {
                                return v;
                              })
       .def_property_readonly(
-          "std_um",
-          [](const PyMeasurements& mm) {
-            Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
-            for (size_t i = 0; i < mm.readings.size(); ++i)
-              v(static_cast<Eigen::Index>(i)) = mm.readings[i].std_um.value_or(kNaN);
-            return v;
-          },
+          "std_um", [](const PyMeasurements& mm) { return optional_column(mm, &Reading::std_um); },
           "Per reading from a trace: the scatter of its samples [um] (NaN: not from a trace)")
       .def_property_readonly(
           "samples",
-          [](const PyMeasurements& mm) {
-            Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
-            for (size_t i = 0; i < mm.readings.size(); ++i) {
-              v(static_cast<Eigen::Index>(i)) =
-                  mm.readings[i].samples ? static_cast<double>(*mm.readings[i].samples) : kNaN;
-            }
-            return v;
-          },
+          [](const PyMeasurements& mm) { return optional_column(mm, &Reading::samples); },
           "Per reading from a trace: the number of samples averaged (NaN: not from a trace)")
       .def_property_readonly(
-          "u_a_um",
-          [](const PyMeasurements& mm) {
-            Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
-            for (size_t i = 0; i < mm.readings.size(); ++i)
-              v(static_cast<Eigen::Index>(i)) = mm.readings[i].u_a_um.value_or(kNaN);
-            return v;
-          },
+          "u_a_um", [](const PyMeasurements& mm) { return optional_column(mm, &Reading::u_a_um); },
           "Per reading from a trace: the Type A standard uncertainty of its mean from the "
           "dwell's 0.1 s batch means [um] (NaN: none)")
       .def_property_readonly(
           "u_a_dof",
-          [](const PyMeasurements& mm) {
-            Eigen::VectorXd v(static_cast<Eigen::Index>(mm.readings.size()));
-            for (size_t i = 0; i < mm.readings.size(); ++i) {
-              v(static_cast<Eigen::Index>(i)) =
-                  mm.readings[i].u_a_dof ? static_cast<double>(*mm.readings[i].u_a_dof) : kNaN;
-            }
-            return v;
-          },
+          [](const PyMeasurements& mm) { return optional_column(mm, &Reading::u_a_dof); },
           "Per reading from a trace: the degrees of freedom of u_a_um (batches - 1; NaN: none)")
       .def(
           "to_csv",
