@@ -322,9 +322,14 @@ std::vector<Attribution> attribute(const Design& design, const Parameterisation&
       combinations.push_back(std::move(in));
     }
     if (!combinations.empty()) {
+      double total = 1;
+      for (const auto& o : options_of) total *= static_cast<double>(o.size());
       exact = true;
       attribution(out_labels, combinations);
       exact = false;
+      if (!out.empty() && out.back().convention)
+        out.back().untried = static_cast<std::size_t>(
+            std::max(0.0, total - 1 - static_cast<double>(combinations.size())));
     }
   }
   for (std::size_t s = 0; s < errors.size(); ++s) {

@@ -358,18 +358,22 @@ ReadingLayout::ReadingLayout(const Design& design, const std::vector<Reading>& r
   installation.reserve(readings.size());
   for (const Reading& r : readings) installation.push_back(index.at(r.installation));
   start_s = start_times(design, readings, installation);
-  // Each installation's span of time_s; two that overlap cannot be on one clock.
-  std::vector<std::pair<double, double>> span(
-      design.installations.size(),
-      {std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()});
+  // The span of time_s of each run of consecutive readings of one installation (a trace, a
+  // sweep, an installation measured again later); two runs that overlap in time cannot be on one
+  // clock (a ball bar measures one installation at a time).
+  std::vector<std::pair<double, double>> runs;
   for (std::size_t k = 0; k < readings.size(); ++k) {
+    const bool new_run = k == 0 || installation[k] != installation[k - 1];
+    if (new_run)
+      runs.emplace_back(std::numeric_limits<double>::infinity(),
+                        -std::numeric_limits<double>::infinity());
     if (!readings[k].time_s) continue;
-    auto& [lo, hi] = span[static_cast<std::size_t>(installation[k])];
+    auto& [lo, hi] = runs.back();
     lo = std::min(lo, *readings[k].time_s), hi = std::max(hi, *readings[k].time_s);
   }
   std::vector<std::pair<double, double>> timed;
-  for (const auto& s : span)
-    if (s.first <= s.second) timed.push_back(s);
+  for (const auto& r : runs)
+    if (r.first <= r.second) timed.push_back(r);
   std::sort(timed.begin(), timed.end());
   for (std::size_t i = 1; i < timed.size(); ++i)
     common_clock = common_clock && timed[i].first > timed[i - 1].second;

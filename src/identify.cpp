@@ -201,11 +201,12 @@ std::vector<SetupEffect> declared_setup(const Design& design, const LinearModel&
 // a candidate of as many columns that lies in the span of the fitted model and, in the effect's
 // place, keeps its rank spans the same space, so the readings fit either exactly as well.
 void find_equivalents(const Design& design, const std::vector<Reading>& readings,
-                      const std::vector<EffectBlock>& blocks, const EstimateOptions& options,
-                      std::vector<FittedEffect>& effects) {
+                      const std::vector<EffectBlock>& blocks, const Eigen::VectorXd& sigma_um,
+                      const EstimateOptions& options, std::vector<FittedEffect>& effects) {
   if (blocks.empty()) return;
   const Parameterisation param(design);
-  const LinearModel base = build_linear_model(design, param, readings);
+  LinearModel base = build_linear_model(design, param, readings);
+  base.sigma_um = sigma_um;  // the fit's own weights (with each reading's Type A)
   auto fit = [&](const std::vector<const Eigen::MatrixXd*>& xs) {
     Eigen::Index cols = 0;
     for (const Eigen::MatrixXd* x : xs) cols += x->cols();
@@ -354,7 +355,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
     }
     res.effects.push_back(std::move(f));
   }
-  find_equivalents(design, readings, blocks, options.estimate, res.effects);
+  find_equivalents(design, readings, blocks, res.model.sigma_um, options.estimate, res.effects);
   res.warnings = identify_warnings(design, res);
   return res;
 }

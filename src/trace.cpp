@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
@@ -300,19 +301,62 @@ SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<
     const auto n = static_cast<long>(std::llround(seconds * o.rate_hz));
     for (long i = 0; i < n; ++i) sample(level, 0);
   };
-  // With times: the trace's zero on the test's clock puts the first dwell's middle at the first
-  // reading's time, and the machine waits at each stop after the move so that the stop's middle
-  // is at its readings' mean time (a dwell at least the programmed one).
-  // (Not before the test's clock began: the first reading is then up to half the first dwell
-  // later than its time.)
-  if (!times_s.empty())
-    out.zero_s = std::max(0.0, times_s[0] - 0.5 * (o.dwell_s + o.first_extra_s));
+  // With times (the test's clock): each move centred between the last reading of one stop and
+  // the first of the next; each plateau from the end of one move to the start of the next, the
+  // first and the last as long again beyond their readings' middle; the trace's zero where the
+  // first plateau begins (not before the test clock's zero). The moves' durations come from a
+  // generator of their own.
+  const bool timed = !times_s.empty();
+  const std::size_t K = stops.size();
+  std::vector<double> move_T(K, 0.0), end_at(K, 0.0);  // end_at: a plateau's end, trace clock
+  if (timed) {
+    detail::Xoshiro256pp moves(o.seed ^ 0x9e3779b97f4a7c15ULL);
+    std::vector<double> first(K), last(K), begin(K), end(K);
+    std::size_t i = 0;
+    for (std::size_t k = 0; k < K; ++k) {
+      first[k] = times_s[i];
+      i += stops[k].sweeps.size();
+      last[k] = times_s[i - 1];
+      if (k > 0) move_T[k] = o.move_s_min + (o.move_s_max - o.move_s_min) * moves.uniform01();
+    }
+    for (std::size_t k = 0; k < K; ++k) {
+      if (k > 0) begin[k] = 0.5 * (last[k - 1] + first[k]) + 0.5 * move_T[k];
+      if (k + 1 < K) end[k] = 0.5 * (last[k] + first[k + 1]) - 0.5 * move_T[k + 1];
+    }
+    const double dwell0 = o.dwell_s * static_cast<double>(stops[0].sweeps.size());
+    const double m0 = 0.5 * (first[0] + last[0]), mK = 0.5 * (first[K - 1] + last[K - 1]);
+    if (K == 1) end[0] = mK + 0.5 * dwell0 + o.last_extra_s;
+    begin[0] = 2 * m0 - end[0];
+    if (K > 1) end[K - 1] = 2 * mK - begin[K - 1];
+    for (std::size_t k = 0; k < K; ++k) {
+      const double need = o.dwell_s * static_cast<double>(stops[k].sweeps.size());
+      if (end[k] - begin[k] < need) {
+        throw InputError("schedule", "per_reading_s",
+                         "the schedule leaves " + text::significant(end[k] - begin[k], 3) +
+                             " s at the stop at " + text::significant(stops[k].angle_deg, 6) +
+                             " deg, less than its dwell of " + text::significant(need, 3) +
+                             " s beside moves of up to " + text::significant(o.move_s_max, 3) +
+                             " s: a trace cannot follow it (raise per_reading_s or lower "
+                             "--trace-dwell-s)");
+      }
+    }
+    out.zero_s = std::max(0.0, begin[0]);
+    out.shortest_dwell_s = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < K; ++k) {
+      end_at[k] = end[k] - *out.zero_s;
+      if (K > 2 && (k == 0 || k + 1 == K)) continue;  // the first and last: any length will do
+      *out.shortest_dwell_s =
+          std::min(*out.shortest_dwell_s, (end[k] - std::max(begin[k], *out.zero_s)) /
+                                              static_cast<double>(stops[k].sweeps.size()));
+    }
+  }
   std::size_t r = 0;
-  for (std::size_t k = 0; k < stops.size(); ++k) {
+  for (std::size_t k = 0; k < K; ++k) {
     const std::size_t parts = stops[k].sweeps.size();
     if (k > 0) {  // the move from the last level to this stop's first
       const double a = levels[r - 1], b = levels[r];
-      const double T = o.move_s_min + (o.move_s_max - o.move_s_min) * rng.uniform01();
+      const double T =
+          timed ? move_T[k] : o.move_s_min + (o.move_s_max - o.move_s_min) * rng.uniform01();
       const double bump =
           o.excursion_um * (0.2 + 0.8 * rng.uniform01()) * (rng.uniform01() < 0.5 ? -1 : 1);
       const auto n = static_cast<long>(std::llround(T * o.rate_hz));
@@ -328,17 +372,11 @@ SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<
     // level, their mean.
     double level = 0;
     for (std::size_t q = 0; q < parts; ++q) level += levels[r + q] / static_cast<double>(parts);
-    // With times, the stop's middle at its readings' mean time, its parts of equal length.
-    double part = o.dwell_s;
-    if (k > 0 && !times_s.empty()) {
-      double middle = 0;
-      for (std::size_t q = 0; q < parts; ++q) middle += times_s[r + q] / static_cast<double>(parts);
-      part = std::max(o.dwell_s, 2 * (middle - *out.zero_s - t) / static_cast<double>(parts));
-    }
+    const double part = timed ? (end_at[k] - t) / static_cast<double>(parts) : o.dwell_s;
     for (std::size_t q = 0; q < parts; ++q, ++r) {
       double length = part;
-      if (k == 0 && q == 0) length += o.first_extra_s;
-      if (k + 1 == stops.size() && q + 1 == parts) length += o.last_extra_s;
+      if (!timed && k == 0 && q == 0) length += o.first_extra_s;
+      if (!timed && k + 1 == K && q + 1 == parts) length += o.last_extra_s;
       const double from = t;
       hold(level, length);
       out.level_um.push_back(level);

@@ -201,8 +201,12 @@ std::vector<Warning> diagnose_warnings(const DiagnoseResult& r) {
       consequence =
           "the corrected errors and their ISO terms carry the difference in their uncertainties "
           "(a rectangular share, half-width up to " +
-          text::significant(um, 3) + " um, " + text::significant(urad, 3) +
-          " urad), so they may be too uncertain to enter or to decide. To remove it, measure an "
+          text::significant(um, 3) + " um, " + text::significant(urad, 3) + " urad" +
+          (convention->untried > 0
+               ? ", over the first 256 combinations; " + std::to_string(convention->untried) +
+                     " more were not tried and may move them further"
+               : std::string()) +
+          "), so they may be too uncertain to enter or to decide. To remove it, measure an "
           "installation that tells them apart; dbbkit identify --effects fits each choice.";
     } else {
       consequence =
@@ -245,8 +249,9 @@ std::vector<Warning> identify_warnings(const Design& design, const IdentifyResul
          "The readings fit " + chosen + " exactly as well: the errors and their uncertainties " +
              "hold for the effects as given, and move by up to " + text::significant(um, 3) +
              " um, " + text::significant(urad, 3) +
-             " urad should another be the machine's. dbbkit diagnose carries the difference in "
-             "its uncertainties; measure an installation that tells them apart to remove it."});
+             " urad should one of the others take an effect's place (more should several). "
+             "dbbkit diagnose carries the difference of every combination in its uncertainties; "
+             "measure an installation that tells them apart to remove it."});
   }
   const double L = design.reference_length_mm.value_or(100.0);
   if (auto w = setup_undeclared_warning(

@@ -400,7 +400,9 @@ TEST(TraceCommandLine, TracesOnTheTestsClock) {
                            " --truth truth.json --out sim.csv --trace-out tr/");
   ASSERT_EQ(r.status, 0) << r.err;
   const Design d = io::read_design_file(D);
+  // Each trace's comments give its start on the test's clock and the dwell the schedule left.
   std::string traces, starts;
+  double dwell = 1e9;
   for (const Installation& in : d.installations) {
     traces += " --trace " + in.id + "=tr/" + in.id + ".csv";
     std::ifstream f(dir / "tr" / (in.id + ".csv"));
@@ -408,17 +410,23 @@ TEST(TraceCommandLine, TracesOnTheTestsClock) {
     while (std::getline(f, line) && line.rfind('#', 0) == 0) {
       const std::size_t at = line.find("--start " + in.id + "=");
       if (at != std::string::npos) start = line.substr(at + 8);
+      const std::size_t dw = line.find("--dwell-s ");
+      if (dw != std::string::npos) dwell = std::min(dwell, std::stod(line.substr(dw + 10)));
     }
     ASSERT_FALSE(start.empty()) << in.id;
     starts += " --start " + start;
   }
-  const std::string readings = cd + "readings --design " + D + " --sweeps both" + traces;
+  ASSERT_GT(dwell, 5.0);  // the schedule's 10 s a reading less a move of up to 3 s
+  ASSERT_LT(dwell, 9.0);
+  const std::string readings =
+      cd + "readings --design " + D + " --sweeps both --dwell-s " + std::to_string(dwell) + traces;
   r = run_cli_shell(readings + " --out own.csv");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("Each trace keeps its own clock"), std::string::npos) << r.err;
   r = run_cli_shell(readings + starts + " --out test.csv");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.err.find("own clock"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("a pause"), std::string::npos) << r.err;  // the dwells as the comments say
   const std::vector<Reading> own = io::read_measurement_file((dir / "own.csv").string(), d);
   const std::vector<Reading> on_test = io::read_measurement_file((dir / "test.csv").string(), d);
   EXPECT_FALSE(readings_on_one_clock(d, own));
@@ -476,12 +484,49 @@ TEST(TraceCommandLine, TracesOnTheTestsClock) {
   EXPECT_NE(r.err.find("overlap in time"), std::string::npos) << r.err;
   r = run_cli_shell(readings + starts + " --start 1r=-100 --out x.csv");
   EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("given twice"), std::string::npos) << r.err;
+  r = run_cli_shell(readings + starts.substr(0, starts.find(" --start 1t")) + "0x10" +
+                    starts.substr(starts.find(" --start 1t")) + " --out x.csv");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("expected a number of seconds"), std::string::npos) << r.err;
   r = run_cli_shell(readings + " --start 1r=-100" + starts.substr(starts.find(" --start 1t")) +
                     " --out x.csv");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("before the test's clock began"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "x.csv"));
+  // A schedule too fast for the dwell and the moves: refused, naming it, nothing written.
+  {
+    std::ifstream in(dir / "truth.json");
+    nlohmann::json t = nlohmann::json::parse(in);
+    t["schedule"]["per_reading_s"] = 3;
+    std::ofstream(dir / "fast.json") << t.dump();
+  }
+  r = run_cli_shell(cd + "simulate --design " + D +
+                    " --truth fast.json --out y.csv --trace-out tr/fast_");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("per_reading_s"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "y.csv"));
   fs::remove_all(dir);
+}
+
+// One clock or several: an installation measured again at the end of the test is a run of its
+// own on the test's clock; traces whose clocks restart at zero overlap.
+TEST(TraceClock, RunsOfOneInstallationOnOneClock) {
+  const Design d = test::paper_design('C');
+  std::vector<Reading> r;
+  double t = 0;
+  for (const Installation& in : d.installations) {
+    for (double a : d.angles_deg) r.push_back({in.id, a, 0.0, t += 10, std::nullopt, std::nullopt});
+  }
+  EXPECT_TRUE(readings_on_one_clock(d, r));
+  for (double a : d.angles_deg)  // 1r again, at the end
+    r.push_back({d.installations[0].id, a, 0.0, t += 10, std::nullopt, std::nullopt});
+  EXPECT_TRUE(readings_on_one_clock(d, r));
+  for (std::size_t i = 0; i < d.angles_deg.size(); ++i) *r[i].time_s -= 5;  // a fraction earlier
+  EXPECT_TRUE(readings_on_one_clock(d, r));
+  const std::size_t n = d.angles_deg.size();
+  for (std::size_t i = n; i < 2 * n; ++i) *r[i].time_s -= 10.0 * n;  // 1t's clock restarted
+  EXPECT_FALSE(readings_on_one_clock(d, r));
 }
 
 // The README's worked example prints what the README shows: every line of its output blocks

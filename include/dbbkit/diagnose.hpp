@@ -87,6 +87,7 @@ struct Attribution {
   // `effect` lists them all, each alternative is one combination of their equivalents, and the
   // readings fit every combination exactly as well.
   bool convention = false;
+  std::size_t untried = 0;  // combinations beyond the first 256 (convention), left out
 };
 
 // Why forward selection stopped before no candidate passed (selection.hpp).

@@ -143,8 +143,10 @@ struct ReadingLayout {
   std::vector<int> installation;  // per reading, its installation's index
   std::vector<double> start_s;    // per installation, installation_start_times
   double test_start_s;            // test_start_time
-  // The installations' times lie on one clock: no two installations' spans of time_s overlap
-  // (a ball bar measures one installation at a time). False when each trace's clock restarted.
+  // The readings' times lie on one clock: no two runs of consecutive readings of one
+  // installation overlap in time_s (a ball bar measures one installation at a time; an
+  // installation measured again later is a run of its own). False when each trace's clock
+  // restarted.
   bool common_clock = true;
 };
 

@@ -132,13 +132,16 @@ struct SimulatedTrace {
   // dwell was.
   std::vector<double> level_um;
   std::vector<std::pair<double, double>> dwell_s;
-  // With the readings' times: the test's clock when the trace's read zero.
-  std::optional<double> zero_s;
+  // With the readings' times: the test's clock when the trace's read zero, and the shortest
+  // dwell a reading had (what readings --dwell-s should be).
+  std::optional<double> zero_s, shortest_dwell_s;
 };
 
 // `levels`: one per reading of program_stops(design, sweeps), in order. `times_s` (empty, or one
-// per reading on the test's clock): the dwells follow them, the machine waiting at each stop so
-// that the stop's middle is at its readings' mean time (a dwell at least the programmed one).
+// per reading on the test's clock): the trace follows them, each move centred between the last
+// reading of one stop and the first of the next, the machine standing still from one move to the
+// next (longer than the programmed dwell when the schedule leaves time); throws
+// InputError("schedule", "per_reading_s") when a stop's time is shorter than its dwell.
 SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<double>& levels,
                               const TraceSimulation& options,
                               const std::vector<double>& times_s = {});

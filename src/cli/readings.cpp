@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -91,9 +92,12 @@ Runner add_readings(CLI::App& app) {
       if (start.count(id)) throw InputError("--start", quote_value(id), "given twice");
       const std::string v = t.substr(eq + 1);
       char* end = nullptr;
-      const double s = std::strtod(v.c_str(), &end);
-      if (end != v.c_str() + v.size() || !std::isfinite(s) || std::abs(s) > 1e9)
-        throw InputError("--start", quote_value(t), "expected a number of seconds");
+      const double s = v.find_first_not_of("0123456789+-.eE") == std::string::npos
+                           ? std::strtod(v.c_str(), &end)
+                           : std::numeric_limits<double>::quiet_NaN();
+      if (end != v.c_str() + v.size() || !std::isfinite(s) || std::abs(s) > 1e11)
+        throw InputError("--start", quote_value(t),
+                         "expected a number of seconds (decimal, at most 1e11 in size)");
       start[id] = s;
     }
     io::TraceFormat format;

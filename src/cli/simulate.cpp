@@ -1,5 +1,6 @@
 #include "dbbkit/simulate.hpp"
 
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -78,8 +79,12 @@ std::vector<std::pair<std::string, SimulatedTrace>> simulated_traces(
       }
     }
     options.seed = options.seed * 1000003ULL + i;
-    out.emplace_back(id,
-                     simulate_trace(stops, levels, options, timed ? times : std::vector<double>{}));
+    try {
+      out.emplace_back(
+          id, simulate_trace(stops, levels, options, timed ? times : std::vector<double>{}));
+    } catch (const InputError& e) {
+      throw e.source() == "schedule" ? e.with_source(source) : e;
+    }
   }
   return out;
 }
@@ -167,10 +172,14 @@ Runner add_simulate(CLI::App& app) {
             std::to_string(sim.level_um.size()) + " dwells of " + io::fmt_num(options.dwell_s, 4) +
             " s at " + io::fmt_num(options.rate_hz, 4) + " Hz"};
         // The trace's clock starts at zero; with the truth's schedule, its zero on the test's.
-        if (sim.zero_s) {
-          comments.push_back("on the test's clock this trace starts at " +
-                             io::fmt_num(*sim.zero_s, 6) + " s: dbbkit readings --start " + id +
-                             "=" + io::fmt_num(*sim.zero_s, 6));
+        if (sim.zero_s && sim.shortest_dwell_s) {
+          const double dwell = std::floor(*sim.shortest_dwell_s * 10) / 10;
+          comments.push_back(
+              "on the test's clock this trace starts at " + io::fmt_num(*sim.zero_s, 6) +
+              " s; following the truth's schedule the machine stands still at "
+              "least " +
+              io::fmt_num(dwell, 4) + " s a reading: dbbkit readings --dwell-s " +
+              io::fmt_num(dwell, 4) + " --start " + id + "=" + io::fmt_num(*sim.zero_s, 6));
         }
         std::ostringstream text;
         io::write_trace_csv(text, sim.trace, comments);

@@ -248,6 +248,7 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
     attributions.push_back(
         {{"effect", at.effect},
          {"kind", at.convention ? "equivalent" : "fits almost as well"},
+         {"untried_combinations", at.untried},
          {"alternatives", at.alternatives},
          {"largest_change", change},
          {"distribution", "rectangular, half-width the change, in the errors' std"}});

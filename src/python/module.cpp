@@ -501,7 +501,7 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
   for (const auto& [id, s] : start_s) {
     if (!traces.contains(py::str(id)))
       throw InputError("start_s", quote_value(id), "no trace of this installation");
-    check_finite_in("start_s", s, -1e9, 1e9);
+    check_finite_in("start_s", s, -1e11, 1e11);
   }
   check_finite_in("min_share", min_share, 0.05, 1);
   const std::vector<Sweep> sw = sweeps_by_name(sweeps, "sweeps");
