@@ -304,7 +304,11 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
   const std::vector<Sweep> sweeps =
       truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::kCCW};
   for (const Installation& inst : design.installations) {
+    // A sweep direction run again (ccw, cw, ccw) continues its repeats' numbering, so that no two
+    // readings of one installation, angle and sweep share a repeat number.
+    int ccw_runs = 0, cw_runs = 0;
     for (Sweep sweep : sweeps) {
+      const int run = sweep == Sweep::kCW ? cw_runs++ : ccw_runs++;
       std::vector<double> angles = design.angles_deg;
       if (sweep == Sweep::kCW) std::reverse(angles.begin(), angles.end());
       for (double a : angles) {
@@ -312,7 +316,7 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
           Reading reading;
           reading.installation = inst.id;
           reading.angle_deg = a;
-          if (truth.repeats > 1) reading.repeat = r;
+          if (truth.repeats > 1) reading.repeat = run * truth.repeats + r;
           if (truth.schedule) {
             reading.time_s = t;
             reading.sweep = sweep;

@@ -224,5 +224,26 @@ TEST(ExactSetup, TheTruthFileDeclaresGeometryAndSetUp) {
   EXPECT_THROW(io::truth_from_json(typo, "t.json"), InputError);
 }
 
+// A sweep direction run twice (ccw, cw, ccw) with repeats: the second ccw run continues the
+// repeat numbers, so the readings are valid as simulate writes them (no two share installation,
+// angle, sweep and repeat).
+TEST(Simulate, RepeatsOfASweepRunTwiceAreNumberedOn) {
+  const Design d = test::paper_design('C');
+  Truth t;
+  t.model.kind = ErrorModel::Kind::kPerAngle;
+  for (double a : d.angles_deg) t.per_angle.push_back({a, Vector6d::Zero()});
+  t.repeats = 2;
+  t.schedule = Schedule{10, 240, {Sweep::kCCW, Sweep::kCW, Sweep::kCCW}};
+  const std::vector<Reading> r = simulate(d, t, 3);
+  EXPECT_NO_THROW(validate_readings(d, r, "simulated"));
+  int late = 0;
+  for (const Reading& x : r) {
+    ASSERT_TRUE(x.repeat && x.sweep);
+    if (*x.sweep == Sweep::kCCW && *x.repeat >= 2) ++late;
+    if (*x.sweep == Sweep::kCW) EXPECT_LT(*x.repeat, 2);
+  }
+  EXPECT_EQ(late, static_cast<int>(d.installations.size() * d.angles_deg.size() * 2));
+}
+
 }  // namespace
 }  // namespace dbbkit
