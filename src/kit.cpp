@@ -319,6 +319,16 @@ void validate_kit(const Kit& k, const std::string& source) {
                 k.axis.label());
   }
   require(!k.angle_steps_deg.empty(), source, "angles_deg.steps", "no angle steps");
+  if (k.angle_max_step_deg) {
+    const double m = *k.angle_max_step_deg;
+    require(finite(m) && m > 0, source, "angles_deg.max_step",
+            "must be a positive step in degrees");
+    require(std::any_of(k.angle_steps_deg.begin(), k.angle_steps_deg.end(),
+                        [&](double st) { return st <= m + kAngleTolerance_deg; }),
+            source, "angles_deg.max_step",
+            "is finer than every step of angles_deg.steps: no step is at most " +
+                text::significant(m, 12) + " deg");
+  }
   for (size_t i = 0; i < k.angle_steps_deg.size(); ++i) {
     const std::string key = "angles_deg.steps[" + std::to_string(i) + "]";
     const double st = k.angle_steps_deg[i];

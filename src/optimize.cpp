@@ -694,6 +694,8 @@ std::vector<PatternChoice> pattern_choices(const Kit& kit) {
           c.heights.push_back({vars[v], idx[v], stacks[idx[v]].height_mm});
         resolve(kit, c);
         for (double step : kit.angle_steps_deg) {
+          if (kit.angle_max_step_deg && step > *kit.angle_max_step_deg + kAngleTolerance_deg)
+            continue;  // coarser than the user accepts
           c.step_deg = step;
           out.push_back(c);
         }

@@ -171,6 +171,38 @@ TEST(Kit, BarsAsSoldAreReadAndCheckedByKey) {
   EXPECT_EQ(where(R"("bars_mm": [100], "resolution_mm": 0})"), "resolution_mm");
 }
 
+// angles_deg.max_step: read, and refused when not positive or finer than every step.
+TEST(Kit, AnglesMaxStepIsReadAndChecked) {
+  auto kit = [](const std::string& angles) {
+    return io::kit_from_text(
+        R"({"format": "dbbkit.kit/1", "axis": "C", "reference_length_mm": 100,
+    "pattern": "three_position", "L_mm": {"min": 20, "max": 250},
+    "H_mm": {"base": 45, "blocks": [150], "max_stack": 1}, "bars_mm": [100],
+    "travel_mm": {"x": [-220, 220], "y": [-220, 220], "z": [-50, 400]},
+    "time_s": {"per_reading": 3, "per_installation": 60}, "angles_deg": )" +
+            angles + "}",
+        "k");
+  };
+  const Kit k = kit(R"({"range": [0, 360], "steps": [10, 30], "max_step": 20})");
+  ASSERT_TRUE(k.angle_max_step_deg);
+  EXPECT_EQ(*k.angle_max_step_deg, 20);
+  EXPECT_FALSE(kit(R"({"range": [0, 360], "steps": [10, 30]})").angle_max_step_deg);
+  auto where = [&](const std::string& angles) {
+    try {
+      kit(angles);
+    } catch (const InputError& e) {
+      return e.where() + ": " + e.what();
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(where(R"({"range": [0, 360], "steps": [10, 30], "max_step": 5})")
+                .rfind("angles_deg.max_step: ", 0),
+            0u);
+  EXPECT_EQ(where(R"({"range": [0, 360], "steps": [10], "max_step": -1})")
+                .rfind("angles_deg.max_step: ", 0),
+            0u);
+}
+
 // Installations at one ball position share its set-up time.
 TEST(Kit, DesignTimeCountsEachBallPositionOnce) {
   Kit kit = formats_kit();

@@ -442,6 +442,23 @@ TEST(Optimize, TimeBudgetExcludesChoices) {
   EXPECT_EQ(over, 2);  // step 10 for both height orders
 }
 
+// A kit's coarsest acceptable step: per-angle errors alone would choose the coarsest step (the
+// shortest measurement, each angle known as well); with angles_deg.max_step the coarser steps
+// are not tried, and the best is the coarsest of those left.
+TEST(Optimize, AnglesMaxStepLeavesCoarserStepsOut) {
+  Kit k = small_c_kit();
+  k.angle_steps_deg = {10, 20, 30};
+  const OptimizeResult free_step = optimize_kit(k, {Criterion::kWorst, 2});
+  ASSERT_TRUE(free_step.best);
+  EXPECT_EQ(free_step.best->choice.step_deg, 30);
+  k.angle_max_step_deg = 20;
+  const OptimizeResult capped = optimize_kit(k, {Criterion::kWorst, 2});
+  ASSERT_TRUE(capped.best);
+  EXPECT_EQ(capped.best->choice.step_deg, 20);
+  for (const ChoiceResult& c : capped.choices) EXPECT_LE(c.choice.step_deg, 20);
+  EXPECT_EQ(capped.choices.size() * 3, free_step.choices.size() * 2);
+}
+
 // No choice fits the budget: one constraint binds the whole kit, with the shortest design's
 // time as it adds up (7 installations at 37 angles and at 13).
 TEST(Optimize, AKitOverItsTimeBudgetNamesTheShortestDesign) {

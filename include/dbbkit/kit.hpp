@@ -115,6 +115,10 @@ struct Kit {
   double min_separation_mm = 0;
   Interval angle_range_deg;
   std::vector<double> angle_steps_deg;
+  // The coarsest step the user accepts (the resolution the error motions are needed at): steps
+  // above it are not tried. Absent: every step is; for per-angle errors the search then
+  // prefers the coarsest, the shortest measurement.
+  std::optional<double> angle_max_step_deg;
   double time_per_reading_s = 0;
   double time_per_installation_s = 0;  // each installation: the bar mounted in one direction
   // Each ball position set up (the cup and its blocks placed; installations at one position

@@ -214,6 +214,7 @@ Kit kit_from_json(const json& j, const std::string& source) {
     ObjectReader a = top.object("angles_deg");
     k.angle_range_deg = read_pair(a.required("range"), source, a.key_path("range"));
     k.angle_steps_deg = read_numbers(a.required("steps"), source, a.key_path("steps"));
+    k.angle_max_step_deg = a.optional_number("max_step");
     a.finish();
   }
   {

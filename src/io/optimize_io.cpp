@@ -366,7 +366,10 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
     }
     s << "\n";
   }
-  if (kit.errors.kind == ErrorModel::Kind::kPerAngle && kit.angle_steps_deg.size() > 1) {
+  if (kit.angle_max_step_deg) {
+    s << "\nangle steps: at most " << fmt_num(*kit.angle_max_step_deg, 6)
+      << " deg (the kit's angles_deg.max_step); coarser ones were not tried.\n";
+  } else if (kit.errors.kind == ErrorModel::Kind::kPerAngle && kit.angle_steps_deg.size() > 1) {
     s << "\nper_angle errors: each angle has its own six unknowns, so a finer step adds angles, "
          "each known as "
          "well as before; between designs equally good the shorter measurement (the coarser step) "
