@@ -702,6 +702,9 @@ TEST(Cli, SimulateExactGeometryWritesTheSetUpErrorsUsed) {
     }
   }
   EXPECT_EQ(drawn_nonzero, 6);
+  // A zero (D of a ball without lateral tolerance) is written 0, never -0.
+  EXPECT_EQ(slurp(setup).find("-0.0,"), std::string::npos);
+  EXPECT_EQ(slurp(setup).find("-0.0\n"), std::string::npos);
   // A first-order truth has no set-up errors to write: refused, and no file is left.
   std::filesystem::remove(csv);
   std::filesystem::remove(setup);

@@ -206,6 +206,17 @@ TEST(SetupSheetCli, WithAKitItStatesSetUpTimesRoundsAndDrawsEachStep) {
     ++svgs;
   EXPECT_EQ(svgs, d.installations.size());
   EXPECT_NE(page.find("Time, by the kit&#39;s model"), std::string::npos);
+  // The drawings' captions stay within their 320 px panels (at most 6.6 px per character at
+  // 12 px): the two views' titles never run into each other.
+  int captions = 0;
+  for (size_t at = page.find("font-size='12'>"); at != std::string::npos;
+       at = page.find("font-size='12'>", at + 1)) {
+    const size_t from = at + std::string("font-size='12'>").size();
+    const std::string text = page.substr(from, page.find("</text>", from) - from);
+    EXPECT_LE(6.6 * static_cast<double>(text.size()), 320 - 12) << text;
+    ++captions;
+  }
+  EXPECT_GE(captions, 2 * static_cast<int>(d.installations.size()));
   // A kit of the other axis is refused, naming it.
   r = run_cli("setup-sheet --design " + design + " --kit " +
               test::source_path("designs/kits/b-head-kit.json"));

@@ -240,9 +240,22 @@ void rect(std::ostringstream& s, const Panel& p, double x, double y, double w, d
     << sheet_number(w * p.scale) << "' height='" << sheet_number(h * p.scale) << "' fill='" << fill
     << "' stroke='#555'/>";
 }
+// A caption within its panel: wrapped at spaces onto further lines (about 6.6 px per character
+// at this size), so that two panels' captions never run into each other.
 void caption(std::ostringstream& s, const Panel& p, const std::string& text) {
-  s << "<text x='" << sheet_number(p.x0 + 6) << "' y='" << sheet_number(p.y0 + 14)
-    << "' font-size='12'>" << html_escape(text) << "</text>";
+  const std::size_t per_line = static_cast<std::size_t>(std::max(10.0, (p.size - 12) / 6.6));
+  std::vector<std::string> lines{""};
+  std::istringstream words(text);
+  std::string w;
+  while (words >> w) {
+    if (!lines.back().empty() && lines.back().size() + 1 + w.size() > per_line) lines.push_back("");
+    lines.back() += (lines.back().empty() ? "" : " ") + w;
+  }
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    s << "<text x='" << sheet_number(p.x0 + 6) << "' y='"
+      << sheet_number(p.y0 + 14 + 14 * static_cast<double>(i)) << "' font-size='12'>"
+      << html_escape(lines[i]) << "</text>";
+  }
 }
 
 }  // namespace

@@ -248,13 +248,16 @@ Truth truth_from_json(const json& j, const std::string& source) {
 }
 
 nlohmann::json setup_errors_to_json(const Design& design, const std::vector<SetupError>& setup) {
+  // A zero drawn as -0 (a zero tolerance times a negative draw) is written 0.
+  auto z = [](double x) { return x == 0.0 ? 0.0 : x; };
   json list = json::array();
   for (size_t i = 0; i < setup.size() && i < design.installations.size(); ++i) {
     const SetupError& e = setup[i];
-    list.push_back({{"id", design.installations[i].id},
-                    {"length_offset_um", e.length_offset_um},
-                    {"centring_um", {e.centring_um(0), e.centring_um(1), e.centring_um(2)}},
-                    {"ball_mm", {{"L", e.ball_mm(0)}, {"D", e.ball_mm(1)}, {"H", e.ball_mm(2)}}}});
+    list.push_back(
+        {{"id", design.installations[i].id},
+         {"length_offset_um", z(e.length_offset_um)},
+         {"centring_um", {z(e.centring_um(0)), z(e.centring_um(1)), z(e.centring_um(2))}},
+         {"ball_mm", {{"L", z(e.ball_mm(0))}, {"D", z(e.ball_mm(1))}, {"H", z(e.ball_mm(2))}}}});
   }
   return {{"format", "dbbkit.setup-errors/1"}, {"installations", list}};
 }
