@@ -1,7 +1,7 @@
 #pragma once
 // Location errors of the axis average line and component error motions in the terms
 // of ISO 230-1 / ISO 230-7, from the identified error motions (any parameterisation),
-// to first order (../shared/docs/iso230.md, checked by the tests against the exact
+// to first order (docs/iso230.md, checked by the tests against the exact
 // two-ball geometry of a displaced, tilted and offset axis).
 //
 // The real axis passes through o (o perpendicular to the nominal axis a), its direction
