@@ -200,8 +200,10 @@ std::vector<Warning> diagnose_warnings(const DiagnoseResult& r) {
                                             convention->largest_change.end());
       consequence =
           "the corrected errors and their ISO terms carry the difference in their uncertainties "
-          "(a rectangular share, half-width up to " +
-          text::significant(um, 3) + " um, " + text::significant(urad, 3) + " urad" +
+          "(the whole change as a standard uncertainty, up to " +
+          // Changes below 1e-6 (rounding of an exact equivalence) are zero.
+          text::significant(um < 1e-6 ? 0.0 : um, 3) + " um, " +
+          text::significant(urad < 1e-6 ? 0.0 : urad, 3) + " urad" +
           (convention->untried > 0
                ? ", over the first 256 combinations; " + std::to_string(convention->untried) +
                      " more were not tried and may move them further"

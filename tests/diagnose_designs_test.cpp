@@ -219,27 +219,27 @@ TEST(DiagnoseOnDesigns, StatedDetectionLimitHasItsPower) {
   }
 }
 
-// The errors after are the chosen fit's values, with the change to the other fit as a
-// rectangular component of their standard uncertainty (one alternative): u = hypot(u_chosen,
-// |change| / sqrt(3)). Some error must change.
-// Each error after is the chosen model's, its uncertainty the chosen one combined with one
-// rectangular share per attribution: half-width the largest change over that attribution's
-// refits (`others`, one list per attribution).
+// Each error after is the chosen model's, its uncertainty the chosen one combined with one share
+// per attribution (`others`, one list of refits per attribution, in the result's order), w the
+// largest change over that attribution's refits: rectangular, w^2 / 3, for alternatives that fit
+// almost as well; the two-point bound w^2 for the convention (alternatives that fit exactly as
+// well). Some error must change.
 void expect_errors_carry(const DiagnoseResult& r, const std::vector<ErrorsAtAngle>& chosen,
                          const std::vector<std::vector<std::vector<ErrorsAtAngle>>>& others) {
   ASSERT_EQ(chosen.size(), r.errors_after.size());
+  ASSERT_EQ(others.size(), r.attributions.size());
   double largest = 0;
   for (std::size_t i = 0; i < chosen.size(); ++i) {
     for (int k = 0; k < 6; ++k) {
       if (!chosen[i].errors[k].determined) continue;
       double u2 = chosen[i].errors[k].std * chosen[i].errors[k].std;
-      for (const std::vector<std::vector<ErrorsAtAngle>>& refits : others) {
+      for (std::size_t a = 0; a < others.size(); ++a) {
         double w = 0;
-        for (const std::vector<ErrorsAtAngle>& other : refits) {
+        for (const std::vector<ErrorsAtAngle>& other : others[a]) {
           EXPECT_EQ(other.size(), chosen.size());
           w = std::max(w, std::abs(other[i].errors[k].value - chosen[i].errors[k].value));
         }
-        u2 += w * w / 3.0;
+        u2 += w * w / (r.attributions[a].convention ? 1.0 : 3.0);
         largest = std::max(largest, w);
       }
       EXPECT_NEAR(r.errors_after[i].errors[k].value, chosen[i].errors[k].value,
@@ -276,9 +276,9 @@ const EffectBlock& pool_block(const std::vector<EffectBlock>& pool, const std::s
 
 // Effects chosen by convention among equivalent ones (the paper's C data: length_offset and
 // centring of 2r, each equivalent to 1r's) put the change under every other choice into the
-// errors' uncertainty, as one rectangular share: each combination refitted here by hand, the
-// half-width the largest change over the three; the corrected X0C interval then covers X0C under
-// either choice.
+// errors' uncertainty, as one share bounded by the two-point distribution: each combination
+// refitted here by hand, w the largest change over the three, u^2 += w^2; the corrected X0C
+// interval then covers X0C under either choice.
 TEST(DiagnoseOnDesigns, EffectsChosenByConventionEnterTheErrorsUncertainty) {
   const Design d = test::paper_design('C');
   const Parameterisation param(d);

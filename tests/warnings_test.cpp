@@ -128,11 +128,16 @@ TEST(WarningsCli, FirstOnTheTerminalAndInEveryResult) {
   CliRun r = run_cli("identify --design " + test::kDesignC + " --data " + test::kDataC + " --out " +
                      dir + "/id.json --report " + dir + "/id.html");
   ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(r.out.rfind("WARNING: The residual contradicts the declared noise", 0), 0) << r.out;
+  // The summary (a minute's read) first, then the warnings, then the tables.
+  EXPECT_EQ(r.out.rfind("summary:\n  - Determined:", 0), 0) << r.out;
+  const size_t warning = r.out.find("\n\nWARNING: The residual contradicts the declared noise");
+  ASSERT_NE(warning, std::string::npos) << r.out;
+  EXPECT_LT(warning, r.out.find("design: ")) << r.out;
   nlohmann::json j = nlohmann::json::parse(slurp(dir + "/id.json"));
   ASSERT_TRUE(j["warnings"].is_array());
   EXPECT_EQ(j["warnings"][0]["kind"], "residual");
   const std::string html = slurp(dir + "/id.html");
+  EXPECT_LT(html.find("<h2>Summary"), html.find("WARNING: The residual"));
   EXPECT_LT(html.find("WARNING: The residual"), html.find("<h2>Result"));
   r = run_cli("evaluate --design " + test::kDesignC + " --out " + dir + "/ev.json");
   ASSERT_EQ(r.status, 0) << r.err;

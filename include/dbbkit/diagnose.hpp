@@ -76,9 +76,11 @@ struct SetupRisk {
 // An added effect that one or more candidates still fit almost as well in the final model
 // (fits_almost_as_well, as close_alternatives), or a substitution (selection.hpp): the errors
 // refitted with each alternative in its place. largest_change[k]: the largest change of error k
-// (dx..ez) over the positions and the alternatives; its half-width enters every error's
-// standard uncertainty as a rectangular component, change / sqrt(3), so that the errors hold
-// whichever is true. Several attributions combine in quadrature.
+// (dx..ez) over the positions and the alternatives; at each position the change enters the
+// error's standard uncertainty, so that the errors hold whichever is true: as a rectangular
+// half-width, change / sqrt(3), for alternatives that fit almost as well, whole for the
+// convention (alternatives that fit exactly as well). Several attributions combine in
+// quadrature.
 struct Attribution {
   std::string effect;                      // an added effect, or "a + b" for a substitution's
   std::vector<std::string> alternatives;   // labels, or "c + d" for a substitution's
@@ -88,6 +90,9 @@ struct Attribution {
   // readings fit every combination exactly as well.
   bool convention = false;
   std::size_t untried = 0;  // combinations beyond the first 256 (convention), left out
+  // The largest change of each ISO quantity of the corrected errors (location errors, constant
+  // parts, component error motions, in IsoResult's order; 0 where not determined).
+  std::vector<double> iso_change;
 };
 
 // Why forward selection stopped before no candidate passed (selection.hpp).

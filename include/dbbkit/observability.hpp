@@ -142,7 +142,16 @@ struct Evaluation {
   // What makes the stated uncertainties unreliable (warnings.hpp: setup_undeclared).
   std::vector<Warning> warnings;
   DetectionSettings detection;
+  // A design that declares no length offset or centring tolerance: the worst total standard
+  // uncertainty it would have with typical ones (kTypicalSetupStd), the size of what the
+  // noise-only figure leaves out (assess_design; absent otherwise).
+  std::optional<WorstCase> worst_total_typical;
 };
+
+// Typical set-up tolerances (standard uncertainties) of a ball bar installation: the length
+// offset of a ball seated and a bar mounted, the centring of a cup set with a dial gauge.
+inline constexpr double kTypicalLengthOffsetStd_um = 10;
+inline constexpr double kTypicalCentringStd_um = 5;
 
 // The design as it would be measured: one reading per installation and angle.
 // `detection`: the test the set-up detection limits refer to (diagnose's level, and

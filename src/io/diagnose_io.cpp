@@ -168,11 +168,13 @@ std::string signature_text(const ResidualSignature& s, const Design& design,
 std::string diagnose_iso_note(const DiagnoseResult& r) {
   return "of the corrected errors: standard uncertainty (k = 1) from the final model's covariance "
          "(the declared reading noise)" +
-         std::string(r.attributions.empty()
-                         ? ""
-                         : " and the share of the alternatives that fit almost as well or "
-                           "equally (rectangular, as the errors carry it; the error motion values "
-                           "without it)");
+         std::string(
+             r.attributions.empty()
+                 ? ""
+                 : " and the share of the alternatives that fit almost as well or "
+                   "equally (as the errors carry it: rectangular for those that fit almost as "
+                   "well, the whole change for those that fit equally; the error motion "
+                   "values without it)");
 }
 
 json diagnose_to_json(const Design& design, const std::vector<Reading>& readings,
@@ -186,6 +188,7 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
       "confounded and never added";
   j["level"] = r.level;
   j["warnings"] = warnings_to_json(r.warnings);
+  j["summary"] = brief_to_json(diagnose_brief(design, r));
   j["iso230"] = iso230_to_json(r.iso_after, diagnose_iso_note(r));
   j["before"] = residual_to_json(r.before);
   j["after"] = residual_to_json(r.after);
@@ -251,7 +254,9 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
          {"untried_combinations", at.untried},
          {"alternatives", at.alternatives},
          {"largest_change", change},
-         {"distribution", "rectangular, half-width the change, in the errors' std"}});
+         {"distribution", at.convention
+                              ? "two-point bound: the change enters the errors' std whole"
+                              : "rectangular, half-width the change, in the errors' std"}});
   }
   j["attributions"] = attributions;
   json cands = json::array();
@@ -340,7 +345,7 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
 std::string diagnose_summary(const Design& design, const std::vector<Reading>& readings,
                              const DiagnoseResult& r) {
   std::ostringstream s;
-  s << warnings_text(r.warnings);
+  s << brief_text(diagnose_brief(design, r)) << warnings_text(r.warnings);
   s << "design: " << (design.name.empty() ? "(unnamed)" : design.name) << "  axis "
     << design.axis.label() << "  errors " << design.errors.describe() << "\n";
   s << "noise: " << design.noise.describe() << "\n";

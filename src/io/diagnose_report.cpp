@@ -28,6 +28,7 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
   const std::unique_ptr<ReportWriter> page =
       make_report_writer(f, "dbbkit diagnose: " + design.name);
   ReportWriter& p = *page;
+  summary_section(p, diagnose_brief(design, r));
   warnings_section(p, r.warnings);
   p.heading("Verdict");
   p.paragraph(diagnose_verdict(design, given, r));

@@ -1,8 +1,11 @@
 #include "dbbkit/io/diagnose_text.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <optional>
 #include <sstream>
 
+#include "dbbkit/effects.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
 
@@ -193,8 +196,9 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
           v << "The errors after carry the change should";
           for (std::size_t i = 0; i < at.alternatives.size(); ++i)
             v << (i ? " or " : " ") << at.alternatives[i];
-          v << " be the true one (up to " << fmt_num(um, 3) << " um, " << fmt_num(urad, 3)
-            << " urad) in their uncertainties (rectangular). ";
+          v << " be the true one (up to " << fmt_num(um < 1e-6 ? 0.0 : um, 3) << " um, "
+            << fmt_num(urad < 1e-6 ? 0.0 : urad, 3) << " urad) in their uncertainties ("
+            << (convention ? "whole: the readings cannot choose" : "rectangular") << "). ";
         }
       };
       v << "Added:";
@@ -418,6 +422,374 @@ std::string candidate_detail(const CandidateStatus& c) {
          (c.missed->with_position ? " with its position)" : ")");
   }
   return t;
+}
+
+}  // namespace dbbkit::io
+
+namespace dbbkit::io {
+
+namespace {
+
+std::string n3(double x) { return fmt_num(x, 3); }
+
+// "a, b and c"; beyond `budget` characters the rest as "and N more".
+std::string listed(const std::vector<std::string>& items, std::size_t budget = 150) {
+  std::string out;
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const std::string sep = i == 0 ? "" : (i + 1 == items.size() ? " and " : ", ");
+    if (i > 0 && out.size() + sep.size() + items[i].size() > budget) {
+      return out + " and " + std::to_string(items.size() - i) + " more";
+    }
+    out += sep + items[i];
+  }
+  return out;
+}
+
+// The same with "or".
+std::string or_listed(const std::vector<std::string>& items) {
+  std::string out;
+  for (std::size_t i = 0; i < items.size(); ++i)
+    out += (i == 0 ? "" : (i + 1 == items.size() ? " or " : ", ")) + items[i];
+  return out;
+}
+
+const char* kind_noun(EffectKind k) {
+  switch (k) {
+    case EffectKind::kLengthOffset:
+      return "a length offset";
+    case EffectKind::kCentring:
+      return "a centring error";
+    case EffectKind::kDrift:
+      return "a drift";
+    case EffectKind::kReversal:
+      return "a cw-ccw difference";
+    case EffectKind::kScale:
+      return "a linear-axis scale error";
+    case EffectKind::kSquareness:
+      return "a linear-axis squareness error";
+    case EffectKind::kPeriodic:
+      return "a periodic error";
+    case EffectKind::kStep:
+      return "a step";
+    case EffectKind::kThermal:
+      return "a warm-up";
+  }
+  return "an effect";
+}
+
+std::string installation_of(const Design& design, const EffectCandidate& e) {
+  return e.installation >= 0 ? design.installations[static_cast<std::size_t>(e.installation)].id
+                             : std::string();
+}
+
+// The candidate a label names, when it can be read back (a periodic effect's label cannot).
+std::optional<EffectCandidate> parsed(const Design& design, const std::string& label) {
+  try {
+    return effect_from_label(design, label, "result", "label");
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+// Labels of one family said once: "a warm-up with a time constant between 5 and 112 min", "a
+// length offset of 1r or 2r", "a step in 2t at t = 300 to 420 s".
+std::string family_phrase(const Design& design, const std::vector<std::string>& labels) {
+  struct Family {
+    EffectKind kind;
+    std::vector<std::string> where;
+    double lo = 1e300, hi = -1e300;  // tau or step time
+  };
+  std::vector<Family> families;
+  std::vector<std::string> unread;
+  for (const std::string& l : labels) {
+    const std::optional<EffectCandidate> e = parsed(design, l);
+    if (!e) {
+      unread.push_back(l);
+      continue;
+    }
+    auto f = std::find_if(families.begin(), families.end(),
+                          [&](const Family& x) { return x.kind == e->kind; });
+    if (f == families.end()) f = families.insert(families.end(), Family{e->kind, {}});
+    const std::string w = e->installation >= 0 ? installation_of(design, *e) : "the whole test";
+    if (std::find(f->where.begin(), f->where.end(), w) == f->where.end()) f->where.push_back(w);
+    const double x = e->kind == EffectKind::kThermal ? e->tau_min : e->at_s;
+    if (std::isfinite(x)) f->lo = std::min(f->lo, x), f->hi = std::max(f->hi, x);
+  }
+  std::vector<std::string> phrases;
+  for (const Family& f : families) {
+    std::string p = kind_noun(f.kind);
+    if (f.kind == EffectKind::kThermal && f.lo <= f.hi) {
+      p += f.hi > f.lo ? " with a time constant between " + n3(f.lo) + " and " + n3(f.hi) + " min"
+                       : " with a time constant of " + n3(f.lo) + " min";
+    } else if (!effect_is_shared(f.kind)) {
+      const bool whole = f.where.size() == 1 && f.where[0] == "the whole test";
+      p += (whole ? " over " : " in ") + or_listed(f.where);
+      if (f.kind == EffectKind::kStep && f.lo <= f.hi)
+        p += " at t = " + fmt_num(f.lo, 6) +
+             (f.hi > f.lo ? " to " + fmt_num(f.hi, 6) : std::string()) + " s";
+    }
+    phrases.push_back(p);
+  }
+  for (const std::string& l : unread) phrases.push_back(l);
+  return or_listed(phrases);
+}
+
+// "a length offset of -20.3 um", "a centring error of (cx, cy) = (-5.91, -1.46) um".
+std::string effect_phrase(const AddedEffect& a) {
+  const EffectCandidate& e = a.block.effect;
+  std::string values, names;
+  for (std::size_t k = 0; k < a.values.size(); ++k) {
+    values += (k ? ", " : "") + n3(a.values[k].value);
+    names += (k ? ", " : "") + a.block.parameters[k];
+  }
+  if (e.kind == EffectKind::kThermal) {  // the plateau, and the time constant when fitted
+    const double tau = a.values.size() > 1 ? a.values[1].value : e.tau_min;
+    return std::string(kind_noun(e.kind)) + " of " +
+           (a.values.empty() ? std::string("?") : n3(a.values[0].value)) + " um with a time " +
+           "constant of " + n3(tau) + " min";
+  }
+  const bool several = a.values.size() > 1;
+  std::string p = kind_noun(e.kind);
+  if (e.kind == EffectKind::kPeriodic)
+    p = "a " + std::to_string(e.harmonic) + "-per-turn error";
+  else if (e.kind == EffectKind::kScale || e.kind == EffectKind::kSquareness ||
+           (e.kind == EffectKind::kCentring && several))
+    p += " (" + names + ")";
+  p += " of " + (several ? "(" + values + ")" : values) + " " + a.block.unit;
+  if (e.kind == EffectKind::kStep && std::isfinite(e.at_s))
+    p += " at t = " + fmt_num(e.at_s, 6) + " s";
+  return p;
+}
+
+// Where an added effect is: "in installation 2r", "in installation 2r or 1r (the readings cannot
+// tell which)", "over the whole test", or "" for the machine's linear axes.
+std::string where_phrase(const Design& design, const AddedEffect& a) {
+  const EffectCandidate& e = a.block.effect;
+  if (effect_is_shared(e.kind)) return "";
+  if (e.installation < 0) return "over the whole test";
+  std::vector<std::string> at{installation_of(design, e)};
+  for (const std::string& l : a.equivalent_to) {
+    const std::optional<EffectCandidate> o = parsed(design, l);
+    if (o && o->installation >= 0) at.push_back(installation_of(design, *o));
+  }
+  std::string p = "in installation " + at[0];
+  if (at.size() > 1) {
+    at.erase(at.begin());
+    p += " (or in " + or_listed(at) + " instead: the readings cannot tell which)";
+  }
+  return p;
+}
+
+std::string capitalised(std::string s) {
+  if (!s.empty() && s[0] >= 'a' && s[0] <= 'z') s[0] = static_cast<char>(s[0] - 'a' + 'A');
+  return s;
+}
+
+std::string chi_short(const Estimate& e) {
+  return "chi2 " + fmt_num(e.chi2, 4) + " on " + std::to_string(e.dof) + " dof, p " +
+         (e.p_value ? p_text(*e.p_value) : std::string("undefined"));
+}
+
+// Cut at the limit on a word boundary, with an ellipsis, should a list of user-named things
+// still make an item too long.
+std::string within_limit(std::string s) {
+  if (s.size() <= kBriefItemMaxChars) return s;
+  std::size_t cut = s.rfind(' ', kBriefItemMaxChars - 4);
+  if (cut == std::string::npos) cut = kBriefItemMaxChars - 4;
+  return s.substr(0, cut) + " ...";
+}
+
+}  // namespace
+
+std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult& r) {
+  std::vector<BriefItem> out;
+  auto add = [&](const std::string& topic, const std::string& text) {
+    if (out.size() < 6 && !text.empty()) out.push_back({topic, within_limit(text)});
+  };
+  // What is wrong, grouped by where it is.
+  if (!r.added.empty()) {
+    std::vector<std::pair<std::string, std::vector<std::string>>> by_where;
+    for (const AddedEffect& a : r.added) {
+      const std::string w = where_phrase(design, a);
+      auto g = std::find_if(by_where.begin(), by_where.end(),
+                            [&](const auto& x) { return x.first == w; });
+      if (g == by_where.end()) g = by_where.insert(by_where.end(), {w, {}});
+      g->second.push_back(effect_phrase(a));
+    }
+    std::vector<std::string> groups;
+    for (const auto& [w, phrases] : by_where)
+      groups.push_back(listed(phrases, 120) + (w.empty() ? "" : " " + w));
+    add("found", "Found: " + listed(groups, 200) + ".");
+  } else if (!r.gross.empty()) {
+    const GrossReading& g = r.gross.front();
+    std::string where = g.reading ? "installation " + g.reading->installation + " at " +
+                                        fmt_num(g.reading->angle_deg, 4) + " deg"
+                                  : "one reading";
+    add("found", "Found: " + std::to_string(r.gross.size()) + " gross reading(s); the largest " +
+                     where + ", off by " + n3(g.value_um) + " um.");
+  } else if (!r.before.p_value) {
+    add("residual", "Nothing can be tested: the design leaves no redundant reading.");
+  } else if (!r.significant_before) {
+    add("residual", "Nothing to explain: the residual agrees with the declared noise (" +
+                        chi_short(r.before) + "), so identify's errors stand.");
+    // What would have been found: the smallest limit of each kind.
+    std::vector<std::string> limits;
+    std::vector<std::string> kinds;
+    for (const DetectionLimit& d : r.detection_limits) {
+      const std::string k = d.label.substr(0, d.label.find('['));
+      if (!d.limit || std::find(kinds.begin(), kinds.end(), k) != kinds.end()) continue;
+      double lo = *d.limit;
+      for (const DetectionLimit& o : r.detection_limits)
+        if (o.limit && o.label.substr(0, o.label.find('[')) == k) lo = std::min(lo, *o.limit);
+      kinds.push_back(k);
+      limits.push_back(k + " of " + fmt_num(lo, 2) + " " + d.unit);
+    }
+    if (!limits.empty())
+      add("evidence", "With the declared noise these would have been found (power 0.9): " +
+                          listed(limits, 170) + " or more.");
+  } else {
+    add("residual", "No effect of the library explains the residual (" + chi_short(r.before) +
+                        "); the errors' uncertainties do not hold as stated.");
+  }
+  // How sure: the evidence and what fits almost as well.
+  if (!r.added.empty()) {
+    std::vector<std::string> close;
+    for (const AddedEffect& a : r.added)
+      close.insert(close.end(), a.close_alternatives.begin(), a.close_alternatives.end());
+    std::vector<std::string> substitutes;
+    for (const Substitution& s : r.substitutions) {
+      std::vector<std::string> by;
+      for (const EffectBlock& b : s.by) by.push_back(b.label);
+      substitutes.push_back(family_phrase(design, by));
+    }
+    std::string alt;
+    if (!close.empty()) alt = family_phrase(design, close);
+    for (const std::string& s : substitutes) alt += (alt.empty() ? "" : "; or ") + s;
+    add("evidence", "Evidence: with " + std::string(r.added.size() == 1 ? "it" : "them") +
+                        " the residual falls from chi2 " + fmt_num(r.before.chi2, 4) + " on " +
+                        std::to_string(r.before.dof) + " dof to " + fmt_num(r.after.chi2, 3) +
+                        " on " + std::to_string(r.after.dof) + " dof (p " +
+                        (r.after.p_value ? p_text(*r.after.p_value) : std::string("undefined")) +
+                        ")" +
+                        (alt.empty() ? "; nothing else in the library fits almost as well."
+                                     : "; " + alt + " fits almost as well."));
+    // What it changes.
+    int t = -1, q = -1;
+    for (int k = 0; k < 6; ++k) {
+      if (!r.largest_change_of_errors[k] || *r.largest_change_of_errors[k] < 1e-6) continue;
+      int& best = k < 3 ? t : q;
+      if (best < 0 || *r.largest_change_of_errors[k] > *r.largest_change_of_errors[best]) best = k;
+    }
+    std::vector<std::string> moved;
+    for (int k : {t, q}) {
+      if (k >= 0)
+        moved.push_back(n3(*r.largest_change_of_errors[k]) + " " + kErrorUnits[k] + " (" +
+                        kErrorNames[k] + ")");
+    }
+    if (!moved.empty())
+      add("changes", "Correcting for " + std::string(r.added.size() == 1 ? "it" : "them") +
+                         " moves the axis errors by up to " + listed(moved) + ".");
+  }
+  // The location errors a choice the readings cannot make leaves uncertain.
+  if (!r.attributions.empty()) {
+    std::vector<std::string> uncertain, hold;
+    bool convention = false;
+    for (std::size_t i = 0; i < r.iso_after.location.size(); ++i) {
+      const IsoQuantity& loc = r.iso_after.location[i];
+      if (!loc.value.determined) continue;
+      double share2 = 0;
+      for (const Attribution& at : r.attributions) {
+        if (i >= at.iso_change.size()) continue;
+        share2 += at.iso_change[i] * at.iso_change[i] / (at.convention ? 1.0 : 3.0);
+        convention = convention || (at.convention && at.iso_change[i] > 0);
+      }
+      if (share2 > 0.5 * loc.value.std * loc.value.std) {
+        uncertain.push_back(loc.name + " (" + n3(loc.value.value) + " +- " + n3(2 * loc.value.std) +
+                            " " + loc.unit + ")");
+      } else {
+        hold.push_back(loc.name);
+      }
+    }
+    if (!uncertain.empty()) {
+      add("uncertainty", std::string(convention ? "Because the readings cannot make that choice, "
+                                                : "Because the alternatives fit almost as well, ") +
+                             listed(uncertain, 140) + (uncertain.size() == 1 ? " is" : " are") +
+                             " uncertain (k = 2)" +
+                             (hold.empty() ? "" : "; " + listed(hold) + " hold") + ".");
+    }
+  }
+  // What to do next.
+  std::vector<std::string> next;
+  auto action = [&](const std::string& a) {
+    if (std::find(next.begin(), next.end(), a) == next.end()) next.push_back(a);
+  };
+  if (!r.gross.empty()) action("check the gross reading(s) at the machine and measure again");
+  for (const AddedEffect& a : r.added) {
+    const EffectCandidate& e = a.block.effect;
+    std::string inst = e.installation >= 0 ? installation_of(design, e) : std::string();
+    for (const std::string& l : a.equivalent_to) {
+      const std::optional<EffectCandidate> o = parsed(design, l);
+      if (o && o->installation >= 0) inst += " or " + installation_of(design, *o);
+    }
+    switch (e.kind) {
+      case EffectKind::kLengthOffset:
+      case EffectKind::kCentring:
+        action(inst.empty() ? "check the bar's calibrated length"
+                            : "re-seat the balls and re-centre installation " + inst +
+                                  ", then measure it again");
+        break;
+      case EffectKind::kDrift:
+      case EffectKind::kThermal:
+        action(e.kind == EffectKind::kThermal
+                   ? "warm the machine up (three time constants: about " +
+                         n3(3 * (a.values.size() > 1 ? a.values[1].value : e.tau_min)) +
+                         " min) and measure again"
+                   : std::string("warm the machine up until the readings stop drifting, and "
+                                 "measure again"));
+        break;
+      case EffectKind::kStep:
+        action("look for a knocked or loose ball in installation " + inst);
+        break;
+      case EffectKind::kReversal:
+        action("check the axis' backlash (the cw-ccw difference" +
+               (inst.empty() ? std::string() : " in " + inst) + ")");
+        break;
+      case EffectKind::kScale:
+      case EffectKind::kSquareness:
+        action("check the linear axes' scale and squareness before compensating the rotary axis");
+        break;
+      case EffectKind::kPeriodic:
+        action("check the axis drive for a " + std::to_string(e.harmonic) + "-per-turn error");
+        break;
+    }
+  }
+  bool convention = false;
+  for (const Attribution& at : r.attributions) convention = convention || at.convention;
+  if (convention)
+    action("to tell the equivalent effects apart, add an installation that separates them");
+  if (r.significant_after && r.order && r.order->p < r.level)
+    action("set errors.order to " + std::to_string(r.order->suggested) + " in the design");
+  if (r.noise_larger_than_declared)
+    action("state the uncertainties from the scatter (identify --type-a) or check the instrument");
+  if (!r.setup_risks.empty() && !design.setup_nuisance_declared())
+    action(
+        "declare set-up tolerances (setup_std) in the design: without them the intervals "
+        "assume a perfect set-up");
+  if (next.empty() && !r.significant_after)
+    action("enter the errors (compensation) or decide on them (--tolerances)");
+  // One or two sentences, within the limit each.
+  std::string sentence;
+  for (const std::string& a : next) {
+    const std::string candidate = sentence.empty() ? "Next: " + a : sentence + "; " + a;
+    if (candidate.size() + 1 > kBriefItemMaxChars && !sentence.empty()) {
+      add("next", sentence + ".");
+      sentence = "Then: " + a;
+    } else {
+      sentence = candidate;
+    }
+  }
+  if (!sentence.empty()) add("next", sentence + ".");
+  return out;
 }
 
 }  // namespace dbbkit::io

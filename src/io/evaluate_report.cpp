@@ -80,6 +80,7 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
   ReportWriter& p = *page;
   const Estimate& est = ev.prior;
   const double k = expansion.k, coverage = expansion.coverage_probability;
+  summary_section(p, evaluate_brief(design, ev));
   warnings_section(p, ev.warnings);
   p.heading("What the design can identify");
   std::string s = std::to_string(est.n_readings) + " readings (one per installation and angle), " +

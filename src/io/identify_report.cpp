@@ -22,6 +22,7 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
       make_report_writer(f, "dbbkit identify: " + design.name);
   ReportWriter& p = *page;
   const Estimate& est = r.estimate;
+  summary_section(p, identify_brief(design, r));
   warnings_section(p, r.warnings);
   p.heading("Result");
   p.paragraph(std::to_string(est.n_readings) + " readings, " + std::to_string(est.n_unknowns) +

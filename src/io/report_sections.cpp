@@ -123,6 +123,14 @@ void iso230_section(ReportWriter& p, const IsoResult& iso, const std::string& no
 }
 
 // The conformance decisions (conformance.hpp): the rule, then one row per tolerance.
+void summary_section(ReportWriter& p, const std::vector<BriefItem>& brief) {
+  if (brief.empty()) return;
+  p.heading("Summary");
+  std::vector<std::string> items;
+  for (const BriefItem& b : brief) items.push_back(b.text);
+  p.bullets(items);
+}
+
 void warnings_section(ReportWriter& p, const std::vector<Warning>& warnings) {
   if (warnings.empty()) return;
   p.heading("Warnings");

@@ -11,6 +11,7 @@
 #include "dbbkit/io/plots.hpp"
 #include "dbbkit/io/report_writer.hpp"
 #include "dbbkit/io/reports.hpp"
+#include "dbbkit/io/text.hpp"
 #include "dbbkit/measurement.hpp"
 
 namespace dbbkit::io::detail {
@@ -31,6 +32,8 @@ void iso230_section(ReportWriter& p, const IsoResult& iso, const std::string& no
 void conformance_section(ReportWriter& p, const ConformanceReport& c);
 // The warnings (warnings.hpp), first on the page, when there are any.
 void warnings_section(ReportWriter& p, const std::vector<Warning>& warnings);
+// The result's first screen (text.hpp: BriefItem), first in every report.
+void summary_section(ReportWriter& p, const std::vector<BriefItem>& brief);
 // The combinations of the errors no reading sees, when there are any.
 void unidentifiable_section(ReportWriter& p, const std::vector<Unidentifiable>& list);
 // The errors (values with +-U, or U alone) as a plot and a table; `coverage`: the coverage

@@ -36,6 +36,11 @@ void HtmlWriter::heading(const std::string& text, int level) {
 void HtmlWriter::paragraph(const std::string& text) {
   body_ += "<p>" + html_escape(text) + "</p>\n";
 }
+void HtmlWriter::bullets(const std::vector<std::string>& items) {
+  body_ += "<ul>\n";
+  for (const std::string& i : items) body_ += "<li>" + html_escape(i) + "</li>\n";
+  body_ += "</ul>\n";
+}
 void HtmlWriter::preformatted(const std::string& text) {
   body_ += "<pre>" + html_escape(text) + "</pre>\n";
 }
@@ -126,6 +131,10 @@ void MarkdownWriter::heading(const std::string& text, int level) {
   text_ += std::string(static_cast<size_t>(level), '#') + " " + markdown_escape(text) + "\n\n";
 }
 void MarkdownWriter::paragraph(const std::string& text) { text_ += markdown_escape(text) + "\n\n"; }
+void MarkdownWriter::bullets(const std::vector<std::string>& items) {
+  for (const std::string& i : items) text_ += "- " + markdown_escape(i) + "\n";
+  text_ += "\n";
+}
 void MarkdownWriter::preformatted(const std::string& text) {
   // A fenced block ends at a fence at least as long as its opening one: the fence is longer
   // than any run of backticks in the text. Control characters but the line feed become '?'.

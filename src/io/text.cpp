@@ -16,3 +16,14 @@ std::string fmt_opt(const std::optional<double>& x, int digits) {
 }
 
 }  // namespace dbbkit::io
+
+namespace dbbkit::io {
+
+std::string brief_text(const std::vector<BriefItem>& brief) {
+  if (brief.empty()) return "";
+  std::string s = "summary:\n";
+  for (const BriefItem& b : brief) s += "  - " + b.text + "\n";
+  return s + "\n";
+}
+
+}  // namespace dbbkit::io

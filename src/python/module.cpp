@@ -32,9 +32,11 @@
 #include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/optimize_io.hpp"
+#include "dbbkit/io/program_io.hpp"
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/result_read.hpp"
+#include "dbbkit/io/setup_sheet_io.hpp"
 #include "dbbkit/io/tolerances_io.hpp"
 #include "dbbkit/io/trace_io.hpp"
 #include "dbbkit/io/truth_io.hpp"
@@ -44,7 +46,9 @@
 #include "dbbkit/observability.hpp"
 #include "dbbkit/optimize.hpp"
 #include "dbbkit/parallel.hpp"
+#include "dbbkit/program.hpp"
 #include "dbbkit/setup.hpp"
+#include "dbbkit/setup_sheet.hpp"
 #include "dbbkit/simulate.hpp"
 #include "dbbkit/trace.hpp"
 #include "dbbkit/user_text.hpp"
@@ -633,6 +637,39 @@ struct PyDiagnoseResult {
   std::optional<ConformanceReport> conformance;
   std::vector<std::string> tolerance_files;  // the tolerance file, when read from one
   nlohmann::json json;
+  // (6 stations, 6 stations): the final model's covariance of the errors after (row 6 s + k:
+  // error k at station s); NaN where not determined. The attributions' share is in std_after
+  // alone (a change, not a correlation): this diagonal leaves it out.
+  Eigen::MatrixXd covariance_after() const {
+    const Parameterisation param(design->value);
+    const Estimate& est = result.after;
+    const Eigen::Index n = 6 * static_cast<Eigen::Index>(result.errors_after.size());
+    Eigen::MatrixXd full = Eigen::MatrixXd::Constant(n, n, kNaN);
+    std::vector<Estimate::Function> f;
+    std::vector<Eigen::Index> row;
+    for (std::size_t i = 0; i < result.errors_after.size(); ++i) {
+      const ErrorsAtAngle& ea = result.errors_after[i];
+      const Eigen::SparseMatrix<double> E = error_functions(param, ea.station, est.n_unknowns);
+      for (int k = 0; k < 6; ++k) {
+        if (!ea.errors[static_cast<std::size_t>(k)].determined) continue;
+        f.push_back(Estimate::Function(E.col(k)));
+        row.push_back(6 * static_cast<Eigen::Index>(i) + k);
+      }
+    }
+    std::vector<Eigen::VectorXd> kc;
+    if (est.covariance_K.cols() > 0)
+      for (const auto& c : f) kc.push_back(est.low_rank_coordinates(c));
+    for (std::size_t a = 0; a < f.size(); ++a) {
+      const Eigen::VectorXd ca = Eigen::VectorXd(f[a]);
+      const Eigen::VectorXd Sa = est.covariance * ca;
+      for (std::size_t b = 0; b < f.size(); ++b) {
+        double c = Eigen::VectorXd(f[b]).dot(Sa);
+        if (!kc.empty()) c += kc[a].dot(est.covariance_S * kc[b]);
+        full(row[a], row[b]) = c;
+      }
+    }
+    return full;
+  }
   std::string report(const std::string& format) const {
     std::vector<std::string> files = files_of(*design, *data);
     files.insert(files.end(), tolerance_files.begin(), tolerance_files.end());
@@ -655,6 +692,128 @@ struct PyOptimizeResult {
                                kit->value, result, reference, seconds, a_priori_expansion());
   }
 };
+
+// ---------------------------------------------------------------- ISO 230 quantities
+
+// The ISO 230 quantities of a result, typed (the JSON's "iso230" as objects and arrays).
+struct PyIso230 {
+  IsoResult iso;
+};
+
+py::object optional_float(const Determined& d, bool std) {
+  if (!d.determined) return py::none();
+  return py::float_(std ? d.std : d.value);
+}
+
+Eigen::MatrixXd iso_components(const IsoResult& iso, bool std) {
+  Eigen::MatrixXd a =
+      Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(iso.components.size()), 6, kNaN);
+  for (std::size_t i = 0; i < iso.components.size(); ++i) {
+    for (int k = 0; k < 6; ++k) {
+      const Determined& d = iso.components[i].motions[static_cast<std::size_t>(k)];
+      if (d.determined) a(static_cast<Eigen::Index>(i), k) = std ? d.std : d.value;
+    }
+  }
+  return a;
+}
+
+// ---------------------------------------------------------------- program and set-up sheet
+
+// The options of `dbbkit program` and `setup-sheet`, checked as the command line checks them.
+ProgramOptions py_program_options(const std::string& sweeps, double dwell_s, double feed_mm_min,
+                                  double path_tolerance_mm, int tool,
+                                  std::optional<double> clearance_z_mm, double clearance_margin_mm,
+                                  bool air_run, const std::string& orient_code) {
+  ProgramOptions o;
+  const auto named = program_sweeps_named(sweeps);
+  if (!named) throw InputError("argument", "sweeps", "'" + sweeps + "' (expected ccw, cw or both)");
+  o.sweeps = *named;
+  o.dwell_s = dwell_s;
+  o.feed_mm_per_min = feed_mm_min;
+  o.path_tolerance_mm = path_tolerance_mm;
+  o.tool_number = tool;
+  o.clearance_z_mm = clearance_z_mm;
+  o.clearance_margin_mm = clearance_margin_mm;
+  o.air_run = air_run;
+  o.orient_code = orient_code == "none" ? std::string() : orient_code;
+  validate_program_options(o, "argument");
+  return o;
+}
+
+struct PySetupSheet {
+  std::shared_ptr<const PyDesign> design;
+  std::shared_ptr<const PyKit> kit;  // may be null
+  SetupSheet sheet;
+  std::string report(const std::string& format) const {
+    std::vector<std::string> files = files_of(*design);
+    if (kit && kit->from_file) files.push_back(kit->source);
+    return io::setup_sheet_report(report_format(format),
+                                  io::RunContext{"dbbkit.setup_sheet (Python)", files}, sheet,
+                                  kit ? kit->source : std::string());
+  }
+};
+
+SetupSheet sheet_of(const PyDesign& d, const PyKit* kit, std::optional<double> resolution_mm,
+                    const ProgramOptions& options) {
+  if (resolution_mm)
+    check_finite_in("resolution_mm", *resolution_mm, 1e-3, 10);
+  else if (kit)
+    resolution_mm = kit->value.resolution_mm;
+  if (kit && kit->value.axis.letter() != d.value.axis.letter())
+    throw InputError(kit->source, "axis",
+                     "the kit is for axis " + kit->value.axis.label() + ", the design for " +
+                         d.value.axis.label());
+  try {
+    return make_setup_sheet(d.value, options, resolution_mm, kit ? &kit->value : nullptr);
+  } catch (const InputError& e) {
+    throw e.source() == "design" ? e.with_source(d.source) : e;
+  }
+}
+
+std::string run_program(const PyDesign& d, const std::string& dialect, std::optional<PyKit> kit,
+                        int program_number, const std::string& sweeps, double dwell_s,
+                        double feed_mm_min, double path_tolerance_mm, int tool,
+                        std::optional<double> clearance_z_mm, double clearance_margin_mm,
+                        bool air_run, const std::string& orient_code) {
+  if (dialect != "iso" && dialect != "heidenhain")
+    throw InputError("argument", "dialect", "'" + dialect + "' (expected iso or heidenhain)");
+  check_integer_in("program_number", program_number, 1, 9999);
+  const ProgramOptions o =
+      py_program_options(sweeps, dwell_s, feed_mm_min, path_tolerance_mm, tool, clearance_z_mm,
+                         clearance_margin_mm, air_run, orient_code);
+  MeasurementProgram program;
+  if (kit) {
+    const SetupSheet sheet = sheet_of(d, &*kit, std::nullopt, o);
+    if (!sheet.fits_kit())
+      throw InputError(kit->source, "travel",
+                       "the design does not fit the kit: " + io::setup_sheet_summary(sheet));
+    program = sheet.program;
+  } else {
+    try {
+      program = measurement_program(d.value, o);
+    } catch (const InputError& e) {
+      throw e.source() == "design" ? e.with_source(d.source) : e;
+    }
+  }
+  return io::program_text(d.value, program,
+                          dialect == "iso" ? io::Dialect::kIso : io::Dialect::kHeidenhain,
+                          program_number);
+}
+
+PySetupSheet run_setup_sheet(const PyDesign& d, std::optional<PyKit> kit,
+                             std::optional<double> resolution_mm, const std::string& sweeps,
+                             double dwell_s, double feed_mm_min, double path_tolerance_mm, int tool,
+                             std::optional<double> clearance_z_mm, double clearance_margin_mm,
+                             bool air_run, const std::string& orient_code) {
+  const ProgramOptions o =
+      py_program_options(sweeps, dwell_s, feed_mm_min, path_tolerance_mm, tool, clearance_z_mm,
+                         clearance_margin_mm, air_run, orient_code);
+  PySetupSheet r;
+  r.design = std::make_shared<const PyDesign>(d);
+  if (kit) r.kit = std::make_shared<const PyKit>(*kit);
+  r.sheet = sheet_of(d, kit ? &*kit : nullptr, resolution_mm, o);
+  return r;
+}
 
 // ---------------------------------------------------------------- operations
 
@@ -1042,6 +1201,22 @@ PYBIND11_MODULE(dbbkit, m) {
                                return v;
                              })
       .def_property_readonly(
+          "sweep",
+          [](const PyMeasurements& mm) {
+            py::list v;
+            for (const Reading& r : mm.readings) {
+              if (r.sweep)
+                v.append(*r.sweep == Sweep::kCW ? "cw" : "ccw");
+              else
+                v.append(py::none());
+            }
+            return v;
+          },
+          "Per reading: 'ccw', 'cw', or None where not recorded")
+      .def_property_readonly(
+          "repeat", [](const PyMeasurements& mm) { return optional_column(mm, &Reading::repeat); },
+          "Per reading: its repeat number (NaN where not recorded)")
+      .def_property_readonly(
           "std_um", [](const PyMeasurements& mm) { return optional_column(mm, &Reading::std_um); },
           "Per reading from a trace: the scatter of its samples [um] (NaN: not from a trace)")
       .def_property_readonly(
@@ -1130,6 +1305,10 @@ PYBIND11_MODULE(dbbkit, m) {
           "json", [](const PyIdentifyResult& r) { return to_python(r.json); },
           "The dict `dbbkit identify --out` writes")
       .def_property_readonly(
+          "iso230", [](const PyIdentifyResult& r) { return PyIso230{r.result().iso}; },
+          "The ISO 230 quantities (Iso230): location errors, constant parts, component error "
+          "motions, typed")
+      .def_property_readonly(
           "angles_deg", [](const PyIdentifyResult& r) { return angles_array(r.result().errors); })
       .def_property_readonly(
           "values", [](const PyIdentifyResult& r) { return errors_array(r.result().errors, true); },
@@ -1212,6 +1391,18 @@ PYBIND11_MODULE(dbbkit, m) {
       .def_property_readonly(
           "warnings", [](const PyDiagnoseResult& r) { return warnings_list(r.result.warnings); },
           "What makes the corrected errors' uncertainties unreliable: a list of {'kind', 'text'}")
+      .def_property_readonly(
+          "iso230", [](const PyDiagnoseResult& r) { return PyIso230{r.result.iso_after}; },
+          "The corrected errors' ISO 230 quantities (Iso230), the attributions' share in their "
+          "std")
+      .def("covariance_after", &PyDiagnoseResult::covariance_after,
+           "(6 stations, 6 stations): the final model's covariance of the errors after (row 6 s "
+           "+ k: error k at station s); NaN where not determined. The attributions' share is in "
+           "std_after only: where there is one, std_after**2 exceeds this diagonal by it")
+      .def_property_readonly(
+          "brief", [](const PyDiagnoseResult& r) { return to_python(r.json["summary"]); },
+          "The answer in at most six sentences (what was found, how sure, what it changes, what "
+          "to do next): a list of {'topic', 'text'}, the JSON's 'summary'")
       .def_property_readonly(
           "angles_deg",
           [](const PyDiagnoseResult& r) { return angles_array(r.result.errors_before); })
@@ -1359,6 +1550,120 @@ PYBIND11_MODULE(dbbkit, m) {
         "`dbbkit optimize`: the design of the kit with the smallest worst-case uncertainty "
         "(criterion: worst, "
         "worst_total, D, A, E, condition); the result does not depend on threads");
+  py::class_<IsoQuantity>(m, "IsoQuantity", "An ISO 230 quantity: name, unit, value and std")
+      .def_readonly("name", &IsoQuantity::name)
+      .def_readonly("unit", &IsoQuantity::unit)
+      .def_property_readonly("determined", [](const IsoQuantity& q) { return q.value.determined; })
+      .def_property_readonly(
+          "value", [](const IsoQuantity& q) { return optional_float(q.value, false); },
+          "None when not determined")
+      .def_property_readonly(
+          "std", [](const IsoQuantity& q) { return optional_float(q.value, true); },
+          "Standard uncertainty (k = 1); None when not determined")
+      .def("__repr__", [](const IsoQuantity& q) {
+        return "<dbbkit.IsoQuantity " + q.name + " = " +
+               (q.value.determined ? io::fmt_num(q.value.value, 6) + " +- " +
+                                         io::fmt_num(q.value.std, 3) + " " + q.unit
+                                   : std::string("not determined")) +
+               ">";
+      });
+  py::class_<PyIso230>(m, "Iso230",
+                       "The ISO 230 quantities of a result (the JSON's 'iso230', typed): "
+                       "location errors, constant parts, component error motions")
+      .def_property_readonly(
+          "location", [](const PyIso230& r) { return r.iso.location; },
+          "The five location errors (e.g. X0C, Y0C, A0C, B0C, C0C) as IsoQuantity")
+      .def_property_readonly(
+          "constants", [](const PyIso230& r) { return r.iso.constants; },
+          "The constant parts (where the readings' zero was taken; not location errors)")
+      .def(
+          "__getitem__",
+          [](const PyIso230& r, const std::string& name) {
+            for (const IsoQuantity& q : r.iso.location)
+              if (q.name == name) return q;
+            for (const IsoQuantity& q : r.iso.constants)
+              if (q.name == name) return q;
+            throw py::key_error(name);
+          },
+          "A location error or constant part by its name, e.g. iso['X0C']")
+      .def_property_readonly("component_names",
+                             [](const PyIso230& r) {
+                               return std::vector<std::string>(r.iso.component_names.begin(),
+                                                               r.iso.component_names.end());
+                             })
+      .def_property_readonly(
+          "component_angles_deg",
+          [](const PyIso230& r) {
+            Eigen::VectorXd v(static_cast<Eigen::Index>(r.iso.components.size()));
+            for (std::size_t i = 0; i < r.iso.components.size(); ++i)
+              v(static_cast<Eigen::Index>(i)) = r.iso.components[i].angle_deg;
+            return v;
+          })
+      .def_property_readonly(
+          "components", [](const PyIso230& r) { return iso_components(r.iso, false); },
+          "(angles, 6): the component error motions in component_names' order [um, urad]; NaN "
+          "where not determined")
+      .def_property_readonly(
+          "components_std", [](const PyIso230& r) { return iso_components(r.iso, true); },
+          "(angles, 6): their standard uncertainties (k = 1)")
+      .def_property_readonly(
+          "motion_values",
+          [](const PyIso230& r) {
+            py::list out;
+            for (const IsoMotionValue& v : r.iso.motion_values.values) {
+              py::dict d;
+              d["name"] = v.name;
+              d["component"] = v.component;
+              d["unit"] = v.unit;
+              d["computed"] = v.computed;
+              d["value"] = v.computed ? py::object(py::float_(v.value)) : py::none();
+              d["U"] = v.computed ? py::object(py::float_(v.U)) : py::none();
+              d["low"] = v.computed ? py::object(py::float_(v.low)) : py::none();
+              d["high"] = v.computed ? py::object(py::float_(v.high)) : py::none();
+              out.append(d);
+            }
+            return out;
+          },
+          "The error motion values (ranges) with their interval: a list of dicts");
+  py::class_<PySetupSheet>(m, "SetupSheet",
+                           "The design as a person sets it up (`dbbkit setup-sheet`): the order, "
+                           "each installation's hardware and moves, a drawing of each")
+      .def(
+          "summary", [](const PySetupSheet& r) { return io::setup_sheet_summary(r.sheet); },
+          "The lines `dbbkit setup-sheet` prints")
+      .def("report", &PySetupSheet::report, py::arg("format") = "html",
+           "The sheet as `--report` (html) or `--summary` (markdown) writes it")
+      .def_property_readonly(
+          "fits_kit", [](const PySetupSheet& r) { return r.sheet.fits_kit(); },
+          "Every installation stays in the kit's travel and clears its workspace (True without "
+          "a kit)")
+      .def_property_readonly(
+          "order",
+          [](const PySetupSheet& r) {
+            std::vector<std::string> ids;
+            for (const SetupStep& st : r.sheet.order.steps)
+              ids.push_back(r.sheet.design.installations[st.installation].id);
+            return ids;
+          },
+          "The installations in the order to set them up")
+      .def("_repr_html_", [](const PySetupSheet& r) { return iframe(r.report("html")); });
+  m.def("program", &run_program, py::arg("design"), py::arg("dialect"), py::arg("kit") = py::none(),
+        py::arg("program_number") = 1, py::arg("sweeps") = "ccw", py::arg("dwell_s") = 2.0,
+        py::arg("feed_mm_min") = 500.0, py::arg("path_tolerance_mm") = 0.05,
+        py::arg("tool") = kDefaultBallbarTool, py::arg("clearance_z_mm") = py::none(),
+        py::arg("clearance_margin_mm") = 50.0, py::arg("air_run") = false,
+        py::arg("orient_code") = "M19",
+        "`dbbkit program`: the part program of the measurement (dialect iso or heidenhain) as a "
+        "str; with a kit, refused (InputError) when the design leaves its travel or clashes "
+        "with its workspace");
+  m.def("setup_sheet", &run_setup_sheet, py::arg("design"), py::arg("kit") = py::none(),
+        py::arg("resolution_mm") = py::none(), py::arg("sweeps") = "ccw", py::arg("dwell_s") = 2.0,
+        py::arg("feed_mm_min") = 500.0, py::arg("path_tolerance_mm") = 0.05,
+        py::arg("tool") = kDefaultBallbarTool, py::arg("clearance_z_mm") = py::none(),
+        py::arg("clearance_margin_mm") = 50.0, py::arg("air_run") = false,
+        py::arg("orient_code") = "M19",
+        "`dbbkit setup-sheet`: the set-up sheet of a design (with a kit: its times, resolution, "
+        "travel and workspace checked)");
   m.def("simulate", &run_simulate, py::arg("design"), py::arg("truth"),
         py::arg("seed") = py::none(),
         "`dbbkit simulate`: synthetic readings from a truth (a path or dict, dbbkit.truth/1)");

@@ -76,6 +76,13 @@ class RoundTrips(InSource):
         self.assertEqual([w["kind"] for w in e.warnings], ["setup_undeclared"])
         g = dbbkit.diagnose(d, dbbkit.Measurements(DATA_C, d))
         self.assertEqual(g.warnings, g.json["warnings"])
+        # The summary: at most six sentences under 240 characters, the found effect first.
+        self.assertEqual(g.brief, g.json["summary"])
+        self.assertLessEqual(len(g.brief), 6)
+        self.assertTrue(all(len(i["text"]) < 240 for i in g.brief))
+        self.assertEqual(g.brief[0]["topic"], "found")
+        self.assertIn("installation 2r", g.brief[0]["text"])
+        self.assertTrue(g.summary().startswith("summary:\n  - Found:"))
 
     def test_compare_and_compensation_as_the_command_line(self):
         d = dbbkit.Design(PAPER_C)
@@ -267,6 +274,78 @@ class RoundTrips(InSource):
             text = dbbkit.Measurements.from_csv(f.read(), d)
         for other in (arrays, text):
             np.testing.assert_array_equal(dbbkit.identify(d, other).values, dbbkit.identify(d, m).values)
+
+
+    def test_program_and_setup_sheet_as_the_command_line(self):
+        d = dbbkit.Design("designs/c-turntable-kit-optimized.json")
+        k = dbbkit.Kit("designs/kits/c-turntable-kit.json")
+        with tempfile.TemporaryDirectory() as tmp:
+            out = os.path.join(tmp, "p.h")
+            subprocess.run([CLI, "program", "--design", "designs/c-turntable-kit-optimized.json",
+                            "--kit", "designs/kits/c-turntable-kit.json", "--dialect", "heidenhain",
+                            "--sweeps", "both", "--tool", "7", "--out", out, "--quiet"],
+                           cwd=SOURCE, check=True)
+            with open(out) as f:
+                self.assertEqual(dbbkit.program(d, "heidenhain", kit=k, sweeps="both", tool=7), f.read())
+            md = os.path.join(tmp, "s.md")
+            printed = subprocess.run([CLI, "setup-sheet", "--design", "designs/c-turntable-kit-optimized.json",
+                                      "--kit", "designs/kits/c-turntable-kit.json", "--summary", md],
+                                     cwd=SOURCE, capture_output=True, text=True, check=True).stdout
+        sheet = dbbkit.setup_sheet(d, kit=k)
+        self.assertEqual(sheet.summary(), printed)
+        self.assertTrue(sheet.fits_kit)
+        self.assertEqual(sorted(sheet.order), sorted(d.to_dict()["installations"][i]["id"]
+                                                      for i in range(len(d.to_dict()["installations"]))))
+        self.assertIn("<svg", sheet.report("html"))
+        for call, where in ((lambda: dbbkit.program(d, "fanuc"), "dialect"),
+                            (lambda: dbbkit.program(d, "iso", dwell_s=0), "dwell_s"),
+                            (lambda: dbbkit.setup_sheet(d, sweeps="up"), "sweeps")):
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                call()
+            self.assertEqual(ctx.exception.where, where)
+
+    def test_iso230_typed_as_the_json(self):
+        d = dbbkit.Design(PAPER_C)
+        m = dbbkit.Measurements(DATA_C, d)
+        for r, block in ((dbbkit.identify(d, m), "iso230"), (dbbkit.diagnose(d, m), "iso230")):
+            iso = r.iso230
+            # The JSON rounds to 1e-6.
+            for q, j in zip(iso.location, r.json[block]["location"]):
+                self.assertEqual((q.name, q.unit), (j["name"], j["unit"]))
+                self.assertAlmostEqual(q.value, j["value"], delta=5.1e-7)
+                self.assertAlmostEqual(q.std, j["std"], delta=5.1e-7)
+            self.assertEqual(iso["X0C"].name, "X0C")
+            self.assertEqual(iso.components.shape, (len(iso.component_angles_deg), 6))
+            names = iso.component_names
+            for row, j in zip(iso.components, r.json[block]["components"]):
+                for c, name in enumerate(names):
+                    self.assertAlmostEqual(row[c], j[name]["value"], delta=5.1e-7)
+            with self.assertRaises(KeyError):
+                iso["XOC9"]
+
+    def test_covariance_after_diagnose(self):
+        d = dbbkit.Design(PAPER_C)
+        g = dbbkit.diagnose(d, dbbkit.Measurements(DATA_C, d))
+        c = g.covariance_after()
+        n = g.std_after.size
+        self.assertEqual(c.shape, (n, n))
+        np.testing.assert_allclose(c, c.T, rtol=0, atol=1e-12)
+        diag = np.diag(c).reshape(g.std_after.shape)
+        # The attributions' share is in std_after alone: the diagonal never exceeds it, and
+        # equals it where the equivalent effects change nothing (dz, ez of the paper's C data).
+        self.assertTrue(np.all(diag <= g.std_after ** 2 * (1 + 1e-9)))
+        for k in (2, 5):
+            np.testing.assert_allclose(diag[:, k], g.std_after[:, k] ** 2, rtol=1e-9)
+        self.assertTrue(np.any(diag[:, 0] < 0.5 * g.std_after[:, 0] ** 2))
+
+    def test_sweep_and_repeat_columns(self):
+        d = dbbkit.Design("tests/data/c_fourier2_bar150.json")
+        m = dbbkit.simulate(d, "tests/data/truth_drift_example.json", seed=3)
+        self.assertEqual(len(m.sweep), len(m))
+        self.assertEqual(set(m.sweep), {"ccw", "cw"})
+        again = dbbkit.Measurements.from_csv(m.to_csv(), d)
+        self.assertEqual(again.sweep, m.sweep)
+        np.testing.assert_array_equal(again.repeat, m.repeat)
 
 
 class Arrays(InSource):

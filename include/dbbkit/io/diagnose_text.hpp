@@ -8,6 +8,7 @@
 
 #include "dbbkit/design.hpp"
 #include "dbbkit/diagnose.hpp"
+#include "dbbkit/io/text.hpp"
 #include "dbbkit/measurement.hpp"
 
 namespace dbbkit::io {
@@ -17,6 +18,13 @@ namespace dbbkit::io {
 // would have been found.
 std::string diagnose_verdict(const Design& design, const std::vector<Reading>& readings,
                              const DiagnoseResult& result);
+
+// diagnose's answer in at most six sentences, each at most kBriefItemMaxChars long: what is
+// wrong (the effects found, where, how large, in the shop's terms), how sure (the evidence and
+// what fits almost as well, families said once), what it changes (the errors that moved most),
+// how uncertain the corrected errors are where a choice the readings cannot make enters them,
+// and what to do next.
+std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult& result);
 
 // A feature in words, with its test: "a step of 5.02 +- 0.3 um in installation 2t from the
 // reading ... (F = ..., p = ...)".

@@ -20,6 +20,7 @@ class ReportWriter {
   virtual ~ReportWriter() = default;
   virtual void heading(const std::string& text, int level = 2) = 0;
   virtual void paragraph(const std::string& text) = 0;
+  virtual void bullets(const std::vector<std::string>& items) = 0;  // escaped
   virtual void preformatted(const std::string& text) = 0;
   virtual void table(const std::vector<std::string>& header,
                      const std::vector<std::vector<std::string>>& rows) = 0;
@@ -39,6 +40,7 @@ class HtmlWriter final : public ReportWriter {
   explicit HtmlWriter(const std::string& title);
   void heading(const std::string& text, int level = 2) override;
   void paragraph(const std::string& text) override;  // escaped
+  void bullets(const std::vector<std::string>& items) override;
   void preformatted(const std::string& text) override;
   void table(const std::vector<std::string>& header,
              const std::vector<std::vector<std::string>>& rows) override;
@@ -55,6 +57,7 @@ class MarkdownWriter final : public ReportWriter {
   explicit MarkdownWriter(const std::string& title);
   void heading(const std::string& text, int level = 2) override;
   void paragraph(const std::string& text) override;
+  void bullets(const std::vector<std::string>& items) override;
   void preformatted(const std::string& text) override;
   void table(const std::vector<std::string>& header,
              const std::vector<std::vector<std::string>>& rows) override;

@@ -11,6 +11,7 @@
 #include "dbbkit/design.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
+#include "dbbkit/io/text.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/monte_carlo.hpp"
 #include "dbbkit/observability.hpp"
@@ -80,6 +81,10 @@ nlohmann::json evaluate_to_json(const Design& design, const Evaluation& ev,
                                 const std::string& design_file,
                                 const MonteCarloResult* mc = nullptr);
 std::string evaluate_summary(const Design& design, const Evaluation& ev);
+// evaluate's first screen: whether the design determines every error, the worst standard
+// uncertainty (with the declared set-up tolerances, or what typical ones would make it), and
+// what to do next; at most six sentences (text.hpp).
+std::vector<BriefItem> evaluate_brief(const Design& design, const Evaluation& ev);
 // The effects a design can tell from the axis errors (effect_detectability): label, status, detail.
 nlohmann::json effects_to_json(const std::vector<CandidateStatus>& effects);
 // The effects a design can tell from the axis errors, on the terminal: one line per state.
@@ -97,6 +102,12 @@ std::string residual_text(const Estimate& est);
 std::string errors_table(const std::vector<ErrorsAtAngle>& errors, bool values);
 std::string unidentifiable_text(const std::vector<Unidentifiable>& list);
 std::string identify_summary(const Design& design, const IdentifyResult& result);
+// identify's first screen: determined or not, the location errors with U (k = 2), the worst
+// standard uncertainty, whether the residual bears the stated uncertainties out, and what to
+// do next; at most six sentences (text.hpp).
+std::vector<BriefItem> identify_brief(const Design& design, const IdentifyResult& result);
+// {"topic", "text"} per item.
+nlohmann::json brief_to_json(const std::vector<BriefItem>& brief);
 // The ISO 230-7 quantities of an identification (iso230.hpp): JSON and the terminal's text.
 nlohmann::json iso230_to_json(const IdentifyResult& result);
 std::string iso230_text(const Design& design, const IdentifyResult& result);

@@ -1,8 +1,10 @@
 #pragma once
 // Numbers as text, for the words io builds (terminal summaries, reports, verdicts).
 
+#include <cstddef>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace dbbkit::io {
 
@@ -12,5 +14,18 @@ std::string fmt_num(double x, int digits = 4);
 std::string fmt_opt(const std::optional<double>& x, int digits = 4);
 // x rounded to `decimals` decimal places, in its shortest form ("100", "0.125").
 std::string fmt_rounded(double x, int decimals);
+
+// One sentence of a result's first screen (JSON "summary"): `topic` says what it is about
+// ("found", "evidence", "changes", "uncertainty", "next", "residual", "determined", "worst",
+// "location", "setup").
+struct BriefItem {
+  std::string topic;
+  std::string text;
+};
+// The longest sentence a summary item may be, in bytes; a summary has at most six.
+inline constexpr std::size_t kBriefItemMaxChars = 239;
+inline constexpr std::size_t kBriefMaxItems = 6;
+// The summary as the terminal's first lines ("summary:" and one "  - " line per item).
+std::string brief_text(const std::vector<BriefItem>& brief);
 
 }  // namespace dbbkit::io
