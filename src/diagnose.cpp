@@ -573,12 +573,9 @@ DesignAssessment assess_design(const Design& design, double reference_length_mm)
       evaluate_design(design, reference_length_mm, {}, diagnose_detection_settings(a.effects));
   // Without declared tolerances, the figure with typical ones says what the noise-only one
   // leaves out.
-  if (!design.setup_nuisance_declared()) {
-    Design typical = design;
-    typical.setup_std.length_offset_um = kTypicalLengthOffsetStd_um;
-    typical.setup_std.centring_um = kTypicalCentringStd_um;
-    const std::optional<WorstCase> w = evaluate_design(typical, reference_length_mm).worst_total;
-    if (w && w->worst_determined_std_um) {
+  {
+    const std::optional<WorstCase> w = typical_setup_worst(design, reference_length_mm);
+    if (w) {
       a.evaluation.worst_total_typical = w;
       const std::optional<double>& noise = a.evaluation.worst.worst_determined_std_um;
       for (Warning& warning : a.evaluation.warnings) {

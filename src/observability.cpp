@@ -835,6 +835,16 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
   return ev;
 }
 
+std::optional<WorstCase> typical_setup_worst(const Design& design, double reference_length_mm) {
+  if (design.setup_nuisance_declared()) return std::nullopt;
+  Design typical = design;
+  typical.setup_std.length_offset_um = kTypicalLengthOffsetStd_um;
+  typical.setup_std.centring_um = kTypicalCentringStd_um;
+  const std::optional<WorstCase> w = evaluate_design(typical, reference_length_mm).worst_total;
+  if (!w || !w->worst_determined_std_um) return std::nullopt;
+  return w;
+}
+
 std::vector<SweepPoint> sweep_design(const Design& design,
                                      const std::vector<SweepVariable>& variables,
                                      double reference_length_mm) {

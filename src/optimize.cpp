@@ -560,6 +560,8 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
   round_best(kit, criterion, res);
   if (res.best) {
     res.best_evaluation = evaluate_design(res.best->design, kit.reference_length_mm);
+    res.best_evaluation.worst_total_typical =
+        typical_setup_worst(res.best->design, kit.reference_length_mm);
     // Pareto front of (time, objective) among the choices that determine as much as the best.
     std::vector<Candidate> pool;
     for (const ChoiceResult& cr : res.choices) {

@@ -11,9 +11,12 @@
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
+#include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
+#include "dbbkit/io/optimize_io.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/observability.hpp"
+#include "dbbkit/optimize.hpp"
 #include "dbbkit/simulate.hpp"
 #include "diagnose_util.hpp"
 #include "test_util.hpp"
@@ -60,8 +63,11 @@ TEST(DiagnoseBrief, PaperDataNamesTheInstallationAndWhatToRedo) {
   EXPECT_TRUE(contains(uncertain, "X0C (")) << uncertain;
   EXPECT_TRUE(contains(uncertain, "B0C (")) << uncertain;
   EXPECT_TRUE(contains(uncertain, "Y0C, A0C and C0C hold")) << uncertain;
-  EXPECT_TRUE(contains(item(brief, "next"), "re-centre installation 2r or 1r"))
-      << item(brief, "next");
+  std::string next;
+  for (const BriefItem& b : brief)
+    if (b.topic == "next") next += b.text;
+  EXPECT_TRUE(contains(next, "re-seat the balls of installation 2r or 1r")) << next;
+  EXPECT_TRUE(contains(next, "re-centre the cup of installation 2r or 1r")) << next;
   EXPECT_TRUE(contains(item(brief, "evidence"), "from chi2 7612 on 25 dof"));
 }
 
@@ -84,7 +90,7 @@ TEST(DiagnoseBrief, HiddenEffectsAreNamedWithTheirNextStep) {
       {"centring",
        {test::effect(EffectKind::kCentring, "1r", {3, -2})},
        "a centring error",
-       "re-centre installation 2r or 1r"},
+       "re-centre the cup of installation 2r or 1r"},
       {"clean", {}, "", "declare set-up tolerances"},
   };
   std::mt19937_64 rng(46);
@@ -141,6 +147,33 @@ TEST(EvaluateBrief, UndeclaredSetUpGetsTheTypicalFigure) {
   const std::vector<BriefItem> with_brief = io::evaluate_brief(declared, b.evaluation);
   EXPECT_TRUE(contains(item(with_brief, "worst"), "with the declared set-up tolerances"));
   EXPECT_TRUE(item(with_brief, "setup").empty());
+}
+
+// optimize's first screen: the new user's kit (set-up tolerances, a coarsest step) and the
+// formats kit (neither): the typical figure is that of the best design with the typical
+// tolerances declared, and the coarsest step is said to be chosen for time alone.
+TEST(OptimizeBrief, SaysTheStepAndTheSetUp) {
+  const Kit qc20 = io::read_kit_file(test::source_path("designs/kits/qc20-c-turntable-kit.json"));
+  const OptimizeResult a = optimize_kit(qc20, {Criterion::kWorstTotal, 2});
+  ASSERT_TRUE(a.best);
+  const std::vector<BriefItem> with = io::optimize_brief(qc20, a, std::nullopt);
+  expect_within_limits(with);
+  EXPECT_TRUE(contains(item(with, "best"), "(step 20 deg)")) << item(with, "best");
+  EXPECT_TRUE(contains(item(with, "worst"), "with the kit's set-up tolerances"));
+  EXPECT_TRUE(item(with, "setup").empty());
+  EXPECT_TRUE(item(with, "angles").empty());
+  const Kit plain = io::read_kit_file(test::source_path("designs/kits/c-turntable-kit.json"));
+  const OptimizeResult b = optimize_kit(plain, {Criterion::kWorst, 2});
+  ASSERT_TRUE(b.best);
+  const std::vector<BriefItem> without = io::optimize_brief(plain, b, std::nullopt);
+  expect_within_limits(without);
+  const std::optional<WorstCase> typical =
+      typical_setup_worst(b.best->design, plain.reference_length_mm);
+  ASSERT_TRUE(typical);
+  EXPECT_TRUE(contains(item(without, "setup"),
+                       "would be " + io::fmt_num(*typical->worst_determined_std_um, 3) + " um"))
+      << item(without, "setup");
+  EXPECT_TRUE(contains(item(without, "angles"), "angles_deg.max_step")) << item(without, "angles");
 }
 
 // identify's first screen on the paper's data (the residual contradicts the noise) and on clean

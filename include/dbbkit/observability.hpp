@@ -149,9 +149,14 @@ struct Evaluation {
 };
 
 // Typical set-up tolerances (standard uncertainties) of a ball bar installation: the length
-// offset of a ball seated and a bar mounted, the centring of a cup set with a dial gauge.
-inline constexpr double kTypicalLengthOffsetStd_um = 10;
+// offset of a bar zeroed in its calibrator and its balls seated, the centring of a cup set
+// against the spindle's ball by hand.
+inline constexpr double kTypicalLengthOffsetStd_um = 1;
 inline constexpr double kTypicalCentringStd_um = 5;
+// The worst total standard uncertainty of `design` with the typical tolerances in place of
+// its own; absent when it declares length offset or centring tolerances (its own figure then
+// holds) or the figure is not determined.
+std::optional<WorstCase> typical_setup_worst(const Design& design, double reference_length_mm);
 
 // The design as it would be measured: one reading per installation and angle.
 // `detection`: the test the set-up detection limits refer to (diagnose's level, and

@@ -590,21 +590,12 @@ std::string chi_short(const Estimate& e) {
          (e.p_value ? p_text(*e.p_value) : std::string("undefined"));
 }
 
-// Cut at the limit on a word boundary, with an ellipsis, should a list of user-named things
-// still make an item too long.
-std::string within_limit(std::string s) {
-  if (s.size() <= kBriefItemMaxChars) return s;
-  std::size_t cut = s.rfind(' ', kBriefItemMaxChars - 4);
-  if (cut == std::string::npos) cut = kBriefItemMaxChars - 4;
-  return s.substr(0, cut) + " ...";
-}
-
 }  // namespace
 
 std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult& r) {
   std::vector<BriefItem> out;
   auto add = [&](const std::string& topic, const std::string& text) {
-    if (out.size() < 6 && !text.empty()) out.push_back({topic, within_limit(text)});
+    add_brief_item(out, topic, text);
   };
   // What is wrong, grouped by where it is.
   if (!r.added.empty()) {
@@ -724,6 +715,7 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
     if (std::find(next.begin(), next.end(), a) == next.end()) next.push_back(a);
   };
   if (!r.gross.empty()) action("check the gross reading(s) at the machine and measure again");
+  bool remeasure = false;  // a set-up to redo: measure it again after
   for (const AddedEffect& a : r.added) {
     const EffectCandidate& e = a.block.effect;
     std::string inst = e.installation >= 0 ? installation_of(design, e) : std::string();
@@ -733,10 +725,15 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
     }
     switch (e.kind) {
       case EffectKind::kLengthOffset:
-      case EffectKind::kCentring:
         action(inst.empty() ? "check the bar's calibrated length"
-                            : "re-seat the balls and re-centre installation " + inst +
-                                  ", then measure it again");
+                            : "re-zero the bar in its calibrator and re-seat the balls of "
+                              "installation " +
+                                  inst);
+        remeasure = true;
+        break;
+      case EffectKind::kCentring:
+        action("re-centre the cup of installation " + inst);
+        remeasure = true;
         break;
       case EffectKind::kDrift:
       case EffectKind::kThermal:
@@ -763,6 +760,7 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
         break;
     }
   }
+  if (remeasure) action("then measure again");
   bool convention = false;
   for (const Attribution& at : r.attributions) convention = convention || at.convention;
   if (convention)

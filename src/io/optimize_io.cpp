@@ -199,6 +199,7 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   json j;
   j["format"] = "dbbkit.optimize/1";
   j["dbbkit_version"] = DBBKIT_VERSION;
+  j["summary"] = brief_to_json(optimize_brief(kit, res, reference));
   j["kit_file"] = kit_file;
   j["axis"] = axis_to_json(kit.axis);
   j["pattern"] = kit.pattern.name;
@@ -279,10 +280,69 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   return j;
 }
 
+std::vector<BriefItem> optimize_brief(const Kit& kit, const OptimizeResult& res,
+                                      const std::optional<Reference>& reference) {
+  std::vector<BriefItem> out;
+  auto add = [&](const std::string& topic, const std::string& text) {
+    add_brief_item(out, topic, text);
+  };
+  if (!res.best) {
+    add("best", "No design fits the kit: " + binding_text(kit, res));
+    add("next", "Next: widen what binds (the travel, the time budget, the blocks or bars).");
+    return out;
+  }
+  const Candidate& b = *res.best;
+  const Evaluation& ev = res.best_evaluation;
+  const std::size_t n = b.design.installations.size(), m = b.design.angles_deg.size();
+  add("best", "Best: " + std::to_string(n) + " installations at " +
+                  std::to_string(ball_positions(b.design)) + " ball positions, " +
+                  std::to_string(m) + " angles (step " + fmt_num(b.choice.step_deg, 6) + " deg), " +
+                  std::to_string(n * m) + " readings, about " + fmt_rounded(b.time_s / 60.0, 1) +
+                  " min by the kit's time model.");
+  const std::string noise = worst_phrase(ev.worst, kit.reference_length_mm);
+  if (ev.worst_total) {
+    add("worst", "Worst standard uncertainty (k = 1): " +
+                     worst_phrase(*ev.worst_total, kit.reference_length_mm) +
+                     " with the kit's set-up tolerances; " + noise + " from the reading noise.");
+  } else if (!noise.empty()) {
+    add("worst",
+        "Worst standard uncertainty (k = 1): " + noise + ", from the reading noise alone" +
+            (ev.prior.rank < ev.prior.n_unknowns ? "; some errors are not determined" : "") + ".");
+  }
+  if (ev.worst_total_typical) {
+    add("setup", "The kit declares no set-up tolerances: with typical ones (length offset " +
+                     fmt_num(kTypicalLengthOffsetStd_um, 3) + " um, centring " +
+                     fmt_num(kTypicalCentringStd_um, 3) + " um) the worst would be " +
+                     worst_phrase(*ev.worst_total_typical, kit.reference_length_mm) + ".");
+  }
+  if (reference) {
+    const ReferenceRatios r = reference_ratios(res, *reference);
+    const std::optional<double>& ratio =
+        r.worst_total_std_um ? r.worst_total_std_um : r.worst_std_um;
+    if (ratio)
+      add("reference", "Against the reference design " + reference->file + ": " +
+                           fmt_num(*ratio, 3) + " times its worst standard uncertainty.");
+  }
+  if (!kit.angle_max_step_deg && kit.angle_steps_deg.size() > 1 &&
+      kit.errors.kind == ErrorModel::Kind::kPerAngle) {
+    double coarsest = 0;
+    for (double st : kit.angle_steps_deg) coarsest = std::max(coarsest, st);
+    if (std::abs(b.choice.step_deg - coarsest) < kAngleTolerance_deg)
+      add("angles", "The step is the kit's coarsest (" + fmt_num(coarsest, 6) +
+                        " deg): per-angle errors are known as well at any step, so the shorter "
+                        "measurement wins; set angles_deg.max_step to the resolution you need.");
+  }
+  add("next",
+      "Next: dbbkit setup-sheet and program with the design written (--out), an air run "
+      "first.");
+  return out;
+}
+
 std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
                              double seconds, const std::optional<Reference>& reference,
                              bool pareto) {
   std::ostringstream s;
+  s << brief_text(optimize_brief(kit, res, reference));
   int searched = 0;
   for (const ChoiceResult& cr : res.choices) searched += cr.state == ChoiceState::kSearched;
   s << "kit " << kit_file << ": axis " << kit.axis.label() << ", pattern " << kit.pattern.name

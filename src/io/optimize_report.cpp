@@ -57,6 +57,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   const std::unique_ptr<ReportWriter> page = make_report_writer(
       f, "dbbkit optimize: " + (kit.name.empty() ? std::string("kit") : kit.name));
   ReportWriter& p = *page;
+  summary_section(p, optimize_brief(kit, res, reference));
   int feasible = 0;
   for (const ChoiceResult& c : res.choices) feasible += c.state == ChoiceState::kSearched;
   p.heading("Search");

@@ -403,6 +403,16 @@ std::string json_text(const json& j, const std::string& key, std::size_t count,
   return out;
 }
 
+// "2.06 um (dy at 180 deg; angular errors x 100 mm)".
+std::string worst_phrase(const WorstCase& w, double reference_length_mm) {
+  if (!w.worst_determined_std_um || w.at_error < 0) return "";
+  return fmt_num(*w.worst_determined_std_um, 3) + " um (" + kErrorNames[w.at_error] + " at " +
+         fmt_num(w.at_angle_deg, 6) + " deg" +
+         (w.at_error >= 3 ? "; angular errors x " + fmt_num(reference_length_mm, 6) + " mm"
+                          : std::string()) +
+         ")";
+}
+
 nlohmann::json brief_to_json(const std::vector<BriefItem>& brief) {
   nlohmann::json a = nlohmann::json::array();
   for (const BriefItem& b : brief) a.push_back({{"topic", b.topic}, {"text", b.text}});
@@ -423,53 +433,35 @@ std::string determined_sentence(const Estimate& est, std::size_t n_unidentifiabl
          " listed under 'not determined', never printed as numbers); the rest is determined.";
 }
 
-// "2.06 um (dy at 180 deg; angular errors x 100 mm)".
-std::string worst_phrase(const WorstCase& w, double reference_length_mm) {
-  if (!w.worst_determined_std_um || w.at_error < 0) return "";
-  return fmt_num(*w.worst_determined_std_um, 3) + " um (" + kErrorNames[w.at_error] + " at " +
-         fmt_num(w.at_angle_deg, 6) + " deg" +
-         (w.at_error >= 3 ? "; angular errors x " + fmt_num(reference_length_mm, 6) + " mm"
-                          : std::string()) +
-         ")";
-}
-
 bool has_warning(const std::vector<Warning>& warnings, const std::string& kind) {
   for (const Warning& w : warnings)
     if (w.kind == kind) return true;
   return false;
 }
 
-void add_brief(std::vector<BriefItem>& out, const std::string& topic, const std::string& text) {
-  if (out.size() >= kBriefMaxItems || text.empty()) return;
-  std::string t = text;
-  if (t.size() > kBriefItemMaxChars) {
-    std::size_t cut = t.rfind(' ', kBriefItemMaxChars - 4);
-    t = t.substr(0, cut == std::string::npos ? kBriefItemMaxChars - 4 : cut) + " ...";
-  }
-  out.push_back({topic, t});
-}
-
 }  // namespace
 
 std::vector<BriefItem> evaluate_brief(const Design& design, const Evaluation& ev) {
   std::vector<BriefItem> out;
-  add_brief(out, "determined", determined_sentence(ev.prior, ev.unidentifiable.size()));
+  add_brief_item(out, "determined", determined_sentence(ev.prior, ev.unidentifiable.size()));
   const std::string noise = worst_phrase(ev.worst, ev.reference_length_mm);
   if (ev.worst_total) {
     const std::string total = worst_phrase(*ev.worst_total, ev.reference_length_mm);
-    add_brief(out, "worst",
-              "Worst standard uncertainty (k = 1): " + total +
-                  " with the declared set-up tolerances; " + noise + " from the reading noise.");
+    add_brief_item(out, "worst",
+                   "Worst standard uncertainty (k = 1): " + total +
+                       " with the declared set-up tolerances; " + noise +
+                       " from the reading noise.");
   } else if (!noise.empty()) {
-    add_brief(out, "worst",
-              "Worst standard uncertainty (k = 1): " + noise + ", from the reading noise alone.");
+    add_brief_item(
+        out, "worst",
+        "Worst standard uncertainty (k = 1): " + noise + ", from the reading noise alone.");
   }
   if (ev.worst_total_typical && ev.worst_total_typical->worst_determined_std_um) {
-    add_brief(out, "setup",
-              "No set-up tolerances are declared: with typical ones (length offset " +
-                  fmt_num(kTypicalLengthOffsetStd_um, 3) + " um, centring " +
-                  fmt_num(kTypicalCentringStd_um, 3) + " um) the worst would be " +
-                  worst_phrase(*ev.worst_total_typical, ev.reference_length_mm) + ".");
+    add_brief_item(out, "setup",
+                   "No set-up tolerances are declared: with typical ones (length offset " +
+                       fmt_num(kTypicalLengthOffsetStd_um, 3) + " um, centring " +
+                       fmt_num(kTypicalCentringStd_um, 3) + " um) the worst would be " +
+                       worst_phrase(*ev.worst_total_typical, ev.reference_length_mm) + ".");
   }
   std::vector<std::string> next;
   if (ev.prior.status == EstimateStatus::kRankDeficient)
@@ -479,35 +471,36 @@ std::vector<BriefItem> evaluate_brief(const Design& design, const Evaluation& ev
   if (next.empty()) next.push_back("measure it (dbbkit program, setup-sheet), then identify");
   std::string n = "Next: ";
   for (std::size_t i = 0; i < next.size(); ++i) n += (i ? "; " : "") + next[i];
-  add_brief(out, "next", n + ".");
+  add_brief_item(out, "next", n + ".");
   return out;
 }
 
 std::vector<BriefItem> identify_brief(const Design& design, const IdentifyResult& result) {
   std::vector<BriefItem> out;
   const Estimate& est = result.estimate;
-  add_brief(out, "determined", determined_sentence(est, result.unidentifiable.size()));
+  add_brief_item(out, "determined", determined_sentence(est, result.unidentifiable.size()));
   std::string loc;
   for (const IsoQuantity& q : result.iso.location) {
     if (!q.value.determined) continue;
     loc += (loc.empty() ? "" : ", ") + q.name + " " + fmt_num(q.value.value, 3) + " +- " +
            fmt_num(2 * q.value.std, 2) + " " + q.unit;
   }
-  if (!loc.empty()) add_brief(out, "location", "Location errors (value +- U, k = 2): " + loc + ".");
+  if (!loc.empty())
+    add_brief_item(out, "location", "Location errors (value +- U, k = 2): " + loc + ".");
   if (design.reference_length_mm) {
     const std::string w = worst_phrase(worst_case(result.errors, *design.reference_length_mm),
                                        *design.reference_length_mm);
-    if (!w.empty()) add_brief(out, "worst", "Worst standard uncertainty (k = 1): " + w + ".");
+    if (!w.empty()) add_brief_item(out, "worst", "Worst standard uncertainty (k = 1): " + w + ".");
   }
   const bool residual = has_warning(result.warnings, "residual");
   if (est.p_value) {
-    add_brief(out, "residual",
-              residual
-                  ? "The residual contradicts the declared noise (chi2 " + fmt_num(est.chi2, 4) +
-                        " on " + std::to_string(est.dof) + " dof): these uncertainties do not hold."
-                  : "The residual agrees with the declared noise (chi2 " + fmt_num(est.chi2, 4) +
-                        " on " + std::to_string(est.dof) + " dof, p = " + fmt_num(*est.p_value, 3) +
-                        ").");
+    add_brief_item(
+        out, "residual",
+        residual
+            ? "The residual contradicts the declared noise (chi2 " + fmt_num(est.chi2, 4) + " on " +
+                  std::to_string(est.dof) + " dof): these uncertainties do not hold."
+            : "The residual agrees with the declared noise (chi2 " + fmt_num(est.chi2, 4) + " on " +
+                  std::to_string(est.dof) + " dof, p = " + fmt_num(*est.p_value, 3) + ").");
   }
   std::vector<std::string> next;
   if (residual)
@@ -524,7 +517,7 @@ std::vector<BriefItem> identify_brief(const Design& design, const IdentifyResult
     next.push_back("decide on the errors (--tolerances) or enter them (compensation)");
   std::string n = "Next: ";
   for (std::size_t i = 0; i < next.size(); ++i) n += (i ? "; " : "") + next[i];
-  add_brief(out, "next", n + ".");
+  add_brief_item(out, "next", n + ".");
   return out;
 }
 

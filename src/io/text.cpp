@@ -19,6 +19,17 @@ std::string fmt_opt(const std::optional<double>& x, int digits) {
 
 namespace dbbkit::io {
 
+void add_brief_item(std::vector<BriefItem>& brief, const std::string& topic,
+                    const std::string& text) {
+  if (brief.size() >= kBriefMaxItems || text.empty()) return;
+  std::string t = text;
+  if (t.size() > kBriefItemMaxChars) {
+    const std::size_t cut = t.rfind(' ', kBriefItemMaxChars - 4);
+    t = t.substr(0, cut == std::string::npos ? kBriefItemMaxChars - 4 : cut) + " ...";
+  }
+  brief.push_back({topic, t});
+}
+
 std::string brief_text(const std::vector<BriefItem>& brief) {
   if (brief.empty()) return "";
   std::string s = "summary:\n";

@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 
+#include "dbbkit/io/text.hpp"
 #include "dbbkit/kit.hpp"
 #include "dbbkit/optimize.hpp"
 
@@ -18,6 +19,11 @@ Design optimized_design(const Kit& kit, const OptimizeResult& res, const std::st
 nlohmann::json optimize_to_json(const Kit& kit, const OptimizeResult& res,
                                 const std::string& kit_file, double seconds,
                                 const std::optional<Reference>& reference);
+// optimize's first screen: the best design (installations, step, readings, time), its worst
+// standard uncertainty (with the kit's set-up tolerances, or what typical ones would make it),
+// against the reference, the angle step's meaning, and what to do next; at most six sentences.
+std::vector<BriefItem> optimize_brief(const Kit& kit, const OptimizeResult& res,
+                                      const std::optional<Reference>& reference);
 std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const std::string& kit_file,
                              double seconds, const std::optional<Reference>& reference,
                              bool pareto);

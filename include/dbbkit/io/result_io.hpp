@@ -108,6 +108,8 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
 std::vector<BriefItem> identify_brief(const Design& design, const IdentifyResult& result);
 // {"topic", "text"} per item.
 nlohmann::json brief_to_json(const std::vector<BriefItem>& brief);
+// "2.06 um (dy at 180 deg; angular errors x 100 mm)"; empty when nothing is determined.
+std::string worst_phrase(const WorstCase& w, double reference_length_mm);
 // The ISO 230-7 quantities of an identification (iso230.hpp): JSON and the terminal's text.
 nlohmann::json iso230_to_json(const IdentifyResult& result);
 std::string iso230_text(const Design& design, const IdentifyResult& result);

@@ -25,6 +25,10 @@ struct BriefItem {
 // The longest sentence a summary item may be, in bytes; a summary has at most six.
 inline constexpr std::size_t kBriefItemMaxChars = 239;
 inline constexpr std::size_t kBriefMaxItems = 6;
+// Appends an item (none beyond kBriefMaxItems, none empty); a text over kBriefItemMaxChars (a
+// long name from a user's file) is cut at a space with " ...".
+void add_brief_item(std::vector<BriefItem>& brief, const std::string& topic,
+                    const std::string& text);
 // The summary as the terminal's first lines ("summary:" and one "  - " line per item).
 std::string brief_text(const std::vector<BriefItem>& brief);
 
