@@ -37,7 +37,8 @@ cmake --build build-san -j "$jobs"
 # of every kind) and the exhaustive
 # enumerations ran in stage 1; here every code path they use is exercised by the other
 # tests, at a fraction of the time (the summaries of simulated hidden effects and of two
-# searches: the README's journey and CLI tests write summaries here). The installed-package test builds an uninstrumented
+# searches, and two more searches of kits: the README's journey and the CLI tests search and
+# write summaries here). The installed-package test builds an uninstrumented
 # consumer, which cannot link a sanitized library; it ran in stage 1. The reports rendered in
 # Chromium come from the writers the other tests run here; they were looked at in stage 1. A
 # test under an address-space limit (ulimit -v) cannot run with AddressSanitizer's shadow
@@ -46,7 +47,7 @@ cmake --build build-san -j "$jobs"
 # tests ran in stage 1.
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-san --output-on-failure -j "$jobs" \
-  -E 'Coverage|FindsEffect|CleanDataAddsNothing|StatedDetectionLimitHasItsPower|GrossReadingAndNoiseScaleAreSaid|NearlyCollinearCandidates|PerInstallationDriftsAreKept|UnknownEffectIsFlagged|Exhaustive|EveryNewKind|LocationErrorsOfAReal|BrowserReports|ConsumerOfInstalledPackage|UnderAMemoryLimit|OneTruthMeasuredTwice|CleanDataAtTheDeclaredNoise|HiddenEffectsAreNamedWithTheirNextStep|OptimizeBrief'
+  -E 'Coverage|FindsEffect|CleanDataAddsNothing|StatedDetectionLimitHasItsPower|GrossReadingAndNoiseScaleAreSaid|NearlyCollinearCandidates|PerInstallationDriftsAreKept|UnknownEffectIsFlagged|Exhaustive|EveryNewKind|LocationErrorsOfAReal|BrowserReports|ConsumerOfInstalledPackage|UnderAMemoryLimit|OneTruthMeasuredTwice|CleanDataAtTheDeclaredNoise|HiddenEffectsAreNamedWithTheirNextStep|OptimizeBrief|TheReadmeKitsDesignsClearTheirWorkspace|RequiredSetupDetectionIsMetByTheDesignFound'
 
 echo "== fuzzing (libFuzzer, 15 s per target)"
 work="$(mktemp -d)"

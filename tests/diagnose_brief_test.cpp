@@ -37,12 +37,15 @@ bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
 }
 
+// Within the limits, and nothing cut to fit them (add_brief_item cuts with " ..."): the cases
+// here must fit whole.
 void expect_within_limits(const std::vector<BriefItem>& brief) {
   EXPECT_FALSE(brief.empty());
   EXPECT_LE(brief.size(), 6u);
   for (const BriefItem& b : brief) {
     EXPECT_LE(b.text.size(), io::kBriefItemMaxChars) << b.text;
     EXPECT_FALSE(b.text.empty()) << b.topic;
+    EXPECT_EQ(b.text.find(" ..."), std::string::npos) << b.text;
   }
 }
 
@@ -140,7 +143,7 @@ TEST(EvaluateBrief, UndeclaredSetUpGetsTheTypicalFigure) {
   expect_within_limits(brief);
   EXPECT_TRUE(contains(item(brief, "setup"), "would be " + figure)) << item(brief, "setup");
   EXPECT_TRUE(contains(item(brief, "determined"), "every error at every angle"));
-  EXPECT_TRUE(contains(item(brief, "next"), "declare set-up tolerances"));
+  EXPECT_TRUE(contains(item(brief, "next"), "declare length offset and centring tolerances"));
   // Declared: no typical figure; the worst is the total one.
   const DesignAssessment b = assess_design(declared, ref);
   EXPECT_FALSE(b.evaluation.worst_total_typical);
@@ -187,6 +190,13 @@ TEST(IdentifyBrief, SaysWhetherTheResidualBearsTheUncertaintiesOut) {
   EXPECT_TRUE(contains(item(paper, "residual"), "contradicts the declared noise"));
   EXPECT_TRUE(contains(item(paper, "location"), "X0C -18.6 +- "));
   EXPECT_TRUE(contains(item(paper, "next"), "dbbkit diagnose"));
+  EXPECT_TRUE(contains(item(paper, "location"), "standard uncertainty, k = 1"));
+  // Stated from the scatter (Type A): said so, and --type-a is not offered again.
+  IdentifyOptions type_a;
+  type_a.budget.type_a = true;
+  const std::vector<BriefItem> scatter = io::identify_brief(d, identify(d, readings, type_a));
+  EXPECT_TRUE(contains(item(scatter, "residual"), "Type A")) << item(scatter, "residual");
+  EXPECT_FALSE(contains(item(scatter, "next"), "--type-a")) << item(scatter, "next");
   const Design f = test::fourier_design();
   std::mt19937_64 rng(7);
   const Truth t = test::random_fourier_truth(f, rng);

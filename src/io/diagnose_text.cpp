@@ -612,17 +612,22 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
       groups.push_back(listed(phrases, 120) + (w.empty() ? "" : " " + w));
     add("found", "Found: " + listed(groups, 200) + ".");
   } else if (!r.gross.empty()) {
+    // The most significant (the first); the data may not tell it from others.
     const GrossReading& g = r.gross.front();
-    std::string where = g.reading ? "installation " + g.reading->installation + " at " +
-                                        fmt_num(g.reading->angle_deg, 4) + " deg"
-                                  : "one reading";
-    add("found", "Found: " + std::to_string(r.gross.size()) + " gross reading(s); the largest " +
-                     where + ", off by " + n3(g.value_um) + " um.");
+    const std::string at = g.reading ? "installation " + g.reading->installation + " at " +
+                                           fmt_num(g.reading->angle_deg, 4) + " deg"
+                                     : std::string("a reading");
+    add("found",
+        "Found: " + std::to_string(r.gross.size()) + " gross reading(s); the most significant " +
+            (g.alternatives.empty() ? "is " + at
+                                    : "is one of " + std::to_string(g.alternatives.size() + 1) +
+                                          " readings the data cannot tell apart, such as " + at) +
+            ", off by " + n3(g.value_um) + " um.");
   } else if (!r.before.p_value) {
     add("residual", "Nothing can be tested: the design leaves no redundant reading.");
   } else if (!r.significant_before) {
     add("residual", "Nothing to explain: the residual agrees with the declared noise (" +
-                        chi_short(r.before) + "), so identify's errors stand.");
+                        chi_short(r.before) + ").");
     // What would have been found: the smallest limit of each kind.
     std::vector<std::string> limits;
     std::vector<std::string> kinds;
@@ -636,8 +641,10 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
       limits.push_back(k + " of " + fmt_num(lo, 2) + " " + d.unit);
     }
     if (!limits.empty())
-      add("evidence", "With the declared noise these would have been found (power 0.9): " +
-                          listed(limits, 170) + " or more.");
+      add("evidence",
+          "Where this design can see them, these would have been found (power 0.9 at the "
+          "declared noise): " +
+              listed(limits, 100) + " or more (each candidate in the JSON).");
   } else {
     add("residual", "No effect of the library explains the residual (" + chi_short(r.before) +
                         "); the errors' uncertainties do not hold as stated.");
@@ -775,18 +782,30 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
         "assume a perfect set-up");
   if (next.empty() && !r.significant_after)
     action("enter the errors (compensation) or decide on them (--tolerances)");
-  // One or two sentences, within the limit each.
+  // Sentences within the limit each; the last one the summary has room for takes what is left
+  // (cut with " ..." when it is too long: the verdict has every step).
+  std::vector<std::string> sentences;
   std::string sentence;
   for (const std::string& a : next) {
     const std::string candidate = sentence.empty() ? "Next: " + a : sentence + "; " + a;
     if (candidate.size() + 1 > kBriefItemMaxChars && !sentence.empty()) {
-      add("next", sentence + ".");
+      sentences.push_back(sentence + ".");
       sentence = "Then: " + a;
     } else {
       sentence = candidate;
     }
   }
-  if (!sentence.empty()) add("next", sentence + ".");
+  if (!sentence.empty()) sentences.push_back(sentence + ".");
+  const std::size_t room = kBriefMaxItems > out.size() ? kBriefMaxItems - out.size() : 0;
+  for (std::size_t i = 0; i < sentences.size() && room > 0; ++i) {
+    if (i + 1 == room && i + 1 < sentences.size()) {
+      std::string rest = sentences[i];
+      for (std::size_t j = i + 1; j < sentences.size(); ++j) rest += " " + sentences[j];
+      add("next", rest);
+      break;
+    }
+    add("next", sentences[i]);
+  }
   return out;
 }
 

@@ -310,18 +310,20 @@ std::vector<BriefItem> optimize_brief(const Kit& kit, const OptimizeResult& res,
             (ev.prior.rank < ev.prior.n_unknowns ? "; some errors are not determined" : "") + ".");
   }
   if (ev.worst_total_typical) {
-    add("setup", "The kit declares no set-up tolerances: with typical ones (length offset " +
-                     fmt_num(kTypicalLengthOffsetStd_um, 3) + " um, centring " +
-                     fmt_num(kTypicalCentringStd_um, 3) + " um) the worst would be " +
-                     worst_phrase(*ev.worst_total_typical, kit.reference_length_mm) + ".");
+    add("setup",
+        "The kit declares no length offset or centring tolerance: with typical ones "
+        "(length offset " +
+            fmt_num(kTypicalLengthOffsetStd_um, 3) + " um, centring " +
+            fmt_num(kTypicalCentringStd_um, 3) + " um) the worst would be " +
+            worst_phrase(*ev.worst_total_typical, kit.reference_length_mm) + ".");
   }
   if (reference) {
     const ReferenceRatios r = reference_ratios(res, *reference);
     const std::optional<double>& ratio =
         r.worst_total_std_um ? r.worst_total_std_um : r.worst_std_um;
     if (ratio)
-      add("reference", "Against the reference design " + reference->file + ": " +
-                           fmt_num(*ratio, 3) + " times its worst standard uncertainty.");
+      add("reference", "Against the reference design: " + fmt_num(*ratio, 3) +
+                           " times its worst standard uncertainty (" + reference->file + ").");
   }
   if (!kit.angle_max_step_deg && kit.angle_steps_deg.size() > 1 &&
       kit.errors.kind == ErrorModel::Kind::kPerAngle) {

@@ -458,7 +458,8 @@ std::vector<BriefItem> evaluate_brief(const Design& design, const Evaluation& ev
   }
   if (ev.worst_total_typical && ev.worst_total_typical->worst_determined_std_um) {
     add_brief_item(out, "setup",
-                   "No set-up tolerances are declared: with typical ones (length offset " +
+                   "No length offset or centring tolerance is declared: with typical ones "
+                   "(length offset " +
                        fmt_num(kTypicalLengthOffsetStd_um, 3) + " um, centring " +
                        fmt_num(kTypicalCentringStd_um, 3) + " um) the worst would be " +
                        worst_phrase(*ev.worst_total_typical, ev.reference_length_mm) + ".");
@@ -467,7 +468,7 @@ std::vector<BriefItem> evaluate_brief(const Design& design, const Evaluation& ev
   if (ev.prior.status == EstimateStatus::kRankDeficient)
     next.push_back("add installations that see the undetermined errors (dbbkit optimize)");
   if (!design.setup_nuisance_declared())
-    next.push_back("declare set-up tolerances (setup_std) in the design");
+    next.push_back("declare length offset and centring tolerances (setup_std) in the design");
   if (next.empty()) next.push_back("measure it (dbbkit program, setup-sheet), then identify");
   std::string n = "Next: ";
   for (std::size_t i = 0; i < next.size(); ++i) n += (i ? "; " : "") + next[i];
@@ -483,30 +484,38 @@ std::vector<BriefItem> identify_brief(const Design& design, const IdentifyResult
   for (const IsoQuantity& q : result.iso.location) {
     if (!q.value.determined) continue;
     loc += (loc.empty() ? "" : ", ") + q.name + " " + fmt_num(q.value.value, 3) + " +- " +
-           fmt_num(2 * q.value.std, 2) + " " + q.unit;
+           fmt_num(q.value.std, 2) + " " + q.unit;
   }
   if (!loc.empty())
-    add_brief_item(out, "location", "Location errors (value +- U, k = 2): " + loc + ".");
+    add_brief_item(out, "location",
+                   "Location errors (value +- standard uncertainty, k = 1): " + loc + ".");
   if (design.reference_length_mm) {
     const std::string w = worst_phrase(worst_case(result.errors, *design.reference_length_mm),
                                        *design.reference_length_mm);
     if (!w.empty()) add_brief_item(out, "worst", "Worst standard uncertainty (k = 1): " + w + ".");
   }
   const bool residual = has_warning(result.warnings, "residual");
+  const bool type_a = result.budget.type_a_dof.has_value();
+  const std::string chi =
+      "chi2 " + fmt_num(est.chi2, 4) + " on " + std::to_string(est.dof) + " dof";
   if (est.p_value) {
-    add_brief_item(
-        out, "residual",
-        residual
-            ? "The residual contradicts the declared noise (chi2 " + fmt_num(est.chi2, 4) + " on " +
-                  std::to_string(est.dof) + " dof): these uncertainties do not hold."
-            : "The residual agrees with the declared noise (chi2 " + fmt_num(est.chi2, 4) + " on " +
-                  std::to_string(est.dof) + " dof, p = " + fmt_num(*est.p_value, 3) + ").");
+    std::string r;
+    if (type_a)
+      r = "The uncertainties are stated from the residual's own scatter (Type A, " + chi + ")" +
+          (residual ? ", which the declared noise does not explain." : ".");
+    else if (residual)
+      r = "The residual contradicts the declared noise (" + chi +
+          "): these uncertainties do not hold.";
+    else
+      r = "The residual agrees with the declared noise (" + chi +
+          ", p = " + fmt_num(*est.p_value, 3) + ").";
+    add_brief_item(out, "residual", r);
   }
   std::vector<std::string> next;
   if (residual)
-    next.push_back(
-        "dbbkit diagnose to find the effect, or --type-a to state the uncertainty "
-        "from the scatter");
+    next.push_back(type_a ? "dbbkit diagnose to find what the model lacks"
+                          : "dbbkit diagnose to find the effect, or --type-a to state the "
+                            "uncertainty from the scatter");
   if (has_warning(result.warnings, "first_order"))
     next.push_back("smaller errors or a shorter bar (the first-order model is strained)");
   if (has_warning(result.warnings, "setup_undeclared"))
@@ -906,7 +915,7 @@ json evaluate_to_json(const Design& design, const Evaluation& ev, const std::str
   j["worst_total_std_um"] =
       ev.worst_total ? optional_number(ev.worst_total->worst_std_um) : json(nullptr);
   j["worst_total_std_um_typical_setup"] =
-      ev.worst_total_typical ? optional_number(ev.worst_total_typical->worst_determined_std_um)
+      ev.worst_total_typical ? optional_number(ev.worst_total_typical->worst_std_um)
                              : json(nullptr);
   j["summary"] = brief_to_json(evaluate_brief(design, ev));
   j["errors"] = errors_to_json(ev.errors, false);

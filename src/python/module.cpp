@@ -614,7 +614,7 @@ struct PyIdentifyResult {
       a(v.station, v.error) = expanded ? v.U : v.k;
     return a;
   }
-  // (6 stations, 6 stations): row 6 s + k is error k at station s; NaN where not determined.
+  // (6 x stations, 6 x stations): row 6 s + k is error k at station s; NaN where not determined.
   Eigen::MatrixXd covariance() const {
     const Eigen::MatrixXd c = budget_covariance(design->value, result());
     const Eigen::Index n = 6 * static_cast<Eigen::Index>(result().errors.size());
@@ -637,7 +637,7 @@ struct PyDiagnoseResult {
   std::optional<ConformanceReport> conformance;
   std::vector<std::string> tolerance_files;  // the tolerance file, when read from one
   nlohmann::json json;
-  // (6 stations, 6 stations): the final model's covariance of the errors after (row 6 s + k:
+  // (6 x stations, 6 x stations): the final model's covariance of the errors after (row 6 s + k:
   // error k at station s); NaN where not determined. The attributions' share is in std_after
   // alone (a change, not a correlation): this diagonal leaves it out.
   Eigen::MatrixXd covariance_after() const {
@@ -724,6 +724,13 @@ ProgramOptions py_program_options(const std::string& sweeps, double dwell_s, dou
                                   double path_tolerance_mm, int tool,
                                   std::optional<double> clearance_z_mm, double clearance_margin_mm,
                                   bool air_run, const std::string& orient_code) {
+  // The command line's ranges (program_options.hpp), then the library's own checks.
+  check_finite_in("dwell_s", dwell_s, 1e-3, 600);
+  check_finite_in("feed_mm_min", feed_mm_min, 1, 60000);
+  check_finite_in("path_tolerance_mm", path_tolerance_mm, 1e-4, 1);
+  check_integer_in("tool", tool, 1, 9999);
+  if (clearance_z_mm) check_finite_in("clearance_z_mm", *clearance_z_mm, -10000, 10000);
+  check_finite_in("clearance_margin_mm", clearance_margin_mm, 1, 1000);
   ProgramOptions o;
   const auto named = program_sweeps_named(sweeps);
   if (!named) throw InputError("argument", "sweeps", "'" + sweeps + "' (expected ccw, cw or both)");
@@ -1214,8 +1221,18 @@ PYBIND11_MODULE(dbbkit, m) {
           },
           "Per reading: 'ccw', 'cw', or None where not recorded")
       .def_property_readonly(
-          "repeat", [](const PyMeasurements& mm) { return optional_column(mm, &Reading::repeat); },
-          "Per reading: its repeat number (NaN where not recorded)")
+          "repeat",
+          [](const PyMeasurements& mm) {
+            py::list v;
+            for (const Reading& r : mm.readings) {
+              if (r.repeat)
+                v.append(*r.repeat);
+              else
+                v.append(py::none());
+            }
+            return v;
+          },
+          "Per reading: its repeat number, or None where not recorded")
       .def_property_readonly(
           "std_um", [](const PyMeasurements& mm) { return optional_column(mm, &Reading::std_um); },
           "Per reading from a trace: the scatter of its samples [um] (NaN: not from a trace)")
@@ -1329,7 +1346,8 @@ PYBIND11_MODULE(dbbkit, m) {
           "determined",
           [](const PyIdentifyResult& r) { return determined_array(r.result().errors); })
       .def("covariance", &PyIdentifyResult::covariance,
-           "(6 stations, 6 stations): the joint covariance of the values (row 6 s + k: error k at "
+           "(6 x stations, 6 x stations): the joint covariance of the values (row 6 s + k: error k "
+           "at "
            "station s), with "
            "every component of u_c and their correlations; its diagonal is std**2; NaN where not "
            "determined")
@@ -1395,10 +1413,11 @@ PYBIND11_MODULE(dbbkit, m) {
           "iso230", [](const PyDiagnoseResult& r) { return PyIso230{r.result.iso_after}; },
           "The corrected errors' ISO 230 quantities (Iso230), the attributions' share in their "
           "std")
-      .def("covariance_after", &PyDiagnoseResult::covariance_after,
-           "(6 stations, 6 stations): the final model's covariance of the errors after (row 6 s "
-           "+ k: error k at station s); NaN where not determined. The attributions' share is in "
-           "std_after only: where there is one, std_after**2 exceeds this diagonal by it")
+      .def(
+          "covariance_after", &PyDiagnoseResult::covariance_after,
+          "(6 x stations, 6 x stations): the final model's covariance of the errors after (row 6 s "
+          "+ k: error k at station s); NaN where not determined. The attributions' share is in "
+          "std_after only: where there is one, std_after**2 exceeds this diagonal by it")
       .def_property_readonly(
           "brief", [](const PyDiagnoseResult& r) { return to_python(r.json["summary"]); },
           "The answer in at most six sentences (what was found, how sure, what it changes, what "
