@@ -251,7 +251,10 @@ TEST(Iso230, LocationErrorsOfARealBAxisComeBackWithinTheirUncertainty) {
   // The optimised B design with its off-axis position (every error determined), over its
   // part of a turn: location errors, constant parts and component motions, then pure
   // location errors and constant parts.
-  const Design b = io::read_design_file(test::source_path("designs/b-head-kit-optimized.json"));
+  // The readings are simulated without set-up errors, so the design's declared set-up
+  // tolerances are left out: the intervals checked are the noise's (68 % within 1 u).
+  Design b = io::read_design_file(test::source_path("designs/b-head-kit-optimized.json"));
+  b.setup_std = {};
   check_recovery(b, 100, true, 14, 40);
   check_recovery(b, 60, false, 13);
 }

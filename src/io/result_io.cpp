@@ -445,16 +445,16 @@ std::vector<BriefItem> evaluate_brief(const Design& design, const Evaluation& ev
   std::vector<BriefItem> out;
   add_brief_item(out, "determined", determined_sentence(ev.prior, ev.unidentifiable.size()));
   const std::string noise = worst_phrase(ev.worst, ev.reference_length_mm);
+  const std::string lead = ev.prior.rank < ev.prior.n_unknowns
+                               ? "Worst standard uncertainty of the determined errors (k = 1): "
+                               : "Worst standard uncertainty (k = 1): ";
   if (ev.worst_total) {
     const std::string total = worst_phrase(*ev.worst_total, ev.reference_length_mm);
     add_brief_item(out, "worst",
-                   "Worst standard uncertainty (k = 1): " + total +
-                       " with the declared set-up tolerances; " + noise +
+                   lead + total + " with the declared set-up tolerances; " + noise +
                        " from the reading noise.");
   } else if (!noise.empty()) {
-    add_brief_item(
-        out, "worst",
-        "Worst standard uncertainty (k = 1): " + noise + ", from the reading noise alone.");
+    add_brief_item(out, "worst", lead + noise + ", from the reading noise alone.");
   }
   if (ev.worst_total_typical && ev.worst_total_typical->worst_determined_std_um) {
     add_brief_item(out, "setup",
