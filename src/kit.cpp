@@ -6,6 +6,7 @@
 #include <map>
 #include <optional>
 
+#include "dbbkit/axis_frame.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
@@ -87,7 +88,8 @@ double arc_travel_violation(const Kit& kit, const RotationHarmonics& h, const Ei
 
 }  // namespace
 
-std::optional<Pattern> builtin_pattern(const std::string& name, const AxisFrame& axis) {
+std::optional<Pattern> builtin_pattern(const std::string& name, const AxisFrame& axis,
+                                       TableCarriage carriage) {
   if (name != "three_position") return std::nullopt;
   using K = Direction::Kind;
   auto var = [](const char* v) { return PatternCoordinate{v, 0}; };
@@ -95,7 +97,26 @@ std::optional<Pattern> builtin_pattern(const std::string& name, const AxisFrame&
   Pattern p;
   p.name = name;
   p.builtin = true;
-  if (axis.table()) {
+  if (axis.table() && carriage == TableCarriage::kAcrossAxis) {
+    // A trunnion: the blocks set the balls' distance from the axis line (L, heights H1 and
+    // H3), the cup slides across the table (D) and along the axis (S). Balls at (H1, D1, S1)
+    // read radially, tangentially and axially, (H1, D2, S2) and (H3, D3, S2) radially and
+    // tangentially: two share a plane across the axis, the first lies apart along it (on a
+    // small kit the search over S3 free finds nothing better); H1 != H3.
+    p.positions = {
+        {"1",
+         var("H1"),
+         var("D1"),
+         var("S1"),
+         {K::kRadial, K::kTangential, K::kAxial},
+         true,
+         false,
+         false},
+        {"2", var("H1"), var("D2"), var("S2"), {K::kRadial, K::kTangential}, true, false, false},
+        {"3", var("H3"), var("D3"), var("S2"), {K::kRadial, K::kTangential}, true, false, false},
+    };
+    p.distinct = {{"H1", "H3"}};
+  } else if (axis.table()) {
     // Balls at (L1, D1, H1), (L2, D2, H1), (L3, D3, H3) read radially and tangentially, the
     // axial reading on the axis at H1; H1 != H3.
     p.positions = {
@@ -106,15 +127,73 @@ std::optional<Pattern> builtin_pattern(const std::string& name, const AxisFrame&
     };
     p.distinct = {{"H1", "H3"}};
   } else {
-    // Balls at L1 and L2 on the tool axis read in all three directions; where D_mm allows,
-    // a third at (L3, D3) off the axis, radial and tangential (without it, rank 5 at every angle).
+    // Balls at L1 and L2 on the tool axis read in all three directions; where the kit allows,
+    // a third at L3 off the axis, radial and tangential (without it, rank 5 at every angle):
+    // offset along the axis, the "B" shorthand's D, the general form's H.
+    const bool general = axis.has_H();
     p.positions = {
         {"1", var("L1"), zero, zero, {K::kRadial, K::kTangential, K::kAxial}, true, false, false},
         {"2", var("L2"), zero, zero, {K::kRadial, K::kTangential, K::kAxial}, true, false, false},
-        {"3", var("L3"), var("D3"), zero, {K::kRadial, K::kTangential}, true, true, true},
+        {"3",
+         var("L3"),
+         general ? zero : var("D3"),
+         general ? var("S3") : zero,
+         {K::kRadial, K::kTangential},
+         true,
+         true,
+         true},
     };
   }
   return p;
+}
+
+TableCarriage table_carriage(const Kit& kit) {
+  if (kit.axis.head()) return TableCarriage::kAlongAxis;
+  return std::abs(kit.table_normal.dot(kit.axis.direction())) > 0.5 ? TableCarriage::kAlongAxis
+                                                                    : TableCarriage::kAcrossAxis;
+}
+
+int height_coordinate(const Kit& kit) {
+  if (kit.axis.head()) return -1;
+  return table_carriage(kit) == TableCarriage::kAlongAxis ? 2 : 0;
+}
+
+const PatternCoordinate& coordinate_of(const PatternPosition& position, int coordinate) {
+  return coordinate == 0 ? position.L : coordinate == 1 ? position.D : position.H;
+}
+
+const PatternCoordinate& height_of(const Kit& kit, const PatternPosition& position) {
+  return coordinate_of(position, std::max(0, height_coordinate(kit)));
+}
+
+namespace {
+// The sign of the table's normal along the frame's direction of its height coordinate.
+double height_sign(const Kit& kit) {
+  const int c = height_coordinate(kit);
+  const Eigen::Vector3d& e = c == 0 ? kit.axis.e_L() : kit.axis.e_H();
+  return kit.table_normal.dot(e) < 0 ? -1.0 : 1.0;
+}
+}  // namespace
+
+double height_to_coordinate(const Kit& kit, double height_mm) {
+  return height_sign(kit) * (kit.table_surface_mm + height_mm);
+}
+
+bool stack_is_H(const Kit& kit) { return kit.axis.shorthand() == "C"; }
+
+std::optional<Stack> stack_at(const Kit& kit, const Installation& in) {
+  const int hc = height_coordinate(kit);
+  if (hc < 0) return std::nullopt;
+  const double coordinate = hc == 0 ? in.L_mm : in.H_mm;
+  const double height = height_sign(kit) * coordinate - kit.table_surface_mm;
+  for (const Stack& st : block_stacks(kit))
+    if (std::abs(st.height_mm - height) <= kAssemblyTolerance_mm) return st;
+  return std::nullopt;
+}
+
+Interval coordinate_range(const Kit& kit, int coordinate) {
+  if (coordinate == height_coordinate(kit)) return {};
+  return coordinate == 0 ? kit.L_mm : coordinate == 1 ? kit.D_mm : kit.axial_mm;
 }
 
 std::string installation_id(const PatternPosition& position, Direction::Kind kind) {
@@ -131,7 +210,9 @@ std::string installation_id(const PatternPosition& position, Direction::Kind kin
   return position.id + "v";
 }
 
-bool allows_offset(const Kit& kit) { return kit.D_mm.min < 0 || kit.D_mm.max > 0; }
+bool allows_offset(const Kit& kit) {
+  return kit.D_mm.min < 0 || kit.D_mm.max > 0 || kit.axial_mm.min < 0 || kit.axial_mm.max > 0;
+}
 
 std::vector<int> offered_optional_positions(const Kit& kit) {
   const bool offset = allows_offset(kit);
@@ -163,6 +244,9 @@ void validate_pattern(const Kit& k, const std::string& source) {
   require(p.positions.size() <= kMaxPositions, source, "pattern.positions",
           "more than 16 positions");
   std::map<std::string, char> role;  // variable -> 'L', 'D' or 'H'
+  // The coordinate a table's heights lie along (its variables are discrete); none on a head.
+  const int hc = height_coordinate(k);
+  const char height_letter = hc < 0 ? '\0' : "LDH"[hc];
   std::vector<std::string> ids;
   std::vector<std::string> heights;
   bool any_required = false;
@@ -205,7 +289,7 @@ void validate_pattern(const Kit& k, const std::string& source) {
       require(it->second == name, source, ckey,
               "variable '" + c->variable + "' is used as " + std::string(1, it->second) +
                   " and as " + std::string(1, name));
-      if (name == 'H' && fresh) heights.push_back(c->variable);
+      if (name == height_letter && fresh) heights.push_back(c->variable);
     }
     if (!k.axis.has_H()) {
       require(!pos.H.is_variable() && pos.H.value == 0, source, key + ".H",
@@ -221,7 +305,7 @@ void validate_pattern(const Kit& k, const std::string& source) {
     const std::string key = "pattern.distinct[" + std::to_string(g) + "]";
     for (const std::string& v : p.distinct[g]) {
       const auto it = role.find(v);
-      require(it != role.end() && it->second == 'H', source, key,
+      require(it != role.end() && height_letter && it->second == height_letter, source, key,
               "'" + v + "' is not a height variable of the pattern");
     }
     require(n_stacks >= p.distinct[g].size(), source, p.builtin ? "H_mm" : key,
@@ -259,9 +343,29 @@ void validate_kit(const Kit& k, const std::string& source) {
   require(length_within_limits(k.D_mm.min) && length_within_limits(k.D_mm.max), source, "D_mm",
           "min and max must be finite numbers of mm within +-10000 mm");
   require(k.D_mm.min <= k.D_mm.max, source, "D_mm", "min is larger than max");
+  require(length_within_limits(k.axial_mm.min) && length_within_limits(k.axial_mm.max), source,
+          "axial_mm", "min and max must be finite numbers of mm within +-10000 mm");
+  require(k.axial_mm.min <= k.axial_mm.max, source, "axial_mm", "min is larger than max");
   if (k.axis.head()) {
     require(k.D_mm.contains(0.0), source, "D_mm",
-            "the B pattern puts two balls on the tool axis (D = 0): the range must include 0");
+            "the head's pattern puts two balls on the tool axis (D = 0): the range must "
+            "include 0");
+    require(k.axial_mm.contains(0.0), source, "axial_mm",
+            "the head's pattern puts two balls on the tool axis (H = 0): the range must "
+            "include 0");
+  }
+  if (k.axis.table()) {
+    require(std::abs(k.table_normal.norm() - 1) <= kFrameTolerance, source, "table.normal",
+            "must be a unit vector");
+    const double along = std::abs(k.table_normal.dot(k.axis.direction())),
+                 across = std::abs(k.table_normal.dot(k.axis.reference()));
+    require(std::abs(along - 1) <= kFrameTolerance || std::abs(across - 1) <= kFrameTolerance,
+            source, "table.normal",
+            "lies neither along the axis' direction (a C table, a machining centre's B table) "
+            "nor along its reference (a trunnion): write the frame's reference along the "
+            "table's normal at angle 0");
+    require(length_within_limits(k.table_surface_mm), source, "table.surface_mm",
+            "must be a length in mm within +-10000 mm");
   }
 
   if (k.axis.table()) {
@@ -526,6 +630,114 @@ double segment_distance(const Eigen::Vector3d& q, const Eigen::Vector3d& p0,
   return (q - (p0 + t * d)).norm();
 }
 
+// Closest distance between the segments [p0, p1] and [q0, q1].
+double segments_distance(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1,
+                         const Eigen::Vector3d& q0, const Eigen::Vector3d& q1) {
+  const Eigen::Vector3d d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  double s = 0, t = 0;
+  if (a <= 0 && e <= 0) return r.norm();
+  if (a <= 0) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = d1.dot(r);
+    if (e <= 0) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = d1.dot(d2), denom = a * e - b * b;
+      s = denom > 0 ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0) {
+        t = 0, s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1) {
+        t = 1, s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  return ((p0 + s * d1) - (q0 + t * d2)).norm();
+}
+
+// A table in the general form (installation_clashes): its normal n and surface s (heights
+// above it are n . X - s in the body frame, which turns with the table, so the following ball's
+// height does not change over the arc). The spindle's tool line is the machine's Z, the nose
+// above the spindle ball. Its rim's lowest point above the table's plane is a convex function of
+// c(g) = (R(g) n) . Z, itself a sinusoid of the angle: exact over the arc from c's extent. Its
+// distance from the cup's axis (both as capsules, which hold the cylinders) is sampled at most
+// 1 deg apart, less what a point of the nose can move between samples (the check errs on the
+// safe side). The table's plane is taken without edges: a nose beyond its edge is flagged too.
+template <typename Note>
+void general_table_clash(const Kit& kit, const AxisFrame& axis, const Eigen::Vector3d& P0,
+                         const Eigen::Vector3d& G, const ArcEnds& ends, Note& note) {
+  const Workspace* w = kit.workspace ? &*kit.workspace : nullptr;
+  const Eigen::Vector3d& n = kit.table_normal;
+  const double surface = kit.table_surface_mm;
+  const bool along = table_carriage(kit) == TableCarriage::kAlongAxis;
+  // The table's own axes in its plane: (L, D) on a table turning about its normal, (H, D) on
+  // a trunnion; its outline is centred where the frame's origin meets the table.
+  const Eigen::Vector3d& u = along ? axis.e_L() : axis.e_H();
+  const Eigen::Vector3d& v = axis.e_D();
+  if (w && (w->table_diameter_mm || w->table_x_mm)) {
+    const double f = w->footprint_mm / 2, x = P0.dot(u), y = P0.dot(v);
+    const double by = w->table_diameter_mm
+                          ? std::hypot(x, y) + f - *w->table_diameter_mm / 2
+                          : std::max({w->table_x_mm->min - (x - f), (x + f) - w->table_x_mm->max,
+                                      w->table_y_mm->min - (y - f), (y + f) - w->table_y_mm->max});
+    note("the cup and blocks overhang the table", by);
+  }
+  const double g_height = n.dot(G) - surface;
+  note("the spindle ball is below a cup's height", kit.H_base_mm - g_height);
+  if (!w || w->ball_to_nose_mm <= 0) return;
+  const double r = w->spindle_diameter_mm / 2, b = w->ball_to_nose_mm;
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  const RotationHarmonics& h = rotation_harmonics(axis);
+  // f(c) = b c - r sqrt(1 - c^2) is convex: its least value over [c_lo, c_hi] is at the
+  // clamped stationary point c* = -b / sqrt(b^2 + r^2).
+  const auto [c_lo, c_hi] = arc_extent(z.dot(h.A0 * n), z.dot(h.A1 * n), z.dot(h.A2 * n), ends);
+  const double c = std::clamp(-b / std::hypot(b, r), std::max(-1.0, c_lo), std::min(1.0, c_hi));
+  note("the spindle nose reaches the table",
+       w->clearance_mm - (g_height + b * c - r * std::sqrt(std::max(0.0, 1 - c * c))));
+  // In the body frame the cup's axis is fixed (from the table's surface below the ball up to
+  // the ball) and the nose turns about the axis through G. The nose's start is at most
+  // d = b + (the cup's farthest point from G) from the cup, so no point of the nose beyond 2 d
+  // from G is nearer; a point at t from G moves at most t dg / 2 to the nearest sample (samples
+  // dg apart, at most 0.5 deg).
+  const Eigen::Vector3d cup_foot = P0 - (n.dot(P0) - surface) * n;
+  const double need = r + w->footprint_mm / 2 + w->clearance_mm;
+  // First the exact bound: tool(g) . (X - G) is a sinusoid of the angle; where the cup lies
+  // behind the plane across the tool line through the nose's start by `need` over the whole
+  // arc, no point of the nose comes nearer (the gap stated is that bound, a lower bound).
+  double ahead = -std::numeric_limits<double>::infinity();
+  for (const Eigen::Vector3d& X : {cup_foot, P0}) {
+    const Eigen::Vector3d a = X - G;
+    ahead =
+        std::max(ahead, arc_extent(z.dot(h.A0 * a), z.dot(h.A1 * a), z.dot(h.A2 * a), ends).second);
+  }
+  if (b - ahead >= need) {
+    note("the spindle nose reaches the table cup", need - (b - ahead));
+    return;
+  }
+  const double d = b + std::max((G - P0).norm(), (G - cup_foot).norm());
+  const double span = ends.hi_deg - ends.lo_deg;
+  const int steps = std::max(1, static_cast<int>(std::ceil(span / 0.5)));
+  const double slack = 2 * d * (span / steps) * (3.14159265358979323846 / 180.0) / 2;
+  // The tool line in the body frame, tool(g) = R(g)^T Z = t0 + cos g t1 + sin g t2, its angle
+  // stepped by rotating (cos, sin).
+  const Eigen::Vector3d t0 = h.A0.transpose() * z, t1 = h.A1.transpose() * z,
+                        t2 = h.A2.transpose() * z;
+  double cg = ends.c_lo, sg = ends.s_lo, cd = 1, sd = 0;
+  sincos_deg(span / steps, sd, cd);
+  double apart = std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= steps; ++k) {
+    const Eigen::Vector3d tool = t0 + cg * t1 + sg * t2;
+    apart = std::min(apart, segments_distance(G + b * tool, G + 2 * d * tool, cup_foot, P0));
+    const double c_next = cg * cd - sg * sd;
+    sg = sg * cd + cg * sd;
+    cg = c_next;
+  }
+  if (span > 0) apart -= slack;
+  note("the spindle nose reaches the table cup", need - apart);
+}
+
 // The clashes of installation_clashes over the arc; with `out`, each kind's by_mm listed
 // (whatever its sign); returns the largest (-infinity when no check applies).
 // The same for the ball P0 and the following ball G = P0 - s bar u, body frame at angle 0.
@@ -538,6 +750,10 @@ double clash_extent(const Kit& kit, const AxisFrame& axis, const Eigen::Vector3d
   };
   const RotationHarmonics& h = rotation_harmonics(axis);
   const Workspace* w = kit.workspace ? &*kit.workspace : nullptr;
+  if (axis.table() && axis.shorthand().empty()) {
+    general_table_clash(kit, axis, P0, G, ends, note);
+    return worst;
+  }
   if (axis.table()) {
     // C: the table turns about +Z with its surface at z = 0; ball and spindle ball turn together,
     // so their heights and horizontal distance do not change over the arc.
@@ -631,8 +847,10 @@ std::vector<std::string> workspace_checks(const Kit& kit) {
     out.push_back("the spindle ball at least a cup's height (" +
                   text::significant(kit.H_base_mm, 6) + " mm) above the table surface");
     if (w && w->ball_to_nose_mm > 0)
-      out.push_back("the spindle nose clear of the table and the table cup by " +
-                    text::significant(w->clearance_mm, 6) + " mm");
+      out.push_back(
+          "the spindle nose clear of the table and the table cup by " +
+          text::significant(w->clearance_mm, 6) + " mm" +
+          (kit.axis.shorthand().empty() ? " (the table's plane taken without its edges)" : ""));
   } else if (w && w->table_ball_height_mm) {
     out.push_back("the spindle ball at least " + text::significant(w->clearance_mm, 6) +
                   " mm above the table surface (" + text::significant(*w->table_ball_height_mm, 6) +

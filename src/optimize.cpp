@@ -65,7 +65,10 @@ std::vector<int> included_positions(const Kit& kit, int n_optional) {
 
 // A position off the B tool axis: D a variable over a range that allows an offset, or fixed != 0.
 bool off_axis(const Kit& kit, const PatternPosition& p) {
-  return p.D.is_variable() ? allows_offset(kit) : p.D.value != 0;
+  const auto off = [](const PatternCoordinate& c, const Interval& range) {
+    return c.is_variable() ? range.min < 0 || range.max > 0 : c.value != 0;
+  };
+  return off(p.D, kit.D_mm) || (kit.axis.head() && kit.axis.has_H() && off(p.H, kit.axial_mm));
 }
 
 // The kit's requirement that diagnose detect every declared set-up effect at its declared
@@ -646,16 +649,31 @@ void resolve(const Kit& kit, PatternChoice& c) {
     c.space.upper.push_back(range.max);
     return static_cast<int>(c.space.names.size()) - 1;
   };
-  for (int i : included)
-    c.placements.push_back({i, variable(kit.pattern.positions[i].L, kit.L_mm), -1, 0.0});
+  // The continuous coordinates (all but a table's heights), in the order L, D, H.
+  const int hc = height_coordinate(kit);
+  auto continuous = [&](const PatternPosition& p, int coordinate) {
+    return coordinate == hc || (coordinate == 2 && !kit.axis.has_H())
+               ? -1
+               : variable(coordinate_of(p, coordinate), coordinate_range(kit, coordinate));
+  };
+  for (int i : included) {
+    PatternChoice::Placement pl;
+    pl.position = i;
+    pl.L = continuous(kit.pattern.positions[i], 0);
+    c.placements.push_back(pl);
+  }
+  for (PatternChoice::Placement& pl : c.placements)
+    pl.D = continuous(kit.pattern.positions[pl.position], 1);
+  for (PatternChoice::Placement& pl : c.placements)
+    pl.H = continuous(kit.pattern.positions[pl.position], 2);
+  if (hc < 0) return;
   for (PatternChoice::Placement& pl : c.placements) {
-    const PatternPosition& p = kit.pattern.positions[pl.position];
-    pl.D = variable(p.D, kit.D_mm);
-    if (!kit.axis.table()) continue;
-    pl.H_mm = p.H.value;
-    for (const PatternChoice::Height& h : c.heights) {
-      if (p.H.is_variable() && h.variable == p.H.variable) pl.H_mm = h.height_mm;
+    const PatternCoordinate& height = height_of(kit, kit.pattern.positions[pl.position]);
+    double h = height.value;
+    for (const PatternChoice::Height& ch : c.heights) {
+      if (height.is_variable() && ch.variable == height.variable) h = ch.height_mm;
     }
+    pl.height = height_to_coordinate(kit, h);
   }
 }
 
@@ -669,7 +687,8 @@ std::vector<PatternChoice> pattern_choices(const Kit& kit) {
     // The height variables of the positions included, in the order they first appear.
     std::vector<std::string> vars;
     for (int i : included_positions(kit, n_opt)) {
-      const PatternCoordinate& h = kit.pattern.positions[i].H;
+      if (!kit.axis.table()) break;
+      const PatternCoordinate& h = height_of(kit, kit.pattern.positions[i]);
       if (h.is_variable() && std::find(vars.begin(), vars.end(), h.variable) == vars.end())
         vars.push_back(h.variable);
     }
@@ -768,9 +787,13 @@ void place_candidate(const Kit& kit, Candidate& c, const std::vector<double>& x)
     double L, D, H;
   };
   // A placement's ball at x: its variables, or the position's fixed values.
+  const int hc = height_coordinate(kit);
   const auto placed = [&](const PatternChoice::Placement& pl) {
     const PatternPosition& p = kit.pattern.positions[pl.position];
-    return Placed{pl.L >= 0 ? x[pl.L] : p.L.value, pl.D >= 0 ? x[pl.D] : p.D.value, pl.H_mm};
+    double at[3] = {pl.L >= 0 ? x[pl.L] : p.L.value, pl.D >= 0 ? x[pl.D] : p.D.value,
+                    pl.H >= 0 ? x[pl.H] : p.H.value};
+    if (hc >= 0) at[hc] = pl.height;
+    return Placed{at[0], at[1], at[2]};
   };
   size_t k = 0;
   const std::vector<PatternChoice::Placement>& placements = c.choice.placements;
@@ -825,23 +848,30 @@ void describe_installations(const Kit& kit, Candidate& c) {
     in.cup_mm.reset();
     in.blocks_mm.clear();
     if (kit.axis.table()) {
-      if (p.H.is_variable()) {
+      // A design states its cup and blocks (stack_mm) where its H is their height; on another
+      // table the stack is said in words.
+      const bool stack_mm = stack_is_H(kit);
+      const PatternCoordinate& height = height_of(kit, p);
+      if (height.is_variable()) {
         for (const PatternChoice::Height& h : c.choice.heights) {
-          if (h.variable != p.H.variable) continue;
+          if (h.variable != height.variable) continue;
           t = h.variable + " = " + kit_stack_text(kit, stacks[h.stack]);
+          if (!stack_mm) continue;
           in.cup_mm = kit.H_base_mm;
           in.blocks_mm = stacks[h.stack].blocks_mm;
         }
       } else {
-        t = "H = " + mm(p.H.value) + " mm (fixed by the pattern)";
+        t = std::string(height_coordinate(kit) == 2 ? "H" : "the height") + " = " +
+            mm(height.value) + " mm (fixed by the pattern)";
         for (const Stack& st : stacks) {
-          if (std::abs(st.height_mm - p.H.value) <= kAssemblyTolerance_mm) {
+          if (stack_mm && std::abs(st.height_mm - height.value) <= kAssemblyTolerance_mm) {
             in.cup_mm = kit.H_base_mm;
             in.blocks_mm = st.blocks_mm;
           }
         }
       }
-      if (!p.L.is_variable() && !p.D.is_variable() && p.L.value == 0 && p.D.value == 0)
+      if (height_coordinate(kit) == 2 && !p.L.is_variable() && !p.D.is_variable() &&
+          p.L.value == 0 && p.D.value == 0)
         t += ", on the axis";
     } else {
       t = off_axis(kit, p) ? "off the tool axis" : "on the tool axis";

@@ -103,14 +103,18 @@ std::tuple<int, int, int> changes(const std::vector<SetupStep>& steps) {
 // A kit of the design's axis, or none.
 void check_kit_axis(const Kit* kit, const Design& design) {
   if (kit && !kit->axis.same_as(design.axis))
-    throw InputError(
-        "--kit", "axis",
-        std::string("the kit is for axis ") + kit->axis.label() +
-            (design.axis.shorthand().empty()
-                 ? ", the design's axis is written in the general form, " + design.axis.label() +
-                       ": a kit is read for the shorthands \"C\" and \"B\" only, so give the "
-                       "design as the shorthand or leave out --kit"
-                 : ", the design for axis " + design.axis.label()));
+    throw InputError("--kit", "axis",
+                     std::string("the kit is for axis ") + kit->axis.label() +
+                         ", the design for axis " + design.axis.label());
+  // The "B" shorthand's D is the general form's H: a kit and a design of one axis in the two
+  // forms would place the ball differently.
+  if (kit && kit->axis.shorthand() != design.axis.shorthand())
+    throw InputError("--kit", "axis",
+                     "the kit and the design give axis " + design.axis.label() +
+                         " in different forms (" +
+                         (kit->axis.shorthand().empty() ? "general" : "shorthand") + " and " +
+                         (design.axis.shorthand().empty() ? "general" : "shorthand") +
+                         "): write both as the shorthand or both in the general form");
 }
 
 }  // namespace
@@ -250,10 +254,15 @@ RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
   out.resolution_mm = r;
   out.design = design;
   auto round = [&](double x) { return std::round(x / r) * r; };
+  // A table kit's coordinate along the table's normal (H, or a trunnion's L) is set by a cup
+  // and its blocks where the ball stands on a stack of the kit: as exact as they are.
+  const int hc = kit ? height_coordinate(*kit) : -1;
   for (Installation& in : out.design.installations) {
-    const double L = round(in.L_mm), D = round(in.D_mm);
+    const bool on_stack = hc >= 0 && stack_at(*kit, in).has_value();
+    const double L = on_stack && hc == 0 ? in.L_mm : round(in.L_mm), D = round(in.D_mm);
     // H is set by the cup and its blocks when they are given: it is as exact as they are.
-    const double H = in.cup_mm || !design.axis.has_H() ? in.H_mm : round(in.H_mm);
+    const double H =
+        in.cup_mm || !design.axis.has_H() || (on_stack && hc == 2) ? in.H_mm : round(in.H_mm);
     out.largest_shift_mm = std::max({out.largest_shift_mm, std::abs(L - in.L_mm),
                                      std::abs(D - in.D_mm), std::abs(H - in.H_mm)});
     in.L_mm = L, in.D_mm = D, in.H_mm = H;
@@ -301,6 +310,10 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
                                                  kAssemblyTolerance_mm))
         sheet.clashes.emplace_back(in.id, c);
     }
+  }
+  if (kit && kit->axis.table() && kit->axis.shorthand().empty()) {
+    for (const Installation& in : sheet.design.installations)
+      sheet.kit_stacks.push_back(stack_at(*kit, in));
   }
   sheet.order = setup_order(sheet.design);
   sheet.program = measurement_program(sheet.design, program);

@@ -30,6 +30,20 @@ Design b_head_with_offset() {
   return d;
 }
 
+// The same head turned into an A head in the general form: about +X, the spindle pointing down
+// (-Z); the "B" shorthand's D (along its axis) is the general form's H.
+Design a_head_with_offset() {
+  Design d = b_head_with_offset();
+  d.axis = AxisFrame::general('A', AxisFrame::Side::kHead, Eigen::Vector3d::UnitX(),
+                              -Eigen::Vector3d::UnitZ(), false);
+  for (Installation& in : d.installations) {
+    std::swap(in.D_mm, in.H_mm);
+    in.direction = Direction::named(d.axis, in.direction.kind);
+  }
+  validate_design(d);
+  return d;
+}
+
 Truth random_model_truth(const Design& d, std::mt19937_64& rng) {
   std::normal_distribution<double> n01;
   Truth t;
@@ -168,7 +182,9 @@ TEST(Identify, MissingAngleLeavesItsErrorsUndetermined) {
 // standardised errors have unit variance, and nothing undetermined has a number.
 struct CoverageCase {
   const char* name;
-  int config;  // 0 paper C, 1 paper B, 2 B with offset, 3 C Fourier 3, 4 B-offset Legendre 2
+  // 0 paper C, 1 paper B, 2 B with offset, 3 C Fourier 3, 4 B-offset Legendre 2, 5 the A axis
+  // of an A/C trunnion (designs/a-trunnion.json), 6 the B head with offset turned into an A head
+  int config;
   NoiseModel::Distribution noise;
 };
 
@@ -178,7 +194,9 @@ TEST_P(Coverage, TruthWithinThreeSigma) {
   const CoverageCase& c = GetParam();
   Design d = c.config == 0 || c.config == 3 ? test::paper_design('C')
              : c.config == 1                ? test::paper_design('B')
-                                            : b_head_with_offset();
+             : c.config == 5 ? io::read_design_file(test::source_path("designs/a-trunnion.json"))
+             : c.config == 6 ? a_head_with_offset()
+                             : b_head_with_offset();
   if (c.config == 3) d.errors = {ErrorModel::Kind::kFourier, 3};
   if (c.config == 4) d.errors = {ErrorModel::Kind::kLegendre, 2};
   if (c.noise == NoiseModel::Distribution::kNormal) {
@@ -227,7 +245,9 @@ INSTANTIATE_TEST_SUITE_P(
                       CoverageCase{"paper_B_uniform", 1, NoiseModel::Distribution::kUniform},
                       CoverageCase{"B_offset_normal", 2, NoiseModel::Distribution::kNormal},
                       CoverageCase{"C_fourier3_uniform", 3, NoiseModel::Distribution::kUniform},
-                      CoverageCase{"B_legendre2_normal", 4, NoiseModel::Distribution::kNormal}),
+                      CoverageCase{"B_legendre2_normal", 4, NoiseModel::Distribution::kNormal},
+                      CoverageCase{"A_trunnion_uniform", 5, NoiseModel::Distribution::kUniform},
+                      CoverageCase{"A_head_offset_normal", 6, NoiseModel::Distribution::kNormal}),
     [](const auto& info) { return std::string(info.param.name); });
 
 }  // namespace

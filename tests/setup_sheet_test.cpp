@@ -16,6 +16,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/kit_io.hpp"
+#include "dbbkit/io/setup_sheet_io.hpp"
 #include "dbbkit/observability.hpp"
 #include "test_util.hpp"
 
@@ -143,6 +144,37 @@ TEST(SetupOrder, KeepsTheDesignsOrderWhenNoneChangesLess) {
     EXPECT_EQ(o.steps[k].installation, static_cast<int>(k));
   EXPECT_EQ(o.stack_changes, 1);  // H1 to H3 once
   EXPECT_EQ(o.bar_changes, 0);
+}
+
+// The sheet's table lists the steps in the set-up order: each row's spindle ball, sweep and
+// readings are its own installation's (the program's installations come in that order, not the
+// design's), as the step's instructions below state them.
+TEST(SetupSheet, EachRowIsItsOwnInstallationsWhenTheOrderDiffersFromTheDesigns) {
+  Design d = test::paper_design('C');
+  // Interleave the positions: 1r 2r 1t 2t 1a 3r 3t, which the sheet regroups.
+  std::vector<Installation> ins = d.installations;  // 1r 1t 1a 2r 2t 3r 3t
+  d.installations = {ins[0], ins[3], ins[1], ins[4], ins[2], ins[5], ins[6]};
+  const SetupSheet sheet = make_setup_sheet(d, ProgramOptions{}, std::nullopt, nullptr);
+  bool reordered = false;
+  for (size_t k = 0; k < sheet.order.steps.size(); ++k)
+    reordered = reordered || sheet.order.steps[k].installation != static_cast<int>(k);
+  ASSERT_TRUE(reordered);
+  const std::string md =
+      io::setup_sheet_report(io::ReportFormat::kMarkdown, io::RunContext{"test", {}}, sheet, "");
+  for (size_t k = 0; k < sheet.order.steps.size(); ++k) {
+    const Installation& in = d.installations[sheet.order.steps[k].installation];
+    const std::string row_start = "| " + std::to_string(k + 1) + " | " + in.id + " |";
+    const size_t row = md.find(row_start);
+    ASSERT_NE(row, std::string::npos) << row_start;
+    const std::string line = md.substr(row, md.find('\n', row) - row);
+    const size_t step = md.find("## Step " + std::to_string(k + 1) + ": installation " + in.id);
+    ASSERT_NE(step, std::string::npos);
+    const size_t at = md.find("with the spindle's ball at ", step);
+    ASSERT_NE(at, std::string::npos);
+    const size_t from = at + std::string("with the spindle's ball at ").size();
+    const std::string xyz = md.substr(from, md.find(" mm.", from) - from);
+    EXPECT_NE(line.find("| " + xyz + " |"), std::string::npos) << line << " / " << xyz;
+  }
 }
 
 TEST(RoundDesign, RoundsScoresAgainAndChecksTheTravel) {

@@ -122,6 +122,28 @@ inline Kit small_c_kit() {
   return k;
 }
 
+// A small B kit: L along the tool axis 100..260 mm and a holder that offsets the
+// ball up to 150 mm along the swing axis; the following ball of an offset ball
+// sits at the same y, and y travel stops at +-100 mm: the travel limits the offset.
+inline Kit small_b_kit() {
+  Kit k;
+  k.name = "small-b";
+  k.axis = kAxisB;
+  k.pattern = *builtin_pattern("three_position", kAxisB);
+  k.reference_length_mm = 100;
+  k.L_mm = {100, 260};
+  k.D_mm = {0, 150};
+  k.bars_mm = {100, 150};
+  k.travel_mm = {Interval{-260, 260}, Interval{-100, 100}, Interval{-150, 260}};
+  k.min_separation_mm = 30;
+  k.angle_range_deg = {-100, 0};
+  k.angle_steps_deg = {20};
+  k.time_per_reading_s = 3;
+  k.time_per_installation_s = 240;
+  validate_kit(k);
+  return k;
+}
+
 inline std::string source_path(const std::string& relative) {
   return std::string(DBBKIT_SOURCE_DIR) + "/" + relative;
 }

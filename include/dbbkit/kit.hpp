@@ -4,6 +4,7 @@
 // travel of the following ball, the angle steps and the time model. `optimize`
 // searches inside a kit.
 
+#include <Eigen/Core>
 #include <array>
 #include <optional>
 #include <string>
@@ -51,8 +52,18 @@ struct Pattern {
   int inherited_positions = 0;  // the first positions come from the built-in pattern it extends
 };
 
-// The built-in patterns by name ("three_position"); absent for an unknown name.
-std::optional<Pattern> builtin_pattern(const std::string& name, const AxisFrame& axis);
+// How a kit's table carries a ball (table side): cushion blocks raise it along the table's
+// normal. kAlongAxis: the normal is the axis' direction (+-), as on a C table or a machining
+// centre's B table: the heights are the ball's H. kAcrossAxis: the normal is the reference
+// (+-), across the axis, as on a trunnion: the heights are the ball's L (its distance from the
+// axis line), and the ball slides along the axis (H) and across the table (D).
+enum class TableCarriage { kAlongAxis, kAcrossAxis };
+
+// The built-in patterns by name ("three_position"); absent for an unknown name. A head's
+// pattern offsets its third ball along D on the "B" shorthand (its D lies along the axis) and
+// along H (the axis) on a head in the general form.
+std::optional<Pattern> builtin_pattern(const std::string& name, const AxisFrame& axis,
+                                       TableCarriage carriage = TableCarriage::kAlongAxis);
 
 // Bars as sold: a base bar and extensions screwed onto it, each extension used at most once
 // (a QC20-W: a 100 mm base with 50, 150 and 300 mm extensions).
@@ -90,6 +101,12 @@ struct Workspace {
 struct Kit {
   std::string name;
   AxisFrame axis;
+  // Table side: the table's normal (machine frame, angle 0; `table.normal`, the axis'
+  // direction on the shorthand "C") and its surface's distance from the frame's origin along
+  // it (`table.surface_mm`; 0 on a table whose origin lies on its surface, as the "C"
+  // shorthand's). A ball's height above the table is its cup plus blocks.
+  Eigen::Vector3d table_normal = Eigen::Vector3d::UnitZ();
+  double table_surface_mm = 0;
   Pattern pattern;
   NoiseModel noise;
   ErrorModel errors;
@@ -101,8 +118,11 @@ struct Kit {
   // uncertainty (detection limit <= declared size, setup.hpp): designs that leave one
   // below its limit are infeasible for the search.
   bool require_setup_detection = false;
-  Interval L_mm;
-  Interval D_mm;                  // {0, 0}: no lateral offset
+  Interval L_mm;  // unused on a trunnion (its L is the table's heights)
+  Interval D_mm;  // {0, 0}: no lateral offset
+  // The range of H where it is continuous (`axial_mm`; general form only): a head's holder
+  // offset along the axis, the cup's place along a trunnion's axis. {0, 0}: none.
+  Interval axial_mm;
   double H_base_mm = 0;           // C: height of the ball cup standing on the table
   std::vector<double> blocks_mm;  // C: the cushion blocks owned, one entry per block
   int max_stack = 0;              // C: at most this many blocks under one cup
@@ -128,9 +148,28 @@ struct Kit {
   std::optional<Workspace> workspace;   // absent: not checked (only the travel is)
 };
 
+// How the kit's table carries a ball (kAlongAxis on a head, where no table turns).
+TableCarriage table_carriage(const Kit& kit);
+// The frame coordinate (0: L, 1: D, 2: H) the table's heights lie along; -1 on a head.
+int height_coordinate(const Kit& kit);
+// A pattern position's coordinate along the table's normal (its height variable or value).
+const PatternCoordinate& height_of(const Kit& kit, const PatternPosition& position);
+// A pattern position's coordinate 0, 1, 2 (L, D, H).
+const PatternCoordinate& coordinate_of(const PatternPosition& position, int coordinate);
+// The ball's coordinate along the table's normal for a height above the table (a cup on
+// blocks): (surface + height) times the normal's sign along that coordinate.
+double height_to_coordinate(const Kit& kit, double height_mm);
+// Whether a design of the kit states its cup and blocks (stack_mm): on the "C" shorthand, whose
+// H is their height. A design in the general form does not state its table's normal, so its
+// stack is said in words (and found again from a kit by stack_at).
+bool stack_is_H(const Kit& kit);
+// The continuous range of a coordinate 0, 1, 2 (L_mm, D_mm, axial_mm; empty on a table's
+// height coordinate, whose values are discrete).
+Interval coordinate_range(const Kit& kit, int coordinate);
+
 // The installation id of a direction at a position: id + "r", "t" or "a".
 std::string installation_id(const PatternPosition& position, Direction::Kind kind);
-// D_mm allows a lateral offset (D != 0).
+// The kit allows a ball off the tool line of a head (D_mm, or axial_mm in the general form).
 bool allows_offset(const Kit& kit);
 // The optional positions the kit offers (needs_offset ones dropped when D_mm is {0, 0}), in order.
 std::vector<int> offered_optional_positions(const Kit& kit);
@@ -148,6 +187,9 @@ struct Stack {
 // Every distinct height from at most max_stack of the blocks (each block used
 // once), ascending; for one height the stack with the fewest blocks.
 std::vector<Stack> block_stacks(const Kit& kit);
+// The kit's stack that puts the installation's ball at its height above the table (table side;
+// within kAssemblyTolerance_mm), or none.
+std::optional<Stack> stack_at(const Kit& kit, const Installation& in);
 
 // The measured angles for one step: range.min, range.min + step, ..., range.max.
 std::vector<double> kit_angles(const Kit& kit, double step_deg);

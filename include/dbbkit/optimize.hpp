@@ -54,14 +54,15 @@ struct PatternChoice {
   };
   std::vector<Height> heights;  // in the order the variables first appear
   // Resolved once from the pattern (pattern_choices), so that a design is built without
-  // looking names up: each position included, in pattern order, where its L and D come
-  // from (an index into space, or -1: the position's fixed value) and its height; and
-  // the continuous variables (the L variables first, then the D variables, each in the
-  // order they first appear).
+  // looking names up: each position included, in pattern order, where its L, D and H come
+  // from (an index into space, or -1: the position's fixed value, or on a table the
+  // coordinate along its normal: `height`, the ball's coordinate for the height chosen); and
+  // the continuous variables (the L variables first, then the D, then the H variables, each
+  // in the order they first appear).
   struct Placement {
     int position = 0;  // index into kit.pattern.positions
-    int L = -1, D = -1;
-    double H_mm = 0;
+    int L = -1, D = -1, H = -1;
+    double height = 0;
   };
   std::vector<Placement> placements;
   PatternSpace space;

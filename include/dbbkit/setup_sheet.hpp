@@ -78,6 +78,10 @@ struct SetupSheet {
   std::vector<double> setup_time_s;  // per step: per_position when the cup moves + per_installation
   std::vector<double> step_time_s;   // per step: its set-up plus its readings x per_reading
   std::optional<TimeEstimate> time;  // with a kit
+  // A table in the general form with a kit: per design installation, the kit's cup and blocks
+  // that put its ball at its height above the table (none: no stack of the kit does). A
+  // general-form design does not state them (stack_mm is the "C" shorthand's).
+  std::vector<std::optional<Stack>> kit_stacks;
   double total_time_s = 0;
   // With a kit that states a workspace (and on a C table, always: the spindle ball above a
   // cup's height): every clash of the set-up design's installations, by installation id.

@@ -83,11 +83,11 @@ PatternPosition read_position(ObjectReader r) {
 }
 
 // "pattern": a built-in name, or {name, extends, positions, distinct}.
-Pattern read_pattern(ObjectReader& top, const AxisFrame& axis) {
+Pattern read_pattern(ObjectReader& top, const AxisFrame& axis, TableCarriage carriage) {
   const json& v = top.required("pattern");
   const std::string& source = top.source();
   auto named = [&](const std::string& name, const std::string& key) {
-    if (std::optional<Pattern> p = builtin_pattern(name, axis)) return *p;
+    if (std::optional<Pattern> p = builtin_pattern(name, axis, carriage)) return *p;
     if (name == "free") {
       throw InputError(
           source, key,
@@ -143,19 +143,32 @@ Kit kit_from_json(const json& j, const std::string& source) {
   k.name = top.optional_string("name").value_or("");
   top.optional_string("description");
   k.axis = read_axis(top);
-  // A kit's blocks raise the ball along the table's normal, and its patterns place balls on
-  // and off the tool line: both are written for the C turntable (normal = axis) and the B
-  // head. Another axis is refused rather than searched with the wrong hardware model.
-  if (k.axis.shorthand().empty()) {
-    top.fail("axis",
-             "a kit is read for the shorthands \"C\" and \"B\" only: for a table its cushion "
-             "blocks raise the ball along the axis, which on a trunnion (the table's normal "
-             "across the axis) changes the radius instead. For " +
-                 k.axis.label() +
-                 ", write the design in the general axis form and evaluate it (dbbkit evaluate "
-                 "--design)");
+  // A table's blocks raise the ball along the table's normal: on the "C" shorthand the axis
+  // (+Z), with the frame's origin on the surface; in the general form the kit states both.
+  const bool general = k.axis.shorthand().empty();
+  if (k.axis.table() && general) {
+    if (!top.has("table"))
+      top.fail("table",
+               "required for a table in the general form: {\"normal\": [x, y, z], "
+               "\"surface_mm\": s}, the table's normal at angle 0 and its surface's distance "
+               "from the frame's origin along it (cushion blocks raise the ball along the normal: "
+               "along the axis on a C or B table, across it on a trunnion)");
+    ObjectReader t = top.object("table");
+    const std::vector<double> n = read_numbers(t.required("normal"), source, t.key_path("normal"));
+    if (n.size() != 3) t.fail("normal", "expected a vector [x, y, z]");
+    k.table_normal = Eigen::Vector3d(n[0], n[1], n[2]);
+    k.table_surface_mm = t.number("surface_mm");
+    t.finish();
+  } else if (top.has("table")) {
+    top.fail("table", k.axis.table()
+                          ? "the shorthand \"C\" has its table's normal along +Z and its origin on "
+                            "the surface: write the axis in the general form to state another"
+                          : "a table's normal and surface are a table axis': axis " +
+                                k.axis.label() + " carries the head");
   }
-  k.pattern = read_pattern(top, k.axis);
+  if (k.axis.table()) k.table_normal = general ? k.table_normal : k.axis.direction();
+  const TableCarriage carriage = table_carriage(k);
+  k.pattern = read_pattern(top, k.axis, carriage);
   if (const json* n = top.optional("noise"))
     k.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
   if (const json* e = top.optional("errors"))
@@ -170,8 +183,25 @@ Kit kit_from_json(const json& j, const std::string& source) {
     top.fail("require_setup_detection",
              "needs a length offset or centring tolerance declared in setup_std");
   }
-  k.L_mm = read_min_max(top.object("L_mm"));
+  if (carriage == TableCarriage::kAcrossAxis) {
+    if (top.has("L_mm"))
+      top.fail("L_mm",
+               "on a trunnion (the table's normal across the axis) a ball's distance from the "
+               "axis line is the table's surface plus its cup and blocks (table.surface_mm, "
+               "H_mm); the cup slides across the table (D_mm) and along the axis (axial_mm)");
+  } else {
+    k.L_mm = read_min_max(top.object("L_mm"));
+  }
   if (top.has("D_mm")) k.D_mm = read_min_max(top.object("D_mm"));
+  if (top.has("axial_mm")) {
+    // Along the axis: a general head's holder offset, a trunnion's slide.
+    if (!general || (k.axis.table() && carriage == TableCarriage::kAlongAxis))
+      top.fail("axial_mm", k.axis.table()
+                               ? "a table whose normal is its axis raises the ball along the axis "
+                                 "with cushion blocks (H_mm): no continuous range along the axis"
+                               : "the shorthand \"B\" offsets the ball along the axis by D_mm");
+    k.axial_mm = read_min_max(top.object("axial_mm"));
+  }
   if (k.axis.table()) {
     ObjectReader h = top.object("H_mm");
     k.H_base_mm = h.number("base");

@@ -300,14 +300,20 @@ std::vector<BriefItem> optimize_brief(const Kit& kit, const OptimizeResult& res,
                   std::to_string(n * m) + " readings, about " + fmt_rounded(b.time_s / 60.0, 1) +
                   " min by the kit's time model.");
   const std::string noise = worst_phrase(ev.worst, kit.reference_length_mm);
+  // A design that leaves some errors undetermined states the worst of those it determines.
+  const bool partial = ev.prior.rank < ev.prior.n_unknowns;
+  const std::string lead = partial ? "Worst standard uncertainty of the determined errors (k = 1): "
+                                   : "Worst standard uncertainty (k = 1): ";
+  const std::string undetermined = partial ? "; rank " + std::to_string(ev.prior.rank) + " of " +
+                                                 std::to_string(ev.prior.n_unknowns) +
+                                                 ": the others are not determined"
+                                           : "";
   if (ev.worst_total) {
-    add("worst", "Worst standard uncertainty (k = 1): " +
-                     worst_phrase(*ev.worst_total, kit.reference_length_mm) +
-                     " with the kit's set-up tolerances; " + noise + " from the reading noise.");
+    add("worst", lead + worst_phrase(*ev.worst_total, kit.reference_length_mm) +
+                     " with the kit's set-up tolerances; " + noise + " from the reading noise" +
+                     undetermined + ".");
   } else if (!noise.empty()) {
-    add("worst",
-        "Worst standard uncertainty (k = 1): " + noise + ", from the reading noise alone" +
-            (ev.prior.rank < ev.prior.n_unknowns ? "; some errors are not determined" : "") + ".");
+    add("worst", lead + noise + ", from the reading noise alone" + undetermined + ".");
   }
   if (ev.worst_total_typical) {
     add("setup",
@@ -473,8 +479,11 @@ std::string rank_five_note(const Kit& kit, const OptimizeResult& res) {
       return "";
     case OptimizeResult::RankFiveCause::kNoLateralOffset:
       return "the kit allows no lateral offset (D_mm = [" + fmt_rounded(kit.D_mm.min, 3) + ", " +
-             fmt_rounded(kit.D_mm.max, 3) +
-             "]): every ball lies on the tool axis, so a rotation about that axis is unobservable "
+             fmt_rounded(kit.D_mm.max, 3) + "]" +
+             (kit.axis.has_H() ? ", axial_mm = [" + fmt_rounded(kit.axial_mm.min, 3) + ", " +
+                                     fmt_rounded(kit.axial_mm.max, 3) + "]"
+                               : std::string()) +
+             "): every ball lies on the tool axis, so a rotation about that axis is unobservable "
              "(rank 5 of 6 at every angle); the search minimises what is identifiable";
     case OptimizeResult::RankFiveCause::kNoOffAxisDesignFits:
       return "no design with the off-axis position fits the kit (time budget or travel): rank 5 "

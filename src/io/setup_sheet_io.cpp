@@ -28,8 +28,16 @@ std::string sheet_ball_text(const AxisFrame& axis, const Installation& in) {
   return t;
 }
 
-std::string stack_text(const AxisFrame& axis, const Installation& in) {
+std::string stack_text(const AxisFrame& axis, const Installation& in,
+                       const std::optional<Stack>* kit_stack = nullptr) {
   if (!axis.table()) return "tool side: ball " + mm(in.L_mm) + " mm from the pivot";
+  if (!in.cup_mm && kit_stack) {
+    if (!*kit_stack) return "no stack of the kit puts the ball at its height";
+    const Stack& st = **kit_stack;
+    if (st.blocks_mm.empty()) return "the kit's cup on the table (" + mm(st.height_mm) + " mm)";
+    return "the kit's cup on blocks " + lengths(st.blocks_mm) + " mm (" + mm(st.height_mm) +
+           " mm above the table)";
+  }
   if (!in.cup_mm && axis.shorthand().empty())
     return "as the design places the ball (L, D, H; its stack not given)";
   if (!in.cup_mm) return "H " + mm(in.H_mm) + " mm (cup and blocks not given in the design)";
@@ -135,17 +143,21 @@ std::string instructions(const SetupSheet& sheet, int k) {
   const InstallationProgram& ip = sheet.program.of(s.installation);
   std::string t;
   if (k == 0) {
-    t = axis.table() ? "Place the cup" + cup_on(in) + " with the ball at " +
-                           sheet_ball_text(axis, in) + " mm (table coordinates at C " +
-                           mm(ip.sweeps.front().positions.front().angle_deg) + " deg)."
-                     : "Set the ball at " + sheet_ball_text(axis, in) + " mm (head coordinates).";
+    t = axis.table()
+            ? "Place the cup" + cup_on(in) + " with the ball at " + sheet_ball_text(axis, in) +
+                  " mm (table coordinates at " + std::string(1, axis.letter()) + " " +
+                  mm(ip.sweeps.front().positions.front().angle_deg) + " deg)."
+            : "Set the ball at " + sheet_ball_text(axis, in) + " mm (head coordinates).";
   } else if (s.moves_cup && axis.head()) {
     t = "Move the ball to " + sheet_ball_text(axis, in) + " mm (tool cup and holder).";
   } else if (s.moves_cup) {
     t = "Move the cup" + std::string(s.changes_stack ? "" : ", on the same stack,") + " to " +
         sheet_ball_text(axis, in) + " mm";
     if (axis.table() && s.changes_stack)
-      t += in.cup_mm ? "; rebuild the stack: the cup" + cup_on(in) : "; rebuild the stack to H";
+      t += in.cup_mm ? "; rebuild the stack: the cup" + cup_on(in)
+           : sheet.kit_stacks.empty()
+               ? "; rebuild the stack to H"
+               : "; rebuild the stack: " + stack_text(axis, in, &sheet.kit_stacks[s.installation]);
     t += ".";
   } else {
     t = axis.table() ? "Keep the cup." : "Keep the ball.";
@@ -166,10 +178,12 @@ std::string instructions(const SetupSheet& sheet, int k) {
   if (axis.table()) {
     const Eigen::Vector3d& f = ip.sweeps.front().positions.front().linear_mm;
     t += " with the spindle's ball at " + xyz(f) + " mm.";
+    // The table's surface is the plane z = 0 of the work frame on a table turning about the
+    // machine's Z (the shorthand "C", a primed C); another table's is the kit's to check.
     double lowest = f.z();
     for (const ProgramSweep& sw : ip.sweeps)
       for (const ProgramPosition& p : sw.positions) lowest = std::min(lowest, p.linear_mm.z());
-    if (lowest < 0)
+    if (axis.machine_axis() == 2 && lowest < 0)
       t += " CHECK: the spindle's ball would go " + mm(-lowest) +
            " mm below the table surface; is the installation's sign right?";
   } else {
@@ -447,22 +461,24 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
   for (size_t k = 0; k < o.steps.size(); ++k) {
     const SetupStep& s = o.steps[k];
     const Installation& in = d.installations[s.installation];
-    const InstallationProgram& ip = pr.installations[s.installation];
+    const InstallationProgram& ip = pr.of(s.installation);
     // Table: the spindle ball (the commanded point); head: the table ball from the pivot, the
     // commanded pivot seen from the table ball at the work frame's origin.
     const Eigen::Vector3d first = ip.sweeps.front().positions.front().linear_mm;
     const Eigen::Vector3d follow = d.axis.table() ? first : Eigen::Vector3d(-first);
-    std::vector<std::string> row = {std::to_string(k + 1),
-                                    in.id,
-                                    std::to_string(s.position),
-                                    sheet_ball_text(d.axis, in),
-                                    stack_text(d.axis, in),
-                                    bar_text(in),
-                                    in.direction.label() + (in.sign > 0 ? " +1" : " -1"),
-                                    xyz(follow),
-                                    sweeps_text(ip),
-                                    std::to_string(ip.readings),
-                                    fmt_rounded(ip.motion_time_s, 0)};
+    std::vector<std::string> row = {
+        std::to_string(k + 1),
+        in.id,
+        std::to_string(s.position),
+        sheet_ball_text(d.axis, in),
+        stack_text(d.axis, in,
+                   sheet.kit_stacks.empty() ? nullptr : &sheet.kit_stacks[s.installation]),
+        bar_text(in),
+        in.direction.label() + (in.sign > 0 ? " +1" : " -1"),
+        xyz(follow),
+        sweeps_text(ip),
+        std::to_string(ip.readings),
+        fmt_rounded(ip.motion_time_s, 0)};
     if (!sheet.step_time_s.empty()) row.push_back(fmt_rounded(sheet.step_time_s[k], 0));
     rows.push_back(std::move(row));
   }
