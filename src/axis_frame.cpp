@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <sstream>
+#include <vector>
 
 #include "dbbkit/kinematics.hpp"
 #include "number_text.hpp"
@@ -122,6 +123,33 @@ bool AxisFrame::same_as(const AxisFrame& o) const {
          reference_ == o.reference_ && full_turn_ == o.full_turn_ && has_H_ == o.has_H_ &&
          (full_turn_ ||
           (travel_min_deg_ == o.travel_min_deg_ && travel_max_deg_ == o.travel_max_deg_));
+}
+
+std::string axis_difference(const AxisFrame& a, const AxisFrame& b) {
+  std::vector<std::string> out;
+  auto travel = [](const AxisFrame& f) {
+    return f.full_turn() ? std::string("a full turn")
+                         : text::significant(f.travel_min_deg(), 12) + ".." +
+                               text::significant(f.travel_max_deg(), 12) + " deg";
+  };
+  if (a.letter() != b.letter())
+    out.push_back("letter " + std::string(1, a.letter()) + " against " + b.letter());
+  if (a.side() != b.side())
+    out.push_back(std::string("side ") + (a.table() ? "table" : "head") + " against " +
+                  (b.table() ? "table" : "head"));
+  if (a.direction() != b.direction())
+    out.push_back("direction " + direction_text(a.direction()) + " against " +
+                  direction_text(b.direction()));
+  if (a.reference() != b.reference())
+    out.push_back("reference " + direction_text(a.reference()) + " against " +
+                  direction_text(b.reference()));
+  if (travel(a) != travel(b)) out.push_back("travel " + travel(a) + " against " + travel(b));
+  if (a.has_H() != b.has_H())
+    out.push_back(std::string("form ") + (a.shorthand().empty() ? "general" : "shorthand") +
+                  " against " + (b.shorthand().empty() ? "general" : "shorthand"));
+  std::string t;
+  for (size_t i = 0; i < out.size(); ++i) t += (i ? "; " : "") + out[i];
+  return t;
 }
 
 std::string axis_frame_problem(const Eigen::Vector3d& d, const Eigen::Vector3d& r) {

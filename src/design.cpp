@@ -310,7 +310,9 @@ void validate_design(const Design& d, const std::string& source) {
             kLengthLimit + ", got " + text::significant(in.D_mm, 6));
     require(length_ok(in.H_mm), source, key + ".ball_mm.H",
             kLengthLimit + ", got " + text::significant(in.H_mm, 6));
-    if (d.axis.table()) {
+    // On the "C" shorthand L is the ball's radial distance; in the general form it is the
+    // coordinate along the reference, which on a trunnion may put the ball below the axis line.
+    if (d.axis.table() && !d.axis.shorthand().empty()) {
       require(in.L_mm >= 0, source, key + ".ball_mm.L",
               "the radial distance L of a ball on a table must be >= 0 mm");
     }

@@ -181,11 +181,14 @@ double height_to_coordinate(const Kit& kit, double height_mm) {
 
 bool stack_is_H(const Kit& kit) { return kit.axis.shorthand() == "C"; }
 
+double height_above_table(const Kit& kit, const Installation& in) {
+  const double coordinate = height_coordinate(kit) == 0 ? in.L_mm : in.H_mm;
+  return height_sign(kit) * coordinate - kit.table_surface_mm;
+}
+
 std::optional<Stack> stack_at(const Kit& kit, const Installation& in) {
-  const int hc = height_coordinate(kit);
-  if (hc < 0) return std::nullopt;
-  const double coordinate = hc == 0 ? in.L_mm : in.H_mm;
-  const double height = height_sign(kit) * coordinate - kit.table_surface_mm;
+  if (height_coordinate(kit) < 0) return std::nullopt;
+  const double height = height_above_table(kit, in);
   for (const Stack& st : block_stacks(kit))
     if (std::abs(st.height_mm - height) <= kAssemblyTolerance_mm) return st;
   return std::nullopt;
@@ -499,6 +502,27 @@ void validate_kit(const Kit& k, const std::string& source) {
     }
   }
   validate_pattern(k, source);
+  // On a table in the general form a height the pattern fixes must be one a stack of the kit
+  // builds: its designs do not state their stacks, the set-up sheet finds them from the kit.
+  // (The "C" shorthand's designs state H, and a height no stack builds is said as H.)
+  if (k.axis.table() && k.axis.shorthand().empty()) {
+    const std::vector<Stack> stacks = block_stacks(k);
+    for (size_t i = 0; i < k.pattern.positions.size(); ++i) {
+      const PatternCoordinate& h = height_of(k, k.pattern.positions[i]);
+      if (h.is_variable()) continue;
+      const bool built = std::any_of(stacks.begin(), stacks.end(), [&](const Stack& st) {
+        return std::abs(st.height_mm - h.value) <= kAssemblyTolerance_mm;
+      });
+      const int own = static_cast<int>(i) - k.pattern.inherited_positions;
+      if (!built && own >= 0) {
+        throw InputError(
+            source, "pattern.positions[" + std::to_string(own) + "]." + "LDH"[height_coordinate(k)],
+            "fixes a height of " + text::significant(h.value, 6) +
+                " mm above the table, which no stack of the kit's cup and blocks "
+                "(H_mm) builds");
+      }
+    }
+  }
 }
 
 std::vector<Stack> block_stacks(const Kit& kit) {

@@ -133,7 +133,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   // head can turn at the plane with its ball above the table's.
   double highest = 0, reach = 0;
   std::optional<Eigen::Vector3d> previous_ball;  // the body-frame ball of the installation before
-  for (const SetupStep& step : setup_order(design).steps) {
+  for (const SetupStep& step : setup_order(design, options.stack_coordinate).steps) {
     const int i = step.installation;
     const Installation& inst = design.installations[i];
     if (!inst.bar_mm) {

@@ -31,11 +31,14 @@ bool same_ball_position(const Installation& a, const Installation& b) {
   return same(a.L_mm, b.L_mm) && same(a.D_mm, b.D_mm) && same(a.H_mm, b.H_mm);
 }
 
-bool same_stack(const AxisFrame& axis, const Installation& a, const Installation& b) {
+bool same_stack(const AxisFrame& axis, const Installation& a, const Installation& b,
+                std::optional<int> coordinate) {
   if (!axis.table()) return true;
   if (a.cup_mm && b.cup_mm)
     return same(*a.cup_mm, *b.cup_mm) && same_lengths(a.blocks_mm, b.blocks_mm);
-  return same(a.H_mm, b.H_mm);
+  if (!coordinate && !axis.shorthand().empty()) coordinate = 2;
+  if (!coordinate) return same(a.L_mm, b.L_mm) && same(a.H_mm, b.H_mm);
+  return *coordinate == 0 ? same(a.L_mm, b.L_mm) : same(a.H_mm, b.H_mm);
 }
 
 bool same_bar(const Installation& a, const Installation& b) {
@@ -71,7 +74,8 @@ struct Group {
 // The steps along an order of installations: the cup moves (and the position number grows)
 // where the ball position changes, the stack and the bar where they differ from the step
 // before; the first step sets everything up.
-std::vector<SetupStep> steps_along(const Design& d, const std::vector<int>& order) {
+std::vector<SetupStep> steps_along(const Design& d, const std::vector<int>& order,
+                                   std::optional<int> coordinate) {
   std::vector<SetupStep> steps;
   int positions = 0;
   for (size_t k = 0; k < order.size(); ++k) {
@@ -82,7 +86,7 @@ std::vector<SetupStep> steps_along(const Design& d, const std::vector<int>& orde
     s.moves_cup = !prev || !same_ball_position(*prev, in);
     positions += s.moves_cup;
     s.position = positions;
-    s.changes_stack = d.axis.table() && (!prev || !same_stack(d.axis, *prev, in));
+    s.changes_stack = d.axis.table() && (!prev || !same_stack(d.axis, *prev, in, coordinate));
     s.changes_bar = !prev || !same_bar(*prev, in);
     steps.push_back(s);
   }
@@ -105,7 +109,8 @@ void check_kit_axis(const Kit* kit, const Design& design) {
   if (kit && !kit->axis.same_as(design.axis))
     throw InputError("--kit", "axis",
                      std::string("the kit is for axis ") + kit->axis.label() +
-                         ", the design for axis " + design.axis.label());
+                         ", the design for axis " + design.axis.label() + " (the kit's " +
+                         axis_difference(kit->axis, design.axis) + ")");
   // The "B" shorthand's D is the general form's H: a kit and a design of one axis in the two
   // forms would place the ball differently.
   if (kit && kit->axis.shorthand() != design.axis.shorthand())
@@ -119,7 +124,7 @@ void check_kit_axis(const Kit* kit, const Design& design) {
 
 }  // namespace
 
-SetupOrder setup_order(const Design& design) {
+SetupOrder setup_order(const Design& design, std::optional<int> stack_coordinate) {
   const std::vector<Installation>& ins = design.installations;
   // The ball positions, in the order they first appear, and the bar classes at each.
   std::vector<std::vector<int>> members;
@@ -165,7 +170,7 @@ SetupOrder setup_order(const Design& design) {
   for (const Group& g : groups) ways = std::max(ways, g.ways.size());
   auto join = [&](int g, int gw, int h, int hw) -> long {
     const Installation &a = ins[groups[g].last(gw)], &b = ins[groups[h].first(hw)];
-    return kStackWeight * !same_stack(design.axis, a, b) + !same_bar(a, b);
+    return kStackWeight * !same_stack(design.axis, a, b, stack_coordinate) + !same_bar(a, b);
   };
   std::vector<std::pair<int, int>> path;  // (group, way)
   SetupOrder out;
@@ -232,8 +237,8 @@ SetupOrder setup_order(const Design& design) {
   std::vector<int> order, given(ins.size());
   for (const auto& [g, w] : path) groups[g].append_order(w, order);
   for (size_t i = 0; i < ins.size(); ++i) given[i] = static_cast<int>(i);
-  const std::vector<SetupStep> found = steps_along(design, order),
-                               designed = steps_along(design, given);
+  const std::vector<SetupStep> found = steps_along(design, order, stack_coordinate),
+                               designed = steps_along(design, given, stack_coordinate);
   std::tie(out.design_stack_changes, out.design_bar_changes, out.design_cup_moves) =
       changes(designed);
   // The design's own order stays where no order changes less (stack, then bar, then cup).
@@ -312,11 +317,24 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
     }
   }
   if (kit && kit->axis.table() && kit->axis.shorthand().empty()) {
-    for (const Installation& in : sheet.design.installations)
+    const std::vector<Stack> stacks = block_stacks(*kit);
+    for (const Installation& in : sheet.design.installations) {
       sheet.kit_stacks.push_back(stack_at(*kit, in));
+      if (sheet.kit_stacks.back() || stacks.empty()) continue;
+      const double height = height_above_table(*kit, in);
+      double off = std::numeric_limits<double>::infinity();
+      for (const Stack& st : stacks) off = std::min(off, std::abs(st.height_mm - height));
+      sheet.clashes.emplace_back(
+          in.id, Clash{"no stack of the kit's cup and blocks builds the ball's height above the "
+                       "table (" +
+                           text::rounded(height, 3) + " mm); the nearest misses it",
+                       off});
+    }
   }
-  sheet.order = setup_order(sheet.design);
-  sheet.program = measurement_program(sheet.design, program);
+  ProgramOptions options = program;
+  if (kit && kit->axis.table()) options.stack_coordinate = height_coordinate(*kit);
+  sheet.order = setup_order(sheet.design, options.stack_coordinate);
+  sheet.program = measurement_program(sheet.design, options);
   sheet.total_time_s = sheet.program.motion_time_s;
   if (kit) {
     const int sweeps = program.sweeps == ProgramOptions::Sweeps::kBoth ? 2 : 1;

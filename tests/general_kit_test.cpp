@@ -18,6 +18,7 @@
 #include "dbbkit/kit.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/optimize.hpp"
+#include "dbbkit/setup_sheet.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -281,6 +282,82 @@ TEST(GeneralKit, AKitSaysWhatItsTableLacks) {
       nlohmann::json::parse(base + a + R"("table": {"normal": [0, 0, 1], "surface_mm": -50},
       "D_mm": {"min": -50, "max": 50}, "axial_mm": {"min": -50, "max": 50}})"),
       "k.json"));
+}
+
+}  // namespace
+}  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// From a hostile round on general-form kits.
+TEST(GeneralKit, ATrunnionsSetUpSheetFollowsItsStacks) {
+  Kit k = small_trunnion_kit();
+  k.table_surface_mm = -50;  // the cup alone puts the ball 5 mm below the axis line
+  k.blocks_mm = {25, 100};
+  k.max_stack = 2;
+  validate_kit(k);
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorst, 2});
+  ASSERT_TRUE(r.best);
+  const Design& d = r.best->design;
+  // A ball below the axis line (L < 0) is a place on a trunnion, and its design reads back.
+  Design low = d;
+  low.installations[0].L_mm = -5;
+  EXPECT_NO_THROW(validate_design(low));
+  Design c = test::paper_design('C');
+  c.installations[0].L_mm = -5;  // the "C" shorthand's L is a radius
+  EXPECT_THROW(validate_design(c), InputError);
+  // The sheet's stack changes are the kit's stacks changing from step to step (the stack sets
+  // L here, not H).
+  const SetupSheet sheet = make_setup_sheet(d, ProgramOptions{}, std::nullopt, &k);
+  ASSERT_EQ(sheet.kit_stacks.size(), d.installations.size());
+  EXPECT_TRUE(sheet.fits_kit());
+  for (size_t s = 1; s < sheet.order.steps.size(); ++s) {
+    const auto& a = sheet.kit_stacks[sheet.order.steps[s - 1].installation];
+    const auto& b = sheet.kit_stacks[sheet.order.steps[s].installation];
+    ASSERT_TRUE(a && b);
+    EXPECT_EQ(sheet.order.steps[s].changes_stack, a->height_mm != b->height_mm) << s;
+  }
+  // The program's order is the sheet's.
+  for (size_t s = 0; s < sheet.order.steps.size(); ++s)
+    EXPECT_EQ(sheet.program.installations[s].installation, sheet.order.steps[s].installation);
+  // Against a kit whose surface lies elsewhere no stack builds the heights: it does not fit.
+  Kit moved = k;
+  moved.table_surface_mm = -45;
+  const SetupSheet off = make_setup_sheet(d, ProgramOptions{}, std::nullopt, &moved);
+  EXPECT_FALSE(off.fits_kit());
+  int unbuilt = 0;
+  for (const auto& [id, clash] : off.clashes) {
+    if (clash.what.find("no stack") == std::string::npos) continue;
+    ++unbuilt;
+    EXPECT_NEAR(clash.by_mm, 5, 1e-9) << id;  // 5 mm off every stack
+  }
+  EXPECT_EQ(unbuilt, static_cast<int>(d.installations.size()));
+  // Another travel: the message says what differs.
+  Kit other = k;
+  other.axis = AxisFrame::general('A', AxisFrame::Side::kTable, Vector3d::UnitX(),
+                                  Vector3d::UnitZ(), false, -110, 110);
+  try {
+    make_setup_sheet(d, ProgramOptions{}, std::nullopt, &other);
+    ADD_FAILURE() << "accepted another axis";
+  } catch (const InputError& e) {
+    EXPECT_NE(e.detail().find("travel -110..110 deg against -120..120 deg"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(GeneralKit, APatternsFixedHeightMustBeAStack) {
+  Kit k = small_trunnion_kit();
+  k.pattern.builtin = false;
+  k.pattern.positions[1].L = PatternCoordinate{"", 60};  // no stack builds 60 mm
+  try {
+    validate_kit(k);
+    ADD_FAILURE() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), "pattern.positions[1].L");
+  }
+  k.pattern.positions[1].L = PatternCoordinate{"", 145};  // the cup on the 100 mm block
+  EXPECT_NO_THROW(validate_kit(k));
 }
 
 }  // namespace

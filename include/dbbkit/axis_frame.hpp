@@ -97,6 +97,10 @@ std::string direction_text(const Eigen::Vector3d& v);
 // The largest |v| - 1 of a unit vector and |d . r| of perpendicular ones the frame accepts.
 inline constexpr double kFrameTolerance = 1e-9;
 
+// How two frames differ, each as "<property> <a's> against <b's>" joined by "; " (letter,
+// side, direction, reference, travel, form), or empty when they are the same axis.
+std::string axis_difference(const AxisFrame& a, const AxisFrame& b);
+
 // What is wrong with a general frame's vectors (not unit, not perpendicular), or empty.
 std::string axis_frame_problem(const Eigen::Vector3d& direction, const Eigen::Vector3d& reference);
 

@@ -190,6 +190,9 @@ std::vector<Stack> block_stacks(const Kit& kit);
 // The kit's stack that puts the installation's ball at its height above the table (table side;
 // within kAssemblyTolerance_mm), or none.
 std::optional<Stack> stack_at(const Kit& kit, const Installation& in);
+// The installation's ball height above the kit's table (table side): along its normal, less the
+// surface.
+double height_above_table(const Kit& kit, const Installation& in);
 
 // The measured angles for one step: range.min, range.min + step, ..., range.max.
 std::vector<double> kit_angles(const Kit& kit, double step_deg);

@@ -46,6 +46,11 @@ inline constexpr std::size_t kMaxProgramPositions = 200000;
 inline constexpr int kDefaultBallbarTool = 99;
 
 struct ProgramOptions {
+  // The ball coordinate (0: L, 2: H) a table's cushion blocks set, when known (from a kit: its
+  // table's normal); absent: H on the "C" shorthand, and on a table in the general form both L
+  // and H (the design does not state its table's normal, so a stack is the same only where
+  // neither changes). It orders the installations (setup_order).
+  std::optional<int> stack_coordinate;
   // The sweeps of each installation: ccw = increasing angle (the design's order), cw =
   // decreasing; both = ccw then cw (the reverse sweep lets diagnose see a reversal error).
   enum class Sweeps { kCCW, kCW, kBoth };

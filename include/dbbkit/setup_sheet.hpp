@@ -41,8 +41,9 @@ inline constexpr int kMaxExactPositions = 14;
 // position. The design's own order is kept when it changes no more (stack,
 // then bar, then cup moves); its steps then number a position again when the cup comes back
 // to it. Two stacks are the same when their cup and blocks are (or,
-// without them in the design, their heights H are); two bars when their lengths and parts are.
-SetupOrder setup_order(const Design& design);
+// without them in the design, the ball coordinate the stack sets is: stack_coordinate, see
+// ProgramOptions); two bars when their lengths and parts are.
+SetupOrder setup_order(const Design& design, std::optional<int> stack_coordinate = std::nullopt);
 
 // The design with L, D (and H without a block stack given) rounded to multiples of
 // resolution_mm, and what that changed.
