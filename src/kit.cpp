@@ -186,12 +186,15 @@ double height_above_table(const Kit& kit, const Installation& in) {
   return height_sign(kit) * coordinate - kit.table_surface_mm;
 }
 
+std::optional<Stack> stack_of_height(const std::vector<Stack>& stacks, double height_mm) {
+  for (const Stack& st : stacks)
+    if (std::abs(st.height_mm - height_mm) <= kAssemblyTolerance_mm) return st;
+  return std::nullopt;
+}
+
 std::optional<Stack> stack_at(const Kit& kit, const Installation& in) {
   if (height_coordinate(kit) < 0) return std::nullopt;
-  const double height = height_above_table(kit, in);
-  for (const Stack& st : block_stacks(kit))
-    if (std::abs(st.height_mm - height) <= kAssemblyTolerance_mm) return st;
-  return std::nullopt;
+  return stack_of_height(block_stacks(kit), height_above_table(kit, in));
 }
 
 Interval coordinate_range(const Kit& kit, int coordinate) {
@@ -510,11 +513,8 @@ void validate_kit(const Kit& k, const std::string& source) {
     for (size_t i = 0; i < k.pattern.positions.size(); ++i) {
       const PatternCoordinate& h = height_of(k, k.pattern.positions[i]);
       if (h.is_variable()) continue;
-      const bool built = std::any_of(stacks.begin(), stacks.end(), [&](const Stack& st) {
-        return std::abs(st.height_mm - h.value) <= kAssemblyTolerance_mm;
-      });
       const int own = static_cast<int>(i) - k.pattern.inherited_positions;
-      if (!built && own >= 0) {
+      if (!stack_of_height(stacks, h.value) && own >= 0) {
         throw InputError(
             source, "pattern.positions[" + std::to_string(own) + "]." + "LDH"[height_coordinate(k)],
             "fixes a height of " + text::significant(h.value, 6) +

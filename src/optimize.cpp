@@ -863,11 +863,9 @@ void describe_installations(const Kit& kit, Candidate& c) {
       } else {
         t = std::string(height_coordinate(kit) == 2 ? "H" : "the height") + " = " +
             mm(height.value) + " mm (fixed by the pattern)";
-        for (const Stack& st : stacks) {
-          if (stack_mm && std::abs(st.height_mm - height.value) <= kAssemblyTolerance_mm) {
-            in.cup_mm = kit.H_base_mm;
-            in.blocks_mm = st.blocks_mm;
-          }
+        if (const std::optional<Stack> st = stack_of_height(stacks, height.value); st && stack_mm) {
+          in.cup_mm = kit.H_base_mm;
+          in.blocks_mm = st->blocks_mm;
         }
       }
       if (height_coordinate(kit) == 2 && !p.L.is_variable() && !p.D.is_variable() &&

@@ -262,8 +262,10 @@ RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
   // A table kit's coordinate along the table's normal (H, or a trunnion's L) is set by a cup
   // and its blocks where the ball stands on a stack of the kit: as exact as they are.
   const int hc = kit ? height_coordinate(*kit) : -1;
+  const std::vector<Stack> stacks = hc >= 0 ? block_stacks(*kit) : std::vector<Stack>{};
   for (Installation& in : out.design.installations) {
-    const bool on_stack = hc >= 0 && stack_at(*kit, in).has_value();
+    const bool on_stack =
+        hc >= 0 && stack_of_height(stacks, height_above_table(*kit, in)).has_value();
     const double L = on_stack && hc == 0 ? in.L_mm : round(in.L_mm), D = round(in.D_mm);
     // H is set by the cup and its blocks when they are given: it is as exact as they are.
     const double H =
@@ -319,9 +321,9 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
   if (kit && kit->axis.table() && kit->axis.shorthand().empty()) {
     const std::vector<Stack> stacks = block_stacks(*kit);
     for (const Installation& in : sheet.design.installations) {
-      sheet.kit_stacks.push_back(stack_at(*kit, in));
-      if (sheet.kit_stacks.back() || stacks.empty()) continue;
       const double height = height_above_table(*kit, in);
+      sheet.kit_stacks.push_back(stack_of_height(stacks, height));
+      if (sheet.kit_stacks.back() || stacks.empty()) continue;
       double off = std::numeric_limits<double>::infinity();
       for (const Stack& st : stacks) off = std::min(off, std::abs(st.height_mm - height));
       sheet.clashes.emplace_back(

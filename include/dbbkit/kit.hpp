@@ -187,8 +187,10 @@ struct Stack {
 // Every distinct height from at most max_stack of the blocks (each block used
 // once), ascending; for one height the stack with the fewest blocks.
 std::vector<Stack> block_stacks(const Kit& kit);
+// The stack of `stacks` whose height is height_mm (within kAssemblyTolerance_mm), or none.
+std::optional<Stack> stack_of_height(const std::vector<Stack>& stacks, double height_mm);
 // The kit's stack that puts the installation's ball at its height above the table (table side;
-// within kAssemblyTolerance_mm), or none.
+// stack_of_height of block_stacks(kit)), or none.
 std::optional<Stack> stack_at(const Kit& kit, const Installation& in);
 // The installation's ball height above the kit's table (table side): along its normal, less the
 // surface.

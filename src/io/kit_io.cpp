@@ -166,7 +166,7 @@ Kit kit_from_json(const json& j, const std::string& source) {
                           : "a table's normal and surface are a table axis': axis " +
                                 k.axis.label() + " carries the head");
   }
-  if (k.axis.table()) k.table_normal = general ? k.table_normal : k.axis.direction();
+  if (k.axis.table() && !general) k.table_normal = k.axis.direction();
   const TableCarriage carriage = table_carriage(k);
   k.pattern = read_pattern(top, k.axis, carriage);
   if (const json* n = top.optional("noise"))
