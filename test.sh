@@ -7,7 +7,7 @@
 #   3. a short libFuzzer run of every file reader (design, measurement, truth, kit, result), of the
 #      text writers (text: any bytes through every escaping function and, as a design's names,
 #      through the part program and the report writers) and of the command line's options
-#      (cli); 12 s each, on a copy of the committed corpus.
+#      (cli); 10 s each, on a copy of the committed corpus.
 # DBBKIT_QUICK=1 runs stage 1 only (for quick local iterations; CI runs all three).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -50,7 +50,7 @@ ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:ha
   ctest --test-dir build-san --output-on-failure -j "$jobs" \
   -E 'Coverage|FindsEffect|CleanDataAddsNothing|StatedDetectionLimitHasItsPower|GrossReadingAndNoiseScaleAreSaid|NearlyCollinearCandidates|PerInstallationDriftsAreKept|UnknownEffectIsFlagged|Exhaustive|EveryNewKind|LocationErrorsOfAReal|BrowserReports|ConsumerOfInstalledPackage|UnderAMemoryLimit|OneTruthMeasuredTwice|CleanDataAtTheDeclaredNoise|HiddenEffectsAreNamedWithTheirNextStep|OptimizeBrief|TheReadmeKitsDesignsClearTheirWorkspace|TheCommittedKitsOfNewKinds|RequiredSetupDetectionIsMetByTheDesignFound'
 
-echo "== fuzzing (libFuzzer, 12 s per target)"
+echo "== fuzzing (libFuzzer, 10 s per target)"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 passed=0
@@ -58,7 +58,7 @@ failed=0
 for target in design measurement truth kit text result cli; do
   mkdir -p "$work/$target"
   cp tests/fuzz/corpus/"$target"/* "$work/$target/"
-  if ./build-san/tests/fuzz/fuzz_"$target" -max_total_time=12 -timeout=10 -rss_limit_mb=2048 \
+  if ./build-san/tests/fuzz/fuzz_"$target" -max_total_time=10 -timeout=10 -rss_limit_mb=2048 \
       -artifact_prefix="$work/" "$work/$target" >"$work/$target.log" 2>&1; then
     passed=$((passed + 1))
     echo "fuzz_$target: $(grep -E '^Done [0-9]+ runs' "$work/$target.log")"

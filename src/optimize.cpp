@@ -861,8 +861,10 @@ void describe_installations(const Kit& kit, Candidate& c) {
           in.blocks_mm = stacks[h.stack].blocks_mm;
         }
       } else {
-        t = std::string(height_coordinate(kit) == 2 ? "H" : "the height") + " = " +
-            mm(height.value) + " mm (fixed by the pattern)";
+        // The pattern's height is the cup's above the table: the design's H only on the "C"
+        // shorthand (elsewhere H or L also holds the surface, and its sign the normal's).
+        t = std::string(stack_mm ? "H" : "the height above the table") + " = " + mm(height.value) +
+            " mm (fixed by the pattern)";
         if (const std::optional<Stack> st = stack_of_height(stacks, height.value); st && stack_mm) {
           in.cup_mm = kit.H_base_mm;
           in.blocks_mm = st->blocks_mm;

@@ -10,11 +10,15 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <functional>
 #include <iostream>
+#include <regex>
+#include <sstream>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/kit_io.hpp"
+#include "dbbkit/io/setup_sheet_io.hpp"
 #include "dbbkit/kit.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/optimize.hpp"
@@ -224,6 +228,61 @@ TEST(Exhaustive, SmallAHeadNoGridPointBeatsTheSearch) {
   expect_search_beats_grid(turned_kit(b_shorthand_as_general_head(test::small_b_kit()), R, 'A'), 5);
 }
 
+// A 45 deg nutating table, which no rotation of the machine frame takes to the C table (the
+// tool line meets its table at 45 deg): the C kit's table swivelled 45 deg from Z towards -Y,
+// its normal along its axis. The travel binds.
+TEST(Exhaustive, SmallNutatingTableNoGridPointBeatsTheSearch) {
+  Kit k = turned_kit(test::small_c_kit(), Eigen::Matrix3d::Identity(), 'B');
+  k.name = "small-nutating";
+  const Vector3d n = Vector3d(0, -1, 1).normalized();
+  k.axis = AxisFrame::general('B', AxisFrame::Side::kTable, n, Vector3d::UnitX(), true);
+  k.table_normal = n;
+  validate_kit(k);
+  EXPECT_EQ(height_coordinate(k), 2);
+  expect_search_beats_grid(k, 5);
+  Kit free = k;
+  free.travel_mm = {Interval{-2000, 2000}, Interval{-2000, 2000}, Interval{-2000, 2000}};
+  const OptimizeResult loose = optimize_kit(free, {Criterion::kWorst, 2});
+  const OptimizeResult bound = optimize_kit(k, {Criterion::kWorst, 2});
+  ASSERT_TRUE(loose.best && bound.best);
+  EXPECT_LT(loose.best->objective, 0.9 * bound.best->objective);
+}
+
+// The tables the rotation tests above compare with the C table, each on its own grid with a
+// workspace that binds (the general table's clash checks; a turned C kit tests the C table's):
+// a machining centre's B table over a quarter turn under its spindle (horizontal, along Z),
+// and a primed C table on a table of 400 mm.
+TEST(Exhaustive, TablesInTheirWorkspaceNoGridPointBeatsTheSearch) {
+  Eigen::Matrix3d R;
+  R << 0, 1, 0, 0, 0, 1, 1, 0, 0;
+  Kit b_table = turned_kit(test::small_c_kit(), R, 'B');
+  b_table.name = "small-hmc-b-table";
+  b_table.angle_range_deg = {0, 90};
+  Workspace spindle;
+  spindle.table_diameter_mm = 400;
+  spindle.footprint_mm = 60;
+  spindle.spindle_diameter_mm = 60;
+  spindle.ball_to_nose_mm = 60;
+  Kit primed = turned_kit(test::small_c_kit(), Eigen::Matrix3d::Identity(), 'C');
+  primed.name = "small-primed-c";
+  primed.axis =
+      AxisFrame::general('C', AxisFrame::Side::kTable, -Vector3d::UnitZ(), Vector3d::UnitX(), true);
+  primed.travel_mm = {Interval{-2000, 2000}, Interval{-2000, 2000}, Interval{-50, 2000}};
+  Workspace table;
+  table.table_diameter_mm = 400;  // a cup's centre at most 200 - 30 = 170 mm from the axis
+  table.footprint_mm = 60;
+  for (auto [k, w] : {std::pair{b_table, spindle}, std::pair{primed, table}}) {
+    SCOPED_TRACE(k.name);
+    const OptimizeResult loose = optimize_kit(k, {Criterion::kWorst, 2});
+    k.workspace = w;
+    validate_kit(k);
+    expect_search_beats_grid(k, 5);
+    const OptimizeResult bound = optimize_kit(k, {Criterion::kWorst, 2});
+    ASSERT_TRUE(loose.best && bound.best);
+    EXPECT_LT(loose.best->objective, 0.99 * bound.best->objective);
+  }
+}
+
 TEST(GeneralKit, TheCommittedKitsOfNewKindsFindFullRankDesigns) {
   for (const char* f : {"designs/kits/a-trunnion-kit.json", "designs/kits/b-table-kit.json",
                         "designs/kits/a-head-kit.json"}) {
@@ -358,6 +417,129 @@ TEST(GeneralKit, APatternsFixedHeightMustBeAStack) {
   }
   k.pattern.positions[1].L = PatternCoordinate{"", 145};  // the cup on the 100 mm block
   EXPECT_NO_THROW(validate_kit(k));
+  // The design says the height above the table, not its L (5 + 100 mm above the axis line).
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorst, 2});
+  ASSERT_TRUE(r.best);
+  int fixed = 0;
+  for (const Installation& in : r.best->design.installations) {
+    if (in.description.find("fixed by the pattern") == std::string::npos) continue;
+    ++fixed;
+    EXPECT_NE(in.description.find("the height above the table = 145 mm"), std::string::npos)
+        << in.description;
+    EXPECT_NEAR(in.L_mm, 105, 1e-9);
+  }
+  EXPECT_GT(fixed, 0);
+}
+
+// --- the drawings of a general-form table: the kit's table, cup and blocks ---------------------
+
+// Every match of `pattern` in an SVG: its captured numbers (a polygon's points split at ',' and
+// ' '), in the order drawn.
+std::vector<std::vector<double>> svg_numbers(const std::string& svg, const std::string& pattern) {
+  std::vector<std::vector<double>> out;
+  const std::regex re(pattern);
+  for (auto m = std::sregex_iterator(svg.begin(), svg.end(), re); m != std::sregex_iterator();
+       ++m) {
+    std::vector<double> v;
+    for (size_t g = 1; g < m->size(); ++g) {
+      std::string text = (*m)[g].str();
+      std::replace(text.begin(), text.end(), ',', ' ');
+      std::istringstream in(text);
+      for (double x; in >> x;) v.push_back(x);
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+const char* const kRedBall = "<circle cx='([-0-9.]+)' cy='([-0-9.]+)' r='5' fill='#d62728'";
+const char* const kTableLine =
+    "<line x1='([-0-9.]+)' y1='([-0-9.]+)' x2='([-0-9.]+)' y2='([-0-9.]+)' "
+    "style='stroke:#333;stroke-width:2'";
+// The distance of (x, y) from the line through (x1, y1) and (x2, y2), px.
+double off_line(double x, double y, const std::vector<double>& l) {
+  const double dx = l[2] - l[0], dy = l[3] - l[1];
+  return std::abs(dx * (y - l[1]) - dy * (x - l[0])) / std::hypot(dx, dy);
+}
+
+TEST(GeneralKit, ATrunnionsDrawingsStandTheCupOnItsBlocksOnTheTurnedTable) {
+  Kit k = small_trunnion_kit();
+  k.table_surface_mm = -50;
+  k.blocks_mm = {25, 100};
+  k.max_stack = 2;
+  validate_kit(k);
+  const OptimizeResult r = optimize_kit(k, {Criterion::kWorst, 2});
+  ASSERT_TRUE(r.best);
+  const SetupSheet sheet = make_setup_sheet(r.best->design, ProgramOptions{}, std::nullopt, &k);
+  const SetupSheet bare = make_setup_sheet(r.best->design, ProgramOptions{}, std::nullopt, nullptr);
+  ASSERT_EQ(sheet.kit_stacks.size(), r.best->design.installations.size());
+  for (size_t step = 0; step < sheet.order.steps.size(); ++step) {
+    const std::string svg = io::installation_drawing(sheet, static_cast<int>(step));
+    const auto& stack = sheet.kit_stacks[sheet.order.steps[step].installation];
+    ASSERT_TRUE(stack);
+    const auto blocks = svg_numbers(svg, "<polygon points='([^']*)' fill='#e0c080'");
+    const auto cups = svg_numbers(svg, "<polygon points='([^']*)' fill='#bbbbbb'");
+    const auto tables = svg_numbers(svg, kTableLine);
+    const auto balls = svg_numbers(svg, kRedBall);
+    ASSERT_EQ(blocks.size(), stack->blocks_mm.size()) << step;
+    ASSERT_EQ(cups.size(), 1u);
+    ASSERT_EQ(tables.size(), 1u);  // the table along the axis; none across it
+    ASSERT_FALSE(balls.empty());
+    // The stack stands on the table (its foot's corners on the table's line) and the cup's top
+    // edge centres on the ball, to the drawing's 0.1 px.
+    const std::vector<double>& foot = blocks.empty() ? cups[0] : blocks[0];
+    EXPECT_LE(off_line(foot[0], foot[1], tables[0]), 0.15) << svg;
+    EXPECT_LE(off_line(foot[2], foot[3], tables[0]), 0.15) << svg;
+    const std::vector<double>& cup = cups[0];
+    EXPECT_NEAR(0.5 * (cup[4] + cup[6]), balls[0][0], 0.15) << svg;
+    EXPECT_NEAR(0.5 * (cup[5] + cup[7]), balls[0][1], 0.15) << svg;
+    // Without the kit the design does not state its table: its balls alone are drawn.
+    const std::string plain = io::installation_drawing(bare, static_cast<int>(step));
+    EXPECT_EQ(plain.find("<polygon"), std::string::npos);
+    EXPECT_TRUE(svg_numbers(plain, kTableLine).empty());
+  }
+}
+
+TEST(GeneralKit, APrimedTablesDrawingsStandTheCupUpOnItsBlocks) {
+  // Direction -Z: the frame's H is down. The view turns so that the table's normal is up: the
+  // table's line below the ball, the cup's top at the ball.
+  Kit p = turned_kit(test::small_c_kit(), Eigen::Matrix3d::Identity(), 'C');
+  p.axis =
+      AxisFrame::general('C', AxisFrame::Side::kTable, -Vector3d::UnitZ(), Vector3d::UnitX(), true);
+  p.table_surface_mm = 20;
+  validate_kit(p);
+  const OptimizeResult r = optimize_kit(p, {Criterion::kWorst, 2});
+  ASSERT_TRUE(r.best);
+  const SetupSheet sheet = make_setup_sheet(r.best->design, ProgramOptions{}, std::nullopt, &p);
+  int on_blocks = 0;
+  for (size_t step = 0; step < sheet.order.steps.size(); ++step) {
+    const std::string svg = io::installation_drawing(sheet, static_cast<int>(step));
+    const auto& stack = sheet.kit_stacks[sheet.order.steps[step].installation];
+    ASSERT_TRUE(stack);
+    on_blocks += !stack->blocks_mm.empty();
+    const auto rect =
+        "<rect x='([-0-9.]+)' y='([-0-9.]+)' width='([-0-9.]+)' height='([-0-9.]+)' "
+        "fill='";
+    const auto blocks = svg_numbers(svg, std::string(rect) + "#e0c080'");
+    const auto cups = svg_numbers(svg, std::string(rect) + "#bbbbbb'");
+    const auto tables = svg_numbers(svg, kTableLine);
+    const auto balls = svg_numbers(svg, kRedBall);
+    ASSERT_EQ(blocks.size(), stack->blocks_mm.size());
+    ASSERT_EQ(cups.size(), 1u);
+    ASSERT_EQ(tables.size(), 1u);
+    ASSERT_EQ(balls.size(), 2u);  // from above, from the side
+    const std::vector<double>& side_ball = balls[1];
+    EXPECT_NEAR(tables[0][1], tables[0][3], 1e-9);       // level
+    EXPECT_GT(tables[0][1], side_ball[1] + 10);          // below the ball (SVG y grows down)
+    EXPECT_NEAR(cups[0][1], side_ball[1], 0.15) << svg;  // the cup's top at the ball
+    // The stack from the table up: its bottom on the table's line, each block on the last.
+    double bottom = tables[0][1];
+    for (const auto& b : blocks) {
+      EXPECT_NEAR(b[1] + b[3], bottom, 0.15) << svg;
+      bottom = b[1];
+    }
+    EXPECT_NEAR(cups[0][1] + cups[0][3], bottom, 0.15) << svg;
+  }
+  EXPECT_GT(on_blocks, 0);  // the optimum raises a ball on the 150 mm block
 }
 
 }  // namespace

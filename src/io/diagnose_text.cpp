@@ -580,11 +580,6 @@ std::string where_phrase(const Design& design, const AddedEffect& a) {
   return p;
 }
 
-std::string capitalised(std::string s) {
-  if (!s.empty() && s[0] >= 'a' && s[0] <= 'z') s[0] = static_cast<char>(s[0] - 'a' + 'A');
-  return s;
-}
-
 std::string chi_short(const Estimate& e) {
   return "chi2 " + fmt_num(e.chi2, 4) + " on " + std::to_string(e.dof) + " dof, p " +
          (e.p_value ? p_text(*e.p_value) : std::string("undefined"));

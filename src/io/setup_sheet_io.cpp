@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -254,6 +255,25 @@ void rect(std::ostringstream& s, const Panel& p, double x, double y, double w, d
     << sheet_number(w * p.scale) << "' height='" << sheet_number(h * p.scale) << "' fill='" << fill
     << "' stroke='#555'/>";
 }
+// A block of width w standing on (x, y) and rising h along the unit vector n (a rotated rect).
+void block(std::ostringstream& s, const Panel& p, const Eigen::Vector2d& foot,
+           const Eigen::Vector2d& n, double w, double h, const std::string& fill) {
+  const Eigen::Vector2d t(-n.y(), n.x());
+  s << "<polygon points='";
+  for (const Eigen::Vector2d& c :
+       {Eigen::Vector2d(foot - 0.5 * w * t), Eigen::Vector2d(foot + 0.5 * w * t),
+        Eigen::Vector2d(foot + 0.5 * w * t + h * n), Eigen::Vector2d(foot - 0.5 * w * t + h * n)})
+    s << sheet_number(p.X(c.x())) << "," << sheet_number(p.Y(c.y())) << " ";
+  s << "' fill='" << fill << "' stroke='#555'/>";
+}
+// "X", "-Y", ... for a vector along a machine axis; empty for another.
+std::string machine_axis_name(const Eigen::Vector3d& v) {
+  for (int i = 0; i < 3; ++i) {
+    if (std::abs(std::abs(v[i]) - 1) > 1e-9) continue;
+    return std::string(v[i] < 0 ? "-" : "") + static_cast<char>('X' + i);
+  }
+  return "";
+}
 // A caption within its panel: wrapped at spaces onto further lines (about 6.6 px per character
 // at this size), so that two panels' captions never run into each other.
 void caption(std::ostringstream& s, const Panel& p, const std::string& text) {
@@ -285,9 +305,32 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
   // direction), the C shorthand's X, Y, Z; head, (direction x reference, direction, reference),
   // the B shorthand's X, Y, Z.
   const Eigen::Vector3d d_x_r = axis.direction().cross(axis.reference());
+  // A general-form table set up from a kit: the kit's table (its normal and surface) and the
+  // cup and blocks under this installation's ball. A table whose normal is its axis is drawn
+  // with the normal up (a primed table turned half a turn about its reference); a trunnion's
+  // table is drawn along its axis, turned to the angle.
+  const auto& table = sheet.kit_table;
+  const std::optional<Stack>* stack =
+      sheet.kit_stacks.empty() ? nullptr : &sheet.kit_stacks[st.installation];
+  const bool across = table && std::abs(table->first.dot(axis.direction())) < 0.5;
+  const double flip = table && !across && table->first.dot(axis.direction()) < 0 ? -1 : 1;
   Eigen::Matrix3d to_view;
+  // A table is seen along its axis, from the side its normal faces (toward the viewer: w).
+  // About a vertical axis the reference is to the right (the C shorthand's X right, Y up);
+  // about another, machine Z is up as far as the view shows it (a trunnion's table at its zero
+  // is level), so that the picture stands as the machine does.
+  const Eigen::Vector3d w = flip * axis.direction();
+  std::string view_axes;
   if (axis.table()) {
-    to_view << axis.reference().transpose(), d_x_r.transpose(), axis.direction().transpose();
+    Eigen::Vector3d right = axis.reference(), up = w.cross(right);
+    if (std::abs(w.z()) < 0.9) {
+      up = (Eigen::Vector3d::UnitZ() - w.z() * w).normalized();
+      right = up.cross(w);
+      const std::string r = machine_axis_name(right);
+      view_axes = " (" + (r.empty() ? std::string() : r + " right, ") +
+                  (machine_axis_name(up) == "Z" ? "Z up" : "Z toward the top") + ")";
+    }
+    to_view << right.transpose(), up.transpose(), w.transpose();
   } else {
     // A spindle pointing down at angle 0 is drawn down: the view turned 180 deg about the axis.
     const double up = axis.reference().z() < 0 ? -1 : 1;
@@ -309,16 +352,43 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
   const std::string axis_style = "stroke:#888;stroke-dasharray:4 3";
   if (axis.table()) {
     // From above: the axis, the paths of both balls (dashed), the balls and the bar.
-    const double R = std::max({P.head<2>().norm(), F.head<2>().norm(), 50.0}) * 1.1;
+    const double surface = table ? table->second : 0.0;
+    const double R =
+        std::max({P.head<2>().norm(), F.head<2>().norm(), across ? std::abs(surface) : 0.0, 50.0}) *
+        1.1;
     const Panel top(0, 0, 320, {{-R, -R}, {R, R}});
     caption(s, top,
             (shorthand ? std::string("from above (X right, Y up), C ")
-                       : "along " + letter + ", " + letter + " ") +
-                mm(a) + " deg; dashed: the paths");
+             : table && !across
+                 ? "onto the table, its normal toward you" + view_axes + ", " + letter + " "
+                 : "along " + letter + view_axes + ", " + letter + " ") +
+                mm(a) + " deg; dashed: the paths" +
+                (across ? "; the table and the ball's cup and blocks" : ""));
     line(s, top, -R, 0, R, 0, axis_style);
     line(s, top, 0, -R, 0, R, axis_style);
     path(s, top, P.head<2>().norm());
     path(s, top, F.head<2>().norm());
+    if (across) {
+      // The trunnion's table turned to the angle: a chord of the panel's circle at the surface,
+      // and the cup on its blocks along the turned normal under the ball.
+      const Eigen::Vector3d turned =
+          to_view * (Eigen::AngleAxisd(a * M_PI / 180, axis.direction()) * table->first);
+      const Eigen::Vector2d n = turned.head<2>().normalized(), t(-n.y(), n.x());
+      const double half = std::sqrt(std::max(R * R - surface * surface, 0.0));
+      line(s, top, surface * n.x() - half * t.x(), surface * n.y() - half * t.y(),
+           surface * n.x() + half * t.x(), surface * n.y() + half * t.y(),
+           "stroke:#333;stroke-width:2");
+      if (stack && *stack) {
+        const double height = P.head<2>().dot(n) - surface;
+        const Eigen::Vector2d foot = P.head<2>() - height * n;
+        double z = 0;
+        for (double b : (*stack)->blocks_mm) {
+          block(s, top, foot + z * n, n, 40, b, "#e0c080");
+          z += b;
+        }
+        block(s, top, foot + z * n, n, 20, std::max(height - z, 0.0), "#bbbbbb");
+      }
+    }
     line(s, top, P.x(), P.y(), F.x(), F.y(), bar_style);
     ball(s, top, P.x(), P.y(), "#d62728", "ball " + in.id);
     ball(s, top, F.x(), F.y(), "#2ca02c", "spindle", true);
@@ -329,23 +399,35 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
             : Eigen::Vector2d(std::cos(a * M_PI / 180), std::sin(a * M_PI / 180));
     const double pr = P.head<2>().dot(radial), fr = F.head<2>().dot(radial);
     // At least 200 mm across, so that a small set-up is not drawn larger than a big one.
+    // The table surface under the ball, where this view shows it as a line: the C shorthand's
+    // at 0, a general table's whose normal is its axis at its surface (from the kit; without
+    // one a general design does not state its table, and its balls alone are drawn).
+    const bool table_here = shorthand || (table && !across);
+    const double table_z = shorthand ? 0.0 : surface;
     const double lo = std::min({pr, fr, 0.0}) - 30, hi = std::max({pr, fr, 0.0}) + 30,
-                 top_z = std::max({P.z(), F.z(), 0.0}) + 20, low_z = std::min(F.z(), 0.0);
+                 top_z = std::max({P.z(), F.z(), 0.0}) + 20,
+                 low_z = std::min(
+                     {F.z(), 0.0, table_here ? table_z : 0.0, shorthand ? 0.0 : P.z() - 20});
     const double wide = std::max(0.0, 200 - (hi - lo)) / 2;
     const Panel side(320, 0, 320, {{lo - wide, low_z}, {hi + wide, std::max(top_z, low_z + 200)}});
     caption(s, side,
-            shorthand ? "from the side (radial right, Z up)"
-                      : "across " + letter + " (radial right, along " + letter + " up)");
-    // The table surface and the ball's stack on it: the C turntable's, whose normal is its axis
-    // (another table's normal is not in the design: its balls alone are drawn).
-    if (shorthand) {
-      line(s, side, side.cx - 0.5 * side.size / side.scale, 0,
-           side.cx + 0.5 * side.size / side.scale, 0, "stroke:#333;stroke-width:2");
+            shorthand    ? "from the side (radial right, Z up)"
+            : table_here ? "across " + letter + " (radial right, the table's normal up)"
+                         : "across " + letter + " (radial right, along " + letter + " up)");
+    if (table_here) {
+      line(s, side, side.cx - 0.5 * side.size / side.scale, table_z,
+           side.cx + 0.5 * side.size / side.scale, table_z, "stroke:#333;stroke-width:2");
     }
-    line(s, side, 0, 0, 0, std::max(P.z(), F.z()) + 20, axis_style);
-    if (shorthand) {
-      double z = 0;
-      for (double b : in.blocks_mm) {
+    // The axis from the table (the C shorthand's origin) or, on another table, through the origin
+    // and past both balls (a trunnion's may lie on either side of the origin along its axis).
+    line(s, side, 0, shorthand ? 0.0 : std::min({0.0, P.z(), F.z()}) - 20, 0,
+         std::max({P.z(), F.z(), shorthand ? P.z() : 0.0}) + 20, axis_style);
+    const std::vector<double>* blocks = shorthand                       ? &in.blocks_mm
+                                        : table_here && stack && *stack ? &(*stack)->blocks_mm
+                                                                        : nullptr;
+    if (blocks) {
+      double z = table_z;
+      for (double b : *blocks) {
         rect(s, side, pr - 20, z, 40, b, "#e0c080");
         z += b;
       }

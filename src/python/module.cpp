@@ -656,18 +656,25 @@ struct PyDiagnoseResult {
         row.push_back(6 * static_cast<Eigen::Index>(i) + k);
       }
     }
-    std::vector<Eigen::VectorXd> kc;
-    if (est.covariance_K.cols() > 0)
-      for (const auto& c : f) kc.push_back(est.low_rank_coordinates(c));
-    for (std::size_t a = 0; a < f.size(); ++a) {
-      const Eigen::VectorXd ca = Eigen::VectorXd(f[a]);
-      const Eigen::VectorXd Sa = est.covariance * ca;
-      for (std::size_t b = 0; b < f.size(); ++b) {
-        double c = Eigen::VectorXd(f[b]).dot(Sa);
-        if (!kc.empty()) c += kc[a].dot(est.covariance_S * kc[b]);
-        full(row[a], row[b]) = c;
-      }
+    // The functions as the columns of one sparse matrix F: F' covariance F (+ the low-rank
+    // term's (K'F)' S (K'F)), formed once.
+    const Eigen::Index m = static_cast<Eigen::Index>(f.size());
+    std::vector<Eigen::Triplet<double>> entries;
+    for (Eigen::Index a = 0; a < m; ++a)
+      for (Estimate::Function::InnerIterator it(f[static_cast<std::size_t>(a)]); it; ++it)
+        entries.emplace_back(it.index(), a, it.value());
+    Eigen::SparseMatrix<double> F(est.covariance.rows(), m);
+    F.setFromTriplets(entries.begin(), entries.end());
+    Eigen::MatrixXd C = Eigen::MatrixXd(F.transpose() * (est.covariance * F));
+    if (est.covariance_K.cols() > 0 && m > 0) {
+      Eigen::MatrixXd KF(est.covariance_K.cols(), m);
+      for (Eigen::Index a = 0; a < m; ++a)
+        KF.col(a) = est.low_rank_coordinates(f[static_cast<std::size_t>(a)]);
+      C += KF.transpose() * est.covariance_S * KF;
     }
+    for (Eigen::Index a = 0; a < m; ++a)
+      for (Eigen::Index b = 0; b < m; ++b)
+        full(row[static_cast<std::size_t>(a)], row[static_cast<std::size_t>(b)]) = C(a, b);
     return full;
   }
   std::string report(const std::string& format) const {
