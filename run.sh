@@ -50,8 +50,9 @@ if [ "$status" -gt 1 ]; then exit "$status"; fi
 echo "== C table's corrected errors against the same acceptance: $(grep -m1 'verdict' reports/paper-c-turntable-diagnose-conformance.txt | sed 's/^ *//')"
 # From the instrument's traces: simulated 1 kHz traces of the paper's C design (moves, settling,
 # noise), their dwells found and matched to the sweep (reports/paper-c-turntable-readings.*).
-traces="$(mktemp -d)"
-trap 'rm -rf "$traces"' EXIT
+# In the build tree under a fixed name, so that the report's inputs read the same on every run.
+traces=build/traces
+rm -rf "$traces" && mkdir -p "$traces"
 ./build/dbbkit simulate --design designs/paper-c-turntable.json --truth tests/data/truth_c_per_angle.json \
   --seed 4 --out "$traces/sim.csv" --trace-out "$traces/"
 ./build/dbbkit readings --design designs/paper-c-turntable.json --quiet \
