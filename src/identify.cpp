@@ -345,7 +345,10 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   const double scale = res.budget.type_a_scale.value_or(1.0);
   int j = res.param.n_axis_parameters();
   for (const EffectBlock& b : blocks) {
-    FittedEffect f{b.label, b.unit, b.parameters, {}};
+    FittedEffect f;
+    f.label = b.label;
+    f.unit = b.unit;
+    f.parameters = b.parameters;
     for (std::size_t q = 0; q < b.parameters.size(); ++q, ++j) {
       Estimate::Function c(res.estimate.n_unknowns);
       c.insert(j) = 1.0;

@@ -5,6 +5,7 @@
 #include <iomanip>
 #include <sstream>
 #include <unordered_map>
+#include <utility>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/parameterisation.hpp"
@@ -18,8 +19,12 @@ std::vector<Reading> nominal_readings(const Design& design) {
   std::vector<Reading> out;
   out.reserve(design.installations.size() * design.angles_deg.size());
   for (const Installation& in : design.installations) {
-    for (double a : design.angles_deg)
-      out.push_back({in.id, a, 0.0, std::nullopt, std::nullopt, std::nullopt, 0});
+    for (double a : design.angles_deg) {
+      Reading r;
+      r.installation = in.id;
+      r.angle_deg = a;
+      out.push_back(std::move(r));
+    }
   }
   return out;
 }

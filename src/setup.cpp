@@ -38,8 +38,10 @@ std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& 
   std::vector<Reading> rows;
   rows.reserve(model.row_installation.size());
   for (std::size_t r = 0; r < model.row_installation.size(); ++r) {
-    rows.push_back({design.installations[model.row_installation[r]].id, model.row_angle_deg[r], 0.0,
-                    std::nullopt, std::nullopt, std::nullopt, 0});
+    Reading row;
+    row.installation = design.installations[model.row_installation[r]].id;
+    row.angle_deg = model.row_angle_deg[r];
+    rows.push_back(std::move(row));
   }
   return setup_effects(design, rows, only_declared);
 }

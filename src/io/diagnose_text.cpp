@@ -777,30 +777,7 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
         "assume a perfect set-up");
   if (next.empty() && !r.significant_after)
     action("enter the errors (compensation) or decide on them (--tolerances)");
-  // Sentences within the limit each; the last one the summary has room for takes what is left
-  // (cut with " ..." when it is too long: the verdict has every step).
-  std::vector<std::string> sentences;
-  std::string sentence;
-  for (const std::string& a : next) {
-    const std::string candidate = sentence.empty() ? "Next: " + a : sentence + "; " + a;
-    if (candidate.size() + 1 > kBriefItemMaxChars && !sentence.empty()) {
-      sentences.push_back(sentence + ".");
-      sentence = "Then: " + a;
-    } else {
-      sentence = candidate;
-    }
-  }
-  if (!sentence.empty()) sentences.push_back(sentence + ".");
-  const std::size_t room = kBriefMaxItems > out.size() ? kBriefMaxItems - out.size() : 0;
-  for (std::size_t i = 0; i < sentences.size() && room > 0; ++i) {
-    if (i + 1 == room && i + 1 < sentences.size()) {
-      std::string rest = sentences[i];
-      for (std::size_t j = i + 1; j < sentences.size(); ++j) rest += " " + sentences[j];
-      add("next", rest);
-      break;
-    }
-    add("next", sentences[i]);
-  }
+  add_next_items(out, next);
   return out;
 }
 

@@ -470,9 +470,7 @@ std::vector<BriefItem> evaluate_brief(const Design& design, const Evaluation& ev
   if (!design.setup_nuisance_declared())
     next.push_back("declare length offset and centring tolerances (setup_std) in the design");
   if (next.empty()) next.push_back("measure it (dbbkit program, setup-sheet), then identify");
-  std::string n = "Next: ";
-  for (std::size_t i = 0; i < next.size(); ++i) n += (i ? "; " : "") + next[i];
-  add_brief_item(out, "next", n + ".");
+  add_next_items(out, next);
   return out;
 }
 
@@ -524,9 +522,7 @@ std::vector<BriefItem> identify_brief(const Design& design, const IdentifyResult
     next.push_back("add installations that see the undetermined errors");
   if (next.empty())
     next.push_back("decide on the errors (--tolerances) or enter them (compensation)");
-  std::string n = "Next: ";
-  for (std::size_t i = 0; i < next.size(); ++i) n += (i ? "; " : "") + next[i];
-  add_brief_item(out, "next", n + ".");
+  add_next_items(out, next);
   return out;
 }
 

@@ -30,6 +30,31 @@ void add_brief_item(std::vector<BriefItem>& brief, const std::string& topic,
   brief.push_back({topic, t});
 }
 
+void add_next_items(std::vector<BriefItem>& brief, const std::vector<std::string>& steps) {
+  std::vector<std::string> sentences;
+  std::string sentence;
+  for (const std::string& a : steps) {
+    const std::string candidate = sentence.empty() ? "Next: " + a : sentence + "; " + a;
+    if (candidate.size() + 1 > kBriefItemMaxChars && !sentence.empty()) {
+      sentences.push_back(sentence + ".");
+      sentence = "Then: " + a;
+    } else {
+      sentence = candidate;
+    }
+  }
+  if (!sentence.empty()) sentences.push_back(sentence + ".");
+  const std::size_t room = kBriefMaxItems > brief.size() ? kBriefMaxItems - brief.size() : 0;
+  for (std::size_t i = 0; i < sentences.size() && i < room; ++i) {
+    if (i + 1 == room && i + 1 < sentences.size()) {
+      std::string rest = sentences[i];
+      for (std::size_t j = i + 1; j < sentences.size(); ++j) rest += " " + sentences[j];
+      add_brief_item(brief, "next", rest);
+      break;
+    }
+    add_brief_item(brief, "next", sentences[i]);
+  }
+}
+
 std::string brief_text(const std::vector<BriefItem>& brief) {
   if (brief.empty()) return "";
   std::string s = "summary:\n";

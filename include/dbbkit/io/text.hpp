@@ -29,6 +29,10 @@ inline constexpr std::size_t kBriefMaxItems = 6;
 // long name from a user's file) is cut at a space with " ...".
 void add_brief_item(std::vector<BriefItem>& brief, const std::string& topic,
                     const std::string& text);
+// Appends what to do next, in order, as "Next: a; b." items (topic "next"): each sentence within
+// kBriefItemMaxChars, the next one beginning "Then: "; the last item the summary has room for
+// takes the rest (cut with " ..." when too long). Nothing for no steps.
+void add_next_items(std::vector<BriefItem>& brief, const std::vector<std::string>& steps);
 // The summary as the terminal's first lines ("summary:" and one "  - " line per item).
 std::string brief_text(const std::vector<BriefItem>& brief);
 
