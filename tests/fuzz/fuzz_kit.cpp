@@ -7,7 +7,9 @@
 //   (OptimizeOptions::max_evaluations_per_choice), and for each design a solver work
 //   n_readings * n_unknowns^2 <= kMaxWork (series models; a per-angle model is solved per
 //   station, n_readings * 36), with n_readings from the most installations the kit's
-//   pattern can give.
+//   pattern can give; with a spindle in the workspace, whose clash with the table and cup is
+//   sampled along the arc (every 0.25 deg on a head, 0.5 deg on a general table), at most
+//   kMaxSamples samples over the whole search.
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -22,9 +24,17 @@ namespace {
 constexpr size_t kMaxChoices = 8;
 constexpr long kMaxEvaluations = 40;
 constexpr double kMaxWork = 2e5;
+constexpr double kMaxSamples = 2e5;
 
 bool bounded(const dbbkit::Kit& kit) {
-  if (dbbkit::pattern_choices(kit).size() > kMaxChoices) return false;
+  const size_t choices = dbbkit::pattern_choices(kit).size();
+  if (choices > kMaxChoices) return false;
+  if (kit.workspace && kit.workspace->ball_to_nose_mm > 0) {
+    const double per_arc = kit.angle_range_deg.width() / 0.25 + 1;
+    const double samples = static_cast<double>(choices) * kMaxEvaluations *
+                           dbbkit::max_installations(kit) * per_arc;
+    if (!(samples <= kMaxSamples)) return false;
+  }
   const int per_error = dbbkit::coefficients_per_error(kit.errors);
   for (double step : kit.angle_steps_deg) {
     const double angles = kit.angle_range_deg.width() / step + 1;
