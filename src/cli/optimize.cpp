@@ -1,6 +1,7 @@
 #include "dbbkit/optimize.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -105,6 +106,9 @@ Runner add_optimize(CLI::App& app) {
         if (t < 1.0 || (t - last_report < 1.0 && done < total)) return;
         last_report = t;
         std::cerr << "optimize: " << done << "/" << total << " choices searched, " << t << " s";
+        // The choices take alike long on average: the rest at the rate so far.
+        if (done > 0 && done < total)
+          std::cerr << " (about " << std::llround(t * (total - done) / done) << " s left)";
         if (best && best->objective_defined)
           std::cerr << ", best " << criterion_name(criterion) << " " << best->objective;
         std::cerr << "\n";
