@@ -258,10 +258,10 @@ ConformanceReport decide_conformance(const Design& design, const IdentifyResult&
   rep.coverage_probability = p;
   const Estimate& est = result.estimate;
   const bool type_a = result.budget.type_a_scale.has_value();
-  // k of the ISO quantities: their u carries the Type A scale, with the residual's
-  // degrees of freedom; Type B: infinite.
-  rep.k_iso = coverage_factor(type_a ? std::optional<double>(est.dof) : std::nullopt, p);
-  if (type_a) rep.type_a_dof = est.dof;
+  // k of the ISO quantities: Student's t at the degrees of freedom of their Type A part (the
+  // residual's, or the least effective of the readings' own); Type B: infinite.
+  rep.type_a_dof = iso_degrees_of_freedom(result.budget);
+  rep.k_iso = coverage_factor(rep.type_a_dof, p);
   if (!type_a && est.p_value && *est.p_value < kNoiseContradiction)
     rep.noise_contradiction_p = *est.p_value;
   rep.no_setup_tolerances = !result.setup_included;

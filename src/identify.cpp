@@ -324,7 +324,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
   res.setup_included = setup.any();
   IsoMotionOptions motion = options.iso_motion;
   motion.coverage_probability = options.budget.coverage_probability;
-  motion.dof = res.budget.type_a_scale ? std::optional<double>(res.estimate.dof) : std::nullopt;
+  motion.dof = iso_degrees_of_freedom(res.budget);
   res.iso = iso230_quantities(design, res.param, res.estimate,
                               res.budget.type_a_scale.value_or(1.0), motion);
   bool placement = false;

@@ -20,6 +20,15 @@ Expansion a_priori_expansion(double coverage_probability) {
   return {coverage_probability, coverage_factor(std::nullopt, coverage_probability)};
 }
 
+std::optional<double> iso_degrees_of_freedom(const Budget& budget) {
+  if (budget.type_a_dof) return static_cast<double>(*budget.type_a_dof);
+  if (!budget.reading_type_a) return std::nullopt;
+  std::optional<double> least;
+  for (const ValueBudget& v : budget.values)
+    if (v.nu_eff && (!least || *v.nu_eff < *least)) least = v.nu_eff;
+  return least;
+}
+
 std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& components) {
   double uc2 = 0, denom = 0;
   for (const BudgetComponent& c : components) {

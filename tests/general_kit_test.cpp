@@ -489,6 +489,13 @@ TEST(GeneralKit, ATrunnionsDrawingsStandTheCupOnItsBlocksOnTheTurnedTable) {
     const std::vector<double>& foot = blocks.empty() ? cups[0] : blocks[0];
     EXPECT_LE(off_line(foot[0], foot[1], tables[0]), 0.15) << svg;
     EXPECT_LE(off_line(foot[2], foot[3], tables[0]), 0.15) << svg;
+    // ... within the table's drawn length (not past its end).
+    const std::vector<double>& l = tables[0];
+    for (int c : {0, 2}) {
+      const double along = (foot[c] - l[0]) * (l[2] - l[0]) + (foot[c + 1] - l[1]) * (l[3] - l[1]);
+      EXPECT_GE(along, 0) << svg;
+      EXPECT_LE(along, std::pow(l[2] - l[0], 2) + std::pow(l[3] - l[1], 2)) << svg;
+    }
     const std::vector<double>& cup = cups[0];
     EXPECT_NEAR(0.5 * (cup[4] + cup[6]), balls[0][0], 0.15) << svg;
     EXPECT_NEAR(0.5 * (cup[5] + cup[7]), balls[0][1], 0.15) << svg;
@@ -527,6 +534,14 @@ TEST(GeneralKit, APrimedTablesDrawingsStandTheCupUpOnItsBlocks) {
     ASSERT_EQ(cups.size(), 1u);
     ASSERT_EQ(tables.size(), 1u);
     ASSERT_EQ(balls.size(), 2u);  // from above, from the side
+    std::string words;            // the captions' lines joined
+    const std::regex text_re("<text[^>]*>([^<]*)</text>");
+    for (auto m = std::sregex_iterator(svg.begin(), svg.end(), text_re);
+         m != std::sregex_iterator(); ++m)
+      words += (*m)[1].str() + " ";
+    EXPECT_NE(words.find("onto the table, its normal toward you (X right, Y up)"),
+              std::string::npos)
+        << words;
     const std::vector<double>& side_ball = balls[1];
     EXPECT_NEAR(tables[0][1], tables[0][3], 1e-9);       // level
     EXPECT_GT(tables[0][1], side_ball[1] + 10);          // below the ball (SVG y grows down)

@@ -10,11 +10,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
 
 #include "cli_util.hpp"
+#include "dbbkit/conformance.hpp"
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/identify.hpp"
@@ -308,6 +310,28 @@ TEST(TraceTypeA, ReadingsTypeAEntersTheBudget) {
     ASSERT_TRUE(v.nu_eff);
     EXPECT_GT(v.k, 1.959963);  // Student's t at a finite nu_eff
   }
+  // The ISO 230 quantities pool the same readings: their t (the error motions' Monte Carlo, the
+  // tolerance decisions' k) takes the least effective degrees of freedom of the errors.
+  double least = std::numeric_limits<double>::infinity();
+  for (const ValueBudget& v : r.budget.values) least = std::min(least, *v.nu_eff);
+  EXPECT_GE(least, 10 - 1e-9);
+  ASSERT_TRUE(iso_degrees_of_freedom(r.budget));
+  EXPECT_EQ(*iso_degrees_of_freedom(r.budget), least);
+  EXPECT_FALSE(iso_degrees_of_freedom(plain.budget));
+  ASSERT_FALSE(r.iso.motion_values.values.empty());
+  EXPECT_EQ(r.iso.motion_values.dof, least);
+  Tolerance x0c;
+  x0c.quantity = "X0C";
+  x0c.lower = -100;
+  x0c.upper = 100;
+  x0c.where = "limits[0]";
+  const ConformanceReport rep = decide_conformance(d, r, {x0c}, "test");
+  EXPECT_EQ(rep.type_a_dof, least);
+  EXPECT_NEAR(rep.k_iso, coverage_factor(least, 0.95), 1e-12);
+  EXPECT_GT(rep.k_iso, 1.96);
+  const Determined& iso_x = r.iso.location[0].value;
+  ASSERT_TRUE(rep.results[0].high);
+  EXPECT_NEAR(*rep.results[0].high - iso_x.value, rep.k_iso * iso_x.std, 1e-9 * (1 + iso_x.std));
   // A reading without its Type A is named; --type-a with it is refused.
   readings[3].u_a_um.reset();
   readings[3].u_a_dof.reset();

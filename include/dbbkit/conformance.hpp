@@ -77,7 +77,7 @@ struct ConformanceReport {
   // k of the ISO 230-7 quantities' intervals: Student's t at type_a_dof degrees of freedom
   // (Type A), else the normal quantile.
   double k_iso = 0;
-  std::optional<int> type_a_dof;
+  std::optional<double> type_a_dof;
   std::vector<ConformanceResult> results;  // in the order of the tolerances
   // What the decisions rest on that the data or the design put in doubt: the residual
   // contradicting the declared noise (its chi2 p-value below kNoiseContradiction, Type B

@@ -81,6 +81,14 @@ struct Expansion {
 };
 Expansion a_priori_expansion(double coverage_probability = BudgetOptions{}.coverage_probability);
 
+// The degrees of freedom behind the ISO 230 quantities' uncertainties (their k and the
+// multivariate t of the error motions): with a Type A evaluation from the residual, its
+// degrees of freedom; with the readings' own Type A parts (reading_type_a), the least
+// effective degrees of freedom of the budget's values (each a Welch-Satterthwaite pooling of
+// the same readings; a quantity pooling more of them has at least as many: the least errs on
+// the wide side); otherwise none (Type B: infinite).
+std::optional<double> iso_degrees_of_freedom(const Budget& budget);
+
 // nu_eff = u_c^4 / sum(u_i^4 / nu_i) over components with finite nu (Welch-Satterthwaite).
 std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& components);
 

@@ -1044,8 +1044,7 @@ std::string iso_motion_note(const IsoMotionValues& mv) {
          " % quantile of the range of the estimation errors (|range(estimate) - range(true)| <= "
          "range(errors): coverage probability at least " +
          pct + " %), U by Monte Carlo (JCGM 101) from the joint " +
-         (mv.dof ? "t distribution (" + std::to_string(static_cast<int>(*mv.dof)) +
-                       " degrees of freedom)"
+         (mv.dof ? "t distribution (" + fmt_rounded(*mv.dof, 1) + " degrees of freedom)"
                  : std::string("Gaussian")) +
          " of the component values: " + std::to_string(mv.trials) + " trials, seed " +
          std::to_string(mv.seed) + (mv.converged ? "" : ", not converged");

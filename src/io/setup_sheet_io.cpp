@@ -323,12 +323,15 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
   std::string view_axes;
   if (axis.table()) {
     Eigen::Vector3d right = axis.reference(), up = w.cross(right);
+    const std::string r = machine_axis_name(right);
     if (std::abs(w.z()) < 0.9) {
       up = (Eigen::Vector3d::UnitZ() - w.z() * w).normalized();
       right = up.cross(w);
-      const std::string r = machine_axis_name(right);
-      view_axes = " (" + (r.empty() ? std::string() : r + " right, ") +
+      const std::string r_turned = machine_axis_name(right);
+      view_axes = " (" + (r_turned.empty() ? std::string() : r_turned + " right, ") +
                   (machine_axis_name(up) == "Z" ? "Z up" : "Z toward the top") + ")";
+    } else if (!r.empty() && !machine_axis_name(up).empty()) {
+      view_axes = " (" + r + " right, " + machine_axis_name(up) + " up)";
     }
     to_view << right.transpose(), up.transpose(), w.transpose();
   } else {
@@ -363,24 +366,27 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
                  ? "onto the table, its normal toward you" + view_axes + ", " + letter + " "
                  : "along " + letter + view_axes + ", " + letter + " ") +
                 mm(a) + " deg; dashed: the paths" +
-                (across ? "; the table and the ball's cup and blocks" : ""));
+                (!across           ? ""
+                 : stack && *stack ? "; the table and the ball's cup and blocks"
+                                   : "; the table (no stack of the kit builds the ball's height)"));
     line(s, top, -R, 0, R, 0, axis_style);
     line(s, top, 0, -R, 0, R, axis_style);
     path(s, top, P.head<2>().norm());
     path(s, top, F.head<2>().norm());
     if (across) {
-      // The trunnion's table turned to the angle: a chord of the panel's circle at the surface,
-      // and the cup on its blocks along the turned normal under the ball.
+      // The trunnion's table turned to the angle: at least the chord of the panel's circle at
+      // the surface, and under the ball's blocks; the cup on its blocks along the turned normal.
       const Eigen::Vector3d turned =
           to_view * (Eigen::AngleAxisd(a * M_PI / 180, axis.direction()) * table->first);
       const Eigen::Vector2d n = turned.head<2>().normalized(), t(-n.y(), n.x());
-      const double half = std::sqrt(std::max(R * R - surface * surface, 0.0));
+      const double height = P.head<2>().dot(n) - surface;
+      const Eigen::Vector2d foot = P.head<2>() - height * n;
+      const double half =
+          std::max(std::sqrt(std::max(R * R - surface * surface, 0.0)), std::abs(foot.dot(t)) + 30);
       line(s, top, surface * n.x() - half * t.x(), surface * n.y() - half * t.y(),
            surface * n.x() + half * t.x(), surface * n.y() + half * t.y(),
            "stroke:#333;stroke-width:2");
       if (stack && *stack) {
-        const double height = P.head<2>().dot(n) - surface;
-        const Eigen::Vector2d foot = P.head<2>() - height * n;
         double z = 0;
         for (double b : (*stack)->blocks_mm) {
           block(s, top, foot + z * n, n, 40, b, "#e0c080");
@@ -405,7 +411,7 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
     const bool table_here = shorthand || (table && !across);
     const double table_z = shorthand ? 0.0 : surface;
     const double lo = std::min({pr, fr, 0.0}) - 30, hi = std::max({pr, fr, 0.0}) + 30,
-                 top_z = std::max({P.z(), F.z(), 0.0}) + 20,
+                 top_z = std::max({P.z(), F.z(), 0.0, table_here ? table_z : 0.0}) + 20,
                  low_z = std::min(
                      {F.z(), 0.0, table_here ? table_z : 0.0, shorthand ? 0.0 : P.z() - 20});
     const double wide = std::max(0.0, 200 - (hi - lo)) / 2;

@@ -239,7 +239,7 @@ std::string conformance_basis(const ConformanceReport& report, const Conformance
   const std::string iso =
       "value +- k u, k = " + fmt_num(report.k_iso, 4) +
       (report.type_a_dof
-           ? " (Student's t, " + std::to_string(*report.type_a_dof) + " degrees of freedom)"
+           ? " (Student's t, " + fmt_rounded(*report.type_a_dof, 1) + " degrees of freedom)"
            : std::string(" (normal)"));
   switch (r.basis) {
     case ConformanceResult::Basis::kIsoQuantity:

@@ -31,8 +31,8 @@ bool bounded(const dbbkit::Kit& kit) {
   if (choices > kMaxChoices) return false;
   if (kit.workspace && kit.workspace->ball_to_nose_mm > 0) {
     const double per_arc = kit.angle_range_deg.width() / 0.25 + 1;
-    const double samples = static_cast<double>(choices) * kMaxEvaluations *
-                           dbbkit::max_installations(kit) * per_arc;
+    const double samples =
+        static_cast<double>(choices) * kMaxEvaluations * dbbkit::max_installations(kit) * per_arc;
     if (!(samples <= kMaxSamples)) return false;
   }
   const int per_error = dbbkit::coefficients_per_error(kit.errors);
