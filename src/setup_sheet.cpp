@@ -279,6 +279,12 @@ RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
   const WorstCase after = design_worst_case(out.design, *design.reference_length_mm);
   out.worst_std_um = before.worst_std_um;
   out.rounded_worst_std_um = after.worst_std_um;
+  if (design.setup_nuisance_declared()) {
+    out.worst_total_std_um =
+        design_worst_total(design, *design.reference_length_mm).total.worst_std_um;
+    out.rounded_worst_total_std_um =
+        design_worst_total(out.design, *design.reference_length_mm).total.worst_std_um;
+  }
   if (kit) {
     out.travel_checked = true;
     for (const Installation& in : out.design.installations) {

@@ -190,6 +190,19 @@ TEST(RoundDesign, RoundsScoresAgainAndChecksTheTravel) {
   EXPECT_EQ(r.worst_std_um, before.worst_std_um);
   EXPECT_EQ(r.rounded_worst_std_um, after.worst_std_um);
   EXPECT_NE(*r.worst_std_um, *r.rounded_worst_std_um);
+  EXPECT_FALSE(r.worst_total_std_um);  // the paper's design declares no set-up tolerances
+  // With them, the total as given and as rounded, each as evaluate_design states it.
+  Design declared = d;
+  declared.setup_std.length_offset_um = 1;
+  declared.setup_std.centring_um = 5;
+  const RoundedDesign rt = round_design(declared, 1.0, nullptr);
+  ASSERT_TRUE(rt.worst_total_std_um && rt.rounded_worst_total_std_um);
+  const Evaluation eb = evaluate_design(declared, *d.reference_length_mm);
+  const Evaluation ea = evaluate_design(rt.design, *d.reference_length_mm);
+  ASSERT_TRUE(eb.worst_total && ea.worst_total);
+  EXPECT_NEAR(*rt.worst_total_std_um, *eb.worst_total->worst_std_um, 1e-9);
+  EXPECT_NEAR(*rt.rounded_worst_total_std_um, *ea.worst_total->worst_std_um, 1e-9);
+  EXPECT_GT(*rt.rounded_worst_total_std_um, *rt.rounded_worst_std_um);
   // 1r's following ball circles at |100.3 - 150| = 49.7 mm; rounded, at 50 mm. A travel of
   // +-49.8 mm in x and y holds the design as given, not as rounded.
   Kit kit = io::read_kit_file(test::source_path("designs/kits/c-turntable-kit.json"));

@@ -54,6 +54,9 @@ struct RoundedDesign {
   double largest_shift_mm = 0;  // over every coordinate of every installation
   // worst_std_um of the design as given and as rounded (absent: not every error determined).
   std::optional<double> worst_std_um, rounded_worst_std_um;
+  // With declared length offset or centring tolerances: worst_total_std_um (noise and set-up),
+  // as given and as rounded (absent: none declared, or not every error determined).
+  std::optional<double> worst_total_std_um, rounded_worst_total_std_um;
   // With a kit: the installations whose following ball leaves the travel once rounded,
   // and by how much [mm].
   std::vector<std::pair<std::string, double>> outside_travel;

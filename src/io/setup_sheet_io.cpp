@@ -518,7 +518,13 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
     std::string t = "Ball positions rounded to " + fmt_num(r.resolution_mm) +
                     " mm (the largest shift " + mm(r.largest_shift_mm) +
                     " mm). worst_std_um (k = 1): " + fmt_opt(r.worst_std_um) + " um as designed, " +
-                    fmt_opt(r.rounded_worst_std_um) + " um as rounded.";
+                    fmt_opt(r.rounded_worst_std_um) + " um as rounded" +
+                    (r.worst_total_std_um || r.rounded_worst_total_std_um
+                         ? "; with the declared set-up tolerances (worst_total_std_um): " +
+                               fmt_opt(r.worst_total_std_um) + " um and " +
+                               fmt_opt(r.rounded_worst_total_std_um) + " um."
+                         : std::string(" (from the reading noise alone: the design declares no "
+                                       "length offset or centring tolerance)."));
     if (!r.travel_checked) t += " The travel was not checked (give --kit).";
     w.paragraph(t);
   }
@@ -622,6 +628,9 @@ std::string setup_sheet_summary(const SetupSheet& sheet) {
     s << "rounded to " << fmt_num(sheet.rounding->resolution_mm) << " mm: worst_std_um (k = 1) "
       << fmt_opt(sheet.rounding->worst_std_um) << " -> "
       << fmt_opt(sheet.rounding->rounded_worst_std_um) << " um";
+    if (sheet.rounding->worst_total_std_um || sheet.rounding->rounded_worst_total_std_um)
+      s << ", worst_total_std_um " << fmt_opt(sheet.rounding->worst_total_std_um) << " -> "
+        << fmt_opt(sheet.rounding->rounded_worst_total_std_um) << " um";
     s << "\n";
   }
   if (sheet.clearance_above_travel_mm && *sheet.clearance_above_travel_mm > 0)
