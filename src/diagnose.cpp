@@ -166,12 +166,7 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
   return out;
 }
 
-// "a + b" for a set of effects.
-std::string joined(const std::vector<std::string>& labels) {
-  std::string out;
-  for (const std::string& l : labels) out += (out.empty() ? "" : " + ") + l;
-  return out;
-}
+using text::joined;
 
 // The attribution uncertainty of the errors after (Attribution). Each added effect's
 // alternatives that still fit almost as well in its place in the final model (close_in_final),

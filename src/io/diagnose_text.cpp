@@ -5,6 +5,7 @@
 #include <optional>
 #include <sstream>
 
+#include "../number_text.hpp"
 #include "dbbkit/effects.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
@@ -40,12 +41,7 @@ std::string readings_text(const Reading& r, double value_um,
   return s + ": the data cannot tell which, each explains the residual alike";
 }
 
-// "a + b" for a set of effects.
-std::string joined(const std::vector<std::string>& labels) {
-  std::string out;
-  for (const std::string& l : labels) out += (out.empty() ? "" : " + ") + l;
-  return out;
-}
+using text::joined;
 
 std::string setup_risk_text(const Design& design, const std::vector<SetupRisk>& risks) {
   std::ostringstream v;
