@@ -22,6 +22,17 @@ std::string message_of(const Design& d, const std::string& csv) {
   return "";
 }
 
+TEST(Readings, AnIntegerColumnSaysWhatIsWrong) {
+  const Design d = test::paper_design('C');
+  const std::string frac = message_of(d, "installation,angle_deg,reading_um,repeat\n1r,0,1,1.5\n");
+  EXPECT_NE(frac.find("is not an integer"), std::string::npos) << frac;
+  EXPECT_NE(frac.find("line 2"), std::string::npos) << frac;
+  const std::string big =
+      message_of(d, "installation,angle_deg,reading_um,repeat\n1r,0,1,3000000000\n");
+  EXPECT_NE(big.find("is an integer beyond +-2000000000"), std::string::npos) << big;
+  EXPECT_EQ(message_of(d, "installation,angle_deg,reading_um,repeat\n1r,0,1,2000000000\n"), "");
+}
+
 TEST(Readings, TheInstrumentRangeCatchesUmInAMmColumnAndCanBeWidened) {
   Design d = test::paper_design('C');
   ASSERT_EQ(d.instrument_range_mm, 1.0);  // the default: a QC20-W class ballbar

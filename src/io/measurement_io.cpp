@@ -60,9 +60,9 @@ struct Cell {
     char* end = nullptr;
     errno = 0;
     const long x = std::strtol(text.c_str(), &end, 10);
-    if (end != text.c_str() + text.size() || errno == ERANGE || std::abs(x) > 2000000000L) {
-      fail(quote_value(text) + " is not an integer");
-    }
+    if (end != text.c_str() + text.size()) fail(quote_value(text) + " is not an integer");
+    if (errno == ERANGE || std::abs(x) > 2000000000L)
+      fail(quote_value(text) + " is an integer beyond +-2000000000, the most this column takes");
     return static_cast<int>(x);
   }
 };
