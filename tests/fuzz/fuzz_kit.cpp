@@ -23,7 +23,7 @@ namespace {
 
 constexpr size_t kMaxChoices = 8;
 constexpr long kMaxEvaluations = 40;
-constexpr double kMaxWork = 2e5;
+constexpr double kMaxWork = 1e5;
 constexpr double kMaxSamples = 2e5;
 
 bool bounded(const dbbkit::Kit& kit) {
