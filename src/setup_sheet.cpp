@@ -326,7 +326,8 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
   }
   if (kit && kit->axis.table() && kit->axis.shorthand().empty()) {
     const std::vector<Stack> stacks = block_stacks(*kit);
-    sheet.kit_table.emplace(kit->table_normal, kit->table_surface_mm);
+    sheet.kit_table =
+        SetupSheet::KitTable{kit->table_normal, kit->table_surface_mm, table_carriage(*kit)};
     for (const Installation& in : sheet.design.installations) {
       const double height = height_above_table(*kit, in);
       sheet.kit_stacks.push_back(stack_of_height(stacks, height));

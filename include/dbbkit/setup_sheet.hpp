@@ -87,9 +87,15 @@ struct SetupSheet {
   // that put its ball at its height above the table (none: no stack of the kit does). A
   // general-form design does not state them (stack_mm is the "C" shorthand's).
   std::vector<std::optional<Stack>> kit_stacks;
-  // With kit_stacks: the kit's table (its normal at angle 0, machine frame, and its surface's
-  // distance from the frame's origin along it), which the drawings show under the stacks.
-  std::optional<std::pair<Eigen::Vector3d, double>> kit_table;
+  // With kit_stacks: the kit's table (its normal at angle 0, machine frame, its surface's
+  // distance from the frame's origin along it, and how it carries the ball), which the drawings
+  // show under the stacks.
+  struct KitTable {
+    Eigen::Vector3d normal;
+    double surface_mm = 0;
+    TableCarriage carriage = TableCarriage::kAlongAxis;
+  };
+  std::optional<KitTable> kit_table;
   double total_time_s = 0;
   // With a kit that states a workspace (and on a C table, always: the spindle ball above a
   // cup's height): every clash of the set-up design's installations, by installation id.

@@ -312,8 +312,8 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
   const auto& table = sheet.kit_table;
   const std::optional<Stack>* stack =
       sheet.kit_stacks.empty() ? nullptr : &sheet.kit_stacks[st.installation];
-  const bool across = table && std::abs(table->first.dot(axis.direction())) < 0.5;
-  const double flip = table && !across && table->first.dot(axis.direction()) < 0 ? -1 : 1;
+  const bool across = table && table->carriage == TableCarriage::kAcrossAxis;
+  const double flip = table && !across && table->normal.dot(axis.direction()) < 0 ? -1 : 1;
   Eigen::Matrix3d to_view;
   // A table is seen along its axis, from the side its normal faces (toward the viewer: w).
   // About a vertical axis the reference is to the right (the C shorthand's X right, Y up);
@@ -355,7 +355,7 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
   const std::string axis_style = "stroke:#888;stroke-dasharray:4 3";
   if (axis.table()) {
     // From above: the axis, the paths of both balls (dashed), the balls and the bar.
-    const double surface = table ? table->second : 0.0;
+    const double surface = table ? table->surface_mm : 0.0;
     const double R =
         std::max({P.head<2>().norm(), F.head<2>().norm(), across ? std::abs(surface) : 0.0, 50.0}) *
         1.1;
@@ -377,7 +377,7 @@ std::string installation_drawing(const SetupSheet& sheet, int step) {
       // The trunnion's table turned to the angle: at least the chord of the panel's circle at
       // the surface, and under the ball's blocks; the cup on its blocks along the turned normal.
       const Eigen::Vector3d turned =
-          to_view * (Eigen::AngleAxisd(a * M_PI / 180, axis.direction()) * table->first);
+          to_view * (Eigen::AngleAxisd(a * M_PI / 180, axis.direction()) * table->normal);
       const Eigen::Vector2d n = turned.head<2>().normalized(), t(-n.y(), n.x());
       const double height = P.head<2>().dot(n) - surface;
       const Eigen::Vector2d foot = P.head<2>() - height * n;
