@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds everything and runs the whole test suite:
 #   0. the house format: every C++ file as clang-format (.clang-format) writes it;
-#   1. the unit and property tests (ctest), then the design gate (`dbbkit bench`);
+#   1. the unit and property tests (ctest), then the design gate (`dbbkit bench`) and the cost
+#      gate (the counted work of identify, evaluate and the worst case, benchmarks/cost_gate.cpp);
 #   2. the same suite built by clang with AddressSanitizer and UndefinedBehaviorSanitizer
 #      (less the long statistical studies of stage 1);
 #   3. a short libFuzzer run of every file reader (design, measurement, truth, kit, result), of the
@@ -22,6 +23,8 @@ cmake --build build -j "$jobs"
 ctest --test-dir build --output-on-failure -j "$jobs"
 echo "== design gate: every committed design against benchmarks/designs-baseline.json"
 ./build/dbbkit bench designs/*.json --baseline benchmarks/designs-baseline.json
+echo "== cost gate: the work of identify, evaluate and the worst case against benchmarks/cost-baseline.json"
+./build/benchmarks/dbbkit_cost designs/*.json --baseline benchmarks/cost-baseline.json
 [ "${DBBKIT_QUICK:-0}" = 1 ] && exit 0
 
 # Stages 2 and 3 share one clang build: AddressSanitizer + UndefinedBehaviorSanitizer

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "block_form.hpp"
+#include "cost_counters.hpp"
 #include "series_l1.hpp"
 #include "small_eigen.hpp"
 #include "spd_inverse.hpp"
@@ -178,6 +179,7 @@ const Gain::Sparse& Gain::sparse() const {
 }
 
 Eigen::MatrixXd Gain::operator*(const Eigen::MatrixXd& M) const {
+  cost::detail::counters().gain_columns += M.cols();
   // The sparse part column by column of M, passing over M's zeros (a set-up effect's columns
   // are zero outside its installation's readings); the order of the sums is the product's.
   Eigen::MatrixXd out = Eigen::MatrixXd::Zero(sparse_.rows(), M.cols());
@@ -188,7 +190,11 @@ Eigen::MatrixXd Gain::operator*(const Eigen::MatrixXd& M) const {
       for (Sparse::InnerIterator it(sparse_, r); it; ++it) out(it.row(), j) += it.value() * m;
     }
   }
-  if (implicit()) out.noalias() += cov_ * (J_->transpose() * (weight_.asDiagonal() * M));
+  if (series_) {
+    out.noalias() += cov_ * detail::series_transpose_times(*series_, weight_.asDiagonal() * M);
+  } else if (implicit()) {
+    out.noalias() += cov_ * (J_->transpose() * (weight_.asDiagonal() * M));
+  }
   if (low_rank()) out.noalias() += U_ * (V_ * M);
   return out;
 }
@@ -201,6 +207,7 @@ double Gain::product_cost() const {
 }
 
 Eigen::VectorXd Gain::operator*(const Eigen::VectorXd& y) const {
+  ++cost::detail::counters().gain_columns;
   Eigen::VectorXd out = sparse_ * y;
   if (implicit()) out.noalias() += cov_ * (J_->transpose() * weight_.cwiseProduct(y));
   if (low_rank()) out.noalias() += U_ * (V_ * y);
@@ -208,6 +215,7 @@ Eigen::VectorXd Gain::operator*(const Eigen::VectorXd& y) const {
 }
 
 FunctionRows Gain::left(const FunctionRows& C) const {
+  cost::detail::counters().gain_columns += C.rows();
   FunctionRows out = C * sparse_;
   if (implicit()) {
     const FunctionRows CC = C * cov_;
@@ -222,6 +230,7 @@ FunctionRows Gain::left(const FunctionRows& C) const {
 }
 
 Eigen::MatrixXd Gain::left(const Eigen::MatrixXd& M) const {
+  cost::detail::counters().gain_columns += M.rows();
   Eigen::MatrixXd out = M * sparse_;
   if (implicit()) out.noalias() += ((M * cov_) * J_->transpose()) * weight_.asDiagonal();
   if (low_rank()) out.noalias() += (M * U_) * V_;
@@ -301,11 +310,13 @@ void set_covariance(Estimate& est, const std::vector<WlsSolver::Block>& blocks,
 WlsSolver::WlsSolver(const Jacobian& J, const Eigen::VectorXd& sigma_um,
                      const EstimateOptions& options)
     : J_(compressed(J)), sigma_(sigma_um) {
+  ++cost::detail::counters().factorisations;
   factorise(options);
 }
 
 WlsSolver::WlsSolver(const LinearModel& model, const EstimateOptions& options)
     : J_(compressed(model.J)), sigma_(model.sigma_um) {
+  ++cost::detail::counters().factorisations;
   if (model.series && factorise_series(model.series, options)) return;
   factorise(options);
 }
@@ -871,6 +882,7 @@ bool WlsSolver::factorise_series(const std::shared_ptr<const SeriesRows>& series
 }
 
 Estimate WlsSolver::solve(const Eigen::VectorXd& y_um) const {
+  ++cost::detail::counters().solves;
   Estimate est = prior_;
   if (est.status == EstimateStatus::kNoReadings) return est;
   const int n = est.n_readings;
@@ -888,10 +900,15 @@ Estimate estimate_wls(const LinearModel& model, const EstimateOptions& options) 
 
 Eigen::MatrixXd unexplained(const WlsSolver& solver, const Eigen::MatrixXd& M,
                             const Eigen::MatrixXd& GM) {
-  // W^1/2 (M - J GM) in one pass, row by row (J's few nonzeros in a row reach into each of
-  // GM's columns), without the product's and the difference's temporaries.
+  cost::detail::counters().unexplained_columns += M.cols();
   const Jacobian& J = solver.J();
   const Eigen::VectorXd& sigma = solver.sigma_um();
+  if (const SeriesRows* s = solver.J_theta_reading().series()) {
+    // J GM through the rows' factors (a series' J has few rows' worth of distinct values).
+    return sigma.cwiseInverse().asDiagonal() * (M - detail::series_times(*s, GM));
+  }
+  // W^1/2 (M - J GM) in one pass, row by row (J's few nonzeros in a row reach into each of
+  // GM's columns), without the product's and the difference's temporaries.
   Eigen::MatrixXd R(M.rows(), M.cols());
   for (Eigen::Index i = 0; i < J.rows(); ++i) {
     const double w = 1.0 / sigma(i);
@@ -1068,6 +1085,7 @@ Eigen::VectorXd Estimate::low_rank_coordinates(const Function& c) const {
 Determined Estimate::evaluate(const Function& c) const {
   Determined d;
   if (!determined(c)) return d;
+  ++cost::detail::counters().variances;
   d.determined = true;
   if (theta.size() > 0) {
     for (Function::InnerIterator a(c); a; ++a) d.value += a.value() * theta(a.index());

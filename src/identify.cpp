@@ -218,7 +218,7 @@ void find_equivalents(const Design& design, const std::vector<Reading>& readings
   std::vector<const Eigen::MatrixXd*> chosen_blocks;
   for (const EffectBlock& b : blocks) chosen_blocks.push_back(&b.J_reading_effect);
   const Estimate chosen = fit(chosen_blocks);
-  const std::vector<ErrorsAtAngle> chosen_errors = errors_at_stations(param, chosen);
+  const std::vector<ErrorsAtAngle> chosen_errors = at_stations(param, chosen, false);
   for (const EffectBlock& candidate : candidate_effects(design, readings)) {
     if (!candidate.applicability.applicable() || candidate.parameters.empty()) continue;
     if (std::any_of(blocks.begin(), blocks.end(),
@@ -233,7 +233,7 @@ void find_equivalents(const Design& design, const std::vector<Reading>& readings
       swapped[e] = &candidate.J_reading_effect;
       const Estimate other = fit(swapped);
       if (other.rank != chosen.rank) continue;
-      const std::vector<ErrorsAtAngle> other_errors = errors_at_stations(param, other);
+      const std::vector<ErrorsAtAngle> other_errors = at_stations(param, other, false);
       FittedEffect& f = effects[e];
       f.equivalent_to.push_back(candidate.label);
       for (std::size_t s = 0; s < chosen_errors.size() && s < other_errors.size(); ++s) {

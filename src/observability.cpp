@@ -818,7 +818,8 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
   // (and only those: SetupSolver passes over the others) enter the estimate.
   const std::vector<SetupEffect> all = setup_effects(design, model, false);
   const SetupSolver setup(solver, all);
-  ev.setup_checks = check_setup_effects(param, setup, all, detection, reference_length_mm);
+  const EffectColumns columns = effect_columns(solver, all);
+  ev.setup_checks = check_setup_effects(param, setup, all, columns, detection, reference_length_mm);
   ErrorParts parts = error_parts(param, setup);
   ev.errors = std::move(parts.noise);
   if (setup.any()) {
@@ -829,7 +830,7 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
   }
   ev.worst = worst_case(ev.errors, reference_length_mm);
   if (auto w = setup_undeclared_warning(
-          hidden_setup_effects(design, param, model, solver, reference_length_mm),
+          hidden_setup_effects(param, solver, all, columns, reference_length_mm),
           reference_length_mm))
     ev.warnings.push_back(*w);
   return ev;

@@ -19,6 +19,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "cost_counters.hpp"
 #include "dbbkit/estimate.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "function_rows.hpp"
@@ -566,12 +567,49 @@ detail::Reflection detail::reflection_pairs(const SeriesRows& s) {
   return out;
 }
 
+Eigen::MatrixXd detail::series_times(const SeriesRows& s, const Eigen::MatrixXd& M) {
+  const Eigen::Index m = s.per_error, c = M.cols(), n = s.g.rows();
+  if (M.rows() != 6 * m) throw std::logic_error("series_times: not the series' unknowns");
+  // Column 6 t + k of E: error k of column t at every distinct angle (M's column t is its six
+  // errors' coefficients one after another).
+  const Eigen::MatrixXd E = s.basis * Eigen::Map<const Eigen::MatrixXd>(M.data(), m, 6 * c);
+  Eigen::MatrixXd out(n, c);
+  for (Eigen::Index t = 0; t < c; ++t) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Eigen::Index a = s.angle[static_cast<std::size_t>(i)];
+      double v = 0;
+      for (int k = 0; k < 6; ++k) v += s.g(i, k) * E(a, 6 * t + k);
+      out(i, t) = v;
+    }
+  }
+  return out;
+}
+
+Eigen::MatrixXd detail::series_transpose_times(const SeriesRows& s, const Eigen::MatrixXd& M) {
+  const Eigen::Index m = s.per_error, c = M.cols(), n = s.g.rows();
+  if (M.rows() != n) throw std::logic_error("series_transpose_times: not the series' readings");
+  // H(angle, 6 t + k): sum over the readings at the angle of g_i(k) M(i, t); then phi' H.
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(s.basis.rows(), 6 * c);
+  for (Eigen::Index t = 0; t < c; ++t) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double v = M(i, t);
+      if (v == 0.0) continue;
+      const Eigen::Index a = s.angle[static_cast<std::size_t>(i)];
+      for (int k = 0; k < 6; ++k) H(a, 6 * t + k) += s.g(i, k) * v;
+    }
+  }
+  Eigen::MatrixXd out(6 * m, c);
+  Eigen::Map<Eigen::MatrixXd>(out.data(), m, 6 * c).noalias() = s.basis.transpose() * H;
+  return out;
+}
+
 bool detail::series_angles_paired(const SeriesRows& s) {
   return make_slots(s, s.basis.transpose()).paired;
 }
 
 Eigen::VectorXd Gain::left_l1(const FunctionRows& C) const {
   if (!series_l1()) throw std::logic_error("Gain::left_l1: not a series' implicit gain");
+  cost::detail::counters().l1_rows += C.rows();
   const SeriesRows& s = *series_;
   const Eigen::Index m = s.per_error, na = s.basis.rows(), nv = C.rows();
   const Eigen::MatrixXd cov = cov_;  // p x p, p = 6 m

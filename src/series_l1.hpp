@@ -23,4 +23,10 @@ Reflection reflection_pairs(const SeriesRows& s);
 // a quarter more slots than angles are needed.
 bool series_angles_paired(const SeriesRows& s);
 
+// J M and J' M through the rows' factors, J(i, k m + a) = g_i(k) phi_a(angle_i) (M: p x c with
+// p = 6 m, or n x c): the errors at each distinct angle, then each reading's six of them, in
+// place of a pass over J's n x p nonzeros per column. J' M passes over M's zeros.
+Eigen::MatrixXd series_times(const SeriesRows& s, const Eigen::MatrixXd& M);
+Eigen::MatrixXd series_transpose_times(const SeriesRows& s, const Eigen::MatrixXd& M);
+
 }  // namespace dbbkit::detail

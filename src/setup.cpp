@@ -14,6 +14,7 @@
 #include <tuple>
 #include <utility>
 
+#include "cost_counters.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "function_rows.hpp"
 #include "tolerances.hpp"
@@ -90,6 +91,7 @@ SetupSolver::SetupSolver(const WlsSolver& base, const std::vector<SetupEffect>& 
   // columns (which has its own) is not combined with set-up effects.
   if (base.J_theta_reading().low_rank())
     throw std::logic_error("SetupSolver: a base solved with border columns");
+  ++cost::detail::counters().factorisations;
   K_ = base.J_theta_reading() * X_;
   R_ = unexplained(base, X_, K_);
   RtR_ = R_.transpose() * R_;
@@ -109,6 +111,7 @@ Eigen::VectorXd SetupSolver::beta(const Eigen::VectorXd& y_um) const {
 
 Estimate SetupSolver::solve(const Eigen::VectorXd& y_um) const {
   if (!any()) return base_->solve(y_um);
+  ++cost::detail::counters().solves;
   Estimate est = prior_;
   if (est.status == EstimateStatus::kNoReadings) return est;
   const Eigen::VectorXd b = beta(y_um);
@@ -153,6 +156,7 @@ Eigen::MatrixXd SetupSolver::left_gain_times(const FunctionRows& C, const Eigen:
 
 Eigen::VectorXd SetupSolver::left_gain_l1(const FunctionRows& C) const {
   if (!any() && base_->J_theta_reading().series_l1()) return base_->J_theta_reading().left_l1(C);
+  cost::detail::counters().l1_rows += C.rows();
   const Eigen::SparseMatrix<double, Eigen::RowMajor> G0 =
       base_->J_theta_reading().sparse();  // row j of G0 contiguous
   const Eigen::Index n = G0.cols();
@@ -380,48 +384,64 @@ SetupInformation dense_setup_information(const Design& design) {
   return out;
 }
 
+EffectColumns effect_columns(const WlsSolver& base, const std::vector<SetupEffect>& effects) {
+  EffectColumns out;
+  Eigen::Index n_columns = 0;
+  for (const SetupEffect& e : effects) n_columns += e.J_reading_effect.cols();
+  out.X.resize(base.J().rows(), n_columns);
+  n_columns = 0;
+  for (const SetupEffect& e : effects) {
+    out.X.middleCols(n_columns, e.J_reading_effect.cols()) = e.J_reading_effect;
+    n_columns += e.J_reading_effect.cols();
+  }
+  out.G0X = base.J_theta_reading() * out.X;
+  out.R = unexplained(base, out.X, out.G0X);
+  return out;
+}
+
+DeterminedFunctions determined_functions(const Parameterisation& param, const Estimate& est) {
+  DeterminedFunctions out;
+  out.functions.reserve(6 * static_cast<std::size_t>(param.n_stations()));
+  for (int s = 0; s < param.n_stations(); ++s) {
+    const Eigen::SparseMatrix<double> C = error_functions(param, s, est.n_unknowns);
+    for (int k = 0; k < 6; ++k) {
+      const Estimate::Function c = C.col(k);
+      if (!est.determined(c)) continue;
+      const std::size_t first = out.nonzeros.size();
+      for (Estimate::Function::InnerIterator it(c); it; ++it)
+        out.nonzeros.emplace_back(it.index(), it.value());
+      out.functions.push_back({s, k, first, out.nonzeros.size()});
+    }
+  }
+  return out;
+}
+
 std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
                                                   const SetupSolver& solver,
                                                   const std::vector<SetupEffect>& effects,
+                                                  const DetectionSettings& settings,
+                                                  double reference_length_mm) {
+  return check_setup_effects(param, solver, effects, effect_columns(solver.base(), effects),
+                             settings, reference_length_mm);
+}
+
+std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
+                                                  const SetupSolver& solver,
+                                                  const std::vector<SetupEffect>& effects,
+                                                  const EffectColumns& columns,
                                                   const DetectionSettings& settings,
                                                   double reference_length_mm) {
   std::vector<SetupEffectCheck> out;
   const WlsSolver& base = solver.base();
   const Estimate& est = solver.a_priori();
   const Eigen::VectorXd w = base.sigma_um().cwiseInverse();
-  // The determined error functions, once: their nonzeros [first, last) in one array.
-  struct Fn {
-    int station, error;
-    std::size_t first, last;
-  };
-  std::vector<Fn> fns;
-  std::vector<std::pair<Eigen::Index, double>> nonzeros;
-  fns.reserve(6 * static_cast<std::size_t>(param.n_stations()));
-  for (int s = 0; s < param.n_stations(); ++s) {
-    const Eigen::SparseMatrix<double> C = error_functions(param, s, est.n_unknowns);
-    for (int k = 0; k < 6; ++k) {
-      const Estimate::Function c = C.col(k);
-      if (!est.determined(c)) continue;
-      const std::size_t first = nonzeros.size();
-      for (Estimate::Function::InnerIterator it(c); it; ++it)
-        nonzeros.emplace_back(it.index(), it.value());
-      fns.push_back({s, k, first, nonzeros.size()});
-    }
-  }
+  const DeterminedFunctions fns = determined_functions(param, est);
   out.reserve(effects.size());
-  // Every effect's columns side by side: the base's gain times them, their unexplained part
-  // and (with declared set-up tolerances) the full gain times them, each in one product.
-  Eigen::Index n_columns = 0;
-  for (const SetupEffect& e : effects) n_columns += e.J_reading_effect.cols();
-  Eigen::MatrixXd X(base.J().rows(), n_columns);
-  n_columns = 0;
-  for (const SetupEffect& e : effects) {
-    X.middleCols(n_columns, e.J_reading_effect.cols()) = e.J_reading_effect;
-    n_columns += e.J_reading_effect.cols();
-  }
-  const Eigen::MatrixXd G0X = base.J_theta_reading() * X;
-  const Eigen::MatrixXd R = unexplained(base, X, G0X);
-  const Eigen::MatrixXd GX_all = solver.any() ? solver.gain_times(X) : Eigen::MatrixXd();
+  // Every effect's columns side by side: the base's gain times them and their unexplained part
+  // (columns), and with declared set-up tolerances the full gain times them, in one product.
+  const Eigen::MatrixXd& G0X = columns.G0X;
+  const Eigen::MatrixXd& R = columns.R;
+  const Eigen::MatrixXd GX_all = solver.any() ? solver.gain_times(columns.X) : Eigen::MatrixXd();
   Eigen::Index column = 0;  // the effect's first column in X
   for (const SetupEffect& e : effects) {
     SetupEffectCheck ch;
@@ -441,13 +461,11 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
     column += q;
     double best = -1;
     PlaceOfLargest place;  // the largest bias's error and angle, ties to the first
-    for (const Fn& f : fns) {
+    for (const DeterminedFunctions::Function& f : fns.functions) {
       // |c' GX|, summed over c's nonzeros in their order.
       double b2 = 0;
       for (Eigen::Index k = 0; k < q; ++k) {
-        double cg = 0;
-        for (std::size_t t = f.first; t < f.last; ++t)
-          cg += nonzeros[t].second * GX(nonzeros[t].first, k);
+        const double cg = fns.dot(f, GX, k);
         b2 += cg * cg;
       }
       const double b = std::sqrt(b2);

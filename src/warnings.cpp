@@ -59,43 +59,50 @@ std::vector<HiddenSetupEffect> hidden_setup_effects(const Design& design,
                                                     const LinearModel& model,
                                                     const WlsSolver& solver,
                                                     double reference_length_mm) {
+  std::vector<SetupEffect> undeclared;
+  for (SetupEffect& e : setup_effects(design, model, false)) {
+    if (!(e.std_um > 0)) undeclared.push_back(std::move(e));
+  }
+  return hidden_setup_effects(param, solver, undeclared, effect_columns(solver, undeclared),
+                              reference_length_mm);
+}
+
+std::vector<HiddenSetupEffect> hidden_setup_effects(const Parameterisation& param,
+                                                    const WlsSolver& solver,
+                                                    const std::vector<SetupEffect>& effects,
+                                                    const EffectColumns& columns,
+                                                    double reference_length_mm) {
   std::vector<HiddenSetupEffect> out;
   const Eigen::VectorXd& sigma = solver.sigma_um();
-  for (const SetupEffect& e : setup_effects(design, model, false)) {
-    if (e.std_um > 0) continue;
+  const DeterminedFunctions fns = determined_functions(param, solver.a_priori());
+  Eigen::Index first = 0;  // the effect's first column
+  for (const SetupEffect& e : effects) {
     const Eigen::Index q = e.J_reading_effect.cols();
-    Eigen::MatrixXd R(e.J_reading_effect.rows(), q);  // whitened residual of each column's fit
-    std::vector<std::vector<ErrorsAtAngle>> moved;    // G X_e column by column, as errors
-    double scale = 0;
-    for (Eigen::Index c = 0; c < q; ++c) {
-      const Eigen::VectorXd x = e.J_reading_effect.col(c);
-      const Estimate fit = solver.solve(x);
-      R.col(c) = fit.residual_um.cwiseQuotient(sigma);
-      scale = std::max(scale, x.cwiseQuotient(sigma).norm());
-      moved.push_back(errors_at_stations(param, fit));
-    }
+    const Eigen::Index c0 = first;
+    first += q;
+    if (e.std_um > 0) continue;
+    double scale = 0;  // the largest whitened column
+    for (Eigen::Index c = 0; c < q; ++c)
+      scale = std::max(scale, columns.X.col(c0 + c).cwiseQuotient(sigma).norm());
     if (scale <= 0) continue;
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(R, Eigen::ComputeFullV);
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(columns.R.middleCols(c0, q), Eigen::ComputeFullV);
     const Eigen::VectorXd& sv = svd.singularValues();
     std::vector<Eigen::Index> hidden_dirs;
     for (Eigen::Index k = 0; k < q; ++k) {
       if ((k < sv.size() ? sv(k) : 0.0) <= 1e-8 * scale) hidden_dirs.push_back(k);
     }
-    if (hidden_dirs.empty()) continue;  // every direction shows in the residual
+    if (hidden_dirs.empty()) continue;              // every direction shows in the residual
+    const auto GX = columns.G0X.middleCols(c0, q);  // the errors' estimate per um of each column
     HiddenSetupEffect h{e.label, 0, 0, 0};
-    for (std::size_t s = 0; s < moved.front().size(); ++s) {
-      for (int k = 0; k < 6; ++k) {
-        if (!moved.front()[s].errors[k].determined) continue;
-        double norm2 = 0;  // |c'G X_e V_null|^2
-        for (Eigen::Index d : hidden_dirs) {
-          double along = 0;
-          for (Eigen::Index c = 0; c < q; ++c)
-            along += moved[static_cast<std::size_t>(c)][s].errors[k].value * svd.matrixV()(c, d);
-          norm2 += along * along;
-        }
-        const double b = std::sqrt(norm2) * (k < 3 ? 1.0 : 1e-3 * reference_length_mm);
-        if (b > h.bias_um_per_um) h = {e.label, b, k, moved.front()[s].angle_deg};
+    for (const DeterminedFunctions::Function& f : fns.functions) {
+      double norm2 = 0;  // |c'G X_e V_null|^2
+      for (Eigen::Index d : hidden_dirs) {
+        double along = 0;
+        for (Eigen::Index c = 0; c < q; ++c) along += fns.dot(f, GX, c) * svd.matrixV()(c, d);
+        norm2 += along * along;
       }
+      const double b = std::sqrt(norm2) * (f.error < 3 ? 1.0 : 1e-3 * reference_length_mm);
+      if (b > h.bias_um_per_um) h = {e.label, b, f.error, param.station_angle_deg(f.station)};
     }
     if (h.bias_um_per_um > 1e-9) out.push_back(h);
   }

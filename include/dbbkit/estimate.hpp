@@ -188,6 +188,8 @@ class Gain {
   // angles, formed once for both (src/series_l1.cpp).
   bool series_l1() const { return series_ != nullptr && sparse_.nonZeros() == 0 && !low_rank(); }
   Eigen::VectorXd left_l1(const FunctionRows& C) const;
+  // The series' factored rows of J, when the implicit part has them (null otherwise).
+  const SeriesRows* series() const { return series_.get(); }
 
  private:
   Sparse sparse_;

@@ -206,9 +206,45 @@ SetupInformation dense_setup_information(const Design& design);
 std::optional<double> detection_limit_um(int q, bool detectable, double min_information, int dof,
                                          const DetectionSettings& settings);
 
+// The effects' columns side by side (X, in the order of the effects) and what the base model
+// makes of them: G0 X, the base estimate per um of each column, and R = W^1/2 (X - J G0 X), what
+// it leaves of them, whitened. One product each with the base's factorisation, shared by the
+// checks of the effects and the search for hidden ones (hidden_setup_effects, warnings.hpp).
+struct EffectColumns {
+  Eigen::MatrixXd X, G0X, R;
+};
+EffectColumns effect_columns(const WlsSolver& base, const std::vector<SetupEffect>& effects);
+
+// The determined error functions of an estimate, station by station in the order of the
+// errors: each one's nonzeros [first, last) in one array.
+struct DeterminedFunctions {
+  struct Function {
+    int station, error;
+    std::size_t first, last;
+  };
+  std::vector<Function> functions;
+  std::vector<std::pair<Eigen::Index, double>> nonzeros;
+  // c' M.col(k) of function f.
+  template <typename M>
+  double dot(const Function& f, const Eigen::MatrixBase<M>& m, Eigen::Index k) const {
+    double s = 0;
+    for (std::size_t t = f.first; t < f.last; ++t)
+      s += nonzeros[t].second * m(nonzeros[t].first, k);
+    return s;
+  }
+};
+DeterminedFunctions determined_functions(const Parameterisation& param, const Estimate& est);
+
 std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
                                                   const SetupSolver& solver,
                                                   const std::vector<SetupEffect>& effects,
+                                                  const DetectionSettings& settings,
+                                                  double reference_length_mm);
+// The same with the effects' columns formed (effect_columns(solver.base(), effects)).
+std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
+                                                  const SetupSolver& solver,
+                                                  const std::vector<SetupEffect>& effects,
+                                                  const EffectColumns& columns,
                                                   const DetectionSettings& settings,
                                                   double reference_length_mm);
 
