@@ -118,9 +118,11 @@ std::string AxisFrame::label() const {
 
 int AxisFrame::machine_axis() const { return along_machine_axis(direction_); }
 
-bool AxisFrame::same_as(const AxisFrame& o) const {
+bool AxisFrame::same_as(const AxisFrame& o) const { return same_axis(o) && has_H_ == o.has_H_; }
+
+bool AxisFrame::same_axis(const AxisFrame& o) const {
   return letter_ == o.letter_ && side_ == o.side_ && direction_ == o.direction_ &&
-         reference_ == o.reference_ && full_turn_ == o.full_turn_ && has_H_ == o.has_H_ &&
+         reference_ == o.reference_ && full_turn_ == o.full_turn_ &&
          (full_turn_ ||
           (travel_min_deg_ == o.travel_min_deg_ && travel_max_deg_ == o.travel_max_deg_));
 }

@@ -181,6 +181,10 @@ IsoNames iso230_names(const AxisFrame& axis) {
     names.location = {"U0" + s, "V0" + s, "AU0" + s, "AV0" + s, s + "0" + s};
   }
   names.components = {"EX" + s, "EY" + s, "EZ" + s, "EA" + s, "EB" + s, "EC" + s};
+  const std::string c = "constant part of ";
+  names.constants = {c + "dx", c + "dy", c + "dz",
+                     f.aligned ? c + kErrorNames[3 + f.ip1] : c + "e along u",
+                     f.aligned ? c + kErrorNames[3 + f.ip2] : c + "e along v"};
   return names;
 }
 
@@ -286,15 +290,11 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
                   {location_names[2], urad, quantity(1, 3)},
                   {location_names[3], urad, quantity(1, 4)},
                   {location_names[4], urad, quantity(1, 2)}};
-  out.constants = {{"constant part of dx", um, quantity(0, 0)},
-                   {"constant part of dy", um, quantity(0, 1)},
-                   {"constant part of dz", um, quantity(0, 2)},
-                   {frame.aligned ? std::string("constant part of ") + kErrorNames[3 + frame.ip1]
-                                  : std::string("constant part of e along u"),
-                    urad, quantity(1, 0)},
-                   {frame.aligned ? std::string("constant part of ") + kErrorNames[3 + frame.ip2]
-                                  : std::string("constant part of e along v"),
-                    urad, quantity(1, 1)}};
+  out.constants = {{names.constants[0], um, quantity(0, 0)},
+                   {names.constants[1], um, quantity(0, 1)},
+                   {names.constants[2], um, quantity(0, 2)},
+                   {names.constants[3], urad, quantity(1, 0)},
+                   {names.constants[4], urad, quantity(1, 1)}};
   // Components: each value c'theta less its fitted location and constant part x'Q'theta.
   // A component's term: c on its support, x, c' Sigma Q and K'c; the covariance of two
   // components of block b (the variance when they are one),

@@ -22,7 +22,9 @@
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/text.hpp"
 #include "dbbkit/io/truth_io.hpp"
+#include "dbbkit/iso230.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
 
@@ -101,6 +103,191 @@ TEST(Compare, ResultsOfDifferentAxesAreRefused) {
     EXPECT_NE(std::string(e.what()).find("only two measurements of one axis"), std::string::npos)
         << e.what();
   }
+}
+
+// An identify result of the paper's C design as the file holds it.
+nlohmann::json result_json() {
+  const Design d = io::read_design_file(test::kDesignC);
+  IdentifyOptions o;
+  o.iso_motion.enabled = false;
+  const std::vector<Reading> readings = simulate(d, located(d, {}), 1);
+  return io::identify_to_json(d, readings, identify(d, readings, o), {"d.json", "r.json"}, nullptr,
+                              false);
+}
+
+// A design's axis in another form: the paper's designs with "axis" replaced.
+Design with_axis(const std::string& design, const nlohmann::json& axis) {
+  nlohmann::json j = io::parse_json(io::read_json_file(design), design);
+  j["axis"] = axis;
+  return io::design_from_json(j, design);
+}
+
+// The error message of f, or "" when it throws nothing.
+template <typename F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Compare, TheDifferenceBetweenTwoAxesIsNamed) {
+  const Design c = io::read_design_file(test::kDesignC);
+  const Design b = io::read_design_file(test::kDesignB);
+  const std::string m = error_of([&] {
+    io::compare_results(measured(c, located(c, {}), 1, "c.json"),
+                        measured(b, located(b, {}), 1, "b.json"));
+  });
+  EXPECT_NE(m.find("letter B against C"), std::string::npos) << m;
+  EXPECT_NE(m.find("side head against table"), std::string::npos) << m;
+}
+
+// The B shorthand and the same axis in the general form (B, a head about +Y, reference +Z):
+// one axis, its quantities the same; the forms differ only in the ball coordinates.
+TEST(Compare, TheShorthandAndTheGeneralFormOfOneAxisCompare) {
+  const Design b = io::read_design_file(test::kDesignB);
+  const Design g = with_axis(test::kDesignB, {{"letter", "B"},
+                                              {"side", "head"},
+                                              {"direction", {0, 1, 0}},
+                                              {"reference", {0, 0, 1}},
+                                              {"travel_deg", {-180, 180}}});
+  const io::ResultFile rb = measured(b, located(b, {}), 1, "b.json");
+  const io::ResultFile rg = measured(g, located(g, {}), 2, "g.json");
+  const io::Comparison c = io::compare_results(rb, rg);
+  EXPECT_GT(c.tested, 0);
+}
+
+// A direction within 1e-9 rad of +Z is +Z: the letter's check, the names and the rotations
+// take it so (not a nutating axis named U0C, V0C).
+TEST(Compare, ADirectionWithinTheFrameToleranceOfAMachineAxisIsThatAxis) {
+  const Design d = with_axis(test::kDesignC, {{"letter", "C"},
+                                              {"side", "table"},
+                                              {"direction", {1e-10, 0, 1}},
+                                              {"reference", {1, 0, -1e-10}}});
+  EXPECT_EQ(d.axis.machine_axis(), 2);
+  EXPECT_EQ(d.axis.direction(), Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(d.axis.reference(), Eigen::Vector3d::UnitX());
+  EXPECT_EQ(iso230_names(d.axis).location[0], "X0C");
+  const std::string m = error_of([&] {
+    with_axis(test::kDesignC, {{"letter", "A"},
+                               {"side", "table"},
+                               {"direction", {0, 1e-10, 1}},
+                               {"reference", {1, 0, 0}}});
+  });
+  EXPECT_NE(m.find("is C (ISO 841)"), std::string::npos) << m;
+}
+
+// A nutating axis' result (location errors U0B, V0B, ...; constant parts about u and v) reads
+// back, compares and is written for a controller.
+TEST(Compare, ANutatingAxisResultComparesAndIsExported) {
+  const double h = std::sqrt(0.5);
+  const Design d = with_axis(
+      test::kDesignC,
+      {{"letter", "B"}, {"side", "table"}, {"direction", {0, -h, h}}, {"reference", {1, 0, 0}}});
+  const io::ResultFile a = measured(d, located(d, {{"U0B", 10}}), 1, "a.json");
+  const io::ResultFile b = measured(d, located(d, {{"U0B", 10}}), 2, "b.json");
+  ASSERT_EQ(a.location.size(), 5u);
+  EXPECT_EQ(a.location[0].name, "U0B");
+  EXPECT_EQ(a.constants[3].name, "constant part of e along u");
+  const io::Comparison c = io::compare_results(a, b);
+  EXPECT_GT(c.tested, 0);
+  const std::string isg = io::compensation_text(a, io::CompensationFormat::kIsg, {});
+  EXPECT_NE(isg.find("U0B"), std::string::npos) << isg;
+  const std::string table = io::compensation_text(a, io::CompensationFormat::kTable, {});
+  EXPECT_NE(table.find("U0B"), std::string::npos) << table;
+}
+
+// A change whose uncertainty is zero is significant unless it is zero.
+TEST(Compare, AChangeOfNoUncertaintyIsSignificant) {
+  const Design d = io::read_design_file(test::kDesignC);
+  io::ResultFile a = measured(d, located(d, {}), 1, "a.json");
+  io::ResultFile b = a;
+  b.source = "b.json";
+  for (io::ResultFile* r : {&a, &b})
+    for (io::ResultQuantity& q : r->location) q.std = 0.0;
+  *b.location[0].value += 0.5;
+  const io::Comparison c = io::compare_results(a, b);
+  EXPECT_TRUE(quantity(c, a.location[0].name).significant);
+  EXPECT_FALSE(quantity(c, a.location[1].name).significant);  // no change, no uncertainty
+}
+
+// A result with many angles is read in time linear in them, and an angle given twice is named.
+TEST(ResultRead, ManyAnglesAreReadAndAnAngleGivenTwiceIsNamed) {
+  nlohmann::json j = result_json();
+  nlohmann::json comps = nlohmann::json::array();
+  for (int i = 0; i < 200000; ++i) comps.push_back({{"angle_deg", i * 0.1 - 10000}});
+  j["iso230"]["components"] = comps;
+  const io::ResultFile r = io::result_from_text(j.dump(), "many.json");
+  EXPECT_EQ(r.components.size(), 200000u);
+  j["iso230"]["components"].push_back({{"angle_deg", 0.5 - 10000}});
+  const std::string m = error_of([&] { io::result_from_text(j.dump(), "twice.json"); });
+  EXPECT_NE(m.find("iso230.components[200000].angle_deg: an angle given twice"), std::string::npos)
+      << m;
+}
+
+// A design name beyond the text limit (200 bytes) is refused where it is read.
+TEST(ResultRead, ADesignNameBeyondTheTextLimitIsRefused) {
+  nlohmann::json j = result_json();
+  j["design"]["name"] = std::string(1000, 'n');
+  const std::string m = error_of([&] { io::result_from_text(j.dump(), "long.json"); });
+  EXPECT_NE(m.find("design.name"), std::string::npos) << m;
+  j["design"]["name"] = "n";
+  j["warnings"] = {{{"kind", "residual"}, {"text", std::string(5000, 'w')}}};
+  EXPECT_NE(error_of([&] { io::result_from_text(j.dump(), "long.json"); }).find("warnings[0]"),
+            std::string::npos);
+}
+
+// An entry of the component table with three of the six motions is left out: its values
+// would stand under the other motions' headings.
+TEST(Compensation, AComponentEntryWithoutEverMotionIsLeftOut) {
+  const Design d = io::read_design_file(test::kDesignC);
+  io::ResultFile r = measured(d, located(d, {{"X0C", 12}}), 1, "r.json");
+  ASSERT_GE(r.components.size(), 2u);
+  ASSERT_EQ(r.components[0].motions.size(), 6u);
+  for (const io::ResultQuantity& m : r.components[0].motions) ASSERT_TRUE(m.value);
+  r.components[1].motions.erase(r.components[1].motions.begin(),
+                                r.components[1].motions.begin() + 3);  // the rotations left
+  const std::string isg = io::compensation_text(r, io::CompensationFormat::kIsg, {});
+  std::istringstream in(isg.substr(isg.find("#\n")));
+  int rows = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '/' || line[0] == '#' || line[0] == 'C') continue;
+    std::istringstream f(line);
+    int fields = 0;
+    for (std::string x; f >> x;) ++fields;
+    EXPECT_EQ(fields, 7) << line;  // the angle and six motions, every row
+    ++rows;
+  }
+  EXPECT_EQ(rows, static_cast<int>(r.components.size()) - 1);
+  EXPECT_NE(isg.find("left out (deg): " + io::fmt_num(r.components[1].angle_deg, 6)),
+            std::string::npos)
+      << isg;
+}
+
+// What compensation writes holds to the bound --current reads: +-100,000 mm.
+TEST(Compensation, AValueBeyondTheBoundIsNotWritten) {
+  const Design d = io::read_design_file(test::kDesignC);
+  io::ResultFile r = measured(d, located(d, {{"X0C", 40}, {"Y0C", -30}}), 5, "r.json");
+  for (io::ResultQuantity& q : r.location)
+    if (q.name == "Y0C") q.value = 1e9, q.std = 1;  // um: 1e6 mm
+  io::CompensationOptions o;
+  o.linuxcnc_kins = "xyzac-trt";
+  o.current_mm = {{"x-rot-point", 100}, {"y-rot-point", 50}, {"y-offset", 20}};
+  for (const auto f : {io::CompensationFormat::kLinuxCnc, io::CompensationFormat::kIsg}) {
+    const std::string m = error_of([&] { io::compensation_text(r, f, o); });
+    EXPECT_NE(m.find("r.json: Y0C: would be written as 1000000 mm, beyond +-100000 mm"),
+              std::string::npos)
+        << m;
+  }
+  // Within the bound, the current value plus the change beyond it is refused too.
+  for (io::ResultQuantity& q : r.location)
+    if (q.name == "Y0C") q.value = 30, q.std = 1;
+  o.current_mm = {{"x-rot-point", 100}, {"y-rot-point", 99999.99}, {"y-offset", 20}};
+  const std::string m =
+      error_of([&] { io::compensation_text(r, io::CompensationFormat::kLinuxCnc, o); });
+  EXPECT_NE(m.find("y-rot-point (--current plus the change)"), std::string::npos) << m;
 }
 
 // The ISG file read as the kernel would: the header's names, the row of values.

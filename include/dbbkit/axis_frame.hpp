@@ -76,6 +76,9 @@ class AxisFrame {
 
   // The same axis: letter, side, direction, reference, travel (the shorthand aside).
   bool same_as(const AxisFrame& other) const;
+  // The same axis whatever its form: letter, side, direction, reference and travel (a result's
+  // quantities are the axis', not the ball coordinates' of its form).
+  bool same_axis(const AxisFrame& other) const;
 
  private:
   explicit AxisFrame(int) {}  // unformed, for general()

@@ -122,6 +122,8 @@ struct IsoResult {
 struct IsoNames {
   std::array<std::string, 5> location;
   std::array<std::string, 6> components;
+  // The constant parts: dx, dy, dz (um), then the tilts about p1 and p2 (urad).
+  std::array<std::string, 5> constants;
 };
 // ISO 230-1: a location error is the direction, the digit zero, the axis' letter. For an axis
 // along a machine axis (either sense): the positions along the two other machine axes, the

@@ -8,6 +8,7 @@
 #include "dbbkit/io/compensation_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/result_read.hpp"
+#include "dbbkit/io/text.hpp"
 #include "dbbkit/user_text.hpp"
 
 namespace dbbkit::cli {
@@ -64,10 +65,11 @@ Runner add_compensation(CLI::App& app) {
       } catch (const std::exception&) {
         used = 0;
       }
-      if (used == 0 || used != c.size() - eq - 1 || !std::isfinite(v) || std::abs(v) > 1e5)
-        throw InputError(
-            "--current", "",
-            "the value of " + quote_value(c) + " is not a number of mm within +-100000");
+      if (used == 0 || used != c.size() - eq - 1 || !std::isfinite(v) ||
+          std::abs(v) > io::kMaxCompensation_mm)
+        throw InputError("--current", "",
+                         "the value of " + quote_value(c) + " is not a number of mm within +-" +
+                             io::fmt_num(io::kMaxCompensation_mm, 6));
       if (!o.current_mm.emplace(c.substr(0, eq), v).second)
         throw InputError("--current", "", quote_value(c.substr(0, eq)) + " is given twice");
     }

@@ -44,10 +44,11 @@ int Comparison::significant() const {
 }
 
 Comparison compare_results(const ResultFile& a, const ResultFile& b, double level) {
-  if (!a.axis.same_as(b.axis)) {
+  if (!a.axis.same_axis(b.axis)) {
     throw InputError(b.source, "design.axis",
                      "this result is of axis " + b.axis.label() + ", " + a.source + " of axis " +
-                         a.axis.label() + ": only two measurements of one axis compare");
+                         a.axis.label() + " (" + axis_difference(b.axis, a.axis) +
+                         "): only two measurements of one axis compare");
   }
   if (!(level > 0 && level < 1)) throw InputError("--level", "", "must be in (0, 1)");
   Comparison c;
@@ -102,11 +103,17 @@ Comparison compare_results(const ResultFile& a, const ResultFile& b, double leve
   }
   for (const ComparedQuantity& q : c.quantities) c.tested += q.change.has_value();
   c.z = c.tested > 0 ? gaussian_factor(level / c.tested) : 0.0;
+  // A change of no uncertainty is significant when it is not zero.
   for (ComparedQuantity& q : c.quantities)
-    q.significant = q.change && *q.u > 0 && std::abs(*q.change) > c.z * *q.u;
+    q.significant = q.change && std::abs(*q.change) > c.z * *q.u;
+  // The angles of both, matched within 1e-9 deg through B's angles in order (linear in the
+  // angles after the sort, whatever their number).
+  std::multimap<double, const ResultErrors*> b_at;
+  for (const ResultErrors& eb : b.errors) b_at.emplace(eb.angle_deg, &eb);
   for (const ResultErrors& ea : a.errors) {
-    for (const ResultErrors& eb : b.errors) {
-      if (std::abs(ea.angle_deg - eb.angle_deg) > 1e-9) continue;
+    for (auto it = b_at.lower_bound(ea.angle_deg - 1e-9);
+         it != b_at.end() && it->first <= ea.angle_deg + 1e-9; ++it) {
+      const ResultErrors& eb = *it->second;
       ComparedErrors e;
       e.angle_deg = ea.angle_deg;
       for (int k = 0; k < 6; ++k) {

@@ -32,6 +32,15 @@ std::string g9(double v) {
   return b;
 }
 
+// A length written for a controller [mm], within kMaxCompensation_mm; `what` names it.
+double written_mm(double mm, const ResultFile& r, const std::string& what) {
+  if (!(std::abs(mm) <= kMaxCompensation_mm))
+    throw InputError(r.source, what,
+                     "would be written as " + g9(mm) + " mm, beyond +-" + g9(kMaxCompensation_mm) +
+                         " mm: no machine's location; not written");
+  return mm;
+}
+
 // Whether a value is worth entering, and why not.
 struct Verdict {
   bool enter = false;
@@ -75,6 +84,7 @@ std::string isg(const ResultFile& r, const CompensationOptions& o) {
       undetermined += " " + q.name;
       continue;
     }
+    if (q.unit == "um") written_mm(to_si(*q.value, q.unit), r, q.name);
     s << "//   " << q.name << " = " << g9(to_si(*q.value, q.unit)) << " " << si_unit(q.unit)
       << ", U = " << g9(to_si(o.k * *q.std, q.unit)) << " " << si_unit(q.unit)
       << (v.enter ? "" : " (too uncertain to enter: |value| <= U)") << "\n";
@@ -92,12 +102,17 @@ std::string isg(const ResultFile& r, const CompensationOptions& o) {
     return s.str();
   }
   s << names << "\n" << values << "\n";
-  // The component errors over the angle, where all six are determined.
+  // The component errors over the angle, where all six are given and determined (the reader
+  // keeps them in ISO 230-1's order: one table, one column a component).
   std::string omitted;
   std::vector<const ResultComponents*> rows;
   for (const ResultComponents& c : r.components) {
-    bool all = !c.motions.empty();
-    for (const ResultQuantity& m : c.motions) all = all && m.value.has_value();
+    bool all = c.motions.size() == 6;
+    for (const ResultQuantity& m : c.motions) {
+      all = all && m.value.has_value();
+      if (m.value && m.unit == "um")
+        written_mm(to_si(*m.value, m.unit), r, m.name + " at " + fmt_num(c.angle_deg, 6) + " deg");
+    }
     if (all)
       rows.push_back(&c);
     else
@@ -195,7 +210,7 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
     s << "# " << q.name << " = " << g9(to_si(*q.value, q.unit))
       << " mm, U = " << g9(to_si(o.k * *q.std, q.unit)) << " mm:";
     for (const auto& [pin, f] : pins) {
-      const double d = f * to_si(*q.value, q.unit);
+      const double d = f * written_mm(to_si(*q.value, q.unit), r, q.name);
       change[pin] += d;
       s << " " << pin << (d >= 0 ? " += " : " -= ") << g9(std::abs(d));
     }
@@ -229,7 +244,8 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
       s << "# setp " << kins << "-kins." << pin << " <current value " << (d >= 0 ? "+ " : "- ")
         << g9(std::abs(d)) << ">   (give --current " << pin << "=VALUE to write it)\n";
     } else {
-      s << "setp " << kins << "-kins." << pin << " " << g9(it->second + d) << "\n";
+      s << "setp " << kins << "-kins." << pin << " "
+        << g9(written_mm(it->second + d, r, pin + " (--current plus the change)")) << "\n";
     }
   }
   if (change.empty()) s << "# nothing to enter\n";

@@ -1,5 +1,6 @@
 #include "dbbkit/io/design_io.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 
 #include "../number_text.hpp"
@@ -126,13 +127,21 @@ AxisFrame read_axis(ObjectReader& top) {
     if (x.size() != 3) a.fail(key, "expected a vector [x, y, z]");
     return Eigen::Vector3d(x[0], x[1], x[2]);
   };
-  const Eigen::Vector3d direction = vector3("direction"), reference = vector3("reference");
+  Eigen::Vector3d direction = vector3("direction"), reference = vector3("reference");
   if (const std::string p = axis_frame_problem(direction, reference); !p.empty())
     a.fail(p.rfind("direction", 0) == 0 ? "direction" : "reference", p);
+  // A vector within kFrameTolerance (rad) of a machine axis is that axis, exactly: its names,
+  // its letter and its rotations are then the machine axis', not a nutating axis' at 1e-9.
+  for (Eigen::Vector3d* v : {&direction, &reference}) {
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d e = Eigen::Vector3d::Unit(k);
+      if ((*v)(k) != 0 && v->cross(e).norm() <= kFrameTolerance) *v = (*v)(k) > 0 ? e : -e;
+    }
+  }
   // ISO 841: the rotary axis about X is A, about Y is B, about Z is C (a primed axis turns the
   // other way about the same line); an axis along none of them (nutating) takes any letter.
   for (int k = 0; k < 3; ++k) {
-    if (std::abs(std::abs(direction(k)) - 1.0) <= kFrameTolerance && letter[0] != "ABC"[k]) {
+    if (std::abs(direction(k)) == 1.0 && letter[0] != "ABC"[k]) {  // along it (snapped above)
       a.fail("letter", "an axis along " + std::string(direction(k) > 0 ? "+" : "-") +
                            kMachineAxes[k] + " is " + std::string(1, "ABC"[k]) +
                            " (ISO 841), not " + quote_value(letter) +

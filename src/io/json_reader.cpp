@@ -44,9 +44,10 @@ std::string read_text_file(const std::string& path, std::size_t max_bytes) {
     text.append(buf.data(), static_cast<size_t>(in.gcount()));
     if (text.size() > max_bytes) {
       if (max_bytes < limits::kMaxInputBytes) break;  // the reader of the format says more
-      throw InputError(path, "",
-                       "longer than " + std::to_string(limits::kMaxInputBytes >> 20) +
-                           " MiB, the most dbbkit reads from one input (README, \"Limits\")");
+      throw InputError(
+          path, "",
+          "longer than " + std::to_string(limits::kMaxInputBytes >> 20) +
+              " MiB, the most dbbkit reads from one input (docs/formats.md, \"Limits\")");
     }
   }
   if (in.bad()) throw InputError(path, "", "error while reading the file");
@@ -181,6 +182,65 @@ std::string frames_path(const std::vector<Frame>& frames, std::size_t depth) {
   return path;
 }
 
+// The SAX pass of parse_json: the depth and the first key given twice, with its path.
+struct Checker {
+  const std::string& source;
+  std::vector<Frame> frames;
+  std::size_t keys_seen = 0;
+  std::optional<std::size_t> duplicate_token;
+  std::string duplicate_path;
+
+  void deep_check() const {
+    if (frames.size() > limits::kMaxJsonDepth) {
+      throw InputError(source, frames_path(frames, frames.size()),
+                       "nested deeper than " + std::to_string(limits::kMaxJsonDepth) +
+                           " levels (docs/formats.md, \"Limits\")");
+    }
+  }
+  bool value() {
+    deep_check();
+    if (!frames.empty() && !frames.back().object) ++frames.back().elements;
+    return true;
+  }
+  bool null() { return value(); }
+  bool boolean(bool) { return value(); }
+  bool number_integer(json::number_integer_t) { return value(); }
+  bool number_unsigned(json::number_unsigned_t) { return value(); }
+  bool number_float(json::number_float_t, const json::string_t&) { return value(); }
+  bool string(json::string_t&) { return value(); }
+  bool binary(json::binary_t&) { return value(); }
+  bool start(bool object) {
+    deep_check();
+    frames.push_back(Frame{object, "", 0, {}});
+    return true;
+  }
+  bool start_object(std::size_t) { return start(true); }
+  bool start_array(std::size_t) { return start(false); }
+  bool end() {
+    if (!frames.empty()) frames.pop_back();
+    if (!frames.empty() && !frames.back().object) ++frames.back().elements;
+    return true;
+  }
+  bool end_object() { return end(); }
+  bool end_array() { return end(); }
+  bool key(json::string_t& key) {
+    deep_check();
+    if (!frames.empty()) {
+      frames.back().key = key;
+      if (!frames.back().keys.insert(key).second && !duplicate_token) {
+        duplicate_token = keys_seen;
+        duplicate_path = frames_path(frames, frames.size());
+      }
+    }
+    ++keys_seen;
+    return true;
+  }
+  template <typename Exception>
+  bool parse_error(std::size_t, const std::string&, const Exception& e) {
+    throw e;
+  }
+};
+
 }  // namespace
 
 json parse_json(const std::string& text, const std::string& source) {
@@ -193,49 +253,17 @@ json parse_json(const std::string& text, const std::string& source) {
   if (text.size() > limits::kMaxJsonBytes) {
     throw InputError(source, "",
                      "more than the " + std::to_string(limits::kMaxJsonBytes >> 20) +
-                         " MiB of JSON dbbkit reads from one input (README, \"Limits\")");
+                         " MiB of JSON dbbkit reads from one input (docs/formats.md, \"Limits\")");
   }
-  std::vector<Frame> frames;
-  std::size_t keys_seen = 0;
-  std::optional<std::size_t> duplicate_token;
-  std::string duplicate_path;
-  json::parser_callback_t cb = [&](int depth, json::parse_event_t event, json& parsed) {
-    if (static_cast<std::size_t>(depth) > limits::kMaxJsonDepth) {
-      throw InputError(source, frames_path(frames, frames.size()),
-                       "nested deeper than " + std::to_string(limits::kMaxJsonDepth) +
-                           " levels (README, \"Limits\")");
-    }
-    switch (event) {
-      case json::parse_event_t::object_start:
-      case json::parse_event_t::array_start:
-        frames.push_back(Frame{event == json::parse_event_t::object_start, "", 0, {}});
-        break;
-      case json::parse_event_t::key: {
-        const std::string key = parsed.get<std::string>();
-        if (!frames.empty()) {
-          frames.back().key = key;
-          if (!frames.back().keys.insert(key).second && !duplicate_token) {
-            duplicate_token = keys_seen;
-            duplicate_path = frames_path(frames, frames.size());
-          }
-        }
-        ++keys_seen;
-        break;
-      }
-      case json::parse_event_t::object_end:
-      case json::parse_event_t::array_end:
-        if (!frames.empty()) frames.pop_back();
-        if (!frames.empty() && !frames.back().object) ++frames.back().elements;
-        break;
-      case json::parse_event_t::value:
-        if (!frames.empty() && !frames.back().object) ++frames.back().elements;
-        break;
-    }
-    return true;
-  };
+  // A first pass through the SAX interface checks the depth and finds a key given twice, with
+  // its path; the document is then parsed without a callback. (nlohmann's callback parser
+  // searches the enclosing container for a discarded value at the end of every object: a list
+  // of n objects took n^2 / 2 steps.)
+  Checker checker{source, {}, 0, std::nullopt, ""};
   json j;
   try {
-    j = json::parse(text, cb);
+    json::sax_parse(text, &checker);
+    j = json::parse(text);
   } catch (const json::parse_error& e) {
     std::string what = e.what();
     const auto pos = what.find("parse error");
@@ -294,10 +322,10 @@ json parse_json(const std::string& text, const std::string& source) {
       }
     }
   }
-  if (duplicate_token) {
+  if (checker.duplicate_token) {
     throw InputError(source,
-                     line_column(text, key_token_position(text, *duplicate_token)) + ", key '" +
-                         duplicate_path + "'",
+                     line_column(text, key_token_position(text, *checker.duplicate_token)) +
+                         ", key '" + checker.duplicate_path + "'",
                      "the key appears twice in one object");
   }
   return j;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <tuple>
 
 #include "dbbkit/error.hpp"
@@ -34,9 +35,14 @@ const json& member(const json& obj, const std::string& key, const std::string& s
   return *it;
 }
 
-std::string text_of(const json& v, const std::string& source, const std::string& path) {
+// A string within the text limits (user_text.hpp): a name's, or any other text's.
+std::string text_of(const json& v, const std::string& source, const std::string& path,
+                    std::size_t max_bytes = limits::kMaxTextBytes) {
   if (!v.is_string()) throw InputError(source, path, "expected a string");
-  return v.get<std::string>();
+  const std::string& s = v.get_ref<const std::string&>();
+  if (const auto p = text_problem(s, max_bytes))
+    throw InputError(source, path, quote_value(s) + ": " + *p);
+  return s;
 }
 
 const json& list_of(const json& v, const std::string& source, const std::string& path) {
@@ -87,11 +93,11 @@ ResultQuantity quantity(const json& q, const std::string& source, const std::str
 
 void no_repeats(const std::vector<ResultQuantity>& list, const std::string& source,
                 const std::string& path) {
+  std::set<std::string> seen;
   for (std::size_t i = 0; i < list.size(); ++i)
-    for (std::size_t j = 0; j < i; ++j)
-      if (list[i].name == list[j].name)
-        throw InputError(source, path + "[" + std::to_string(i) + "].name",
-                         list[i].name + " is given twice");
+    if (!seen.insert(list[i].name).second)
+      throw InputError(source, path + "[" + std::to_string(i) + "].name",
+                       list[i].name + " is given twice");
 }
 
 double angle_of(const json& v, const std::string& source, const std::string& path) {
@@ -116,7 +122,8 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
       j["inputs"]["data"].is_string())
     r.data_source = j["inputs"]["data"].get<std::string>();
   const json& design = member(j, "design", source, "");
-  r.design_name = text_of(member(design, "name", source, "design"), source, "design.name");
+  r.design_name = text_of(member(design, "name", source, "design"), source, "design.name",
+                          limits::kMaxNameBytes);
   r.errors_model =
       text_of(member(design, "errors_model", source, "design"), source, "design.errors_model");
   {
@@ -147,11 +154,11 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
   // The names this axis' quantities take (iso230.hpp), with their units.
   const IsoNames names = iso230_names(r.axis);
   Names location_names, constant_names, motion_names;
-  for (int k = 0; k < 5; ++k) location_names.emplace_back(names.location[k], k < 2 ? "um" : "urad");
-  for (int k = 0; k < 6; ++k) {
-    constant_names.emplace_back(std::string("constant part of ") + kErrorNames[k], kErrorUnits[k]);
-    motion_names.emplace_back(names.components[k], kErrorUnits[k]);
+  for (int k = 0; k < 5; ++k) {
+    location_names.emplace_back(names.location[k], k < 2 ? "um" : "urad");
+    constant_names.emplace_back(names.constants[k], k < 3 ? "um" : "urad");
   }
+  for (int k = 0; k < 6; ++k) motion_names.emplace_back(names.components[k], kErrorUnits[k]);
   for (const auto& [key, out, allowed] :
        {std::tuple{"location", &r.location, &location_names},
         std::tuple{"constant_parts", &r.constants, &constant_names}}) {
@@ -163,14 +170,14 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
   }
   const json& comps =
       list_of(member(iso, "components", source, "iso230"), source, "iso230.components");
+  std::set<double> component_angles;  // each angle once (a set: linear in the angles' number)
   for (std::size_t i = 0; i < comps.size(); ++i) {
     const std::string path = "iso230.components[" + std::to_string(i) + "]";
     ResultComponents c;
     c.angle_deg =
         angle_of(member(comps[i], "angle_deg", source, path), source, path + ".angle_deg");
-    for (const ResultComponents& other : r.components)
-      if (other.angle_deg == c.angle_deg)
-        throw InputError(source, path + ".angle_deg", "an angle given twice");
+    if (!component_angles.insert(c.angle_deg).second)
+      throw InputError(source, path + ".angle_deg", "an angle given twice");
     for (const auto& [name, q] : comps[i].items()) {
       if (name == "angle_deg") continue;
       json named = q;
@@ -229,14 +236,14 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
     }
   }
   const json& errors = list_of(member(j, "errors", source, ""), source, "errors");
+  std::set<double> error_angles;
   for (std::size_t i = 0; i < errors.size(); ++i) {
     const std::string path = "errors[" + std::to_string(i) + "]";
     ResultErrors e;
     e.angle_deg =
         angle_of(member(errors[i], "angle_deg", source, path), source, path + ".angle_deg");
-    for (const ResultErrors& other : r.errors)
-      if (other.angle_deg == e.angle_deg)
-        throw InputError(source, path + ".angle_deg", "an angle given twice");
+    if (!error_angles.insert(e.angle_deg).second)
+      throw InputError(source, path + ".angle_deg", "an angle given twice");
     const json& value = member(errors[i], "value", source, path);
     const json& std = member(errors[i], "std", source, path);
     for (int k = 0; k < 6; ++k) {

@@ -23,6 +23,10 @@
 
 namespace dbbkit::io {
 
+// The largest position a compensation reads (--current) or writes [mm]: beyond it a number is
+// no machine's (formats.md, "Limits").
+inline constexpr double kMaxCompensation_mm = 1e5;
+
 enum class CompensationFormat { kIsg, kLinuxCnc, kTable };
 // "isg", "linuxcnc", "table"; InputError(source, "format") for any other name.
 CompensationFormat compensation_format(const std::string& name, const std::string& source);
