@@ -5,7 +5,11 @@
 #include "dbbkit/user_text.hpp"
 
 #include <gtest/gtest.h>
+#include <stdlib.h>
 
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "dbbkit/error.hpp"
@@ -121,6 +125,18 @@ TEST(Escape, MarkdownStartsNoHtmlLinkOrCodeAndStaysOneLine) {
   }
   EXPECT_EQ(io::markdown_escape("<b>x</b> p < 1"), "\\<b>x\\</b> p < 1");
   EXPECT_EQ(io::markdown_escape("[x](y) length_offset[1r]"), "\\[x]\\(y) length_offset[1r]");
+  // A name that would open a block where it starts a line: a heading, a quote, a list, a rule,
+  // an ordered list, a code block.
+  EXPECT_EQ(io::markdown_escape("# C table", true), "\\# C table");
+  EXPECT_EQ(io::markdown_escape("> quoted", true), "\\> quoted");
+  EXPECT_EQ(io::markdown_escape("- item", true), "\\- item");
+  EXPECT_EQ(io::markdown_escape("***", true), "\\***");
+  EXPECT_EQ(io::markdown_escape("12. run", true), "12\\. run");
+  EXPECT_EQ(io::markdown_escape("3) run", true), "3\\) run");
+  EXPECT_EQ(io::markdown_escape("    code", true), "&#32;&#32;&#32;&#32;code");
+  EXPECT_EQ(io::markdown_escape("run 12. x - y", true), "run 12. x - y");
+  // Within a line (a table's cell, a heading's text) a number stays as it is.
+  EXPECT_EQ(io::markdown_escape("-1.25"), "-1.25");
 }
 
 TEST(Escape, GnuplotStringsHaveNoLineBreakAndCloseWhereTheyShould) {
@@ -128,13 +144,17 @@ TEST(Escape, GnuplotStringsHaveNoLineBreakAndCloseWhereTheyShould) {
     const std::string q = io::gnuplot_quote(h.text);
     ASSERT_GE(q.size(), 2u);
     EXPECT_TRUE(printable_ascii(q)) << h.label;
-    // Inside the quotes every ' is doubled: the literal ends only at the last one.
+    EXPECT_EQ(q.front(), '"') << h.label;
+    EXPECT_EQ(q.back(), '"') << h.label;
+    // Inside the quotes no quote, backquote, macro sign or dollar; a backslash only as an octal
+    // escape of three digits: the literal ends only at the last character.
     const std::string inner = q.substr(1, q.size() - 2);
+    EXPECT_EQ(inner.find_first_of("\"'`@$"), std::string::npos) << h.label << ": " << q;
     for (size_t i = 0; i < inner.size(); ++i) {
-      if (inner[i] == '\'') {
-        ASSERT_LT(i + 1, inner.size()) << h.label;
-        EXPECT_EQ(inner[i + 1], '\'') << h.label;
-        ++i;
+      if (inner[i] == '\\') {
+        ASSERT_LT(i + 3, inner.size() + 0) << h.label;
+        for (int k = 1; k <= 3; ++k) EXPECT_TRUE(inner[i + k] >= '0' && inner[i + k] <= '7');
+        i += 3;
       }
     }
     const std::string l = io::gnuplot_label(h.text);
@@ -158,6 +178,47 @@ TEST(Escape, TerminalTextHasNoControlCharacter) {
   for (const auto& h : hostile_strings()) {
     EXPECT_TRUE(clean_text(io::terminal_text(h.text))) << h.label;
   }
+}
+
+// gnuplot itself (the version setup.sh installs) reads every quoted name back as the text's
+// printable ASCII: two apostrophes ("12'' rotary table"), four, quotes of both kinds, a
+// backquoted command, a macro sign, a backslash and the hostile strings.
+TEST(Escape, GnuplotReadsEveryQuotedNameBackAsWritten) {
+  std::vector<std::string> names = {
+      "12'' rotary table", "''''", "a''''b", "\"x\"'y'", "`touch /tmp/dbbkit-gnuplot-backquote`",
+      "@x $y \\n \\047"};
+  for (const auto& h : hostile_strings()) names.push_back(h.text);
+  char dir[] = "/tmp/dbbkit-gnuplot-XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  const std::string script = std::string(dir) + "/names.gp", out = std::string(dir) + "/out.txt";
+  {
+    std::ofstream s(script);
+    s << "set print " << io::gnuplot_quote(out) << "\n";
+    for (const std::string& n : names) s << "print " << io::gnuplot_quote(n) << "\n";
+  }
+  ASSERT_EQ(std::system(("gnuplot " + script + " 2>" + dir + "/err.txt").c_str()), 0);
+  std::ifstream in(out);
+  std::string line;
+  for (const std::string& n : names) {
+    ASSERT_TRUE(std::getline(in, line)) << n;
+    // What gnuplot prints is what the quoting kept: the text as printable ASCII.
+    std::string expected = io::gnuplot_quote(n);
+    std::string decoded;
+    for (std::size_t i = 1; i + 1 < expected.size(); ++i) {
+      if (expected[i] == '\\') {
+        decoded += static_cast<char>((expected[i + 1] - '0') * 64 + (expected[i + 2] - '0') * 8 +
+                                     (expected[i + 3] - '0'));
+        i += 3;
+      } else {
+        decoded += expected[i];
+      }
+    }
+    EXPECT_EQ(line, decoded) << n;
+    if (n == names[0]) EXPECT_EQ(line, "12'' rotary table");
+    if (n == names[1]) EXPECT_EQ(line, "''''");
+  }
+  EXPECT_FALSE(std::ifstream("/tmp/dbbkit-gnuplot-backquote").good());
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

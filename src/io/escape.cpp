@@ -1,5 +1,7 @@
 #include "dbbkit/io/escape.hpp"
 
+#include <cctype>
+
 #include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
@@ -86,10 +88,13 @@ std::string xml_escape(std::string_view s) {
   return out;
 }
 
-std::string markdown_escape(std::string_view s) {
+std::string markdown_escape(std::string_view s, bool line_start) {
   std::string out;
   out.reserve(s.size());
   char before = 0;  // the previous character (0 at the start)
+  // Where the text may open a block (a heading, a quote, a list, a rule, a fence, a setext
+  // line): its first non-blank character, and an ordered list's '.' or ')' after digits.
+  bool opening = line_start, digits = false;
   for_each_char(
       s,
       [&](char32_t c, std::string_view bytes) {
@@ -98,6 +103,17 @@ std::string markdown_escape(std::string_view s) {
         const bool tag_start = (next >= 'A' && next <= 'Z') || (next >= 'a' && next <= 'z') ||
                                next == '/' || next == '!' || next == '?';
         bool escape = false;
+        if (opening && c == ' ') {
+          out += "&#32;";  // four blanks would open a code block
+          before = ' ';
+          return;
+        }
+        if (opening && c < 128 &&
+            std::string_view("#>-+*=_~").find(static_cast<char>(c)) != std::string_view::npos)
+          escape = true;
+        if (digits && (c == '.' || c == ')')) escape = true;
+        digits = (opening || digits) && c >= '0' && c <= '9';
+        opening = false;
         switch (c) {
           case '\\':
           case '`':
@@ -128,9 +144,27 @@ std::string markdown_escape(std::string_view s) {
 }
 
 std::string gnuplot_quote(std::string_view s) {
-  std::string out = "'";
-  for (char c : ascii(s)) out += c == '\'' ? std::string("''") : std::string(1, c);
-  return out + "'";
+  // gnuplot 5.4 ends a single-quoted string at four quotes in a row however they pair, and runs
+  // a backquoted command inside a double-quoted one: every character but a letter, a digit and
+  // " _.,:/+-=" is written as its octal escape, so that no quote, backquote, @, $ or backslash
+  // of the text reaches the parser as itself; a digit after an escape is escaped too (gnuplot
+  // reads an octal escape on as long as digits follow).
+  std::string out = "\"";
+  bool escaped = false;  // the last character was escaped: gnuplot would read a digit on into it
+  for (char c : ascii(s)) {
+    const bool digit = c >= '0' && c <= '9';
+    if (!(digit && escaped) && (std::isalnum(static_cast<unsigned char>(c)) ||
+                                std::string_view(" _.,:/+-=").find(c) != std::string_view::npos)) {
+      out += c;
+      escaped = false;
+    } else {
+      escaped = true;
+      const auto u = static_cast<unsigned char>(c);
+      out += {'\\', static_cast<char>('0' + (u >> 6)), static_cast<char>('0' + ((u >> 3) & 7)),
+              static_cast<char>('0' + (u & 7))};
+    }
+  }
+  return out + "\"";
 }
 
 std::string gnuplot_label(std::string_view s) {

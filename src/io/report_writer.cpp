@@ -130,9 +130,11 @@ MarkdownWriter::MarkdownWriter(const std::string& title)
 void MarkdownWriter::heading(const std::string& text, int level) {
   text_ += std::string(static_cast<size_t>(level), '#') + " " + markdown_escape(text) + "\n\n";
 }
-void MarkdownWriter::paragraph(const std::string& text) { text_ += markdown_escape(text) + "\n\n"; }
+void MarkdownWriter::paragraph(const std::string& text) {
+  text_ += markdown_escape(text, true) + "\n\n";
+}
 void MarkdownWriter::bullets(const std::vector<std::string>& items) {
-  for (const std::string& i : items) text_ += "- " + markdown_escape(i) + "\n";
+  for (const std::string& i : items) text_ += "- " + markdown_escape(i, true) + "\n";
   text_ += "\n";
 }
 void MarkdownWriter::preformatted(const std::string& text) {

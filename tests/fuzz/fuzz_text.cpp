@@ -78,9 +78,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string m = markdown_escape(s);
   require(clean(m, false));
   const std::string q = gnuplot_quote(s);
-  require(printable_ascii(q) && q.size() >= 2 && q.front() == '\'' && q.back() == '\'');
+  require(printable_ascii(q) && q.size() >= 2 && q.front() == '"' && q.back() == '"');
   for (std::size_t i = 1; i + 1 < q.size(); ++i) {
-    if (q[i] == '\'') require(q[i + 1] == '\'' && i + 2 < q.size()), ++i;
+    require(std::string_view("\"'`@$").find(q[i]) == std::string_view::npos);
+    if (q[i] == '\\') {
+      require(i + 4 < q.size());
+      for (int k = 1; k <= 3; ++k) require(q[i + k] >= '0' && q[i + k] <= '7');
+      i += 3;
+    }
   }
   const std::string l = gnuplot_label(s);
   require(printable_ascii(l) && l.find('"') == std::string::npos);

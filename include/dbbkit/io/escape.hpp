@@ -28,11 +28,15 @@ std::string xml_escape(std::string_view s);
 // ] (a link's or an image's destination or reference) and [ at the start (a link
 // definition); ` (code), | (a table cell) and the backslash itself. Emphasis is left as it
 // is: it changes the look, never what the text says. A control character becomes a space,
-// so a paragraph or a cell stays one.
-std::string markdown_escape(std::string_view s);
+// so a paragraph or a cell stays one. With line_start (a paragraph, a list item's text) a
+// character that would open a block where the text starts a line is escaped too: a leading
+// # > - + * = _ ~, the . or ) after leading digits (an ordered list), a leading blank (&#32;,
+// four of which would open a code block).
+std::string markdown_escape(std::string_view s, bool line_start = false);
 
-// A gnuplot string: printable ASCII only (others become '?'), in single quotes with a
-// quote doubled. No line break, so nothing after it can become a command.
+// A gnuplot string: printable ASCII only (others become '?'), in double quotes with every
+// character but letters, digits and " _.,:/+-=" as an octal escape (\047 for '): no quote,
+// backquote, macro sign or line break of the text reaches gnuplot's parser.
 std::string gnuplot_quote(std::string_view s);
 // A label inside a gnuplot data block: printable ASCII without the double quote, for
 // "label" fields (the same reason: no line can end the block or start a command).
