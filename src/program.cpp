@@ -9,6 +9,7 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/setup_sheet.hpp"
+#include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
 
 namespace dbbkit {
@@ -94,12 +95,12 @@ void validate_program_options(const ProgramOptions& o, const std::string& source
   check(!o.clearance_z_mm || (std::isfinite(*o.clearance_z_mm) &&
                               std::abs(*o.clearance_z_mm) <= limits::kMaxLength_mm),
         "clearance_z_mm", "the clearance plane must be a Z within +-10000 mm");
-  bool code_ok = o.orient_code.empty() || (o.orient_code.size() >= 2 && o.orient_code.size() <= 4 &&
-                                           o.orient_code[0] == 'M');
-  for (size_t i = 1; code_ok && i < o.orient_code.size(); ++i)
-    code_ok = o.orient_code[i] >= '0' && o.orient_code[i] <= '9';
-  check(code_ok, "orient_code",
-        "the spindle orientation is an M-code (M followed by 1 to 3 digits) or none");
+  // Any other M-code (M3 starts the spindle, M8 the coolant) would be written where the cup sits
+  // in the spindle: only the orientation code of the dialects written is taken.
+  check(o.orient_code.empty() || o.orient_code == kOrientCode, "orient_code",
+        quote_value(o.orient_code) +
+            " is not the spindle orientation code of the dialects written (" + kOrientCode +
+            "); give none to orient the spindle by hand");
 }
 
 Eigen::Vector3d commanded_point_mm(const AxisFrame& axis, const Installation& inst, double bar_mm,

@@ -168,6 +168,11 @@ TEST(Kit, BarsAsSoldAreReadAndCheckedByKey) {
   EXPECT_EQ(where(R"("bars": {"base_mm": 100, "extensions_mm": [1,2,3,4,5,6,7,8,9]}})"),
             "bars.extensions_mm");
   EXPECT_EQ(where(R"("bars": {"base_mm": 100, "lengths": [50]}})"), "bars.lengths");
+  // As many bars as eight extensions assemble, no more: the search tries each for each
+  // installation.
+  std::string bars = "[";
+  for (int i = 0; i < kMaxBars + 1; ++i) bars += (i ? "," : "") + std::to_string(100 + i);
+  EXPECT_EQ(where(R"("bars_mm": )" + bars + "]}"), "bars_mm");
   EXPECT_EQ(where(R"("bars_mm": [100], "resolution_mm": 0})"), "resolution_mm");
 }
 

@@ -383,6 +383,27 @@ TEST(Program, OptionsOutsideTheirLimitsAreRefused) {
   }
 }
 
+// Only the spindle orientation code is taken: another M-code (M3 starts the spindle, M8 the
+// coolant) would be written where the cup sits in the spindle.
+TEST(Program, OnlyTheOrientationCodeOrientsTheSpindle) {
+  const Design d = io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
+  for (const char* code : {"M3", "M03", "M04", "M8", "M30", "M190", "m19", "M19 ", "G19"}) {
+    ProgramOptions o;
+    o.orient_code = code;
+    try {
+      measurement_program(d, o);
+      ADD_FAILURE() << code << " was taken";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.where(), "orient_code") << code;
+    }
+  }
+  for (const char* code : {"M19", ""}) {
+    ProgramOptions o;
+    o.orient_code = code;
+    EXPECT_NO_THROW(measurement_program(d, o)) << code;
+  }
+}
+
 TEST(Program, FinerPathToleranceSplitsStepsFurtherAndStaysWithinIt) {
   const Design d = io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
   size_t previous = 0;

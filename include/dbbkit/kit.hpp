@@ -75,6 +75,8 @@ struct BarSet {
 // At most this many extensions in a bar set (2^n assemblies are enumerated, and the search
 // tries each for each installation it places).
 inline constexpr int kMaxBarExtensions = 8;
+// At most this many bars in a kit (bars_mm): as many as the extensions of a set assemble.
+inline constexpr int kMaxBars = 1 << kMaxBarExtensions;
 
 // Where the set-up lives (optional in a kit; without it the table, the cup's footprint and
 // the spindle are not checked, and every output says so). Lengths in mm.

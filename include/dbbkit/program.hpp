@@ -73,6 +73,8 @@ struct ProgramOptions {
   // The M-code that orients (and, where the control has it, locks) the spindle; empty: none.
   std::string orient_code = "M19";
 };
+// The spindle orientation code of every dialect written; the only one orient_code takes.
+inline constexpr const char* kOrientCode = "M19";
 
 // The sweeps the program runs for `sweeps`, in order, and a name (ccw, cw, both) as one; nullopt
 // for another name. The one definition readings matches a trace's dwells against.
@@ -85,7 +87,7 @@ std::vector<double> sweep_angles(const Design& design, Sweep sweep);
 // The limits of the options; throws InputError(source, key) outside them:
 //   0 < dwell_s <= 600, 0 < feed_mm_per_min <= 60000, 1e-4 <= path_tolerance_mm <= 1,
 //   1 <= tool_number <= 9999, 1 <= clearance_margin_mm <= 1000, |clearance_z_mm| <= 10000,
-//   orient_code empty or M followed by 1 to 3 digits.
+//   orient_code empty or kOrientCode.
 void validate_program_options(const ProgramOptions& options, const std::string& source);
 
 struct ProgramPosition {

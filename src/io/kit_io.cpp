@@ -229,7 +229,12 @@ Kit kit_from_json(const json& j, const std::string& source) {
                        "more than " + std::to_string(kMaxBarExtensions) + " extensions");
     k.bars_mm = assembled_bars(set);
   } else {
-    k.bars_mm = read_numbers(top.required("bars_mm"), source, top.key_path("bars_mm"));
+    const json& bars = top.required("bars_mm");
+    // Checked before a number is read: the search tries each bar for each installation.
+    if (bars.is_array() && bars.size() > static_cast<std::size_t>(kMaxBars))
+      top.fail("bars_mm", std::to_string(bars.size()) + " bars: more than the " +
+                              std::to_string(kMaxBars) + " a kit may hold");
+    k.bars_mm = read_numbers(bars, source, top.key_path("bars_mm"));
   }
   k.resolution_mm = top.optional_number("resolution_mm");
   {

@@ -143,7 +143,7 @@ nlohmann::json from_python(py::handle h, const std::string& source, const std::s
     if (open.size() >= limits::kMaxJsonDepth) {
       throw InputError(source, path.empty() ? "top level" : path,
                        "nested deeper than " + std::to_string(limits::kMaxJsonDepth) +
-                           " levels (README, \"Limits\")");
+                           " levels (docs/formats.md, \"Limits\")");
     }
   }
   struct Open {
@@ -192,7 +192,11 @@ std::optional<std::string> as_path(py::handle h) {
   if (!py::isinstance<py::str>(h) && !py::isinstance<py::bytes>(h) && !py::hasattr(h, "__fspath__"))
     return std::nullopt;
   const py::object bytes = py::module_::import("os").attr("fsencode")(h);
-  return bytes.cast<std::string>();
+  std::string path = bytes.cast<std::string>();
+  // The system would read the name only up to its first NUL: another file.
+  if (path.find('\0') != std::string::npos)
+    throw InputError(path, "", "the path holds a NUL byte: no file has such a name");
+  return path;
 }
 
 // ---------------------------------------------------------------- argument checks
@@ -325,7 +329,7 @@ PyMeasurements measurements_from_arrays(const PyDesign& d, py::object installati
       throw InputError("measurements", name,
                        std::to_string(py::len(*seq)) + " values: more than the " +
                            std::to_string(limits::kMaxReadings) +
-                           " readings one measurement may hold (README, \"Limits\")");
+                           " readings one measurement may hold (docs/formats.md, \"Limits\")");
     }
   }
   if (installation_seq.is_none() || angle_deg_seq.is_none() || reading_um_seq.is_none())
@@ -1538,7 +1542,7 @@ PYBIND11_MODULE(dbbkit, m) {
         o.k = k;
         o.linuxcnc_kins = kins;
         for (const auto& [pin, v] : current) {
-          check_finite_in("current", v, -1e5, 1e5);
+          check_finite_in("current", v, -io::kMaxCompensation_mm, io::kMaxCompensation_mm);
           o.current_mm[pin] = v;
         }
         return io::compensation_text(result_of(result, "result"), f, o);

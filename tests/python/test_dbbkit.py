@@ -99,6 +99,23 @@ class RoundTrips(InSource):
         with self.assertRaises(dbbkit.InputError):
             dbbkit.compensation(r, "linuxcnc")  # a C table: the module must be named
 
+    def test_a_path_with_a_nul_byte_reads_no_other_file(self):
+        # The system reads a name up to its first NUL: PAPER_C + NUL + anything would be PAPER_C.
+        d = dbbkit.Design(PAPER_C)
+        r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d))
+        with tempfile.TemporaryDirectory() as tmp:
+            a = os.path.join(tmp, "a.json")
+            with open(a, "w") as f:
+                json.dump(r.json, f)
+            for call in (lambda: dbbkit.Design(PAPER_C + "\0.other"),
+                         lambda: dbbkit.Measurements(DATA_C + "\0.other", d),
+                         lambda: dbbkit.compare(a + "\0x", a),
+                         lambda: dbbkit.compensation(a.encode() + b"\0x", "isg"),
+                         lambda: dbbkit.Measurements.from_trace(d, {"1r": DATA_C + "\0x"})):
+                with self.assertRaises(dbbkit.InputError) as ctx:
+                    call()
+                self.assertIn("NUL byte", str(ctx.exception))
+
     def test_identify_with_tolerances_type_a_and_coverage(self):
         tol = "designs/tolerances/c-turntable-acceptance.json"
         d = dbbkit.Design(PAPER_C)
