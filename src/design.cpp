@@ -138,7 +138,8 @@ bool finite(double x) { return std::isfinite(x); }
 
 // A length [mm] within the documented limit (limits.hpp).
 bool length_ok(double x) { return std::isfinite(x) && std::abs(x) <= limits::kMaxLength_mm; }
-const std::string kLengthLimit = "must be a finite length within +-10000 mm (README, \"Limits\")";
+const std::string kLengthLimit =
+    "must be a finite length within +-10000 mm (docs/formats.md, \"Limits\")";
 
 bool noise_ok(double x) {
   return std::isfinite(x) && x >= limits::kMinNoise_um && x <= limits::kMaxNoise_um;
@@ -152,7 +153,7 @@ void validate_setup_uncertainty(const SetupUncertainty& u, const AxisFrame& axis
        {std::pair<const char*, double>{"length_offset_um", u.length_offset_um},
         {"centring_um", u.centring_um}}) {
     require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_um, source, key + "." + name,
-            "must be a standard uncertainty in [0, 10000] um (README, \"Limits\")");
+            "must be a standard uncertainty in [0, 10000] um (docs/formats.md, \"Limits\")");
     // The prior enters as 1 / u^2: a positive u far below any instrument underflows it.
     require(x == 0 || x >= limits::kMinSetupStd_um, source, key + "." + name,
             text::significant(x, 6) + " um: a positive tolerance is at least " +
@@ -163,7 +164,7 @@ void validate_setup_uncertainty(const SetupUncertainty& u, const AxisFrame& axis
   for (const auto& [name, x] :
        {std::pair<const char*, double>{"L_mm", u.L_mm}, {"D_mm", u.D_mm}, {"H_mm", u.H_mm}}) {
     require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_mm, source, key + "." + name,
-            "must be a standard uncertainty in [0, 100] mm (README, \"Limits\")");
+            "must be a standard uncertainty in [0, 100] mm (docs/formats.md, \"Limits\")");
     require(x == 0 || x >= limits::kMinSetupStd_mm, source, key + "." + name,
             text::significant(x, 6) + " mm: a positive tolerance is at least " +
                 text::significant(limits::kMinSetupStd_mm, 6) + " mm; 0 declares none");
@@ -178,14 +179,15 @@ void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, const Ax
                               const std::string& source) {
   if (n.distribution == NoiseModel::Distribution::kUniform) {
     require(noise_ok(n.half_width_um), source, "noise.accuracy_um",
-            "must be a number of um in [1e-4, 1e4] (README, \"Limits\")");
+            "must be a number of um in [1e-4, 1e4] (docs/formats.md, \"Limits\")");
   } else {
     require(noise_ok(n.std_um), source, "noise.std_um",
-            "must be a number of um in [1e-4, 1e4] (README, \"Limits\")");
+            "must be a number of um in [1e-4, 1e4] (docs/formats.md, \"Limits\")");
   }
   require(m.order >= 0, source, "errors.order", "must be a non-negative integer");
   require(m.order <= limits::kMaxSeriesOrder, source, "errors.order",
-          "must be at most " + std::to_string(limits::kMaxSeriesOrder) + " (README, \"Limits\")");
+          "must be at most " + std::to_string(limits::kMaxSeriesOrder) +
+              " (docs/formats.md, \"Limits\")");
   // The series follows the travel: a full turn is periodic, an arc is not.
   if (m.kind == ErrorModel::Kind::kFourier) {
     require(axis.full_turn(), source, "errors.model",
@@ -222,8 +224,9 @@ void validate_design(const Design& d, const std::string& source) {
       source, "instrument.range_mm",
       "must be from 0.001 mm (1 um) to 10 mm, got " + text::significant(d.instrument_range_mm, 6));
   require(!d.angles_deg.empty(), source, "angles_deg", "no angles");
-  require(d.angles_deg.size() <= limits::kMaxAngles, source, "angles_deg",
-          "more than " + std::to_string(limits::kMaxAngles) + " angles (README, \"Limits\")");
+  require(
+      d.angles_deg.size() <= limits::kMaxAngles, source, "angles_deg",
+      "more than " + std::to_string(limits::kMaxAngles) + " angles (docs/formats.md, \"Limits\")");
   for (size_t i = 0; i < d.angles_deg.size(); ++i) {
     const std::string key = "angles_deg[" + std::to_string(i) + "]";
     const double a = d.angles_deg[i];
@@ -291,7 +294,7 @@ void validate_design(const Design& d, const std::string& source) {
   require(!d.installations.empty(), source, "installations", "no installations");
   require(d.installations.size() <= limits::kMaxInstallations, source, "installations",
           "more than " + std::to_string(limits::kMaxInstallations) +
-              " installations (README, \"Limits\")");
+              " installations (docs/formats.md, \"Limits\")");
   std::set<std::string> ids;
   for (size_t i = 0; i < d.installations.size(); ++i) {
     const Installation& in = d.installations[i];

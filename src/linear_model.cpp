@@ -39,7 +39,7 @@ LinearModel assemble(const Design& design, const Parameterisation& param,
                          std::to_string(static_cast<long long>(dense_bytes / (1 << 20))) +
                          " MiB in the dense solver of a series model, beyond its " +
                          std::to_string(static_cast<long long>(limits::kMaxDenseBytes) >> 20) +
-                         " MiB limit (README, \"Limits\"): about " +
+                         " MiB limit (docs/formats.md, \"Limits\"): about " +
                          std::to_string(static_cast<long>(per_angle_count)) +
                          " angles fit for this design");
   }

@@ -171,7 +171,8 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     if (n > static_cast<double>(limits::kMaxReadings)) {
       throw InputError(source, "repeats",
                        "the simulation would make more than " +
-                           std::to_string(limits::kMaxReadings) + " readings (README, \"Limits\")");
+                           std::to_string(limits::kMaxReadings) +
+                           " readings (docs/formats.md, \"Limits\")");
     }
   }
   for (std::size_t i = 0; i < truth.effects.size(); ++i) {

@@ -184,7 +184,7 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
     if (readings.size() >= limits::kMaxReadings) {
       throw InputError(source, where,
                        "more than " + std::to_string(limits::kMaxReadings) +
-                           " readings, the most one file may hold (README, \"Limits\")");
+                           " readings, the most one file may hold (docs/formats.md, \"Limits\")");
     }
     readings.push_back(r);
   }
