@@ -6,6 +6,7 @@
 
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/program.hpp"
 #include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
@@ -57,9 +58,21 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
   if (n < 10) {
     throw InputError(source, "", "a trace needs at least 10 samples, found " + std::to_string(n));
   }
+  if (n > limits::kMaxTraceSamples) {
+    throw InputError(source, "",
+                     std::to_string(n) + " samples, more than the " +
+                         std::to_string(limits::kMaxTraceSamples) +
+                         " one trace may hold (README, \"Limits\")");
+  }
   for (std::size_t i = 0; i < n; ++i) {
     if (!std::isfinite(t[i]) || !std::isfinite(x[i]))
       throw InputError(source, "sample " + std::to_string(i + 1), "not a finite number");
+    if (std::abs(x[i]) > limits::kMaxTraceReading_um) {
+      throw InputError(
+          source, "sample " + std::to_string(i + 1),
+          "the reading " + text::significant(x[i], 6) + " um is beyond the limit of a reading (+-" +
+              text::significant(limits::kMaxTraceReading_um, 6) + " um, README \"Limits\")");
+    }
     if (i > 0 && !(t[i] > t[i - 1])) {
       throw InputError(
           source, "sample " + std::to_string(i + 1),
@@ -76,6 +89,29 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
     out.sample_interval_s = median(dt);
   }
   const double dt = out.sample_interval_s;
+  // Milliseconds since 1970 read as seconds: times beyond 1e9 s (31 years) in steps of 0.5 or
+  // more.
+  if (t[0] > 1e9 && dt >= 0.5) {
+    throw InputError(source, "",
+                     "the times look like milliseconds since 1970 (the first " +
+                         text::significant(t[0], 15) + ", " + seconds(dt) +
+                         " apart): the time column is seconds from the trace's start (give the "
+                         "sample index with --sample-rate-hz, or convert)");
+  }
+  // A clock jump, or two recordings joined.
+  for (std::size_t i = 1; i < n; ++i) {
+    const double gap = t[i] - t[i - 1];
+    if (gap > limits::kMaxTraceGap_s && gap > limits::kMaxTraceGapFactor * dt) {
+      throw InputError(
+          source, "sample " + std::to_string(i + 1),
+          "the time jumps by " + seconds(gap) + " (from " + text::significant(t[i - 1], 12) +
+              " s to " + text::significant(t[i], 12) + " s), more than " +
+              text::significant(limits::kMaxTraceGapFactor, 6) + " times the median interval " +
+              seconds(dt) + " and more than " + seconds(limits::kMaxTraceGap_s) +
+              ": a clock jump or two recordings joined; a trace is one installation's "
+              "recording");
+    }
+  }
   if (!(dt >= kMinSampleInterval_s)) {
     throw InputError(source, "",
                      "the samples are " + seconds(dt) +

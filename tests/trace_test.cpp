@@ -82,6 +82,65 @@ TEST(TraceReader, RefusesWhatIsNotATrace) {
   }
 }
 
+// The detail of the InputError `f` throws ("" when it throws none).
+template <class F>
+std::string refusal(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.where() + ": " + e.detail();
+  }
+  return "";
+}
+
+// A line is read to its bound, no further: a file without line ends (/dev/zero) is refused
+// naming the line and the bound; a directory or a device is refused as what it is.
+TEST(TraceReader, LinesAndFilesAreBounded) {
+  std::string r = refusal([] { parse(std::string(1 << 20, '\0')); });
+  EXPECT_NE(r.find("line 1: longer than"), std::string::npos) << r;
+  r = refusal([] { parse("time_s,reading_um\n0,1\n" + std::string(1 << 20, '1') + "\n"); });
+  EXPECT_NE(r.find("line 3: longer than"), std::string::npos) << r;
+  const std::string dir = std::filesystem::temp_directory_path().string();
+  r = refusal([&] { io::read_trace_file(dir, {}); });
+  EXPECT_NE(r.find("a directory"), std::string::npos) << r;
+  r = refusal([] { io::read_trace_file("/dev/zero", {}); });
+  EXPECT_NE(r.find("not a regular file"), std::string::npos) << r;
+}
+
+// Old Mac line ends (CR alone) are line ends; CR LF and LF as before.
+TEST(TraceReader, CarriageReturnLineEnds) {
+  Trace t = parse("# cr\rtime_s,reading_um\r0,1\r0.001,2\r0.002,3");
+  ASSERT_EQ(t.time_s.size(), 3u);
+  EXPECT_DOUBLE_EQ(t.reading_um[2], 3.0);
+  t = parse("time_s,reading_um\r\n0,1\r\n0.001,2\r\n");
+  EXPECT_EQ(t.time_s.size(), 2u);
+}
+
+// A rate that makes the times absurd, a reading beyond a reading's limit, a unit that is none:
+// each refused as what it is.
+TEST(TraceReader, RatesReadingsAndUnitsOutOfRange) {
+  io::TraceFormat f;
+  f.sample_rate_hz = 5e-324;
+  std::string r = refusal([&] { parse("time_s,reading_um\n0,1\n1,2\n", f); });
+  EXPECT_NE(r.find("0.001"), std::string::npos) << r;
+  r = refusal([] { parse("time_s,reading_mm\n0,1\n1,1e306\n"); });
+  EXPECT_NE(r.find("line 3"), std::string::npos) << r;
+  EXPECT_NE(r.find("beyond"), std::string::npos) << r;
+  f = {};
+  f.unit = "furlong";
+  r = refusal([&] { parse("time_s,reading_um\n0,1\n1,2\n", f); });
+  EXPECT_NE(r.find("furlong"), std::string::npos) << r;
+  // The same reading from arrays.
+  Trace t;
+  for (int i = 0; i < 100; ++i) {
+    t.time_s.push_back(i * 0.01);
+    t.reading_um.push_back(i == 50 ? 1e306 : 0.0);
+  }
+  r = refusal([&] { find_plateaus(t, DwellOptions{}, "t"); });
+  EXPECT_NE(r.find("sample 51"), std::string::npos) << r;
+  EXPECT_NE(r.find("beyond"), std::string::npos) << r;
+}
+
 // Readings whose level lies within their Type A interval (u_a_um at 95 %, Student's t at
 // u_a_dof), of those that have one.
 struct TypeACount {
@@ -181,6 +240,24 @@ TEST(TraceDwells, TooManyOrTooFewDwellsNameTheInstallationAndBothCounts) {
                InputError);
   EXPECT_THROW(readings_from_trace(d, "9z", sim.trace, {Sweep::kCCW}, DwellOptions{}, "9z.csv"),
                InputError);
+}
+
+// A clock that jumps by 11.6 days between two samples, and times in milliseconds since 1970:
+// refused, naming the sample and the jump, or the unit.
+TEST(TraceDwells, ClockJumpsAndEpochMillisecondsAreRefused) {
+  const Design d = test::paper_design('C');
+  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  SimulatedTrace sim = simulate_trace(stops, std::vector<double>(stops.size(), 1.0), {});
+  Trace t = sim.trace;
+  const std::size_t at = t.time_s.size() / 2;
+  for (std::size_t i = at; i < t.time_s.size(); ++i) t.time_s[i] += 1e6;
+  std::string r = refusal([&] { find_plateaus(t, DwellOptions{}, "1r.csv"); });
+  EXPECT_NE(r.find("sample " + std::to_string(at + 1)), std::string::npos) << r;
+  EXPECT_NE(r.find("jumps"), std::string::npos) << r;
+  t = sim.trace;
+  for (std::size_t i = 0; i < t.time_s.size(); ++i) t.time_s[i] = 1.7e12 + static_cast<double>(i);
+  r = refusal([&] { find_plateaus(t, DwellOptions{}, "1r.csv"); });
+  EXPECT_NE(r.find("milliseconds since 1970"), std::string::npos) << r;
 }
 
 // A pause in the middle of a sweep and a dwell where the machine did not stand still: the

@@ -61,8 +61,10 @@ struct PlateauSearch {
   double sample_interval_s = 0;  // the median interval between samples
 };
 
-// Throws InputError(source, ...) for a trace that is not one: fewer than 10 samples, times not
-// finite or not increasing, readings not finite.
+// Throws InputError(source, ...) for a trace that is not one: fewer than 10 or more than
+// limits::kMaxTraceSamples samples, times not finite or not increasing, readings not finite or
+// beyond limits::kMaxTraceReading_um, times that look like milliseconds since 1970, a gap
+// between two samples beyond limits::kMaxTraceGap_s and kMaxTraceGapFactor median intervals.
 PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& options,
                             const std::string& source);
 
