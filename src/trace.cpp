@@ -226,6 +226,16 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
   out.search = find_plateaus(trace, options, source);
   const std::vector<Plateau>& P = out.search.plateaus;
   const std::vector<Stop> stops = program_stops(design, sweeps);
+  // The program stands at its first angle from the bar's mounting to the first reading: a trace
+  // recorded from its start begins still. One that begins moving started during a move, its
+  // first stop's dwell lost (or too short to be one); its dwells then match the stops in number
+  // only when a dwell after the last stop (the return home) makes up for it.
+  std::string moving;
+  if (!P.empty() && P[0].start_s > trace.time_s.front()) {
+    moving = "the trace moves for " + seconds(P[0].start_s - trace.time_s.front()) +
+             " before its first dwell at " + seconds(P[0].start_s) +
+             ": the recording may have started during a move";
+  }
   if (P.size() != stops.size()) {
     std::string found;
     for (std::size_t k = 0; k < P.size() && k < 40; ++k) {
@@ -238,10 +248,23 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
         "found " + std::to_string(P.size()) + " dwells, the sweep" +
             (sweeps.size() > 1 ? "s have " : " has ") + std::to_string(stops.size()) + " stops (" +
             std::to_string(design.angles_deg.size()) + " angles" +
-            (sweeps.size() > 1 ? ", both sweeps" : "") +
+            (sweeps.size() == 2  ? ", both sweeps"
+             : sweeps.size() > 2 ? ", " + std::to_string(sweeps.size()) + " sweeps"
+                                 : std::string()) +
             "); dwells found (s): " + (found.empty() ? "none" : found) +
             ". Check --dwell-s (the program's dwell), --sweeps, and that the trace is this "
-            "installation's whole run (a move must show in the bar's length)");
+            "installation's whole run (a move must show in the bar's length)" +
+            (moving.empty() ? "" : "; " + moving));
+  }
+  if (!moving.empty()) {
+    throw InputError(
+        source, "installation " + installation,
+        moving + ", the first stop's dwell (" + text::significant(stops[0].angle_deg, 6) +
+            " deg) not in it, and the last dwell (" + text::significant(P.back().start_s, 6) + "-" +
+            text::significant(P.back().end_s, 6) +
+            " s) may be the return home: every reading would be one angle off. Record from "
+            "before the program's start (the machine standing at the first angle), or, if the "
+            "first dwell is the first stop's, cut the samples before it");
   }
   const double noise = std::max(out.search.noise_um, kNoiseFloor_um);
   for (std::size_t k = 0; k < P.size(); ++k) {

@@ -242,6 +242,29 @@ TEST(TraceDwells, TooManyOrTooFewDwellsNameTheInstallationAndBothCounts) {
                InputError);
 }
 
+// A recording started during the first move, with a return home and a dwell there at the end:
+// as many dwells as stops, each a stop later than its angle. Refused, naming the likely cause.
+TEST(TraceDwells, RecordingStartedDuringAMoveIsRefused) {
+  const Design d = test::paper_design('C');
+  std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  stops.push_back({0.0, {Sweep::kCCW}});  // home
+  std::vector<double> levels;
+  for (std::size_t k = 0; k < stops.size(); ++k) levels.push_back(std::sin(0.7 * k) * 5);
+  const SimulatedTrace sim = simulate_trace(stops, levels, TraceSimulation{});
+  Trace t;
+  const double from = sim.dwell_s[0].second + 0.5;  // moves take 1 to 3 s
+  for (std::size_t i = 0; i < sim.trace.time_s.size(); ++i) {
+    if (sim.trace.time_s[i] < from) continue;
+    t.time_s.push_back(sim.trace.time_s[i] - from);
+    t.reading_um.push_back(sim.trace.reading_um[i]);
+  }
+  const std::string r =
+      refusal([&] { readings_from_trace(d, "1r", t, {Sweep::kCCW}, DwellOptions{}, "1r.csv"); });
+  EXPECT_NE(r.find("installation 1r"), std::string::npos) << r;
+  EXPECT_NE(r.find("started during a move"), std::string::npos) << r;
+  EXPECT_NE(r.find("return home"), std::string::npos) << r;
+}
+
 // A clock that jumps by 11.6 days between two samples, and times in milliseconds since 1970:
 // refused, naming the sample and the jump, or the unit.
 TEST(TraceDwells, ClockJumpsAndEpochMillisecondsAreRefused) {

@@ -92,7 +92,8 @@ struct TraceReadings {
 // The readings of installation `installation` (its id) from its trace. A stop of several
 // readings is split into equal consecutive parts of its settled plateau. Throws InputError
 // naming the installation, both counts and the times of the plateaus found when the plateaus
-// are not as many as the stops.
+// are not as many as the stops, and when the trace does not begin still (the recording started
+// during a move: its first stop's dwell missing, a last one after the program's stops).
 TraceReadings readings_from_trace(const Design& design, const std::string& installation,
                                   const Trace& trace, const std::vector<Sweep>& sweeps,
                                   const DwellOptions& options, const std::string& source);
