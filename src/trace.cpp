@@ -213,7 +213,23 @@ std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& 
 
 std::vector<Sweep> sweeps_by_name(const std::string& name, const std::string& source) {
   if (const auto s = program_sweeps_named(name)) return program_sweeps(*s);
-  throw InputError(source, "", quote_value(name) + " is not ccw, cw or both");
+  // A list in order, as a truth's schedule.sweeps: "ccw,cw,ccw".
+  std::vector<Sweep> out;
+  for (std::size_t i = 0; name.find(',') != std::string::npos && i <= name.size();) {
+    const std::size_t e = std::min(name.find(',', i), name.size());
+    const std::string part = name.substr(i, e - i);
+    if (part != "ccw" && part != "cw") break;
+    out.push_back(part == "cw" ? Sweep::kCW : Sweep::kCCW);
+    if (e == name.size()) {
+      if (out.size() <= limits::kMaxSweeps) return out;
+      throw InputError(source, "",
+                       "more than " + std::to_string(limits::kMaxSweeps) + " sweeps in the list");
+    }
+    i = e + 1;
+  }
+  throw InputError(
+      source, "",
+      quote_value(name) + " is not ccw, cw, both or a list of them in order (ccw,cw,ccw)");
 }
 
 TraceReadings readings_from_trace(const Design& design, const std::string& installation,
@@ -403,11 +419,33 @@ SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<
     out.shortest_dwell_s = std::numeric_limits<double>::infinity();
     for (std::size_t k = 0; k < K; ++k) {
       end_at[k] = end[k] - *out.zero_s;
-      if (K > 2 && (k == 0 || k + 1 == K)) continue;  // the first and last: any length will do
-      *out.shortest_dwell_s =
-          std::min(*out.shortest_dwell_s, (end[k] - std::max(begin[k], *out.zero_s)) /
-                                              static_cast<double>(stops[k].sweeps.size()));
+      const double length = end[k] - std::max(begin[k], *out.zero_s);
+      // The first and last may be of any length beyond the dwell, but are found only when at
+      // least half of it long (min_share), less the windows the next move's onset takes (up to
+      // three of 0.1 s or 20 samples): the first is cut where the test's clock begins.
+      const double window = std::max(0.1, 20.0 / o.rate_hz);
+      *out.shortest_dwell_s = std::min(*out.shortest_dwell_s,
+                                       K > 2 && (k == 0 || k + 1 == K)
+                                           ? 1.8 * (length - 3 * window)
+                                           : length / static_cast<double>(stops[k].sweeps.size()));
     }
+  }
+  // What the trace costs, before any of it is made: its duration (the moves at their longest
+  // without a schedule) times the rate.
+  double duration_s = timed ? end_at[K - 1] : o.first_extra_s + o.last_extra_s;
+  if (!timed) {
+    for (std::size_t k = 0; k < K; ++k)
+      duration_s +=
+          o.dwell_s * static_cast<double>(stops[k].sweeps.size()) + (k > 0 ? o.move_s_max : 0.0);
+  }
+  if (!(duration_s * o.rate_hz <= static_cast<double>(limits::kMaxTraceSamples))) {
+    throw InputError("--trace-out", "",
+                     "the trace would hold up to " + text::significant(duration_s * o.rate_hz, 3) +
+                         " samples (" + text::significant(o.rate_hz, 6) + " Hz over " +
+                         text::significant(duration_s, 6) + " s), more than the " +
+                         std::to_string(limits::kMaxTraceSamples) +
+                         " one trace may hold (README, \"Limits\"): lower the rate "
+                         "(--trace-rate-hz) or the dwell (--trace-dwell-s)");
   }
   std::size_t r = 0;
   for (std::size_t k = 0; k < K; ++k) {
@@ -454,14 +492,26 @@ std::optional<Warning> put_on_test_clock(const Design& design, std::vector<Readi
         throw InputError(source, r.installation,
                          "no start for this trace: give one for every trace, or none");
     }
-    for (Reading& r : readings) {
-      if (!r.time_s) continue;
-      *r.time_s += start_s.at(r.installation);
-      if (!(*r.time_s >= 0))
-        throw InputError(source, r.installation,
-                         "with this start a reading falls at " + text::significant(*r.time_s, 6) +
-                             " s, before the test's clock began (times are >= 0)");
+    for (Reading& r : readings)
+      if (r.time_s) *r.time_s += start_s.at(r.installation);
+  }
+  // A reading before zero (a trace whose clock began after its recording, or a start too early):
+  // named by installation and angle; a start that puts it at >= 0 is what it needs.
+  for (const Reading& r : readings) {
+    if (!r.time_s || *r.time_s >= 0) continue;
+    const std::string reading = "the reading at " + text::significant(r.angle_deg, 6) + " deg" +
+                                (r.sweep ? std::string(" ") + sweep_name(*r.sweep) : "");
+    if (!start_s.empty()) {
+      throw InputError(source, r.installation,
+                       "with this start " + reading + " falls at " +
+                           text::significant(*r.time_s, 6) +
+                           " s, before the test's clock began (times are >= 0)");
     }
+    throw InputError(source, r.installation,
+                     "on its trace's clock " + reading + " falls at " +
+                         text::significant(*r.time_s, 6) +
+                         " s, before zero (times are >= 0): give every trace's start on the "
+                         "test's clock (a start at which its readings land at >= 0)");
   }
   if (readings_on_one_clock(design, readings)) return std::nullopt;
   if (!start_s.empty()) {

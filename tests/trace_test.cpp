@@ -634,6 +634,117 @@ TEST(TraceCommandLine, TracesOnTheTestsClock) {
   fs::remove_all(dir);
 }
 
+// Each committed truth with a schedule (ccw, cw, ccw) gives traces that the advice in their
+// comments reads, one by one and all together on the test's clock (seed 2: 1r's first plateau,
+// cut where the test's clock begins, is shorter than half the inner dwells).
+TEST(TraceCommandLine, SimulatedTracesReadAsTheirCommentsSay) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_trace_advice_" + std::to_string(::getpid()));
+  const std::string D = test::source_path("tests/data/c_fourier2_bar150.json");
+  const Design d = io::read_design_file(D);
+  for (const char* truth :
+       {"truth_whole_test.json", "truth_drift_example.json", "truth_step.json"}) {
+    fs::remove_all(dir);
+    fs::create_directories(dir / "tr");
+    const std::string cd = "cd " + dir.string() + " && " + DBBKIT_CLI + " ";
+    CliRun r = run_cli_shell(cd + "simulate --design " + D + " --truth " +
+                             test::source_path(std::string("tests/data/") + truth) +
+                             " --seed 2 --out sim.csv --trace-out tr/ --trace-rate-hz 250");
+    ASSERT_EQ(r.status, 0) << truth << "\n" << r.err;
+    std::string all, sweeps;
+    double dwell = 1e9;  // one for all: the least
+    for (const Installation& in : d.installations) {
+      std::ifstream f(dir / "tr" / (in.id + ".csv"));
+      std::string line, advice;
+      while (std::getline(f, line) && line.rfind('#', 0) == 0) {
+        const std::size_t at = line.find("dbbkit readings ");
+        if (at != std::string::npos) advice = line.substr(at + 16);
+      }
+      ASSERT_FALSE(advice.empty()) << truth << " " << in.id;
+      EXPECT_NE(advice.find("--sweeps ccw,cw,ccw"), std::string::npos) << advice;
+      const std::string trace = " --trace " + in.id + "=tr/" + in.id + ".csv ";
+      r = run_cli_shell(cd + "readings --design " + D + trace + advice + " --out -");
+      EXPECT_EQ(r.status, 0) << truth << " " << in.id << ": " << advice << "\n" << r.err;
+      all += trace + advice.substr(advice.find("--start"));
+      dwell = std::min(dwell, std::stod(advice.substr(advice.find("--dwell-s ") + 10)));
+      sweeps = advice.substr(advice.find(" --sweeps"),
+                             advice.find(" --start") - advice.find(" --sweeps"));
+    }
+    r = run_cli_shell(cd + "readings --design " + D + all + sweeps + " --dwell-s " +
+                      std::to_string(dwell) + " --out m.csv");
+    EXPECT_EQ(r.status, 0) << truth << "\n" << r.err;
+    EXPECT_EQ(r.err.find("own clock"), std::string::npos) << r.err;
+  }
+  fs::remove_all(dir);
+}
+
+// A trace whose clock began after its recording (negative times) is put on the test's clock
+// by a start at which its readings land at >= 0; without one, the refusal names the
+// installation and the reading, not an index.
+TEST(TraceCommandLine, NegativeTimesAndAStartThatMendsThem) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_trace_negative_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const Design d = test::paper_design('C');
+  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  const SimulatedTrace sim = simulate_trace(stops, std::vector<double>(stops.size(), 1.0), {});
+  Trace t = sim.trace;
+  for (double& x : t.time_s) x -= 100;
+  {
+    std::ofstream out(dir / "1r.csv");
+    io::write_trace_csv(out, t, {});
+  }
+  const std::string cd = "cd " + dir.string() + " && " + DBBKIT_CLI + " readings --design " +
+                         test::source_path("designs/paper-c-turntable.json") +
+                         " --trace 1r=1r.csv --out - ";
+  CliRun r = run_cli_shell(cd);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("1r"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("the reading at 0 deg"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("reading 0"), std::string::npos) << r.err;
+  r = run_cli_shell(cd + "--start 1r=100");
+  EXPECT_EQ(r.status, 0) << r.err;
+  r = run_cli_shell(cd + "--start 1r=-5");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("with this start the reading at 0 deg"), std::string::npos) << r.err;
+  fs::remove_all(dir);
+}
+
+// One file given for two installations, and a simulated trace that would be larger than a trace
+// may be (100 kHz, 600 s dwells: about 1e9 samples): refused before anything is read or made.
+TEST(TraceCommandLine, OneFileTwoInstallationsAndTracesTooLarge) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_trace_bounds_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "tr");
+  const std::string D = test::source_path("designs/paper-c-turntable.json");
+  const std::string cd = "cd " + dir.string() + " && ";
+  CliRun r = run_cli_shell(cd + DBBKIT_CLI + " simulate --design " + D + " --truth " +
+                           test::source_path("tests/data/truth_c_per_angle.json") +
+                           " --seed 4 --out sim.csv --trace-out tr/");
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = run_cli_shell(cd + DBBKIT_CLI + " readings --design " + D +
+                    " --trace 1r=tr/1r.csv --trace 1t=./tr/1r.csv --out -");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("one file given for installations '1r' and '1t'"), std::string::npos)
+      << r.err;
+  // Refused before any of it is made (it would take about 18 GB a trace).
+  r = run_cli_shell(cd + DBBKIT_CLI + " simulate --design " + D + " --truth " +
+                    test::source_path("tests/data/truth_c_per_angle.json") +
+                    " --seed 4 --out big.csv --trace-out big_ --trace-rate-hz 100000 "
+                    "--trace-dwell-s 600");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--trace-rate-hz"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("50000000"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "big.csv"));
+  EXPECT_FALSE(fs::exists(dir / "big_1r.csv"));
+  fs::remove_all(dir);
+}
+
 // One clock or several: an installation measured again at the end of the test is a run of its
 // own on the test's clock; traces whose clocks restart at zero overlap.
 TEST(TraceClock, RunsOfOneInstallationOnOneClock) {

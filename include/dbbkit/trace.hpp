@@ -77,7 +77,8 @@ struct Stop {
   std::vector<Sweep> sweeps;  // one per reading taken there, in order
 };
 std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& sweeps);
-// The sweeps a program makes by name: "ccw", "cw" or "both" (ccw then cw); throws
+// The sweeps a program makes by name: "ccw", "cw" or "both" (ccw then cw), or a list of them in
+// order ("ccw,cw,ccw", as a truth's schedule.sweeps; at most limits::kMaxSweeps); throws
 // InputError(source, "", ...) for another name.
 std::vector<Sweep> sweeps_by_name(const std::string& name, const std::string& source);
 
@@ -135,8 +136,9 @@ struct SimulatedTrace {
   // dwell was.
   std::vector<double> level_um;
   std::vector<std::pair<double, double>> dwell_s;
-  // With the readings' times: the test's clock when the trace's read zero, and the shortest
-  // dwell a reading had (what readings --dwell-s should be).
+  // With the readings' times: the test's clock when the trace's read zero, and what readings
+  // --dwell-s should be (the shortest dwell a reading had, and little more than twice the first
+  // and the last plateau: the first is cut where the test's clock begins).
   std::optional<double> zero_s, shortest_dwell_s;
 };
 
@@ -144,7 +146,8 @@ struct SimulatedTrace {
 // per reading on the test's clock): the trace follows them, each move centred between the last
 // reading of one stop and the first of the next, the machine standing still from one move to the
 // next (longer than the programmed dwell when the schedule leaves time); throws
-// InputError("schedule", "per_reading_s") when a stop's time is shorter than its dwell.
+// InputError("schedule", "per_reading_s") when a stop's time is shorter than its dwell, and
+// InputError("--trace-out") before making a trace of more than limits::kMaxTraceSamples.
 SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<double>& levels,
                               const TraceSimulation& options,
                               const std::vector<double>& times_s = {});
