@@ -140,6 +140,30 @@ class RoundTrips(InSource):
             dbbkit.identify(d, m, effects=[3])
         self.assertEqual(ctx.exception.where, "effects")
 
+    def test_from_trace_refuses_bad_arrays_units_and_sizes(self):
+        d = dbbkit.Design(PAPER_C)
+        t = np.arange(100) * 0.01
+        # Wrong shapes, named by argument.
+        with self.assertRaises(ValueError) as ctx:
+            dbbkit.Measurements.from_trace(d, {"1r": (np.zeros((100, 2)), t)})
+        self.assertIn("traces['1r'][0] (time_s)", str(ctx.exception))
+        self.assertIn("1-D", str(ctx.exception))
+        with self.assertRaises(ValueError) as ctx:
+            dbbkit.Measurements.from_trace(d, {"1r": (t, np.zeros(99))})
+        self.assertIn("traces['1r']", str(ctx.exception))
+        self.assertIn("time_s has 100 values, reading_um 99", str(ctx.exception))
+        # A unit that is none, without columns: refused by name.
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.Measurements.from_trace(d, {"1r": (t, np.zeros(100))}, unit="furlong")
+        self.assertIn("furlong", str(ctx.exception))
+        # More samples than a trace may hold: refused before they are copied or searched.
+        big = np.broadcast_to(np.float64(0), (50_000_001,))
+        start = time.monotonic()
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.Measurements.from_trace(d, {"1r": (big, big)})
+        self.assertIn("50000000", str(ctx.exception))
+        self.assertLess(time.monotonic() - start, 2.0)
+
     def test_measurements_from_trace(self):
         d = dbbkit.Design(PAPER_C)
         with tempfile.TemporaryDirectory() as tmp:
