@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -553,6 +554,7 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
   mm.source = "traces";
   py::dict found;
   std::vector<Warning> warnings;
+  std::vector<std::pair<std::string, std::string>> paths;  // installation, file
   for (const auto& [key, value] : traces) {
     if (!py::isinstance<py::str>(key))
       throw InputError("argument", "traces", "keys are installation ids (str)");
@@ -560,6 +562,16 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
     Trace trace;
     std::string source = "traces[" + quote_value(id) + "]";
     if (const auto path = as_path(value)) {
+      for (const auto& [other, other_path] : paths) {
+        std::error_code ec;
+        if (other_path == *path || std::filesystem::equivalent(other_path, *path, ec)) {
+          throw InputError("argument", "traces",
+                           "one file " + quote_value(*path) + " given for installations " +
+                               quote_value(other) + " and " + quote_value(id) +
+                               ": each installation is a recording of its own");
+        }
+      }
+      paths.emplace_back(id, *path);
       trace = io::read_trace_file(*path, format);
       source = *path;
     } else if (py::isinstance<py::tuple>(value) && py::len(value) == 2) {

@@ -187,6 +187,10 @@ class RoundTrips(InSource):
             np.testing.assert_allclose(m2.reading_um, m.reading_um[: len(m2)], atol=1e-9)
             with self.assertRaises(dbbkit.InputError):
                 dbbkit.Measurements.from_trace(d, {ids[0]: traces[ids[0]]}, dwell_s=6)
+            # One file for two installations: refused, naming both.
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.Measurements.from_trace(d, {ids[0]: traces[ids[0]], ids[1]: traces[ids[0]]})
+            self.assertIn(f"installations '{ids[0]}' and '{ids[1]}'", str(ctx.exception))
             # Each trace on its own clock: said; on the test's clock with a start for each.
             self.assertTrue(any(w["kind"] == "trace_clock" for w in found["warnings"]))
             starts = {i: 1000.0 * k for k, i in enumerate(ids)}
