@@ -156,8 +156,11 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
   }
   if (truth.schedule) {
     const std::vector<Sweep>& sw = truth.schedule->sweeps;
-    if (sw.size() > 100)
-      throw InputError(source, "schedule.sweeps", "more than 100 sweeps per installation");
+    if (sw.size() > limits::kMaxSweeps) {
+      throw InputError(
+          source, "schedule.sweeps",
+          "more than " + std::to_string(limits::kMaxSweeps) + " sweeps per installation");
+    }
     if (!std::isfinite(truth.schedule->per_reading_s) ||
         !std::isfinite(truth.schedule->per_installation_s) || truth.schedule->per_reading_s > 1e6 ||
         truth.schedule->per_installation_s > 1e6) {

@@ -6,6 +6,7 @@
 
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/program.hpp"
 #include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
@@ -57,9 +58,21 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
   if (n < 10) {
     throw InputError(source, "", "a trace needs at least 10 samples, found " + std::to_string(n));
   }
+  if (n > limits::kMaxTraceSamples) {
+    throw InputError(source, "",
+                     std::to_string(n) + " samples, more than the " +
+                         std::to_string(limits::kMaxTraceSamples) +
+                         " one trace may hold (docs/formats.md, \"Limits\")");
+  }
   for (std::size_t i = 0; i < n; ++i) {
     if (!std::isfinite(t[i]) || !std::isfinite(x[i]))
       throw InputError(source, "sample " + std::to_string(i + 1), "not a finite number");
+    if (std::abs(x[i]) > limits::kMaxTraceReading_um) {
+      throw InputError(
+          source, "sample " + std::to_string(i + 1),
+          "the reading " + text::significant(x[i], 6) + " um is beyond the limit of a reading (+-" +
+              text::significant(limits::kMaxTraceReading_um, 6) + " um, README \"Limits\")");
+    }
     if (i > 0 && !(t[i] > t[i - 1])) {
       throw InputError(
           source, "sample " + std::to_string(i + 1),
@@ -76,6 +89,29 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
     out.sample_interval_s = median(dt);
   }
   const double dt = out.sample_interval_s;
+  // Milliseconds since 1970 read as seconds: times beyond 1e9 s (31 years) in steps of 0.5 or
+  // more.
+  if (t[0] > 1e9 && dt >= 0.5) {
+    throw InputError(source, "",
+                     "the times look like milliseconds since 1970 (the first " +
+                         text::significant(t[0], 15) + ", " + seconds(dt) +
+                         " apart): the time column is seconds from the trace's start (give the "
+                         "sample index with --sample-rate-hz, or convert)");
+  }
+  // A clock jump, or two recordings joined.
+  for (std::size_t i = 1; i < n; ++i) {
+    const double gap = t[i] - t[i - 1];
+    if (gap > limits::kMaxTraceGap_s && gap > limits::kMaxTraceGapFactor * dt) {
+      throw InputError(
+          source, "sample " + std::to_string(i + 1),
+          "the time jumps by " + seconds(gap) + " (from " + text::significant(t[i - 1], 12) +
+              " s to " + text::significant(t[i], 12) + " s), more than " +
+              text::significant(limits::kMaxTraceGapFactor, 6) + " times the median interval " +
+              seconds(dt) + " and more than " + seconds(limits::kMaxTraceGap_s) +
+              ": a clock jump or two recordings joined; a trace is one installation's "
+              "recording");
+    }
+  }
   if (!(dt >= kMinSampleInterval_s)) {
     throw InputError(source, "",
                      "the samples are " + seconds(dt) +
@@ -177,7 +213,23 @@ std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& 
 
 std::vector<Sweep> sweeps_by_name(const std::string& name, const std::string& source) {
   if (const auto s = program_sweeps_named(name)) return program_sweeps(*s);
-  throw InputError(source, "", quote_value(name) + " is not ccw, cw or both");
+  // A list in order, as a truth's schedule.sweeps: "ccw,cw,ccw".
+  std::vector<Sweep> out;
+  for (std::size_t i = 0; name.find(',') != std::string::npos && i <= name.size();) {
+    const std::size_t e = std::min(name.find(',', i), name.size());
+    const std::string part = name.substr(i, e - i);
+    if (part != "ccw" && part != "cw") break;
+    out.push_back(part == "cw" ? Sweep::kCW : Sweep::kCCW);
+    if (e == name.size()) {
+      if (out.size() <= limits::kMaxSweeps) return out;
+      throw InputError(source, "",
+                       "more than " + std::to_string(limits::kMaxSweeps) + " sweeps in the list");
+    }
+    i = e + 1;
+  }
+  throw InputError(
+      source, "",
+      quote_value(name) + " is not ccw, cw, both or a list of them in order (ccw,cw,ccw)");
 }
 
 TraceReadings readings_from_trace(const Design& design, const std::string& installation,
@@ -190,6 +242,16 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
   out.search = find_plateaus(trace, options, source);
   const std::vector<Plateau>& P = out.search.plateaus;
   const std::vector<Stop> stops = program_stops(design, sweeps);
+  // The program stands at its first angle from the bar's mounting to the first reading: a trace
+  // recorded from its start begins still. One that begins moving started during a move, its
+  // first stop's dwell lost (or too short to be one); its dwells then match the stops in number
+  // only when a dwell after the last stop (the return home) makes up for it.
+  std::string moving;
+  if (!P.empty() && P[0].start_s > trace.time_s.front()) {
+    moving = "the trace moves for " + seconds(P[0].start_s - trace.time_s.front()) +
+             " before its first dwell at " + seconds(P[0].start_s) +
+             ": the recording may have started during a move";
+  }
   if (P.size() != stops.size()) {
     std::string found;
     for (std::size_t k = 0; k < P.size() && k < 40; ++k) {
@@ -202,10 +264,23 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
         "found " + std::to_string(P.size()) + " dwells, the sweep" +
             (sweeps.size() > 1 ? "s have " : " has ") + std::to_string(stops.size()) + " stops (" +
             std::to_string(design.angles_deg.size()) + " angles" +
-            (sweeps.size() > 1 ? ", both sweeps" : "") +
+            (sweeps.size() == 2  ? ", both sweeps"
+             : sweeps.size() > 2 ? ", " + std::to_string(sweeps.size()) + " sweeps"
+                                 : std::string()) +
             "); dwells found (s): " + (found.empty() ? "none" : found) +
             ". Check --dwell-s (the program's dwell), --sweeps, and that the trace is this "
-            "installation's whole run (a move must show in the bar's length)");
+            "installation's whole run (a move must show in the bar's length)" +
+            (moving.empty() ? "" : "; " + moving));
+  }
+  if (!moving.empty()) {
+    throw InputError(
+        source, "installation " + installation,
+        moving + ", the first stop's dwell (" + text::significant(stops[0].angle_deg, 6) +
+            " deg) not in it, and the last dwell (" + text::significant(P.back().start_s, 6) + "-" +
+            text::significant(P.back().end_s, 6) +
+            " s) may be the return home: every reading would be one angle off. Record from "
+            "before the program's start (the machine standing at the first angle), or, if the "
+            "first dwell is the first stop's, cut the samples before it");
   }
   const double noise = std::max(out.search.noise_um, kNoiseFloor_um);
   for (std::size_t k = 0; k < P.size(); ++k) {
@@ -344,11 +419,33 @@ SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<
     out.shortest_dwell_s = std::numeric_limits<double>::infinity();
     for (std::size_t k = 0; k < K; ++k) {
       end_at[k] = end[k] - *out.zero_s;
-      if (K > 2 && (k == 0 || k + 1 == K)) continue;  // the first and last: any length will do
-      *out.shortest_dwell_s =
-          std::min(*out.shortest_dwell_s, (end[k] - std::max(begin[k], *out.zero_s)) /
-                                              static_cast<double>(stops[k].sweeps.size()));
+      const double length = end[k] - std::max(begin[k], *out.zero_s);
+      // The first and last may be of any length beyond the dwell, but are found only when at
+      // least half of it long (min_share), less the windows the next move's onset takes (up to
+      // three of 0.1 s or 20 samples): the first is cut where the test's clock begins.
+      const double window = std::max(0.1, 20.0 / o.rate_hz);
+      *out.shortest_dwell_s = std::min(*out.shortest_dwell_s,
+                                       K > 2 && (k == 0 || k + 1 == K)
+                                           ? 1.8 * (length - 3 * window)
+                                           : length / static_cast<double>(stops[k].sweeps.size()));
     }
+  }
+  // What the trace costs, before any of it is made: its duration (the moves at their longest
+  // without a schedule) times the rate.
+  double duration_s = timed ? end_at[K - 1] : o.first_extra_s + o.last_extra_s;
+  if (!timed) {
+    for (std::size_t k = 0; k < K; ++k)
+      duration_s +=
+          o.dwell_s * static_cast<double>(stops[k].sweeps.size()) + (k > 0 ? o.move_s_max : 0.0);
+  }
+  if (!(duration_s * o.rate_hz <= static_cast<double>(limits::kMaxTraceSamples))) {
+    throw InputError("--trace-out", "",
+                     "the trace would hold up to " + text::significant(duration_s * o.rate_hz, 3) +
+                         " samples (" + text::significant(o.rate_hz, 6) + " Hz over " +
+                         text::significant(duration_s, 6) + " s), more than the " +
+                         std::to_string(limits::kMaxTraceSamples) +
+                         " one trace may hold (docs/formats.md, \"Limits\"): lower the rate "
+                         "(--trace-rate-hz) or the dwell (--trace-dwell-s)");
   }
   std::size_t r = 0;
   for (std::size_t k = 0; k < K; ++k) {
@@ -395,14 +492,26 @@ std::optional<Warning> put_on_test_clock(const Design& design, std::vector<Readi
         throw InputError(source, r.installation,
                          "no start for this trace: give one for every trace, or none");
     }
-    for (Reading& r : readings) {
-      if (!r.time_s) continue;
-      *r.time_s += start_s.at(r.installation);
-      if (!(*r.time_s >= 0))
-        throw InputError(source, r.installation,
-                         "with this start a reading falls at " + text::significant(*r.time_s, 6) +
-                             " s, before the test's clock began (times are >= 0)");
+    for (Reading& r : readings)
+      if (r.time_s) *r.time_s += start_s.at(r.installation);
+  }
+  // A reading before zero (a trace whose clock began after its recording, or a start too early):
+  // named by installation and angle; a start that puts it at >= 0 is what it needs.
+  for (const Reading& r : readings) {
+    if (!r.time_s || *r.time_s >= 0) continue;
+    const std::string reading = "the reading at " + text::significant(r.angle_deg, 6) + " deg" +
+                                (r.sweep ? std::string(" ") + sweep_name(*r.sweep) : "");
+    if (!start_s.empty()) {
+      throw InputError(source, r.installation,
+                       "with this start " + reading + " falls at " +
+                           text::significant(*r.time_s, 6) +
+                           " s, before the test's clock began (times are >= 0)");
     }
+    throw InputError(source, r.installation,
+                     "on its trace's clock " + reading + " falls at " +
+                         text::significant(*r.time_s, 6) +
+                         " s, before zero (times are >= 0): give every trace's start on the "
+                         "test's clock (a start at which its readings land at >= 0)");
   }
   if (readings_on_one_clock(design, readings)) return std::nullopt;
   if (!start_s.empty()) {

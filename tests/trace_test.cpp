@@ -82,6 +82,65 @@ TEST(TraceReader, RefusesWhatIsNotATrace) {
   }
 }
 
+// The detail of the InputError `f` throws ("" when it throws none).
+template <class F>
+std::string refusal(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.where() + ": " + e.detail();
+  }
+  return "";
+}
+
+// A line is read to its bound, no further: a file without line ends (/dev/zero) is refused
+// naming the line and the bound; a directory or a device is refused as what it is.
+TEST(TraceReader, LinesAndFilesAreBounded) {
+  std::string r = refusal([] { parse(std::string(1 << 20, '\0')); });
+  EXPECT_NE(r.find("line 1: longer than"), std::string::npos) << r;
+  r = refusal([] { parse("time_s,reading_um\n0,1\n" + std::string(1 << 20, '1') + "\n"); });
+  EXPECT_NE(r.find("line 3: longer than"), std::string::npos) << r;
+  const std::string dir = std::filesystem::temp_directory_path().string();
+  r = refusal([&] { io::read_trace_file(dir, {}); });
+  EXPECT_NE(r.find("a directory"), std::string::npos) << r;
+  r = refusal([] { io::read_trace_file("/dev/zero", {}); });
+  EXPECT_NE(r.find("not a regular file"), std::string::npos) << r;
+}
+
+// Old Mac line ends (CR alone) are line ends; CR LF and LF as before.
+TEST(TraceReader, CarriageReturnLineEnds) {
+  Trace t = parse("# cr\rtime_s,reading_um\r0,1\r0.001,2\r0.002,3");
+  ASSERT_EQ(t.time_s.size(), 3u);
+  EXPECT_DOUBLE_EQ(t.reading_um[2], 3.0);
+  t = parse("time_s,reading_um\r\n0,1\r\n0.001,2\r\n");
+  EXPECT_EQ(t.time_s.size(), 2u);
+}
+
+// A rate that makes the times absurd, a reading beyond a reading's limit, a unit that is none:
+// each refused as what it is.
+TEST(TraceReader, RatesReadingsAndUnitsOutOfRange) {
+  io::TraceFormat f;
+  f.sample_rate_hz = 5e-324;
+  std::string r = refusal([&] { parse("time_s,reading_um\n0,1\n1,2\n", f); });
+  EXPECT_NE(r.find("0.001"), std::string::npos) << r;
+  r = refusal([] { parse("time_s,reading_mm\n0,1\n1,1e306\n"); });
+  EXPECT_NE(r.find("line 3"), std::string::npos) << r;
+  EXPECT_NE(r.find("beyond"), std::string::npos) << r;
+  f = {};
+  f.unit = "furlong";
+  r = refusal([&] { parse("time_s,reading_um\n0,1\n1,2\n", f); });
+  EXPECT_NE(r.find("furlong"), std::string::npos) << r;
+  // The same reading from arrays.
+  Trace t;
+  for (int i = 0; i < 100; ++i) {
+    t.time_s.push_back(i * 0.01);
+    t.reading_um.push_back(i == 50 ? 1e306 : 0.0);
+  }
+  r = refusal([&] { find_plateaus(t, DwellOptions{}, "t"); });
+  EXPECT_NE(r.find("sample 51"), std::string::npos) << r;
+  EXPECT_NE(r.find("beyond"), std::string::npos) << r;
+}
+
 // Readings whose level lies within their Type A interval (u_a_um at 95 %, Student's t at
 // u_a_dof), of those that have one.
 struct TypeACount {
@@ -181,6 +240,47 @@ TEST(TraceDwells, TooManyOrTooFewDwellsNameTheInstallationAndBothCounts) {
                InputError);
   EXPECT_THROW(readings_from_trace(d, "9z", sim.trace, {Sweep::kCCW}, DwellOptions{}, "9z.csv"),
                InputError);
+}
+
+// A recording started during the first move, with a return home and a dwell there at the end:
+// as many dwells as stops, each a stop later than its angle. Refused, naming the likely cause.
+TEST(TraceDwells, RecordingStartedDuringAMoveIsRefused) {
+  const Design d = test::paper_design('C');
+  std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  stops.push_back({0.0, {Sweep::kCCW}});  // home
+  std::vector<double> levels;
+  for (std::size_t k = 0; k < stops.size(); ++k) levels.push_back(std::sin(0.7 * k) * 5);
+  const SimulatedTrace sim = simulate_trace(stops, levels, TraceSimulation{});
+  Trace t;
+  const double from = sim.dwell_s[0].second + 0.5;  // moves take 1 to 3 s
+  for (std::size_t i = 0; i < sim.trace.time_s.size(); ++i) {
+    if (sim.trace.time_s[i] < from) continue;
+    t.time_s.push_back(sim.trace.time_s[i] - from);
+    t.reading_um.push_back(sim.trace.reading_um[i]);
+  }
+  const std::string r =
+      refusal([&] { readings_from_trace(d, "1r", t, {Sweep::kCCW}, DwellOptions{}, "1r.csv"); });
+  EXPECT_NE(r.find("installation 1r"), std::string::npos) << r;
+  EXPECT_NE(r.find("started during a move"), std::string::npos) << r;
+  EXPECT_NE(r.find("return home"), std::string::npos) << r;
+}
+
+// A clock that jumps by 11.6 days between two samples, and times in milliseconds since 1970:
+// refused, naming the sample and the jump, or the unit.
+TEST(TraceDwells, ClockJumpsAndEpochMillisecondsAreRefused) {
+  const Design d = test::paper_design('C');
+  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  SimulatedTrace sim = simulate_trace(stops, std::vector<double>(stops.size(), 1.0), {});
+  Trace t = sim.trace;
+  const std::size_t at = t.time_s.size() / 2;
+  for (std::size_t i = at; i < t.time_s.size(); ++i) t.time_s[i] += 1e6;
+  std::string r = refusal([&] { find_plateaus(t, DwellOptions{}, "1r.csv"); });
+  EXPECT_NE(r.find("sample " + std::to_string(at + 1)), std::string::npos) << r;
+  EXPECT_NE(r.find("jumps"), std::string::npos) << r;
+  t = sim.trace;
+  for (std::size_t i = 0; i < t.time_s.size(); ++i) t.time_s[i] = 1.7e12 + static_cast<double>(i);
+  r = refusal([&] { find_plateaus(t, DwellOptions{}, "1r.csv"); });
+  EXPECT_NE(r.find("milliseconds since 1970"), std::string::npos) << r;
 }
 
 // A pause in the middle of a sweep and a dwell where the machine did not stand still: the
@@ -531,6 +631,117 @@ TEST(TraceCommandLine, TracesOnTheTestsClock) {
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("per_reading_s"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "y.csv"));
+  fs::remove_all(dir);
+}
+
+// Each committed truth with a schedule (ccw, cw, ccw) gives traces that the advice in their
+// comments reads, one by one and all together on the test's clock (seed 2: 1r's first plateau,
+// cut where the test's clock begins, is shorter than half the inner dwells).
+TEST(TraceCommandLine, SimulatedTracesReadAsTheirCommentsSay) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_trace_advice_" + std::to_string(::getpid()));
+  const std::string D = test::source_path("tests/data/c_fourier2_bar150.json");
+  const Design d = io::read_design_file(D);
+  for (const char* truth :
+       {"truth_whole_test.json", "truth_drift_example.json", "truth_step.json"}) {
+    fs::remove_all(dir);
+    fs::create_directories(dir / "tr");
+    const std::string cd = "cd " + dir.string() + " && " + DBBKIT_CLI + " ";
+    CliRun r = run_cli_shell(cd + "simulate --design " + D + " --truth " +
+                             test::source_path(std::string("tests/data/") + truth) +
+                             " --seed 2 --out sim.csv --trace-out tr/ --trace-rate-hz 250");
+    ASSERT_EQ(r.status, 0) << truth << "\n" << r.err;
+    std::string all, sweeps;
+    double dwell = 1e9;  // one for all: the least
+    for (const Installation& in : d.installations) {
+      std::ifstream f(dir / "tr" / (in.id + ".csv"));
+      std::string line, advice;
+      while (std::getline(f, line) && line.rfind('#', 0) == 0) {
+        const std::size_t at = line.find("dbbkit readings ");
+        if (at != std::string::npos) advice = line.substr(at + 16);
+      }
+      ASSERT_FALSE(advice.empty()) << truth << " " << in.id;
+      EXPECT_NE(advice.find("--sweeps ccw,cw,ccw"), std::string::npos) << advice;
+      const std::string trace = " --trace " + in.id + "=tr/" + in.id + ".csv ";
+      r = run_cli_shell(cd + "readings --design " + D + trace + advice + " --out -");
+      EXPECT_EQ(r.status, 0) << truth << " " << in.id << ": " << advice << "\n" << r.err;
+      all += trace + advice.substr(advice.find("--start"));
+      dwell = std::min(dwell, std::stod(advice.substr(advice.find("--dwell-s ") + 10)));
+      sweeps = advice.substr(advice.find(" --sweeps"),
+                             advice.find(" --start") - advice.find(" --sweeps"));
+    }
+    r = run_cli_shell(cd + "readings --design " + D + all + sweeps + " --dwell-s " +
+                      std::to_string(dwell) + " --out m.csv");
+    EXPECT_EQ(r.status, 0) << truth << "\n" << r.err;
+    EXPECT_EQ(r.err.find("own clock"), std::string::npos) << r.err;
+  }
+  fs::remove_all(dir);
+}
+
+// A trace whose clock began after its recording (negative times) is put on the test's clock
+// by a start at which its readings land at >= 0; without one, the refusal names the
+// installation and the reading, not an index.
+TEST(TraceCommandLine, NegativeTimesAndAStartThatMendsThem) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_trace_negative_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const Design d = test::paper_design('C');
+  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  const SimulatedTrace sim = simulate_trace(stops, std::vector<double>(stops.size(), 1.0), {});
+  Trace t = sim.trace;
+  for (double& x : t.time_s) x -= 100;
+  {
+    std::ofstream out(dir / "1r.csv");
+    io::write_trace_csv(out, t, {});
+  }
+  const std::string cd = "cd " + dir.string() + " && " + DBBKIT_CLI + " readings --design " +
+                         test::source_path("designs/paper-c-turntable.json") +
+                         " --trace 1r=1r.csv --out - ";
+  CliRun r = run_cli_shell(cd);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("1r"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("the reading at 0 deg"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("reading 0"), std::string::npos) << r.err;
+  r = run_cli_shell(cd + "--start 1r=100");
+  EXPECT_EQ(r.status, 0) << r.err;
+  r = run_cli_shell(cd + "--start 1r=-5");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("with this start the reading at 0 deg"), std::string::npos) << r.err;
+  fs::remove_all(dir);
+}
+
+// One file given for two installations, and a simulated trace that would be larger than a trace
+// may be (100 kHz, 600 s dwells: about 1e9 samples): refused before anything is read or made.
+TEST(TraceCommandLine, OneFileTwoInstallationsAndTracesTooLarge) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_trace_bounds_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "tr");
+  const std::string D = test::source_path("designs/paper-c-turntable.json");
+  const std::string cd = "cd " + dir.string() + " && ";
+  CliRun r = run_cli_shell(cd + DBBKIT_CLI + " simulate --design " + D + " --truth " +
+                           test::source_path("tests/data/truth_c_per_angle.json") +
+                           " --seed 4 --out sim.csv --trace-out tr/");
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = run_cli_shell(cd + DBBKIT_CLI + " readings --design " + D +
+                    " --trace 1r=tr/1r.csv --trace 1t=./tr/1r.csv --out -");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("one file given for installations '1r' and '1t'"), std::string::npos)
+      << r.err;
+  // Refused before any of it is made (it would take about 18 GB a trace).
+  r = run_cli_shell(cd + DBBKIT_CLI + " simulate --design " + D + " --truth " +
+                    test::source_path("tests/data/truth_c_per_angle.json") +
+                    " --seed 4 --out big.csv --trace-out big_ --trace-rate-hz 100000 "
+                    "--trace-dwell-s 600");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--trace-rate-hz"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("50000000"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "big.csv"));
+  EXPECT_FALSE(fs::exists(dir / "big_1r.csv"));
   fs::remove_all(dir);
 }
 

@@ -2,7 +2,7 @@
 // The documented limits of what dbbkit accepts. A value beyond one is bad input
 // (InputError naming the file and key, or the option; exit status 2), never a
 // silent overflow, a loss of rank from round-off or an exhausted memory. Each limit
-// is far beyond any real double ball bar test; README, "Limits", lists them.
+// is far beyond any real double ball bar test; docs/formats.md, "Limits", lists them.
 
 #include <cstddef>
 
@@ -21,6 +21,8 @@ constexpr int kMaxSeriesOrder = 100;
 // Measured angles of one design, installations of one design.
 constexpr std::size_t kMaxAngles = 100000;
 constexpr std::size_t kMaxInstallations = 10000;
+// Sweeps of one installation (a truth's schedule, readings --sweeps as a list).
+constexpr std::size_t kMaxSweeps = 100;
 // Readings of one measurement file or one simulation.
 constexpr std::size_t kMaxReadings = 10000000;
 // Bytes of one input file (design, kit, truth, measurement, baseline); a longer or
@@ -47,6 +49,21 @@ constexpr double kMinSetupStd_mm = 1e-7;
 // prior as 1 / u^2 beyond the range of a double (1e-200 made every result NaN).
 constexpr double kMaxSetupStd_um = 1e4;
 constexpr double kMinSetupStd_um = 1e-4;
+
+// Raw traces (readings, simulate --trace-out, Measurements.from_trace). The most samples of one
+// trace, read or simulated (14 h at 1 kHz; 16 bytes a sample in memory); the longest line of a
+// trace file (a file without line ends, /dev/zero, stops there); the sample rate that turns a
+// sample index into seconds; the largest reading's size (1 m: beyond any ballbar's range, and
+// a mm column times 1000 stays finite).
+constexpr std::size_t kMaxTraceSamples = 50'000'000;
+constexpr std::size_t kMaxTraceLineBytes = 65536;
+constexpr double kMinTraceSampleRate_hz = 1e-3;
+constexpr double kMaxTraceSampleRate_hz = 1e7;
+constexpr double kMaxTraceReading_um = 1e6;
+// A gap between two samples of more than kMaxTraceGapFactor times the median interval and more
+// than kMaxTraceGap_s is a clock jump or two recordings joined, not a trace.
+constexpr double kMaxTraceGapFactor = 1000;
+constexpr double kMaxTraceGap_s = 60;
 
 // Ranges of the run options (command-line options and the Python module's arguments).
 // Coverage probability of an expanded uncertainty.

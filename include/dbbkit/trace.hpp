@@ -61,8 +61,10 @@ struct PlateauSearch {
   double sample_interval_s = 0;  // the median interval between samples
 };
 
-// Throws InputError(source, ...) for a trace that is not one: fewer than 10 samples, times not
-// finite or not increasing, readings not finite.
+// Throws InputError(source, ...) for a trace that is not one: fewer than 10 or more than
+// limits::kMaxTraceSamples samples, times not finite or not increasing, readings not finite or
+// beyond limits::kMaxTraceReading_um, times that look like milliseconds since 1970, a gap
+// between two samples beyond limits::kMaxTraceGap_s and kMaxTraceGapFactor median intervals.
 PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& options,
                             const std::string& source);
 
@@ -75,7 +77,8 @@ struct Stop {
   std::vector<Sweep> sweeps;  // one per reading taken there, in order
 };
 std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& sweeps);
-// The sweeps a program makes by name: "ccw", "cw" or "both" (ccw then cw); throws
+// The sweeps a program makes by name: "ccw", "cw" or "both" (ccw then cw), or a list of them in
+// order ("ccw,cw,ccw", as a truth's schedule.sweeps; at most limits::kMaxSweeps); throws
 // InputError(source, "", ...) for another name.
 std::vector<Sweep> sweeps_by_name(const std::string& name, const std::string& source);
 
@@ -90,7 +93,8 @@ struct TraceReadings {
 // The readings of installation `installation` (its id) from its trace. A stop of several
 // readings is split into equal consecutive parts of its settled plateau. Throws InputError
 // naming the installation, both counts and the times of the plateaus found when the plateaus
-// are not as many as the stops.
+// are not as many as the stops, and when the trace does not begin still (the recording started
+// during a move: its first stop's dwell missing, a last one after the program's stops).
 TraceReadings readings_from_trace(const Design& design, const std::string& installation,
                                   const Trace& trace, const std::vector<Sweep>& sweeps,
                                   const DwellOptions& options, const std::string& source);
@@ -132,8 +136,9 @@ struct SimulatedTrace {
   // dwell was.
   std::vector<double> level_um;
   std::vector<std::pair<double, double>> dwell_s;
-  // With the readings' times: the test's clock when the trace's read zero, and the shortest
-  // dwell a reading had (what readings --dwell-s should be).
+  // With the readings' times: the test's clock when the trace's read zero, and what readings
+  // --dwell-s should be (the shortest dwell a reading had, and little more than twice the first
+  // and the last plateau: the first is cut where the test's clock begins).
   std::optional<double> zero_s, shortest_dwell_s;
 };
 
@@ -141,7 +146,8 @@ struct SimulatedTrace {
 // per reading on the test's clock): the trace follows them, each move centred between the last
 // reading of one stop and the first of the next, the machine standing still from one move to the
 // next (longer than the programmed dwell when the schedule leaves time); throws
-// InputError("schedule", "per_reading_s") when a stop's time is shorter than its dwell.
+// InputError("schedule", "per_reading_s") when a stop's time is shorter than its dwell, and
+// InputError("--trace-out") before making a trace of more than limits::kMaxTraceSamples.
 SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<double>& levels,
                               const TraceSimulation& options,
                               const std::vector<double>& times_s = {});

@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -56,7 +57,8 @@ Runner add_readings(CLI::App& app) {
       ->check(finite_in(0.05, 1))
       ->capture_default_str();
   sub->add_option("--sweeps", args->sweeps,
-                  "The program's sweeps: ccw, cw or both (as program --sweeps)")
+                  "The program's sweeps: ccw, cw or both (as program --sweeps), or a list in "
+                  "order (ccw,cw,ccw, as a truth's schedule.sweeps)")
       ->capture_default_str();
   sub->add_option("--columns", args->columns,
                   "time=NAME,reading=NAME: the trace's columns when not time_s and "
@@ -76,6 +78,13 @@ Runner add_readings(CLI::App& app) {
       for (const auto& [id, path] : traces) {
         if (id == t.substr(0, eq))
           throw InputError("--trace", quote_value(id), "two traces of one installation");
+        std::error_code ec;
+        if (path == t.substr(eq + 1) || std::filesystem::equivalent(path, t.substr(eq + 1), ec)) {
+          throw InputError("--trace", quote_value(t.substr(eq + 1)),
+                           "one file given for installations " + quote_value(id) + " and " +
+                               quote_value(t.substr(0, eq)) +
+                               ": each installation is a recording of its own");
+        }
       }
       traces.emplace_back(t.substr(0, eq), t.substr(eq + 1));
       inputs.push_back(t.substr(eq + 1));
@@ -124,7 +133,11 @@ Runner add_readings(CLI::App& app) {
       auto trace = std::make_unique<Trace>(io::read_trace_file(path, format));
       auto r = std::make_unique<TraceReadings>(
           readings_from_trace(design, id, *trace, sweeps, options, path));
-      validate_readings(design, r->readings, path);  // its range, before it is counted in
+      {  // its range, before it is counted in (its times once on the test's clock)
+        std::vector<Reading> own = r->readings;
+        for (Reading& g : own) g.time_s.reset();
+        validate_readings(design, own, path);
+      }
       readings.insert(readings.end(), r->readings.begin(), r->readings.end());
       warnings.insert(warnings.end(), r->warnings.begin(), r->warnings.end());
       if (!rep->quiet) {
@@ -139,8 +152,8 @@ Runner add_readings(CLI::App& app) {
         kept_found.push_back(std::move(r));
       }
     }
-    validate_readings(design, readings, "readings");
     if (auto w = put_on_test_clock(design, readings, start, "--start")) warnings.push_back(*w);
+    validate_readings(design, readings, "readings");
     std::ostringstream csv;
     io::write_measurements_csv(csv, readings);
     outputs.stage("--out", csv.str());

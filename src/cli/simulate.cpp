@@ -83,6 +83,8 @@ std::vector<std::pair<std::string, SimulatedTrace>> simulated_traces(
       out.emplace_back(
           id, simulate_trace(stops, levels, options, timed ? times : std::vector<double>{}));
     } catch (const InputError& e) {
+      if (e.source() == "--trace-out")
+        throw InputError("--trace-out", "installation " + id, e.detail());
       throw e.source() == "schedule" ? e.with_source(source) : e;
     }
   }
@@ -174,12 +176,20 @@ Runner add_simulate(CLI::App& app) {
         // The trace's clock starts at zero; with the truth's schedule, its zero on the test's.
         if (sim.zero_s && sim.shortest_dwell_s) {
           const double dwell = std::floor(*sim.shortest_dwell_s * 10) / 10;
-          comments.push_back(
-              "on the test's clock this trace starts at " + io::fmt_num(*sim.zero_s, 6) +
-              " s; following the truth's schedule the machine stands still at "
-              "least " +
-              io::fmt_num(dwell, 4) + " s a reading: dbbkit readings --dwell-s " +
-              io::fmt_num(dwell, 4) + " --start " + id + "=" + io::fmt_num(*sim.zero_s, 6));
+          // The program's sweeps as readings --sweeps names them (the default ccw left out).
+          std::string sweeps;
+          for (const Sweep s :
+               truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::kCCW})
+            sweeps += (sweeps.empty() ? "" : ",") + std::string(sweep_name(s));
+          if (sweeps == "ccw,cw") sweeps = "both";
+          if (sweeps == "ccw") sweeps.clear();
+          comments.push_back("on the test's clock this trace starts at " +
+                             io::fmt_num(*sim.zero_s, 6) +
+                             " s; following the truth's schedule the machine stands still at "
+                             "least " +
+                             io::fmt_num(dwell, 4) + " s a reading: dbbkit readings --dwell-s " +
+                             io::fmt_num(dwell, 4) + (sweeps.empty() ? "" : " --sweeps " + sweeps) +
+                             " --start " + id + "=" + io::fmt_num(*sim.zero_s, 6));
         }
         std::ostringstream text;
         io::write_trace_csv(text, sim.trace, comments);

@@ -3,10 +3,12 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
@@ -57,6 +59,62 @@ bool number(std::string_view field, bool decimal_comma, double& x) {
   return ec == std::errc() && end == buffer + n && std::isfinite(x);
 }
 
+// The lines of a stream: each ends at LF, CR LF or CR alone (old Mac files), or at the end;
+// one longer than limits::kMaxTraceLineBytes is refused there, naming its number, before more
+// of it is read.
+class Lines {
+ public:
+  Lines(std::istream& in, const std::string& source) : in_(in), source_(source) {}
+  bool next(std::string& line) {
+    line.clear();
+    bool any = false;
+    while (true) {
+      if (pos_ == end_ && !fill()) {
+        if (any) ++number_;
+        return any;
+      }
+      if (skip_lf_) {
+        skip_lf_ = false;
+        if (buffer_[pos_] == '\n' && ++pos_ == end_) continue;
+      }
+      any = true;
+      std::size_t i = pos_;
+      while (i < end_ && buffer_[i] != '\n' && buffer_[i] != '\r') ++i;
+      if (line.size() + (i - pos_) > limits::kMaxTraceLineBytes) {
+        throw InputError(source_, "line " + std::to_string(number_ + 1),
+                         "longer than " + std::to_string(limits::kMaxTraceLineBytes) +
+                             " characters, the longest line a trace may have (README, "
+                             "\"Limits\"): not a trace file");
+      }
+      line.append(buffer_.data() + pos_, i - pos_);
+      pos_ = i;
+      if (i < end_) {
+        skip_lf_ = buffer_[i] == '\r';
+        ++pos_;
+        ++number_;
+        return true;
+      }
+    }
+  }
+  long number() const { return number_; }  // of the last line read, from 1
+
+ private:
+  bool fill() {
+    in_.read(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+    pos_ = 0;
+    end_ = static_cast<std::size_t>(in_.gcount());
+    if (end_ == 0 && in_.bad()) throw InputError(source_, "", "cannot read the file");
+    if (end_ == 0) return false;
+    return true;
+  }
+  std::istream& in_;
+  const std::string& source_;
+  std::vector<char> buffer_ = std::vector<char>(std::size_t{1} << 16);
+  std::size_t pos_ = 0, end_ = 0;
+  long number_ = 0;
+  bool skip_lf_ = false;
+};
+
 std::string number_text(double x) {
   char b[32];
   std::snprintf(b, sizeof b, "%.9g", x);
@@ -88,16 +146,25 @@ void parse_trace_columns(const std::string& text, TraceFormat& format) {
 }
 
 Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string& source) {
-  if (!format.reading_column.empty() && format.unit != "um" && format.unit != "mm") {
+  if (!format.unit.empty() && format.unit != "um" && format.unit != "mm")
+    throw InputError("--unit", "",
+                     quote_value(format.unit) + " is not a unit of a reading: um or mm");
+  if (!format.reading_column.empty() && format.unit.empty()) {
     throw InputError(
         "--unit", "",
         "the reading column " + quote_value(format.reading_column) + " needs its unit: um or mm");
   }
-  if (format.sample_rate_hz && !(*format.sample_rate_hz > 0 && *format.sample_rate_hz <= 1e7))
-    throw InputError("--sample-rate-hz", "", "must lie in (0, 1e7] Hz");
+  if (format.sample_rate_hz && !(*format.sample_rate_hz >= limits::kMinTraceSampleRate_hz &&
+                                 *format.sample_rate_hz <= limits::kMaxTraceSampleRate_hz)) {
+    throw InputError("--sample-rate-hz", "",
+                     number_text(*format.sample_rate_hz) + " Hz: must lie in [" +
+                         number_text(limits::kMinTraceSampleRate_hz) + ", " +
+                         number_text(limits::kMaxTraceSampleRate_hz) + "] Hz");
+  }
   Trace trace;
   std::string raw;
   std::vector<std::string_view> fields;
+  Lines lines(in, source);
   long line_no = 0;
   char delimiter = 0;
   bool decimal_comma = false;
@@ -105,8 +172,8 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
   std::size_t columns = 0;
   double factor = 1.0;  // to um
   long row = 0;
-  while (std::getline(in, raw)) {
-    ++line_no;
+  while (lines.next(raw)) {
+    line_no = lines.number();
     std::string_view line(raw);
     if (line_no == 1 && line.size() >= 3 && line.substr(0, 3) == "\xEF\xBB\xBF")
       line.remove_prefix(3);
@@ -181,8 +248,21 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
                              " is not a time");
       }
       if (format.sample_rate_hz) time /= *format.sample_rate_hz;
+      if (!std::isfinite(time)) {
+        throw InputError(source, where,
+                         quote_value(std::string(fields[static_cast<std::size_t>(time_col)])) +
+                             " is not a time at " + number_text(*format.sample_rate_hz) + " Hz");
+      }
     } else {
       time = static_cast<double>(row) / *format.sample_rate_hz;
+    }
+    if (!(std::abs(factor * x) <= limits::kMaxTraceReading_um)) {
+      throw InputError(
+          source, where,
+          "the reading " + quote_value(std::string(fields[static_cast<std::size_t>(reading_col)])) +
+              (factor == 1.0 ? " um" : " mm") + " is beyond the limit of a reading (+-" +
+              number_text(limits::kMaxTraceReading_um) +
+              " um, README \"Limits\"); check the unit (--unit)");
     }
     if (!trace.time_s.empty() && !(time > trace.time_s.back())) {
       throw InputError(source, where,
@@ -192,7 +272,7 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
     if (trace.time_s.size() >= kMaxTraceSamples) {
       throw InputError(source, where,
                        "more than " + std::to_string(kMaxTraceSamples) +
-                           " samples, the most one trace may hold (README, \"Limits\")");
+                           " samples, the most one trace may hold (docs/formats.md, \"Limits\")");
     }
     trace.time_s.push_back(time);
     trace.reading_um.push_back(factor * x);
@@ -204,6 +284,15 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
 }
 
 Trace read_trace_file(const std::string& path, const TraceFormat& format) {
+  std::error_code ec;
+  const std::filesystem::file_status st = std::filesystem::status(path, ec);
+  if (std::filesystem::is_directory(st))
+    throw InputError(path, "", "a directory, not a trace file");
+  if (std::filesystem::exists(st) && !std::filesystem::is_regular_file(st)) {
+    throw InputError(path, "",
+                     "not a regular file (a device, a pipe or a socket): a trace is read from a "
+                     "file");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open the file");
   return parse_trace(in, format, path);

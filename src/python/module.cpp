@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -515,8 +516,41 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
   const std::vector<Sweep> sw = sweeps_by_name(sweeps, "sweeps");
   io::TraceFormat format;
   if (columns) io::parse_trace_columns(*columns, format);
+  if (unit && *unit != "um" && *unit != "mm")
+    throw InputError("argument", "unit", quote_value(*unit) + " is not um or mm");
+  if (unit && format.reading_column.empty())
+    throw InputError("argument", "unit", "unit goes with columns='reading=NAME'");
   if (unit) format.unit = *unit;
   format.sample_rate_hz = sample_rate_hz;
+  // A trace's column from Python: a 1-D array of numbers, within the samples a trace may hold
+  // (its length checked before anything is copied).
+  auto column = [](py::handle h, const std::string& what) {
+    if (py::hasattr(h, "__len__") && py::len(h) > io::kMaxTraceSamples) {
+      throw InputError("argument", what,
+                       std::to_string(py::len(h)) + " samples, more than the " +
+                           std::to_string(io::kMaxTraceSamples) +
+                           " one trace may hold (docs/formats.md, \"Limits\")");
+    }
+    const auto a = py::array_t<double, py::array::forcecast>::ensure(h);
+    if (!a) throw InputError("argument", what, "not an array of numbers");
+    if (a.ndim() != 1) {
+      std::string shape;
+      for (py::ssize_t k = 0; k < a.ndim(); ++k)
+        shape += (k ? ", " : "") + std::to_string(a.shape(k));
+      throw InputError("argument", what,
+                       "a 1-D array of numbers, got one of shape (" + shape + ")");
+    }
+    if (static_cast<std::size_t>(a.size()) > io::kMaxTraceSamples) {
+      throw InputError("argument", what,
+                       std::to_string(a.size()) + " samples, more than the " +
+                           std::to_string(io::kMaxTraceSamples) +
+                           " one trace may hold (docs/formats.md, \"Limits\")");
+    }
+    const auto v = a.unchecked<1>();
+    std::vector<double> out(static_cast<std::size_t>(a.size()));
+    for (py::ssize_t i = 0; i < a.size(); ++i) out[static_cast<std::size_t>(i)] = v(i);
+    return out;
+  };
   DwellOptions options;
   options.dwell_s = dwell_s;
   options.min_share = min_share;
@@ -524,6 +558,7 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
   mm.source = "traces";
   py::dict found;
   std::vector<Warning> warnings;
+  std::vector<std::pair<std::string, std::string>> paths;  // installation, file
   for (const auto& [key, value] : traces) {
     if (!py::isinstance<py::str>(key))
       throw InputError("argument", "traces", "keys are installation ids (str)");
@@ -531,16 +566,28 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
     Trace trace;
     std::string source = "traces[" + quote_value(id) + "]";
     if (const auto path = as_path(value)) {
+      for (const auto& [other, other_path] : paths) {
+        std::error_code ec;
+        if (other_path == *path || std::filesystem::equivalent(other_path, *path, ec)) {
+          throw InputError("argument", "traces",
+                           "one file " + quote_value(*path) + " given for installations " +
+                               quote_value(other) + " and " + quote_value(id) +
+                               ": each installation is a recording of its own");
+        }
+      }
+      paths.emplace_back(id, *path);
       trace = io::read_trace_file(*path, format);
       source = *path;
     } else if (py::isinstance<py::tuple>(value) && py::len(value) == 2) {
       const auto t = value.cast<py::tuple>();
-      const auto time = t[0].cast<std::vector<double>>();
-      const auto reading = t[1].cast<std::vector<double>>();
-      if (time.size() != reading.size())
-        throw InputError(source, "", "times and readings differ in number");
-      trace.time_s = time;
-      trace.reading_um = reading;
+      trace.time_s = column(t[0], source + "[0] (time_s)");
+      trace.reading_um = column(t[1], source + "[1] (reading_um)");
+      if (trace.time_s.size() != trace.reading_um.size()) {
+        throw InputError("argument", source,
+                         "time_s has " + std::to_string(trace.time_s.size()) +
+                             " values, reading_um " + std::to_string(trace.reading_um.size()) +
+                             ": one of each per sample");
+      }
     } else {
       throw InputError("argument", "traces",
                        "each value is a trace file path or a (time_s, reading_um) pair of arrays");
@@ -571,9 +618,9 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
     d["noise_um"] = r.search.noise_um;
     found[py::str(id)] = d;
   }
-  validate_readings(design.value, mm.readings, "traces");
   if (auto w = put_on_test_clock(design.value, mm.readings, start_s, "start_s"))
     warnings.push_back(*w);
+  validate_readings(design.value, mm.readings, "traces");
   py::dict out;
   out["dwells"] = found;
   out["warnings"] = warnings_list(warnings);

@@ -157,6 +157,30 @@ class RoundTrips(InSource):
             dbbkit.identify(d, m, effects=[3])
         self.assertEqual(ctx.exception.where, "effects")
 
+    def test_from_trace_refuses_bad_arrays_units_and_sizes(self):
+        d = dbbkit.Design(PAPER_C)
+        t = np.arange(100) * 0.01
+        # Wrong shapes, named by argument.
+        with self.assertRaises(ValueError) as ctx:
+            dbbkit.Measurements.from_trace(d, {"1r": (np.zeros((100, 2)), t)})
+        self.assertIn("traces['1r'][0] (time_s)", str(ctx.exception))
+        self.assertIn("1-D", str(ctx.exception))
+        with self.assertRaises(ValueError) as ctx:
+            dbbkit.Measurements.from_trace(d, {"1r": (t, np.zeros(99))})
+        self.assertIn("traces['1r']", str(ctx.exception))
+        self.assertIn("time_s has 100 values, reading_um 99", str(ctx.exception))
+        # A unit that is none, without columns: refused by name.
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.Measurements.from_trace(d, {"1r": (t, np.zeros(100))}, unit="furlong")
+        self.assertIn("furlong", str(ctx.exception))
+        # More samples than a trace may hold: refused before they are copied or searched.
+        big = np.broadcast_to(np.float64(0), (50_000_001,))
+        start = time.monotonic()
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.Measurements.from_trace(d, {"1r": (big, big)})
+        self.assertIn("50000000", str(ctx.exception))
+        self.assertLess(time.monotonic() - start, 2.0)
+
     def test_measurements_from_trace(self):
         d = dbbkit.Design(PAPER_C)
         with tempfile.TemporaryDirectory() as tmp:
@@ -180,6 +204,10 @@ class RoundTrips(InSource):
             np.testing.assert_allclose(m2.reading_um, m.reading_um[: len(m2)], atol=1e-9)
             with self.assertRaises(dbbkit.InputError):
                 dbbkit.Measurements.from_trace(d, {ids[0]: traces[ids[0]]}, dwell_s=6)
+            # One file for two installations: refused, naming both.
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.Measurements.from_trace(d, {ids[0]: traces[ids[0]], ids[1]: traces[ids[0]]})
+            self.assertIn(f"installations '{ids[0]}' and '{ids[1]}'", str(ctx.exception))
             # Each trace on its own clock: said; on the test's clock with a start for each.
             self.assertTrue(any(w["kind"] == "trace_clock" for w in found["warnings"]))
             starts = {i: 1000.0 * k for k, i in enumerate(ids)}

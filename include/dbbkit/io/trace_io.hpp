@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "dbbkit/limits.hpp"
 #include "dbbkit/trace.hpp"
 
 namespace dbbkit::io {
@@ -24,13 +25,14 @@ struct TraceFormat {
   std::optional<double> sample_rate_hz;
 };
 
-// The most samples one trace may hold (README, "Limits"): 14 h at 1 kHz.
-inline constexpr std::size_t kMaxTraceSamples = 50'000'000;
+// The most samples one trace may hold (limits.hpp; docs/formats.md, "Limits").
+inline constexpr std::size_t kMaxTraceSamples = limits::kMaxTraceSamples;
 
 // --columns time=NAME,reading=NAME into `format`; throws InputError("--columns", ...).
 void parse_trace_columns(const std::string& text, TraceFormat& format);
 
-// Throws InputError(path, "line N", ...) naming what is wrong.
+// Throws InputError(path, "line N", ...) naming what is wrong; a directory or another file that
+// is not a regular one is refused as such. A line ends at LF, CR LF or CR alone.
 Trace read_trace_file(const std::string& path, const TraceFormat& format);
 Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string& source);
 
