@@ -819,7 +819,9 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
   const std::vector<SetupEffect> all = setup_effects(design, model, false);
   const SetupSolver setup(solver, all);
   const EffectColumns columns = effect_columns(solver, all);
-  ev.setup_checks = check_setup_effects(param, setup, all, columns, detection, reference_length_mm);
+  const DeterminedFunctions functions = determined_functions(param, solver.a_priori());
+  ev.setup_checks =
+      check_setup_effects(param, setup, all, columns, functions, detection, reference_length_mm);
   ErrorParts parts = error_parts(param, setup);
   ev.errors = std::move(parts.noise);
   if (setup.any()) {
@@ -830,7 +832,7 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
   }
   ev.worst = worst_case(ev.errors, reference_length_mm);
   if (auto w = setup_undeclared_warning(
-          hidden_setup_effects(param, solver, all, columns, reference_length_mm),
+          hidden_setup_effects(param, solver, all, columns, functions, reference_length_mm),
           reference_length_mm))
     ev.warnings.push_back(*w);
   return ev;

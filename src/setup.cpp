@@ -422,20 +422,18 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
                                                   const DetectionSettings& settings,
                                                   double reference_length_mm) {
   return check_setup_effects(param, solver, effects, effect_columns(solver.base(), effects),
-                             settings, reference_length_mm);
+                             determined_functions(param, solver.a_priori()), settings,
+                             reference_length_mm);
 }
 
-std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
-                                                  const SetupSolver& solver,
-                                                  const std::vector<SetupEffect>& effects,
-                                                  const EffectColumns& columns,
-                                                  const DetectionSettings& settings,
-                                                  double reference_length_mm) {
+std::vector<SetupEffectCheck> check_setup_effects(
+    const Parameterisation& param, const SetupSolver& solver,
+    const std::vector<SetupEffect>& effects, const EffectColumns& columns,
+    const DeterminedFunctions& fns, const DetectionSettings& settings, double reference_length_mm) {
   std::vector<SetupEffectCheck> out;
   const WlsSolver& base = solver.base();
   const Estimate& est = solver.a_priori();
   const Eigen::VectorXd w = base.sigma_um().cwiseInverse();
-  const DeterminedFunctions fns = determined_functions(param, est);
   out.reserve(effects.size());
   // Every effect's columns side by side: the base's gain times them and their unexplained part
   // (columns), and with declared set-up tolerances the full gain times them, in one product.

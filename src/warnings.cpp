@@ -64,17 +64,14 @@ std::vector<HiddenSetupEffect> hidden_setup_effects(const Design& design,
     if (!(e.std_um > 0)) undeclared.push_back(std::move(e));
   }
   return hidden_setup_effects(param, solver, undeclared, effect_columns(solver, undeclared),
-                              reference_length_mm);
+                              determined_functions(param, solver.a_priori()), reference_length_mm);
 }
 
-std::vector<HiddenSetupEffect> hidden_setup_effects(const Parameterisation& param,
-                                                    const WlsSolver& solver,
-                                                    const std::vector<SetupEffect>& effects,
-                                                    const EffectColumns& columns,
-                                                    double reference_length_mm) {
+std::vector<HiddenSetupEffect> hidden_setup_effects(
+    const Parameterisation& param, const WlsSolver& solver, const std::vector<SetupEffect>& effects,
+    const EffectColumns& columns, const DeterminedFunctions& fns, double reference_length_mm) {
   std::vector<HiddenSetupEffect> out;
   const Eigen::VectorXd& sigma = solver.sigma_um();
-  const DeterminedFunctions fns = determined_functions(param, solver.a_priori());
   Eigen::Index first = 0;  // the effect's first column
   for (const SetupEffect& e : effects) {
     const Eigen::Index q = e.J_reading_effect.cols();
@@ -85,7 +82,9 @@ std::vector<HiddenSetupEffect> hidden_setup_effects(const Parameterisation& para
     for (Eigen::Index c = 0; c < q; ++c)
       scale = std::max(scale, columns.X.col(c0 + c).cwiseQuotient(sigma).norm());
     if (scale <= 0) continue;
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(columns.R.middleCols(c0, q), Eigen::ComputeFullV);
+    // The singular values and directions of the unexplained part, from its q x q triangle.
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(
+        triangular_factor(Eigen::MatrixXd(columns.R.middleCols(c0, q))), Eigen::ComputeFullV);
     const Eigen::VectorXd& sv = svd.singularValues();
     std::vector<Eigen::Index> hidden_dirs;
     for (Eigen::Index k = 0; k < q; ++k) {
@@ -106,9 +105,12 @@ std::vector<HiddenSetupEffect> hidden_setup_effects(const Parameterisation& para
     }
     if (h.bias_um_per_um > 1e-9) out.push_back(h);
   }
+  // Most biasing first; biases equal to single precision (the same motion of two effects,
+  // apart in the last digits by the order of the sums) keep the design's order.
   std::stable_sort(out.begin(), out.end(),
                    [](const HiddenSetupEffect& a, const HiddenSetupEffect& b) {
-                     return a.bias_um_per_um > b.bias_um_per_um;
+                     return static_cast<float>(a.bias_um_per_um) >
+                            static_cast<float>(b.bias_um_per_um);
                    });
   return out;
 }

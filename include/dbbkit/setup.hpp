@@ -240,11 +240,13 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
                                                   const std::vector<SetupEffect>& effects,
                                                   const DetectionSettings& settings,
                                                   double reference_length_mm);
-// The same with the effects' columns formed (effect_columns(solver.base(), effects)).
+// The same with the effects' columns formed (effect_columns(solver.base(), effects)) and the
+// determined functions of the solver's a-priori estimate (determined_functions).
 std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
                                                   const SetupSolver& solver,
                                                   const std::vector<SetupEffect>& effects,
                                                   const EffectColumns& columns,
+                                                  const DeterminedFunctions& functions,
                                                   const DetectionSettings& settings,
                                                   double reference_length_mm);
 

@@ -46,12 +46,11 @@ std::vector<HiddenSetupEffect> hidden_setup_effects(const Design& design,
                                                     const WlsSolver& solver,
                                                     double reference_length_mm);
 // The same among `effects` (those with a declared tolerance passed over), their columns formed
-// with `solver` (effect_columns(solver, effects)).
-std::vector<HiddenSetupEffect> hidden_setup_effects(const Parameterisation& param,
-                                                    const WlsSolver& solver,
-                                                    const std::vector<SetupEffect>& effects,
-                                                    const EffectColumns& columns,
-                                                    double reference_length_mm);
+// with `solver` (effect_columns(solver, effects)), the determined functions of its a-priori
+// estimate given (determined_functions).
+std::vector<HiddenSetupEffect> hidden_setup_effects(
+    const Parameterisation& param, const WlsSolver& solver, const std::vector<SetupEffect>& effects,
+    const EffectColumns& columns, const DeterminedFunctions& functions, double reference_length_mm);
 std::optional<Warning> setup_undeclared_warning(const std::vector<HiddenSetupEffect>& hidden,
                                                 double reference_length_mm);
 
