@@ -181,7 +181,7 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
     } else {
       const auto index = design.installation_index();
       const auto it = index.find(id);
-      if (it == index.end()) fail("'" + id + "' is no installation of the design");
+      if (it == index.end()) fail(quote_value(id) + " is no installation of the design");
       e.installation = it->second;
     }
     at = close + 1;

@@ -237,7 +237,7 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
                                   const DwellOptions& options, const std::string& source) {
   if (design.find_installation(installation) < 0)
     throw InputError(source, "installation",
-                     "'" + installation + "' is no installation of the design");
+                     quote_value(installation) + " is no installation of the design");
   TraceReadings out;
   out.search = find_plateaus(trace, options, source);
   const std::vector<Plateau>& P = out.search.plateaus;

@@ -33,6 +33,28 @@ TEST(Readings, AnIntegerColumnSaysWhatIsWrong) {
   EXPECT_EQ(message_of(d, "installation,angle_deg,reading_um,repeat\n1r,0,1,2000000000\n"), "");
 }
 
+// A CR alone ends a line as LF and CR LF do (an old Mac's files): the same readings, and a
+// line named by its number.
+TEST(Readings, LinesEndedByACarriageReturnAloneAreRead) {
+  const std::string lf = "installation,angle_deg,reading_um\n1r,0,1.5\n1r,20,2.5\n";
+  std::string cr = lf, crlf;
+  for (char& c : cr) c = c == '\n' ? '\r' : c;
+  for (const char c : lf) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+  const std::vector<Reading> a = io::parse_measurements(lf, "lf.csv");
+  for (const std::string& text : {cr, crlf}) {
+    const std::vector<Reading> b = io::parse_measurements(text, "cr.csv");
+    ASSERT_EQ(b.size(), a.size());
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(b[i].angle_deg, a[i].angle_deg);
+      EXPECT_EQ(b[i].reading_um, a[i].reading_um);
+      EXPECT_EQ(b[i].line, a[i].line);
+    }
+  }
+  const Design d = test::paper_design('C');
+  const std::string m = message_of(d, "installation,angle_deg,reading_um\r1r,0,x\r");
+  EXPECT_NE(m.find("line 2"), std::string::npos) << m;
+}
+
 TEST(Readings, TheInstrumentRangeCatchesUmInAMmColumnAndCanBeWidened) {
   Design d = test::paper_design('C');
   ASSERT_EQ(d.instrument_range_mm, 1.0);  // the default: a QC20-W class ballbar

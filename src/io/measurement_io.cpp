@@ -74,7 +74,18 @@ const std::vector<std::string> kKnownColumns = {
 }  // namespace
 
 std::vector<Reading> parse_measurements(const std::string& text, const std::string& source) {
-  std::istringstream in(text);
+  // LF, CR LF or a CR alone (an old Mac's files) ends a line.
+  std::string lines;
+  lines.reserve(text.size());
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '\r') {
+      if (i + 1 < text.size() && text[i + 1] == '\n') continue;
+      lines += '\n';
+    } else {
+      lines += text[i];
+    }
+  }
+  std::istringstream in(lines);
   std::string raw;
   int line_no = 0;
   std::map<std::string, int> col;

@@ -7,6 +7,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
 
@@ -18,7 +19,7 @@ constexpr double kMaxSweepValues = 10000;
 double parse_number(const std::string& text, const std::string& spec) {
   double x = 0;
   if (!parse_decimal(text, x))
-    throw InputError("--sweep", spec, "'" + text + "' is not a finite decimal number");
+    throw InputError("--sweep", spec, quote_value(text) + " is not a finite decimal number");
   return x;
 }
 

@@ -99,6 +99,19 @@ class RoundTrips(InSource):
         with self.assertRaises(dbbkit.InputError):
             dbbkit.compensation(r, "linuxcnc")  # a C table: the module must be named
 
+    def test_messages_are_one_line_whatever_the_names(self):
+        # An installation id or an effect label from the caller is quoted with its line break
+        # escaped: a message never breaks a log line.
+        d = dbbkit.Design(PAPER_C)
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.Measurements.from_trace(d, {"1r\nX": (np.arange(100.0), np.zeros(100))})
+        self.assertNotIn("\n", str(ctx.exception))
+        self.assertIn("'1r\\nX'", str(ctx.exception))
+        m = dbbkit.Measurements(DATA_C, d)
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.identify(d, m, effects=["length_offset[9\nz]"])
+        self.assertNotIn("\n", str(ctx.exception))
+
     def test_a_path_with_a_nul_byte_reads_no_other_file(self):
         # The system reads a name up to its first NUL: PAPER_C + NUL + anything would be PAPER_C.
         d = dbbkit.Design(PAPER_C)
