@@ -107,11 +107,10 @@ std::vector<HiddenSetupEffect> hidden_setup_effects(
   }
   // Most biasing first; biases equal to single precision (the same motion of two effects,
   // apart in the last digits by the order of the sums) keep the design's order.
-  std::stable_sort(out.begin(), out.end(),
-                   [](const HiddenSetupEffect& a, const HiddenSetupEffect& b) {
-                     return static_cast<float>(a.bias_um_per_um) >
-                            static_cast<float>(b.bias_um_per_um);
-                   });
+  std::stable_sort(
+      out.begin(), out.end(), [](const HiddenSetupEffect& a, const HiddenSetupEffect& b) {
+        return static_cast<float>(a.bias_um_per_um) > static_cast<float>(b.bias_um_per_um);
+      });
   return out;
 }
 
