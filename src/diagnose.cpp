@@ -192,6 +192,11 @@ std::vector<Determined> iso_values(const IsoResult& iso) {
 
 // Adds the attributions' variance (w2: the sum of their shares' variances) to each.
 void add_iso_share(IsoResult& iso, const std::vector<double>& w2) {
+  // The location errors' covariance takes the same share on its diagonal, so that it stays the
+  // one their std come from.
+  for (int k = 0; k < 5; ++k)
+    if (iso.location[static_cast<std::size_t>(k)].value.determined)
+      iso.location_covariance(k, k) += w2[static_cast<std::size_t>(k)];
   std::size_t i = 0;
   auto add = [&](Determined& d) {
     if (d.determined) d.std = std::sqrt(d.std * d.std + w2[i]);

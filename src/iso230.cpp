@@ -285,6 +285,26 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     d.std = std::sqrt(std::max(0.0, QSQ[b](j, j)));
     return scaled(d);
   };
+  // The location errors' joint covariance: within a block Q' (Sigma + K S K') Q, across the
+  // blocks the same form with the other block's columns.
+  {
+    const std::array<std::pair<int, int>, 5> at = {{{0, 3}, {0, 4}, {1, 3}, {1, 4}, {1, 2}}};
+    for (int i = 0; i < 5; ++i) {
+      for (int j = 0; j < 5; ++j) {
+        const auto [bi, ci] = at[i];
+        const auto [bj, cj] = at[j];
+        if (!fitted[bi] || !fitted[bj] || !est.determined(Q[bi].col(ci)) ||
+            !est.determined(Q[bj].col(cj)))
+          continue;
+        double v = Q[bi].col(ci).dot(SQ[bj].col(cj));
+        if (low_rank) v += KQ[bi].col(ci).dot(est.covariance_S * KQ[bj].col(cj));
+        out.location_covariance(i, j) = v * uncertainty_scale * uncertainty_scale;
+      }
+    }
+    // Symmetric to the bit (the two orders of a cross term round differently).
+    const Eigen::Matrix<double, 5, 5> c = out.location_covariance;
+    out.location_covariance = 0.5 * (c + c.transpose());
+  }
   out.location = {{location_names[0], um, quantity(0, 3)},
                   {location_names[1], um, quantity(0, 4)},
                   {location_names[2], urad, quantity(1, 3)},

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 
@@ -25,9 +26,23 @@ constexpr int kPathSamples = 16;
 constexpr int kMaxSubsteps = 1000000;
 
 // Largest | |P(a(t)) - F(t)| - bar | over the sub-step from angle a0 to a1, F interpolated
-// linearly between the nominal following-ball positions at its ends.
+// linearly between the nominal following-ball positions at its ends. Under TCPM the controller
+// interpolates the tool tip in the workpiece frame: on a table it holds the spindle ball still
+// on the table (no change), on a head it moves the spindle ball along the chord about the table
+// ball.
 double substep_bar_change(const AxisFrame& axis, const Installation& inst, double bar, double a0,
-                          double a1) {
+                          double a1, bool tcpm) {
+  if (tcpm) {
+    if (axis.table()) return 0;
+    const Eigen::Vector3d u0 = direction_machine(axis, inst, a0),
+                          u1 = direction_machine(axis, inst, a1);
+    double worst = 0;
+    for (int k = 1; k <= kPathSamples; ++k) {
+      const double t = static_cast<double>(k) / (kPathSamples + 1);
+      worst = std::max(worst, std::abs(bar * (u0 + t * (u1 - u0)).norm() - bar));
+    }
+    return worst;
+  }
   const Eigen::Vector3d P0 = ball_position_mm(axis, inst, a0),
                         P1 = ball_position_mm(axis, inst, a1);
   const Eigen::Vector3d F0 = P0 - inst.sign * bar * direction_machine(axis, inst, a0);
@@ -44,8 +59,8 @@ double substep_bar_change(const AxisFrame& axis, const Installation& inst, doubl
 
 // Sub-steps of the step a0 -> a1 so that every one keeps the bar within the tolerance.
 int substeps(const AxisFrame& axis, const Installation& inst, double bar, double a0, double a1,
-             double tol, double& largest_change) {
-  const double whole = substep_bar_change(axis, inst, bar, a0, a1);
+             double tol, bool tcpm, double& largest_change) {
+  const double whole = substep_bar_change(axis, inst, bar, a0, a1, tcpm);
   if (whole <= tol) {
     largest_change = std::max(largest_change, whole);
     return 1;
@@ -56,7 +71,7 @@ int substeps(const AxisFrame& axis, const Installation& inst, double bar, double
     double worst = 0;
     for (int k = 0; k < n && worst <= tol; ++k) {
       worst = std::max(worst, substep_bar_change(axis, inst, bar, a0 + (a1 - a0) * k / n,
-                                                 a0 + (a1 - a0) * (k + 1) / n));
+                                                 a0 + (a1 - a0) * (k + 1) / n, tcpm));
     }
     if (worst <= tol) {
       largest_change = std::max(largest_change, worst);
@@ -67,6 +82,96 @@ int substeps(const AxisFrame& axis, const Installation& inst, double bar, double
                    "a step of " + text::significant(a1 - a0, 6) + " deg needs more than " +
                        std::to_string(kMaxSubsteps) + " sub-steps to keep the bar within " +
                        text::significant(tol, 6) + " mm");
+}
+
+// The machine's options against the design: TCPM needs the controller's kinematics (a machine
+// file); under TCPM the tool tip is the spindle ball, on the spindle's axis; without it the tool
+// length acts along Z, so a head axis stands at 0 while a table axis is measured.
+void check_machine_options(const Design& design, const ProgramOptions& o) {
+  if (!design.machine) {
+    if (o.tcpm)
+      throw InputError("program", "tcpm",
+                       "TCPM runs on the controller's kinematics: the design must name its "
+                       "machine (\"machine\": \"m.json\", formats.md, \"Machine file\")");
+    return;
+  }
+  const Machine& m = *design.machine->machine;
+  const std::vector<double> park = design.machine->park_angles();
+  if (o.tcpm && design.axis.head()) {
+    // The spindle's axis with the axis under test at 0: the innermost head axis' reference (from
+    // its pivot to the tool tip) turned by every head axis (machine frame).
+    int h = -1;
+    for (std::size_t k = 0; k < m.rotary.size(); ++k) {
+      if (m.rotary[k].side != AxisFrame::Side::kHead) continue;
+      bool carries = false;
+      for (const RotaryAxisSpec& r : m.rotary) carries |= r.on == static_cast<int>(k);
+      if (!carries) h = static_cast<int>(k);
+    }
+    std::vector<double> at_zero = park;
+    at_zero[design.machine->axis] = 0;
+    const Eigen::Vector3d pivot = m.body_point_at(h, m.rotary[h].point_mm, at_zero);
+    const Eigen::Vector3d tool = m.body_direction_at(h, m.rotary[h].reference, at_zero);
+    const Eigen::Vector3d origin = m.point_at(design.machine->axis, at_zero);
+    for (std::size_t i = 0; i < design.installations.size(); ++i) {
+      const Installation& inst = design.installations[i];
+      const Eigen::Vector3d v = origin + ball_body_mm(design.axis, inst) - pivot;
+      if (v.cross(tool).norm() > 1e-6 || v.dot(tool) <= 0)
+        throw InputError("program", "installations[" + std::to_string(i) + "].ball_mm",
+                         "installation " + inst.id +
+                             ": under TCPM the tool tip is the spindle ball, on the spindle's "
+                             "axis beyond the pivot; this ball lies off it (measure it with TCPM "
+                             "off)");
+    }
+  }
+  if (!o.tcpm && design.axis.table()) {
+    for (std::size_t k = 0; k < m.rotary.size(); ++k) {
+      if (m.rotary[k].side == AxisFrame::Side::kHead && park[k] != 0)
+        throw InputError("program", "tcpm",
+                         std::string("head axis ") + m.rotary[k].letter + " parks at " +
+                             text::significant(park[k], 6) +
+                             " deg: without TCPM the tool length acts along Z, so the spindle "
+                             "must stand at 0 (park it there, or run with TCPM on)");
+    }
+  }
+}
+
+// The angles of every rotary axis with the axis under test at `angle`, the others parked.
+std::vector<double> machine_angles(const Design& design, double angle) {
+  std::vector<double> a = design.machine->park_angles();
+  a[design.machine->axis] = angle;
+  return a;
+}
+
+// The highest point (work frame Z) of the table discs and the workspace solids that turn with
+// the axis under test or carry it, over `angles`; -inf when there are none.
+double machine_top_z(const Design& design, const std::vector<double>& angles) {
+  const Machine& m = *design.machine->machine;
+  const Eigen::Vector3d origin = design.machine->origin_mm();
+  double top = -std::numeric_limits<double>::infinity();
+  for (double angle : angles) {
+    const std::vector<double> a = machine_angles(design, angle);
+    for (std::size_t k = 0; k < m.rotary.size(); ++k) {
+      const RotaryAxisSpec& r = m.rotary[k];
+      if (!r.table_diameter_mm) continue;
+      const Eigen::Vector3d centre0 =
+          r.point_mm + (*r.table_surface_mm - r.point_mm.dot(r.direction)) * r.direction;
+      const Eigen::Vector3d c = m.body_point_at(static_cast<int>(k), centre0, a);
+      const Eigen::Vector3d n = m.body_direction_at(static_cast<int>(k), r.direction, a);
+      const double rise = 0.5 * *r.table_diameter_mm * std::sqrt(std::max(0.0, 1 - n.z() * n.z()));
+      top = std::max(top, c.z() + rise - origin.z());
+    }
+    for (const WorkspaceSolid& w : m.solids) {
+      if (w.turns_with < 0) continue;  // fixed to the frame: what moves must stay clear of it
+      for (int corner = 0; corner < 8; ++corner) {
+        const Eigen::Vector3d x0((corner & 1) ? w.max_mm.x() : w.min_mm.x(),
+                                 (corner & 2) ? w.max_mm.y() : w.min_mm.y(),
+                                 (corner & 4) ? w.max_mm.z() : w.min_mm.z());
+        const Eigen::Vector3d x = m.body_point_at(w.turns_with, x0, a);
+        top = std::max(top, x.z() - origin.z());
+      }
+    }
+  }
+  return top;
 }
 
 }  // namespace
@@ -111,6 +216,14 @@ Eigen::Vector3d commanded_point_mm(const AxisFrame& axis, const Installation& in
   return -F;  // the pivot, with the table ball at the origin
 }
 
+Eigen::Vector3d tcp_point_mm(const AxisFrame& axis, const Installation& inst, double bar_mm,
+                             double angle_deg) {
+  // A table: F in the table's body frame (the same at every angle); a head: the spindle ball
+  // P = F + s bar u with the table ball F at the origin.
+  if (axis.table()) return commanded_point_mm(axis, inst, bar_mm, 0.0);
+  return inst.sign * bar_mm * direction_machine(axis, inst, angle_deg);
+}
+
 const InstallationProgram& MeasurementProgram::of(int installation) const {
   for (const InstallationProgram& ip : installations) {
     if (ip.installation == installation) return ip;
@@ -127,6 +240,18 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   program.options = options;
   const std::vector<Sweep> sweeps = program_sweeps(options.sweeps);
   const double first = sweep_angles(design, sweeps.front()).front();
+  check_machine_options(design, options);
+  program.machine = design.machine;
+  // With a machine, the cups are placed with the axis at its park angle (the table level, the
+  // spindle upright), then turned.
+  const double placement_angle =
+      design.machine ? design.machine->park_angles()[design.machine->axis] : first;
+  if (design.machine) {
+    const std::vector<double> park = design.machine->park_angles();
+    for (std::size_t k = 0; k < park.size(); ++k)
+      if (static_cast<int>(k) != design.machine->axis)
+        program.parks.push_back({design.machine->machine->rotary[k].letter, park[k]});
+  }
 
   std::size_t positions = 0;
   // The highest point anything reaches (work frame Z; the table surface (C) or the table ball
@@ -152,7 +277,8 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
                         ? !previous_ball || (*previous_ball - body).norm() > kAssemblyTolerance_mm
                         : !previous_ball;
     previous_ball = body;
-    const Eigen::Vector3d P_first = ball_position_mm(design.axis, inst, first);
+    const Eigen::Vector3d P_first = ball_position_mm(design.axis, inst, placement_angle);
+    ip.placement_angle_deg = placement_angle;
     ip.placement_mm = design.axis.table() ? P_first : Eigen::Vector3d(-P_first);
     if (design.axis.table()) {
       highest = std::max(highest, P_first.z());
@@ -178,6 +304,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
         ProgramPosition p;
         p.angle_deg = a;
         p.linear_mm = commanded_point_mm(design.axis, inst, ip.bar_mm, a);
+        p.tcp_mm = tcp_point_mm(design.axis, inst, ip.bar_mm, a);
         p.reading = reading;
         ip.motion_time_s += 60.0 * (p.linear_mm - last).norm() / options.feed_mm_per_min;
         if (reading) ip.motion_time_s += options.dwell_s;
@@ -189,7 +316,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
       for (size_t k = 1; k < order.size(); ++k) {
         const double a0 = order[k - 1], a1 = order[k];
         const int n = substeps(design.axis, inst, ip.bar_mm, a0, a1, options.path_tolerance_mm,
-                               ip.largest_bar_change_mm);
+                               options.tcpm, ip.largest_bar_change_mm);
         for (int j = 1; j < n; ++j) {
           const double a = a0 + (a1 - a0) * j / n;
           add(std::round(a / kProgramAngleResolution_deg) * kProgramAngleResolution_deg, false);
@@ -202,6 +329,13 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     highest = std::max(highest, ip.placement_mm.z());
     program.readings += ip.readings;
     program.installations.push_back(std::move(ip));
+  }
+  if (design.machine && design.axis.table()) {
+    // The table's disc and the solids that turn with the axis rise as it turns: the plane clears
+    // their highest point at every angle the program visits.
+    std::vector<double> angles = design.angles_deg;
+    angles.push_back(placement_angle);
+    highest = std::max(highest, machine_top_z(design, angles));
   }
   program.clearance_z_mm =
       options.clearance_z_mm.value_or(highest + reach + options.clearance_margin_mm);
@@ -216,6 +350,9 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     ip.motion_time_s += 60.0 * along_z / options.feed_mm_per_min;
     program.motion_time_s += ip.motion_time_s;
   }
+  if (const std::string clash = machine_clash(design, program); !clash.empty())
+    throw InputError("design", "machine",
+                     "machine " + quote_value(design.machine->machine->name) + ": " + clash);
   return program;
 }
 
@@ -238,6 +375,99 @@ std::vector<double> sweep_angles(const Design& design, Sweep sweep) {
   std::sort(angles.begin(), angles.end());
   if (sweep == Sweep::kCW) std::reverse(angles.begin(), angles.end());
   return angles;
+}
+
+}  // namespace dbbkit
+
+namespace dbbkit {
+
+std::string machine_clash(const Design& design, const MeasurementProgram& program) {
+  if (!design.machine || !design.axis.table()) return "";
+  const Machine& m = *design.machine->machine;
+  const Eigen::Vector3d origin = design.machine->origin_mm();
+  const char* names = "XYZ";
+  auto beyond_travel = [&](const Eigen::Vector3d& x) -> std::string {
+    for (int i = 0; i < 3; ++i) {
+      const auto& t = m.linear_travel_mm[i];
+      if (x(i) < t[0] - 1e-9 || x(i) > t[1] + 1e-9)
+        return std::string(1, names[i]) + " " + text::significant(x(i), 7) +
+               " mm (machine frame) lies beyond the travel [" + text::significant(t[0], 7) + ", " +
+               text::significant(t[1], 7) + "] mm";
+    }
+    return "";
+  };
+  auto inside = [&](const Eigen::Vector3d& x, const std::vector<double>& a) -> std::string {
+    for (const WorkspaceSolid& w : m.solids) {
+      const Eigen::Vector3d x0 = w.turns_with < 0 ? x : m.to_body(w.turns_with, x, a);
+      if ((x0.array() > w.min_mm.array()).all() && (x0.array() < w.max_mm.array()).all())
+        return quote_value(w.name);
+    }
+    return "";
+  };
+  const double zc = origin.z() + program.clearance_z_mm;
+  if (zc > m.linear_travel_mm[2][1])
+    return "the clearance plane Z " + text::significant(program.clearance_z_mm, 7) +
+           " mm (work frame; " + text::significant(zc, 7) +
+           " mm in the machine frame) lies above the Z travel's end " +
+           text::significant(m.linear_travel_mm[2][1], 7) + " mm";
+  // The table the cups stand on: the innermost table axis' disc, at the placing angle.
+  int disc = -1;
+  for (std::size_t k = 0; k < m.rotary.size(); ++k) {
+    bool carries = false;
+    for (const RotaryAxisSpec& r : m.rotary) carries |= r.on == static_cast<int>(k);
+    if (m.rotary[k].side == AxisFrame::Side::kTable && !carries && m.rotary[k].table_diameter_mm)
+      disc = static_cast<int>(k);
+  }
+  for (const InstallationProgram& ip : program.installations) {
+    const Installation& inst = design.installations[ip.installation];
+    const std::string where = "installation " + inst.id;
+    if (disc >= 0 && ip.places_cup) {
+      const RotaryAxisSpec& r = m.rotary[disc];
+      std::vector<double> a = design.machine->park_angles();
+      a[design.machine->axis] = ip.placement_angle_deg;
+      const Eigen::Vector3d x0 =
+          m.to_body(disc, origin + ball_position_mm(design.axis, inst, ip.placement_angle_deg), a);
+      const Eigen::Vector3d v = x0 - r.point_mm;
+      const double height = x0.dot(r.direction) - *r.table_surface_mm;
+      const double radius = (v - v.dot(r.direction) * r.direction).norm();
+      if (height <= 0 || radius > 0.5 * *r.table_diameter_mm)
+        return where + ": its table ball lies " +
+               (height <= 0
+                    ? text::significant(-height, 7) + " mm below the surface of"
+                    : text::significant(radius, 7) + " mm from the axis, beyond the edge of") +
+               " the " + std::string(1, r.letter) + " table (diameter " +
+               text::significant(*r.table_diameter_mm, 7) + " mm)";
+    }
+    if (const std::string t = beyond_travel(origin + ip.placement_mm); !t.empty())
+      return where + ", placing its cup: the spindle ball's " + t;
+    for (const ProgramSweep& s : ip.sweeps) {
+      for (const ProgramPosition& p : s.positions) {
+        const std::string at = where + " at " + std::string(1, design.axis.letter()) +
+                               text::significant(p.angle_deg, 7);
+        if (const std::string t = beyond_travel(origin + p.linear_mm); !t.empty())
+          return at + ": the spindle ball's " + t;
+        if (!p.reading) continue;
+        const std::vector<double> a = [&] {
+          std::vector<double> v = design.machine->park_angles();
+          v[design.machine->axis] = p.angle_deg;
+          return v;
+        }();
+        const Eigen::Vector3d P = origin + ball_position_mm(design.axis, inst, p.angle_deg);
+        const Eigen::Vector3d F = origin + p.linear_mm;
+        for (int k = 0; k <= 10; ++k) {
+          const Eigen::Vector3d x = P + (F - P) * (k / 10.0);
+          if (const std::string solid = inside(x, a); !solid.empty())
+            return at + ": " +
+                   (k == 0    ? std::string("the table ball")
+                    : k == 10 ? std::string("the spindle ball")
+                              : std::string("the bar")) +
+                   " at " + text::significant(x.x(), 7) + ", " + text::significant(x.y(), 7) +
+                   ", " + text::significant(x.z(), 7) + " mm (machine frame) lies inside " + solid;
+        }
+      }
+    }
+  }
+  return "";
 }
 
 }  // namespace dbbkit

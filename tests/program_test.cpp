@@ -20,6 +20,7 @@
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/program_io.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "program_lines.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -83,35 +84,13 @@ Parsed parse(const std::string& text, io::Dialect dialect, char rotary) {
   double x = NAN, y = NAN, z = NAN, r = NAN;
   bool mounted = false;
   while (std::getline(in, line)) {
-    std::string code = line, comment;
-    if (dialect == io::Dialect::kIso) {
-      const size_t open = code.find('(');
-      if (open != std::string::npos) {
-        comment = code.substr(open + 1, code.find(')', open) - open - 1);
-        code = code.substr(0, open);
-      }
-    } else {
-      const size_t semi = code.find(';');
-      if (semi != std::string::npos) {
-        comment = code.substr(semi + 1);
-        code = code.substr(0, semi);
-      }
-      std::istringstream first(code);
-      int number = -1;
-      first >> number;  // the block number
-      std::string rest;
-      std::getline(first, rest);
-      code = rest;
-    }
-    const std::string marker = "installation ";
-    if (comment.find(marker) != std::string::npos && comment.find(" of ") != std::string::npos) {
-      std::istringstream c(comment.substr(comment.find(marker) + marker.size()));
-      c >> installation;
+    const test::ProgramLine pl = test::program_line(line, dialect);
+    const std::string &code = pl.code, &comment = pl.comment;
+    const std::vector<std::string>& w = pl.words;
+    if (const std::string id = test::opened_installation(comment); !id.empty()) {
+      installation = id;
       mounted = false;
     }
-    std::istringstream words(code);
-    std::vector<std::string> w;
-    for (std::string t; words >> t;) w.push_back(t);
     if (w.empty()) continue;
     bool motion = false, rapid = false;
     if (dialect == io::Dialect::kIso) {
@@ -437,7 +416,7 @@ TEST(ProgramCli, EveryCommittedDesignHasAProgramInBothDialects) {
     const Design d = io::read_design_file(entry.path().string());
     for (const std::string dialect : {"iso", "heidenhain"}) {
       const CliRun r = run_cli("program --design " + entry.path().string() + " --dialect " +
-                               dialect + " --sweeps both");
+                               dialect + " --sweeps both" + (d.machine ? " --tcpm off" : ""));
       ASSERT_EQ(r.status, 0) << entry.path() << r.err;
       const Parsed p = parse(r.out, dialect == "iso" ? io::Dialect::kIso : io::Dialect::kHeidenhain,
                              d.axis.letter());

@@ -5,12 +5,14 @@
 
 #include <Eigen/Core>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
 #include "dbbkit/axis_frame.hpp"
+#include "dbbkit/machine.hpp"
 
 namespace dbbkit {
 
@@ -124,12 +126,28 @@ inline constexpr double kMinBar_mm = 25.0;
 // |sum - value| <= kAssemblyTolerance_mm (lengths written with 6 decimals).
 inline constexpr double kAssemblyTolerance_mm = 1e-6;
 
+// The machine a design names (formats.md, "Machine file") and its axis under test: the design's
+// frame is that axis' nominal line with every other axis at its park angle, its origin the
+// axis' nominal point there (the preset a program teaches).
+struct DesignMachine {
+  std::string file;                        // as the design names it
+  std::shared_ptr<const Machine> machine;  // as read
+  int axis = 0;                            // the index of the axis under test
+  std::map<char, double> park_overrides;   // the design's "park_deg": letter -> angle
+  // Every rotary axis' angle while this axis is measured (its own: its park angle).
+  std::vector<double> park_angles() const { return machine->park_angles(park_overrides); }
+  // The axis' nominal point in the machine frame at the park angles: the frame's origin.
+  Eigen::Vector3d origin_mm() const { return machine->point_at(axis, park_angles()); }
+  char letter() const { return machine->rotary[axis].letter; }
+};
+
 struct Design {
   std::string name;
   std::string description;
   std::map<std::string, std::string>
       assumed;     // declared assumptions, e.g. "L1": "100 mm, not given by the paper"
   AxisFrame axis;  // default: the C turntable
+  std::optional<DesignMachine> machine;  // when the design names one (axis then from it)
   std::vector<double> angles_deg;
   NoiseModel noise;
   ErrorModel errors;

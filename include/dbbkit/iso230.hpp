@@ -109,7 +109,10 @@ struct IsoBlockGap {
 };
 
 struct IsoResult {
-  std::vector<IsoQuantity> location;   // 5: two positions, two orientations, the zero position
+  std::vector<IsoQuantity> location;  // 5: two positions, two orientations, the zero position
+  // Their joint covariance (um, urad; the same scale as their std), in the order of `location`;
+  // the rows and columns of an undetermined one are 0.
+  Eigen::Matrix<double, 5, 5> location_covariance = Eigen::Matrix<double, 5, 5>::Zero();
   std::vector<IsoQuantity> constants;  // 5: d0 (3 components) and e0 (the two perpendicular to a)
   std::array<std::string, 6> component_names;
   std::vector<IsoComponentsAtAngle> components;

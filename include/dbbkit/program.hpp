@@ -72,6 +72,12 @@ struct ProgramOptions {
   bool air_run = false;
   // The M-code that orients (and, where the control has it, locks) the spindle; empty: none.
   std::string orient_code = "M19";
+  // Tool-centre-point control during the sweeps (a design that names its machine): the program
+  // writes the ball centre in the workpiece frame and the controller moves the linear axes from
+  // its own kinematics (Heidenhain FUNCTION TCPM, ISO G43.4, Sinumerik TRAORI). Off: the linear
+  // positions come from the machine file's nominal axis points. Approaches, placements and
+  // retracts run without it either way.
+  bool tcpm = false;
 };
 // The spindle orientation code of every dialect written; the only one orient_code takes.
 inline constexpr const char* kOrientCode = "M19";
@@ -92,7 +98,11 @@ void validate_program_options(const ProgramOptions& options, const std::string& 
 
 struct ProgramPosition {
   double angle_deg = 0;
-  Eigen::Vector3d linear_mm = Eigen::Vector3d::Zero();  // commanded X, Y, Z
+  Eigen::Vector3d linear_mm = Eigen::Vector3d::Zero();  // commanded X, Y, Z (no TCPM)
+  // The ball centre in the workpiece frame, what X Y Z command under TCPM: a table, the spindle
+  // ball in the table's body frame (the same at every angle); a head, the spindle ball with the
+  // table ball at the origin.
+  Eigen::Vector3d tcp_mm = Eigen::Vector3d::Zero();
   bool reading = false;  // a design angle: dwell and read; false: an intermediate position
 };
 
@@ -113,6 +123,9 @@ struct InstallationProgram {
   bool places_cup = false;
   Eigen::Vector3d placement_mm = Eigen::Vector3d::Zero();
   std::vector<ProgramSweep> sweeps;
+  // The angle of the axis under test while the cup is placed: the start angle, or (a design that
+  // names its machine, a table) the axis' park angle, the table level.
+  double placement_angle_deg = 0;
   double largest_bar_change_mm = 0;  // along the interpolated path, over every sub-step
   int readings = 0;
   double motion_time_s = 0;  // its moves at the feed and its dwells (no set-up)
@@ -132,7 +145,22 @@ struct MeasurementProgram {
   double motion_time_s = 0;
   // The plane (work frame Z) every sideways rapid runs at (options.clearance_z_mm when given).
   double clearance_z_mm = 0;
+  // A design that names its machine: the other rotary axes at their park angles (commanded in
+  // the safe start, before any sideways move), the machine's controller and name, and the
+  // preset: the axis' nominal point in the machine frame, the work frame's origin.
+  struct Park {
+    char letter = 'C';
+    double angle_deg = 0;
+  };
+  std::vector<Park> parks;
+  std::optional<DesignMachine> machine;
 };
+
+// A design that names its machine: what the program's moves meet. The first problem as text
+// (the installation, the angle, the point, the solid or the travel), or empty: a ball, the bar
+// or the spindle ball inside a workspace solid; a commanded position or the clearance plane
+// beyond the linear travel.
+std::string machine_clash(const Design& design, const MeasurementProgram& program);
 
 // The point the linear axes command at an angle (see the header): a table, F(angle); a head,
 // -F(angle) (the pivot, with the table ball at the work frame's origin). A spindle pointing

@@ -60,13 +60,15 @@ std::unique_ptr<CommandLine> make_command_line() {
   add(add_setup_sheet);
   add(add_compensation);
   add(add_compare);
+  add(add_chain);
   add(add_readings);
   add(add_bench);
   // Every option that names a file: an empty path is refused where it is read.
   const std::set<std::string> path_options = {
-      "--design",   "--data",           "--out",        "--report",    "--summary",   "--kit",
-      "--result",   "--reference",      "--pareto-csv", "--map-csv",   "--truth",     "--setup-out",
-      "--baseline", "--write-baseline", "designs",      "--trace-out", "--tolerances"};
+      "--design",    "--data",       "--out",       "--report",         "--summary",
+      "--kit",       "--result",     "--reference", "--pareto-csv",     "--map-csv",
+      "--truth",     "--setup-out",  "--baseline",  "--write-baseline", "designs",
+      "--trace-out", "--tolerances", "--machine",   "results"};
   for (auto& [sub, run] : cl->commands) {
     for (CLI::Option* opt : sub->get_options()) {
       if (path_options.count(opt->get_name()) || path_options.count(opt->get_single_name())) {

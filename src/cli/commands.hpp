@@ -20,6 +20,7 @@ Runner add_program(CLI::App& app);
 Runner add_setup_sheet(CLI::App& app);
 Runner add_compensation(CLI::App& app);
 Runner add_compare(CLI::App& app);
+Runner add_chain(CLI::App& app);
 Runner add_readings(CLI::App& app);
 
 }  // namespace dbbkit::cli

@@ -34,9 +34,10 @@ Runner add_program(CLI::App& app) {
       "A part program of the measurement: rotary moves, the linear moves that keep the "
       "following ball on its path, a dwell per reading");
   sub->add_option("--design", args->design, "Design file (dbbkit.design/1)")->required();
-  sub->add_option("--dialect", args->dialect, "iso (G-code) or heidenhain (Klartext)")
+  sub->add_option("--dialect", args->dialect,
+                  "iso (G-code), heidenhain (Klartext) or sinumerik (Siemens G-code)")
       ->required()
-      ->check(CLI::IsMember({"iso", "heidenhain"}));
+      ->check(CLI::IsMember({"iso", "heidenhain", "sinumerik"}));
   sub->add_option("--out", args->out, "Program file; '-' or absent: stdout");
   sub->add_option("--kit", args->kit,
                   "Kit file (dbbkit.kit/1): the program is written only when every following "
@@ -50,7 +51,7 @@ Runner add_program(CLI::App& app) {
     io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}},
                           {args->design, args->kit});
     const Design design = io::read_design_file(args->design);
-    const ProgramOptions options = program_options(*prog, design.axis, args->design);
+    const ProgramOptions options = program_options(*prog, design, args->design);
     std::optional<Kit> kit;
     if (!args->kit.empty()) kit = io::read_kit_file(args->kit);
     MeasurementProgram program;
@@ -72,8 +73,7 @@ Runner add_program(CLI::App& app) {
                 << io::setup_sheet_summary(*sheet);
       return 1;
     }
-    const io::Dialect dialect =
-        args->dialect == "iso" ? io::Dialect::kIso : io::Dialect::kHeidenhain;
+    const io::Dialect dialect = *io::dialect_named(args->dialect);
     outputs.stage("--out", io::program_text(design, program, dialect, args->program_number));
     outputs.commit();
     if (!args->quiet && !args->out.empty() && args->out != "-") {

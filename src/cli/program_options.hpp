@@ -18,6 +18,7 @@ namespace dbbkit::cli {
 struct ProgramArgs {
   ProgramOptions options;
   std::string sweeps = "ccw";
+  std::string tcpm;        // on, off, or empty (not given)
   bool tool_down = false;  // retired: refused with the frame to write instead
 };
 
@@ -54,12 +55,17 @@ inline void add_program_options(CLI::App* sub, const std::shared_ptr<ProgramArgs
                 "step of each sweep, to check the sense of the rotary axis and the clearance");
   sub->add_option("--orient-code", args->options.orient_code,
                   "M-code that orients the spindle (default M19; 'none' for none)");
+  sub->add_option("--tcpm", args->tcpm,
+                  "on or off (required when the design names its machine): tool-centre-point "
+                  "control during the sweeps, so the controller's own kinematics moves the "
+                  "linear axes; off: the positions come from the machine file's axis points")
+      ->check(CLI::IsMember({"on", "off"}));
 }
 
 // The options as given, checked against the design's axis.
-inline ProgramOptions program_options(const ProgramArgs& args, const AxisFrame& axis,
-                                      const std::string& design_file) {
-  (void)axis;
+// A set-up sheet is the same with TCPM on or off (tcpm_required false: absent is off).
+inline ProgramOptions program_options(const ProgramArgs& args, const Design& design,
+                                      const std::string& design_file, bool tcpm_required = true) {
   if (args.tool_down) {
     throw InputError(
         "--tool-down", "",
@@ -75,6 +81,18 @@ inline ProgramOptions program_options(const ProgramArgs& args, const AxisFrame& 
   if (!sweeps) throw InputError("--sweeps", quote_value(args.sweeps), "is not ccw, cw or both");
   o.sweeps = *sweeps;
   if (o.orient_code == "none") o.orient_code.clear();
+  if (design.machine && args.tcpm.empty() && tcpm_required)
+    throw InputError("--tcpm", "",
+                     "the design " + design_file + " names machine " +
+                         quote_value(design.machine->machine->name) +
+                         ": say --tcpm on (the controller's kinematics moves the linear axes) or "
+                         "--tcpm off (the positions come from the machine file's axis points)");
+  if (!design.machine && args.tcpm == "on")
+    throw InputError("--tcpm", "on",
+                     "TCPM runs on the controller's kinematics: the design " + design_file +
+                         " must name its machine (\"machine\": \"m.json\", formats.md, "
+                         "\"Machine file\")");
+  o.tcpm = args.tcpm == "on";
   validate_program_options(o, "program");
   return o;
 }

@@ -54,7 +54,7 @@ Runner add_setup_sheet(CLI::App& app) {
     if (!resolution && kit) resolution = kit->resolution_mm;
     SetupSheet sheet;
     try {
-      sheet = make_setup_sheet(design, program_options(*prog, design.axis, args->design),
+      sheet = make_setup_sheet(design, program_options(*prog, design, args->design, false),
                                resolution, kit ? &*kit : nullptr);
     } catch (const InputError& e) {
       throw e.source() == "design" ? e.with_source(args->design) : e;

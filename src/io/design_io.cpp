@@ -2,10 +2,12 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <filesystem>
 
 #include "../number_text.hpp"
 #include "../tolerances.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/io/machine_io.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/user_text.hpp"
 
@@ -101,6 +103,30 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
   return m;
 }
 
+Travel read_travel(ObjectReader& a, const std::string& key, bool full_turn_default) {
+  Travel travel;
+  travel.full_turn = full_turn_default;
+  const json* t = a.optional(key);
+  if (!t) return travel;
+  if (t->is_string() && t->get<std::string>() == "full_turn") {
+    travel.full_turn = true;
+    return travel;
+  }
+  if (t->is_string())
+    a.fail(key, quote_value(t->get<std::string>()) +
+                    ": expected \"full_turn\" or an arc [min, max] in degrees");
+  const std::vector<double> x = read_numbers(*t, a.source(), a.key_path(key));
+  if (x.size() != 2) a.fail(key, "expected \"full_turn\" or an arc [min, max] in degrees");
+  if (!(x[0] < x[1]))
+    a.fail(key, "min " + text::significant(x[0], 12) + " must be below max " +
+                    text::significant(x[1], 12));
+  if (x[0] < -360 || x[1] > 360) a.fail(key, "the ends must lie within -360..360 deg");
+  if (x[1] - x[0] > 360)
+    a.fail(key, "an arc of at most one turn (360 deg); a whole turn is \"full_turn\"");
+  travel.full_turn = false, travel.min_deg = x[0], travel.max_deg = x[1];
+  return travel;
+}
+
 AxisFrame read_axis(ObjectReader& top) {
   const json& v = top.required("axis");
   if (v.is_string()) {
@@ -149,30 +175,10 @@ AxisFrame read_axis(ObjectReader& top) {
     }
   }
   const bool table = side == "table";
-  bool full_turn = table;
-  double lo = -180, hi = 180;
-  if (const json* t = a.optional("travel_deg")) {
-    if (t->is_string() && t->get<std::string>() == "full_turn") {
-      full_turn = true;
-    } else {
-      if (t->is_string())
-        a.fail("travel_deg", quote_value(t->get<std::string>()) +
-                                 ": expected \"full_turn\" or an arc [min, max] in degrees");
-      const std::vector<double> x = read_numbers(*t, top.source(), a.key_path("travel_deg"));
-      if (x.size() != 2)
-        a.fail("travel_deg", "expected \"full_turn\" or an arc [min, max] in degrees");
-      if (!(x[0] < x[1]))
-        a.fail("travel_deg", "min " + text::significant(x[0], 12) + " must be below max " +
-                                 text::significant(x[1], 12));
-      if (x[0] < -360 || x[1] > 360) a.fail("travel_deg", "the ends must lie within -360..360 deg");
-      if (x[1] - x[0] > 360)
-        a.fail("travel_deg", "an arc of at most one turn (360 deg); a whole turn is \"full_turn\"");
-      full_turn = false, lo = x[0], hi = x[1];
-    }
-  }
+  const Travel travel = read_travel(a, "travel_deg", table);
   a.finish();
   return AxisFrame::general(letter[0], table ? AxisFrame::Side::kTable : AxisFrame::Side::kHead,
-                            direction, reference, full_turn, lo, hi);
+                            direction, reference, travel.full_turn, travel.min_deg, travel.max_deg);
 }
 
 json axis_to_json(const AxisFrame& axis) {
@@ -262,7 +268,50 @@ json noise_to_json(const NoiseModel& noise) {
   return {{"distribution", "normal"}, {"std_um", noise.std_um}};
 }
 
-Design design_from_json(const json& j, const std::string& source) {
+namespace {
+
+// "machine": "m.json", "axis": "A" [, "park_deg": {"C": 90}] (formats.md, "Machine file").
+DesignMachine read_design_machine(ObjectReader& top, const std::string& base_dir) {
+  DesignMachine dm;
+  dm.file = top.string("machine");
+  if (dm.file.empty()) top.fail("machine", "empty: the path of a machine file");
+  if (dm.file.find('\0') != std::string::npos) top.fail("machine", "a path holds no NUL byte");
+  std::filesystem::path path(dm.file);
+  if (path.is_relative() && !base_dir.empty()) path = std::filesystem::path(base_dir) / path;
+  dm.machine = std::make_shared<const Machine>(read_machine_file(path.string()));
+  const Machine& m = *dm.machine;
+  std::string letters;
+  for (const RotaryAxisSpec& r : m.rotary)
+    letters += (letters.empty() ? "" : ", ") + std::string(1, r.letter);
+  const json& a = top.required("axis");
+  if (!a.is_string())
+    top.fail("axis", "with a machine, the letter of the axis under test (" + letters + ")");
+  const std::string letter = a.get<std::string>();
+  dm.axis = letter.size() == 1 ? m.find(letter[0]) : -1;
+  if (dm.axis < 0)
+    top.fail("axis", quote_value(letter) + " is not an axis of machine " + quote_value(m.name) +
+                         " (its axes: " + letters + ")");
+  if (const json* pj = top.optional("park_deg")) {
+    ObjectReader park(*pj, top.source(), "park_deg");
+    for (auto it = pj->begin(); it != pj->end(); ++it) {
+      const int k = it.key().size() == 1 ? m.find(it.key()[0]) : -1;
+      if (k < 0)
+        park.fail(it.key(),
+                  "not an axis of machine " + quote_value(m.name) + " (its axes: " + letters + ")");
+      const double v = park.number(it.key());
+      const RotaryAxisSpec& r = m.rotary[k];
+      if (!(std::abs(v) <= 360) || (!r.full_turn && (v < r.travel_min_deg || v > r.travel_max_deg)))
+        park.fail(it.key(), "the park angle " + text::significant(v, 12) +
+                                " deg lies outside the axis' travel");
+      dm.park_overrides[r.letter] = v;
+    }
+  }
+  return dm;
+}
+
+}  // namespace
+
+Design design_from_json(const json& j, const std::string& source, const std::string& base_dir) {
   ObjectReader top(j, source, "");
   Design d;
   const std::string format = top.string("format");
@@ -276,7 +325,14 @@ Design design_from_json(const json& j, const std::string& source) {
       d.assumed[it.key()] = assumed.string(it.key());
     }
   }
-  d.axis = read_axis(top);
+  if (top.has("machine")) {
+    d.machine = read_design_machine(top, base_dir);
+    d.axis = d.machine->machine->axis_frame(d.machine->axis, d.machine->park_angles());
+  } else {
+    if (top.has("park_deg"))
+      top.fail("park_deg", "park angles belong to a design that names its machine");
+    d.axis = read_axis(top);
+  }
   d.angles_deg = read_angles(top);
   if (const json* n = top.optional("noise"))
     d.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
@@ -375,7 +431,8 @@ Design design_from_json(const json& j, const std::string& source) {
 }
 
 Design read_design_file(const std::string& path) {
-  return design_from_json(parse_json(read_json_file(path), path), path);
+  return design_from_json(parse_json(read_json_file(path), path), path,
+                          std::filesystem::path(path).parent_path().string());
 }
 
 json design_to_json(const Design& d) {
@@ -384,7 +441,18 @@ json design_to_json(const Design& d) {
   if (!d.name.empty()) j["name"] = d.name;
   if (!d.description.empty()) j["description"] = d.description;
   if (!d.assumed.empty()) j["assumed"] = d.assumed;
-  j["axis"] = axis_to_json(d.axis);
+  if (d.machine) {
+    j["machine"] = d.machine->file;
+    j["axis"] = std::string(1, d.machine->letter());
+    if (!d.machine->park_overrides.empty()) {
+      json park = json::object();
+      for (const auto& [letter, angle] : d.machine->park_overrides)
+        park[std::string(1, letter)] = angle;
+      j["park_deg"] = park;
+    }
+  } else {
+    j["axis"] = axis_to_json(d.axis);
+  }
   j["angles_deg"] = d.angles_deg;
   j["noise"] = noise_to_json(d.noise);
   json errors;

@@ -9,6 +9,7 @@
 #include "dbbkit/io/escape.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/machine.hpp"
 
 namespace dbbkit::io {
 
@@ -58,42 +59,28 @@ class Writer {
         line("; " + l);
     }
   }
+  // Every rotary axis given, in one block at rapid.
+  void rapid_rotaries(const std::vector<MeasurementProgram::Park>& axes) {
+    std::string words;
+    for (const MeasurementProgram::Park& p : axes)
+      words += std::string(words.empty() ? "" : " ") + p.letter + coord(p.angle_deg, plus());
+    rapid(words);
+  }
   void raw(const std::string& text) { line(text); }
-  void rapid_z(double z) {
-    if (dialect_ == Dialect::kIso)
-      line("G00 Z" + coord(z, false));
-    else
-      line("L Z" + coord(z, true) + " R0 FMAX");
-  }
-  void feed_z(double z, double feed) {
-    if (dialect_ == Dialect::kIso)
-      line("G01 Z" + coord(z, false) + " F" + f(feed));
-    else
-      line("L Z" + coord(z, true) + " R0 F" + f(feed));
-  }
-  void rapid_rotary(double angle) {
-    if (dialect_ == Dialect::kIso)
-      line(std::string("G00 ") + rotary_ + coord(angle, false));
-    else
-      line(std::string("L ") + rotary_ + coord(angle, true) + " R0 FMAX");
-  }
+  void rapid_z(double z) { rapid("Z" + coord(z, plus())); }
+  void feed_z(double z, double feed) { feed_move("Z" + coord(z, plus()), feed); }
+  void rapid_rotary(double angle) { rapid(std::string(1, rotary_) + coord(angle, plus())); }
   void rapid_xy(const Eigen::Vector3d& p) {
-    const bool plus = dialect_ == Dialect::kHeidenhain;
-    const std::string xy = "X" + coord(p.x(), plus) + " Y" + coord(p.y(), plus);
-    if (dialect_ == Dialect::kIso)
-      line("G00 " + xy);
-    else
-      line("L " + xy + " R0 FMAX");
+    rapid("X" + coord(p.x(), plus()) + " Y" + coord(p.y(), plus()));
   }
   void move(const Eigen::Vector3d& p, double angle, double feed) {
-    if (dialect_ == Dialect::kIso)
-      line("G01 " + xyz(p) + " " + rotary_ + coord(angle, false) + " F" + f(feed));
-    else
-      line("L " + xyz(p) + " " + rotary_ + coord(angle, true) + " R0 F" + f(feed));
+    feed_move(xyz(p) + " " + rotary_ + coord(angle, plus()), feed);
   }
   void stop(const std::string& why) {
     if (dialect_ == Dialect::kIso)
       line("M00 (" + program_comment(why, kProgramMessage) + ")");
+    else if (dialect_ == Dialect::kSinumerik)
+      line("M0 ; " + program_comment(why, kProgramMessage));
     else
       line("STOP ; " + program_comment(why, kProgramMessage));
   }
@@ -101,10 +88,21 @@ class Writer {
     if (dialect_ == Dialect::kIso) {
       line("G04 P" + std::to_string(static_cast<long long>(std::lround(seconds * 1000))) + " (" +
            program_comment(why, kProgramMessage) + ")");
+    } else if (dialect_ == Dialect::kSinumerik) {
+      line("G4 F" + fmt_rounded(seconds, 3) + " ; " + program_comment(why, kProgramMessage));
     } else {
       line("CYCL DEF 9.0 DWELL TIME ; " + program_comment(why, kProgramMessage));
       line("CYCL DEF 9.1 DWELL " + fmt_rounded(seconds, 3));
     }
+  }
+  // Tool-centre-point control on and off (the tool's length register stays the same).
+  void tcpm(bool on, const std::string& tool) {
+    if (dialect_ == Dialect::kIso)
+      line((on ? "G43.4 H" : "G43 H") + tool);
+    else if (dialect_ == Dialect::kSinumerik)
+      line(on ? "TRAORI" : "TRAFOOF");
+    else
+      line(on ? "FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS" : "FUNCTION TCPM RESET");
   }
   std::string text() const { return out_.str(); }
 
@@ -112,11 +110,27 @@ class Writer {
   static std::string f(double feed) {
     return std::to_string(static_cast<long long>(std::lround(feed)));
   }
+  bool plus() const { return dialect_ == Dialect::kHeidenhain; }
+  void rapid(const std::string& words) {
+    if (dialect_ == Dialect::kIso)
+      line("G00 " + words);
+    else if (dialect_ == Dialect::kSinumerik)
+      line("G0 " + words);
+    else
+      line("L " + words + " R0 FMAX");
+  }
+  void feed_move(const std::string& words, double feed) {
+    if (dialect_ == Dialect::kIso)
+      line("G01 " + words + " F" + f(feed));
+    else if (dialect_ == Dialect::kSinumerik)
+      line("G1 " + words + " F" + f(feed));
+    else
+      line("L " + words + " R0 F" + f(feed));
+  }
   std::string xyz(const Eigen::Vector3d& p) const {
-    const bool plus = dialect_ == Dialect::kHeidenhain;
     std::string s = "X";
-    s.append(coord(p.x(), plus)).append(" Y").append(coord(p.y(), plus));
-    return s.append(" Z").append(coord(p.z(), plus));
+    s.append(coord(p.x(), plus())).append(" Y").append(coord(p.y(), plus()));
+    return s.append(" Z").append(coord(p.z(), plus()));
   }
   void line(const std::string& s) {
     if (dialect_ == Dialect::kHeidenhain) out_ << number_++ << " ";
@@ -171,6 +185,13 @@ std::string placement_text(const Design& d, const Installation& inst) {
 
 }  // namespace
 
+std::optional<Dialect> dialect_named(const std::string& name) {
+  if (name == "iso") return Dialect::kIso;
+  if (name == "heidenhain") return Dialect::kHeidenhain;
+  if (name == "sinumerik") return Dialect::kSinumerik;
+  return std::nullopt;
+}
+
 std::string program_text(const Design& design, const MeasurementProgram& program, Dialect dialect,
                          int program_number) {
   if (program_number < 1 || program_number > 9999)
@@ -183,13 +204,18 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   const bool iso = dialect == Dialect::kIso;
   const std::string name = heidenhain_name(design.name);
   const std::string tool = std::to_string(o.tool_number);
+  const bool sinumerik = dialect == Dialect::kSinumerik;
+  const bool tcpm = o.tcpm;
+  // A head under TCPM: every position is the tool tip (the spindle ball) in the workpiece frame,
+  // TCPM on from the parks to the end; a table under TCPM: on for each sweep only.
+  const bool tcpm_throughout = tcpm && !c;
   if (iso) {
     w.raw("%");
     char o_number[16];
     std::snprintf(o_number, sizeof o_number, "O%04d", program_number);
     w.raw(std::string(o_number) + " (DBB MEASUREMENT " +
           program_comment(design.name, kProgramMessage) + ")");
-  } else {
+  } else if (!sinumerik) {
     w.raw("BEGIN PGM " + name + " MM");
   }
   std::vector<std::string> head = {
@@ -199,9 +225,35 @@ std::string program_text(const Design& design, const MeasurementProgram& program
           std::to_string(program.readings) + " readings; mm, deg",
   };
   const std::string L(1, rotary);
-  if (c) {
-    head.push_back(std::string("work offset ") + (iso ? "G54" : "(the active preset") +
-                   (iso ? "" : ")") +
+  const std::string offset = iso || sinumerik ? "G54" : "(the active preset)";
+  if (program.machine) {
+    const Machine& m = *program.machine->machine;
+    std::string parks;
+    for (const MeasurementProgram::Park& p : program.parks)
+      parks += std::string(parks.empty() ? "" : ", ") + p.letter + " at " +
+               fmt_rounded(p.angle_deg, 4) + " deg";
+    head.push_back("machine " + m.name + " (controller " + controller_name(m.controller) +
+                   "): axis " + L + " measured" +
+                   (parks.empty() ? "" : " with " + parks + " (parked)"));
+    head.push_back(
+        "every rotary axis is commanded at the clearance plane before any sideways "
+        "move");
+  }
+  if (c && program.machine) {
+    head.push_back("work offset " + offset + ": origin at " + L +
+                   "'s nominal point as the machine file has it, " +
+                   xyz_text(program.machine->origin_mm()) +
+                   " in the machine frame, axes parallel to the machine's");
+    head.push_back(
+        "set that preset from the controller's kinematics table, never by teaching it "
+        "on the real axis: the location errors are the real axis line minus this one");
+    head.push_back("tool T" + tool +
+                   ": the ballbar's spindle cup with its ball, length measured to the ball "
+                   "centre; X Y Z command the ball centre, no radius compensation");
+    head.push_back(L + "+ turns the table " + sense_text(program.axis, true) +
+                   " [right-hand rule]");
+  } else if (c) {
+    head.push_back(std::string("work offset ") + offset +
                    (program.axis.shorthand() == "C"
                         ? ": origin on the C axis at the table surface, Z up along the C axis; "
                           "teach it once: X Y on the C axis (centre of the table's rotation), Z "
@@ -216,13 +268,20 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     head.push_back(L + "+ turns the table " + sense_text(program.axis, true) +
                    " [right-hand rule]");
   } else {
-    head.push_back(std::string("work offset ") + (iso ? "G54" : "(the active preset)") +
+    head.push_back("work offset " + offset +
                    ": origin at the centre of the table ball, whose cup stays where it is "
                    "placed for the whole test");
-    head.push_back(
-        "tool T" + tool + ": X Y Z command the pivot (" + L +
-        " axis x spindle axis): its length register holds the "
-        "distance from the gauge line to the pivot, as the control's head kinematics has it");
+    if (tcpm_throughout) {
+      head.push_back("tool T" + tool +
+                     ": its length measured to the spindle ball's centre, the tool tip the "
+                     "controller's kinematics carries about the pivot; X Y Z command that "
+                     "centre");
+    } else {
+      head.push_back(
+          "tool T" + tool + ": X Y Z command the pivot (" + L +
+          " axis x spindle axis): its length register holds the "
+          "distance from the gauge line to the pivot, as the control's head kinematics has it");
+    }
     head.push_back("frame of the design: at " + L + "0 the spindle points " +
                    direction_text(program.axis.reference()) +
                    " from the pivot, the ball L along it; " + L + "+ turns the head " +
@@ -233,11 +292,39 @@ std::string program_text(const Design& design, const MeasurementProgram& program
                       ? " [given]"
                       : " [the highest point reached plus " +
                             fmt_rounded(o.clearance_margin_mm, 3) + " mm" +
-                            std::string(c ? "" : " and the pivot-to-ball reach") + "]") +
+                            std::string(c ? "" : " and the pivot-to-ball reach") +
+                            std::string(c && program.machine ? ", the table and the solids "
+                                                               "that turn with it included"
+                                                             : "") +
+                            "]") +
                  ": every sideways rapid runs there; each installation is left and reached "
                  "along Z alone at the feed");
-  head.push_back("no tool-centre-point control: each step is split so the bar changes by at most " +
-                 fmt_rounded(o.path_tolerance_mm, 4) + " mm between positions");
+  const std::string tcpm_code = iso         ? "G43.4 H" + tool + ", off by G43 H" + tool
+                                : sinumerik ? "TRAORI, off by TRAFOOF"
+                                            : "FUNCTION TCPM, off by FUNCTION TCPM RESET";
+  if (tcpm && c) {
+    head.push_back("TCPM on for each sweep (" + tcpm_code +
+                   "): X Y Z are the spindle ball's centre in the workpiece frame, which turns "
+                   "with the table (the same point at every angle)");
+    head.push_back(
+        "the controller moves the linear axes from its own kinematics, so each "
+        "reading measures the real axis against its model; approaches, the cups' "
+        "placing and retracts run with TCPM off");
+  } else if (tcpm) {
+    head.push_back("TCPM on from the parked axes to the end (" + tcpm_code +
+                   "): X Y Z are the spindle ball's centre in the workpiece frame");
+    head.push_back(
+        "the controller moves the linear axes from its own kinematics, so each "
+        "reading measures the real head against its model; each step is split so the "
+        "bar changes by at most " +
+        fmt_rounded(o.path_tolerance_mm, 4) + " mm along the tip's chord");
+  } else {
+    head.push_back(std::string(program.machine ? "TCPM off: the linear positions come from the "
+                                                 "machine file's nominal axis points; "
+                                               : "no tool-centre-point control: ") +
+                   "each step is split so the bar changes by at most " +
+                   fmt_rounded(o.path_tolerance_mm, 4) + " mm between positions");
+  }
   head.push_back("readings: dwell " + fmt_rounded(o.dwell_s, 3) + " s at each design angle, feed " +
                  fmt_rounded(o.feed_mm_per_min, 1) + " mm/min");
   head.push_back("moves at the feed and dwells take about " +
@@ -263,6 +350,18 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     w.raw("T" + tool + " M06");
     if (!o.orient_code.empty()) w.raw(o.orient_code);
     w.raw("G00 G43 H" + tool + " Z" + coord(zc, false));
+  } else if (sinumerik) {
+    w.raw("G17 G71 G90 G94 G40");
+    w.raw("TRAFOOF");
+    w.raw("CYCLE800()");
+    w.raw("M5");
+    w.raw("M9");
+    w.raw("G54");
+    w.raw("T" + tool);
+    w.raw("M6");
+    w.raw("D1");
+    if (!o.orient_code.empty()) w.raw("SPOS=0");
+    w.raw("G0 Z" + coord(zc, false));
   } else {
     w.raw("PLANE RESET STAY");
     w.raw("FUNCTION TCPM RESET");
@@ -275,6 +374,24 @@ std::string program_text(const Design& design, const MeasurementProgram& program
       w.raw("L Z" + coord(zc, true) + " R0 FMAX " + o.orient_code);
     }
   }
+  if (program.machine) {
+    // Every other rotary axis to its park angle, and the axis under test to where its first
+    // installation starts (its cups placed): at the clearance plane, before any sideways move.
+    // In the machine's order.
+    std::vector<MeasurementProgram::Park> all;
+    for (const RotaryAxisSpec& r : program.machine->machine->rotary) {
+      if (r.letter == rotary) {
+        if (!program.installations.empty())
+          all.push_back({rotary, program.installations.front().placement_angle_deg});
+        continue;
+      }
+      for (const MeasurementProgram::Park& p : program.parks)
+        if (p.letter == r.letter) all.push_back(p);
+    }
+    w.comment("every rotary axis to its place at the clearance plane");
+    w.rapid_rotaries(all);
+  }
+  if (tcpm_throughout) w.tcpm(true, tool);
 
   const int n = static_cast<int>(program.installations.size());
   for (int k = 0; k < n; ++k) {
@@ -294,23 +411,32 @@ std::string program_text(const Design& design, const MeasurementProgram& program
                 : "table ball centre at the origin");
     // Leave along Z alone, turn at the plane, move sideways there.
     w.rapid_z(zc);
-    w.rapid_rotary(start.angle_deg);
+    const bool turn_after_placing = ip.places_cup && ip.placement_angle_deg != start.angle_deg;
+    w.rapid_rotary(turn_after_placing ? ip.placement_angle_deg : start.angle_deg);
     if (ip.places_cup) {
+      const Eigen::Vector3d at = tcpm_throughout ? Eigen::Vector3d::Zero().eval() : ip.placement_mm;
       w.comment("the spindle ball goes where the table ball goes: " + placement_text(design, inst));
-      w.rapid_xy(ip.placement_mm);
-      w.feed_z(ip.placement_mm.z(), o.feed_mm_per_min);
+      w.rapid_xy(at);
+      w.feed_z(at.z(), o.feed_mm_per_min);
       w.stop("place the table cup " + inst.id + ", then start");
       w.feed_z(zc, o.feed_mm_per_min);
+      if (turn_after_placing) w.rapid_rotary(start.angle_deg);
     }
-    w.rapid_xy(start.linear_mm);
-    w.feed_z(start.linear_mm.z(), o.feed_mm_per_min);
+    const Eigen::Vector3d start_at = tcpm_throughout ? start.tcp_mm : start.linear_mm;
+    w.rapid_xy(start_at);
+    w.feed_z(start_at.z(), o.feed_mm_per_min);
+    if (tcpm && c) {
+      // The same place, now named in the workpiece frame.
+      w.tcpm(true, tool);
+      w.move(start.tcp_mm, start.angle_deg, o.feed_mm_per_min);
+    }
     w.stop(o.air_run ? "AIR RUN " + inst.id + ": check the gap, start"
                      : "mount the bar " + inst.id + ", then start");
     for (size_t si = 0; si < ip.sweeps.size(); ++si) {
       const ProgramSweep& s = ip.sweeps[si];
       for (size_t pi = 0; pi < s.positions.size(); ++pi) {
         const ProgramPosition& p = s.positions[pi];
-        if (pi > 0) w.move(p.linear_mm, p.angle_deg, o.feed_mm_per_min);
+        if (pi > 0) w.move(tcpm ? p.tcp_mm : p.linear_mm, p.angle_deg, o.feed_mm_per_min);
         if (o.air_run && pi == 1) {
           const double turned = p.angle_deg - s.positions.front().angle_deg;
           w.comment(std::string("AIR RUN: ") + rotary + (turned > 0 ? "+" : "-") +
@@ -326,11 +452,15 @@ std::string program_text(const Design& design, const MeasurementProgram& program
       }
     }
     w.stop(o.air_run ? "AIR RUN " + inst.id + " done, then start" : "remove the bar " + inst.id);
+    if (tcpm && c) w.tcpm(false, tool);
     w.feed_z(zc, o.feed_mm_per_min);
   }
+  if (tcpm_throughout) w.tcpm(false, tool);
   if (iso) {
     w.raw("M30");
     w.raw("%");
+  } else if (sinumerik) {
+    w.raw("M30");
   } else {
     w.raw("L Z" + coord(zc, true) + " R0 FMAX M30");
     w.raw("END PGM " + name + " MM");

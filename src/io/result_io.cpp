@@ -85,6 +85,22 @@ json result_header(const std::string& format, const Design& design, const InputF
   // The axis as the design gave it (shorthand or general form), for compare and compensation.
   j["design"]["axis_definition"] = axis_to_json(design.axis);
   if (!design.assumed.empty()) j["design"]["assumed"] = design.assumed;
+  if (design.machine) {
+    // The machine the axis belongs to and where the others stood (formats.md, "Machine file"):
+    // what `chain` combines results by.
+    const DesignMachine& dm = *design.machine;
+    json park = json::object();
+    const std::vector<double> a = dm.park_angles();
+    for (std::size_t k = 0; k < a.size(); ++k)
+      if (static_cast<int>(k) != dm.axis) park[std::string(1, dm.machine->rotary[k].letter)] = a[k];
+    const Eigen::Vector3d o = dm.origin_mm();
+    j["design"]["machine"] = {{"name", dm.machine->name},
+                              {"file", dm.file},
+                              {"controller", controller_name(dm.machine->controller)},
+                              {"axis", std::string(1, dm.letter())},
+                              {"park_deg", park},
+                              {"origin_mm", {o.x(), o.y(), o.z()}}};
+  }
   j["noise"] = noise_to_json(design.noise);
   j["noise"]["sigma_um"] = design.noise.sigma_um();
   return j;
@@ -605,6 +621,24 @@ nlohmann::json iso230_to_json(const IsoResult& iso, const std::string& uncertain
     comp.push_back(row);
   }
   j["location"] = loc;
+  {
+    // The joint covariance of the location errors (what `chain` combines them by); null where
+    // one is not determined.
+    json rows = json::array();
+    for (int r = 0; r < 5; ++r) {
+      json row = json::array();
+      for (int c = 0; c < 5; ++c) {
+        const bool d = iso.location[r].value.determined && iso.location[c].value.determined;
+        row.push_back(d ? json(iso.location_covariance(r, c)) : json(nullptr));
+      }
+      rows.push_back(row);
+    }
+    json names = json::array();
+    for (const IsoQuantity& q : iso.location) names.push_back(q.name);
+    j["location_covariance"] = {{"names", names},
+                                {"matrix", rows},
+                                {"unit", "the product of the two quantities' units (um, urad)"}};
+  }
   j["constant_parts"] = con;
   j["components"] = comp;
   const IsoMotionValues& mv = iso.motion_values;

@@ -264,6 +264,70 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
     r.setup_included = j["setup"]["included"].get<bool>();
   if (iso.contains("uncertainty") && iso["uncertainty"].is_string())
     r.uncertainty_note = iso["uncertainty"].get<std::string>();
+  if (iso.contains("location_covariance")) {
+    const std::string path = "iso230.location_covariance";
+    const json& m = list_of(member(iso["location_covariance"], "matrix", source, path), source,
+                            path + ".matrix");
+    if (m.size() != 5 || r.location.size() != 5)
+      throw InputError(source, path + ".matrix", "expected 5 rows, one per location error");
+    Eigen::Matrix<double, 5, 5> c;
+    for (int i = 0; i < 5; ++i) {
+      const std::string row = path + ".matrix[" + std::to_string(i) + "]";
+      const json& v = list_of(m[static_cast<std::size_t>(i)], source, row);
+      if (v.size() != 5) throw InputError(source, row, "expected 5 entries");
+      for (int k = 0; k < 5; ++k) {
+        const std::string at = row + "[" + std::to_string(k) + "]";
+        const auto x = number_or_null(v[static_cast<std::size_t>(k)], source, at);
+        const bool determined = r.location[i].value && r.location[k].value;
+        if (x.has_value() != determined)
+          throw InputError(source, at,
+                           determined ? "null where both location errors are determined"
+                                      : "a number where a location error is not determined");
+        c(i, k) = bounded(x, source, at, false).value_or(0.0);
+      }
+    }
+    for (int i = 0; i < 5; ++i) {
+      if (!r.location[i].std) continue;
+      // The diagonal is each std squared (written with 6 decimals).
+      const double s = *r.location[i].std;
+      if (!(std::abs(std::sqrt(std::max(0.0, c(i, i))) - s) <= 1e-6 + 1e-6 * s))
+        throw InputError(source,
+                         path + ".matrix[" + std::to_string(i) + "][" + std::to_string(i) + "]",
+                         "is not the square of " + r.location[i].name + "'s std");
+    }
+    if ((c - c.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1 + c.cwiseAbs().maxCoeff()))
+      throw InputError(source, path + ".matrix", "not symmetric");
+    r.location_covariance = c;
+  }
+  if (design.contains("machine")) {
+    const std::string path = "design.machine";
+    const json& m = design["machine"];
+    ResultFile::Machine rm;
+    rm.name =
+        text_of(member(m, "name", source, path), source, path + ".name", limits::kMaxNameBytes);
+    rm.file = text_of(member(m, "file", source, path), source, path + ".file");
+    rm.controller = text_of(member(m, "controller", source, path), source, path + ".controller");
+    const std::string axis = text_of(member(m, "axis", source, path), source, path + ".axis");
+    if (axis.size() != 1 || axis.find_first_of("ABC") != 0)
+      throw InputError(source, path + ".axis", quote_value(axis) + " is not A, B or C");
+    rm.axis = axis[0];
+    if (rm.axis != r.axis.letter())
+      throw InputError(source, path + ".axis",
+                       "axis " + axis + ", but the result's axis is " + r.axis.label());
+    const json& park = member(m, "park_deg", source, path);
+    if (!park.is_object()) throw InputError(source, path + ".park_deg", "expected an object");
+    for (const auto& [letter, angle] : park.items()) {
+      if (letter.size() != 1 || letter.find_first_of("ABC") != 0 || letter[0] == rm.axis)
+        throw InputError(source, path + ".park_deg." + letter, "not another rotary axis' letter");
+      rm.park_deg[letter[0]] = angle_of(angle, source, path + ".park_deg." + letter);
+    }
+    const std::vector<double> o =
+        read_numbers(member(m, "origin_mm", source, path), source, path + ".origin_mm");
+    if (o.size() != 3 || !(std::abs(o[0]) <= 1e4 && std::abs(o[1]) <= 1e4 && std::abs(o[2]) <= 1e4))
+      throw InputError(source, path + ".origin_mm", "expected [x, y, z] within +-10000 mm");
+    rm.origin_mm = Eigen::Vector3d(o[0], o[1], o[2]);
+    r.machine = rm;
+  }
   return r;
 }
 

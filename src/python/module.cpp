@@ -271,7 +271,12 @@ struct PyMeasurements {
 };
 
 PyDesign make_design(py::handle source) {
-  return read_input<Design>(source, "design", &io::read_design_file, &io::design_from_json);
+  // A dict's relative machine path is relative to the working directory.
+  return read_input<Design>(
+      source, "design", &io::read_design_file,
+      +[](const nlohmann::json& j, const std::string& where) {
+        return io::design_from_json(j, where);
+      });
 }
 
 PyKit make_kit(py::handle source) {
@@ -778,10 +783,11 @@ Eigen::MatrixXd iso_components(const IsoResult& iso, bool std) {
 // ---------------------------------------------------------------- program and set-up sheet
 
 // The options of `dbbkit program` and `setup-sheet`, checked as the command line checks them.
-ProgramOptions py_program_options(const std::string& sweeps, double dwell_s, double feed_mm_min,
-                                  double path_tolerance_mm, int tool,
+ProgramOptions py_program_options(const PyDesign& d, const std::string& sweeps, double dwell_s,
+                                  double feed_mm_min, double path_tolerance_mm, int tool,
                                   std::optional<double> clearance_z_mm, double clearance_margin_mm,
-                                  bool air_run, const std::string& orient_code) {
+                                  bool air_run, const std::string& orient_code,
+                                  const std::optional<std::string>& tcpm) {
   // The command line's ranges (program_options.hpp), then the library's own checks.
   check_finite_in("dwell_s", dwell_s, 1e-3, 600);
   check_finite_in("feed_mm_min", feed_mm_min, 1, 60000);
@@ -801,6 +807,14 @@ ProgramOptions py_program_options(const std::string& sweeps, double dwell_s, dou
   o.clearance_margin_mm = clearance_margin_mm;
   o.air_run = air_run;
   o.orient_code = orient_code == "none" ? std::string() : orient_code;
+  if (tcpm && *tcpm != "on" && *tcpm != "off")
+    throw InputError("argument", "tcpm", quote_value(*tcpm) + " (expected 'on' or 'off')");
+  if (d.value.machine && !tcpm)
+    throw InputError("argument", "tcpm",
+                     "the design names machine " + quote_value(d.value.machine->machine->name) +
+                         ": give tcpm='on' (the controller's kinematics moves the linear axes) "
+                         "or tcpm='off' (the positions come from the machine file's axis points)");
+  o.tcpm = tcpm && *tcpm == "on";
   validate_program_options(o, "argument");
   return o;
 }
@@ -839,13 +853,16 @@ std::string run_program(const PyDesign& d, const std::string& dialect, std::opti
                         int program_number, const std::string& sweeps, double dwell_s,
                         double feed_mm_min, double path_tolerance_mm, int tool,
                         std::optional<double> clearance_z_mm, double clearance_margin_mm,
-                        bool air_run, const std::string& orient_code) {
-  if (dialect != "iso" && dialect != "heidenhain")
-    throw InputError("argument", "dialect", "'" + dialect + "' (expected iso or heidenhain)");
+                        bool air_run, const std::string& orient_code,
+                        const std::optional<std::string>& tcpm) {
+  const std::optional<io::Dialect> named_dialect = io::dialect_named(dialect);
+  if (!named_dialect)
+    throw InputError("argument", "dialect",
+                     quote_value(dialect) + " (expected iso, heidenhain or sinumerik)");
   check_integer_in("program_number", program_number, 1, 9999);
   const ProgramOptions o =
-      py_program_options(sweeps, dwell_s, feed_mm_min, path_tolerance_mm, tool, clearance_z_mm,
-                         clearance_margin_mm, air_run, orient_code);
+      py_program_options(d, sweeps, dwell_s, feed_mm_min, path_tolerance_mm, tool, clearance_z_mm,
+                         clearance_margin_mm, air_run, orient_code, tcpm);
   MeasurementProgram program;
   if (kit) {
     const SetupSheet sheet = sheet_of(d, &*kit, std::nullopt, o);
@@ -860,19 +877,18 @@ std::string run_program(const PyDesign& d, const std::string& dialect, std::opti
       throw e.source() == "design" ? e.with_source(d.source) : e;
     }
   }
-  return io::program_text(d.value, program,
-                          dialect == "iso" ? io::Dialect::kIso : io::Dialect::kHeidenhain,
-                          program_number);
+  return io::program_text(d.value, program, *named_dialect, program_number);
 }
 
 PySetupSheet run_setup_sheet(const PyDesign& d, std::optional<PyKit> kit,
                              std::optional<double> resolution_mm, const std::string& sweeps,
                              double dwell_s, double feed_mm_min, double path_tolerance_mm, int tool,
                              std::optional<double> clearance_z_mm, double clearance_margin_mm,
-                             bool air_run, const std::string& orient_code) {
+                             bool air_run, const std::string& orient_code,
+                             const std::optional<std::string>& tcpm) {
   const ProgramOptions o =
-      py_program_options(sweeps, dwell_s, feed_mm_min, path_tolerance_mm, tool, clearance_z_mm,
-                         clearance_margin_mm, air_run, orient_code);
+      py_program_options(d, sweeps, dwell_s, feed_mm_min, path_tolerance_mm, tool, clearance_z_mm,
+                         clearance_margin_mm, air_run, orient_code, tcpm);
   PySetupSheet r;
   r.design = std::make_shared<const PyDesign>(d);
   if (kit) r.kit = std::make_shared<const PyKit>(*kit);
@@ -1729,16 +1745,17 @@ PYBIND11_MODULE(dbbkit, m) {
         py::arg("feed_mm_min") = 500.0, py::arg("path_tolerance_mm") = 0.05,
         py::arg("tool") = kDefaultBallbarTool, py::arg("clearance_z_mm") = py::none(),
         py::arg("clearance_margin_mm") = 50.0, py::arg("air_run") = false,
-        py::arg("orient_code") = "M19",
-        "`dbbkit program`: the part program of the measurement (dialect iso or heidenhain) as a "
-        "str; with a kit, refused (InputError) when the design leaves its travel or clashes "
-        "with its workspace");
+        py::arg("orient_code") = "M19", py::arg("tcpm") = py::none(),
+        "`dbbkit program`: the part program of the measurement (dialect iso, heidenhain or "
+        "sinumerik) as a str; with a kit, refused (InputError) when the design leaves its travel "
+        "or clashes with its workspace; tcpm 'on' or 'off' (required when the design names its "
+        "machine)");
   m.def("setup_sheet", &run_setup_sheet, py::arg("design"), py::arg("kit") = py::none(),
         py::arg("resolution_mm") = py::none(), py::arg("sweeps") = "ccw", py::arg("dwell_s") = 2.0,
         py::arg("feed_mm_min") = 500.0, py::arg("path_tolerance_mm") = 0.05,
         py::arg("tool") = kDefaultBallbarTool, py::arg("clearance_z_mm") = py::none(),
         py::arg("clearance_margin_mm") = 50.0, py::arg("air_run") = false,
-        py::arg("orient_code") = "M19",
+        py::arg("orient_code") = "M19", py::arg("tcpm") = py::none(),
         "`dbbkit setup-sheet`: the set-up sheet of a design (with a kit: its times, resolution, "
         "travel and workspace checked)");
   m.def("simulate", &run_simulate, py::arg("design"), py::arg("truth"),

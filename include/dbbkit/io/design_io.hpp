@@ -12,9 +12,12 @@ namespace dbbkit::io {
 
 inline constexpr const char* kDesignFormat = "dbbkit.design/1";
 
-// Throws InputError naming the file and the key of the first problem.
+// Throws InputError naming the file and the key of the first problem. A machine the design names
+// by a relative path is read relative to `base_dir` (read_design_file: the design file's folder;
+// empty: the working directory).
 Design read_design_file(const std::string& path);
-Design design_from_json(const nlohmann::json& j, const std::string& source);
+Design design_from_json(const nlohmann::json& j, const std::string& source,
+                        const std::string& base_dir = "");
 nlohmann::json design_to_json(const Design& design);
 
 // {"distribution": "uniform", "accuracy_um": a} or {"distribution": "normal", "std_um": s};
@@ -27,6 +30,14 @@ nlohmann::json noise_to_json(const NoiseModel& noise);
 SetupOverride read_setup_override(ObjectReader r);
 nlohmann::json setup_to_json(const SetupUncertainty& u, const AxisFrame& axis);
 nlohmann::json setup_override_to_json(const SetupOverride& o);
+
+// A rotary axis' travel: "full_turn" or an arc [min, max] in degrees (within -360..360, at most
+// one turn); absent: a full turn when full_turn_default, else the arc -180..180.
+struct Travel {
+  bool full_turn = true;
+  double min_deg = -180, max_deg = 180;
+};
+Travel read_travel(ObjectReader& r, const std::string& key, bool full_turn_default);
 
 // "axis": "C" or "B".
 AxisFrame read_axis(ObjectReader& top);

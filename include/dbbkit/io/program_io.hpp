@@ -7,8 +7,14 @@
 //   G01 X Y Z C|B F between positions, G04 P<ms> for each reading, M30.
 // Heidenhain: BEGIN PGM / END PGM, L X Y Z C|B R0 F, STOP to mount the bar, cycle 9
 //   (CYCL DEF 9.0 DWELL TIME / 9.1 DWELL s) for each reading, M30.
+// Sinumerik: G17 G71 G90 G94 G40, TRAFOOF and CYCLE800() (no transformation or swivelled frame
+//   left on), G54, T<n> M6 D1, SPOS=0 to orient the spindle, G0 / G1 X Y Z A|B|C F, M0 to
+//   mount the bar, G4 F<s> for each reading, M30; comments after ';'.
+// A design that names its machine: every other rotary axis to its park angle at the clearance
+// plane before any sideways move; TCPM (options.tcpm) on and off as program.hpp says.
 // Coordinates and angles are written with 4 decimals (0.1 um, 1e-4 deg).
 
+#include <optional>
 #include <string>
 
 #include "dbbkit/design.hpp"
@@ -16,7 +22,9 @@
 
 namespace dbbkit::io {
 
-enum class Dialect { kIso, kHeidenhain };
+enum class Dialect { kIso, kHeidenhain, kSinumerik };
+// "iso", "heidenhain", "sinumerik"; nullopt for another name.
+std::optional<Dialect> dialect_named(const std::string& name);
 
 // The program text. `program_number` (ISO O-number, 1..9999) is written as O%04d.
 std::string program_text(const Design& design, const MeasurementProgram& program, Dialect dialect,

@@ -53,6 +53,17 @@ struct ResultFile {
   bool setup_included = false;  // the design's set-up tolerances are in the uncertainties
   std::string uncertainty_note;
   std::vector<std::string> warnings;  // the texts of the result's warnings, as written
+  // iso230.location_covariance, in the order of `location` (absent in a result of an earlier
+  // version; rows of an undetermined one 0).
+  std::optional<Eigen::Matrix<double, 5, 5>> location_covariance;
+  // design.machine: the machine the axis was measured on (formats.md, "Machine file").
+  struct Machine {
+    std::string name, file, controller;
+    char axis = 'C';
+    std::map<char, double> park_deg;  // the other axes
+    Eigen::Vector3d origin_mm = Eigen::Vector3d::Zero();
+  };
+  std::optional<Machine> machine;
 };
 
 // Reads an identify or diagnose result (a diagnose result must carry its iso230 block).

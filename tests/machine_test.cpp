@@ -1,0 +1,491 @@
+// The machine file (formats.md, "Machine file"): its reader, the chain of nominal axis lines,
+// designs that name their machine, and the programs that command the whole machine. The chain
+// is checked against rotations written out here with Eigen::AngleAxisd; every program of every
+// committed machine design is read back by a parser of its own (ISO, Heidenhain, Sinumerik) and
+// checked against that geometry: every rotary axis commanded before any sideways move, TCPM on
+// and off as its mode says, cups placed with the axis at its park angle, and the bar's length
+// at every reading and along every interpolated move.
+#include "dbbkit/machine.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "cli_util.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/machine_io.hpp"
+#include "dbbkit/io/program_io.hpp"
+#include "dbbkit/program.hpp"
+#include "program_lines.hpp"
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace {
+
+using nlohmann::json;
+using test::kPi;
+
+// --- the chain, written out ------------------------------------------------------------------
+// A point fixed to the body of axis k at zero, moved by the angles: the innermost rotation
+// first, each about its nominal line.
+Eigen::Vector3d hand_point(const Machine& m, int k, Eigen::Vector3d x,
+                           const std::vector<double>& deg) {
+  for (int a = k; a >= 0; a = m.rotary[a].on) {
+    const RotaryAxisSpec& r = m.rotary[a];
+    x = r.point_mm + Eigen::AngleAxisd(deg[a] * kPi / 180, r.direction) * (x - r.point_mm);
+  }
+  return x;
+}
+
+const std::vector<std::string>& machine_designs() {
+  static const std::vector<std::string> files = {
+      "a-c-trunnion-A", "a-c-trunnion-C", "b-c-trunnion-B",  "b-c-trunnion-C",
+      "paper-b-c-B",    "paper-b-c-C",    "a-c-fork-head-A", "a-c-fork-head-C"};
+  return files;
+}
+
+std::string design_path(const std::string& name) {
+  return test::source_path("designs/" + name + ".json");
+}
+
+TEST(Machine, CommittedMachinesReadAndTheirChainIsTheRotationsWrittenOut) {
+  int machines = 0;
+  for (const auto& e : std::filesystem::directory_iterator(test::source_path("designs/machines"))) {
+    const Machine m = io::read_machine_file(e.path().string());
+    EXPECT_FALSE(m.name.empty()) << e.path();
+    // Round trip through the writer.
+    const Machine back = io::machine_from_json(io::machine_to_json(m), "round trip");
+    ASSERT_EQ(back.rotary.size(), m.rotary.size());
+    const std::vector<double> angles = {37.5, -61.25, 12};
+    for (std::size_t k = 0; k < m.rotary.size(); ++k) {
+      EXPECT_EQ(back.rotary[k].letter, m.rotary[k].letter);
+      EXPECT_EQ(back.rotary[k].on, m.rotary[k].on);
+      const Eigen::Vector3d x0(123.4, -56.7, 89.1);
+      const Eigen::Vector3d x = m.body_point_at(static_cast<int>(k), x0, angles);
+      EXPECT_LE((x - hand_point(m, static_cast<int>(k), x0, angles)).norm(), 1e-9) << e.path();
+      EXPECT_LE((m.to_body(static_cast<int>(k), x, angles) - x0).norm(), 1e-9);
+      EXPECT_LE((back.body_point_at(static_cast<int>(k), x0, angles) - x).norm(), 1e-9);
+    }
+    ++machines;
+  }
+  EXPECT_EQ(machines, 4);
+  // The A/C trunnion with A at 90 deg: the C axis stands along -Y, through (0, 60, 0).
+  const Machine m = io::read_machine_file(test::source_path("designs/machines/a-c-trunnion.json"));
+  const AxisFrame c = m.axis_frame(1, {90, 0});
+  EXPECT_EQ(c.direction(), Eigen::Vector3d(0, -1, 0));
+  EXPECT_EQ(c.reference(), Eigen::Vector3d(1, 0, 0));
+  EXPECT_LE((m.point_at(1, {90, 0}) - Eigen::Vector3d(0, 60, 0)).norm(), 1e-12);
+  EXPECT_EQ(c.letter(), 'C');
+}
+
+// A machine file with one key changed, and the key the refusal must name.
+TEST(Machine, BadMachineFilesAreRefusedNamingTheKey) {
+  const json good = json::parse(slurp(test::source_path("designs/machines/a-c-trunnion.json")));
+  struct Case {
+    const char* what;
+    void (*edit)(json&);
+    const char* key;
+  };
+  const Case cases[] = {
+      {"format", [](json& j) { j["format"] = "dbbkit.machine/2"; }, "format"},
+      {"typo", [](json& j) { j["rotory"] = 1; }, "rotory"},
+      {"controller", [](json& j) { j["controller"] = "okuma"; }, "controller"},
+      {"travel",
+       [](json& j) {
+         j["linear_travel_mm"]["y"] = {5, -5};
+       },
+       "linear_travel_mm.y"},
+      {"letter", [](json& j) { j["rotary"][1]["letter"] = "B"; }, "rotary[1].letter"},
+      {"twice", [](json& j) { j["rotary"][1]["letter"] = "A"; }, "rotary[1]"},
+      {"not unit",
+       [](json& j) {
+         j["rotary"][0]["direction"] = {2, 0, 0};
+       },
+       "rotary[0].direction"},
+      {"carrier", [](json& j) { j["rotary"][1]["on"] = "B"; }, "rotary[1].on"},
+      {"side", [](json& j) { j["rotary"][1]["side"] = "head"; }, "rotary[1]"},
+      {"park", [](json& j) { j["rotary"][0]["park_deg"] = 120; }, "rotary[0].park_deg"},
+      {"no park", [](json& j) { j["rotary"][0].erase("park_deg"); }, "rotary[0].park_deg"},
+      {"nutating",
+       [](json& j) {
+         j["rotary"][1]["direction"] = {0.6, 0, 0.8};
+       },
+       "rotary[1].reference"},
+      {"box",
+       [](json& j) {
+         j["workspace"]["solids"][0]["box_mm"] = {{0, 0, 0}, {-1, 1, 1}};
+       },
+       "box_mm"},
+      {"turns", [](json& j) { j["workspace"]["solids"][0]["turns_with"] = "B"; }, "turns_with"},
+      {"name", [](json& j) { j["name"] = "a\nb"; }, "name"},
+      {"four",
+       [](json& j) {
+         j["rotary"].push_back(j["rotary"][0]);
+         j["rotary"].push_back(j["rotary"][0]);
+       },
+       "rotary"},
+  };
+  for (const Case& c : cases) {
+    json j = good;
+    c.edit(j);
+    try {
+      io::machine_from_json(j, "m.json");
+      ADD_FAILURE() << c.what << ": taken";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.source(), "m.json");
+      EXPECT_NE(e.where().find(c.key), std::string::npos) << c.what << ": " << e.what();
+    }
+  }
+  EXPECT_NO_THROW(io::machine_from_json(good, "m.json"));
+}
+
+TEST(Machine, ADesignTakesItsFrameFromItsMachineAtTheParkAngles) {
+  const Design d = io::read_design_file(design_path("a-c-trunnion-C"));
+  ASSERT_TRUE(d.machine);
+  EXPECT_EQ(d.axis.direction(), Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(d.axis.reference(), Eigen::Vector3d::UnitX());
+  EXPECT_TRUE(d.axis.table());
+  EXPECT_EQ(d.machine->origin_mm(), Eigen::Vector3d(0, 0, -60));
+  // Written back: the machine and the letter, not a frame of its own.
+  const json j = io::design_to_json(d);
+  EXPECT_EQ(j["machine"], "machines/a-c-trunnion.json");
+  EXPECT_EQ(j["axis"], "C");
+
+  // In a folder of its own: the machine path is relative to the design's folder, wherever the
+  // command runs.
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_machine_test";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "m");
+  std::filesystem::copy_file(test::source_path("designs/machines/a-c-trunnion.json"),
+                             dir / "m" / "t.json");
+  json dj = json::parse(slurp(design_path("a-c-trunnion-C")));
+  dj["machine"] = "m/t.json";
+  dj["park_deg"] = {{"A", 90}};
+  // The cups stand on the table turned on its side: a program refuses nothing here, the frame
+  // is what is checked.
+  std::ofstream(dir / "d.json") << dj.dump(2);
+  const Design turned = io::read_design_file((dir / "d.json").string());
+  EXPECT_EQ(turned.axis.direction(), Eigen::Vector3d(0, -1, 0));
+  EXPECT_LE((turned.machine->origin_mm() - Eigen::Vector3d(0, 60, 0)).norm(), 1e-12);
+
+  struct Case {
+    const char* what;
+    void (*edit)(json&);
+    const char* key;
+    const char* says;
+  };
+  const Case cases[] = {
+      {"letter", [](json& j) { j["axis"] = "B"; }, "axis", "its axes: A, C"},
+      {"form",
+       [](json& j) {
+         j["axis"] = {{"letter", "C"}};
+       },
+       "axis", "letter"},
+      {"park axis",
+       [](json& j) {
+         j["park_deg"] = {{"B", 0}};
+       },
+       "park_deg.B", "its axes"},
+      {"park range",
+       [](json& j) {
+         j["park_deg"] = {{"A", 130}};
+       },
+       "park_deg.A", "travel"},
+      {"no file", [](json& j) { j["machine"] = "m/none.json"; }, "", "none.json"},
+      {"no machine",
+       [](json& j) {
+         j.erase("machine");
+         j["axis"] = "C";
+         j["park_deg"] = {{"A", 0}};
+       },
+       "park_deg", "machine"},
+  };
+  for (const Case& c : cases) {
+    json e = dj;
+    c.edit(e);
+    std::ofstream(dir / "bad.json") << e.dump(2);
+    try {
+      io::read_design_file((dir / "bad.json").string());
+      ADD_FAILURE() << c.what << ": taken";
+    } catch (const InputError& err) {
+      EXPECT_NE(err.where().find(c.key), std::string::npos) << c.what << ": " << err.what();
+      EXPECT_NE(std::string(err.what()).find(c.says), std::string::npos)
+          << c.what << ": " << err.what();
+    }
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// --- the programs, read back -------------------------------------------------------------------
+struct Block {
+  std::map<char, double> at;  // every axis' position after the block
+  std::string axes;           // the axes the block names
+  bool rapid = false, tcpm = false;
+  std::string installation;
+  bool mounted = false;
+};
+struct Read {
+  std::vector<Block> moves;
+  std::vector<Block> dwells;      // the state at each dwell
+  std::vector<Block> placements;  // the state at each stop that places a cup
+  int tcpm_on = 0, tcpm_off = 0;
+  bool reset_before_moves = false;
+  bool tcpm_at_end = false;
+};
+
+Read read_program(const std::string& text, io::Dialect dialect, const std::string& tool) {
+  Read out;
+  std::istringstream in(text);
+  std::string line, installation;
+  std::map<char, double> at;
+  bool tcpm = false, mounted = false;
+  while (std::getline(in, line)) {
+    const test::ProgramLine pl = test::program_line(line, dialect);
+    const std::string &code = pl.code, &comment = pl.comment;
+    const std::vector<std::string>& w = pl.words;
+    if (const std::string id = test::opened_installation(comment); !id.empty()) {
+      installation = id;
+      mounted = false;
+    }
+    if (w.empty()) continue;
+    const std::string joined = code;
+    // TCPM on and off, and the reset of the safe start.
+    const bool on = dialect == io::Dialect::kIso         ? w[0] == "G43.4"
+                    : dialect == io::Dialect::kSinumerik ? w[0] == "TRAORI"
+                                                         : joined.find("FUNCTION TCPM F") == 0;
+    const bool off = dialect == io::Dialect::kIso         ? (tcpm && joined == "G43 H" + tool)
+                     : dialect == io::Dialect::kSinumerik ? w[0] == "TRAFOOF"
+                                                          : joined.find("FUNCTION TCPM RESET") == 0;
+    if (out.moves.empty() &&
+        (dialect == io::Dialect::kIso ? joined.find("G49") != std::string::npos : off))
+      out.reset_before_moves = true;
+    if (on) ++out.tcpm_on, tcpm = true;
+    if (off && !out.moves.empty()) ++out.tcpm_off, tcpm = false;
+    const bool stop = w[0] == "M00" || w[0] == "M0" || w[0] == "STOP";
+    if (stop && comment.find("mount the bar") != std::string::npos) mounted = true;
+    Block state{at, "", false, tcpm, installation, mounted};
+    if (stop && comment.find("place the table cup") != std::string::npos)
+      out.placements.push_back(state);
+    const bool dwell = w[0] == "G04" || w[0] == "G4" || (w.size() >= 3 && w[2] == "9.1");
+    if (dwell) out.dwells.push_back(state);
+    const bool motion = w[0] == "G00" || w[0] == "G01" || w[0] == "G0" || w[0] == "G1" ||
+                        w[0] == "L" || (w[0] == "G00" && w.size() > 1);
+    if (!motion || dwell) continue;
+    Block b;
+    b.rapid = w[0] == "G00" || w[0] == "G0" || joined.find("FMAX") != std::string::npos;
+    for (const std::string& t : w) {
+      if (t.size() < 2 || t == "FMAX" || std::string("XYZABC").find(t[0]) == std::string::npos)
+        continue;
+      if (!std::isdigit(static_cast<unsigned char>(t[1])) && t[1] != '-' && t[1] != '+') continue;
+      at[t[0]] = std::stod(t.substr(1));
+      b.axes += t[0];
+    }
+    if (b.axes.empty()) continue;
+    b.at = at, b.tcpm = tcpm, b.installation = installation, b.mounted = mounted;
+    out.moves.push_back(b);
+  }
+  out.tcpm_at_end = tcpm;
+  return out;
+}
+
+Eigen::Vector3d xyz(const std::map<char, double>& at) {
+  return {at.at('X'), at.at('Y'), at.at('Z')};
+}
+
+// The spindle ball and the table ball (machine frame, or the table ball's frame on a head) at a
+// block's positions, from the chain written out: what a controller does with them.
+struct Balls {
+  Eigen::Vector3d spindle, table;
+};
+Balls balls_at(const Design& d, const Installation& in, const std::map<char, double>& at,
+               bool tcpm) {
+  const Machine& m = *d.machine->machine;
+  const int k = d.machine->axis;
+  std::vector<double> angles = d.machine->park_angles();
+  for (std::size_t a = 0; a < m.rotary.size(); ++a) angles[a] = at.at(m.rotary[a].letter);
+  std::vector<double> zero_k = d.machine->park_angles();
+  zero_k[k] = 0;
+  const Eigen::Vector3d origin = d.machine->origin_mm();
+  // The ball on the turning body at zero of the axis under test (the others parked), machine
+  // frame; every committed design parks the axes that carry the one under test at 0.
+  const Eigen::Vector3d body = origin + d.axis.body_point(in.L_mm, in.D_mm, in.H_mm);
+  Balls b;
+  if (d.axis.table()) {
+    b.table = hand_point(m, k, body, angles);
+    b.spindle = tcpm ? hand_point(m, k, origin + xyz(at), angles) : origin + xyz(at);
+  } else {
+    // The table ball at the work frame's origin; off: X Y Z the pivot (the axis' point), on:
+    // the tool tip.
+    b.table = Eigen::Vector3d::Zero();
+    b.spindle = tcpm ? xyz(at) : xyz(at) + hand_point(m, k, body, angles) - origin;
+  }
+  return b;
+}
+
+TEST(MachineProgram, EveryRotaryAxisCommandedTcpmSetAndResetAndTheBarKeptInEveryDialect) {
+  int programs = 0, readings = 0;
+  for (const std::string& name : machine_designs()) {
+    const Design d = io::read_design_file(design_path(name));
+    ASSERT_TRUE(d.machine) << name;
+    const Machine& m = *d.machine->machine;
+    const char tested = d.axis.letter();
+    for (const bool tcpm : {false, true}) {
+      ProgramOptions o;
+      o.tcpm = tcpm;
+      o.sweeps = ProgramOptions::Sweeps::kBoth;
+      const MeasurementProgram program = measurement_program(d, o);
+      for (const io::Dialect dialect :
+           {io::Dialect::kIso, io::Dialect::kHeidenhain, io::Dialect::kSinumerik}) {
+        const std::string where =
+            name + (tcpm ? " tcpm on " : " tcpm off ") + std::to_string(static_cast<int>(dialect));
+        const Read r = read_program(io::program_text(d, program, dialect), dialect, "99");
+        ASSERT_FALSE(r.moves.empty()) << where;
+        // The safe start resets TCPM; the first move is Z alone, to the plane.
+        EXPECT_TRUE(r.reset_before_moves) << where;
+        EXPECT_EQ(r.moves.front().axes, "Z") << where;
+        // Every rotary axis commanded before the first sideways move, at the plane.
+        for (const Block& b : r.moves) {
+          if (b.axes.find_first_of("XY") == std::string::npos) continue;
+          for (const RotaryAxisSpec& a : m.rotary)
+            EXPECT_TRUE(b.at.count(a.letter)) << where << ": " << a.letter;
+          break;
+        }
+        // The parked axes never move again.
+        for (const Block& b : r.moves)
+          for (const RotaryAxisSpec& a : m.rotary)
+            if (a.letter != tested && b.at.count(a.letter))
+              EXPECT_EQ(b.at.at(a.letter), d.machine->park_angles()[m.find(a.letter)]) << where;
+        // TCPM on and off as the mode says, off at the end; sideways rapids of a table test
+        // run with it off.
+        if (tcpm) {
+          EXPECT_GE(r.tcpm_on, 1) << where;
+          EXPECT_EQ(r.tcpm_on, r.tcpm_off) << where;
+        } else {
+          EXPECT_EQ(r.tcpm_on, 0) << where;
+        }
+        EXPECT_FALSE(r.tcpm_at_end) << where;
+        // Cups placed with the axis at its park angle (the table level, the spindle upright).
+        ASSERT_FALSE(r.placements.empty()) << where;
+        for (const Block& p : r.placements)
+          EXPECT_EQ(p.at.at(tested), d.machine->park_angles()[d.machine->axis]) << where;
+        // Every reading: TCPM as the mode says, the bar's length between the balls.
+        ASSERT_EQ(r.dwells.size(), 2 * d.installations.size() * d.angles_deg.size()) << where;
+        for (const Block& dw : r.dwells) {
+          EXPECT_EQ(dw.tcpm, tcpm) << where;
+          const Installation& in = d.installations[d.find_installation(dw.installation)];
+          const Balls b = balls_at(d, in, dw.at, tcpm);
+          EXPECT_NEAR((b.spindle - b.table).norm(), *in.bar_mm, 1e-3)
+              << where << " " << in.id << " at " << dw.at.at(tested);
+          ++readings;
+        }
+        // Along each interpolated move of a sweep: the controller interpolates X Y Z and the
+        // axis linearly (under TCPM, the tip in the workpiece frame).
+        for (std::size_t i = 1; i < r.moves.size(); ++i) {
+          const Block &a = r.moves[i - 1], &b = r.moves[i];
+          if (!a.mounted || !b.mounted || a.installation != b.installation ||
+              b.axes.find(tested) == std::string::npos || b.axes.size() < 4)
+            continue;
+          const Installation& in = d.installations[d.find_installation(a.installation)];
+          for (int j = 1; j < 8; ++j) {
+            const double t = j / 8.0;
+            std::map<char, double> mid = b.at;
+            for (char c : std::string("XYZ") + tested)
+              mid[c] = a.at.at(c) + t * (b.at.at(c) - a.at.at(c));
+            const Balls bl = balls_at(d, in, mid, tcpm);
+            EXPECT_LE(std::abs((bl.spindle - bl.table).norm() - *in.bar_mm),
+                      o.path_tolerance_mm + 1e-3)
+                << where << " " << in.id;
+          }
+        }
+        ++programs;
+      }
+    }
+  }
+  EXPECT_EQ(programs, 8 * 2 * 3);
+  EXPECT_GT(readings, 8000);
+}
+
+TEST(MachineProgram, WhatLeavesTheTravelOrMeetsASolidIsRefusedByName) {
+  json dj = json::parse(slurp(design_path("a-c-trunnion-C")));
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_machine_clash";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy(test::source_path("designs/machines"), dir / "machines");
+  auto refusal = [&](const json& design, const ProgramOptions& o) -> std::string {
+    std::ofstream(dir / "d.json") << design.dump(2);
+    const Design d = io::read_design_file((dir / "d.json").string());
+    try {
+      measurement_program(d, o);
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.where(), "machine");
+      return e.detail();
+    }
+    return "";
+  };
+  EXPECT_EQ(refusal(dj, ProgramOptions{}), "");
+  // A 250 mm tangential bar at 200 mm from the C axis sweeps through a cradle cheek.
+  json bar = dj;
+  for (auto& in : bar["installations"])
+    if (in["id"] == "2t") in["bar_mm"] = 250;
+  std::string why = refusal(bar, ProgramOptions{});
+  EXPECT_NE(why.find("installation 2t"), std::string::npos) << why;
+  EXPECT_NE(why.find("'cradle cheek"), std::string::npos) << why;
+  // A ball beyond the table's edge (diameter 420 mm).
+  json edge = dj;
+  for (auto& in : edge["installations"])
+    if (in["id"] == "2r" || in["id"] == "2t") in["ball_mm"]["L"] = 230;
+  why = refusal(edge, ProgramOptions{});
+  EXPECT_NE(why.find("beyond the edge of the C table"), std::string::npos) << why;
+  // The axial installation with its spindle ball below the table: out of the Z travel.
+  json below = dj;
+  for (auto& in : below["installations"])
+    if (in["id"] == "1a") in["sign"] = 1;
+  why = refusal(below, ProgramOptions{});
+  EXPECT_NE(why.find("installation 1a"), std::string::npos) << why;
+  EXPECT_NE(why.find("Z -150"), std::string::npos) << why;
+  // A clearance plane above the Z travel.
+  ProgramOptions high;
+  high.clearance_z_mm = 600;
+  why = refusal(dj, high);
+  EXPECT_NE(why.find("clearance plane"), std::string::npos) << why;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(MachineProgram, TcpmIsChosenAndNeedsAMachine) {
+  const std::string a = design_path("a-c-trunnion-A");
+  CliRun r = run_cli("program --design " + a + " --dialect sinumerik");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--tcpm"), std::string::npos) << r.err;
+  r = run_cli("program --design " + a + " --dialect sinumerik --tcpm on");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("TRAORI"), std::string::npos);
+  r = run_cli("program --design " + test::kDesignC + " --dialect iso --tcpm on");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("must name its machine"), std::string::npos) << r.err;
+  // Without a machine, --tcpm off is today's program.
+  const CliRun plain = run_cli("program --design " + test::kDesignC + " --dialect iso");
+  r = run_cli("program --design " + test::kDesignC + " --dialect iso --tcpm off");
+  EXPECT_EQ(r.status, 0);
+  EXPECT_EQ(r.out, plain.out);
+  // A head under TCPM: the ball must be the tool tip.
+  json h = json::parse(slurp(design_path("paper-b-c-B")));
+  h["installations"][0]["ball_mm"]["H"] = 20;
+  h["machine"] = test::source_path("designs/machines/paper-b-c.json");
+  const auto f = std::filesystem::temp_directory_path() / "dbbkit_tcpm_head.json";
+  std::ofstream(f) << h.dump(2);
+  r = run_cli("program --design " + f.string() + " --dialect iso --tcpm on");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("tool tip is the spindle ball"), std::string::npos) << r.err;
+  r = run_cli("program --design " + f.string() + " --dialect iso --tcpm off");
+  EXPECT_EQ(r.status, 0) << r.err;
+  std::filesystem::remove(f);
+}
+
+}  // namespace
+}  // namespace dbbkit
