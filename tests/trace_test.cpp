@@ -391,7 +391,7 @@ TEST(TraceTypeA, ReadingsTypeAEntersTheBudget) {
   const double a = 0.5, sigma = d.noise.sigma_um();
   for (Reading& r : readings) r.u_a_um = a, r.u_a_dof = 10;
   IdentifyOptions o;
-  o.budget = with_reading_type_a(o.budget, readings, "test");
+  o.budget = with_reading_type_a(o.budget, readings, "test", "--type-a-readings");
   const IdentifyResult r = identify(d, readings, o);
   ASSERT_EQ(r.budget.values.size(), plain.budget.values.size());
   EXPECT_TRUE(r.budget.reading_type_a);
@@ -435,10 +435,11 @@ TEST(TraceTypeA, ReadingsTypeAEntersTheBudget) {
   // A reading without its Type A is named; --type-a with it is refused.
   readings[3].u_a_um.reset();
   readings[3].u_a_dof.reset();
-  EXPECT_THROW(with_reading_type_a(BudgetOptions{}, readings, "test"), InputError);
+  EXPECT_THROW(with_reading_type_a(BudgetOptions{}, readings, "test", "--type-a-readings"),
+               InputError);
   BudgetOptions both;
   both.type_a = true;
-  EXPECT_THROW(with_reading_type_a(both, readings, "test"), InputError);
+  EXPECT_THROW(with_reading_type_a(both, readings, "test", "--type-a-readings"), InputError);
 }
 
 // simulate --trace-out writes a trace per installation; readings turns them back into the

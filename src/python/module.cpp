@@ -975,7 +975,7 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
     options.budget.type_a = type_a;
     options.budget.coverage_probability = coverage;
     if (type_a_readings)
-      options.budget = with_reading_type_a(options.budget, m.readings, "type_a_readings");
+      options.budget = with_reading_type_a(options.budget, m.readings, m.source, "type_a_readings");
     options.iso_motion.seed = mc_seed;
     r.held = std::make_shared<const IdentifyResult>(identify(d.value, m.readings, options));
     if (monte_carlo) r.mc = dbbkit::monte_carlo(d.value, r.result(), mc);
@@ -1122,6 +1122,8 @@ PYBIND11_MODULE(dbbkit, m) {
       "ey, ez in urad; "
       "angles in degrees; lengths in mm. Uncertainties are standard (k = 1) unless named U "
       "(expanded, k stated).";
+  // Messages name the keyword arguments of this module, not the command line's options.
+  set_option_style(OptionStyle::kPython);
   m.attr("__version__") = DBBKIT_VERSION;
   m.attr("ERROR_NAMES") = py::make_tuple("dx", "dy", "dz", "ex", "ey", "ez");
   m.attr("ERROR_UNITS") = py::make_tuple("um", "um", "um", "urad", "urad", "urad");
@@ -1592,6 +1594,7 @@ PYBIND11_MODULE(dbbkit, m) {
           check_finite_in("current", v, -io::kMaxCompensation_mm, io::kMaxCompensation_mm);
           o.current_mm[pin] = v;
         }
+        io::check_compensation_options(f, o);  // before the result is read
         return io::compensation_text(result_of(result, "result"), f, o);
       },
       py::arg("result"), py::arg("format"), py::arg("kins") = "",
