@@ -559,9 +559,13 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
   py::dict found;
   std::vector<Warning> warnings;
   std::vector<std::pair<std::string, std::string>> paths;  // installation, file
+  // Every id before any trace is read: an id that is none is the argument's fault, not a file's.
   for (const auto& [key, value] : traces) {
     if (!py::isinstance<py::str>(key))
       throw InputError("argument", "traces", "keys are installation ids (str)");
+    check_trace_installation(design.value, key.cast<std::string>());
+  }
+  for (const auto& [key, value] : traces) {
     const std::string id = key.cast<std::string>();
     Trace trace;
     std::string source = "traces[" + quote_value(id) + "]";
