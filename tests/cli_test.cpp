@@ -204,6 +204,9 @@ INSTANTIATE_TEST_SUITE_P(
                 "more than 100000 angles"},
         BadCase{"data_hex_float.csv", kIdentifyDataC, "line 2, column reading_mm",
                 "decimal notation"},
+        BadCase{"truth_angle_not_a_position.json", kSimulateC, "errors.values[2].angle_deg",
+                "angle 25 deg is not a position of the design (its 19 angles, 0 .. 360 deg): a "
+                "value there would be ignored"},
         BadCase{"truth_angle_twice.json", kSimulateC, "errors.values[18].angle_deg",
                 "with other values"},
         BadCase{"truth_many_sweeps.json", kSimulateC, "schedule.sweeps", "more than 100 sweeps"},
