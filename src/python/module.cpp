@@ -5,6 +5,7 @@
 // Ctrl-C between choices and batches.
 
 #include <pybind11/eigen.h>
+#include <pybind11/eval.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -268,7 +269,20 @@ struct PyMeasurements {
   std::string source;
   bool from_file = false;
   bool from_text = false;  // CSV text: its errors name lines, as a file's do
+  // The design they were read against: its name, where it came from, and its content (a later
+  // check against another design says whose they are).
+  std::string design_name, design_source, design_json;
 };
+
+// The measurements of `design` (remembered for the check against another one).
+PyMeasurements measurements_of(const PyDesign& design, std::string source) {
+  PyMeasurements m;
+  m.source = std::move(source);
+  m.design_name = design.value.name;
+  m.design_source = design.source;
+  m.design_json = io::dump_json(io::design_to_json(design.value));
+  return m;
+}
 
 PyDesign make_design(py::handle source) {
   return read_input<Design>(source, "design", &io::read_design_file, &io::design_from_json);
@@ -290,6 +304,21 @@ void validate_rows(const Design& design, const std::vector<Reading>& readings,
       throw InputError(source, "index " + std::to_string(line - 1), e.detail());
     }
     throw;
+  }
+}
+
+// Readings checked against `d`, which may not be the design they were read against (a design
+// edited since, or another one): where they do not fit it, the message says whose they are.
+void validate_against(const PyDesign& d, const PyMeasurements& m) {
+  try {
+    validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
+  } catch (const InputError& e) {
+    if (m.design_json.empty() || m.design_json == io::dump_json(io::design_to_json(d.value))) throw;
+    throw InputError(e.source(), e.where(),
+                     "these measurements were read against design " + quote_value(m.design_name) +
+                         " (" + quote_value(m.design_source, 200) + "), not design " +
+                         quote_value(d.value.name) + " (" + quote_value(d.source, 200) +
+                         "): " + e.detail());
   }
 }
 
@@ -370,8 +399,7 @@ PyMeasurements measurements_from_arrays(const PyDesign& d, py::object installati
   if (time_s) same_length("time_s", time_s->size());
   if (sweep) same_length("sweep", sweep->size());
   if (repeat) same_length("repeat", repeat->size());
-  PyMeasurements m;
-  m.source = "measurements";
+  PyMeasurements m = measurements_of(d, "measurements");
   m.readings.resize(n);
   for (size_t i = 0; i < n; ++i) {
     Reading& r = m.readings[i];
@@ -399,9 +427,8 @@ PyMeasurements measurements_from_arrays(const PyDesign& d, py::object installati
 
 // Readings from a CSV file or text, checked against the design.
 PyMeasurements measurements_from_file(const std::string& path, const PyDesign& d) {
-  PyMeasurements m;
+  PyMeasurements m = measurements_of(d, path);
   m.readings = io::read_measurement_file(path, d.value);
-  m.source = path;
   m.from_file = true;
   return m;
 }
@@ -453,7 +480,7 @@ std::string iframe(const std::string& html) {
 io::ReportFormat report_format(const std::string& format) {
   if (format == "html") return io::ReportFormat::kHtml;
   if (format == "markdown") return io::ReportFormat::kMarkdown;
-  throw InputError("argument", "format", "'" + format + "' (expected html or markdown)");
+  throw InputError("argument", "format", quote_value(format) + " (expected html or markdown)");
 }
 
 // ---------------------------------------------------------------- Monte Carlo
@@ -554,8 +581,7 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
   DwellOptions options;
   options.dwell_s = dwell_s;
   options.min_share = min_share;
-  PyMeasurements mm;
-  mm.source = "traces";
+  PyMeasurements mm = measurements_of(design, "traces");
   py::dict found;
   std::vector<Warning> warnings;
   std::vector<std::pair<std::string, std::string>> paths;  // installation, file
@@ -795,7 +821,8 @@ ProgramOptions py_program_options(const std::string& sweeps, double dwell_s, dou
   check_finite_in("clearance_margin_mm", clearance_margin_mm, 1, 1000);
   ProgramOptions o;
   const auto named = program_sweeps_named(sweeps);
-  if (!named) throw InputError("argument", "sweeps", "'" + sweeps + "' (expected ccw, cw or both)");
+  if (!named)
+    throw InputError("argument", "sweeps", quote_value(sweeps) + " (expected ccw, cw or both)");
   o.sweeps = *named;
   o.dwell_s = dwell_s;
   o.feed_mm_per_min = feed_mm_min;
@@ -845,7 +872,7 @@ std::string run_program(const PyDesign& d, const std::string& dialect, std::opti
                         std::optional<double> clearance_z_mm, double clearance_margin_mm,
                         bool air_run, const std::string& orient_code) {
   if (dialect != "iso" && dialect != "heidenhain")
-    throw InputError("argument", "dialect", "'" + dialect + "' (expected iso or heidenhain)");
+    throw InputError("argument", "dialect", quote_value(dialect) + " (expected iso or heidenhain)");
   check_integer_in("program_number", program_number, 1, 9999);
   const ProgramOptions o =
       py_program_options(sweeps, dwell_s, feed_mm_min, path_tolerance_mm, tool, clearance_z_mm,
@@ -960,8 +987,7 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
     }
   }
   MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
-  // The design may not be the one they were read with.
-  validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
+  validate_against(d, m);
   PyIdentifyResult r;
   const PyTolerances tol = read_tolerances(d, tolerances);
   const std::vector<Tolerance>& tols = tol.tolerances;
@@ -998,7 +1024,7 @@ PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double
                               int max_effects, bool exclude_gross, const py::object& tolerances) {
   check_finite_in("level", level, limits::kMinLevel, limits::kMaxLevel);
   check_integer_in("max_effects", max_effects, 0, limits::kMaxEffects);
-  validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
+  validate_against(d, m);
   PyDiagnoseResult r;
   const PyTolerances tol = read_tolerances(d, tolerances);
   r.tolerance_files = tol.files;
@@ -1067,8 +1093,7 @@ PyMeasurements run_simulate(const PyDesign& d, py::handle truth,
   const std::optional<std::uint64_t> s = seed ? seed : t.seed;
   if (!s && !t.noiseless)
     throw InputError(source, "seed", "no seed: give seed= or \"seed\" in the truth");
-  PyMeasurements m;
-  m.source = "simulated";
+  PyMeasurements m = measurements_of(d, "simulated");
   {
     py::gil_scoped_release release;
     m.readings = dbbkit::simulate(d.value, t, s.value_or(0));
@@ -1112,6 +1137,57 @@ py::dict monte_carlo_arrays(const MonteCarloResult& mc) {
   d["validated"] = validated;
   return d;
 }
+
+// pybind11's TypeError for arguments it cannot convert lists every overload over several lines
+// and the repr of each argument given, at any length (a str of the caller's among them). Every
+// function and method of the module raises it as one line instead: the signature, and the types
+// given (never their values), cut at 1000 characters.
+constexpr const char* kOneLineTypeErrors = R"py(
+def _one_line_type_errors():
+    import functools
+
+    def shown(text, most):
+        text = repr(str(text))[1:-1]
+        return text if len(text) <= most else text[:most] + "... (cut)"
+
+    def wrap(f):
+        @functools.wraps(f)
+        def call(*args, **kwargs):
+            try:
+                return f(*args, **kwargs)
+            except TypeError as e:
+                text = str(e)
+                if "incompatible function arguments" not in text and \
+                        "incompatible constructor arguments" not in text:
+                    raise
+                name = text.split("(", 1)[0]
+                takes = " ".join(l.strip() for l in text.split("Invoked with")[0].splitlines()[1:]
+                                 if l.strip())
+                given = [type(a).__name__ for a in args] + \
+                        ["%s=%s" % (k, type(v).__name__) for k, v in kwargs.items()]
+                message = "%s(): incompatible arguments (given: %s); it takes %s" % (
+                    shown(name, 100), shown(", ".join(given), 300), shown(takes, 500))
+                raise TypeError(message) from None
+        return call
+
+    space = globals()
+    for key, value in list(space.items()):
+        if key.startswith("_"):
+            continue
+        if type(value).__name__ == "builtin_function_or_method":
+            space[key] = wrap(value)
+        elif isinstance(value, type) and value.__module__ == __name__:
+            for attr, member in list(vars(value).items()):
+                if attr.startswith("__") and attr not in ("__init__", "__getitem__"):
+                    continue
+                if isinstance(member, staticmethod):
+                    setattr(value, attr, staticmethod(wrap(member.__func__)))
+                elif type(member).__name__ == "instancemethod":
+                    setattr(value, attr, wrap(member.__func__))
+
+_one_line_type_errors()
+del _one_line_type_errors
+)py";
 
 }  // namespace
 }  // namespace dbbkit::python
@@ -1215,10 +1291,9 @@ PYBIND11_MODULE(dbbkit, m) {
           "from_csv",
           [](const std::string& text, const PyDesign& design, py::object source_obj) {
             const std::string source = text_of(source_obj, "argument", "source");
-            PyMeasurements mm;
+            PyMeasurements mm = measurements_of(design, source);
             mm.readings = io::parse_measurements(text, source);
             validate_readings(design.value, mm.readings, source);
-            mm.source = source;
             mm.from_text = true;
             return mm;
           },
@@ -1751,4 +1826,5 @@ PYBIND11_MODULE(dbbkit, m) {
   m.def("simulate", &run_simulate, py::arg("design"), py::arg("truth"),
         py::arg("seed") = py::none(),
         "`dbbkit simulate`: synthetic readings from a truth (a path or dict, dbbkit.truth/1)");
+  py::exec(kOneLineTypeErrors, m.attr("__dict__"));
 }
