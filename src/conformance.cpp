@@ -8,6 +8,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit {
 
@@ -119,7 +120,7 @@ int quantity_index(const AxisFrame& axis, const std::vector<std::string>& q, con
     std::string list;
     for (const std::string& n : q) list += (list.empty() ? "" : ", ") + n;
     throw InputError(source, t.where + ".quantity",
-                     "'" + t.quantity + "' is not a quantity of axis " + axis.label() +
+                     quote_value(t.quantity) + " is not a quantity of axis " + axis.label() +
                          "; a tolerance names one of: " + list);
   }
   const int i = static_cast<int>(it - q.begin());

@@ -55,8 +55,8 @@ EffectKind effect_kind(const std::string& name, const std::string& source, const
     if (name == i.name) return i.kind;
   }
   throw InputError(source, key,
-                   "unknown effect '" + name +
-                       "' (expected length_offset, centring, drift, reversal, step, thermal, "
+                   "unknown effect " + quote_value(name) +
+                       " (expected length_offset, centring, drift, reversal, step, thermal, "
                        "scale, squareness or periodic)");
 }
 
@@ -164,7 +164,7 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
       std::string list;
       for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
       fail(names.size() < 2 ? "has one parameter, no component"
-                            : "no component '" + c + "' (one of " + list + ")");
+                            : "no component " + quote_value(c) + " (one of " + list + ")");
     }
     e.component = static_cast<int>(it - names.begin());
     at = end == std::string::npos ? label.size() : end;
@@ -205,7 +205,8 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
       if (!t) fail("the time constant must be a positive number of minutes, e.g. (tau=30min)");
       e.tau_min = *t;
     } else {
-      fail("'(" + arg + ")' is not a position of " + effect_name(e.kind) + "; " + forms);
+      fail(quote_value("(" + arg + ")") + " is not a position of " + effect_name(e.kind) + "; " +
+           forms);
     }
   } else if (e.kind == EffectKind::kStep) {
     fail(

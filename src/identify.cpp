@@ -250,11 +250,11 @@ void find_equivalents(const Design& design, const std::vector<Reading>& readings
 }  // namespace
 
 BudgetOptions with_reading_type_a(BudgetOptions options, const std::vector<Reading>& readings,
-                                  const std::string& source) {
+                                  const std::string& source, const std::string& option) {
   if (options.type_a)
-    throw InputError(source, "",
-                     "the readings' own Type A and a Type A from the residual (--type-a) are two "
-                     "evaluations of one noise: give one");
+    throw InputError(option, "",
+                     "the readings' own Type A and a Type A from the residual (" +
+                         option_name("--type-a") + ") are two evaluations of one noise: give one");
   options.reading_u_a_um.clear();
   options.reading_u_a_dof.clear();
   for (std::size_t i = 0; i < readings.size(); ++i) {
@@ -263,8 +263,9 @@ BudgetOptions with_reading_type_a(BudgetOptions options, const std::vector<Readi
       throw InputError(
           source, r.line > 0 ? "line " + std::to_string(r.line) : "reading " + std::to_string(i),
           "reading of " + quote_value(r.installation) + " at " + text::significant(r.angle_deg, 6) +
-              " deg has no u_a_um and u_a_dof (a measurement file of dbbkit readings "
-              "carries them for every dwell of at least two 0.1 s batches)");
+              " deg has no u_a_um and u_a_dof, which " + option +
+              " needs (a measurement file of dbbkit readings carries them for every dwell of at "
+              "least two 0.1 s batches)");
     }
     options.reading_u_a_um.push_back(*r.u_a_um);
     options.reading_u_a_dof.push_back(*r.u_a_dof);

@@ -115,12 +115,53 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
       auto where = [&](const Reading& x, size_t k) {
         return x.line > 0 ? "line " + std::to_string(x.line) : "reading " + std::to_string(k);
       };
+      // What the two have in common, and what else of them differs (the other of repeat and
+      // time_s, the reading).
+      std::ostringstream same;
+      same << std::setprecision(12) << "installation " << r.installation << ", angle "
+           << r.angle_deg << " deg"
+           << (r.sweep ? std::string(", sweep ") + sweep_name(*r.sweep) : std::string())
+           << (kind == 0 ? ", repeat " : ", time_s ") << *v;
+      std::vector<std::string> differ;
+      auto differs = [&](const char* name, std::optional<double> here, std::optional<double> there,
+                         double scale) {
+        if (here == there) return;
+        std::ostringstream d;
+        auto text = [scale](std::optional<double> x) {
+          std::ostringstream t;
+          t << std::setprecision(12);
+          if (x)
+            t << *x / scale;
+          else
+            t << "none";
+          return t.str();
+        };
+        d << name << " (" << text(here) << " here, " << text(there) << " there)";
+        differ.push_back(d.str());
+      };
+      auto repeat = [](const Reading& x) {
+        return x.repeat ? std::optional<double>(*x.repeat) : std::nullopt;
+      };
+      if (kind == 0) differs("time_s", r.time_s, first.time_s, 1.0);
+      if (kind == 1) differs("repeat", repeat(r), repeat(first), 1.0);
+      differs(r.in_mm ? "reading_mm" : "reading_um", r.reading_um, first.reading_um,
+              r.in_mm ? 1000.0 : 1.0);
       std::ostringstream m;
-      m << std::setprecision(12) << "the same reading as " << where(first, it->second)
-        << " (installation " << r.installation << ", angle " << r.angle_deg << " deg"
-        << (r.sweep ? std::string(", sweep ") + sweep_name(*r.sweep) : std::string())
-        << (kind == 0 ? ", repeat " : ", time_s ") << *v
-        << "): a row given twice? Repeats of a reading differ in their repeat index or time";
+      if (differ.empty()) {
+        m << "the same reading as " << where(first, it->second) << " (" << same.str()
+          << "): a row given twice? Repeats of a reading differ in their "
+          << (kind == 0 ? "repeat index" : "time_s");
+      } else {
+        std::string list;
+        for (std::size_t k = 0; k < differ.size(); ++k)
+          list += (k == 0 ? "" : k + 1 == differ.size() ? " and " : ", ") + differ[k];
+        m << "the same " << (kind == 0 ? "repeat" : "time_s") << " as " << where(first, it->second)
+          << " (" << same.str() << "), another " << list << ": "
+          << (kind == 0 ? "two readings of one position with one repeat index; give each its "
+                          "own repeat (or leave the repeat column out: time_s tells them apart)"
+                        : "two readings of one position at one time; is a time_s mistyped, or "
+                          "a row given twice and edited?");
+      }
       throw InputError(source, where(r, i), m.str());
     }
   }

@@ -14,6 +14,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/parallel.hpp"
 #include "dbbkit/setup.hpp"
+#include "dbbkit/user_text.hpp"
 #include "random.hpp"
 
 namespace dbbkit {
@@ -361,7 +362,7 @@ MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param
               " values would keep " + std::to_string(static_cast<long long>(bytes / (1 << 20))) +
               " MiB of samples, beyond the " + std::to_string(options.max_sample_bytes >> 20) +
               " MiB limit: at most " + std::to_string(fits / kChunk * kChunk) +
-              " trials per batch for this design (--mc-batch)");
+              " trials per batch for this design (" + option_name("--mc-batch") + ")");
     }
   }
 

@@ -13,6 +13,7 @@
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/parallel.hpp"
+#include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
 #include "tolerances.hpp"
 
@@ -612,9 +613,9 @@ Criterion criterion_from_name(const std::string& name, const std::string& source
   if (name == "E") return Criterion::kE;
   if (name == "condition") return Criterion::kCondition;
   if (name == "worst_total") return Criterion::kWorstTotal;
-  throw InputError(
-      source, "",
-      "unknown criterion '" + name + "' (expected worst, worst_total, D, A, E or condition)");
+  throw InputError(source, "",
+                   "unknown criterion " + quote_value(name) +
+                       " (expected worst, worst_total, D, A, E or condition)");
 }
 
 const char* criterion_name(Criterion c) {

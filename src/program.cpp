@@ -337,8 +337,26 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     angles.push_back(placement_angle);
     highest = std::max(highest, machine_top_z(design, angles));
   }
-  program.clearance_z_mm =
-      options.clearance_z_mm.value_or(highest + reach + options.clearance_margin_mm);
+  // A plane given below the highest point plus the margin would send the sideways rapids
+  // through the table, the balls or the bar: refused, naming the least it may be.
+  const double lowest_plane = highest + reach + options.clearance_margin_mm;
+  if (options.clearance_z_mm && *options.clearance_z_mm < lowest_plane) {
+    throw InputError(option_name("--clearance-z-mm"), "",
+                     "Z " + text::significant(*options.clearance_z_mm, 6) +
+                         " mm is below the lowest safe clearance plane, Z " +
+                         text::significant(lowest_plane, 6) +
+                         " mm: the highest point the program reaches (Z " +
+                         text::significant(highest, 6) + " mm" +
+                         (reach > 0 ? ", plus the longest pivot-to-ball distance " +
+                                          text::significant(reach, 6) + " mm"
+                                    : std::string()) +
+                         ") plus " + option_name("--clearance-margin-mm") + " " +
+                         text::significant(options.clearance_margin_mm, 6) +
+                         " mm; every sideways rapid runs at this plane. Give at least Z " +
+                         text::significant(lowest_plane, 6) + " mm (or a smaller " +
+                         option_name("--clearance-margin-mm") + ", at least 1 mm)");
+  }
+  program.clearance_z_mm = options.clearance_z_mm.value_or(lowest_plane);
   // The descents and retracts along Z at the feed: to the first position and from the last,
   // and to the cup's placement and back.
   for (InstallationProgram& ip : program.installations) {

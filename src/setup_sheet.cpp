@@ -7,6 +7,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/observability.hpp"
+#include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
 
 namespace dbbkit {
@@ -107,14 +108,14 @@ std::tuple<int, int, int> changes(const std::vector<SetupStep>& steps) {
 // A kit of the design's axis, or none.
 void check_kit_axis(const Kit* kit, const Design& design) {
   if (kit && !kit->axis.same_as(design.axis))
-    throw InputError("--kit", "axis",
+    throw InputError(option_name("--kit"), "axis",
                      std::string("the kit is for axis ") + kit->axis.label() +
                          ", the design for axis " + design.axis.label() + " (the kit's " +
                          axis_difference(kit->axis, design.axis) + ")");
   // The "B" shorthand's D is the general form's H: a kit and a design of one axis in the two
   // forms would place the ball differently.
   if (kit && kit->axis.shorthand() != design.axis.shorthand())
-    throw InputError("--kit", "axis",
+    throw InputError(option_name("--kit"), "axis",
                      "the kit and the design give axis " + design.axis.label() +
                          " in different forms (" +
                          (kit->axis.shorthand().empty() ? "general" : "shorthand") + " and " +
@@ -249,7 +250,7 @@ SetupOrder setup_order(const Design& design, std::optional<int> stack_coordinate
 
 RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
   if (!(std::isfinite(r) && r >= 1e-3 && r <= 10))
-    throw InputError("--resolution-mm", "",
+    throw InputError(option_name("--resolution-mm"), "",
                      "must be in [0.001, 10] mm, got " + text::significant(r, 6));
   if (!design.reference_length_mm)
     throw InputError("design", "reference_length_mm",

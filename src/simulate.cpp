@@ -102,7 +102,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
   for (const auto& [id, given] : truth.setup_given) {
     if (design.find_installation(id) < 0) {
       throw InputError(source, "setup.installations." + id,
-                       "installation '" + id + "' is not in the design");
+                       "installation " + quote_value(id) + " is not in the design");
     }
     if (!design.axis.has_H() && given.ball_mm(2) != 0) {
       throw InputError(source, "setup.installations." + id + ".ball_mm.H",
@@ -192,7 +192,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     }
     if (!e.installation.empty() && design.find_installation(e.installation) < 0) {
       throw InputError(source, key + ".installation",
-                       "installation '" + e.installation + "' is not in the design");
+                       "installation " + quote_value(e.installation) + " is not in the design");
     }
     if ((e.effect.kind == EffectKind::kScale || e.effect.kind == EffectKind::kSquareness)) {
       for (const Installation& in : design.installations) {
@@ -235,6 +235,21 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
   if (!truth.errors_given) return;
   if (truth.model.kind == ErrorModel::Kind::kPerAngle) {
     for (double a : design.angles_deg) truth_errors(truth, design.axis, a, source);
+    // A value at an angle the design never measures would be ignored without a word (a truth
+    // of another design, or an angle mistyped).
+    const Parameterisation positions(design);
+    const auto [lo, hi] = std::minmax_element(design.angles_deg.begin(), design.angles_deg.end());
+    for (std::size_t i = 0; i < truth.per_angle.size(); ++i) {
+      const double a = truth.per_angle[i].first;
+      if (positions.station_of(a) >= 0) continue;
+      throw InputError(source, "errors.values[" + std::to_string(i) + "].angle_deg",
+                       "angle " + text::significant(a, 12) +
+                           " deg is not a position of the design (its " +
+                           std::to_string(design.angles_deg.size()) + " angles, " +
+                           text::significant(*lo, 12) + " .. " + text::significant(*hi, 12) +
+                           " deg): a value there would be ignored; give values at the "
+                           "design's angles alone");
+    }
     return;
   }
   if (truth.model.kind == ErrorModel::Kind::kFourier && !design.axis.full_turn()) {

@@ -50,6 +50,14 @@ constexpr double kMinSampleInterval_s = 1e-6;
 
 }  // namespace
 
+long Trace::line_of(std::size_t i) const {
+  const auto it = std::upper_bound(
+      line_runs.begin(), line_runs.end(), i,
+      [](std::size_t k, const std::pair<std::size_t, long>& run) { return k < run.first; });
+  if (it == line_runs.begin() || std::prev(it)->second == 0) return 0;
+  return std::prev(it)->second + static_cast<long>(i - std::prev(it)->first);
+}
+
 PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std::string& source) {
   const std::vector<double>& t = trace.time_s;
   const std::vector<double>& x = trace.reading_um;
@@ -96,7 +104,8 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
                      "the times look like milliseconds since 1970 (the first " +
                          text::significant(t[0], 15) + ", " + seconds(dt) +
                          " apart): the time column is seconds from the trace's start (give the "
-                         "sample index with --sample-rate-hz, or convert)");
+                         "sample index with " +
+                         option_name("--sample-rate-hz") + ", or convert)");
   }
   // A clock jump, or two recordings joined.
   for (std::size_t i = 1; i < n; ++i) {
@@ -116,7 +125,25 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
     throw InputError(source, "",
                      "the samples are " + seconds(dt) +
                          " apart (median): below 1 us, a rate above 1 MHz; check the time "
-                         "column's unit (or --sample-rate-hz)");
+                         "column's unit (or " +
+                         option_name("--sample-rate-hz") + ")");
+  }
+  // A window of the stillness test longer than the whole dwell: every still window would pass
+  // for a dwell. Samples a second or more apart are most likely milliseconds read as seconds.
+  if (kMinWindowSamples * dt > o.dwell_s) {
+    throw InputError(
+        source, "",
+        "the samples are " + seconds(dt) + " apart (median): a window of " +
+            text::significant(kMinWindowSamples, 6) + " samples (" +
+            seconds(kMinWindowSamples * dt) + ") is longer than a dwell of " + seconds(o.dwell_s) +
+            " (" + option_name("--dwell-s") + "), no dwell can be told" +
+            (dt >= 0.5
+                 ? "; the times look like milliseconds (a sample every " +
+                       text::significant(dt, 6) + " ms is " + text::significant(1000.0 / dt, 6) +
+                       " Hz): the time column is seconds from the trace's start (convert "
+                       "it, or give the sample index with " +
+                       option_name("--sample-rate-hz") + ")"
+                 : ": a trace is sampled at 20 Hz or more (a QC20-W at 1 kHz)"));
   }
   // Consecutive windows of w samples (at least kMinWindowSamples, so that each window's mean and
   // scatter are estimates): their means and scatters.
@@ -232,12 +259,59 @@ std::vector<Sweep> sweeps_by_name(const std::string& name, const std::string& so
       quote_value(name) + " is not ccw, cw, both or a list of them in order (ccw,cw,ccw)");
 }
 
+namespace {
+// A dwell's level beyond the instrument's range: refused at the dwell's first sample (its line
+// and column, when read from a file), the unit of the column named as the likely cause.
+[[noreturn]] void beyond_range(const Design& design, const Trace& trace, std::size_t sample,
+                               const std::string& dwell, double level_um,
+                               const std::string& source) {
+  const long line = trace.line_of(sample);
+  const std::string at =
+      line > 0 ? "line " + std::to_string(line) + ", column " + quote_value(trace.reading_column)
+               : "sample " + std::to_string(sample + 1);
+  const bool mm = trace.reading_unit == "mm";
+  const std::string range = text::significant(design.instrument_range_mm, 6);
+  throw InputError(source, at,
+                   dwell + ": its level " +
+                       (mm ? text::significant(level_um / 1000.0, 6) + " mm"
+                           : text::significant(level_um, 6) + " um") +
+                       " is beyond the instrument's range of +-" + range +
+                       " mm (the design's instrument.range_mm)" +
+                       (mm ? ": are the readings in um? (a column reading_um, or " +
+                                 option_with_value("--unit", "um") + ")"
+                        : trace.reading_unit == "um"
+                            ? ": is the column's unit right? (um: reading_um, or " +
+                                  option_with_value("--unit", "um") + "; mm: reading_mm, or " +
+                                  option_with_value("--unit", "mm") + ")"
+                            : ": are the readings in um?"));
+}
+}  // namespace
+
+void check_trace_installation(const Design& design, const std::string& installation) {
+  if (design.find_installation(installation) >= 0) return;
+  std::string ids, other_case;
+  auto lower = [](std::string x) {
+    for (char& c : x) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return x;
+  };
+  for (std::size_t i = 0; i < design.installations.size(); ++i) {
+    const std::string& id = design.installations[i].id;
+    if (i < 20) ids += (i ? ", " : "") + id;
+    if (other_case.empty() && lower(id) == lower(installation)) other_case = id;
+  }
+  if (design.installations.size() > 20) ids += ", ...";
+  throw InputError(
+      option_name("--trace"), quote_value(installation),
+      "no installation of the design has this id" +
+          (other_case.empty() ? std::string()
+                              : " (ids are case-sensitive: " + quote_value(other_case) + "?)") +
+          "; its installations: " + ids);
+}
+
 TraceReadings readings_from_trace(const Design& design, const std::string& installation,
                                   const Trace& trace, const std::vector<Sweep>& sweeps,
                                   const DwellOptions& options, const std::string& source) {
-  if (design.find_installation(installation) < 0)
-    throw InputError(source, "installation",
-                     quote_value(installation) + " is no installation of the design");
+  check_trace_installation(design, installation);
   TraceReadings out;
   out.search = find_plateaus(trace, options, source);
   const std::vector<Plateau>& P = out.search.plateaus;
@@ -259,18 +333,19 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
                text::significant(P[k].end_s, 6);
     }
     if (P.size() > 40) found += ", ...";
-    throw InputError(
-        source, "installation " + installation,
-        "found " + std::to_string(P.size()) + " dwells, the sweep" +
-            (sweeps.size() > 1 ? "s have " : " has ") + std::to_string(stops.size()) + " stops (" +
-            std::to_string(design.angles_deg.size()) + " angles" +
-            (sweeps.size() == 2  ? ", both sweeps"
-             : sweeps.size() > 2 ? ", " + std::to_string(sweeps.size()) + " sweeps"
-                                 : std::string()) +
-            "); dwells found (s): " + (found.empty() ? "none" : found) +
-            ". Check --dwell-s (the program's dwell), --sweeps, and that the trace is this "
-            "installation's whole run (a move must show in the bar's length)" +
-            (moving.empty() ? "" : "; " + moving));
+    throw InputError(source, "installation " + installation,
+                     "found " + std::to_string(P.size()) + " dwells, the sweep" +
+                         (sweeps.size() > 1 ? "s have " : " has ") + std::to_string(stops.size()) +
+                         " stops (" + std::to_string(design.angles_deg.size()) + " angles" +
+                         (sweeps.size() == 2  ? ", both sweeps"
+                          : sweeps.size() > 2 ? ", " + std::to_string(sweeps.size()) + " sweeps"
+                                              : std::string()) +
+                         "); dwells found (s): " + (found.empty() ? "none" : found) + ". Check " +
+                         option_name("--dwell-s") + " (the program's dwell), " +
+                         option_name("--sweeps") +
+                         ", and that the trace is this "
+                         "installation's whole run (a move must show in the bar's length)" +
+                         (moving.empty() ? "" : "; " + moving));
   }
   if (!moving.empty()) {
     throw InputError(
@@ -287,6 +362,10 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
     const Plateau& p = P[k];
     const Stop& stop = stops[k];
     const std::size_t parts = stop.sweeps.size();
+    const std::string where = "installation " + installation + ", dwell " + std::to_string(k + 1) +
+                              " at " + text::significant(stop.angle_deg, 6) + " deg (" +
+                              text::significant(p.start_s, 6) + "-" +
+                              text::significant(p.end_s, 6) + " s)";
     // The settled samples, split into equal parts for a stop of several readings.
     const std::size_t first = p.first_sample;
     const std::size_t count = static_cast<std::size_t>(p.samples);
@@ -315,14 +394,12 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
         r.u_a_um = m.std / std::sqrt(static_cast<double>(batches));
         r.u_a_dof = static_cast<int>(batches) - 1;
       }
+      if (std::abs(r.reading_um) > 1000.0 * design.instrument_range_mm)
+        beyond_range(design, trace, a, where, r.reading_um, source);
       out.readings.push_back(r);
     }
     const bool inner = k > 0 && k + 1 < P.size();  // the first and last are of unknown length
     const double length = p.end_s - p.start_s;
-    const std::string where = "installation " + installation + ", dwell " + std::to_string(k + 1) +
-                              " at " + text::significant(stop.angle_deg, 6) + " deg (" +
-                              text::significant(p.start_s, 6) + "-" +
-                              text::significant(p.end_s, 6) + " s)";
     if (p.std_um > 1.4 * noise) {
       out.warnings.push_back(
           {"trace_scatter", where + ": its scatter " + text::significant(p.std_um, 3) +

@@ -6,6 +6,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/setup.hpp"
+#include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
 
 namespace dbbkit {
@@ -83,20 +84,21 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param,
   std::optional<double> noise_dof;
   if (options.type_a) {
     if (est.dof <= 0) {
-      throw InputError("--type-a", "",
+      throw InputError(option_name("--type-a"), "",
                        "the residual has no degrees of freedom: a Type A evaluation is impossible");
     }
     noise_scale = std::sqrt(est.chi2 / est.dof);
     // A residual a millionth of the declared noise or less is no scatter to state an
     // uncertainty from (all readings zero, a stopped instrument): u would be 0.
     if (!(noise_scale >= kMinTypeAScale)) {
-      throw InputError("--type-a", "",
+      throw InputError(option_name("--type-a"), "",
                        "the residual is " + std::string(est.chi2 > 0 ? "all but " : "") +
                            "zero (chi2 " + text::significant(est.chi2, 3) + " on " +
                            std::to_string(est.dof) +
                            " dof): a Type A uncertainty stated from it would be 0. The readings "
                            "are explained exactly (all zero? an instrument that did not count?): "
-                           "check them, or state the declared noise (without --type-a)");
+                           "check them, or state the declared noise (without " +
+                           option_name("--type-a") + ")");
     }
     noise_dof = est.dof;
     b.type_a_scale = noise_scale;

@@ -1,5 +1,6 @@
 #include "dbbkit/user_text.hpp"
 
+#include <atomic>
 #include <cstdio>
 
 namespace dbbkit {
@@ -151,6 +152,27 @@ std::string quote_value(std::string_view text, std::size_t max_chars) {
   out += "'";
   if (i < text.size()) out += "... (" + std::to_string(text.size()) + " bytes)";
   return out;
+}
+
+namespace {
+std::atomic<OptionStyle> g_option_style{OptionStyle::kCommandLine};
+}  // namespace
+
+void set_option_style(OptionStyle style) { g_option_style = style; }
+OptionStyle option_style() { return g_option_style; }
+
+std::string option_name(std::string_view name) {
+  if (g_option_style != OptionStyle::kPython) return std::string(name);
+  if (name == "--start") return "start_s";
+  if (name == "--trace") return "traces";
+  std::string out(name.substr(name.rfind("--", 0) == 0 ? 2 : 0));
+  for (char& c : out) c = c == '-' ? '_' : c;
+  return out;
+}
+
+std::string option_with_value(std::string_view name, std::string_view value) {
+  if (g_option_style != OptionStyle::kPython) return std::string(name) + " " + std::string(value);
+  return option_name(name) + "=" + quote_value(value);
 }
 
 }  // namespace dbbkit

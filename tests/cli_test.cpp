@@ -204,6 +204,9 @@ INSTANTIATE_TEST_SUITE_P(
                 "more than 100000 angles"},
         BadCase{"data_hex_float.csv", kIdentifyDataC, "line 2, column reading_mm",
                 "decimal notation"},
+        BadCase{"truth_angle_not_a_position.json", kSimulateC, "errors.values[2].angle_deg",
+                "angle 25 deg is not a position of the design (its 19 angles, 0 .. 360 deg): a "
+                "value there would be ignored"},
         BadCase{"truth_angle_twice.json", kSimulateC, "errors.values[18].angle_deg",
                 "with other values"},
         BadCase{"truth_many_sweeps.json", kSimulateC, "schedule.sweeps", "more than 100 sweeps"},
@@ -236,7 +239,17 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"data_duplicate_row.csv", kIdentifyDataC, "line 4",
                 "the same reading as line 2 (installation 1r, angle 0 deg, repeat 0)"},
         BadCase{"data_duplicate_time.csv", kIdentifyDataC, "line 4",
-                "the same reading as line 3 (installation 1r, angle 20 deg, time_s 6)"},
+                "the same time_s as line 3 (installation 1r, angle 20 deg, time_s 6), another "
+                "reading_um (2.7 here, 2.5 there): two readings of one position at one time"},
+        BadCase{"data_json.csv", kIdentifyDataC, "line 1",
+                "this looks like JSON, not a CSV measurement file"},
+        BadCase{"data_semicolons.csv", kIdentifyDataC, "line 1",
+                "the delimiter is ','; this header uses ';' ('installation;angle_deg;reading_um')"},
+        BadCase{"data_tabs.csv", kIdentifyDataC, "line 1",
+                "the delimiter is ','; this header uses tabs"},
+        BadCase{"data_same_repeat_other_time.csv", kIdentifyDataC, "line 4",
+                "the same repeat as line 2 (installation 1r, angle 0 deg, repeat 0), another "
+                "time_s (12 here, 0 there) and reading_um (1.6 here, 1.5 there)"},
         BadCase{"data_number_underflow.csv", kIdentifyDataC, "line 3, column reading_um",
                 "below the smallest number a double holds"},
         BadCase{"data_angle_near_a_position.csv", kIdentifyDataC, "line 2",

@@ -276,7 +276,10 @@ TEST(Compensation, AValueBeyondTheBoundIsNotWritten) {
   o.linuxcnc_kins = "xyzac-trt";
   o.current_mm = {{"x-rot-point", 100}, {"y-rot-point", 50}, {"y-offset", 20}};
   for (const auto f : {io::CompensationFormat::kLinuxCnc, io::CompensationFormat::kIsg}) {
-    const std::string m = error_of([&] { io::compensation_text(r, f, o); });
+    // isg takes neither a module nor current values.
+    const io::CompensationOptions given =
+        f == io::CompensationFormat::kIsg ? io::CompensationOptions{} : o;
+    const std::string m = error_of([&] { io::compensation_text(r, f, given); });
     EXPECT_NE(m.find("r.json: Y0C: would be written as 1000000 mm, beyond +-100000 mm"),
               std::string::npos)
         << m;
@@ -467,6 +470,20 @@ TEST(CompareCli, CompareAndCompensationFromTheCommandLine) {
               "w-rot-point=3");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("w-rot-point"), std::string::npos) << r.err;
+  // The option isg does not take is named, whatever its value (it named --kins).
+  r = run_cli("compensation --result " + b + " --format isg --current X");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--current: --format isg writes the location errors themselves, as the ISG "
+                       "kernel adds them: it takes no current values; --current gives the "
+                       "current values of LinuxCNC's position pins (--format linuxcnc)"),
+            std::string::npos)
+      << r.err;
+  r = run_cli("compensation --result " + b + " --format table --kins xyzac-trt");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--kins: --format table is a table of the location errors to enter by "
+                       "hand: it takes no module"),
+            std::string::npos)
+      << r.err;
   r = run_cli("compare " + a + " " + D);
   EXPECT_EQ(r.status, 2);
   fs::remove_all(dir);

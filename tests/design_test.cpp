@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <functional>
+#include <nlohmann/json.hpp>
+
 #include "dbbkit/error.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
@@ -87,6 +90,76 @@ TEST(DesignValidation, NamesTheKeyAtFault) {
   d.installations[4].bar_mm.reset();
   d.installations[4].bar_parts_mm = {100};
   EXPECT_EQ(where(d), "installations[4].bar_parts_mm");
+}
+
+// A design of the paper's with `edit` applied to its JSON: the message of the reader, or
+// "(accepted)".
+std::string message_of(const std::function<void(nlohmann::json&)>& edit) {
+  nlohmann::json j = io::design_to_json(test::paper_design('C'));
+  edit(j);
+  try {
+    io::design_from_json(j, "d.json");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+// A misspelling is suggested only among the keys the object may hold and does not: never a key
+// that is present and valid (ball_mm {L, h} used to suggest 'L' for H; {start, stop, stpo}
+// 'stop' for step).
+TEST(DesignValidation, AMisspellingIsSuggestedOnlyAmongKeysAllowedAndAbsent) {
+  std::string m = message_of([](nlohmann::json& j) {
+    j["installations"][0]["ball_mm"] = {{"L", 100}, {"h", 60}};
+  });
+  EXPECT_NE(m.find("ball_mm.H: required key is missing (is 'h' a misspelling of it?)"),
+            std::string::npos)
+      << m;
+  m = message_of([](nlohmann::json& j) {
+    j["installations"][0]["ball_mm"] = {{"D", 0}, {"H", 60}};  // no L: D and H are valid
+  });
+  EXPECT_NE(m.find("ball_mm.L: required key is missing"), std::string::npos) << m;
+  EXPECT_EQ(m.find("misspelling"), std::string::npos) << m;
+  m = message_of([](nlohmann::json& j) {
+    j["angles_deg"] = {{"start", 0}, {"stop", 360}, {"stpo", 20}};
+  });
+  EXPECT_NE(m.find("angles_deg.step: required key is missing"), std::string::npos) << m;
+  EXPECT_EQ(m.find("'stop'"), std::string::npos) << m;
+  m = message_of([](nlohmann::json& j) {
+    j["angles_deg"] = {{"start", 0}, {"stpo", 360}, {"step", 20}};
+  });
+  EXPECT_NE(m.find("angles_deg.stop: required key is missing (is 'stpo' a misspelling of it?)"),
+            std::string::npos)
+      << m;
+  // An unknown key names the absent key it may stand for.
+  m = message_of([](nlohmann::json& j) {
+    j["installations"][0].erase("sign");
+    j["installations"][0]["sgin"] = 1;
+  });
+  EXPECT_NE(m.find("installations[0].sgin: unknown key (a misspelling of 'sign'?)"),
+            std::string::npos)
+      << m;
+  // A key present and valid is never the one an unknown key stands for.
+  m = message_of([](nlohmann::json& j) { j["installations"][0]["drection"] = "radial"; });
+  EXPECT_NE(m.find("installations[0].drection: unknown key (misspelt?)"), std::string::npos) << m;
+}
+
+// The key of the other distribution is said to be that, not a typo.
+TEST(DesignValidation, NoiseKeysOfTheOtherDistributionAreNamedAsSuch) {
+  std::string m = message_of([](nlohmann::json& j) {
+    j["noise"] = {{"distribution", "uniform"}, {"std_um", 1}};
+  });
+  EXPECT_NE(m.find("noise.std_um: std_um belongs to the normal distribution"), std::string::npos)
+      << m;
+  EXPECT_NE(m.find("give accuracy_um"), std::string::npos) << m;
+  m = message_of([](nlohmann::json& j) { j["noise"] = {{"std_um", 1}}; });
+  EXPECT_NE(m.find("the default without \"distribution\""), std::string::npos) << m;
+  m = message_of([](nlohmann::json& j) {
+    j["noise"] = {{"distribution", "normal"}, {"accuracy_um", 1}};
+  });
+  EXPECT_NE(m.find("noise.accuracy_um: accuracy_um belongs to the uniform distribution"),
+            std::string::npos)
+      << m;
 }
 
 TEST(SetupOverride, ReplacesOnlyTheKeysGiven) {

@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -535,6 +536,27 @@ TEST_F(Hostile, ASecondRoundOfHostileInputsIsRefusedOrCarried) {
                     " evaluate --quiet --design " + kDesignC + " --report " + path("r.html"));
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("gnuplot failed (exit status 3, no message)"), std::string::npos) << r.err;
+}
+
+// Text of the caller's options reaches a message quoted, its line breaks escaped and cut: the
+// message is one line (--effects, --criterion and --sweep wrote theirs raw).
+TEST_F(Hostile, TheCallersTextInAMessageIsOneLine) {
+  const std::string kit = test::source_path("tests/fuzz/corpus/kit/small_c.json");
+  const std::string long_text(5000, 'x');
+  for (const std::string& args :
+       {"identify --design " + kDesignC + " --data " + kDataC +
+            " --effects \"$(printf 'length_offset[1r],a\\nb')\"",
+        "identify --design " + kDesignC + " --data " + kDataC +
+            " --effects \"$(printf 'centring.q\\nz[1r]')\"",
+        "optimize --kit " + kit + " --criterion \"$(printf 'wor\\nst')\"",
+        "evaluate --design " + kDesignC + " --sweep \"$(printf 'L1=20:30\\n:5')\"",
+        "evaluate --design " + kDesignC + " --sweep \"$(printf 'Lq\\nz=20:30:5')\"",
+        "evaluate --design " + kDesignC + " --sweep L1=" + long_text}) {
+    const CliRun r = run_cli_shell(std::string(DBBKIT_CLI) + " " + args);
+    EXPECT_EQ(r.status, 2) << args;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_LT(r.err.size(), 600u) << r.err;
+  }
 }
 
 struct OptionCase {

@@ -457,6 +457,18 @@ TEST(MachineProgram, WhatLeavesTheTravelOrMeetsASolidIsRefusedByName) {
   std::filesystem::remove_all(dir);
 }
 
+// The set-up sheet of a machine's axis says where the other axes stand and how the preset is set.
+TEST(MachineProgram, TheSetUpSheetNamesTheParkedAxesAndThePreset) {
+  const CliRun r = run_cli("setup-sheet --design " + design_path("a-c-trunnion-C"));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("Machine a-c-trunnion (controller heidenhain): axis C is measured with A "
+                       "at 0 deg (parked: the program commands it)"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("X 0, Y 0, Z -60 mm in the machine frame"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("never by teaching it on the real axis"), std::string::npos) << r.out;
+}
+
 TEST(MachineProgram, TcpmIsChosenAndNeedsAMachine) {
   const std::string a = design_path("a-c-trunnion-A");
   CliRun r = run_cli("program --design " + a + " --dialect sinumerik");

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <random>
 #include <sstream>
@@ -360,6 +361,38 @@ TEST(Program, OptionsOutsideTheirLimitsAreRefused) {
     set(o);
     EXPECT_THROW(measurement_program(d, o), InputError);
   }
+}
+
+// A clearance plane given below the highest point the program reaches plus the margin would
+// send the sideways rapids through the table and the balls (--clearance-z-mm -5 was written as
+// given): refused, naming the option, the value and the least plane; at the least, taken.
+TEST(Program, AClearancePlaneBelowTheHighestPointIsRefused) {
+  const Design d = io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
+  const double lowest = measurement_program(d, ProgramOptions{}).clearance_z_mm;
+  ProgramOptions o;
+  o.clearance_z_mm = -5;
+  try {
+    measurement_program(d, o);
+    ADD_FAILURE() << "a plane at Z -5 was taken";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.source(), "--clearance-z-mm");
+    std::ostringstream least;
+    least << std::setprecision(6) << lowest;
+    EXPECT_NE(e.detail().find("Z -5 mm is below the lowest safe clearance plane, Z " + least.str() +
+                              " mm"),
+              std::string::npos)
+        << e.detail();
+    EXPECT_NE(e.detail().find("plus --clearance-margin-mm 50 mm"), std::string::npos) << e.detail();
+  }
+  o.clearance_z_mm = lowest;
+  EXPECT_EQ(measurement_program(d, o).clearance_z_mm, lowest);
+  o.clearance_z_mm = lowest + 100;
+  EXPECT_EQ(measurement_program(d, o).clearance_z_mm, lowest + 100);
+  const CliRun r = run_cli("program --design " DBBKIT_SOURCE_DIR
+                           "/designs/paper-c-turntable.json --dialect iso --clearance-z-mm -5");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--clearance-z-mm: Z -5 mm is below"), std::string::npos) << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;
 }
 
 // Only the spindle orientation code is taken: another M-code (M3 starts the spindle, M8 the

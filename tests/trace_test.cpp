@@ -93,6 +93,30 @@ std::string refusal(F&& f) {
   return "";
 }
 
+// A fresh directory under the system's temporary one (what was there removed), with `sub` in it.
+std::filesystem::path fresh_dir(const std::string& name, const std::string& sub = "") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(sub.empty() ? dir : dir / sub);
+  return dir;
+}
+
+// The paper's C design simulated in `dir` (truth_c_per_angle.json, seed 4): sim.csv and a trace
+// of each installation under `traces` (e.g. "tr/").
+CliRun simulate_paper_traces(const std::filesystem::path& dir, const std::string& traces) {
+  return run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " simulate --design " +
+                       test::source_path("designs/paper-c-turntable.json") + " --truth " +
+                       test::source_path("tests/data/truth_c_per_angle.json") +
+                       " --seed 4 --out sim.csv --trace-out " + traces);
+}
+
+// A simulated trace of `d`'s ccw sweep (the simulator's defaults), every stop at `level_um`.
+SimulatedTrace level_trace(const Design& d, double level_um) {
+  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  return simulate_trace(stops, std::vector<double>(stops.size(), level_um), {});
+}
+
 // A line is read to its bound, no further: a file without line ends (/dev/zero) is refused
 // naming the line and the bound; a directory or a device is refused as what it is.
 TEST(TraceReader, LinesAndFilesAreBounded) {
@@ -391,7 +415,7 @@ TEST(TraceTypeA, ReadingsTypeAEntersTheBudget) {
   const double a = 0.5, sigma = d.noise.sigma_um();
   for (Reading& r : readings) r.u_a_um = a, r.u_a_dof = 10;
   IdentifyOptions o;
-  o.budget = with_reading_type_a(o.budget, readings, "test");
+  o.budget = with_reading_type_a(o.budget, readings, "test", "--type-a-readings");
   const IdentifyResult r = identify(d, readings, o);
   ASSERT_EQ(r.budget.values.size(), plain.budget.values.size());
   EXPECT_TRUE(r.budget.reading_type_a);
@@ -435,24 +459,21 @@ TEST(TraceTypeA, ReadingsTypeAEntersTheBudget) {
   // A reading without its Type A is named; --type-a with it is refused.
   readings[3].u_a_um.reset();
   readings[3].u_a_dof.reset();
-  EXPECT_THROW(with_reading_type_a(BudgetOptions{}, readings, "test"), InputError);
+  EXPECT_THROW(with_reading_type_a(BudgetOptions{}, readings, "test", "--type-a-readings"),
+               InputError);
   BudgetOptions both;
   both.type_a = true;
-  EXPECT_THROW(with_reading_type_a(both, readings, "test"), InputError);
+  EXPECT_THROW(with_reading_type_a(both, readings, "test", "--type-a-readings"), InputError);
 }
 
 // simulate --trace-out writes a trace per installation; readings turns them back into the
 // readings simulate wrote (within 0.05 um); identify reads them.
 TEST(TraceCommandLine, FromSimulatedTracesToIdentify) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("dbbkit_trace_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir / "traces");
+  const fs::path dir = fresh_dir("dbbkit_trace", "traces");
   const std::string D = test::source_path("designs/paper-c-turntable.json");
-  const std::string truth = test::source_path("tests/data/truth_c_per_angle.json");
   const std::string cd = "cd " + dir.string() + " && " + DBBKIT_CLI + " ";
-  CliRun r = run_cli_shell(cd + "simulate --design " + D + " --truth " + truth +
-                           " --seed 4 --out sim.csv --trace-out traces/");
+  CliRun r = simulate_paper_traces(dir, "traces/");
   ASSERT_EQ(r.status, 0) << r.err;
   std::string cmd = "readings --design " + D + " --out m.csv";
   for (const char* id : {"1r", "1t", "1a", "2r", "2t", "2a", "3r", "3t", "3a"}) {
@@ -684,14 +705,9 @@ TEST(TraceCommandLine, SimulatedTracesReadAsTheirCommentsSay) {
 // installation and the reading, not an index.
 TEST(TraceCommandLine, NegativeTimesAndAStartThatMendsThem) {
   namespace fs = std::filesystem;
-  const fs::path dir =
-      fs::temp_directory_path() / ("dbbkit_trace_negative_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = fresh_dir("dbbkit_trace_negative");
   const Design d = test::paper_design('C');
-  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
-  const SimulatedTrace sim = simulate_trace(stops, std::vector<double>(stops.size(), 1.0), {});
-  Trace t = sim.trace;
+  Trace t = level_trace(d, 1.0).trace;
   for (double& x : t.time_s) x -= 100;
   {
     std::ofstream out(dir / "1r.csv");
@@ -717,15 +733,10 @@ TEST(TraceCommandLine, NegativeTimesAndAStartThatMendsThem) {
 // may be (100 kHz, 600 s dwells: about 1e9 samples): refused before anything is read or made.
 TEST(TraceCommandLine, OneFileTwoInstallationsAndTracesTooLarge) {
   namespace fs = std::filesystem;
-  const fs::path dir =
-      fs::temp_directory_path() / ("dbbkit_trace_bounds_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir / "tr");
+  const fs::path dir = fresh_dir("dbbkit_trace_bounds", "tr");
   const std::string D = test::source_path("designs/paper-c-turntable.json");
   const std::string cd = "cd " + dir.string() + " && ";
-  CliRun r = run_cli_shell(cd + DBBKIT_CLI + " simulate --design " + D + " --truth " +
-                           test::source_path("tests/data/truth_c_per_angle.json") +
-                           " --seed 4 --out sim.csv --trace-out tr/");
+  CliRun r = simulate_paper_traces(dir, "tr/");
   ASSERT_EQ(r.status, 0) << r.err;
   r = run_cli_shell(cd + DBBKIT_CLI + " readings --design " + D +
                     " --trace 1r=tr/1r.csv --trace 1t=./tr/1r.csv --out -");
@@ -743,6 +754,69 @@ TEST(TraceCommandLine, OneFileTwoInstallationsAndTracesTooLarge) {
   EXPECT_FALSE(fs::exists(dir / "big.csv"));
   EXPECT_FALSE(fs::exists(dir / "big_1r.csv"));
   fs::remove_all(dir);
+}
+
+// What the caller got wrong is named as the caller's: an id that is no installation names
+// --trace and lists the design's (it used to blame the file); a mm column of um readings names
+// the line, the column and the unit (it said "reading 0 ... beyond range"); times in
+// milliseconds from the start say so (they gave "found 145 dwells"); a rate given for a column
+// of seconds is two clocks (it said "too short").
+TEST(TraceCommandLine, WhatTheCallerGotWrongIsNamedAsTheCallers) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fresh_dir("dbbkit_trace_named");
+  const Design d = test::paper_design('C');
+  const SimulatedTrace sim = level_trace(d, 5.0);
+  std::ostringstream text;
+  io::write_trace_csv(text, sim.trace, {"a comment"});
+  std::string mm = text.str();
+  mm.replace(mm.find("reading_um"), 10, "reading_mm");
+  {
+    std::ofstream(dir / "1r.csv") << text.str();
+    std::ofstream(dir / "1r_mm.csv") << mm;
+  }
+  const std::string cd = "cd " + dir.string() + " && " + DBBKIT_CLI + " readings --design " +
+                         test::source_path("designs/paper-c-turntable.json") + " --out - ";
+  CliRun r = run_cli_shell(cd + "--trace 1R=1r.csv");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--trace: '1R': no installation of the design has this id (ids are "
+                       "case-sensitive: '1r'?); its installations: 1r, 1t, 1a, 2r"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("1r.csv"), std::string::npos) << r.err;
+  r = run_cli_shell(cd + "--trace 1r=1r_mm.csv");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("1r_mm.csv: line "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(", column 'reading_mm': installation 1r, dwell 1 at 0 deg"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find(" mm is beyond the instrument's range of +-1 mm"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("are the readings in um? (a column reading_um, or --unit um)"),
+            std::string::npos)
+      << r.err;
+  r = run_cli_shell(cd + "--trace 1r=1r.csv --sample-rate-hz 1000");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("the column time_s holds seconds, and --sample-rate-hz would read it as a "
+                       "sample index: one clock, not two"),
+            std::string::npos)
+      << r.err;
+  fs::remove_all(dir);
+  // Milliseconds from the start read as seconds.
+  Trace ms = sim.trace;
+  for (double& t : ms.time_s) t *= 1000;
+  std::string m = refusal([&] { readings_from_trace(d, "1r", ms, {Sweep::kCCW}, {}, "1r.csv"); });
+  EXPECT_NE(m.find("the times look like milliseconds (a sample every 1 ms is 1000 Hz)"),
+            std::string::npos)
+      << m;
+  EXPECT_NE(m.find("longer than a dwell of 2 s (--dwell-s)"), std::string::npos) << m;
+  // A sample index that is no whole number: seconds, with a rate.
+  io::TraceFormat f;
+  io::parse_trace_columns("time=t", f);
+  f.sample_rate_hz = 1000;
+  m = refusal([&] { parse("t,reading_um\n0,1\n0.001,2\n", f); });
+  EXPECT_NE(m.find("line 3, column 't': '0.001' is no sample index (a whole number)"),
+            std::string::npos)
+      << m;
 }
 
 // One clock or several: an installation measured again at the end of the test is a run of its

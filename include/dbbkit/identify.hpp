@@ -168,10 +168,11 @@ std::vector<Unidentifiable> describe_null_space(const Design& design, const Para
 
 // Readings must have been validated against the design (validate_readings).
 // `options` with each reading's Type A (Reading::u_a_um, u_a_dof) as BudgetOptions'
-// per-reading repeatability. Throws InputError(source, the reading) when one has none, and when
-// options.type_a is set too.
+// per-reading repeatability, as `option` asks (the caller's name of it). Throws
+// InputError(source, the reading) when one has none (`source`: the readings' file), and
+// InputError(option) when options.type_a is set too.
 BudgetOptions with_reading_type_a(BudgetOptions options, const std::vector<Reading>& readings,
-                                  const std::string& source);
+                                  const std::string& source, const std::string& option);
 
 IdentifyResult identify(const Design& design, const std::vector<Reading>& readings,
                         const IdentifyOptions& options = {});

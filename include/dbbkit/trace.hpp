@@ -31,6 +31,14 @@ namespace dbbkit {
 struct Trace {
   std::vector<double> time_s;
   std::vector<double> reading_um;
+  // Where they were read, for a message that names a line (empty when the samples did not come
+  // from a file): the reading column's name and unit ("um", "mm"), and the line of the first
+  // sample of each run of samples on consecutive lines (the most runs kept: kMaxLineRuns).
+  std::string reading_column, reading_unit;
+  std::vector<std::pair<std::size_t, long>> line_runs;
+  static constexpr std::size_t kMaxLineRuns = 100000;
+  // The line of sample i (from 0), or 0 when it is not known.
+  long line_of(std::size_t i) const;
 };
 
 struct DwellOptions {
@@ -90,11 +98,17 @@ struct TraceReadings {
   std::vector<Warning> warnings;  // plateaus of abnormal scatter or length
 };
 
+// Throws InputError(option_name("--trace"), the id) when `installation` is no installation of
+// the design, listing its ids (and the one it may be, written in another case).
+void check_trace_installation(const Design& design, const std::string& installation);
+
 // The readings of installation `installation` (its id) from its trace. A stop of several
 // readings is split into equal consecutive parts of its settled plateau. Throws InputError
 // naming the installation, both counts and the times of the plateaus found when the plateaus
 // are not as many as the stops, and when the trace does not begin still (the recording started
-// during a move: its first stop's dwell missing, a last one after the program's stops).
+// during a move: its first stop's dwell missing, a last one after the program's stops); and
+// InputError(source, the line and column, or the sample) for a reading beyond the instrument's
+// range (the unit of the reading column named as the likely cause).
 TraceReadings readings_from_trace(const Design& design, const std::string& installation,
                                   const Trace& trace, const std::vector<Sweep>& sweeps,
                                   const DwellOptions& options, const std::string& source);

@@ -44,6 +44,19 @@ std::string quote_value(std::string_view text, std::size_t max_chars = 60);
 // message's own safety net (InputError passes its parts through it).
 std::string printable(std::string_view text, std::size_t max_bytes, bool keep_lines = false);
 
+// How a message names an option of the caller: as the command line spells it ("--dwell-s"),
+// or, once the Python module has said so when it is imported (its caller passes keyword
+// arguments), as that keyword ("dwell_s"). The library's messages name options through these.
+enum class OptionStyle { kCommandLine, kPython };
+void set_option_style(OptionStyle style);
+OptionStyle option_style();
+// "--dwell-s" as the caller knows it: "--dwell-s", or "dwell_s" (--start: start_s, --trace:
+// traces, as the Python module names them).
+std::string option_name(std::string_view command_line_name);
+// An option with one of the values dbbkit knows for it (not the caller's text): "--format isg",
+// or "format='isg'".
+std::string option_with_value(std::string_view command_line_name, std::string_view value);
+
 namespace internal {
 // One UTF-8 sequence at text[i]: its code point and length, or a length of 0 when the
 // bytes there are not a valid sequence.

@@ -49,6 +49,12 @@ Runner add_compensation(CLI::App& app) {
     io::CompensationOptions o;
     o.k = args->k;
     o.linuxcnc_kins = args->kins;
+    const io::CompensationFormat f = io::compensation_format(args->format, "--format");
+    {  // an option the format does not take, before its values are read
+      io::CompensationOptions given = o;
+      for (const std::string& c : args->current) given.current_mm.emplace(c, 0.0);
+      io::check_compensation_options(f, given);
+    }
     for (const std::string& c : args->current) {
       const std::size_t eq = c.find('=');
       if (eq == std::string::npos || eq == 0)
@@ -73,9 +79,6 @@ Runner add_compensation(CLI::App& app) {
       if (!o.current_mm.emplace(c.substr(0, eq), v).second)
         throw InputError("--current", "", quote_value(c.substr(0, eq)) + " is given twice");
     }
-    if (args->format != "linuxcnc" && (!args->kins.empty() || !args->current.empty()))
-      throw InputError("--kins", "", "--kins and --current are for --format linuxcnc");
-    const io::CompensationFormat f = io::compensation_format(args->format, "--format");
     outputs.stage("--out", io::compensation_text(result, f, o));
     outputs.commit();
     return 0;

@@ -73,7 +73,8 @@ Runner add_identify(CLI::App& app) {
       if (unc->monte_carlo)
         throw InputError("--type-a-readings", "",
                          "Monte Carlo draws the declared noise only: leave out --monte-carlo");
-      options.budget = with_reading_type_a(options.budget, readings, "--type-a-readings");
+      options.budget =
+          with_reading_type_a(options.budget, readings, args->data, "--type-a-readings");
     }
     options.iso_motion.seed = unc->mc.seed;
     const IdentifyResult result = identify(design, readings, options);

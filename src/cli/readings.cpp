@@ -118,6 +118,8 @@ Runner add_readings(CLI::App& app) {
     const std::vector<Sweep> sweeps = sweeps_by_name(args->sweeps, "--sweeps");
     io::OutputSet outputs(output_targets(args->out.empty() ? "-" : args->out, *rep), inputs);
     const Design design = io::read_design_file(args->design);
+    // Every id before any trace is read: an id that is none is the option's fault, not a file's.
+    for (const auto& [id, path] : traces) check_trace_installation(design, id);
     DwellOptions options;
     options.dwell_s = args->dwell_s;
     options.min_share = args->min_share;

@@ -153,25 +153,26 @@ std::string default_kins(const ResultFile& r, const CompensationOptions& o) {
   if (!o.linuxcnc_kins.empty()) {
     if (o.linuxcnc_kins != "xyzac-trt" && o.linuxcnc_kins != "xyzbc-trt")
       throw InputError(
-          "--kins", "",
+          option_name("--kins"), "",
           quote_value(o.linuxcnc_kins) + " is not a module written for (xyzac-trt, xyzbc-trt)");
     const char second = o.linuxcnc_kins == "xyzac-trt" ? 'A' : 'B';
     if (r.axis.letter() != 'C' && r.axis.letter() != second)
       throw InputError(
-          "--kins", "",
+          option_name("--kins"), "",
           o.linuxcnc_kins + "-kins has no " + std::string(1, r.axis.letter()) + " axis");
     return o.linuxcnc_kins;
   }
   if (r.axis.letter() == 'A') return "xyzac-trt";
   if (r.axis.letter() == 'B') return "xyzbc-trt";
-  throw InputError("--kins", "",
-                   "a C table is in both xyzac-trt-kins and xyzbc-trt-kins: say which (--kins "
-                   "xyzac-trt or --kins xyzbc-trt)");
+  throw InputError(option_name("--kins"), "",
+                   "a C table is in both xyzac-trt-kins and xyzbc-trt-kins: say which (" +
+                       option_with_value("--kins", "xyzac-trt") + " or " +
+                       option_with_value("--kins", "xyzbc-trt") + ")");
 }
 
 std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
   if (!r.axis.table())
-    throw InputError("--format", "",
+    throw InputError(option_name("--format"), "",
                      "LinuxCNC's trt kinematics modules describe tilting rotary tables; axis " +
                          std::string(1, r.axis.letter()) + " of this result carries the head");
   const std::string kins = default_kins(r, o);
@@ -181,7 +182,7 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
     bool known = false;
     for (const char* p : kPins) known = known || pin == p;
     if (!known)
-      throw InputError("--current", "",
+      throw InputError(option_name("--current"), "",
                        quote_value(pin) + " is not a position pin of " + kins +
                            "-kins (x-rot-point, y-rot-point, z-rot-point, "
                            "x-offset, y-offset, z-offset)");
@@ -228,7 +229,7 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
     if (given > 0 && given < change.size()) {
       std::string all;
       for (const auto& [pin, d] : change) all += (all.empty() ? "" : ", ") + pin;
-      throw InputError("--current", "",
+      throw InputError(option_name("--current"), "",
                        "give the current value of every pin the change moves (" + all +
                            "): some of them move together, and half of the change would move "
                            "the other rotary axis");
@@ -308,8 +309,31 @@ CompensationFormat compensation_format(const std::string& name, const std::strin
   throw InputError(source, "format", quote_value(name) + " (expected isg, linuxcnc or table)");
 }
 
+void check_compensation_options(CompensationFormat format, const CompensationOptions& options) {
+  if (format == CompensationFormat::kLinuxCnc) return;
+  const std::string name = format == CompensationFormat::kIsg ? "isg" : "table";
+  const std::string what =
+      format == CompensationFormat::kIsg
+          ? "writes the location errors themselves, as the ISG kernel adds them"
+          : "is a table of the location errors to enter by hand";
+  if (!options.current_mm.empty()) {
+    throw InputError(option_name("--current"), "",
+                     option_with_value("--format", name) + " " + what +
+                         ": it takes no current values; " + option_name("--current") +
+                         " gives the current values of LinuxCNC's position pins (" +
+                         option_with_value("--format", "linuxcnc") + ")");
+  }
+  if (!options.linuxcnc_kins.empty()) {
+    throw InputError(option_name("--kins"), "",
+                     option_with_value("--format", name) + " " + what + ": it takes no module; " +
+                         option_name("--kins") + " names LinuxCNC's kinematics module (" +
+                         option_with_value("--format", "linuxcnc") + ")");
+  }
+}
+
 std::string compensation_text(const ResultFile& result, CompensationFormat format,
                               const CompensationOptions& options) {
+  check_compensation_options(format, options);
   switch (format) {
     case CompensationFormat::kIsg:
       return isg(result, options);

@@ -32,6 +32,7 @@ std::vector<double> read_angles(ObjectReader& top) {
     return angles;
   }
   ObjectReader grid(v, top.source(), path);
+  grid.allow({"start", "stop", "step"});
   const double start = grid.number("start"), stop = grid.number("stop"), step = grid.number("step");
   grid.finish();
   if (step == 0.0) grid.fail("step", "must not be 0");
@@ -54,8 +55,8 @@ Direction read_direction(const json& v, const AxisFrame& axis, const std::string
     if (s == "tangential") return Direction::named(axis, Direction::Kind::kTangential);
     if (s == "axial") return Direction::named(axis, Direction::Kind::kAxial);
     throw InputError(source, path,
-                     "unknown direction '" + s +
-                         "' (expected radial, tangential, axial or a unit vector [x, y, z])");
+                     "unknown direction " + quote_value(s) +
+                         " (expected radial, tangential, axial or a unit vector [x, y, z])");
   }
   if (v.is_array() && v.size() == 3) {
     Eigen::Vector3d u;
@@ -74,10 +75,21 @@ Direction read_direction(const json& v, const AxisFrame& axis, const std::string
 }  // namespace
 
 std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
-  const std::string dist = noise.optional_string("distribution").value_or("uniform");
+  noise.allow({"distribution", "accuracy_um", "std_um"});
+  const std::optional<std::string> given = noise.optional_string("distribution");
+  const std::string dist = given.value_or("uniform");
   NoiseModel m;
   if (dist == "uniform") {
     m.distribution = NoiseModel::Distribution::kUniform;
+    // Each distribution has its own key: the one of the other is no typo to guess at.
+    if (noise.has("std_um")) {
+      noise.fail("std_um",
+                 "std_um belongs to the normal distribution (its standard deviation); the "
+                 "uniform distribution" +
+                     std::string(given ? "" : " (the default without \"distribution\")") +
+                     " is declared by its half-width accuracy_um: give accuracy_um, or "
+                     "\"distribution\": \"normal\" with std_um");
+    }
     m.half_width_um = noise.number("accuracy_um");
     if (!(m.half_width_um > 0))
       noise.fail("accuracy_um",
@@ -85,9 +97,10 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
   } else if (dist == "normal") {
     m.distribution = NoiseModel::Distribution::kNormal;
     if (noise.has("accuracy_um")) {
-      noise.fail(
-          "accuracy_um",
-          "a normal distribution is declared by its standard deviation std_um, not by an accuracy");
+      noise.fail("accuracy_um",
+                 "accuracy_um belongs to the uniform distribution (its half-width); the normal "
+                 "distribution is declared by its standard deviation std_um: give std_um, or "
+                 "\"distribution\": \"uniform\" with accuracy_um");
     }
     m.std_um = noise.number("std_um");
     if (!(m.std_um > 0))
@@ -96,7 +109,8 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
     noise.finish();
     return std::nullopt;
   } else {
-    noise.fail("distribution", "unknown distribution '" + dist + "' (expected uniform or normal" +
+    noise.fail("distribution", "unknown distribution " + quote_value(dist) +
+                                   " (expected uniform or normal" +
                                    std::string(allow_none ? " or none)" : ")"));
   }
   noise.finish();
@@ -222,7 +236,8 @@ ErrorModel read_error_model(ObjectReader errors) {
     m.order = errors.integer("order");
     if (m.order < 0) errors.fail("order", "must be >= 0");
   } else {
-    errors.fail("model", "unknown model '" + model + "' (expected per_angle, fourier or legendre)");
+    errors.fail("model", "unknown model " + quote_value(model) +
+                             " (expected per_angle, fourier or legendre)");
   }
   errors.finish();
   return m;
@@ -366,6 +381,7 @@ Design design_from_json(const json& j, const std::string& source, const std::str
     Installation inst;
     inst.id = in.string("id");
     ObjectReader ball = in.object("ball_mm");
+    ball.allow({"L", "D", "H"});
     inst.L_mm = ball.number("L");
     inst.D_mm = ball.optional_number("D").value_or(0.0);
     if (d.axis.table()) {

@@ -121,20 +121,36 @@ std::string type_name(const json& v) {
   return "a value of another type";
 }
 
-// Levenshtein distance, for pointing at a misspelt key.
+// The optimal string alignment distance (Levenshtein's with a swap of two neighbours as one
+// edit: 'stpo' is one from 'stop'), for pointing at a misspelt key.
 std::size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
   for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
     for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = up;
+      d[i][j] = std::min(
+          {d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
     }
   }
-  return row[b.size()];
+  return d[a.size()][b.size()];
+}
+
+// Whether `given` may be `key` misspelt: the same but for case, or within one edit of a key of
+// up to five characters, two of a longer one. Keys of one or two characters (L, H, dx, ez) are
+// all within two edits of each other: only a change of case is taken for them.
+bool misspelling_of(const std::string& given, const std::string& key) {
+  if (given == key) return false;
+  if (given.size() == key.size() &&
+      std::equal(given.begin(), given.end(), key.begin(), [](char x, char y) {
+        return std::tolower(static_cast<unsigned char>(x)) ==
+               std::tolower(static_cast<unsigned char>(y));
+      }))
+    return true;
+  if (key.size() <= 2 || given.size() > 2 * key.size() + 2) return false;
+  return edit_distance(given, key) <= (key.size() <= 5 ? 1u : 2u);
 }
 
 }  // namespace
@@ -325,7 +341,7 @@ json parse_json(const std::string& text, const std::string& source) {
   if (checker.duplicate_token) {
     throw InputError(source,
                      line_column(text, key_token_position(text, *checker.duplicate_token)) +
-                         ", key '" + checker.duplicate_path + "'",
+                         ", key " + quote_value(checker.duplicate_path, 200),
                      "the key appears twice in one object");
   }
   return j;
@@ -349,12 +365,20 @@ void ObjectReader::fail(const std::string& key, const std::string& what) const {
 
 bool ObjectReader::has(const std::string& key) const { return value_.contains(key); }
 
+ObjectReader& ObjectReader::allow(std::initializer_list<const char*> keys) {
+  for (const char* k : keys) allowed_.insert(k);
+  return *this;
+}
+
 const json& ObjectReader::required(const std::string& key) {
+  asked_.insert(key);
   if (!value_.contains(key)) {
+    // A key of the object that is no key it may hold (declared, or asked for so far) and is
+    // close to the one missing.
     for (auto it = value_.begin(); it != value_.end(); ++it) {
-      if (edit_distance(it.key(), key) <= 2) {
-        fail(key, "required key is missing (is '" + it.key() + "' a misspelling of it?)");
-      }
+      if (!asked_.count(it.key()) && !allowed_.count(it.key()) && misspelling_of(it.key(), key))
+        fail(key,
+             "required key is missing (is " + quote_value(it.key()) + " a misspelling of it?)");
     }
     fail(key, "required key is missing");
   }
@@ -363,6 +387,7 @@ const json& ObjectReader::required(const std::string& key) {
 }
 
 const json* ObjectReader::optional(const std::string& key) {
+  asked_.insert(key);
   if (!value_.contains(key)) return nullptr;
   used_.insert(key);
   return &value_.at(key);
@@ -404,7 +429,15 @@ ObjectReader ObjectReader::object(const std::string& key) {
 
 void ObjectReader::finish() const {
   for (auto it = value_.begin(); it != value_.end(); ++it) {
-    if (!used_.count(it.key())) fail(it.key(), "unknown key (misspelt?)");
+    if (used_.count(it.key())) continue;
+    // The key it may stand for: one the object may hold and does not.
+    std::set<std::string> absent = allowed_;
+    absent.insert(asked_.begin(), asked_.end());
+    for (const std::string& k : absent) {
+      if (!value_.contains(k) && misspelling_of(it.key(), k))
+        fail(it.key(), "unknown key (a misspelling of " + quote_value(k) + "?)");
+    }
+    fail(it.key(), "unknown key (misspelt?)");
   }
 }
 

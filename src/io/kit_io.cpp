@@ -71,8 +71,9 @@ PatternPosition read_position(ObjectReader r) {
     } else if (d == "axial") {
       p.directions.push_back(Direction::Kind::kAxial);
     } else {
-      throw InputError(r.source(), path,
-                       "unknown direction '" + d + "' (expected radial, tangential or axial)");
+      throw InputError(
+          r.source(), path,
+          "unknown direction " + quote_value(d) + " (expected radial, tangential or axial)");
     }
   }
   p.separated = read_flag(r, "separated", true);
@@ -95,9 +96,9 @@ Pattern read_pattern(ObjectReader& top, const AxisFrame& axis, TableCarriage car
           "{\"extends\": \"three_position\", \"positions\": [...optional positions...]} (README, "
           "Kit file)");
     }
-    throw InputError(
-        source, key,
-        "unknown pattern '" + name + "' (expected \"three_position\" or a pattern object)");
+    throw InputError(source, key,
+                     "unknown pattern " + quote_value(name) +
+                         " (expected \"three_position\" or a pattern object)");
   };
   if (v.is_string()) return named(v.get<std::string>(), "pattern");
   ObjectReader r = top.object("pattern");

@@ -97,6 +97,16 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
     if (line_no == 1 && raw.size() >= 3 && raw.compare(0, 3, "\xEF\xBB\xBF") == 0) raw.erase(0, 3);
     if (trim(raw).empty()) continue;  // blank lines carry nothing
     const std::string where = "line " + std::to_string(line_no);
+    if (header.empty()) {
+      // A JSON file given as the data (a design, a result): its first character says so.
+      const char first = trim(raw)[0];
+      if (first == '{' || first == '[') {
+        throw InputError(source, where,
+                         "this looks like JSON, not a CSV measurement file (a header row such as "
+                         "installation,angle_deg,reading_mm, then one reading a row; "
+                         "docs/formats.md): is a design or a result given as the data?");
+      }
+    }
     if (raw.find('"') != std::string::npos) {
       throw InputError(source, where,
                        "quoted fields are not supported (ids and numbers need no quotes)");
@@ -109,6 +119,17 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
         bool known = false;
         for (const auto& k : kKnownColumns) known = known || k == h;
         if (!known) {
+          // Another delimiter (a spreadsheet's export in a locale whose lists use ';'): one
+          // column named by the whole header.
+          for (const auto& [c, name] : {std::pair<char, const char*>{';', "';'"}, {'\t', "tabs"}}) {
+            if (h.find(c) != std::string::npos) {
+              throw InputError(source, where,
+                               std::string("the delimiter is ','; this header uses ") + name +
+                                   " (" + quote_value(h) +
+                                   "): write the file comma-separated, with '.' as the decimal "
+                                   "point");
+            }
+          }
           throw InputError(
               source, where,
               "unknown column " + quote_value(h) +

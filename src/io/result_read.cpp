@@ -264,11 +264,13 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
     r.setup_included = j["setup"]["included"].get<bool>();
   if (iso.contains("uncertainty") && iso["uncertainty"].is_string())
     r.uncertainty_note = iso["uncertainty"].get<std::string>();
-  if (iso.contains("location_covariance")) {
+  // The covariance of the five location errors (a list of another length leaves it unread: chain
+  // refuses such a result by its location list).
+  if (iso.contains("location_covariance") && r.location.size() == 5) {
     const std::string path = "iso230.location_covariance";
     const json& m = list_of(member(iso["location_covariance"], "matrix", source, path), source,
                             path + ".matrix");
-    if (m.size() != 5 || r.location.size() != 5)
+    if (m.size() != 5)
       throw InputError(source, path + ".matrix", "expected 5 rows, one per location error");
     Eigen::Matrix<double, 5, 5> c;
     for (int i = 0; i < 5; ++i) {

@@ -9,6 +9,7 @@
 
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/machine.hpp"
 #include "report_sections.hpp"
 
 namespace dbbkit::io {
@@ -147,7 +148,7 @@ std::string instructions(const SetupSheet& sheet, int k) {
     t = axis.table()
             ? "Place the cup" + cup_on(in) + " with the ball at " + sheet_ball_text(axis, in) +
                   " mm (table coordinates at " + std::string(1, axis.letter()) + " " +
-                  mm(ip.sweeps.front().positions.front().angle_deg) + " deg)."
+                  mm(ip.placement_angle_deg) + " deg)."
             : "Set the ball at " + sheet_ball_text(axis, in) + " mm (head coordinates).";
   } else if (s.moves_cup && axis.head()) {
     t = "Move the ball to " + sheet_ball_text(axis, in) + " mm (tool cup and holder).";
@@ -485,6 +486,26 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
       mm(*std::max_element(d.angles_deg.begin(), d.angles_deg.end())) +
       " deg: " + std::to_string(pr.readings) + " readings. " + time_text(sheet, kit_file);
   w.paragraph(intro);
+  if (d.machine) {
+    // The machine the axis belongs to: the other axes parked, the preset from its kinematics.
+    const Machine& m = *d.machine->machine;
+    std::string parks;
+    const std::vector<double> a = d.machine->park_angles();
+    for (std::size_t k = 0; k < m.rotary.size(); ++k)
+      if (static_cast<int>(k) != d.machine->axis)
+        parks += (parks.empty() ? "" : ", ") + std::string(1, m.rotary[k].letter) + " at " +
+                 mm(a[k]) + " deg";
+    const Eigen::Vector3d o = d.machine->origin_mm();
+    w.paragraph("Machine " + m.name + " (controller " + controller_name(m.controller) + "): axis " +
+                std::string(1, d.axis.letter()) + " is measured" +
+                (parks.empty() ? "" : " with " + parks + " (parked: the program commands it)") +
+                ". The work frame's origin (the preset) is the axis' nominal point X " + mm(o.x()) +
+                ", Y " + mm(o.y()) + ", Z " + mm(o.z()) +
+                " mm in the machine frame: set it from the controller's kinematics table, never "
+                "by teaching it on the real axis (the location errors are the real axis line "
+                "minus this one). Each cup is placed with the axis at " +
+                mm(a[static_cast<std::size_t>(d.machine->axis)]) + " deg, then turned.");
+  }
   w.paragraph(
       "The program (dbbkit program) reaches and leaves every installation from the "
       "clearance plane Z " +

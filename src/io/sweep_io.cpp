@@ -19,7 +19,8 @@ constexpr double kMaxSweepValues = 10000;
 double parse_number(const std::string& text, const std::string& spec) {
   double x = 0;
   if (!parse_decimal(text, x))
-    throw InputError("--sweep", spec, quote_value(text) + " is not a finite decimal number");
+    throw InputError("--sweep", quote_value(spec),
+                     quote_value(text) + " is not a finite decimal number");
   return x;
 }
 
@@ -28,15 +29,16 @@ double parse_number(const std::string& text, const std::string& spec) {
 SweepVariable parse_sweep(const Design& design, const std::string& spec) {
   const auto eq = spec.find('=');
   if (eq == std::string::npos)
-    throw InputError("--sweep", spec, "expected NAME=start:stop:step, e.g. L2=40:250:10");
+    throw InputError("--sweep", quote_value(spec),
+                     "expected NAME=start:stop:step, e.g. L2=40:250:10");
   SweepVariable v;
   v.name = spec.substr(0, eq);
   if (v.name.empty() || std::string("LDH").find(v.name[0]) == std::string::npos) {
-    throw InputError("--sweep", spec, "the name must start with L, D or H");
+    throw InputError("--sweep", quote_value(spec), "the name must start with L, D or H");
   }
   v.coord = v.name[0] == 'L' ? 0 : v.name[0] == 'D' ? 1 : 2;
   if (v.coord == 2 && !design.axis.has_H())
-    throw InputError("--sweep", spec, "H is not used for the swinging head B");
+    throw InputError("--sweep", quote_value(spec), "H is not used for the swinging head B");
   std::string rest = v.name.substr(1);
   if (!rest.empty() && rest[0] == '@') {
     std::istringstream ids(rest.substr(1));
@@ -44,7 +46,8 @@ SweepVariable parse_sweep(const Design& design, const std::string& spec) {
     while (std::getline(ids, id, ',')) {
       const int i = design.find_installation(id);
       if (i < 0)
-        throw InputError("--sweep", spec, "installation '" + id + "' is not in the design");
+        throw InputError("--sweep", quote_value(spec),
+                         "installation " + quote_value(id) + " is not in the design");
       v.installations.push_back(i);
     }
   } else {
@@ -54,19 +57,21 @@ SweepVariable parse_sweep(const Design& design, const std::string& spec) {
     }
   }
   if (v.installations.empty())
-    throw InputError("--sweep", spec, "no installation of the design matches '" + rest + "'");
+    throw InputError("--sweep", quote_value(spec),
+                     "no installation of the design matches " + quote_value(rest));
 
   std::vector<std::string> parts;
   std::istringstream range(spec.substr(eq + 1));
   std::string part;
   while (std::getline(range, part, ':')) parts.push_back(part);
-  if (parts.size() != 3) throw InputError("--sweep", spec, "expected start:stop:step");
+  if (parts.size() != 3) throw InputError("--sweep", quote_value(spec), "expected start:stop:step");
   const double start = parse_number(parts[0], spec), stop = parse_number(parts[1], spec),
                step = parse_number(parts[2], spec);
   if (!(step > 0) || stop < start)
-    throw InputError("--sweep", spec, "needs step > 0 and stop >= start");
+    throw InputError("--sweep", quote_value(spec), "needs step > 0 and stop >= start");
   const double n = std::floor((stop - start) / step + 1e-9);
-  if (n + 1 > kMaxSweepValues) throw InputError("--sweep", spec, "more than 10000 values");
+  if (n + 1 > kMaxSweepValues)
+    throw InputError("--sweep", quote_value(spec), "more than 10000 values");
   for (long i = 0; i <= static_cast<long>(n); ++i)
     v.values.push_back(start + static_cast<double>(i) * step);
   return v;

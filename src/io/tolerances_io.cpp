@@ -68,12 +68,12 @@ std::vector<Tolerance> tolerances_from_json(const json& j, const std::string& so
     }
     for (const Tolerance& o : out) {
       if (o.quantity == t.quantity)
-        r.fail("quantity", "'" + t.quantity + "' has a limit already (" + o.where + ")");
+        r.fail("quantity", quote_value(t.quantity) + " has a limit already (" + o.where + ")");
     }
     const std::string unit = r.string("unit");
     double factor = 1.0;
     if (!unit_of(unit, t.unit, factor))
-      r.fail("unit", "unknown unit '" + unit + "' (um, mm, urad, mrad or arcsec)");
+      r.fail("unit", "unknown unit " + quote_value(unit) + " (um, mm, urad, mrad or arcsec)");
     const std::optional<double> max_abs = r.optional_number("max_abs");
     const std::optional<double> lower = r.optional_number("lower");
     const std::optional<double> upper = r.optional_number("upper");

@@ -132,31 +132,31 @@ void parse_trace_columns(const std::string& text, TraceFormat& format) {
     const std::string key(trim(p.substr(0, eq)));
     const std::string value(eq == std::string_view::npos ? "" : trim(p.substr(eq + 1)));
     if (eq == std::string_view::npos || value.empty() || (key != "time" && key != "reading")) {
-      throw InputError("--columns", quote_value(std::string(p)),
+      throw InputError(option_name("--columns"), quote_value(std::string(p)),
                        "expected time=NAME and/or reading=NAME, comma-separated");
     }
     std::string& column = key == "time" ? format.time_column : format.reading_column;
     if ((key == "time" && seen_time) || (key == "reading" && seen_reading))
-      throw InputError("--columns", key, "given twice");
+      throw InputError(option_name("--columns"), key, "given twice");
     (key == "time" ? seen_time : seen_reading) = true;
     column = value;
   }
   if (format.time_column == format.reading_column)
-    throw InputError("--columns", "", "the time and the reading are one column");
+    throw InputError(option_name("--columns"), "", "the time and the reading are one column");
 }
 
 Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string& source) {
   if (!format.unit.empty() && format.unit != "um" && format.unit != "mm")
-    throw InputError("--unit", "",
+    throw InputError(option_name("--unit"), "",
                      quote_value(format.unit) + " is not a unit of a reading: um or mm");
   if (!format.reading_column.empty() && format.unit.empty()) {
     throw InputError(
-        "--unit", "",
+        option_name("--unit"), "",
         "the reading column " + quote_value(format.reading_column) + " needs its unit: um or mm");
   }
   if (format.sample_rate_hz && !(*format.sample_rate_hz >= limits::kMinTraceSampleRate_hz &&
                                  *format.sample_rate_hz <= limits::kMaxTraceSampleRate_hz)) {
-    throw InputError("--sample-rate-hz", "",
+    throw InputError(option_name("--sample-rate-hz"), "",
                      number_text(*format.sample_rate_hz) + " Hz: must lie in [" +
                          number_text(limits::kMinTraceSampleRate_hz) + ", " +
                          number_text(limits::kMaxTraceSampleRate_hz) + "] Hz");
@@ -165,7 +165,7 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
   std::string raw;
   std::vector<std::string_view> fields;
   Lines lines(in, source);
-  long line_no = 0;
+  long line_no = 0, last_line = 0;
   char delimiter = 0;
   bool decimal_comma = false;
   int time_col = -1, reading_col = -1;
@@ -214,19 +214,36 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
             "no reading column (" +
                 (format.reading_column.empty() ? std::string("reading_um or reading_mm")
                                                : quote_value(format.reading_column)) +
-                ") among " + names + "; name another with --columns reading=NAME and --unit um|mm");
+                ") among " + names + "; name another with " +
+                option_with_value("--columns", "reading=NAME") + " and " +
+                option_with_value("--unit", "um|mm"));
       }
       if (time_col < 0 && format.sample_rate_hz && format.time_column != "time_s") {
         throw InputError(source, where,
                          "no time column " + quote_value(format.time_column) + " among " + names +
-                             " (--columns time=...); without it, give --sample-rate-hz alone "
-                             "and the rows are counted");
+                             " (" + option_with_value("--columns", "time=...") +
+                             "); without it, give " + option_name("--sample-rate-hz") +
+                             " alone and the rows are counted");
       }
       if (time_col < 0 && !format.sample_rate_hz) {
         throw InputError(source, where,
                          "no time column " + quote_value(format.time_column) + " among " + names +
-                             "; name it with --columns time=NAME, or give --sample-rate-hz");
+                             "; name it with " + option_with_value("--columns", "time=NAME") +
+                             ", or give " + option_name("--sample-rate-hz"));
       }
+      // Two clocks: a column of seconds by its name, and a rate that would read it as a sample
+      // index (the seconds divided by the rate once more).
+      if (time_col >= 0 && format.sample_rate_hz && format.time_column == "time_s") {
+        throw InputError(source, where,
+                         "the column time_s holds seconds, and " + option_name("--sample-rate-hz") +
+                             " would read it as a sample index: one clock, not two. Leave out " +
+                             option_name("--sample-rate-hz") +
+                             " (the seconds of time_s are the clock), or name a sample index "
+                             "column with " +
+                             option_with_value("--columns", "time=NAME"));
+      }
+      trace.reading_column = std::string(fields[static_cast<std::size_t>(reading_col)]);
+      trace.reading_unit = factor == 1.0 ? "um" : "mm";
       continue;
     }
     split(t, delimiter, fields);
@@ -247,7 +264,18 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
                          quote_value(std::string(fields[static_cast<std::size_t>(time_col)])) +
                              " is not a time");
       }
-      if (format.sample_rate_hz) time /= *format.sample_rate_hz;
+      if (format.sample_rate_hz) {
+        // A sample index counts samples: a fraction is a time in seconds, not an index.
+        if (time != std::floor(time)) {
+          throw InputError(
+              source, where + ", column " + quote_value(format.time_column),
+              quote_value(std::string(fields[static_cast<std::size_t>(time_col)])) +
+                  " is no sample index (a whole number), which " + option_name("--sample-rate-hz") +
+                  " makes of the time column: is it a time in seconds? Then leave out " +
+                  option_name("--sample-rate-hz"));
+        }
+        time /= *format.sample_rate_hz;
+      }
       if (!std::isfinite(time)) {
         throw InputError(source, where,
                          quote_value(std::string(fields[static_cast<std::size_t>(time_col)])) +
@@ -262,7 +290,7 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
           "the reading " + quote_value(std::string(fields[static_cast<std::size_t>(reading_col)])) +
               (factor == 1.0 ? " um" : " mm") + " is beyond the limit of a reading (+-" +
               number_text(limits::kMaxTraceReading_um) +
-              " um, README \"Limits\"); check the unit (--unit)");
+              " um, README \"Limits\"); check the unit (" + option_name("--unit") + ")");
     }
     if (!trace.time_s.empty() && !(time > trace.time_s.back())) {
       throw InputError(source, where,
@@ -274,6 +302,13 @@ Trace parse_trace(std::istream& in, const TraceFormat& format, const std::string
                        "more than " + std::to_string(kMaxTraceSamples) +
                            " samples, the most one trace may hold (docs/formats.md, \"Limits\")");
     }
+    // A new run of lines; the last run kept holds line 0 (not known from there on).
+    if ((trace.line_runs.empty() || line_no != last_line + 1) &&
+        (trace.line_runs.empty() || trace.line_runs.back().second != 0)) {
+      trace.line_runs.emplace_back(trace.time_s.size(),
+                                   trace.line_runs.size() + 1 < Trace::kMaxLineRuns ? line_no : 0);
+    }
+    last_line = line_no;
     trace.time_s.push_back(time);
     trace.reading_um.push_back(factor * x);
     ++row;

@@ -24,6 +24,7 @@ void read_errors(ObjectReader& top, const std::string& source, Truth& t) {
       errors.fail("values", "expected a non-empty list of {angle_deg, dx, ..., ez}");
     for (size_t i = 0; i < values.size(); ++i) {
       ObjectReader v(values[i], source, "errors.values[" + std::to_string(i) + "]");
+      v.allow({"angle_deg", "dx", "dy", "dz", "ex", "ey", "ez"});
       Vector6d e;
       const double a = v.number("angle_deg");
       for (int k = 0; k < 6; ++k) e(k) = v.number(kErrorNames[k]);
@@ -43,6 +44,7 @@ void read_errors(ObjectReader& top, const std::string& source, Truth& t) {
         errors.fail("range_deg", "max must exceed min");
     }
     ObjectReader coeffs = errors.object("coefficients");
+    coeffs.allow({"dx", "dy", "dz", "ex", "ey", "ez"});
     for (int k = 0; k < 6; ++k) {
       const json& c = coeffs.required(kErrorNames[k]);
       const std::string path = coeffs.key_path(kErrorNames[k]);
@@ -53,7 +55,8 @@ void read_errors(ObjectReader& top, const std::string& source, Truth& t) {
     }
     coeffs.finish();
   } else {
-    errors.fail("model", "unknown model '" + model + "' (expected per_angle, fourier or legendre)");
+    errors.fail("model", "unknown model " + quote_value(model) +
+                             " (expected per_angle, fourier or legendre)");
   }
   errors.finish();
 }
@@ -163,7 +166,8 @@ Truth truth_from_json(const json& j, const std::string& source) {
       for (std::size_t k = 0; k < sw->size(); ++k) {
         const std::string x =
             as_string((*sw)[k], source, "schedule.sweeps[" + std::to_string(k) + "]");
-        if (x != "cw" && x != "ccw") o.fail("sweeps", "'" + x + "' is not a sweep (cw or ccw)");
+        if (x != "cw" && x != "ccw")
+          o.fail("sweeps", quote_value(x) + " is not a sweep (cw or ccw)");
         s.sweeps.push_back(x == "cw" ? Sweep::kCW : Sweep::kCCW);
       }
     }
@@ -172,7 +176,7 @@ Truth truth_from_json(const json& j, const std::string& source) {
   }
   if (const auto g = top.optional_string("geometry")) {
     if (*g != "first_order" && *g != "exact")
-      top.fail("geometry", "'" + *g + "' is not a geometry (first_order or exact)");
+      top.fail("geometry", quote_value(*g) + " is not a geometry (first_order or exact)");
     t.exact = *g == "exact";
   }
   t.bar_mm = top.optional_number("bar_mm");

@@ -5,6 +5,7 @@
 // Ctrl-C between choices and batches.
 
 #include <pybind11/eigen.h>
+#include <pybind11/eval.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -24,7 +25,9 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/identify.hpp"
+#include "dbbkit/io/chain_io.hpp"
 #include "dbbkit/io/compare_io.hpp"
+#include "dbbkit/io/machine_io.hpp"
 #include "dbbkit/io/compensation_io.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_io.hpp"
@@ -268,7 +271,20 @@ struct PyMeasurements {
   std::string source;
   bool from_file = false;
   bool from_text = false;  // CSV text: its errors name lines, as a file's do
+  // The design they were read against: its name, where it came from, and its content (a later
+  // check against another design says whose they are).
+  std::string design_name, design_source, design_json;
 };
+
+// The measurements of `design` (remembered for the check against another one).
+PyMeasurements measurements_of(const PyDesign& design, std::string source) {
+  PyMeasurements m;
+  m.source = std::move(source);
+  m.design_name = design.value.name;
+  m.design_source = design.source;
+  m.design_json = io::dump_json(io::design_to_json(design.value));
+  return m;
+}
 
 PyDesign make_design(py::handle source) {
   // A dict's relative machine path is relative to the working directory.
@@ -295,6 +311,21 @@ void validate_rows(const Design& design, const std::vector<Reading>& readings,
       throw InputError(source, "index " + std::to_string(line - 1), e.detail());
     }
     throw;
+  }
+}
+
+// Readings checked against `d`, which may not be the design they were read against (a design
+// edited since, or another one): where they do not fit it, the message says whose they are.
+void validate_against(const PyDesign& d, const PyMeasurements& m) {
+  try {
+    validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
+  } catch (const InputError& e) {
+    if (m.design_json.empty() || m.design_json == io::dump_json(io::design_to_json(d.value))) throw;
+    throw InputError(e.source(), e.where(),
+                     "these measurements were read against design " + quote_value(m.design_name) +
+                         " (" + quote_value(m.design_source, 200) + "), not design " +
+                         quote_value(d.value.name) + " (" + quote_value(d.source, 200) +
+                         "): " + e.detail());
   }
 }
 
@@ -375,8 +406,7 @@ PyMeasurements measurements_from_arrays(const PyDesign& d, py::object installati
   if (time_s) same_length("time_s", time_s->size());
   if (sweep) same_length("sweep", sweep->size());
   if (repeat) same_length("repeat", repeat->size());
-  PyMeasurements m;
-  m.source = "measurements";
+  PyMeasurements m = measurements_of(d, "measurements");
   m.readings.resize(n);
   for (size_t i = 0; i < n; ++i) {
     Reading& r = m.readings[i];
@@ -404,9 +434,8 @@ PyMeasurements measurements_from_arrays(const PyDesign& d, py::object installati
 
 // Readings from a CSV file or text, checked against the design.
 PyMeasurements measurements_from_file(const std::string& path, const PyDesign& d) {
-  PyMeasurements m;
+  PyMeasurements m = measurements_of(d, path);
   m.readings = io::read_measurement_file(path, d.value);
-  m.source = path;
   m.from_file = true;
   return m;
 }
@@ -458,7 +487,7 @@ std::string iframe(const std::string& html) {
 io::ReportFormat report_format(const std::string& format) {
   if (format == "html") return io::ReportFormat::kHtml;
   if (format == "markdown") return io::ReportFormat::kMarkdown;
-  throw InputError("argument", "format", "'" + format + "' (expected html or markdown)");
+  throw InputError("argument", "format", quote_value(format) + " (expected html or markdown)");
 }
 
 // ---------------------------------------------------------------- Monte Carlo
@@ -559,14 +588,17 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
   DwellOptions options;
   options.dwell_s = dwell_s;
   options.min_share = min_share;
-  PyMeasurements mm;
-  mm.source = "traces";
+  PyMeasurements mm = measurements_of(design, "traces");
   py::dict found;
   std::vector<Warning> warnings;
   std::vector<std::pair<std::string, std::string>> paths;  // installation, file
+  // Every id before any trace is read: an id that is none is the argument's fault, not a file's.
   for (const auto& [key, value] : traces) {
     if (!py::isinstance<py::str>(key))
       throw InputError("argument", "traces", "keys are installation ids (str)");
+    check_trace_installation(design.value, key.cast<std::string>());
+  }
+  for (const auto& [key, value] : traces) {
     const std::string id = key.cast<std::string>();
     Trace trace;
     std::string source = "traces[" + quote_value(id) + "]";
@@ -797,7 +829,8 @@ ProgramOptions py_program_options(const PyDesign& d, const std::string& sweeps, 
   check_finite_in("clearance_margin_mm", clearance_margin_mm, 1, 1000);
   ProgramOptions o;
   const auto named = program_sweeps_named(sweeps);
-  if (!named) throw InputError("argument", "sweeps", "'" + sweeps + "' (expected ccw, cw or both)");
+  if (!named)
+    throw InputError("argument", "sweeps", quote_value(sweeps) + " (expected ccw, cw or both)");
   o.sweeps = *named;
   o.dwell_s = dwell_s;
   o.feed_mm_per_min = feed_mm_min;
@@ -972,8 +1005,7 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
     }
   }
   MonteCarloOptions mc = mc_options(mc_seed, mc_threads, mc_max_trials, mc_batch, mc_digits);
-  // The design may not be the one they were read with.
-  validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
+  validate_against(d, m);
   PyIdentifyResult r;
   const PyTolerances tol = read_tolerances(d, tolerances);
   const std::vector<Tolerance>& tols = tol.tolerances;
@@ -991,7 +1023,7 @@ PyIdentifyResult run_identify(const PyDesign& d, const PyMeasurements& m, bool t
     options.budget.type_a = type_a;
     options.budget.coverage_probability = coverage;
     if (type_a_readings)
-      options.budget = with_reading_type_a(options.budget, m.readings, "type_a_readings");
+      options.budget = with_reading_type_a(options.budget, m.readings, m.source, "type_a_readings");
     options.iso_motion.seed = mc_seed;
     r.held = std::make_shared<const IdentifyResult>(identify(d.value, m.readings, options));
     if (monte_carlo) r.mc = dbbkit::monte_carlo(d.value, r.result(), mc);
@@ -1010,7 +1042,7 @@ PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double
                               int max_effects, bool exclude_gross, const py::object& tolerances) {
   check_finite_in("level", level, limits::kMinLevel, limits::kMaxLevel);
   check_integer_in("max_effects", max_effects, 0, limits::kMaxEffects);
-  validate_rows(d.value, m.readings, m.source, !m.from_file && !m.from_text);
+  validate_against(d, m);
   PyDiagnoseResult r;
   const PyTolerances tol = read_tolerances(d, tolerances);
   r.tolerance_files = tol.files;
@@ -1079,8 +1111,7 @@ PyMeasurements run_simulate(const PyDesign& d, py::handle truth,
   const std::optional<std::uint64_t> s = seed ? seed : t.seed;
   if (!s && !t.noiseless)
     throw InputError(source, "seed", "no seed: give seed= or \"seed\" in the truth");
-  PyMeasurements m;
-  m.source = "simulated";
+  PyMeasurements m = measurements_of(d, "simulated");
   {
     py::gil_scoped_release release;
     m.readings = dbbkit::simulate(d.value, t, s.value_or(0));
@@ -1125,6 +1156,57 @@ py::dict monte_carlo_arrays(const MonteCarloResult& mc) {
   return d;
 }
 
+// pybind11's TypeError for arguments it cannot convert lists every overload over several lines
+// and the repr of each argument given, at any length (a str of the caller's among them). Every
+// function and method of the module raises it as one line instead: the signature, and the types
+// given (never their values), cut at 1000 characters.
+constexpr const char* kOneLineTypeErrors = R"py(
+def _one_line_type_errors():
+    import functools
+
+    def shown(text, most):
+        text = repr(str(text))[1:-1]
+        return text if len(text) <= most else text[:most] + "... (cut)"
+
+    def wrap(f):
+        @functools.wraps(f)
+        def call(*args, **kwargs):
+            try:
+                return f(*args, **kwargs)
+            except TypeError as e:
+                text = str(e)
+                if "incompatible function arguments" not in text and \
+                        "incompatible constructor arguments" not in text:
+                    raise
+                name = text.split("(", 1)[0]
+                takes = " ".join(l.strip() for l in text.split("Invoked with")[0].splitlines()[1:]
+                                 if l.strip())
+                given = [type(a).__name__ for a in args] + \
+                        ["%s=%s" % (k, type(v).__name__) for k, v in kwargs.items()]
+                message = "%s(): incompatible arguments (given: %s); it takes %s" % (
+                    shown(name, 100), shown(", ".join(given), 300), shown(takes, 500))
+                raise TypeError(message) from None
+        return call
+
+    space = globals()
+    for key, value in list(space.items()):
+        if key.startswith("_"):
+            continue
+        if type(value).__name__ == "builtin_function_or_method":
+            space[key] = wrap(value)
+        elif isinstance(value, type) and value.__module__ == __name__:
+            for attr, member in list(vars(value).items()):
+                if attr.startswith("__") and attr not in ("__init__", "__getitem__"):
+                    continue
+                if isinstance(member, staticmethod):
+                    setattr(value, attr, staticmethod(wrap(member.__func__)))
+                elif type(member).__name__ == "instancemethod":
+                    setattr(value, attr, wrap(member.__func__))
+
+_one_line_type_errors()
+del _one_line_type_errors
+)py";
+
 }  // namespace
 }  // namespace dbbkit::python
 
@@ -1138,6 +1220,8 @@ PYBIND11_MODULE(dbbkit, m) {
       "ey, ez in urad; "
       "angles in degrees; lengths in mm. Uncertainties are standard (k = 1) unless named U "
       "(expanded, k stated).";
+  // Messages name the keyword arguments of this module, not the command line's options.
+  set_option_style(OptionStyle::kPython);
   m.attr("__version__") = DBBKIT_VERSION;
   m.attr("ERROR_NAMES") = py::make_tuple("dx", "dy", "dz", "ex", "ey", "ez");
   m.attr("ERROR_UNITS") = py::make_tuple("um", "um", "um", "urad", "urad", "urad");
@@ -1225,10 +1309,9 @@ PYBIND11_MODULE(dbbkit, m) {
           "from_csv",
           [](const std::string& text, const PyDesign& design, py::object source_obj) {
             const std::string source = text_of(source_obj, "argument", "source");
-            PyMeasurements mm;
+            PyMeasurements mm = measurements_of(design, source);
             mm.readings = io::parse_measurements(text, source);
             validate_readings(design.value, mm.readings, source);
-            mm.source = source;
             mm.from_text = true;
             return mm;
           },
@@ -1596,6 +1679,26 @@ PYBIND11_MODULE(dbbkit, m) {
       "value of two results of one axis (paths, results or their json), its uncertainty and "
       "whether it is significant at the family-wise level; the dict `compare --out` writes");
   m.def(
+      "chain",
+      [result_of](py::handle machine, const std::vector<py::handle>& results, double coverage) {
+        check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
+        const auto path = as_path(machine);
+        const Machine mm =
+            path ? io::read_machine_file(*path)
+                 : io::machine_from_json(from_python(machine, "machine", ""), "machine");
+        std::vector<ChainInput> in;
+        for (std::size_t i = 0; i < results.size(); ++i) {
+          const std::string name = "results[" + std::to_string(i) + "]";
+          in.push_back(io::chain_input(mm, result_of(results[i], name.c_str())));
+        }
+        return to_python(io::chain_to_json(chain_machine(mm, in, coverage), mm,
+                                           path ? *path : std::string("machine")));
+      },
+      py::arg("machine"), py::arg("results"), py::arg("coverage") = 0.95,
+      "`dbbkit chain`: the results of a machine's axes (paths, results or their json) combined "
+      "on the controller's reference: each axis' location errors in its carrier's body and the "
+      "distance and squareness between their lines, with U; the dict `chain --out` writes");
+  m.def(
       "compensation",
       [result_of](py::handle result, const std::string& format, const std::string& kins,
                   const std::map<std::string, double>& current, double k) {
@@ -1608,6 +1711,7 @@ PYBIND11_MODULE(dbbkit, m) {
           check_finite_in("current", v, -io::kMaxCompensation_mm, io::kMaxCompensation_mm);
           o.current_mm[pin] = v;
         }
+        io::check_compensation_options(f, o);  // before the result is read
         return io::compensation_text(result_of(result, "result"), f, o);
       },
       py::arg("result"), py::arg("format"), py::arg("kins") = "",
@@ -1761,4 +1865,5 @@ PYBIND11_MODULE(dbbkit, m) {
   m.def("simulate", &run_simulate, py::arg("design"), py::arg("truth"),
         py::arg("seed") = py::none(),
         "`dbbkit simulate`: synthetic readings from a truth (a path or dict, dbbkit.truth/1)");
+  py::exec(kOneLineTypeErrors, m.attr("__dict__"));
 }

@@ -48,6 +48,14 @@ def cli_text(*args):
     return subprocess.run([CLI, *args], cwd=SOURCE, capture_output=True, text=True, check=True).stdout
 
 
+def result_file(result, tmp, name="a.json"):
+    """The result's JSON written as a file in `tmp` (as identify --out writes it): its path."""
+    path = os.path.join(tmp, name)
+    with open(path, "w") as f:
+        json.dump(result.json, f)
+    return path
+
+
 class InSource(unittest.TestCase):
     def setUp(self):
         self._cwd = os.getcwd()
@@ -88,9 +96,7 @@ class RoundTrips(InSource):
         d = dbbkit.Design(PAPER_C)
         r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d))
         with tempfile.TemporaryDirectory() as tmp:
-            a = os.path.join(tmp, "a.json")
-            with open(a, "w") as f:
-                json.dump(r.json, f)
+            a = result_file(r, tmp)
             c = dbbkit.compare(r, a)
             self.assertEqual(c, cli_json("compare", a, a) | {"inputs": c["inputs"]})
             self.assertEqual(c["significant_changes"], 0)
@@ -98,6 +104,35 @@ class RoundTrips(InSource):
             self.assertEqual(text, cli_text("compensation", "--result", a, "--format", "isg").replace(a, "result"))
         with self.assertRaises(dbbkit.InputError):
             dbbkit.compensation(r, "linuxcnc")  # a C table: the module must be named
+
+    def test_a_machine_design_its_program_and_chain_as_the_command_line(self):
+        # A design that names its machine (relative to its own folder), a program that needs
+        # tcpm, and chain of two axes' results, the dict chain --out writes.
+        a = dbbkit.Design("designs/a-c-trunnion-A.json")
+        c = dbbkit.Design("designs/a-c-trunnion-C.json")
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.program(c, "sinumerik")
+        self.assertIn("tcpm", str(ctx.exception))
+        self.assertIn("TRAORI", dbbkit.program(c, "sinumerik", tcpm="on"))
+        with tempfile.TemporaryDirectory() as tmp:
+            files = []
+            for d, name, truth in ((a, "A", {"Y0A": 20}), (c, "C", {"Y0C": 35, "B0C": 30})):
+                csv = os.path.join(tmp, name + ".csv")
+                tf = os.path.join(tmp, name + "-truth.json")
+                with open(tf, "w") as f:
+                    json.dump({"format": "dbbkit.truth/1", "location": truth, "geometry": "exact",
+                               "seed": 3}, f)
+                subprocess.run([CLI, "simulate", "--design", "designs/a-c-trunnion-%s.json" % name,
+                                "--truth", tf, "--out", csv, "--quiet"], check=True, cwd=SOURCE)
+                r = dbbkit.identify(d, dbbkit.Measurements(csv, d))
+                files.append(result_file(r, tmp, name + ".json"))
+            machine = "designs/machines/a-c-trunnion.json"
+            got = dbbkit.chain(machine, files)
+            self.assertEqual(got, cli_json("chain", "--machine", machine, *files))
+            dist = [t for t in got["chain"] if t["name"] == "distance"][0]
+            self.assertLessEqual(abs(dist["value"] - 15), dist["U"])
+            with self.assertRaises(dbbkit.InputError):
+                dbbkit.chain(machine, files[:1])
 
     def test_messages_are_one_line_whatever_the_names(self):
         # An installation id or an effect label from the caller is quoted with its line break
@@ -117,9 +152,7 @@ class RoundTrips(InSource):
         d = dbbkit.Design(PAPER_C)
         r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d))
         with tempfile.TemporaryDirectory() as tmp:
-            a = os.path.join(tmp, "a.json")
-            with open(a, "w") as f:
-                json.dump(r.json, f)
+            a = result_file(r, tmp)
             for call in (lambda: dbbkit.Design(PAPER_C + "\0.other"),
                          lambda: dbbkit.Measurements(DATA_C + "\0.other", d),
                          lambda: dbbkit.compare(a + "\0x", a),
@@ -581,6 +614,86 @@ class BadInput(InSource):
                               "tolerances", None)
         with self.assertRaises(TypeError):
             dbbkit.identify(d, "tests/data/paper/paper_c_turntable.csv")  # a path is not readings
+
+
+    def test_messages_name_the_keyword_arguments(self):
+        # A message names the argument as the caller wrote it (dwell_s, columns, current, ...),
+        # never the command line's option (--dwell-s, --columns, --kins, ...).
+        d = dbbkit.Design(PAPER_C)
+        e = self.assertInputError(lambda: dbbkit.Measurements.from_trace(d, {"1R": DATA_C}), "traces", "'1R'",
+                                  r"ids are case-sensitive: '1r'\?\); its installations: 1r, 1t, 1a")
+        self.assertNotIn(DATA_C, str(e))
+        self.assertInputError(lambda: dbbkit.Measurements.from_trace(d, {"1r": DATA_C}, columns="speed=a"),
+                              "columns")
+        # Milliseconds from the start, as arrays: said, naming dwell_s and sample_rate_hz.
+        t = np.arange(60000.0)
+        e = self.assertInputError(lambda: dbbkit.Measurements.from_trace(d, {"1r": (t, np.zeros(t.size))}),
+                                  "traces['1r']", None, "the times look like milliseconds")
+        self.assertIn("(dwell_s)", e.detail)
+        self.assertIn("sample_rate_hz", e.detail)
+        self.assertNotIn("--", str(e))
+        m = dbbkit.Measurements(DATA_C, d)
+        r = dbbkit.identify(d, m)
+        # isg takes no current values and no module: the argument is named, and refused (it was
+        # ignored without a word).
+        e = self.assertInputError(lambda: dbbkit.compensation(r, "isg", current={"x-rot-point": 1.0}), "current",
+                                  None, "format='isg' writes the location errors themselves")
+        self.assertIn("it takes no current values; current gives", e.detail)
+        self.assertNotIn("--", str(e))
+        self.assertInputError(lambda: dbbkit.compensation(r, "table", kins="xyzac-trt"), "kins")
+        # The readings' file is the source of 'line 2', the argument named in the detail.
+        e = self.assertInputError(lambda: dbbkit.identify(d, m, type_a_readings=True), DATA_C, "line 2",
+                                  "has no u_a_um and u_a_dof, which type_a_readings needs")
+        # A clearance plane below the highest point: refused, naming the argument and the least.
+        e = self.assertInputError(lambda: dbbkit.program(dbbkit.Design("designs/c-turntable-kit-optimized.json"),
+                                                         "iso", clearance_z_mm=-5), "clearance_z_mm", None,
+                                  r"^Z -5 mm is below the lowest safe clearance plane, Z \S+ mm")
+        self.assertIn("clearance_margin_mm 50 mm", e.detail)
+
+    def test_measurements_of_another_design_say_whose_they_are(self):
+        # They were said to be at an angle that is not a position; now whose they are, by name.
+        m = dbbkit.Measurements(DATA_C, dbbkit.Design(PAPER_C))
+        e = self.assertInputError(lambda: dbbkit.identify(dbbkit.Design(PAPER_B), m), DATA_C, None,
+                                  "^these measurements were read against design 'paper-c-turntable' "
+                                  r"\('designs/paper-c-turntable.json'\), not design 'paper-b-head' "
+                                  r"\('designs/paper-b-head.json'\): ")
+        self.assertTrue(e.where.startswith("line "), e.where)
+        self.assertInputError(lambda: dbbkit.diagnose(dbbkit.Design(PAPER_B), m), DATA_C, None,
+                              "^these measurements were read against design 'paper-c-turntable'")
+
+    def test_caller_text_is_quoted_escaped_and_short(self):
+        # Every text of the caller in a message is quoted with its line breaks escaped and cut;
+        # pybind11's TypeErrors are one line naming the types given, never their values.
+        d = dbbkit.Design(PAPER_C)
+        m = dbbkit.Measurements(DATA_C, d)
+        kit = dbbkit.Kit("designs/kits/c-turntable-kit.json")
+        for call in (lambda: dbbkit.program(d, "is\no"),
+                     lambda: dbbkit.program(d, "iso", sweeps="c\ncw"),
+                     lambda: dbbkit.optimize(kit, criterion="wor\nst"),
+                     lambda: dbbkit.identify(d, m, effects=["a\nb"]),
+                     lambda: dbbkit.identify(d, m, effects="drift[1r],centring.q\nx[1r]"),
+                     lambda: dbbkit.program(d, "x" * 5000),
+                     lambda: dbbkit.identify(d, m).report("x\n" * 3000)):
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                call()
+            self.assertNotIn("\n", str(ctx.exception))
+            self.assertLess(len(str(ctx.exception)), 400, str(ctx.exception)[:200])
+        for call in (lambda: dbbkit.program(d, 5),
+                     lambda: dbbkit.program(d, "iso", kit="x\n" * 3000),
+                     lambda: dbbkit.Measurements.from_csv(["a\nb"], d),
+                     lambda: dbbkit.Measurements(DATA_C, "not a design\n" * 1000)):
+            with self.assertRaises(TypeError) as ctx:
+                call()
+            text = str(ctx.exception)
+            self.assertNotIn("\n", text)
+            self.assertLess(len(text), 1200)
+            self.assertIn("incompatible arguments (given: ", text)
+        self.assertIn("(given: Design, int)", str(self._type_error(lambda: dbbkit.program(d, 5))))
+
+    def _type_error(self, call):
+        with self.assertRaises(TypeError) as ctx:
+            call()
+        return ctx.exception
 
 
 class Interaction(InSource):

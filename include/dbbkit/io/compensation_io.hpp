@@ -40,8 +40,13 @@ struct CompensationOptions {
   std::map<std::string, double> current_mm;
 };
 
-// Throws InputError (source "--format", "--kins", "--current") when the result cannot be
-// written for the target: an axis the target does not take, an unknown pin.
+// Refuses the options the format does not take (kins and current are LinuxCNC's): throws
+// InputError(option_name("--current") or ("--kins")) saying so.
+void check_compensation_options(CompensationFormat format, const CompensationOptions& options);
+
+// Throws InputError (source option_name of "--format", "--kins", "--current") when the result
+// cannot be written for the target: an axis the target does not take, an unknown pin, an option
+// the format does not take (check_compensation_options).
 std::string compensation_text(const ResultFile& result, CompensationFormat format,
                               const CompensationOptions& options);
 

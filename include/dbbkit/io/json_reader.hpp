@@ -2,6 +2,7 @@
 // Strict JSON reading: syntax errors name line and column, duplicate keys and
 // unknown keys are errors, every type error names the key path.
 
+#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
@@ -42,6 +43,11 @@ class ObjectReader {
   ObjectReader(const nlohmann::json& value, std::string source, std::string path);
 
   bool has(const std::string& key) const;
+  // The keys the object may hold, declared before they are read where some are alike (start,
+  // stop, step): a missing key's suggestion ("is 'stpo' a misspelling of it?") is never one of
+  // them, and an unknown key's is one of them that is absent. Without it the keys asked for so
+  // far stand in.
+  ObjectReader& allow(std::initializer_list<const char*> keys);
   const nlohmann::json& required(const std::string& key);
   const nlohmann::json* optional(const std::string& key);
 
@@ -62,7 +68,9 @@ class ObjectReader {
  private:
   const nlohmann::json& value_;
   std::string source_, path_;
-  std::set<std::string> used_;
+  std::set<std::string> used_;   // present keys that were read
+  std::set<std::string> asked_;  // every key asked for (required, optional), present or not
+  std::set<std::string> allowed_;
 };
 
 // Value conversions with the key path in the error.
