@@ -368,6 +368,26 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     ip.motion_time_s += 60.0 * along_z / options.feed_mm_per_min;
     program.motion_time_s += ip.motion_time_s;
   }
+  // On the C shorthand the work frame's origin is on the table surface: a spindle ball below it
+  // would be driven into the table.
+  if (design.axis.shorthand() == "C") {
+    for (const InstallationProgram& ip : program.installations) {
+      for (const ProgramSweep& sw : ip.sweeps) {
+        for (const ProgramPosition& p : sw.positions) {
+          if (p.linear_mm.z() >= 0) continue;
+          const Installation& inst = design.installations[ip.installation];
+          throw InputError("design", "installations[" + std::to_string(ip.installation) + "].sign",
+                           "installation " + inst.id + ": the spindle ball at C" +
+                               text::significant(p.angle_deg, 7) + " stands at Z " +
+                               text::significant(p.linear_mm.z(), 7) +
+                               " mm, below the table surface (Z 0): the following ball must be "
+                               "on the other side of the table ball (sign " +
+                               (inst.sign > 0 ? "-1" : "+1") +
+                               "; reading_sign says how the instrument counted)");
+        }
+      }
+    }
+  }
   if (const std::string clash = machine_clash(design, program); !clash.empty())
     throw InputError("design", "machine",
                      "machine " + quote_value(design.machine->machine->name) + ": " + clash);

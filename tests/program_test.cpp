@@ -186,6 +186,10 @@ Design random_design(std::mt19937_64& rng, const AxisFrame& axis) {
     // A head's table ball lies beyond the tool tip (validate_design).
     if (!table_ball_beyond_tool(axis, in.direction, in.sign)) in.sign = -in.sign;
     in.bar_mm = std::vector<double>{100, 150, 250, 300, 400}[rng() % 5];
+    // On the C shorthand the spindle ball stays above the table surface (program.hpp): the turn
+    // about Z keeps its height H - sign bar u_z.
+    if (axis.shorthand() == "C" && in.H_mm - in.sign * *in.bar_mm * in.direction.body.z() < 0)
+      in.sign = -in.sign;
     d.installations.push_back(in);
   }
   return d;
@@ -349,6 +353,24 @@ TEST(Program, AnInstallationWithoutABarIsRefusedByName) {
   } catch (const InputError& e) {
     EXPECT_EQ(e.where(), "installations[2].bar_mm");
     EXPECT_NE(e.detail().find("1a"), std::string::npos);
+  }
+}
+
+// On the C shorthand the work frame's origin is on the table surface: a following ball below it
+// (an axial bar hanging down from the table ball) is refused by name, never written.
+TEST(Program, ASpindleBallBelowTheTableSurfaceIsRefused) {
+  Design d = io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
+  const int a = d.find_installation("1a");
+  ASSERT_EQ(d.installations[a].sign, -1);
+  EXPECT_NO_THROW(measurement_program(d, ProgramOptions{}));
+  d.installations[a].sign = 1;
+  try {
+    measurement_program(d, ProgramOptions{});
+    FAIL() << "written";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), "installations[" + std::to_string(a) + "].sign");
+    EXPECT_NE(e.detail().find("Z -90 mm, below the table surface"), std::string::npos)
+        << e.detail();
   }
 }
 

@@ -193,7 +193,8 @@ TEST(ExactSetup, TheTruthFileDeclaresGeometryAndSetUp) {
   const std::vector<SetupError> s = simulated_setup_errors(d, t, 1);
   for (const Reading& x : r) {
     const int i = d.find_installation(x.installation);
-    EXPECT_NEAR(x.reading_um,
+    // As the instrument counted (reading_sign), the bar's change.
+    EXPECT_NEAR(d.installations[i].reading_sign * x.reading_um,
                 exact_setup_reading_um(d.axis, d.installations[i], x.angle_deg,
                                        truth_errors(t, d.axis, x.angle_deg),
                                        *d.installations[i].bar_mm, s[i]),
