@@ -197,6 +197,7 @@ ChainResult chain_machine(const Machine& m, const std::vector<ChainInput>& input
     ChainAxis a;
     a.letter = inputs[i].letter;
     a.source = inputs[i].source;
+    a.warnings = inputs[i].warnings;
     for (int e = 0; e < 5; ++e)
       a.location.push_back(quantity(static_cast<Eigen::Index>(5 * i + e), inputs[i].names[e],
                                     e < 2 ? "um" : "urad"));

@@ -186,6 +186,16 @@ void validate_machine(const Machine& m, const std::string& source) {
                                 std::abs(*r.table_surface_mm) <= limits::kMaxLength_mm))
       fail(at + ".table.surface_mm", "expected a height within +-10000 mm");
   }
+  // One axis per side stands on the frame; another of that side is carried ("on").
+  for (std::size_t k = 0; k < m.rotary.size(); ++k) {
+    for (std::size_t j = 0; j < k; ++j) {
+      if (m.rotary[k].on < 0 && m.rotary[j].on < 0 && m.rotary[j].side == m.rotary[k].side)
+        fail("rotary[" + std::to_string(k) + "].on",
+             std::string("missing: axis ") + m.rotary[j].letter + " already stands on the " +
+                 (m.rotary[k].side == AxisFrame::Side::kTable ? "table" : "head") +
+                 " side's frame; name the axis that carries " + m.rotary[k].letter);
+    }
+  }
   for (std::size_t s = 0; s < m.solids.size(); ++s) {
     const WorkspaceSolid& w = m.solids[s];
     const std::string at = "workspace.solids[" + std::to_string(s) + "]";

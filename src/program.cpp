@@ -123,6 +123,19 @@ void check_machine_options(const Design& design, const ProgramOptions& o) {
                              "off)");
     }
   }
+  if (o.tcpm) {
+    // TCPM's workpiece frame is the controller's with every axis at 0: another table axis parked
+    // away from 0 would turn it under the program's coordinates.
+    for (std::size_t k = 0; k < m.rotary.size(); ++k) {
+      if (static_cast<int>(k) != design.machine->axis &&
+          m.rotary[k].side == AxisFrame::Side::kTable && park[k] != 0)
+        throw InputError("program", "tcpm",
+                         std::string("table axis ") + m.rotary[k].letter + " parks at " +
+                             text::significant(park[k], 6) +
+                             " deg: under TCPM the workpiece frame is the controller's with "
+                             "every axis at 0; park it at 0, or run with TCPM off");
+    }
+  }
   if (!o.tcpm && design.axis.table()) {
     for (std::size_t k = 0; k < m.rotary.size(); ++k) {
       if (m.rotary[k].side == AxisFrame::Side::kHead && park[k] != 0)
@@ -492,6 +505,17 @@ std::string machine_clash(const Design& design, const MeasurementProgram& progra
         }();
         const Eigen::Vector3d P = origin + ball_position_mm(design.axis, inst, p.angle_deg);
         const Eigen::Vector3d F = origin + p.linear_mm;
+        if (disc >= 0) {
+          // The spindle ball over the table's disc must stay above its surface.
+          const RotaryAxisSpec& r = m.rotary[disc];
+          const Eigen::Vector3d x0 = m.to_body(disc, F, a);
+          const Eigen::Vector3d v = x0 - r.point_mm;
+          const double height = x0.dot(r.direction) - *r.table_surface_mm;
+          const double radius = (v - v.dot(r.direction) * r.direction).norm();
+          if (height <= 0 && radius <= 0.5 * *r.table_diameter_mm)
+            return at + ": the spindle ball lies " + text::significant(-height, 7) +
+                   " mm below the surface of the " + std::string(1, r.letter) + " table";
+        }
         for (int k = 0; k <= 10; ++k) {
           const Eigen::Vector3d x = P + (F - P) * (k / 10.0);
           if (const std::string solid = inside(x, a); !solid.empty())

@@ -91,6 +91,8 @@ json measure_and_chain(const Planted& p, double noise_um, std::uint64_t seed,
               (dir / "M.json").string());
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("squareness C to A"), std::string::npos) << r.out;
+  // The results warn (no set-up tolerance declared): the chain says so first, and carries it.
+  EXPECT_EQ(r.out.rfind("WARNING: the result of axis A", 0), 0u) << r.out;
   return json::parse(slurp((dir / "M.json").string()));
 }
 
@@ -133,6 +135,9 @@ TEST(Chain, APlantedChainComesBackOnTheControllersReference) {
   EXPECT_GT(location(exact, "C", "A0C", "std"),
             std::hypot(0.0, location(exact, "A", "A0A", "std")) * 0.99);
   EXPECT_NEAR(dist["U"].get<double>(), exact["k"].get<double>() * dist["std"].get<double>(), 1e-9);
+  ASSERT_FALSE(exact["warnings"].empty());
+  EXPECT_NE(exact["warnings"][0]["text"].get<std::string>().find("may be too small"),
+            std::string::npos);
 
   // With the instrument's noise: every planted term within its U.
   const json noisy = measure_and_chain(p, 1.25, 20261127, dir / "noisy");

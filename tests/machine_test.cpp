@@ -123,6 +123,7 @@ TEST(Machine, BadMachineFilesAreRefusedNamingTheKey) {
        },
        "box_mm"},
       {"turns", [](json& j) { j["workspace"]["solids"][0]["turns_with"] = "B"; }, "turns_with"},
+      {"no carrier", [](json& j) { j["rotary"][1].erase("on"); }, "rotary[1].on"},
       {"name", [](json& j) { j["name"] = "a\nb"; }, "name"},
       {"four",
        [](json& j) {
@@ -370,6 +371,13 @@ TEST(MachineProgram, EveryRotaryAxisCommandedTcpmSetAndResetAndTheBarKeptInEvery
           EXPECT_EQ(r.tcpm_on, 0) << where;
         }
         EXPECT_FALSE(r.tcpm_at_end) << where;
+        // The program ends with every rotary axis at its park angle.
+        for (auto it = r.moves.rbegin(); it != r.moves.rend(); ++it) {
+          if (it->axes.find_first_of("ABC") == std::string::npos) continue;
+          for (const RotaryAxisSpec& a : m.rotary)
+            EXPECT_EQ(it->at.at(a.letter), d.machine->park_angles()[m.find(a.letter)]) << where;
+          break;
+        }
         // Cups placed with the axis at its park angle (the table level, the spindle upright).
         ASSERT_FALSE(r.placements.empty()) << where;
         for (const Block& p : r.placements)
@@ -449,6 +457,28 @@ TEST(MachineProgram, WhatLeavesTheTravelOrMeetsASolidIsRefusedByName) {
   why = refusal(below, ProgramOptions{});
   EXPECT_NE(why.find("installation 1a"), std::string::npos) << why;
   EXPECT_NE(why.find("Z -150"), std::string::npos) << why;
+  // The same with the Z travel reaching below the table: the table's surface refuses it.
+  {
+    json m = json::parse(slurp((dir / "machines" / "a-c-trunnion.json").string()));
+    m["linear_travel_mm"]["z"] = {-400, 450};
+    std::ofstream(dir / "machines" / "a-c-trunnion.json") << m.dump(2);
+    why = refusal(below, ProgramOptions{});
+    EXPECT_NE(why.find("the spindle ball lies 90 mm below the surface of the C table"),
+              std::string::npos)
+        << why;
+    // Under TCPM another table axis must stand at 0 (the controller's workpiece frame).
+    json parked = dj;
+    parked["park_deg"] = {{"A", 10}};
+    std::ofstream(dir / "d.json") << parked.dump(2);
+    ProgramOptions on;
+    on.tcpm = true;
+    try {
+      measurement_program(io::read_design_file((dir / "d.json").string()), on);
+      ADD_FAILURE() << "TCPM with A parked at 10 deg was taken";
+    } catch (const InputError& e) {
+      EXPECT_NE(e.detail().find("table axis A parks at 10 deg"), std::string::npos) << e.what();
+    }
+  }
   // A clearance plane above the Z travel.
   ProgramOptions high;
   high.clearance_z_mm = 600;

@@ -33,6 +33,8 @@ struct ChainInput {
   std::array<std::string, 5> names;  // X0C, Y0C, A0C, B0C, C0C (um, um, urad, urad, urad)
   std::array<std::optional<double>, 5> value;
   Eigen::Matrix<double, 5, 5> covariance = Eigen::Matrix<double, 5, 5>::Zero();
+  // The result's warnings (what makes its stated uncertainty unreliable): the chain carries them.
+  std::vector<std::string> warnings;
 };
 
 struct ChainQuantity {
@@ -43,6 +45,7 @@ struct ChainQuantity {
 struct ChainAxis {
   char letter = 'C';
   std::string source;
+  std::vector<std::string> warnings;  // its result's, as written
   // Its location errors against the machine file's line, in its carrier's body (the machine
   // frame with every axis at zero).
   std::vector<ChainQuantity> location;

@@ -48,6 +48,7 @@ ChainInput chain_input(const Machine& m, const ResultFile& r) {
     in.value[e] = r.location[e].value;
   }
   in.covariance = *r.location_covariance;
+  in.warnings = r.warnings;
   return in;
 }
 
@@ -103,6 +104,17 @@ json chain_to_json(const ChainResult& r, const Machine& m, const std::string& ma
                     {"location", loc}});
   }
   j["axes"] = axes;
+  // The results' warnings: each makes the uncertainties that use its axis unreliable.
+  json warnings = json::array();
+  for (const ChainAxis& a : r.axes)
+    for (const std::string& w : a.warnings)
+      warnings.push_back({{"axis", std::string(1, a.letter)},
+                          {"result", a.source},
+                          {"text", "the result of axis " + std::string(1, a.letter) +
+                                       " warns (its U and every chain term's that uses it "
+                                       "may be too small): " +
+                                       w}});
+  j["warnings"] = warnings;
   json chain = json::array();
   for (const ChainTerm& t : r.terms) {
     json e = quantity_json(t.q);
@@ -122,6 +134,10 @@ json chain_to_json(const ChainResult& r, const Machine& m, const std::string& ma
 
 std::string chain_text(const ChainResult& r, const Machine& m) {
   std::ostringstream s;
+  for (const ChainAxis& a : r.axes)
+    for (const std::string& w : a.warnings)
+      s << "WARNING: the result of axis " << a.letter << " (" << a.source
+        << ") warns; its U and every chain term's that uses it may be too small: " << w << "\n";
   s << "machine " << m.name << " (controller " << controller_name(m.controller)
     << "): the axes on the controller's reference (each against the machine file's line, in "
        "its carrier's body), U at "

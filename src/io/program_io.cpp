@@ -456,6 +456,17 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     w.feed_z(zc, o.feed_mm_per_min);
   }
   if (tcpm_throughout) w.tcpm(false, tool);
+  if (program.machine) {
+    // Every rotary axis back to its park angle at the clearance plane: the table level, the
+    // spindle upright, before the cups come off.
+    std::vector<MeasurementProgram::Park> all;
+    const std::vector<double> park = program.machine->park_angles();
+    for (std::size_t k = 0; k < park.size(); ++k)
+      all.push_back({program.machine->machine->rotary[k].letter, park[k]});
+    w.rapid_z(zc);
+    w.comment("every rotary axis back to its park angle");
+    w.rapid_rotaries(all);
+  }
   if (iso) {
     w.raw("M30");
     w.raw("%");
