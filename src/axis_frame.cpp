@@ -31,6 +31,15 @@ std::string direction_text(const Eigen::Vector3d& v) {
          text::significant(v.z(), 6) + "]";
 }
 
+Eigen::Vector3d snapped_to_machine_axis(const Eigen::Vector3d& v) {
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d e = Eigen::Vector3d::Unit(k);
+    if (v(k) != 0 && v.cross(e).norm() <= kFrameTolerance)
+      return v(k) > 0 ? e : Eigen::Vector3d(-e);
+  }
+  return v;
+}
+
 AxisFrame AxisFrame::c_turntable() {
   AxisFrame f =
       general('C', Side::kTable, Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitX(), true);

@@ -383,4 +383,19 @@ void validate_design(const Design& d, const std::string& source) {
   }
 }
 
+std::vector<DesignMachine::AxisAngle> DesignMachine::angles_with(double tested_deg) const {
+  std::vector<double> a = park_angles();
+  a[static_cast<std::size_t>(axis)] = tested_deg;
+  std::vector<AxisAngle> out;
+  for (std::size_t k = 0; k < a.size(); ++k) out.push_back({machine->rotary[k].letter, a[k]});
+  return out;
+}
+
+std::vector<DesignMachine::AxisAngle> DesignMachine::others() const {
+  std::vector<AxisAngle> out;
+  for (const AxisAngle& a : angles_with(0))
+    if (a.letter != letter()) out.push_back(a);
+  return out;
+}
+
 }  // namespace dbbkit

@@ -60,12 +60,44 @@ std::vector<int> Machine::carriers(int k) const {
   return chain;
 }
 
+int Machine::innermost(AxisFrame::Side side) const {
+  int last = -1;
+  for (std::size_t k = 0; k < rotary.size(); ++k) {
+    if (rotary[k].side != side) continue;
+    bool carries = false;
+    for (const RotaryAxisSpec& r : rotary) carries |= r.on == static_cast<int>(k);
+    if (!carries) last = static_cast<int>(k);
+  }
+  return last;
+}
+
+Eigen::Vector3d Machine::table_centre_mm(int k) const {
+  const RotaryAxisSpec& r = rotary[k];
+  return r.point_mm + (*r.table_surface_mm - r.point_mm.dot(r.direction)) * r.direction;
+}
+
+Machine::OnTable Machine::on_table(int k, const Eigen::Vector3d& x,
+                                   const std::vector<double>& angles_deg) const {
+  const RotaryAxisSpec& r = rotary[k];
+  const Eigen::Vector3d v = to_body(k, x, angles_deg) - r.point_mm;
+  OnTable t;
+  t.height_mm = (r.point_mm + v).dot(r.direction) - *r.table_surface_mm;
+  t.radius_mm = (v - v.dot(r.direction) * r.direction).norm();
+  t.inside_edge = t.radius_mm <= 0.5 * *r.table_diameter_mm;
+  return t;
+}
+
+std::vector<int> Machine::chain_to(int k) const {
+  std::vector<int> chain = carriers(k);
+  chain.push_back(k);
+  return chain;
+}
+
 Eigen::Vector3d Machine::body_point_at(int k, const Eigen::Vector3d& x0,
                                        const std::vector<double>& angles_deg) const {
   // T_1 ... T_k x0: apply the innermost first.
   Eigen::Vector3d x = x0;
-  std::vector<int> chain = carriers(k);
-  chain.push_back(k);
+  const std::vector<int> chain = chain_to(k);
   for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
     const RotaryAxisSpec& r = rotary[*it];
     x = r.point_mm + rotation_of(r, angles_deg[*it]) * (x - r.point_mm);
@@ -76,9 +108,7 @@ Eigen::Vector3d Machine::body_point_at(int k, const Eigen::Vector3d& x0,
 Eigen::Vector3d Machine::to_body(int k, const Eigen::Vector3d& x_at,
                                  const std::vector<double>& angles_deg) const {
   Eigen::Vector3d x = x_at;
-  std::vector<int> chain = carriers(k);
-  chain.push_back(k);
-  for (int c : chain) {
+  for (const int c : chain_to(k)) {
     const RotaryAxisSpec& r = rotary[c];
     x = r.point_mm + rotation_of(r, angles_deg[c]).transpose() * (x - r.point_mm);
   }
@@ -88,8 +118,7 @@ Eigen::Vector3d Machine::to_body(int k, const Eigen::Vector3d& x_at,
 Eigen::Vector3d Machine::body_direction_at(int k, const Eigen::Vector3d& v0,
                                            const std::vector<double>& angles_deg) const {
   Eigen::Vector3d v = v0;
-  std::vector<int> chain = carriers(k);
-  chain.push_back(k);
+  const std::vector<int> chain = chain_to(k);
   for (auto it = chain.rbegin(); it != chain.rend(); ++it)
     v = rotation_of(rotary[*it], angles_deg[*it]) * v;
   return v;
@@ -112,17 +141,12 @@ Eigen::Vector3d Machine::point_at(int k, const std::vector<double>& angles_deg) 
 AxisFrame Machine::axis_frame(int k, const std::vector<double>& angles_deg) const {
   const RotaryAxisSpec& r = rotary[k];
   const int c = r.on;
-  Eigen::Vector3d d = c < 0 ? r.direction : body_direction_at(c, r.direction, angles_deg);
-  Eigen::Vector3d ref = c < 0 ? r.reference : body_direction_at(c, r.reference, angles_deg);
+  const Eigen::Vector3d d = c < 0 ? r.direction : body_direction_at(c, r.direction, angles_deg);
+  const Eigen::Vector3d ref = c < 0 ? r.reference : body_direction_at(c, r.reference, angles_deg);
   // A carrier turned by a multiple of 90 deg leaves a machine axis a machine axis: snap the
   // round-off so that the frame keeps its ISO names.
-  for (Eigen::Vector3d* v : {&d, &ref}) {
-    for (int i = 0; i < 3; ++i) {
-      const Eigen::Vector3d e = Eigen::Vector3d::Unit(i);
-      if ((*v)(i) != 0 && v->cross(e).norm() <= kFrameTolerance) *v = (*v)(i) > 0 ? e : -e;
-    }
-  }
-  return AxisFrame::general(r.letter, r.side, d, ref, r.full_turn, r.travel_min_deg,
+  return AxisFrame::general(r.letter, r.side, snapped_to_machine_axis(d),
+                            snapped_to_machine_axis(ref), r.full_turn, r.travel_min_deg,
                             r.travel_max_deg);
 }
 

@@ -84,6 +84,13 @@ int substeps(const AxisFrame& axis, const Installation& inst, double bar, double
                        text::significant(tol, 6) + " mm");
 }
 
+// The angles of every rotary axis with the axis under test at `angle`, the others parked.
+std::vector<double> machine_angles(const Design& design, double angle) {
+  std::vector<double> a = design.machine->park_angles();
+  a[design.machine->axis] = angle;
+  return a;
+}
+
 // The machine's options against the design: TCPM needs the controller's kinematics (a machine
 // file); under TCPM the tool tip is the spindle ball, on the spindle's axis; without it the tool
 // length acts along Z, so a head axis stands at 0 while a table axis is measured.
@@ -100,15 +107,8 @@ void check_machine_options(const Design& design, const ProgramOptions& o) {
   if (o.tcpm && design.axis.head()) {
     // The spindle's axis with the axis under test at 0: the innermost head axis' reference (from
     // its pivot to the tool tip) turned by every head axis (machine frame).
-    int h = -1;
-    for (std::size_t k = 0; k < m.rotary.size(); ++k) {
-      if (m.rotary[k].side != AxisFrame::Side::kHead) continue;
-      bool carries = false;
-      for (const RotaryAxisSpec& r : m.rotary) carries |= r.on == static_cast<int>(k);
-      if (!carries) h = static_cast<int>(k);
-    }
-    std::vector<double> at_zero = park;
-    at_zero[design.machine->axis] = 0;
+    const int h = m.innermost(AxisFrame::Side::kHead);
+    const std::vector<double> at_zero = machine_angles(design, 0);
     const Eigen::Vector3d pivot = m.body_point_at(h, m.rotary[h].point_mm, at_zero);
     const Eigen::Vector3d tool = m.body_direction_at(h, m.rotary[h].reference, at_zero);
     const Eigen::Vector3d origin = m.point_at(design.machine->axis, at_zero);
@@ -148,13 +148,6 @@ void check_machine_options(const Design& design, const ProgramOptions& o) {
   }
 }
 
-// The angles of every rotary axis with the axis under test at `angle`, the others parked.
-std::vector<double> machine_angles(const Design& design, double angle) {
-  std::vector<double> a = design.machine->park_angles();
-  a[design.machine->axis] = angle;
-  return a;
-}
-
 // The highest point (work frame Z) of the table discs and the workspace solids that turn with
 // the axis under test or carry it, over `angles`; -inf when there are none.
 double machine_top_z(const Design& design, const std::vector<double>& angles) {
@@ -166,9 +159,8 @@ double machine_top_z(const Design& design, const std::vector<double>& angles) {
     for (std::size_t k = 0; k < m.rotary.size(); ++k) {
       const RotaryAxisSpec& r = m.rotary[k];
       if (!r.table_diameter_mm) continue;
-      const Eigen::Vector3d centre0 =
-          r.point_mm + (*r.table_surface_mm - r.point_mm.dot(r.direction)) * r.direction;
-      const Eigen::Vector3d c = m.body_point_at(static_cast<int>(k), centre0, a);
+      const Eigen::Vector3d c =
+          m.body_point_at(static_cast<int>(k), m.table_centre_mm(static_cast<int>(k)), a);
       const Eigen::Vector3d n = m.body_direction_at(static_cast<int>(k), r.direction, a);
       const double rise = 0.5 * *r.table_diameter_mm * std::sqrt(std::max(0.0, 1 - n.z() * n.z()));
       top = std::max(top, c.z() + rise - origin.z());
@@ -259,12 +251,6 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   // spindle upright), then turned.
   const double placement_angle =
       design.machine ? design.machine->park_angles()[design.machine->axis] : first;
-  if (design.machine) {
-    const std::vector<double> park = design.machine->park_angles();
-    for (std::size_t k = 0; k < park.size(); ++k)
-      if (static_cast<int>(k) != design.machine->axis)
-        program.parks.push_back({design.machine->machine->rotary[k].letter, park[k]});
-  }
 
   std::size_t positions = 0;
   // The highest point anything reaches (work frame Z; the table surface (C) or the table ball
@@ -462,30 +448,21 @@ std::string machine_clash(const Design& design, const MeasurementProgram& progra
            " mm in the machine frame) lies above the Z travel's end " +
            text::significant(m.linear_travel_mm[2][1], 7) + " mm";
   // The table the cups stand on: the innermost table axis' disc, at the placing angle.
-  int disc = -1;
-  for (std::size_t k = 0; k < m.rotary.size(); ++k) {
-    bool carries = false;
-    for (const RotaryAxisSpec& r : m.rotary) carries |= r.on == static_cast<int>(k);
-    if (m.rotary[k].side == AxisFrame::Side::kTable && !carries && m.rotary[k].table_diameter_mm)
-      disc = static_cast<int>(k);
-  }
+  int disc = m.innermost(AxisFrame::Side::kTable);
+  if (disc >= 0 && !m.rotary[disc].table_diameter_mm) disc = -1;
   for (const InstallationProgram& ip : program.installations) {
     const Installation& inst = design.installations[ip.installation];
     const std::string where = "installation " + inst.id;
     if (disc >= 0 && ip.places_cup) {
       const RotaryAxisSpec& r = m.rotary[disc];
-      std::vector<double> a = design.machine->park_angles();
-      a[design.machine->axis] = ip.placement_angle_deg;
-      const Eigen::Vector3d x0 =
-          m.to_body(disc, origin + ball_position_mm(design.axis, inst, ip.placement_angle_deg), a);
-      const Eigen::Vector3d v = x0 - r.point_mm;
-      const double height = x0.dot(r.direction) - *r.table_surface_mm;
-      const double radius = (v - v.dot(r.direction) * r.direction).norm();
-      if (height <= 0 || radius > 0.5 * *r.table_diameter_mm)
+      const Machine::OnTable t =
+          m.on_table(disc, origin + ball_position_mm(design.axis, inst, ip.placement_angle_deg),
+                     machine_angles(design, ip.placement_angle_deg));
+      if (t.height_mm <= 0 || !t.inside_edge)
         return where + ": its table ball lies " +
-               (height <= 0
-                    ? text::significant(-height, 7) + " mm below the surface of"
-                    : text::significant(radius, 7) + " mm from the axis, beyond the edge of") +
+               (t.height_mm <= 0
+                    ? text::significant(-t.height_mm, 7) + " mm below the surface of"
+                    : text::significant(t.radius_mm, 7) + " mm from the axis, beyond the edge of") +
                " the " + std::string(1, r.letter) + " table (diameter " +
                text::significant(*r.table_diameter_mm, 7) + " mm)";
     }
@@ -498,23 +475,16 @@ std::string machine_clash(const Design& design, const MeasurementProgram& progra
         if (const std::string t = beyond_travel(origin + p.linear_mm); !t.empty())
           return at + ": the spindle ball's " + t;
         if (!p.reading) continue;
-        const std::vector<double> a = [&] {
-          std::vector<double> v = design.machine->park_angles();
-          v[design.machine->axis] = p.angle_deg;
-          return v;
-        }();
+        const std::vector<double> a = machine_angles(design, p.angle_deg);
         const Eigen::Vector3d P = origin + ball_position_mm(design.axis, inst, p.angle_deg);
         const Eigen::Vector3d F = origin + p.linear_mm;
         if (disc >= 0) {
           // The spindle ball over the table's disc must stay above its surface.
-          const RotaryAxisSpec& r = m.rotary[disc];
-          const Eigen::Vector3d x0 = m.to_body(disc, F, a);
-          const Eigen::Vector3d v = x0 - r.point_mm;
-          const double height = x0.dot(r.direction) - *r.table_surface_mm;
-          const double radius = (v - v.dot(r.direction) * r.direction).norm();
-          if (height <= 0 && radius <= 0.5 * *r.table_diameter_mm)
-            return at + ": the spindle ball lies " + text::significant(-height, 7) +
-                   " mm below the surface of the " + std::string(1, r.letter) + " table";
+          const Machine::OnTable t = m.on_table(disc, F, a);
+          if (t.height_mm <= 0 && t.inside_edge)
+            return at + ": the spindle ball lies " + text::significant(-t.height_mm, 7) +
+                   " mm below the surface of the " + std::string(1, m.rotary[disc].letter) +
+                   " table";
         }
         for (int k = 0; k <= 10; ++k) {
           const Eigen::Vector3d x = P + (F - P) * (k / 10.0);

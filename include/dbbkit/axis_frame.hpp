@@ -100,6 +100,10 @@ std::string direction_text(const Eigen::Vector3d& v);
 // The largest |v| - 1 of a unit vector and |d . r| of perpendicular ones the frame accepts.
 inline constexpr double kFrameTolerance = 1e-9;
 
+// A unit vector within kFrameTolerance (rad) of a machine axis is that axis, exactly (its names,
+// its letter and its rotations are then the machine axis'); any other is returned as it is.
+Eigen::Vector3d snapped_to_machine_axis(const Eigen::Vector3d& v);
+
 // How two frames differ, each as "<property> <a's> against <b's>" joined by "; " (letter,
 // side, direction, reference, travel, form), or empty when they are the same axis.
 std::string axis_difference(const AxisFrame& a, const AxisFrame& b);

@@ -139,6 +139,14 @@ struct DesignMachine {
   // The axis' nominal point in the machine frame at the park angles: the frame's origin.
   Eigen::Vector3d origin_mm() const { return machine->point_at(axis, park_angles()); }
   char letter() const { return machine->rotary[axis].letter; }
+  // Every rotary axis' letter and angle in the machine's order, the axis under test at
+  // `tested_deg` and the others parked; others(): the others alone.
+  struct AxisAngle {
+    char letter = 'C';
+    double angle_deg = 0;
+  };
+  std::vector<AxisAngle> angles_with(double tested_deg) const;
+  std::vector<AxisAngle> others() const;
 };
 
 struct Design {

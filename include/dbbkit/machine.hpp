@@ -61,8 +61,21 @@ struct Machine {
 
   // The index of the axis with this letter, or -1.
   int find(char letter) const;
-  // The carriers of axis k, the one nearest the frame first (not k itself).
+  // The carriers of axis k, the one nearest the frame first (not k itself); chain_to: and k.
   std::vector<int> carriers(int k) const;
+  std::vector<int> chain_to(int k) const;
+  // The axis of `side` that carries no other (the table the workpiece stands on, the head the
+  // spindle turns with), or -1.
+  int innermost(AxisFrame::Side side) const;
+  // Table axis k with a disc: its surface's centre (machine frame at zero), and where a point x
+  // at `angles_deg` stands over it (its height above the surface, its distance from the axis,
+  // and whether that is within the table's edge).
+  Eigen::Vector3d table_centre_mm(int k) const;
+  struct OnTable {
+    double height_mm = 0, radius_mm = 0;
+    bool inside_edge = false;
+  };
+  OnTable on_table(int k, const Eigen::Vector3d& x, const std::vector<double>& angles_deg) const;
   // The nominal pose of a point fixed to the body of axis k (after k's own rotation) at the
   // angles `angles_deg` (one per rotary axis, in the machine's order): T_c1 ... T_k x0.
   Eigen::Vector3d body_point_at(int k, const Eigen::Vector3d& x0,

@@ -145,14 +145,8 @@ struct MeasurementProgram {
   double motion_time_s = 0;
   // The plane (work frame Z) every sideways rapid runs at (options.clearance_z_mm when given).
   double clearance_z_mm = 0;
-  // A design that names its machine: the other rotary axes at their park angles (commanded in
-  // the safe start, before any sideways move), the machine's controller and name, and the
-  // preset: the axis' nominal point in the machine frame, the work frame's origin.
-  struct Park {
-    char letter = 'C';
-    double angle_deg = 0;
-  };
-  std::vector<Park> parks;
+  // A design that names its machine: the machine, the axes' park angles and the preset (the
+  // axis' nominal point in the machine frame, the work frame's origin).
   std::optional<DesignMachine> machine;
 };
 

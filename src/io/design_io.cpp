@@ -117,6 +117,12 @@ std::optional<NoiseModel> read_noise(ObjectReader noise, bool allow_none) {
   return m;
 }
 
+Eigen::Vector3d read_vector3(ObjectReader& r, const std::string& key) {
+  const std::vector<double> x = read_numbers(r.required(key), r.source(), r.key_path(key));
+  if (x.size() != 3) r.fail(key, "expected a vector [x, y, z]");
+  return {x[0], x[1], x[2]};
+}
+
 Travel read_travel(ObjectReader& a, const std::string& key, bool full_turn_default) {
   Travel travel;
   travel.full_turn = full_turn_default;
@@ -162,22 +168,14 @@ AxisFrame read_axis(ObjectReader& top) {
   const char* kMachineAxes = "XYZ";
   if (side != "table" && side != "head")
     a.fail("side", quote_value(side) + " (expected \"table\" or \"head\")");
-  auto vector3 = [&](const char* key) {
-    const std::vector<double> x = read_numbers(a.required(key), top.source(), a.key_path(key));
-    if (x.size() != 3) a.fail(key, "expected a vector [x, y, z]");
-    return Eigen::Vector3d(x[0], x[1], x[2]);
-  };
-  Eigen::Vector3d direction = vector3("direction"), reference = vector3("reference");
+  Eigen::Vector3d direction = read_vector3(a, "direction"),
+                  reference = read_vector3(a, "reference");
   if (const std::string p = axis_frame_problem(direction, reference); !p.empty())
     a.fail(p.rfind("direction", 0) == 0 ? "direction" : "reference", p);
   // A vector within kFrameTolerance (rad) of a machine axis is that axis, exactly: its names,
   // its letter and its rotations are then the machine axis', not a nutating axis' at 1e-9.
-  for (Eigen::Vector3d* v : {&direction, &reference}) {
-    for (int k = 0; k < 3; ++k) {
-      const Eigen::Vector3d e = Eigen::Vector3d::Unit(k);
-      if ((*v)(k) != 0 && v->cross(e).norm() <= kFrameTolerance) *v = (*v)(k) > 0 ? e : -e;
-    }
-  }
+  direction = snapped_to_machine_axis(direction);
+  reference = snapped_to_machine_axis(reference);
   // ISO 841: the rotary axis about X is A, about Y is B, about Z is C (a primed axis turns the
   // other way about the same line); an axis along none of them (nutating) takes any letter.
   for (int k = 0; k < 3; ++k) {

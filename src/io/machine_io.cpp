@@ -13,12 +13,6 @@ using nlohmann::json;
 
 namespace {
 
-Eigen::Vector3d read_vector3(ObjectReader& r, const std::string& key) {
-  const std::vector<double> x = read_numbers(r.required(key), r.source(), r.key_path(key));
-  if (x.size() != 3) r.fail(key, "expected a vector [x, y, z]");
-  return {x[0], x[1], x[2]};
-}
-
 // The direction of L at angle 0 when the file gives none: the first of +Z, +X (a table: its
 // normal at zero) or -Z, +X (a head: the spindle pointing down) perpendicular to the axis.
 std::optional<Eigen::Vector3d> default_reference(const RotaryAxisSpec& r) {
@@ -89,11 +83,7 @@ Machine machine_from_json(const json& j, const std::string& source) {
     if (!r.direction.allFinite() || std::abs(r.direction.norm() - 1) > kFrameTolerance)
       a.fail("direction", "expected a unit vector [x, y, z]");
     // Within kFrameTolerance of a machine axis it is that axis, exactly (as a design's).
-    for (int i = 0; i < 3; ++i) {
-      const Eigen::Vector3d e = Eigen::Vector3d::Unit(i);
-      if (r.direction(i) != 0 && r.direction.cross(e).norm() <= kFrameTolerance)
-        r.direction = r.direction(i) > 0 ? e : Eigen::Vector3d(-e);
-    }
+    r.direction = snapped_to_machine_axis(r.direction);
     r.point_mm = read_vector3(a, "point_mm");
     if (a.has("reference")) {
       r.reference = read_vector3(a, "reference");

@@ -60,9 +60,9 @@ class Writer {
     }
   }
   // Every rotary axis given, in one block at rapid.
-  void rapid_rotaries(const std::vector<MeasurementProgram::Park>& axes) {
+  void rapid_rotaries(const std::vector<DesignMachine::AxisAngle>& axes) {
     std::string words;
-    for (const MeasurementProgram::Park& p : axes)
+    for (const DesignMachine::AxisAngle& p : axes)
       words += std::string(words.empty() ? "" : " ") + p.letter + coord(p.angle_deg, plus());
     rapid(words);
   }
@@ -228,10 +228,7 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   const std::string offset = iso || sinumerik ? "G54" : "(the active preset)";
   if (program.machine) {
     const Machine& m = *program.machine->machine;
-    std::string parks;
-    for (const MeasurementProgram::Park& p : program.parks)
-      parks += std::string(parks.empty() ? "" : ", ") + p.letter + " at " +
-               fmt_rounded(p.angle_deg, 4) + " deg";
+    const std::string parks = parked_text(*program.machine, 4);
     head.push_back("machine " + m.name + " (controller " + controller_name(m.controller) +
                    "): axis " + L + " measured" +
                    (parks.empty() ? "" : " with " + parks + " (parked)"));
@@ -377,19 +374,10 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   if (program.machine) {
     // Every other rotary axis to its park angle, and the axis under test to where its first
     // installation starts (its cups placed): at the clearance plane, before any sideways move.
-    // In the machine's order.
-    std::vector<MeasurementProgram::Park> all;
-    for (const RotaryAxisSpec& r : program.machine->machine->rotary) {
-      if (r.letter == rotary) {
-        if (!program.installations.empty())
-          all.push_back({rotary, program.installations.front().placement_angle_deg});
-        continue;
-      }
-      for (const MeasurementProgram::Park& p : program.parks)
-        if (p.letter == r.letter) all.push_back(p);
-    }
     w.comment("every rotary axis to its place at the clearance plane");
-    w.rapid_rotaries(all);
+    w.rapid_rotaries(program.machine->angles_with(
+        program.installations.empty() ? program.machine->park_angles()[program.machine->axis]
+                                      : program.installations.front().placement_angle_deg));
   }
   if (tcpm_throughout) w.tcpm(true, tool);
 
@@ -459,13 +447,10 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   if (program.machine) {
     // Every rotary axis back to its park angle at the clearance plane: the table level, the
     // spindle upright, before the cups come off.
-    std::vector<MeasurementProgram::Park> all;
-    const std::vector<double> park = program.machine->park_angles();
-    for (std::size_t k = 0; k < park.size(); ++k)
-      all.push_back({program.machine->machine->rotary[k].letter, park[k]});
     w.rapid_z(zc);
     w.comment("every rotary axis back to its park angle");
-    w.rapid_rotaries(all);
+    w.rapid_rotaries(
+        program.machine->angles_with(program.machine->park_angles()[program.machine->axis]));
   }
   if (iso) {
     w.raw("M30");

@@ -489,12 +489,8 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
   if (d.machine) {
     // The machine the axis belongs to: the other axes parked, the preset from its kinematics.
     const Machine& m = *d.machine->machine;
-    std::string parks;
+    const std::string parks = parked_text(*d.machine, 3);
     const std::vector<double> a = d.machine->park_angles();
-    for (std::size_t k = 0; k < m.rotary.size(); ++k)
-      if (static_cast<int>(k) != d.machine->axis)
-        parks += (parks.empty() ? "" : ", ") + std::string(1, m.rotary[k].letter) + " at " +
-                 mm(a[k]) + " deg";
     const Eigen::Vector3d o = d.machine->origin_mm();
     w.paragraph("Machine " + m.name + " (controller " + controller_name(m.controller) + "): axis " +
                 std::string(1, d.axis.letter()) + " is measured" +

@@ -62,4 +62,12 @@ std::string brief_text(const std::vector<BriefItem>& brief) {
   return s + "\n";
 }
 
+std::string parked_text(const DesignMachine& machine, int decimals) {
+  std::string t;
+  for (const DesignMachine::AxisAngle& a : machine.others())
+    t += (t.empty() ? "" : ", ") + std::string(1, a.letter) + " at " +
+         fmt_rounded(a.angle_deg, decimals) + " deg";
+  return t;
+}
+
 }  // namespace dbbkit::io

@@ -31,6 +31,9 @@ SetupOverride read_setup_override(ObjectReader r);
 nlohmann::json setup_to_json(const SetupUncertainty& u, const AxisFrame& axis);
 nlohmann::json setup_override_to_json(const SetupOverride& o);
 
+// A vector [x, y, z] of three numbers at `key`.
+Eigen::Vector3d read_vector3(ObjectReader& r, const std::string& key);
+
 // A rotary axis' travel: "full_turn" or an arc [min, max] in degrees (within -360..360, at most
 // one turn); absent: a full turn when full_turn_default, else the arc -180..180.
 struct Travel {

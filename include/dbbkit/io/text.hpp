@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "dbbkit/design.hpp"
+
 namespace dbbkit::io {
 
 // A number with `digits` significant digits (std::setprecision); fmt_opt gives "--" when
@@ -14,6 +16,10 @@ std::string fmt_num(double x, int digits = 4);
 std::string fmt_opt(const std::optional<double>& x, int digits = 4);
 // x rounded to `decimals` decimal places, in its shortest form ("100", "0.125").
 std::string fmt_rounded(double x, int decimals);
+
+// The other axes of a machine's design as they stand while it is measured: "A at 0 deg, C at 90
+// deg" (angles to `decimals` places), empty when it has none.
+std::string parked_text(const DesignMachine& machine, int decimals);
 
 // One sentence of a result's first screen (JSON "summary"): `topic` says what it is about
 // ("found", "evidence", "changes", "uncertainty", "next", "residual", "determined", "worst",
