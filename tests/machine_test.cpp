@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -230,6 +231,8 @@ struct Block {
   bool rapid = false, tcpm = false;
   std::string installation;
   bool mounted = false;
+  std::string code;  // the block as written (its comment taken off)
+  double z_before = NAN;
 };
 struct Read {
   std::vector<Block> moves;
@@ -279,6 +282,8 @@ Read read_program(const std::string& text, io::Dialect dialect, const std::strin
                         w[0] == "L" || (w[0] == "G00" && w.size() > 1);
     if (!motion || dwell) continue;
     Block b;
+    b.code = code;
+    b.z_before = at.count('Z') ? at.at('Z') : NAN;
     b.rapid = w[0] == "G00" || w[0] == "G0" || joined.find("FMAX") != std::string::npos;
     for (const std::string& t : w) {
       if (t.size() < 2 || t == "FMAX" || std::string("XYZABC").find(t[0]) == std::string::npos)
@@ -347,16 +352,29 @@ TEST(MachineProgram, EveryRotaryAxisCommandedTcpmSetAndResetAndTheBarKeptInEvery
             name + (tcpm ? " tcpm on " : " tcpm off ") + std::to_string(static_cast<int>(dialect));
         const Read r = read_program(io::program_text(d, program, dialect), dialect, "99");
         ASSERT_FALSE(r.moves.empty()) << where;
-        // The safe start resets TCPM; the first move is Z alone, to the plane.
+        // The safe start resets TCPM; the first move commands every rotary axis and no linear
+        // one: every rotary axis before the first linear move.
         EXPECT_TRUE(r.reset_before_moves) << where;
-        EXPECT_EQ(r.moves.front().axes, "Z") << where;
-        // Every rotary axis commanded before the first sideways move, at the plane.
-        for (const Block& b : r.moves) {
-          if (b.axes.find_first_of("XY") == std::string::npos) continue;
-          for (const RotaryAxisSpec& a : m.rotary)
-            EXPECT_TRUE(b.at.count(a.letter)) << where << ": " << a.letter;
-          break;
-        }
+        std::string rotaries;
+        for (const RotaryAxisSpec& a : m.rotary) rotaries += a.letter;
+        std::string first = r.moves.front().axes;
+        std::sort(first.begin(), first.end());
+        std::sort(rotaries.begin(), rotaries.end());
+        EXPECT_EQ(first, rotaries) << where;
+        // The first linear move is Z alone up to the plane, with the tool length (ISO: G43 H;
+        // Heidenhain and Sinumerik: TOOL CALL and D1 before it).
+        const auto linear = std::find_if(r.moves.begin(), r.moves.end(), [](const Block& b) {
+          return b.axes.find_first_of("XYZ") != std::string::npos;
+        });
+        ASSERT_NE(linear, r.moves.end());
+        EXPECT_EQ(linear->axes, "Z") << where;
+        EXPECT_NEAR(linear->at.at('Z'), program.clearance_z_mm, 1e-4) << where;
+        if (dialect == io::Dialect::kIso)
+          EXPECT_NE(linear->code.find("G43 H99"), std::string::npos) << where << linear->code;
+        // Sideways rapids only at the clearance plane.
+        for (const Block& b : r.moves)
+          if (b.rapid && b.axes.find_first_of("XY") != std::string::npos)
+            EXPECT_NEAR(b.z_before, program.clearance_z_mm, 1e-4) << where << ": " << b.code;
         // The parked axes never move again.
         for (const Block& b : r.moves)
           for (const RotaryAxisSpec& a : m.rotary)
@@ -527,6 +545,51 @@ TEST(MachineProgram, TcpmIsChosenAndNeedsAMachine) {
   r = run_cli("program --design " + f.string() + " --dialect iso --tcpm off");
   EXPECT_EQ(r.status, 0) << r.err;
   std::filesystem::remove(f);
+}
+
+}  // namespace
+}  // namespace dbbkit
+
+namespace dbbkit {
+namespace {
+
+// The README's five-axis example, run as it is written: every line of its output blocks printed.
+TEST(Readme, AFiveAxisMachinePrintsWhatTheReadmeShows) {
+  namespace fs = std::filesystem;
+  const std::string readme = slurp(DBBKIT_SOURCE_DIR "/README.md");
+  const std::string title = "## Worked example: a five-axis machine";
+  const size_t from = readme.find(title);
+  ASSERT_NE(from, std::string::npos);
+  const std::string section = readme.substr(from, readme.find("\n## ", from + 1) - from);
+  const fs::path dir = fs::temp_directory_path() / "dbbkit_readme_five_axis";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string src = DBBKIT_SOURCE_DIR;
+  std::string printed;
+  for (const std::string& cmd :
+       {"program --design " + src +
+            "/designs/a-c-trunnion-C.json --dialect heidenhain --tcpm on "
+            "--out C.h",
+        "simulate --design " + src + "/designs/a-c-trunnion-A.json --truth " + src +
+            "/tests/data/truth_a_c_trunnion_A.json --out A.csv",
+        "simulate --design " + src + "/designs/a-c-trunnion-C.json --truth " + src +
+            "/tests/data/truth_a_c_trunnion_C.json --out C.csv",
+        "identify --design " + src +
+            "/designs/a-c-trunnion-A.json --data A.csv --out A.json --quiet",
+        "identify --design " + src +
+            "/designs/a-c-trunnion-C.json --data C.csv --out C.json --quiet",
+        "chain --machine " + src +
+            "/designs/machines/a-c-trunnion.json A.json C.json --out M.json"}) {
+    const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " " + cmd);
+    ASSERT_EQ(r.status, 0) << cmd << "\n" << r.err;
+    printed += r.out;
+  }
+  printed += slurp((dir / "C.h").string());
+  int checked = 0;
+  for (const std::string& line : readme_lines_not_printed(section, printed, false, checked))
+    ADD_FAILURE() << "README line not printed:\n" << line;
+  EXPECT_GE(checked, 40);
+  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -60,11 +60,13 @@ class Writer {
     }
   }
   // Every rotary axis given, in one block at rapid.
-  void rapid_rotaries(const std::vector<DesignMachine::AxisAngle>& axes) {
+  // `m`: an M function the block carries (Heidenhain), or empty.
+  void rapid_rotaries(const std::vector<DesignMachine::AxisAngle>& axes,
+                      const std::string& m = "") {
     std::string words;
     for (const DesignMachine::AxisAngle& p : axes)
       words += std::string(words.empty() ? "" : " ") + p.letter + coord(p.angle_deg, plus());
-    rapid(words);
+    rapid(words, m);
   }
   void raw(const std::string& text) { line(text); }
   void rapid_z(double z) { rapid("Z" + coord(z, plus())); }
@@ -111,13 +113,13 @@ class Writer {
     return std::to_string(static_cast<long long>(std::lround(feed)));
   }
   bool plus() const { return dialect_ == Dialect::kHeidenhain; }
-  void rapid(const std::string& words) {
+  void rapid(const std::string& words, const std::string& m = "") {
     if (dialect_ == Dialect::kIso)
-      line("G00 " + words);
+      line("G00 " + words + (m.empty() ? "" : " " + m));
     else if (dialect_ == Dialect::kSinumerik)
-      line("G0 " + words);
+      line("G0 " + words + (m.empty() ? "" : " " + m));
     else
-      line("L " + words + " R0 FMAX");
+      line("L " + words + " R0 FMAX" + (m.empty() ? "" : " " + m));
   }
   void feed_move(const std::string& words, double feed) {
     if (dialect_ == Dialect::kIso)
@@ -233,8 +235,9 @@ std::string program_text(const Design& design, const MeasurementProgram& program
                    "): axis " + L + " measured" +
                    (parks.empty() ? "" : " with " + parks + " (parked)"));
     head.push_back(
-        "every rotary axis is commanded at the clearance plane before any sideways "
-        "move");
+        "every rotary axis is commanded first, before any linear move, where the tool change "
+        "leaves the spindle (at the top of the Z travel on most machines: watch it in the air "
+        "run); the cups are placed with the axis at its park angle, then turned");
   }
   if (c && program.machine) {
     head.push_back("work offset " + offset + ": origin at " + L +
@@ -339,6 +342,18 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   // control left active; absolute, metric; the spindle stopped (oriented), coolant off; the
   // tool and its length.
   // One M function per block (many controls take no more).
+  // A design that names its machine: every rotary axis first, before any linear move, where the
+  // tool change leaves the spindle (the others to their park angles, the axis under test to where
+  // its first cup is placed); ISO's tool length comes with the first linear move (G43 H Z).
+  auto rotaries_first = [&](const std::string& m) {
+    if (!program.machine) return;
+    w.comment("every rotary axis first, before any linear move");
+    w.rapid_rotaries(
+        program.machine->angles_with(program.installations.empty()
+                                         ? program.machine->park_angles()[program.machine->axis]
+                                         : program.installations.front().placement_angle_deg),
+        m);
+  };
   if (iso) {
     w.raw("G17 G21 G40 G49 G69 G80 G90 G94");
     w.raw("M05");
@@ -346,6 +361,7 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     w.raw("G54");
     w.raw("T" + tool + " M06");
     if (!o.orient_code.empty()) w.raw(o.orient_code);
+    rotaries_first("");
     w.raw("G00 G43 H" + tool + " Z" + coord(zc, false));
   } else if (sinumerik) {
     w.raw("G17 G71 G90 G94 G40");
@@ -358,26 +374,23 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     w.raw("M6");
     w.raw("D1");
     if (!o.orient_code.empty()) w.raw("SPOS=0");
+    rotaries_first("");
     w.raw("G0 Z" + coord(zc, false));
   } else {
     w.raw("PLANE RESET STAY");
     w.raw("FUNCTION TCPM RESET");
     w.raw("TOOL CALL " + tool + " Z S0");
-    w.raw("L Z" + coord(zc, true) + " R0 FMAX M5");
+    // The spindle stopped with the first move (M5 on it).
+    if (program.machine)
+      rotaries_first("M5");
+    else
+      w.raw("L Z" + coord(zc, true) + " R0 FMAX M5");
     w.raw("L Z" + coord(zc, true) + " R0 FMAX M9");
     if (!o.orient_code.empty()) {
       w.raw("CYCL DEF 13.0 ORIENTATION");
       w.raw("CYCL DEF 13.1 ANGLE 0");
       w.raw("L Z" + coord(zc, true) + " R0 FMAX " + o.orient_code);
     }
-  }
-  if (program.machine) {
-    // Every other rotary axis to its park angle, and the axis under test to where its first
-    // installation starts (its cups placed): at the clearance plane, before any sideways move.
-    w.comment("every rotary axis to its place at the clearance plane");
-    w.rapid_rotaries(program.machine->angles_with(
-        program.installations.empty() ? program.machine->park_angles()[program.machine->axis]
-                                      : program.installations.front().placement_angle_deg));
   }
   if (tcpm_throughout) w.tcpm(true, tool);
 
