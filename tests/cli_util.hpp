@@ -44,6 +44,15 @@ inline CliRun run_cli(const std::string& args) {
   return run_cli_shell(std::string(DBBKIT_CLI) + " " + args);
 }
 
+// The README's section that begins with `title` (up to the next "## " heading), or empty when
+// the README has none.
+inline std::string readme_section(const std::string& title) {
+  const std::string readme = slurp(DBBKIT_SOURCE_DIR "/README.md");
+  const std::size_t from = readme.find(title);
+  if (from == std::string::npos) return "";
+  return readme.substr(from, readme.find("\n## ", from + 1) - from);
+}
+
 // The README section's output lines (those of its plain ``` blocks and, with table_rows, its
 // Markdown table rows; "...", empty lines and lines holding `skip` aside) that `printed` does
 // not hold, and how many were checked.

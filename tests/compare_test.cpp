@@ -494,11 +494,8 @@ TEST(CompareCli, CompareAndCompensationFromTheCommandLine) {
 // files.
 TEST(Readme, FromAWarningToTheControllerPrintsWhatTheReadmeShows) {
   namespace fs = std::filesystem;
-  const std::string readme = slurp(DBBKIT_SOURCE_DIR "/README.md");
-  const std::string title = "## Worked example: from a warning to the controller";
-  const size_t from = readme.find(title);
-  ASSERT_NE(from, std::string::npos);
-  const std::string section = readme.substr(from, readme.find("\n## ", from + 1) - from);
+  const std::string section = readme_section("## Worked example: from a warning to the controller");
+  ASSERT_FALSE(section.empty());
   const fs::path dir =
       fs::temp_directory_path() / ("dbbkit_readme_wc_" + std::to_string(::getpid()));
   fs::remove_all(dir);

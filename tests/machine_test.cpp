@@ -556,11 +556,8 @@ namespace {
 // The README's five-axis example, run as it is written: every line of its output blocks printed.
 TEST(Readme, AFiveAxisMachinePrintsWhatTheReadmeShows) {
   namespace fs = std::filesystem;
-  const std::string readme = slurp(DBBKIT_SOURCE_DIR "/README.md");
-  const std::string title = "## Worked example: a five-axis machine";
-  const size_t from = readme.find(title);
-  ASSERT_NE(from, std::string::npos);
-  const std::string section = readme.substr(from, readme.find("\n## ", from + 1) - from);
+  const std::string section = readme_section("## Worked example: a five-axis machine");
+  ASSERT_FALSE(section.empty());
   const fs::path dir = fs::temp_directory_path() / "dbbkit_readme_five_axis";
   fs::remove_all(dir);
   fs::create_directories(dir);

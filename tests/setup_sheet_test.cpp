@@ -287,11 +287,9 @@ namespace {
 // text blocks and the sheet's table rows; "..." and the elapsed time aside) is printed by the
 // commands it names, run here on the same files.
 TEST(Readme, TheJourneyPrintsWhatTheReadmeShows) {
-  const std::string readme = slurp(DBBKIT_SOURCE_DIR "/README.md");
-  const std::string title = "## Worked example: from the kit to the machine and back";
-  const size_t from = readme.find(title);
-  ASSERT_NE(from, std::string::npos);
-  const std::string section = readme.substr(from, readme.find("\n## ", from + 1) - from);
+  const std::string section =
+      readme_section("## Worked example: from the kit to the machine and back");
+  ASSERT_FALSE(section.empty());
   const auto dir = std::filesystem::temp_directory_path() / "dbbkit_readme_journey";
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);

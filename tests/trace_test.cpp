@@ -843,11 +843,9 @@ TEST(TraceClock, RunsOfOneInstallationOnOneClock) {
 // ("..." aside) is printed by the commands it names, or is in the file they write.
 TEST(Readme, FromTheInstrumentsTracePrintsWhatTheReadmeShows) {
   namespace fs = std::filesystem;
-  const std::string readme = slurp(DBBKIT_SOURCE_DIR "/README.md");
-  const std::string title = "## Worked example: from the instrument's trace to identify";
-  const std::size_t from = readme.find(title);
-  ASSERT_NE(from, std::string::npos);
-  const std::string section = readme.substr(from, readme.find("\n## ", from + 1) - from);
+  const std::string section =
+      readme_section("## Worked example: from the instrument's trace to identify");
+  ASSERT_FALSE(section.empty());
   const fs::path dir =
       fs::temp_directory_path() / ("dbbkit_readme_tr_" + std::to_string(::getpid()));
   fs::remove_all(dir);
