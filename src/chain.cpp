@@ -188,7 +188,7 @@ ChainResult chain_machine(const Machine& m, const std::vector<ChainInput>& input
     q.name = name, q.unit = unit;
     for (Eigen::Index c = 0; c < x.size(); ++c)
       if (!known[static_cast<std::size_t>(c)] && std::abs(J(row, c)) > 1e-9) return q;
-    q.value = y(row);
+    q.value = y(row) + 0.0;  // -0 is 0
     q.std = std::sqrt(std::max(0.0, cov(row, row)));
     q.U = r.k * *q.std;
     return q;
@@ -198,10 +198,19 @@ ChainResult chain_machine(const Machine& m, const std::vector<ChainInput>& input
     a.letter = inputs[i].letter;
     a.source = inputs[i].source;
     a.warnings = inputs[i].warnings;
+    const IsoFrame& f = s.iso[i];
+    a.vector = {f.p1, f.p2, f.p1, f.p2, f.q};
     for (int e = 0; e < 5; ++e)
       a.location.push_back(quantity(static_cast<Eigen::Index>(5 * i + e), inputs[i].names[e],
                                     e < 2 ? "um" : "urad"));
     r.axes.push_back(a);
+  }
+  r.location_covariance = cov.topLeftCorner(5 * n, 5 * n);
+  for (Eigen::Index row = 0; row < static_cast<Eigen::Index>(5 * n); ++row) {
+    if (!r.axes[static_cast<std::size_t>(row) / 5].location[row % 5].value) {
+      r.location_covariance.row(row).setZero();
+      r.location_covariance.col(row).setZero();
+    }
   }
   for (std::size_t t = 0; t < terms.size(); ++t) {
     ChainTerm term = terms[t];

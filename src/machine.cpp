@@ -5,6 +5,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
+#include "number_text.hpp"
 
 namespace dbbkit {
 
@@ -202,7 +203,13 @@ void validate_machine(const Machine& m, const std::string& source) {
     if (!std::isfinite(r.park_deg) ||
         (!r.full_turn && (r.park_deg < r.travel_min_deg || r.park_deg > r.travel_max_deg)) ||
         std::abs(r.park_deg) > 360)
-      fail(at + ".park_deg", "the park angle must lie in the axis' travel");
+      fail(at + ".park_deg",
+           text::significant(r.park_deg, 7) +
+               " deg: the park angle must lie in the axis' travel (" +
+               (r.full_turn ? std::string("a full turn, within +-360 deg")
+                            : text::significant(r.travel_min_deg, 7) + " to " +
+                                  text::significant(r.travel_max_deg, 7) + " deg") +
+               ")");
     if (r.table_diameter_mm && !(std::isfinite(*r.table_diameter_mm) && *r.table_diameter_mm > 0 &&
                                  *r.table_diameter_mm <= 2 * limits::kMaxLength_mm))
       fail(at + ".table.diameter_mm", "expected a diameter in (0, 20000] mm");

@@ -123,6 +123,25 @@ void check_machine_options(const Design& design, const ProgramOptions& o) {
                              "off)");
     }
   }
+  if (design.axis.table()) {
+    // The cups are placed with the table level: every table axis that tilts it (one not along Z)
+    // and carries the table of the axis under test, or is that axis, stands at 0 then.
+    std::vector<int> tilting = m.carriers(design.machine->axis);
+    tilting.push_back(design.machine->axis);
+    for (const int k : tilting) {
+      const RotaryAxisSpec& r = m.rotary[static_cast<std::size_t>(k)];
+      if (r.side != AxisFrame::Side::kTable ||
+          r.direction.cross(Eigen::Vector3d::UnitZ()).norm() < 1e-9 ||
+          park[static_cast<std::size_t>(k)] == 0)
+        continue;
+      throw InputError("program", "park_deg",
+                       std::string("table axis ") + r.letter + " stands at " +
+                           text::significant(park[static_cast<std::size_t>(k)], 6) +
+                           " deg while the cups are placed: the table would be tilted; the cups "
+                           "are placed on a level table (park " +
+                           r.letter + " at 0)");
+    }
+  }
   if (o.tcpm) {
     // TCPM's workpiece frame is the controller's with every axis at 0: another table axis parked
     // away from 0 would turn it under the program's coordinates.
@@ -134,6 +153,21 @@ void check_machine_options(const Design& design, const ProgramOptions& o) {
                              text::significant(park[k], 6) +
                              " deg: under TCPM the workpiece frame is the controller's with "
                              "every axis at 0; park it at 0, or run with TCPM off");
+    }
+  }
+  if (!o.tcpm) {
+    // Without TCPM the positions come from dbbkit's frame, the machine axes: a controller's
+    // vector off them would be measured as an error of the axis it already corrects.
+    for (const RotaryAxisSpec& r : m.rotary) {
+      if (!r.controller_direction) continue;
+      const double urad =
+          1e6 * std::asin(std::min(1.0, r.controller_direction->cross(r.direction).norm()));
+      throw InputError("program", "tcpm",
+                       std::string("the machine file's direction of axis ") + r.letter + " is " +
+                           text::significant(urad, 4) +
+                           " urad off its machine axis (a corrected kinematics): without TCPM the "
+                           "positions would be computed on the machine axis; run with TCPM on, "
+                           "so that the controller moves on its own vector");
     }
   }
   if (!o.tcpm && design.axis.table()) {

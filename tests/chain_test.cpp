@@ -9,7 +9,10 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
+#include <regex>
+#include <sstream>
 
 #include "cli_util.hpp"
 #include "dbbkit/io/design_io.hpp"
@@ -34,9 +37,11 @@ Eigen::Vector3d turn(const RealLine& l, double deg, const Eigen::Vector3d& x) {
 
 // The readings of a design measured on the real machine: the table ball turned about the real
 // line of the axis under test (the C line first set where A's real pose at 0 puts it), the
-// spindle ball where the nominal program commands it; noise uniform within +-a um.
+// spindle ball where the nominal program commands it; noise uniform within +-a um. With
+// `controller`, the program runs under TCPM on a controller whose line of the axis is that one:
+// the spindle ball's workpiece position (the nominal line's) is turned about it.
 std::string readings_csv(const Design& d, const RealLine& line, double noise_um,
-                         std::mt19937_64& rng) {
+                         std::mt19937_64& rng, const RealLine* controller = nullptr) {
   std::uniform_real_distribution<double> U(-noise_um, noise_um);
   std::ostringstream csv;
   csv << "installation,angle_deg,reading_um\n";
@@ -45,7 +50,11 @@ std::string readings_csv(const Design& d, const RealLine& line, double noise_um,
     const Eigen::Vector3d body = d.axis.body_point(in.L_mm, in.D_mm, in.H_mm);
     for (double a : d.angles_deg) {
       const Eigen::Vector3d P = turn(line, a, origin + body);
-      const Eigen::Vector3d F = origin + commanded_point_mm(d.axis, in, *in.bar_mm, a);
+      Eigen::Vector3d F = origin + commanded_point_mm(d.axis, in, *in.bar_mm, a);
+      if (controller) {
+        const RealLine nominal{origin, d.axis.direction(), 0};
+        F = turn(*controller, a, turn(nominal, -a, F));
+      }
       const double reading = 1e3 * ((P - F).norm() - *in.bar_mm);
       csv << in.id << "," << a << "," << std::setprecision(12) << reading + U(rng) << "\n";
     }
@@ -224,6 +233,272 @@ TEST(Chain, ALocationCovarianceIsTheOneItsStdComeFrom) {
       }
     }
   }
+  std::filesystem::remove_all(dir);
+}
+
+// ---- The corrected chain through a controller built here ----
+
+// A controller's lines of the trunnion's two axes (A, then C in A's body).
+struct Controller {
+  RealLine a, c;
+};
+
+Controller nominal_controller() {
+  return {{Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), 0},
+          {Eigen::Vector3d(0, 0, -60), Eigen::Vector3d::UnitZ(), 0}};
+}
+
+// Siemens: the swivel data record's assignments as the function manual chains them (type P):
+// the table turns about v1 through the end of l2, then about v2 through the end of l2 + l3.
+Controller siemens_controller(const std::string& mpf) {
+  std::map<int, double> v;
+  const std::regex assignment(R"(^\$TC_CARR(\d+)\[1\]=([-0-9.]+) ;)");
+  std::istringstream in(mpf);
+  for (std::string line; std::getline(in, line);) {
+    std::smatch m;
+    if (std::regex_search(line, m, assignment)) v[std::stoi(m[1])] = std::stod(m[2]);
+  }
+  auto vec = [&](int first) {
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(v.count(first + k), 1u) << "$TC_CARR" << first + k;
+    return Eigen::Vector3d(v[first], v[first + 1], v[first + 2]);
+  };
+  const Eigen::Vector3d l2 = vec(4), l3 = vec(15), l4 = vec(18);
+  EXPECT_LT((l2 + l3 + l4).norm(), 1e-9) << "the chain is closed";
+  return {{l2, vec(7).normalized(), 0}, {l2 + l3, vec(10).normalized(), 0}};
+}
+
+// LinuxCNC xyzac-trt: C about (x-rot-point, y-rot-point) along Z, A about (y-rot-point +
+// y-offset, z-rot-point + z-offset) along X; the pins start at the nominal machine's (all 0).
+Controller linuxcnc_controller(const std::string& hal) {
+  std::map<std::string, double> pin;
+  const std::regex setp(R"(^setp xyzac-trt-kins\.([a-z-]+) ([-0-9.e]+)$)");
+  std::istringstream in(hal);
+  for (std::string line; std::getline(in, line);) {
+    std::smatch m;
+    if (std::regex_search(line, m, setp)) pin[m[1]] = std::stod(m[2]);
+  }
+  Controller c = nominal_controller();
+  c.a.point = Eigen::Vector3d(0, pin["y-rot-point"] + pin["y-offset"],
+                              pin["z-rot-point"] + pin["z-offset"]);
+  c.c.point = Eigen::Vector3d(pin["x-rot-point"], pin["y-rot-point"], -60);
+  return c;
+}
+
+// ISG: the kernel adds each location error to its line: an offset along the machine axis its
+// name's first letter says, a tilt about the one its first letter says (X0C, B0C; mm and rad).
+Controller isg_controller(const std::string& csv) {
+  std::vector<std::string> rows;
+  std::istringstream in(csv);
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line.rfind("//", 0) != 0 && line[0] != '#') rows.push_back(line);
+  EXPECT_EQ(rows.size(), 2u) << csv;
+  std::istringstream names(rows.at(0)), values(rows.at(1));
+  Controller c = nominal_controller();
+  std::string name;
+  double value = 0;
+  while (names >> name && values >> value) {
+    RealLine& l = name.back() == 'A' ? c.a : c.c;
+    const Eigen::Vector3d e = Eigen::Vector3d::Unit(std::string("XYZ").find(name[0]) % 3);
+    if (name[0] == 'X' || name[0] == 'Y' || name[0] == 'Z')
+      l.point += value * e;
+    else if (name[0] != name.back())  // a zero error is the joint's, not the line's
+      l.direction =
+          (l.direction +
+           value * Eigen::Vector3d::Unit(std::string("ABC").find(name[0])).cross(l.direction))
+              .normalized();
+  }
+  return c;
+}
+
+// What remains of a real line against a controller's: the offsets across the controller's
+// line at its point (um) and the tilt (urad), as ISO names them for A (Y, Z; B, C) and C (X, Y;
+// A, B).
+std::array<double, 4> remaining(const RealLine& real, const RealLine& ctrl) {
+  const Eigen::Vector3d d = ctrl.direction;
+  const double t = (ctrl.point - real.point).dot(d) / real.direction.dot(d);
+  const Eigen::Vector3d offset = 1e3 * (real.point + t * real.direction - ctrl.point);
+  const Eigen::Vector3d tilt = 1e6 * d.cross(real.direction);
+  if (d.x() > 0.5) return {offset.y(), offset.z(), tilt.y(), tilt.z()};
+  return {offset.x(), offset.y(), tilt.x(), tilt.y()};
+}
+
+TEST(ChainCompensation, SiemensLinuxCncAndIsgRoundTripsLeaveWhatRemainsWithinU) {
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_chain_compensation";
+  std::filesystem::remove_all(dir);
+  const Planted p;
+  const json before = measure_and_chain(p, 1.25, 20261127, dir / "before");
+  const std::string m_file = (dir / "before" / "M.json").string();
+  // The real lines, as measure_and_chain plants them (C in A's body).
+  const double t = 1e-6 * p.squareness_urad;
+  const RealLine real_a{Eigen::Vector3d(0, 1e-3 * p.Y0A_um, 0), Eigen::Vector3d::UnitX(),
+                        1e-6 * p.A0A_urad};
+  const RealLine real_c{Eigen::Vector3d(0, 1e-3 * (p.Y0A_um + p.distance_um), -60),
+                        Eigen::Vector3d(std::sin(t), 0, std::cos(t)), 0};
+  const std::array<const char*, 4> a_names{"Y0A", "Z0A", "B0A", "C0A"};
+  const std::array<const char*, 4> c_names{"X0C", "Y0C", "A0C", "B0C"};
+  // Before: what the nominal controller leaves is the planted chain.
+  EXPECT_NEAR(remaining(real_c, nominal_controller().c)[3], 30, 1e-6);
+
+  struct Case {
+    std::string format, options;
+    Controller (*controller)(const std::string&);
+    bool tilts;  // whether the target takes the axes' tilts
+  };
+  const std::vector<Case> cases = {
+      {"siemens", "--record 1", siemens_controller, true},
+      {"linuxcnc", "--current x-rot-point=0 y-rot-point=0 z-rot-point=0 y-offset=0 z-offset=0",
+       linuxcnc_controller, false},
+      {"isg", "", isg_controller, true}};
+  for (const Case& k : cases) {
+    SCOPED_TRACE(k.format);
+    const CliRun r = run_cli("compensation --result " + m_file + " --format " + k.format + " " +
+                             k.options + " --k 2");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const Controller ctrl = k.controller(r.out);
+    // Every line's remainder against what was written: within the measurement's U (k = 2),
+    // where the target takes the quantity; the tilts it does not take remain as planted.
+    const std::array<double, 4> ra = remaining(real_a, ctrl.a), rc = remaining(real_c, ctrl.c);
+    for (int e = 0; e < 4; ++e) {
+      const bool taken = e < 2 || k.tilts;
+      const double Ua = 2 * location(before, "A", a_names[e], "std");
+      const double Uc = 2 * location(before, "C", c_names[e], "std");
+      if (taken) {
+        EXPECT_LE(std::abs(ra[e]), Ua) << a_names[e];
+        EXPECT_LE(std::abs(rc[e]), Uc) << c_names[e];
+      }
+    }
+    if (!k.tilts) EXPECT_NEAR(rc[3], 30, 1e-6) << "B0C is not the module's to correct";
+    // The planted chain was not within U of the nominal controller: correcting did something.
+    EXPECT_GT(std::abs(remaining(real_a, nominal_controller().a)[0]),
+              2 * location(before, "A", "Y0A", "std"));
+
+    if (k.format != "siemens") continue;
+    // Measured again on the corrected controller (under TCPM: the program's workpiece
+    // positions turned about the controller's lines), with the corrected machine file, without
+    // noise: the second measurement must find what remains, to the first-order model's error.
+    const std::filesystem::path again = dir / "again";
+    std::filesystem::create_directories(again);
+    json mj = json::parse(slurp(test::source_path("designs/machines/a-c-trunnion.json")));
+    auto arr = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
+    mj["rotary"][0]["point_mm"] = arr(ctrl.a.point);
+    mj["rotary"][0]["direction"] = arr(ctrl.a.direction);
+    mj["rotary"][1]["point_mm"] = arr(ctrl.c.point);
+    mj["rotary"][1]["direction"] = arr(ctrl.c.direction);
+    std::ofstream((again / "m.json").string()) << mj.dump(2);
+    std::mt19937_64 rng(1);
+    for (const char* axis : {"A", "C"}) {
+      json dj = json::parse(
+          slurp(test::source_path(std::string("designs/a-c-trunnion-") + axis + ".json")));
+      dj["machine"] = (again / "m.json").string();
+      const std::string design = (again / (std::string(axis) + "-design.json")).string();
+      std::ofstream(design) << dj.dump(2);
+      const Design d = io::read_design_file(design);
+      // C is measured with A at 0, where A's real zero error turns it.
+      RealLine line = axis[0] == 'A' ? real_a : real_c;
+      RealLine ctrl_line = axis[0] == 'A' ? ctrl.a : ctrl.c;
+      if (axis[0] == 'C') {
+        line.point = turn(real_a, 0, real_c.point);
+        line.direction = Eigen::AngleAxisd(real_a.zero_rad, real_a.direction) * real_c.direction;
+      }
+      std::ofstream(again / (std::string(axis) + ".csv"))
+          << readings_csv(d, line, 0.0, rng, &ctrl_line);
+      const CliRun id = run_cli("identify --design " + design + " --data " +
+                                (again / (std::string(axis) + ".csv")).string() + " --out " +
+                                (again / (std::string(axis) + ".json")).string() + " --quiet");
+      ASSERT_EQ(id.status, 0) << id.err;
+    }
+    // TCPM off is refused on a machine file holding a corrected vector.
+    EXPECT_EQ(run_cli("program --design " + (again / "C-design.json").string() +
+                      " --dialect sinumerik --tcpm off --out " + (again / "p.mpf").string())
+                  .status,
+              2);
+    const CliRun c = run_cli("chain --machine " + (again / "m.json").string() + " " +
+                             (again / "A.json").string() + " " + (again / "C.json").string() +
+                             " --out " + (again / "M.json").string() + " --quiet");
+    ASSERT_EQ(c.status, 0) << c.err;
+    const json after = json::parse(slurp((again / "M.json").string()));
+    // The chain's lines are the controller's (its vector, not the machine axis), and what the
+    // second measurement finds is what remains.
+    for (const json& a : after["axes"]) {
+      const RealLine& l = a["letter"] == "A" ? ctrl.a : ctrl.c;
+      for (int k2 = 0; k2 < 3; ++k2)
+        EXPECT_NEAR(a["direction"][k2].get<double>(), l.direction(k2), 1e-12);
+    }
+    for (int e = 0; e < 4; ++e) {
+      EXPECT_NEAR(location(after, "A", a_names[e], "value"), ra[e], 0.01) << a_names[e];
+      EXPECT_NEAR(location(after, "C", c_names[e], "value"), rc[e], 0.01) << c_names[e];
+    }
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// What a format cannot hold is refused by name; the machine's texts reach comments only.
+TEST(ChainCompensation, WhatAFormatCannotHoldIsRefusedAndTextStaysInComments) {
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_chain_compensation_refusals";
+  std::filesystem::remove_all(dir);
+  measure_and_chain(Planted{}, 0.5, 3, dir);
+  const std::string m = (dir / "M.json").string();
+  CliRun r = run_cli("compensation --result " + m + " --format siemens");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--record: required"), std::string::npos) << r.err;
+  r = run_cli("compensation --result " + m + " --format isg --record 2");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--record"), std::string::npos) << r.err;
+  r = run_cli("compensation --result " + m + " --format linuxcnc --kins xyzbc-trt");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("xyzac-trt"), std::string::npos) << r.err;
+  // One axis' result has no chain to write.
+  r = run_cli("compensation --result " + (dir / "A.json").string() +
+              " --format siemens --record 1");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("machine result"), std::string::npos) << r.err;
+  // A head in the chain: the swivel table's record cannot hold it; the table can.
+  json j = json::parse(slurp(m));
+  json head = j;
+  head["axes"][1]["side"] = "head";
+  head["axes"][1]["on"] = nullptr;
+  std::ofstream(dir / "head.json") << head.dump(2);
+  r = run_cli("compensation --result " + (dir / "head.json").string() +
+              " --format siemens --record 1");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("two table axes"), std::string::npos) << r.err;
+  EXPECT_EQ(
+      run_cli("compensation --result " + (dir / "head.json").string() + " --format table").status,
+      0);
+  // An edited covariance no longer gives the std: refused, naming the key.
+  json edited = j;
+  edited["location_covariance"]["matrix"][0][0] = 1e4;
+  std::ofstream(dir / "edited.json") << edited.dump(2);
+  r = run_cli("compensation --result " + (dir / "edited.json").string() + " --format table");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("location_covariance.matrix"), std::string::npos) << r.err;
+  // A hostile machine name: in comments only, every line of code one of the record's.
+  json hostile = j;
+  hostile["machine"]["name"] = "m\"; $TC_CARR1[1]=999 M30 (x) %";
+  hostile["machine"]["controller"] = "fanuc";
+  std::ofstream(dir / "hostile.json") << hostile.dump(2);
+  r = run_cli("compensation --result " + (dir / "hostile.json").string() +
+              " --format siemens --record 3");
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::istringstream lines(r.out);
+  int code = 0;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind(";", 0) == 0) continue;
+    ++code;
+    EXPECT_TRUE(
+        std::regex_match(
+            line,
+            std::regex(
+                R"(\$TC_CARR(4|5|6|7|8|9|10|11|12|15|16|17|18|19|20)\[3\]=[-0-9.]+ ;[^;]*)")) ||
+        line == "M30")
+        << line;
+  }
+  EXPECT_EQ(code, 16);
+  // Fanuc's table names its parameters, with the corrected vectors.
+  r = run_cli("compensation --result " + (dir / "hostile.json").string() + " --format table");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("19700-19702"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("19703-19705"), std::string::npos) << r.out;
   std::filesystem::remove_all(dir);
 }
 

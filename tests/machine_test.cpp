@@ -126,6 +126,8 @@ TEST(Machine, BadMachineFilesAreRefusedNamingTheKey) {
       {"turns", [](json& j) { j["workspace"]["solids"][0]["turns_with"] = "B"; }, "turns_with"},
       {"no carrier", [](json& j) { j["rotary"][1].erase("on"); }, "rotary[1].on"},
       {"name", [](json& j) { j["name"] = "a\nb"; }, "name"},
+      {"nameless", [](json& j) { j.erase("name"); }, "name"},
+      {"empty name", [](json& j) { j["name"] = ""; }, "name"},
       {"four",
        [](json& j) {
          j["rotary"].push_back(j["rotary"][0]);
@@ -145,6 +147,34 @@ TEST(Machine, BadMachineFilesAreRefusedNamingTheKey) {
     }
   }
   EXPECT_NO_THROW(io::machine_from_json(good, "m.json"));
+  // A park angle out of travel says both.
+  json park = good;
+  park["rotary"][0]["park_deg"] = 120;
+  try {
+    io::machine_from_json(park, "m.json");
+  } catch (const InputError& e) {
+    EXPECT_NE(e.detail().find("120 deg: the park angle must lie in the axis' travel (-115 to 115 "
+                              "deg)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+// A controller's corrected vector (within 1 mrad of a machine axis) is that axis for dbbkit's
+// frame and kept as the controller's; beyond 1 mrad the axis is a nutating one.
+TEST(Machine, ADirectionNearAMachineAxisIsTheControllersVectorOnThatAxis) {
+  json j = json::parse(slurp(test::source_path("designs/machines/a-c-trunnion.json")));
+  j["rotary"][1]["direction"] = {3e-5, 0, 1};  // a unit vector to 1e-6
+  const Machine m = io::machine_from_json(j, "m.json");
+  EXPECT_EQ(m.rotary[1].direction, Eigen::Vector3d::UnitZ());
+  ASSERT_TRUE(m.rotary[1].controller_direction);
+  EXPECT_NEAR(m.rotary[1].controller_direction->x(), 3e-5, 1e-12);
+  EXPECT_NEAR(m.rotary[1].controller_direction->norm(), 1, 1e-15);
+  // Written back as the controller's vector.
+  EXPECT_NEAR(io::machine_to_json(m)["rotary"][1]["direction"][0].get<double>(), 3e-5, 1e-12);
+  EXPECT_FALSE(m.rotary[0].controller_direction);
+  j["rotary"][1]["direction"] = {2e-3, 0, 0.999998};
+  EXPECT_THROW(io::machine_from_json(j, "m.json"), InputError);  // no reference for a nutating C
 }
 
 TEST(Machine, ADesignTakesItsFrameFromItsMachineAtTheParkAngles) {
@@ -484,17 +514,35 @@ TEST(MachineProgram, WhatLeavesTheTravelOrMeetsASolidIsRefusedByName) {
     EXPECT_NE(why.find("the spindle ball lies 90 mm below the surface of the C table"),
               std::string::npos)
         << why;
-    // Under TCPM another table axis must stand at 0 (the controller's workpiece frame).
+    // The cups are placed on a level table: A, which tilts the C table, stands at 0 then
+    // (TCPM on or off).
     json parked = dj;
     parked["park_deg"] = {{"A", 10}};
     std::ofstream(dir / "d.json") << parked.dump(2);
     ProgramOptions on;
     on.tcpm = true;
+    for (const ProgramOptions& o : {ProgramOptions{}, on}) {
+      try {
+        measurement_program(io::read_design_file((dir / "d.json").string()), o);
+        ADD_FAILURE() << "A parked at 10 deg under the cups was taken";
+      } catch (const InputError& e) {
+        EXPECT_NE(e.detail().find("table axis A stands at 10 deg while the cups are placed: the "
+                                  "table would be tilted"),
+                  std::string::npos)
+            << e.what();
+      }
+    }
+    // Under TCPM another table axis must stand at 0 (the controller's workpiece frame), even
+    // one that only turns the table (C, while A is measured).
+    json a = json::parse(slurp(design_path("a-c-trunnion-A")));
+    a["machine"] = (dir / "machines" / "a-c-trunnion.json").string();
+    a["park_deg"] = {{"C", 90}};
+    std::ofstream(dir / "d.json") << a.dump(2);
     try {
       measurement_program(io::read_design_file((dir / "d.json").string()), on);
-      ADD_FAILURE() << "TCPM with A parked at 10 deg was taken";
+      ADD_FAILURE() << "TCPM with C parked at 90 deg was taken";
     } catch (const InputError& e) {
-      EXPECT_NE(e.detail().find("table axis A parks at 10 deg"), std::string::npos) << e.what();
+      EXPECT_NE(e.detail().find("table axis C parks at 90 deg"), std::string::npos) << e.what();
     }
   }
   // A clearance plane above the Z travel.
@@ -575,13 +623,15 @@ TEST(Readme, AFiveAxisMachinePrintsWhatTheReadmeShows) {
             "/designs/a-c-trunnion-A.json --data A.csv --out A.json --quiet",
         "identify --design " + src +
             "/designs/a-c-trunnion-C.json --data C.csv --out C.json --quiet",
-        "chain --machine " + src +
-            "/designs/machines/a-c-trunnion.json A.json C.json --out M.json"}) {
+        "chain --machine " + src + "/designs/machines/a-c-trunnion.json A.json C.json --out M.json",
+        std::string("compensation --result M.json --format siemens --record 1 --out "
+                    "trunnion.mpf")}) {
     const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " " + cmd);
     ASSERT_EQ(r.status, 0) << cmd << "\n" << r.err;
     printed += r.out;
   }
   printed += slurp((dir / "C.h").string());
+  printed += slurp((dir / "trunnion.mpf").string());
   int checked = 0;
   for (const std::string& line : readme_lines_not_printed(section, printed, false, checked))
     ADD_FAILURE() << "README line not printed:\n" << line;

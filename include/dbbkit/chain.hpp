@@ -49,6 +49,9 @@ struct ChainAxis {
   // Its location errors against the machine file's line, in its carrier's body (the machine
   // frame with every axis at zero).
   std::vector<ChainQuantity> location;
+  // Each location error's direction in the machine frame: the offset's (X0C: +X), the tilt's
+  // rotation axis (A0C: +X), the zero error's (the axis' own direction).
+  std::array<Eigen::Vector3d, 5> vector;
 };
 
 struct ChainTerm {
@@ -65,6 +68,9 @@ struct ChainResult {
   std::vector<ChainTerm> terms;
   double coverage_probability = 0.95;
   double k = 1.959963984540054;
+  // The covariance of every axis' location errors as `axes` lists them (5 per axis, um and
+  // urad; rows of an undetermined one zero): what a value combined from several needs.
+  Eigen::MatrixXd location_covariance;
 };
 
 // Throws InputError(source, key) when a result does not belong to the machine (another axis

@@ -27,11 +27,22 @@ enum class Controller { kHeidenhain, kSiemens, kFanuc, kLinuxCNC, kISG, kGeneric
 std::optional<Controller> controller_named(const std::string& name);
 const char* controller_name(Controller c);
 
+// The largest angle between a machine file's direction and a machine axis for which it is taken
+// as that axis (a controller's corrected vector) [rad].
+inline constexpr double kNearAxis_rad = 1e-3;
+
 struct RotaryAxisSpec {
   char letter = 'C';
   AxisFrame::Side side = AxisFrame::Side::kTable;
   Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  // unit, machine frame at zero
-  Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();    // a point on the nominal line
+  // The controller's own vector where the file gives one within kNearAxis_rad of a machine axis
+  // but not on it (a corrected kinematics): `direction` is then that machine axis (dbbkit's
+  // frame, ISO names, the program's geometry: under TCPM the controller moves on its own
+  // vector, the difference entering the readings to second order), this what compensation
+  // corrects. Absent: the file's direction is `direction`.
+  std::optional<Eigen::Vector3d> controller_direction;
+  Eigen::Vector3d controllers_direction() const { return controller_direction.value_or(direction); }
+  Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();  // a point on the nominal line
   // The direction of a ball's L at angle 0 (perpendicular to direction): given, or the first of
   // +Z, +X (a table) or -Z, +X (a head: the spindle pointing down) perpendicular to direction.
   Eigen::Vector3d reference = Eigen::Vector3d::UnitX();

@@ -5,7 +5,9 @@
 #include "checks.hpp"
 #include "commands.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/io/chain_io.hpp"
 #include "dbbkit/io/compensation_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/result_read.hpp"
 #include "dbbkit/io/text.hpp"
@@ -18,6 +20,7 @@ struct CompensationArgs {
   std::string result, format, out, kins;
   std::vector<std::string> current;
   double k = 2.0;
+  int record = 0;
   bool quiet = false;
 };
 }  // namespace
@@ -26,12 +29,19 @@ Runner add_compensation(CLI::App& app) {
   auto args = std::make_shared<CompensationArgs>();
   CLI::App* sub = app.add_subcommand(
       "compensation",
-      "The location errors of an identify result for a controller: the ISG kernel's CSV, "
-      "LinuxCNC HAL settings, or a table to enter by hand");
-  sub->add_option("--result", args->result, "Result of dbbkit identify (--out)")->required();
-  sub->add_option("--format", args->format, "isg, linuxcnc or table")
+      "The location errors of an identify result, or a machine's corrected kinematics from a "
+      "chain result, for a controller: the ISG kernel's CSV, LinuxCNC HAL settings, Siemens' "
+      "swivel data record, or a table to enter by hand");
+  sub->add_option("--result", args->result,
+                  "Result of dbbkit identify or diagnose (--out), or a machine result of dbbkit "
+                  "chain (--out)")
+      ->required();
+  sub->add_option("--format", args->format, "isg, linuxcnc, siemens (a machine result) or table")
       ->required()
-      ->check(CLI::IsMember({"isg", "linuxcnc", "table"}));
+      ->check(CLI::IsMember({"isg", "linuxcnc", "siemens", "table"}));
+  sub->add_option("--record", args->record,
+                  "siemens: the number n of the swivel data record ($TC_CARR..[n])")
+      ->check(CLI::Range(1, 99));
   sub->add_option("--out", args->out, "Output file; '-' or absent: stdout");
   sub->add_option("--kins", args->kins,
                   "linuxcnc: xyzac-trt or xyzbc-trt (an A table: xyzac-trt, a B table: "
@@ -45,10 +55,11 @@ Runner add_compensation(CLI::App& app) {
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the file asked for");
   return [args]() {
     io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}}, {args->result});
-    const io::ResultFile result = io::read_result_file(args->result);
+    const std::string text = io::read_json_file(args->result);
     io::CompensationOptions o;
     o.k = args->k;
     o.linuxcnc_kins = args->kins;
+    o.record = args->record;
     const io::CompensationFormat f = io::compensation_format(args->format, "--format");
     {  // an option the format does not take, before its values are read
       io::CompensationOptions given = o;
@@ -79,7 +90,11 @@ Runner add_compensation(CLI::App& app) {
       if (!o.current_mm.emplace(c.substr(0, eq), v).second)
         throw InputError("--current", "", quote_value(c.substr(0, eq)) + " is given twice");
     }
-    outputs.stage("--out", io::compensation_text(result, f, o));
+    if (io::is_chain_text(text))
+      outputs.stage("--out",
+                    io::machine_compensation_text(io::chain_from_text(text, args->result), f, o));
+    else
+      outputs.stage("--out", io::compensation_text(io::result_from_text(text, args->result), f, o));
     outputs.commit();
     return 0;
   };

@@ -1,8 +1,10 @@
 #include "dbbkit/io/chain_io.hpp"
 
+#include <cmath>
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/user_text.hpp"
 
@@ -54,6 +56,8 @@ ChainInput chain_input(const Machine& m, const ResultFile& r) {
 
 namespace {
 
+json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
 json quantity_json(const ChainQuantity& q) {
   auto num = [](const std::optional<double>& v) { return v ? json(*v) : json(nullptr); };
   return {{"name", q.name},
@@ -63,8 +67,10 @@ json quantity_json(const ChainQuantity& q) {
           {"U", num(q.U)}};
 }
 
-std::string quantity_text(const ChainQuantity& q) {
-  if (!q.value) return "not determined (a location error it needs is not)";
+std::string quantity_text(const ChainQuantity& q, bool term = false) {
+  if (!q.value)
+    return term ? "not determined (a location error it needs is not)"
+                : "not determined by the measurement";
   return fmt_num(*q.value, 3) + " +- " + fmt_num(*q.U, 3) + " " + q.unit + " (U, std " +
          fmt_num(*q.std, 3) + ")";
 }
@@ -78,6 +84,190 @@ std::string term_text(const ChainTerm& t) {
 }
 
 }  // namespace
+
+namespace {
+
+Eigen::Vector3d vector3(const json& v, const std::string& source, const std::string& path) {
+  const std::vector<double> x = read_numbers(v, source, path);
+  if (x.size() != 3) throw InputError(source, path, "expected three numbers");
+  for (double c : x)
+    if (!(std::abs(c) <= 1e6)) throw InputError(source, path, "beyond +-1e6: not a machine's");
+  return {x[0], x[1], x[2]};
+}
+
+std::optional<double> value_or_null(ObjectReader& o, const std::string& key, bool uncertainty) {
+  const json& v = o.required(key);
+  if (v.is_null()) return std::nullopt;
+  const double x = as_number(v, o.source(), o.key_path(key));
+  if (!(std::abs(x) <= 1e9)) o.fail(key, "beyond +-1e9 (um or urad): not a result of dbbkit");
+  if (uncertainty && x < 0) o.fail(key, "is negative");
+  return x;
+}
+
+std::string text_key(ObjectReader& o, const std::string& key) {
+  const std::string t = o.string(key);
+  if (const auto p = text_problem(t, 4000)) o.fail(key, quote_value(t) + ": " + *p);
+  return t;
+}
+
+ResultQuantity chain_quantity(ObjectReader& o) {
+  ResultQuantity q;
+  q.name = text_key(o, "name");
+  q.unit = o.string("unit");
+  if (q.unit != "um" && q.unit != "urad") o.fail("unit", "expected um or urad");
+  q.value = value_or_null(o, "value", false);
+  q.std = value_or_null(o, "std", true);
+  (void)o.optional("U");
+  if (q.value.has_value() != q.std.has_value())
+    o.fail("std", "a value without its std (or a std without its value)");
+  return q;
+}
+
+char letter_of(ObjectReader& o, const std::string& key) {
+  const std::string l = o.string(key);
+  if (l.size() != 1 || (l[0] != 'A' && l[0] != 'B' && l[0] != 'C'))
+    o.fail(key, quote_value(l) + ": expected A, B or C");
+  return l[0];
+}
+
+}  // namespace
+
+bool is_chain_text(const std::string& text) {
+  try {
+    const json j = parse_json(text, "");  // depth and size bounded
+    return j.is_object() && j.contains("format") && j["format"] == kChainFormat;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+ChainFile chain_from_text(const std::string& text, const std::string& source) {
+  const json j = parse_json(text, source);
+  if (!j.is_object()) throw InputError(source, "", "expected a JSON object (dbbkit chain --out)");
+  ObjectReader o(j, source, "");
+  if (o.string("format") != kChainFormat)
+    o.fail("format", "expected " + std::string(kChainFormat) + " (dbbkit chain --out)");
+  ChainFile f;
+  f.source = source;
+  (void)o.optional("dbbkit_version");
+  (void)o.optional("uncertainty");
+  (void)o.optional("coverage_probability");
+  (void)o.optional("k");
+  {
+    ObjectReader m = o.object("machine");
+    f.machine_name = text_key(m, "name");
+    (void)m.optional("file");
+    f.controller = m.string("controller");
+    static const char* kControllers[] = {"heidenhain", "siemens", "fanuc",
+                                         "linuxcnc",   "isg",     "generic"};
+    bool known = false;
+    for (const char* c : kControllers) known = known || f.controller == c;
+    if (!known)
+      m.fail("controller", quote_value(f.controller) +
+                               " (expected heidenhain, siemens, fanuc, linuxcnc, isg or generic)");
+    m.finish();
+  }
+  const json& axes = o.required("axes");
+  if (!axes.is_array() || axes.size() < 2 || axes.size() > 6)
+    o.fail("axes", "expected a list of two to six axes");
+  for (std::size_t i = 0; i < axes.size(); ++i) {
+    ObjectReader a(axes[i], source, "axes[" + std::to_string(i) + "]");
+    ChainFileAxis x;
+    x.letter = letter_of(a, "letter");
+    for (const ChainFileAxis& other : f.axes)
+      if (other.letter == x.letter) a.fail("letter", std::string("axis ") + x.letter + " twice");
+    x.result = text_key(a, "result");
+    const std::string side = a.string("side");
+    if (side != "table" && side != "head") a.fail("side", "expected table or head");
+    x.table = side == "table";
+    if (const json* on = a.optional("on"); on && !on->is_null()) x.on = letter_of(a, "on");
+    x.point_mm = vector3(a.required("point_mm"), source, a.key_path("point_mm"));
+    x.direction = vector3(a.required("direction"), source, a.key_path("direction"));
+    if (std::abs(x.direction.norm() - 1) > 1e-9) a.fail("direction", "not a unit vector");
+    const json& loc = a.required("location");
+    if (!loc.is_array() || loc.size() != 5)
+      a.fail("location", "expected the axis' five location errors");
+    for (std::size_t e = 0; e < 5; ++e) {
+      ObjectReader q(loc[e], source, a.key_path("location") + "[" + std::to_string(e) + "]");
+      x.location.push_back(chain_quantity(q));
+      x.vector[e] = vector3(q.required("vector"), source, q.key_path("vector"));
+      if (std::abs(x.vector[e].norm() - 1) > 1e-9) q.fail("vector", "not a unit vector");
+      q.finish();
+    }
+    a.finish();
+    f.axes.push_back(x);
+  }
+  for (const ChainFileAxis& x : f.axes) {
+    if (!x.on) continue;
+    bool found = false;
+    for (const ChainFileAxis& c : f.axes) found = found || c.letter == x.on;
+    if (!found)
+      o.fail("axes", std::string("axis ") + x.letter + " is carried by " + x.on +
+                         ", which the machine result does not hold");
+  }
+  {
+    ObjectReader c = o.object("location_covariance");
+    (void)c.optional("order");
+    const json& rows = c.required("matrix");
+    const std::size_t n = 5 * f.axes.size();
+    if (!rows.is_array() || rows.size() != n)
+      c.fail("matrix", "expected " + std::to_string(n) + " rows (5 per axis)");
+    f.covariance.resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::string path = c.key_path("matrix") + "[" + std::to_string(i) + "]";
+      const std::vector<double> row = read_numbers(rows[i], source, path);
+      if (row.size() != n)
+        throw InputError(source, path, "expected " + std::to_string(n) + " numbers");
+      for (std::size_t k = 0; k < n; ++k) {
+        if (!(std::abs(row[k]) <= 1e18)) throw InputError(source, path, "a value beyond +-1e18");
+        f.covariance(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) = row[k];
+      }
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      const ResultQuantity& q = f.axes[i / 5].location[i % 5];
+      const double var = f.covariance(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(i));
+      if (q.std && std::abs(std::sqrt(std::max(0.0, var)) - *q.std) > 1e-6 * (1 + *q.std))
+        c.fail("matrix",
+               "its diagonal is not the std squared of " + q.name + " (was the file edited?)");
+    }
+    c.finish();
+  }
+  const json& chain = o.required("chain");
+  if (!chain.is_array()) o.fail("chain", "expected a list");
+  for (std::size_t i = 0; i < chain.size(); ++i) {
+    ObjectReader t(chain[i], source, "chain[" + std::to_string(i) + "]");
+    ChainFileTerm term;
+    term.q = chain_quantity(t);
+    term.name = term.q.name;
+    term.text = text_key(t, "text");
+    const json& between = t.required("between");
+    if (!between.is_array() || between.size() != 2 || !between[0].is_string() ||
+        !between[1].is_string())
+      t.fail("between", "expected two letters");
+    term.a = between[0].get<std::string>().empty() ? '?' : between[0].get<std::string>()[0];
+    term.b = between[1].get<std::string>().empty() ? '?' : between[1].get<std::string>()[0];
+    (void)t.optional("nominal_mm");
+    (void)t.optional("nominal_deg");
+    (void)t.optional("along");
+    t.finish();
+    f.terms.push_back(term);
+  }
+  const json& warnings = o.required("warnings");
+  if (!warnings.is_array()) o.fail("warnings", "expected a list");
+  for (std::size_t i = 0; i < warnings.size(); ++i) {
+    ObjectReader w(warnings[i], source, "warnings[" + std::to_string(i) + "]");
+    (void)w.optional("axis");
+    (void)w.optional("result");
+    f.warnings.push_back(text_key(w, "text"));
+    w.finish();
+  }
+  o.finish();
+  return f;
+}
+
+ChainFile read_chain_file(const std::string& path) {
+  return chain_from_text(read_json_file(path), path);
+}
 
 json chain_to_json(const ChainResult& r, const Machine& m, const std::string& machine_file) {
   json j;
@@ -95,15 +285,34 @@ json chain_to_json(const ChainResult& r, const Machine& m, const std::string& ma
   for (const ChainAxis& a : r.axes) {
     const RotaryAxisSpec& spec = m.rotary[static_cast<std::size_t>(m.find(a.letter))];
     json loc = json::array();
-    for (const ChainQuantity& q : a.location) loc.push_back(quantity_json(q));
-    axes.push_back({{"letter", std::string(1, a.letter)},
-                    {"result", a.source},
-                    {"side", spec.side == AxisFrame::Side::kTable ? "table" : "head"},
-                    {"point_mm", {spec.point_mm.x(), spec.point_mm.y(), spec.point_mm.z()}},
-                    {"direction", {spec.direction.x(), spec.direction.y(), spec.direction.z()}},
-                    {"location", loc}});
+    for (std::size_t e = 0; e < a.location.size(); ++e) {
+      json q = quantity_json(a.location[e]);
+      q["vector"] = vec(a.vector[e]);
+      loc.push_back(q);
+    }
+    json axis = {
+        {"letter", std::string(1, a.letter)},
+        {"result", a.source},
+        {"side", spec.side == AxisFrame::Side::kTable ? "table" : "head"},
+        {"on", spec.on < 0 ? json(nullptr) : json(std::string(1, m.rotary[spec.on].letter))},
+        {"point_mm", vec(spec.point_mm)},
+        {"direction", vec(spec.controllers_direction())},
+        {"location", loc}};
+    axes.push_back(axis);
   }
   j["axes"] = axes;
+  {
+    json rows = json::array();
+    for (Eigen::Index i = 0; i < r.location_covariance.rows(); ++i) {
+      json row = json::array();
+      for (Eigen::Index c = 0; c < r.location_covariance.cols(); ++c)
+        row.push_back(r.location_covariance(i, c));
+      rows.push_back(row);
+    }
+    j["location_covariance"] = {
+        {"order", "every axis' five location errors as axes lists them (um, urad)"},
+        {"matrix", rows}};
+  }
   // The results' warnings: each makes the uncertainties that use its axis unreliable.
   json warnings = json::array();
   for (const ChainAxis& a : r.axes)
@@ -149,7 +358,7 @@ std::string chain_text(const ChainResult& r, const Machine& m) {
   }
   s << "  the chain (the real relation minus the nominal one):\n";
   for (const ChainTerm& t : r.terms)
-    s << "    " << term_text(t) << ": " << quantity_text(t.q) << "\n";
+    s << "    " << term_text(t) << ": " << quantity_text(t.q, true) << "\n";
   return s.str();
 }
 

@@ -1,7 +1,9 @@
 #include "dbbkit/io/compensation_io.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <sstream>
 
 #include "dbbkit/error.hpp"
@@ -33,9 +35,9 @@ std::string g9(double v) {
 }
 
 // A length written for a controller [mm], within kMaxCompensation_mm; `what` names it.
-double written_mm(double mm, const ResultFile& r, const std::string& what) {
+double written_mm(double mm, const std::string& source, const std::string& what) {
   if (!(std::abs(mm) <= kMaxCompensation_mm))
-    throw InputError(r.source, what,
+    throw InputError(source, what,
                      "would be written as " + g9(mm) + " mm, beyond +-" + g9(kMaxCompensation_mm) +
                          " mm: no machine's location; not written");
   return mm;
@@ -72,19 +74,20 @@ std::string provenance(const ResultFile& r, const std::string& prefix) {
          result_warnings(r, prefix);
 }
 
-std::string isg(const ResultFile& r, const CompensationOptions& o) {
-  std::ostringstream s;
-  s << provenance(r, "// ");
+// The location errors' block of the ISG CSV: each value with its U as a comment, then the row
+// of names and the row of values; false when none is determined.
+bool isg_location(std::ostream& s, const std::vector<ResultQuantity>& location,
+                  const std::string& source, const CompensationOptions& o) {
   s << "// ISG CSV: location errors; offsets in mm, angles in rad; U = k u, " << k_text(o.k)
     << "\n";
   std::string names, values, uncertain, undetermined;
-  for (const ResultQuantity& q : r.location) {
+  for (const ResultQuantity& q : location) {
     const Verdict v = verdict(q, o.k);
     if (!q.value) {
       undetermined += " " + q.name;
       continue;
     }
-    if (q.unit == "um") written_mm(to_si(*q.value, q.unit), r, q.name);
+    if (q.unit == "um") written_mm(to_si(*q.value, q.unit), source, q.name);
     s << "//   " << q.name << " = " << g9(to_si(*q.value, q.unit)) << " " << si_unit(q.unit)
       << ", U = " << g9(to_si(o.k * *q.std, q.unit)) << " " << si_unit(q.unit)
       << (v.enter ? "" : " (too uncertain to enter: |value| <= U)") << "\n";
@@ -99,9 +102,16 @@ std::string isg(const ResultFile& r, const CompensationOptions& o) {
     s << "// not determined by the measurement, not written:" << undetermined << "\n";
   if (names.empty()) {
     s << "// no location error is determined: nothing to compensate\n";
-    return s.str();
+    return false;
   }
   s << names << "\n" << values << "\n";
+  return true;
+}
+
+std::string isg(const ResultFile& r, const CompensationOptions& o) {
+  std::ostringstream s;
+  s << provenance(r, "// ");
+  if (!isg_location(s, r.location, r.source, o)) return s.str();
   // The component errors over the angle, where all six are given and determined (the reader
   // keeps them in ISO 230-1's order: one table, one column a component).
   std::string omitted;
@@ -111,7 +121,8 @@ std::string isg(const ResultFile& r, const CompensationOptions& o) {
     for (const ResultQuantity& m : c.motions) {
       all = all && m.value.has_value();
       if (m.value && m.unit == "um")
-        written_mm(to_si(*m.value, m.unit), r, m.name + " at " + fmt_num(c.angle_deg, 6) + " deg");
+        written_mm(to_si(*m.value, m.unit), r.source,
+                   m.name + " at " + fmt_num(c.angle_deg, 6) + " deg");
     }
     if (all)
       rows.push_back(&c);
@@ -170,12 +181,11 @@ std::string default_kins(const ResultFile& r, const CompensationOptions& o) {
                        option_with_value("--kins", "xyzbc-trt") + ")");
 }
 
-std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
-  if (!r.axis.table())
-    throw InputError(option_name("--format"), "",
-                     "LinuxCNC's trt kinematics modules describe tilting rotary tables; axis " +
-                         std::string(1, r.axis.letter()) + " of this result carries the head");
-  const std::string kins = default_kins(r, o);
+// The setp lines of a trt module for the location errors given (one axis' or a machine's),
+// after `header` (the provenance, '#' comments).
+std::string linuxcnc_text(const std::string& header, const std::vector<ResultQuantity>& location,
+                          const std::string& kins, const std::string& source,
+                          const CompensationOptions& o) {
   for (const auto& [pin, value] : o.current_mm) {
     static const char* kPins[] = {"x-rot-point", "y-rot-point", "z-rot-point",
                                   "x-offset",    "y-offset",    "z-offset"};
@@ -189,7 +199,7 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
     (void)value;
   }
   std::ostringstream s;
-  s << provenance(r, "# ");
+  s << header;
   s << "# LinuxCNC " << kins << "-kins: the rotary axes' positions only, in mm (machine units);"
     << "\n# C turns about (x-rot-point, y-rot-point); "
     << (kins == "xyzac-trt" ? "A about (y-rot-point + y-offset, z-rot-point + z-offset)"
@@ -197,7 +207,7 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
     << ".\n# U = k u, " << k_text(o.k) << ".\n";
   std::map<std::string, double> change;
   std::string not_taken, uncertain;
-  for (const ResultQuantity& q : r.location) {
+  for (const ResultQuantity& q : location) {
     const std::vector<std::pair<std::string, double>> pins = linuxcnc_pins(kins, q.name);
     const Verdict v = verdict(q, o.k);
     if (pins.empty()) {
@@ -211,7 +221,7 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
     s << "# " << q.name << " = " << g9(to_si(*q.value, q.unit))
       << " mm, U = " << g9(to_si(o.k * *q.std, q.unit)) << " mm:";
     for (const auto& [pin, f] : pins) {
-      const double d = f * written_mm(to_si(*q.value, q.unit), r, q.name);
+      const double d = f * written_mm(to_si(*q.value, q.unit), source, q.name);
       change[pin] += d;
       s << " " << pin << (d >= 0 ? " += " : " -= ") << g9(std::abs(d));
     }
@@ -246,19 +256,26 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
         << g9(std::abs(d)) << ">   (give --current " << pin << "=VALUE to write it)\n";
     } else {
       s << "setp " << kins << "-kins." << pin << " "
-        << g9(written_mm(it->second + d, r, pin + " (--current plus the change)")) << "\n";
+        << g9(written_mm(it->second + d, source, pin + " (--current plus the change)")) << "\n";
     }
   }
   if (change.empty()) s << "# nothing to enter\n";
   return s.str();
 }
 
-std::string table(const ResultFile& r, const CompensationOptions& o) {
-  std::ostringstream s;
-  s << provenance(r, "");
-  s << "U: expanded uncertainty, U = k u, " << k_text(o.k) << "\n\n";
+std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
+  if (!r.axis.table())
+    throw InputError(option_name("--format"), "",
+                     "LinuxCNC's trt kinematics modules describe tilting rotary tables; axis " +
+                         std::string(1, r.axis.letter()) + " of this result carries the head");
+  return linuxcnc_text(provenance(r, "# "), r.location, default_kins(r, o), r.source, o);
+}
+
+// One row a quantity: its value (angles also in degrees), U and whether to enter it.
+void table_rows(std::ostream& s, const std::vector<ResultQuantity>& location,
+                const CompensationOptions& o) {
   s << "name  value                                   U                     enter\n";
-  for (const ResultQuantity& q : r.location) {
+  for (const ResultQuantity& q : location) {
     const Verdict v = verdict(q, o.k);
     std::string value, U;
     if (!q.value) {
@@ -276,11 +293,292 @@ std::string table(const ResultFile& r, const CompensationOptions& o) {
                   U.c_str(), v.enter ? "yes" : ("no: " + v.why).c_str());
     s << line;
   }
+}
+
+std::string table(const ResultFile& r, const CompensationOptions& o) {
+  std::ostringstream s;
+  s << provenance(r, "");
+  s << "U: expanded uncertainty, U = k u, " << k_text(o.k) << "\n\n";
+  table_rows(s, r.location, o);
   s << "\nA control that holds the axis' location (Heidenhain's kinematics table, Siemens' "
        "TRAFO5 offset vectors, Fanuc's tool-centre-point parameters) takes each value marked "
        "yes added to the entry that holds that location, in the entry's unit; one that holds "
        "a correction takes it with the opposite sign. Measure again after entering them and "
        "compare the two results (dbbkit compare): the change should be the values entered.\n";
+  return s.str();
+}
+
+// ---- A machine result (dbbkit chain): the corrected lines of every axis ----
+
+std::string machine_provenance(const ChainFile& m, const std::string& prefix) {
+  std::string out = prefix + "dbbkit compensation of machine " +
+                    program_comment(m.machine_name, 120) + " (controller " +
+                    program_comment(m.controller, 20) + ", " + kChainFormat + ", " +
+                    program_comment(m.source, 200) + ")\n" + prefix +
+                    "each value is a location error as measured: the axis' actual line minus the "
+                    "machine file's (its controller's), in its carrier's body (the machine frame "
+                    "with every axis at zero), ISO 230-1 names\n";
+  for (const std::string& w : m.warnings)
+    out += prefix + "WARNING (from the machine result): " + program_comment(w, 1000) + "\n";
+  return out;
+}
+
+std::vector<ResultQuantity> all_location(const ChainFile& m) {
+  std::vector<ResultQuantity> all;
+  for (const ChainFileAxis& a : m.axes) all.insert(all.end(), a.location.begin(), a.location.end());
+  return all;
+}
+
+// An axis' line corrected by its location errors worth entering (the others left at the
+// machine file's), with the derivatives of every component by every location error (mm per
+// um, per urad): the corrected value's uncertainty includes the errors not entered.
+struct CorrectedLine {
+  Eigen::Vector3d point, direction;
+  Eigen::MatrixXd dpoint, ddirection;  // 3 x 5n
+};
+
+CorrectedLine corrected_line(const ChainFile& m, std::size_t i, double k) {
+  const ChainFileAxis& a = m.axes[i];
+  const Eigen::Index n = static_cast<Eigen::Index>(5 * m.axes.size());
+  CorrectedLine c;
+  c.point = a.point_mm;
+  c.direction = a.direction;
+  c.dpoint = Eigen::MatrixXd::Zero(3, n);
+  c.ddirection = Eigen::MatrixXd::Zero(3, n);
+  for (int e = 0; e < 4; ++e) {
+    const ResultQuantity& q = a.location[static_cast<std::size_t>(e)];
+    const Eigen::Index col = static_cast<Eigen::Index>(5 * i) + e;
+    const Eigen::Vector3d& v = a.vector[static_cast<std::size_t>(e)];
+    if (e < 2) {
+      c.dpoint.col(col) = 1e-3 * v;
+      if (verdict(q, k).enter) c.point += 1e-3 * *q.value * v;
+    } else {
+      c.ddirection.col(col) = 1e-6 * v.cross(a.direction);
+      if (verdict(q, k).enter) c.direction += 1e-6 * *q.value * v.cross(a.direction);
+    }
+  }
+  c.direction.normalize();
+  return c;
+}
+
+// U of a value whose derivatives by the location errors are `row`; absent when it depends on
+// one that is not determined.
+std::optional<double> expanded(const ChainFile& m, const Eigen::RowVectorXd& row, double k) {
+  for (Eigen::Index c = 0; c < row.size(); ++c)
+    if (row(c) != 0 && !m.axes[static_cast<std::size_t>(c) / 5].location[c % 5].value)
+      return std::nullopt;
+  return k * std::sqrt(std::max(0.0, (row * m.covariance * row.transpose())(0, 0)));
+}
+
+// A number as a controller reads it: fixed point, 9 decimals at most, no exponent, no "-0".
+std::string fixed(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.9f", v);
+  std::string t = b;
+  while (!t.empty() && t.back() == '0') t.pop_back();
+  if (!t.empty() && t.back() == '.') t.pop_back();
+  if (t == "-0" || t.empty()) t = "0";
+  return t;
+}
+
+// The zero errors: no kinematics table of a chain holds them; said with the value and U.
+std::string zero_errors(const ChainFile& m, const std::string& prefix, double k) {
+  std::string out;
+  for (const ChainFileAxis& a : m.axes) {
+    const ResultQuantity& q = a.location[4];
+    out += prefix + q.name + " (the zero of axis " + std::string(1, a.letter) + "): ";
+    if (!q.value) {
+      out += "not determined\n";
+      continue;
+    }
+    out += fmt_num(*q.value, 6) + " urad (" + fmt_num(*q.value * 1e-6 * 180 / kPi, 4) +
+           " deg), U = " + fmt_num(k * *q.std, 3) +
+           " urad: the axis stands that far beyond its command (about its direction); not part "
+           "of the kinematics written here: " +
+           (verdict(q, k).enter ? "correct it at the axis' zero (its reference point offset)"
+                                : "too uncertain to enter") +
+           "\n";
+  }
+  return out;
+}
+
+// Two table axes, the second carried by the first: their indices in the file, or refused.
+std::pair<std::size_t, std::size_t> table_pair(const ChainFile& m, const std::string& what) {
+  std::string sides;
+  for (const ChainFileAxis& a : m.axes)
+    sides +=
+        (sides.empty() ? "" : ", ") + std::string(1, a.letter) + " " + (a.table ? "table" : "head");
+  if (m.axes.size() == 2 && m.axes[0].table && m.axes[1].table) {
+    if (m.axes[1].on == m.axes[0].letter) return {0, 1};
+    if (m.axes[0].on == m.axes[1].letter) return {1, 0};
+  }
+  throw InputError(option_name("--format"), "",
+                   what +
+                       " takes a machine of two table axes, one carried by the other; this "
+                       "machine result holds " +
+                       sides + ": " + option_with_value("--format", "table") +
+                       " lists the corrected lines of any machine");
+}
+
+std::string siemens(const ChainFile& m, const CompensationOptions& o) {
+  if (o.record <= 0)
+    throw InputError(option_name("--record"), "",
+                     "required with " + option_with_value("--format", "siemens") +
+                         ": the number n of the swivel data record ($TC_CARR..[n]) that holds "
+                         "this machine's kinematics");
+  const auto [first, second] = table_pair(m, option_with_value("--format", "siemens"));
+  const ChainFileAxis &a1 = m.axes[first], &a2 = m.axes[second];
+  const CorrectedLine c1 = corrected_line(m, first, o.k), c2 = corrected_line(m, second, o.k);
+  const std::string n = std::to_string(o.record);
+  std::ostringstream s;
+  s << machine_provenance(m, "; ");
+  s << "; Sinumerik swivel data record " << n << " (--record " << n
+    << "), kinematic type P (swivel table): the offset vectors in mm and the rotary axis "
+       "vectors as unit vectors, in the machine frame with every axis at zero:\n"
+    << ";   l2 = the point of " << a1.letter
+    << " (from the machine's reference point, the machine file's origin),\n"
+    << ";   l3 = from it to the point of " << a2.letter
+    << ", l4 = -(l2 + l3) (the chain closed), v1 = the direction of " << a1.letter
+    << ", v2 = that of " << a2.letter << "\n"
+    << "; the values replace the record's: check before running that it holds the machine "
+       "file's nominal values (each line says them), and keep a copy of the record\n"
+    << "; v1 and v2 in the machine file's sense (the axis turns right-handed about it): where "
+       "the record holds a table axis' vector reversed, reverse the written one\n"
+    << "; U = k u, " << k_text(o.k) << "\n";
+  s << "; the location errors:\n";
+  for (const ChainFileAxis& a : m.axes) {
+    for (int e = 0; e < 4; ++e) {
+      const ResultQuantity& q = a.location[static_cast<std::size_t>(e)];
+      const Verdict v = verdict(q, o.k);
+      s << ";   " << q.name << " = "
+        << (q.value ? fmt_num(*q.value, 6) + " " + q.unit + ", U = " + fmt_num(o.k * *q.std, 3) +
+                          " " + q.unit
+                    : std::string("--"))
+        << (v.enter ? ": entered" : ": not entered (" + v.why + ")") << "\n";
+    }
+  }
+  s << zero_errors(m, ";   ", o.k);
+  struct Assignment {
+    int first_index;
+    std::string what;
+    Eigen::Vector3d value, nominal;
+    Eigen::MatrixXd d;  // 3 x 5n
+  };
+  const Eigen::Vector3d l2 = c1.point, l3 = c2.point - c1.point;
+  const std::vector<Assignment> out = {
+      {4, "l2", l2, a1.point_mm, c1.dpoint},
+      {15, "l3", l3, a2.point_mm - a1.point_mm, c2.dpoint - c1.dpoint},
+      {18, "l4", -(l2 + l3), -a2.point_mm, -c2.dpoint},
+      {7, "v1", c1.direction, a1.direction, c1.ddirection},
+      {10, "v2", c2.direction, a2.direction, c2.ddirection}};
+  for (const Assignment& x : out) {
+    const bool length = x.what[0] == 'l';
+    for (int c = 0; c < 3; ++c) {
+      if (length) written_mm(x.value(c), m.source, x.what);
+      const std::optional<double> U = expanded(m, x.d.row(c), o.k);
+      std::string u = "not stated (a location error it needs is not determined)";
+      if (U && *U == 0 && length)
+        u = "0 (along the axis: any point of the line serves)";
+      else if (U && *U == 0)
+        u = "0";
+      else if (U)
+        u = fmt_num(*U, 3) + (length ? " mm" : "");
+      s << "$TC_CARR" << x.first_index + c << "[" << n << "]=" << fixed(x.value(c)) << " ; "
+        << x.what << " "
+        << "xyz"[c] << ", was " << fixed(x.nominal(c)) << ", U = " << u << "\n";
+    }
+  }
+  s << "M30\n";
+  return s.str();
+}
+
+std::string machine_linuxcnc(const ChainFile& m, const CompensationOptions& o) {
+  const auto [first, second] = table_pair(m, option_with_value("--format", "linuxcnc"));
+  const char tilt = m.axes[first].letter, turn = m.axes[second].letter;
+  std::string kins;
+  if (turn == 'C' && tilt == 'A') kins = "xyzac-trt";
+  if (turn == 'C' && tilt == 'B') kins = "xyzbc-trt";
+  if (kins.empty())
+    throw InputError(option_name("--format"), "",
+                     std::string("LinuxCNC's trt modules take an A or B table carrying a C "
+                                 "table; this machine has ") +
+                         turn + " on " + tilt);
+  if (!o.linuxcnc_kins.empty() && o.linuxcnc_kins != kins)
+    throw InputError(option_name("--kins"), "",
+                     quote_value(o.linuxcnc_kins) + ": this machine's axes are " + kins +
+                         "-kins' (" + std::string(1, tilt) + " carrying " + turn + ")");
+  std::string header = machine_provenance(m, "# ");
+  const std::string zero = zero_errors(m, "# ", o.k);
+  return linuxcnc_text(header + zero, all_location(m), kins, m.source, o);
+}
+
+std::string machine_isg(const ChainFile& m, const CompensationOptions& o) {
+  std::ostringstream s;
+  s << machine_provenance(m, "// ");
+  isg_location(s, all_location(m), m.source, o);
+  s << "// the machine result holds no component errors: compensation of each axis' result "
+       "writes its table\n";
+  return s.str();
+}
+
+std::string vector_text(const Eigen::Vector3d& v) {
+  return "(" + fixed(v.x()) + ", " + fixed(v.y()) + ", " + fixed(v.z()) + ")";
+}
+
+std::string machine_table(const ChainFile& m, const CompensationOptions& o) {
+  std::ostringstream s;
+  s << machine_provenance(m, "");
+  s << "U: expanded uncertainty, U = k u, " << k_text(o.k) << "\n";
+  for (std::size_t i = 0; i < m.axes.size(); ++i) {
+    const ChainFileAxis& a = m.axes[i];
+    s << "\naxis " << a.letter << " (" << (a.table ? "table" : "head")
+      << (a.on ? std::string(", on ") + a.on : std::string()) << "; "
+      << program_comment(a.result, 200) << "):\n";
+    table_rows(s, a.location, o);
+    const CorrectedLine c = corrected_line(m, i, o.k);
+    s << "  its line as the controller should hold it (the values marked yes entered):\n";
+    auto U_text = [&](const Eigen::MatrixXd& d) {
+      std::string t;
+      for (int k = 0; k < 3; ++k) {
+        const std::optional<double> U = expanded(m, d.row(k), o.k);
+        t += (k ? ", " : "") + (U ? fmt_num(*U, 3) : std::string("--"));
+      }
+      return "(" + t + ")";
+    };
+    s << "    point     " << vector_text(a.point_mm) << " mm -> " << vector_text(c.point)
+      << " mm, U = " << U_text(c.dpoint) << " mm\n";
+    s << "    direction " << vector_text(a.direction) << " -> " << vector_text(c.direction)
+      << ", U = " << U_text(c.ddirection) << "\n";
+  }
+  s << "\nthe chain (the real relation minus the nominal one):\n";
+  for (const ChainFileTerm& t : m.terms) {
+    s << "  " << program_comment(t.text, 300) << ": ";
+    if (!t.q.value)
+      s << "not determined\n";
+    else
+      s << fmt_num(*t.q.value, 4) << " " << t.q.unit << ", U = " << fmt_num(o.k * *t.q.std, 3)
+        << " " << t.q.unit << "\n";
+  }
+  s << "\n" << zero_errors(m, "", o.k);
+  s << "\nA control that holds the axes' lines takes the corrected points and directions: "
+       "Heidenhain's kinematics table (the transformations to each axis), Siemens' swivel data "
+       "record (--format siemens writes it), LinuxCNC's trt pins (--format linuxcnc)";
+  bool tables = m.axes.size() == 2 && m.axes[0].table && m.axes[1].table;
+  if (tables && m.controller == "fanuc") {
+    try {
+      const auto [first, second] = table_pair(m, "");
+      const CorrectedLine c1 = corrected_line(m, first, o.k), c2 = corrected_line(m, second, o.k);
+      s << "; Fanuc's tool centre point control of a table rotation type (parameter 19680 = 12): "
+           "the rotary table position, a point on the first axis ("
+        << m.axes[first].letter << "), in 19700-19702 = " << vector_text(c1.point)
+        << " mm, and the intersection offset vector from it to the second axis ("
+        << m.axes[second].letter << ") in 19703-19705 = " << vector_text(c2.point - c1.point)
+        << " mm (both from the machine file's origin: the machine's zero there)";
+    } catch (const InputError&) {
+    }
+  }
+  s << ". Measure again after entering them and run chain on the new results: what remains "
+       "should lie within U.\n";
   return s.str();
 }
 
@@ -306,15 +604,25 @@ CompensationFormat compensation_format(const std::string& name, const std::strin
   if (name == "isg") return CompensationFormat::kIsg;
   if (name == "linuxcnc") return CompensationFormat::kLinuxCnc;
   if (name == "table") return CompensationFormat::kTable;
-  throw InputError(source, "format", quote_value(name) + " (expected isg, linuxcnc or table)");
+  if (name == "siemens") return CompensationFormat::kSiemens;
+  throw InputError(source, "format",
+                   quote_value(name) + " (expected isg, linuxcnc, siemens or table)");
 }
 
 void check_compensation_options(CompensationFormat format, const CompensationOptions& options) {
+  if (options.record != 0 && format != CompensationFormat::kSiemens)
+    throw InputError(option_name("--record"), "",
+                     "numbers Siemens' swivel data record (" +
+                         option_with_value("--format", "siemens") + "); this format has none");
   if (format == CompensationFormat::kLinuxCnc) return;
-  const std::string name = format == CompensationFormat::kIsg ? "isg" : "table";
+  const std::string name = format == CompensationFormat::kIsg       ? "isg"
+                           : format == CompensationFormat::kSiemens ? "siemens"
+                                                                    : "table";
   const std::string what =
       format == CompensationFormat::kIsg
           ? "writes the location errors themselves, as the ISG kernel adds them"
+      : format == CompensationFormat::kSiemens
+          ? "writes the swivel data record's vectors themselves"
           : "is a table of the location errors to enter by hand";
   if (!options.current_mm.empty()) {
     throw InputError(option_name("--current"), "",
@@ -341,6 +649,26 @@ std::string compensation_text(const ResultFile& result, CompensationFormat forma
       return linuxcnc(result, options);
     case CompensationFormat::kTable:
       return table(result, options);
+    case CompensationFormat::kSiemens:
+      throw InputError(option_name("--format"), "",
+                       "siemens writes a swivel data record, which holds two rotary axes: give "
+                       "a machine result (dbbkit chain --out) of the machine's axes");
+  }
+  return "";
+}
+
+std::string machine_compensation_text(const ChainFile& machine, CompensationFormat format,
+                                      const CompensationOptions& options) {
+  check_compensation_options(format, options);
+  switch (format) {
+    case CompensationFormat::kIsg:
+      return machine_isg(machine, options);
+    case CompensationFormat::kLinuxCnc:
+      return machine_linuxcnc(machine, options);
+    case CompensationFormat::kTable:
+      return machine_table(machine, options);
+    case CompensationFormat::kSiemens:
+      return siemens(machine, options);
   }
   return "";
 }

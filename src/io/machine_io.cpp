@@ -39,7 +39,9 @@ Machine machine_from_json(const json& j, const std::string& source) {
   if (format != kMachineFormat)
     top.fail("format",
              "expected \"" + std::string(kMachineFormat) + "\", found " + quote_value(format));
-  m.name = top.optional_string("name").value_or("");
+  // The name is what results and chain match a machine by: required, never empty.
+  m.name = top.string("name");
+  if (m.name.empty()) top.fail("name", "empty: results and chain know the machine by its name");
   m.description = top.optional_string("description").value_or("");
   const std::string controller = top.string("controller");
   const auto c = controller_named(controller);
@@ -80,10 +82,22 @@ Machine machine_from_json(const json& j, const std::string& source) {
                          " is not an axis given before this one (the carrier comes first)");
     }
     r.direction = read_vector3(a, "direction");
-    if (!r.direction.allFinite() || std::abs(r.direction.norm() - 1) > kFrameTolerance)
+    // A unit vector to 1e-6 (a controller's vector written to 9 decimals), made one exactly.
+    if (!r.direction.allFinite() || std::abs(r.direction.norm() - 1) > 1e-6)
       a.fail("direction", "expected a unit vector [x, y, z]");
-    // Within kFrameTolerance of a machine axis it is that axis, exactly (as a design's).
+    r.direction.normalize();
+    // Within kFrameTolerance of a machine axis it is that axis, exactly (as a design's); within
+    // kNearAxis_rad, a controller's corrected vector: dbbkit's frame is the axis, the vector is
+    // kept for compensation.
     r.direction = snapped_to_machine_axis(r.direction);
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d e = Eigen::Vector3d::Unit(k);
+      const double sin_angle = r.direction.cross(e).norm();
+      if (sin_angle > 0 && sin_angle <= kNearAxis_rad && r.direction(k) != 0) {
+        r.controller_direction = r.direction.normalized();
+        r.direction = r.direction(k) > 0 ? e : Eigen::Vector3d(-e);
+      }
+    }
     r.point_mm = read_vector3(a, "point_mm");
     if (a.has("reference")) {
       r.reference = read_vector3(a, "reference");
@@ -159,7 +173,7 @@ json machine_to_json(const Machine& m) {
   for (const RotaryAxisSpec& r : m.rotary) {
     json a = {{"letter", std::string(1, r.letter)},
               {"side", r.side == AxisFrame::Side::kTable ? "table" : "head"},
-              {"direction", vec(r.direction)},
+              {"direction", vec(r.controllers_direction())},
               {"point_mm", vec(r.point_mm)},
               {"reference", vec(r.reference)},
               {"park_deg", r.park_deg}};

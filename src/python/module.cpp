@@ -1701,23 +1701,39 @@ PYBIND11_MODULE(dbbkit, m) {
   m.def(
       "compensation",
       [result_of](py::handle result, const std::string& format, const std::string& kins,
-                  const std::map<std::string, double>& current, double k) {
+                  const std::map<std::string, double>& current, double k, int record) {
         check_finite_in("k", k, 1, 10);
+        if (record < 0 || record > 99)
+          throw InputError("record", "", "expected a swivel data record's number, 1 to 99");
         const io::CompensationFormat f = io::compensation_format(format, "argument");
         io::CompensationOptions o;
         o.k = k;
         o.linuxcnc_kins = kins;
+        o.record = record;
         for (const auto& [pin, v] : current) {
           check_finite_in("current", v, -io::kMaxCompensation_mm, io::kMaxCompensation_mm);
           o.current_mm[pin] = v;
         }
         io::check_compensation_options(f, o);  // before the result is read
+        // A machine result (chain): a path to one, or the dict chain gives.
+        if (const auto path = as_path(result)) {
+          const std::string text = io::read_json_file(*path);
+          if (io::is_chain_text(text))
+            return io::machine_compensation_text(io::chain_from_text(text, *path), f, o);
+        } else if (py::isinstance<py::dict>(result)) {
+          const nlohmann::json j = from_python(result, "result", "");
+          if (j.is_object() && j.contains("format") && j["format"] == io::kChainFormat)
+            return io::machine_compensation_text(io::chain_from_text(io::dump_json(j), "result"), f,
+                                                 o);
+        }
         return io::compensation_text(result_of(result, "result"), f, o);
       },
       py::arg("result"), py::arg("format"), py::arg("kins") = "",
       py::arg("current") = std::map<std::string, double>{}, py::arg("k") = 2.0,
-      "`dbbkit compensation`: the location errors for a controller (format isg, linuxcnc or "
-      "table), as the text the command writes");
+      py::arg("record") = 0,
+      "`dbbkit compensation`: the location errors of a result, or a machine result's corrected "
+      "kinematics (chain), for a controller (format isg, linuxcnc, siemens: record, or table), "
+      "as the text the command writes");
 
   constexpr std::uint64_t kSeed = 1;
   m.def("evaluate", &run_evaluate, py::arg("design"), py::arg("reference_length_mm") = py::none(),

@@ -133,6 +133,21 @@ class RoundTrips(InSource):
             self.assertLessEqual(abs(dist["value"] - 15), dist["U"])
             with self.assertRaises(dbbkit.InputError):
                 dbbkit.chain(machine, files[:1])
+            # The corrected kinematics from the dict chain gives: the text the command writes
+            # from the file (the file's path in its first line aside).
+            m_file = os.path.join(tmp, "M.json")
+            with open(m_file, "w") as f:
+                json.dump(got, f)
+            for fmt, extra in (("siemens", ["--record", "2"]), ("table", []), ("isg", [])):
+                kw = {"record": 2} if extra else {}
+                text = dbbkit.compensation(got, fmt, **kw)
+                cli = cli_text("compensation", "--result", m_file, "--format", fmt, *extra)
+                self.assertEqual(text.split("\n")[1:], cli.split("\n")[1:])
+                self.assertEqual(dbbkit.compensation(m_file, fmt, **kw), cli)
+            self.assertIn("$TC_CARR5[2]=", dbbkit.compensation(got, "siemens", record=2))
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.compensation(got, "siemens")
+            self.assertIn("record", str(ctx.exception))
 
     def test_messages_are_one_line_whatever_the_names(self):
         # An installation id or an effect label from the caller is quoted with its line break

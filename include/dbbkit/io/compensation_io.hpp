@@ -19,6 +19,7 @@
 #include <map>
 #include <string>
 
+#include "dbbkit/io/chain_io.hpp"
 #include "dbbkit/io/result_read.hpp"
 
 namespace dbbkit::io {
@@ -27,8 +28,8 @@ namespace dbbkit::io {
 // no machine's (formats.md, "Limits").
 inline constexpr double kMaxCompensation_mm = 1e5;
 
-enum class CompensationFormat { kIsg, kLinuxCnc, kTable };
-// "isg", "linuxcnc", "table"; InputError(source, "format") for any other name.
+enum class CompensationFormat { kIsg, kLinuxCnc, kTable, kSiemens };
+// "isg", "linuxcnc", "table", "siemens"; InputError(source, "format") for any other name.
 CompensationFormat compensation_format(const std::string& name, const std::string& source);
 
 struct CompensationOptions {
@@ -38,6 +39,8 @@ struct CompensationOptions {
   // linuxcnc: the pins' current values [mm], by pin name without the module prefix
   // ("x-rot-point").
   std::map<std::string, double> current_mm;
+  // siemens: the number of the swivel data record written (0: not given).
+  int record = 0;
 };
 
 // Refuses the options the format does not take (kins and current are LinuxCNC's): throws
@@ -49,6 +52,18 @@ void check_compensation_options(CompensationFormat format, const CompensationOpt
 // the format does not take (check_compensation_options).
 std::string compensation_text(const ResultFile& result, CompensationFormat format,
                               const CompensationOptions& options);
+
+// A machine result (dbbkit chain) for its controller: every axis' line corrected by the
+// location errors worth entering (the zero errors said, not written):
+//   siemens   the swivel data record of two table axes (kinematic type P) as an MPF of
+//             $TC_CARR assignments: l2, l3, l4 = -(l2 + l3), v1, v2, each with what it was and U
+//   linuxcnc  both axes' position pins of xyzac-trt / xyzbc-trt (the module takes no tilt)
+//   isg       every axis' location errors in one CSV
+//   table     each axis' errors, its corrected point and direction with U, the chain terms
+// Throws InputError(option_name("--format"), ...) for a machine the format cannot describe,
+// ("--record") when siemens lacks it.
+std::string machine_compensation_text(const ChainFile& machine, CompensationFormat format,
+                                      const CompensationOptions& options);
 
 // The pins of a LinuxCNC trt module a location error moves, and by how much per unit of it:
 // (pin, factor) pairs. Empty: the module takes no such quantity.
