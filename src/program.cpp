@@ -313,6 +313,14 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     const Eigen::Vector3d P_first = ball_position_mm(design.axis, inst, placement_angle);
     ip.placement_angle_deg = placement_angle;
     ip.placement_mm = design.axis.table() ? P_first : Eigen::Vector3d(-P_first);
+    if (design.machine && design.axis.table()) {
+      const Machine& m = *design.machine->machine;
+      const int disc = m.innermost(AxisFrame::Side::kTable);
+      if (disc >= 0 && m.rotary[static_cast<std::size_t>(disc)].table_diameter_mm)
+        ip.table_height_mm = m.on_table(disc, design.machine->origin_mm() + P_first,
+                                        machine_angles(design, placement_angle))
+                                 .height_mm;
+    }
     if (design.axis.table()) {
       highest = std::max(highest, P_first.z());
     } else {

@@ -233,6 +233,21 @@ TEST(SetupSheetCli, EveryCommittedDesignHasASheet) {
   EXPECT_GE(designs, 8);
 }
 
+// On a machine, each cup's stack is given by the ball's height above the table: on the B/C
+// trunnion the B test's L runs along the table's normal from the B axis, the surface 50 mm
+// below it (a hand derivation: L 0, 100, 200 mm stand 50, 150, 250 mm above the surface).
+TEST(SetupSheetCli, OnAMachineEachCupsHeightAboveTheTableIsStated) {
+  const CliRun r =
+      run_cli("setup-sheet --design " DBBKIT_SOURCE_DIR "/designs/b-c-trunnion-B.json --tcpm on");
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const char* h : {"50", "150", "250"})
+    EXPECT_NE(r.out.find(std::string("its centre ") + h + " mm above the surface of the C table"),
+              std::string::npos)
+        << h << "\n"
+        << r.out;
+  EXPECT_EQ(r.out.find("rebuild the stack to H"), std::string::npos) << r.out;
+}
+
 TEST(SetupSheetCli, WithAKitItStatesSetUpTimesRoundsAndDrawsEachStep) {
   const auto dir = std::filesystem::temp_directory_path() / "dbbkit_setup_sheet_test";
   std::filesystem::remove_all(dir);

@@ -126,6 +126,9 @@ struct InstallationProgram {
   // The angle of the axis under test while the cup is placed: the start angle, or (a design that
   // names its machine, a table) the axis' park angle, the table level.
   double placement_angle_deg = 0;
+  // A machine design's table ball: its centre's height above the surface of the machine's
+  // table disc where the cup is placed [mm] (absent without a machine or a disc).
+  std::optional<double> table_height_mm;
   double largest_bar_change_mm = 0;  // along the interpolated path, over every sub-step
   int readings = 0;
   double motion_time_s = 0;  // its moves at the feed and its dwells (no set-up)

@@ -137,6 +137,15 @@ std::string sweeps_text(const InstallationProgram& ip) {
   return t;
 }
 
+// A machine's table: the ball centre's height above its surface, the stack's measure.
+std::string height_text(const SetupSheet& sheet, const InstallationProgram& ip) {
+  if (!ip.table_height_mm || !sheet.design.machine) return "";
+  const Machine& m = *sheet.design.machine->machine;
+  const int disc = m.innermost(AxisFrame::Side::kTable);
+  return ", its centre " + mm(*ip.table_height_mm) + " mm above the surface of the " +
+         std::string(1, m.rotary[static_cast<std::size_t>(disc)].letter) + " table";
+}
+
 // What the person does before this step, in words.
 std::string instructions(const SetupSheet& sheet, int k) {
   const SetupStep& s = sheet.order.steps[k];
@@ -148,7 +157,7 @@ std::string instructions(const SetupSheet& sheet, int k) {
     t = axis.table()
             ? "Place the cup" + cup_on(in) + " with the ball at " + sheet_ball_text(axis, in) +
                   " mm (table coordinates at " + std::string(1, axis.letter()) + " " +
-                  mm(ip.placement_angle_deg) + " deg)."
+                  mm(ip.placement_angle_deg) + " deg)" + height_text(sheet, ip) + "."
             : "Set the ball at " + sheet_ball_text(axis, in) + " mm (head coordinates).";
   } else if (s.moves_cup && axis.head()) {
     t = "Move the ball to " + sheet_ball_text(axis, in) + " mm (tool cup and holder).";
@@ -157,10 +166,13 @@ std::string instructions(const SetupSheet& sheet, int k) {
         sheet_ball_text(axis, in) + " mm";
     if (axis.table() && s.changes_stack)
       t += in.cup_mm ? "; rebuild the stack: the cup" + cup_on(in)
-           : sheet.kit_stacks.empty()
-               ? "; rebuild the stack to H"
-               : "; rebuild the stack: " + stack_text(axis, in, &sheet.kit_stacks[s.installation]);
-    t += ".";
+           : !sheet.kit_stacks.empty()
+               ? "; rebuild the stack: " + stack_text(axis, in, &sheet.kit_stacks[s.installation])
+           : ip.table_height_mm ? "; rebuild the stack"
+           : axis.shorthand().empty() && axis.letter() != 'C'
+               ? "; rebuild the stack to the ball's height above the table"
+               : "; rebuild the stack to H";
+    t += height_text(sheet, ip) + ".";
   } else {
     t = axis.table() ? "Keep the cup." : "Keep the ball.";
   }
