@@ -16,6 +16,7 @@
 
 #include "cli_util.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/hashing.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/program.hpp"
 #include "test_util.hpp"
@@ -144,6 +145,13 @@ TEST(Chain, APlantedChainComesBackOnTheControllersReference) {
   EXPECT_GT(location(exact, "C", "A0C", "std"),
             std::hypot(0.0, location(exact, "A", "A0A", "std")) * 0.99);
   EXPECT_NEAR(dist["U"].get<double>(), exact["k"].get<double>() * dist["std"].get<double>(), 1e-9);
+  // Where it came from: the machine file's and each result's SHA-256.
+  EXPECT_EQ(exact["machine"]["sha256"],
+            io::sha256_file(test::source_path("designs/machines/a-c-trunnion.json")));
+  for (const json& a : exact["axes"])
+    EXPECT_EQ(
+        a["result_sha256"],
+        io::sha256_file((dir / "exact" / (a["letter"].get<std::string>() + ".json")).string()));
   ASSERT_FALSE(exact["warnings"].empty());
   EXPECT_NE(exact["warnings"][0]["text"].get<std::string>().find("may be too small"),
             std::string::npos);

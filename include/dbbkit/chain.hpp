@@ -27,6 +27,7 @@ namespace dbbkit {
 // One axis' result as `chain` uses it.
 struct ChainInput {
   std::string source;  // the result's file, for messages
+  std::string sha256;  // SHA-256 of the result's file, or empty when it came from no file
   char letter = 'C';
   std::vector<double> park_deg;  // every axis' angle while this one was measured
   Eigen::Vector3d origin_mm = Eigen::Vector3d::Zero();
@@ -44,7 +45,7 @@ struct ChainQuantity {
 
 struct ChainAxis {
   char letter = 'C';
-  std::string source;
+  std::string source, sha256;
   std::vector<std::string> warnings;  // its result's, as written
   // Its location errors against the machine file's line, in its carrier's body (the machine
   // frame with every axis at zero).

@@ -6,6 +6,7 @@
 #include "checks.hpp"
 #include "commands.hpp"
 #include "dbbkit/io/chain_io.hpp"
+#include "dbbkit/io/hashing.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/machine_io.hpp"
 #include "dbbkit/io/output.hpp"
@@ -46,11 +47,15 @@ Runner add_chain(CLI::App& app) {
     io::OutputSet outputs(targets, inputs);
     const Machine m = io::read_machine_file(args->machine);
     std::vector<ChainInput> in;
-    for (const std::string& r : args->results)
+    for (const std::string& r : args->results) {
       in.push_back(io::chain_input(m, io::read_result_file(r)));
+      in.back().sha256 = io::sha256_file(r);
+    }
     const ChainResult c = chain_machine(m, in, args->coverage);
     if (!args->out.empty())
-      outputs.stage("--out", io::dump_json(io::chain_to_json(c, m, args->machine)) + "\n");
+      outputs.stage("--out", io::dump_json(io::chain_to_json(c, m, args->machine,
+                                                             io::sha256_file(args->machine))) +
+                                 "\n");
     outputs.commit();
     if (args->out != "-" && !args->quiet) std::cout << io::chain_text(c, m);
     return 0;

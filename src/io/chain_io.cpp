@@ -157,6 +157,7 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
     ObjectReader m = o.object("machine");
     f.machine_name = text_key(m, "name");
     (void)m.optional("file");
+    (void)m.optional("sha256");
     f.controller = m.string("controller");
     static const char* kControllers[] = {"heidenhain", "siemens", "fanuc",
                                          "linuxcnc",   "isg",     "generic"};
@@ -177,6 +178,7 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
     for (const ChainFileAxis& other : f.axes)
       if (other.letter == x.letter) a.fail("letter", std::string("axis ") + x.letter + " twice");
     x.result = text_key(a, "result");
+    (void)a.optional("result_sha256");
     const std::string side = a.string("side");
     if (side != "table" && side != "head") a.fail("side", "expected table or head");
     x.table = side == "table";
@@ -269,12 +271,14 @@ ChainFile read_chain_file(const std::string& path) {
   return chain_from_text(read_json_file(path), path);
 }
 
-json chain_to_json(const ChainResult& r, const Machine& m, const std::string& machine_file) {
+json chain_to_json(const ChainResult& r, const Machine& m, const std::string& machine_file,
+                   const std::string& machine_sha256) {
   json j;
   j["format"] = kChainFormat;
   j["dbbkit_version"] = DBBKIT_VERSION;
   j["machine"] = {
       {"name", m.name}, {"file", machine_file}, {"controller", controller_name(m.controller)}};
+  if (!machine_sha256.empty()) j["machine"]["sha256"] = machine_sha256;
   j["coverage_probability"] = r.coverage_probability;
   j["k"] = r.k;
   j["uncertainty"] =
@@ -298,6 +302,7 @@ json chain_to_json(const ChainResult& r, const Machine& m, const std::string& ma
         {"point_mm", vec(spec.point_mm)},
         {"direction", vec(spec.controllers_direction())},
         {"location", loc}};
+    if (!a.sha256.empty()) axis["result_sha256"] = a.sha256;
     axes.push_back(axis);
   }
   j["axes"] = axes;

@@ -31,6 +31,7 @@
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
+#include "dbbkit/io/hashing.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/machine_io.hpp"
@@ -1690,9 +1691,11 @@ PYBIND11_MODULE(dbbkit, m) {
         for (std::size_t i = 0; i < results.size(); ++i) {
           const std::string name = "results[" + std::to_string(i) + "]";
           in.push_back(io::chain_input(mm, result_of(results[i], name.c_str())));
+          if (const auto p = as_path(results[i])) in.back().sha256 = io::sha256_file(*p);
         }
         return to_python(io::chain_to_json(chain_machine(mm, in, coverage), mm,
-                                           path ? *path : std::string("machine")));
+                                           path ? *path : std::string("machine"),
+                                           path ? io::sha256_file(*path) : std::string()));
       },
       py::arg("machine"), py::arg("results"), py::arg("coverage") = 0.95,
       "`dbbkit chain`: the results of a machine's axes (paths, results or their json) combined "

@@ -51,8 +51,10 @@ bool is_chain_text(const std::string& text);
 ChainFile chain_from_text(const std::string& text, const std::string& source);
 ChainFile read_chain_file(const std::string& path);
 
+// `machine_sha256`: the machine file's SHA-256, empty when it came from no file.
 nlohmann::json chain_to_json(const ChainResult& r, const Machine& machine,
-                             const std::string& machine_file);
+                             const std::string& machine_file,
+                             const std::string& machine_sha256 = "");
 std::string chain_text(const ChainResult& r, const Machine& machine);
 
 }  // namespace dbbkit::io
