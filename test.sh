@@ -58,7 +58,7 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 passed=0
 failed=0
-for target in design measurement truth kit text result trace cli; do
+for target in design measurement truth kit text result trace machine chain cli; do
   mkdir -p "$work/$target"
   cp tests/fuzz/corpus/"$target"/* "$work/$target/"
   if ./build-san/tests/fuzz/fuzz_"$target" -max_total_time=10 -timeout=10 -rss_limit_mb=2048 \
