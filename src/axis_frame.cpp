@@ -136,7 +136,7 @@ bool AxisFrame::same_axis(const AxisFrame& o) const {
           (travel_min_deg_ == o.travel_min_deg_ && travel_max_deg_ == o.travel_max_deg_));
 }
 
-std::string axis_difference(const AxisFrame& a, const AxisFrame& b) {
+std::string axis_difference(const AxisFrame& a, const AxisFrame& b, bool with_travel) {
   std::vector<std::string> out;
   auto travel = [](const AxisFrame& f) {
     return f.full_turn() ? std::string("a full turn")
@@ -154,7 +154,8 @@ std::string axis_difference(const AxisFrame& a, const AxisFrame& b) {
   if (a.reference() != b.reference())
     out.push_back("reference " + direction_text(a.reference()) + " against " +
                   direction_text(b.reference()));
-  if (travel(a) != travel(b)) out.push_back("travel " + travel(a) + " against " + travel(b));
+  if (with_travel && travel(a) != travel(b))
+    out.push_back("travel " + travel(a) + " against " + travel(b));
   if (a.has_H() != b.has_H())
     out.push_back(std::string("form ") + (a.shorthand().empty() ? "general" : "shorthand") +
                   " against " + (b.shorthand().empty() ? "general" : "shorthand"));

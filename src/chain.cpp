@@ -198,6 +198,7 @@ ChainResult chain_machine(const Machine& m, const std::vector<ChainInput>& input
     a.letter = inputs[i].letter;
     a.source = inputs[i].source;
     a.sha256 = inputs[i].sha256;
+    a.measured = inputs[i].value;
     a.warnings = inputs[i].warnings;
     const IsoFrame& f = s.iso[i];
     a.vector = {f.p1, f.p2, f.p1, f.p2, f.q};

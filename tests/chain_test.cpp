@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <random>
 #include <regex>
@@ -152,6 +153,25 @@ TEST(Chain, APlantedChainComesBackOnTheControllersReference) {
     EXPECT_EQ(
         a["result_sha256"],
         io::sha256_file((dir / "exact" / (a["letter"].get<std::string>() + ".json")).string()));
+  // C's errors as its result gave them, beside those in A's body (A's zero error turned back:
+  // A0C moves by it, 50 urad).
+  for (const json& a : exact["axes"]) {
+    if (a["letter"] != "C") continue;
+    EXPECT_NEAR(find(a["location"], "name", "A0C")["as_measured"].get<double>(), 50, 0.2);
+  }
+  // A machine file whose travel changed since is the same machine for chain (the lines did not
+  // move); the text shows C's errors as measured.
+  json travel = json::parse(slurp(test::source_path("designs/machines/a-c-trunnion.json")));
+  travel["rotary"][0]["travel_deg"] = {-120, 120};
+  std::ofstream(dir / "travel.json") << travel.dump(2);
+  const CliRun again =
+      run_cli("chain --machine " + (dir / "travel.json").string() + " " +
+              (dir / "exact" / "A.json").string() + " " + (dir / "exact" / "C.json").string());
+  EXPECT_EQ(again.status, 0) << again.err;
+  EXPECT_NE(again.out.find("in the body of A (measured with A at 0; its zero error turned back)"),
+            std::string::npos)
+      << again.out;
+  EXPECT_NE(again.out.find(", as measured 50"), std::string::npos) << again.out;
   ASSERT_FALSE(exact["warnings"].empty());
   EXPECT_NE(exact["warnings"][0]["text"].get<std::string>().find("may be too small"),
             std::string::npos);
@@ -507,6 +527,80 @@ TEST(ChainCompensation, WhatAFormatCannotHoldIsRefusedAndTextStaysInComments) {
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("19700-19702"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("19703-19705"), std::string::npos) << r.out;
+  std::filesystem::remove_all(dir);
+}
+
+// A machine result edited by hand: every edit that would make a writer put a number in the
+// wrong place, or state an uncertainty no measurement has, is refused naming its key.
+TEST(ChainCompensation, AnEditedMachineResultIsRefusedWhereItWouldMislead) {
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_chain_compensation_edits";
+  std::filesystem::remove_all(dir);
+  measure_and_chain(Planted{}, 0.5, 5, dir);
+  const json good = json::parse(slurp((dir / "M.json").string()));
+  struct Edit {
+    const char* what;
+    std::function<void(json&)> edit;
+    const char* key;
+  };
+  const std::vector<Edit> edits = {
+      {"names swapped",
+       [](json& j) {
+         std::swap(j["axes"][0]["location"][0]["name"], j["axes"][0]["location"][1]["name"]);
+       },
+       "location[0].name"},
+      {"empty name", [](json& j) { j["axes"][0]["location"][0]["name"] = ""; }, "location[0].name"},
+      {"unit", [](json& j) { j["axes"][0]["location"][0]["unit"] = "urad"; }, "location[0].unit"},
+      {"vector along the axis",
+       [](json& j) {
+         j["axes"][0]["location"][0]["vector"] = {1, 0, 0};
+       },
+       "location[0].vector"},
+      {"letter and direction",
+       [](json& j) {
+         j["axes"][0]["direction"] = {0, 0, 1};
+       },
+       "axes[0].direction"},
+      {"carries itself", [](json& j) { j["axes"][0]["on"] = "A"; }, "axes"},
+      {"a circle", [](json& j) { j["axes"][0]["on"] = "C"; }, "axes"},
+      {"head on a table", [](json& j) { j["axes"][1]["side"] = "head"; }, "axes"},
+      {"asymmetric", [](json& j) { j["location_covariance"]["matrix"][0][6] = 50; },
+       "location_covariance.matrix"},
+      {"not a covariance",
+       [](json& j) {
+         j["location_covariance"]["matrix"][0][6] = 5;
+         j["location_covariance"]["matrix"][6][0] = 5;
+       },
+       "location_covariance.matrix"},
+      {"std 0", [](json& j) { j["axes"][0]["location"][1]["std"] = 0; }, "location[1].std"},
+      {"U not k std", [](json& j) { j["axes"][0]["location"][1]["U"] = 99; }, "location[1].U"},
+      {"a tilt of 90 deg", [](json& j) { j["axes"][0]["location"][2]["value"] = 1e9 - 1; },
+       "location[2].value"},
+      {"a point beyond the machine",
+       [](json& j) {
+         j["axes"][0]["point_mm"] = {0, 0, 9e5};
+       },
+       "axes[0].point_mm"},
+      {"k", [](json& j) { j["k"] = "drop"; }, "k"},
+      {"between",
+       [](json& j) {
+         j["chain"][0]["between"] = {"", "Zebra"};
+       },
+       "chain[0].between"},
+      {"warning's axis", [](json& j) { j["warnings"][0]["axis"] = json::object(); },
+       "warnings[0].axis"},
+  };
+  for (const Edit& e : edits) {
+    json j = good;
+    e.edit(j);
+    std::ofstream(dir / "e.json") << j.dump(2);
+    const CliRun r =
+        run_cli("compensation --result " + (dir / "e.json").string() + " --format table");
+    EXPECT_EQ(r.status, 2) << e.what << "\n" << r.out;
+    EXPECT_NE(r.err.find(e.key), std::string::npos) << e.what << ": " << r.err;
+  }
+  // The file as written passes.
+  EXPECT_EQ(
+      run_cli("compensation --result " + (dir / "M.json").string() + " --format table").status, 0);
   std::filesystem::remove_all(dir);
 }
 

@@ -105,8 +105,9 @@ inline constexpr double kFrameTolerance = 1e-9;
 Eigen::Vector3d snapped_to_machine_axis(const Eigen::Vector3d& v);
 
 // How two frames differ, each as "<property> <a's> against <b's>" joined by "; " (letter,
-// side, direction, reference, travel, form), or empty when they are the same axis.
-std::string axis_difference(const AxisFrame& a, const AxisFrame& b);
+// side, direction, reference, travel, form), or empty when they are the same axis. Without
+// `travel` the travel is not compared (the same line, whatever angles it may reach).
+std::string axis_difference(const AxisFrame& a, const AxisFrame& b, bool travel = true);
 
 // What is wrong with a general frame's vectors (not unit, not perpendicular), or empty.
 std::string axis_frame_problem(const Eigen::Vector3d& direction, const Eigen::Vector3d& reference);

@@ -50,6 +50,8 @@ struct ChainAxis {
   // Its location errors against the machine file's line, in its carrier's body (the machine
   // frame with every axis at zero).
   std::vector<ChainQuantity> location;
+  // The location errors as its result gives them (with its carriers at their zero errors).
+  std::array<std::optional<double>, 5> measured;
   // Each location error's direction in the machine frame: the offset's (X0C: +X), the tilt's
   // rotation axis (A0C: +X), the zero error's (the axis' own direction).
   std::array<Eigen::Vector3d, 5> vector;

@@ -1,11 +1,13 @@
 #include "dbbkit/io/chain_io.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <sstream>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/text.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
 
 namespace dbbkit::io {
@@ -36,15 +38,19 @@ ChainInput chain_input(const Machine& m, const ResultFile& r) {
       throw InputError(r.source, "design.machine.park_deg." + std::string(1, letter),
                        "not an axis of machine " + quote_value(m.name));
   const AxisFrame frame = m.axis_frame(k, in.park_deg);
-  if (const std::string diff = axis_difference(frame, r.axis); !diff.empty())
+  // The line and its frame, not the travel: a travel changed since does not move the axis.
+  if (const std::string diff = axis_difference(frame, r.axis, false); !diff.empty())
     throw InputError(r.source, "design.axis_definition",
                      "not axis " + std::string(1, in.letter) + " of this machine file: " + diff);
   in.origin_mm = r.machine->origin_mm;
+  if (r.location.size() != 5)
+    throw InputError(r.source, "iso230.location",
+                     std::to_string(r.location.size()) +
+                         " entries: expected the five location "
+                         "errors");
   if (!r.location_covariance)
     throw InputError(r.source, "iso230.location_covariance",
                      "missing (a result of an earlier version): run identify or diagnose again");
-  if (r.location.size() != 5)
-    throw InputError(r.source, "iso230.location", "expected the five location errors");
   for (int e = 0; e < 5; ++e) {
     in.names[e] = r.location[e].name;
     in.value[e] = r.location[e].value;
@@ -91,7 +97,8 @@ Eigen::Vector3d vector3(const json& v, const std::string& source, const std::str
   const std::vector<double> x = read_numbers(v, source, path);
   if (x.size() != 3) throw InputError(source, path, "expected three numbers");
   for (double c : x)
-    if (!(std::abs(c) <= 1e6)) throw InputError(source, path, "beyond +-1e6: not a machine's");
+    if (!(std::abs(c) <= limits::kMaxLength_mm))
+      throw InputError(source, path, "beyond +-10000 mm: not a machine's");
   return {x[0], x[1], x[2]};
 }
 
@@ -110,16 +117,22 @@ std::string text_key(ObjectReader& o, const std::string& key) {
   return t;
 }
 
-ResultQuantity chain_quantity(ObjectReader& o) {
+ResultQuantity chain_quantity(ObjectReader& o, double k) {
   ResultQuantity q;
   q.name = text_key(o, "name");
   q.unit = o.string("unit");
   if (q.unit != "um" && q.unit != "urad") o.fail("unit", "expected um or urad");
   q.value = value_or_null(o, "value", false);
   q.std = value_or_null(o, "std", true);
-  (void)o.optional("U");
   if (q.value.has_value() != q.std.has_value())
     o.fail("std", "a value without its std (or a std without its value)");
+  if (q.std && !(*q.std > 0)) o.fail("std", "0: no measurement determines a value exactly");
+  const json& U = o.required("U");
+  if (!U.is_null() || q.value) {
+    const double u = as_number(U, o.source(), o.key_path("U"));
+    if (!q.std || std::abs(u - k * *q.std) > 1e-6 * (1 + u))
+      o.fail("U", "is not k std (k = " + fmt_num(k, 6) + ")");
+  }
   return q;
 }
 
@@ -149,15 +162,17 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
     o.fail("format", "expected " + std::string(kChainFormat) + " (dbbkit chain --out)");
   ChainFile f;
   f.source = source;
-  (void)o.optional("dbbkit_version");
-  (void)o.optional("uncertainty");
-  (void)o.optional("coverage_probability");
-  (void)o.optional("k");
+  (void)text_key(o, "dbbkit_version");
+  (void)text_key(o, "uncertainty");
+  const double p = o.number("coverage_probability");
+  if (!(p >= 0.5 && p <= 0.9999)) o.fail("coverage_probability", "expected 0.5 to 0.9999");
+  const double k = o.number("k");
+  if (!(k >= 0.5 && k <= 10)) o.fail("k", "expected a coverage factor, 0.5 to 10");
   {
     ObjectReader m = o.object("machine");
     f.machine_name = text_key(m, "name");
-    (void)m.optional("file");
-    (void)m.optional("sha256");
+    (void)text_key(m, "file");
+    if (m.has("sha256")) (void)text_key(m, "sha256");
     f.controller = m.string("controller");
     static const char* kControllers[] = {"heidenhain", "siemens", "fanuc",
                                          "linuxcnc",   "isg",     "generic"};
@@ -178,7 +193,7 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
     for (const ChainFileAxis& other : f.axes)
       if (other.letter == x.letter) a.fail("letter", std::string("axis ") + x.letter + " twice");
     x.result = text_key(a, "result");
-    (void)a.optional("result_sha256");
+    if (a.has("result_sha256")) (void)text_key(a, "result_sha256");
     const std::string side = a.string("side");
     if (side != "table" && side != "head") a.fail("side", "expected table or head");
     x.table = side == "table";
@@ -186,14 +201,43 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
     x.point_mm = vector3(a.required("point_mm"), source, a.key_path("point_mm"));
     x.direction = vector3(a.required("direction"), source, a.key_path("direction"));
     if (std::abs(x.direction.norm() - 1) > 1e-9) a.fail("direction", "not a unit vector");
+    // The axis along the machine axis its letter names (ISO 841; a controller's vector within
+    // kNearAxis_rad of it): its five errors then have fixed ISO names, units and directions.
+    const int ia = x.letter - 'A';
+    const Eigen::Vector3d q_axis = Eigen::Vector3d::Unit(ia);
+    if (x.direction.cross(q_axis).norm() > kNearAxis_rad || x.direction.dot(q_axis) <= 0)
+      a.fail("direction", direction_text(x.direction) + " is not axis " + std::string(1, x.letter) +
+                              "'s machine axis (+" + std::string(1, "XYZ"[ia]) +
+                              "): compensation takes axes along the machine axes");
+    const int ip1 = ia == 0 ? 1 : 0, ip2 = ia == 2 ? 1 : 2;
+    const std::string l(1, x.letter);
+    const std::array<std::string, 5> names = {
+        std::string(1, "XYZ"[ip1]) + "0" + l, std::string(1, "XYZ"[ip2]) + "0" + l,
+        std::string(1, "ABC"[ip1]) + "0" + l, std::string(1, "ABC"[ip2]) + "0" + l,
+        std::string(1, "ABC"[ia]) + "0" + l};
+    const std::array<Eigen::Vector3d, 5> vectors = {
+        Eigen::Vector3d::Unit(ip1), Eigen::Vector3d::Unit(ip2), Eigen::Vector3d::Unit(ip1),
+        Eigen::Vector3d::Unit(ip2), q_axis};
     const json& loc = a.required("location");
     if (!loc.is_array() || loc.size() != 5)
       a.fail("location", "expected the axis' five location errors");
     for (std::size_t e = 0; e < 5; ++e) {
       ObjectReader q(loc[e], source, a.key_path("location") + "[" + std::to_string(e) + "]");
-      x.location.push_back(chain_quantity(q));
+      x.location.push_back(chain_quantity(q, k));
+      const ResultQuantity& r = x.location.back();
+      if (r.name != names[e])
+        q.fail("name", quote_value(r.name) + ": expected " + names[e] + " here");
+      if (r.unit != (e < 2 ? "um" : "urad"))
+        q.fail("unit", std::string("expected ") + (e < 2 ? "um" : "urad"));
+      // Beyond these a first-order model of the axis line does not hold.
+      if (r.value && std::abs(*r.value) > (e < 2 ? 1e5 : 1e4))
+        q.fail("value", fmt_num(*r.value, 6) + " " + r.unit + ": beyond " +
+                            (e < 2 ? "+-100 mm" : "+-10 mrad") + ", no location error of an axis");
       x.vector[e] = vector3(q.required("vector"), source, q.key_path("vector"));
-      if (std::abs(x.vector[e].norm() - 1) > 1e-9) q.fail("vector", "not a unit vector");
+      if ((x.vector[e] - vectors[e]).norm() > 1e-12)
+        q.fail("vector", "expected " + direction_text(vectors[e]) + " for " + names[e]);
+      if (const json* m = q.optional("as_measured"); m && !m->is_null())
+        (void)as_number(*m, source, q.key_path("as_measured"));
       q.finish();
     }
     a.finish();
@@ -201,11 +245,25 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
   }
   for (const ChainFileAxis& x : f.axes) {
     if (!x.on) continue;
-    bool found = false;
-    for (const ChainFileAxis& c : f.axes) found = found || c.letter == x.on;
-    if (!found)
+    const ChainFileAxis* carrier = nullptr;
+    for (const ChainFileAxis& c : f.axes)
+      if (c.letter == x.on) carrier = &c;
+    if (!carrier || carrier == &x)
       o.fail("axes", std::string("axis ") + x.letter + " is carried by " + x.on +
-                         ", which the machine result does not hold");
+                         (carrier ? ", itself" : ", which the machine result does not hold"));
+    if (carrier->table != x.table)
+      o.fail("axes", std::string("axis ") + x.letter + " is carried by " + x.on +
+                         " on the other side (table and head)");
+    // No cycle: walking the carriers ends at the frame.
+    char at = x.on;
+    for (std::size_t step = 0; at; ++step) {
+      if (step > f.axes.size())
+        o.fail("axes", std::string("axis ") + x.letter + "'s carriers run in a circle");
+      char next = 0;
+      for (const ChainFileAxis& c : f.axes)
+        if (c.letter == at) next = c.on;
+      at = next;
+    }
   }
   {
     ObjectReader c = o.object("location_covariance");
@@ -225,6 +283,20 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
         f.covariance(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) = row[k];
       }
     }
+    const Eigen::Index N = static_cast<Eigen::Index>(n);
+    const double scale = f.covariance.cwiseAbs().maxCoeff();
+    for (Eigen::Index i = 0; i < N; ++i)
+      for (Eigen::Index c = 0; c < i; ++c)
+        if (std::abs(f.covariance(i, c) - f.covariance(c, i)) > 1e-9 * (1 + scale))
+          throw InputError(
+              source, "location_covariance.matrix",
+              "not symmetric (row " + std::to_string(i) + ", column " + std::to_string(c) + ")");
+    {
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(f.covariance);
+      if (eig.info() != Eigen::Success || eig.eigenvalues().minCoeff() < -1e-9 * (1 + scale))
+        throw InputError(source, "location_covariance.matrix",
+                         "not a covariance (an eigenvalue is negative: was the file edited?)");
+    }
     for (std::size_t i = 0; i < n; ++i) {
       const ResultQuantity& q = f.axes[i / 5].location[i % 5];
       const double var = f.covariance(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(i));
@@ -239,18 +311,26 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
   for (std::size_t i = 0; i < chain.size(); ++i) {
     ObjectReader t(chain[i], source, "chain[" + std::to_string(i) + "]");
     ChainFileTerm term;
-    term.q = chain_quantity(t);
+    term.q = chain_quantity(t, k);
     term.name = term.q.name;
     term.text = text_key(t, "text");
     const json& between = t.required("between");
     if (!between.is_array() || between.size() != 2 || !between[0].is_string() ||
         !between[1].is_string())
       t.fail("between", "expected two letters");
-    term.a = between[0].get<std::string>().empty() ? '?' : between[0].get<std::string>()[0];
-    term.b = between[1].get<std::string>().empty() ? '?' : between[1].get<std::string>()[0];
-    (void)t.optional("nominal_mm");
-    (void)t.optional("nominal_deg");
-    (void)t.optional("along");
+    for (int i = 0; i < 2; ++i) {
+      const std::string l = between[static_cast<std::size_t>(i)].get<std::string>();
+      bool known = false;
+      for (const ChainFileAxis& x : f.axes) known = known || (l.size() == 1 && l[0] == x.letter);
+      if (!known) t.fail("between", quote_value(l) + " is not an axis of the machine result");
+    }
+    term.a = between[0].get<std::string>()[0];
+    term.b = between[1].get<std::string>()[0];
+    if (term.name != "distance" && term.name != "squareness")
+      t.fail("name", quote_value(term.name) + " (expected distance or squareness)");
+    for (const char* key : {"nominal_mm", "nominal_deg"})
+      if (t.has(key)) (void)t.number(key);
+    if (t.has("along")) (void)vector3(t.required("along"), source, t.key_path("along"));
     t.finish();
     f.terms.push_back(term);
   }
@@ -258,8 +338,8 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
   if (!warnings.is_array()) o.fail("warnings", "expected a list");
   for (std::size_t i = 0; i < warnings.size(); ++i) {
     ObjectReader w(warnings[i], source, "warnings[" + std::to_string(i) + "]");
-    (void)w.optional("axis");
-    (void)w.optional("result");
+    (void)text_key(w, "axis");
+    (void)text_key(w, "result");
     f.warnings.push_back(text_key(w, "text"));
     w.finish();
   }
@@ -292,6 +372,8 @@ json chain_to_json(const ChainResult& r, const Machine& m, const std::string& ma
     for (std::size_t e = 0; e < a.location.size(); ++e) {
       json q = quantity_json(a.location[e]);
       q["vector"] = vec(a.vector[e]);
+      // A carried axis: its result's value, before the carriers' zero errors were turned back.
+      if (spec.on >= 0) q["as_measured"] = a.measured[e] ? json(*a.measured[e]) : json(nullptr);
       loc.push_back(q);
     }
     json axis = {
@@ -357,9 +439,23 @@ std::string chain_text(const ChainResult& r, const Machine& m) {
        "its carrier's body), U at "
     << fmt_rounded(100 * r.coverage_probability, 3) << " % (k = " << fmt_num(r.k, 3) << ")\n";
   for (const ChainAxis& a : r.axes) {
-    s << "  axis " << a.letter << " (" << a.source << "):\n";
-    for (const ChainQuantity& q : a.location)
-      s << "    " << q.name << " " << quantity_text(q) << "\n";
+    const int k = m.find(a.letter);
+    std::string carriers;
+    for (const int c : m.carriers(k))
+      carriers += (carriers.empty() ? "" : " and ") + std::string(1, m.rotary[c].letter);
+    s << "  axis " << a.letter << " (" << a.source << ")"
+      << (carriers.empty() ? ""
+                           : ", in the body of " + carriers + " (measured with " + carriers +
+                                 " at 0; its zero error turned back)")
+      << ":\n";
+    for (std::size_t e = 0; e < a.location.size(); ++e) {
+      const ChainQuantity& q = a.location[e];
+      s << "    " << q.name << " " << quantity_text(q);
+      if (!carriers.empty() && q.value && a.measured[e] &&
+          std::abs(*a.measured[e] - *q.value) >= 5e-4)
+        s << ", as measured " << fmt_num(*a.measured[e], 3);
+      s << "\n";
+    }
   }
   s << "  the chain (the real relation minus the nominal one):\n";
   for (const ChainTerm& t : r.terms)

@@ -34,6 +34,17 @@ std::string g9(double v) {
   return b;
 }
 
+// A number as a controller reads it: fixed point, 9 decimals at most, no exponent, no "-0".
+std::string fixed(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.9f", v);
+  std::string t = b;
+  while (!t.empty() && t.back() == '0') t.pop_back();
+  if (!t.empty() && t.back() == '.') t.pop_back();
+  if (t == "-0" || t.empty()) t = "0";
+  return t;
+}
+
 // A length written for a controller [mm], within kMaxCompensation_mm; `what` names it.
 double written_mm(double mm, const std::string& source, const std::string& what) {
   if (!(std::abs(mm) <= kMaxCompensation_mm))
@@ -256,7 +267,7 @@ std::string linuxcnc_text(const std::string& header, const std::vector<ResultQua
         << g9(std::abs(d)) << ">   (give --current " << pin << "=VALUE to write it)\n";
     } else {
       s << "setp " << kins << "-kins." << pin << " "
-        << g9(written_mm(it->second + d, source, pin + " (--current plus the change)")) << "\n";
+        << fixed(written_mm(it->second + d, source, pin + " (--current plus the change)")) << "\n";
     }
   }
   if (change.empty()) s << "# nothing to enter\n";
@@ -368,17 +379,6 @@ std::optional<double> expanded(const ChainFile& m, const Eigen::RowVectorXd& row
     if (row(c) != 0 && !m.axes[static_cast<std::size_t>(c) / 5].location[c % 5].value)
       return std::nullopt;
   return k * std::sqrt(std::max(0.0, (row * m.covariance * row.transpose())(0, 0)));
-}
-
-// A number as a controller reads it: fixed point, 9 decimals at most, no exponent, no "-0".
-std::string fixed(double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, "%.9f", v);
-  std::string t = b;
-  while (!t.empty() && t.back() == '0') t.pop_back();
-  if (!t.empty() && t.back() == '.') t.pop_back();
-  if (t == "-0" || t.empty()) t = "0";
-  return t;
 }
 
 // The zero errors: no kinematics table of a chain holds them; said with the value and U.
@@ -536,6 +536,8 @@ std::string machine_table(const ChainFile& m, const CompensationOptions& o) {
       << program_comment(a.result, 200) << "):\n";
     table_rows(s, a.location, o);
     const CorrectedLine c = corrected_line(m, i, o.k);
+    for (int k = 0; k < 3; ++k)
+      written_mm(c.point(k), m.source, std::string("the corrected point of axis ") + a.letter);
     s << "  its line as the controller should hold it (the values marked yes entered):\n";
     auto U_text = [&](const Eigen::MatrixXd& d) {
       std::string t;
