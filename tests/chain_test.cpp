@@ -228,6 +228,16 @@ TEST(Chain, ResultsThatDoNotBelongTogetherAreRefusedByName) {
               " " + (dir / "A.json").string());
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("origin_mm"), std::string::npos) << r.err;
+  // A result whose location errors' names are out of ISO 230-1's order.
+  {
+    json swapped = json::parse(slurp((dir / "A.json").string()));
+    std::swap(swapped["iso230"]["location"][0]["name"], swapped["iso230"]["location"][1]["name"]);
+    std::ofstream(dir / "swapped.json") << swapped.dump(2);
+    r = run_cli("chain --machine " + machine + " " + (dir / "swapped.json").string() + " " +
+                (dir / "A.json").string());
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("iso230.location[0].name"), std::string::npos) << r.err;
+  }
   // A result without the covariance (an earlier version's).
   json aj = json::parse(slurp((dir / "A.json").string()));
   aj["iso230"].erase("location_covariance");

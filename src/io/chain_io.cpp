@@ -7,6 +7,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/text.hpp"
+#include "dbbkit/iso230.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
 
@@ -51,7 +52,12 @@ ChainInput chain_input(const Machine& m, const ResultFile& r) {
   if (!r.location_covariance)
     throw InputError(r.source, "iso230.location_covariance",
                      "missing (a result of an earlier version): run identify or diagnose again");
+  const IsoNames iso = iso230_names(frame);
   for (int e = 0; e < 5; ++e) {
+    if (r.location[e].name != iso.location[e])
+      throw InputError(r.source, "iso230.location[" + std::to_string(e) + "].name",
+                       quote_value(r.location[e].name) + ": expected " + iso.location[e] +
+                           " here (the five location errors in ISO 230-1's order)");
     in.names[e] = r.location[e].name;
     in.value[e] = r.location[e].value;
   }
