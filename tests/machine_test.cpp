@@ -561,7 +561,8 @@ TEST(MachineProgram, TheSetUpSheetNamesTheParkedAxesAndThePreset) {
                        "at 0 deg (parked: the program commands it)"),
             std::string::npos)
       << r.out;
-  EXPECT_NE(r.out.find("X 0, Y 0, Z -60 mm in the machine frame"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("X 0, Y 0, Z -60 mm in the machine file's frame"), std::string::npos)
+      << r.out;
   EXPECT_NE(r.out.find("never by teaching it on the real axis"), std::string::npos) << r.out;
 }
 

@@ -246,6 +246,13 @@ TEST(SetupSheetCli, OnAMachineEachCupsHeightAboveTheTableIsStated) {
         << h << "\n"
         << r.out;
   EXPECT_EQ(r.out.find("rebuild the stack to H"), std::string::npos) << r.out;
+  // Under TCPM the sheet also names the start in the workpiece frame, as the program does: the
+  // 1r start at B -30 (a hand derivation: L 100 + 150 along +Z turned by -30 deg about +Y:
+  // X -125, Z 216.506) is X 0, Z 250 on the table at B 0.
+  EXPECT_NE(r.out.find("with the spindle's ball at X -125, Y 60, Z 216.506 mm (X 0, Y 60, Z 250 "
+                       "mm in the workpiece frame"),
+            std::string::npos)
+      << r.out;
 }
 
 TEST(SetupSheetCli, WithAKitItStatesSetUpTimesRoundsAndDrawsEachStep) {

@@ -243,7 +243,8 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     head.push_back("work offset " + offset + ": origin at " + L +
                    "'s nominal point as the machine file has it, " +
                    xyz_text(program.machine->origin_mm()) +
-                   " in the machine frame, axes parallel to the machine's");
+                   " in the machine file's frame (machine coordinates where its origin is the "
+                   "machine zero), axes parallel to the machine's");
     head.push_back(
         "set that preset from the controller's kinematics table, never by teaching it "
         "on the real axis: the location errors are the real axis line minus this one");
@@ -302,6 +303,11 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   const std::string tcpm_code = iso         ? "G43.4 H" + tool + ", off by G43 H" + tool
                                 : sinumerik ? "TRAORI, off by TRAFOOF"
                                             : "FUNCTION TCPM, off by FUNCTION TCPM RESET";
+  if (tcpm && iso)
+    head.push_back(
+        "TCPM off is written G43 H" + tool +
+        " (the tool length kept, no cancel move): on a control that leaves G43.4 only by G49, "
+        "which may move Z by the tool length, check the change in the air run without the bar");
   if (tcpm && c) {
     head.push_back("TCPM on for each sweep (" + tcpm_code +
                    "): X Y Z are the spindle ball's centre in the workpiece frame, which turns "

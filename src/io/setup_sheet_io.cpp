@@ -190,8 +190,15 @@ std::string instructions(const SetupSheet& sheet, int k) {
   t += s.changes_bar ? " Assemble the bar of " + bar_text(in) + "." : " Keep the bar.";
   t += " Mount it " + in.direction.label() + " (sign " + (in.sign > 0 ? "+1" : "-1") + ")";
   if (axis.table()) {
-    const Eigen::Vector3d& f = ip.sweeps.front().positions.front().linear_mm;
-    t += " with the spindle's ball at " + xyz(f) + " mm.";
+    const ProgramPosition& start = ip.sweeps.front().positions.front();
+    const Eigen::Vector3d& f = start.linear_mm;
+    t += " with the spindle's ball at " + xyz(f) + " mm";
+    // Under TCPM the program names the same place in the workpiece frame once TCPM is on.
+    if (sheet.program.options.tcpm && (start.tcp_mm - f).norm() > 5e-4)
+      t += " (" + xyz(start.tcp_mm) +
+           " mm in the workpiece frame, as the controller shows it once the program turns TCPM "
+           "on)";
+    t += ".";
     // The table's surface is the plane z = 0 of the work frame on a table turning about the
     // machine's Z (the shorthand "C", a primed C); another table's is the kit's to check.
     double lowest = f.z();
@@ -509,7 +516,8 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
                 (parks.empty() ? "" : " with " + parks + " (parked: the program commands it)") +
                 ". The work frame's origin (the preset) is the axis' nominal point X " + mm(o.x()) +
                 ", Y " + mm(o.y()) + ", Z " + mm(o.z()) +
-                " mm in the machine frame: set it from the controller's kinematics table, never "
+                " mm in the machine file's frame (machine coordinates where its origin is the "
+                "machine zero): set it from the controller's kinematics table, never "
                 "by teaching it on the real axis (the location errors are the real axis line "
                 "minus this one). Each cup is placed with the axis at " +
                 mm(a[static_cast<std::size_t>(d.machine->axis)]) + " deg, then turned.");

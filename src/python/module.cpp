@@ -1656,7 +1656,16 @@ PYBIND11_MODULE(dbbkit, m) {
 
   // A result for compare and compensation: a path, an IdentifyResult or DiagnoseResult, or the
   // dict their json gives.
-  auto result_of = [](py::handle h, const char* name) {
+  // A str that begins with '{' is a result's JSON text, not a file's name.
+  auto json_text = [](py::handle h) -> std::optional<std::string> {
+    if (!py::isinstance<py::str>(h)) return std::nullopt;
+    std::string text = h.cast<std::string>();
+    const std::size_t first = text.find_first_not_of(" \t\r\n");
+    if (first == std::string::npos || text[first] != '{') return std::nullopt;
+    return text;
+  };
+  auto result_of = [json_text](py::handle h, const char* name) {
+    if (const auto text = json_text(h)) return io::result_from_text(*text, name);
     if (const auto path = as_path(h)) return io::read_result_file(*path);
     nlohmann::json j;
     if (py::isinstance<PyIdentifyResult>(h)) {
@@ -1681,7 +1690,8 @@ PYBIND11_MODULE(dbbkit, m) {
       "whether it is significant at the family-wise level; the dict `compare --out` writes");
   m.def(
       "chain",
-      [result_of](py::handle machine, const std::vector<py::handle>& results, double coverage) {
+      [result_of, json_text](py::handle machine, const std::vector<py::handle>& results,
+                             double coverage) {
         check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
         const auto path = as_path(machine);
         const Machine mm =
@@ -1691,6 +1701,7 @@ PYBIND11_MODULE(dbbkit, m) {
         for (std::size_t i = 0; i < results.size(); ++i) {
           const std::string name = "results[" + std::to_string(i) + "]";
           in.push_back(io::chain_input(mm, result_of(results[i], name.c_str())));
+          if (json_text(results[i])) continue;  // from no file
           if (const auto p = as_path(results[i])) in.back().sha256 = io::sha256_file(*p);
         }
         return to_python(io::chain_to_json(chain_machine(mm, in, coverage), mm,

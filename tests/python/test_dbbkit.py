@@ -129,6 +129,11 @@ class RoundTrips(InSource):
             machine = "designs/machines/a-c-trunnion.json"
             got = dbbkit.chain(machine, files)
             self.assertEqual(got, cli_json("chain", "--machine", machine, *files))
+            # The results' JSON text serves as well (no file: no SHA-256).
+            texts = [open(f).read() for f in files]
+            from_text = dbbkit.chain(machine, texts)
+            self.assertEqual(from_text["chain"], got["chain"])
+            self.assertNotIn("result_sha256", from_text["axes"][0])
             dist = [t for t in got["chain"] if t["name"] == "distance"][0]
             self.assertLessEqual(abs(dist["value"] - 15), dist["U"])
             with self.assertRaises(dbbkit.InputError):
