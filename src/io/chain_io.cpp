@@ -215,15 +215,13 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
       a.fail("direction", direction_text(x.direction) + " is not axis " + std::string(1, x.letter) +
                               "'s machine axis (+" + std::string(1, "XYZ"[ia]) +
                               "): compensation takes axes along the machine axes");
-    const int ip1 = ia == 0 ? 1 : 0, ip2 = ia == 2 ? 1 : 2;
-    const std::string l(1, x.letter);
-    const std::array<std::string, 5> names = {
-        std::string(1, "XYZ"[ip1]) + "0" + l, std::string(1, "XYZ"[ip2]) + "0" + l,
-        std::string(1, "ABC"[ip1]) + "0" + l, std::string(1, "ABC"[ip2]) + "0" + l,
-        std::string(1, "ABC"[ia]) + "0" + l};
-    const std::array<Eigen::Vector3d, 5> vectors = {
-        Eigen::Vector3d::Unit(ip1), Eigen::Vector3d::Unit(ip2), Eigen::Vector3d::Unit(ip1),
-        Eigen::Vector3d::Unit(ip2), q_axis};
+    // Its names and directions as identify gives them (iso230.hpp), not written again here.
+    const AxisFrame frame =
+        AxisFrame::general(x.letter, x.table ? AxisFrame::Side::kTable : AxisFrame::Side::kHead,
+                           q_axis, Eigen::Vector3d::Unit((ia + 1) % 3), true);
+    const IsoFrame iso = iso_frame(frame);
+    const std::array<std::string, 5> names = iso230_names(frame).location;
+    const std::array<Eigen::Vector3d, 5> vectors = {iso.p1, iso.p2, iso.p1, iso.p2, iso.q};
     const json& loc = a.required("location");
     if (!loc.is_array() || loc.size() != 5)
       a.fail("location", "expected the axis' five location errors");
