@@ -261,6 +261,15 @@ TEST(Compensation, AComponentEntryWithoutEverMotionIsLeftOut) {
     ++rows;
   }
   EXPECT_EQ(rows, static_cast<int>(r.components.size()) - 1);
+  // The argument in degrees (the kernel's units page: a rotary axis' value in degrees), the
+  // first row at the first angle.
+  const std::string heading = "\nC EXC EYC EZC EAC EBC ECC\n";
+  ASSERT_NE(isg.find(heading), std::string::npos) << isg;
+  std::istringstream first(isg.substr(isg.find(heading) + heading.size()));
+  double argument = -1;
+  first >> argument;
+  EXPECT_NEAR(argument, r.components[0].angle_deg, 1e-6) << isg;
+  EXPECT_NE(isg.find("C in deg (the argument"), std::string::npos) << isg;
   EXPECT_NE(isg.find("left out (deg): " + io::fmt_num(r.components[1].angle_deg, 6)),
             std::string::npos)
       << isg;
@@ -395,6 +404,15 @@ TEST(Compensation, NamesAreTheAxisOwnAndCoupledPinsGoTogether) {
   nlohmann::json huge = good;
   huge["iso230"]["location"][0]["value"] = 1e308;
   EXPECT_THROW(io::result_from_text(io::dump_json(huge), "huge.json"), InputError);
+  // A p-value below the smallest normal double is written as 0, which every reader takes (the
+  // digits of 8.9e-312 would be refused as an underflow).
+  nlohmann::json tiny = good;
+  tiny["residual"]["p_value"] = 8.9e-312;
+  const std::string tiny_text = io::dump_json(tiny);
+  EXPECT_EQ(tiny_text.find("e-312"), std::string::npos);
+  EXPECT_EQ(nlohmann::json::parse(tiny_text)["residual"]["p_value"].get<double>(), 0.0);
+  EXPECT_NO_THROW(io::result_from_text(tiny_text, "tiny.json"));
+  EXPECT_THROW(io::result_from_text(tiny.dump(), "tiny.json"), InputError);
   // Y0C moves y-rot-point and y-offset together (xyzac-trt): one of them alone is refused.
   const io::ResultFile r = io::result_from_text(io::dump_json(good), "r.json");
   io::CompensationOptions half;

@@ -74,6 +74,34 @@ TEST(DiagnoseBrief, PaperDataNamesTheInstallationAndWhatToRedo) {
   EXPECT_TRUE(contains(item(brief, "evidence"), "from chi2 7612 on 25 dof"));
 }
 
+// Alternatives of one family (ten warm-ups at their time constants) are said once in the
+// verdict, both where the effect was chosen over them and in what the errors carry; the
+// alternatives of different kinds keep their labels.
+TEST(DiagnoseVerdict, AFamilyOfAlternativesIsSaidOnce) {
+  const Design d = test::paper_design('C');
+  const std::vector<Reading> readings =
+      io::read_measurement_file(test::source_path("tests/data/paper/paper_c_turntable.csv"), d);
+  DiagnoseResult r = diagnose(d, readings);
+  ASSERT_FALSE(r.added.empty());
+  std::vector<std::string> warm_ups;
+  for (int tau = 5; tau <= 50; tau += 5)
+    warm_ups.push_back("thermal[all](tau=" + std::to_string(tau) + "min)");
+  r.added[0].close_alternatives = warm_ups;
+  Attribution at;
+  at.effect = r.added[0].block.label;
+  at.alternatives = warm_ups;
+  r.attributions = {at};
+  const std::string v = io::diagnose_verdict(d, readings, r);
+  EXPECT_FALSE(contains(v, "thermal[all]")) << v;
+  EXPECT_TRUE(contains(v, "was chosen over a warm-up with a time constant between 5 and 50 min"))
+      << v;
+  EXPECT_TRUE(contains(v, "should a warm-up with a time constant between 5 and 50 min be the"))
+      << v;
+  r.added[0].close_alternatives = {"scale.z", "squareness.zx"};
+  const std::string w = io::diagnose_verdict(d, readings, r);
+  EXPECT_TRUE(contains(w, "was chosen over scale.z or squareness.zx,")) << w;
+}
+
 struct HiddenCase {
   const char* name;
   std::vector<TruthEffect> effects;

@@ -143,7 +143,8 @@ std::string isg(const ResultFile& r, const CompensationOptions& o) {
   if (!rows.empty()) {
     const std::string letter(1, r.axis.letter());
     s << "#\n// component errors of axis " << letter << " over its angle: " << letter
-      << " in rad (the argument)";
+      << " in deg (the argument: the kernel takes a rotary axis' value in degrees, every error "
+         "value in mm or rad)";
     for (const ResultQuantity& m : rows.front()->motions)
       s << ", " << m.name << " in " << si_unit(m.unit);
     s << "\n";
@@ -161,7 +162,7 @@ std::string isg(const ResultFile& r, const CompensationOptions& o) {
     for (const ResultQuantity& m : rows.front()->motions) s << " " << m.name;
     s << "\n";
     for (const ResultComponents* c : rows) {
-      s << g9(c->angle_deg * kPi / 180.0);
+      s << g9(c->angle_deg);
       for (const ResultQuantity& m : c->motions) s << " " << g9(to_si(*m.value, m.unit));
       s << "\n";
     }

@@ -79,6 +79,27 @@ std::string setup_risk_text(const Design& design, const std::vector<SetupRisk>& 
   return v.str();
 }
 
+// Labels of one family said once (defined below with the brief's phrases).
+std::string family_phrase(const Design& design, const std::vector<std::string>& labels);
+std::optional<EffectCandidate> parsed(const Design& design, const std::string& label);
+
+// The alternatives to an effect: each label as it is ("scale.z or squareness.zx"), or, where
+// one kind comes more than once (ten warm-ups with their time constants), each family said once.
+std::string alternatives_text(const Design& design, const std::vector<std::string>& labels) {
+  std::vector<EffectKind> kinds;
+  bool repeated = false;
+  for (const std::string& l : labels) {
+    const std::optional<EffectCandidate> e = parsed(design, l);
+    if (!e) continue;
+    repeated = repeated || std::find(kinds.begin(), kinds.end(), e->kind) != kinds.end();
+    kinds.push_back(e->kind);
+  }
+  if (repeated) return family_phrase(design, labels);
+  std::string s;
+  for (std::size_t i = 0; i < labels.size(); ++i) s += (i ? " or " : "") + labels[i];
+  return s;
+}
+
 }  // namespace
 
 std::string describe_feature(const Design& design, const std::vector<Reading>& readings,
@@ -189,11 +210,10 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
               *std::max_element(at.largest_change.begin(), at.largest_change.begin() + 3);
           const double urad =
               *std::max_element(at.largest_change.begin() + 3, at.largest_change.end());
-          v << "The errors after carry the change should";
-          for (std::size_t i = 0; i < at.alternatives.size(); ++i)
-            v << (i ? " or " : " ") << at.alternatives[i];
-          v << " be the true one (up to " << fmt_num(um < 1e-6 ? 0.0 : um, 3) << " um, "
-            << fmt_num(urad < 1e-6 ? 0.0 : urad, 3) << " urad) in their uncertainties ("
+          v << "The errors after carry the change should "
+            << alternatives_text(design, at.alternatives) << " be the true one (up to "
+            << fmt_num(um < 1e-6 ? 0.0 : um, 3) << " um, " << fmt_num(urad < 1e-6 ? 0.0 : urad, 3)
+            << " urad) in their uncertainties ("
             << (convention ? "whole: the readings cannot choose" : "rectangular") << "). ";
         }
       };
@@ -202,10 +222,9 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
       v << ". After: " << chi(res.after) << ". ";
       for (const AddedEffect& a : res.added) {
         if (!a.close_alternatives.empty()) {
-          v << a.block.label << " was chosen over";
-          for (std::size_t i = 0; i < a.close_alternatives.size(); ++i)
-            v << (i ? " or " : " ") << a.close_alternatives[i];
-          v << ", which fit almost as well: these readings cannot tell them apart reliably. ";
+          v << a.block.label << " was chosen over "
+            << alternatives_text(design, a.close_alternatives)
+            << ", which fit almost as well: these readings cannot tell them apart reliably. ";
           attribution_sentence(a.block.label, false);
         }
         if (a.equivalent_to.empty()) continue;

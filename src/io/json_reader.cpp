@@ -92,7 +92,40 @@ bool underflows(const std::string& text) {
   return errno == ERANGE && std::abs(x) < std::numeric_limits<double>::min();
 }
 
+namespace {
+
+// A number below the smallest normal double (a p-value of 1e-312, say) would be written in a
+// form every reader of dbbkit's files refuses (underflows above): it is written as 0, which
+// is what it is at the precision a double holds. Non-finite numbers become null (nlohmann).
+bool has_subnormal(const json& j) {
+  if (j.is_number_float()) {
+    const double x = j.get<double>();
+    return x != 0 && std::abs(x) < std::numeric_limits<double>::min();
+  }
+  if (j.is_structured()) {
+    for (const json& e : j)
+      if (has_subnormal(e)) return true;
+  }
+  return false;
+}
+
+void flush_subnormal(json& j) {
+  if (j.is_number_float()) {
+    const double x = j.get<double>();
+    if (x != 0 && std::abs(x) < std::numeric_limits<double>::min()) j = 0.0;
+  } else if (j.is_structured()) {
+    for (json& e : j) flush_subnormal(e);
+  }
+}
+
+}  // namespace
+
 std::string dump_json(const json& j, int indent) {
+  if (has_subnormal(j)) {
+    json flushed = j;
+    flush_subnormal(flushed);
+    return flushed.dump(indent, ' ', false, json::error_handler_t::replace);
+  }
   return j.dump(indent, ' ', false, json::error_handler_t::replace);
 }
 
