@@ -91,6 +91,53 @@ TEST(Compare, OneTruthMeasuredTwiceShowsNoChangeAtTheNominalRate) {
   EXPECT_LE(alarms, n * 0.05 + 3.5 * std::sqrt(n * 0.05 * 0.95));
 }
 
+// Two measurements of one truth whose set-ups differ (1 um length offset, 5 um centring drawn
+// per installation) and whose design declares none: the set-up moves the errors unseen, so a
+// "significant" change may be the set-up's. compare carries both inputs' warnings and says
+// what the significance assumes; with the tolerances declared, neither warns of the set-up and
+// no change is significant.
+TEST(Compare, UndeclaredSetUpOnEitherSideIsSaid) {
+  Design d = io::read_design_file(test::kDesignC);
+  Truth t = located(d, {{"X0C", 5}, {"Y0C", -7}, {"A0C", 20}, {"B0C", -15}});
+  t.setup_draw.length_offset_um = 1;
+  t.setup_draw.centring_um = 5;
+  const io::Comparison c =
+      io::compare_results(measured(d, t, 11, "a.json"), measured(d, t, 12, "b.json"));
+  bool a_setup = false, b_setup = false;
+  for (const io::InputWarning& w : c.input_warnings) {
+    a_setup = a_setup || (w.result == 'A' && w.kind == "setup_undeclared");
+    b_setup = b_setup || (w.result == 'B' && w.kind == "setup_undeclared");
+  }
+  EXPECT_TRUE(a_setup && b_setup);
+  ASSERT_TRUE(c.caveat);
+  EXPECT_NE(c.caveat->find("in A and B the design declares no set-up tolerances"),
+            std::string::npos)
+      << *c.caveat;
+  const std::string summary = io::comparison_summary(c);
+  EXPECT_NE(summary.find("\nWARNING (from A): "), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\nWARNING (from B): "), std::string::npos) << summary;
+  EXPECT_LT(summary.find("CAVEAT: each change's significance assumes"),
+            summary.find("quantities changed significantly"))
+      << summary;
+  const nlohmann::json j = io::comparison_to_json(c);
+  EXPECT_EQ(j["input_warnings"].size(), c.input_warnings.size());
+  EXPECT_EQ(j["input_warnings"][0]["result"], "A");
+  EXPECT_TRUE(j["caveat"].is_string());
+  std::cout << "undeclared set-up: " << c.significant() << " of " << c.tested
+            << " changes significant\n";
+  // Declared: the set-up is in both budgets.
+  d.setup_std.length_offset_um = 1;
+  d.setup_std.centring_um = 5;
+  const io::Comparison declared =
+      io::compare_results(measured(d, t, 11, "a.json"), measured(d, t, 12, "b.json"));
+  for (const io::InputWarning& w : declared.input_warnings)
+    EXPECT_NE(w.kind, "setup_undeclared") << w.text;
+  EXPECT_EQ(declared.significant(), 0);
+  EXPECT_TRUE(declared.input_warnings.empty());
+  EXPECT_FALSE(declared.caveat);
+  EXPECT_EQ(io::comparison_to_json(declared)["caveat"], nullptr);
+}
+
 TEST(Compare, ResultsOfDifferentAxesAreRefused) {
   const Design c = io::read_design_file(test::kDesignC);
   const Design b = io::read_design_file(test::kDesignB);

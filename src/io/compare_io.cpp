@@ -35,6 +35,36 @@ ComparedQuantity compared(const std::string& kind, const std::string& name, cons
   return q;
 }
 
+// What the significance of a change assumes and the inputs' warnings contradict: each
+// result's uncertainty holding as stated (warnings.hpp names the kinds).
+std::optional<std::string> caveat(const std::vector<InputWarning>& warnings) {
+  if (warnings.empty()) return std::nullopt;
+  // One reason per kind, with the results that give it ("in A", "in A and B").
+  std::vector<std::pair<std::string, std::string>> reasons;  // what, who
+  for (const InputWarning& w : warnings) {
+    const std::string what =
+        w.kind == "residual" || w.kind == "noise_scale" ? "residual contradicts the declared noise"
+        : w.kind == "setup_undeclared"
+            ? "design declares no set-up tolerances for effects the readings cannot see (a ball "
+              "re-seated or a cup re-centred between the measurements moves the errors unseen)"
+        : w.kind == "first_order" ? "errors may be biased by the neglected second-order term"
+                                  : "uncertainties may not hold (the warning)";
+    auto r = std::find_if(reasons.begin(), reasons.end(),
+                          [&](const auto& x) { return x.first == what; });
+    if (r == reasons.end()) r = reasons.insert(reasons.end(), {what, ""});
+    const std::string who(1, w.result);
+    if (r->second.find(who) == std::string::npos)
+      r->second += (r->second.empty() ? "in " : " and ") + who;
+  }
+  std::string s = "each change's significance assumes both results' uncertainties hold as stated; ";
+  for (std::size_t i = 0; i < reasons.size(); ++i)
+    s += (i == 0 ? "" : "; ") + reasons[i].second + " the " + reasons[i].first;
+  s += ": a change called significant here may be the measurements', not the machine's. Declare "
+       "setup_std in both designs and identify again (or diagnose the residual) before reading a "
+       "change as the machine's";
+  return s;
+}
+
 }  // namespace
 
 int Comparison::significant() const {
@@ -127,6 +157,12 @@ Comparison compare_results(const ResultFile& a, const ResultFile& b, double leve
   }
   if (c.errors.empty())
     c.notes.push_back("no angle is measured in both: the error curves are not compared");
+  for (const auto& [who, r] : {std::pair{'A', &a}, std::pair{'B', &b}}) {
+    for (std::size_t k = 0; k < r->warnings.size(); ++k)
+      c.input_warnings.push_back(
+          {who, k < r->warning_kinds.size() ? r->warning_kinds[k] : std::string(), r->warnings[k]});
+  }
+  c.caveat = caveat(c.input_warnings);
   return c;
 }
 
@@ -146,6 +182,11 @@ json comparison_to_json(const Comparison& c) {
   j["z"] = c.z;
   j["significant_changes"] = c.significant();
   j["notes"] = c.notes;
+  json warnings = json::array();
+  for (const InputWarning& w : c.input_warnings)
+    warnings.push_back({{"result", std::string(1, w.result)}, {"kind", w.kind}, {"text", w.text}});
+  j["input_warnings"] = warnings;
+  j["caveat"] = c.caveat ? json(*c.caveat) : json(nullptr);
   json list = json::array();
   for (const ComparedQuantity& q : c.quantities) {
     auto opt = [](const std::optional<double>& x) { return x ? json(*x) : json(nullptr); };
@@ -200,7 +241,7 @@ std::string verdict(const Comparison& c) {
   for (const ComparedQuantity& q : c.quantities)
     if (q.significant) names += (names.empty() ? "" : ", ") + q.name;
   if (!names.empty()) s << ": " << names;
-  s << ".";
+  s << (c.caveat ? " (if both results' uncertainties hold: see the caveat)." : ".");
   return s.str();
 }
 
@@ -211,6 +252,9 @@ std::string comparison_summary(const Comparison& c) {
   s << "compare axis " << c.a.axis.label() << ": A " << terminal_text(c.a.source) << " ("
     << terminal_text(c.a.design_name) << "), B " << terminal_text(c.b.source) << " ("
     << terminal_text(c.b.design_name) << ")\n";
+  for (const InputWarning& w : c.input_warnings)
+    s << "WARNING (from " << w.result << "): " << terminal_text(w.text) << "\n";
+  if (c.caveat) s << "CAVEAT: " << terminal_text(*c.caveat) << ".\n";
   s << verdict(c) << "\n";
   for (const std::string& n : c.notes) s << "note: " << terminal_text(n) << "\n";
   s << "\n"
@@ -230,6 +274,12 @@ std::string comparison_report(ReportFormat format, const RunContext& run, const 
   const std::unique_ptr<ReportWriter> page =
       make_report_writer(format, "dbbkit compare: axis " + c.a.axis.label());
   ReportWriter& p = *page;
+  if (!c.input_warnings.empty()) {
+    p.heading("Warnings");
+    for (const InputWarning& w : c.input_warnings)
+      p.paragraph(std::string("From ") + w.result + ": " + w.text);
+    p.paragraph("Caveat: " + *c.caveat + ".");
+  }
   p.heading("Verdict");
   p.paragraph(verdict(c) + " A: " + c.a.source + " (" + c.a.design_name + "); B: " + c.b.source +
               " (" + c.b.design_name + ").");

@@ -141,6 +141,10 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
     for (std::size_t k = 0; k < w.size(); ++k) {
       const std::string where = "warnings[" + std::to_string(k) + "]";
       r.warnings.push_back(text_of(member(w[k], "text", source, where), source, where + ".text"));
+      r.warning_kinds.push_back(
+          w[k].is_object() && w[k].contains("kind")
+              ? text_of(w[k]["kind"], source, where + ".kind", limits::kMaxNameBytes)
+              : std::string());
     }
   }
   if (!j.contains("iso230")) {

@@ -37,6 +37,12 @@ struct ComparedErrors {
   std::array<std::optional<double>, 6> change, u;
 };
 
+// A warning of either input (its kind and text as the result holds them): A or B.
+struct InputWarning {
+  char result = 'A';
+  std::string kind, text;
+};
+
 struct Comparison {
   ResultFile a, b;
   double level = 0.05;
@@ -45,6 +51,10 @@ struct Comparison {
   std::vector<ComparedQuantity> quantities;
   std::vector<ComparedErrors> errors;  // at the common angles
   std::vector<std::string> notes;      // what differs between the two (design, set-up)
+  // Each input's warnings, A's first; and, when any is there, what the significance of a change
+  // assumes that they contradict (each result's uncertainty holding as stated).
+  std::vector<InputWarning> input_warnings;
+  std::optional<std::string> caveat;
   int significant() const;
 };
 

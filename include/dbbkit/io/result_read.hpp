@@ -53,6 +53,9 @@ struct ResultFile {
   bool setup_included = false;  // the design's set-up tolerances are in the uncertainties
   std::string uncertainty_note;
   std::vector<std::string> warnings;  // the texts of the result's warnings, as written
+  // Their kinds (residual, first_order, setup_undeclared, noise_scale), in the same order;
+  // empty where a warning gives none.
+  std::vector<std::string> warning_kinds;
   // iso230.location_covariance, in the order of `location` (absent in a result of an earlier
   // version; rows of an undetermined one 0).
   std::optional<Eigen::Matrix<double, 5, 5>> location_covariance;
