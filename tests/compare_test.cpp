@@ -322,6 +322,43 @@ TEST(Compensation, AComponentEntryWithoutEverMotionIsLeftOut) {
       << isg;
 }
 
+// The table says the error today and what entering leaves: an entered value's error after
+// within +-U of either sign; one whose U is above half its size (46.3 urad, U 42.4 urad) is
+// marked for a second measurement; the check after entering expects the change to be minus the
+// value entered.
+TEST(Compensation, TheTableSaysWhatEnteringLeaves) {
+  const Design d = io::read_design_file(test::kDesignC);
+  io::ResultFile r = measured(d, located(d, {{"Y0C", 30}}), 1, "r.json");
+  io::ResultQuantity& a0c = r.location[2];
+  ASSERT_EQ(a0c.name, "A0C");
+  a0c.value = 46.3;
+  a0c.std = 21.2;  // U = 42.4 urad at k = 2
+  io::ResultQuantity& y0c = r.location[1];
+  ASSERT_EQ(y0c.name, "Y0C");
+  const std::string t = io::compensation_text(r, io::CompensationFormat::kTable, {});
+  auto line_of = [&](const std::string& from, const std::string& name) {
+    const std::size_t at = t.find("\n" + name + " ", t.find(from));
+    return at == std::string::npos ? std::string()
+                                   : t.substr(at + 1, t.find('\n', at + 1) - at - 1);
+  };
+  EXPECT_NE(line_of("name  value", "A0C").find("yes, then measure again to confirm"),
+            std::string::npos)
+      << t;
+  EXPECT_EQ(line_of("name  value", "Y0C").find("confirm"), std::string::npos) << t;
+  // Today 46.3 - 42.4 = 3.9 to 88.7 urad (in deg); after entering within +-42.4 urad.
+  const std::string today = line_of("name  today", "A0C");
+  EXPECT_NE(today.find(io::fmt_num(3.9e-6 * 180 / test::kPi, 3) + " deg to " +
+                       io::fmt_num(88.7e-6 * 180 / test::kPi, 3) + " deg"),
+            std::string::npos)
+      << today;
+  EXPECT_NE(
+      today.find("within +-" + io::fmt_num(42.4e-6 * 180 / test::kPi, 3) + " deg, either sign"),
+      std::string::npos)
+      << today;
+  EXPECT_NE(line_of("name  today", "X0C").find("as today (not entered)"), std::string::npos) << t;
+  EXPECT_NE(t.find("each change should be minus the value entered"), std::string::npos) << t;
+}
+
 // What compensation writes holds to the bound --current reads: +-100,000 mm.
 TEST(Compensation, AValueBeyondTheBoundIsNotWritten) {
   const Design d = io::read_design_file(test::kDesignC);

@@ -284,27 +284,58 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
 }
 
 // One row a quantity: its value (angles also in degrees), U and whether to enter it.
-void table_rows(std::ostream& s, const std::vector<ResultQuantity>& location,
+// Each location error: its value and U, whether to enter it, the error today (|value| - U to
+// |value| + U, or at most |value| + U where U reaches zero) against the error expected after
+// entering it (within +-U, either sign: what is entered is the measured value, not the true
+// one). An entered value whose U is more than half of it may leave an error of either sign up
+// to U: a second measurement confirms it. True when any value needs it.
+bool table_rows(std::ostream& s, const std::vector<ResultQuantity>& location,
                 const CompensationOptions& o) {
+  bool confirm_any = false;
   s << "name  value                                   U                     enter\n";
+  std::ostringstream after;
   for (const ResultQuantity& q : location) {
     const Verdict v = verdict(q, o.k);
     std::string value, U;
+    // In the table's unit: mm, or deg (urad beside).
+    auto in_unit = [&](double x, int digits) {
+      return q.unit == "urad" ? fmt_num(to_si(x, q.unit) * 180.0 / kPi, digits) + " deg"
+                              : fmt_num(to_si(x, q.unit), digits) + " mm";
+    };
     if (!q.value) {
       value = "--", U = "--";
     } else if (q.unit == "urad") {
-      value = fmt_num(to_si(*q.value, q.unit) * 180.0 / kPi, 6) + " deg (" + fmt_num(*q.value, 6) +
-              " urad)";
-      U = fmt_num(to_si(o.k * *q.std, q.unit) * 180.0 / kPi, 3) + " deg";
+      value = in_unit(*q.value, 6) + " (" + fmt_num(*q.value, 6) + " urad)";
+      U = in_unit(o.k * *q.std, 3);
     } else {
-      value = fmt_num(to_si(*q.value, q.unit), 6) + " mm";
-      U = fmt_num(to_si(o.k * *q.std, q.unit), 3) + " mm";
+      value = in_unit(*q.value, 6);
+      U = in_unit(o.k * *q.std, 3);
     }
-    char line[256];
+    const bool confirm = v.enter && 2 * o.k * *q.std > std::abs(*q.value);
+    confirm_any = confirm_any || confirm;
+    char line[320];
     std::snprintf(line, sizeof line, "%-5s %-39s %-21s %s\n", q.name.c_str(), value.c_str(),
-                  U.c_str(), v.enter ? "yes" : ("no: " + v.why).c_str());
+                  U.c_str(),
+                  v.enter ? (confirm ? "yes, then measure again to confirm" : "yes")
+                          : ("no: " + v.why).c_str());
     s << line;
+    if (!q.value) continue;
+    const double a = std::abs(*q.value), u = o.k * *q.std;
+    const std::string today =
+        a > u ? in_unit(a - u, 3) + " to " + in_unit(a + u, 3) : "at most " + in_unit(a + u, 3);
+    std::snprintf(line, sizeof line, "%-5s %-39s %s\n", q.name.c_str(), today.c_str(),
+                  v.enter ? ("within +-" + in_unit(u, 3) + ", either sign").c_str()
+                          : "as today (not entered)");
+    after << line;
   }
+  s << "\nThe size of each error today, and after entering the values marked yes (U as above):\n"
+    << "name  today                                   after entering\n"
+    << after.str();
+  if (confirm_any)
+    s << "A value marked 'measure again to confirm' has U above half its size: after entering "
+         "it, the error left may be of either sign and up to U, as large as the measurement "
+         "can tell; a second measurement tells whether entering it helped.\n";
+  return confirm_any;
 }
 
 std::string table(const ResultFile& r, const CompensationOptions& o) {
@@ -316,7 +347,9 @@ std::string table(const ResultFile& r, const CompensationOptions& o) {
        "TRAFO5 offset vectors, Fanuc's tool-centre-point parameters) takes each value marked "
        "yes added to the entry that holds that location, in the entry's unit; one that holds "
        "a correction takes it with the opposite sign. Measure again after entering them and "
-       "compare the two results (dbbkit compare): the change should be the values entered.\n";
+       "compare the two results (dbbkit compare, this result as A): each change should be "
+       "minus the value entered (the error after it less the error before), within the "
+       "change's U.\n";
   return s.str();
 }
 
