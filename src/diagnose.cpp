@@ -83,10 +83,13 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
                                    const LinearModel& model, const WlsSolver& solver,
                                    const DiagnoseOptions& options,
                                    const std::vector<AddedEffect>& added,
-                                   const std::vector<ErrorsAtAngle>& after) {
+                                   const std::vector<ErrorsAtAngle>& after,
+                                   const std::vector<std::string>& declared) {
   std::vector<SetupRisk> out;
   const int p_ext = static_cast<int>(solver.J().cols());
   for (const SetupEffect& e : setup_effects(design, model, false)) {
+    // A declared one is in the errors' uncertainty (fitted, or through its tolerance).
+    if (std::find(declared.begin(), declared.end(), e.label) != declared.end()) continue;
     bool in_model = false;
     for (const AddedEffect& a : added) in_model = in_model || a.block.label == e.label;
     if (in_model ||
@@ -349,6 +352,64 @@ std::vector<Attribution> attribute(const Design& design, const Parameterisation&
   return out;
 }
 
+// The set-up effects with a declared tolerance (setup_effects) that are nuisance, and the base
+// model diagnose seeks effects on: the axis errors' model with the columns of those the
+// readings tell from it (each raising the rank by its number of columns, in the design's
+// order), when what they read agrees with the tolerance: with beta their free estimate, C its
+// noise covariance and P the declared variances, beta' (P + C)^-1 beta within chi2(q) at the
+// level over the effects tested. One beyond its tolerance is no nuisance: it stays a candidate,
+// to be found (a ball knocked, a bar not zeroed). Those the readings cannot tell are carried in
+// the errors' uncertainties through their tolerance.
+struct DeclaredSetUp {
+  std::vector<SetupEffect> effects;  // nuisance: fitted or carried
+  std::vector<std::string> labels;
+  std::vector<bool> fitted;         // per effect: a column of the base model
+  std::vector<std::string> beyond;  // declared, but read beyond the tolerance: candidates
+  std::vector<SetupEffect> all;     // every declared one
+  LinearModel base;
+  std::vector<std::string> all_labels() const {
+    std::vector<std::string> l;
+    for (const SetupEffect& e : all) l.push_back(e.label);
+    return l;
+  }
+};
+
+DeclaredSetUp declared_setup_base(const Design& design, const LinearModel& model,
+                                  const DiagnoseOptions& options) {
+  DeclaredSetUp d;
+  d.base = model;
+  d.all = setup_effects(design, model, true);
+  if (d.all.empty()) return d;
+  const double level = options.level / static_cast<double>(d.all.size());
+  for (const SetupEffect& e : d.all) {
+    const int q = static_cast<int>(e.J_reading_effect.cols());
+    const Jacobian with = append_columns(d.base.J, e.J_reading_effect);
+    const WlsSolver solver(with, d.base.sigma_um, options.estimate);
+    const int base_rank = WlsSolver(d.base.J, d.base.sigma_um, options.estimate).a_priori().rank;
+    const bool tells = solver.a_priori().rank == base_rank + q;
+    if (tells) {
+      const Estimate fit = solver.solve(d.base.y_um);
+      const Eigen::Index c0 = with.cols() - q;
+      Eigen::MatrixXd S = Eigen::MatrixXd::Identity(q, q) * e.std_um * e.std_um;
+      for (int a = 0; a < q; ++a)
+        for (int b = 0; b < q; ++b) S(a, b) += fit.covariance_at(c0 + a, c0 + b);
+      const Eigen::VectorXd beta = fit.theta.tail(q);
+      const double T = beta.dot(S.ldlt().solve(beta));
+      const boost::math::chi_squared chi2(q);
+      if (T > boost::math::quantile(boost::math::complement(chi2, level))) {
+        d.beyond.push_back(e.label);
+        continue;
+      }
+      d.base.J = with;
+      d.base.series = nullptr;
+    }
+    d.labels.push_back(e.label);
+    d.fitted.push_back(tells);
+    d.effects.push_back(e);
+  }
+  return d;
+}
+
 DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& readings,
                              const DiagnoseOptions& options) {
   DiagnoseResult res;
@@ -359,10 +420,19 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   so.level = options.level;
   so.max_effects = options.max_effects;
   so.estimate = options.estimate;
-  const std::vector<EffectBlock> pool = candidate_effects(design, readings);
+  // The set-up effects whose tolerance the design declares are nuisance, as identify carries
+  // them, not findings: those the readings tell from the axis errors are fitted with them (the
+  // base model's columns), the others carried in the errors' uncertainties; none is a candidate.
+  const DeclaredSetUp declared = declared_setup_base(design, model, options);
+  const LinearModel& base = declared.base;
+  std::vector<EffectBlock> pool;
+  for (EffectBlock& b : candidate_effects(design, readings)) {
+    if (std::find(declared.labels.begin(), declared.labels.end(), b.label) == declared.labels.end())
+      pool.push_back(std::move(b));
+  }
   const std::vector<ScanFamily> families = scan_families(design, readings);
   Selection sel =
-      select_effects(model.J, model.sigma_um, model.y_um, pool, families, design, readings, so);
+      select_effects(base.J, base.sigma_um, base.y_um, pool, families, design, readings, so);
   res.before = sel.before;
   res.errors_before = errors_at_stations(param, res.before);
   res.signature_before = residual_signature(design, readings, res.before.residual_um);
@@ -375,8 +445,48 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.errors_after = errors_at_stations(param, current);
   res.substitutions = std::move(sel.substitutions);
   res.iso_after = iso230_quantities(design, param, current, 1.0, options.iso_motion);
-  res.attributions = attribute(design, param, model, res.added, res.substitutions, pool, current,
+  const std::vector<ErrorsAtAngle> errors_plain = res.errors_after;
+  const IsoResult iso_plain = res.iso_after;
+  res.attributions = attribute(design, param, base, res.added, res.substitutions, pool, current,
                                res.errors_after, options.estimate, &res.iso_after);
+  if (!declared.all.empty()) {
+    // The errors before and after as identify states them (identify --effects with those
+    // added): every declared set-up effect not added through its tolerance (SetupSolver), with
+    // the attributions' share as the fit with the set-up fitted freely has it.
+    auto budgeted = [&](const std::vector<const EffectBlock*>& blocks) {
+      Jacobian A = model.J;
+      std::vector<SetupEffect> carried;
+      for (const SetupEffect& e : declared.all) {
+        if (std::none_of(blocks.begin(), blocks.end(),
+                         [&](const EffectBlock* b) { return b->label == e.label; }))
+          carried.push_back(e);
+      }
+      for (const EffectBlock* b : blocks) A = append_columns(A, b->J_reading_effect);
+      const WlsSolver solver(A, model.sigma_um, options.estimate);
+      return SetupSolver(solver, carried).solve(model.y_um);
+    };
+    res.errors_before = errors_at_stations(param, budgeted({}));
+    std::vector<const EffectBlock*> blocks;
+    for (const AddedEffect& a : res.added) blocks.push_back(&a.block);
+    const Estimate after = budgeted(blocks);
+    std::vector<ErrorsAtAngle> errors = errors_at_stations(param, after);
+    for (std::size_t st = 0; st < errors.size() && st < errors_plain.size(); ++st) {
+      for (int k = 0; k < 6; ++k) {
+        Determined& d = errors[st].errors[k];
+        const double a = res.errors_after[st].errors[k].std, p = errors_plain[st].errors[k].std;
+        if (d.determined) d.std = std::sqrt(d.std * d.std + std::max(0.0, a * a - p * p));
+      }
+    }
+    res.errors_after = std::move(errors);
+    IsoResult iso = iso230_quantities(design, param, after, 1.0, options.iso_motion);
+    const std::vector<Determined> with_share = iso_values(res.iso_after),
+                                  plain = iso_values(iso_plain);
+    std::vector<double> w2(with_share.size(), 0.0);
+    for (std::size_t i = 0; i < w2.size() && i < plain.size(); ++i)
+      w2[i] = std::max(0.0, with_share[i].std * with_share[i].std - plain[i].std * plain[i].std);
+    add_iso_share(iso, w2);
+    res.iso_after = std::move(iso);
+  }
   {
     // Null space of the final model over the axis-error unknowns (effects are all determined when
     // added).
@@ -390,12 +500,21 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.signature_after = residual_signature(design, readings, current.residual_um);
   res.significant_after = current.p_value && *current.p_value < options.level;
   res.candidates = std::move(sel.candidates);
+  for (std::size_t e = 0; e < declared.effects.size(); ++e) {
+    CandidateStatus c;
+    c.label = declared.labels[e];
+    c.state = CandidateState::kSetUp;
+    c.reason = declared.fitted[e] ? CandidateReason::kSetUpFitted : CandidateReason::kSetUpCarried;
+    c.columns = static_cast<int>(declared.effects[e].J_reading_effect.cols());
+    c.note = text::significant(declared.effects[e].std_um, 3);
+    res.candidates.push_back(c);
+  }
 
   // The final model [J, added effects], factorised once for the set-up risks and the checks.
   const WlsSolver final_solver(J, model.sigma_um, options.estimate);
   const Estimate final_fit = final_solver.solve(model.y_um);
-  res.setup_risks =
-      setup_risks(design, param, model, final_solver, options, res.added, res.errors_after);
+  res.setup_risks = setup_risks(design, param, model, final_solver, options, res.added,
+                                res.errors_after, declared.all_labels());
 
   // Checks outside the library, each a test at the level.
   res.stopped_at_step =
@@ -418,7 +537,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   // The axis errors' model alone, factorised when a check needs it.
   std::optional<WlsSolver> first_solver;
   auto first = [&]() -> const WlsSolver& {
-    if (!first_solver) first_solver.emplace(model.J, model.sigma_um, options.estimate);
+    if (!first_solver) first_solver.emplace(base.J, base.sigma_um, options.estimate);
     return *first_solver;
   };
   if (res.before.dof > 1 && res.significant_before) {
@@ -442,7 +561,8 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
       !res.significant_after) {
     int tested = 0;
     for (const CandidateStatus& c : res.candidates) {
-      tested += c.state != CandidateState::kConfounded && c.state != CandidateState::kNotApplicable;
+      tested += c.state != CandidateState::kConfounded &&
+                c.state != CandidateState::kNotApplicable && c.state != CandidateState::kSetUp;
     }
     res.detection_limits = detection_limits(first(), pool, tested + 1, options);
   }

@@ -860,6 +860,8 @@ const char* candidate_state_name(CandidateState s) {
       return "equivalent";
     case CandidateState::kDetectable:
       return "detectable";
+    case CandidateState::kSetUp:
+      return "declared set-up";
   }
   return "unknown";
 }

@@ -135,9 +135,13 @@ enum class CandidateState {
                     // determined
   kDetectable,  // a design's a-priori answer (effect_detectability): it would raise the rank by its
                 // number
+  kSetUp,  // a set-up effect whose tolerance the design declares: carried as identify carries it
+           // (fitted with the errors where the readings tell it apart, else in the uncertainty),
+           // not a finding
 };
 
-// "added", "not significant", "confounded", "not applicable", "equivalent", "detectable".
+// "added", "not significant", "confounded", "not applicable", "equivalent", "detectable",
+// "declared set-up".
 const char* candidate_state_name(CandidateState s);
 
 // Why a candidate ended in its state; the figures it names are in CandidateStatus, and
@@ -164,6 +168,10 @@ enum class CandidateReason {
   kRankShortOfModel,  // a design's a-priori answer: raises the rank by `added_rank` of
                       // `columns`; `note`: the error model
   kFullRank,          // a design's a-priori answer: raises the rank by its number of columns
+  kSetUpFitted,       // a declared set-up effect the readings tell from the errors: fitted with
+                      // them
+  kSetUpCarried,      // a declared set-up effect the readings cannot tell from the errors: its
+                      // tolerance carried in their uncertainties
 };
 
 // The best candidate of a step, which did not pass: the threshold its p had to beat and its

@@ -365,13 +365,18 @@ std::string diagnose_summary(const Design& design, const std::vector<Reading>& r
     }
     s << "\n";
   }
-  int confounded = 0, na = 0;
+  int confounded = 0, na = 0, setup = 0;
   for (const CandidateStatus& c : r.candidates) {
     confounded += c.state == CandidateState::kConfounded;
     na += c.state == CandidateState::kNotApplicable;
+    setup += c.state == CandidateState::kSetUp;
   }
   s << "candidates: " << r.candidates.size() << " (" << confounded << " confounded with the model, "
-    << na << " not applicable to these readings; see the JSON)\n";
+    << na << " not applicable to these readings"
+    << (setup > 0 ? ", " + std::to_string(setup) +
+                        " declared set-up effects carried as identify carries them, not sought"
+                  : std::string())
+    << "; see the JSON)\n";
   if (!r.setup_risks.empty()) {
     s << "\nset-up effects this design cannot detect (size that moves the error by its standard "
          "uncertainty; "

@@ -430,6 +430,15 @@ std::string candidate_detail(const CandidateStatus& c) {
           std::to_string(c.columns) + ": indistinguishable from the axis errors of the " + c.note +
           " model";
       break;
+    case CandidateReason::kSetUpFitted:
+    case CandidateReason::kSetUpCarried:
+      t = "its tolerance is declared (" + c.note + " um)" +
+          (c.reason == CandidateReason::kSetUpFitted
+               ? ": fitted with the axis errors, not sought as a finding; the errors hold with "
+                 "the tolerance in their uncertainty, as identify states them"
+               : " and the readings cannot tell it from the axis errors: carried in their "
+                 "uncertainty, as identify carries it");
+      break;
   }
   if (c.missed) {
     t += " (the best candidate at step " + std::to_string(c.missed->step) + "; needs p < " +
@@ -595,6 +604,19 @@ std::string where_phrase(const Design& design, const AddedEffect& a) {
   return p;
 }
 
+// A set-up effect found where the design declares its tolerance: diagnose carries one within
+// it as nuisance, so one found is beyond it (" (beyond its declared tolerance, 1 um)").
+std::string beyond_tolerance(const Design& design, const AddedEffect& a) {
+  const EffectCandidate& e = a.block.effect;
+  if (e.installation < 0 || e.installation >= static_cast<int>(design.installations.size()))
+    return "";
+  const SetupUncertainty u = design.setup_of(e.installation);
+  const double t = e.kind == EffectKind::kLengthOffset ? u.length_offset_um
+                   : e.kind == EffectKind::kCentring   ? u.centring_um
+                                                       : 0.0;
+  return t > 0 ? " (beyond its declared tolerance, " + n3(t) + " um)" : "";
+}
+
 std::string chi_short(const Estimate& e) {
   return "chi2 " + fmt_num(e.chi2, 4) + " on " + std::to_string(e.dof) + " dof, p " +
          (e.p_value ? p_text(*e.p_value) : std::string("undefined"));
@@ -615,7 +637,7 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
       auto g = std::find_if(by_where.begin(), by_where.end(),
                             [&](const auto& x) { return x.first == w; });
       if (g == by_where.end()) g = by_where.insert(by_where.end(), {w, {}});
-      g->second.push_back(effect_phrase(a));
+      g->second.push_back(effect_phrase(a) + beyond_tolerance(design, a));
     }
     std::vector<std::string> groups;
     for (const auto& [w, phrases] : by_where)
