@@ -381,11 +381,11 @@ DeclaredSetUp declared_setup_base(const Design& design, const LinearModel& model
   d.all = setup_effects(design, model, true);
   if (d.all.empty()) return d;
   const double level = options.level / static_cast<double>(d.all.size());
+  int base_rank = WlsSolver(d.base.J, d.base.sigma_um, options.estimate).a_priori().rank;
   for (const SetupEffect& e : d.all) {
     const int q = static_cast<int>(e.J_reading_effect.cols());
     const Jacobian with = append_columns(d.base.J, e.J_reading_effect);
     const WlsSolver solver(with, d.base.sigma_um, options.estimate);
-    const int base_rank = WlsSolver(d.base.J, d.base.sigma_um, options.estimate).a_priori().rank;
     const bool tells = solver.a_priori().rank == base_rank + q;
     if (tells) {
       const Estimate fit = solver.solve(d.base.y_um);
@@ -402,6 +402,7 @@ DeclaredSetUp declared_setup_base(const Design& design, const LinearModel& model
       }
       d.base.J = with;
       d.base.series = nullptr;
+      base_rank += q;
     }
     d.labels.push_back(e.label);
     d.fitted.push_back(tells);
