@@ -137,6 +137,7 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
 std::optional<ResidualFeature> most_significant(const std::vector<ResidualFeature>& features) {
   const ResidualFeature* top = nullptr;
   for (const ResidualFeature& f : features) {
+    if (f.beyond_instrument_um) continue;  // no machine or bar has it: not a feature of its own
     if (!top || more_significant(f.p, f.test.F, top->p, top->test.F)) top = &f;
   }
   return top ? std::optional<ResidualFeature>(*top) : std::nullopt;
@@ -547,7 +548,8 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
     res.signature_before.dominant = most_significant(res.features_before);
   }
   double feature_p = 1;
-  for (const ResidualFeature& f : res.features_after) feature_p = std::min(feature_p, f.p);
+  for (const ResidualFeature& f : res.features_after)
+    if (!f.beyond_instrument_um) feature_p = std::min(feature_p, f.p);
   res.features_p_all = std::min(
       1.0, feature_p * static_cast<double>(std::max<std::size_t>(1, res.features_after.size())));
   if (res.significant_after) {

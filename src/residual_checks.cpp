@@ -6,6 +6,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 #include <boost/math/distributions/fisher_f.hpp>
 #include <cmath>
+#include <limits>
 
 #include "dbbkit/effects.hpp"
 #include "dbbkit/linear_model.hpp"
@@ -319,7 +320,25 @@ std::vector<ResidualFeature> residual_features(const Design& design,
         top->difference_with.push_back(f.installation);
     }
   }
+  mark_beyond_instrument(design, readings, out);
   return out;
+}
+
+void mark_beyond_instrument(const Design& design, const std::vector<Reading>& readings,
+                            std::vector<ResidualFeature>& features) {
+  const double range_um = 1e3 * design.instrument_range_mm;
+  double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;
+  for (const Reading& r : readings) {
+    if (r.time_s) t0 = std::min(t0, *r.time_s), t1 = std::max(t1, *r.time_s);
+  }
+  const double test_min = t1 > t0 ? (t1 - t0) / 60.0 : 0.0;
+  for (ResidualFeature& f : features) {
+    // What the feature alone would move the bar by: a drift over the whole test (a machine's or
+    // a bar's drift does not stop at an installation's end), any other its size.
+    const double size =
+        f.kind == FeatureKind::kDrift ? std::abs(f.value) * test_min : std::abs(f.value);
+    if (size > range_um) f.beyond_instrument_um = size;
+  }
 }
 
 std::vector<GrossReading> gross_readings(const Jacobian& J, const Eigen::VectorXd& sigma_um,

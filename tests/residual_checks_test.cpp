@@ -18,6 +18,31 @@
 namespace dbbkit {
 namespace {
 
+// A feature no machine or bar can have is marked: a drift of -56.7 um/min over a test of about an
+// hour would move the bar 3.4 mm, beyond the +-1 mm the instrument reads; a 1 um/min drift, a
+// 5 um step are not; a step of 1.2 mm is.
+TEST(ResidualFeatures, WhatNoMachineCanHaveIsMarked) {
+  const Design d = test::paper_design('C');
+  std::vector<Reading> readings(2);
+  readings[0].time_s = 0;
+  readings[1].time_s = 3600;
+  auto feature = [](FeatureKind k, double value) {
+    ResidualFeature f;
+    f.kind = k;
+    f.value = value;
+    return f;
+  };
+  std::vector<ResidualFeature> fs = {
+      feature(FeatureKind::kDrift, -56.71), feature(FeatureKind::kDrift, 1.0),
+      feature(FeatureKind::kStep, 5.0), feature(FeatureKind::kStep, 1200.0)};
+  mark_beyond_instrument(d, readings, fs);
+  ASSERT_TRUE(fs[0].beyond_instrument_um);
+  EXPECT_NEAR(*fs[0].beyond_instrument_um, 56.71 * 60, 1e-9);
+  EXPECT_FALSE(fs[1].beyond_instrument_um);
+  EXPECT_FALSE(fs[2].beyond_instrument_um);
+  EXPECT_TRUE(fs[3].beyond_instrument_um);
+}
+
 struct Problem {
   Eigen::MatrixXd J;
   Eigen::VectorXd sigma, y;

@@ -143,6 +143,11 @@ struct ResidualFeature {
   // each would have.
   std::vector<int> indistinguishable;
   std::vector<double> indistinguishable_values;
+  // What no machine or bar can have: the feature alone would move the bar by this much (um; a
+  // drift over the whole test), beyond the instrument's range (design.instrument_range_mm). Such
+  // a feature stands for something the model lacks, not for itself: never the most significant
+  // feature, never a finding.
+  std::optional<double> beyond_instrument_um;
 };
 
 // The amplitudes sqrt(a_k^2 + b_k^2) of the harmonics k = 1..K of a turntable's residual on the
@@ -152,6 +157,10 @@ struct ResidualFeature {
 std::vector<double> residual_harmonics(const std::vector<Reading>& readings,
                                        const std::vector<int>& rows,
                                        const Eigen::VectorXd& residual_um);
+
+// Marks each feature beyond the instrument's range (ResidualFeature::beyond_instrument_um).
+void mark_beyond_instrument(const Design& design, const std::vector<Reading>& readings,
+                            std::vector<ResidualFeature>& features);
 
 // Every feature of every installation, against the model of `solver` fitted to the readings
 // (`fit` = solver.solve(y)); `readings` as validated against `design`.

@@ -76,6 +76,8 @@ json features_to_json(const Design& d, const std::vector<ResidualFeature>& fs) {
     json diff = json::array();
     for (int i : f.difference_with) diff.push_back(d.installations[i].id);
     j["only_difference_determined_with"] = diff;
+    j["beyond_instrument_range_um"] =
+        f.beyond_instrument_um ? json(r6(*f.beyond_instrument_um)) : json(nullptr);
     out.push_back(j);
   }
   return out;
