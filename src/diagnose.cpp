@@ -363,11 +363,13 @@ std::vector<Attribution> attribute(const Design& design, const Parameterisation&
 // the errors' uncertainties through their tolerance.
 struct DeclaredSetUp {
   std::vector<SetupEffect> effects;  // nuisance: fitted or carried
-  std::vector<std::string> labels;
-  std::vector<bool> fitted;         // per effect: a column of the base model
-  std::vector<std::string> beyond;  // declared, but read beyond the tolerance: candidates
-  std::vector<SetupEffect> all;     // every declared one
+  std::vector<bool> fitted;          // per effect: a column of the base model
+  std::vector<SetupEffect> all;      // every declared one (beyond the tolerance too)
   LinearModel base;
+  bool nuisance(const std::string& label) const {
+    return std::any_of(effects.begin(), effects.end(),
+                       [&](const SetupEffect& e) { return e.label == label; });
+  }
   std::vector<std::string> all_labels() const {
     std::vector<std::string> l;
     for (const SetupEffect& e : all) l.push_back(e.label);
@@ -397,15 +399,11 @@ DeclaredSetUp declared_setup_base(const Design& design, const LinearModel& model
       const Eigen::VectorXd beta = fit.theta.tail(q);
       const double T = beta.dot(S.ldlt().solve(beta));
       const boost::math::chi_squared chi2(q);
-      if (T > boost::math::quantile(boost::math::complement(chi2, level))) {
-        d.beyond.push_back(e.label);
-        continue;
-      }
+      if (T > boost::math::quantile(boost::math::complement(chi2, level))) continue;
       d.base.J = with;
       d.base.series = nullptr;
       base_rank += q;
     }
-    d.labels.push_back(e.label);
     d.fitted.push_back(tells);
     d.effects.push_back(e);
   }
@@ -429,8 +427,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   const LinearModel& base = declared.base;
   std::vector<EffectBlock> pool;
   for (EffectBlock& b : candidate_effects(design, readings)) {
-    if (std::find(declared.labels.begin(), declared.labels.end(), b.label) == declared.labels.end())
-      pool.push_back(std::move(b));
+    if (!declared.nuisance(b.label)) pool.push_back(std::move(b));
   }
   const std::vector<ScanFamily> families = scan_families(design, readings);
   Selection sel =
@@ -504,7 +501,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   res.candidates = std::move(sel.candidates);
   for (std::size_t e = 0; e < declared.effects.size(); ++e) {
     CandidateStatus c;
-    c.label = declared.labels[e];
+    c.label = declared.effects[e].label;
     c.state = CandidateState::kSetUp;
     c.reason = declared.fitted[e] ? CandidateReason::kSetUpFitted : CandidateReason::kSetUpCarried;
     c.columns = static_cast<int>(declared.effects[e].J_reading_effect.cols());
