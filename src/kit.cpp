@@ -616,7 +616,7 @@ TimeEstimate design_time(const Kit& kit, const Design& design, int sweeps) {
   TimeEstimate t;
   t.positions = ball_positions(design);
   t.installations = static_cast<int>(design.installations.size());
-  t.readings = t.installations * static_cast<int>(design.angles_deg.size()) * sweeps;
+  t.readings = t.installations * design.readings_per_sweep() * sweeps;
   t.setups_s = (kit.time_per_position_s > 0 ? t.positions * kit.time_per_position_s : 0.0) +
                t.installations * kit.time_per_installation_s;
   t.readings_s = t.readings * kit.time_per_reading_s;

@@ -1,6 +1,7 @@
 #include "dbbkit/linear_model.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <unordered_map>
@@ -146,8 +147,14 @@ LinearModel build_linear_model(const Design& design, const Parameterisation& par
 
 LinearModel design_model(const Design& design, const Parameterisation& param) {
   std::vector<RowSpec> rows;
+  // A return reading reads the first angle of the sweep (a ccw one: the smallest) again.
+  const double first = design.angles_deg.empty()
+                           ? 0.0
+                           : *std::min_element(design.angles_deg.begin(), design.angles_deg.end());
+  const bool again = design.readings_per_sweep() > static_cast<int>(design.angles_deg.size());
   for (size_t k = 0; k < design.installations.size(); ++k) {
     for (double a : design.angles_deg) rows.push_back({static_cast<int>(k), a, 0.0});
+    if (again) rows.push_back({static_cast<int>(k), first, 0.0});
   }
   return assemble(design, param, rows);
 }

@@ -479,6 +479,8 @@ bool AngleStations::serves(const Design& design) const {
 
 std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm,
                                          const AngleStations* stations) {
+  // A return reading reads one angle twice: the closed forms take one reading per angle.
+  if (design.return_reading) return std::nullopt;
   if (design.installations.empty()) return std::nullopt;
   // Declared set-up tolerances change the estimate (setup.hpp): fast_worst_total answers.
   if (design.setup_nuisance_declared()) return std::nullopt;
@@ -508,6 +510,8 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
 std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm,
                                                bool with_noise_part,
                                                const AngleStations* stations) {
+  // A return reading reads one angle twice: the closed forms take one reading per angle.
+  if (design.return_reading) return std::nullopt;
   if (!design.setup_nuisance_declared()) {
     const std::optional<WorstCase> w = fast_worst_case(design, reference_length_mm, stations);
     if (!w) return std::nullopt;
@@ -704,6 +708,8 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
 
 std::optional<SetupInformation> fast_setup_information(const Design& design,
                                                        const AngleStations* stations) {
+  // A return reading reads one angle twice: the closed forms take one reading per angle.
+  if (design.return_reading) return std::nullopt;
   // fast_worst_total's notation. An effect of installation i has the columns phi(g)' x_k on
   // that installation's readings (x_k the harmonic coefficients of its column k, X = [x_k]),
   // and R'R = sum_hl Phi_hl X_h' W N X_l reduces to w N_ii X' Phi X: the axis errors take the
@@ -835,7 +841,25 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
           hidden_setup_effects(param, solver, all, columns, functions, reference_length_mm),
           reference_length_mm))
     ev.warnings.push_back(*w);
+  ev.drift =
+      check_drift_effects(design, param, model, setup, functions, detection, reference_length_mm);
+  if (!design.return_reading && design.angles_deg.size() > 1) {
+    Design with_return = design;
+    with_return.return_reading = true;
+    ev.drift_with_return = design_drift_checks(with_return, reference_length_mm, detection);
+  }
   return ev;
+}
+
+DriftChecks design_drift_checks(const Design& design, double reference_length_mm,
+                                const DetectionSettings& detection, const TestClock& clock) {
+  const Parameterisation param(design);
+  const LinearModel model = design_model(design, param);
+  const WlsSolver solver(model);
+  const SetupSolver setup(solver, setup_effects(design, model, true));
+  return check_drift_effects(design, param, model, setup,
+                             determined_functions(param, solver.a_priori()), detection,
+                             reference_length_mm, clock);
 }
 
 std::optional<WorstCase> typical_setup_worst(const Design& design, double reference_length_mm) {

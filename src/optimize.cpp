@@ -79,7 +79,7 @@ bool off_axis(const Kit& kit, const PatternPosition& p) {
 // formed once per pair.
 class DetectionRequirement {
  public:
-  explicit DetectionRequirement(const Design& probe) {
+  DetectionRequirement(const Kit& kit, const Design& probe) : kit_(&kit) {
     settings_.level = DiagnoseOptions{}.level;
     settings_.n_tests = 0;
     for (const EffectBlock& b : candidate_effects(probe, nominal_readings(probe)))
@@ -94,7 +94,9 @@ class DetectionRequirement {
     d.settings = settings_;
     d.ratio = -std::numeric_limits<double>::infinity();
     std::optional<SetupInformation> fast;
-    if (fast_only) {
+    if (!kit_->require_setup_detection) {
+      d.ratio = 0;
+    } else if (fast_only) {
       fast = fast_setup_information(c.design, stations);
       if (!fast) {
         d.ratio = std::numeric_limits<double>::infinity();
@@ -104,7 +106,9 @@ class DetectionRequirement {
         return;
       }
     }
-    const SetupInformation info = fast ? std::move(*fast) : design_setup_information(c.design);
+    const SetupInformation info = !kit_->require_setup_detection ? SetupInformation{}
+                                  : fast                         ? std::move(*fast)
+                                         : design_setup_information(c.design);
     for (const SetupEffectInformation& e : info.effects) {
       const int dof = info.n_readings - info.rank - e.q;
       std::optional<double> limit;
@@ -121,6 +125,39 @@ class DetectionRequirement {
       }
     }
     if (info.effects.empty()) d.ratio = 0;
+    if (kit_->require_drift_detection_um) {
+      // The drift over the whole test on the kit's clock (design_drift_checks).
+      const TestClock clock{kit_->time_per_reading_s, kit_->time_per_installation_s};
+      const DriftChecks drift =
+          design_drift_checks(c.design, kit_->reference_length_mm, settings_, clock);
+      for (const DriftCheck& e : drift.effects) {
+        if (e.kind != EffectKind::kDrift) continue;
+        const double ratio = e.detection_limit_um
+                                 ? *e.detection_limit_um / *kit_->require_drift_detection_um
+                                 : std::numeric_limits<double>::infinity();
+        if (!e.detection_limit_um) d.undetectable.push_back(e.label);
+        if (ratio > d.ratio) {
+          d.ratio = ratio;
+          d.effect = e.label;
+          d.limit_um = e.detection_limit_um;
+          d.declared_std_um = *kit_->require_drift_detection_um;
+        }
+      }
+      // Only a design that determines every error meets it: at or near rank loss the axis
+      // errors take less of a drift, which would then seem detectable for what the design
+      // fails to measure.
+      // Finite: the generic point of a choice may lose rank where its optimum does not.
+      if (c.n_undetermined > 0 || drift.rank < drift.n_unknowns) {
+        d.ratio = std::max(d.ratio, 1e6);
+        d.effect = "drift[all] (not every error determined)";
+        d.limit_um.reset();
+      }
+      if (drift.effects.empty()) {  // one time only: nothing tells a drift
+        d.ratio = std::numeric_limits<double>::infinity();
+        d.effect = "drift[all]";
+        d.undetectable.push_back(d.effect);
+      }
+    }
     c.feasible = c.feasible && d.ratio <= 1.0;
     c.detection = std::move(d);
   }
@@ -134,6 +171,7 @@ class DetectionRequirement {
     return cache_[key] = noncentrality_for_power(q, dof, alpha, settings_.power);
   }
 
+  const Kit* kit_;
   DetectionSettings settings_;
   std::map<std::pair<int, int>, double> cache_;
 };
@@ -167,10 +205,10 @@ class ChoiceSearch {
     score_candidate(kit_, criterion_, probe);
     generic_undetermined_ = probe.n_undetermined;
     fast_only_ = generic_undetermined_ == 0 && fast_score(probe);
-    if (kit_.require_setup_detection) {
+    if (kit_.require_setup_detection || kit_.require_drift_detection_um) {
       // An effect the axis errors take at a generic point is taken at every point of the
       // choice (a special point can only lose rank): the choice is not searched.
-      detection_.emplace(probe.design);
+      detection_.emplace(kit_, probe.design);
       detection_->score(probe, false);
       if (std::isinf(probe.detection->ratio)) generic_probe_ = generic;
     }
@@ -393,7 +431,7 @@ class ChoiceSearch {
   std::vector<int> free_;
   int generic_undetermined_ = 0;
   bool fast_only_ = false;
-  std::optional<DetectionRequirement> detection_;     // kit.require_setup_detection
+  std::optional<DetectionRequirement> detection_;     // kit.require_setup_/drift_detection
   std::optional<std::vector<double>> generic_probe_;  // set when no position meets it
   long evaluations_ = 0;
   long max_evaluations_ = 0;
@@ -456,15 +494,16 @@ void round_best(const Kit& kit, Criterion criterion, OptimizeResult& res) {
     }
   }
   std::optional<DetectionRequirement> detection;
-  if (kit.require_setup_detection) detection.emplace(unrounded.design);
+  if (kit.require_setup_detection || kit.require_drift_detection_um)
+    detection.emplace(kit, unrounded.design);
   std::optional<Candidate> best;
   auto score = [&](const std::vector<double>& x) {
     Candidate c = make_candidate(kit, unrounded.choice, x);
     score_candidate(kit, criterion, c);
     if (detection) detection->score(c, false);
     ++rd.tried;
-    if (c.feasible && c.n_undetermined <= unrounded.n_undetermined && c.objective_defined &&
-        (!best || better(c, *best)))
+    if (c.feasible && unrounded.feasible && c.n_undetermined <= unrounded.n_undetermined &&
+        c.objective_defined && (!best || better(c, *best)))
       best = std::move(c);
   };
   if (options.size() <= kMaxExhaustiveRounding) {
@@ -764,6 +803,7 @@ Candidate candidate_skeleton(const Kit& kit, const PatternChoice& choice) {
   d.errors = kit.errors;
   d.reference_length_mm = kit.reference_length_mm;
   d.setup_std = kit.setup_std;
+  d.return_reading = kit.return_reading;
   for (const PatternChoice::Placement& pl : choice.placements) {
     const PatternPosition& p = kit.pattern.positions[pl.position];
     for (Direction::Kind kind : p.directions) {

@@ -332,7 +332,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     for (const Sweep s : sweeps) {
       ProgramSweep ps;
       ps.direction = s;
-      const std::vector<double> order = sweep_angles(design, s);
+      const std::vector<SweepReading> order = sweep_readings(design, s);
       auto add = [&](double a, bool reading) {
         if (++positions > kMaxProgramPositions) {
           throw InputError("program", "path_tolerance_mm",
@@ -353,9 +353,10 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
         highest = std::max(highest, p.linear_mm.z());
         ps.positions.push_back(p);
       };
-      add(order.front(), true);
+      add(order.front().angle_deg, true);
       for (size_t k = 1; k < order.size(); ++k) {
-        const double a0 = order[k - 1], a1 = order[k];
+        // The return reading retraces the sweep's arc back to its first angle (no new path).
+        const double a0 = order[k - 1].angle_deg, a1 = order[k].angle_deg;
         const int n = substeps(design.axis, inst, ip.bar_mm, a0, a1, options.path_tolerance_mm,
                                options.tcpm, ip.largest_bar_change_mm);
         for (int j = 1; j < n; ++j) {
@@ -363,6 +364,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
           add(std::round(a / kProgramAngleResolution_deg) * kProgramAngleResolution_deg, false);
         }
         add(a1, true);
+        ps.positions.back().return_reading = order[k].is_return;
       }
       ip.readings += static_cast<int>(order.size());
       ip.sweeps.push_back(std::move(ps));
@@ -454,6 +456,16 @@ std::vector<double> sweep_angles(const Design& design, Sweep sweep) {
   std::sort(angles.begin(), angles.end());
   if (sweep == Sweep::kCW) std::reverse(angles.begin(), angles.end());
   return angles;
+}
+
+Sweep opposite(Sweep sweep) { return sweep == Sweep::kCW ? Sweep::kCCW : Sweep::kCW; }
+
+std::vector<SweepReading> sweep_readings(const Design& design, Sweep sweep) {
+  std::vector<SweepReading> out;
+  for (const double a : sweep_angles(design, sweep)) out.push_back({a, sweep, false});
+  if (design.return_reading && out.size() > 1)
+    out.push_back({out.front().angle_deg, opposite(sweep), true});
+  return out;
 }
 
 }  // namespace dbbkit

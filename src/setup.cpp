@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <boost/math/distributions/chi_squared.hpp>
 #include <boost/math/distributions/fisher_f.hpp>
 #include <boost/math/distributions/non_central_f.hpp>
@@ -546,6 +547,107 @@ void bound_first_order_bias(FirstOrderCheck& check, const SetupSolver& solver,
       check.bias_angle_deg = vb.angle_deg;
     }
   }
+}
+
+std::vector<double> design_row_times(const Design& design, const TestClock& clock) {
+  std::vector<double> sorted = design.angles_deg;
+  std::sort(sorted.begin(), sorted.end());
+  const int per_sweep = design.readings_per_sweep();
+  const double installation_s = per_sweep * clock.per_reading_s + clock.per_installation_s;
+  std::vector<double> out;
+  for (std::size_t k = 0; k < design.installations.size(); ++k) {
+    const double start = static_cast<double>(k) * installation_s;
+    for (const double a : design.angles_deg) {  // design_model's order, read in sweep order
+      const auto at = std::lower_bound(sorted.begin(), sorted.end(), a) - sorted.begin();
+      out.push_back(start + static_cast<double>(at) * clock.per_reading_s);
+    }
+    if (per_sweep > static_cast<int>(design.angles_deg.size()))
+      out.push_back(start + static_cast<double>(sorted.size()) * clock.per_reading_s);
+  }
+  return out;
+}
+
+DriftChecks check_drift_effects(const Design& design, const Parameterisation& param,
+                                const LinearModel& model, const SetupSolver& solver,
+                                const DeterminedFunctions& functions,
+                                const DetectionSettings& settings, double reference_length_mm,
+                                const TestClock& clock) {
+  DriftChecks out;
+  out.clock = clock;
+  const std::vector<double> t = design_row_times(design, clock);
+  if (t.empty() || static_cast<Eigen::Index>(t.size()) != model.J.rows()) return out;
+  const double T = *std::max_element(t.begin(), t.end());
+  if (!(T > 0)) return out;
+  out.test_min = T / 60.0;
+  const Eigen::Index n = model.J.rows();
+  // Detection as diagnose tests with declared set-up tolerances: against the axis errors and
+  // the declared set-up effects held to their tolerances, i.e. the readings' model with one
+  // pseudo-reading per set-up column (its value 0, its standard uncertainty the tolerance).
+  // A drift that the set-up could take only far beyond its tolerance is thus seen.
+  const std::vector<SetupEffect> declared = setup_effects(design, model, true);
+  Eigen::Index q = 0;
+  for (const SetupEffect& e : declared) q += e.J_reading_effect.cols();
+  const Eigen::Index p = model.J.cols();
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n + q, p + q);
+  Eigen::VectorXd sigma(n + q);
+  A.topLeftCorner(n, p) = Eigen::MatrixXd(model.J);
+  sigma.head(n) = model.sigma_um;
+  q = 0;
+  for (const SetupEffect& e : declared) {
+    for (Eigen::Index c = 0; c < e.J_reading_effect.cols(); ++c, ++q) {
+      A.block(0, p + q, n, 1) = e.J_reading_effect.col(c);
+      A(n + q, p + q) = 1.0;
+      sigma(n + q) = e.std_um;
+    }
+  }
+  const std::optional<WlsSolver> held =
+      q > 0 ? std::optional<WlsSolver>(std::in_place, A, sigma) : std::nullopt;
+  const WlsSolver& against = held ? *held : solver.base();
+  out.rank = solver.a_priori().rank;
+  out.n_unknowns = solver.a_priori().n_unknowns;
+  // The held model determines every set-up column beside J's rank; one that does not (J near
+  // rank loss, decided otherwise in the larger factorisation) would count what it loses as
+  // the drift's: no detection is stated then.
+  const bool consistent = against.a_priori().rank == out.rank + static_cast<int>(q);
+  const int dof = solver.a_priori().n_readings - solver.a_priori().rank - 1;
+  const Eigen::VectorXd w = model.sigma_um.cwiseInverse();
+  const double tau = out.test_min / 4.0;
+  for (const EffectKind kind : {EffectKind::kDrift, EffectKind::kThermal}) {
+    SetupEffect e;
+    e.kind = kind;
+    e.installation = -1;
+    e.parameters = {"value"};
+    e.J_reading_effect.resize(n, 1);
+    const double end = 1.0 - std::exp(-out.test_min / tau);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double m = t[static_cast<std::size_t>(i)] / 60.0;
+      e.J_reading_effect(i, 0) =
+          kind == EffectKind::kDrift ? m / out.test_min : (1.0 - std::exp(-m / tau)) / end;
+    }
+    EffectCandidate c{kind, -1};
+    if (kind == EffectKind::kThermal) c.tau_min = tau;
+    e.label = c.label(design);
+    const SetupEffectCheck bias =
+        check_setup_effects(param, solver, {e}, effect_columns(solver.base(), {e}), functions,
+                            settings, reference_length_mm)[0];
+    DriftCheck d;
+    d.label = e.label;
+    d.kind = kind;
+    d.tau_min = c.tau_min;
+    d.bias_per_um = bias.bias_per_um;
+    d.bias_um_per_um = bias.bias_um_per_um;
+    d.bias_error = bias.bias_error;
+    d.bias_angle_deg = bias.bias_angle_deg;
+    Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n + q, 1);
+    x.topRows(n) = e.J_reading_effect;
+    const Eigen::MatrixXd R = unexplained(against, held ? x : e.J_reading_effect);
+    const Eigen::VectorXd norms =
+        (w.asDiagonal() * e.J_reading_effect).colwise().norm().transpose();
+    d.detectable = consistent && added_rank(R, norms) == 1;
+    d.detection_limit_um = detection_limit_um(1, d.detectable, R.squaredNorm(), dof, settings);
+    out.effects.push_back(std::move(d));
+  }
+  return out;
 }
 
 }  // namespace dbbkit

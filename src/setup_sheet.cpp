@@ -351,7 +351,7 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
     const int sweeps = program.sweeps == ProgramOptions::Sweeps::kBoth ? 2 : 1;
     sheet.time = design_time(*kit, sheet.design, sweeps);
     const double per_sweep =
-        static_cast<double>(sheet.design.angles_deg.size()) * sweeps * kit->time_per_reading_s;
+        static_cast<double>(sheet.design.readings_per_sweep()) * sweeps * kit->time_per_reading_s;
     for (const SetupStep& s : sheet.order.steps) {
       const double t =
           (s.moves_cup ? kit->time_per_position_s : 0.0) + kit->time_per_installation_s;

@@ -11,6 +11,7 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/parameterisation.hpp"
+#include "dbbkit/program.hpp"
 #include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
 
@@ -170,7 +171,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
   {
     const double sweeps = truth.schedule ? static_cast<double>(truth.schedule->sweeps.size()) : 1.0;
     const double n = static_cast<double>(design.installations.size()) *
-                     static_cast<double>(design.angles_deg.size()) * sweeps * truth.repeats;
+                     static_cast<double>(design.readings_per_sweep()) * sweeps * truth.repeats;
     if (n > static_cast<double>(limits::kMaxReadings)) {
       throw InputError(source, "repeats",
                        "the simulation would make more than " +
@@ -343,6 +344,18 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
           }
           out.push_back(reading);
         }
+      }
+      if (design.return_reading && angles.size() > 1) {
+        // The sweep's first angle once more, approached the other way (sweep_readings).
+        Reading reading;
+        reading.installation = inst.id;
+        reading.angle_deg = angles.front();
+        if (truth.schedule) {
+          reading.time_s = t;
+          reading.sweep = opposite(sweep);
+          t += truth.schedule->per_reading_s;
+        }
+        out.push_back(reading);
       }
     }
     if (truth.schedule) t += truth.schedule->per_installation_s;

@@ -227,11 +227,11 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
 std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& sweeps) {
   std::vector<Stop> stops;
   for (const Sweep s : sweeps) {
-    for (const double a : sweep_angles(design, s)) {
-      if (!stops.empty() && stops.back().angle_deg == a) {
-        stops.back().sweeps.push_back(s);  // no move between: one stop
+    for (const SweepReading& r : sweep_readings(design, s)) {
+      if (!stops.empty() && stops.back().angle_deg == r.angle_deg) {
+        stops.back().sweeps.push_back(r.approach);  // no move between: one stop
       } else {
-        stops.push_back({a, {s}});
+        stops.push_back({r.angle_deg, {r.approach}});
       }
     }
   }

@@ -164,10 +164,19 @@ struct Design {
   // the QC20-W class reads within about +-1 mm; larger values are almost always a unit
   // mix-up, um in a mm column). Design key instrument.range_mm, at most 10 mm.
   double instrument_range_mm = kDefaultInstrumentRange_mm;
+  // Each sweep of each installation ends by reading its first angle again (design key
+  // return_reading): the axis turns back along the sweep's arc, approaching that angle from the
+  // other side (the reading's sweep is the opposite one), so that the two readings of one
+  // position, minutes apart, show a drift of the bar or the machine (sweep_readings).
+  bool return_reading = false;
   SetupUncertainty setup_std;  // default for every installation
   std::vector<Installation> installations;
   std::optional<Prediction> predicted;
 
+  // The readings one sweep of one installation takes: every angle, and the return reading.
+  int readings_per_sweep() const {
+    return static_cast<int>(angles_deg.size()) + (return_reading && angles_deg.size() > 1 ? 1 : 0);
+  }
   // The set-up tolerances of installation i (its override over the default).
   SetupUncertainty setup_of(int i) const;
   // Whether any installation declares a length offset or centring tolerance

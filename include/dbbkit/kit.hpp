@@ -120,6 +120,13 @@ struct Kit {
   // uncertainty (detection limit <= declared size, setup.hpp): designs that leave one
   // below its limit are infeasible for the search.
   bool require_setup_detection = false;
+  // Every design reads each sweep's first angle again at its end (design.hpp, return_reading).
+  bool return_reading = false;
+  // A drift over the whole test of this size [um, from the first reading to the last] must be
+  // one diagnose detects (its detection limit at most this, setup.hpp DriftCheck, on the kit's
+  // clock: time_s.per_reading and per_installation): designs that leave it below its limit are
+  // infeasible for the search.
+  std::optional<double> require_drift_detection_um;
   Interval L_mm;  // unused on a trunnion (its L is the table's heights)
   Interval D_mm;  // {0, 0}: no lateral offset
   // The range of H where it is continuous (`axial_mm`; general form only): a head's holder

@@ -146,7 +146,16 @@ struct Evaluation {
   // uncertainty it would have with typical ones (kTypicalSetupStd), the size of what the
   // noise-only figure leaves out (assess_design; absent otherwise).
   std::optional<WorstCase> worst_total_typical;
+  // A drift or warm-up over the whole test (setup.hpp, DriftCheck) on the nominal clock;
+  // drift_with_return: the same for the design with return readings, when it has none.
+  DriftChecks drift;
+  std::optional<DriftChecks> drift_with_return;
 };
+
+// The drift checks of a design alone (what evaluate_design gives as Evaluation::drift).
+DriftChecks design_drift_checks(const Design& design, double reference_length_mm,
+                                const DetectionSettings& detection = {},
+                                const TestClock& clock = {});
 
 // Typical set-up tolerances (standard uncertainties) of a ball bar installation: the length
 // offset of a bar zeroed in its calibrator and its balls seated, the centring of a cup set

@@ -89,6 +89,18 @@ std::optional<ProgramOptions::Sweeps> program_sweeps_named(const std::string& na
 // The angles of one sweep in the order the program visits them: the design's sorted, increasing
 // for ccw, decreasing for cw.
 std::vector<double> sweep_angles(const Design& design, Sweep sweep);
+// The readings of one sweep in the order they are taken: its angles (sweep_angles), each read
+// with the axis moving in the sweep's direction, and with design.return_reading the first angle
+// once more at the end, reached by turning back along the arc (approached moving the other way,
+// so it carries the opposite sweep: a reversal error shows in it as in that sweep's readings).
+// The one definition program, simulate and readings follow.
+struct SweepReading {
+  double angle_deg = 0;
+  Sweep approach = Sweep::kCCW;
+  bool is_return = false;
+};
+std::vector<SweepReading> sweep_readings(const Design& design, Sweep sweep);
+Sweep opposite(Sweep sweep);
 
 // The limits of the options; throws InputError(source, key) outside them:
 //   0 < dwell_s <= 600, 0 < feed_mm_per_min <= 60000, 1e-4 <= path_tolerance_mm <= 1,
@@ -104,6 +116,9 @@ struct ProgramPosition {
   // table ball at the origin.
   Eigen::Vector3d tcp_mm = Eigen::Vector3d::Zero();
   bool reading = false;  // a design angle: dwell and read; false: an intermediate position
+  // The sweep's return reading (sweep_readings): its first angle read again, approached the
+  // other way.
+  bool return_reading = false;
 };
 
 struct ProgramSweep {

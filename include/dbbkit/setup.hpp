@@ -250,6 +250,47 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
                                                   const DetectionSettings& settings,
                                                   double reference_length_mm);
 
+// A drift or warm-up over the whole test, seen from a design before it is measured: the test's
+// clock (design_row_times) puts the installations in design order, one sweep each as the design
+// reads it (sweep_readings: increasing angle, then the return reading), per_reading_s apart,
+// per_installation_s between installations (simulate's schedule, the kit's time_s).
+struct TestClock {
+  double per_reading_s = 3;
+  double per_installation_s = 240;
+};
+// Per row of design_model(design), its time from the test's first reading [s].
+std::vector<double> design_row_times(const Design& design, const TestClock& clock);
+
+// A test-wide drift (a bar or machine growing at a constant rate) or warm-up (1 - exp(-t / tau),
+// tau a quarter of the test), scaled per um over the test: 1 um from the first reading to the
+// last. Detection is against the axis errors and the declared set-up effects (as diagnose fits
+// them), the limit in um over the test; the bias is the estimate's (with the declared set-up),
+// as for SetupEffectCheck.
+struct DriftCheck {
+  std::string label;  // "drift[all]", "thermal[all](tau=10.4min)"
+  EffectKind kind = EffectKind::kDrift;
+  double tau_min = 0;  // thermal only
+  bool detectable = false;
+  std::optional<double> detection_limit_um;  // um over the test
+  std::optional<double> bias_per_um;         // error unit per um over the test
+  std::optional<double> bias_um_per_um;      // at the reference length
+  int bias_error = -1;
+  double bias_angle_deg = 0;
+};
+struct DriftChecks {
+  TestClock clock;
+  double test_min = 0;  // first reading to last
+  int rank = 0;         // of the axis errors' model (near rank loss, a drift seems detectable)
+  int n_unknowns = 0;   // of that model
+  std::vector<DriftCheck> effects;
+};
+// Empty effects when the design's test has one time only.
+DriftChecks check_drift_effects(const Design& design, const Parameterisation& param,
+                                const LinearModel& model, const SetupSolver& solver,
+                                const DeterminedFunctions& functions,
+                                const DetectionSettings& settings, double reference_length_mm,
+                                const TestClock& clock = {});
+
 // The first-order validity check (FirstOrderCheck, identify.hpp) at the errors theta.
 FirstOrderCheck first_order_check(const Design& design, const Parameterisation& param,
                                   const Eigen::VectorXd& theta);

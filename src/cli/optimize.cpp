@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -17,6 +18,7 @@
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/setup_sheet.hpp"
+#include "dbbkit/user_text.hpp"
 #include "report_options.hpp"
 
 namespace dbbkit::cli {
@@ -25,6 +27,7 @@ namespace {
 struct OptimizeArgs {
   std::string kit, out, result, reference, pareto_csv, criterion;
   bool pareto = false, quiet = false, require_detection = false;
+  std::vector<std::string> require_detect;
   int threads = 0;
 };
 
@@ -54,6 +57,11 @@ Runner add_optimize(CLI::App& app) {
       "--require-setup-detection", args->require_detection,
       "Only designs in which diagnose detects every declared set-up effect at its declared size "
       "(the kit's require_setup_detection)");
+  sub->add_option(
+      "--require-detect", args->require_detect,
+      "What diagnose must detect in the designs: 'setup' (as --require-setup-detection) or "
+      "'drift=UM', a drift of UM um over the whole test (the kit's require_drift_detection_um; "
+      "the kit's return_reading lets each sweep read its first angle again to see it)");
   sub->add_flag("--pareto", args->pareto,
                 "Print the front of the criterion against measurement time");
   sub->add_option("--pareto-csv", args->pareto_csv, "Write the Pareto front as CSV");
@@ -70,6 +78,23 @@ Runner add_optimize(CLI::App& app) {
                        {{"--result", args->result}, {"--pareto-csv", args->pareto_csv}}),
         inputs);
     Kit kit = io::read_kit_file(args->kit);
+    for (const std::string& r : args->require_detect) {
+      if (r == "setup") {
+        args->require_detection = true;
+      } else if (r.rfind("drift=", 0) == 0) {
+        const std::string v = r.substr(6);
+        char* end = nullptr;
+        const double um = std::strtod(v.c_str(), &end);
+        if (v.empty() || end != v.c_str() + v.size() || !(um > 0 && um <= 1000))
+          throw InputError("--require-detect", quote_value(r),
+                           "a drift over the whole test in um, above 0 and at most 1000 "
+                           "(drift=2)");
+        kit.require_drift_detection_um = um;
+      } else {
+        throw InputError("--require-detect", quote_value(r),
+                         "expected setup or drift=UM (a drift of UM um over the whole test)");
+      }
+    }
     if (args->require_detection) {
       if (!kit.setup_std.nuisance()) {
         throw InputError(args->kit, "setup_std",

@@ -51,7 +51,7 @@ std::vector<std::pair<std::string, SimulatedTrace>> simulated_traces(
   if (truth.repeats != 1)
     throw InputError(source, "repeats", "a simulated trace takes one reading per angle and sweep");
   const std::vector<Stop> stops = program_stops(design, sweeps);
-  const std::size_t per_sweep = design.angles_deg.size();
+  const std::size_t per_sweep = static_cast<std::size_t>(design.readings_per_sweep());
   std::vector<std::pair<std::string, SimulatedTrace>> out;
   for (std::size_t i = 0; i < design.installations.size(); ++i) {
     const std::string& id = design.installations[i].id;
@@ -66,12 +66,17 @@ std::vector<std::pair<std::string, SimulatedTrace>> simulated_traces(
     std::vector<double> levels, times;
     bool timed = true;
     std::size_t entry = 0;
+    std::vector<bool> used(own.size(), false);  // a return reading's angle is read twice
     for (const Stop& s : stops) {
       for (std::size_t q = 0; q < s.sweeps.size(); ++q, ++entry) {
         const std::size_t j = entry / per_sweep;
         const Reading* hit = nullptr;
-        for (std::size_t k = j * per_sweep; k < (j + 1) * per_sweep; ++k)
-          if (own[k]->angle_deg == s.angle_deg) hit = own[k];
+        for (std::size_t k = j * per_sweep; k < (j + 1) * per_sweep && !hit; ++k) {
+          if (own[k]->angle_deg == s.angle_deg && !used[k]) {
+            hit = own[k];
+            used[k] = true;
+          }
+        }
         if (!hit) throw std::logic_error("simulate --trace-out: no reading at a stop");
         levels.push_back(hit->reading_um);
         timed = timed && hit->time_s;

@@ -357,6 +357,10 @@ Design design_from_json(const json& j, const std::string& source, const std::str
     d.instrument_range_mm = r.number("range_mm");
     r.finish();
   }
+  if (const json* v = top.optional("return_reading")) {
+    if (!v->is_boolean()) top.fail("return_reading", "expected true or false");
+    d.return_reading = v->get<bool>();
+  }
   if (const json* u = top.optional("setup_std_mm")) {
     // The short form of the ball placement alone: {"L": u, "D": u, "H": u} [mm].
     if (top.has("setup_std"))
@@ -480,6 +484,7 @@ json design_to_json(const Design& d) {
   if (d.reference_length_mm) j["reference_length_mm"] = *d.reference_length_mm;
   if (d.instrument_range_mm != kDefaultInstrumentRange_mm)
     j["instrument"] = {{"range_mm", d.instrument_range_mm}};
+  if (d.return_reading) j["return_reading"] = true;
   if (d.setup_std.nuisance()) {
     j["setup_std"] = setup_to_json(d.setup_std, d.axis);
   } else if (d.setup_std.any()) {

@@ -184,6 +184,12 @@ Kit kit_from_json(const json& j, const std::string& source) {
     top.fail("require_setup_detection",
              "needs a length offset or centring tolerance declared in setup_std");
   }
+  k.return_reading = read_flag(top, "return_reading", false);
+  k.require_drift_detection_um = top.optional_number("require_drift_detection_um");
+  if (k.require_drift_detection_um &&
+      !(*k.require_drift_detection_um > 0 && *k.require_drift_detection_um <= 1000))
+    top.fail("require_drift_detection_um",
+             "must be a drift over the whole test in um, above 0 and at most 1000");
   if (carriage == TableCarriage::kAcrossAxis) {
     if (top.has("L_mm"))
       top.fail("L_mm",

@@ -58,9 +58,27 @@ json candidate_json(const Kit& kit, const Candidate& c) {
 
 }  // namespace
 
+std::string drift_text(const Kit& kit, const Design& design) {
+  const TestClock clock{kit.time_per_reading_s, kit.time_per_installation_s};
+  const DriftChecks d = design_drift_checks(design, kit.reference_length_mm, {}, clock);
+  for (const DriftCheck& c : d.effects) {
+    if (c.kind != EffectKind::kDrift) continue;
+    std::string t = "over the " + fmt_num(d.test_min, 3) + " min test (the kit's clock): ";
+    t += c.detection_limit_um ? "detected from " + fmt_num(*c.detection_limit_um, 3) + " um"
+                              : std::string("not detectable");
+    if (c.bias_per_um)
+      t += "; 1 um undetected moves " + std::string(kErrorNames[c.bias_error]) + " at " +
+           fmt_num(c.bias_angle_deg) + " deg by " + fmt_num(*c.bias_per_um, 3) + " " +
+           kErrorUnits[c.bias_error];
+    return t;
+  }
+  return "the test has one time only";
+}
+
 std::string detection_text(const Candidate::Detection& d) {
   std::string t =
-      "required of every declared effect (found by diagnose at its declared size, power " +
+      "required of every declared set-up effect and drift (found by diagnose at its declared "
+      "size, power " +
       fmt_num(d.settings.power) + " at level " + fmt_num(d.settings.level) +
       (d.settings.n_tests > 1 ? " / " + std::to_string(d.settings.n_tests) + " candidates" : "") +
       "): ";
@@ -68,7 +86,8 @@ std::string detection_text(const Candidate::Detection& d) {
   t += d.ratio <= 1.0 ? "met; the closest is " : "not met; ";
   t += d.effect;
   if (d.limit_um) {
-    t += ", detected from " + fmt_num(*d.limit_um, 4) + " um (declared " +
+    t += ", detected from " + fmt_num(*d.limit_um, 4) + " um" +
+         (d.effect.rfind("drift", 0) == 0 ? " over the test (required " : " (declared ") +
          fmt_num(d.declared_std_um, 4) + " um)";
   } else {
     t += ", which the axis errors take (not detectable)";
@@ -107,8 +126,8 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
         for (const std::string& e : cr.best->detection->undetectable)
           list += (list.empty() ? "" : ", ") + e;
       }
-      return "no position lets diagnose detect every declared set-up effect: the axis errors "
-             "take " +
+      return "no position lets diagnose detect every declared set-up effect (and drift "
+             "required): the axis errors take " +
              list + " at every position of this choice";
     }
     case ChoiceState::kOutsideTravel:
@@ -123,10 +142,12 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
     case ChoiceState::kSetupNotDetected: {
       if (!cr.best || !cr.best->detection) break;
       const Candidate::Detection& d = *cr.best->detection;
-      return "no position lets diagnose detect every declared set-up effect at its declared "
-             "size: " +
+      const bool drift = d.effect.rfind("drift", 0) == 0;
+      return "no position lets diagnose detect every declared set-up effect (and drift "
+             "required) at its declared size: " +
              d.effect +
-             (d.limit_um ? " is detected from " + mm(*d.limit_um) + " um (declared " +
+             (d.limit_um ? " is detected from " + mm(*d.limit_um) +
+                               (drift ? " um over the test (required " : " um (declared ") +
                                mm(d.declared_std_um) + " um)"
                          : " cannot be told from the axis errors");
     }
@@ -401,6 +422,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   }
   if (res.rounding) s << rounding_text(res) << "\n";
   if (b.detection) s << "set-up detection " << detection_text(*b.detection) << "\n";
+  s << "drift " << drift_text(kit, b.design) << "\n";
   s << unidentifiable_text(ev.unidentifiable);
   if (ev.setup_included) {
     s << "\npredicted standard uncertainty (k = 1) at each angle, total (noise and the declared "

@@ -331,8 +331,11 @@ std::string program_text(const Design& design, const MeasurementProgram& program
                    "each step is split so the bar changes by at most " +
                    fmt_rounded(o.path_tolerance_mm, 4) + " mm between positions");
   }
-  head.push_back("readings: dwell " + fmt_rounded(o.dwell_s, 3) + " s at each design angle, feed " +
-                 fmt_rounded(o.feed_mm_per_min, 1) + " mm/min");
+  head.push_back("readings: dwell " + fmt_rounded(o.dwell_s, 3) + " s at each design angle" +
+                 (design.return_reading
+                      ? std::string(" and again at the first angle of each sweep after its last")
+                      : std::string()) +
+                 ", feed " + fmt_rounded(o.feed_mm_per_min, 1) + " mm/min");
   head.push_back("moves at the feed and dwells take about " +
                  fmt_rounded(program.motion_time_s / 60.0, 1) +
                  " min; rapids and set-ups not included");
@@ -453,8 +456,10 @@ std::string program_text(const Design& design, const MeasurementProgram& program
           w.stop("AIR RUN: check the sense, then start");
         }
         if (p.reading) {
-          w.dwell(o.dwell_s, "reading " + inst.id + " " + fmt_rounded(p.angle_deg, 4) + " deg " +
-                                 sweep_name(s.direction));
+          w.dwell(o.dwell_s,
+                  "reading " + inst.id + " " + fmt_rounded(p.angle_deg, 4) + " deg " +
+                      (p.return_reading ? std::string("return ") + sweep_name(opposite(s.direction))
+                                        : std::string(sweep_name(s.direction))));
         }
       }
     }

@@ -806,6 +806,7 @@ std::string evaluate_summary(const Design& design, const Evaluation& ev) {
   }
   s << unidentifiable_text(ev.unidentifiable);
   s << setup_checks_text(ev.setup_checks, ev.detection);
+  s << drift_checks_text(ev);
   return s.str();
 }
 
@@ -864,6 +865,20 @@ json setup_tolerances_to_json(const Design& design) {
   return list;
 }
 
+namespace {
+// An effect's largest bias per um (null when it moves no determined error).
+json bias_json(const std::optional<double>& bias, const std::optional<double>& bias_um, int error,
+               double angle_deg, const std::string& per, double reference_length_mm) {
+  if (!bias) return nullptr;
+  return {{"error", kErrorNames[error]},
+          {"angle_deg", angle_deg},
+          {"value", r6(*bias)},
+          {"unit", std::string(kErrorUnits[error]) + per},
+          {"um_per_um_at_reference_length", r6(*bias_um)},
+          {"reference_length_mm", reference_length_mm}};
+}
+}  // namespace
+
 json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks, double reference_length_mm) {
   json list = json::array();
   for (const SetupEffectCheck& c : checks) {
@@ -871,20 +886,33 @@ json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks, double re
               {"declared_std_um", c.declared_std_um > 0 ? json(c.declared_std_um) : json(nullptr)},
               {"detectable", c.detectable},
               {"detection_limit_um", optional_number(c.detection_limit_um)}};
-    if (c.bias_per_um) {
-      e["largest_bias_per_um"] = {{"error", kErrorNames[c.bias_error]},
-                                  {"angle_deg", c.bias_angle_deg},
-                                  {"value", r6(*c.bias_per_um)},
-                                  {"unit", std::string(kErrorUnits[c.bias_error]) + " per um"},
-                                  {"um_per_um_at_reference_length", r6(*c.bias_um_per_um)},
-                                  {"reference_length_mm", reference_length_mm}};
-    } else {
-      e["largest_bias_per_um"] = nullptr;
-    }
+    e["largest_bias_per_um"] = bias_json(c.bias_per_um, c.bias_um_per_um, c.bias_error,
+                                         c.bias_angle_deg, " per um", reference_length_mm);
     list.push_back(e);
   }
   return list;
 }
+
+namespace {
+// "detectable, limit 2.35 um; 1 um moves dy at -100 deg by 0.762 um" (per: " um" or
+// " um over the test").
+std::string detection_and_bias(bool detectable, const std::optional<double>& limit,
+                               const std::optional<double>& bias, int error, double angle_deg,
+                               const std::string& per) {
+  std::ostringstream line;
+  if (detectable) {
+    line << " detectable";
+    if (limit) line << ", limit " << std::setprecision(3) << *limit << per;
+  } else {
+    line << " NOT detectable";
+  }
+  if (bias) {
+    line << "; 1" << per << " moves " << kErrorNames[error] << " at " << angle_deg << " deg by "
+         << std::setprecision(3) << *bias << " " << kErrorUnits[error];
+  }
+  return line.str();
+}
+}  // namespace
 
 std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks,
                               const DetectionSettings& detection) {
@@ -899,21 +927,75 @@ std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks,
     line << "  " << std::left << std::setw(22) << c.label << std::right;
     if (c.declared_std_um > 0)
       line << " declared " << std::setprecision(3) << c.declared_std_um << " um;";
-    if (c.detectable) {
-      line << " detectable";
-      if (c.detection_limit_um)
-        line << ", limit " << std::setprecision(3) << *c.detection_limit_um << " um";
-    } else {
-      line << " NOT detectable";
-    }
-    if (c.bias_per_um) {
-      line << "; 1 um moves " << kErrorNames[c.bias_error] << " at " << c.bias_angle_deg
-           << " deg by " << std::setprecision(3) << *c.bias_per_um << " "
-           << kErrorUnits[c.bias_error];
-    }
+    line << detection_and_bias(c.detectable, c.detection_limit_um, c.bias_per_um, c.bias_error,
+                               c.bias_angle_deg, " um");
     s << line.str() << "\n";
   }
   return s.str();
+}
+
+namespace {
+std::string drift_check_line(const DriftCheck& c) {
+  std::ostringstream line;
+  line << "  " << std::left << std::setw(26) << c.label << std::right
+       << detection_and_bias(c.detectable, c.detection_limit_um, c.bias_per_um, c.bias_error,
+                             c.bias_angle_deg, " um over the test");
+  if (!c.bias_per_um) line << "; moves no determined error";
+  return line.str();
+}
+}  // namespace
+
+std::string drift_checks_text(const Evaluation& ev) {
+  if (ev.drift.effects.empty()) return {};
+  std::ostringstream s;
+  const TestClock& k = ev.drift.clock;
+  s << "\ndrift and warm-up over the whole test (undetected, per um the bar reads more from the "
+       "first reading to the last; the test's clock: installations in design order, one "
+       "increasing sweep each, "
+    << k.per_reading_s << " s a reading, " << k.per_installation_s
+    << " s between installations: " << std::setprecision(3) << ev.drift.test_min << " min):\n";
+  for (const DriftCheck& c : ev.drift.effects) s << drift_check_line(c) << "\n";
+  if (ev.drift_with_return) {
+    const DriftCheck* before = nullptr;
+    const DriftCheck* after = nullptr;
+    for (const DriftCheck& c : ev.drift.effects)
+      if (c.kind == EffectKind::kDrift) before = &c;
+    for (const DriftCheck& c : ev.drift_with_return->effects)
+      if (c.kind == EffectKind::kDrift) after = &c;
+    if (before && after && after->detectable &&
+        (!before->detectable || (after->detection_limit_um && before->detection_limit_um &&
+                                 *after->detection_limit_um < 0.8 * *before->detection_limit_um))) {
+      s << "  a return reading (design key return_reading: each sweep reads its first angle "
+           "again at its end) would make the drift detectable";
+      if (after->detection_limit_um)
+        s << ", limit " << std::setprecision(3) << *after->detection_limit_um
+          << " um over the test";
+      s << " (the test then " << std::setprecision(3) << ev.drift_with_return->test_min
+        << " min)\n";
+    }
+  }
+  return s.str();
+}
+
+nlohmann::json drift_checks_to_json(const DriftChecks& d, double reference_length_mm) {
+  json list = json::array();
+  for (const DriftCheck& c : d.effects) {
+    json e = {{"effect", c.label},
+              {"per", "um over the test"},
+              {"detectable", c.detectable},
+              {"detection_limit_um", optional_number(c.detection_limit_um)}};
+    if (c.kind == EffectKind::kThermal) e["tau_min"] = r6(c.tau_min);
+    e["largest_bias_per_um"] =
+        bias_json(c.bias_per_um, c.bias_um_per_um, c.bias_error, c.bias_angle_deg,
+                  " per um over the test", reference_length_mm);
+    list.push_back(e);
+  }
+  return {{"clock",
+           {{"per_reading_s", d.clock.per_reading_s},
+            {"per_installation_s", d.clock.per_installation_s},
+            {"order", "installations in design order, one increasing sweep each"}}},
+          {"test_min", r6(d.test_min)},
+          {"effects", list}};
 }
 
 json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file,
@@ -973,6 +1055,13 @@ json evaluate_to_json(const Design& design, const Evaluation& ev, const std::str
                         {"test", "nested F test of the effect against the axis errors (diagnose)"}};
   setup["effects"] = setup_checks_to_json(ev.setup_checks, ev.reference_length_mm);
   j["setup"] = setup;
+  if (!ev.drift.effects.empty()) {
+    j["drift"] = drift_checks_to_json(ev.drift, ev.reference_length_mm);
+    j["drift"]["return_reading"] = design.return_reading;
+    if (ev.drift_with_return)
+      j["drift"]["with_return_reading"] =
+          drift_checks_to_json(*ev.drift_with_return, ev.reference_length_mm);
+  }
   j["unidentifiable"] = unidentifiable_to_json(ev.unidentifiable);
   if (mc) j["monte_carlo"] = monte_carlo_to_json(*mc);
   return j;

@@ -74,6 +74,10 @@ std::string warnings_text(const std::vector<Warning>& warnings);
 nlohmann::json setup_tolerances_to_json(const Design& design);
 nlohmann::json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks,
                                     double reference_length_mm);
+// What an undetected drift or warm-up over the whole test does (Evaluation::drift), and what a
+// return reading would change; empty when the test has one time only.
+std::string drift_checks_text(const Evaluation& ev);
+nlohmann::json drift_checks_to_json(const DriftChecks& d, double reference_length_mm);
 std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks,
                               const DetectionSettings& detection);
 
