@@ -25,6 +25,12 @@ std::vector<Reading> nominal_readings(const Design& design) {
       r.angle_deg = a;
       out.push_back(std::move(r));
     }
+    if (design.readings_per_sweep() > static_cast<int>(design.angles_deg.size())) {
+      Reading r;  // the return reading (design_model's row)
+      r.installation = in.id;
+      r.angle_deg = *std::min_element(design.angles_deg.begin(), design.angles_deg.end());
+      out.push_back(std::move(r));
+    }
   }
   return out;
 }

@@ -502,8 +502,8 @@ void round_best(const Kit& kit, Criterion criterion, OptimizeResult& res) {
     score_candidate(kit, criterion, c);
     if (detection) detection->score(c, false);
     ++rd.tried;
-    if (c.feasible && unrounded.feasible && c.n_undetermined <= unrounded.n_undetermined &&
-        c.objective_defined && (!best || better(c, *best)))
+    if (c.feasible && c.n_undetermined <= unrounded.n_undetermined && c.objective_defined &&
+        (!best || better(c, *best)))
       best = std::move(c);
   };
   if (options.size() <= kMaxExhaustiveRounding) {
@@ -1111,7 +1111,7 @@ std::vector<BindingConstraint> binding_constraints(const Kit& kit, const Optimiz
     b.time_s = probe.time_s;
     b.positions = ball_positions(probe.design);
     b.installations = static_cast<int>(probe.design.installations.size());
-    b.readings = b.installations * static_cast<int>(probe.design.angles_deg.size());
+    b.readings = b.installations * probe.design.readings_per_sweep();
   }
   std::stable_sort(
       out.begin(), out.end(),

@@ -333,7 +333,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
       ProgramSweep ps;
       ps.direction = s;
       const std::vector<SweepReading> order = sweep_readings(design, s);
-      auto add = [&](double a, bool reading) {
+      auto add_to = [&](ProgramSweep& to, double a, bool reading) {
         if (++positions > kMaxProgramPositions) {
           throw InputError("program", "path_tolerance_mm",
                            "the program would command more than " +
@@ -351,18 +351,34 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
         if (reading) ip.motion_time_s += options.dwell_s;
         last = p.linear_mm;
         highest = std::max(highest, p.linear_mm.z());
-        ps.positions.push_back(p);
+        to.positions.push_back(p);
       };
-      add(order.front().angle_deg, true);
-      for (size_t k = 1; k < order.size(); ++k) {
-        // The return reading retraces the sweep's arc back to its first angle (no new path).
-        const double a0 = order[k - 1].angle_deg, a1 = order[k].angle_deg;
+      auto add = [&](double a, bool reading) { add_to(ps, a, reading); };
+      // From a0 to a1 along the arc, in sub-steps within the path tolerance (not read).
+      auto along = [&](ProgramSweep& to, double a0, double a1) {
         const int n = substeps(design.axis, inst, ip.bar_mm, a0, a1, options.path_tolerance_mm,
                                options.tcpm, ip.largest_bar_change_mm);
         for (int j = 1; j < n; ++j) {
           const double a = a0 + (a1 - a0) * j / n;
-          add(std::round(a / kProgramAngleResolution_deg) * kProgramAngleResolution_deg, false);
+          add_to(to, std::round(a / kProgramAngleResolution_deg) * kProgramAngleResolution_deg,
+                 false);
         }
+      };
+      if (!ip.sweeps.empty()) {
+        // A sweep that ended elsewhere (its return reading) goes back along the swept arc to
+        // where this one starts: the program never jumps between two angles in one move.
+        ProgramSweep& before = ip.sweeps.back();
+        const double end = before.positions.back().angle_deg, start = order.front().angle_deg;
+        if (end != start) {
+          along(before, end, start);
+          add_to(before, start, false);
+        }
+      }
+      add(order.front().angle_deg, true);
+      for (size_t k = 1; k < order.size(); ++k) {
+        // The return reading retraces the sweep's arc back to its first angle (no new path).
+        const double a0 = order[k - 1].angle_deg, a1 = order[k].angle_deg;
+        along(ps, a0, a1);
         add(a1, true);
         ps.positions.back().return_reading = order[k].is_return;
       }

@@ -346,10 +346,11 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
         }
       }
       if (design.return_reading && angles.size() > 1) {
-        // The sweep's first angle once more, approached the other way (sweep_readings).
+        // The program's sweep's first angle once more, approached the other way
+        // (sweep_readings: the smallest angle for ccw, whatever the design's order).
         Reading reading;
         reading.installation = inst.id;
-        reading.angle_deg = angles.front();
+        reading.angle_deg = sweep_readings(design, sweep).back().angle_deg;
         if (truth.schedule) {
           reading.time_s = t;
           reading.sweep = opposite(sweep);

@@ -75,6 +75,17 @@ TEST(ReturnReading, ProgramAndSimulateTakeItAtTheEndOfEachSweep) {
       }
     }
   }
+  // Between sweeps too: after a return reading the next sweep's start is reached along the arc,
+  // never in one move (the bar would leave its path).
+  for (const InstallationProgram& ip : p.installations) {
+    double at = ip.sweeps.front().positions.front().angle_deg;
+    for (const ProgramSweep& s : ip.sweeps) {
+      for (const ProgramPosition& q : s.positions) {
+        EXPECT_LE(std::abs(q.angle_deg - at), 20.0 + 1e-9);
+        at = q.angle_deg;
+      }
+    }
+  }
   const std::string text = io::program_text(d, p, io::Dialect::kIso);
   EXPECT_NE(text.find("-100 deg return cw)"), std::string::npos);
   EXPECT_NE(text.find(" 0 deg return ccw)"), std::string::npos);
@@ -99,6 +110,15 @@ TEST(ReturnReading, ProgramAndSimulateTakeItAtTheEndOfEachSweep) {
   EXPECT_EQ(ret.angle_deg, r[0].angle_deg);
   EXPECT_EQ(*ret.sweep, Sweep::kCW);
   EXPECT_GT(*ret.time_s, *r[n_angles - 1].time_s);
+
+  // Angles written in decreasing order: the return is still the program's (the smallest angle
+  // for a ccw sweep).
+  Design reversed = d;
+  std::reverse(reversed.angles_deg.begin(), reversed.angles_deg.end());
+  t.schedule = Schedule{10, 240, {Sweep::kCCW}};
+  const std::vector<Reading> rr = simulate(reversed, t, 1);
+  EXPECT_EQ(rr[n_angles].angle_deg, lo);
+  EXPECT_EQ(*rr[n_angles].sweep, Sweep::kCW);
 }
 
 // Evaluate's bias per um of a drift (or warm-up) over the test is what identify does with

@@ -85,7 +85,8 @@ Runner add_optimize(CLI::App& app) {
         const std::string v = r.substr(6);
         char* end = nullptr;
         const double um = std::strtod(v.c_str(), &end);
-        if (v.empty() || end != v.c_str() + v.size() || !(um > 0 && um <= 1000))
+        if (v.empty() || v.find_first_not_of("0123456789.") != std::string::npos ||
+            end != v.c_str() + v.size() || !(um > 0 && um <= 1000))
           throw InputError("--require-detect", quote_value(r),
                            "a drift over the whole test in um, above 0 and at most 1000 "
                            "(drift=2)");

@@ -309,6 +309,11 @@ Kit kit_from_json(const json& j, const std::string& source) {
   }
   top.finish();
   validate_kit(k, source);
+  if (k.require_drift_detection_um && !(k.time_per_reading_s > 0) &&
+      !(k.time_per_installation_s > 0))
+    top.fail("require_drift_detection_um",
+             "a drift over the test needs the test's clock: time_s.per_reading or "
+             "time_s.per_installation above 0 s");
   return k;
 }
 
