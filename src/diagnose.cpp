@@ -208,8 +208,13 @@ void add_iso_share(IsoResult& iso, const std::vector<double>& w2) {
   };
   for (IsoQuantity& q : iso.location) add(q.value);
   for (IsoQuantity& q : iso.constants) add(q.value);
-  for (IsoComponentsAtAngle& a : iso.components)
+  bool share = false;
+  for (const double w : w2) share = share || w > 0;
+  for (IsoComponentsAtAngle& a : iso.components) {
     for (Determined& m : a.motions) add(m);
+    // A share on each std is not a covariance of the motions: none is stated.
+    if (share) a.motion_covariance.reset();
+  }
 }
 
 // With `iso` (the ISO quantities of `after`), each alternative's ISO quantities are computed as
@@ -227,6 +232,7 @@ std::vector<Attribution> attribute(const Design& design, const Parameterisation&
   std::vector<double> iso_w2(iso_base.size(), 0.0);
   IsoMotionOptions no_motion;
   no_motion.enabled = false;
+  no_motion.covariance = false;
   std::vector<Determined> iso_alternative;  // of the last refit
   bool exact = false;                       // refit: only alternatives that fit exactly as well
   // The errors with the added effects `out_labels` replaced by `in`; nullopt when that model

@@ -145,6 +145,25 @@ void range_monte_carlo(const std::vector<ComponentDraw>& draws,
 
 }  // namespace
 
+Eigen::Matrix<double, 6, 5> location_motion(const AxisFrame& axis, double angle_deg) {
+  const IsoFrame f = iso_frame(axis);
+  const Eigen::Matrix3d IR = Eigen::Matrix3d::Identity() - axis_rotation(axis, angle_deg);
+  Eigen::Matrix<double, 6, 5> G = Eigen::Matrix<double, 6, 5>::Zero();
+  for (int e = 0; e < 6; ++e) {
+    const int b = e / 3, k = e % 3;
+    const Eigen::Matrix<double, 1, 5> x = location_row(b, k, IR, f);
+    if (b == 0) {  // o along p1 and p2: the first two location errors
+      G(e, 0) = x(3);
+      G(e, 1) = x(4);
+    } else {  // alpha along p1 and p2, then c0 about q
+      G(e, 2) = x(3);
+      G(e, 3) = x(4);
+      G(e, 4) = x(2);
+    }
+  }
+  return G;
+}
+
 IsoFrame iso_frame(const AxisFrame& axis) {
   IsoFrame f;
   f.ia = axis.machine_axis();
@@ -329,10 +348,12 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     int block = -1;                   // all of c in one block of the covariance: its number
     std::vector<Eigen::Index> local;  // and each nonzero's place in it
     Eigen::Matrix<double, 1, 5> x, cSQ;
-    Eigen::VectorXd Kc;  // K'c; empty without a low-rank part
+    Eigen::Matrix<double, 1, 5> cSQ_other;  // c' Sigma Q of the other block (motion_covariance)
+    Eigen::VectorXd Kc;                     // K'c; empty without a low-rank part
   };
   std::vector<double> row;  // the covariance's inner sums, one per nonzero of i
-  auto covariance = [&](const Term& i, const Term& j) {
+  // c_i' Sigma c_j on the two supports.
+  auto base = [&](const Term& i, const Term& j) {
     double v = 0;
     if (i.block >= 0 && i.block == j.block) {  // on the dense block, no search
       // v = sum over x of c_x (sum over y of B(x, y) c_y), each sum in its order: the same
@@ -346,11 +367,45 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
           v += i.coef[x] * est.covariance_at(i.index[x], j.index[y]) * j.coef[y];
       }
     }
+    return v;
+  };
+  auto covariance = [&](const Term& i, const Term& j) {
+    double v = base(i, j);
     v += -i.cSQ.dot(j.x) - j.cSQ.dot(i.x) + (i.x * QSQ[i.b] * j.x.transpose())(0);
     if (low_rank) {
       v += i.Kc.dot(est.covariance_S * j.Kc) -
            i.Kc.dot(est.covariance_S * (KQ[i.b] * j.x.transpose())) -
            j.Kc.dot(est.covariance_S * (KQ[i.b] * i.x.transpose()));
+    }
+    return v * uncertainty_scale * uncertainty_scale;
+  };
+  // The motions less their constant parts (motion_covariance): the rows of the constant parts
+  // alone, a block's fitted quantities across the blocks.
+  const bool with_covariance = motion.covariance && fitted[0] && fitted[1];
+  Eigen::Matrix<double, 5, 5> QSQ01 = Eigen::Matrix<double, 5, 5>::Zero();
+  bool constants_determined = with_covariance;
+  if (with_covariance) {
+    QSQ01 = Q[0].transpose() * SQ[1];
+    if (low_rank) QSQ01 += KQ[0].transpose() * est.covariance_S * KQ[1];
+    for (int j = 0; j < 3; ++j) constants_determined &= est.determined(Q[0].col(j));
+    for (int j = 0; j < 2; ++j) constants_determined &= est.determined(Q[1].col(j));
+  }
+  auto constant_row = [](const Term& t) {
+    Eigen::Matrix<double, 1, 5> x = t.x;
+    x.tail(t.b == 0 ? 2 : 3).setZero();
+    return x;
+  };
+  auto motion_cov = [&](const Term& i, const Term& j) {
+    const Eigen::Matrix<double, 1, 5> xi = constant_row(i), xj = constant_row(j);
+    const Eigen::Matrix<double, 1, 5>& iSQj = i.b == j.b ? i.cSQ : i.cSQ_other;
+    const Eigen::Matrix<double, 1, 5>& jSQi = i.b == j.b ? j.cSQ : j.cSQ_other;
+    const Eigen::Matrix<double, 5, 5> M =
+        i.b == j.b ? QSQ[i.b] : (i.b == 0 ? QSQ01 : Eigen::Matrix<double, 5, 5>(QSQ01.transpose()));
+    double v = base(i, j) - iSQj.dot(xj) - jSQi.dot(xi) + (xi * M * xj.transpose())(0);
+    if (low_rank) {
+      const Eigen::VectorXd ki = i.Kc - KQ[i.b] * xi.transpose(),
+                            kj = j.Kc - KQ[j.b] * xj.transpose();
+      v += ki.dot(est.covariance_S * kj);
     }
     return v * uncertainty_scale * uncertainty_scale;
   };
@@ -370,6 +425,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       t.b = b;
       t.x = location_row(b, k, IR, frame);
       t.cSQ.setZero();
+      t.cSQ_other.setZero();
       double value = 0;
       const auto nonzeros = static_cast<std::size_t>(C.col(e).nonZeros());
       t.index.reserve(nonzeros);
@@ -381,6 +437,7 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
         t.index.push_back(a);
         t.coef.push_back(it.value());
         t.cSQ += it.value() * SQ[b].row(a);
+        if (with_covariance) t.cSQ_other += it.value() * SQ[1 - b].row(a);
         value += it.value() * est.theta(a);
       }
       if (!est.covariance_block_of.empty() && !t.index.empty()) {
@@ -396,6 +453,14 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
       d.value = value - Qtheta[b].dot(t.x);
       d.std = std::sqrt(std::max(0.0, covariance(t, t)));
       at.motions[e] = d;
+    }
+    if (constants_determined && std::all_of(at.motions.begin(), at.motions.end(),
+                                            [](const Determined& d) { return d.determined; })) {
+      Eigen::Matrix<double, 6, 6> c;
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j <= i; ++j)
+          c(i, j) = c(j, i) = motion_cov(station_terms[i], station_terms[j]);
+      at.motion_covariance = c;
     }
     out.components.push_back(at);
     if (motion.enabled) terms.push_back(std::move(station_terms));

@@ -28,14 +28,8 @@ namespace {
 using nlohmann::json;
 using test::kPi;
 
-struct RealLine {
-  Eigen::Vector3d point, direction;
-  double zero_rad = 0;  // the zero-position error: the axis stands at commanded + zero
-};
-
-Eigen::Vector3d turn(const RealLine& l, double deg, const Eigen::Vector3d& x) {
-  return l.point + Eigen::AngleAxisd(deg * kPi / 180 + l.zero_rad, l.direction) * (x - l.point);
-}
+using test::RealLine;
+using test::turn;
 
 // The readings of a design measured on the real machine: the table ball turned about the real
 // line of the axis under test (the C line first set where A's real pose at 0 puts it), the

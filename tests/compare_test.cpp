@@ -266,6 +266,7 @@ TEST(ResultRead, ManyAnglesAreReadAndAnAngleGivenTwiceIsNamed) {
   nlohmann::json comps = nlohmann::json::array();
   for (int i = 0; i < 200000; ++i) comps.push_back({{"angle_deg", i * 0.1 - 10000}});
   j["iso230"]["components"] = comps;
+  j["iso230"].erase("motion_covariance");  // of the angles replaced
   const io::ResultFile r = io::result_from_text(j.dump(), "many.json");
   EXPECT_EQ(r.components.size(), 200000u);
   j["iso230"]["components"].push_back({{"angle_deg", 0.5 - 10000}});

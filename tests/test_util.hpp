@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <Eigen/SparseCore>
 #include <cmath>
 #include <random>
@@ -30,6 +31,19 @@ inline const AxisFrame kAxisB = AxisFrame::b_head();
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kBar = 150.0;  // mm, a bar length where the design gives none
+
+// A real axis line, for readings and points computed without dbbkit's first-order algebra: a
+// point on it, its direction, and the zero-position error (the axis stands at commanded + zero).
+struct RealLine {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  // mm
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();
+  double zero_rad = 0;
+};
+
+// x turned by the commanded angle about the real line.
+inline Eigen::Vector3d turn(const RealLine& l, double deg, const Eigen::Vector3d& x) {
+  return l.point + Eigen::AngleAxisd(deg * kPi / 180 + l.zero_rad, l.direction) * (x - l.point);
+}
 
 // |a - b| <= abs_tol + rel_tol * max(|a|, |b|), elementwise.
 inline ::testing::AssertionResult near(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b,

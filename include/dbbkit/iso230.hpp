@@ -58,6 +58,13 @@ struct IsoComponentsAtAngle {
   int station = 0;
   double angle_deg = 0;
   std::array<Determined, 6> motions;  // in the order of the names (translations, then rotations)
+  // The joint covariance (um, urad; the scale of the std) of the six error motions at this angle
+  // less their constant parts: the location errors' part (location_motion) plus the component,
+  // translations then rotations. What a point of the body is off by, and what remains of it once
+  // the location errors are entered, take their uncertainty from it (predict.hpp). Absent where
+  // one of the six or a block's fit is not determined, where not asked for, and where a share
+  // that is not a covariance was added to the std (diagnose's equivalent effects).
+  std::optional<Eigen::Matrix<double, 6, 6>> motion_covariance;
 };
 
 enum class IsoMotionGap { kNone, kLocationNotDetermined, kNotEveryAngle, kTooManyAngles };
@@ -89,6 +96,9 @@ struct IsoMotionOptions {
   // about a second per batch of 10^4 trials).
   int max_angles = 400;
   std::optional<double> dof;  // Type A: degrees of freedom of the multivariate t; absent: Gaussian
+  // The joint covariance of each angle's six motions less their constant parts
+  // (IsoComponentsAtAngle::motion_covariance).
+  bool covariance = true;
 };
 
 struct IsoMotionValues {
@@ -143,6 +153,12 @@ struct IsoFrame {
   Eigen::Vector3d p1, p2, q;
 };
 IsoFrame iso_frame(const AxisFrame& axis);
+
+// What the five location errors (in the order of IsoNames::location, um and urad) add to the six
+// error motions (dx, dy, dz in um, ex, ey, ez in urad) at the commanded angle (docs/iso230.md):
+//   d = (I - R) o,  e = (I - R) alpha + c0 q,
+// o and alpha the positions and orientations along p1 and p2, c0 the zero position about q.
+Eigen::Matrix<double, 6, 5> location_motion(const AxisFrame& axis, double angle_deg);
 
 // `uncertainty_scale` multiplies every standard uncertainty (the budget's Type A scale, 1 for Type
 // B). Error motion values with `motion.enabled`.

@@ -22,5 +22,6 @@ Runner add_compensation(CLI::App& app);
 Runner add_compare(CLI::App& app);
 Runner add_chain(CLI::App& app);
 Runner add_readings(CLI::App& app);
+Runner add_predict(CLI::App& app);
 
 }  // namespace dbbkit::cli

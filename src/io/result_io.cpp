@@ -641,6 +641,32 @@ nlohmann::json iso230_to_json(const IsoResult& iso, const std::string& uncertain
   }
   j["constant_parts"] = con;
   j["components"] = comp;
+  {
+    // Each angle's six motions less their constant parts (the location errors' part plus the
+    // component): what predict propagates to a point of the body.
+    json at = json::array();
+    for (const IsoComponentsAtAngle& a : iso.components) {
+      if (!a.motion_covariance) continue;
+      json rows = json::array();
+      for (int r = 0; r < 6; ++r) {
+        json row = json::array();
+        for (int c = 0; c < 6; ++c) row.push_back((*a.motion_covariance)(r, c));
+        rows.push_back(row);
+      }
+      at.push_back({{"angle_deg", a.angle_deg}, {"matrix", rows}});
+    }
+    if (!at.empty()) {
+      json names = json::array();
+      for (int e = 0; e < 6; ++e) names.push_back(kErrorNames[e]);
+      j["motion_covariance"] = {
+          {"quantity",
+           "the error motions at each angle less their constant parts: the location errors' part "
+           "plus the component error motion (machine frame)"},
+          {"names", names},
+          {"unit", "the product of the two quantities' units (um, urad)"},
+          {"at", at}};
+    }
+  }
   const IsoMotionValues& mv = iso.motion_values;
   if (!mv.values.empty()) {
     json vals = json::array();

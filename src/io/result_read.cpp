@@ -1,5 +1,6 @@
 #include "dbbkit/io/result_read.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -304,6 +305,61 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
     if ((c - c.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1 + c.cwiseAbs().maxCoeff()))
       throw InputError(source, path + ".matrix", "not symmetric");
     r.location_covariance = c;
+  }
+  if (iso.contains("motion_covariance")) {
+    const std::string path = "iso230.motion_covariance";
+    const json& at =
+        list_of(member(iso["motion_covariance"], "at", source, path), source, path + ".at");
+    for (std::size_t i = 0; i < at.size(); ++i) {
+      const std::string where = path + ".at[" + std::to_string(i) + "]";
+      const double angle =
+          angle_of(member(at[i], "angle_deg", source, where), source, where + ".angle_deg");
+      const auto c = std::find_if(r.components.begin(), r.components.end(),
+                                  [&](const ResultComponents& x) { return x.angle_deg == angle; });
+      if (c == r.components.end())
+        throw InputError(source, where + ".angle_deg", "not an angle of iso230.components");
+      if (c->motion_covariance)
+        throw InputError(source, where + ".angle_deg", "an angle given twice");
+      if (c->motions.size() != 6 || std::any_of(c->motions.begin(), c->motions.end(),
+                                                [](const ResultQuantity& q) { return !q.value; }))
+        throw InputError(source, where,
+                         "a covariance where the component error motions are not all determined");
+      const json& m = list_of(member(at[i], "matrix", source, where), source, where + ".matrix");
+      if (m.size() != 6) throw InputError(source, where + ".matrix", "expected 6 rows");
+      Eigen::Matrix<double, 6, 6> cov;
+      for (int a = 0; a < 6; ++a) {
+        const std::string row = where + ".matrix[" + std::to_string(a) + "]";
+        const json& v = list_of(m[static_cast<std::size_t>(a)], source, row);
+        if (v.size() != 6) throw InputError(source, row, "expected 6 entries");
+        for (int b = 0; b < 6; ++b) {
+          const std::string e = row + "[" + std::to_string(b) + "]";
+          const double x = as_number(v[static_cast<std::size_t>(b)], source, e);
+          if (!(std::abs(x) <= kMaxResultValue * kMaxResultValue))
+            throw InputError(source, e, "beyond 1e18 (um^2, urad^2): not a result of dbbkit");
+          cov(a, b) = x;
+        }
+      }
+      const double top = cov.cwiseAbs().maxCoeff();
+      if ((cov - cov.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1 + top))
+        throw InputError(source, where + ".matrix", "not symmetric");
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(cov);
+      if (eig.eigenvalues().minCoeff() < -1e-9 * (1 + top))
+        throw InputError(source, where + ".matrix",
+                         "not positive semi-definite (an eigenvalue " +
+                             std::to_string(eig.eigenvalues().minCoeff()) + ")");
+      c->motion_covariance = cov;
+    }
+  }
+  if (j.contains("budget") && j["budget"].is_object() && j["budget"].contains("values")) {
+    const json& values = list_of(j["budget"]["values"], source, "budget.values");
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      if (!values[i].is_object() || !values[i].contains("nu_eff") || values[i]["nu_eff"].is_null())
+        continue;
+      const std::string where = "budget.values[" + std::to_string(i) + "].nu_eff";
+      const double nu = as_number(values[i]["nu_eff"], source, where);
+      if (!(nu >= 1)) throw InputError(source, where, "degrees of freedom below 1");
+      r.dof = r.dof ? std::min(*r.dof, nu) : nu;
+    }
   }
   if (design.contains("machine")) {
     const std::string path = "design.machine";

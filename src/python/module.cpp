@@ -37,6 +37,7 @@
 #include "dbbkit/io/machine_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/optimize_io.hpp"
+#include "dbbkit/io/predict_io.hpp"
 #include "dbbkit/io/program_io.hpp"
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_io.hpp"
@@ -1712,6 +1713,43 @@ PYBIND11_MODULE(dbbkit, m) {
       "`dbbkit chain`: the results of a machine's axes (paths, results or their json) combined "
       "on the controller's reference: each axis' location errors in its carrier's body and the "
       "distance and squareness between their lines, with U; the dict `chain --out` writes");
+  m.def(
+      "predict",
+      [result_of](py::handle result, py::handle at, double coverage, bool location_only) {
+        check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
+        const io::ResultFile r = result_of(result, "result");
+        std::vector<Pose> poses;
+        std::string source = "at";
+        if (const auto path = as_path(at)) {
+          poses = io::read_poses_file(*path, r.axis);
+          source = *path;
+        } else {
+          const auto rows = py::cast<std::vector<std::vector<double>>>(at);
+          if (rows.empty()) throw InputError("at", "", "no pose");
+          if (rows.size() > limits::kMaxPoses)
+            throw InputError("at", "", "more than " + std::to_string(limits::kMaxPoses) + " poses");
+          for (std::size_t i = 0; i < rows.size(); ++i) {
+            const std::string where = "at[" + std::to_string(i) + "]";
+            if (rows[i].size() != 4)
+              throw InputError("at", where, "expected [angle_deg, x_mm, y_mm, z_mm]");
+            Pose p;
+            p.angle_deg = rows[i][0];
+            p.point_mm = Eigen::Vector3d(rows[i][1], rows[i][2], rows[i][3]);
+            io::check_pose(p, r.axis, "at", where + ".");
+            poses.push_back(p);
+          }
+        }
+        io::PredictResult p = io::predict(r, poses, coverage, location_only);
+        p.poses_source = source;
+        if (const auto path = as_path(result)) p.result_sha256 = io::sha256_file(*path);
+        return to_python(io::prediction_to_json(p));
+      },
+      py::arg("result"), py::arg("at"), py::arg("coverage") = 0.95,
+      py::arg("location_only") = false,
+      "`dbbkit predict`: the error of points of the turning body at commanded angles (`at`: a "
+      "poses CSV's path, or rows [angle_deg, x_mm, y_mm, z_mm]) from a result (path, result or "
+      "its json), with its uncertainty and what entering the location errors leaves; the dict "
+      "`predict --out` writes");
   m.def(
       "compensation",
       [result_of](py::handle result, const std::string& format, const std::string& kins,

@@ -105,6 +105,30 @@ class RoundTrips(InSource):
         with self.assertRaises(dbbkit.InputError):
             dbbkit.compensation(r, "linuxcnc")  # a C table: the module must be named
 
+    def test_predict_as_the_command_line(self):
+        # The poses' CSV or rows; the dict predict --out writes; bad rows name their place.
+        d = dbbkit.Design(PAPER_C)
+        r = dbbkit.identify(d, dbbkit.Measurements(DATA_C, d))
+        with tempfile.TemporaryDirectory() as tmp:
+            a = result_file(r, tmp)
+            rows = [[0, 200, 0, 50], [10, 200, 0, 50]]
+            csv = os.path.join(tmp, "poses.csv")
+            with open(csv, "w") as f:
+                f.write("angle_deg,x_mm,y_mm,z_mm\n" + "".join("%g,%g,%g,%g\n" % tuple(x) for x in rows))
+            got = dbbkit.predict(a, csv)
+            self.assertEqual(got, cli_json("predict", "--result", a, "--at", csv))
+            from_rows = dbbkit.predict(a, np.array(rows, dtype=float))
+            self.assertEqual(from_rows["points"], got["points"])
+            self.assertEqual([p["basis"] for p in got["points"]], ["motions", "location"])
+            only = dbbkit.predict(a, rows, location_only=True)
+            self.assertEqual([p["basis"] for p in only["points"]], ["location", "location"])
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.predict(r, [[0, 1, 2]])
+        self.assertIn("at[0]", str(ctx.exception))
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.predict(r, [[0, 1, 2, float("nan")]])
+        self.assertIn("at[0].z_mm", str(ctx.exception))
+
     def test_a_machine_design_its_program_and_chain_as_the_command_line(self):
         # A design that names its machine (relative to its own folder), a program that needs
         # tcpm, and chain of two axes' results, the dict chain --out writes.

@@ -23,7 +23,11 @@ struct ResultQuantity {
 // The component error motions (EXC .. ECC) at one angle.
 struct ResultComponents {
   double angle_deg = 0;
-  std::vector<ResultQuantity> motions;  // in the file's order
+  std::vector<ResultQuantity> motions;  // in ISO 230-1's order (translations, then rotations)
+  // iso230.motion_covariance at this angle: the joint covariance of the six error motions less
+  // their constant parts (dx..ez; um, urad). Absent in a result of an earlier version and where
+  // the result states none.
+  std::optional<Eigen::Matrix<double, 6, 6>> motion_covariance;
 };
 
 // An error motion value (ISO 230-7 range of a component) and its expanded uncertainty.
@@ -59,6 +63,9 @@ struct ResultFile {
   // iso230.location_covariance, in the order of `location` (absent in a result of an earlier
   // version; rows of an undetermined one 0).
   std::optional<Eigen::Matrix<double, 5, 5>> location_covariance;
+  // The smallest effective degrees of freedom of the budget's values (Type A); absent where none
+  // is stated (Type B: the declared noise).
+  std::optional<double> dof;
   // design.machine: the machine the axis was measured on (formats.md, "Machine file").
   struct Machine {
     std::string name, file, controller;

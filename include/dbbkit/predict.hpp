@@ -1,0 +1,102 @@
+#pragma once
+// Where a point of the turning body is off, and how sure (formats.md, "Predicting the tool tip"):
+// from one axis' identified errors, the error of a point fixed to the body that turns (a point of
+// the workpiece on a table, the tool tip on a head) at a commanded angle, with its covariance, and
+// what remains of it once the location errors are entered in the controller.
+//
+// To first order (model.md §1) the point P0 (body frame = machine frame at angle 0, from the axis
+// frame's origin) is at P = R(gamma) P0 and is displaced by dP = d + e x P, (d, e) the error
+// motions at gamma. Of these the prediction takes what a controller's kinematics can be off by
+// and what it cannot correct, never the constant parts (where each reading's zero was taken):
+//   (d, e) = G(gamma) l + c(gamma),
+// l the five location errors (iso230.hpp, location_motion) and c the component error motions.
+// - At an angle the result measured, with the joint covariance of G l + c stated there
+//   (IsoComponentsAtAngle::motion_covariance): dP from both, its covariance H S H', H the
+//   Jacobian of dP in (d, e).
+// - At any other angle: the location errors' part alone, covariance (H G) C (H G)', C their
+//   covariance; the component motions there are not known and are said to be left out.
+// After entering the location errors l^ the controller moves the point by -G l^: the point is
+// then off by G (l - l^) + c, whose estimate is H c^ and whose uncertainty is that of dP itself
+// (the estimate's error is the same); at an angle not measured, 0 with the location errors'
+// covariance, the component motions again left out.
+//
+// Coverage: each coordinate's U = k u, k the normal quantile of the coverage probability (the
+// Student t quantile with the result's effective degrees of freedom where it states them). The
+// error vector as a whole: the true error lies within `U_length` of the predicted one with the
+// coverage probability: for a Gaussian error the radius whose ball holds that probability
+// (P(sum lambda_i z_i^2 <= U^2), the eigenvalues lambda of the covariance: the chi-squared (3)
+// distribution of the radius averaged over the directions, 48 x 48 nodes on an octant of the
+// sphere; checked against the chi-squared and normal cases and by sampling); with degrees of
+// freedom, at least
+// it: U^2 = lambda_max 3 F(3, nu), the sphere around the ellipsoid of that probability.
+
+#include <Eigen/Core>
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dbbkit/axis_frame.hpp"
+
+namespace dbbkit {
+
+// What a result states of one axis, for prediction.
+struct AxisErrors {
+  AxisFrame axis;
+  std::array<std::optional<double>, 5> location;  // in the order of IsoNames::location (um, urad)
+  Eigen::Matrix<double, 5, 5> location_covariance = Eigen::Matrix<double, 5, 5>::Zero();
+  // The angles where the six component error motions and the joint covariance of the motions
+  // less their constant parts are stated.
+  struct AtAngle {
+    double angle_deg = 0;
+    std::array<double, 6> component{};  // translations um, rotations urad (machine frame)
+    Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  };
+  std::vector<AtAngle> measured;
+  std::optional<double> dof;  // effective degrees of freedom (Type A); absent: Gaussian
+};
+
+struct Pose {
+  double angle_deg = 0;
+  Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();  // body frame, from the axis frame's origin
+};
+
+enum class PredictionBasis {
+  kMotions,       // location errors and component error motions at a measured angle
+  kLocationOnly,  // not a measured angle (or no covariance there): the location errors alone
+};
+
+enum class PredictionGap { kNone, kLocationNotDetermined };
+
+struct PointPrediction {
+  Pose pose;
+  PredictionBasis basis = PredictionBasis::kLocationOnly;
+  PredictionGap gap = PredictionGap::kNone;              // kNone: the numbers below hold
+  Eigen::Vector3d nominal_mm = Eigen::Vector3d::Zero();  // R(gamma) P0: where the point should be
+  Eigen::Vector3d error_um = Eigen::Vector3d::Zero();    // the point's true minus nominal position
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of error_um (um^2)
+  Eigen::Vector3d after_um = Eigen::Vector3d::Zero();    // what remains once the values are entered
+  Eigen::Matrix3d after_covariance = Eigen::Matrix3d::Zero();
+};
+
+struct PredictionCoverage {
+  double coverage_probability = 0.95;
+  double k = 0;         // per coordinate
+  double k_length = 0;  // sqrt(q): U_length = k_length sqrt(lambda_max)
+  std::optional<double> dof;
+};
+PredictionCoverage prediction_coverage(double coverage_probability, std::optional<double> dof);
+
+// The radius around a predicted error within which the true one lies with at least the coverage
+// probability.
+double length_uncertainty(const Eigen::Matrix3d& covariance, const PredictionCoverage& c);
+
+// The Jacobian of dP [um] in (d [um], e [urad]) at the point P [mm]: dP = d + 1e-3 e x P.
+Eigen::Matrix<double, 3, 6> point_jacobian(const Eigen::Vector3d& P_mm);
+
+// The prediction at one pose. An angle is a measured one when it equals it within 1e-9 deg (on a
+// full turn, or differs from it by whole turns). `location_only`: the location errors alone at
+// every angle (what a controller's kinematics can be off by; the component motions left out).
+PointPrediction predict_point(const AxisErrors& axis, const Pose& pose, bool location_only = false);
+
+}  // namespace dbbkit

@@ -1,0 +1,62 @@
+#include "dbbkit/predict.hpp"
+
+#include <iostream>
+#include <memory>
+
+#include "checks.hpp"
+#include "commands.hpp"
+#include "dbbkit/io/hashing.hpp"
+#include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/io/output.hpp"
+#include "dbbkit/io/predict_io.hpp"
+#include "dbbkit/io/result_read.hpp"
+
+namespace dbbkit::cli {
+
+namespace {
+struct PredictArgs {
+  std::string result, at, out;
+  double coverage = 0.95;
+  bool quiet = false, location_only = false;
+};
+}  // namespace
+
+Runner add_predict(CLI::App& app) {
+  auto args = std::make_shared<PredictArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "predict",
+      "Where points of the turning body will be off, and how sure: the error of each pose's "
+      "point from an identify or diagnose result (location errors and, at a measured angle, the "
+      "component error motions), its uncertainty, and what remains once the location errors "
+      "are entered");
+  sub->add_option("--result", args->result, "identify or diagnose result (--out)")->required();
+  sub->add_option("--at", args->at,
+                  "Poses: CSV angle_deg,x_mm,y_mm,z_mm (a point fixed to the body that turns, "
+                  "body frame, from the axis frame's origin)")
+      ->required();
+  sub->add_option("--out", args->out, "JSON result (dbbkit.predict/1); '-': stdout");
+  sub->add_option("--coverage", args->coverage,
+                  "Coverage probability of U (default 0.95; normal, or t with the result's "
+                  "degrees of freedom)")
+      ->check(finite_in(0.5, 0.9999));
+  sub->add_flag("--location-only", args->location_only,
+                "The location errors alone at every angle (what a controller's kinematics can be "
+                "off by), the component error motions left out");
+  sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the files asked for");
+  return [args]() {
+    std::vector<io::OutputTarget> targets;
+    if (!args->out.empty()) targets.push_back({"--out", args->out});
+    io::OutputSet outputs(targets, {args->result, args->at});
+    const io::ResultFile r = io::read_result_file(args->result);
+    const std::vector<Pose> poses = io::read_poses_file(args->at, r.axis);
+    io::PredictResult p = io::predict(r, poses, args->coverage, args->location_only);
+    p.poses_source = args->at;
+    p.result_sha256 = io::sha256_file(args->result);
+    if (!args->out.empty()) outputs.stage("--out", io::dump_json(io::prediction_to_json(p)) + "\n");
+    outputs.commit();
+    if (args->out != "-" && !args->quiet) std::cout << io::prediction_text(p);
+    return 0;
+  };
+}
+
+}  // namespace dbbkit::cli

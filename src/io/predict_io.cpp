@@ -1,0 +1,302 @@
+#include "dbbkit/io/predict_io.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <map>
+#include <sstream>
+
+#include "csv_cells.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/escape.hpp"
+#include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/text.hpp"
+#include "dbbkit/iso230.hpp"
+#include "dbbkit/limits.hpp"
+#include "dbbkit/user_text.hpp"
+
+namespace dbbkit::io {
+
+using nlohmann::json;
+
+namespace {
+
+const std::array<const char*, 4> kPoseColumns = {"angle_deg", "x_mm", "y_mm", "z_mm"};
+
+json vec3(const Eigen::Vector3d& v) { return json::array({r6(v.x()), r6(v.y()), r6(v.z())}); }
+
+Eigen::Vector3d stds(const Eigen::Matrix3d& c) { return c.diagonal().cwiseMax(0.0).cwiseSqrt(); }
+
+const char* basis_key(PredictionBasis b) {
+  return b == PredictionBasis::kMotions ? "motions" : "location";
+}
+
+}  // namespace
+
+void check_pose(const Pose& p, const AxisFrame& axis, const std::string& source,
+                const std::string& where) {
+  if (!(p.angle_deg >= axis.travel_min_deg() && p.angle_deg <= axis.travel_max_deg()))
+    throw InputError(source, where + "angle_deg",
+                     fmt_num(p.angle_deg, 12) + " deg is beyond the travel of the " + axis.label() +
+                         " axis (" + fmt_num(axis.travel_min_deg(), 12) + " to " +
+                         fmt_num(axis.travel_max_deg(), 12) + " deg)");
+  for (int k = 0; k < 3; ++k) {
+    if (!(std::abs(p.point_mm(k)) <= limits::kMaxLength_mm))
+      throw InputError(source, where + kPoseColumns[static_cast<std::size_t>(k + 1)],
+                       fmt_num(p.point_mm(k), 12) + " mm is beyond +-" +
+                           fmt_num(limits::kMaxLength_mm, 12) + " mm");
+  }
+}
+
+std::vector<Pose> parse_poses(const std::string& text, const std::string& source,
+                              const AxisFrame& axis) {
+  std::istringstream in(csv::lf_lines(text));
+  std::string raw;
+  int line_no = 0;
+  std::vector<std::string> header;
+  std::map<std::string, int> col;
+  std::vector<Pose> poses;
+  while (std::getline(in, raw)) {
+    ++line_no;
+    if (line_no == 1 && raw.size() >= 3 && raw.compare(0, 3, "\xEF\xBB\xBF") == 0) raw.erase(0, 3);
+    if (csv::trim(raw).empty()) continue;
+    const std::string where = "line " + std::to_string(line_no);
+    if (raw.find('"') != std::string::npos)
+      throw InputError(source, where, "quoted fields are not supported (numbers need no quotes)");
+    const std::vector<std::string> cells = csv::split(raw);
+    if (header.empty()) {
+      header = cells;
+      for (std::size_t i = 0; i < header.size(); ++i) {
+        if (std::find(kPoseColumns.begin(), kPoseColumns.end(), header[i]) == kPoseColumns.end())
+          throw InputError(source, where,
+                           "unknown column " + quote_value(header[i]) +
+                               " (expected angle_deg, x_mm, y_mm, z_mm: a point fixed to the "
+                               "body that turns, body frame, from the axis frame's origin)");
+        if (!col.emplace(header[i], static_cast<int>(i)).second)
+          throw InputError(source, where, "column " + quote_value(header[i]) + " appears twice");
+      }
+      for (const char* c : kPoseColumns)
+        if (!col.count(c))
+          throw InputError(source, where, std::string("required column '") + c + "' is missing");
+      continue;
+    }
+    if (cells.size() != header.size())
+      throw InputError(source, where,
+                       "expected " + std::to_string(header.size()) + " fields, found " +
+                           std::to_string(cells.size()));
+    if (poses.size() >= limits::kMaxPoses)
+      throw InputError(source, where,
+                       "more than " + std::to_string(limits::kMaxPoses) + " poses in one file");
+    auto number = [&](const char* name) {
+      return csv::Cell{source, line_no, name, cells[static_cast<std::size_t>(col.at(name))]}
+          .number();
+    };
+    Pose p;
+    p.angle_deg = number("angle_deg");
+    for (int k = 0; k < 3; ++k)
+      p.point_mm(k) = number(kPoseColumns[static_cast<std::size_t>(k + 1)]);
+    check_pose(p, axis, source, where + ", column ");
+    poses.push_back(p);
+  }
+  if (header.empty())
+    throw InputError(source, "line 1", "empty: expected the header angle_deg,x_mm,y_mm,z_mm");
+  if (poses.empty()) throw InputError(source, "line " + std::to_string(line_no), "no pose");
+  return poses;
+}
+
+std::vector<Pose> read_poses_file(const std::string& path, const AxisFrame& axis) {
+  return parse_poses(read_text_file(path), path, axis);
+}
+
+AxisErrors axis_errors_of(const ResultFile& result) {
+  AxisErrors a;
+  a.axis = result.axis;
+  if (result.location.size() != 5)
+    throw InputError(result.source, "iso230.location", "expected the axis' five location errors");
+  if (!result.location_covariance)
+    throw InputError(result.source, "iso230.location_covariance",
+                     "missing: a prediction needs the location errors' covariance (a result of an "
+                     "earlier version: run identify again)");
+  for (int k = 0; k < 5; ++k) a.location[static_cast<std::size_t>(k)] = result.location[k].value;
+  a.location_covariance = *result.location_covariance;
+  for (const ResultComponents& c : result.components) {
+    if (!c.motion_covariance) continue;
+    AxisErrors::AtAngle at;
+    at.angle_deg = c.angle_deg;
+    for (int k = 0; k < 6; ++k) at.component[static_cast<std::size_t>(k)] = *c.motions[k].value;
+    at.covariance = *c.motion_covariance;
+    a.measured.push_back(at);
+  }
+  a.dof = result.dof;
+  return a;
+}
+
+PredictResult predict(const ResultFile& result, const std::vector<Pose>& poses,
+                      double coverage_probability, bool location_only) {
+  const AxisErrors axis = axis_errors_of(result);
+  PredictResult p;
+  p.result_source = result.source;
+  p.axis_label = result.axis.label();
+  p.letter = result.axis.letter();
+  p.location_only = location_only;
+  p.location_names = iso230_names(result.axis).location;
+  p.coverage = prediction_coverage(coverage_probability, axis.dof);
+  p.warnings = result.warnings;
+  p.points.reserve(poses.size());
+  for (const Pose& pose : poses) p.points.push_back(predict_point(axis, pose, location_only));
+  return p;
+}
+
+namespace {
+
+// The index of the largest error among the determined points (after entering: the largest
+// estimate plus its U); -1: none.
+int largest(const PredictResult& p, bool after) {
+  int at = -1;
+  double top = -1;
+  for (std::size_t i = 0; i < p.points.size(); ++i) {
+    const PointPrediction& x = p.points[i];
+    if (x.gap != PredictionGap::kNone) continue;
+    // After entering, what may remain: the estimate's length and its U.
+    const double n = after ? x.after_um.norm() + length_uncertainty(x.after_covariance, p.coverage)
+                           : x.error_um.norm();
+    if (n > top) top = n, at = static_cast<int>(i);
+  }
+  return at;
+}
+
+std::string method_text(const PredictResult& p) {
+  std::ostringstream s;
+  s << "first order (model.md): a point P0 of the body (body frame, from the axis frame's origin) "
+       "at the commanded angle is off by d + e x P, (d, e) the error motions less their "
+       "constant parts: the location errors' part ("
+    << p.location_names[0] << ", " << p.location_names[1] << ", " << p.location_names[2] << ", "
+    << p.location_names[3] << ", " << p.location_names[4]
+    << ") and, at an angle the result measured, the component error motions, with their joint "
+       "covariance; at another angle the location errors alone (the component motions there are "
+       "not known and are left out). After entering: the location errors entered, what remains "
+       "with the same uncertainty. std per coordinate (k = 1); U_um: the true error vector lies "
+       "within U_um of the predicted one with the coverage probability (Gaussian: the radius of "
+       "that probability; with degrees of freedom: at least it)";
+  return s.str();
+}
+
+}  // namespace
+
+json prediction_to_json(const PredictResult& p) {
+  json points = json::array();
+  for (const PointPrediction& x : p.points) {
+    json j{{"angle_deg", x.pose.angle_deg},
+           {"point_mm", vec3(x.pose.point_mm)},
+           {"nominal_mm", vec3(x.nominal_mm)}};
+    if (x.gap != PredictionGap::kNone) {
+      j["determined"] = false;
+      j["reason"] = "the result does not determine every location error";
+      points.push_back(j);
+      continue;
+    }
+    j["determined"] = true;
+    j["basis"] = basis_key(x.basis);
+    j["error_um"] = vec3(x.error_um);
+    j["std_um"] = vec3(stds(x.covariance));
+    j["U_um"] = r6(length_uncertainty(x.covariance, p.coverage));
+    j["covariance_um2"] = {vec3(x.covariance.row(0)), vec3(x.covariance.row(1)),
+                           vec3(x.covariance.row(2))};
+    j["after_entering"] = {{"error_um", vec3(x.after_um)},
+                           {"std_um", vec3(stds(x.after_covariance))},
+                           {"U_um", r6(length_uncertainty(x.after_covariance, p.coverage))}};
+    points.push_back(j);
+  }
+  json out{{"format", kPredictFormat},
+           {"inputs", {{"result", p.result_source}, {"poses", p.poses_source}}},
+           {"axis", p.axis_label},
+           {"error",
+            "the point's true position minus its nominal one, machine frame, um (on a "
+            "table the tool meets the workpiece's point off by minus this; on a head the "
+            "tool tip is off by it)"},
+           {"method", method_text(p)},
+           {"coverage_probability", p.coverage.coverage_probability},
+           {"k", p.coverage.k},
+           {"k_length", p.coverage.k_length},
+           {"dof", p.coverage.dof ? json(*p.coverage.dof) : json(nullptr)},
+           {"location_only", p.location_only},
+           {"points", points}};
+  if (!p.result_sha256.empty()) out["inputs"]["result_sha256"] = p.result_sha256;
+  json warnings = json::array();
+  for (const std::string& w : p.warnings) warnings.push_back(w);
+  out["result_warnings"] = warnings;
+  for (const bool after : {false, true}) {
+    const int i = largest(p, after);
+    if (i < 0) continue;
+    const PointPrediction& x = p.points[static_cast<std::size_t>(i)];
+    out["largest"][after ? "after_entering" : "error"] = {
+        {"point", i},
+        {"length_um", r6((after ? x.after_um : x.error_um).norm())},
+        {"U_um", r6(length_uncertainty(after ? x.after_covariance : x.covariance, p.coverage))}};
+  }
+  return out;
+}
+
+std::string prediction_text(const PredictResult& p) {
+  std::ostringstream s;
+  s << "predict: " << p.points.size() << " point" << (p.points.size() == 1 ? "" : "s") << " of the "
+    << p.axis_label << " axis' body from " << terminal_text(p.result_source) << "\n";
+  for (const std::string& w : p.warnings)
+    s << "Warning (the result's; its uncertainties may be too small): " << terminal_text(w) << "\n";
+  s << "error: the point's true minus nominal position, machine frame, um; U: the true error "
+       "vector lies within U of it with "
+    << (p.coverage.dof ? "at least " : "") << fmt_num(100 * p.coverage.coverage_probability, 4)
+    << " %"
+    << (p.coverage.dof ? " (t, " + fmt_num(*p.coverage.dof, 3) + " degrees of freedom)"
+                       : std::string(" (Gaussian)"))
+    << "\n";
+  if (p.location_only)
+    s << "the location errors alone at every angle (--location-only): the component error motions "
+         "are left out\n";
+  s << std::setw(10) << "angle deg" << std::setw(26) << "point mm (x, y, z)" << std::setw(28)
+    << "error um (x, y, z)" << std::setw(8) << "|e|" << std::setw(7) << "U" << std::setw(10)
+    << "after |e|" << std::setw(7) << "U"
+    << "  basis\n";
+  auto triple = [](const Eigen::Vector3d& v, int decimals) {
+    return "(" + fmt_rounded(v.x(), decimals) + ", " + fmt_rounded(v.y(), decimals) + ", " +
+           fmt_rounded(v.z(), decimals) + ")";
+  };
+  bool location_only = false;
+  for (const PointPrediction& x : p.points) {
+    s << std::setw(10) << fmt_rounded(x.pose.angle_deg, 3) << std::setw(26)
+      << triple(x.pose.point_mm, 1);
+    if (x.gap != PredictionGap::kNone) {
+      s << "  not determined: the result does not determine every location error\n";
+      continue;
+    }
+    location_only = location_only || x.basis == PredictionBasis::kLocationOnly;
+    s << std::setw(28) << triple(x.error_um, 2) << std::setw(8) << fmt_rounded(x.error_um.norm(), 2)
+      << std::setw(7) << fmt_rounded(length_uncertainty(x.covariance, p.coverage), 2)
+      << std::setw(10) << fmt_rounded(x.after_um.norm(), 2) << std::setw(7)
+      << fmt_rounded(length_uncertainty(x.after_covariance, p.coverage), 2) << "  "
+      << basis_key(x.basis) << "\n";
+  }
+  for (const bool after : {false, true}) {
+    const int i = largest(p, after);
+    if (i < 0) continue;
+    const PointPrediction& x = p.points[static_cast<std::size_t>(i)];
+    s << (after ? "Largest after entering the location errors: " : "Largest error: ")
+      << fmt_rounded((after ? x.after_um : x.error_um).norm(), 2) << " um (U "
+      << fmt_rounded(length_uncertainty(after ? x.after_covariance : x.covariance, p.coverage), 2)
+      << " um) at " << p.letter << " " << fmt_rounded(x.pose.angle_deg, 3) << " deg, point "
+      << triple(x.pose.point_mm, 1) << " mm\n";
+  }
+  if (!p.location_only)
+    s << "basis motions: the location errors and the component error motions at an angle the "
+         "result measured";
+  if (location_only && !p.location_only)
+    s << "; location: an angle not measured, the location errors alone (the component error "
+         "motions there are not known and are left out)";
+  if (p.location_only) s << "basis location: the location errors alone";
+  s << ".\nOn a table the tool meets the workpiece's point off by minus the error; on a head the "
+       "tool tip is off by it.\n";
+  return s.str();
+}
+
+}  // namespace dbbkit::io

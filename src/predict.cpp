@@ -1,0 +1,164 @@
+#include "dbbkit/predict.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/fisher_f.hpp>
+#include <boost/math/distributions/normal.hpp>
+#include <boost/math/distributions/students_t.hpp>
+#include <cmath>
+#include <vector>
+
+#include "dbbkit/iso230.hpp"
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit {
+
+PredictionCoverage prediction_coverage(double coverage_probability, std::optional<double> dof) {
+  PredictionCoverage c;
+  c.coverage_probability = coverage_probability;
+  c.dof = dof;
+  const double two_sided = 0.5 + coverage_probability / 2;
+  if (dof) {
+    c.k = boost::math::quantile(boost::math::students_t(*dof), two_sided);
+    c.k_length = std::sqrt(
+        3.0 * boost::math::quantile(boost::math::fisher_f(3.0, *dof), coverage_probability));
+  } else {
+    c.k = boost::math::quantile(boost::math::normal(), two_sided);
+    c.k_length =
+        std::sqrt(boost::math::quantile(boost::math::chi_squared(3.0), coverage_probability));
+  }
+  return c;
+}
+
+namespace {
+
+// The directions of one octant of the unit sphere (Gauss-Legendre in cos(theta): the eigenvalues
+// of the Jacobi matrix of the Legendre polynomials, weights from the eigenvectors' first entries;
+// the midpoint rule in phi), as the squares of their components, with their weights.
+struct OctantRule {
+  std::vector<Eigen::Vector3d> w2;  // the squared components of each direction
+  std::vector<double> weight;       // summing to 1
+  explicit OctantRule(int n) {
+    Eigen::MatrixXd T = Eigen::MatrixXd::Zero(n, n);
+    for (int k = 1; k < n; ++k) T(k, k - 1) = T(k - 1, k) = k / std::sqrt(4.0 * k * k - 1);
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(T);
+    constexpr double kHalfPi = 1.57079632679489661923;
+    for (int i = 0; i < n; ++i) {
+      const double c = 0.5 * (1 + eig.eigenvalues()(i)), s2 = 1 - c * c;
+      const double v = eig.eigenvectors()(0, i);  // 2 v^2 on [-1, 1], halved on [0, 1]
+      for (int j = 0; j < n; ++j) {
+        const double phi = kHalfPi * (j + 0.5) / n;
+        const double cp = std::cos(phi), sp = std::sin(phi);
+        w2.emplace_back(s2 * cp * cp, s2 * sp * sp, c * c);
+        weight.push_back(v * v / n);
+      }
+    }
+  }
+};
+
+// P(x' x <= r2) for x = L^(1/2) z, z standard normal in three: with z = rho w (w uniform on the
+// sphere, rho^2 chi-squared with 3 degrees of freedom, independent), the mean over w of
+// F3(r2 / w' L w), F3(t) = erf(sqrt(t / 2)) - sqrt(2 t / pi) exp(-t / 2). The integrand is smooth
+// on the sphere and symmetric in each coordinate's sign: one octant.
+double length_cdf(const Eigen::Vector3d& l, double r2, const OctantRule& rule) {
+  constexpr double kPi = 3.14159265358979323846;
+  double p = 0;
+  for (std::size_t k = 0; k < rule.weight.size(); ++k) {
+    const double q = l.dot(rule.w2[k]);
+    double f = 1;
+    if (q > 0) {
+      const double t = r2 / q;
+      f = std::erf(std::sqrt(t / 2)) - std::sqrt(2 * t / kPi) * std::exp(-t / 2);
+    }
+    p += rule.weight[k] * f;
+  }
+  return p;
+}
+
+}  // namespace
+
+double length_uncertainty(const Eigen::Matrix3d& covariance, const PredictionCoverage& c) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 *
+                                                           (covariance + covariance.transpose()));
+  const Eigen::Vector3d l = eig.eigenvalues().cwiseMax(0.0);  // increasing
+  if (!(l(2) > 0)) return 0.0;
+  const double bound = c.k_length * std::sqrt(l(2));
+  if (c.dof) return bound;  // the multivariate t: the sphere around its ellipsoid
+  // The radius whose ball holds the Gaussian error with the coverage probability: between the
+  // largest axis' own quantile and the bound, by bisection on the probability.
+  static const OctantRule rule(48);
+  // Regula falsi on the probability (Illinois: a side kept twice has its value halved).
+  const double p = c.coverage_probability;
+  double lo = c.k * std::sqrt(l(2)), hi = bound;
+  double flo = length_cdf(l, lo * lo, rule) - p, fhi = length_cdf(l, hi * hi, rule) - p;
+  if (flo >= 0) return lo;
+  if (fhi <= 0) return hi;
+  int side = 0;
+  for (int it = 0; it < 60 && hi - lo > 1e-9 * hi; ++it) {
+    const double r = (lo * fhi - hi * flo) / (fhi - flo);
+    const double fr = length_cdf(l, r * r, rule) - p;
+    if (fr == 0) return r;
+    if (fr < 0) {
+      lo = r, flo = fr;
+      if (side == -1) fhi /= 2;
+      side = -1;
+    } else {
+      hi = r, fhi = fr;
+      if (side == 1) flo /= 2;
+      side = 1;
+    }
+    if (std::abs(fr) < 1e-10) return r;
+  }
+  return hi;
+}
+
+Eigen::Matrix<double, 3, 6> point_jacobian(const Eigen::Vector3d& P_mm) {
+  // 1e-3 e x P = -1e-3 [P]x e.
+  Eigen::Matrix3d Px;
+  Px << 0, -P_mm.z(), P_mm.y(), P_mm.z(), 0, -P_mm.x(), -P_mm.y(), P_mm.x(), 0;
+  Eigen::Matrix<double, 3, 6> H;
+  H.leftCols<3>().setIdentity();
+  H.rightCols<3>() = -1e-3 * Px;
+  return H;
+}
+
+PointPrediction predict_point(const AxisErrors& axis, const Pose& pose, bool location_only) {
+  PointPrediction p;
+  p.pose = pose;
+  p.nominal_mm = axis_rotation(axis.axis, pose.angle_deg) * pose.point_mm;
+  if (std::any_of(axis.location.begin(), axis.location.end(),
+                  [](const std::optional<double>& v) { return !v.has_value(); })) {
+    p.gap = PredictionGap::kLocationNotDetermined;
+    return p;
+  }
+  Eigen::Matrix<double, 5, 1> l;
+  for (int k = 0; k < 5; ++k) l(k) = *axis.location[static_cast<std::size_t>(k)];
+  const Eigen::Matrix<double, 6, 5> G = location_motion(axis.axis, pose.angle_deg);
+  const Eigen::Matrix<double, 3, 6> H = point_jacobian(p.nominal_mm);
+  const auto at = std::find_if(axis.measured.begin(), axis.measured.end(), [&](const auto& a) {
+    // A full turn's angle 360 deg apart is the same position (the per-angle model's station).
+    const double apart = a.angle_deg - pose.angle_deg;
+    return std::abs(axis.axis.full_turn() ? std::remainder(apart, 360.0) : apart) <= 1e-9;
+  });
+  if (!location_only && at != axis.measured.end()) {
+    p.basis = PredictionBasis::kMotions;
+    Vector6d c;
+    for (int k = 0; k < 6; ++k) c(k) = at->component[static_cast<std::size_t>(k)];
+    const Vector6d q = G * l + c;
+    p.error_um = displacement_um(q, p.nominal_mm);
+    p.covariance = H * at->covariance * H.transpose();
+    p.after_um = displacement_um(c, p.nominal_mm);
+    p.after_covariance = p.covariance;
+  } else {
+    p.basis = PredictionBasis::kLocationOnly;
+    const Eigen::Matrix<double, 3, 5> HG = H * G;
+    p.error_um = displacement_um(G * l, p.nominal_mm);
+    p.covariance = HG * axis.location_covariance * HG.transpose();
+    p.after_um.setZero();
+    p.after_covariance = p.covariance;
+  }
+  return p;
+}
+
+}  // namespace dbbkit

@@ -1,0 +1,348 @@
+// `dbbkit predict` against axes whose real lines are written out here: the readings of a design
+// are computed from the exact two-ball geometry of a real axis line (Eigen::AngleAxisd about a
+// displaced, tilted line, the axis standing at the commanded angle plus its zero error), not from
+// the model; the point a pose names is turned about the same real line, so its true error is
+// known without dbbkit's first-order algebra. Then what entering the location errors leaves is
+// checked against a controller that turns the point about the identified line.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "cli_util.hpp"
+#include "dbbkit/identify.hpp"
+#include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/io/predict_io.hpp"
+#include "dbbkit/io/result_io.hpp"
+#include "dbbkit/iso230.hpp"
+#include "dbbkit/kinematics.hpp"
+#include "test_util.hpp"
+
+namespace dbbkit {
+namespace predict_test {
+
+using test::kPi;
+
+using test::RealLine;
+using test::turn;
+
+// The line the five location errors (the design's ISO order: two positions um, two orientations
+// and the zero urad) describe, from the nominal line through the origin.
+RealLine line_of(const AxisFrame& axis, const std::array<double, 5>& l) {
+  const IsoFrame f = iso_frame(axis);
+  RealLine r;
+  r.point = 1e-3 * (l[0] * f.p1 + l[1] * f.p2);
+  const Eigen::Vector3d alpha = 1e-6 * (l[2] * f.p1 + l[3] * f.p2);
+  r.direction = Eigen::AngleAxisd(alpha.norm(), alpha.norm() > 0 ? alpha.normalized()
+                                                                 : Eigen::Vector3d::UnitX()) *
+                axis.direction();
+  // The zero position is a rotation about the positive machine axis q.
+  r.zero_rad = 1e-6 * l[4] * f.q.dot(axis.direction());
+  return r;
+}
+
+// The design's readings on the real line: the ball on the turning body turned about it, the
+// other ball where the nominal path puts it, noise uniform within +-noise_um.
+std::vector<Reading> real_readings(const Design& d, const RealLine& line, double noise_um,
+                                   std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> U(-noise_um, noise_um);
+  std::vector<Reading> out;
+  for (const Installation& in : d.installations) {
+    const double bar = in.bar_mm.value_or(test::kBar);
+    const Eigen::Vector3d body = ball_body_mm(d.axis, in);
+    for (const double a : d.angles_deg) {
+      const Eigen::Matrix3d R = axis_rotation(d.axis, a);
+      const Eigen::Vector3d P = turn(line, a, body);
+      const Eigen::Vector3d F = R * body - in.sign * bar * (R * in.direction.body);
+      Reading r;
+      r.installation = in.id;
+      r.angle_deg = a;
+      r.reading_um = 1e3 * ((P - F).norm() - bar) + (noise_um > 0 ? U(rng) : 0.0);
+      out.push_back(r);
+    }
+  }
+  return out;
+}
+
+io::ResultFile measured(const Design& d, const std::vector<Reading>& readings) {
+  IdentifyOptions o;
+  o.iso_motion.enabled = false;
+  const IdentifyResult r = identify(d, readings, o);
+  const nlohmann::json j =
+      io::identify_to_json(d, readings, r, {"d.json", "r.csv"}, nullptr, false);
+  return io::result_from_text(io::dump_json(j), "r.json");
+}
+
+Design design(const std::string& name) {
+  return io::read_design_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/" + name);
+}
+
+// The poses asked about: every measured angle and the midpoints between them, at points of the
+// body up to 250 mm from the axis frame's origin.
+std::vector<Pose> poses_of(const Design& d) {
+  std::vector<double> angles = d.angles_deg;
+  for (std::size_t i = 0; i + 1 < d.angles_deg.size(); ++i)
+    angles.push_back(0.5 * (d.angles_deg[i] + d.angles_deg[i + 1]));
+  const std::array<Eigen::Vector3d, 3> points = {
+      Eigen::Vector3d(200, 0, 50), Eigen::Vector3d(-120, 150, 120), Eigen::Vector3d(30, -80, 250)};
+  std::vector<Pose> poses;
+  for (const double a : angles)
+    for (const Eigen::Vector3d& p : points) poses.push_back({a, p});
+  return poses;
+}
+
+struct Kind {
+  const char* design;
+  double position_um, orientation_urad;  // uniform bounds of the planted location errors
+};
+const std::array<Kind, 3> kKinds = {{{"paper-c-turntable.json", 20, 30},
+                                     {"a-trunnion.json", 20, 30},
+                                     {"b-head-kit-optimized.json", 20, 30}}};
+
+std::array<double, 5> planted(const Kind& k, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  return {k.position_um * u(rng), k.position_um * u(rng), k.orientation_urad * u(rng),
+          k.orientation_urad * u(rng), k.orientation_urad * u(rng)};
+}
+
+// Noise-free readings of a real axis: the predicted error of every pose's point is its exact
+// displacement on the real line (first order, and the identification on exact readings: within 0.03
+// um), at measured angles and between them; and what entering leaves is what a controller turning
+// the point about the identified line leaves.
+TEST(Predict, APointOfARealAxisIsOffByWhatItsRealLineSays) {
+  std::mt19937_64 rng(7);
+  for (const Kind& k : kKinds) {
+    const Design d = design(k.design);
+    const std::array<double, 5> l = planted(k, rng);
+    const RealLine real = line_of(d.axis, l);
+    const io::ResultFile r = measured(d, real_readings(d, real, 0.0, rng));
+    std::array<double, 5> identified{};
+    for (int i = 0; i < 5; ++i) {
+      ASSERT_TRUE(r.location[i].value) << k.design << " " << r.location[i].name;
+      identified[i] = *r.location[i].value;
+      EXPECT_NEAR(identified[i], l[i], 0.01) << k.design << " " << r.location[i].name;
+    }
+    const RealLine corrected = line_of(d.axis, identified);
+    const io::PredictResult p = io::predict(r, poses_of(d), 0.95);
+    int motions = 0, location = 0;
+    for (const PointPrediction& x : p.points) {
+      ASSERT_EQ(x.gap, PredictionGap::kNone);
+      const Eigen::Vector3d nominal = axis_rotation(d.axis, x.pose.angle_deg) * x.pose.point_mm;
+      const Eigen::Vector3d truth = 1e3 * (turn(real, x.pose.angle_deg, x.pose.point_mm) - nominal);
+      const Eigen::Vector3d left = 1e3 * (turn(real, x.pose.angle_deg, x.pose.point_mm) -
+                                          turn(corrected, x.pose.angle_deg, x.pose.point_mm));
+      EXPECT_LT((x.error_um - truth).norm(), 0.03)
+          << k.design << " at " << x.pose.angle_deg << ": " << x.error_um.transpose() << " vs "
+          << truth.transpose();
+      EXPECT_LT((x.after_um - left).norm(), 0.03) << k.design << " at " << x.pose.angle_deg;
+      (x.basis == PredictionBasis::kMotions ? motions : location) += 1;
+    }
+    EXPECT_EQ(motions, 3 * static_cast<int>(d.angles_deg.size())) << k.design;
+    EXPECT_EQ(location, 3 * static_cast<int>(d.angles_deg.size() - 1)) << k.design;
+  }
+}
+
+// Coverage over random real axes with noise: one pose per truth (a random measured angle or a
+// midpoint, a random point), so that the trials are independent. Each coordinate's interval
+// +-k u covers its true error at the nominal 95 % within three binomial standard errors where
+// the design declares no set-up (the B head's declared set-up, absent from the truth, makes
+// its intervals wider: at least the nominal rate); so does the ball of radius U_length around
+// the predicted error vector, before and after entering.
+TEST(Predict, IntervalsCoverTheTruthAtTheirNominalRate) {
+  const int n = 300;
+  for (const Kind& k : kKinds) {
+    const Design d = design(k.design);
+    std::mt19937_64 rng(11);
+    int coordinate_in = 0, sphere_in = 0, after_in = 0;
+    const std::vector<Pose> all = poses_of(d);
+    for (int t = 0; t < n; ++t) {
+      const std::array<double, 5> l = planted(k, rng);
+      const RealLine real = line_of(d.axis, l);
+      const io::ResultFile r = measured(d, real_readings(d, real, 1.25, rng));
+      std::array<double, 5> identified{};
+      for (int i = 0; i < 5; ++i) identified[i] = r.location[i].value.value_or(0.0);
+      const RealLine corrected = line_of(d.axis, identified);
+      std::uniform_int_distribution<std::size_t> pick(0, all.size() - 1);
+      const Pose pose = all[pick(rng)];
+      const io::PredictResult p = io::predict(r, {pose}, 0.95);
+      const PointPrediction& x = p.points[0];
+      ASSERT_EQ(x.gap, PredictionGap::kNone);
+      const Eigen::Vector3d nominal = axis_rotation(d.axis, pose.angle_deg) * pose.point_mm;
+      const Eigen::Vector3d real_point = turn(real, pose.angle_deg, pose.point_mm);
+      const Eigen::Vector3d truth = 1e3 * (real_point - nominal);
+      const Eigen::Vector3d left =
+          1e3 * (real_point - turn(corrected, pose.angle_deg, pose.point_mm));
+      for (int c = 0; c < 3; ++c) {
+        const double s = std::sqrt(x.covariance(c, c));
+        coordinate_in += std::abs(x.error_um(c) - truth(c)) <= p.coverage.k * s;
+      }
+      sphere_in += (x.error_um - truth).norm() <= length_uncertainty(x.covariance, p.coverage);
+      after_in += (x.after_um - left).norm() <= length_uncertainty(x.after_covariance, p.coverage);
+    }
+    const double se = std::sqrt(0.95 * 0.05 / n);
+    const double coord = coordinate_in / (3.0 * n), sphere = sphere_in / double(n),
+                 after = after_in / double(n);
+    std::printf("%s: coordinates %.3f, sphere %.3f, after entering %.3f (of %d truths)\n", k.design,
+                coord, sphere, after, n);
+    EXPECT_GE(coord, 0.95 - 3 * se) << k.design;
+    if (std::string(k.design) != "b-head-kit-optimized.json")
+      EXPECT_LE(coord, 0.95 + 3 * se) << k.design;
+    EXPECT_GE(sphere, 0.95 - 3 * se) << k.design;
+    EXPECT_GE(after, 0.95 - 3 * se) << k.design;
+    if (std::string(k.design) != "b-head-kit-optimized.json") {
+      EXPECT_LE(sphere, 0.95 + 3 * se) << k.design;
+      EXPECT_LE(after, 0.95 + 3 * se) << k.design;
+    }
+  }
+}
+
+// The radius of the ball that holds a Gaussian error with the coverage probability: the
+// chi-squared quantiles where the covariance is isotropic in three, two or one directions, and
+// by sampling (10^6 draws) where it is not.
+TEST(Predict, LengthUncertaintyIsTheRadiusOfTheCoverageProbability) {
+  const PredictionCoverage c = prediction_coverage(0.95, std::nullopt);
+  auto diag = [](double a, double b, double d) {
+    return Eigen::Matrix3d(Eigen::Vector3d(a, b, d).asDiagonal());
+  };
+  EXPECT_NEAR(length_uncertainty(diag(4, 4, 4), c), 2 * std::sqrt(7.814727903), 1e-4);
+  EXPECT_NEAR(length_uncertainty(diag(0, 4, 4), c), 2 * std::sqrt(5.991464547), 1e-4);
+  EXPECT_NEAR(length_uncertainty(diag(0, 0, 4), c), 2 * 1.959963985, 1e-4);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> z;
+  for (const Eigen::Vector3d& l : {Eigen::Vector3d(0.01, 0.3, 1), Eigen::Vector3d(0.5, 0.5, 1),
+                                   Eigen::Vector3d(1e-6, 1, 1.2)}) {
+    const Eigen::Matrix3d Q =
+        Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).matrix();
+    const Eigen::Matrix3d cov = Q * l.asDiagonal() * Q.transpose();
+    const double U = length_uncertainty(cov, c);
+    const int n = 1000000;
+    int in = 0;
+    for (int t = 0; t < n; ++t) {
+      const Eigen::Vector3d x(std::sqrt(l(0)) * z(rng), std::sqrt(l(1)) * z(rng),
+                              std::sqrt(l(2)) * z(rng));
+      in += x.norm() <= U;
+    }
+    // 3 binomial standard errors of 10^6 draws: 0.00065.
+    EXPECT_NEAR(in / double(n), 0.95, 0.00065) << l.transpose();
+  }
+}
+
+// The Jacobian of a point's displacement is the displacement's own formula.
+TEST(Predict, PointJacobianIsTheDisplacement) {
+  Vector6d e;
+  e << 1.5, -2, 0.5, 30, -12, 7;
+  const Eigen::Vector3d P(120, -40, 75);
+  EXPECT_TRUE(test::near(point_jacobian(P) * e, displacement_um(e, P), 1e-12));
+}
+
+// From the command line: identify, then predict; the poses file and a result without what a
+// prediction needs are refused naming the line, the column or the key (exit 2).
+TEST(PredictCli, PredictsFromAResultAndRefusesWhatItCannotUse) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("dbbkit_predict_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  auto write = [&](const std::string& name, const std::string& text) {
+    const std::string path = (dir / name).string();
+    std::ofstream(path) << text;
+    return path;
+  };
+  const std::string design_path = std::string(DBBKIT_SOURCE_DIR) + "/designs/a-trunnion.json";
+  const Design d = design("a-trunnion.json");
+  std::mt19937_64 rng(3);
+  const RealLine real = line_of(d.axis, {20, -10, 30, 0, 15});
+  std::ostringstream csv;
+  csv << "installation,angle_deg,reading_um\n";
+  for (const Reading& r : real_readings(d, real, 1.25, rng))
+    csv << r.installation << "," << r.angle_deg << "," << r.reading_um << "\n";
+  const std::string data = write("a.csv", csv.str());
+  const std::string result = (dir / "a.json").string();
+  ASSERT_EQ(
+      run_cli("identify --design " + design_path + " --data " + data + " --out " + result).status,
+      0);
+  const std::string poses =
+      write("poses.csv", "angle_deg,x_mm,y_mm,z_mm\n60,0,100,80\n65,0,100,80\n");
+  const std::string out = (dir / "p.json").string();
+  const CliRun ok = run_cli("predict --result " + result + " --at " + poses + " --out " + out);
+  ASSERT_EQ(ok.status, 0) << ok.err;
+  EXPECT_NE(ok.out.find("Largest error"), std::string::npos) << ok.out;
+  const nlohmann::json j = nlohmann::json::parse(slurp(out));
+  EXPECT_EQ(j["format"], "dbbkit.predict/1");
+  ASSERT_EQ(j["points"].size(), 2u);
+  EXPECT_EQ(j["points"][0]["basis"], "motions");
+  EXPECT_EQ(j["points"][1]["basis"], "location");
+  // The true error of the point at A 60 deg lies within U of the predicted one.
+  const Eigen::Vector3d P(0, 100, 80);
+  const Eigen::Vector3d truth = 1e3 * (turn(real, 60, P) - axis_rotation(d.axis, 60) * P);
+  Eigen::Vector3d e;
+  for (int c = 0; c < 3; ++c) e(c) = j["points"][0]["error_um"][c].get<double>();
+  EXPECT_LE((e - truth).norm(), j["points"][0]["U_um"].get<double>());
+
+  struct Bad {
+    std::string text, where;
+  };
+  const std::vector<Bad> bad = {
+      {"angle_deg,x_mm,y_mm\n0,1,2\n", "required column 'z_mm' is missing"},
+      {"angle_deg,x_mm,y_mm,z_mm,w\n0,1,2,3,4\n", "unknown column"},
+      {"angle_deg,x_mm,y_mm,z_mm\n0,1,2\n", "line 2"},
+      {"angle_deg,x_mm,y_mm,z_mm\n0,1,2,abc\n", "line 2, column z_mm"},
+      {"angle_deg,x_mm,y_mm,z_mm\n150,1,2,3\n", "beyond the travel of the A"},
+      {"angle_deg,x_mm,y_mm,z_mm\n0,1,2,1e9\n", "line 2, column z_mm"},
+      {"angle_deg,x_mm,y_mm,z_mm\n", "no pose"},
+      {"", "empty"}};
+  for (const Bad& b : bad) {
+    const CliRun r = run_cli("predict --result " + result + " --at " + write("bad.csv", b.text));
+    EXPECT_EQ(r.status, 2) << b.text;
+    EXPECT_NE(r.err.find(b.where), std::string::npos) << b.text << ": " << r.err;
+  }
+  // A result without the location errors' covariance (an earlier version's).
+  nlohmann::json old = nlohmann::json::parse(slurp(result));
+  old["iso230"].erase("location_covariance");
+  const CliRun r = run_cli("predict --result " + write("old.json", old.dump()) + " --at " + poses);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("iso230.location_covariance"), std::string::npos) << r.err;
+  // A covariance that is not one.
+  nlohmann::json skew = nlohmann::json::parse(slurp(result));
+  skew["iso230"]["motion_covariance"]["at"][0]["matrix"][0][1] = 1e6;
+  const CliRun s =
+      run_cli("predict --result " + write("skew.json", skew.dump()) + " --at " + poses);
+  EXPECT_EQ(s.status, 2);
+  EXPECT_NE(s.err.find("motion_covariance.at[0].matrix"), std::string::npos) << s.err;
+  std::filesystem::remove_all(dir);
+}
+
+// The README's predict example: every line of its output blocks is printed by the commands it
+// names, run here on the same files.
+TEST(Readme, WhereTheToolWillBeOffPrintsWhatTheReadmeShows) {
+  const std::string section =
+      readme_section("## Worked example: where the tool will be off, before and after entering");
+  ASSERT_FALSE(section.empty());
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("dbbkit_readme_pr_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string src = DBBKIT_SOURCE_DIR;
+  const std::string D = src + "/designs/a-trunnion.json";
+  const std::string poses = src + "/tests/data/poses_a_trunnion.csv";
+  std::string printed;
+  for (const std::string& cmd : {"simulate --design " + D + " --truth " + src +
+                                     "/tests/data/truth_a_trunnion_location.json --out a.csv",
+                                 "identify --design " + D + " --data a.csv --out a.json",
+                                 "predict --result a.json --at " + poses,
+                                 "predict --result a.json --at " + poses + " --location-only"}) {
+    const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " " + cmd);
+    ASSERT_EQ(r.status, 0) << cmd << "\n" << r.err;
+    printed += r.out;
+  }
+  int checked = 0;
+  for (const std::string& line : readme_lines_not_printed(section, printed, false, checked))
+    ADD_FAILURE() << "README line not printed:\n" << line;
+  EXPECT_GE(checked, 16);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace predict_test
+}  // namespace dbbkit
