@@ -146,15 +146,14 @@ LinearModel build_linear_model(const Design& design, const Parameterisation& par
 }
 
 LinearModel design_model(const Design& design, const Parameterisation& param) {
+  // One row per reading the design takes (nominal_readings: with each sweep's return reading).
   std::vector<RowSpec> rows;
-  // A return reading reads the first angle of the sweep (a ccw one: the smallest) again.
-  const double first = design.angles_deg.empty()
-                           ? 0.0
-                           : *std::min_element(design.angles_deg.begin(), design.angles_deg.end());
-  const bool again = design.readings_per_sweep() > static_cast<int>(design.angles_deg.size());
-  for (size_t k = 0; k < design.installations.size(); ++k) {
-    for (double a : design.angles_deg) rows.push_back({static_cast<int>(k), a, 0.0});
-    if (again) rows.push_back({static_cast<int>(k), first, 0.0});
+  const std::vector<Reading> readings = nominal_readings(design);
+  rows.reserve(readings.size());
+  int k = 0;  // nominal_readings gives the installations in design order
+  for (const Reading& r : readings) {
+    while (design.installations[static_cast<std::size_t>(k)].id != r.installation) ++k;
+    rows.push_back({k, r.angle_deg, 0.0});
   }
   return assemble(design, param, rows);
 }

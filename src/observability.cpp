@@ -806,7 +806,8 @@ WorstCase design_worst_case(const Design& design, double reference_length_mm) {
 }
 
 Evaluation evaluate_design(const Design& design, double reference_length_mm,
-                           const EstimateOptions& options, const DetectionSettings& detection) {
+                           const EstimateOptions& options, const DetectionSettings& detection,
+                           const std::optional<DriftOptions>& drift) {
   const Parameterisation param(design);
   const LinearModel model = design_model(design, param);
   const WlsSolver solver(model, options);
@@ -841,12 +842,14 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
           hidden_setup_effects(param, solver, all, columns, functions, reference_length_mm),
           reference_length_mm))
     ev.warnings.push_back(*w);
-  ev.drift =
-      check_drift_effects(design, param, model, setup, functions, detection, reference_length_mm);
-  if (!design.return_reading && design.angles_deg.size() > 1) {
+  if (!drift) return ev;
+  ev.drift = check_drift_effects(design, param, model, setup, functions, detection,
+                                 reference_length_mm, drift->clock);
+  if (drift->with_return && !design.return_reading && design.angles_deg.size() > 1) {
     Design with_return = design;
     with_return.return_reading = true;
-    ev.drift_with_return = design_drift_checks(with_return, reference_length_mm, detection);
+    ev.drift_with_return =
+        design_drift_checks(with_return, reference_length_mm, detection, drift->clock);
   }
   return ev;
 }
@@ -867,7 +870,8 @@ std::optional<WorstCase> typical_setup_worst(const Design& design, double refere
   Design typical = design;
   typical.setup_std.length_offset_um = kTypicalLengthOffsetStd_um;
   typical.setup_std.centring_um = kTypicalCentringStd_um;
-  const std::optional<WorstCase> w = evaluate_design(typical, reference_length_mm).worst_total;
+  const std::optional<WorstCase> w =
+      evaluate_design(typical, reference_length_mm, {}, {}, std::nullopt).worst_total;
   if (!w || !w->worst_determined_std_um) return std::nullopt;
   return w;
 }
@@ -892,7 +896,7 @@ std::vector<SweepPoint> sweep_design(const Design& design,
       }
     }
     validate_design(d, "--sweep");
-    const Evaluation ev = evaluate_design(d, reference_length_mm);
+    const Evaluation ev = evaluate_design(d, reference_length_mm, {}, {}, std::nullopt);
     p.rank = ev.prior.rank;
     p.n_unknowns = ev.prior.n_unknowns;
     p.condition_number = ev.prior.condition_number;

@@ -602,7 +602,10 @@ OptimizeResult search_all(const Kit& kit, Criterion criterion, int threads, Sear
   }
   round_best(kit, criterion, res);
   if (res.best) {
-    res.best_evaluation = evaluate_design(res.best->design, kit.reference_length_mm);
+    // The drift on the kit's clock (the summary's drift line).
+    res.best_evaluation =
+        evaluate_design(res.best->design, kit.reference_length_mm, {}, {},
+                        DriftOptions{{kit.time_per_reading_s, kit.time_per_installation_s}, false});
     res.best_evaluation.worst_total_typical =
         typical_setup_worst(res.best->design, kit.reference_length_mm);
     // Pareto front of (time, objective) among the choices that determine as much as the best.
@@ -958,7 +961,7 @@ void score_candidate(const Kit& kit, Criterion criterion, Candidate& c) {
     c.objective = v.value_or(0.0);
     return;
   }
-  const Evaluation ev = evaluate_design(c.design, kit.reference_length_mm);
+  const Evaluation ev = evaluate_design(c.design, kit.reference_length_mm, {}, {}, std::nullopt);
   c.worst = ev.worst;
   c.n_undetermined = ev.worst.n_undetermined;
   std::optional<double> v;
@@ -1051,7 +1054,7 @@ Reference make_reference(const Kit& kit, Design design, const std::string& file)
         file, "errors",
         "the reference uses " + r.design.errors.describe() + ", the kit " + kit.errors.describe());
   }
-  const Evaluation ev = evaluate_design(r.design, kit.reference_length_mm);
+  const Evaluation ev = evaluate_design(r.design, kit.reference_length_mm, {}, {}, std::nullopt);
   r.worst = ev.worst;
   if (kit.setup_std.nuisance()) {
     Design with = r.design;

@@ -167,12 +167,22 @@ inline constexpr double kTypicalCentringStd_um = 5;
 // holds) or the figure is not determined.
 std::optional<WorstCase> typical_setup_worst(const Design& design, double reference_length_mm);
 
+// What evaluate_design says of a drift over the whole test: on which clock, and whether also for
+// the design with return readings (when it has none).
+struct DriftOptions {
+  TestClock clock;
+  bool with_return = true;
+};
+
 // The design as it would be measured: one reading per installation and angle.
 // `detection`: the test the set-up detection limits refer to (diagnose's level, and
-// the number of candidates it tests at once).
+// the number of candidates it tests at once). `drift`: nullopt leaves Evaluation::drift empty
+// (where no one reads it: a map's grid points, a candidate's score; each check factorises the
+// model again).
 Evaluation evaluate_design(const Design& design, double reference_length_mm,
                            const EstimateOptions& options = {},
-                           const DetectionSettings& detection = {});
+                           const DetectionSettings& detection = {},
+                           const std::optional<DriftOptions>& drift = DriftOptions{});
 
 // A design map: one set-up coordinate (0 = L, 1 = D, 2 = H) of some installations
 // set to each of a list of values.

@@ -151,7 +151,7 @@ struct OptimizeResult {
   // Absent when no choice is feasible. Between choices, objectives within 1e-4 (relative)
   // count as equal and the shorter measurement is taken; the Pareto front likewise.
   std::optional<Candidate> best;
-  Evaluation best_evaluation;  // evaluate_design of the best
+  Evaluation best_evaluation;  // evaluate_design of the best (its drift on the kit's clock)
   std::vector<Candidate>
       pareto;            // non-dominated (time, objective) among the best's determination class
   long evaluations = 0;  // designs scored

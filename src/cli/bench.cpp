@@ -91,7 +91,7 @@ Runner add_bench(CLI::App& app) {
         throw InputError(file, "reference_length_mm",
                          "needed to express angular uncertainty in um");
       }
-      const Evaluation ev = evaluate_design(d, *d.reference_length_mm);
+      const Evaluation ev = evaluate_design(d, *d.reference_length_mm, {}, {}, std::nullopt);
       row.name = d.name;
       row.axis = d.axis.label();
       row.model = d.errors.describe();

@@ -58,9 +58,7 @@ json candidate_json(const Kit& kit, const Candidate& c) {
 
 }  // namespace
 
-std::string drift_text(const Kit& kit, const Design& design) {
-  const TestClock clock{kit.time_per_reading_s, kit.time_per_installation_s};
-  const DriftChecks d = design_drift_checks(design, kit.reference_length_mm, {}, clock);
+std::string drift_text(const DriftChecks& d) {
   for (const DriftCheck& c : d.effects) {
     if (c.kind != EffectKind::kDrift) continue;
     std::string t = "over the " + fmt_num(d.test_min, 3) + " min test (the kit's clock): ";
@@ -422,7 +420,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   }
   if (res.rounding) s << rounding_text(res) << "\n";
   if (b.detection) s << "set-up detection " << detection_text(*b.detection) << "\n";
-  s << "drift " << drift_text(kit, b.design) << "\n";
+  s << "drift " << drift_text(ev.drift) << "\n";
   s << unidentifiable_text(ev.unidentifiable);
   if (ev.setup_included) {
     s << "\npredicted standard uncertainty (k = 1) at each angle, total (noise and the declared "

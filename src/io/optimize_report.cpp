@@ -89,7 +89,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
     summary.push_back(
         {"worst_total_std_um (noise and set-up)", fmt_opt(ev.worst_total->worst_std_um) + " um"});
   if (b.detection) summary.push_back({"set-up detection", detection_text(*b.detection)});
-  summary.push_back({"drift", drift_text(kit, b.design)});
+  summary.push_back({"drift", drift_text(ev.drift)});
   if (reference) {
     const ReferenceRatios ratios = reference_ratios(res, *reference);
     summary.push_back(

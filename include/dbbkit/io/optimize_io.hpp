@@ -45,9 +45,10 @@ std::string rounding_text(const OptimizeResult& res);
 std::string time_sum(const Kit& kit, int positions, int installations, int readings);
 // The kit's set-up detection requirement as met by a candidate, in words (one sentence).
 std::string detection_text(const Candidate::Detection& d);
-// A drift over the whole test of `design` on the kit's clock: its detection limit and what
-// 1 um of it undetected moves most (setup.hpp, DriftCheck).
-std::string drift_text(const Kit& kit, const Design& design);
+// A drift over the whole test (the best design's, on the kit's clock: OptimizeResult::
+// best_evaluation): its detection limit and what 1 um of it undetected moves most (setup.hpp,
+// DriftCheck).
+std::string drift_text(const DriftChecks& d);
 
 // Why the design found stays at rank 5 (OptimizeResult::rank_five), in words; empty when it
 // does not.
