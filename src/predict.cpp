@@ -61,19 +61,23 @@ struct OctantRule {
 // sphere, rho^2 chi-squared with 3 degrees of freedom, independent), the mean over w of
 // F3(r2 / w' L w), F3(t) = erf(sqrt(t / 2)) - sqrt(2 t / pi) exp(-t / 2). The integrand is smooth
 // on the sphere and symmetric in each coordinate's sign: one octant.
-double length_cdf(const Eigen::Vector3d& l, double r2, const OctantRule& rule) {
+struct Cdf {
+  double p = 0, dp = 0;  // the probability and its derivative in r2
+};
+Cdf length_cdf(const Eigen::Vector3d& l, double r2, const OctantRule& rule) {
   constexpr double kPi = 3.14159265358979323846;
-  double p = 0;
+  Cdf out;
   for (std::size_t k = 0; k < rule.weight.size(); ++k) {
     const double q = l.dot(rule.w2[k]);
-    double f = 1;
-    if (q > 0) {
-      const double t = r2 / q;
-      f = std::erf(std::sqrt(t / 2)) - std::sqrt(2 * t / kPi) * std::exp(-t / 2);
+    if (!(q > 0)) {
+      out.p += rule.weight[k];
+      continue;
     }
-    p += rule.weight[k] * f;
+    const double t = r2 / q, e = std::exp(-t / 2), st = std::sqrt(t);
+    out.p += rule.weight[k] * (std::erf(st / std::sqrt(2.0)) - std::sqrt(2 / kPi) * st * e);
+    out.dp += rule.weight[k] * st * e / (std::sqrt(2 * kPi) * q);  // the chi-squared (3) density
   }
-  return p;
+  return out;
 }
 
 }  // namespace
@@ -87,30 +91,29 @@ double length_uncertainty(const Eigen::Matrix3d& covariance, const PredictionCov
   if (c.dof) return bound;  // the multivariate t: the sphere around its ellipsoid
   // The radius whose ball holds the Gaussian error with the coverage probability: between the
   // largest axis' own quantile and the bound, by bisection on the probability.
-  static const OctantRule rule(48);
-  // Regula falsi on the probability (Illinois: a side kept twice has its value halved).
+  static const OctantRule rule(24);
+  // Newton's method on the probability in r2, kept within the bracket [lo, hi] (bisection
+  // where a step leaves it), from the chi-squared of the same mean and variance.
   const double p = c.coverage_probability;
-  double lo = c.k * std::sqrt(l(2)), hi = bound;
-  double flo = length_cdf(l, lo * lo, rule) - p, fhi = length_cdf(l, hi * hi, rule) - p;
-  if (flo >= 0) return lo;
-  if (fhi <= 0) return hi;
-  int side = 0;
-  for (int it = 0; it < 60 && hi - lo > 1e-9 * hi; ++it) {
-    const double r = (lo * fhi - hi * flo) / (fhi - flo);
-    const double fr = length_cdf(l, r * r, rule) - p;
-    if (fr == 0) return r;
-    if (fr < 0) {
-      lo = r, flo = fr;
-      if (side == -1) fhi /= 2;
-      side = -1;
-    } else {
-      hi = r, fhi = fr;
-      if (side == 1) flo /= 2;
-      side = 1;
+  double lo = c.k * c.k * l(2), hi = bound * bound;
+  const double mean = l.sum(), square = l.squaredNorm();
+  double r2 = std::clamp(
+      square / mean * boost::math::quantile(boost::math::chi_squared(mean * mean / square), p), lo,
+      hi);
+  for (int it = 0; it < 50; ++it) {
+    const Cdf f = length_cdf(l, r2, rule);
+    const double g = f.p - p;
+    if (std::abs(g) < 1e-10) break;
+    (g < 0 ? lo : hi) = r2;
+    double next = f.dp > 0 ? r2 - g / f.dp : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (std::abs(next - r2) <= 1e-12 * r2) {
+      r2 = next;
+      break;
     }
-    if (std::abs(fr) < 1e-10) return r;
+    r2 = next;
   }
-  return hi;
+  return std::sqrt(r2);
 }
 
 Eigen::Matrix<double, 3, 6> point_jacobian(const Eigen::Vector3d& P_mm) {
@@ -123,7 +126,8 @@ Eigen::Matrix<double, 3, 6> point_jacobian(const Eigen::Vector3d& P_mm) {
   return H;
 }
 
-PointPrediction predict_point(const AxisErrors& axis, const Pose& pose, bool location_only) {
+PointPrediction predict_point(const AxisErrors& axis, const Pose& pose,
+                              const PredictionCoverage& coverage, bool location_only) {
   PointPrediction p;
   p.pose = pose;
   p.nominal_mm = axis_rotation(axis.axis, pose.angle_deg) * pose.point_mm;
@@ -150,6 +154,7 @@ PointPrediction predict_point(const AxisErrors& axis, const Pose& pose, bool loc
     p.covariance = H * at->covariance * H.transpose();
     p.after_um = displacement_um(c, p.nominal_mm);
     p.after_covariance = p.covariance;
+    p.U_um = p.after_U_um = length_uncertainty(p.covariance, coverage);
   } else {
     p.basis = PredictionBasis::kLocationOnly;
     const Eigen::Matrix<double, 3, 5> HG = H * G;
@@ -157,6 +162,7 @@ PointPrediction predict_point(const AxisErrors& axis, const Pose& pose, bool loc
     p.covariance = HG * axis.location_covariance * HG.transpose();
     p.after_um.setZero();
     p.after_covariance = p.covariance;
+    p.U_um = p.after_U_um = length_uncertainty(p.covariance, coverage);
   }
   return p;
 }

@@ -180,8 +180,8 @@ TEST(Predict, IntervalsCoverTheTruthAtTheirNominalRate) {
         const double s = std::sqrt(x.covariance(c, c));
         coordinate_in += std::abs(x.error_um(c) - truth(c)) <= p.coverage.k * s;
       }
-      sphere_in += (x.error_um - truth).norm() <= length_uncertainty(x.covariance, p.coverage);
-      after_in += (x.after_um - left).norm() <= length_uncertainty(x.after_covariance, p.coverage);
+      sphere_in += (x.error_um - truth).norm() <= x.U_um;
+      after_in += (x.after_um - left).norm() <= x.after_U_um;
     }
     const double se = std::sqrt(0.95 * 0.05 / n);
     const double coord = coordinate_in / (3.0 * n), sphere = sphere_in / double(n),

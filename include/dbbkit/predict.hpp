@@ -25,7 +25,7 @@
 // error vector as a whole: the true error lies within `U_length` of the predicted one with the
 // coverage probability: for a Gaussian error the radius whose ball holds that probability
 // (P(sum lambda_i z_i^2 <= U^2), the eigenvalues lambda of the covariance: the chi-squared (3)
-// distribution of the radius averaged over the directions, 48 x 48 nodes on an octant of the
+// distribution of the radius averaged over the directions, 24 x 24 nodes on an octant of the
 // sphere; checked against the chi-squared and normal cases and by sampling); with degrees of
 // freedom, at least
 // it: U^2 = lambda_max 3 F(3, nu), the sphere around the ellipsoid of that probability.
@@ -77,6 +77,7 @@ struct PointPrediction {
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of error_um (um^2)
   Eigen::Vector3d after_um = Eigen::Vector3d::Zero();    // what remains once the values are entered
   Eigen::Matrix3d after_covariance = Eigen::Matrix3d::Zero();
+  double U_um = 0, after_U_um = 0;  // length_uncertainty of each covariance
 };
 
 struct PredictionCoverage {
@@ -97,6 +98,7 @@ Eigen::Matrix<double, 3, 6> point_jacobian(const Eigen::Vector3d& P_mm);
 // The prediction at one pose. An angle is a measured one when it equals it within 1e-9 deg (on a
 // full turn, or differs from it by whole turns). `location_only`: the location errors alone at
 // every angle (what a controller's kinematics can be off by; the component motions left out).
-PointPrediction predict_point(const AxisErrors& axis, const Pose& pose, bool location_only = false);
+PointPrediction predict_point(const AxisErrors& axis, const Pose& pose,
+                              const PredictionCoverage& coverage, bool location_only = false);
 
 }  // namespace dbbkit

@@ -144,7 +144,8 @@ PredictResult predict(const ResultFile& result, const std::vector<Pose>& poses,
   p.coverage = prediction_coverage(coverage_probability, axis.dof);
   p.warnings = result.warnings;
   p.points.reserve(poses.size());
-  for (const Pose& pose : poses) p.points.push_back(predict_point(axis, pose, location_only));
+  for (const Pose& pose : poses)
+    p.points.push_back(predict_point(axis, pose, p.coverage, location_only));
   return p;
 }
 
@@ -159,8 +160,7 @@ int largest(const PredictResult& p, bool after) {
     const PointPrediction& x = p.points[i];
     if (x.gap != PredictionGap::kNone) continue;
     // After entering, what may remain: the estimate's length and its U.
-    const double n = after ? x.after_um.norm() + length_uncertainty(x.after_covariance, p.coverage)
-                           : x.error_um.norm();
+    const double n = after ? x.after_um.norm() + x.after_U_um : x.error_um.norm();
     if (n > top) top = n, at = static_cast<int>(i);
   }
   return at;
@@ -200,12 +200,12 @@ json prediction_to_json(const PredictResult& p) {
     j["basis"] = basis_key(x.basis);
     j["error_um"] = vec3(x.error_um);
     j["std_um"] = vec3(stds(x.covariance));
-    j["U_um"] = r6(length_uncertainty(x.covariance, p.coverage));
+    j["U_um"] = r6(x.U_um);
     j["covariance_um2"] = {vec3(x.covariance.row(0)), vec3(x.covariance.row(1)),
                            vec3(x.covariance.row(2))};
     j["after_entering"] = {{"error_um", vec3(x.after_um)},
                            {"std_um", vec3(stds(x.after_covariance))},
-                           {"U_um", r6(length_uncertainty(x.after_covariance, p.coverage))}};
+                           {"U_um", r6(x.after_U_um)}};
     points.push_back(j);
   }
   json out{{"format", kPredictFormat},
@@ -233,7 +233,7 @@ json prediction_to_json(const PredictResult& p) {
     out["largest"][after ? "after_entering" : "error"] = {
         {"point", i},
         {"length_um", r6((after ? x.after_um : x.error_um).norm())},
-        {"U_um", r6(length_uncertainty(after ? x.after_covariance : x.covariance, p.coverage))}};
+        {"U_um", r6(after ? x.after_U_um : x.U_um)}};
   }
   return out;
 }
@@ -272,9 +272,8 @@ std::string prediction_text(const PredictResult& p) {
     }
     location_only = location_only || x.basis == PredictionBasis::kLocationOnly;
     s << std::setw(28) << triple(x.error_um, 2) << std::setw(8) << fmt_rounded(x.error_um.norm(), 2)
-      << std::setw(7) << fmt_rounded(length_uncertainty(x.covariance, p.coverage), 2)
-      << std::setw(10) << fmt_rounded(x.after_um.norm(), 2) << std::setw(7)
-      << fmt_rounded(length_uncertainty(x.after_covariance, p.coverage), 2) << "  "
+      << std::setw(7) << fmt_rounded(x.U_um, 2) << std::setw(10)
+      << fmt_rounded(x.after_um.norm(), 2) << std::setw(7) << fmt_rounded(x.after_U_um, 2) << "  "
       << basis_key(x.basis) << "\n";
   }
   for (const bool after : {false, true}) {
@@ -283,9 +282,9 @@ std::string prediction_text(const PredictResult& p) {
     const PointPrediction& x = p.points[static_cast<std::size_t>(i)];
     s << (after ? "Largest after entering the location errors: " : "Largest error: ")
       << fmt_rounded((after ? x.after_um : x.error_um).norm(), 2) << " um (U "
-      << fmt_rounded(length_uncertainty(after ? x.after_covariance : x.covariance, p.coverage), 2)
-      << " um) at " << p.letter << " " << fmt_rounded(x.pose.angle_deg, 3) << " deg, point "
-      << triple(x.pose.point_mm, 1) << " mm\n";
+      << fmt_rounded(after ? x.after_U_um : x.U_um, 2) << " um) at " << p.letter << " "
+      << fmt_rounded(x.pose.angle_deg, 3) << " deg, point " << triple(x.pose.point_mm, 1)
+      << " mm\n";
   }
   if (!p.location_only)
     s << "basis motions: the location errors and the component error motions at an angle the "
