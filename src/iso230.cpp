@@ -402,10 +402,10 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     const Eigen::Matrix<double, 5, 5> M =
         i.b == j.b ? QSQ[i.b] : (i.b == 0 ? QSQ01 : Eigen::Matrix<double, 5, 5>(QSQ01.transpose()));
     double v = base(i, j) - iSQj.dot(xj) - jSQi.dot(xi) + (xi * M * xj.transpose())(0);
-    if (low_rank) {
-      const Eigen::VectorXd ki = i.Kc - KQ[i.b] * xi.transpose(),
-                            kj = j.Kc - KQ[j.b] * xj.transpose();
-      v += ki.dot(est.covariance_S * kj);
+    if (low_rank) {  // M holds the low-rank part of Q' (...) Q already
+      v += i.Kc.dot(est.covariance_S * j.Kc) -
+           i.Kc.dot(est.covariance_S * (KQ[j.b] * xj.transpose())) -
+           j.Kc.dot(est.covariance_S * (KQ[i.b] * xi.transpose()));
     }
     return v * uncertainty_scale * uncertainty_scale;
   };

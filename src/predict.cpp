@@ -140,11 +140,18 @@ PointPrediction predict_point(const AxisErrors& axis, const Pose& pose,
   for (int k = 0; k < 5; ++k) l(k) = *axis.location[static_cast<std::size_t>(k)];
   const Eigen::Matrix<double, 6, 5> G = location_motion(axis.axis, pose.angle_deg);
   const Eigen::Matrix<double, 3, 6> H = point_jacobian(p.nominal_mm);
-  const auto at = std::find_if(axis.measured.begin(), axis.measured.end(), [&](const auto& a) {
-    // A full turn's angle 360 deg apart is the same position (the per-angle model's station).
-    const double apart = a.angle_deg - pose.angle_deg;
+  // A full turn's angle 360 deg apart is the same position (the per-angle model's station).
+  auto same = [&](double a) {
+    const double apart = a - pose.angle_deg;
     return std::abs(axis.axis.full_turn() ? std::remainder(apart, 360.0) : apart) <= 1e-9;
-  });
+  };
+  const auto at = std::find_if(axis.measured.begin(), axis.measured.end(),
+                               [&](const AxisErrors::AtAngle& a) { return same(a.angle_deg); });
+  p.location_reason = location_only ? LocationReason::kAsked
+                      : std::any_of(axis.measured_without_covariance.begin(),
+                                    axis.measured_without_covariance.end(), same)
+                          ? LocationReason::kNoMotionCovariance
+                          : LocationReason::kNotMeasured;
   if (!location_only && at != axis.measured.end()) {
     p.basis = PredictionBasis::kMotions;
     Vector6d c;

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 
 #include "cli_util.hpp"
@@ -311,6 +312,38 @@ TEST(PredictCli, PredictsFromAResultAndRefusesWhatItCannotUse) {
       run_cli("predict --result " + write("skew.json", skew.dump()) + " --at " + poses);
   EXPECT_EQ(s.status, 2);
   EXPECT_NE(s.err.find("motion_covariance.at[0].matrix"), std::string::npos) << s.err;
+  // The covariance must fit the component's std and the location part's (a zero matrix cannot),
+  // name the location errors in order, leave out no measured angle, hold no negative variance.
+  struct Edit {
+    std::function<void(nlohmann::json&)> f;
+    std::string where;
+  };
+  const std::vector<Edit> edits = {
+      {[](nlohmann::json& j) {
+         for (auto& row : j["iso230"]["motion_covariance"]["at"][0]["matrix"])
+           for (auto& x : row) x = 0.0;
+       },
+       "motion_covariance.at[0].matrix[0][0]"},
+      {[](nlohmann::json& j) { j["iso230"]["motion_covariance"]["at"].erase(0); },
+       "no entry for angle"},
+      {[](nlohmann::json& j) { j["iso230"]["motion_covariance"]["at"][0]["matrix"][0][0] = -1e-9; },
+       "a negative variance"},
+      {[](nlohmann::json& j) {
+         std::swap(j["iso230"]["location_covariance"]["names"][0],
+                   j["iso230"]["location_covariance"]["names"][1]);
+       },
+       "location_covariance.names[0]"},
+      {[](nlohmann::json& j) { std::swap(j["iso230"]["location"][0], j["iso230"]["location"][1]); },
+       "iso230.location"},
+      {[](nlohmann::json& j) { j["budget"]["noise_evaluation"] = "Type A (residual)"; },
+       "degrees of freedom"}};
+  for (const Edit& e : edits) {
+    nlohmann::json j = nlohmann::json::parse(slurp(result));
+    e.f(j);
+    const CliRun b = run_cli("predict --result " + write("edit.json", j.dump()) + " --at " + poses);
+    EXPECT_EQ(b.status, 2) << e.where;
+    EXPECT_NE(b.err.find(e.where), std::string::npos) << e.where << ": " << b.err;
+  }
   std::filesystem::remove_all(dir);
 }
 

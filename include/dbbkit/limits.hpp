@@ -21,8 +21,8 @@ constexpr int kMaxSeriesOrder = 100;
 // Measured angles of one design, installations of one design.
 constexpr std::size_t kMaxAngles = 100000;
 constexpr std::size_t kMaxInstallations = 10000;
-// Poses of one predict file.
-constexpr std::size_t kMaxPoses = 1000000;
+// Poses of one predict file (100,000: about 10 s and 0.6 GB with the JSON written).
+constexpr std::size_t kMaxPoses = 100000;
 // Sweeps of one installation (a truth's schedule, readings --sweeps as a list).
 constexpr std::size_t kMaxSweeps = 100;
 // Readings of one measurement file or one simulation.

@@ -53,6 +53,8 @@ struct AxisErrors {
     Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
   };
   std::vector<AtAngle> measured;
+  // Angles whose component motions the result states without the motions' covariance.
+  std::vector<double> measured_without_covariance;
   std::optional<double> dof;  // effective degrees of freedom (Type A); absent: Gaussian
 };
 
@@ -63,14 +65,19 @@ struct Pose {
 
 enum class PredictionBasis {
   kMotions,       // location errors and component error motions at a measured angle
-  kLocationOnly,  // not a measured angle (or no covariance there): the location errors alone
+  kLocationOnly,  // the location errors alone: `location_reason` says why
 };
+// Why the location errors alone: the angle was not measured (the component motions there are not
+// known: U is then the location part's alone and does not cover them), the result states no
+// covariance of the motions (an earlier version, or diagnose's shares), or it was asked for.
+enum class LocationReason { kNotMeasured, kNoMotionCovariance, kAsked };
 
 enum class PredictionGap { kNone, kLocationNotDetermined };
 
 struct PointPrediction {
   Pose pose;
   PredictionBasis basis = PredictionBasis::kLocationOnly;
+  LocationReason location_reason = LocationReason::kNotMeasured;
   PredictionGap gap = PredictionGap::kNone;              // kNone: the numbers below hold
   Eigen::Vector3d nominal_mm = Eigen::Vector3d::Zero();  // R(gamma) P0: where the point should be
   Eigen::Vector3d error_um = Eigen::Vector3d::Zero();    // the point's true minus nominal position

@@ -48,8 +48,9 @@ Runner add_chain(CLI::App& app) {
     const Machine m = io::read_machine_file(args->machine);
     std::vector<ChainInput> in;
     for (const std::string& r : args->results) {
-      in.push_back(io::chain_input(m, io::read_result_file(r)));
-      in.back().sha256 = io::sha256_file(r);
+      const std::string text = io::read_json_file(r);  // once: a pipe gives its bytes once
+      in.push_back(io::chain_input(m, io::result_from_text(text, r)));
+      in.back().sha256 = io::sha256_hex(text);
     }
     const ChainResult c = chain_machine(m, in, args->coverage);
     if (!args->out.empty())

@@ -47,11 +47,13 @@ Runner add_predict(CLI::App& app) {
     std::vector<io::OutputTarget> targets;
     if (!args->out.empty()) targets.push_back({"--out", args->out});
     io::OutputSet outputs(targets, {args->result, args->at});
-    const io::ResultFile r = io::read_result_file(args->result);
+    // Read once (a pipe gives its bytes once): parsed and hashed from the same text.
+    const std::string text = io::read_json_file(args->result);
+    const io::ResultFile r = io::result_from_text(text, args->result);
     const std::vector<Pose> poses = io::read_poses_file(args->at, r.axis);
     io::PredictResult p = io::predict(r, poses, args->coverage, args->location_only);
     p.poses_source = args->at;
-    p.result_sha256 = io::sha256_file(args->result);
+    p.result_sha256 = io::sha256_hex(text);
     if (!args->out.empty()) outputs.stage("--out", io::dump_json(io::prediction_to_json(p)) + "\n");
     outputs.commit();
     if (args->out != "-" && !args->quiet) std::cout << io::prediction_text(p);

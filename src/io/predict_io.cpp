@@ -32,6 +32,27 @@ const char* basis_key(PredictionBasis b) {
   return b == PredictionBasis::kMotions ? "motions" : "location";
 }
 
+// The basis as the table shows it.
+std::string basis_text(const PointPrediction& x) {
+  if (x.basis == PredictionBasis::kMotions) return "motions";
+  return x.location_reason == LocationReason::kNoMotionCovariance ? "location, no covariance"
+                                                                  : "location";
+}
+
+const char* location_reason_text(LocationReason r) {
+  switch (r) {
+    case LocationReason::kNotMeasured:
+      return "an angle the result did not measure: the component motions there are not known and "
+             "are not in the error nor in U";
+    case LocationReason::kNoMotionCovariance:
+      return "the result states the component motions here without their covariance (an earlier "
+             "version, or diagnose's shares of equivalent effects): the location errors alone";
+    case LocationReason::kAsked:
+      return "asked (--location-only): the component motions are not in the error nor in U";
+  }
+  return "";
+}
+
 }  // namespace
 
 void check_pose(const Pose& p, const AxisFrame& axis, const std::string& source,
@@ -118,10 +139,23 @@ AxisErrors axis_errors_of(const ResultFile& result) {
     throw InputError(result.source, "iso230.location_covariance",
                      "missing: a prediction needs the location errors' covariance (a result of an "
                      "earlier version: run identify again)");
-  for (int k = 0; k < 5; ++k) a.location[static_cast<std::size_t>(k)] = result.location[k].value;
+  const IsoNames names = iso230_names(result.axis);
+  for (int k = 0; k < 5; ++k) {
+    if (result.location[k].name != names.location[static_cast<std::size_t>(k)])
+      throw InputError(
+          result.source, "iso230.location[" + std::to_string(k) + "].name",
+          "expected " + names.location[static_cast<std::size_t>(k)] + " (ISO 230-1's order)");
+    a.location[static_cast<std::size_t>(k)] = result.location[k].value;
+  }
   a.location_covariance = *result.location_covariance;
   for (const ResultComponents& c : result.components) {
-    if (!c.motion_covariance) continue;
+    if (!c.motion_covariance) {
+      if (c.motions.size() == 6 &&
+          std::all_of(c.motions.begin(), c.motions.end(),
+                      [](const ResultQuantity& q) { return q.value.has_value(); }))
+        a.measured_without_covariance.push_back(c.angle_deg);
+      continue;
+    }
     AxisErrors::AtAngle at;
     at.angle_deg = c.angle_deg;
     for (int k = 0; k < 6; ++k) at.component[static_cast<std::size_t>(k)] = *c.motions[k].value;
@@ -156,9 +190,15 @@ namespace {
 int largest(const PredictResult& p, bool after) {
   int at = -1;
   double top = -1;
+  // Where some points have the component motions, only those: a point without them would look
+  // smaller than it is.
+  const bool motions = std::any_of(p.points.begin(), p.points.end(), [](const PointPrediction& x) {
+    return x.gap == PredictionGap::kNone && x.basis == PredictionBasis::kMotions;
+  });
   for (std::size_t i = 0; i < p.points.size(); ++i) {
     const PointPrediction& x = p.points[i];
     if (x.gap != PredictionGap::kNone) continue;
+    if (motions && x.basis != PredictionBasis::kMotions) continue;
     // After entering, what may remain: the estimate's length and its U.
     const double n = after ? x.after_um.norm() + x.after_U_um : x.error_um.norm();
     if (n > top) top = n, at = static_cast<int>(i);
@@ -198,6 +238,8 @@ json prediction_to_json(const PredictResult& p) {
     }
     j["determined"] = true;
     j["basis"] = basis_key(x.basis);
+    if (x.basis == PredictionBasis::kLocationOnly)
+      j["location_reason"] = location_reason_text(x.location_reason);
     j["error_um"] = vec3(x.error_um);
     j["std_um"] = vec3(stds(x.covariance));
     j["U_um"] = r6(x.U_um);
@@ -219,7 +261,7 @@ json prediction_to_json(const PredictResult& p) {
            {"coverage_probability", p.coverage.coverage_probability},
            {"k", p.coverage.k},
            {"k_length", p.coverage.k_length},
-           {"dof", p.coverage.dof ? json(*p.coverage.dof) : json(nullptr)},
+           {"dof", p.coverage.dof ? json(r6(*p.coverage.dof)) : json(nullptr)},
            {"location_only", p.location_only},
            {"points", points}};
   if (!p.result_sha256.empty()) out["inputs"]["result_sha256"] = p.result_sha256;
@@ -250,7 +292,7 @@ std::string prediction_text(const PredictResult& p) {
     << " %"
     << (p.coverage.dof ? " (t, " + fmt_num(*p.coverage.dof, 3) + " degrees of freedom)"
                        : std::string(" (Gaussian)"))
-    << "\n";
+    << " where the basis is motions; where it is location, of the location errors' part alone\n";
   if (p.location_only)
     s << "the location errors alone at every angle (--location-only): the component error motions "
          "are left out\n";
@@ -274,7 +316,7 @@ std::string prediction_text(const PredictResult& p) {
     s << std::setw(28) << triple(x.error_um, 2) << std::setw(8) << fmt_rounded(x.error_um.norm(), 2)
       << std::setw(7) << fmt_rounded(x.U_um, 2) << std::setw(10)
       << fmt_rounded(x.after_um.norm(), 2) << std::setw(7) << fmt_rounded(x.after_U_um, 2) << "  "
-      << basis_key(x.basis) << "\n";
+      << basis_text(x) << "\n";
   }
   for (const bool after : {false, true}) {
     const int i = largest(p, after);
@@ -286,12 +328,19 @@ std::string prediction_text(const PredictResult& p) {
       << fmt_rounded(x.pose.angle_deg, 3) << " deg, point " << triple(x.pose.point_mm, 1)
       << " mm\n";
   }
+  bool no_covariance = false;
+  for (const PointPrediction& x : p.points)
+    no_covariance = no_covariance ||
+                    (x.gap == PredictionGap::kNone && x.basis == PredictionBasis::kLocationOnly &&
+                     x.location_reason == LocationReason::kNoMotionCovariance);
   if (!p.location_only)
     s << "basis motions: the location errors and the component error motions at an angle the "
          "result measured";
   if (location_only && !p.location_only)
     s << "; location: an angle not measured, the location errors alone (the component error "
-         "motions there are not known and are left out)";
+         "motions there are not known and are left out, of the error and of U)";
+  if (no_covariance)
+    s << "; location, no covariance: " << location_reason_text(LocationReason::kNoMotionCovariance);
   if (p.location_only) s << "basis location: the location errors alone";
   s << ".\nOn a table the tool meets the workpiece's point off by minus the error; on a head the "
        "tool tip is off by it.\n";

@@ -273,6 +273,15 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
   // refuses such a result by its location list).
   if (iso.contains("location_covariance") && r.location.size() == 5) {
     const std::string path = "iso230.location_covariance";
+    const json& names =
+        list_of(member(iso["location_covariance"], "names", source, path), source, path + ".names");
+    if (names.size() != 5)
+      throw InputError(source, path + ".names", "expected the five location errors' names");
+    const IsoNames iso_names = iso230_names(r.axis);
+    for (std::size_t i = 0; i < 5; ++i)
+      if (!names[i].is_string() || names[i].get<std::string>() != iso_names.location[i])
+        throw InputError(source, path + ".names[" + std::to_string(i) + "]",
+                         "expected " + iso_names.location[i] + " (ISO 230-1's order)");
     const json& m = list_of(member(iso["location_covariance"], "matrix", source, path), source,
                             path + ".matrix");
     if (m.size() != 5)
@@ -342,14 +351,52 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
       const double top = cov.cwiseAbs().maxCoeff();
       if ((cov - cov.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1 + top))
         throw InputError(source, where + ".matrix", "not symmetric");
+      for (int a = 0; a < 6; ++a)
+        if (cov(a, a) < 0)
+          throw InputError(source,
+                           where + ".matrix[" + std::to_string(a) + "][" + std::to_string(a) + "]",
+                           "a negative variance");
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(cov);
       if (eig.eigenvalues().minCoeff() < -1e-9 * (1 + top))
         throw InputError(source, where + ".matrix",
                          "not positive semi-definite (an eigenvalue " +
                              std::to_string(eig.eigenvalues().minCoeff()) + ")");
+      // Each motion less its constant part is the location errors' part plus the component:
+      // its std lies within the sum and the difference of theirs (the triangle inequality).
+      if (r.location_covariance) {
+        const Eigen::Matrix<double, 6, 5> G = location_motion(r.axis, angle);
+        for (int e = 0; e < 6; ++e) {
+          const double sq = std::sqrt(cov(e, e)), sc = *c->motions[e].std,
+                       sg = std::sqrt(std::max(
+                           0.0, (G.row(e) * *r.location_covariance * G.row(e).transpose())(0)));
+          const double tol = 1e-5 * (1 + sg + sc) + 2e-6;
+          if (sq > sg + sc + tol || sq < std::abs(sc - sg) - tol)
+            throw InputError(
+                source, where + ".matrix[" + std::to_string(e) + "][" + std::to_string(e) + "]",
+                "a std of " + std::to_string(sq) + " does not fit " + c->motions[e].name +
+                    "'s std " + std::to_string(sc) + " with the location errors' part's " +
+                    std::to_string(sg));
+        }
+      }
       c->motion_covariance = cov;
     }
+    // Every angle whose six motions are determined has its entry: one left out would be
+    // predicted from the location errors alone, as if it had not been measured.
+    for (std::size_t i = 0; i < r.components.size(); ++i) {
+      const ResultComponents& c = r.components[i];
+      const bool all = c.motions.size() == 6 &&
+                       std::all_of(c.motions.begin(), c.motions.end(),
+                                   [](const ResultQuantity& q) { return q.value.has_value(); });
+      if (all && !c.motion_covariance)
+        throw InputError(source, path + ".at",
+                         "no entry for angle " + std::to_string(c.angle_deg) +
+                             " deg, whose component motions are all determined");
+    }
   }
+  const bool type_a = j.contains("budget") && j["budget"].is_object() &&
+                      j["budget"].contains("noise_evaluation") &&
+                      j["budget"]["noise_evaluation"].is_string() &&
+                      j["budget"]["noise_evaluation"].get<std::string>().rfind("Type A", 0) == 0;
   if (j.contains("budget") && j["budget"].is_object() && j["budget"].contains("values")) {
     const json& values = list_of(j["budget"]["values"], source, "budget.values");
     for (std::size_t i = 0; i < values.size(); ++i) {
@@ -361,6 +408,9 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
       r.dof = r.dof ? std::min(*r.dof, nu) : nu;
     }
   }
+  if (type_a && !r.dof)
+    throw InputError(source, "budget.values",
+                     "a Type A evaluation without the values' degrees of freedom (nu_eff)");
   if (design.contains("machine")) {
     const std::string path = "design.machine";
     const json& m = design["machine"];
