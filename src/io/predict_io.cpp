@@ -150,10 +150,7 @@ AxisErrors axis_errors_of(const ResultFile& result) {
   a.location_covariance = *result.location_covariance;
   for (const ResultComponents& c : result.components) {
     if (!c.motion_covariance) {
-      if (c.motions.size() == 6 &&
-          std::all_of(c.motions.begin(), c.motions.end(),
-                      [](const ResultQuantity& q) { return q.value.has_value(); }))
-        a.measured_without_covariance.push_back(c.angle_deg);
+      if (c.all_determined()) a.measured_without_covariance.push_back(c.angle_deg);
       continue;
     }
     AxisErrors::AtAngle at;

@@ -329,8 +329,7 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
         throw InputError(source, where + ".angle_deg", "not an angle of iso230.components");
       if (c->motion_covariance)
         throw InputError(source, where + ".angle_deg", "an angle given twice");
-      if (c->motions.size() != 6 || std::any_of(c->motions.begin(), c->motions.end(),
-                                                [](const ResultQuantity& q) { return !q.value; }))
+      if (!c->all_determined())
         throw InputError(source, where,
                          "a covariance where the component error motions are not all determined");
       const json& m = list_of(member(at[i], "matrix", source, where), source, where + ".matrix");
@@ -384,10 +383,7 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
     // predicted from the location errors alone, as if it had not been measured.
     for (std::size_t i = 0; i < r.components.size(); ++i) {
       const ResultComponents& c = r.components[i];
-      const bool all = c.motions.size() == 6 &&
-                       std::all_of(c.motions.begin(), c.motions.end(),
-                                   [](const ResultQuantity& q) { return q.value.has_value(); });
-      if (all && !c.motion_covariance)
+      if (c.all_determined() && !c.motion_covariance)
         throw InputError(source, path + ".at",
                          "no entry for angle " + std::to_string(c.angle_deg) +
                              " deg, whose component motions are all determined");

@@ -4,6 +4,7 @@
 // these need are read; each is checked, and a missing or malformed one is an InputError naming
 // the file and the key.
 
+#include <algorithm>
 #include <map>
 #include <optional>
 #include <string>
@@ -28,6 +29,12 @@ struct ResultComponents {
   // their constant parts (dx..ez; um, urad). Absent in a result of an earlier version and where
   // the result states none.
   std::optional<Eigen::Matrix<double, 6, 6>> motion_covariance;
+  // All six motions determined (the angles motion_covariance is stated at).
+  bool all_determined() const {
+    return motions.size() == 6 &&
+           std::all_of(motions.begin(), motions.end(),
+                       [](const ResultQuantity& q) { return q.value.has_value(); });
+  }
 };
 
 // An error motion value (ISO 230-7 range of a component) and its expanded uncertainty.
