@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "dbbkit/residual_checks.hpp"
@@ -69,7 +70,16 @@ class Selector {
         design_(design),
         readings_(readings),
         family_used_(families.size(), false),
-        family_status_(families.size()) {}
+        family_status_(families.size()) {
+    if (design_) range_um_ = 1e3 * design_->instrument_range_mm;
+    if (readings_) {
+      double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;
+      for (const Reading& r : *readings_) {
+        if (r.time_s) t0 = std::min(t0, *r.time_s), t1 = std::max(t1, *r.time_s);
+      }
+      test_min_ = t1 > t0 ? (t1 - t0) / 60.0 : 0.0;
+    }
+  }
 
   Selection run() {
     Selection res;
@@ -119,6 +129,31 @@ class Selector {
 
  private:
   Estimate solve(const Jacobian& J) const { return WlsSolver(J, sigma_, o_.estimate).solve(y_); }
+
+  // What effect `block`, fitted in `fit` (its columns last), alone moves the bar by: a drift
+  // over the whole test (a machine's or a bar's drift does not stop at an installation's end),
+  // any other its largest part of a reading. Beyond the instrument's range no machine or bar
+  // has it (the bound residual_checks.cpp puts on a residual feature).
+  double implied_um(const EffectBlock& block, const Estimate& fit) const {
+    const Eigen::Index q = block.J_reading_effect.cols();
+    Eigen::VectorXd value(q);
+    for (Eigen::Index j = 0; j < q; ++j) {
+      Eigen::VectorXd unit = Eigen::VectorXd::Zero(fit.n_unknowns);
+      unit(fit.n_unknowns - q + j) = 1.0;
+      value(j) = fit.evaluate(unit).value;
+    }
+    if (block.effect.kind == EffectKind::kDrift) return std::abs(value(0)) * test_min_;
+    return (block.J_reading_effect * value).cwiseAbs().maxCoeff();
+  }
+  bool beyond_instrument(double size_um) const { return range_um_ > 0 && !(size_um <= range_um_); }
+  CandidateStatus implausible(const std::string& label, double size_um) const {
+    CandidateStatus c =
+        status(label, CandidateState::kImplausible, CandidateReason::kBeyondInstrument);
+    c.implied_um = size_um;
+    c.level = range_um_;
+    c.step = step_;
+    return c;
+  }
   int rank_of(const Jacobian& J) const { return WlsSolver(J, sigma_, o_.estimate).a_priori().rank; }
 
   // [J0, the added effects' columns], leaving out added effect `skip`.
@@ -292,7 +327,7 @@ class Selector {
       if (best_family >= 0) {
         if (!add_scanned(best_family, best_alt, best_p, best_F, best_scanned, tested, trial_chi2))
           return;
-        continue;
+        continue;  // added, or left out as implausible: the next step
       }
       if (best < 0) return;
       best_est = solve(append_columns(J_, pool_[best].J_reading_effect));
@@ -306,6 +341,13 @@ class Selector {
       const auto [chosen, equivalent] = equivalents(best, J_);
       if (chosen != best)
         best_est = solve(append_columns(J_, pool_[chosen].J_reading_effect)), best = chosen;
+      if (const double size = implied_um(pool_[best], best_est); beyond_instrument(size)) {
+        // Significant at a size no machine or bar has: not a finding; the step again without it.
+        status_[best] = implausible(pool_[best].label, size);
+        used_[best] = true;
+        --step_;
+        continue;
+      }
       AddedEffect a;
       a.block = pool_[best];
       for (std::size_t i = 0; i < pool_.size(); ++i) {
@@ -338,7 +380,8 @@ class Selector {
   }
 
   // Adds alternative k of scanned family f when it passes (p < level / tested and the BIC,
-  // with the position counted, falls). True when added.
+  // with the position counted, falls). True when added, or when it passes at a size no machine
+  // or bar has (the family is then left out and the step tried again without it).
   bool add_scanned(int f, int k, double p, double F, int scanned, int tested,
                    const std::vector<double>& trial_chi2) {
     const ScanFamily& fam = families_[f];
@@ -350,6 +393,13 @@ class Selector {
     if (!(p < threshold && dbic < 0)) {
       family_status_[f].missed = StepMiss{step_, threshold, dbic, true};
       return false;
+    }
+    if (const double size = implied_um(block, trial); beyond_instrument(size)) {
+      family_status_[f] = implausible(fam.label, size);
+      family_status_[f].other = block.label;
+      family_used_[f] = true;
+      --step_;
+      return true;
     }
     AddedEffect a;
     a.evidence = {step_, F, 1, trial.dof, p, threshold, tested, dbic, current_.chi2, trial.chi2};
@@ -490,6 +540,16 @@ class Selector {
       }
     }
     if (swap_out < 0) return false;
+    if (const double size = implied_um(
+            pool_[swap_in],
+            solve(append_columns(model_without(swap_out), pool_[swap_in].J_reading_effect)));
+        beyond_instrument(size)) {
+      // In its place it would explain more, at a size no machine or bar has: left out, and the
+      // exchange tried again without it.
+      status_[swap_in] = implausible(pool_[swap_in].label, size);
+      used_[swap_in] = true;
+      return true;
+    }
     const int out_idx = index_of(added_[swap_out].block.label);
     release_equivalents(added_[swap_out]);
     const auto [chosen, equivalent] = equivalents(swap_in, model_without(swap_out));
@@ -842,6 +902,8 @@ class Selector {
   Jacobian J_;
   Estimate current_;
   int step_ = 0;
+  double range_um_ = 0;  // the instrument's range (0: no design, no bound)
+  double test_min_ = 0;  // from the first reading to the last, where they are timed
 };
 
 }  // namespace
@@ -862,6 +924,8 @@ const char* candidate_state_name(CandidateState s) {
       return "detectable";
     case CandidateState::kSetUp:
       return "declared set-up";
+    case CandidateState::kImplausible:
+      return "implausible";
   }
   return "unknown";
 }

@@ -221,6 +221,40 @@ TEST(Diagnose, PerInstallationDriftsAreKeptAgainstOneWholeTestDrift) {
   EXPECT_GE(reported, seeds - 3);
 }
 
+// A drift whose rate, over the whole test, would move the bar beyond the instrument's range is
+// no finding (no machine or bar has it): significant, it is left out and named implausible with
+// its size. The same readings under the default 1 mm range find it.
+TEST(Diagnose, ADriftNoInstrumentCouldReadIsNoFinding) {
+  Design d = fourier_design();
+  std::mt19937_64 rng(8);
+  int named = 0, found = 0;
+  const int seeds = 5;
+  for (int s = 0; s < seeds; ++s) {
+    Truth t = random_fourier_truth(d, rng);
+    t.effects = {effect(EffectKind::kDrift, "3r", {3.0})};
+    const std::vector<Reading> rd = simulate(d, t, 9700 + s);
+    double t0 = rd.front().time_s.value(), t1 = t0, largest = 0;
+    for (const Reading& r : rd) {
+      t0 = std::min(t0, *r.time_s), t1 = std::max(t1, *r.time_s);
+      largest = std::max(largest, std::abs(r.reading_um));
+    }
+    const double over_test_um = 3.0 * (t1 - t0) / 60.0;
+    Design narrow = d;  // a range the readings fit in and the drift over the test does not
+    narrow.instrument_range_mm = 1e-3 * 0.5 * (largest + over_test_um);
+    ASSERT_LT(largest, 0.9e3 * narrow.instrument_range_mm);
+    const DiagnoseResult wide = diagnose(d, rd), tight = diagnose(narrow, rd);
+    found += has(wide, "drift[3r]");
+    for (const CandidateStatus& c : tight.candidates) {
+      if (c.label != "drift[3r]") continue;
+      named += c.state == CandidateState::kImplausible && !has(tight, "drift[3r]") &&
+               std::abs(c.implied_um - over_test_um) < 0.05 * over_test_um &&
+               io::candidate_detail(c).find("beyond the instrument's range") != std::string::npos;
+    }
+  }
+  EXPECT_EQ(found, seeds);
+  EXPECT_EQ(named, seeds);
+}
+
 TEST(Diagnose, NearlyCollinearCandidatesAreReported) {
   // Swept ccw then cw only, a drift looks much like a reversal: when noise makes the
   // reversal win, the drift must be named as a close alternative, never silently lost.

@@ -136,8 +136,9 @@ enum class CandidateState {
   kDetectable,  // a design's a-priori answer (effect_detectability): it would raise the rank by its
                 // number
   kSetUp,  // a set-up effect whose tolerance the design declares: carried as identify carries it
-           // (fitted with the errors where the readings tell it apart, else in the uncertainty),
-           // not a finding
+  kImplausible,  // significant, but at a size no machine or bar can have: not a finding
+                 // (fitted with the errors where the readings tell it apart, else in the
+                 // uncertainty), not a finding
 };
 
 // "added", "not significant", "confounded", "not applicable", "equivalent", "detectable",
@@ -172,6 +173,8 @@ enum class CandidateReason {
                       // them
   kSetUpCarried,      // a declared set-up effect the readings cannot tell from the errors: its
                       // tolerance carried in their uncertainties
+  kBeyondInstrument,  // fitted, it alone would move the bar by `implied_um`, beyond the
+                      // instrument's range `level` (um; a drift over the whole test): left out
 };
 
 // The best candidate of a step, which did not pass: the threshold its p had to beat and its
@@ -192,6 +195,7 @@ struct CandidateStatus {
   int step = 0, columns = 0, added_rank = 0, scanned = 0;
   bool with_added = false;
   double F = 0, p = 0, p_scan = 0, threshold = 0, bic_change = 0, level = 0;
+  double implied_um = 0;  // kBeyondInstrument
   std::optional<StepMiss> missed;
 };
 

@@ -430,6 +430,11 @@ std::string candidate_detail(const CandidateStatus& c) {
           std::to_string(c.columns) + ": indistinguishable from the axis errors of the " + c.note +
           " model";
       break;
+    case CandidateReason::kBeyondInstrument:
+      t = "significant, but fitted it alone would move the bar by " + f(c.implied_um) + " um" +
+          (c.other.empty() ? "" : " (" + c.other + ")") + ", beyond the instrument's range of +-" +
+          f(c.level) + " um (a drift over the whole test): no machine or bar has it, not a finding";
+      break;
     case CandidateReason::kSetUpFitted:
     case CandidateReason::kSetUpCarried:
       t = "its tolerance is declared (" + c.note + " um)" +
