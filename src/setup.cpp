@@ -17,6 +17,7 @@
 
 #include "cost_counters.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/setup_sheet.hpp"
 #include "function_rows.hpp"
 #include "tolerances.hpp"
 
@@ -554,9 +555,10 @@ std::vector<double> design_row_times(const Design& design, const TestClock& cloc
   std::sort(sorted.begin(), sorted.end());
   const int per_sweep = design.readings_per_sweep();
   const double installation_s = per_sweep * clock.per_reading_s + clock.per_installation_s;
+  const std::vector<int> rank = run_rank(design);  // the program's order
   std::vector<double> out;
   for (std::size_t k = 0; k < design.installations.size(); ++k) {
-    const double start = static_cast<double>(k) * installation_s;
+    const double start = static_cast<double>(rank[k]) * installation_s;
     for (const double a : design.angles_deg) {  // design_model's order, read in sweep order
       const auto at = std::lower_bound(sorted.begin(), sorted.end(), a) - sorted.begin();
       out.push_back(start + static_cast<double>(at) * clock.per_reading_s);

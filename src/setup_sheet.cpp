@@ -248,6 +248,14 @@ SetupOrder setup_order(const Design& design, std::optional<int> stack_coordinate
   return out;
 }
 
+std::vector<int> run_rank(const Design& design) {
+  std::vector<int> rank(design.installations.size(), 0);
+  const SetupOrder order = setup_order(design);
+  for (std::size_t k = 0; k < order.steps.size(); ++k)
+    rank[static_cast<std::size_t>(order.steps[k].installation)] = static_cast<int>(k);
+  return rank;
+}
+
 RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
   if (!(std::isfinite(r) && r >= 1e-3 && r <= 10))
     throw InputError(option_name("--resolution-mm"), "",

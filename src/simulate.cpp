@@ -12,6 +12,7 @@
 #include "dbbkit/limits.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/program.hpp"
+#include "dbbkit/setup_sheet.hpp"
 #include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
 
@@ -323,7 +324,21 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
   double t = 0;
   const std::vector<Sweep> sweeps =
       truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::kCCW};
-  for (const Installation& inst : design.installations) {
+  // The readings are written in design order; the clock runs the installations in the order a
+  // program runs them (run_rank), each as long as the others.
+  const std::vector<int> rank = run_rank(design);
+  double installation_s = 0;
+  if (truth.schedule) {
+    const std::size_t per_sweep =
+        design.angles_deg.size() * static_cast<std::size_t>(truth.repeats) +
+        (design.return_reading && design.angles_deg.size() > 1 ? 1 : 0);
+    installation_s =
+        static_cast<double>(per_sweep * sweeps.size()) * truth.schedule->per_reading_s +
+        truth.schedule->per_installation_s;
+  }
+  for (std::size_t i = 0; i < design.installations.size(); ++i) {
+    const Installation& inst = design.installations[i];
+    t = static_cast<double>(rank[i]) * installation_s;
     // A sweep direction run again (ccw, cw, ccw) continues its repeats' numbering, so that no two
     // readings of one installation, angle and sweep share a repeat number.
     int ccw_runs = 0, cw_runs = 0;
@@ -359,7 +374,6 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
         out.push_back(reading);
       }
     }
-    if (truth.schedule) t += truth.schedule->per_installation_s;
   }
   const std::vector<double> t0 = installation_start_times(design, out);
   const double t_test = test_start_time(out);

@@ -16,6 +16,7 @@
 #include "dbbkit/observability.hpp"
 #include "dbbkit/optimize.hpp"
 #include "dbbkit/program.hpp"
+#include "dbbkit/setup_sheet.hpp"
 #include "dbbkit/simulate.hpp"
 #include "dbbkit/trace.hpp"
 #include "test_util.hpp"
@@ -124,6 +125,18 @@ TEST(ReturnReading, ProgramAndSimulateTakeItAtTheEndOfEachSweep) {
 // Evaluate's bias per um of a drift (or warm-up) over the test is what identify does with
 // readings carrying exactly that: exact two-ball geometry, no axis error, no noise, the drift on
 // simulate's own clock (3 s a reading, 240 s between installations, one ccw sweep).
+// No axis errors, no noise, the exact geometry, evaluate's nominal clock (3 s a reading, 240 s
+// between installations, one increasing sweep): what a drift added to it does alone.
+Truth drift_only_truth(const Design& d) {
+  Truth t;
+  t.model = d.errors;
+  t.errors_given = false;
+  t.noiseless = true;
+  t.exact = true;
+  t.schedule = Schedule{3, 240, {Sweep::kCCW}};
+  return t;
+}
+
 TEST(DriftCheck, TheStatedBiasIsWhatIdentifyMoves) {
   for (const bool ret : {false, true}) {
     Design d = b_head(ret);
@@ -139,12 +152,7 @@ TEST(DriftCheck, TheStatedBiasIsWhatIdentifyMoves) {
     EXPECT_NEAR(T_min * 60, d.installations.size() * per_inst - 240 - 3, 1e-9);
     for (const DriftCheck& c : ev.drift.effects) {
       ASSERT_TRUE(c.bias_per_um) << c.label;
-      Truth t;
-      t.model = d.errors;
-      t.errors_given = false;
-      t.noiseless = true;
-      t.exact = true;
-      t.schedule = Schedule{3, 240, {Sweep::kCCW}};
+      Truth t = drift_only_truth(d);
       TruthEffect e;
       e.effect.kind = c.kind;
       e.effect.tau_min = c.tau_min;
@@ -169,6 +177,46 @@ TEST(DriftCheck, TheStatedBiasIsWhatIdentifyMoves) {
       EXPECT_NEAR(largest, *c.bias_um_per_um, 0.01 * *c.bias_um_per_um) << c.label;
     }
   }
+}
+
+// The test's clock runs the installations in the order the program runs them, not the design's:
+// on a design whose set-up sheet reorders them, simulate's first reading is the program's first
+// installation's, and the bias evaluate states for a drift over the test is what identify moves.
+TEST(DriftCheck, TheClockFollowsTheProgramsOrder) {
+  const Design d =
+      io::read_design_file(test::source_path("designs/c-turntable-kit-setup-optimized.json"));
+  const SetupOrder order = setup_order(d);
+  ASSERT_NE(order.steps.front().installation, 0) << "a design the program reorders";
+  const std::string first = d.installations[order.steps.front().installation].id,
+                    last = d.installations[order.steps.back().installation].id;
+  const Evaluation ev = evaluate_design(d, 100);
+  const DriftCheck* drift = nullptr;
+  for (const DriftCheck& c : ev.drift.effects)
+    if (c.kind == EffectKind::kDrift) drift = &c;
+  ASSERT_TRUE(drift && drift->bias_um_per_um);
+  Truth t = drift_only_truth(d);
+  TruthEffect e;
+  e.effect.kind = EffectKind::kDrift;
+  e.value = Eigen::VectorXd::Constant(1, 1.0 / ev.drift.test_min);
+  t.effects.push_back(e);
+  const std::vector<Reading> rd = simulate(d, t, 1);
+  double t_end = 0;
+  std::string at_end;
+  for (const Reading& r : rd) {
+    if (*r.time_s == 0) EXPECT_EQ(r.installation, first);
+    if (*r.time_s >= t_end) t_end = *r.time_s, at_end = r.installation;
+  }
+  EXPECT_EQ(at_end, last);
+  EXPECT_NEAR(t_end / 60, ev.drift.test_min, 1e-9);
+  const IdentifyResult id = identify(d, rd);
+  double largest = 0;
+  for (const auto& ea : id.errors) {
+    for (int k = 0; k < 6; ++k) {
+      if (ea.errors[k].determined)
+        largest = std::max(largest, std::abs(ea.errors[k].value) * (k >= 3 ? 0.1 : 1.0));
+    }
+  }
+  EXPECT_NEAR(largest, *drift->bias_um_per_um, 0.01 * *drift->bias_um_per_um);
 }
 
 // A design with a return reading says what it detects; one without says what the return reading

@@ -251,9 +251,9 @@ std::vector<SetupEffectCheck> check_setup_effects(const Parameterisation& param,
                                                   double reference_length_mm);
 
 // A drift or warm-up over the whole test, seen from a design before it is measured: the test's
-// clock (design_row_times) puts the installations in design order, one sweep each as the design
-// reads it (sweep_readings: increasing angle, then the return reading), per_reading_s apart,
-// per_installation_s between installations (simulate's schedule, the kit's time_s).
+// clock (design_row_times) puts the installations in the program's order (run_rank), one sweep each
+// as the design reads it (sweep_readings: increasing angle, then the return reading), per_reading_s
+// apart, per_installation_s between installations (simulate's schedule, the kit's time_s).
 struct TestClock {
   double per_reading_s = 3;
   double per_installation_s = 240;

@@ -45,6 +45,10 @@ inline constexpr int kMaxExactPositions = 14;
 // without them in the design, the ball coordinate the stack sets is: stack_coordinate, see
 // ProgramOptions); two bars when their lengths and parts are.
 SetupOrder setup_order(const Design& design, std::optional<int> stack_coordinate = std::nullopt);
+// The order a program of the design (written without a kit) runs its installations in: per
+// installation (design index), its place in that order, 0 first. The test's clock follows it
+// (design_row_times, simulate's schedule).
+std::vector<int> run_rank(const Design& design);
 
 // The design with L, D (and H without a block stack given) rounded to multiples of
 // resolution_mm, and what that changed.

@@ -27,7 +27,8 @@ struct TruthEffect {
 };
 
 // When readings are taken: installations one after another, each swept through
-// the design's angles once per entry of `sweeps` (ccw in design order, cw reversed).
+// the design's angles once per entry of `sweeps` (ccw in design order, cw reversed); written in
+// design order, the installations timed in the order a program runs them (run_rank).
 struct Schedule {
   double per_reading_s = 3;
   double per_installation_s = 240;

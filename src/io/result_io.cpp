@@ -976,7 +976,7 @@ std::string drift_checks_text(const Evaluation& ev) {
   std::ostringstream s;
   const TestClock& k = ev.drift.clock;
   s << "\ndrift and warm-up over the whole test (undetected, per um the bar reads more from the "
-       "first reading to the last; the test's clock: installations in design order, one "
+       "first reading to the last; the test's clock: installations in the program's order, one "
        "increasing sweep each, "
     << k.per_reading_s << " s a reading, " << k.per_installation_s
     << " s between installations: " << std::setprecision(3) << ev.drift.test_min << " min):\n";
@@ -1016,12 +1016,14 @@ nlohmann::json drift_checks_to_json(const DriftChecks& d, double reference_lengt
                   " per um over the test", reference_length_mm);
     list.push_back(e);
   }
-  return {{"clock",
-           {{"per_reading_s", d.clock.per_reading_s},
-            {"per_installation_s", d.clock.per_installation_s},
-            {"order", "installations in design order, one increasing sweep each"}}},
-          {"test_min", r6(d.test_min)},
-          {"effects", list}};
+  return {
+      {"clock",
+       {{"per_reading_s", d.clock.per_reading_s},
+        {"per_installation_s", d.clock.per_installation_s},
+        {"order",
+         "installations in the program's order (its set-up order), one increasing sweep each"}}},
+      {"test_min", r6(d.test_min)},
+      {"effects", list}};
 }
 
 json evaluate_to_json(const Design& design, const Evaluation& ev, const std::string& design_file,
