@@ -153,6 +153,23 @@ TableCarriage table_carriage(const Kit& kit) {
                                                                     : TableCarriage::kAcrossAxis;
 }
 
+std::string reference_length_basis_text(const Kit& kit) {
+  switch (kit.reference_length_basis) {
+    case Kit::ReferenceLengthBasis::kTableRadius:
+      return "the table's radius (workspace.table.diameter_mm / 2), the kit stating no "
+             "reference_length_mm";
+    case Kit::ReferenceLengthBasis::kTableCorner:
+      return "the table's farthest corner from its centre (workspace.table), the kit stating no "
+             "reference_length_mm";
+    case Kit::ReferenceLengthBasis::kToolReach:
+      return "the farthest ball position along the tool (L_mm.max), the kit stating no "
+             "reference_length_mm";
+    case Kit::ReferenceLengthBasis::kStated:
+      break;
+  }
+  return "the kit's reference_length_mm";
+}
+
 int height_coordinate(const Kit& kit) {
   if (kit.axis.head()) return -1;
   return table_carriage(kit) == TableCarriage::kAlongAxis ? 2 : 0;

@@ -188,7 +188,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"kit_b_with_h.json", kOptimize, "H_mm", "carries the head"},
         BadCase{"kit_b_offset_excludes_zero.json", kOptimize, "D_mm", "must include 0"},
         BadCase{"kit_missing_reference_length.json", kOptimize, "reference_length_mm",
-                "required key is missing"},
+                "absent, the table's radius: give workspace.table"},
         BadCase{"kit_range_over_a_turn.json", kOptimize, "angles_deg.range", "more than one turn"},
         BadCase{"kit_syntax_error.json", kOptimize, "line 5", "not valid JSON"},
         // Absurd values (README, "Limits"): refused where read, never a silent loss of rank or an

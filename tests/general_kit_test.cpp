@@ -11,8 +11,10 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <fstream>
 #include <functional>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
 
@@ -296,6 +298,60 @@ TEST(GeneralKit, TheCommittedKitsOfNewKindsFindFullRankDesigns) {
     EXPECT_EQ(r.best_evaluation.prior.rank, r.best_evaluation.prior.n_unknowns) << f;
     std::cout << f << ": worst_total " << r.best->objective << " um\n";
   }
+}
+
+nlohmann::json kit_json(const std::string& relative) {
+  std::ifstream in(test::source_path(relative));
+  return nlohmann::json::parse(in);
+}
+
+// A kit that states no reference length weighs a tilt where the machine cuts: the table's edge
+// on a table axis, the farthest ball along the tool on a head; nothing to default from is refused.
+TEST(GeneralKit, AKitWithoutAReferenceLengthWeighsTiltsWhereTheMachineCuts) {
+  const Kit trunnion = io::read_kit_file(test::source_path("designs/kits/a-trunnion-kit.json"));
+  EXPECT_EQ(trunnion.reference_length_basis, Kit::ReferenceLengthBasis::kTableRadius);
+  EXPECT_DOUBLE_EQ(trunnion.reference_length_mm, 200.0);  // its 400 mm table
+  EXPECT_NE(reference_length_basis_text(trunnion).find("table's radius"), std::string::npos);
+
+  nlohmann::json head = kit_json("designs/kits/a-head-kit.json");
+  head.erase("reference_length_mm");
+  const Kit h = io::kit_from_json(head, "head.json");
+  EXPECT_EQ(h.reference_length_basis, Kit::ReferenceLengthBasis::kToolReach);
+  EXPECT_DOUBLE_EQ(h.reference_length_mm, h.L_mm.max);
+
+  nlohmann::json bare = kit_json("designs/kits/c-turntable-kit.json");
+  bare.erase("reference_length_mm");
+  ASSERT_FALSE(bare.contains("workspace"));
+  try {
+    io::kit_from_json(bare, "c.json");
+    ADD_FAILURE() << "a C table kit with neither a reference length nor a table was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), "reference_length_mm") << e.what();
+    EXPECT_NE(std::string(e.what()).find("workspace.table"), std::string::npos) << e.what();
+  }
+}
+
+// Weighed at 100 mm, the trunnion's search put its balls 20 and 45 mm from the axis and left
+// the tilts at 45 urad (9 um at the table's 200 mm edge, beyond the 5.2 um it reported); weighed
+// at the table's radius it determines them there: its worst at the edge is well below the
+// 100 mm design's, and no error at the edge exceeds the worst it reports.
+TEST(GeneralKit, TheTrunnionDesignSeesItsTiltsAtTheTablesEdge) {
+  const Kit edge = io::read_kit_file(test::source_path("designs/kits/a-trunnion-kit.json"));
+  Kit hundred = edge;
+  hundred.reference_length_mm = 100;
+  OptimizeOptions o;
+  o.criterion = Criterion::kWorstTotal;
+  o.threads = 2;
+  const OptimizeResult at_edge = optimize_kit(edge, o), at_100 = optimize_kit(hundred, o);
+  ASSERT_TRUE(at_edge.best && at_100.best);
+  const TotalWorstCase mine = design_worst_total(at_edge.best->design, 200.0),
+                       theirs = design_worst_total(at_100.best->design, 200.0);
+  ASSERT_TRUE(mine.total.worst_std_um && theirs.total.worst_std_um);
+  EXPECT_GE(theirs.total.at_error, 3) << "the 100 mm design's worst at the edge is a tilt";
+  EXPECT_LT(*mine.total.worst_std_um, 0.7 * *theirs.total.worst_std_um);
+  EXPECT_NEAR(*mine.total.worst_std_um, at_edge.best->objective, 1e-6);
+  std::cout << "worst total at the 200 mm edge: " << *mine.total.worst_std_um
+            << " um (weighed there), " << *theirs.total.worst_std_um << " um (weighed at 100 mm)\n";
 }
 
 TEST(GeneralKit, AKitSaysWhatItsTableLacks) {

@@ -112,7 +112,13 @@ struct Kit {
   Pattern pattern;
   NoiseModel noise;
   ErrorModel errors;
+  // The lever arm that weighs an angular error in um (the search's criterion and every worst
+  // case): where the machine cuts. Stated (`reference_length_mm`) or, absent, the table's
+  // radius (its workspace's table; a rectangle: its farthest corner) on a table axis, the
+  // farthest ball position from the pivot along the tool (L_mm.max) on a head.
   double reference_length_mm = 0;
+  enum class ReferenceLengthBasis { kStated, kTableRadius, kTableCorner, kToolReach };
+  ReferenceLengthBasis reference_length_basis = ReferenceLengthBasis::kStated;
   // Set-up tolerances of every installation of the designs (design.hpp); with a length
   // offset or centring declared, the default criterion is worst_total_std_um.
   SetupUncertainty setup_std;
@@ -156,6 +162,10 @@ struct Kit {
   std::optional<double> time_budget_s;  // absent: no limit
   std::optional<Workspace> workspace;   // absent: not checked (only the travel is)
 };
+
+// Where the kit's reference length comes from, as a phrase ("the kit's reference_length_mm",
+// "the table's radius (workspace.table.diameter_mm / 2)", ...).
+std::string reference_length_basis_text(const Kit& kit);
 
 // How the kit's table carries a ball (kAlongAxis on a head, where no table turns).
 TableCarriage table_carriage(const Kit& kit);

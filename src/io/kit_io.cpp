@@ -174,7 +174,7 @@ Kit kit_from_json(const json& j, const std::string& source) {
     k.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
   if (const json* e = top.optional("errors"))
     k.errors = read_error_model(ObjectReader(*e, source, "errors"));
-  k.reference_length_mm = top.number("reference_length_mm");
+  const std::optional<double> reference_length_mm = top.optional_number("reference_length_mm");
   if (const json* u = top.optional("setup_std")) {
     k.setup_std = read_setup_override(ObjectReader(*u, source, "setup_std")).over({});
     validate_setup_uncertainty(k.setup_std, k.axis, source, "setup_std");
@@ -306,6 +306,29 @@ Kit kit_from_json(const json& j, const std::string& source) {
     if (const auto c = w.optional_number("clearance_mm")) ws.clearance_mm = *c;
     w.finish();
     k.workspace = ws;
+  }
+  if (reference_length_mm) {
+    k.reference_length_mm = *reference_length_mm;
+  } else if (k.axis.table() && k.workspace && k.workspace->table_diameter_mm) {
+    k.reference_length_mm = 0.5 * *k.workspace->table_diameter_mm;
+    k.reference_length_basis = Kit::ReferenceLengthBasis::kTableRadius;
+  } else if (k.axis.table() && k.workspace && k.workspace->table_x_mm) {
+    const Interval& x = *k.workspace->table_x_mm;
+    const Interval& y = *k.workspace->table_y_mm;
+    k.reference_length_mm = std::hypot(std::max(std::abs(x.min), std::abs(x.max)),
+                                       std::max(std::abs(y.min), std::abs(y.max)));
+    k.reference_length_basis = Kit::ReferenceLengthBasis::kTableCorner;
+  } else if (!k.axis.table() && k.L_mm.max > 0) {
+    k.reference_length_mm = k.L_mm.max;
+    k.reference_length_basis = Kit::ReferenceLengthBasis::kToolReach;
+  } else {
+    top.fail("reference_length_mm",
+             k.axis.table()
+                 ? "is needed: the lever arm that weighs an angular error in um, where the "
+                   "machine cuts (absent, the table's radius: give workspace.table)"
+                 : "is needed: the lever arm that weighs an angular error in um, where the "
+                   "machine cuts (absent, the farthest ball position along the tool, L_mm.max, "
+                   "which is 0 here)");
   }
   top.finish();
   validate_kit(k, source);

@@ -224,6 +224,7 @@ json optimize_to_json(const Kit& kit, const OptimizeResult& res, const std::stri
   j["pattern"] = kit.pattern.name;
   j["criterion"] = criterion_name(res.criterion);
   j["reference_length_mm"] = kit.reference_length_mm;
+  j["reference_length_from"] = reference_length_basis_text(kit);
   j["noise"] = noise_to_json(kit.noise);
   j["evaluations"] = res.evaluations;
   j["seconds"] = seconds;
@@ -334,6 +335,11 @@ std::vector<BriefItem> optimize_brief(const Kit& kit, const OptimizeResult& res,
   } else if (!noise.empty()) {
     add("worst", lead + noise + ", from the reading noise alone" + undetermined + ".");
   }
+  // Where the kit states no lever arm, the summary says which it took (the text and the JSON
+  // always do).
+  if (kit.reference_length_basis != Kit::ReferenceLengthBasis::kStated)
+    add("lever", "Angular errors weighed at " + fmt_num(kit.reference_length_mm, 6) +
+                     " mm: " + reference_length_basis_text(kit) + ".");
   if (ev.worst_total_typical) {
     add("setup",
         "The kit declares no length offset or centring tolerance: with typical ones "
@@ -390,10 +396,12 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   if (kit.axis.has_H()) s << std::setw(10) << "H [mm]";
   s << std::setw(13) << "direction" << std::setw(10) << "bar [mm]" << std::setw(6) << "sign"
     << "\n";
+  // A coordinate that rounds to zero is written 0.00, not -0.00.
+  auto mm = [](double x) { return std::abs(x) < 0.005 ? 0.0 : x; };
   for (const Installation& in : b.design.installations) {
-    s << std::setw(4) << in.id << std::fixed << std::setprecision(2) << std::setw(10) << in.L_mm
-      << std::setw(10) << in.D_mm;
-    if (kit.axis.has_H()) s << std::setw(10) << in.H_mm;
+    s << std::setw(4) << in.id << std::fixed << std::setprecision(2) << std::setw(10) << mm(in.L_mm)
+      << std::setw(10) << mm(in.D_mm);
+    if (kit.axis.has_H()) s << std::setw(10) << mm(in.H_mm);
     s << std::setw(13) << in.direction.label() << std::setw(10) << *in.bar_mm << std::setw(6)
       << in.sign << "\n";
     s.unsetf(std::ios::fixed);
@@ -409,7 +417,8 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   s << "\n";
   if (ev.worst.worst_std_um) {
     s << "worst_std_um (k = 1) " << fmt_num(*ev.worst.worst_std_um) << " um" << where(ev.worst)
-      << ", angular errors at " << fmt_num(kit.reference_length_mm) << " mm\n";
+      << ", angular errors at " << fmt_num(kit.reference_length_mm)
+      << " mm: " << reference_length_basis_text(kit) << "\n";
   } else if (ev.worst.worst_determined_std_um) {
     s << "worst_std_um: none (" << ev.worst.n_undetermined
       << " errors at angles not determined); worst determined "
