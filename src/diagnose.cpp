@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <boost/math/distributions/chi_squared.hpp>
 #include <cmath>
+#include <limits>
 
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
@@ -144,9 +145,11 @@ std::optional<ResidualFeature> most_significant(const std::vector<ResidualFeatur
 }
 
 // `solver`: the axis errors' model alone (diagnose's first step).
+// `range_um`, `test_min`: the instrument's range and the test's length (effect_reach_um).
 std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
                                              const std::vector<EffectBlock>& pool, int n_tests,
-                                             const DiagnoseOptions& options) {
+                                             const DiagnoseOptions& options, double range_um,
+                                             double test_min) {
   std::vector<DetectionLimit> out;
   const Estimate& prior = solver.a_priori();
   DetectionSettings settings;
@@ -165,7 +168,20 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
     const double info =
         Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(R.transpose() * R).eigenvalues()(0);
     const int dof = static_cast<int>(solver.J().rows()) - prior.rank - q;
-    out.push_back({b.label, b.unit, detection_limit_um(q, true, info, dof, settings)});
+    DetectionLimit d{b.label, b.unit, detection_limit_um(q, true, info, dof, settings), {}};
+    if (d.limit) {
+      // The smallest reach of an effect of this size: along the direction its limit is set in,
+      // bounded below by one column's (exact for one column).
+      Eigen::VectorXd v = Eigen::VectorXd::Zero(b.J_reading_effect.cols());
+      double reach = std::numeric_limits<double>::infinity();
+      for (Eigen::Index c = 0; c < v.size(); ++c) {
+        v.setZero();
+        v(c) = *d.limit;
+        reach = std::min(reach, effect_reach_um(b.effect.kind, b.J_reading_effect, v, test_min));
+      }
+      if (reach > range_um) d.beyond_instrument_um = reach;
+    }
+    out.push_back(d);
   }
   return out;
 }
@@ -570,7 +586,9 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
       tested += c.state != CandidateState::kConfounded &&
                 c.state != CandidateState::kNotApplicable && c.state != CandidateState::kSetUp;
     }
-    res.detection_limits = detection_limits(first(), pool, tested + 1, options);
+    res.detection_limits =
+        detection_limits(first(), pool, tested + 1, options, 1e3 * design.instrument_range_mm,
+                         test_minutes(readings));
   }
 
   if (res.after.dof > 0) res.p_lower_after = chi2_lower_tail(res.after.dof, res.after.chi2);

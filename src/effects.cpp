@@ -275,6 +275,21 @@ double test_start_time(const std::vector<Reading>& readings) {
   return t0;
 }
 
+double test_minutes(const std::vector<Reading>& readings) {
+  double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;
+  for (const Reading& r : readings) {
+    if (r.time_s) t0 = std::min(t0, *r.time_s), t1 = std::max(t1, *r.time_s);
+  }
+  return t1 > t0 ? (t1 - t0) / 60.0 : 0.0;
+}
+
+double effect_reach_um(EffectKind kind, const Eigen::MatrixXd& J_reading_effect,
+                       const Eigen::VectorXd& value, double test_min) {
+  if (kind == EffectKind::kDrift) return std::abs(value(0)) * test_min;
+  if (J_reading_effect.rows() == 0) return 0.0;
+  return (J_reading_effect * value).cwiseAbs().maxCoeff();
+}
+
 Eigen::Vector3d centring_row(const AxisFrame& axis, const Installation& in, double angle_deg) {
   return -in.sign * direction_machine(axis, in, angle_deg);
 }

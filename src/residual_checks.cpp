@@ -327,11 +327,7 @@ std::vector<ResidualFeature> residual_features(const Design& design,
 void mark_beyond_instrument(const Design& design, const std::vector<Reading>& readings,
                             std::vector<ResidualFeature>& features) {
   const double range_um = 1e3 * design.instrument_range_mm;
-  double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;
-  for (const Reading& r : readings) {
-    if (r.time_s) t0 = std::min(t0, *r.time_s), t1 = std::max(t1, *r.time_s);
-  }
-  const double test_min = t1 > t0 ? (t1 - t0) / 60.0 : 0.0;
+  const double test_min = test_minutes(readings);
   for (ResidualFeature& f : features) {
     // What the feature alone would move the bar by: a drift over the whole test (a machine's or
     // a bar's drift does not stop at an installation's end), any other its size.

@@ -72,13 +72,7 @@ class Selector {
         family_used_(families.size(), false),
         family_status_(families.size()) {
     if (design_) range_um_ = 1e3 * design_->instrument_range_mm;
-    if (readings_) {
-      double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;
-      for (const Reading& r : *readings_) {
-        if (r.time_s) t0 = std::min(t0, *r.time_s), t1 = std::max(t1, *r.time_s);
-      }
-      test_min_ = t1 > t0 ? (t1 - t0) / 60.0 : 0.0;
-    }
+    if (readings_) test_min_ = test_minutes(*readings_);
   }
 
   Selection run() {
@@ -142,8 +136,7 @@ class Selector {
       unit(fit.n_unknowns - q + j) = 1.0;
       value(j) = fit.evaluate(unit).value;
     }
-    if (block.effect.kind == EffectKind::kDrift) return std::abs(value(0)) * test_min_;
-    return (block.J_reading_effect * value).cwiseAbs().maxCoeff();
+    return effect_reach_um(block.effect.kind, block.J_reading_effect, value, test_min_);
   }
   bool beyond_instrument(double size_um) const { return range_um_ > 0 && !(size_um <= range_um_); }
   CandidateStatus implausible(const std::string& label, double size_um) const {

@@ -7,6 +7,8 @@
 #include <random>
 #include <sstream>
 
+#include "dbbkit/identify.hpp"
+#include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/reports.hpp"
@@ -253,6 +255,49 @@ TEST(Diagnose, ADriftNoInstrumentCouldReadIsNoFinding) {
   }
   EXPECT_EQ(found, seeds);
   EXPECT_EQ(named, seeds);
+}
+
+// An A trunnion with its set-up tolerances declared, a 4 um warm-up and a 6/7 um centring on 3t
+// (the exact geometry): diagnose adds nothing no machine could have, its errors are identify's
+// (the declared set-up carried as identify carries it), and where the design cannot see a drift
+// at any size the instrument reads it says so instead of stating an absurd limit as findable.
+TEST(Diagnose, ATrunnionWithAWarmUpNamesNothingAbsurdAndAgreesWithIdentify) {
+  const Design d =
+      io::read_design_file(test::source_path("tests/data/a_trunnion_kit_optimized.json"));
+  const Truth t =
+      io::read_truth_file(test::source_path("tests/data/truth_a_trunnion_warm_up.json"));
+  int blind = 0;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    const std::vector<Reading> rd = simulate(d, t, seed);
+    const DiagnoseResult r = diagnose(d, rd);
+    const IdentifyResult id = identify(d, rd);
+    for (const AddedEffect& a : r.added) {
+      for (const CandidateStatus& c : r.candidates)
+        EXPECT_FALSE(c.label == a.block.label && c.state == CandidateState::kImplausible);
+    }
+    if (r.added.empty()) {
+      ASSERT_EQ(r.errors_after.size(), id.errors.size());
+      for (std::size_t s = 0; s < id.errors.size(); ++s) {
+        for (int k = 0; k < 6; ++k) {
+          EXPECT_NEAR(r.errors_after[s].errors[k].value, id.errors[s].errors[k].value, 1e-6);
+          EXPECT_NEAR(r.errors_after[s].errors[k].std, id.errors[s].errors[k].std, 1e-6);
+        }
+      }
+    }
+    bool drift_unseen = false;
+    for (const DetectionLimit& l : r.detection_limits)
+      drift_unseen = drift_unseen || (l.label.rfind("drift", 0) == 0 && l.beyond_instrument_um);
+    if (drift_unseen) {
+      bool said = false;
+      for (const io::BriefItem& b : io::diagnose_brief(d, r))
+        said = said || b.text.find("cannot see drift") != std::string::npos;
+      blind += said;
+      for (const io::BriefItem& b : io::diagnose_brief(d, r))
+        EXPECT_TRUE(b.topic != "evidence" || b.text.find("drift of") == std::string::npos)
+            << b.text;
+    }
+  }
+  EXPECT_GE(blind, 1) << "the design reads too little to see a drift: said at least once";
 }
 
 TEST(Diagnose, NearlyCollinearCandidatesAreReported) {

@@ -39,6 +39,10 @@ struct DetectionLimit {
   std::string label;
   std::string unit;
   std::optional<double> limit;  // absent without degrees of freedom
+  // The limit's own reach (effect_reach_um: a drift over the whole test) where it lies beyond the
+  // instrument's range: no machine or bar has an effect that large, so this design cannot see
+  // the effect at all.
+  std::optional<double> beyond_instrument_um;
 };
 
 struct ResidualSignature {

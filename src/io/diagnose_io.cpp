@@ -333,9 +333,12 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
   }
   json limits = json::array();
   for (const DetectionLimit& d : r.detection_limits) {
-    limits.push_back({{"effect", d.label},
-                      {"unit", d.unit},
-                      {"size_found_with_power_0_9", d.limit ? json(r6(*d.limit)) : json(nullptr)}});
+    limits.push_back(
+        {{"effect", d.label},
+         {"unit", d.unit},
+         {"size_found_with_power_0_9", d.limit ? json(r6(*d.limit)) : json(nullptr)},
+         {"beyond_instrument_range_um",
+          d.beyond_instrument_um ? json(r6(*d.beyond_instrument_um)) : json(nullptr)}});
   }
   checks["detection_limits"] = limits;
   j["residual_checks"] = checks;

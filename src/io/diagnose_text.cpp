@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -13,6 +14,33 @@
 namespace dbbkit::io {
 
 namespace {
+
+// The kinds of effect ("drift", ...) whose every detection limit lies beyond the instrument's
+// range, e.g. "drift (1.3e+04 um over the test)": the design cannot see them at all.
+std::vector<std::string> beyond_instrument_kinds(const std::vector<DetectionLimit>& limits) {
+  std::vector<std::string> kinds, out;
+  for (const DetectionLimit& d : limits) {
+    const std::string k = d.label.substr(0, d.label.find('['));
+    if (d.limit && std::find(kinds.begin(), kinds.end(), k) == kinds.end()) kinds.push_back(k);
+  }
+  for (const std::string& k : kinds) {
+    double least = std::numeric_limits<double>::infinity();
+    bool all = true;
+    for (const DetectionLimit& d : limits) {
+      if (!d.limit || d.label.substr(0, d.label.find('[')) != k) continue;
+      all = all && d.beyond_instrument_um;
+      if (d.beyond_instrument_um) least = std::min(least, *d.beyond_instrument_um);
+    }
+    if (all) out.push_back(k + " (" + fmt_num(least, 2) + " um on the bar at the least)");
+  }
+  return out;
+}
+
+std::string comma_listed(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& i : items) out += (out.empty() ? "" : ", ") + i;
+  return out;
+}
 
 // The most significant feature (smallest p) in words, or empty.
 
@@ -349,12 +377,14 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
       const std::string k = d.label.substr(0, d.label.find('['));
       if (std::find(kinds.begin(), kinds.end(), k) == kinds.end()) kinds.push_back(k);
     }
+    const std::vector<std::string> unseen = beyond_instrument_kinds(res.detection_limits);
     bool first = true;
     for (const std::string& k : kinds) {
       double lo = 1e300, hi = 0;
       std::string lo_label, unit;
       for (const DetectionLimit& d : res.detection_limits) {
-        if (d.label.substr(0, d.label.find('[')) != k || !d.limit) continue;
+        if (d.label.substr(0, d.label.find('[')) != k || !d.limit || d.beyond_instrument_um)
+          continue;
         if (*d.limit < lo) lo = *d.limit, lo_label = d.label;
         hi = std::max(hi, *d.limit), unit = d.unit;
       }
@@ -366,6 +396,10 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
       first = false;
     }
     v << " (every candidate in the JSON).";
+    if (!unseen.empty())
+      v << " This design cannot see " << comma_listed(unseen)
+        << ": the least it would find lies beyond what the instrument can read over this test "
+           "(beyond_instrument_range_um in the JSON).";
   }
   return v.str();
 }
@@ -670,10 +704,13 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
     std::vector<std::string> kinds;
     for (const DetectionLimit& d : r.detection_limits) {
       const std::string k = d.label.substr(0, d.label.find('['));
-      if (!d.limit || std::find(kinds.begin(), kinds.end(), k) != kinds.end()) continue;
+      if (!d.limit || d.beyond_instrument_um ||
+          std::find(kinds.begin(), kinds.end(), k) != kinds.end())
+        continue;
       double lo = *d.limit;
       for (const DetectionLimit& o : r.detection_limits)
-        if (o.limit && o.label.substr(0, o.label.find('[')) == k) lo = std::min(lo, *o.limit);
+        if (o.limit && !o.beyond_instrument_um && o.label.substr(0, o.label.find('[')) == k)
+          lo = std::min(lo, *o.limit);
       kinds.push_back(k);
       limits.push_back(k + " of " + fmt_num(lo, 2) + " " + d.unit);
     }
@@ -682,6 +719,11 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
           "Where this design can see them, these would have been found (power 0.9 at the "
           "declared noise): " +
               listed(limits, 100) + " or more (each candidate in the JSON).");
+    if (const std::vector<std::string> unseen = beyond_instrument_kinds(r.detection_limits);
+        !unseen.empty())
+      add("blind", "This design cannot see " + comma_listed(unseen) +
+                       ": beyond what the instrument reads over this test; evaluate states what "
+                       "an undetected one moves.");
   } else {
     add("residual", "No effect of the library explains the residual (" + chi_short(r.before) +
                         "); the errors' uncertainties do not hold as stated.");
