@@ -145,11 +145,10 @@ std::optional<ResidualFeature> most_significant(const std::vector<ResidualFeatur
 }
 
 // `solver`: the axis errors' model alone (diagnose's first step).
-// `range_um`, `test_min`: the instrument's range and the test's length (effect_reach_um).
+// `range_um`: the instrument's range (effect_reach_um).
 std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
                                              const std::vector<EffectBlock>& pool, int n_tests,
-                                             const DiagnoseOptions& options, double range_um,
-                                             double test_min) {
+                                             const DiagnoseOptions& options, double range_um) {
   std::vector<DetectionLimit> out;
   const Estimate& prior = solver.a_priori();
   DetectionSettings settings;
@@ -177,7 +176,7 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
       for (Eigen::Index c = 0; c < v.size(); ++c) {
         v.setZero();
         v(c) = *d.limit;
-        reach = std::min(reach, effect_reach_um(b.effect.kind, b.J_reading_effect, v, test_min));
+        reach = std::min(reach, effect_reach_um(b.J_reading_effect, v));
       }
       if (reach > range_um) d.beyond_instrument_um = reach;
     }
@@ -587,8 +586,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
                 c.state != CandidateState::kNotApplicable && c.state != CandidateState::kSetUp;
     }
     res.detection_limits =
-        detection_limits(first(), pool, tested + 1, options, 1e3 * design.instrument_range_mm,
-                         test_minutes(readings));
+        detection_limits(first(), pool, tested + 1, options, 1e3 * design.instrument_range_mm);
   }
 
   if (res.after.dof > 0) res.p_lower_after = chi2_lower_tail(res.after.dof, res.after.chi2);

@@ -283,9 +283,7 @@ double test_minutes(const std::vector<Reading>& readings) {
   return t1 > t0 ? (t1 - t0) / 60.0 : 0.0;
 }
 
-double effect_reach_um(EffectKind kind, const Eigen::MatrixXd& J_reading_effect,
-                       const Eigen::VectorXd& value, double test_min) {
-  if (kind == EffectKind::kDrift) return std::abs(value(0)) * test_min;
+double effect_reach_um(const Eigen::MatrixXd& J_reading_effect, const Eigen::VectorXd& value) {
   if (J_reading_effect.rows() == 0) return 0.0;
   return (J_reading_effect * value).cwiseAbs().maxCoeff();
 }

@@ -159,7 +159,7 @@ std::string reference_length_basis_text(const Kit& kit) {
       return "the table's radius (workspace.table.diameter_mm / 2), the kit stating no "
              "reference_length_mm";
     case Kit::ReferenceLengthBasis::kTableCorner:
-      return "the table's farthest corner from its centre (workspace.table), the kit stating no "
+      return "the table's farthest corner from the axis (workspace.table), the kit stating no "
              "reference_length_mm";
     case Kit::ReferenceLengthBasis::kToolReach:
       return "the farthest ball position along the tool (L_mm.max), the kit stating no "

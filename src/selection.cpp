@@ -72,7 +72,6 @@ class Selector {
         family_used_(families.size(), false),
         family_status_(families.size()) {
     if (design_) range_um_ = 1e3 * design_->instrument_range_mm;
-    if (readings_) test_min_ = test_minutes(*readings_);
   }
 
   Selection run() {
@@ -136,7 +135,7 @@ class Selector {
       unit(fit.n_unknowns - q + j) = 1.0;
       value(j) = fit.evaluate(unit).value;
     }
-    return effect_reach_um(block.effect.kind, block.J_reading_effect, value, test_min_);
+    return effect_reach_um(block.J_reading_effect, value);
   }
   bool beyond_instrument(double size_um) const { return range_um_ > 0 && !(size_um <= range_um_); }
   CandidateStatus implausible(const std::string& label, double size_um) const {
@@ -896,7 +895,6 @@ class Selector {
   Estimate current_;
   int step_ = 0;
   double range_um_ = 0;  // the instrument's range (0: no design, no bound)
-  double test_min_ = 0;  // from the first reading to the last, where they are timed
 };
 
 }  // namespace

@@ -223,10 +223,11 @@ TEST(Diagnose, PerInstallationDriftsAreKeptAgainstOneWholeTestDrift) {
   EXPECT_GE(reported, seeds - 3);
 }
 
-// A drift whose rate, over the whole test, would move the bar beyond the instrument's range is
-// no finding (no machine or bar has it): significant, it is left out and named implausible with
-// its size. The same readings under the default 1 mm range find it.
-TEST(Diagnose, ADriftNoInstrumentCouldReadIsNoFinding) {
+// An effect that, fitted, would move the bar beyond the instrument's range in these readings is
+// no finding (the readings could not hold it): it is named implausible with its reach and never
+// added. A drift of 3 um/min in one installation of a long test is an ordinary finding under the
+// default 1 mm range (its reach is its installation's, not the test's).
+TEST(Diagnose, AnEffectTheReadingsCouldNotHoldIsNoFinding) {
   Design d = fourier_design();
   std::mt19937_64 rng(8);
   int named = 0, found = 0;
@@ -235,21 +236,19 @@ TEST(Diagnose, ADriftNoInstrumentCouldReadIsNoFinding) {
     Truth t = random_fourier_truth(d, rng);
     t.effects = {effect(EffectKind::kDrift, "3r", {3.0})};
     const std::vector<Reading> rd = simulate(d, t, 9700 + s);
-    double t0 = rd.front().time_s.value(), t1 = t0, largest = 0;
+    double t0 = 1e300, t1 = -1e300;
     for (const Reading& r : rd) {
-      t0 = std::min(t0, *r.time_s), t1 = std::max(t1, *r.time_s);
-      largest = std::max(largest, std::abs(r.reading_um));
+      if (r.installation == "3r") t0 = std::min(t0, *r.time_s), t1 = std::max(t1, *r.time_s);
     }
-    const double over_test_um = 3.0 * (t1 - t0) / 60.0;
-    Design narrow = d;  // a range the readings fit in and the drift over the test does not
-    narrow.instrument_range_mm = 1e-3 * 0.5 * (largest + over_test_um);
-    ASSERT_LT(largest, 0.9e3 * narrow.instrument_range_mm);
+    const double reach_um = 3.0 * (t1 - t0) / 60.0;
+    Design narrow = d;  // a range the drift's reach in these readings exceeds
+    narrow.instrument_range_mm = 1e-3 * 0.5 * reach_um;
     const DiagnoseResult wide = diagnose(d, rd), tight = diagnose(narrow, rd);
     found += has(wide, "drift[3r]");
     for (const CandidateStatus& c : tight.candidates) {
       if (c.label != "drift[3r]") continue;
       named += c.state == CandidateState::kImplausible && !has(tight, "drift[3r]") &&
-               std::abs(c.implied_um - over_test_um) < 0.05 * over_test_um &&
+               std::abs(c.implied_um - reach_um) < 0.1 * reach_um &&
                io::candidate_detail(c).find("beyond the instrument's range") != std::string::npos;
     }
   }
@@ -260,13 +259,12 @@ TEST(Diagnose, ADriftNoInstrumentCouldReadIsNoFinding) {
 // An A trunnion with its set-up tolerances declared, a 4 um warm-up and a 6/7 um centring on 3t
 // (the exact geometry): diagnose adds nothing no machine could have, its errors are identify's
 // (the declared set-up carried as identify carries it), and where the design cannot see a drift
-// at any size the instrument reads it says so instead of stating an absurd limit as findable.
+// in these readings it says so instead of stating an absurd limit as findable.
 TEST(Diagnose, ATrunnionWithAWarmUpNamesNothingAbsurdAndAgreesWithIdentify) {
   const Design d =
       io::read_design_file(test::source_path("tests/data/a_trunnion_kit_optimized.json"));
   const Truth t =
       io::read_truth_file(test::source_path("tests/data/truth_a_trunnion_warm_up.json"));
-  int blind = 0;
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     const std::vector<Reading> rd = simulate(d, t, seed);
     const DiagnoseResult r = diagnose(d, rd);
@@ -291,13 +289,12 @@ TEST(Diagnose, ATrunnionWithAWarmUpNamesNothingAbsurdAndAgreesWithIdentify) {
       bool said = false;
       for (const io::BriefItem& b : io::diagnose_brief(d, r))
         said = said || b.text.find("cannot see drift") != std::string::npos;
-      blind += said;
+      EXPECT_TRUE(said) << "a drift beyond what the readings could hold is said unseeable";
       for (const io::BriefItem& b : io::diagnose_brief(d, r))
         EXPECT_TRUE(b.topic != "evidence" || b.text.find("drift of") == std::string::npos)
             << b.text;
     }
   }
-  EXPECT_GE(blind, 1) << "the design reads too little to see a drift: said at least once";
 }
 
 TEST(Diagnose, NearlyCollinearCandidatesAreReported) {

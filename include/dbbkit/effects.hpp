@@ -102,11 +102,10 @@ double test_start_time(const std::vector<Reading>& readings);
 // The test's length [min], first timed reading to the last (0 without two times).
 double test_minutes(const std::vector<Reading>& readings);
 // What an effect of `value` (its parameters, one per column of J_reading_effect) alone moves the
-// bar by [um]: a drift by its rate over the whole test (a machine's or a bar's drift does not stop
-// at an installation's end), any other its largest part of a reading. Beyond the instrument's
-// range, no machine or bar has it.
-double effect_reach_um(EffectKind kind, const Eigen::MatrixXd& J_reading_effect,
-                       const Eigen::VectorXd& value, double test_min);
+// bar by in these readings [um]: its largest part of a reading (a drift over the span its column
+// covers: its installation, or the whole test). Beyond the instrument's range, the readings
+// could not hold it.
+double effect_reach_um(const Eigen::MatrixXd& J_reading_effect, const Eigen::VectorXd& value);
 
 // Why an effect cannot be formed from a set of readings (io::not_applicable_text says it):
 // a drift or warm-up without time_s on a reading it applies to (kNeedsTimes), a reversal

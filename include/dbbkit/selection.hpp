@@ -135,10 +135,12 @@ enum class CandidateState {
                     // determined
   kDetectable,  // a design's a-priori answer (effect_detectability): it would raise the rank by its
                 // number
-  kSetUp,  // a set-up effect whose tolerance the design declares: carried as identify carries it
-  kImplausible,  // significant, but at a size no machine or bar can have: not a finding
-                 // (fitted with the errors where the readings tell it apart, else in the
-                 // uncertainty), not a finding
+  // kSetUp: a set-up effect whose tolerance the design declares, carried as identify carries it.
+  // kImplausible: significant, but at a size the readings could not hold: not a finding.
+  kSetUp,
+  kImplausible,
+  // (fitted with the errors where the readings tell it apart, else in the
+  // uncertainty), not a finding
 };
 
 // "added", "not significant", "confounded", "not applicable", "equivalent", "detectable",

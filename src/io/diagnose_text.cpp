@@ -370,8 +370,7 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
   }
   if (!res.detection_limits.empty()) {
     // Per kind, the range over its candidates of the size found with power 0.9.
-    v << " Nothing was added; with the declared noise, these would have been found with power 0.9 "
-         "at this level:";
+    std::ostringstream found;
     std::vector<std::string> kinds;
     for (const DetectionLimit& d : res.detection_limits) {
       const std::string k = d.label.substr(0, d.label.find('['));
@@ -389,16 +388,19 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
         hi = std::max(hi, *d.limit), unit = d.unit;
       }
       if (lo_label.empty()) continue;
-      v << (first ? " " : "; ") << k << " of " << fmt_num(lo, 2) << " " << unit
-        << (hi > lo * 1.005 ? " (" + lo_label + ") to " + fmt_num(hi, 2) + " " + unit
-                            : std::string())
-        << " or more";
+      found << (first ? " " : "; ") << k << " of " << fmt_num(lo, 2) << " " << unit
+            << (hi > lo * 1.005 ? " (" + lo_label + ") to " + fmt_num(hi, 2) + " " + unit
+                                : std::string())
+            << " or more";
       first = false;
     }
-    v << " (every candidate in the JSON).";
+    if (!first)
+      v << " Nothing was added; with the declared noise, these would have been found with power "
+           "0.9 at this level:"
+        << found.str() << " (every candidate in the JSON).";
     if (!unseen.empty())
       v << " This design cannot see " << comma_listed(unseen)
-        << ": the least it would find lies beyond what the instrument can read over this test "
+        << ": the least it would find lies beyond what the instrument can read in these readings "
            "(beyond_instrument_range_um in the JSON).";
   }
   return v.str();
@@ -467,7 +469,7 @@ std::string candidate_detail(const CandidateStatus& c) {
     case CandidateReason::kBeyondInstrument:
       t = "significant, but fitted it alone would move the bar by " + f(c.implied_um) + " um" +
           (c.other.empty() ? "" : " (" + c.other + ")") + ", beyond the instrument's range of +-" +
-          f(c.level) + " um (a drift over the whole test): no machine or bar has it, not a finding";
+          f(c.level) + " um: the readings could not hold it, not a finding";
       break;
     case CandidateReason::kSetUpFitted:
     case CandidateReason::kSetUpCarried:
@@ -722,8 +724,8 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
     if (const std::vector<std::string> unseen = beyond_instrument_kinds(r.detection_limits);
         !unseen.empty())
       add("blind", "This design cannot see " + comma_listed(unseen) +
-                       ": beyond what the instrument reads over this test; evaluate states what "
-                       "an undetected one moves.");
+                       ": beyond what the instrument reads in these readings; evaluate states "
+                       "what an undetected drift moves.");
   } else {
     add("residual", "No effect of the library explains the residual (" + chi_short(r.before) +
                         "); the errors' uncertainties do not hold as stated.");
