@@ -45,9 +45,9 @@ cmake --build build-san -j "$jobs"
 # the same kinds are searched here; the A trunnion kit searched twice at two lever arms). The
 # installed-package test builds an uninstrumented consumer, which cannot link a sanitized
 # library; it ran in stage 1. The reports rendered in Chromium come from the writers the
-# other tests run here; they were looked at in stage 1. A test under an address-space limit (ulimit -v) cannot run with AddressSanitizer's shadow
-# memory; it ran in stage 1. The Python module is not
-# built here (a sanitized extension needs the sanitizer runtime preloaded into Python); its
+# other tests run here; they were looked at in stage 1. A test under an address-space limit
+# (ulimit -v) cannot run with AddressSanitizer's shadow memory; it ran in stage 1. The Python
+# module is not built here (a sanitized extension needs the sanitizer runtime preloaded into Python); its
 # tests ran in stage 1.
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-san --output-on-failure -j "$jobs" \

@@ -138,7 +138,7 @@ std::vector<SetupRisk> setup_risks(const Design& design, const Parameterisation&
 std::optional<ResidualFeature> most_significant(const std::vector<ResidualFeature>& features) {
   const ResidualFeature* top = nullptr;
   for (const ResidualFeature& f : features) {
-    if (f.beyond_instrument_um) continue;  // no machine or bar has it: not a feature of its own
+    if (f.implausible()) continue;  // no machine or bar has it: not a feature of its own
     if (!top || more_significant(f.p, f.test.F, top->p, top->test.F)) top = &f;
   }
   return top ? std::optional<ResidualFeature>(*top) : std::nullopt;
@@ -148,7 +148,8 @@ std::optional<ResidualFeature> most_significant(const std::vector<ResidualFeatur
 // `range_um`: the instrument's range (effect_reach_um).
 std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
                                              const std::vector<EffectBlock>& pool, int n_tests,
-                                             const DiagnoseOptions& options, double range_um) {
+                                             const DiagnoseOptions& options, double range_um,
+                                             double max_drift_um_per_min) {
   std::vector<DetectionLimit> out;
   const Estimate& prior = solver.a_priori();
   DetectionSettings settings;
@@ -179,6 +180,10 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
         reach = std::min(reach, effect_reach_um(b.J_reading_effect, v));
       }
       if (reach > range_um) d.beyond_instrument_um = reach;
+      if (const auto rate = drift_rate_um_per_min(
+              b.effect, Eigen::VectorXd::Constant(b.J_reading_effect.cols(), *d.limit));
+          rate && *rate > max_drift_um_per_min)
+        d.beyond_drift_rate_um_per_min = *rate;
     }
     out.push_back(d);
   }
@@ -567,7 +572,7 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
   }
   double feature_p = 1;
   for (const ResidualFeature& f : res.features_after)
-    if (!f.beyond_instrument_um) feature_p = std::min(feature_p, f.p);
+    if (!f.implausible()) feature_p = std::min(feature_p, f.p);
   res.features_p_all = std::min(
       1.0, feature_p * static_cast<double>(std::max<std::size_t>(1, res.features_after.size())));
   if (res.significant_after) {
@@ -586,7 +591,8 @@ DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& r
                 c.state != CandidateState::kNotApplicable && c.state != CandidateState::kSetUp;
     }
     res.detection_limits =
-        detection_limits(first(), pool, tested + 1, options, 1e3 * design.instrument_range_mm);
+        detection_limits(first(), pool, tested + 1, options, 1e3 * design.instrument_range_mm,
+                         design.max_drift_um_per_min);
   }
 
   if (res.after.dof > 0) res.p_lower_after = chi2_lower_tail(res.after.dof, res.after.chi2);

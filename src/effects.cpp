@@ -288,6 +288,15 @@ double effect_reach_um(const Eigen::MatrixXd& J_reading_effect, const Eigen::Vec
   return (J_reading_effect * value).cwiseAbs().maxCoeff();
 }
 
+std::optional<double> drift_rate_um_per_min(const EffectCandidate& effect,
+                                            const Eigen::VectorXd& value) {
+  if (value.size() == 0) return std::nullopt;
+  if (effect.kind == EffectKind::kDrift) return value.cwiseAbs().maxCoeff();
+  if (effect.kind == EffectKind::kThermal && effect.tau_min > 0)
+    return value.cwiseAbs().maxCoeff() / effect.tau_min;
+  return std::nullopt;
+}
+
 Eigen::Vector3d centring_row(const AxisFrame& axis, const Installation& in, double angle_deg) {
   return -in.sign * direction_machine(axis, in, angle_deg);
 }

@@ -320,12 +320,12 @@ std::vector<ResidualFeature> residual_features(const Design& design,
         top->difference_with.push_back(f.installation);
     }
   }
-  mark_beyond_instrument(design, readings, out);
+  mark_implausible(design, readings, out);
   return out;
 }
 
-void mark_beyond_instrument(const Design& design, const std::vector<Reading>& readings,
-                            std::vector<ResidualFeature>& features) {
+void mark_implausible(const Design& design, const std::vector<Reading>& readings,
+                      std::vector<ResidualFeature>& features) {
   const double range_um = 1e3 * design.instrument_range_mm;
   const double test_min = test_minutes(readings);
   for (ResidualFeature& f : features) {
@@ -334,6 +334,8 @@ void mark_beyond_instrument(const Design& design, const std::vector<Reading>& re
     const double size =
         f.kind == FeatureKind::kDrift ? std::abs(f.value) * test_min : std::abs(f.value);
     if (size > range_um) f.beyond_instrument_um = size;
+    if (f.kind == FeatureKind::kDrift && std::abs(f.value) > design.max_drift_um_per_min)
+      f.beyond_drift_rate_um_per_min = std::abs(f.value);
   }
 }
 

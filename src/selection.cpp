@@ -123,11 +123,13 @@ class Selector {
  private:
   Estimate solve(const Jacobian& J) const { return WlsSolver(J, sigma_, o_.estimate).solve(y_); }
 
-  // What effect `block`, fitted in `fit` (its columns last), alone moves the bar by: a drift
-  // over the whole test (a machine's or a bar's drift does not stop at an installation's end),
-  // any other its largest part of a reading. Beyond the instrument's range no machine or bar
-  // has it (the bound residual_checks.cpp puts on a residual feature).
-  double implied_um(const EffectBlock& block, const Estimate& fit) const {
+  // Whether `block`, fitted in `fit` (its columns last), is an effect no machine or bar can
+  // have (the status that says so): a drift or a warm-up faster than the design's
+  // max_drift_um_per_min (drift_rate_um_per_min), or any effect that alone moves the bar beyond
+  // the instrument's range in these readings (effect_reach_um).
+  std::optional<CandidateStatus> implausible(const EffectBlock& block, const Estimate& fit,
+                                             const std::string& label) const {
+    if (!design_) return std::nullopt;
     const Eigen::Index q = block.J_reading_effect.cols();
     Eigen::VectorXd value(q);
     for (Eigen::Index j = 0; j < q; ++j) {
@@ -135,15 +137,19 @@ class Selector {
       unit(fit.n_unknowns - q + j) = 1.0;
       value(j) = fit.evaluate(unit).value;
     }
-    return effect_reach_um(block.J_reading_effect, value);
-  }
-  bool beyond_instrument(double size_um) const { return range_um_ > 0 && !(size_um <= range_um_); }
-  CandidateStatus implausible(const std::string& label, double size_um) const {
-    CandidateStatus c =
-        status(label, CandidateState::kImplausible, CandidateReason::kBeyondInstrument);
-    c.implied_um = size_um;
-    c.level = range_um_;
-    c.step = step_;
+    std::optional<CandidateStatus> c;
+    if (const auto rate = drift_rate_um_per_min(block.effect, value);
+        rate && !(*rate <= design_->max_drift_um_per_min)) {
+      c = status(label, CandidateState::kImplausible, CandidateReason::kBeyondDriftRate);
+      c->implied_um_per_min = *rate;
+      c->level = design_->max_drift_um_per_min;
+    } else if (const double size = effect_reach_um(block.J_reading_effect, value);
+               range_um_ > 0 && !(size <= range_um_)) {
+      c = status(label, CandidateState::kImplausible, CandidateReason::kBeyondInstrument);
+      c->implied_um = size;
+      c->level = range_um_;
+    }
+    if (c) c->step = step_;
     return c;
   }
   int rank_of(const Jacobian& J) const { return WlsSolver(J, sigma_, o_.estimate).a_priori().rank; }
@@ -333,9 +339,9 @@ class Selector {
       const auto [chosen, equivalent] = equivalents(best, J_);
       if (chosen != best)
         best_est = solve(append_columns(J_, pool_[chosen].J_reading_effect)), best = chosen;
-      if (const double size = implied_um(pool_[best], best_est); beyond_instrument(size)) {
+      if (auto c = implausible(pool_[best], best_est, pool_[best].label)) {
         // Significant at a size no machine or bar has: not a finding; the step again without it.
-        status_[best] = implausible(pool_[best].label, size);
+        status_[best] = *c;
         used_[best] = true;
         --step_;
         continue;
@@ -386,8 +392,8 @@ class Selector {
       family_status_[f].missed = StepMiss{step_, threshold, dbic, true};
       return false;
     }
-    if (const double size = implied_um(block, trial); beyond_instrument(size)) {
-      family_status_[f] = implausible(fam.label, size);
+    if (auto c = implausible(block, trial, fam.label)) {
+      family_status_[f] = *c;
       family_status_[f].other = block.label;
       family_used_[f] = true;
       --step_;
@@ -532,13 +538,13 @@ class Selector {
       }
     }
     if (swap_out < 0) return false;
-    if (const double size = implied_um(
+    if (auto c = implausible(
             pool_[swap_in],
-            solve(append_columns(model_without(swap_out), pool_[swap_in].J_reading_effect)));
-        beyond_instrument(size)) {
+            solve(append_columns(model_without(swap_out), pool_[swap_in].J_reading_effect)),
+            pool_[swap_in].label)) {
       // In its place it would explain more, at a size no machine or bar has: left out, and the
       // exchange tried again without it.
-      status_[swap_in] = implausible(pool_[swap_in].label, size);
+      status_[swap_in] = *c;
       used_[swap_in] = true;
       return true;
     }

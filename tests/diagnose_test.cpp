@@ -256,6 +256,45 @@ TEST(Diagnose, AnEffectTheReadingsCouldNotHoldIsNoFinding) {
   EXPECT_EQ(named, seeds);
 }
 
+// A drift faster than any machine or bar drifts (40 um/min, the design's bound 10 um/min)
+// whose reach in its installation the instrument could read is no finding: named implausible
+// with its rate, never added; with the bound raised above it, it is found.
+TEST(Diagnose, ADriftNoMachineHasIsNoFinding) {
+  const Design d = fourier_design();
+  std::mt19937_64 rng(9);
+  int named = 0, found = 0;
+  const int seeds = 5;
+  for (int s = 0; s < seeds; ++s) {
+    Truth t = random_fourier_truth(d, rng);
+    t.effects = {effect(EffectKind::kDrift, "3r", {40.0})};
+    const std::vector<Reading> rd = simulate(d, t, 9800 + s);
+    Design lax = d;
+    lax.max_drift_um_per_min = 50;
+    const DiagnoseResult bounded = diagnose(d, rd), free = diagnose(lax, rd);
+    found += has(free, "drift[3r]");
+    for (const CandidateStatus& c : bounded.candidates) {
+      if (c.label != "drift[3r]") continue;
+      named += c.state == CandidateState::kImplausible && !has(bounded, "drift[3r]") &&
+               c.reason == CandidateReason::kBeyondDriftRate &&
+               std::abs(c.implied_um_per_min - 40.0) < 1.0 && c.level == 10.0 &&
+               io::candidate_detail(c).find("faster than the 10 um/min") != std::string::npos;
+    }
+    bool said = false;
+    for (const io::BriefItem& b : io::diagnose_brief(d, bounded))
+      said = said || b.text.rfind("Not a finding: drift[3r], a drift of 4", 0) == 0;
+    EXPECT_TRUE(said);
+    for (const AddedEffect& a : bounded.added) {
+      Eigen::VectorXd v(static_cast<Eigen::Index>(a.values.size()));
+      for (std::size_t k = 0; k < a.values.size(); ++k)
+        v(static_cast<Eigen::Index>(k)) = a.values[k].value;
+      if (const auto rate = drift_rate_um_per_min(a.block.effect, v))
+        EXPECT_LE(*rate, d.max_drift_um_per_min) << a.block.label;
+    }
+  }
+  EXPECT_EQ(found, seeds);
+  EXPECT_EQ(named, seeds);
+}
+
 // An A trunnion with its set-up tolerances declared, a 4 um warm-up and a 6/7 um centring on 3t
 // (the exact geometry): diagnose adds nothing no machine could have, its errors are identify's
 // (the declared set-up carried as identify carries it), and where the design cannot see a drift
@@ -282,9 +321,13 @@ TEST(Diagnose, ATrunnionWithAWarmUpNamesNothingAbsurdAndAgreesWithIdentify) {
         }
       }
     }
+    // Its installations last under a minute: the least drift it would find is hundreds of
+    // um/min, beyond the 10 um/min default bound, so it cannot see a drift and says so.
     bool drift_unseen = false;
     for (const DetectionLimit& l : r.detection_limits)
-      drift_unseen = drift_unseen || (l.label.rfind("drift", 0) == 0 && l.beyond_instrument_um);
+      drift_unseen = drift_unseen || (l.label.rfind("drift", 0) == 0 && l.unseeable());
+    EXPECT_TRUE(drift_unseen);
+    if (const auto& top = r.signature_before.dominant) EXPECT_FALSE(top->implausible());
     if (drift_unseen) {
       bool said = false;
       for (const io::BriefItem& b : io::diagnose_brief(d, r))

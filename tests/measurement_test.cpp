@@ -79,5 +79,23 @@ TEST(Readings, TheInstrumentRangeCatchesUmInAMmColumnAndCanBeWidened) {
   EXPECT_THROW(validate_design(d), InputError);
 }
 
+// The fastest drift a finding may have: 10 um/min unless the design says otherwise; a design
+// stating one keeps it through its file, alone or beside the range.
+TEST(Readings, TheDriftBoundDefaultsAndIsKeptInTheDesignFile) {
+  Design d = test::paper_design('C');
+  EXPECT_EQ(d.max_drift_um_per_min, kDefaultMaxDrift_um_per_min);
+  EXPECT_FALSE(io::design_to_json(d).contains("instrument"));
+  d.max_drift_um_per_min = 2.5;
+  nlohmann::json j = io::design_to_json(d);
+  EXPECT_FALSE(j["instrument"].contains("range_mm"));
+  EXPECT_EQ(io::design_from_json(j, "round trip").max_drift_um_per_min, 2.5);
+  d.instrument_range_mm = 3.0;
+  const Design back = io::design_from_json(io::design_to_json(d), "round trip");
+  EXPECT_EQ(back.max_drift_um_per_min, 2.5);
+  EXPECT_EQ(back.instrument_range_mm, 3.0);
+  d.max_drift_um_per_min = -1;
+  EXPECT_THROW(validate_design(d), InputError);
+}
+
 }  // namespace
 }  // namespace dbbkit

@@ -35,12 +35,39 @@ TEST(ResidualFeatures, WhatNoMachineCanHaveIsMarked) {
   std::vector<ResidualFeature> fs = {
       feature(FeatureKind::kDrift, -56.71), feature(FeatureKind::kDrift, 1.0),
       feature(FeatureKind::kStep, 5.0), feature(FeatureKind::kStep, 1200.0)};
-  mark_beyond_instrument(d, readings, fs);
+  mark_implausible(d, readings, fs);
   ASSERT_TRUE(fs[0].beyond_instrument_um);
   EXPECT_NEAR(*fs[0].beyond_instrument_um, 56.71 * 60, 1e-9);
   EXPECT_FALSE(fs[1].beyond_instrument_um);
   EXPECT_FALSE(fs[2].beyond_instrument_um);
   EXPECT_TRUE(fs[3].beyond_instrument_um);
+  EXPECT_TRUE(fs[0].beyond_drift_rate_um_per_min);  // and faster than 10 um/min
+  EXPECT_FALSE(fs[1].beyond_drift_rate_um_per_min);
+}
+
+// A drift faster than the design's max_drift_um_per_min is marked whatever its reach: 20 um/min
+// over a 5 min test moves the bar 0.1 mm, within the range, yet no machine drifts that fast;
+// 9 um/min does not exceed the 10 um/min default; a design allowing 30 um/min marks neither.
+TEST(ResidualFeatures, ADriftFasterThanTheDesignAllowsIsMarked) {
+  Design d = test::paper_design('C');
+  std::vector<Reading> readings(2);
+  readings[0].time_s = 0;
+  readings[1].time_s = 300;
+  std::vector<ResidualFeature> fs(3);
+  fs[0].kind = FeatureKind::kDrift, fs[0].value = -20.0;
+  fs[1].kind = FeatureKind::kDrift, fs[1].value = 9.0;
+  fs[2].kind = FeatureKind::kStep, fs[2].value = 20.0;
+  mark_implausible(d, readings, fs);
+  EXPECT_FALSE(fs[0].beyond_instrument_um);
+  ASSERT_TRUE(fs[0].beyond_drift_rate_um_per_min);
+  EXPECT_EQ(*fs[0].beyond_drift_rate_um_per_min, 20.0);
+  EXPECT_TRUE(fs[0].implausible());
+  EXPECT_FALSE(fs[1].implausible());
+  EXPECT_FALSE(fs[2].implausible());
+  d.max_drift_um_per_min = 30;
+  for (ResidualFeature& f : fs) f.beyond_drift_rate_um_per_min.reset();
+  mark_implausible(d, readings, fs);
+  EXPECT_FALSE(fs[0].implausible());
 }
 
 struct Problem {

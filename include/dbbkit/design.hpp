@@ -119,6 +119,13 @@ struct Prediction {
 inline constexpr double kDefaultInstrumentRange_mm = 1.0;
 // The least instrument range a design may declare (instrument.range_mm): 1 um.
 inline constexpr double kMinInstrumentRange_mm = 1e-3;
+// The fastest drift a finding may have [um/min] unless the design states its own
+// (instrument.max_drift_um_per_min): 0.6 mm an hour, several times the thermal growth of a
+// machine warming up or of a steel bar in a shop, so that no true drift is refused; a fitted
+// drift faster than this stands for something else the model lacks. At most
+// kMaxMaxDrift_um_per_min.
+inline constexpr double kDefaultMaxDrift_um_per_min = 10.0;
+inline constexpr double kMaxMaxDrift_um_per_min = 1e4;
 // The shortest bar (bar_mm): two balls of about 13 mm and their cups cannot come closer.
 inline constexpr double kMinBar_mm = 25.0;
 
@@ -164,6 +171,11 @@ struct Design {
   // the QC20-W class reads within about +-1 mm; larger values are almost always a unit
   // mix-up, um in a mm column). Design key instrument.range_mm, at most 10 mm.
   double instrument_range_mm = kDefaultInstrumentRange_mm;
+  // The fastest drift of the bar or the machine the readings may be said to show [um/min]
+  // (design key instrument.max_drift_um_per_min): a drift or a warm-up whose rate exceeds it
+  // is no finding (selection.hpp, kBeyondDriftRate), and a design whose least detectable drift
+  // exceeds it cannot see a drift.
+  double max_drift_um_per_min = kDefaultMaxDrift_um_per_min;
   // Each sweep of each installation ends by reading its first angle again (design key
   // return_reading): the axis turns back along the sweep's arc, approaching that angle from the
   // other side (the reading's sweep is the opposite one), so that the two readings of one

@@ -39,10 +39,14 @@ struct DetectionLimit {
   std::string label;
   std::string unit;
   std::optional<double> limit;  // absent without degrees of freedom
-  // The limit's own reach (effect_reach_um: a drift over the whole test) where it lies beyond the
-  // instrument's range: no machine or bar has an effect that large, so this design cannot see
-  // the effect at all.
+  // The limit's own reach in these readings (effect_reach_um) where it lies beyond the
+  // instrument's range: the readings could not hold an effect that large, so this design cannot
+  // see the effect at all.
   std::optional<double> beyond_instrument_um;
+  // Likewise a drift or warm-up limit faster than the design's max_drift_um_per_min: its rate
+  // (um/min; a warm-up's at its start, drift_rate_um_per_min).
+  std::optional<double> beyond_drift_rate_um_per_min;
+  bool unseeable() const { return beyond_instrument_um || beyond_drift_rate_um_per_min; }
 };
 
 struct ResidualSignature {

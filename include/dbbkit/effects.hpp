@@ -24,6 +24,7 @@
 
 #include <Eigen/Core>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -106,6 +107,10 @@ double test_minutes(const std::vector<Reading>& readings);
 // covers: its installation, or the whole test). Beyond the instrument's range, the readings
 // could not hold it.
 double effect_reach_um(const Eigen::MatrixXd& J_reading_effect, const Eigen::VectorXd& value);
+// The fastest rate of a drift or a warm-up of `value` [um/min]: a drift's largest |value|, a
+// warm-up's |value| / tau (its slope at the start); nothing for any other kind.
+std::optional<double> drift_rate_um_per_min(const EffectCandidate& effect,
+                                            const Eigen::VectorXd& value);
 
 // Why an effect cannot be formed from a set of readings (io::not_applicable_text says it):
 // a drift or warm-up without time_s on a reading it applies to (kNeedsTimes), a reversal

@@ -148,6 +148,9 @@ struct ResidualFeature {
   // a feature stands for something the model lacks, not for itself: never the most significant
   // feature, never a finding.
   std::optional<double> beyond_instrument_um;
+  // Likewise a drift faster than the design's max_drift_um_per_min: its rate (um/min).
+  std::optional<double> beyond_drift_rate_um_per_min;
+  bool implausible() const { return beyond_instrument_um || beyond_drift_rate_um_per_min; }
 };
 
 // The amplitudes sqrt(a_k^2 + b_k^2) of the harmonics k = 1..K of a turntable's residual on the
@@ -158,9 +161,10 @@ std::vector<double> residual_harmonics(const std::vector<Reading>& readings,
                                        const std::vector<int>& rows,
                                        const Eigen::VectorXd& residual_um);
 
-// Marks each feature beyond the instrument's range (ResidualFeature::beyond_instrument_um).
-void mark_beyond_instrument(const Design& design, const std::vector<Reading>& readings,
-                            std::vector<ResidualFeature>& features);
+// Marks each feature no machine or bar can have: beyond the instrument's range
+// (ResidualFeature::beyond_instrument_um) or a drift beyond the design's max_drift_um_per_min.
+void mark_implausible(const Design& design, const std::vector<Reading>& readings,
+                      std::vector<ResidualFeature>& features);
 
 // Every feature of every installation, against the model of `solver` fitted to the readings
 // (`fit` = solver.solve(y)); `readings` as validated against `design`.

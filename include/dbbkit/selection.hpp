@@ -135,12 +135,10 @@ enum class CandidateState {
                     // determined
   kDetectable,  // a design's a-priori answer (effect_detectability): it would raise the rank by its
                 // number
-  // kSetUp: a set-up effect whose tolerance the design declares, carried as identify carries it.
-  // kImplausible: significant, but at a size the readings could not hold: not a finding.
-  kSetUp,
-  kImplausible,
-  // (fitted with the errors where the readings tell it apart, else in the
-  // uncertainty), not a finding
+  kSetUp,  // a set-up effect whose tolerance the design declares: carried as identify carries it
+           // (fitted with the errors where the readings tell it apart, else in the uncertainty),
+           // not a finding
+  kImplausible,  // significant, but at a size the readings could not hold: not a finding
 };
 
 // "added", "not significant", "confounded", "not applicable", "equivalent", "detectable",
@@ -175,8 +173,10 @@ enum class CandidateReason {
                       // them
   kSetUpCarried,      // a declared set-up effect the readings cannot tell from the errors: its
                       // tolerance carried in their uncertainties
-  kBeyondInstrument,  // fitted, it alone would move the bar by `implied_um`, beyond the
-                      // instrument's range `level` (um; a drift over the whole test): left out
+  kBeyondInstrument,  // fitted, it alone would move the bar by `implied_um` in these readings,
+                      // beyond the instrument's range `level` (um): left out
+  kBeyondDriftRate,   // fitted, a drift or warm-up of `implied_um_per_min`, faster than the
+                      // design's max_drift_um_per_min `level`: left out
 };
 
 // The best candidate of a step, which did not pass: the threshold its p had to beat and its
@@ -197,7 +197,8 @@ struct CandidateStatus {
   int step = 0, columns = 0, added_rank = 0, scanned = 0;
   bool with_added = false;
   double F = 0, p = 0, p_scan = 0, threshold = 0, bic_change = 0, level = 0;
-  double implied_um = 0;  // kBeyondInstrument
+  double implied_um = 0;          // kBeyondInstrument
+  double implied_um_per_min = 0;  // kBeyondDriftRate
   std::optional<StepMiss> missed;
 };
 

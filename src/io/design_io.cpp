@@ -354,7 +354,8 @@ Design design_from_json(const json& j, const std::string& source, const std::str
   d.reference_length_mm = top.optional_number("reference_length_mm");
   if (const json* inst = top.optional("instrument")) {
     ObjectReader r(*inst, source, "instrument");
-    d.instrument_range_mm = r.number("range_mm");
+    if (const auto v = r.optional_number("range_mm")) d.instrument_range_mm = *v;
+    if (const auto v = r.optional_number("max_drift_um_per_min")) d.max_drift_um_per_min = *v;
     r.finish();
   }
   if (const json* v = top.optional("return_reading")) {
@@ -483,7 +484,9 @@ json design_to_json(const Design& d) {
   j["errors"] = errors;
   if (d.reference_length_mm) j["reference_length_mm"] = *d.reference_length_mm;
   if (d.instrument_range_mm != kDefaultInstrumentRange_mm)
-    j["instrument"] = {{"range_mm", d.instrument_range_mm}};
+    j["instrument"]["range_mm"] = d.instrument_range_mm;
+  if (d.max_drift_um_per_min != kDefaultMaxDrift_um_per_min)
+    j["instrument"]["max_drift_um_per_min"] = d.max_drift_um_per_min;
   if (d.return_reading) j["return_reading"] = true;
   if (d.setup_std.nuisance()) {
     j["setup_std"] = setup_to_json(d.setup_std, d.axis);

@@ -78,6 +78,8 @@ json features_to_json(const Design& d, const std::vector<ResidualFeature>& fs) {
     j["only_difference_determined_with"] = diff;
     j["beyond_instrument_range_um"] =
         f.beyond_instrument_um ? json(r6(*f.beyond_instrument_um)) : json(nullptr);
+    j["beyond_max_drift_um_per_min"] =
+        f.beyond_drift_rate_um_per_min ? json(r6(*f.beyond_drift_rate_um_per_min)) : json(nullptr);
     out.push_back(j);
   }
   return out;
@@ -333,12 +335,14 @@ json diagnose_to_json(const Design& design, const std::vector<Reading>& readings
   }
   json limits = json::array();
   for (const DetectionLimit& d : r.detection_limits) {
-    limits.push_back(
-        {{"effect", d.label},
-         {"unit", d.unit},
-         {"size_found_with_power_0_9", d.limit ? json(r6(*d.limit)) : json(nullptr)},
-         {"beyond_instrument_range_um",
-          d.beyond_instrument_um ? json(r6(*d.beyond_instrument_um)) : json(nullptr)}});
+    limits.push_back({{"effect", d.label},
+                      {"unit", d.unit},
+                      {"size_found_with_power_0_9", d.limit ? json(r6(*d.limit)) : json(nullptr)},
+                      {"beyond_instrument_range_um",
+                       d.beyond_instrument_um ? json(r6(*d.beyond_instrument_um)) : json(nullptr)},
+                      {"beyond_max_drift_um_per_min",
+                       d.beyond_drift_rate_um_per_min ? json(r6(*d.beyond_drift_rate_um_per_min))
+                                                      : json(nullptr)}});
   }
   checks["detection_limits"] = limits;
   j["residual_checks"] = checks;
@@ -371,10 +375,12 @@ std::string diagnose_summary(const Design& design, const std::vector<Reading>& r
     s << "\n";
   }
   int confounded = 0, na = 0, setup = 0;
+  std::vector<const CandidateStatus*> implausible;
   for (const CandidateStatus& c : r.candidates) {
     confounded += c.state == CandidateState::kConfounded;
     na += c.state == CandidateState::kNotApplicable;
     setup += c.state == CandidateState::kSetUp;
+    if (c.state == CandidateState::kImplausible) implausible.push_back(&c);
   }
   s << "candidates: " << r.candidates.size() << " (" << confounded << " confounded with the model, "
     << na << " not applicable to these readings"
@@ -382,6 +388,8 @@ std::string diagnose_summary(const Design& design, const std::vector<Reading>& r
                         " declared set-up effects carried as identify carries them, not sought"
                   : std::string())
     << "; see the JSON)\n";
+  for (const CandidateStatus* c : implausible)
+    s << "  left out: " << c->label << ": " << candidate_detail(*c) << "\n";
   if (!r.setup_risks.empty()) {
     s << "\nset-up effects this design cannot detect (size that moves the error by its standard "
          "uncertainty; "

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <optional>
 #include <sstream>
 
@@ -15,23 +14,61 @@ namespace dbbkit::io {
 
 namespace {
 
-// The kinds of effect ("drift", ...) whose every detection limit lies beyond the instrument's
-// range, e.g. "drift (1.3e+04 um over the test)": the design cannot see them at all.
-std::vector<std::string> beyond_instrument_kinds(const std::vector<DetectionLimit>& limits) {
-  std::vector<std::string> kinds, out;
+// Per kind of effect ("drift" of "drift[3r]"), in the order the kinds first come, over its
+// candidates' detection limits: the least (with its candidate) and the largest of those the
+// readings could hold; where every limit of the kind is one no machine or bar can have (beyond
+// the instrument's range, or a drift faster than the design allows), the least reach and rate of
+// those instead (the design cannot see the kind at all).
+struct KindLimits {
+  std::string kind, unit, least_label;
+  double least = 0, largest = 0;                                  // when least_label is not empty
+  std::optional<double> unseen_reach_um, unseen_rate_um_per_min;  // every limit unseeable
+  bool unseen() const { return unseen_reach_um || unseen_rate_um_per_min; }
+};
+std::vector<KindLimits> limits_by_kind(const std::vector<DetectionLimit>& limits) {
+  std::vector<KindLimits> out;
+  std::vector<bool> all_beyond;
   for (const DetectionLimit& d : limits) {
-    const std::string k = d.label.substr(0, d.label.find('['));
-    if (d.limit && std::find(kinds.begin(), kinds.end(), k) == kinds.end()) kinds.push_back(k);
-  }
-  for (const std::string& k : kinds) {
-    double least = std::numeric_limits<double>::infinity();
-    bool all = true;
-    for (const DetectionLimit& d : limits) {
-      if (!d.limit || d.label.substr(0, d.label.find('[')) != k) continue;
-      all = all && d.beyond_instrument_um;
-      if (d.beyond_instrument_um) least = std::min(least, *d.beyond_instrument_um);
+    if (!d.limit) continue;
+    const std::string kind = d.label.substr(0, d.label.find('['));
+    auto it =
+        std::find_if(out.begin(), out.end(), [&](const KindLimits& k) { return k.kind == kind; });
+    if (it == out.end()) {
+      out.push_back({kind, d.unit, "", 0, 0, std::nullopt, std::nullopt});
+      all_beyond.push_back(true);
+      it = out.end() - 1;
     }
-    if (all) out.push_back(k + " (" + fmt_num(least, 2) + " um on the bar at the least)");
+    const std::size_t i = static_cast<std::size_t>(it - out.begin());
+    if (d.unseeable()) {
+      auto least = [](std::optional<double>& to, const std::optional<double>& x) {
+        if (x) to = std::min(to.value_or(*x), *x);
+      };
+      least(it->unseen_reach_um, d.beyond_instrument_um);
+      least(it->unseen_rate_um_per_min, d.beyond_drift_rate_um_per_min);
+      continue;
+    }
+    all_beyond[i] = false;
+    if (it->least_label.empty() || *d.limit < it->least)
+      it->least = *d.limit, it->least_label = d.label;
+    it->largest = std::max(it->largest, *d.limit);
+  }
+  for (std::size_t i = 0; i < out.size(); ++i)
+    if (!all_beyond[i]) out[i].unseen_reach_um.reset(), out[i].unseen_rate_um_per_min.reset();
+  return out;
+}
+
+// The kinds the design cannot see, e.g. "drift (1.3e+04 um on the bar at the least)" or
+// "drift (1.2e+03 um/min at the least)".
+std::vector<std::string> unseen_kinds(const std::vector<KindLimits>& kinds) {
+  std::vector<std::string> out;
+  for (const KindLimits& k : kinds) {
+    if (!k.unseen()) continue;
+    std::vector<std::string> sizes;
+    if (k.unseen_reach_um) sizes.push_back(fmt_num(*k.unseen_reach_um, 2) + " um on the bar");
+    if (k.unseen_rate_um_per_min)
+      sizes.push_back(fmt_num(*k.unseen_rate_um_per_min, 2) + " um/min");
+    out.push_back(k.kind + " (" + sizes.front() + (sizes.size() > 1 ? " or " + sizes.back() : "") +
+                  " at the least)");
   }
   return out;
 }
@@ -371,26 +408,15 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
   if (!res.detection_limits.empty()) {
     // Per kind, the range over its candidates of the size found with power 0.9.
     std::ostringstream found;
-    std::vector<std::string> kinds;
-    for (const DetectionLimit& d : res.detection_limits) {
-      const std::string k = d.label.substr(0, d.label.find('['));
-      if (std::find(kinds.begin(), kinds.end(), k) == kinds.end()) kinds.push_back(k);
-    }
-    const std::vector<std::string> unseen = beyond_instrument_kinds(res.detection_limits);
+    const std::vector<KindLimits> kinds = limits_by_kind(res.detection_limits);
+    const std::vector<std::string> unseen = unseen_kinds(kinds);
     bool first = true;
-    for (const std::string& k : kinds) {
-      double lo = 1e300, hi = 0;
-      std::string lo_label, unit;
-      for (const DetectionLimit& d : res.detection_limits) {
-        if (d.label.substr(0, d.label.find('[')) != k || !d.limit || d.beyond_instrument_um)
-          continue;
-        if (*d.limit < lo) lo = *d.limit, lo_label = d.label;
-        hi = std::max(hi, *d.limit), unit = d.unit;
-      }
-      if (lo_label.empty()) continue;
-      found << (first ? " " : "; ") << k << " of " << fmt_num(lo, 2) << " " << unit
-            << (hi > lo * 1.005 ? " (" + lo_label + ") to " + fmt_num(hi, 2) + " " + unit
-                                : std::string())
+    for (const KindLimits& k : kinds) {
+      if (k.least_label.empty()) continue;
+      found << (first ? " " : "; ") << k.kind << " of " << fmt_num(k.least, 2) << " " << k.unit
+            << (k.largest > k.least * 1.005
+                    ? " (" + k.least_label + ") to " + fmt_num(k.largest, 2) + " " + k.unit
+                    : std::string())
             << " or more";
       first = false;
     }
@@ -400,8 +426,11 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
         << found.str() << " (every candidate in the JSON).";
     if (!unseen.empty())
       v << " This design cannot see " << comma_listed(unseen)
-        << ": the least it would find lies beyond what the instrument can read in these readings "
-           "(beyond_instrument_range_um in the JSON).";
+        << ": the least it would find is an effect no machine or bar has (beyond the instrument's "
+           "range in these readings, or a drift faster than the design's "
+           "instrument.max_drift_um_per_min of "
+        << fmt_num(design.max_drift_um_per_min, 3)
+        << " um/min; beyond_instrument_range_um, beyond_max_drift_um_per_min in the JSON).";
   }
   return v.str();
 }
@@ -470,6 +499,11 @@ std::string candidate_detail(const CandidateStatus& c) {
       t = "significant, but fitted it alone would move the bar by " + f(c.implied_um) + " um" +
           (c.other.empty() ? "" : " (" + c.other + ")") + ", beyond the instrument's range of +-" +
           f(c.level) + " um: the readings could not hold it, not a finding";
+      break;
+    case CandidateReason::kBeyondDriftRate:
+      t = "significant, but fitted it is a drift of " + f(c.implied_um_per_min) + " um/min" +
+          (c.other.empty() ? "" : " (" + c.other + ")") + ", faster than the " + f(c.level) +
+          " um/min a machine or bar drifts (instrument.max_drift_um_per_min): not a finding";
       break;
     case CandidateReason::kSetUpFitted:
     case CandidateReason::kSetUpCarried:
@@ -703,29 +737,20 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
                         chi_short(r.before) + ").");
     // What would have been found: the smallest limit of each kind.
     std::vector<std::string> limits;
-    std::vector<std::string> kinds;
-    for (const DetectionLimit& d : r.detection_limits) {
-      const std::string k = d.label.substr(0, d.label.find('['));
-      if (!d.limit || d.beyond_instrument_um ||
-          std::find(kinds.begin(), kinds.end(), k) != kinds.end())
-        continue;
-      double lo = *d.limit;
-      for (const DetectionLimit& o : r.detection_limits)
-        if (o.limit && !o.beyond_instrument_um && o.label.substr(0, o.label.find('[')) == k)
-          lo = std::min(lo, *o.limit);
-      kinds.push_back(k);
-      limits.push_back(k + " of " + fmt_num(lo, 2) + " " + d.unit);
+    const std::vector<KindLimits> kinds = limits_by_kind(r.detection_limits);
+    for (const KindLimits& k : kinds) {
+      if (!k.least_label.empty())
+        limits.push_back(k.kind + " of " + fmt_num(k.least, 2) + " " + k.unit);
     }
     if (!limits.empty())
       add("evidence",
           "Where this design can see them, these would have been found (power 0.9 at the "
           "declared noise): " +
               listed(limits, 100) + " or more (each candidate in the JSON).");
-    if (const std::vector<std::string> unseen = beyond_instrument_kinds(r.detection_limits);
-        !unseen.empty())
+    if (const std::vector<std::string> unseen = unseen_kinds(kinds); !unseen.empty())
       add("blind", "This design cannot see " + comma_listed(unseen) +
-                       ": beyond what the instrument reads in these readings; evaluate states "
-                       "what an undetected drift moves.");
+                       ": no machine or bar has an effect that large; evaluate states what an "
+                       "undetected drift moves.");
   } else {
     add("residual", "No effect of the library explains the residual (" + chi_short(r.before) +
                         "); the errors' uncertainties do not hold as stated.");
@@ -769,6 +794,23 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
       add("changes", "Correcting for " + std::string(r.added.size() == 1 ? "it" : "them") +
                          " moves the axis errors by up to " + listed(moved) + ".");
   }
+  // What fitted significantly at a size no machine or bar has: not a finding, but a sign of
+  // something the library lacks.
+  std::vector<std::string> absurd;
+  for (const CandidateStatus& c : r.candidates) {
+    if (c.state != CandidateState::kImplausible) continue;
+    const std::string label = c.other.empty() ? c.label : c.other;
+    absurd.push_back(c.reason == CandidateReason::kBeyondDriftRate
+                         ? label + ", a drift of " + fmt_num(c.implied_um_per_min, 3) +
+                               " um/min (beyond the " + fmt_num(c.level, 3) +
+                               " um/min of instrument.max_drift_um_per_min)"
+                         : label + ", moving the bar " + fmt_num(c.implied_um, 3) +
+                               " um (beyond the instrument's +-" + fmt_num(c.level, 3) + " um)");
+  }
+  if (!absurd.empty())
+    add("left out", "Not a finding: " + listed(absurd, 150) +
+                        ": significant, but no machine or bar has it; something the library "
+                        "lacks behaves like it.");
   // The location errors a choice the readings cannot make leaves uncertain.
   if (!r.attributions.empty()) {
     std::vector<std::string> uncertain, hold;
