@@ -223,11 +223,13 @@ void validate_design(const Design& d, const std::string& source) {
           d.instrument_range_mm * 1000.0 <= kMaxAbsReading_um,
       source, "instrument.range_mm",
       "must be from 0.001 mm (1 um) to 10 mm, got " + text::significant(d.instrument_range_mm, 6));
-  require(std::isfinite(d.max_drift_um_per_min) && d.max_drift_um_per_min > 0 &&
+  require(std::isfinite(d.max_drift_um_per_min) &&
+              d.max_drift_um_per_min >= kMinMaxDrift_um_per_min &&
               d.max_drift_um_per_min <= kMaxMaxDrift_um_per_min,
           source, "instrument.max_drift_um_per_min",
-          "must be above 0 and at most " + text::significant(kMaxMaxDrift_um_per_min, 6) +
-              " um/min, got " + text::significant(d.max_drift_um_per_min, 6));
+          "must be from " + text::significant(kMinMaxDrift_um_per_min, 6) + " to " +
+              text::significant(kMaxMaxDrift_um_per_min, 6) + " um/min, got " +
+              text::significant(d.max_drift_um_per_min, 6));
   require(!d.angles_deg.empty(), source, "angles_deg", "no angles");
   require(
       d.angles_deg.size() <= limits::kMaxAngles, source, "angles_deg",

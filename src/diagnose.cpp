@@ -168,7 +168,7 @@ std::vector<DetectionLimit> detection_limits(const WlsSolver& solver,
     const double info =
         Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(R.transpose() * R).eigenvalues()(0);
     const int dof = static_cast<int>(solver.J().rows()) - prior.rank - q;
-    DetectionLimit d{b.label, b.unit, detection_limit_um(q, true, info, dof, settings), {}};
+    DetectionLimit d{b.label, b.unit, detection_limit_um(q, true, info, dof, settings), {}, {}};
     if (d.limit) {
       // The smallest reach of an effect of this size: along the direction its limit is set in,
       // bounded below by one column's (exact for one column).

@@ -292,8 +292,12 @@ std::optional<double> drift_rate_um_per_min(const EffectCandidate& effect,
                                             const Eigen::VectorXd& value) {
   if (value.size() == 0) return std::nullopt;
   if (effect.kind == EffectKind::kDrift) return value.cwiseAbs().maxCoeff();
-  if (effect.kind == EffectKind::kThermal && effect.tau_min > 0)
-    return value.cwiseAbs().maxCoeff() / effect.tau_min;
+  if (effect.kind == EffectKind::kThermal) {
+    // [plateau] or, linearised about tau_min, [plateau, correction to tau_min].
+    const double tau = effect.tau_min + (value.size() > 1 ? value(1) : 0.0);
+    if (!(tau > 0)) return std::numeric_limits<double>::infinity();  // no warm-up at all
+    return std::abs(value(0)) / tau;
+  }
   return std::nullopt;
 }
 

@@ -219,23 +219,24 @@ void validate_program_options(const ProgramOptions& o, const std::string& source
   auto check = [&](bool ok, const char* key, const std::string& what) {
     if (!ok) throw InputError(source, key, what);
   };
-  check(std::isfinite(o.dwell_s) && o.dwell_s > 0 && o.dwell_s <= 600, "dwell_s",
-        "the dwell must be in (0, 600] s, got " + text::significant(o.dwell_s, 6));
-  check(std::isfinite(o.feed_mm_per_min) && o.feed_mm_per_min > 0 && o.feed_mm_per_min <= 60000,
-        "feed_mm_per_min",
-        "the feed must be in (0, 60000] mm/min, got " + text::significant(o.feed_mm_per_min, 6));
-  check(
-      std::isfinite(o.path_tolerance_mm) && o.path_tolerance_mm >= 1e-4 && o.path_tolerance_mm <= 1,
-      "path_tolerance_mm",
-      "the path tolerance must be in [0.0001, 1] mm (a ballbar reads within about +-1 mm), got " +
-          text::significant(o.path_tolerance_mm, 6));
-  check(o.tool_number >= 1 && o.tool_number <= 9999, "tool_number",
-        "a tool number is 1..9999, got " + std::to_string(o.tool_number));
-  check(std::isfinite(o.clearance_margin_mm) && o.clearance_margin_mm >= 1 &&
-            o.clearance_margin_mm <= 1000,
-        "clearance_margin_mm",
-        "the clearance margin must be in [1, 1000] mm, got " +
-            text::significant(o.clearance_margin_mm, 6));
+  // Within [lo, hi], said with the key's own unit.
+  auto within = [&](double x, double lo, double hi, const char* key, const std::string& what,
+                    const std::string& unit) {
+    check(std::isfinite(x) && x >= lo && x <= hi, key,
+          what + " must be in [" + text::significant(lo, 6) + ", " + text::significant(hi, 6) +
+              "] " + unit + ", got " + text::significant(x, 6));
+  };
+  within(o.dwell_s, limits::kMinDwell_s, limits::kMaxDwell_s, "dwell_s", "the dwell", "s");
+  within(o.feed_mm_per_min, limits::kMinFeed_mm_per_min, limits::kMaxFeed_mm_per_min,
+         "feed_mm_per_min", "the feed", "mm/min");
+  within(o.path_tolerance_mm, limits::kMinPathTolerance_mm, limits::kMaxPathTolerance_mm,
+         "path_tolerance_mm", "the path tolerance (a ballbar reads within about +-1 mm)", "mm");
+  check(o.tool_number >= limits::kMinToolNumber && o.tool_number <= limits::kMaxToolNumber,
+        "tool_number",
+        "a tool number is " + std::to_string(limits::kMinToolNumber) + ".." +
+            std::to_string(limits::kMaxToolNumber) + ", got " + std::to_string(o.tool_number));
+  within(o.clearance_margin_mm, limits::kMinClearanceMargin_mm, limits::kMaxClearanceMargin_mm,
+         "clearance_margin_mm", "the clearance margin", "mm");
   check(!o.clearance_z_mm || (std::isfinite(*o.clearance_z_mm) &&
                               std::abs(*o.clearance_z_mm) <= limits::kMaxLength_mm),
         "clearance_z_mm", "the clearance plane must be a Z within +-10000 mm");

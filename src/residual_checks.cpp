@@ -327,12 +327,26 @@ std::vector<ResidualFeature> residual_features(const Design& design,
 void mark_implausible(const Design& design, const std::vector<Reading>& readings,
                       std::vector<ResidualFeature>& features) {
   const double range_um = 1e3 * design.instrument_range_mm;
-  const double test_min = test_minutes(readings);
+  // The minutes a feature's readings span: its installation's, or the test's (installation -1).
+  const std::size_t n = design.installations.size();
+  std::vector<double> t0(n, std::numeric_limits<double>::infinity()), t1(n, -t0[0]);
+  for (const Reading& r : readings) {
+    const int i = design.find_installation(r.installation);
+    if (!r.time_s || i < 0) continue;
+    t0[static_cast<std::size_t>(i)] = std::min(t0[static_cast<std::size_t>(i)], *r.time_s);
+    t1[static_cast<std::size_t>(i)] = std::max(t1[static_cast<std::size_t>(i)], *r.time_s);
+  }
+  auto span_min = [&](int installation) {
+    if (installation < 0 || static_cast<std::size_t>(installation) >= n)
+      return test_minutes(readings);
+    const std::size_t i = static_cast<std::size_t>(installation);
+    return t1[i] > t0[i] ? (t1[i] - t0[i]) / 60.0 : 0.0;
+  };
   for (ResidualFeature& f : features) {
-    // What the feature alone would move the bar by: a drift over the whole test (a machine's or
-    // a bar's drift does not stop at an installation's end), any other its size.
-    const double size =
-        f.kind == FeatureKind::kDrift ? std::abs(f.value) * test_min : std::abs(f.value);
+    // What the feature alone would move the bar by in these readings (as effect_reach_um): a
+    // drift over the span of its readings, any other its size.
+    const double size = f.kind == FeatureKind::kDrift ? std::abs(f.value) * span_min(f.installation)
+                                                      : std::abs(f.value);
     if (size > range_um) f.beyond_instrument_um = size;
     if (f.kind == FeatureKind::kDrift && std::abs(f.value) > design.max_drift_um_per_min)
       f.beyond_drift_rate_um_per_min = std::abs(f.value);

@@ -100,7 +100,7 @@ class Selector {
     for (bool changed = true; changed;) {
       forward();
       if (stopped_at_reading_ >= 0 || stopped_at_order_) break;
-      changed = exchange() || backward();
+      changed = exchange() || backward() || drop_implausible();
     }
     compare_structures();
     final_alternatives();
@@ -129,14 +129,22 @@ class Selector {
   // the instrument's range in these readings (effect_reach_um).
   std::optional<CandidateStatus> implausible(const EffectBlock& block, const Estimate& fit,
                                              const std::string& label) const {
-    if (!design_) return std::nullopt;
     const Eigen::Index q = block.J_reading_effect.cols();
+    return implausible(block, values_at(fit, fit.n_unknowns - q, q), label);
+  }
+  // `q` fitted values of `fit` from column `first` on.
+  static Eigen::VectorXd values_at(const Estimate& fit, Eigen::Index first, Eigen::Index q) {
     Eigen::VectorXd value(q);
     for (Eigen::Index j = 0; j < q; ++j) {
       Eigen::VectorXd unit = Eigen::VectorXd::Zero(fit.n_unknowns);
-      unit(fit.n_unknowns - q + j) = 1.0;
+      unit(first + j) = 1.0;
       value(j) = fit.evaluate(unit).value;
     }
+    return value;
+  }
+  std::optional<CandidateStatus> implausible(const EffectBlock& block, const Eigen::VectorXd& value,
+                                             const std::string& label) const {
+    if (!design_) return std::nullopt;
     std::optional<CandidateStatus> c;
     if (const auto rate = drift_rate_um_per_min(block.effect, value);
         rate && !(*rate <= design_->max_drift_um_per_min)) {
@@ -392,13 +400,18 @@ class Selector {
       family_status_[f].missed = StepMiss{step_, threshold, dbic, true};
       return false;
     }
-    if (auto c = implausible(block, trial, fam.label)) {
-      family_status_[f] = *c;
-      family_status_[f].other = block.label;
-      family_used_[f] = true;
-      --step_;
-      return true;
-    }
+    // Significant at a size or rate no machine or bar has: the family left out, the step again.
+    auto left_out = [&](const Estimate& fit) {
+      auto c = implausible(block, fit, fam.label);
+      if (c) {
+        family_status_[f] = *c;
+        family_status_[f].other = block.label;
+        family_used_[f] = true;
+        --step_;
+      }
+      return c.has_value();
+    };
+    if (left_out(trial)) return true;
     AddedEffect a;
     a.evidence = {step_, F, 1, trial.dof, p, threshold, tested, dbic, current_.chi2, trial.chi2};
     a.evidence.scanned = scanned;
@@ -408,7 +421,12 @@ class Selector {
       if (fits_almost_as_well(trial_chi2[i], trial)) a.close_alternatives.push_back(pool_[i].label);
     }
     Estimate after = trial;
-    if (fam.effect.kind == EffectKind::kThermal) block = refine_thermal(fam, k, after);
+    if (fam.effect.kind == EffectKind::kThermal) {
+      block = refine_thermal(fam, k, after);
+      // Its time constant refined (below the grid's), the warm-up may start faster than any
+      // machine or bar: then it is no finding either.
+      if (left_out(after)) return true;
+    }
     CandidateStatus& fs = family_status_[f];
     fs = status(fam.label, CandidateState::kAdded, CandidateReason::kScanAdded);
     fs.step = step_;
@@ -574,6 +592,35 @@ class Selector {
   // F-test of dropping gives p >= level (an effect added early can be made redundant
   // by later ones). Entry needs p < level / m, so a dropped effect cannot re-enter at
   // once. True when one was dropped.
+  // An added effect that, with the effects added after it, the final fit puts at a size no machine
+  // or bar has: left out (implausible), and selection goes on without it. True when one was.
+  bool drop_implausible() {
+    Eigen::Index col = J0_.cols();
+    for (std::size_t a = 0; a < added_.size(); ++a) {
+      const EffectBlock& b = added_[a].block;
+      const Eigen::Index q = b.J_reading_effect.cols();
+      const std::optional<CandidateStatus> c = implausible(b, values_at(current_, col, q), b.label);
+      col += q;
+      if (!c) continue;
+      if (const int f = family_of(b); f >= 0) {
+        family_status_[f] = *c;
+        family_status_[f].label = families_[f].label;
+        family_status_[f].other = b.label;
+        family_used_[f] = true;
+      } else {
+        const int idx = index_of(b.label);
+        status_[idx] = *c;
+        used_[idx] = true;
+        release_equivalents(added_[a]);
+      }
+      added_.erase(added_.begin() + static_cast<std::ptrdiff_t>(a));
+      rebuild();
+      current_ = solve(J_);
+      return true;
+    }
+    return false;
+  }
+
   bool backward() {
     int worst = -1;
     double worst_p = -1, worst_F = 0;

@@ -277,21 +277,49 @@ TEST(Diagnose, ADriftNoMachineHasIsNoFinding) {
       named += c.state == CandidateState::kImplausible && !has(bounded, "drift[3r]") &&
                c.reason == CandidateReason::kBeyondDriftRate &&
                std::abs(c.implied_um_per_min - 40.0) < 1.0 && c.level == 10.0 &&
-               io::candidate_detail(c).find("faster than the 10 um/min") != std::string::npos;
+               io::candidate_detail(c).find("(instrument.max_drift_um_per_min, 10 um/min)") !=
+                   std::string::npos;
     }
     bool said = false;
     for (const io::BriefItem& b : io::diagnose_brief(d, bounded))
       said = said || b.text.rfind("Not a finding: drift[3r], a drift of 4", 0) == 0;
     EXPECT_TRUE(said);
-    for (const AddedEffect& a : bounded.added) {
-      Eigen::VectorXd v(static_cast<Eigen::Index>(a.values.size()));
-      for (std::size_t k = 0; k < a.values.size(); ++k)
-        v(static_cast<Eigen::Index>(k)) = a.values[k].value;
-      if (const auto rate = drift_rate_um_per_min(a.block.effect, v))
-        EXPECT_LE(*rate, d.max_drift_um_per_min) << a.block.label;
-    }
+    for (const AddedEffect& a : bounded.added)
+      if (a.block.effect.kind == EffectKind::kDrift)
+        EXPECT_LE(std::abs(a.values[0].value), d.max_drift_um_per_min) << a.block.label;
   }
   EXPECT_EQ(found, seeds);
+  EXPECT_EQ(named, seeds);
+}
+
+// A warm-up of 80 um with a time constant of 4 min starts at 20 um/min, twice the design's bound:
+// no warm-up is found whose slope at its start (its plateau over its time constant, as finally
+// fitted) is above the bound, nor any drift, and the warm-up is named implausible.
+TEST(Diagnose, AWarmUpStartingFasterThanAnyMachineIsNoFinding) {
+  const Design d = fourier_design();
+  std::mt19937_64 rng(10);
+  int named = 0;
+  const int seeds = 3;
+  for (int s = 0; s < seeds; ++s) {
+    Truth t = random_fourier_truth(d, rng);
+    t.effects = {thermal(80, 4)};
+    const DiagnoseResult r = diagnose(d, simulate(d, t, 9900 + s));
+    for (const AddedEffect& a : r.added) {
+      if (a.block.effect.kind == EffectKind::kThermal) {
+        ASSERT_EQ(a.values.size(), 2u);
+        EXPECT_GT(a.values[1].value, 0) << a.block.label;
+        EXPECT_LE(std::abs(a.values[0].value) / a.values[1].value, d.max_drift_um_per_min)
+            << a.block.label;
+      }
+      if (a.block.effect.kind == EffectKind::kDrift)
+        EXPECT_LE(std::abs(a.values[0].value), d.max_drift_um_per_min) << a.block.label;
+    }
+    for (const CandidateStatus& c : r.candidates)
+      named += c.label.rfind("thermal", 0) == 0 && c.state == CandidateState::kImplausible &&
+               c.reason == CandidateReason::kBeyondDriftRate &&
+               io::candidate_detail(c).find("a warm-up whose slope at its start is") !=
+                   std::string::npos;
+  }
   EXPECT_EQ(named, seeds);
 }
 

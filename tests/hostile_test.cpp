@@ -481,8 +481,8 @@ TEST_F(Hostile, ASecondRoundOfHostileInputsIsRefusedOrCarried) {
        {Bad{"reference_length_mm", 1e-300, "from 0.001 to 10000 mm, got 1e-300"},
         Bad{"/installations/0/bar_mm", 1e-9, "from 25 mm"},
         Bad{"/instrument", {{"range_mm", 1e-12}}, "from 0.001 mm"},
-        Bad{"/instrument", {{"max_drift_um_per_min", 0}}, "must be above 0"},
-        Bad{"/instrument", {{"max_drift_um_per_min", 1e5}}, "at most 10000 um/min"}}) {
+        Bad{"/instrument", {{"max_drift_um_per_min", 0}}, "must be from 0.001 to 10000 um/min"},
+        Bad{"/instrument", {{"max_drift_um_per_min", 1e5}}, "got 100000"}}) {
     nlohmann::json d = base;
     d[nlohmann::json::json_pointer(b.key[0] == '/' ? b.key : "/" + b.key)] = b.value;
     write("v.json", d.dump());

@@ -391,10 +391,22 @@ TEST(Program, OptionsOutsideTheirLimitsAreRefused) {
   const Design d = io::read_design_file(DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json");
   for (auto set : {+[](ProgramOptions& o) { o.dwell_s = 0; },
                    +[](ProgramOptions& o) { o.feed_mm_per_min = NAN; },
-                   +[](ProgramOptions& o) { o.path_tolerance_mm = 2; }}) {
+                   +[](ProgramOptions& o) { o.path_tolerance_mm = 2; },
+                   // The command line's and Python's edges are the library's: a dwell of
+                   // 0.5 ms or a feed of 0.5 mm/min, refused there, is refused here too.
+                   +[](ProgramOptions& o) { o.dwell_s = 5e-4; },
+                   +[](ProgramOptions& o) { o.feed_mm_per_min = 0.5; },
+                   +[](ProgramOptions& o) { o.clearance_margin_mm = 0.5; }}) {
     ProgramOptions o;
     set(o);
     EXPECT_THROW(measurement_program(d, o), InputError);
+  }
+  for (auto set :
+       {+[](ProgramOptions& o) { o.dwell_s = 1e-3; }, +[](ProgramOptions& o) { o.dwell_s = 600; },
+        +[](ProgramOptions& o) { o.feed_mm_per_min = 1; }}) {
+    ProgramOptions o;
+    set(o);
+    EXPECT_NO_THROW(measurement_program(d, o));
   }
 }
 

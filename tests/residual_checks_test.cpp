@@ -70,6 +70,29 @@ TEST(ResidualFeatures, ADriftFasterThanTheDesignAllowsIsMarked) {
   EXPECT_FALSE(fs[0].implausible());
 }
 
+// A drift of one installation moves the bar over that installation's readings only: 30 um/min
+// over its 5 min is 150 um, an ordinary size; the same rate over the whole 60 min test would be
+// 1.8 mm, beyond the +-1 mm range.
+TEST(ResidualFeatures, ADriftIsWeighedOverItsOwnReadings) {
+  Design d = test::paper_design('C');
+  d.max_drift_um_per_min = 100;
+  std::vector<Reading> readings(3);
+  readings[0].installation = readings[1].installation = d.installations[0].id;
+  readings[2].installation = d.installations[1].id;
+  readings[0].time_s = 0;
+  readings[1].time_s = 300;
+  readings[2].time_s = 3600;
+  std::vector<ResidualFeature> fs(2);
+  fs[0].kind = fs[1].kind = FeatureKind::kDrift;
+  fs[0].value = fs[1].value = 30.0;
+  fs[0].installation = 0;
+  fs[1].installation = -1;  // the whole test
+  mark_implausible(d, readings, fs);
+  EXPECT_FALSE(fs[0].implausible());
+  ASSERT_TRUE(fs[1].beyond_instrument_um);
+  EXPECT_NEAR(*fs[1].beyond_instrument_um, 1800.0, 1e-9);
+}
+
 struct Problem {
   Eigen::MatrixXd J;
   Eigen::VectorXd sigma, y;

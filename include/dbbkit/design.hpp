@@ -125,6 +125,7 @@ inline constexpr double kMinInstrumentRange_mm = 1e-3;
 // drift faster than this stands for something else the model lacks. At most
 // kMaxMaxDrift_um_per_min.
 inline constexpr double kDefaultMaxDrift_um_per_min = 10.0;
+inline constexpr double kMinMaxDrift_um_per_min = 1e-3;
 inline constexpr double kMaxMaxDrift_um_per_min = 1e4;
 // The shortest bar (bar_mm): two balls of about 13 mm and their cups cannot come closer.
 inline constexpr double kMinBar_mm = 25.0;

@@ -108,7 +108,9 @@ double test_minutes(const std::vector<Reading>& readings);
 // could not hold it.
 double effect_reach_um(const Eigen::MatrixXd& J_reading_effect, const Eigen::VectorXd& value);
 // The fastest rate of a drift or a warm-up of `value` [um/min]: a drift's largest |value|, a
-// warm-up's |value| / tau (its slope at the start); nothing for any other kind.
+// warm-up's |plateau| / tau (its slope at the start; tau its time constant plus the correction
+// of a linearised block's second column; infinite when tau is not above 0); nothing for any
+// other kind.
 std::optional<double> drift_rate_um_per_min(const EffectCandidate& effect,
                                             const Eigen::VectorXd& value);
 

@@ -67,6 +67,25 @@ constexpr double kMaxTraceReading_um = 1e6;
 constexpr double kMaxTraceGapFactor = 1000;
 constexpr double kMaxTraceGap_s = 60;
 
+// A program's and a set-up sheet's options (ProgramOptions; `program`, `setup-sheet` and the
+// Python module check the same ranges): the dwell at each reading [s], the feed between
+// positions [mm/min], the largest bar-length change along a move [mm] (a ballbar reads within
+// about +-1 mm), the tool number, the clearance plane's margin [mm].
+constexpr double kMinDwell_s = 1e-3;
+constexpr double kMaxDwell_s = 600;
+constexpr double kMinFeed_mm_per_min = 1;
+constexpr double kMaxFeed_mm_per_min = 60000;
+constexpr double kMinPathTolerance_mm = 1e-4;
+constexpr double kMaxPathTolerance_mm = 1;
+constexpr int kMinToolNumber = 1;
+constexpr int kMaxToolNumber = 9999;
+constexpr double kMinClearanceMargin_mm = 1;
+constexpr double kMaxClearanceMargin_mm = 1000;
+// The program's dwell a trace is searched for (`readings --dwell-s`): at least 0.01 s, ten
+// samples at 1 kHz; at most kMaxDwell_s. A dwell is at least kMinDwellShare of it long.
+constexpr double kMinTraceDwell_s = 0.01;
+constexpr double kMinDwellShare = 0.05;
+
 // Ranges of the run options (command-line options and the Python module's arguments).
 // Coverage probability of an expanded uncertainty.
 constexpr double kMinCoverage = 0.5;

@@ -143,8 +143,9 @@ struct ResidualFeature {
   // each would have.
   std::vector<int> indistinguishable;
   std::vector<double> indistinguishable_values;
-  // What no machine or bar can have: the feature alone would move the bar by this much (um; a
-  // drift over the whole test), beyond the instrument's range (design.instrument_range_mm). Such
+  // What no machine or bar can have: the feature alone would move the bar by this much in these
+  // readings (um; a drift over the span of its readings: its installation's, or the test's for
+  // one of the whole test), beyond the instrument's range (design.instrument_range_mm). Such
   // a feature stands for something the model lacks, not for itself: never the most significant
   // feature, never a finding.
   std::optional<double> beyond_instrument_um;

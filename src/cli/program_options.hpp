@@ -10,6 +10,7 @@
 
 #include "checks.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/program.hpp"
 #include "dbbkit/user_text.hpp"
 
@@ -28,28 +29,28 @@ inline void add_program_options(CLI::App* sub, const std::shared_ptr<ProgramArgs
                   "then see a reversal error)")
       ->check(CLI::IsMember({"ccw", "cw", "both"}));
   sub->add_option("--dwell-s", args->options.dwell_s, "Dwell at each reading [s] (default 2)")
-      ->check(finite_in(1e-3, 600));
+      ->check(finite_in(limits::kMinDwell_s, limits::kMaxDwell_s));
   sub->add_option("--feed-mm-min", args->options.feed_mm_per_min,
                   "Feed of the linear axes between positions [mm/min] (default 500)")
-      ->check(finite_in(1, 60000));
+      ->check(finite_in(limits::kMinFeed_mm_per_min, limits::kMaxFeed_mm_per_min));
   sub->add_option("--path-tolerance-mm", args->options.path_tolerance_mm,
                   "Largest bar-length change along the interpolated move between two "
                   "positions [mm] (default 0.05)")
-      ->check(finite_in(1e-4, 1));
+      ->check(finite_in(limits::kMinPathTolerance_mm, limits::kMaxPathTolerance_mm));
   sub->add_flag(
       "--tool-down", args->tool_down,
       "Retired: a spindle pointing down is the design's axis frame (reference [0, 0, -1])");
   sub->add_option("--tool", args->options.tool_number,
                   "Tool number of the ballbar's spindle cup (T, H; default 99): its length "
                   "measured to the ball centre (C), to the pivot (B)")
-      ->check(integer_in(1, 9999));
+      ->check(integer_in(limits::kMinToolNumber, limits::kMaxToolNumber));
   sub->add_option("--clearance-z-mm", args->options.clearance_z_mm,
                   "Z of the clearance plane in the work frame, where every sideways rapid runs "
                   "(default: the highest point reached plus --clearance-margin-mm)")
-      ->check(finite_in(-10000, 10000));
+      ->check(finite_in(-limits::kMaxLength_mm, limits::kMaxLength_mm));
   sub->add_option("--clearance-margin-mm", args->options.clearance_margin_mm,
                   "Margin of the clearance plane above the highest point reached [mm] (default 50)")
-      ->check(finite_in(1, 1000));
+      ->check(finite_in(limits::kMinClearanceMargin_mm, limits::kMaxClearanceMargin_mm));
   sub->add_flag("--air-run", args->options.air_run,
                 "The same moves with no bar: a stop at each installation and after the first "
                 "step of each sweep, to check the sense of the rotary axis and the clearance");

@@ -17,6 +17,7 @@
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/io/trace_io.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/trace.hpp"
 #include "dbbkit/user_text.hpp"
@@ -50,11 +51,11 @@ Runner add_readings(CLI::App& app) {
                   "whole test cannot be formed)");
   sub->add_option("--out", args->out, "Measurement CSV; '-' or absent: stdout");
   sub->add_option("--dwell-s", args->dwell_s, "The program's dwell at each angle [s]")
-      ->check(finite_in(0.01, 600))
+      ->check(finite_in(limits::kMinTraceDwell_s, limits::kMaxDwell_s))
       ->capture_default_str();
   sub->add_option("--min-share", args->min_share,
                   "A dwell is at least this share of --dwell-s long")
-      ->check(finite_in(0.05, 1))
+      ->check(finite_in(limits::kMinDwellShare, 1))
       ->capture_default_str();
   sub->add_option("--sweeps", args->sweeps,
                   "The program's sweeps: ccw, cw or both (as program --sweeps), or a list in "

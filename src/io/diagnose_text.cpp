@@ -435,6 +435,15 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
   return v.str();
 }
 
+// "a drift of 40 um/min", or "a warm-up whose slope at its start is 19 um/min".
+static std::string rate_phrase(const CandidateStatus& c) {
+  const std::string rate = fmt_num(c.implied_um_per_min, 3) + " um/min";
+  if (c.label.rfind(effect_name(EffectKind::kThermal), 0) != 0) return "a drift of " + rate;
+  return std::isfinite(c.implied_um_per_min)
+             ? "a warm-up whose slope at its start is " + rate
+             : std::string("a warm-up with a time constant not above 0");
+}
+
 std::string candidate_detail(const CandidateStatus& c) {
   auto f = [](double x) { return fmt_num(x, 3); };
   std::string t;
@@ -501,9 +510,10 @@ std::string candidate_detail(const CandidateStatus& c) {
           f(c.level) + " um: the readings could not hold it, not a finding";
       break;
     case CandidateReason::kBeyondDriftRate:
-      t = "significant, but fitted it is a drift of " + f(c.implied_um_per_min) + " um/min" +
-          (c.other.empty() ? "" : " (" + c.other + ")") + ", faster than the " + f(c.level) +
-          " um/min a machine or bar drifts (instrument.max_drift_um_per_min): not a finding";
+      t = "significant, but fitted it is " + rate_phrase(c) +
+          (c.other.empty() ? "" : " (" + c.other + ")") +
+          ", faster than the fastest a machine or bar drifts (instrument.max_drift_um_per_min, " +
+          f(c.level) + " um/min): not a finding";
       break;
     case CandidateReason::kSetUpFitted:
     case CandidateReason::kSetUpCarried:
@@ -749,8 +759,8 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
               listed(limits, 100) + " or more (each candidate in the JSON).");
     if (const std::vector<std::string> unseen = unseen_kinds(kinds); !unseen.empty())
       add("blind", "This design cannot see " + comma_listed(unseen) +
-                       ": no machine or bar has an effect that large; evaluate states what an "
-                       "undetected drift moves.");
+                       ": no machine or bar has an effect that large or that fast; evaluate "
+                       "states what an undetected drift moves.");
   } else {
     add("residual", "No effect of the library explains the residual (" + chi_short(r.before) +
                         "); the errors' uncertainties do not hold as stated.");
@@ -801,8 +811,7 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
     if (c.state != CandidateState::kImplausible) continue;
     const std::string label = c.other.empty() ? c.label : c.other;
     absurd.push_back(c.reason == CandidateReason::kBeyondDriftRate
-                         ? label + ", a drift of " + fmt_num(c.implied_um_per_min, 3) +
-                               " um/min (beyond the " + fmt_num(c.level, 3) +
+                         ? label + ", " + rate_phrase(c) + " (beyond the " + fmt_num(c.level, 3) +
                                " um/min of instrument.max_drift_um_per_min)"
                          : label + ", moving the bar " + fmt_num(c.implied_um, 3) +
                                " um (beyond the instrument's +-" + fmt_num(c.level, 3) + " um)");
