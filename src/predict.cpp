@@ -7,6 +7,7 @@
 #include <boost/math/distributions/normal.hpp>
 #include <boost/math/distributions/students_t.hpp>
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include "dbbkit/iso230.hpp"
@@ -172,6 +173,27 @@ PointPrediction predict_point(const AxisErrors& axis, const Pose& pose,
     p.U_um = p.after_U_um = length_uncertainty(p.covariance, coverage);
   }
   return p;
+}
+
+std::vector<Pose> envelope_poses(const AxisFrame& axis, const EnvelopeGrid& grid) {
+  const Eigen::Vector3d w = axis.direction(), u = axis.reference(), v = w.cross(u);
+  std::vector<Pose> out;
+  for (const double a : grid.angles_deg) {
+    for (const double r : grid.radii_mm) {
+      for (const double h : grid.heights_mm) {
+        const int n = r == 0 ? 1 : std::max(1, grid.around);
+        for (int k = 0; k < n; ++k) {
+          const double phi = 2.0 * std::numbers::pi * k / n;
+          Pose p;
+          p.angle_deg = a;
+          // + 0.0: a coordinate that is a sum of zeros is +0, never -0.
+          p.point_mm = (r * (std::cos(phi) * u + std::sin(phi) * v) + h * w).array() + 0.0;
+          out.push_back(p);
+        }
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace dbbkit

@@ -11,7 +11,9 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iomanip>
 #include <random>
+#include <sstream>
 
 #include "cli_util.hpp"
 #include "dbbkit/identify.hpp"
@@ -344,7 +346,77 @@ TEST(PredictCli, PredictsFromAResultAndRefusesWhatItCannotUse) {
     EXPECT_EQ(b.status, 2) << e.where;
     EXPECT_NE(b.err.find(e.where), std::string::npos) << e.where << ": " << b.err;
   }
+  // A map over the envelope: every measured angle, the axis line and a circle of six points
+  // 150 mm from it, 80 mm along it. The largest error it names is the largest of its points, and
+  // each point is what --at predicts for the same pose (whose intervals the tests above check).
+  const CliRun m =
+      run_cli("predict --result " + result +
+              " --grid-radius-mm 0,150 --grid-height-mm 80 --grid-around 6 --out " + out);
+  ASSERT_EQ(m.status, 0) << m.err;
+  const nlohmann::json g = nlohmann::json::parse(slurp(out));
+  const std::size_t angles = nlohmann::json::parse(slurp(result))["errors"].size();
+  ASSERT_EQ(g["points"].size(), angles * 7);
+  EXPECT_NE(m.out.find("a map of " + std::to_string(angles * 7) + " points"), std::string::npos)
+      << m.out;
+  EXPECT_EQ(m.out.find("angle deg"), std::string::npos) << "a map prints no row per point";
+  double most = 0;
+  std::ostringstream same;
+  same << std::setprecision(17) << "angle_deg,x_mm,y_mm,z_mm\n";
+  for (const auto& x : g["points"]) {
+    most = std::max(most, std::hypot(x["error_um"][0].get<double>(), x["error_um"][1].get<double>(),
+                                     x["error_um"][2].get<double>()));
+    same << x["angle_deg"].get<double>() << "," << x["point_mm"][0].get<double>() << ","
+         << x["point_mm"][1].get<double>() << "," << x["point_mm"][2].get<double>() << "\n";
+  }
+  EXPECT_NEAR(g["largest"]["error"]["length_um"].get<double>(), most, 1e-5);
+  const std::string at_out = (dir / "same.json").string();
+  ASSERT_EQ(run_cli("predict --result " + result + " --at " + write("same.csv", same.str()) +
+                    " --out " + at_out)
+                .status,
+            0);
+  const nlohmann::json h = nlohmann::json::parse(slurp(at_out));
+  ASSERT_EQ(h["points"].size(), g["points"].size());
+  for (std::size_t i = 0; i < g["points"].size(); ++i) {
+    for (const char* key : {"error_um", "std_um"})
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(g["points"][i][key][c].get<double>(), h["points"][i][key][c].get<double>(),
+                    1e-6)
+            << i << " " << key;
+    EXPECT_NEAR(g["points"][i]["U_um"].get<double>(), h["points"][i]["U_um"].get<double>(), 1e-6);
+  }
+  // Neither poses nor a map; both.
+  EXPECT_EQ(run_cli("predict --result " + result).status, 2);
+  EXPECT_EQ(
+      run_cli("predict --result " + result + " --at " + poses + " --grid-radius-mm 10").status, 2);
   std::filesystem::remove_all(dir);
+}
+
+// The map's points: at each angle, `around` points on a circle of each radius about the axis
+// line at each height along it, the first in the reference direction; the axis line once.
+TEST(Predict, AnEnvelopeGridLiesOnCirclesAboutTheAxis) {
+  const Design d = design("a-trunnion.json");
+  EnvelopeGrid grid;
+  grid.angles_deg = {-30, 60};
+  grid.radii_mm = {0, 120};
+  grid.heights_mm = {-40, 90};
+  grid.around = 5;
+  const std::vector<Pose> poses = envelope_poses(d.axis, grid);
+  ASSERT_EQ(poses.size(), 2u * 2u * (1u + 5u));
+  const Eigen::Vector3d w = d.axis.direction();
+  int on_line = 0;
+  for (const Pose& p : poses) {
+    const double h = p.point_mm.dot(w), r = (p.point_mm - h * w).norm();
+    EXPECT_TRUE(std::abs(h + 40) < 1e-9 || std::abs(h - 90) < 1e-9) << h;
+    EXPECT_TRUE(r < 1e-9 || std::abs(r - 120) < 1e-9) << r;
+    on_line += r < 1e-9;
+  }
+  EXPECT_EQ(on_line, 4);  // two angles, two heights
+  // The first point of a circle is along the reference direction; the angle comes first.
+  EXPECT_NEAR((poses[2].point_mm - (120 * d.axis.reference() - 40 * w)).norm(), 0, 1e-9);
+  EXPECT_EQ(poses.front().angle_deg, -30);
+  EXPECT_EQ(poses.back().angle_deg, 60);
+  // Five points evenly spaced: consecutive ones 2 r sin(36 deg) apart.
+  EXPECT_NEAR((poses[3].point_mm - poses[2].point_mm).norm(), 240 * std::sin(M_PI / 5), 1e-9);
 }
 
 // The README's predict example: every line of its output blocks is printed by the commands it
@@ -361,11 +433,14 @@ TEST(Readme, WhereTheToolWillBeOffPrintsWhatTheReadmeShows) {
   const std::string D = src + "/designs/a-trunnion.json";
   const std::string poses = src + "/tests/data/poses_a_trunnion.csv";
   std::string printed;
-  for (const std::string& cmd : {"simulate --design " + D + " --truth " + src +
-                                     "/tests/data/truth_a_trunnion_location.json --out a.csv",
-                                 "identify --design " + D + " --data a.csv --out a.json",
-                                 "predict --result a.json --at " + poses,
-                                 "predict --result a.json --at " + poses + " --location-only"}) {
+  for (const std::string& cmd :
+       {"simulate --design " + D + " --truth " + src +
+            "/tests/data/truth_a_trunnion_location.json --out a.csv",
+        "identify --design " + D + " --data a.csv --out a.json",
+        "predict --result a.json --at " + poses,
+        "predict --result a.json --at " + poses + " --location-only",
+        std::string("predict --result a.json --grid-radius-mm 0,100,200 "
+                    "--grid-height-mm -50,0,100 --grid-around 12 --out map.json")}) {
     const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " " + cmd);
     ASSERT_EQ(r.status, 0) << cmd << "\n" << r.err;
     printed += r.out;
@@ -373,7 +448,7 @@ TEST(Readme, WhereTheToolWillBeOffPrintsWhatTheReadmeShows) {
   int checked = 0;
   for (const std::string& line : readme_lines_not_printed(section, printed, false, checked))
     ADD_FAILURE() << "README line not printed:\n" << line;
-  EXPECT_GE(checked, 16);
+  EXPECT_GE(checked, 19);
   std::filesystem::remove_all(dir);
 }
 

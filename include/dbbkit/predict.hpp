@@ -102,6 +102,19 @@ double length_uncertainty(const Eigen::Matrix3d& covariance, const PredictionCov
 // The Jacobian of dP [um] in (d [um], e [urad]) at the point P [mm]: dP = d + 1e-3 e x P.
 Eigen::Matrix<double, 3, 6> point_jacobian(const Eigen::Vector3d& P_mm);
 
+// A map over the envelope: at each angle, points on circles about the axis line, `around` to a
+// circle evenly spaced from the reference direction (radial), at each distance from the axis
+// line (radius) and each height along the axis from the axis frame's origin. On a table, the
+// workpiece's points; on a head, tool tips (a radius is a tool's reach from the axis).
+struct EnvelopeGrid {
+  std::vector<double> angles_deg, radii_mm, heights_mm;
+  int around = 8;  // points on each circle (1: the reference direction alone)
+};
+// The grid's poses, angle by angle, then radius, height and position around (body frame, from
+// the axis frame's origin): P = r (cos(phi) u + sin(phi) w x u) + h w, w the axis direction,
+// u the reference direction, phi = 360 deg k / around. A radius of 0 gives one point per height.
+std::vector<Pose> envelope_poses(const AxisFrame& axis, const EnvelopeGrid& grid);
+
 // The prediction at one pose. An angle is a measured one when it equals it within 1e-9 deg (on a
 // full turn, or differs from it by whole turns). `location_only`: the location errors alone at
 // every angle (what a controller's kinematics can be off by; the component motions left out).

@@ -277,7 +277,7 @@ json prediction_to_json(const PredictResult& p) {
   return out;
 }
 
-std::string prediction_text(const PredictResult& p) {
+std::string prediction_text(const PredictResult& p, bool rows) {
   std::ostringstream s;
   s << "predict: " << p.points.size() << " point" << (p.points.size() == 1 ? "" : "s") << " of the "
     << p.axis_label << " axis' body from " << terminal_text(p.result_source) << "\n";
@@ -293,16 +293,30 @@ std::string prediction_text(const PredictResult& p) {
   if (p.location_only)
     s << "the location errors alone at every angle (--location-only): the component error motions "
          "are left out\n";
-  s << std::setw(10) << "angle deg" << std::setw(26) << "point mm (x, y, z)" << std::setw(28)
-    << "error um (x, y, z)" << std::setw(8) << "|e|" << std::setw(7) << "U" << std::setw(10)
-    << "after |e|" << std::setw(7) << "U"
-    << "  basis\n";
+  if (rows)
+    s << std::setw(10) << "angle deg" << std::setw(26) << "point mm (x, y, z)" << std::setw(28)
+      << "error um (x, y, z)" << std::setw(8) << "|e|" << std::setw(7) << "U" << std::setw(10)
+      << "after |e|" << std::setw(7) << "U"
+      << "  basis\n";
   auto triple = [](const Eigen::Vector3d& v, int decimals) {
     return "(" + fmt_rounded(v.x(), decimals) + ", " + fmt_rounded(v.y(), decimals) + ", " +
            fmt_rounded(v.z(), decimals) + ")";
   };
   bool location_only = false;
+  if (!rows) {
+    int gaps = 0;
+    for (const PointPrediction& x : p.points) {
+      location_only = location_only ||
+                      (x.gap == PredictionGap::kNone && x.basis == PredictionBasis::kLocationOnly);
+      gaps += x.gap != PredictionGap::kNone;
+    }
+    s << "a map of " << p.points.size() << " points (each in the JSON, --out)";
+    if (gaps > 0)
+      s << "; " << gaps << " not determined: the result does not determine every location error";
+    s << "\n";
+  }
   for (const PointPrediction& x : p.points) {
+    if (!rows) break;
     s << std::setw(10) << fmt_rounded(x.pose.angle_deg, 3) << std::setw(26)
       << triple(x.pose.point_mm, 1);
     if (x.gap != PredictionGap::kNone) {

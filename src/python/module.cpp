@@ -52,6 +52,7 @@
 #include "dbbkit/observability.hpp"
 #include "dbbkit/optimize.hpp"
 #include "dbbkit/parallel.hpp"
+#include "dbbkit/predict.hpp"
 #include "dbbkit/program.hpp"
 #include "dbbkit/setup.hpp"
 #include "dbbkit/setup_sheet.hpp"
@@ -542,13 +543,13 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
                                   std::optional<std::string> unit,
                                   std::optional<double> sample_rate_hz,
                                   const std::map<std::string, double>& start_s) {
-  check_finite_in("dwell_s", dwell_s, 0.01, 600);
+  check_finite_in("dwell_s", dwell_s, limits::kMinTraceDwell_s, limits::kMaxDwell_s);
   for (const auto& [id, s] : start_s) {
     if (!traces.contains(py::str(id)))
       throw InputError("start_s", quote_value(id), "no trace of this installation");
     check_finite_in("start_s", s, -1e11, 1e11);
   }
-  check_finite_in("min_share", min_share, 0.05, 1);
+  check_finite_in("min_share", min_share, limits::kMinDwellShare, 1);
   const std::vector<Sweep> sw = sweeps_by_name(sweeps, "sweeps");
   io::TraceFormat format;
   if (columns) io::parse_trace_columns(*columns, format);
@@ -823,12 +824,17 @@ ProgramOptions py_program_options(const PyDesign& d, const std::string& sweeps, 
                                   bool air_run, const std::string& orient_code,
                                   const std::optional<std::string>& tcpm) {
   // The command line's ranges (program_options.hpp), then the library's own checks.
-  check_finite_in("dwell_s", dwell_s, 1e-3, 600);
-  check_finite_in("feed_mm_min", feed_mm_min, 1, 60000);
-  check_finite_in("path_tolerance_mm", path_tolerance_mm, 1e-4, 1);
-  check_integer_in("tool", tool, 1, 9999);
-  if (clearance_z_mm) check_finite_in("clearance_z_mm", *clearance_z_mm, -10000, 10000);
-  check_finite_in("clearance_margin_mm", clearance_margin_mm, 1, 1000);
+  check_finite_in("dwell_s", dwell_s, limits::kMinDwell_s, limits::kMaxDwell_s);
+  check_finite_in("feed_mm_min", feed_mm_min, limits::kMinFeed_mm_per_min,
+                  limits::kMaxFeed_mm_per_min);
+  check_finite_in("path_tolerance_mm", path_tolerance_mm, limits::kMinPathTolerance_mm,
+                  limits::kMaxPathTolerance_mm);
+  check_integer_in("tool", tool, limits::kMinToolNumber, limits::kMaxToolNumber);
+  if (clearance_z_mm)
+    check_finite_in("clearance_z_mm", *clearance_z_mm, -limits::kMaxLength_mm,
+                    limits::kMaxLength_mm);
+  check_finite_in("clearance_margin_mm", clearance_margin_mm, limits::kMinClearanceMargin_mm,
+                  limits::kMaxClearanceMargin_mm);
   ProgramOptions o;
   const auto named = program_sweeps_named(sweeps);
   if (!named)
@@ -1715,12 +1721,43 @@ PYBIND11_MODULE(dbbkit, m) {
       "distance and squareness between their lines, with U; the dict `chain --out` writes");
   m.def(
       "predict",
-      [result_of](py::handle result, py::handle at, double coverage, bool location_only) {
+      [result_of](py::handle result, py::handle at, double coverage, bool location_only,
+                  std::optional<std::vector<double>> radii_mm,
+                  std::optional<std::vector<double>> heights_mm, int around,
+                  std::optional<std::vector<double>> angles_deg) {
         check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
         const io::ResultFile r = result_of(result, "result");
         std::vector<Pose> poses;
         std::string source = "at";
-        if (const auto path = as_path(at)) {
+        if (at.is_none() == !radii_mm)
+          throw InputError("at", "", "give the poses (at) or a map (radii_mm), not both");
+        if (radii_mm) {
+          // A map, as predict --grid-radius-mm makes it.
+          EnvelopeGrid grid;
+          grid.radii_mm = *radii_mm;
+          grid.heights_mm = heights_mm.value_or(std::vector<double>{0.0});
+          check_integer_in("around", around, 1, 360);
+          grid.around = around;
+          if (angles_deg) {
+            grid.angles_deg = *angles_deg;
+          } else {
+            for (const io::ResultErrors& e : r.errors) grid.angles_deg.push_back(e.angle_deg);
+          }
+          for (const double x : grid.radii_mm)
+            check_finite_in("radii_mm", x, 0, limits::kMaxLength_mm);
+          for (const double x : grid.heights_mm)
+            check_finite_in("heights_mm", x, -limits::kMaxLength_mm, limits::kMaxLength_mm);
+          if (static_cast<double>(grid.angles_deg.size()) * grid.radii_mm.size() *
+                  grid.heights_mm.size() * grid.around >
+              static_cast<double>(limits::kMaxPoses))
+            throw InputError(
+                "radii_mm", "",
+                "the map would hold more than " + std::to_string(limits::kMaxPoses) + " points");
+          poses = envelope_poses(r.axis, grid);
+          for (std::size_t i = 0; i < poses.size(); ++i)
+            io::check_pose(poses[i], r.axis, "angles_deg", "point " + std::to_string(i + 1) + ".");
+          source = "grid";
+        } else if (const auto path = as_path(at)) {
           poses = io::read_poses_file(*path, r.axis);
           source = *path;
         } else {
@@ -1744,12 +1781,15 @@ PYBIND11_MODULE(dbbkit, m) {
         if (const auto path = as_path(result)) p.result_sha256 = io::sha256_file(*path);
         return to_python(io::prediction_to_json(p));
       },
-      py::arg("result"), py::arg("at"), py::arg("coverage") = 0.95,
-      py::arg("location_only") = false,
+      py::arg("result"), py::arg("at") = py::none(), py::arg("coverage") = 0.95,
+      py::arg("location_only") = false, py::arg("radii_mm") = py::none(),
+      py::arg("heights_mm") = py::none(), py::arg("around") = 8, py::arg("angles_deg") = py::none(),
       "`dbbkit predict`: the error of points of the turning body at commanded angles (`at`: a "
-      "poses CSV's path, or rows [angle_deg, x_mm, y_mm, z_mm]) from a result (path, result or "
-      "its json), with its uncertainty and what entering the location errors leaves; the dict "
-      "`predict --out` writes");
+      "poses CSV's path, or rows [angle_deg, x_mm, y_mm, z_mm]; or a map: `radii_mm` from the "
+      "axis line, `heights_mm` along it (default [0]), `around` points a circle, `angles_deg` "
+      "(default the result's), as predict --grid-*) from a result (path, result or its json), "
+      "with its uncertainty and what entering the location errors leaves; the dict `predict "
+      "--out` writes");
   m.def(
       "compensation",
       [result_of](py::handle result, const std::string& format, const std::string& kins,

@@ -122,6 +122,14 @@ class RoundTrips(InSource):
             self.assertEqual([p["basis"] for p in got["points"]], ["motions", "location"])
             only = dbbkit.predict(a, rows, location_only=True)
             self.assertEqual([p["basis"] for p in only["points"]], ["location", "location"])
+            # A map over the envelope: the command line's, point for point.
+            grid = dbbkit.predict(a, radii_mm=[0, 200], heights_mm=[0, 50], around=4)
+            self.assertEqual(grid, cli_json("predict", "--result", a, "--grid-radius-mm", "0,200",
+                                            "--grid-height-mm", "0,50", "--grid-around", "4"))
+            self.assertEqual(len(grid["points"]), len(r.json["errors"]) * 2 * (1 + 4))
+        with self.assertRaises(dbbkit.InputError) as ctx:
+            dbbkit.predict(r, [[0, 1, 2, 3]], radii_mm=[100])
+        self.assertIn("not both", str(ctx.exception))
         with self.assertRaises(dbbkit.InputError) as ctx:
             dbbkit.predict(r, [[0, 1, 2]])
         self.assertIn("at[0]", str(ctx.exception))

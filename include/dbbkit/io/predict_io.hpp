@@ -43,6 +43,8 @@ PredictResult predict(const ResultFile& result, const std::vector<Pose>& poses,
                       double coverage_probability, bool location_only = false);
 
 nlohmann::json prediction_to_json(const PredictResult& p);
-std::string prediction_text(const PredictResult& p);
+// `rows`: a line per point (a map over a grid gives its largest errors alone; every point is in
+// the JSON).
+std::string prediction_text(const PredictResult& p, bool rows = true);
 
 }  // namespace dbbkit::io
