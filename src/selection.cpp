@@ -499,8 +499,12 @@ class Selector {
     two.J_reading_effect.conservativeResize(Eigen::NoChange, 2);
     two.J_reading_effect.col(1) = deriv;
     const Estimate with_tau = solve(append_columns(J_, two.J_reading_effect));
-    if (with_tau.rank - one.rank <
-        1) {  // tau not determined (a plateau of zero): the one-column block
+    Eigen::VectorXd last = Eigen::VectorXd::Zero(with_tau.n_unknowns);
+    last(with_tau.n_unknowns - 1) = 1.0;
+    // tau not determined (a plateau of zero), or the linearised correction leaves it at or below
+    // 0 (a warm-up quicker than the search's bracket, where the linearisation does not hold):
+    // the one-column block at the refined tau.
+    if (with_tau.rank - one.rank < 1 || !(tau + with_tau.evaluate(last).value > 0)) {
       fit = one;
       return f;
     }

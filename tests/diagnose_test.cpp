@@ -321,6 +321,22 @@ TEST(Diagnose, AWarmUpStartingFasterThanAnyMachineIsNoFinding) {
                    std::string::npos;
   }
   EXPECT_EQ(named, seeds);
+  // A warm-up of 20 um with the same 4 min starts at 5 um/min, an ordinary one: its time
+  // constant lies below the scan's, where the linearised correction would leave it below 0; it
+  // is found at the search's least time constant, never refused as implausible.
+  for (int s = 0; s < seeds; ++s) {
+    Truth t = random_fourier_truth(d, rng);
+    t.effects = {thermal(20, 4)};
+    const DiagnoseResult r = diagnose(d, simulate(d, t, 9950 + s));
+    EXPECT_TRUE(has(r, "thermal[all]"));
+    for (const AddedEffect& a : r.added)
+      if (a.block.effect.kind == EffectKind::kThermal)
+        EXPECT_GT(a.values.size() > 1 ? a.values[1].value : a.block.effect.tau_min, 0)
+            << a.block.label;
+    for (const CandidateStatus& c : r.candidates)
+      EXPECT_FALSE(c.label.rfind("thermal", 0) == 0 && c.state == CandidateState::kImplausible)
+          << io::candidate_detail(c);
+  }
 }
 
 // An A trunnion with its set-up tolerances declared, a 4 um warm-up and a 6/7 um centring on 3t
