@@ -388,6 +388,51 @@ TEST(PredictCli, PredictsFromAResultAndRefusesWhatItCannotUse) {
   EXPECT_EQ(run_cli("predict --result " + result).status, 2);
   EXPECT_EQ(
       run_cli("predict --result " + result + " --at " + poses + " --grid-radius-mm 10").status, 2);
+  // The map states its parameters, defaults filled in; a radius 0's covariance and a point on the
+  // axis line are never -0.
+  EXPECT_EQ(g["grid"]["radii_mm"], nlohmann::json::parse("[0, 150]"));
+  EXPECT_EQ(g["grid"]["heights_mm"], nlohmann::json::parse("[80]"));
+  EXPECT_EQ(g["grid"]["around"].get<int>(), 6);
+  EXPECT_EQ(g["grid"]["angles_deg"].size(), angles);
+  EXPECT_EQ(slurp(out).find("-0.0,"), std::string::npos);
+  EXPECT_EQ(slurp(out).find("-0.0\n"), std::string::npos);
+  // A map's lists: each item a number, no value twice, each within its range; the error names the
+  // option and the item.
+  struct BadGrid {
+    std::string options, says;
+  };
+  for (const BadGrid& b : std::vector<BadGrid>{
+           {"--grid-radius-mm 1,,2", "--grid-radius-mm: item 2: empty"},
+           {"--grid-radius-mm 1,", "--grid-radius-mm: item 2: empty"},
+           {"--grid-radius-mm ''", "--grid-radius-mm: item 1: empty"},
+           {"--grid-radius-mm 1,x", "--grid-radius-mm: item 2: 'x' is not"},
+           {"--grid-radius-mm 100,50,100", "item 3: 100 is item 1 as well"},
+           {"--grid-radius-mm 1e-5", "item 1: 1e-05 mm: a radius is 0 (the axis line) or from"},
+           {"--grid-radius-mm -1", "item 1: -1 mm"},
+           {"--grid-radius-mm 9000 --grid-height-mm 9000", "beyond 10000 mm from the axis"},
+           {"--grid-radius-mm 10 --grid-height-mm 0,inf", "--grid-height-mm: item 2: 'inf'"},
+           {"--grid-radius-mm 10 --grid-angles-deg 0,500",
+            "--grid-angles-deg: item 2: 500 deg is "
+            "beyond the travel"},
+           {"--grid-radius-mm 10 --grid-angles-deg 0,0", "item 2: 0 is item 1 as well"},
+           {"--grid-radius-mm 10 --grid-around 0", "--grid-around"},
+           {"--grid-height-mm 10", "--grid-radius-mm"}}) {
+    const CliRun r = run_cli("predict --result " + result + " " + b.options);
+    EXPECT_EQ(r.status, 2) << b.options;
+    EXPECT_NE(r.err.find(b.says), std::string::npos) << b.options << ": " << r.err;
+  }
+  // An angle not measured is never printed as a measured one's text.
+  const double first = nlohmann::json::parse(slurp(result))["errors"][0]["angle_deg"];
+  auto fmt = [](double x) {
+    std::ostringstream t;
+    t << std::setprecision(15) << x;
+    return t.str();
+  };
+  const CliRun near =
+      run_cli("predict --result " + result +
+              " --grid-radius-mm 100 --grid-around 1 --grid-angles-deg " + fmt(first + 1e-7));
+  ASSERT_EQ(near.status, 0) << near.err;
+  EXPECT_NE(near.out.find(fmt(first + 1e-7) + " deg"), std::string::npos) << near.out;
   std::filesystem::remove_all(dir);
 }
 

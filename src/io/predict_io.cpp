@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iomanip>
 #include <map>
 #include <sstream>
@@ -27,6 +28,13 @@ const std::array<const char*, 4> kPoseColumns = {"angle_deg", "x_mm", "y_mm", "z
 json vec3(const Eigen::Vector3d& v) { return json::array({r6(v.x()), r6(v.y()), r6(v.z())}); }
 
 Eigen::Vector3d stds(const Eigen::Matrix3d& c) { return c.diagonal().cwiseMax(0.0).cwiseSqrt(); }
+
+// An angle as the terminal says it: to 0.001 deg, or in full where that would round it (an
+// angle not measured must never read as a measured one).
+std::string angle_text(double a) {
+  const std::string short_form = fmt_rounded(a, 3);
+  return std::stod(short_form) == a ? short_form : fmt_num(a, 15);
+}
 
 const char* basis_key(PredictionBasis b) {
   return b == PredictionBasis::kMotions ? "motions" : "location";
@@ -128,6 +136,92 @@ std::vector<Pose> parse_poses(const std::string& text, const std::string& source
 
 std::vector<Pose> read_poses_file(const std::string& path, const AxisFrame& axis) {
   return parse_poses(read_text_file(path), path, axis);
+}
+
+std::vector<double> parse_number_list(const std::string& text, const std::string& key) {
+  std::vector<double> out;
+  std::size_t begin = 0;
+  for (int item = 1;; ++item) {
+    const std::size_t end = std::min(text.find(',', begin), text.size());
+    const std::string cell = csv::trim(text.substr(begin, end - begin));
+    const std::string where = "item " + std::to_string(item);
+    if (cell.empty())
+      throw InputError(key, where, "empty: expected numbers separated by commas, e.g. 0,100,200");
+    double x = 0;
+    if (!parse_decimal(cell, x))
+      throw InputError(key, where,
+                       quote_value(cell) + " is not a finite number in decimal notation");
+    out.push_back(x);
+    if (end == text.size()) break;
+    begin = end + 1;
+  }
+  return out;
+}
+
+EnvelopeGrid grid_of(const ResultFile& result, const GridRequest& request, const GridKeys& keys) {
+  EnvelopeGrid grid;
+  grid.radii_mm = request.radii_mm;
+  grid.heights_mm = request.heights_mm.value_or(std::vector<double>{0.0});
+  if (request.angles_deg) {
+    grid.angles_deg = *request.angles_deg;
+  } else {
+    for (const ResultErrors& e : result.errors) grid.angles_deg.push_back(e.angle_deg);
+  }
+  grid.around = request.around;
+  const AxisFrame& axis = result.axis;
+  // Each list: an item, each finite, no value twice, each within its range.
+  auto check = [](const std::vector<double>& v, const std::string& key, const char* what,
+                  const std::function<std::string(double)>& beyond) {
+    if (v.empty()) throw InputError(key, "", std::string("no ") + what);
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      const std::string where = "item " + std::to_string(i + 1);
+      if (!std::isfinite(v[i])) throw InputError(key, where, "not a finite number");
+      const std::string why = beyond(v[i]);
+      if (!why.empty()) throw InputError(key, where, fmt_num(v[i], 12) + why);
+      for (std::size_t j = 0; j < i; ++j)
+        if (v[j] == v[i])
+          throw InputError(key, where,
+                           fmt_num(v[i], 12) + " is item " + std::to_string(j + 1) +
+                               " as well: each value once");
+    }
+  };
+  check(grid.radii_mm, keys.radii, "radius", [](double r) {
+    return r == 0 || (r >= limits::kMinGridRadius_mm && r <= limits::kMaxLength_mm)
+               ? std::string()
+               : " mm: a radius is 0 (the axis line) or from " +
+                     fmt_num(limits::kMinGridRadius_mm, 12) + " to " +
+                     fmt_num(limits::kMaxLength_mm, 12) + " mm";
+  });
+  check(grid.heights_mm, keys.heights, "height", [](double h) {
+    return std::abs(h) <= limits::kMaxLength_mm
+               ? std::string()
+               : " mm is beyond +-" + fmt_num(limits::kMaxLength_mm, 12) + " mm";
+  });
+  check(grid.angles_deg, keys.angles, "angle", [&axis](double a) {
+    return a >= axis.travel_min_deg() && a <= axis.travel_max_deg()
+               ? std::string()
+               : " deg is beyond the travel of the " + axis.label() + " axis (" +
+                     fmt_num(axis.travel_min_deg(), 12) + " to " +
+                     fmt_num(axis.travel_max_deg(), 12) + " deg)";
+  });
+  if (grid.around < 1 || grid.around > 360)
+    throw InputError(keys.around, "", std::to_string(grid.around) + " is outside 1 to 360");
+  for (const double r : grid.radii_mm)
+    for (const double h : grid.heights_mm)
+      if (std::hypot(r, h) > limits::kMaxLength_mm)
+        throw InputError(keys.radii, "",
+                         "a radius of " + fmt_num(r, 12) + " mm at a height of " + fmt_num(h, 12) +
+                             " mm puts points beyond " + fmt_num(limits::kMaxLength_mm, 12) +
+                             " mm from the axis frame's origin");
+  double n = 0;
+  for (const double r : grid.radii_mm) n += r == 0 ? 1 : grid.around;
+  n *= static_cast<double>(grid.heights_mm.size()) * static_cast<double>(grid.angles_deg.size());
+  if (n > static_cast<double>(limits::kMaxPoses))
+    throw InputError(keys.radii, "",
+                     "the map would hold " + fmt_num(n, 3) + " points, more than " +
+                         std::to_string(limits::kMaxPoses) +
+                         ": give fewer angles, radii, heights or points around");
+  return grid;
 }
 
 AxisErrors axis_errors_of(const ResultFile& result) {
@@ -262,6 +356,11 @@ json prediction_to_json(const PredictResult& p) {
            {"location_only", p.location_only},
            {"points", points}};
   if (!p.result_sha256.empty()) out["inputs"]["result_sha256"] = p.result_sha256;
+  if (p.grid)
+    out["grid"] = {{"radii_mm", p.grid->radii_mm},
+                   {"heights_mm", p.grid->heights_mm},
+                   {"around", p.grid->around},
+                   {"angles_deg", p.grid->angles_deg}};
   json warnings = json::array();
   for (const std::string& w : p.warnings) warnings.push_back(w);
   out["result_warnings"] = warnings;
@@ -317,7 +416,7 @@ std::string prediction_text(const PredictResult& p, bool rows) {
   }
   for (const PointPrediction& x : p.points) {
     if (!rows) break;
-    s << std::setw(10) << fmt_rounded(x.pose.angle_deg, 3) << std::setw(26)
+    s << std::setw(10) << angle_text(x.pose.angle_deg) << std::setw(26)
       << triple(x.pose.point_mm, 1);
     if (x.gap != PredictionGap::kNone) {
       s << "  not determined: the result does not determine every location error\n";
@@ -336,8 +435,7 @@ std::string prediction_text(const PredictResult& p, bool rows) {
     s << (after ? "Largest after entering the location errors: " : "Largest error: ")
       << fmt_rounded((after ? x.after_um : x.error_um).norm(), 2) << " um (U "
       << fmt_rounded(after ? x.after_U_um : x.U_um, 2) << " um) at " << p.letter << " "
-      << fmt_rounded(x.pose.angle_deg, 3) << " deg, point " << triple(x.pose.point_mm, 1)
-      << " mm\n";
+      << angle_text(x.pose.angle_deg) << " deg, point " << triple(x.pose.point_mm, 1) << " mm\n";
   }
   bool no_covariance = false;
   for (const PointPrediction& x : p.points)

@@ -1723,39 +1723,45 @@ PYBIND11_MODULE(dbbkit, m) {
       "predict",
       [result_of](py::handle result, py::handle at, double coverage, bool location_only,
                   std::optional<std::vector<double>> radii_mm,
-                  std::optional<std::vector<double>> heights_mm, int around,
+                  std::optional<std::vector<double>> heights_mm, py::handle around,
                   std::optional<std::vector<double>> angles_deg) {
         check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
+        for (const auto& [key, given] :
+             {std::pair<const char*, bool>{"heights_mm", heights_mm.has_value()},
+              {"around", !around.is_none()},
+              {"angles_deg", angles_deg.has_value()}})
+          if (given && !radii_mm)
+            throw InputError(key, "", "a map's parameter: give the map's radii (radii_mm) too");
+        if (at.is_none() && !radii_mm)
+          throw InputError("at", "", "give the poses (at) or a map (radii_mm)");
+        if (!at.is_none() && radii_mm)
+          throw InputError("at", "", "give the poses (at) or a map (radii_mm), not both");
         const io::ResultFile r = result_of(result, "result");
         std::vector<Pose> poses;
+        std::optional<EnvelopeGrid> grid;
         std::string source = "at";
-        if (at.is_none() == !radii_mm)
-          throw InputError("at", "", "give the poses (at) or a map (radii_mm), not both");
         if (radii_mm) {
           // A map, as predict --grid-radius-mm makes it.
-          EnvelopeGrid grid;
-          grid.radii_mm = *radii_mm;
-          grid.heights_mm = heights_mm.value_or(std::vector<double>{0.0});
-          check_integer_in("around", around, 1, 360);
-          grid.around = around;
-          if (angles_deg) {
-            grid.angles_deg = *angles_deg;
-          } else {
-            for (const io::ResultErrors& e : r.errors) grid.angles_deg.push_back(e.angle_deg);
+          io::GridRequest request;
+          request.radii_mm = *radii_mm;
+          request.heights_mm = heights_mm;
+          request.angles_deg = angles_deg;
+          if (!around.is_none()) {
+            // A whole number (an int or what converts to one exactly, as numpy's); never a bool.
+            if (py::isinstance<py::bool_>(around) || !PyIndex_Check(around.ptr()))
+              throw InputError("around", "", "expected a whole number of points, 1 to 360");
+            const py::int_ whole(py::reinterpret_borrow<py::object>(around));
+            int overflow = 0;
+            long long n = PyLong_AsLongLongAndOverflow(whole.ptr(), &overflow);
+            if (overflow != 0) n = overflow > 0 ? 361 : 0;
+            check_integer_in("around", n, 1, 360);
+            request.around = static_cast<int>(n);
           }
-          for (const double x : grid.radii_mm)
-            check_finite_in("radii_mm", x, 0, limits::kMaxLength_mm);
-          for (const double x : grid.heights_mm)
-            check_finite_in("heights_mm", x, -limits::kMaxLength_mm, limits::kMaxLength_mm);
-          if (static_cast<double>(grid.angles_deg.size()) * grid.radii_mm.size() *
-                  grid.heights_mm.size() * grid.around >
-              static_cast<double>(limits::kMaxPoses))
-            throw InputError(
-                "radii_mm", "",
-                "the map would hold more than " + std::to_string(limits::kMaxPoses) + " points");
-          poses = envelope_poses(r.axis, grid);
-          for (std::size_t i = 0; i < poses.size(); ++i)
-            io::check_pose(poses[i], r.axis, "angles_deg", "point " + std::to_string(i + 1) + ".");
+          io::GridKeys keys;
+          keys.radii = "radii_mm", keys.heights = "heights_mm", keys.around = "around",
+          keys.angles = "angles_deg";
+          grid = io::grid_of(r, request, keys);
+          poses = envelope_poses(r.axis, *grid);
           source = "grid";
         } else if (const auto path = as_path(at)) {
           poses = io::read_poses_file(*path, r.axis);
@@ -1778,15 +1784,18 @@ PYBIND11_MODULE(dbbkit, m) {
         }
         io::PredictResult p = io::predict(r, poses, coverage, location_only);
         p.poses_source = source;
+        p.grid = grid;
         if (const auto path = as_path(result)) p.result_sha256 = io::sha256_file(*path);
         return to_python(io::prediction_to_json(p));
       },
       py::arg("result"), py::arg("at") = py::none(), py::arg("coverage") = 0.95,
       py::arg("location_only") = false, py::arg("radii_mm") = py::none(),
-      py::arg("heights_mm") = py::none(), py::arg("around") = 8, py::arg("angles_deg") = py::none(),
+      py::arg("heights_mm") = py::none(), py::arg("around") = py::none(),
+      py::arg("angles_deg") = py::none(),
       "`dbbkit predict`: the error of points of the turning body at commanded angles (`at`: a "
       "poses CSV's path, or rows [angle_deg, x_mm, y_mm, z_mm]; or a map: `radii_mm` from the "
-      "axis line, `heights_mm` along it (default [0]), `around` points a circle, `angles_deg` "
+      "axis line, `heights_mm` along it (default [0]), `around` points a circle (default 8), "
+      "`angles_deg` "
       "(default the result's), as predict --grid-*) from a result (path, result or its json), "
       "with its uncertainty and what entering the location errors leaves; the dict `predict "
       "--out` writes");

@@ -130,6 +130,24 @@ class RoundTrips(InSource):
         with self.assertRaises(dbbkit.InputError) as ctx:
             dbbkit.predict(r, [[0, 1, 2, 3]], radii_mm=[100])
         self.assertIn("not both", str(ctx.exception))
+        # A map's arguments as the command line's options: named, each checked.
+        for kwargs, says in [({}, "give the poses (at) or a map (radii_mm)"),
+                             ({"heights_mm": [0]}, "heights_mm: a map's parameter"),
+                             ({"around": 4}, "around: a map's parameter"),
+                             ({"radii_mm": []}, "radii_mm: no radius"),
+                             ({"radii_mm": [10], "heights_mm": []}, "heights_mm: no height"),
+                             ({"radii_mm": [10, 10]}, "radii_mm: item 2: 10 is item 1 as well"),
+                             ({"radii_mm": [1e-9]}, "radii_mm: item 1"),
+                             ({"radii_mm": [10], "around": 2.5}, "around: expected a whole"),
+                             ({"radii_mm": [10], "around": True}, "around: expected a whole"),
+                             ({"radii_mm": [10], "around": 10**30}, "around"),
+                             ({"radii_mm": [10], "angles_deg": [float("inf")]},
+                              "angles_deg: item 1: not a finite number")]:
+            with self.assertRaises(dbbkit.InputError, msg=str(kwargs)) as ctx:
+                dbbkit.predict(r, **kwargs)
+            self.assertIn(says, str(ctx.exception))
+        self.assertEqual(dbbkit.predict(r, radii_mm=[10], around=np.int64(3),
+                                        angles_deg=[0])["grid"]["around"], 3)
         with self.assertRaises(dbbkit.InputError) as ctx:
             dbbkit.predict(r, [[0, 1, 2]])
         self.assertIn("at[0]", str(ctx.exception))

@@ -3,6 +3,7 @@
 // them, and the predictions (predict.hpp) as JSON (dbbkit.predict/1) and as text.
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,29 @@ void check_pose(const Pose& p, const AxisFrame& axis, const std::string& source,
 // prediction needs (the location errors' covariance: a result of an earlier version).
 AxisErrors axis_errors_of(const ResultFile& result);
 
+// A map's parameters as a user gives them (predict --grid-*, Python predict's radii_mm, ...):
+// what is not given takes its default (heights {0}, the angles every angle the result measured).
+struct GridRequest {
+  std::vector<double> radii_mm;
+  std::optional<std::vector<double>> heights_mm, angles_deg;
+  int around = 8;
+};
+// The name each parameter goes by in errors.
+struct GridKeys {
+  std::string radii = "--grid-radius-mm", heights = "--grid-height-mm", around = "--grid-around",
+              angles = "--grid-angles-deg";
+};
+// The map with its defaults filled in, each value checked: every list given has an item and no
+// value twice; a radius 0 or within limits::kMinGridRadius_mm..kMaxLength_mm, a height within
+// +-kMaxLength_mm and no point farther than kMaxLength_mm from the axis frame's origin, an angle
+// within the axis' travel, around 1 to 360, at most limits::kMaxPoses points. InputError naming
+// the parameter's key and the item otherwise.
+EnvelopeGrid grid_of(const ResultFile& result, const GridRequest& request,
+                     const GridKeys& keys = {});
+// Numbers separated by commas ("0,100,200"), in decimal notation: InputError naming `key` and
+// the item where one is empty or not a finite number.
+std::vector<double> parse_number_list(const std::string& text, const std::string& key);
+
 struct PredictResult {
   std::string result_source, result_sha256, poses_source;
   std::string axis_label;
@@ -36,6 +60,7 @@ struct PredictResult {
   std::array<std::string, 5> location_names;
   PredictionCoverage coverage;
   std::vector<PointPrediction> points;
+  std::optional<EnvelopeGrid> grid;   // a map's parameters (grid_of); absent for poses
   std::vector<std::string> warnings;  // the result's, carried
 };
 

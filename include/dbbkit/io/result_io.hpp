@@ -55,8 +55,8 @@ nlohmann::json monte_carlo_to_json(const MonteCarloResult& mc);
 std::string monte_carlo_summary(const MonteCarloResult& mc);
 
 // A value as written to the result files: to 1e-6 of its unit (pm, prad), far below any
-// uncertainty.
-inline double r6(double x) { return std::round(x * 1e6) / 1e6; }
+// uncertainty (+ 0.0: a value rounding to zero is 0, never -0).
+inline double r6(double x) { return std::round(x * 1e6) / 1e6 + 0.0; }
 
 // A number, or null when absent (a value that cannot be computed is never a number).
 nlohmann::json optional_number(const std::optional<double>& x);
