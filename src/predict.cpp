@@ -7,6 +7,7 @@
 #include <boost/math/distributions/normal.hpp>
 #include <boost/math/distributions/students_t.hpp>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <vector>
 
@@ -194,6 +195,68 @@ std::vector<Pose> envelope_poses(const AxisFrame& axis, const EnvelopeGrid& grid
     }
   }
   return out;
+}
+
+EnteringJudgement judge_entering(const AxisErrors& axis, const std::vector<Pose>& poses,
+                                 const std::array<bool, 5>& candidate,
+                                 const PredictionCoverage& coverage) {
+  EnteringJudgement j;
+  Eigen::Matrix<double, 5, 1> l;
+  for (int q = 0; q < 5; ++q) l(q) = axis.location[static_cast<std::size_t>(q)].value();
+  // Each pose's map from the location errors to its error, and that error's U.
+  std::vector<Eigen::Matrix<double, 3, 5>> A(poses.size());
+  std::vector<double> U(poses.size());
+  for (std::size_t p = 0; p < poses.size(); ++p) {
+    const Eigen::Vector3d nominal =
+        axis_rotation(axis.axis, poses[p].angle_deg) * poses[p].point_mm;
+    A[p] = point_jacobian(nominal) * location_motion(axis.axis, poses[p].angle_deg);
+    U[p] = length_uncertainty(A[p] * axis.location_covariance * A[p].transpose(), coverage);
+  }
+  // The largest error left plus its U when the values of `mask` are entered, and where.
+  auto bound = [&](unsigned mask, Pose* at) {
+    Eigen::Matrix<double, 5, 1> left = l;
+    for (int q = 0; q < 5; ++q)
+      if (mask & (1u << q)) left(q) = 0;
+    double top = -1;
+    for (std::size_t p = 0; p < poses.size(); ++p) {
+      const double b = (A[p] * left).norm() + U[p];
+      if (b > top) {
+        top = b;
+        if (at) *at = poses[p];
+      }
+    }
+    return top;
+  };
+  for (std::size_t p = 0; p < poses.size(); ++p) {
+    const double e = (A[p] * l).norm();
+    if (e > j.today_um) j.today_um = e, j.today_U_um = U[p], j.today_at = poses[p];
+  }
+  unsigned candidates = 0;
+  for (int q = 0; q < 5; ++q)
+    if (candidate[static_cast<std::size_t>(q)]) candidates |= 1u << q;
+  // Every non-empty set of candidates (at most 31).
+  auto size = [](unsigned mask) {
+    int n = 0;
+    for (; mask != 0; mask &= mask - 1) ++n;
+    return n;
+  };
+  unsigned best = 0;
+  j.best_bound_um = std::numeric_limits<double>::infinity();
+  for (unsigned mask = 1; mask < 32; ++mask) {
+    if ((mask & ~candidates) != 0) continue;
+    const double b = bound(mask, nullptr);
+    if (b < j.best_bound_um || (b == j.best_bound_um && size(mask) < size(best)))
+      j.best_bound_um = b, best = mask;
+  }
+  const unsigned entered = best != 0 && j.best_bound_um < j.today_um ? best : 0u;
+  for (int q = 0; q < 5; ++q) j.enter[static_cast<std::size_t>(q)] = (entered & (1u << q)) != 0;
+  j.after_bound_um = bound(entered, &j.after_at);
+  for (int q = 0; q < 5; ++q) {
+    if (!candidate[static_cast<std::size_t>(q)]) continue;
+    j.bound_without[static_cast<std::size_t>(q)] = bound(entered & ~(1u << q), nullptr);
+    j.bound_with[static_cast<std::size_t>(q)] = bound(entered | (1u << q), nullptr);
+  }
+  return j;
 }
 
 }  // namespace dbbkit

@@ -21,6 +21,7 @@
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/measurement_io.hpp"
+#include "dbbkit/io/predict_io.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/io/truth_io.hpp"
@@ -634,6 +635,154 @@ TEST(Readme, FromAWarningToTheControllerPrintsWhatTheReadmeShows) {
   for (const std::string& line : readme_lines_not_printed(section, printed, false, checked))
     ADD_FAILURE() << "README line not printed:\n" << line;
   EXPECT_GT(checked, 30);
+  fs::remove_all(dir);
+}
+
+// A C table's result with the location errors given (um, urad) and each std as stated.
+io::ResultFile located(const std::array<double, 5>& value, const std::array<double, 5>& std_) {
+  io::ResultFile r;
+  r.source = "hand.json";
+  r.axis = AxisFrame::c_turntable();
+  const IsoNames names = iso230_names(r.axis);
+  Eigen::Matrix<double, 5, 5> C = Eigen::Matrix<double, 5, 5>::Zero();
+  for (std::size_t k = 0; k < 5; ++k) {
+    io::ResultQuantity q;
+    q.name = names.location[k];
+    q.unit = k < 2 ? "um" : "urad";
+    q.value = value[k];
+    q.std = std_[k];
+    r.location.push_back(q);
+    C(static_cast<int>(k), static_cast<int>(k)) = std_[k] * std_[k];
+  }
+  r.location_covariance = C;
+  for (const double a : {0.0, 90.0, 180.0, 270.0}) {
+    io::ResultErrors e;
+    e.angle_deg = a;
+    r.errors.push_back(e);
+  }
+  return r;
+}
+
+// The decision to enter rests on the envelope: an offset of the axis line and a tilt that
+// cancel at the one height a part is cut at are each worth entering alone (|value| > U) and
+// leave the part worse entered; over two heights, both are entered. The set chosen is the best
+// of every set, each bound found again by predict on the result less the values entered.
+TEST(Compensation, TheDecisionToEnterRestsOnTheEnvelope) {
+  // Y0C = 10 um offsets the line; a tilt about X of 100 urad moves a point 100 mm up by 10 um,
+  // of the sign that cancels it there (found by predict, not assumed).
+  std::array<double, 5> value = {0, 10, 100, 0, 0};
+  const std::array<double, 5> std_ = {0.5, 0.5, 1, 1, 1};
+  EnvelopeGrid grid;
+  grid.radii_mm = {0};
+  grid.heights_mm = {100};
+  grid.angles_deg = {0, 90, 180, 270};
+  grid.around = 1;
+  {
+    const io::ResultFile plus = located(value, std_);
+    const io::PredictResult p = io::predict(plus, envelope_poses(plus.axis, grid), 0.9545, true);
+    if (p.points[0].error_um.norm() > 1) value[2] = -100;
+  }
+  const io::ResultFile r = located(value, std_);
+  const io::PredictResult at = io::predict(r, envelope_poses(r.axis, grid), 0.9545, true);
+  for (const PointPrediction& x : at.points) EXPECT_LT(x.error_um.norm(), 1e-6);
+  io::CompensationOptions o;
+  const std::string alone = io::compensation_text(r, io::CompensationFormat::kTable, o);
+  EXPECT_NE(alone.find("Y0C   0.01 mm"), std::string::npos) << alone;
+  EXPECT_EQ(alone.find("no: over the envelope"), std::string::npos) << alone;
+  o.envelope = grid;
+  const std::string one_height = io::compensation_text(r, io::CompensationFormat::kTable, o);
+  EXPECT_NE(one_height.find("entering: none; the best set of values would leave up to"),
+            std::string::npos)
+      << one_height;
+  for (const char* name : {"Y0C ", "A0C "}) {
+    const std::size_t row = one_height.find(std::string("\n") + name);
+    ASSERT_NE(row, std::string::npos) << name;
+    EXPECT_NE(one_height.find("no: over the envelope entering leaves up to", row),
+              std::string::npos)
+        << name << one_height;
+  }
+  const io::EnvelopeJudgement none = io::judge_envelope(r, grid, 2);
+  EXPECT_TRUE(none.candidate[1] && none.candidate[2]);
+  EXPECT_FALSE(none.enter[1] || none.enter[2]);
+  EXPECT_LT(none.today_um, 1e-6);
+  // Two heights: the offset shows at the table, the tilt's part above it; entering both leaves
+  // U alone.
+  grid.heights_mm = {0, 100};
+  const io::EnvelopeJudgement both = io::judge_envelope(r, grid, 2);
+  EXPECT_TRUE(both.enter[1] && both.enter[2]);
+  EXPECT_FALSE(both.enter[0] || both.enter[3] || both.enter[4]);
+  // The table turns the point about a line 10 um off: 2 sin(gamma / 2) 10 um, 20 um at 180 deg.
+  EXPECT_NEAR(both.today_um, 20, 1e-6);
+  // Each set's bound found again: predict on the result whose entered values are taken out,
+  // the largest error left plus its U; the set chosen has the smallest (the values marked
+  // worth entering alone form the sets).
+  for (const std::vector<double>& heights :
+       std::vector<std::vector<double>>{{100}, {0, 100}, {-300, 50}, {0}}) {
+    grid.heights_mm = heights;
+    grid.radii_mm = {0, 150};
+    grid.around = 6;
+    const io::EnvelopeJudgement j = io::judge_envelope(r, grid, 2);
+    double best = std::numeric_limits<double>::infinity();
+    for (unsigned mask = 1; mask < 32; ++mask) {
+      bool allowed = true;
+      std::array<double, 5> left = value;
+      for (std::size_t k = 0; k < 5; ++k)
+        if (mask & (1u << k)) allowed = allowed && j.candidate[k], left[k] = 0;
+      if (!allowed) continue;
+      const io::ResultFile l = located(left, std_);
+      const io::PredictResult p = io::predict(l, envelope_poses(l.axis, grid), 0.9545, true);
+      double bound = 0;
+      for (const PointPrediction& x : p.points) bound = std::max(bound, x.error_um.norm() + x.U_um);
+      best = std::min(best, bound);
+    }
+    EXPECT_NEAR(j.best_bound_um, best, 1e-3 + 1e-6 * best) << heights.size();
+    const bool entered = std::any_of(j.enter.begin(), j.enter.end(), [](bool b) { return b; });
+    EXPECT_EQ(entered, best < j.today_um) << heights.size();
+    if (entered) EXPECT_NEAR(j.after_bound_um, best, 1e-3 + 1e-6 * best);
+  }
+}
+
+// The command line's envelope: predict's --grid-* options, checked alike; a machine result's
+// values are judged each on its own, and an envelope for it is refused.
+TEST(Compensation, TheEnvelopeOptionsAreCheckedAsPredictsMap) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_envelope_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string src = DBBKIT_SOURCE_DIR;
+  const std::string D = src + "/designs/a-trunnion.json";
+  const std::string a = (dir / "a.csv").string(), r = (dir / "a.json").string();
+  ASSERT_EQ(run_cli("simulate --design " + D + " --truth " + src +
+                    "/tests/data/truth_a_trunnion_location.json --out " + a)
+                .status,
+            0);
+  ASSERT_EQ(run_cli("identify --design " + D + " --data " + a + " --out " + r).status, 0);
+  const CliRun ok = run_cli("compensation --result " + r +
+                            " --format table --grid-radius-mm 0,100 --grid-height-mm 0,50");
+  ASSERT_EQ(ok.status, 0) << ok.err;
+  EXPECT_NE(ok.out.find("Over the envelope (414 points"), std::string::npos) << ok.out;
+  EXPECT_NE(ok.out.find("  entering Y0A, Z0A, B0A, C0A, A0A: at most"), std::string::npos)
+      << ok.out;
+  // LinuxCNC's module takes the positions alone: the envelope weighs what it can enter.
+  const CliRun trt = run_cli("compensation --result " + r +
+                             " --format linuxcnc --grid-radius-mm 0,100 --grid-height-mm 0,50");
+  ASSERT_EQ(trt.status, 0) << trt.err;
+  EXPECT_NE(trt.out.find("#   entering Y0A, Z0A: at most"), std::string::npos) << trt.out;
+  for (const std::string& bad :
+       {std::string("--grid-radius-mm 1,,2"), std::string("--grid-height-mm 10"),
+        std::string("--grid-radius-mm 10 --grid-angles-deg 500")}) {
+    const CliRun b = run_cli("compensation --result " + r + " --format table " + bad);
+    EXPECT_EQ(b.status, 2) << bad;
+    EXPECT_NE(b.err.find("--grid-"), std::string::npos) << bad << ": " << b.err;
+  }
+  const std::string chain = (dir / "m.json").string();
+  std::ofstream(chain) << R"({"format": "dbbkit.chain/1"})";
+  const CliRun m = run_cli("compensation --result " + chain + " --format table --grid-radius-mm 0");
+  EXPECT_EQ(m.status, 2);
+  EXPECT_NE(m.err.find("a machine result: its values are judged each on its own"),
+            std::string::npos)
+      << m.err;
   fs::remove_all(dir);
 }
 

@@ -121,4 +121,26 @@ std::vector<Pose> envelope_poses(const AxisFrame& axis, const EnvelopeGrid& grid
 PointPrediction predict_point(const AxisErrors& axis, const Pose& pose,
                               const PredictionCoverage& coverage, bool location_only = false);
 
+// Which of the location errors to enter, judged over an envelope's poses (compensation,
+// formats.md): at each pose the location errors' part of its error, A l with A = H G, and U,
+// the length uncertainty of A C A' (the same before and after entering: the estimate's error is
+// the same). A set S of the candidates leaves at most max over the poses of |A l_S'| + U, l_S'
+// the location errors with those of S taken out (its bound). Every non-empty set of candidates
+// is tried; the one of the smallest bound (on a tie, of fewer values) is entered where that bound
+// is below the largest error today (max |A l|), none otherwise. Every location error must be
+// determined.
+struct EnteringJudgement {
+  std::array<bool, 5> enter{};          // the set entered (all false: none)
+  double today_um = 0, today_U_um = 0;  // the largest error today (estimate) and its U
+  Pose today_at;
+  double after_bound_um = 0;  // entering `enter`: the largest of the error left plus its U
+  Pose after_at;
+  double best_bound_um = 0;  // the smallest bound of any non-empty set (infinite: no candidate)
+  // The bound with each candidate left out of the set entered, or added to it.
+  std::array<double, 5> bound_without{}, bound_with{};
+};
+EnteringJudgement judge_entering(const AxisErrors& axis, const std::vector<Pose>& poses,
+                                 const std::array<bool, 5>& candidate,
+                                 const PredictionCoverage& coverage);
+
 }  // namespace dbbkit

@@ -9,9 +9,11 @@
 #include "dbbkit/io/compensation_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/output.hpp"
+#include "dbbkit/io/predict_io.hpp"
 #include "dbbkit/io/result_read.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/user_text.hpp"
+#include "grid_options.hpp"
 
 namespace dbbkit::cli {
 
@@ -22,6 +24,7 @@ struct CompensationArgs {
   double k = 2.0;
   int record = 0;
   bool quiet = false;
+  GridOptions grid;
 };
 }  // namespace
 
@@ -53,6 +56,8 @@ Runner add_compensation(CLI::App& app) {
   sub->add_option("--k", args->k, "Coverage factor of the expanded uncertainties (default 2)")
       ->check(finite_in(1, 10));
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the file asked for");
+  args->grid.add(sub, "The envelope the decision to enter rests on (as predict's map)");
+
   return [args]() {
     io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}}, {args->result});
     const std::string text = io::read_json_file(args->result);
@@ -90,11 +95,18 @@ Runner add_compensation(CLI::App& app) {
       if (!o.current_mm.emplace(c.substr(0, eq), v).second)
         throw InputError("--current", "", quote_value(c.substr(0, eq)) + " is given twice");
     }
-    if (io::is_chain_text(text))
+    if (io::is_chain_text(text)) {
+      if (args->grid.given())
+        throw InputError("--grid-radius-mm", "",
+                         "a machine result: its values are judged each on its own (an envelope "
+                         "over both axes is not yet judged)");
       outputs.stage("--out",
                     io::machine_compensation_text(io::chain_from_text(text, args->result), f, o));
-    else
-      outputs.stage("--out", io::compensation_text(io::result_from_text(text, args->result), f, o));
+    } else {
+      const io::ResultFile r = io::result_from_text(text, args->result);
+      if (args->grid.given()) o.envelope = io::grid_of(r, args->grid.request());
+      outputs.stage("--out", io::compensation_text(r, f, o));
+    }
     outputs.commit();
     return 0;
   };

@@ -14,6 +14,7 @@
 #include "dbbkit/io/result_read.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/limits.hpp"
+#include "grid_options.hpp"
 
 namespace dbbkit::cli {
 
@@ -22,8 +23,7 @@ struct PredictArgs {
   std::string result, at, out;
   double coverage = 0.95;
   bool quiet = false, location_only = false;
-  std::string radii, heights, angles;  // a map's lists, as given
-  int around = 8;
+  GridOptions grid;
 };
 }  // namespace
 
@@ -40,23 +40,8 @@ Runner add_predict(CLI::App& app) {
       sub->add_option("--at", args->at,
                       "Poses: CSV angle_deg,x_mm,y_mm,z_mm (a point fixed to the body that turns, "
                       "body frame, from the axis frame's origin)");
-  CLI::Option* radii =
-      sub->add_option("--grid-radius-mm", args->radii,
-                      "A map instead of --at: circles about the axis line at these distances from "
-                      "it [mm] (on a head, the tool's reach), e.g. 0,100,200");
-  CLI::Option* heights = sub->add_option("--grid-height-mm", args->heights,
-                                         "The map's heights along the axis from the axis frame's "
-                                         "origin [mm], e.g. -50,0,50 (default 0)");
-  CLI::Option* around =
-      sub->add_option("--grid-around", args->around,
-                      "The map's points on each circle, evenly spaced from the radial direction "
-                      "(default 8)")
-          ->check(integer_in(1, 360));
-  CLI::Option* angles = sub->add_option("--grid-angles-deg", args->angles,
-                                        "The map's angles, e.g. -90,0,90 (default: every angle "
-                                        "the result measured)");
-  at->excludes(radii);
-  for (CLI::Option* o : {heights, around, angles}) o->needs(radii);
+  args->grid.add(sub, "A map instead of --at");
+  at->excludes(args->grid.radii_option);
   sub->add_option("--out", args->out, "JSON result (dbbkit.predict/1); '-': stdout");
   sub->add_option("--coverage", args->coverage,
                   "Coverage probability of U (default 0.95; normal, or t with the result's "
@@ -66,8 +51,8 @@ Runner add_predict(CLI::App& app) {
                 "The location errors alone at every angle (what a controller's kinematics can be "
                 "off by), the component error motions left out");
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the files asked for");
-  return [args, radii, heights, angles]() {
-    if (args->at.empty() && radii->count() == 0)
+  return [args]() {
+    if (args->at.empty() && !args->grid.given())
       throw InputError("--at", "", "give the poses (--at FILE) or a map (--grid-radius-mm)");
     std::vector<io::OutputTarget> targets;
     if (!args->out.empty()) targets.push_back({"--out", args->out});
@@ -81,14 +66,7 @@ Runner add_predict(CLI::App& app) {
     if (!map) {
       poses = io::read_poses_file(args->at, r.axis);
     } else {
-      io::GridRequest request;
-      request.radii_mm = io::parse_number_list(args->radii, "--grid-radius-mm");
-      if (heights->count() > 0)
-        request.heights_mm = io::parse_number_list(args->heights, "--grid-height-mm");
-      if (angles->count() > 0)
-        request.angles_deg = io::parse_number_list(args->angles, "--grid-angles-deg");
-      request.around = args->around;
-      grid = io::grid_of(r, request);
+      grid = io::grid_of(r, args->grid.request());
       poses = envelope_poses(r.axis, *grid);
     }
     io::PredictResult p = io::predict(r, poses, args->coverage, args->location_only);

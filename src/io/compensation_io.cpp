@@ -8,6 +8,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/escape.hpp"
+#include "dbbkit/io/predict_io.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/user_text.hpp"
 
@@ -66,6 +67,92 @@ Verdict verdict(const ResultQuantity& q, double k) {
   return {true, ""};
 }
 
+std::vector<Verdict> per_value(const std::vector<ResultQuantity>& location, double k) {
+  std::vector<Verdict> out;
+  for (const ResultQuantity& q : location) out.push_back(verdict(q, k));
+  return out;
+}
+
+std::string um_text(double x) { return fmt_rounded(x, 2) + " um"; }
+
+// Each location error's verdict: over the envelope where one is given and judged, each value on
+// its own otherwise.
+std::vector<Verdict> entering(const ResultFile& r, const std::optional<EnvelopeJudgement>& j,
+                              double k) {
+  std::vector<Verdict> out = per_value(r.location, k);
+  if (!j || !j->determined || out.size() != 5) return out;
+  const bool none = std::none_of(j->enter.begin(), j->enter.end(), [](bool b) { return b; });
+  for (std::size_t q = 0; q < 5; ++q) {
+    if (!j->candidate[q] || j->enter[q]) continue;
+    out[q].enter = false;
+    out[q].why = none ? "over the envelope entering leaves up to " + um_text(j->best_bound_um) +
+                            " (the error left plus its U), not below the largest error today (" +
+                            um_text(j->today_um) + ")"
+                 : j->bound_with[q] <= j->after_bound_um + 0.005
+                     ? "over the envelope entered or not it leaves the same, up to " +
+                           um_text(j->after_bound_um) + ": not needed there"
+                     : "over the envelope the values marked yes leave up to " +
+                           um_text(j->after_bound_um) + "; with it as well, up to " +
+                           um_text(j->bound_with[q]);
+  }
+  return out;
+}
+
+std::string list_text(const std::vector<double>& v) {
+  std::string out;
+  for (const double x : v) out += (out.empty() ? "" : ", ") + fmt_num(x, 12);
+  return out;
+}
+
+std::string where_text(char letter, const Pose& at) {
+  return "at " + std::string(1, letter) + " " + fmt_num(at.angle_deg, 12) + " deg, point (" +
+         fmt_rounded(at.point_mm.x(), 1) + ", " + fmt_rounded(at.point_mm.y(), 1) + ", " +
+         fmt_rounded(at.point_mm.z(), 1) + ") mm";
+}
+
+// The verdicts of one axis' location errors, and, over the envelope where one is given, the
+// lines that say what they rest on (each begun by `prefix`).
+// `takes`: the values the target can hold (the others are never in a set entered).
+std::vector<Verdict> single_axis_verdicts(const ResultFile& r, const CompensationOptions& o,
+                                          std::ostream& s, const std::string& prefix,
+                                          const std::array<bool, 5>& takes = {true, true, true,
+                                                                              true, true}) {
+  if (!o.envelope) return per_value(r.location, o.k);
+  const EnvelopeGrid& g = *o.envelope;
+  const EnvelopeJudgement j = judge_envelope(r, g, o.k, takes);
+  if (prefix.empty()) s << "\n";
+  s << prefix << "Over the envelope (" << j.points << " points: radii " << list_text(g.radii_mm)
+    << " mm from the axis line, heights " << list_text(g.heights_mm) << " mm along it, " << g.around
+    << " around, " << g.angles_deg.size() << " angles from "
+    << fmt_num(*std::min_element(g.angles_deg.begin(), g.angles_deg.end()), 12) << " to "
+    << fmt_num(*std::max_element(g.angles_deg.begin(), g.angles_deg.end()), 12)
+    << " deg), the error of the body's point from the location errors (predict --location-only; "
+       "the component error motions are not corrected by them and are left out):\n";
+  if (!j.determined) {
+    s << prefix
+      << "  not judged: a location error is not determined; each value is judged on its own\n";
+    return per_value(r.location, o.k);
+  }
+  const bool none = std::none_of(j.enter.begin(), j.enter.end(), [](bool b) { return b; });
+  s << prefix << "  today: up to " << um_text(j.today_um) << " (U " << um_text(j.today_U_um) << ") "
+    << where_text(r.axis.letter(), j.today_at) << "\n";
+  if (!none) {
+    std::string names;
+    for (std::size_t q = 0; q < 5; ++q)
+      if (j.enter[q]) names += (names.empty() ? "" : ", ") + r.location[q].name;
+    s << prefix << "  entering " << names << ": at most " << um_text(j.after_bound_um)
+      << " left (the error left plus its U, " << fmt_num(100 * j.coverage_probability, 4)
+      << " % at each point) " << where_text(r.axis.letter(), j.after_at) << "\n";
+  } else if (std::isfinite(j.best_bound_um)) {
+    s << prefix << "  entering: none; the best set of values would leave up to "
+      << um_text(j.best_bound_um) << " (the error left plus its U), not below today's "
+      << um_text(j.today_um) << "\n";
+  } else {
+    s << prefix << "  entering: none; no value is larger than its U\n";
+  }
+  return entering(r, j, o.k);
+}
+
 // The header's lines: what, from where, units, k.
 // The result's warnings, one comment line each: what makes its values unreliable reaches
 // whoever enters them.
@@ -88,12 +175,15 @@ std::string provenance(const ResultFile& r, const std::string& prefix) {
 // The location errors' block of the ISG CSV: each value with its U as a comment, then the row
 // of names and the row of values; false when none is determined.
 bool isg_location(std::ostream& s, const std::vector<ResultQuantity>& location,
-                  const std::string& source, const CompensationOptions& o) {
+                  const std::vector<Verdict>& verdicts, const std::string& source,
+                  const CompensationOptions& o) {
   s << "// ISG CSV: location errors; offsets in mm, angles in rad; U = k u, " << k_text(o.k)
     << "\n";
   std::string names, values, uncertain, undetermined;
-  for (const ResultQuantity& q : location) {
-    const Verdict v = verdict(q, o.k);
+  bool envelope = false;  // a value left out by the envelope, not for its U
+  for (std::size_t i = 0; i < location.size(); ++i) {
+    const ResultQuantity& q = location[i];
+    const Verdict& v = verdicts[i];
     if (!q.value) {
       undetermined += " " + q.name;
       continue;
@@ -101,14 +191,19 @@ bool isg_location(std::ostream& s, const std::vector<ResultQuantity>& location,
     if (q.unit == "um") written_mm(to_si(*q.value, q.unit), source, q.name);
     s << "//   " << q.name << " = " << g9(to_si(*q.value, q.unit)) << " " << si_unit(q.unit)
       << ", U = " << g9(to_si(o.k * *q.std, q.unit)) << " " << si_unit(q.unit)
-      << (v.enter ? "" : " (too uncertain to enter: |value| <= U)") << "\n";
+      << (v.enter || !q.value ? ""
+          : v.why.rfind("too uncertain", 0) == 0
+              ? std::string(" (too uncertain to enter: |value| <= U)")
+              : " (not to enter: " + v.why + ")")
+      << "\n";
     if (!v.enter) uncertain += " " + q.name;
+    envelope = envelope || (!v.enter && v.why.rfind("too uncertain", 0) != 0);
     names += (names.empty() ? "" : " ") + q.name;
     values += (values.empty() ? "" : " ") + g9(to_si(*q.value, q.unit));
   }
   if (!uncertain.empty())
-    s << "// too uncertain to enter (written as measured; set them to 0 to leave them out):"
-      << uncertain << "\n";
+    s << (envelope ? "// not to enter" : "// too uncertain to enter")
+      << " (written as measured; set them to 0 to leave them out):" << uncertain << "\n";
   if (!undetermined.empty())
     s << "// not determined by the measurement, not written:" << undetermined << "\n";
   if (names.empty()) {
@@ -122,7 +217,8 @@ bool isg_location(std::ostream& s, const std::vector<ResultQuantity>& location,
 std::string isg(const ResultFile& r, const CompensationOptions& o) {
   std::ostringstream s;
   s << provenance(r, "// ");
-  if (!isg_location(s, r.location, r.source, o)) return s.str();
+  if (!isg_location(s, r.location, single_axis_verdicts(r, o, s, "// "), r.source, o))
+    return s.str();
   // The component errors over the angle, where all six are given and determined (the reader
   // keeps them in ISO 230-1's order: one table, one column a component).
   std::string omitted;
@@ -196,8 +292,8 @@ std::string default_kins(const ResultFile& r, const CompensationOptions& o) {
 // The setp lines of a trt module for the location errors given (one axis' or a machine's),
 // after `header` (the provenance, '#' comments).
 std::string linuxcnc_text(const std::string& header, const std::vector<ResultQuantity>& location,
-                          const std::string& kins, const std::string& source,
-                          const CompensationOptions& o) {
+                          const std::vector<Verdict>& verdicts, const std::string& kins,
+                          const std::string& source, const CompensationOptions& o) {
   for (const auto& [pin, value] : o.current_mm) {
     static const char* kPins[] = {"x-rot-point", "y-rot-point", "z-rot-point",
                                   "x-offset",    "y-offset",    "z-offset"};
@@ -219,9 +315,10 @@ std::string linuxcnc_text(const std::string& header, const std::vector<ResultQua
     << ".\n# U = k u, " << k_text(o.k) << ".\n";
   std::map<std::string, double> change;
   std::string not_taken, uncertain;
-  for (const ResultQuantity& q : location) {
+  for (std::size_t i = 0; i < location.size(); ++i) {
+    const ResultQuantity& q = location[i];
     const std::vector<std::pair<std::string, double>> pins = linuxcnc_pins(kins, q.name);
-    const Verdict v = verdict(q, o.k);
+    const Verdict& v = verdicts[i];
     if (pins.empty()) {
       not_taken += " " + q.name;
       continue;
@@ -280,7 +377,15 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
     throw InputError(option_name("--format"), "",
                      "LinuxCNC's trt kinematics modules describe tilting rotary tables; axis " +
                          std::string(1, r.axis.letter()) + " of this result carries the head");
-  return linuxcnc_text(provenance(r, "# "), r.location, default_kins(r, o), r.source, o);
+  // The module takes positions only: the envelope weighs the values it can take.
+  const std::string kins = default_kins(r, o);
+  std::array<bool, 5> takes{};
+  for (std::size_t q = 0; q < 5 && q < r.location.size(); ++q)
+    takes[q] = !linuxcnc_pins(kins, r.location[q].name).empty();
+  std::ostringstream envelope;
+  const std::vector<Verdict> verdicts = single_axis_verdicts(r, o, envelope, "# ", takes);
+  return linuxcnc_text(provenance(r, "# ") + envelope.str(), r.location, verdicts, kins, r.source,
+                       o);
 }
 
 // One row a quantity: its value (angles also in degrees), U and whether to enter it.
@@ -290,12 +395,13 @@ std::string linuxcnc(const ResultFile& r, const CompensationOptions& o) {
 // one). An entered value whose U is more than half of it may leave an error of either sign up
 // to U: a second measurement confirms it. True when any value needs it.
 bool table_rows(std::ostream& s, const std::vector<ResultQuantity>& location,
-                const CompensationOptions& o) {
+                const std::vector<Verdict>& verdicts, const CompensationOptions& o) {
   bool confirm_any = false;
   s << "name  value                                   U                     enter\n";
   std::ostringstream after;
-  for (const ResultQuantity& q : location) {
-    const Verdict v = verdict(q, o.k);
+  for (std::size_t i = 0; i < location.size(); ++i) {
+    const ResultQuantity& q = location[i];
+    const Verdict& v = verdicts[i];
     std::string value, U;
     // In the table's unit: mm, or deg (urad beside).
     auto in_unit = [&](double x, int digits) {
@@ -313,7 +419,7 @@ bool table_rows(std::ostream& s, const std::vector<ResultQuantity>& location,
     }
     const bool confirm = v.enter && 2 * o.k * *q.std > std::abs(*q.value);
     confirm_any = confirm_any || confirm;
-    char line[320];
+    char line[1024];
     std::snprintf(line, sizeof line, "%-5s %-39s %-21s %s\n", q.name.c_str(), value.c_str(),
                   U.c_str(),
                   v.enter ? (confirm ? "yes, then measure again to confirm" : "yes")
@@ -342,7 +448,10 @@ std::string table(const ResultFile& r, const CompensationOptions& o) {
   std::ostringstream s;
   s << provenance(r, "");
   s << "U: expanded uncertainty, U = k u, " << k_text(o.k) << "\n\n";
-  table_rows(s, r.location, o);
+  std::ostringstream envelope;
+  const std::vector<Verdict> verdicts = single_axis_verdicts(r, o, envelope, "");
+  table_rows(s, r.location, verdicts, o);
+  s << envelope.str();
   s << "\nA control that holds the axis' location (Heidenhain's kinematics table, Siemens' "
        "TRAFO5 offset vectors, Fanuc's tool-centre-point parameters) takes each value marked "
        "yes added to the entry that holds that location, in the entry's unit; one that holds "
@@ -543,13 +652,14 @@ std::string machine_linuxcnc(const ChainFile& m, const CompensationOptions& o) {
                          "-kins' (" + std::string(1, tilt) + " carrying " + turn + ")");
   std::string header = machine_provenance(m, "# ");
   const std::string zero = zero_errors(m, "# ", o.k);
-  return linuxcnc_text(header + zero, all_location(m), kins, m.source, o);
+  return linuxcnc_text(header + zero, all_location(m), per_value(all_location(m), o.k), kins,
+                       m.source, o);
 }
 
 std::string machine_isg(const ChainFile& m, const CompensationOptions& o) {
   std::ostringstream s;
   s << machine_provenance(m, "// ");
-  isg_location(s, all_location(m), m.source, o);
+  isg_location(s, all_location(m), per_value(all_location(m), o.k), m.source, o);
   s << "// the machine result holds no component errors: compensation of each axis' result "
        "writes its table\n";
   return s.str();
@@ -568,7 +678,7 @@ std::string machine_table(const ChainFile& m, const CompensationOptions& o) {
     s << "\naxis " << a.letter << " (" << (a.table ? "table" : "head")
       << (a.on ? std::string(", on ") + a.on : std::string()) << "; "
       << program_comment(a.result, 200) << "):\n";
-    table_rows(s, a.location, o);
+    table_rows(s, a.location, per_value(a.location, o.k), o);
     const CorrectedLine c = corrected_line(m, i, o.k);
     for (int k = 0; k < 3; ++k)
       written_mm(c.point(k), m.source, std::string("the corrected point of axis ") + a.letter);
@@ -673,6 +783,24 @@ void check_compensation_options(CompensationFormat format, const CompensationOpt
                          option_name("--kins") + " names LinuxCNC's kinematics module (" +
                          option_with_value("--format", "linuxcnc") + ")");
   }
+}
+
+EnvelopeJudgement judge_envelope(const ResultFile& result, const EnvelopeGrid& grid, double k,
+                                 const std::array<bool, 5>& takes) {
+  EnvelopeJudgement j;
+  const AxisErrors axis = axis_errors_of(result);
+  j.coverage_probability = std::erf(k / std::sqrt(2.0));
+  const PredictionCoverage coverage = prediction_coverage(j.coverage_probability, axis.dof);
+  for (std::size_t q = 0; q < 5; ++q)
+    j.candidate[q] = takes[q] && verdict(result.location[q], k).enter;
+  if (std::any_of(axis.location.begin(), axis.location.end(),
+                  [](const std::optional<double>& v) { return !v.has_value(); }))
+    return j;
+  j.determined = true;
+  const std::vector<Pose> poses = envelope_poses(result.axis, grid);
+  j.points = poses.size();
+  static_cast<EnteringJudgement&>(j) = judge_entering(axis, poses, j.candidate, coverage);
+  return j;
 }
 
 std::string compensation_text(const ResultFile& result, CompensationFormat format,

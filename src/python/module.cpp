@@ -224,6 +224,41 @@ void check_integer_in(const char* name, long long x, long long lo, long long hi)
   }
 }
 
+// A map's or an envelope's arguments (predict, compensation), as the command line's --grid-*:
+// none without radii_mm; around a whole number (an int or what converts to one exactly, as
+// numpy's), never a bool.
+constexpr const char* kMachineEnvelope =
+    "a machine result: its values are judged each on its own (an envelope over both axes is "
+    "not yet judged)";
+const io::GridKeys kGridKeys{"radii_mm", "heights_mm", "around", "angles_deg"};
+std::optional<io::GridRequest> grid_request(const std::optional<std::vector<double>>& radii_mm,
+                                            const std::optional<std::vector<double>>& heights_mm,
+                                            py::handle around,
+                                            const std::optional<std::vector<double>>& angles_deg) {
+  for (const auto& [key, given] :
+       {std::pair<const char*, bool>{"heights_mm", heights_mm.has_value()},
+        {"around", !around.is_none()},
+        {"angles_deg", angles_deg.has_value()}})
+    if (given && !radii_mm)
+      throw InputError(key, "", "a map's parameter: give the map's radii (radii_mm) too");
+  if (!radii_mm) return std::nullopt;
+  io::GridRequest request;
+  request.radii_mm = *radii_mm;
+  request.heights_mm = heights_mm;
+  request.angles_deg = angles_deg;
+  if (!around.is_none()) {
+    if (py::isinstance<py::bool_>(around) || !PyIndex_Check(around.ptr()))
+      throw InputError("around", "", "expected a whole number of points, 1 to 360");
+    const py::int_ whole(py::reinterpret_borrow<py::object>(around));
+    int overflow = 0;
+    long long n = PyLong_AsLongLongAndOverflow(whole.ptr(), &overflow);
+    if (overflow != 0) n = overflow > 0 ? 361 : 0;
+    check_integer_in("around", n, 1, 360);
+    request.around = static_cast<int>(n);
+  }
+  return request;
+}
+
 int thread_count(const char* name, int threads) {
   check_integer_in(name, threads, 0, kMaxThreads);
   return threads > 0 ? threads
@@ -1726,12 +1761,8 @@ PYBIND11_MODULE(dbbkit, m) {
                   std::optional<std::vector<double>> heights_mm, py::handle around,
                   std::optional<std::vector<double>> angles_deg) {
         check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
-        for (const auto& [key, given] :
-             {std::pair<const char*, bool>{"heights_mm", heights_mm.has_value()},
-              {"around", !around.is_none()},
-              {"angles_deg", angles_deg.has_value()}})
-          if (given && !radii_mm)
-            throw InputError(key, "", "a map's parameter: give the map's radii (radii_mm) too");
+        const std::optional<io::GridRequest> request =
+            grid_request(radii_mm, heights_mm, around, angles_deg);
         if (at.is_none() && !radii_mm)
           throw InputError("at", "", "give the poses (at) or a map (radii_mm)");
         if (!at.is_none() && radii_mm)
@@ -1742,25 +1773,7 @@ PYBIND11_MODULE(dbbkit, m) {
         std::string source = "at";
         if (radii_mm) {
           // A map, as predict --grid-radius-mm makes it.
-          io::GridRequest request;
-          request.radii_mm = *radii_mm;
-          request.heights_mm = heights_mm;
-          request.angles_deg = angles_deg;
-          if (!around.is_none()) {
-            // A whole number (an int or what converts to one exactly, as numpy's); never a bool.
-            if (py::isinstance<py::bool_>(around) || !PyIndex_Check(around.ptr()))
-              throw InputError("around", "", "expected a whole number of points, 1 to 360");
-            const py::int_ whole(py::reinterpret_borrow<py::object>(around));
-            int overflow = 0;
-            long long n = PyLong_AsLongLongAndOverflow(whole.ptr(), &overflow);
-            if (overflow != 0) n = overflow > 0 ? 361 : 0;
-            check_integer_in("around", n, 1, 360);
-            request.around = static_cast<int>(n);
-          }
-          io::GridKeys keys;
-          keys.radii = "radii_mm", keys.heights = "heights_mm", keys.around = "around",
-          keys.angles = "angles_deg";
-          grid = io::grid_of(r, request, keys);
+          grid = io::grid_of(r, *request, kGridKeys);
           poses = envelope_poses(r.axis, *grid);
           source = "grid";
         } else if (const auto path = as_path(at)) {
@@ -1802,7 +1815,12 @@ PYBIND11_MODULE(dbbkit, m) {
   m.def(
       "compensation",
       [result_of](py::handle result, const std::string& format, const std::string& kins,
-                  const std::map<std::string, double>& current, double k, int record) {
+                  const std::map<std::string, double>& current, double k, int record,
+                  std::optional<std::vector<double>> radii_mm,
+                  std::optional<std::vector<double>> heights_mm, py::handle around,
+                  std::optional<std::vector<double>> angles_deg) {
+        const std::optional<io::GridRequest> request =
+            grid_request(radii_mm, heights_mm, around, angles_deg);
         check_finite_in("k", k, 1, 10);
         if (record < 0 || record > 99)
           throw InputError("record", "", "expected a swivel data record's number, 1 to 99");
@@ -1819,22 +1837,30 @@ PYBIND11_MODULE(dbbkit, m) {
         // A machine result (chain): a path to one, or the dict chain gives.
         if (const auto path = as_path(result)) {
           const std::string text = io::read_json_file(*path);
-          if (io::is_chain_text(text))
+          if (io::is_chain_text(text)) {
+            if (request) throw InputError("radii_mm", "", kMachineEnvelope);
             return io::machine_compensation_text(io::chain_from_text(text, *path), f, o);
+          }
         } else if (py::isinstance<py::dict>(result)) {
           const nlohmann::json j = from_python(result, "result", "");
-          if (j.is_object() && j.contains("format") && j["format"] == io::kChainFormat)
+          if (j.is_object() && j.contains("format") && j["format"] == io::kChainFormat) {
+            if (request) throw InputError("radii_mm", "", kMachineEnvelope);
             return io::machine_compensation_text(io::chain_from_text(io::dump_json(j), "result"), f,
                                                  o);
+          }
         }
-        return io::compensation_text(result_of(result, "result"), f, o);
+        const io::ResultFile r = result_of(result, "result");
+        if (request) o.envelope = io::grid_of(r, *request, kGridKeys);
+        return io::compensation_text(r, f, o);
       },
       py::arg("result"), py::arg("format"), py::arg("kins") = "",
       py::arg("current") = std::map<std::string, double>{}, py::arg("k") = 2.0,
-      py::arg("record") = 0,
+      py::arg("record") = 0, py::arg("radii_mm") = py::none(), py::arg("heights_mm") = py::none(),
+      py::arg("around") = py::none(), py::arg("angles_deg") = py::none(),
       "`dbbkit compensation`: the location errors of a result, or a machine result's corrected "
       "kinematics (chain), for a controller (format isg, linuxcnc, siemens: record, or table), "
-      "as the text the command writes");
+      "as the text the command writes; radii_mm, heights_mm, around, angles_deg: the envelope "
+      "the decision to enter rests on, as --grid-*");
 
   constexpr std::uint64_t kSeed = 1;
   m.def("evaluate", &run_evaluate, py::arg("design"), py::arg("reference_length_mm") = py::none(),

@@ -102,6 +102,15 @@ class RoundTrips(InSource):
             self.assertEqual(c["significant_changes"], 0)
             text = dbbkit.compensation(r, "isg")
             self.assertEqual(text, cli_text("compensation", "--result", a, "--format", "isg").replace(a, "result"))
+            # The decision to enter over an envelope, as --grid-*.
+            table = dbbkit.compensation(a, "table", radii_mm=[0, 200], heights_mm=[60], around=4)
+            self.assertEqual(table, cli_text("compensation", "--result", a, "--format", "table",
+                                             "--grid-radius-mm", "0,200", "--grid-height-mm", "60",
+                                             "--grid-around", "4"))
+            self.assertIn("Over the envelope (", table)
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.compensation(a, "table", around=4)
+            self.assertIn("around: a map's parameter", str(ctx.exception))
         with self.assertRaises(dbbkit.InputError):
             dbbkit.compensation(r, "linuxcnc")  # a C table: the module must be named
 

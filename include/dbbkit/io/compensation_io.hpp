@@ -15,12 +15,21 @@
 // (ISO 230-1), from the work frame the measurement was taught in. A value whose expanded
 // uncertainty is as large as the value itself (|value| <= U) is not distinguishable from zero
 // and is said to be too uncertain to enter; an undetermined one is never written as a number.
+//
+// Over an envelope (CompensationOptions::envelope, predict's map) the decision rests on the
+// tool tip's error there (the location errors' part, predict.hpp): of the values worth entering
+// one by one, the set whose entering leaves the smallest bound (the largest over the envelope of
+// the error left plus its U) is entered, and only where that bound is below the largest error
+// today; otherwise none is (EnvelopeJudgement).
 
+#include <array>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "dbbkit/io/chain_io.hpp"
 #include "dbbkit/io/result_read.hpp"
+#include "dbbkit/predict.hpp"
 
 namespace dbbkit::io {
 
@@ -41,7 +50,24 @@ struct CompensationOptions {
   std::map<std::string, double> current_mm;
   // siemens: the number of the swivel data record written (0: not given).
   int record = 0;
+  // An identify or diagnose result: the envelope the decision to enter rests on (io::grid_of's,
+  // defaults filled in); absent: each value on its own (|value| > U).
+  std::optional<EnvelopeGrid> envelope;
 };
+
+// The decision to enter over an envelope (judge_entering, predict.hpp), from a result: U at the
+// coverage of k (normal, or t with the result's degrees of freedom).
+struct EnvelopeJudgement : EnteringJudgement {
+  bool determined = false;          // false: a location error is not determined; no judgement
+  std::size_t points = 0;           // of the envelope
+  std::array<bool, 5> candidate{};  // worth entering on its own (|value| > U), the target takes it
+  double coverage_probability = 0.95;
+};
+// `takes`: the values the target can hold (LinuxCNC's trt modules: positions only); a value it
+// cannot is never a candidate. InputError naming the result's key where it lacks the location
+// errors' covariance.
+EnvelopeJudgement judge_envelope(const ResultFile& result, const EnvelopeGrid& grid, double k,
+                                 const std::array<bool, 5>& takes = {true, true, true, true, true});
 
 // Refuses the options the format does not take (kins and current are LinuxCNC's): throws
 // InputError(option_name("--current") or ("--kins")) saying so.
