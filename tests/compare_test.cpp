@@ -776,6 +776,28 @@ TEST(Compensation, TheEnvelopeOptionsAreCheckedAsPredictsMap) {
     EXPECT_EQ(b.status, 2) << bad;
     EXPECT_NE(b.err.find("--grid-"), std::string::npos) << bad << ": " << b.err;
   }
+  // k beyond 6: the coverage rounds to 1 and U has no quantile; refused, naming --k. At 5 the
+  // coverage is said with the digits that tell it from 100 %.
+  const CliRun k9 =
+      run_cli("compensation --result " + r + " --format table --grid-radius-mm 0 --k 9");
+  EXPECT_EQ(k9.status, 2) << k9.err;
+  EXPECT_NE(k9.err.find("--k"), std::string::npos) << k9.err;
+  const CliRun k5 =
+      run_cli("compensation --result " + r + " --format table --grid-radius-mm 0 --k 5");
+  ASSERT_EQ(k5.status, 0) << k5.err;
+  EXPECT_NE(k5.out.find("99.9999427 % at each point"), std::string::npos) << k5.out;
+  // A covariance no measurement gives (a correlation of 95) is refused.
+  {
+    nlohmann::json j = nlohmann::json::parse(slurp(r));
+    auto& m = j["iso230"]["location_covariance"]["matrix"];
+    m[0][3] = 100.0;
+    m[3][0] = 100.0;
+    const std::string bad = (dir / "bad.json").string();
+    std::ofstream(bad) << j.dump();
+    const CliRun b = run_cli("compensation --result " + bad + " --format table --grid-radius-mm 0");
+    EXPECT_EQ(b.status, 2);
+    EXPECT_NE(b.err.find("not positive semidefinite"), std::string::npos) << b.err;
+  }
   const std::string chain = (dir / "m.json").string();
   std::ofstream(chain) << R"({"format": "dbbkit.chain/1"})";
   const CliRun m = run_cli("compensation --result " + chain + " --format table --grid-radius-mm 0");

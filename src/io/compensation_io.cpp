@@ -75,6 +75,12 @@ std::vector<Verdict> per_value(const std::vector<ResultQuantity>& location, doub
 
 std::string um_text(double x) { return fmt_rounded(x, 2) + " um"; }
 
+// A coverage in percent with the digits that tell it from 100 % (95.45, 99.9999943).
+std::string coverage_text(double p) {
+  const int digits = 4 + std::max(0, static_cast<int>(std::ceil(-std::log10(1 - p))) - 2);
+  return fmt_num(100 * p, digits);
+}
+
 // Each location error's verdict: over the envelope where one is given and judged, each value on
 // its own otherwise.
 std::vector<Verdict> entering(const ResultFile& r, const std::optional<EnvelopeJudgement>& j,
@@ -86,7 +92,8 @@ std::vector<Verdict> entering(const ResultFile& r, const std::optional<EnvelopeJ
     if (!j->candidate[q] || j->enter[q]) continue;
     out[q].enter = false;
     out[q].why = none ? "over the envelope entering leaves up to " + um_text(j->best_bound_um) +
-                            " (the error left plus its U), not below the largest error today (" +
+                            " at best, of any set of the values (the error left plus its U), "
+                            "not below the largest error today (" +
                             um_text(j->today_um) + ")"
                  : j->bound_with[q] <= j->after_bound_um + 0.005
                      ? "over the envelope entered or not it leaves the same, up to " +
@@ -141,7 +148,7 @@ std::vector<Verdict> single_axis_verdicts(const ResultFile& r, const Compensatio
     for (std::size_t q = 0; q < 5; ++q)
       if (j.enter[q]) names += (names.empty() ? "" : ", ") + r.location[q].name;
     s << prefix << "  entering " << names << ": at most " << um_text(j.after_bound_um)
-      << " left (the error left plus its U, " << fmt_num(100 * j.coverage_probability, 4)
+      << " left (the error left plus its U, " << coverage_text(j.coverage_probability)
       << " % at each point) " << where_text(r.axis.letter(), j.after_at) << "\n";
   } else if (std::isfinite(j.best_bound_um)) {
     s << prefix << "  entering: none; the best set of values would leave up to "
@@ -788,7 +795,13 @@ void check_compensation_options(CompensationFormat format, const CompensationOpt
 EnvelopeJudgement judge_envelope(const ResultFile& result, const EnvelopeGrid& grid, double k,
                                  const std::array<bool, 5>& takes) {
   EnvelopeJudgement j;
+  if (!(k <= kMaxEnvelopeK))
+    throw InputError(option_name("--k"), "",
+                     "with an envelope, k up to " + fmt_num(kMaxEnvelopeK, 3) +
+                         " (a coverage of 1 - 2e-9): beyond it the coverage is 1 in double "
+                         "precision and U has no quantile");
   const AxisErrors axis = axis_errors_of(result);
+  j.points = envelope_poses(result.axis, grid).size();
   j.coverage_probability = std::erf(k / std::sqrt(2.0));
   const PredictionCoverage coverage = prediction_coverage(j.coverage_probability, axis.dof);
   for (std::size_t q = 0; q < 5; ++q)
@@ -798,7 +811,6 @@ EnvelopeJudgement judge_envelope(const ResultFile& result, const EnvelopeGrid& g
     return j;
   j.determined = true;
   const std::vector<Pose> poses = envelope_poses(result.axis, grid);
-  j.points = poses.size();
   static_cast<EnteringJudgement&>(j) = judge_entering(axis, poses, j.candidate, coverage);
   return j;
 }

@@ -1,5 +1,6 @@
 #include "dbbkit/io/predict_io.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -242,6 +243,15 @@ AxisErrors axis_errors_of(const ResultFile& result) {
     a.location[static_cast<std::size_t>(k)] = result.location[k].value;
   }
   a.location_covariance = *result.location_covariance;
+  {  // No measurement gives a covariance with a negative variance in any direction (beyond the
+     // rounding of its entries to 1e-6).
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 5, 5>> eig(a.location_covariance);
+    const double least = eig.eigenvalues()(0), most = eig.eigenvalues()(4);
+    if (!(least >= -1e-5 - 1e-9 * std::abs(most)))
+      throw InputError(result.source, "iso230.location_covariance.matrix",
+                       "not positive semidefinite (an eigenvalue of " + fmt_num(least, 4) +
+                           "): no measurement gives it");
+  }
   for (const ResultComponents& c : result.components) {
     if (!c.motion_covariance) {
       if (c.all_determined()) a.measured_without_covariance.push_back(c.angle_deg);

@@ -36,6 +36,9 @@ namespace dbbkit::io {
 // The largest position a compensation reads (--current) or writes [mm]: beyond it a number is
 // no machine's (formats.md, "Limits").
 inline constexpr double kMaxCompensation_mm = 1e5;
+// The largest coverage factor an envelope's judgement takes (a coverage of 1 - 2e-9): beyond it
+// the coverage rounds to 1 in double precision and U's quantile does not exist.
+inline constexpr double kMaxEnvelopeK = 6.0;
 
 enum class CompensationFormat { kIsg, kLinuxCnc, kTable, kSiemens };
 // "isg", "linuxcnc", "table", "siemens"; InputError(source, "format") for any other name.
