@@ -58,7 +58,8 @@ double written_mm(double mm, const std::string& source, const std::string& what)
 // Whether a value is worth entering, and why not.
 struct Verdict {
   bool enter = false;
-  std::string why;  // empty when it is
+  std::string why;        // empty when it is
+  bool envelope = false;  // left out by the envelope's judgement, not for its own U
 };
 Verdict verdict(const ResultQuantity& q, double k) {
   if (!q.value) return {false, "not determined by the measurement"};
@@ -81,26 +82,25 @@ std::string coverage_text(double p) {
   return fmt_num(100 * p, digits);
 }
 
-// Each location error's verdict: over the envelope where one is given and judged, each value on
-// its own otherwise.
-std::vector<Verdict> entering(const ResultFile& r, const std::optional<EnvelopeJudgement>& j,
-                              double k) {
+// Each location error's verdict over an envelope judged (determined; five location errors): a
+// value worth entering alone but not in the set entered says why.
+std::vector<Verdict> entering(const ResultFile& r, const EnvelopeJudgement& j, double k) {
   std::vector<Verdict> out = per_value(r.location, k);
-  if (!j || !j->determined || out.size() != 5) return out;
-  const bool none = std::none_of(j->enter.begin(), j->enter.end(), [](bool b) { return b; });
+  const bool none = std::none_of(j.enter.begin(), j.enter.end(), [](bool b) { return b; });
   for (std::size_t q = 0; q < 5; ++q) {
-    if (!j->candidate[q] || j->enter[q]) continue;
+    if (!j.candidate[q] || j.enter[q]) continue;
     out[q].enter = false;
-    out[q].why = none ? "over the envelope entering leaves up to " + um_text(j->best_bound_um) +
+    out[q].envelope = true;
+    out[q].why = none ? "over the envelope entering leaves up to " + um_text(j.best_bound_um) +
                             " at best, of any set of the values (the error left plus its U), "
                             "not below the largest error today (" +
-                            um_text(j->today_um) + ")"
-                 : j->bound_with[q] <= j->after_bound_um + 0.005
+                            um_text(j.today_um) + ")"
+                 : j.bound_with[q] <= j.after_bound_um + 0.005
                      ? "over the envelope entered or not it leaves the same, up to " +
-                           um_text(j->after_bound_um) + ": not needed there"
+                           um_text(j.after_bound_um) + ": not needed there"
                      : "over the envelope the values marked yes leave up to " +
-                           um_text(j->after_bound_um) + "; with it as well, up to " +
-                           um_text(j->bound_with[q]);
+                           um_text(j.after_bound_um) + "; with it as well, up to " +
+                           um_text(j.bound_with[q]);
   }
   return out;
 }
@@ -198,13 +198,12 @@ bool isg_location(std::ostream& s, const std::vector<ResultQuantity>& location,
     if (q.unit == "um") written_mm(to_si(*q.value, q.unit), source, q.name);
     s << "//   " << q.name << " = " << g9(to_si(*q.value, q.unit)) << " " << si_unit(q.unit)
       << ", U = " << g9(to_si(o.k * *q.std, q.unit)) << " " << si_unit(q.unit)
-      << (v.enter || !q.value ? ""
-          : v.why.rfind("too uncertain", 0) == 0
-              ? std::string(" (too uncertain to enter: |value| <= U)")
-              : " (not to enter: " + v.why + ")")
+      << (v.enter      ? ""
+          : v.envelope ? " (not to enter: " + v.why + ")"
+                       : std::string(" (too uncertain to enter: |value| <= U)"))
       << "\n";
     if (!v.enter) uncertain += " " + q.name;
-    envelope = envelope || (!v.enter && v.why.rfind("too uncertain", 0) != 0);
+    envelope = envelope || v.envelope;
     names += (names.empty() ? "" : " ") + q.name;
     values += (values.empty() ? "" : " ") + g9(to_si(*q.value, q.unit));
   }
@@ -801,7 +800,8 @@ EnvelopeJudgement judge_envelope(const ResultFile& result, const EnvelopeGrid& g
                          " (a coverage of 1 - 2e-9): beyond it the coverage is 1 in double "
                          "precision and U has no quantile");
   const AxisErrors axis = axis_errors_of(result);
-  j.points = envelope_poses(result.axis, grid).size();
+  const std::vector<Pose> poses = envelope_poses(result.axis, grid);
+  j.points = poses.size();
   j.coverage_probability = std::erf(k / std::sqrt(2.0));
   const PredictionCoverage coverage = prediction_coverage(j.coverage_probability, axis.dof);
   for (std::size_t q = 0; q < 5; ++q)
@@ -810,7 +810,6 @@ EnvelopeJudgement judge_envelope(const ResultFile& result, const EnvelopeGrid& g
                   [](const std::optional<double>& v) { return !v.has_value(); }))
     return j;
   j.determined = true;
-  const std::vector<Pose> poses = envelope_poses(result.axis, grid);
   static_cast<EnteringJudgement&>(j) = judge_entering(axis, poses, j.candidate, coverage);
   return j;
 }

@@ -37,6 +37,12 @@ std::string angle_text(double a) {
   return std::stod(short_form) == a ? short_form : fmt_num(a, 15);
 }
 
+// What follows an angle beyond the axis' travel in an error.
+std::string beyond_travel(const AxisFrame& axis) {
+  return " deg is beyond the travel of the " + axis.label() + " axis (" +
+         fmt_num(axis.travel_min_deg(), 12) + " to " + fmt_num(axis.travel_max_deg(), 12) + " deg)";
+}
+
 const char* basis_key(PredictionBasis b) {
   return b == PredictionBasis::kMotions ? "motions" : "location";
 }
@@ -67,10 +73,7 @@ const char* location_reason_text(LocationReason r) {
 void check_pose(const Pose& p, const AxisFrame& axis, const std::string& source,
                 const std::string& where) {
   if (!(p.angle_deg >= axis.travel_min_deg() && p.angle_deg <= axis.travel_max_deg()))
-    throw InputError(source, where + "angle_deg",
-                     fmt_num(p.angle_deg, 12) + " deg is beyond the travel of the " + axis.label() +
-                         " axis (" + fmt_num(axis.travel_min_deg(), 12) + " to " +
-                         fmt_num(axis.travel_max_deg(), 12) + " deg)");
+    throw InputError(source, where + "angle_deg", fmt_num(p.angle_deg, 12) + beyond_travel(axis));
   for (int k = 0; k < 3; ++k) {
     if (!(std::abs(p.point_mm(k)) <= limits::kMaxLength_mm))
       throw InputError(source, where + kPoseColumns[static_cast<std::size_t>(k + 1)],
@@ -199,11 +202,8 @@ EnvelopeGrid grid_of(const ResultFile& result, const GridRequest& request, const
                : " mm is beyond +-" + fmt_num(limits::kMaxLength_mm, 12) + " mm";
   });
   check(grid.angles_deg, keys.angles, "angle", [&axis](double a) {
-    return a >= axis.travel_min_deg() && a <= axis.travel_max_deg()
-               ? std::string()
-               : " deg is beyond the travel of the " + axis.label() + " axis (" +
-                     fmt_num(axis.travel_min_deg(), 12) + " to " +
-                     fmt_num(axis.travel_max_deg(), 12) + " deg)";
+    return a >= axis.travel_min_deg() && a <= axis.travel_max_deg() ? std::string()
+                                                                    : beyond_travel(axis);
   });
   if (grid.around < 1 || grid.around > 360)
     throw InputError(keys.around, "", std::to_string(grid.around) + " is outside 1 to 360");
