@@ -233,7 +233,7 @@ void add_iso_share(IsoResult& iso, const std::vector<double>& w2) {
   for (IsoComponentsAtAngle& a : iso.components) {
     for (Determined& m : a.motions) add(m);
     // A share on each std is not a covariance of the motions: none is stated.
-    if (share) a.motion_covariance.reset();
+    if (share) a.motion_covariance.reset(), a.errors_covariance.reset();
   }
 }
 

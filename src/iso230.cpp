@@ -4,10 +4,12 @@
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "block_form.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/linear_model.hpp"
 #include "dbbkit/monte_carlo.hpp"
 #include "random.hpp"
 
@@ -284,6 +286,22 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   std::array<Eigen::Matrix<double, 5, 5>, 2> QSQ;
   std::array<Eigen::Matrix<double, 5, 1>, 2> Qtheta;
   const bool low_rank = est.covariance_K.cols() > 0;
+  // Independent between angles: a per-angle model without a set-up effect, each block of the
+  // covariance within one station.
+  out.independent_between_angles = [&] {
+    if (param.model().kind != ErrorModel::Kind::kPerAngle || low_rank ||
+        !setup_inputs(design).empty() ||
+        est.covariance_block_of.size() != static_cast<std::size_t>(est.n_unknowns))
+      return false;
+    std::map<int, int> station_of_block;
+    for (int j = 0; j < est.n_unknowns; ++j) {
+      const int block = est.covariance_block_of[static_cast<std::size_t>(j)];
+      if (block < 0) continue;
+      const auto [it, fresh] = station_of_block.emplace(block, param.parameter_station(j));
+      if (!fresh && it->second != param.parameter_station(j)) return false;
+    }
+    return true;
+  }();
   for (int b = 0; b < 2; ++b) {
     if (!fitted[b]) continue;
     SQ[b] = est.covariance * Q[b];
@@ -461,6 +479,13 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
         for (int j = 0; j <= i; ++j)
           c(i, j) = c(j, i) = motion_cov(station_terms[i], station_terms[j]);
       at.motion_covariance = c;
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j <= i; ++j) {
+          const Term &a = station_terms[i], &b = station_terms[j];
+          const double v = base(a, b) + (low_rank ? a.Kc.dot(est.covariance_S * b.Kc) : 0.0);
+          c(i, j) = c(j, i) = v * uncertainty_scale * uncertainty_scale;
+        }
+      at.errors_covariance = c;
     }
     out.components.push_back(at);
     if (motion.enabled) terms.push_back(std::move(station_terms));

@@ -128,33 +128,51 @@ Eigen::Matrix<double, 3, 6> point_jacobian(const Eigen::Vector3d& P_mm) {
   return H;
 }
 
+std::optional<Eigen::Matrix<double, 5, 1>> location_values(const AxisErrors& axis) {
+  Eigen::Matrix<double, 5, 1> l;
+  for (int k = 0; k < 5; ++k) {
+    const std::optional<double>& v = axis.location[static_cast<std::size_t>(k)];
+    if (!v) return std::nullopt;
+    l(k) = *v;
+  }
+  return l;
+}
+
+bool same_angle(const AxisFrame& axis, double a_deg, double b_deg) {
+  // A full turn's angle 360 deg apart is the same position (the per-angle model's station).
+  const double apart = a_deg - b_deg;
+  return std::abs(axis.full_turn() ? std::remainder(apart, 360.0) : apart) <= 1e-9;
+}
+
+const AxisErrors::AtAngle* measured_at(const AxisErrors& axis, double angle_deg) {
+  const auto at = std::find_if(
+      axis.measured.begin(), axis.measured.end(),
+      [&](const AxisErrors::AtAngle& a) { return same_angle(axis.axis, a.angle_deg, angle_deg); });
+  return at == axis.measured.end() ? nullptr : &*at;
+}
+
 PointPrediction predict_point(const AxisErrors& axis, const Pose& pose,
                               const PredictionCoverage& coverage, bool location_only) {
   PointPrediction p;
   p.pose = pose;
   p.nominal_mm = axis_rotation(axis.axis, pose.angle_deg) * pose.point_mm;
-  if (std::any_of(axis.location.begin(), axis.location.end(),
-                  [](const std::optional<double>& v) { return !v.has_value(); })) {
+  const std::optional<Eigen::Matrix<double, 5, 1>> determined = location_values(axis);
+  if (!determined) {
     p.gap = PredictionGap::kLocationNotDetermined;
     return p;
   }
-  Eigen::Matrix<double, 5, 1> l;
-  for (int k = 0; k < 5; ++k) l(k) = *axis.location[static_cast<std::size_t>(k)];
+  const Eigen::Matrix<double, 5, 1>& l = *determined;
   const Eigen::Matrix<double, 6, 5> G = location_motion(axis.axis, pose.angle_deg);
   const Eigen::Matrix<double, 3, 6> H = point_jacobian(p.nominal_mm);
-  // A full turn's angle 360 deg apart is the same position (the per-angle model's station).
-  auto same = [&](double a) {
-    const double apart = a - pose.angle_deg;
-    return std::abs(axis.axis.full_turn() ? std::remainder(apart, 360.0) : apart) <= 1e-9;
-  };
-  const auto at = std::find_if(axis.measured.begin(), axis.measured.end(),
-                               [&](const AxisErrors::AtAngle& a) { return same(a.angle_deg); });
-  p.location_reason = location_only ? LocationReason::kAsked
-                      : std::any_of(axis.measured_without_covariance.begin(),
-                                    axis.measured_without_covariance.end(), same)
-                          ? LocationReason::kNoMotionCovariance
-                          : LocationReason::kNotMeasured;
-  if (!location_only && at != axis.measured.end()) {
+  const AxisErrors::AtAngle* at = measured_at(axis, pose.angle_deg);
+  p.location_reason =
+      location_only ? LocationReason::kAsked
+      : std::any_of(axis.measured_without_covariance.begin(),
+                    axis.measured_without_covariance.end(),
+                    [&](double a) { return same_angle(axis.axis, a, pose.angle_deg); })
+          ? LocationReason::kNoMotionCovariance
+          : LocationReason::kNotMeasured;
+  if (!location_only && at != nullptr) {
     p.basis = PredictionBasis::kMotions;
     Vector6d c;
     for (int k = 0; k < 6; ++k) c(k) = at->component[static_cast<std::size_t>(k)];

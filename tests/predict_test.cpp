@@ -33,20 +33,7 @@ using test::kPi;
 using test::RealLine;
 using test::turn;
 
-// The line the five location errors (the design's ISO order: two positions um, two orientations
-// and the zero urad) describe, from the nominal line through the origin.
-RealLine line_of(const AxisFrame& axis, const std::array<double, 5>& l) {
-  const IsoFrame f = iso_frame(axis);
-  RealLine r;
-  r.point = 1e-3 * (l[0] * f.p1 + l[1] * f.p2);
-  const Eigen::Vector3d alpha = 1e-6 * (l[2] * f.p1 + l[3] * f.p2);
-  r.direction = Eigen::AngleAxisd(alpha.norm(), alpha.norm() > 0 ? alpha.normalized()
-                                                                 : Eigen::Vector3d::UnitX()) *
-                axis.direction();
-  // The zero position is a rotation about the positive machine axis q.
-  r.zero_rad = 1e-6 * l[4] * f.q.dot(axis.direction());
-  return r;
-}
+using test::line_of;
 
 // The design's readings on the real line: the ball on the turning body turned about it, the
 // other ball where the nominal path puts it, noise uniform within +-noise_um.

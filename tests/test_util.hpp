@@ -6,12 +6,14 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <Eigen/SparseCore>
+#include <array>
 #include <cmath>
 #include <random>
 #include <string>
 
 #include "dbbkit/design.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/iso230.hpp"
 #include "dbbkit/kit.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
@@ -43,6 +45,21 @@ struct RealLine {
 // x turned by the commanded angle about the real line.
 inline Eigen::Vector3d turn(const RealLine& l, double deg, const Eigen::Vector3d& x) {
   return l.point + Eigen::AngleAxisd(deg * kPi / 180 + l.zero_rad, l.direction) * (x - l.point);
+}
+
+// The line the five location errors (the axis' ISO order: two positions um, two orientations and
+// the zero urad) describe, from the nominal line through the origin.
+inline RealLine line_of(const AxisFrame& axis, const std::array<double, 5>& l) {
+  const IsoFrame f = iso_frame(axis);
+  RealLine r;
+  r.point = 1e-3 * (l[0] * f.p1 + l[1] * f.p2);
+  const Eigen::Vector3d alpha = 1e-6 * (l[2] * f.p1 + l[3] * f.p2);
+  r.direction = Eigen::AngleAxisd(alpha.norm(), alpha.norm() > 0 ? alpha.normalized()
+                                                                 : Eigen::Vector3d::UnitX()) *
+                axis.direction();
+  // The zero position is a rotation about the positive machine axis q.
+  r.zero_rad = 1e-6 * l[4] * f.q.dot(axis.direction());
+  return r;
 }
 
 // |a - b| <= abs_tol + rel_tol * max(|a|, |b|), elementwise.

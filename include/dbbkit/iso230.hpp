@@ -65,6 +65,11 @@ struct IsoComponentsAtAngle {
   // one of the six or a block's fit is not determined, where not asked for, and where a share
   // that is not a covariance was added to the std (diagnose's equivalent effects).
   std::optional<Eigen::Matrix<double, 6, 6>> motion_covariance;
+  // The joint covariance of the six error motions themselves at this angle (their constant parts
+  // included): where motion_covariance is stated. With IsoResult::independent_between_angles, the
+  // estimates at two angles are independent, and a test's readings predicted at the measured
+  // angles have this covariance once that test's own constant parts are fitted (verify.hpp).
+  std::optional<Eigen::Matrix<double, 6, 6>> errors_covariance;
 };
 
 enum class IsoMotionGap { kNone, kLocationNotDetermined, kNotEveryAngle, kTooManyAngles };
@@ -128,6 +133,9 @@ struct IsoResult {
   std::vector<IsoComponentsAtAngle> components;
   IsoMotionValues motion_values;  // empty when not asked for
   std::vector<IsoBlockGap> gaps;  // what a block could not determine
+  // The error motions' estimates at two angles are independent: a per-angle model with no set-up
+  // effect shared by the angles (no declared length offset, centring or ball placement).
+  bool independent_between_angles = false;
 };
 
 // The ISO names of an axis: its location errors (two positions, two orientations, the zero

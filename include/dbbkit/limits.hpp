@@ -23,6 +23,9 @@ constexpr std::size_t kMaxAngles = 100000;
 constexpr std::size_t kMaxInstallations = 10000;
 // Poses of one predict file (100,000: about 10 s and 0.6 GB with the JSON written).
 constexpr std::size_t kMaxPoses = 100000;
+// Readings of one test verify checks: their covariance is dense (n x n; 5,000: 0.2 GB and
+// seconds for its Cholesky factor).
+constexpr std::size_t kMaxVerifyReadings = 5000;
 // A map's radius other than 0 (the axis line): at least 1 um. Closer to the axis, the 360
 // points of a circle would coincide at the results' resolution (1e-6 mm).
 constexpr double kMinGridRadius_mm = 1e-3;

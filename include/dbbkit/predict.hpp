@@ -51,11 +51,15 @@ struct AxisErrors {
     double angle_deg = 0;
     std::array<double, 6> component{};  // translations um, rotations urad (machine frame)
     Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+    // The covariance of the six motions themselves (constant parts included), where stated.
+    std::optional<Eigen::Matrix<double, 6, 6>> errors_covariance;
   };
   std::vector<AtAngle> measured;
   // Angles whose component motions the result states without the motions' covariance.
   std::vector<double> measured_without_covariance;
   std::optional<double> dof;  // effective degrees of freedom (Type A); absent: Gaussian
+  // The motions' estimates at two angles are independent (IsoResult::independent_between_angles).
+  bool independent_between_angles = false;
 };
 
 struct Pose {
@@ -114,6 +118,15 @@ struct EnvelopeGrid {
 // the axis frame's origin): P = r (cos(phi) u + sin(phi) w x u) + h w, w the axis direction,
 // u the reference direction, phi = 360 deg k / around. A radius of 0 gives one point per height.
 std::vector<Pose> envelope_poses(const AxisFrame& axis, const EnvelopeGrid& grid);
+
+// The five location errors as a vector, or nothing where one is not determined.
+std::optional<Eigen::Matrix<double, 5, 1>> location_values(const AxisErrors& axis);
+
+// Whether two commanded angles are the same position: within 1e-9 deg (on a full turn, or whole
+// turns apart).
+bool same_angle(const AxisFrame& axis, double a_deg, double b_deg);
+// The angle the result measured (with the motions' covariance) that is this one, or nullptr.
+const AxisErrors::AtAngle* measured_at(const AxisErrors& axis, double angle_deg);
 
 // The prediction at one pose. An angle is a measured one when it equals it within 1e-9 deg (on a
 // full turn, or differs from it by whole turns). `location_only`: the location errors alone at

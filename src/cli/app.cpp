@@ -62,6 +62,7 @@ std::unique_ptr<CommandLine> make_command_line() {
   add(add_compare);
   add(add_chain);
   add(add_predict);
+  add(add_verify);
   add(add_readings);
   add(add_bench);
   // Every option that names a file: an empty path is refused where it is read.

@@ -23,5 +23,6 @@ Runner add_compare(CLI::App& app);
 Runner add_chain(CLI::App& app);
 Runner add_readings(CLI::App& app);
 Runner add_predict(CLI::App& app);
+Runner add_verify(CLI::App& app);
 
 }  // namespace dbbkit::cli

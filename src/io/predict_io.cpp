@@ -22,6 +22,15 @@ namespace dbbkit::io {
 
 using nlohmann::json;
 
+std::string angle_text(double a) {
+  const std::string short_form = fmt_rounded(a, 3);
+  return std::stod(short_form) == a ? short_form : fmt_num(a, 15);
+}
+
+const char* basis_key(PredictionBasis b) {
+  return b == PredictionBasis::kMotions ? "motions" : "location";
+}
+
 namespace {
 
 const std::array<const char*, 4> kPoseColumns = {"angle_deg", "x_mm", "y_mm", "z_mm"};
@@ -30,21 +39,10 @@ json vec3(const Eigen::Vector3d& v) { return json::array({r6(v.x()), r6(v.y()), 
 
 Eigen::Vector3d stds(const Eigen::Matrix3d& c) { return c.diagonal().cwiseMax(0.0).cwiseSqrt(); }
 
-// An angle as the terminal says it: to 0.001 deg, or in full where that would round it (an
-// angle not measured must never read as a measured one).
-std::string angle_text(double a) {
-  const std::string short_form = fmt_rounded(a, 3);
-  return std::stod(short_form) == a ? short_form : fmt_num(a, 15);
-}
-
 // What follows an angle beyond the axis' travel in an error.
 std::string beyond_travel(const AxisFrame& axis) {
   return " deg is beyond the travel of the " + axis.label() + " axis (" +
          fmt_num(axis.travel_min_deg(), 12) + " to " + fmt_num(axis.travel_max_deg(), 12) + " deg)";
-}
-
-const char* basis_key(PredictionBasis b) {
-  return b == PredictionBasis::kMotions ? "motions" : "location";
 }
 
 // The basis as the table shows it.
@@ -261,9 +259,11 @@ AxisErrors axis_errors_of(const ResultFile& result) {
     at.angle_deg = c.angle_deg;
     for (int k = 0; k < 6; ++k) at.component[static_cast<std::size_t>(k)] = *c.motions[k].value;
     at.covariance = *c.motion_covariance;
+    at.errors_covariance = c.errors_covariance;
     a.measured.push_back(at);
   }
   a.dof = result.dof;
+  a.independent_between_angles = result.independent_between_angles;
   return a;
 }
 

@@ -645,15 +645,20 @@ nlohmann::json iso230_to_json(const IsoResult& iso, const std::string& uncertain
     // Each angle's six motions less their constant parts (the location errors' part plus the
     // component): what predict propagates to a point of the body.
     json at = json::array();
-    for (const IsoComponentsAtAngle& a : iso.components) {
-      if (!a.motion_covariance) continue;
+    auto matrix = [](const Eigen::Matrix<double, 6, 6>& m) {
       json rows = json::array();
       for (int r = 0; r < 6; ++r) {
         json row = json::array();
-        for (int c = 0; c < 6; ++c) row.push_back((*a.motion_covariance)(r, c));
+        for (int c = 0; c < 6; ++c) row.push_back(m(r, c));
         rows.push_back(row);
       }
-      at.push_back({{"angle_deg", a.angle_deg}, {"matrix", rows}});
+      return rows;
+    };
+    for (const IsoComponentsAtAngle& a : iso.components) {
+      if (!a.motion_covariance) continue;
+      json entry{{"angle_deg", a.angle_deg}, {"matrix", matrix(*a.motion_covariance)}};
+      if (a.errors_covariance) entry["errors_matrix"] = matrix(*a.errors_covariance);
+      at.push_back(entry);
     }
     if (!at.empty()) {
       json names = json::array();
@@ -664,6 +669,10 @@ nlohmann::json iso230_to_json(const IsoResult& iso, const std::string& uncertain
            "plus the component error motion (machine frame)"},
           {"names", names},
           {"unit", "the product of the two quantities' units (um, urad)"},
+          {"errors_quantity",
+           "errors_matrix: the error motions themselves at the angle, their constant parts "
+           "included"},
+          {"independent_between_angles", iso.independent_between_angles},
           {"at", at}};
     }
   }

@@ -332,34 +332,42 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
       if (!c->all_determined())
         throw InputError(source, where,
                          "a covariance where the component error motions are not all determined");
-      const json& m = list_of(member(at[i], "matrix", source, where), source, where + ".matrix");
-      if (m.size() != 6) throw InputError(source, where + ".matrix", "expected 6 rows");
-      Eigen::Matrix<double, 6, 6> cov;
-      for (int a = 0; a < 6; ++a) {
-        const std::string row = where + ".matrix[" + std::to_string(a) + "]";
-        const json& v = list_of(m[static_cast<std::size_t>(a)], source, row);
-        if (v.size() != 6) throw InputError(source, row, "expected 6 entries");
-        for (int b = 0; b < 6; ++b) {
-          const std::string e = row + "[" + std::to_string(b) + "]";
-          const double x = as_number(v[static_cast<std::size_t>(b)], source, e);
-          if (!(std::abs(x) <= kMaxResultValue * kMaxResultValue))
-            throw InputError(source, e, "beyond 1e18 (um^2, urad^2): not a result of dbbkit");
-          cov(a, b) = x;
+      // A 6 x 6 covariance: symmetric, positive semidefinite, each entry within 1e18.
+      auto covariance_at = [&](const std::string& key) {
+        const std::string path = where + "." + key;
+        const json& m = list_of(member(at[i], key, source, where), source, path);
+        if (m.size() != 6) throw InputError(source, path, "expected 6 rows");
+        Eigen::Matrix<double, 6, 6> cov;
+        for (int a = 0; a < 6; ++a) {
+          const std::string row = path + "[" + std::to_string(a) + "]";
+          const json& v = list_of(m[static_cast<std::size_t>(a)], source, row);
+          if (v.size() != 6) throw InputError(source, row, "expected 6 entries");
+          for (int b = 0; b < 6; ++b) {
+            const std::string e = row + "[" + std::to_string(b) + "]";
+            const double x = as_number(v[static_cast<std::size_t>(b)], source, e);
+            if (!(std::abs(x) <= kMaxResultValue * kMaxResultValue))
+              throw InputError(source, e, "beyond 1e18 (um^2, urad^2): not a result of dbbkit");
+            cov(a, b) = x;
+          }
         }
-      }
-      const double top = cov.cwiseAbs().maxCoeff();
-      if ((cov - cov.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1 + top))
-        throw InputError(source, where + ".matrix", "not symmetric");
-      for (int a = 0; a < 6; ++a)
-        if (cov(a, a) < 0)
-          throw InputError(source,
-                           where + ".matrix[" + std::to_string(a) + "][" + std::to_string(a) + "]",
-                           "a negative variance");
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(cov);
-      if (eig.eigenvalues().minCoeff() < -1e-9 * (1 + top))
-        throw InputError(source, where + ".matrix",
-                         "not positive semi-definite (an eigenvalue " +
-                             std::to_string(eig.eigenvalues().minCoeff()) + ")");
+        const double top = cov.cwiseAbs().maxCoeff();
+        if ((cov - cov.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1 + top))
+          throw InputError(source, path, "not symmetric");
+        for (int a = 0; a < 6; ++a)
+          if (cov(a, a) < 0)
+            throw InputError(source,
+                             path + "[" + std::to_string(a) + "][" + std::to_string(a) + "]",
+                             "a negative variance");
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(cov);
+        if (eig.eigenvalues().minCoeff() < -1e-9 * (1 + top))
+          throw InputError(source, path,
+                           "not positive semi-definite (an eigenvalue " +
+                               std::to_string(eig.eigenvalues().minCoeff()) + ")");
+        return cov;
+      };
+      const Eigen::Matrix<double, 6, 6> cov = covariance_at("matrix");
+      if (at[i].is_object() && at[i].contains("errors_matrix"))
+        c->errors_covariance = covariance_at("errors_matrix");
       // Each motion less its constant part is the location errors' part plus the component:
       // its std lies within the sum and the difference of theirs (the triangle inequality).
       if (r.location_covariance) {
@@ -378,6 +386,12 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
         }
       }
       c->motion_covariance = cov;
+    }
+    if (iso["motion_covariance"].contains("independent_between_angles")) {
+      const json& b = iso["motion_covariance"]["independent_between_angles"];
+      if (!b.is_boolean())
+        throw InputError(source, path + ".independent_between_angles", "expected true or false");
+      r.independent_between_angles = b.get<bool>();
     }
     // Every angle whose six motions are determined has its entry: one left out would be
     // predicted from the location errors alone, as if it had not been measured.

@@ -46,6 +46,7 @@
 #include "dbbkit/io/tolerances_io.hpp"
 #include "dbbkit/io/trace_io.hpp"
 #include "dbbkit/io/truth_io.hpp"
+#include "dbbkit/io/verify_io.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/monte_carlo.hpp"
@@ -1812,6 +1813,25 @@ PYBIND11_MODULE(dbbkit, m) {
       "(default the result's), as predict --grid-*) from a result (path, result or its json), "
       "with its uncertainty and what entering the location errors leaves; the dict `predict "
       "--out` writes");
+  m.def(
+      "verify",
+      [result_of](py::handle result, const PyDesign& design, const PyMeasurements& data,
+                  double coverage, bool location_only) {
+        check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
+        const io::ResultFile r = result_of(result, "result");
+        io::check_test_axis(r, design.value, design.source);
+        validate_against(design, data);
+        io::VerifyReport v = io::verify(r, design.value, data.readings, design.source, data.source,
+                                        coverage, location_only);
+        if (const auto path = as_path(result)) v.result_sha256 = io::sha256_file(*path);
+        return to_python(io::verification_to_json(v));
+      },
+      py::arg("result"), py::arg("design"), py::arg("data"), py::arg("coverage") = 0.95,
+      py::arg("location_only") = false,
+      "`dbbkit verify`: a held-out check: the readings of another test of the same axis "
+      "(design and data, as identify takes them) predicted from a result (path, result or its "
+      "json) and compared with what was read; the dict `verify --out` writes ('pass': whether "
+      "the result explains the test)");
   m.def(
       "compensation",
       [result_of](py::handle result, const std::string& format, const std::string& kins,

@@ -114,6 +114,40 @@ class RoundTrips(InSource):
         with self.assertRaises(dbbkit.InputError):
             dbbkit.compensation(r, "linuxcnc")  # a C table: the module must be named
 
+    def test_verify_as_the_command_line(self):
+        # A held-out test of the A trunnion: the dict verify --out writes, a pass and, with Y0A
+        # left out of the result, a fail naming Y0A; another axis' test refused.
+        a_design = "designs/a-trunnion.json"
+        k_design = "tests/data/a_trunnion_kit_optimized.json"
+        truth = "tests/data/truth_a_trunnion_location.json"
+        with tempfile.TemporaryDirectory() as tmp:
+            a_csv, k_csv = os.path.join(tmp, "a.csv"), os.path.join(tmp, "k.csv")
+            for args in (["--design", a_design, "--out", a_csv],
+                         ["--design", k_design, "--seed", "9", "--out", k_csv]):
+                subprocess.run([CLI, "simulate", "--truth", truth, *args], cwd=SOURCE, check=True,
+                               capture_output=True)
+            d = dbbkit.Design(a_design)
+            a = result_file(dbbkit.identify(d, dbbkit.Measurements(a_csv, d)), tmp)
+            k = dbbkit.Design(k_design)
+            got = dbbkit.verify(a, k, dbbkit.Measurements(k_csv, k))
+            self.assertTrue(got["pass"])
+            self.assertEqual(got, cli_json("verify", "--result", a, "--design", k_design,
+                                           "--data", k_csv))
+            with open(a) as f:
+                left_out = json.load(f)
+            for q in left_out["iso230"]["location"]:
+                if q["name"] == "Y0A":
+                    q["value"] = 0.0
+            fail = dbbkit.verify(left_out, k, dbbkit.Measurements(k_csv, k))
+            self.assertFalse(fail["pass"])
+            self.assertEqual(fail["explanations"][0]["name"], "Y0A")
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.verify(a, dbbkit.Design(PAPER_C), dbbkit.Measurements(DATA_C, dbbkit.Design(PAPER_C)))
+            self.assertIn("axis", str(ctx.exception))
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.verify(a, k, dbbkit.Measurements(k_csv, k), coverage=1.5)
+            self.assertIn("coverage", str(ctx.exception))
+
     def test_predict_as_the_command_line(self):
         # The poses' CSV or rows; the dict predict --out writes; bad rows name their place.
         d = dbbkit.Design(PAPER_C)

@@ -52,6 +52,12 @@ EnvelopeGrid grid_of(const ResultFile& result, const GridRequest& request,
 // the item where one is empty or not a finite number.
 std::vector<double> parse_number_list(const std::string& text, const std::string& key);
 
+// An angle as the terminal says it: to 0.001 deg, or in full where that would round it (an
+// angle not measured must never read as a measured one).
+std::string angle_text(double angle_deg);
+// "motions" or "location", as the JSON writes a basis.
+const char* basis_key(PredictionBasis basis);
+
 struct PredictResult {
   std::string result_source, result_sha256, poses_source;
   std::string axis_label;

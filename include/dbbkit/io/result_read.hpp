@@ -29,6 +29,9 @@ struct ResultComponents {
   // their constant parts (dx..ez; um, urad). Absent in a result of an earlier version and where
   // the result states none.
   std::optional<Eigen::Matrix<double, 6, 6>> motion_covariance;
+  // ... errors_matrix: the covariance of the six error motions themselves (constant parts
+  // included); absent in a result of an earlier version.
+  std::optional<Eigen::Matrix<double, 6, 6>> errors_covariance;
   // All six motions determined (the angles motion_covariance is stated at).
   bool all_determined() const {
     return motions.size() == 6 &&
@@ -70,6 +73,8 @@ struct ResultFile {
   // iso230.location_covariance, in the order of `location` (absent in a result of an earlier
   // version; rows of an undetermined one 0).
   std::optional<Eigen::Matrix<double, 5, 5>> location_covariance;
+  // iso230.motion_covariance.independent_between_angles (false where absent).
+  bool independent_between_angles = false;
   // The smallest effective degrees of freedom of the budget's values (Type A); absent where none
   // is stated (Type B: the declared noise).
   std::optional<double> dof;

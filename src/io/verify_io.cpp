@@ -1,0 +1,224 @@
+#include "dbbkit/io/verify_io.hpp"
+
+#include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/normal.hpp>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/escape.hpp"
+#include "dbbkit/io/predict_io.hpp"
+#include "dbbkit/io/result_io.hpp"
+#include "dbbkit/io/text.hpp"
+#include "dbbkit/iso230.hpp"
+#include "dbbkit/limits.hpp"
+
+namespace dbbkit::io {
+
+using nlohmann::json;
+
+void check_test_axis(const ResultFile& result, const Design& design,
+                     const std::string& design_source) {
+  if (const std::string diff = axis_difference(result.axis, design.axis, false); !diff.empty())
+    throw InputError(design_source, "axis",
+                     "the test is not of the result's axis (" + result.axis.label() + ": " + diff +
+                         "): a result predicts the readings of its own axis only");
+  if (result.machine.has_value() != design.machine.has_value())
+    throw InputError(design_source, "machine",
+                     result.machine ? "the result was measured on a machine (" +
+                                          terminal_text(result.machine->file) +
+                                          ") and the test names none: their frames' origins "
+                                          "cannot be matched"
+                                    : std::string("the test names a machine and the result "
+                                                  "none: their frames' origins cannot be matched"));
+  if (result.machine && (result.machine->origin_mm - design.machine->origin_mm()).norm() > 1e-6)
+    throw InputError(design_source, "machine",
+                     "the axis frame's origin (the axis' nominal point with the other axes "
+                     "parked) is not the result's: park the other axes as the result's test did");
+}
+
+VerifyReport verify(const ResultFile& result, const Design& design,
+                    const std::vector<Reading>& readings, const std::string& design_source,
+                    const std::string& data_source, double coverage_probability,
+                    bool location_only) {
+  check_test_axis(result, design, design_source);
+  if (readings.size() > limits::kMaxVerifyReadings)
+    throw InputError(data_source, "",
+                     std::to_string(readings.size()) + " readings: verify checks at most " +
+                         std::to_string(limits::kMaxVerifyReadings) + " of one test");
+  const AxisErrors axis = axis_errors_of(result);
+  VerifyReport r;
+  r.result_source = result.source;
+  r.design_source = design_source;
+  r.data_source = data_source;
+  r.axis_label = result.axis.label();
+  r.design_name = design.name;
+  r.letter = result.axis.letter();
+  r.location_names = iso230_names(result.axis).location;
+  for (int q = 0; q < 5; ++q) r.location_units[static_cast<std::size_t>(q)] = q < 2 ? "um" : "urad";
+  r.location_only = location_only;
+  r.k = boost::math::quantile(boost::math::normal(), 0.5 + coverage_probability / 2);
+  r.readings = readings;
+  r.warnings = result.warnings;
+  VerifyOptions o;
+  o.coverage_probability = coverage_probability;
+  o.location_only = location_only;
+  r.v = verify_readings(axis, design, readings, o);
+  if (r.v.gap == VerifyGap::kLocationNotDetermined) {
+    std::string missing;
+    for (std::size_t q = 0; q < 5; ++q)
+      if (!axis.location[q]) missing += (missing.empty() ? "" : ", ") + r.location_names[q];
+    throw InputError(
+        result.source, "iso230.location",
+        "the result does not determine " + missing + ": it cannot predict another test's readings");
+  }
+  if (r.v.gap == VerifyGap::kNoRedundancy)
+    throw InputError(data_source, "",
+                     std::to_string(r.v.readings) + " readings, and the test's constant parts (" +
+                         std::to_string(r.v.nuisance) +
+                         ", where each reading's zero was taken) take up every one: nothing is "
+                         "left to check the result against");
+  return r;
+}
+
+namespace {
+
+std::string method_text(const VerifyReport& r) {
+  std::string s =
+      "each reading of the test predicted from the result: the location errors and, at an angle "
+      "the result measured, the component error motions, less the constant parts; the test's "
+      "own constant parts (where its readings' zero was taken) fitted and taken out; chi-squared "
+      "of what is left against its covariance (the test's reading noise, the result's "
+      "uncertainty, the test's declared set-up), pass at most its quantile of the coverage "
+      "probability";
+  if (r.location_only) s += "; --location-only: the location errors alone at every angle";
+  return s;
+}
+
+}  // namespace
+
+json verification_to_json(const VerifyReport& r) {
+  const Verification& v = r.v;
+  json worst = json::array();
+  for (const std::size_t i : v.worst) {
+    const VerifiedReading& c = v.readings_checked[i];
+    const Reading& in = r.readings[c.index];
+    json j{{"installation", in.installation},  {"angle_deg", in.angle_deg},
+           {"read_um", r6(c.read_um)},         {"predicted_um", r6(c.predicted_um)},
+           {"residual_um", r6(c.residual_um)}, {"std_um", r6(c.std_um)},
+           {"normalized", r6(c.normalized)},   {"basis", basis_key(c.basis)}};
+    if (in.line > 0) j["line"] = in.line;
+    worst.push_back(j);
+  }
+  json explanations = json::array();
+  for (const VerifyExplanation& x : v.explanations) {
+    const auto q = static_cast<std::size_t>(x.location);
+    explanations.push_back({{"name", r.location_names[q]},
+                            {"unit", r.location_units[q]},
+                            {"change", r6(x.change)},
+                            {"change_std", r6(x.change_std)},
+                            {"change_U", r6(r.k * x.change_std)},
+                            {"chi2", r6(x.chi2)},
+                            {"passes_with", x.passes_with}});
+  }
+  json warnings = json::array();
+  for (const std::string& w : r.warnings) warnings.push_back(w);
+  json out{{"format", kVerifyFormat},
+           {"inputs",
+            {{"result", r.result_source}, {"design", r.design_source}, {"data", r.data_source}}},
+           {"axis", r.axis_label},
+           {"method", method_text(r)},
+           {"coverage_probability", v.coverage_probability},
+           {"location_only", r.location_only},
+           {"pass", v.pass},
+           {"chi2", r6(v.chi2)},
+           {"dof", v.dof},
+           {"threshold", r6(v.threshold)},
+           {"statistic",
+            {{"scale", v.statistic_scale},
+             {"dof", v.statistic_dof},
+             {"distribution",
+              "chi2 / scale is chi-squared with dof degrees of freedom (the design's normal "
+              "noise: scale 1, dof the readings less the constant parts; uniform noise: the "
+              "scaled chi-squared of the statistic's mean and variance)"}}},
+           {"p_value", v.p_value},
+           {"readings", v.readings},
+           {"constant_parts", v.nuisance},
+           {"noise_std_um", r6(v.noise_std_um)},
+           {"angles", v.angles},
+           {"angles_location_only", v.angles_location_only},
+           {"angles_motions_correlated", v.angles_motions_correlated},
+           {"worst", worst},
+           {"explanations", explanations},
+           {"k", r.k},
+           {"result_warnings", warnings}};
+  if (!r.result_sha256.empty()) out["inputs"]["result_sha256"] = r.result_sha256;
+  return out;
+}
+
+std::string verification_text(const VerifyReport& r) {
+  const Verification& v = r.v;
+  std::ostringstream s;
+  s << "verify: " << v.readings << " readings of " << terminal_text(r.data_source) << " ("
+    << terminal_text(r.design_name) << ") against " << terminal_text(r.result_source) << ", the "
+    << r.axis_label << " axis\n";
+  for (const std::string& w : r.warnings)
+    s << "Warning (the result's; its uncertainties may be too small): " << terminal_text(w) << "\n";
+  if (r.location_only)
+    s << "the location errors alone at every angle (--location-only): the component error motions "
+         "are in the residual\n";
+  else if (v.angles_location_only > v.angles_motions_correlated)
+    s << "at " << v.angles_location_only - v.angles_motions_correlated << " of the test's "
+      << v.angles
+      << " angles the result measured no motions: the location errors alone predict those "
+         "readings, and the component motions there are in the residual (a fail may come from "
+         "them)\n";
+  if (!r.location_only && v.angles_motions_correlated > 0)
+    s << "at " << v.angles_motions_correlated << " angles the result measured, its motions' "
+      << "estimates are correlated between angles (a series model or a set-up effect shared by "
+         "them) and no such covariance is stated: the location errors alone predict them, the "
+         "component motions are in the residual\n";
+  s << "the test's constant parts (" << v.nuisance
+    << ", where its readings' zero was taken) fitted to it; reading noise "
+    << fmt_num(v.noise_std_um, 3) << " um (the test's design)\n";
+  s << "chi-squared " << fmt_num(v.chi2, 4) << " with " << v.dof << " degrees of freedom; its "
+    << fmt_num(100 * v.coverage_probability, 4) << " % quantile " << fmt_num(v.threshold, 4);
+  if (v.statistic_scale != 1 || v.statistic_dof != v.dof)
+    s << " for the design's uniform noise ("
+      << fmt_num(boost::math::quantile(boost::math::chi_squared(v.dof), v.coverage_probability), 4)
+      << " were it normal)";
+  s << " (p = " << fmt_num(v.p_value, 2) << ")\n";
+  if (v.pass)
+    s << "PASS: the result explains this test within its uncertainty\n";
+  else
+    s << "FAIL: the result does not explain this test: do not enter its values before the cause "
+         "is found\n";
+  if (!v.worst.empty()) {
+    s << "largest residuals after the constant parts (um; std: of the residual when the result "
+         "is right):\n";
+    for (const std::size_t i : v.worst) {
+      const VerifiedReading& c = v.readings_checked[i];
+      const Reading& in = r.readings[c.index];
+      s << "  " << terminal_text(in.installation) << " at " << r.letter << " "
+        << angle_text(in.angle_deg) << " deg";
+      if (in.line > 0) s << " (line " << in.line << ")";
+      s << ": read " << fmt_rounded(c.read_um, 2) << ", predicted "
+        << fmt_rounded(c.predicted_um, 2) << ", residual " << fmt_rounded(c.residual_um, 2)
+        << ", std " << fmt_rounded(c.std_um, 2) << " (" << fmt_rounded(c.normalized, 1)
+        << " std)\n";
+    }
+  }
+  if (!v.pass && !v.explanations.empty()) {
+    const VerifyExplanation& x = v.explanations.front();
+    const auto q = static_cast<std::size_t>(x.location);
+    s << "What explains most of it: " << r.location_names[q] << " changed by "
+      << (x.change >= 0 ? "+" : "") << fmt_rounded(x.change, 2) << " " << r.location_units[q]
+      << " (U " << fmt_rounded(r.k * x.change_std, 2) << ", k = " << fmt_num(r.k, 3)
+      << ") leaves chi-squared " << fmt_num(x.chi2, 4)
+      << (x.passes_with ? ": the test passes with it" : ": still a fail with it") << "\n";
+  }
+  return s.str();
+}
+
+}  // namespace dbbkit::io
