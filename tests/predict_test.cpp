@@ -488,5 +488,49 @@ TEST(Readme, WhereTheToolWillBeOffPrintsWhatTheReadmeShows) {
   std::filesystem::remove_all(dir);
 }
 
+// The report: the terminal's largest errors, a row per angle, and over a map with even steps the
+// heat map of where the largest sits (an uneven map says why it has none).
+TEST(PredictCli, TheReportStatesTheLargestErrorAtEachAngle) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("dbbkit_predict_rep_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string src = DBBKIT_SOURCE_DIR, d = dir.string();
+  auto cli = [&](const std::string& args) {
+    return run_cli_shell("cd " + d + " && " + DBBKIT_CLI + " " + args);
+  };
+  const std::string D = src + "/designs/a-trunnion.json";
+  ASSERT_EQ(cli("simulate --design " + D + " --truth " + src +
+                "/tests/data/truth_a_trunnion_location.json --out a.csv")
+                .status,
+            0);
+  ASSERT_EQ(cli("identify --design " + D + " --data a.csv --out a.json").status, 0);
+  const std::string grid = "--grid-radius-mm 0,100,200 --grid-height-mm -50,0,100 --grid-around 12";
+  const CliRun map = cli("predict --result a.json " + grid + " --report p.html --summary p.md");
+  ASSERT_EQ(map.status, 0) << map.err;
+  const std::string md = slurp(d + "/p.md"), html = slurp(d + "/p.html");
+  for (const char* says : {"Largest error: ", "Largest after entering the location errors: "}) {
+    const std::size_t at = map.out.find(says);
+    ASSERT_NE(at, std::string::npos) << map.out;
+    const std::string line = map.out.substr(at, map.out.find('\n', at) - at);
+    EXPECT_NE(md.find(line), std::string::npos) << line << "\n" << md;
+  }
+  int rows = 0;  // each angle's: 75 points (a circle of 12 at two radii, the axis, 3 heights)
+  for (std::size_t at = md.find(" | 75 | motions | "); at != std::string::npos;
+       at = md.find(" | 75 | motions | ", at + 1))
+    ++rows;
+  EXPECT_EQ(rows, 23) << md;
+  std::size_t figures = 0;
+  for (std::size_t at = html.find("<figure class=\"plot\""); at != std::string::npos;
+       at = html.find("<figure class=\"plot\"", at + 1))
+    ++figures;
+  EXPECT_EQ(figures, 2u);
+  const CliRun uneven = cli("predict --result a.json --grid-radius-mm 0,50,200 --summary u.md");
+  ASSERT_EQ(uneven.status, 0) << uneven.err;
+  EXPECT_NE(slurp(d + "/u.md").find("No heat map: the map's radii or angles are not evenly spaced"),
+            std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace predict_test
 }  // namespace dbbkit

@@ -11,16 +11,18 @@
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/predict_io.hpp"
+#include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_read.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/limits.hpp"
 #include "grid_options.hpp"
+#include "report_options.hpp"
 
 namespace dbbkit::cli {
 
 namespace {
 struct PredictArgs {
-  std::string result, at, out;
+  std::string result, at, out, report, summary;
   double coverage = 0.95;
   bool quiet = false, location_only = false;
   GridOptions grid;
@@ -43,6 +45,10 @@ Runner add_predict(CLI::App& app) {
   args->grid.add(sub, "A map instead of --at");
   at->excludes(args->grid.radii_option);
   sub->add_option("--out", args->out, "JSON result (dbbkit.predict/1); '-': stdout");
+  sub->add_option("--report", args->report,
+                  "A self-contained HTML report: the largest error at each angle before and after "
+                  "entering, with U, and over a map where it sits (gnuplot)");
+  sub->add_option("--summary", args->summary, "The same as Markdown (tables only)");
   sub->add_option("--coverage", args->coverage,
                   "Coverage probability of U (default 0.95; normal, or t with the result's "
                   "degrees of freedom)")
@@ -56,6 +62,8 @@ Runner add_predict(CLI::App& app) {
       throw InputError("--at", "", "give the poses (--at FILE) or a map (--grid-radius-mm)");
     std::vector<io::OutputTarget> targets;
     if (!args->out.empty()) targets.push_back({"--out", args->out});
+    if (!args->report.empty()) targets.push_back({"--report", args->report});
+    if (!args->summary.empty()) targets.push_back({"--summary", args->summary});
     io::OutputSet outputs(targets, {args->result, args->at});
     // Read once (a pipe gives its bytes once): parsed and hashed from the same text.
     const std::string text = io::read_json_file(args->result);
@@ -74,6 +82,11 @@ Runner add_predict(CLI::App& app) {
     p.grid = grid;
     p.result_sha256 = io::sha256_hex(text);
     if (!args->out.empty()) outputs.stage("--out", io::dump_json(io::prediction_to_json(p)) + "\n");
+    const io::RunContext run{command_line(), {args->result, args->at}};
+    if (!args->report.empty())
+      outputs.stage("--report", io::predict_report(io::ReportFormat::kHtml, run, p));
+    if (!args->summary.empty())
+      outputs.stage("--summary", io::predict_report(io::ReportFormat::kMarkdown, run, p));
     outputs.commit();
     if (args->out != "-" && !args->quiet) std::cout << io::prediction_text(p, !map);
     return 0;

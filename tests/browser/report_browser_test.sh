@@ -22,12 +22,15 @@ cd "$src"
 "$cli" diagnose --design designs/paper-b-head.json --data tests/data/paper/paper_b_head.csv \
   --out "$work/dg.json" --report "$work/diagnose.html" --quiet
 "$cli" setup-sheet --design "$work/best.json" --kit designs/kits/b-head-kit.json --report "$work/setup-sheet.html" --quiet
+"$cli" predict --result "$work/id.json" --grid-radius-mm 0,100,200 --grid-height-mm 0,100 --grid-around 8 \
+  --report "$work/predict.html" --quiet
 # optimize: 3 plots and the best design's set-up sheet, a drawing per installation.
 steps="$(grep -c '"id":' "$work/best.json")"
-declare -A expected=([identify]=4 [evaluate]=3 [optimize]=$((3 + steps)) [diagnose]=5 [setup-sheet]=$steps)
+declare -A expected=([identify]=4 [evaluate]=3 [optimize]=$((3 + steps)) [diagnose]=5 [setup-sheet]=$steps
+                     [predict]=2)
 
 failed=0
-for name in identify evaluate optimize diagnose setup-sheet; do
+for name in identify evaluate optimize diagnose setup-sheet predict; do
   page="file://$work/$name.html"
   flags=(--headless --no-sandbox --disable-gpu --hide-scrollbars --no-first-run --disable-extensions
          --user-data-dir="$work/profile")

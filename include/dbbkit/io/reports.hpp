@@ -13,6 +13,7 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/optimize_io.hpp"
+#include "dbbkit/io/predict_io.hpp"
 #include "dbbkit/io/report_writer.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/monte_carlo.hpp"
@@ -50,6 +51,10 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
                             const std::vector<Reading>& readings, const DiagnoseResult& result,
                             const Expansion& expansion,
                             const ConformanceReport* conformance = nullptr);
+
+// The report of `predict`: the largest error at each angle before and after entering, with U;
+// over a map with evenly spaced radii and angles, a heat map of where it sits.
+std::string predict_report(ReportFormat f, const RunContext& run, const PredictResult& p);
 
 // One installation's trace and what `readings` found in it.
 struct TraceRun {
