@@ -61,6 +61,7 @@ VerifyReport verify(const ResultFile& result, const Design& design,
   r.k = boost::math::quantile(boost::math::normal(), 0.5 + coverage_probability / 2);
   r.readings = readings;
   r.warnings = result.warnings;
+  r.result_dof = axis.dof;
   VerifyOptions o;
   o.coverage_probability = coverage_probability;
   o.location_only = location_only;
@@ -152,6 +153,7 @@ json verification_to_json(const VerifyReport& r) {
            {"worst", worst},
            {"explanations", explanations},
            {"k", r.k},
+           {"result_dof", r.result_dof ? json(r6(*r.result_dof)) : json(nullptr)},
            {"result_warnings", warnings}};
   if (!r.result_sha256.empty()) out["inputs"]["result_sha256"] = r.result_sha256;
   return out;
@@ -179,6 +181,9 @@ std::string verification_text(const VerifyReport& r) {
       << "estimates are correlated between angles (a series model or a set-up effect shared by "
          "them) and no such covariance is stated: the location errors alone predict them, the "
          "component motions are in the residual\n";
+  if (r.result_dof)
+    s << "the result's uncertainties are Type A (" << fmt_num(*r.result_dof, 3)
+      << " degrees of freedom) and are taken as known here\n";
   s << "the test's constant parts (" << v.nuisance
     << ", where its readings' zero was taken) fitted to it; reading noise "
     << fmt_num(v.noise_std_um, 3) << " um (the test's design)\n";

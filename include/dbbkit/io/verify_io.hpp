@@ -3,6 +3,7 @@
 // (dbbkit.verify/1) and as text.
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,7 @@ struct VerifyReport {
   std::array<std::string, 5> location_units;
   bool location_only = false;
   double k = 2;  // the normal quantile of the coverage probability (a change's U)
+  std::optional<double> result_dof;  // the result's Type A degrees of freedom, where stated
   Verification v;
   std::vector<Reading> readings;      // as given (installation, angle, line)
   std::vector<std::string> warnings;  // the result's, carried
