@@ -171,6 +171,13 @@ Verification verify_readings(const AxisErrors& axis, const Design& design_in,
 
   // Whitened: V = L L'.
   const Eigen::LLT<Eigen::MatrixXd> llt(V);
+  {  // Beyond double precision (a noise of 1e-4 um beside a set-up of 100 mm): no number stated.
+    const Eigen::VectorXd d = llt.matrixL().toDenseMatrix().diagonal();
+    if (llt.info() != Eigen::Success || !(d.minCoeff() > 1e-7 * d.maxCoeff())) {
+      v.gap = VerifyGap::kIllConditioned;
+      return v;
+    }
+  }
   auto whiten = [&](const Eigen::MatrixXd& M) { return Eigen::MatrixXd(llt.matrixL().solve(M)); };
   const Eigen::VectorXd wr = whiten(residual);
   const Eigen::MatrixXd wN_all = whiten(N);
@@ -207,7 +214,8 @@ Verification verify_readings(const AxisErrors& axis, const Design& design_in,
       const double s2 = model.sigma_um(i) * model.sigma_um(i);
       sum += s2 * s2 * a * a;
     }
-    const double var = std::max(2.0 * v.dof + kUniformExcessKurtosis * sum, 1e-9 * v.dof);
+    // Each A_ii sigma_i^2 lies in [0, 1] and they add up to at most dof: var >= 0.8 dof.
+    const double var = std::max(2.0 * v.dof + kUniformExcessKurtosis * sum, 0.8 * v.dof);
     scale = var / (2.0 * v.dof);
     nu = 2.0 * v.dof * v.dof / var;
   }

@@ -79,6 +79,7 @@ enum class VerifyGap {
   kNone,
   kLocationNotDetermined,  // the result does not determine every location error
   kNoRedundancy,           // the constant parts take up every reading (dof 0)
+  kIllConditioned,         // the residual's covariance is beyond double precision
 };
 
 struct Verification {

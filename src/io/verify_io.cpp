@@ -74,6 +74,11 @@ VerifyReport verify(const ResultFile& result, const Design& design,
         result.source, "iso230.location",
         "the result does not determine " + missing + ": it cannot predict another test's readings");
   }
+  if (r.v.gap == VerifyGap::kIllConditioned)
+    throw InputError(design_source, "",
+                     "the residual's covariance (the reading noise beside the declared set-up "
+                     "and the result's uncertainty) spans more than double precision can hold: "
+                     "check the design's noise and setup_std");
   if (r.v.gap == VerifyGap::kNoRedundancy)
     throw InputError(data_source, "",
                      std::to_string(r.v.readings) + " readings, and the test's constant parts (" +
@@ -217,9 +222,10 @@ std::string verification_text(const VerifyReport& r) {
   if (!v.pass && !v.explanations.empty()) {
     const VerifyExplanation& x = v.explanations.front();
     const auto q = static_cast<std::size_t>(x.location);
-    s << "What explains most of it: " << r.location_names[q] << " changed by "
-      << (x.change >= 0 ? "+" : "") << fmt_rounded(x.change, 2) << " " << r.location_units[q]
-      << " (U " << fmt_rounded(r.k * x.change_std, 2) << ", k = " << fmt_num(r.k, 3)
+    s << (x.passes_with ? "What explains it: " : "No one location error explains it; the most: ")
+      << r.location_names[q] << " changed by " << (x.change >= 0 ? "+" : "")
+      << fmt_rounded(x.change, 2) << " " << r.location_units[q] << " (U "
+      << fmt_rounded(r.k * x.change_std, 2) << ", k = " << fmt_num(r.k, 3)
       << ") leaves chi-squared " << fmt_num(x.chi2, 4)
       << (x.passes_with ? ": the test passes with it" : ": still a fail with it") << "\n";
   }
