@@ -38,6 +38,11 @@ std::string predict_report(ReportFormat f, const RunContext& run, const PredictR
     w.bullets(p.warnings);
   }
   w.heading("Where the points of the body will be off");
+  // What is left after entering, as it is ranked: the estimate's size plus its U.
+  const auto left_after = [&](int k) {
+    const PointPrediction& y = p.points[static_cast<std::size_t>(k)];
+    return y.after_um.norm() + y.after_U_um;
+  };
   std::map<double, AtAngle> angles;
   int gaps = 0;
   for (std::size_t i = 0; i < p.points.size(); ++i) {
@@ -51,11 +56,7 @@ std::string predict_report(ReportFormat f, const RunContext& run, const PredictR
     a.location = a.location || x.basis == PredictionBasis::kLocationOnly;
     const auto at = static_cast<int>(i);
     if (a.before < 0 || x.error_um.norm() > p.points[a.before].error_um.norm()) a.before = at;
-    auto after = [&](int k) {
-      const PointPrediction& y = p.points[static_cast<std::size_t>(k)];
-      return y.after_um.norm() + y.after_U_um;
-    };
-    if (a.after < 0 || after(at) > after(a.after)) a.after = at;
+    if (a.after < 0 || left_after(at) > left_after(a.after)) a.after = at;
   }
   std::string intro =
       std::to_string(p.points.size()) + " points " +
@@ -82,11 +83,7 @@ std::string predict_report(ReportFormat f, const RunContext& run, const PredictR
   for (const auto& [angle, a] : angles) {
     if (top < 0 || p.points[a.before].error_um.norm() > p.points[top].error_um.norm())
       top = a.before;
-    const auto after = [&](int k) {
-      const PointPrediction& y = p.points[static_cast<std::size_t>(k)];
-      return y.after_um.norm() + y.after_U_um;
-    };
-    if (top_after < 0 || after(a.after) > after(top_after)) top_after = a.after;
+    if (top_after < 0 || left_after(a.after) > left_after(top_after)) top_after = a.after;
   }
   const PointPrediction& t = p.points[static_cast<std::size_t>(top)];
   const PointPrediction& ta = p.points[static_cast<std::size_t>(top_after)];
