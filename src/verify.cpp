@@ -6,6 +6,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/kinematics.hpp"
@@ -67,17 +68,32 @@ Eigen::MatrixXd columns(const Eigen::MatrixXd& M, const std::vector<int>& which)
   return out;
 }
 
-}  // namespace
+// The test's rows as the result predicts them (the head of verify.hpp): each reading's
+// prediction g m, the location errors' columns A = g G, the constant parts' N = g E, and the
+// residual's covariance V when the result explains the test. Counts the angles into `v`.
+// `before_run`: the prediction itself, the test's constant parts not fitted: at a measured angle
+// its error is that of the motions less their constant parts, G l + c (the result's covariance
+// of them, AtAngle::covariance, needing no independence between angles), and only V's diagonal
+// and each angle's block are meant.
+struct HeldOutRows {
+  LinearModel model;
+  Eigen::MatrixXd A, N, V;
+  Eigen::VectorXd predicted;
+  std::vector<int> station;
+  std::vector<bool> measured;  // at the station: the result's motions predict it
+  // Each row's count (the installation's reading_sign): the instrument reads count x the bar's
+  // length change, the rows' unit.
+  std::vector<double> count;
+};
 
-Verification verify_readings(const AxisErrors& axis, const Design& design_in,
-                             const std::vector<Reading>& readings, const VerifyOptions& options) {
-  Verification v;
-  v.coverage_probability = options.coverage_probability;
-  v.readings = static_cast<int>(readings.size());
+std::optional<HeldOutRows> held_out_rows(const AxisErrors& axis, const Design& design_in,
+                                         const std::vector<Reading>& readings,
+                                         const VerifyOptions& options, bool before_run,
+                                         Verification& v) {
   const std::optional<Eigen::Matrix<double, 5, 1>> determined = location_values(axis);
   if (!determined) {
     v.gap = VerifyGap::kLocationNotDetermined;
-    return v;
+    return std::nullopt;
   }
   const Eigen::Matrix<double, 5, 1>& l = *determined;
 
@@ -86,10 +102,14 @@ Verification verify_readings(const AxisErrors& axis, const Design& design_in,
   Design design = design_in;
   design.errors = ErrorModel{};
   const Parameterisation param(design);
-  const LinearModel model = build_linear_model(design, param, readings);
+  HeldOutRows h{build_linear_model(design, param, readings), {}, {}, {}, {}, {}, {}};
+  const LinearModel& model = h.model;
   const Eigen::Index n = model.J.rows();
   const int stations = param.n_stations();
-  v.angles = stations;
+  std::vector<bool> present(static_cast<std::size_t>(stations), false);  // an angle read
+  for (const Reading& r : readings)
+    present[static_cast<std::size_t>(param.station_of(r.angle_deg))] = true;
+  v.angles = static_cast<int>(std::count(present.begin(), present.end(), true));
   v.noise_std_um = design.noise.sigma_um();
 
   // The motions at each station as the result predicts them, and where it measured them.
@@ -101,16 +121,23 @@ Verification verify_readings(const AxisErrors& axis, const Design& design_in,
     const double angle = param.station_angle_deg(s);
     G[k] = location_motion(axis.axis, angle);
     if (!options.location_only) at[k] = measured_at(axis, angle);
-    if (at[k] != nullptr && !(at[k]->errors_covariance && axis.independent_between_angles)) {
+    if (at[k] != nullptr && !before_run &&
+        !(at[k]->errors_covariance && axis.independent_between_angles)) {
       at[k] = nullptr;
-      ++v.angles_motions_correlated;
+      v.angles_motions_correlated += present[k];
     }
+    if (at[k] == nullptr && !options.location_only &&
+        std::any_of(axis.measured_without_covariance.begin(),
+                    axis.measured_without_covariance.end(),
+                    [&](double a) { return same_angle(axis.axis, a, angle); }))
+      v.angles_without_covariance += present[k];
     motion[k] = G[k] * l;
     if (at[k] != nullptr) {
       for (int c = 0; c < 6; ++c) motion[k](c) += at[k]->component[static_cast<std::size_t>(c)];
     } else {
-      ++v.angles_location_only;
+      v.angles_location_only += present[k];
     }
+    h.measured.push_back(at[k] != nullptr);
   }
 
   // Rows: g (n x 6), the location errors' A = g G, the constant parts' N = g E.
@@ -120,26 +147,31 @@ Verification verify_readings(const AxisErrors& axis, const Design& design_in,
   E.block<3, 1>(3, 3) = frame.p1;
   E.block<3, 1>(3, 4) = frame.p2;
   const auto index = design.installation_index();
-  Eigen::MatrixXd g(n, 6), A(n, 5), N(n, 5);
-  std::vector<int> station(static_cast<std::size_t>(n));
-  Eigen::VectorXd predicted(n);
+  Eigen::MatrixXd g(n, 6);
+  h.A.resize(n, 5);
+  h.N.resize(n, 5);
+  h.station.resize(static_cast<std::size_t>(n));
+  h.count.resize(static_cast<std::size_t>(n));
+  h.predicted.resize(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     const Reading& r = readings[static_cast<std::size_t>(i)];
     const Installation& inst =
         design.installations[static_cast<std::size_t>(index.at(r.installation))];
     const int s = param.station_of(r.angle_deg);
-    station[static_cast<std::size_t>(i)] = s;
+    h.station[static_cast<std::size_t>(i)] = s;
+    h.count[static_cast<std::size_t>(i)] = inst.reading_sign;
     g.row(i) = J_reading_error(design.axis, inst, r.angle_deg);
-    A.row(i) = g.row(i) * G[static_cast<std::size_t>(s)];
-    N.row(i) = g.row(i) * E;
-    predicted(i) = g.row(i).dot(motion[static_cast<std::size_t>(s)]);
+    h.A.row(i) = g.row(i) * G[static_cast<std::size_t>(s)];
+    h.N.row(i) = g.row(i) * E;
+    h.predicted(i) = g.row(i).dot(motion[static_cast<std::size_t>(s)]);
   }
-  const Eigen::VectorXd residual = model.y_um - predicted;
 
   // The residual's covariance when the result explains the test.
-  Eigen::MatrixXd V = model.sigma_um.array().square().matrix().asDiagonal();
+  Eigen::MatrixXd& V = h.V;
+  V = model.sigma_um.array().square().matrix().asDiagonal();
   std::vector<std::vector<Eigen::Index>> rows_at(static_cast<std::size_t>(stations));
-  for (Eigen::Index i = 0; i < n; ++i) rows_at[static_cast<std::size_t>(station[i])].push_back(i);
+  for (Eigen::Index i = 0; i < n; ++i)
+    rows_at[static_cast<std::size_t>(h.station[static_cast<std::size_t>(i)])].push_back(i);
   std::vector<Eigen::Index> location_rows;
   for (int s = 0; s < stations; ++s) {
     const auto k = static_cast<std::size_t>(s);
@@ -147,15 +179,27 @@ Verification verify_readings(const AxisErrors& axis, const Design& design_in,
       location_rows.insert(location_rows.end(), rows_at[k].begin(), rows_at[k].end());
       continue;
     }
+    const Eigen::Matrix<double, 6, 6>& D =
+        before_run ? at[k]->covariance : *at[k]->errors_covariance;
     for (const Eigen::Index i : rows_at[k])
-      for (const Eigen::Index j : rows_at[k])
-        V(i, j) += g.row(i) * *at[k]->errors_covariance * g.row(j).transpose();
+      for (const Eigen::Index j : rows_at[k]) V(i, j) += g.row(i) * D * g.row(j).transpose();
   }
   for (const Eigen::Index i : location_rows)
     for (const Eigen::Index j : location_rows)
-      V(i, j) += A.row(i) * axis.location_covariance * A.row(j).transpose();
+      V(i, j) += h.A.row(i) * axis.location_covariance * h.A.row(j).transpose();
+  // Each declared set-up effect and placement moves its own installation's readings alone: its
+  // outer product on those rows (553 installations of 9 readings: 45,000 products per effect
+  // instead of the whole n x n).
+  auto add_outer = [&V, n](const auto& column, double var) {
+    std::vector<Eigen::Index> rows;
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (column(i) != 0) rows.push_back(i);
+    for (const Eigen::Index i : rows)
+      for (const Eigen::Index j : rows) V(i, j) += var * column(i) * column(j);
+  };
   for (const SetupEffect& e : setup_effects(design, model, true))
-    V += e.std_um * e.std_um * e.J_reading_effect * e.J_reading_effect.transpose();
+    for (Eigen::Index c = 0; c < e.J_reading_effect.cols(); ++c)
+      add_outer(e.J_reading_effect.col(c), e.std_um * e.std_um);
   const std::vector<SetupInput> inputs = setup_inputs(design);
   if (!inputs.empty()) {
     Eigen::VectorXd theta = Eigen::VectorXd::Zero(param.n_parameters());
@@ -163,11 +207,53 @@ Verification verify_readings(const AxisErrors& axis, const Design& design_in,
       theta(j) =
           motion[static_cast<std::size_t>(param.parameter_station(j))](param.parameter_error(j));
     const Eigen::MatrixXd D = J_reading_setup(design, param, model, inputs, theta);
-    Eigen::VectorXd u2(static_cast<Eigen::Index>(inputs.size()));
     for (std::size_t k = 0; k < inputs.size(); ++k)
-      u2(static_cast<Eigen::Index>(k)) = inputs[k].std_mm * inputs[k].std_mm;
-    V += D * u2.asDiagonal() * D.transpose();
+      add_outer(D.col(static_cast<Eigen::Index>(k)), inputs[k].std_mm * inputs[k].std_mm);
   }
+  return h;
+}
+
+}  // namespace
+
+PredictedTest predict_test_readings(const AxisErrors& axis, const Design& design,
+                                    const VerifyOptions& options) {
+  PredictedTest p;
+  p.coverage_probability = options.coverage_probability;
+  const std::vector<Reading> readings = nominal_readings(design);
+  Verification counts;
+  const std::optional<HeldOutRows> h = held_out_rows(axis, design, readings, options, true, counts);
+  p.gap = counts.gap;
+  if (!h) return p;
+  p.angles = counts.angles;
+  p.angles_location_only = counts.angles_location_only;
+  p.angles_motions_correlated = counts.angles_motions_correlated;
+  p.angles_without_covariance = counts.angles_without_covariance;
+  p.noise_std_um = counts.noise_std_um;
+  for (Eigen::Index i = 0; i < h->predicted.size(); ++i) {
+    PredictedReading r;
+    r.reading = readings[static_cast<std::size_t>(i)];
+    r.basis = h->measured[static_cast<std::size_t>(h->station[static_cast<std::size_t>(i)])]
+                  ? PredictionBasis::kMotions
+                  : PredictionBasis::kLocationOnly;
+    r.predicted_um = h->count[static_cast<std::size_t>(i)] * h->predicted(i);
+    r.std_um = std::sqrt(std::max(h->V(i, i), 0.0));
+    p.readings.push_back(r);
+  }
+  return p;
+}
+
+Verification verify_readings(const AxisErrors& axis, const Design& design,
+                             const std::vector<Reading>& readings, const VerifyOptions& options) {
+  Verification v;
+  v.coverage_probability = options.coverage_probability;
+  v.readings = static_cast<int>(readings.size());
+  std::optional<HeldOutRows> rows = held_out_rows(axis, design, readings, options, false, v);
+  if (!rows) return v;
+  const LinearModel& model = rows->model;
+  const Eigen::Index n = model.J.rows();
+  const Eigen::MatrixXd &A = rows->A, &N = rows->N, &V = rows->V;
+  const Eigen::VectorXd& predicted = rows->predicted;
+  const Eigen::VectorXd residual = model.y_um - predicted;
 
   // Whitened: V = L L'.
   const Eigen::LLT<Eigen::MatrixXd> llt(V);
@@ -233,11 +319,12 @@ Verification verify_readings(const AxisErrors& axis, const Design& design_in,
   for (Eigen::Index i = 0; i < n; ++i) {
     VerifiedReading c;
     c.index = static_cast<std::size_t>(i);
-    c.basis = at[static_cast<std::size_t>(station[static_cast<std::size_t>(i)])] != nullptr
+    c.basis = rows->measured[static_cast<std::size_t>(rows->station[static_cast<std::size_t>(i)])]
                   ? PredictionBasis::kMotions
                   : PredictionBasis::kLocationOnly;
-    c.read_um = model.y_um(i);
-    c.predicted_um = predicted(i) + constant(i);
+    const double count = rows->count[static_cast<std::size_t>(i)];  // as the instrument reads
+    c.read_um = count * model.y_um(i);
+    c.predicted_um = count * (predicted(i) + constant(i));
     c.residual_um = c.read_um - c.predicted_um;
     const double var = V(i, i) - (Nk.cols() > 0 ? NC.row(i).dot(Nk.row(i)) : 0.0);
     c.std_um = std::sqrt(std::max(var, 0.0));

@@ -178,6 +178,46 @@ TEST(Verify, ARightResultFailsAtTheNominalRate) {
   }
 }
 
+// A test's readings predicted before it is run (predict --design) lie within U at the coverage
+// probability: each test's own constant parts at zero (its cups and its readings' zero as its
+// design has them, what the prediction assumes), its declared set-up drawn, the same machines
+// (exact geometry) as above. Pooled over the readings of 150 machines per kind; the readings of
+// one machine share the result's error, so the binomial error is that of 150 x (readings / 10)
+// independent ones (a bound found wide enough by the spread between seeds).
+TEST(Verify, PredictedReadingsCoverWhatIsReadAtTheirNominalRate) {
+  const int n = 150;
+  for (const Kind& k : kinds()) {
+    std::mt19937_64 rng(33);
+    long inside = 0, total = 0;
+    for (int t = 0; t < n; ++t) {
+      const TrueMachine m = machine(k.fitted.axis, k.components, rng);
+      const io::ResultFile r =
+          identified(k.fitted, readings(k.fitted, m, constants(k.fitted.axis, rng), rng));
+      const std::vector<Reading> test = readings(k.held_out, m, Constants{}, rng);
+      const io::TestPrediction p = io::predict_test(r, k.held_out, "k.json", 0.95);
+      ASSERT_EQ(p.p.readings.size(), test.size());
+      if (t == 0) {  // verify states each reading as the instrument read it (its count included)
+        const io::VerifyReport v = io::verify(r, k.held_out, test, "k.json", "k.csv", 0.95);
+        for (const VerifiedReading& c : v.v.readings_checked)
+          EXPECT_NEAR(c.read_um, test[c.index].reading_um, 1e-9) << k.name;
+      }
+      for (std::size_t i = 0; i < test.size(); ++i) {
+        const PredictedReading& pr = p.p.readings[i];
+        ASSERT_EQ(pr.reading.installation, test[i].installation);
+        ASSERT_EQ(pr.reading.angle_deg, test[i].angle_deg);
+        ASSERT_GT(pr.std_um, 0);
+        inside += std::abs(test[i].reading_um - pr.predicted_um) <= p.k * pr.std_um;
+        ++total;
+      }
+    }
+    const double rate = inside / double(total);
+    const double effective = n * (total / double(n)) / 10;
+    const double se = std::sqrt(0.95 * 0.05 / effective);
+    std::printf("%s: %ld of %ld readings within U (%.4f)\n", k.name, inside, total, rate);
+    EXPECT_NEAR(rate, 0.95, 3 * se) << k.name;
+  }
+}
+
 // A result with one location error set to 0, the machine's being 10 times the test's standard
 // uncertainty of it (the explanation's change_std, which the readings do not change), fails;
 // the location error that explains most of the fail is that one, its change within U of the
@@ -308,6 +348,78 @@ TEST(VerifyCli, PassesFailsAndRefusesWhatItCannotCheck) {
   const CliRun too_few = cli("verify --result a.json --design " + K + " --data few.csv");
   EXPECT_EQ(too_few.status, 2);
   EXPECT_NE(too_few.err.find("take up every one"), std::string::npos) << too_few.err;
+
+  // A result whose motions come without their covariance: said so (not "measured no motions").
+  nlohmann::json nocov = nlohmann::json::parse(slurp(d + "/a.json"));
+  nocov["iso230"].erase("motion_covariance");
+  std::ofstream(d + "/nocov.json") << nocov.dump();
+  const CliRun without =
+      cli("verify --result nocov.json --design " + K + " --data k.csv --out nc.json");
+  EXPECT_EQ(without.status, 0) << without.err;
+  EXPECT_NE(without.out.find("at 5 of the test's 9 angles the result states its motions without "
+                             "their covariance"),
+            std::string::npos)
+      << without.out;
+  EXPECT_NE(without.out.find("at 4 of the test's 9 angles the result measured no motions"),
+            std::string::npos)
+      << without.out;
+  const nlohmann::json nc = nlohmann::json::parse(slurp(d + "/nc.json"));
+  EXPECT_EQ(nc["angles_without_covariance"], 5);
+  EXPECT_EQ(nc["angles_location_only"], 9);
+  // The result's own readings are no held-out test; uncertainties so large that the statistic
+  // lies far below its degrees of freedom are said to make the check lenient.
+  const CliRun own = cli("verify --result a.json --design " + D + " --data a.csv");
+  EXPECT_NE(own.out.find("Note: the test's readings are the result's own"), std::string::npos)
+      << own.out;
+  EXPECT_EQ(pass.out.find("Note:"), std::string::npos) << pass.out;
+  nlohmann::json loose = nlohmann::json::parse(slurp(K));
+  loose["noise"] = {{"accuracy_um", 12.5}, {"distribution", "uniform"}};
+  std::ofstream(d + "/loose.json") << loose.dump();
+  const CliRun lenient = cli("verify --result a.json --design loose.json --data k.csv");
+  EXPECT_EQ(lenient.status, 0) << lenient.err;
+  EXPECT_NE(lenient.out.find("Note: chi-squared lies far below"), std::string::npos) << lenient.out;
+  // `angles` counts the angles the readings hold, not the design's.
+  {
+    std::ifstream in(d + "/k.csv");
+    std::ofstream part(d + "/part.csv");
+    std::string line;
+    std::getline(in, line);
+    part << line << "\n";
+    while (std::getline(in, line)) {
+      const std::string angle =
+          line.substr(line.find(',') + 1, line.find(',', line.find(',') + 1) - line.find(',') - 1);
+      if (angle == "0" || angle == "30" || angle == "60") part << line << "\n";
+    }
+  }
+  const CliRun some = cli("verify --result a.json --design " + K + " --data part.csv --out s.json");
+  EXPECT_NE(some.status, 2) << some.err;
+  EXPECT_EQ(nlohmann::json::parse(slurp(d + "/s.json"))["angles"], 3);
+  EXPECT_EQ(nlohmann::json::parse(slurp(d + "/s.json"))["readings"], 21);
+
+  // The test's readings before it is run (predict --design): each of the design's, in its order,
+  // with U; what the prediction cannot take is refused as verify refuses it.
+  const CliRun before = cli("predict --result a.json --design " + K + " --out kp.json");
+  ASSERT_EQ(before.status, 0) << before.err;
+  EXPECT_NE(before.out.find("before it is run"), std::string::npos) << before.out;
+  const nlohmann::json kp = nlohmann::json::parse(slurp(d + "/kp.json"));
+  EXPECT_EQ(kp["format"], "dbbkit.predict/1");
+  ASSERT_EQ(kp["readings"].size(), 63u);
+  EXPECT_EQ(kp["readings"][0]["installation"], "1r");
+  for (const nlohmann::json& q : kp["readings"]) {
+    EXPECT_GT(q["std_um"].get<double>(), 0);
+    EXPECT_NEAR(q["U_um"].get<double>(), kp["k"].get<double>() * q["std_um"].get<double>(), 1e-5);
+  }
+  const CliRun before_other_axis = cli("predict --result a.json --design " + C);
+  EXPECT_EQ(before_other_axis.status, 2);
+  EXPECT_NE(before_other_axis.err.find("paper-c-turntable.json: axis:"), std::string::npos)
+      << before_other_axis.err;
+  const CliRun before_report = cli("predict --result a.json --design " + K + " --report r.html");
+  EXPECT_EQ(before_report.status, 2);
+  EXPECT_NE(before_report.err.find("--report"), std::string::npos) << before_report.err;
+  EXPECT_FALSE(std::filesystem::exists(d + "/r.html"));
+  const CliRun before_old = cli("predict --result old.json --design " + K);
+  EXPECT_EQ(before_old.status, 2);
+  EXPECT_NE(before_old.err.find("location_covariance"), std::string::npos) << before_old.err;
   std::filesystem::remove_all(dir);
 }
 
@@ -344,6 +456,58 @@ TEST(Readme, AHeldOutTestPrintsWhatTheReadmeShows) {
   for (const std::string& line : readme_lines_not_printed(section, printed, false, checked))
     ADD_FAILURE() << "README line not printed:\n" << line;
   EXPECT_GE(checked, 9);
+  std::filesystem::remove_all(dir);
+}
+
+// The README's check on the five-axis machine: the program, the readings predicted before the
+// test is run, the test simulated and verified; every line of its output blocks printed, and
+// every reading within the U predicted for it.
+TEST(Readme, ACheckPredictedBeforeItIsRunPrintsWhatTheReadmeShows) {
+  const std::string section =
+      readme_section("## Worked example: on the machine, a check predicted before it is run");
+  ASSERT_FALSE(section.empty());
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("dbbkit_readme_check_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string src = DBBKIT_SOURCE_DIR;
+  const std::string A = src + "/designs/a-c-trunnion-A.json",
+                    K = src + "/tests/data/a_c_trunnion_A_check.json",
+                    T = src + "/tests/data/truth_a_c_trunnion_A.json";
+  std::string printed;
+  for (const std::string& cmd :
+       {"simulate --design " + A + " --truth " + T + " --out A.csv",
+        "identify --design " + A + " --data A.csv --out A.json --quiet",
+        "program --design " + K + " --dialect heidenhain --tcpm on --out check.h",
+        "predict --result A.json --design " + K + " --out check-predicted.json",
+        "predict --result A.json --design " + K,
+        "simulate --design " + K + " --truth " + T + " --seed 5 --out check.csv",
+        "verify --result A.json --design " + K + " --data check.csv"}) {
+    const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " " + cmd);
+    ASSERT_EQ(r.status, 0) << cmd << "\n" << r.err;
+    printed += r.out;
+  }
+  printed += slurp(dir.string() + "/check.h");
+  int checked = 0;
+  for (const std::string& line : readme_lines_not_printed(section, printed, false, checked))
+    ADD_FAILURE() << "README line not printed:\n" << line;
+  EXPECT_GE(checked, 12);
+  // 26 of the 27 readings within their predicted U, as the README says.
+  const nlohmann::json p = nlohmann::json::parse(slurp(dir.string() + "/check-predicted.json"));
+  EXPECT_EQ(p["format"], "dbbkit.predict/1");
+  const Design k = io::read_design_file(K);
+  const std::vector<Reading> read = io::read_measurement_file(dir.string() + "/check.csv", k);
+  ASSERT_EQ(p["readings"].size(), read.size());
+  ASSERT_EQ(read.size(), 27u);
+  int inside = 0;
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    const nlohmann::json& q = p["readings"][i];
+    EXPECT_EQ(q["installation"], read[i].installation);
+    EXPECT_NEAR(q["U_um"].get<double>(), p["k"].get<double>() * q["std_um"].get<double>(), 1e-5);
+    inside +=
+        std::abs(read[i].reading_um - q["predicted_um"].get<double>()) <= q["U_um"].get<double>();
+  }
+  EXPECT_EQ(inside, 26);
   std::filesystem::remove_all(dir);
 }
 

@@ -59,8 +59,8 @@ struct VerifyOptions {
 struct VerifiedReading {
   std::size_t index = 0;  // in the readings given
   PredictionBasis basis = PredictionBasis::kLocationOnly;
-  double read_um = 0;       // the bar's length change (the reading times its count)
-  double predicted_um = 0;  // from the result, with the test's constant parts as fitted
+  double read_um = 0;       // as the instrument read it (the measurement file's value)
+  double predicted_um = 0;  // from the result, with the test's constant parts as fitted, the same
   double residual_um = 0;   // read - predicted
   double std_um = 0;        // of the residual, when the result explains the test
   double normalized = 0;    // residual / std
@@ -85,11 +85,14 @@ enum class VerifyGap {
 struct Verification {
   VerifyGap gap = VerifyGap::kNone;
   int readings = 0;
-  // The test's distinct angles; of them, those the location errors alone predict (not measured by
-  // the result, or asked for), and of these, those the result measured but whose motions'
-  // estimates it states no independent covariance for (a series model, a set-up effect shared by
-  // the angles, or a result of an earlier version).
+  // The distinct angles the test's readings hold; of them, those the location errors alone
+  // predict (not measured by the result, or asked for), and of these, those the result measured
+  // but whose motions' estimates it states no independent covariance for (a series model, a
+  // set-up effect shared by the angles, or a result of an earlier version), and those whose
+  // motions it states with no covariance at all (AxisErrors::measured_without_covariance: an
+  // earlier version, or diagnose's shares).
   int angles = 0, angles_location_only = 0, angles_motions_correlated = 0;
+  int angles_without_covariance = 0;
   int nuisance = 0;  // rank of N
   int dof = 0;
   double noise_std_um = 0;  // the test's reading noise (its design's)
@@ -103,6 +106,33 @@ struct Verification {
   std::vector<std::size_t> worst;  // indexes into readings_checked, the largest |normalized| first
   std::vector<VerifyExplanation> explanations;  // the smallest chi2 first
 };
+
+// A test's readings predicted before it is run: each of its design's readings (its nominal
+// readings, measurement.hpp) as the result predicts it, g m, with the test's own constant parts
+// at zero (its cups and its readings' zero where the design has them; verify fits them), and the
+// standard deviation of the reading about that prediction when the result is right: the test's
+// reading noise, the result's uncertainty and the test's declared set-up (V's diagonal above, but
+// at a measured angle with the covariance of the motions less their constant parts,
+// AtAngle::covariance: nothing of the prediction is fitted, so a series result predicts its
+// measured angles' motions too, as predict does a point).
+struct PredictedReading {
+  Reading reading;  // installation, angle, count (its value unused)
+  PredictionBasis basis = PredictionBasis::kLocationOnly;
+  double predicted_um = 0;  // as the instrument will read it (its count: reading_sign)
+  double std_um = 0;        // of the reading about it (k = 1)
+};
+
+struct PredictedTest {
+  VerifyGap gap = VerifyGap::kNone;  // kLocationNotDetermined only
+  int angles = 0, angles_location_only = 0, angles_motions_correlated = 0;  // as Verification's
+  int angles_without_covariance = 0;
+  double noise_std_um = 0;
+  double coverage_probability = 0.95;
+  std::vector<PredictedReading> readings;  // in the design's order
+};
+
+PredictedTest predict_test_readings(const AxisErrors& axis, const Design& design,
+                                    const VerifyOptions& options = {});
 
 // Every reading must belong to the design (validate_readings) and the design be of the same axis
 // as `axis` (InputError from the caller otherwise).

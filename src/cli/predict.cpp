@@ -7,6 +7,7 @@
 #include "checks.hpp"
 #include "commands.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/hashing.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/output.hpp"
@@ -14,6 +15,7 @@
 #include "dbbkit/io/reports.hpp"
 #include "dbbkit/io/result_read.hpp"
 #include "dbbkit/io/text.hpp"
+#include "dbbkit/io/verify_io.hpp"
 #include "dbbkit/limits.hpp"
 #include "grid_options.hpp"
 #include "report_options.hpp"
@@ -22,11 +24,34 @@ namespace dbbkit::cli {
 
 namespace {
 struct PredictArgs {
-  std::string result, at, out, report, summary;
+  std::string result, at, design, out, report, summary;
   double coverage = 0.95;
   bool quiet = false, location_only = false;
   GridOptions grid;
 };
+
+// --design: the test's readings before it is run.
+int predict_test(const PredictArgs& args) {
+  if (!args.report.empty() || !args.summary.empty())
+    throw InputError(args.report.empty() ? "--summary" : "--report", "",
+                     "the report maps points of the body; a test's predicted readings are "
+                     "written by --out (or on the terminal)");
+  std::vector<io::OutputTarget> targets;
+  if (!args.out.empty()) targets.push_back({"--out", args.out});
+  io::OutputSet outputs(targets, {args.result, args.design});
+  const std::string text = io::read_json_file(args.result);
+  const io::ResultFile r = io::result_from_text(text, args.result);
+  const Design design = io::read_design_file(args.design);
+  io::TestPrediction t =
+      io::predict_test(r, design, args.design, args.coverage, args.location_only);
+  t.result_sha256 = io::sha256_hex(text);
+  if (!args.out.empty())
+    outputs.stage("--out", io::dump_json(io::test_prediction_to_json(t)) + "\n");
+  outputs.commit();
+  if (args.out != "-" && !args.quiet) std::cout << io::test_prediction_text(t);
+  return 0;
+}
+
 }  // namespace
 
 Runner add_predict(CLI::App& app) {
@@ -44,6 +69,11 @@ Runner add_predict(CLI::App& app) {
                       "body frame, from the axis frame's origin)");
   args->grid.add(sub, "A map instead of --at");
   at->excludes(args->grid.radii_option);
+  CLI::Option* design =
+      sub->add_option("--design", args->design,
+                      "Instead of poses: a test of the same axis (dbbkit.design/1), each of its "
+                      "readings predicted before it is run, with U (verify then checks it)");
+  design->excludes(at)->excludes(args->grid.radii_option);
   sub->add_option("--out", args->out, "JSON result (dbbkit.predict/1); '-': stdout");
   sub->add_option("--report", args->report,
                   "A self-contained HTML report: the largest error at each angle before and after "
@@ -58,8 +88,10 @@ Runner add_predict(CLI::App& app) {
                 "off by), the component error motions left out");
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the files asked for");
   return [args]() {
+    if (!args->design.empty()) return predict_test(*args);
     if (args->at.empty() && !args->grid.given())
-      throw InputError("--at", "", "give the poses (--at FILE) or a map (--grid-radius-mm)");
+      throw InputError("--at", "",
+                       "give the poses (--at FILE), a map (--grid-radius-mm) or a test (--design)");
     std::vector<io::OutputTarget> targets;
     if (!args->out.empty()) targets.push_back({"--out", args->out});
     if (!args->report.empty()) targets.push_back({"--report", args->report});

@@ -3,6 +3,7 @@
 #include <boost/math/distributions/chi_squared.hpp>
 #include <boost/math/distributions/normal.hpp>
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 #include <sstream>
 
@@ -38,15 +39,42 @@ void check_test_axis(const ResultFile& result, const Design& design,
                      "parked) is not the result's: park the other axes as the result's test did");
 }
 
+namespace {
+
+[[noreturn]] void throw_not_determined(const ResultFile& result, const AxisErrors& axis) {
+  const std::array<std::string, 5> names = iso230_names(result.axis).location;
+  std::string missing;
+  for (std::size_t q = 0; q < 5; ++q)
+    if (!axis.location[q]) missing += (missing.empty() ? "" : ", ") + names[q];
+  throw InputError(
+      result.source, "iso230.location",
+      "the result does not determine " + missing + ": it cannot predict another test's readings");
+}
+
+// Two names of one file: the same text, or, both existing, the same file (a result's inputs.data
+// is as identify was given it, relative to where it ran).
+bool same_file(const std::string& a, const std::string& b) {
+  if (a.empty() || b.empty() || b == "-") return false;
+  if (a == b) return true;
+  std::error_code ec;
+  return std::filesystem::exists(a, ec) && std::filesystem::equivalent(a, b, ec) && !ec;
+}
+
+void check_test_size(std::size_t readings, const std::string& source) {
+  if (readings > limits::kMaxVerifyReadings)
+    throw InputError(source, "",
+                     std::to_string(readings) + " readings: verify and predict take at most " +
+                         std::to_string(limits::kMaxVerifyReadings) + " of one test");
+}
+
+}  // namespace
+
 VerifyReport verify(const ResultFile& result, const Design& design,
                     const std::vector<Reading>& readings, const std::string& design_source,
                     const std::string& data_source, double coverage_probability,
                     bool location_only) {
   check_test_axis(result, design, design_source);
-  if (readings.size() > limits::kMaxVerifyReadings)
-    throw InputError(data_source, "",
-                     std::to_string(readings.size()) + " readings: verify checks at most " +
-                         std::to_string(limits::kMaxVerifyReadings) + " of one test");
+  check_test_size(readings.size(), data_source);
   const AxisErrors axis = axis_errors_of(result);
   VerifyReport r;
   r.result_source = result.source;
@@ -66,14 +94,18 @@ VerifyReport verify(const ResultFile& result, const Design& design,
   o.coverage_probability = coverage_probability;
   o.location_only = location_only;
   r.v = verify_readings(axis, design, readings, o);
-  if (r.v.gap == VerifyGap::kLocationNotDetermined) {
-    std::string missing;
-    for (std::size_t q = 0; q < 5; ++q)
-      if (!axis.location[q]) missing += (missing.empty() ? "" : ", ") + r.location_names[q];
-    throw InputError(
-        result.source, "iso230.location",
-        "the result does not determine " + missing + ": it cannot predict another test's readings");
-  }
+  if (r.v.gap == VerifyGap::kLocationNotDetermined) throw_not_determined(result, axis);
+  if (same_file(result.data_source, data_source))
+    r.notes.push_back("the test's readings are the result's own (its inputs.data, " +
+                      result.data_source +
+                      "): a result explains the readings it was fitted to; this is no held-out "
+                      "check");
+  if (r.v.gap == VerifyGap::kNone && r.v.p_value > 0.999)
+    r.notes.push_back(
+        "chi-squared lies far below its degrees of freedom (p > 0.999; a right "
+        "result with right uncertainties gives this once in a thousand tests): the "
+        "uncertainties weighed (the result's, the test's reading noise or declared "
+        "set-up) may be overstated, and the check is then lenient");
   if (r.v.gap == VerifyGap::kIllConditioned)
     throw InputError(design_source, "",
                      "the residual's covariance (the reading noise beside the declared set-up "
@@ -155,6 +187,8 @@ json verification_to_json(const VerifyReport& r) {
            {"angles", v.angles},
            {"angles_location_only", v.angles_location_only},
            {"angles_motions_correlated", v.angles_motions_correlated},
+           {"angles_without_covariance", v.angles_without_covariance},
+           {"notes", r.notes},
            {"worst", worst},
            {"explanations", explanations},
            {"k", r.k},
@@ -175,12 +209,18 @@ std::string verification_text(const VerifyReport& r) {
   if (r.location_only)
     s << "the location errors alone at every angle (--location-only): the component error motions "
          "are in the residual\n";
-  else if (v.angles_location_only > v.angles_motions_correlated)
-    s << "at " << v.angles_location_only - v.angles_motions_correlated << " of the test's "
-      << v.angles
+  else if (const int not_measured =
+               v.angles_location_only - v.angles_motions_correlated - v.angles_without_covariance;
+           not_measured > 0)
+    s << "at " << not_measured << " of the test's " << v.angles
       << " angles the result measured no motions: the location errors alone predict those "
          "readings, and the component motions there are in the residual (a fail may come from "
          "them)\n";
+  if (!r.location_only && v.angles_without_covariance > 0)
+    s << "at " << v.angles_without_covariance << " of the test's " << v.angles
+      << " angles the result states its motions without their covariance (an earlier version, "
+         "or diagnose's shares of equivalent effects): the location errors alone predict them, "
+         "the component motions are in the residual\n";
   if (!r.location_only && v.angles_motions_correlated > 0)
     s << "at " << v.angles_motions_correlated << " angles the result measured, its motions' "
       << "estimates are correlated between angles (a series model or a set-up effect shared by "
@@ -199,6 +239,7 @@ std::string verification_text(const VerifyReport& r) {
       << fmt_num(boost::math::quantile(boost::math::chi_squared(v.dof), v.coverage_probability), 4)
       << " were it normal)";
   s << " (p = " << fmt_num(v.p_value, 2) << ")\n";
+  for (const std::string& n : r.notes) s << "Note: " << terminal_text(n) << "\n";
   if (v.pass)
     s << "PASS: the result explains this test within its uncertainty\n";
   else
@@ -228,6 +269,123 @@ std::string verification_text(const VerifyReport& r) {
       << fmt_rounded(r.k * x.change_std, 2) << ", k = " << fmt_num(r.k, 3)
       << ") leaves chi-squared " << fmt_num(x.chi2, 4)
       << (x.passes_with ? ": the test passes with it" : ": still a fail with it") << "\n";
+  }
+  return s.str();
+}
+
+TestPrediction predict_test(const ResultFile& result, const Design& design,
+                            const std::string& design_source, double coverage_probability,
+                            bool location_only) {
+  check_test_axis(result, design, design_source);
+  check_test_size(nominal_readings(design).size(), design_source);
+  const AxisErrors axis = axis_errors_of(result);
+  TestPrediction t;
+  t.result_source = result.source;
+  t.design_source = design_source;
+  t.axis_label = result.axis.label();
+  t.design_name = design.name;
+  t.letter = result.axis.letter();
+  t.location_only = location_only;
+  t.k = boost::math::quantile(boost::math::normal(), 0.5 + coverage_probability / 2);
+  t.result_dof = axis.dof;
+  t.warnings = result.warnings;
+  VerifyOptions o;
+  o.coverage_probability = coverage_probability;
+  o.location_only = location_only;
+  t.p = predict_test_readings(axis, design, o);
+  if (t.p.gap == VerifyGap::kLocationNotDetermined) throw_not_determined(result, axis);
+  return t;
+}
+
+namespace {
+
+const char* const kTestPredictionMethod =
+    "each reading of the test predicted from the result before it is run: the location errors "
+    "and, at an angle the result measured, the component error motions, less their constant "
+    "parts; the test's own constant parts (its cups and its readings' zero) at zero, as its design "
+    "has them (verify fits them to what is read); std: of the reading about the prediction when "
+    "the result is right (the test's reading noise, the result's uncertainty, the test's declared "
+    "set-up); U = k std";
+
+}  // namespace
+
+json test_prediction_to_json(const TestPrediction& t) {
+  const PredictedTest& p = t.p;
+  json readings = json::array();
+  for (const PredictedReading& r : p.readings)
+    readings.push_back({{"installation", r.reading.installation},
+                        {"angle_deg", r.reading.angle_deg},
+                        {"predicted_um", r6(r.predicted_um)},
+                        {"std_um", r6(r.std_um)},
+                        {"U_um", r6(t.k * r.std_um)},
+                        {"basis", basis_key(r.basis)}});
+  json warnings = json::array();
+  for (const std::string& w : t.warnings) warnings.push_back(w);
+  json out{{"format", kPredictFormat},
+           {"inputs", {{"result", t.result_source}, {"design", t.design_source}}},
+           {"axis", t.axis_label},
+           {"test", t.design_name},
+           {"method", kTestPredictionMethod},
+           {"coverage_probability", p.coverage_probability},
+           {"k", t.k},
+           {"location_only", t.location_only},
+           {"noise_std_um", r6(p.noise_std_um)},
+           {"angles", p.angles},
+           {"angles_location_only", p.angles_location_only},
+           {"angles_motions_correlated", p.angles_motions_correlated},
+           {"angles_without_covariance", p.angles_without_covariance},
+           {"readings", readings},
+           {"result_dof", t.result_dof ? json(r6(*t.result_dof)) : json(nullptr)},
+           {"result_warnings", warnings}};
+  if (!t.result_sha256.empty()) out["inputs"]["result_sha256"] = t.result_sha256;
+  return out;
+}
+
+std::string test_prediction_text(const TestPrediction& t) {
+  const PredictedTest& p = t.p;
+  std::ostringstream s;
+  s << "predict: the " << p.readings.size() << " readings of " << terminal_text(t.design_name)
+    << " (" << terminal_text(t.design_source) << ") before it is run, from "
+    << terminal_text(t.result_source) << ", the " << t.axis_label << " axis\n";
+  for (const std::string& w : t.warnings)
+    s << "Warning (the result's; its uncertainties may be too small): " << terminal_text(w) << "\n";
+  const int location_only =
+      p.angles_location_only - p.angles_motions_correlated - p.angles_without_covariance;
+  if (t.location_only)
+    s << "the location errors alone at every angle (--location-only): the component error "
+         "motions are not in U\n";
+  else if (location_only > 0)
+    s << "at " << location_only << " of the test's " << p.angles
+      << " angles the result measured no motions (marked *): the location errors alone predict "
+         "those readings, and the component motions there are not in U\n";
+  if (!t.location_only && p.angles_without_covariance > 0)
+    s << "at " << p.angles_without_covariance << " of the test's " << p.angles
+      << " angles (marked *) the result states its motions without their covariance (an earlier "
+         "version, or diagnose's shares of equivalent effects): the location errors alone predict "
+         "them, the component motions are not in U\n";
+  if (!t.location_only && p.angles_motions_correlated > 0)
+    s << "at " << p.angles_motions_correlated
+      << " angles (marked *) the result's motions are correlated between angles and no such "
+         "covariance is stated: the location errors alone predict them, the component motions "
+         "are not in U\n";
+  s << "the test's own constant parts (its cups and its readings' zero) as its design has them: "
+       "verify fits them to what is read; U at "
+    << fmt_num(100 * p.coverage_probability, 4) << " % (k = " << fmt_num(t.k, 3)
+    << "): the test's reading noise (" << fmt_num(p.noise_std_um, 3)
+    << " um), the result's uncertainty and the test's declared set-up";
+  if (t.result_dof) s << " (the result's Type A uncertainties taken as known)";
+  s << "\n";
+  std::string installation;
+  for (const PredictedReading& r : p.readings) {
+    if (r.reading.installation != installation) {
+      installation = r.reading.installation;
+      s << "installation " << terminal_text(installation) << " (um):\n";
+    }
+    const std::string value = fmt_rounded(r.predicted_um, 2);
+    s << "  " << t.letter << " " << angle_text(r.reading.angle_deg)
+      << " deg: " << (value[0] != '-' && value != "0" ? "+" : "") << value << " +- "
+      << fmt_rounded(t.k * r.std_um, 2)
+      << (r.basis == PredictionBasis::kLocationOnly && !t.location_only ? " *" : "") << "\n";
   }
   return s.str();
 }

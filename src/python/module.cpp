@@ -1707,6 +1707,13 @@ PYBIND11_MODULE(dbbkit, m) {
     if (first == std::string::npos || text[first] != '{') return std::nullopt;
     return text;
   };
+  // The SHA-256 of a result given as a file or as its JSON text (empty for an object or a dict:
+  // no bytes were read).
+  auto result_sha = [json_text](py::handle h) -> std::string {
+    if (const auto text = json_text(h)) return io::sha256_hex(*text);
+    if (const auto path = as_path(h)) return io::sha256_file(*path);
+    return "";
+  };
   auto result_of = [json_text](py::handle h, const char* name) {
     if (const auto text = json_text(h)) return io::result_from_text(*text, name);
     if (const auto path = as_path(h)) return io::read_result_file(*path);
@@ -1757,15 +1764,26 @@ PYBIND11_MODULE(dbbkit, m) {
       "distance and squareness between their lines, with U; the dict `chain --out` writes");
   m.def(
       "predict",
-      [result_of](py::handle result, py::handle at, double coverage, bool location_only,
-                  std::optional<std::vector<double>> radii_mm,
-                  std::optional<std::vector<double>> heights_mm, py::handle around,
-                  std::optional<std::vector<double>> angles_deg) {
+      [result_of, result_sha](py::handle result, py::handle at, double coverage, bool location_only,
+                              std::optional<std::vector<double>> radii_mm,
+                              std::optional<std::vector<double>> heights_mm, py::handle around,
+                              std::optional<std::vector<double>> angles_deg,
+                              const std::optional<PyDesign>& design) {
         check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
+        if (design) {  // a test's readings before it is run, as predict --design
+          if (!at.is_none() || radii_mm)
+            throw InputError("design", "",
+                             "give the poses (at), a map (radii_mm) or a test "
+                             "(design), one of them");
+          io::TestPrediction t = io::predict_test(result_of(result, "result"), design->value,
+                                                  design->source, coverage, location_only);
+          t.result_sha256 = result_sha(result);
+          return to_python(io::test_prediction_to_json(t));
+        }
         const std::optional<io::GridRequest> request =
             grid_request(radii_mm, heights_mm, around, angles_deg);
         if (at.is_none() && !radii_mm)
-          throw InputError("at", "", "give the poses (at) or a map (radii_mm)");
+          throw InputError("at", "", "give the poses (at), a map (radii_mm) or a test (design)");
         if (!at.is_none() && radii_mm)
           throw InputError("at", "", "give the poses (at) or a map (radii_mm), not both");
         const io::ResultFile r = result_of(result, "result");
@@ -1799,31 +1817,32 @@ PYBIND11_MODULE(dbbkit, m) {
         io::PredictResult p = io::predict(r, poses, coverage, location_only);
         p.poses_source = source;
         p.grid = grid;
-        if (const auto path = as_path(result)) p.result_sha256 = io::sha256_file(*path);
+        p.result_sha256 = result_sha(result);
         return to_python(io::prediction_to_json(p));
       },
       py::arg("result"), py::arg("at") = py::none(), py::arg("coverage") = 0.95,
       py::arg("location_only") = false, py::arg("radii_mm") = py::none(),
       py::arg("heights_mm") = py::none(), py::arg("around") = py::none(),
-      py::arg("angles_deg") = py::none(),
+      py::arg("angles_deg") = py::none(), py::arg("design") = py::none(),
       "`dbbkit predict`: the error of points of the turning body at commanded angles (`at`: a "
       "poses CSV's path, or rows [angle_deg, x_mm, y_mm, z_mm]; or a map: `radii_mm` from the "
       "axis line, `heights_mm` along it (default [0]), `around` points a circle (default 8), "
       "`angles_deg` "
       "(default the result's), as predict --grid-*) from a result (path, result or its json), "
-      "with its uncertainty and what entering the location errors leaves; the dict `predict "
-      "--out` writes");
+      "with its uncertainty and what entering the location errors leaves; or, with `design` (a "
+      "test of the same axis), each of its readings before it is run, with U, as predict "
+      "--design; the dict `predict --out` writes");
   m.def(
       "verify",
-      [result_of](py::handle result, const PyDesign& design, const PyMeasurements& data,
-                  double coverage, bool location_only) {
+      [result_of, result_sha](py::handle result, const PyDesign& design, const PyMeasurements& data,
+                              double coverage, bool location_only) {
         check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
         const io::ResultFile r = result_of(result, "result");
         io::check_test_axis(r, design.value, design.source);
         validate_against(design, data);
         io::VerifyReport v = io::verify(r, design.value, data.readings, design.source, data.source,
                                         coverage, location_only);
-        if (const auto path = as_path(result)) v.result_sha256 = io::sha256_file(*path);
+        v.result_sha256 = result_sha(result);
         return to_python(io::verification_to_json(v));
       },
       py::arg("result"), py::arg("design"), py::arg("data"), py::arg("coverage") = 0.95,

@@ -147,6 +147,21 @@ class RoundTrips(InSource):
             with self.assertRaises(dbbkit.InputError) as ctx:
                 dbbkit.verify(a, k, dbbkit.Measurements(k_csv, k), coverage=1.5)
             self.assertIn("coverage", str(ctx.exception))
+            # The test's readings before it is run, as predict --design; the result as its
+            # JSON text is hashed as text, not opened as a file's name.
+            before = dbbkit.predict(a, design=k)
+            self.assertEqual(before, cli_json("predict", "--result", a, "--design", k_design))
+            self.assertEqual(len(before["readings"]), 63)
+            with open(a) as f:
+                text = f.read()
+            as_text = dbbkit.predict(text, design=k)
+            self.assertEqual(as_text["inputs"]["result_sha256"], before["inputs"]["result_sha256"])
+            self.assertEqual(as_text["readings"], before["readings"])
+            checked = dbbkit.verify(text, k, dbbkit.Measurements(k_csv, k))
+            self.assertEqual(checked["inputs"]["result_sha256"], got["inputs"]["result_sha256"])
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.predict(a, at=[[0, 100, 0, 0]], design=k)
+            self.assertIn("one of them", str(ctx.exception))
 
     def test_predict_as_the_command_line(self):
         # The poses' CSV or rows; the dict predict --out writes; bad rows name their place.
@@ -174,7 +189,7 @@ class RoundTrips(InSource):
             dbbkit.predict(r, [[0, 1, 2, 3]], radii_mm=[100])
         self.assertIn("not both", str(ctx.exception))
         # A map's arguments as the command line's options: named, each checked.
-        for kwargs, says in [({}, "give the poses (at) or a map (radii_mm)"),
+        for kwargs, says in [({}, "give the poses (at), a map (radii_mm) or a test (design)"),
                              ({"heights_mm": [0]}, "heights_mm: a map's parameter"),
                              ({"around": 4}, "around: a map's parameter"),
                              ({"radii_mm": []}, "radii_mm: no radius"),

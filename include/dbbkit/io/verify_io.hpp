@@ -26,6 +26,9 @@ struct VerifyReport {
   Verification v;
   std::vector<Reading> readings;      // as given (installation, angle, line)
   std::vector<std::string> warnings;  // the result's, carried
+  // What the verdict should be read with: the test's readings are the result's own, or the
+  // statistic lies so low (p > 0.999) that the uncertainties may be overstated.
+  std::vector<std::string> notes;
 };
 
 // InputError (the design's file, axis or machine) where the test is not of the result's axis or
@@ -44,5 +47,26 @@ VerifyReport verify(const ResultFile& result, const Design& design,
 
 nlohmann::json verification_to_json(const VerifyReport& r);
 std::string verification_text(const VerifyReport& r);
+
+// `dbbkit predict --design K`: the test's readings predicted before it is run
+// (predict_test_readings), in dbbkit.predict/1 with `readings` instead of `points`.
+struct TestPrediction {
+  std::string result_source, result_sha256, design_source;
+  std::string axis_label, design_name;
+  char letter = 'C';
+  bool location_only = false;
+  double k = 2;  // the normal quantile of the coverage probability
+  std::optional<double> result_dof;
+  PredictedTest p;
+  std::vector<std::string> warnings;  // the result's, carried
+};
+
+// InputError as verify's (the test's axis or machine, a location error not determined, more
+// readings than limits::kMaxVerifyReadings).
+TestPrediction predict_test(const ResultFile& result, const Design& design,
+                            const std::string& design_source, double coverage_probability,
+                            bool location_only = false);
+nlohmann::json test_prediction_to_json(const TestPrediction& t);
+std::string test_prediction_text(const TestPrediction& t);
 
 }  // namespace dbbkit::io
