@@ -1,6 +1,7 @@
 #include "dbbkit/predict.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <boost/math/distributions/chi_squared.hpp>
 #include <boost/math/distributions/fisher_f.hpp>
@@ -275,6 +276,85 @@ EnteringJudgement judge_entering(const AxisErrors& axis, const std::vector<Pose>
     j.bound_with[static_cast<std::size_t>(q)] = bound(entered | (1u << q), nullptr);
   }
   return j;
+}
+
+std::vector<int> chain_order(const ChainErrors& chain) {
+  const int n = static_cast<int>(chain.axes.size());
+  if (n == 0) return {};
+  std::vector<int> carried(static_cast<std::size_t>(n), 0);
+  for (const ChainErrors::Axis& a : chain.axes)
+    if (a.on >= 0) ++carried[static_cast<std::size_t>(a.on)];
+  int innermost = -1;
+  for (int i = 0; i < n; ++i) {
+    if (carried[static_cast<std::size_t>(i)] > 1) return {};  // a fork: two chains
+    if (carried[static_cast<std::size_t>(i)] == 0) {
+      if (innermost >= 0) return {};  // two bodies that carry nothing
+      innermost = i;
+    }
+  }
+  std::vector<int> order;
+  for (int i = innermost; i >= 0 && static_cast<int>(order.size()) <= n;
+       i = chain.axes[static_cast<std::size_t>(i)].on)
+    order.push_back(i);
+  if (static_cast<int>(order.size()) != n) return {};
+  for (const int i : order)
+    if (chain.axes[static_cast<std::size_t>(i)].table !=
+        chain.axes[static_cast<std::size_t>(order[0])].table)
+      return {};
+  return order;
+}
+
+namespace {
+
+// The point at the pose with the location errors e (5 per axis, um and urad): each axis turned
+// about its real line, the innermost first.
+Eigen::Vector3d chain_point_mm(const ChainErrors& chain, const std::vector<int>& order,
+                               const Eigen::VectorXd& e, const ChainPose& pose) {
+  Eigen::Vector3d x = pose.point_mm;
+  for (const int i : order) {
+    const ChainErrors::Axis& a = chain.axes[static_cast<std::size_t>(i)];
+    const Eigen::Index b = 5 * i;
+    const Eigen::Vector3d p = a.point_mm + 1e-3 * (e(b) * a.vector[0] + e(b + 1) * a.vector[1]);
+    const Eigen::Vector3d alpha = 1e-6 * (e(b + 2) * a.vector[2] + e(b + 3) * a.vector[3]);
+    const Eigen::Vector3d d = (a.direction + alpha.cross(a.direction)).normalized();
+    const double zero = 1e-6 * e(b + 4) * (a.vector[4].dot(a.direction) >= 0 ? 1.0 : -1.0);
+    const double angle = pose.angles_deg[static_cast<std::size_t>(i)] * std::numbers::pi / 180;
+    x = p + Eigen::AngleAxisd(angle + zero, d) * (x - p);
+  }
+  return x;
+}
+
+}  // namespace
+
+ChainPointPrediction predict_chain_point(const ChainErrors& chain, const std::vector<int>& order,
+                                         const ChainPose& pose,
+                                         const PredictionCoverage& coverage) {
+  ChainPointPrediction r;
+  r.pose = pose;
+  const Eigen::Index m = 5 * static_cast<Eigen::Index>(chain.axes.size());
+  Eigen::VectorXd e = Eigen::VectorXd::Zero(m);
+  std::vector<bool> known(static_cast<std::size_t>(m));
+  for (std::size_t i = 0; i < chain.axes.size(); ++i)
+    for (std::size_t q = 0; q < 5; ++q) {
+      known[5 * i + q] = chain.axes[i].location[q].has_value();
+      e(static_cast<Eigen::Index>(5 * i + q)) = chain.axes[i].location[q].value_or(0.0);
+    }
+  r.nominal_mm = chain_point_mm(chain, order, Eigen::VectorXd::Zero(m), pose);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, m);
+  constexpr double h = 1e-3;
+  for (Eigen::Index c = 0; c < m; ++c) {
+    Eigen::VectorXd up = e, down = e;
+    up(c) += h, down(c) -= h;
+    J.col(c) = 1e3 *
+               (chain_point_mm(chain, order, up, pose) - chain_point_mm(chain, order, down, pose)) /
+               (2 * h);
+    if (!known[static_cast<std::size_t>(c)] && J.col(c).norm() > 1e-9) r.determined = false;
+  }
+  if (!r.determined) return r;
+  r.error_um = 1e3 * (chain_point_mm(chain, order, e, pose) - r.nominal_mm);
+  r.covariance = J * chain.covariance * J.transpose();
+  r.U_um = length_uncertainty(r.covariance, coverage);
+  return r;
 }
 
 }  // namespace dbbkit

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <boost/math/distributions/chi_squared.hpp>
 #include <cmath>
+#include <map>
 #include <numeric>
 #include <optional>
 
@@ -71,10 +72,11 @@ Eigen::MatrixXd columns(const Eigen::MatrixXd& M, const std::vector<int>& which)
 // The test's rows as the result predicts them (the head of verify.hpp): each reading's
 // prediction g m, the location errors' columns A = g G, the constant parts' N = g E, and the
 // residual's covariance V when the result explains the test. Counts the angles into `v`.
-// `before_run`: the prediction itself, the test's constant parts not fitted: at a measured angle
-// its error is that of the motions less their constant parts, G l + c (the result's covariance
-// of them, AtAngle::covariance, needing no independence between angles), and only V's diagonal
-// and each angle's block are meant.
+// `before_run`: the prediction itself, nothing fitted, the test run on the result's preset (the
+// motions' constant parts, where the readings' zero was taken, the result's): at a measured angle
+// the motions themselves, m (AtAngle::errors, with their covariance D: needing no independence
+// between angles), elsewhere G l + E k (the location errors' and the constant parts' estimates,
+// taken as independent of each other); only V's diagonal and each angle's block are meant.
 struct HeldOutRows {
   LinearModel model;
   Eigen::MatrixXd A, N, V;
@@ -121,6 +123,10 @@ std::optional<HeldOutRows> held_out_rows(const AxisErrors& axis, const Design& d
     const double angle = param.station_angle_deg(s);
     G[k] = location_motion(axis.axis, angle);
     if (!options.location_only) at[k] = measured_at(axis, angle);
+    if (at[k] != nullptr && before_run && !(at[k]->errors && at[k]->errors_covariance)) {
+      at[k] = nullptr;  // the motions themselves or their covariance not stated
+      v.angles_without_covariance += present[k];
+    }
     if (at[k] != nullptr && !before_run &&
         !(at[k]->errors_covariance && axis.independent_between_angles)) {
       at[k] = nullptr;
@@ -132,7 +138,9 @@ std::optional<HeldOutRows> held_out_rows(const AxisErrors& axis, const Design& d
                     [&](double a) { return same_angle(axis.axis, a, angle); }))
       v.angles_without_covariance += present[k];
     motion[k] = G[k] * l;
-    if (at[k] != nullptr) {
+    if (at[k] != nullptr && before_run) {
+      motion[k] = *at[k]->errors;
+    } else if (at[k] != nullptr) {
       for (int c = 0; c < 6; ++c) motion[k](c) += at[k]->component[static_cast<std::size_t>(c)];
     } else {
       v.angles_location_only += present[k];
@@ -146,6 +154,10 @@ std::optional<HeldOutRows> held_out_rows(const AxisErrors& axis, const Design& d
   E.topLeftCorner<3, 3>().setIdentity();
   E.block<3, 1>(3, 3) = frame.p1;
   E.block<3, 1>(3, 4) = frame.p2;
+  if (before_run && axis.constants)  // the result's preset: its constant parts at every angle
+    for (int s = 0; s < stations; ++s)
+      if (at[static_cast<std::size_t>(s)] == nullptr)
+        motion[static_cast<std::size_t>(s)] += E * *axis.constants;
   const auto index = design.installation_index();
   Eigen::MatrixXd g(n, 6);
   h.A.resize(n, 5);
@@ -179,14 +191,18 @@ std::optional<HeldOutRows> held_out_rows(const AxisErrors& axis, const Design& d
       location_rows.insert(location_rows.end(), rows_at[k].begin(), rows_at[k].end());
       continue;
     }
-    const Eigen::Matrix<double, 6, 6>& D =
-        before_run ? at[k]->covariance : *at[k]->errors_covariance;
+    const Eigen::Matrix<double, 6, 6>& D = *at[k]->errors_covariance;
     for (const Eigen::Index i : rows_at[k])
       for (const Eigen::Index j : rows_at[k]) V(i, j) += g.row(i) * D * g.row(j).transpose();
   }
   for (const Eigen::Index i : location_rows)
     for (const Eigen::Index j : location_rows)
       V(i, j) += h.A.row(i) * axis.location_covariance * h.A.row(j).transpose();
+  if (before_run && axis.constants) {
+    const Eigen::Matrix<double, 5, 5> K = axis.constants_std.array().square().matrix().asDiagonal();
+    for (const Eigen::Index i : location_rows)
+      for (const Eigen::Index j : location_rows) V(i, j) += h.N.row(i) * K * h.N.row(j).transpose();
+  }
   // Each declared set-up effect and placement moves its own installation's readings alone: its
   // outer product on those rows (553 installations of 9 readings: 45,000 products per effect
   // instead of the whole n x n).
@@ -229,9 +245,12 @@ PredictedTest predict_test_readings(const AxisErrors& axis, const Design& design
   p.angles_motions_correlated = counts.angles_motions_correlated;
   p.angles_without_covariance = counts.angles_without_covariance;
   p.noise_std_um = counts.noise_std_um;
+  std::map<std::string, std::size_t> taken;  // readings of each installation so far
   for (Eigen::Index i = 0; i < h->predicted.size(); ++i) {
     PredictedReading r;
     r.reading = readings[static_cast<std::size_t>(i)];
+    // nominal_readings: each installation's angles, then its return reading where it has one.
+    r.is_return = ++taken[r.reading.installation] > design.angles_deg.size();
     r.basis = h->measured[static_cast<std::size_t>(h->station[static_cast<std::size_t>(i)])]
                   ? PredictionBasis::kMotions
                   : PredictionBasis::kLocationOnly;

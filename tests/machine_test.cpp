@@ -625,6 +625,7 @@ TEST(Readme, AFiveAxisMachinePrintsWhatTheReadmeShows) {
         "identify --design " + src +
             "/designs/a-c-trunnion-C.json --data C.csv --out C.json --quiet",
         "chain --machine " + src + "/designs/machines/a-c-trunnion.json A.json C.json --out M.json",
+        "predict --result M.json --at " + src + "/tests/data/poses_a_c_trunnion.csv",
         std::string("compensation --result M.json --format siemens --record 1 --out "
                     "trunnion.mpf")}) {
     const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " " + cmd);

@@ -16,9 +16,12 @@
 #include <sstream>
 
 #include "cli_util.hpp"
+#include "dbbkit/chain.hpp"
 #include "dbbkit/identify.hpp"
+#include "dbbkit/io/chain_io.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/io/machine_io.hpp"
 #include "dbbkit/io/predict_io.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/iso230.hpp"
@@ -530,6 +533,241 @@ TEST(PredictCli, TheReportStatesTheLargestErrorAtEachAngle) {
   EXPECT_NE(slurp(d + "/u.md").find("No heat map: the map's radii or angles are not evenly spaced"),
             std::string::npos);
   std::filesystem::remove_all(dir);
+}
+
+// ---------------------------------------------------------------- a machine result's chain
+
+// The A/C trunnion's real axes: A's line (in the machine frame), C's line in A's body (the
+// machine frame with A at 0), each from its five location errors (test::line_of), and where a
+// point fixed to the C table is at (a, c): C turns it about its real line, then A turns both.
+struct TrueChain {
+  Machine m;
+  int ia = 0, ic = 1;
+  std::array<double, 5> la{}, lc{};
+  RealLine A, C;  // machine frame, the preset at the machine's origin
+  Eigen::Vector3d at(double a, double c, const Eigen::Vector3d& x) const {
+    return turn(A, a, turn(C, c, x));
+  }
+};
+
+TrueChain true_chain(const std::array<double, 5>& la, const std::array<double, 5>& lc) {
+  TrueChain t;
+  t.m =
+      io::read_machine_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/machines/a-c-trunnion.json");
+  t.ia = t.m.find('A');
+  t.ic = t.m.find('C');
+  t.la = la, t.lc = lc;
+  const std::vector<double> zero(t.m.rotary.size(), 0.0);
+  t.A = line_of(t.m.axis_frame(t.ia, zero), la);
+  t.A.point += t.m.point_at(t.ia, zero);
+  t.C = line_of(t.m.axis_frame(t.ic, zero), lc);
+  t.C.point += t.m.point_at(t.ic, zero);
+  return t;
+}
+
+// The chain as a machine result states it, with the location errors given.
+ChainErrors chain_errors(const TrueChain& t, const std::array<double, 5>& la,
+                         const std::array<double, 5>& lc) {
+  ChainErrors c;
+  const std::vector<double> zero(t.m.rotary.size(), 0.0);
+  for (const auto& [k, l] : {std::pair{t.ia, la}, std::pair{t.ic, lc}}) {
+    const AxisFrame f = t.m.axis_frame(k, zero);
+    const IsoFrame iso = iso_frame(f);
+    ChainErrors::Axis a;
+    a.letter = t.m.rotary[static_cast<std::size_t>(k)].letter;
+    a.point_mm = t.m.point_at(k, zero);
+    a.direction = f.direction();
+    a.vector = {iso.p1, iso.p2, iso.p1, iso.p2, iso.q};
+    for (std::size_t q = 0; q < 5; ++q) a.location[q] = l[q];
+    c.axes.push_back(a);
+  }
+  c.axes[1].on = 0;  // C on A
+  c.covariance = Eigen::MatrixXd::Identity(10, 10);
+  return c;
+}
+
+// A point of the C table at (A, C) is off by what the two real lines say: each axis turned about
+// its own line (a rotation about a displaced, tilted line, the zero error added to the angle),
+// C's line carried by A's turn; the prediction agrees with that geometry to 1e-6 um at any pose,
+// and its nominal point is the machine file's.
+TEST(PredictChain, APointOfATrunnionIsOffByWhatItsRealLinesSay) {
+  const std::array<double, 5> la = {20, 5, 10, 20, 12}, lc = {10, 35, -15, 30, -8};
+  const TrueChain t = true_chain(la, lc);
+  const ChainErrors c = chain_errors(t, la, lc);
+  const std::vector<int> order = chain_order(c);
+  ASSERT_EQ(order, (std::vector<int>{1, 0}));
+  const PredictionCoverage cov = prediction_coverage(0.95, std::nullopt);
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int i = 0; i < 200; ++i) {
+    ChainPose pose;
+    pose.angles_deg = {60 * u(rng) + 30, 180 * u(rng) + 180};
+    pose.point_mm = Eigen::Vector3d(200 * u(rng), 200 * u(rng), -60 + 80 * (u(rng) + 1));
+    const ChainPointPrediction p = predict_chain_point(c, order, pose, cov);
+    ASSERT_TRUE(p.determined);
+    const std::vector<double> angles = {pose.angles_deg[0], pose.angles_deg[1]};
+    const Eigen::Vector3d nominal = t.m.body_point_at(t.ic, pose.point_mm, angles);
+    EXPECT_LT((p.nominal_mm - nominal).norm(), 1e-9);
+    const Eigen::Vector3d truth =
+        1e3 * (t.at(pose.angles_deg[0], pose.angles_deg[1], pose.point_mm) - nominal);
+    EXPECT_LT((p.error_um - truth).norm(), 1e-6) << i;
+    EXPECT_GT(p.U_um, 0);
+  }
+  // With A and C at 0 only the zero errors move a point; at A 90 the A line's Y0A shows as 20 um
+  // in Y and -20 um in Z at the table's centre (a hand derivation: the centre, 60 mm below A,
+  // turns to 60 mm along +Y about a line 20 um off in +Y).
+  const std::array<double, 5> only_y0a = {20, 0, 0, 0, 0}, none = {0, 0, 0, 0, 0};
+  const ChainErrors y0a = chain_errors(t, only_y0a, none);
+  ChainPose centre;
+  centre.angles_deg = {90, 0};
+  centre.point_mm = Eigen::Vector3d(0, 0, -60);
+  const ChainPointPrediction h = predict_chain_point(y0a, order, centre, cov);
+  EXPECT_NEAR(h.error_um.x(), 0, 1e-9);
+  EXPECT_NEAR(h.error_um.y(), 20, 1e-6);
+  EXPECT_NEAR(h.error_um.z(), -20, 1e-6);
+  // A location error the result does not determine leaves the points it moves not determined.
+  ChainErrors partial = c;
+  partial.axes[1].location[4].reset();
+  ChainPose turned = centre;
+  turned.angles_deg = {0, 30};
+  turned.point_mm = Eigen::Vector3d(100, 0, -60);
+  EXPECT_FALSE(predict_chain_point(partial, order, turned, cov).determined);
+}
+
+// The whole way round: both axes of random A/C trunnions measured with the exact two-ball
+// geometry (C with A at 0: its real line turned by A's), identified, combined by chain (its JSON
+// read back as the command line reads it) and predicted at random poses of the C table: the true
+// error lies within U at the coverage probability. Pooled over 100 machines of 10 poses each; the
+// poses of one machine share its chain's error, so the binomial error is taken as that of 200
+// independent ones.
+TEST(PredictChain, IntervalsCoverTheTrueErrorAtTheirNominalRate) {
+  const Design da =
+      io::read_design_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/a-c-trunnion-A.json");
+  const Design dc =
+      io::read_design_file(std::string(DBBKIT_SOURCE_DIR) + "/designs/a-c-trunnion-C.json");
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const int machines = 100, poses = 10;
+  int inside = 0, total = 0;
+  for (int t = 0; t < machines; ++t) {
+    const std::array<double, 5> la = {20 * u(rng), 20 * u(rng), 30 * u(rng), 30 * u(rng),
+                                      30 * u(rng)},
+                                lc = {20 * u(rng), 20 * u(rng), 30 * u(rng), 30 * u(rng),
+                                      30 * u(rng)};
+    const TrueChain truth = true_chain(la, lc);
+    const std::vector<double> zero(truth.m.rotary.size(), 0.0);
+    // What each test sees, in its own frame (from its preset, the axis' nominal point): A's line;
+    // C's line as A's real turn at 0 puts it.
+    const Eigen::Vector3d oa = truth.m.point_at(truth.ia, zero),
+                          oc = truth.m.point_at(truth.ic, zero);
+    RealLine seen_a = truth.A, seen_c = truth.C;
+    seen_a.point -= oa;
+    seen_c.point = turn(truth.A, 0, truth.C.point) - oc;
+    seen_c.direction = Eigen::AngleAxisd(truth.A.zero_rad, truth.A.direction) * truth.C.direction;
+    const io::ResultFile ra = measured(da, real_readings(da, seen_a, 1.25, rng));
+    const io::ResultFile rc = measured(dc, real_readings(dc, seen_c, 1.25, rng));
+    const ChainResult chain =
+        chain_machine(truth.m, {io::chain_input(truth.m, ra), io::chain_input(truth.m, rc)});
+    const io::ChainFile f =
+        io::chain_from_text(io::dump_json(io::chain_to_json(chain, truth.m, "m.json")), "M.json");
+    const io::ChainPredictResult p = [&] {
+      std::vector<ChainPose> asked;
+      for (int i = 0; i < poses; ++i) {
+        ChainPose pose;
+        pose.angles_deg = {60 * u(rng) + 30, 180 * u(rng) + 180};
+        pose.point_mm = Eigen::Vector3d(150 * u(rng), 150 * u(rng), -60 + 60 * (u(rng) + 1));
+        asked.push_back(pose);
+      }
+      return io::predict_chain(f, asked, 0.95);
+    }();
+    for (const ChainPointPrediction& x : p.points) {
+      ASSERT_TRUE(x.determined);
+      const Eigen::Vector3d nominal =
+          truth.m.body_point_at(truth.ic, x.pose.point_mm, x.pose.angles_deg);
+      const Eigen::Vector3d error =
+          1e3 * (truth.at(x.pose.angles_deg[0], x.pose.angles_deg[1], x.pose.point_mm) - nominal);
+      inside += (x.error_um - error).norm() <= x.U_um;
+      ++total;
+    }
+  }
+  const double rate = inside / double(total);
+  const double se = std::sqrt(0.95 * 0.05 / (2.0 * machines));
+  std::printf("%d of %d true errors within U (%.4f)\n", inside, total, rate);
+  EXPECT_NEAR(rate, 0.95, 3 * se);
+}
+
+// The command line with a machine result: the poses' columns by the chain's letters, the JSON
+// predict --out writes; what it cannot take is refused naming the option, line or key (exit 2).
+TEST(PredictChainCli, PredictsAMachineResultAndRefusesWhatItCannotUse) {
+  namespace fs = std::filesystem;
+  const fs::path dir =
+      fs::temp_directory_path() / ("dbbkit_predict_chain_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string src = DBBKIT_SOURCE_DIR, d = dir.string();
+  auto cli = [&](const std::string& args) {
+    return run_cli_shell("cd " + d + " && " + DBBKIT_CLI + " " + args);
+  };
+  for (const char* a : {"A", "C"}) {
+    const std::string design = src + "/designs/a-c-trunnion-" + a + ".json";
+    ASSERT_EQ(cli("simulate --design " + design + " --truth " + src +
+                  "/tests/data/truth_a_c_trunnion_" + a + ".json --out " + a + ".csv")
+                  .status,
+              0);
+    ASSERT_EQ(
+        cli("identify --design " + design + " --data " + a + ".csv --out " + a + ".json --quiet")
+            .status,
+        0);
+  }
+  ASSERT_EQ(cli("chain --machine " + src +
+                "/designs/machines/a-c-trunnion.json A.json C.json --out M.json --quiet")
+                .status,
+            0);
+  const std::string poses = src + "/tests/data/poses_a_c_trunnion.csv";
+  const CliRun ok = cli("predict --result M.json --at " + poses + " --out p.json");
+  ASSERT_EQ(ok.status, 0) << ok.err;
+  EXPECT_NE(ok.out.find("a workpiece's point on the C table"), std::string::npos) << ok.out;
+  const nlohmann::json j = nlohmann::json::parse(slurp(d + "/p.json"));
+  EXPECT_EQ(j["format"], "dbbkit.predict/1");
+  EXPECT_EQ(j["basis"], "location");
+  ASSERT_EQ(j["points"].size(), 5u);
+  EXPECT_EQ(j["points"][1]["angles_deg"]["A"], 90.0);
+  EXPECT_NEAR(j["points"][1]["error_um"][1].get<double>(), 20, 3);  // Y0A: 20 um at A 90
+  EXPECT_NEAR(j["points"][1]["error_um"][2].get<double>(), -20, 3);
+  EXPECT_TRUE(j["inputs"].contains("result_sha256"));
+  auto refused = [&](const std::string& args, const std::string& says) {
+    const CliRun r = cli(args);
+    EXPECT_EQ(r.status, 2) << args << "\n" << r.out << r.err;
+    EXPECT_NE(r.err.find(says), std::string::npos) << args << "\n" << r.err;
+  };
+  refused("predict --result M.json --grid-radius-mm 0,100", "--grid-radius-mm");
+  refused("predict --result M.json --at " + poses + " --report r.html", "--report");
+  refused("predict --result M.json --at " + poses + " --location-only", "--location-only");
+  EXPECT_FALSE(fs::exists(d + "/r.html"));
+  {
+    std::ofstream(d + "/single.csv") << "angle_deg,x_mm,y_mm,z_mm\n0,100,0,-60\n";
+    std::ofstream(d + "/far.csv") << "A_deg,C_deg,x_mm,y_mm,z_mm\n0,0,100,0,20000\n";
+    std::ofstream(d + "/missing.csv") << "A_deg,x_mm,y_mm,z_mm\n0,100,0,-60\n";
+  }
+  refused("predict --result M.json --at single.csv",
+          "single.csv: line 1: unknown column 'angle_deg'");
+  refused("predict --result M.json --at far.csv", "far.csv: line 2, column z_mm");
+  refused("predict --result M.json --at missing.csv", "'C_deg' is missing");
+  // Axes that are not one chain on one side: A made a head, C no longer on it.
+  nlohmann::json mixed = nlohmann::json::parse(slurp(d + "/M.json"));
+  for (nlohmann::json& a : mixed["axes"]) {
+    if (a["letter"] == "A") a["side"] = "head";
+    if (a["letter"] == "C") a.erase("on");
+  }
+  std::ofstream(d + "/mixed.json") << mixed.dump();
+  const CliRun m = cli("predict --result mixed.json --at " + poses);
+  if (m.status == 2 && m.err.find("mixed.json: axes") != std::string::npos) {
+    EXPECT_NE(m.err.find("not one chain on one side"), std::string::npos) << m.err;
+  } else {
+    ADD_FAILURE() << "a table and a head axis: expected the axes refused, got " << m.status << "\n"
+                  << m.err;
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace predict_test

@@ -179,11 +179,11 @@ TEST(Verify, ARightResultFailsAtTheNominalRate) {
 }
 
 // A test's readings predicted before it is run (predict --design) lie within U at the coverage
-// probability: each test's own constant parts at zero (its cups and its readings' zero as its
-// design has them, what the prediction assumes), its declared set-up drawn, the same machines
-// (exact geometry) as above. Pooled over the readings of 150 machines per kind; the readings of
-// one machine share the result's error, so the binomial error is that of 150 x (readings / 10)
-// independent ones (a bound found wide enough by the spread between seeds).
+// probability: the test run on the result's preset (the same constant parts of the motions, a
+// translation of up to 15 um and a tilt of up to 20 urad at every angle), its declared set-up
+// drawn, the same machines (exact geometry) as above. Pooled over the readings of 150 machines per
+// kind; the readings of one machine share the result's error, so the binomial error is that of 150
+// x (readings / 10) independent ones (a bound found wide enough by the spread between seeds).
 TEST(Verify, PredictedReadingsCoverWhatIsReadAtTheirNominalRate) {
   const int n = 150;
   for (const Kind& k : kinds()) {
@@ -191,9 +191,9 @@ TEST(Verify, PredictedReadingsCoverWhatIsReadAtTheirNominalRate) {
     long inside = 0, total = 0;
     for (int t = 0; t < n; ++t) {
       const TrueMachine m = machine(k.fitted.axis, k.components, rng);
-      const io::ResultFile r =
-          identified(k.fitted, readings(k.fitted, m, constants(k.fitted.axis, rng), rng));
-      const std::vector<Reading> test = readings(k.held_out, m, Constants{}, rng);
+      const Constants preset = constants(k.fitted.axis, rng);
+      const io::ResultFile r = identified(k.fitted, readings(k.fitted, m, preset, rng));
+      const std::vector<Reading> test = readings(k.held_out, m, preset, rng);
       const io::TestPrediction p = io::predict_test(r, k.held_out, "k.json", 0.95);
       ASSERT_EQ(p.p.readings.size(), test.size());
       if (t == 0) {  // verify states each reading as the instrument read it (its count included)
@@ -409,6 +409,18 @@ TEST(VerifyCli, PassesFailsAndRefusesWhatItCannotCheck) {
     EXPECT_GT(q["std_um"].get<double>(), 0);
     EXPECT_NEAR(q["U_um"].get<double>(), kp["k"].get<double>() * q["std_um"].get<double>(), 1e-5);
   }
+  for (const nlohmann::json& q : kp["readings"]) EXPECT_FALSE(q["return"].get<bool>());
+  // With the sweep's return reading: one more per installation, marked.
+  nlohmann::json with_return = nlohmann::json::parse(slurp(K));
+  with_return["return_reading"] = true;
+  std::ofstream(d + "/kr.json") << with_return.dump();
+  const CliRun returns = cli("predict --result a.json --design kr.json --out kpr.json");
+  ASSERT_EQ(returns.status, 0) << returns.err;
+  EXPECT_NE(returns.out.find("A -30 deg (return): "), std::string::npos) << returns.out;
+  const nlohmann::json kpr = nlohmann::json::parse(slurp(d + "/kpr.json"));
+  ASSERT_EQ(kpr["readings"].size(), 70u);
+  EXPECT_TRUE(kpr["readings"][9]["return"].get<bool>());
+  EXPECT_FALSE(kpr["readings"][8]["return"].get<bool>());
   const CliRun before_other_axis = cli("predict --result a.json --design " + C);
   EXPECT_EQ(before_other_axis.status, 2);
   EXPECT_NE(before_other_axis.err.find("paper-c-turntable.json: axis:"), std::string::npos)

@@ -53,8 +53,15 @@ struct AxisErrors {
     Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
     // The covariance of the six motions themselves (constant parts included), where stated.
     std::optional<Eigen::Matrix<double, 6, 6>> errors_covariance;
+    // The six motions themselves (the result's `errors` at this angle: constant parts included),
+    // where all six are stated.
+    std::optional<Eigen::Matrix<double, 6, 1>> errors;
   };
   std::vector<AtAngle> measured;
+  // The motions' constant parts (iso230.constant_parts: d0 x, y, z um, e0 along the frame's p1
+  // and p2 urad) and their standard deviations, where all five are determined.
+  std::optional<Eigen::Matrix<double, 5, 1>> constants;
+  Eigen::Matrix<double, 5, 1> constants_std = Eigen::Matrix<double, 5, 1>::Zero();
   // Angles whose component motions the result states without the motions' covariance.
   std::vector<double> measured_without_covariance;
   std::optional<double> dof;  // effective degrees of freedom (Type A); absent: Gaussian
@@ -127,6 +134,53 @@ std::optional<Eigen::Matrix<double, 5, 1>> location_values(const AxisErrors& axi
 bool same_angle(const AxisFrame& axis, double a_deg, double b_deg);
 // The angle the result measured (with the motions' covariance) that is this one, or nullptr.
 const AxisErrors::AtAngle* measured_at(const AxisErrors& axis, double angle_deg);
+
+// A machine result (chain.hpp; `dbbkit chain --out`): every rotary axis' line as the controller
+// holds it, moved by its location errors, each in its carrier's body. The location errors alone:
+// a chain states no component error motions.
+struct ChainErrors {
+  struct Axis {
+    char letter = 'C';
+    bool table = true;
+    int on = -1;  // the index in `axes` of the axis that carries this one; -1: the machine's frame
+    Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();  // the nominal line (machine frame at zero)
+    Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();
+    std::array<std::optional<double>, 5> location;  // two offsets (um), two tilts, the zero (urad)
+    // Each location error's direction: the offsets' and the tilts' rotation axes (machine frame),
+    // the zero error's rotation axis (the axis' own direction, or its opposite).
+    std::array<Eigen::Vector3d, 5> vector{};
+  };
+  std::vector<Axis> axes;
+  Eigen::MatrixXd covariance;  // of the location errors, 5 per axis in axes' order (um, urad)
+};
+
+// A pose of a machine: every rotary axis' commanded angle (in `axes`' order) and a point fixed to
+// the innermost body (the axis that carries no other: on a table the workpiece's point, on a head
+// the tool tip), given where it is with every axis at zero (machine frame, mm).
+struct ChainPose {
+  std::vector<double> angles_deg;
+  Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();
+};
+
+struct ChainPointPrediction {
+  ChainPose pose;
+  bool determined = true;  // false: a location error it moves with is not determined
+  Eigen::Vector3d nominal_mm = Eigen::Vector3d::Zero();  // where the controller's model puts it
+  // The point's true minus nominal position (machine frame, um): each axis turned about its real
+  // line (exact rotations: T_1 ... T_n x, the innermost first), its covariance to first order
+  // (central differences of 1e-3 um and urad) from the chain's, and its length uncertainty.
+  Eigen::Vector3d error_um = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  double U_um = 0;
+};
+
+// The axes' order from the innermost body outwards, when they form one chain on one side (every
+// axis but the outermost carried by the next): otherwise empty.
+std::vector<int> chain_order(const ChainErrors& chain);
+
+// `order`: chain_order(chain), not empty.
+ChainPointPrediction predict_chain_point(const ChainErrors& chain, const std::vector<int>& order,
+                                         const ChainPose& pose, const PredictionCoverage& coverage);
 
 // The prediction at one pose. An angle is a measured one when it equals it within 1e-9 deg (on a
 // full turn, or differs from it by whole turns). `location_only`: the location errors alone at

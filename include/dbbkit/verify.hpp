@@ -116,7 +116,8 @@ struct Verification {
 // AtAngle::covariance: nothing of the prediction is fitted, so a series result predicts its
 // measured angles' motions too, as predict does a point).
 struct PredictedReading {
-  Reading reading;  // installation, angle, count (its value unused)
+  Reading reading;         // installation, angle (its value unused)
+  bool is_return = false;  // the sweep's return reading (the design's return_reading)
   PredictionBasis basis = PredictionBasis::kLocationOnly;
   double predicted_um = 0;  // as the instrument will read it (its count: reading_sign)
   double std_um = 0;        // of the reading about it (k = 1)

@@ -99,6 +99,29 @@ Runner add_predict(CLI::App& app) {
     io::OutputSet outputs(targets, {args->result, args->at});
     // Read once (a pipe gives its bytes once): parsed and hashed from the same text.
     const std::string text = io::read_json_file(args->result);
+    if (io::is_chain_text(text)) {  // a machine result: its chain at each pose
+      if (args->at.empty())
+        throw InputError(args->grid.given() ? "--grid-radius-mm" : "--at", "",
+                         "a machine result is predicted at poses (--at FILE: each axis' angle "
+                         "and a point), not over a map");
+      if (!args->report.empty() || !args->summary.empty() || args->location_only)
+        throw InputError(!args->report.empty()    ? "--report"
+                         : !args->summary.empty() ? "--summary"
+                                                  : "--location-only",
+                         "", "not for a machine result (its location errors alone: --out)");
+      const io::ChainFile f = io::chain_from_text(text, args->result);
+      const ChainErrors chain = io::chain_errors_of(f);
+      const std::vector<ChainPose> poses =
+          io::parse_chain_poses(io::read_text_file(args->at), args->at, chain);
+      io::ChainPredictResult p = io::predict_chain(f, poses, args->coverage);
+      p.poses_source = args->at;
+      p.result_sha256 = io::sha256_hex(text);
+      if (!args->out.empty())
+        outputs.stage("--out", io::dump_json(io::chain_prediction_to_json(p)) + "\n");
+      outputs.commit();
+      if (args->out != "-" && !args->quiet) std::cout << io::chain_prediction_text(p);
+      return 0;
+    }
     const io::ResultFile r = io::result_from_text(text, args->result);
     std::vector<Pose> poses;
     std::optional<EnvelopeGrid> grid;

@@ -80,14 +80,16 @@ void check_pose(const Pose& p, const AxisFrame& axis, const std::string& source,
   }
 }
 
-std::vector<Pose> parse_poses(const std::string& text, const std::string& source,
-                              const AxisFrame& axis) {
+void for_each_pose_row(const std::string& text, const std::string& source,
+                       const std::vector<std::string>& names, const std::string& expected,
+                       const std::function<void(const std::function<double(const std::string&)>&,
+                                                const std::string&)>& row) {
   std::istringstream in(csv::lf_lines(text));
   std::string raw;
   int line_no = 0;
   std::vector<std::string> header;
   std::map<std::string, int> col;
-  std::vector<Pose> poses;
+  std::size_t rows = 0;
   while (std::getline(in, raw)) {
     ++line_no;
     if (line_no == 1 && raw.size() >= 3 && raw.compare(0, 3, "\xEF\xBB\xBF") == 0) raw.erase(0, 3);
@@ -99,40 +101,56 @@ std::vector<Pose> parse_poses(const std::string& text, const std::string& source
     if (header.empty()) {
       header = cells;
       for (std::size_t i = 0; i < header.size(); ++i) {
-        if (std::find(kPoseColumns.begin(), kPoseColumns.end(), header[i]) == kPoseColumns.end())
-          throw InputError(source, where,
-                           "unknown column " + quote_value(header[i]) +
-                               " (expected angle_deg, x_mm, y_mm, z_mm: a point fixed to the "
-                               "body that turns, body frame, from the axis frame's origin)");
+        if (std::find(names.begin(), names.end(), header[i]) == names.end())
+          throw InputError(
+              source, where,
+              "unknown column " + quote_value(header[i]) + " (expected " + expected + ")");
         if (!col.emplace(header[i], static_cast<int>(i)).second)
           throw InputError(source, where, "column " + quote_value(header[i]) + " appears twice");
       }
-      for (const char* c : kPoseColumns)
+      for (const std::string& c : names)
         if (!col.count(c))
-          throw InputError(source, where, std::string("required column '") + c + "' is missing");
+          throw InputError(source, where, "required column '" + c + "' is missing");
       continue;
     }
     if (cells.size() != header.size())
       throw InputError(source, where,
                        "expected " + std::to_string(header.size()) + " fields, found " +
                            std::to_string(cells.size()));
-    if (poses.size() >= limits::kMaxPoses)
+    if (rows >= limits::kMaxPoses)
       throw InputError(source, where,
                        "more than " + std::to_string(limits::kMaxPoses) + " poses in one file");
-    auto number = [&](const char* name) {
-      return csv::Cell{source, line_no, name, cells[static_cast<std::size_t>(col.at(name))]}
-          .number();
-    };
-    Pose p;
-    p.angle_deg = number("angle_deg");
-    for (int k = 0; k < 3; ++k)
-      p.point_mm(k) = number(kPoseColumns[static_cast<std::size_t>(k + 1)]);
-    check_pose(p, axis, source, where + ", column ");
-    poses.push_back(p);
+    ++rows;
+    row(
+        [&](const std::string& name) {
+          return csv::Cell{source, line_no, name, cells[static_cast<std::size_t>(col.at(name))]}
+              .number();
+        },
+        where);
   }
-  if (header.empty())
-    throw InputError(source, "line 1", "empty: expected the header angle_deg,x_mm,y_mm,z_mm");
-  if (poses.empty()) throw InputError(source, "line " + std::to_string(line_no), "no pose");
+  if (header.empty()) {
+    std::string joined;
+    for (const std::string& n : names) joined += (joined.empty() ? "" : ",") + n;
+    throw InputError(source, "line 1", "empty: expected the header " + joined);
+  }
+  if (rows == 0) throw InputError(source, "line " + std::to_string(line_no), "no pose");
+}
+
+std::vector<Pose> parse_poses(const std::string& text, const std::string& source,
+                              const AxisFrame& axis) {
+  std::vector<Pose> poses;
+  for_each_pose_row(
+      text, source, {kPoseColumns.begin(), kPoseColumns.end()},
+      "angle_deg, x_mm, y_mm, z_mm: a point fixed to the body that turns, body frame, from the "
+      "axis frame's origin",
+      [&](const std::function<double(const std::string&)>& number, const std::string& where) {
+        Pose p;
+        p.angle_deg = number("angle_deg");
+        for (int k = 0; k < 3; ++k)
+          p.point_mm(k) = number(kPoseColumns[static_cast<std::size_t>(k + 1)]);
+        check_pose(p, axis, source, where + ", column ");
+        poses.push_back(p);
+      });
   return poses;
 }
 
@@ -260,7 +278,27 @@ AxisErrors axis_errors_of(const ResultFile& result) {
     for (int k = 0; k < 6; ++k) at.component[static_cast<std::size_t>(k)] = *c.motions[k].value;
     at.covariance = *c.motion_covariance;
     at.errors_covariance = c.errors_covariance;
+    for (const ResultErrors& e : result.errors) {
+      if (!same_angle(result.axis, e.angle_deg, c.angle_deg)) continue;
+      if (std::all_of(e.value.begin(), e.value.end(),
+                      [](const auto& v) { return v.has_value(); })) {
+        Eigen::Matrix<double, 6, 1> m;
+        for (int k = 0; k < 6; ++k) m(k) = *e.value[static_cast<std::size_t>(k)];
+        at.errors = m;
+      }
+      break;
+    }
     a.measured.push_back(at);
+  }
+  if (result.constants.size() == 5 &&
+      std::all_of(result.constants.begin(), result.constants.end(),
+                  [](const ResultQuantity& q) { return q.value && q.std; })) {
+    Eigen::Matrix<double, 5, 1> k;
+    for (int q = 0; q < 5; ++q) {
+      k(q) = *result.constants[static_cast<std::size_t>(q)].value;
+      a.constants_std(q) = *result.constants[static_cast<std::size_t>(q)].std;
+    }
+    a.constants = k;
   }
   a.dof = result.dof;
   a.independent_between_angles = result.independent_between_angles;

@@ -300,12 +300,13 @@ TestPrediction predict_test(const ResultFile& result, const Design& design,
 namespace {
 
 const char* const kTestPredictionMethod =
-    "each reading of the test predicted from the result before it is run: the location errors "
-    "and, at an angle the result measured, the component error motions, less their constant "
-    "parts; the test's own constant parts (its cups and its readings' zero) at zero, as its design "
-    "has them (verify fits them to what is read); std: of the reading about the prediction when "
-    "the result is right (the test's reading noise, the result's uncertainty, the test's declared "
-    "set-up); U = k std";
+    "each reading of the test predicted from the result before it is run, the test run on the "
+    "result's preset (the motions' constant parts, where the readings' zero was taken, the "
+    "result's; verify fits them to what is read): at an angle the result measured the six "
+    "motions it found there, elsewhere the location errors' part and the constant parts (the "
+    "component motions there unknown: not in the prediction nor in U); the test's cups as its "
+    "design has them; std: of the reading about the prediction when the result is right (the "
+    "test's reading noise, the result's uncertainty, the test's declared set-up); U = k std";
 
 }  // namespace
 
@@ -315,6 +316,7 @@ json test_prediction_to_json(const TestPrediction& t) {
   for (const PredictedReading& r : p.readings)
     readings.push_back({{"installation", r.reading.installation},
                         {"angle_deg", r.reading.angle_deg},
+                        {"return", r.is_return},
                         {"predicted_um", r6(r.predicted_um)},
                         {"std_um", r6(r.std_um)},
                         {"U_um", r6(t.k * r.std_um)},
@@ -356,20 +358,21 @@ std::string test_prediction_text(const TestPrediction& t) {
          "motions are not in U\n";
   else if (location_only > 0)
     s << "at " << location_only << " of the test's " << p.angles
-      << " angles the result measured no motions (marked *): the location errors alone predict "
-         "those readings, and the component motions there are not in U\n";
+      << " angles the result measured no motions (marked *): the location errors and the "
+         "constant parts alone predict those readings (their estimates taken as independent), "
+         "and the component motions there are not in the prediction nor in U\n";
   if (!t.location_only && p.angles_without_covariance > 0)
     s << "at " << p.angles_without_covariance << " of the test's " << p.angles
-      << " angles (marked *) the result states its motions without their covariance (an earlier "
-         "version, or diagnose's shares of equivalent effects): the location errors alone predict "
-         "them, the component motions are not in U\n";
+      << " angles (marked *) the result states its motions, or their covariance, not in full (an "
+         "earlier version, or diagnose's shares of equivalent effects): the location errors and "
+         "the constant parts alone predict them, the component motions are not in U\n";
   if (!t.location_only && p.angles_motions_correlated > 0)
     s << "at " << p.angles_motions_correlated
       << " angles (marked *) the result's motions are correlated between angles and no such "
          "covariance is stated: the location errors alone predict them, the component motions "
          "are not in U\n";
-  s << "the test's own constant parts (its cups and its readings' zero) as its design has them: "
-       "verify fits them to what is read; U at "
+  s << "the test run on the result's preset (the motions' constant parts the result's: verify "
+       "fits them to what is read), its cups as its design has them; U at "
     << fmt_num(100 * p.coverage_probability, 4) << " % (k = " << fmt_num(t.k, 3)
     << "): the test's reading noise (" << fmt_num(p.noise_std_um, 3)
     << " um), the result's uncertainty and the test's declared set-up";
@@ -382,9 +385,9 @@ std::string test_prediction_text(const TestPrediction& t) {
       s << "installation " << terminal_text(installation) << " (um):\n";
     }
     const std::string value = fmt_rounded(r.predicted_um, 2);
-    s << "  " << t.letter << " " << angle_text(r.reading.angle_deg)
-      << " deg: " << (value[0] != '-' && value != "0" ? "+" : "") << value << " +- "
-      << fmt_rounded(t.k * r.std_um, 2)
+    s << "  " << t.letter << " " << angle_text(r.reading.angle_deg) << " deg"
+      << (r.is_return ? " (return)" : "") << ": " << (value[0] != '-' && value != "0" ? "+" : "")
+      << value << " +- " << fmt_rounded(t.k * r.std_um, 2)
       << (r.basis == PredictionBasis::kLocationOnly && !t.location_only ? " *" : "") << "\n";
   }
   return s.str();

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iomanip>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -1764,11 +1765,11 @@ PYBIND11_MODULE(dbbkit, m) {
       "distance and squareness between their lines, with U; the dict `chain --out` writes");
   m.def(
       "predict",
-      [result_of, result_sha](py::handle result, py::handle at, double coverage, bool location_only,
-                              std::optional<std::vector<double>> radii_mm,
-                              std::optional<std::vector<double>> heights_mm, py::handle around,
-                              std::optional<std::vector<double>> angles_deg,
-                              const std::optional<PyDesign>& design) {
+      [result_of, result_sha, json_text](
+          py::handle result, py::handle at, double coverage, bool location_only,
+          std::optional<std::vector<double>> radii_mm,
+          std::optional<std::vector<double>> heights_mm, py::handle around,
+          std::optional<std::vector<double>> angles_deg, const std::optional<PyDesign>& design) {
         check_finite_in("coverage", coverage, limits::kMinCoverage, limits::kMaxCoverage);
         if (design) {  // a test's readings before it is run, as predict --design
           if (!at.is_none() || radii_mm)
@@ -1779,6 +1780,58 @@ PYBIND11_MODULE(dbbkit, m) {
                                                   design->source, coverage, location_only);
           t.result_sha256 = result_sha(result);
           return to_python(io::test_prediction_to_json(t));
+        }
+        // A machine result (a path or its JSON text): its chain at poses, as predict --result
+        // M.json.
+        std::optional<std::string> text = json_text(result);
+        if (!text)
+          if (const auto path = as_path(result)) {
+            const std::string read = io::read_json_file(*path);
+            if (io::is_chain_text(read)) text = read;
+          }
+        if (text && io::is_chain_text(*text)) {
+          if (at.is_none() || radii_mm || design || location_only)
+            throw InputError("at", "",
+                             "a machine result is predicted at poses (at: a CSV's path or rows "
+                             "[one angle per axis, x_mm, y_mm, z_mm]) alone");
+          const std::string source =
+              as_path(result) && !json_text(result) ? *as_path(result) : std::string("result");
+          const io::ChainFile f = io::chain_from_text(*text, source);
+          const ChainErrors chain = io::chain_errors_of(f);
+          std::vector<ChainPose> poses;
+          std::string poses_source = "at";
+          if (const auto path = as_path(at)) {
+            poses = io::parse_chain_poses(io::read_text_file(*path), *path, chain);
+            poses_source = *path;
+          } else {
+            const auto rows = py::cast<std::vector<std::vector<double>>>(at);
+            if (rows.empty()) throw InputError("at", "", "no pose");
+            if (rows.size() > limits::kMaxPoses)
+              throw InputError("at", "",
+                               "more than " + std::to_string(limits::kMaxPoses) + " poses");
+            std::string csv;
+            for (const ChainErrors::Axis& a : chain.axes) csv += std::string(1, a.letter) + "_deg,";
+            csv += "x_mm,y_mm,z_mm\n";
+            for (std::size_t i = 0; i < rows.size(); ++i) {
+              if (rows[i].size() != chain.axes.size() + 3)
+                throw InputError("at", "at[" + std::to_string(i) + "]",
+                                 "expected " + std::to_string(chain.axes.size() + 3) +
+                                     " numbers: one angle per axis, x_mm, y_mm, z_mm");
+              for (std::size_t c = 0; c < rows[i].size(); ++c) {
+                if (!std::isfinite(rows[i][c]))
+                  throw InputError("at", "at[" + std::to_string(i) + "]", "not a finite number");
+                std::ostringstream cell;
+                cell << std::setprecision(17) << rows[i][c];
+                csv += (c ? "," : "") + cell.str();
+              }
+              csv += "\n";
+            }
+            poses = io::parse_chain_poses(csv, "at", chain);
+          }
+          io::ChainPredictResult p = io::predict_chain(f, poses, coverage);
+          p.poses_source = poses_source;
+          p.result_sha256 = io::sha256_hex(*text);
+          return to_python(io::chain_prediction_to_json(p));
         }
         const std::optional<io::GridRequest> request =
             grid_request(radii_mm, heights_mm, around, angles_deg);

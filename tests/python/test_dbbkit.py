@@ -163,6 +163,39 @@ class RoundTrips(InSource):
                 dbbkit.predict(a, at=[[0, 100, 0, 0]], design=k)
             self.assertIn("one of them", str(ctx.exception))
 
+    def test_predict_a_machine_result_as_the_command_line(self):
+        # The A/C trunnion's chain at poses: the CSV or rows [A_deg, C_deg, x, y, z]; the dict
+        # predict --out writes.
+        with tempfile.TemporaryDirectory() as tmp:
+            results = []
+            for a in ("A", "C"):
+                design = f"designs/a-c-trunnion-{a}.json"
+                csv, out = os.path.join(tmp, a + ".csv"), os.path.join(tmp, a + ".json")
+                subprocess.run([CLI, "simulate", "--design", design, "--truth",
+                                f"tests/data/truth_a_c_trunnion_{a}.json", "--out", csv],
+                               cwd=SOURCE, check=True, capture_output=True)
+                subprocess.run([CLI, "identify", "--design", design, "--data", csv, "--out", out,
+                                "--quiet"], cwd=SOURCE, check=True, capture_output=True)
+                results.append(out)
+            m = os.path.join(tmp, "M.json")
+            subprocess.run([CLI, "chain", "--machine", "designs/machines/a-c-trunnion.json", *results,
+                            "--out", m, "--quiet"], cwd=SOURCE, check=True, capture_output=True)
+            poses = "tests/data/poses_a_c_trunnion.csv"
+            got = dbbkit.predict(m, at=os.path.join(SOURCE, poses))
+            cli = cli_json("predict", "--result", m, "--at", poses)
+            self.assertEqual(got["inputs"]["poses"], os.path.join(SOURCE, poses))
+            got["inputs"]["poses"] = poses
+            self.assertEqual(got, cli)
+            rows = dbbkit.predict(m, at=[[90, 0, 100, 0, -60]])
+            self.assertEqual(rows["points"][0]["error_um"], got["points"][1]["error_um"])
+            with open(m) as f:
+                text = f.read()
+            self.assertEqual(dbbkit.predict(text, at=[[90, 0, 100, 0, -60]])["points"],
+                             rows["points"])
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.predict(m, at=[[90, 100, 0, -60]])
+            self.assertIn("expected 5 numbers", str(ctx.exception))
+
     def test_predict_as_the_command_line(self):
         # The poses' CSV or rows; the dict predict --out writes; bad rows name their place.
         d = dbbkit.Design(PAPER_C)

@@ -2,11 +2,13 @@
 // `dbbkit predict`: the poses a user asks about (a CSV file), one axis' errors as a result states
 // them, and the predictions (predict.hpp) as JSON (dbbkit.predict/1) and as text.
 
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "dbbkit/io/chain_io.hpp"
 #include "dbbkit/io/result_read.hpp"
 #include "dbbkit/predict.hpp"
 
@@ -20,6 +22,13 @@ inline constexpr const char* kPredictFormat = "dbbkit.predict/1";
 std::vector<Pose> parse_poses(const std::string& text, const std::string& source,
                               const AxisFrame& axis);
 std::vector<Pose> read_poses_file(const std::string& path, const AxisFrame& axis);
+// A poses CSV's rows (either kind): the header exactly `names` in any order (`expected` says
+// them in a refusal), then `row(number, where)` for each row, number(column) its cell's value.
+// InputError naming the line and column otherwise; at most limits::kMaxPoses rows, at least one.
+void for_each_pose_row(const std::string& text, const std::string& source,
+                       const std::vector<std::string>& names, const std::string& expected,
+                       const std::function<void(const std::function<double(const std::string&)>&,
+                                                const std::string&)>& row);
 // One pose's checks (the angle within the travel, the point within the length limit); the key
 // is `where` followed by the column's name.
 void check_pose(const Pose& p, const AxisFrame& axis, const std::string& source,
@@ -77,5 +86,31 @@ nlohmann::json prediction_to_json(const PredictResult& p);
 // `rows`: a line per point (a map over a grid gives its largest errors alone; every point is in
 // the JSON).
 std::string prediction_text(const PredictResult& p, bool rows = true);
+
+// A machine result (`dbbkit chain --out`): the poses and the predictions of its chain
+// (predict_chain_point).
+struct ChainPredictResult {
+  std::string result_source, result_sha256, poses_source, machine_name;
+  ChainErrors chain;
+  std::vector<int> order;  // chain_order: the innermost body first
+  PredictionCoverage coverage;
+  std::vector<ChainPointPrediction> points;
+  std::vector<std::string> warnings;  // the machine result's, carried
+};
+
+// The chain's errors as a prediction takes them. InputError naming the machine result's key
+// where its axes are not one chain on one side (a table and a head: the tool tip against the
+// workpiece needs the tool's place in the head, which a machine result does not hold).
+ChainErrors chain_errors_of(const ChainFile& f);
+// <L>_deg for each axis of the chain (any order; e.g. A_deg,C_deg), x_mm,y_mm,z_mm: the point
+// fixed to the innermost body, machine frame with every axis at zero, from its origin (mm,
+// within +-limits::kMaxLength_mm); each angle within +-36000 deg. InputError naming the line and
+// column otherwise; at most limits::kMaxPoses rows.
+std::vector<ChainPose> parse_chain_poses(const std::string& text, const std::string& source,
+                                         const ChainErrors& chain);
+ChainPredictResult predict_chain(const ChainFile& f, const std::vector<ChainPose>& poses,
+                                 double coverage_probability);
+nlohmann::json chain_prediction_to_json(const ChainPredictResult& p);
+std::string chain_prediction_text(const ChainPredictResult& p);
 
 }  // namespace dbbkit::io
