@@ -395,6 +395,10 @@ TEST(VerifyCli, PassesFailsAndRefusesWhatItCannotCheck) {
   EXPECT_NE(some.status, 2) << some.err;
   EXPECT_EQ(nlohmann::json::parse(slurp(d + "/s.json"))["angles"], 3);
   EXPECT_EQ(nlohmann::json::parse(slurp(d + "/s.json"))["readings"], 21);
+  EXPECT_NE(some.out.find("Note: 42 of the design's 63 readings are not in the data (by "
+                          "installation: 1a 6,"),
+            std::string::npos)
+      << some.out;
 
   // The test's readings before it is run (predict --design): each of the design's, in its order,
   // with U; what the prediction cannot take is refused as verify refuses it.

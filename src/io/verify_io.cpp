@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <map>
 #include <sstream>
 
 #include "dbbkit/error.hpp"
@@ -100,6 +101,29 @@ VerifyReport verify(const ResultFile& result, const Design& design,
                       result.data_source +
                       "): a result explains the readings it was fitted to; this is no held-out "
                       "check");
+  {  // Readings of the design not given: the check is of those given alone.
+    std::map<std::string, int> missing;
+    std::map<std::pair<std::string, double>, int> given;
+    for (const Reading& x : readings) ++given[{x.installation, x.angle_deg}];
+    std::size_t absent = 0;
+    for (const Reading& x : nominal_readings(design))
+      if (auto it = given.find({x.installation, x.angle_deg});
+          it != given.end() && it->second > 0) {
+        --it->second;
+      } else {
+        ++missing[x.installation];
+        ++absent;
+      }
+    if (absent > 0) {
+      std::string where;
+      for (const auto& [id, count] : missing)
+        where += (where.empty() ? "" : ", ") + id + " " + std::to_string(count);
+      r.notes.push_back(std::to_string(absent) + " of the design's " +
+                        std::to_string(nominal_readings(design).size()) +
+                        " readings are not in the data (by installation: " + where +
+                        "): the check is of the readings given alone");
+    }
+  }
   if (r.v.gap == VerifyGap::kNone && r.v.p_value > 0.999)
     r.notes.push_back(
         "chi-squared lies far below its degrees of freedom (p > 0.999; a right "
