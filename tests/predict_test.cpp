@@ -678,7 +678,7 @@ TEST(PredictChain, IntervalsCoverTheTrueErrorAtTheirNominalRate) {
         pose.point_mm = Eigen::Vector3d(150 * u(rng), 150 * u(rng), -60 + 60 * (u(rng) + 1));
         asked.push_back(pose);
       }
-      return io::predict_chain(f, asked, 0.95);
+      return io::predict_chain(f, io::chain_errors_of(f), asked, 0.95);
     }();
     for (const ChainPointPrediction& x : p.points) {
       ASSERT_TRUE(x.determined);

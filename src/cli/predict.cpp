@@ -113,7 +113,7 @@ Runner add_predict(CLI::App& app) {
       const ChainErrors chain = io::chain_errors_of(f);
       const std::vector<ChainPose> poses =
           io::parse_chain_poses(io::read_text_file(args->at), args->at, chain);
-      io::ChainPredictResult p = io::predict_chain(f, poses, args->coverage);
+      io::ChainPredictResult p = io::predict_chain(f, chain, poses, args->coverage);
       p.poses_source = args->at;
       p.result_sha256 = io::sha256_hex(text);
       if (!args->out.empty())

@@ -4,6 +4,7 @@
 #include <iomanip>
 #include <map>
 #include <sstream>
+#include <utility>
 
 #include "csv_cells.hpp"
 #include "dbbkit/error.hpp"
@@ -87,12 +88,12 @@ std::vector<ChainPose> parse_chain_poses(const std::string& text, const std::str
   return poses;
 }
 
-ChainPredictResult predict_chain(const ChainFile& f, const std::vector<ChainPose>& poses,
-                                 double coverage_probability) {
+ChainPredictResult predict_chain(const ChainFile& f, ChainErrors chain,
+                                 const std::vector<ChainPose>& poses, double coverage_probability) {
   ChainPredictResult r;
   r.result_source = f.source;
   r.machine_name = f.machine_name;
-  r.chain = chain_errors_of(f);
+  r.chain = std::move(chain);
   r.order = chain_order(r.chain);
   r.coverage = prediction_coverage(coverage_probability, std::nullopt);
   r.warnings = f.warnings;

@@ -106,7 +106,8 @@ VerifyReport verify(const ResultFile& result, const Design& design,
     std::map<std::pair<std::string, double>, int> given;
     for (const Reading& x : readings) ++given[{x.installation, x.angle_deg}];
     std::size_t absent = 0;
-    for (const Reading& x : nominal_readings(design))
+    const std::vector<Reading> designed = nominal_readings(design);
+    for (const Reading& x : designed)
       if (auto it = given.find({x.installation, x.angle_deg});
           it != given.end() && it->second > 0) {
         --it->second;
@@ -119,7 +120,7 @@ VerifyReport verify(const ResultFile& result, const Design& design,
       for (const auto& [id, count] : missing)
         where += (where.empty() ? "" : ", ") + id + " " + std::to_string(count);
       r.notes.push_back(std::to_string(absent) + " of the design's " +
-                        std::to_string(nominal_readings(design).size()) +
+                        std::to_string(designed.size()) +
                         " readings are not in the data (by installation: " + where +
                         "): the check is of the readings given alone");
     }
@@ -375,8 +376,9 @@ std::string test_prediction_text(const TestPrediction& t) {
     << terminal_text(t.result_source) << ", the " << t.axis_label << " axis\n";
   for (const std::string& w : t.warnings)
     s << "Warning (the result's; its uncertainties may be too small): " << terminal_text(w) << "\n";
-  const int location_only =
-      p.angles_location_only - p.angles_motions_correlated - p.angles_without_covariance;
+  // Before the run a measured angle's motions need no independence between angles: none is
+  // counted as correlated (predict_test_readings).
+  const int location_only = p.angles_location_only - p.angles_without_covariance;
   if (t.location_only)
     s << "the location errors alone at every angle (--location-only): the component error "
          "motions are not in U\n";
@@ -390,11 +392,6 @@ std::string test_prediction_text(const TestPrediction& t) {
       << " angles (marked *) the result states its motions, or their covariance, not in full (an "
          "earlier version, or diagnose's shares of equivalent effects): the location errors and "
          "the constant parts alone predict them, the component motions are not in U\n";
-  if (!t.location_only && p.angles_motions_correlated > 0)
-    s << "at " << p.angles_motions_correlated
-      << " angles (marked *) the result's motions are correlated between angles and no such "
-         "covariance is stated: the location errors alone predict them, the component motions "
-         "are not in U\n";
   s << "the test run on the result's preset (the motions' constant parts the result's: verify "
        "fits them to what is read), its cups as its design has them; U at "
     << fmt_num(100 * p.coverage_probability, 4) << " % (k = " << fmt_num(t.k, 3)

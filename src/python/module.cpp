@@ -1828,7 +1828,7 @@ PYBIND11_MODULE(dbbkit, m) {
             }
             poses = io::parse_chain_poses(csv, "at", chain);
           }
-          io::ChainPredictResult p = io::predict_chain(f, poses, coverage);
+          io::ChainPredictResult p = io::predict_chain(f, chain, poses, coverage);
           p.poses_source = poses_source;
           p.result_sha256 = io::sha256_hex(*text);
           return to_python(io::chain_prediction_to_json(p));

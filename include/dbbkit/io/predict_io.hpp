@@ -108,8 +108,9 @@ ChainErrors chain_errors_of(const ChainFile& f);
 // column otherwise; at most limits::kMaxPoses rows.
 std::vector<ChainPose> parse_chain_poses(const std::string& text, const std::string& source,
                                          const ChainErrors& chain);
-ChainPredictResult predict_chain(const ChainFile& f, const std::vector<ChainPose>& poses,
-                                 double coverage_probability);
+// `chain`: chain_errors_of(f), as the poses were read against it.
+ChainPredictResult predict_chain(const ChainFile& f, ChainErrors chain,
+                                 const std::vector<ChainPose>& poses, double coverage_probability);
 nlohmann::json chain_prediction_to_json(const ChainPredictResult& p);
 std::string chain_prediction_text(const ChainPredictResult& p);
 
