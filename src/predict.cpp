@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <stdexcept>
 #include <vector>
 
 #include "dbbkit/iso230.hpp"
@@ -278,40 +279,42 @@ EnteringJudgement judge_entering(const AxisErrors& axis, const std::vector<Pose>
   return j;
 }
 
-std::vector<int> chain_order(const ChainErrors& chain) {
+std::optional<ChainOrder> chain_order(const ChainErrors& chain) {
   const int n = static_cast<int>(chain.axes.size());
-  if (n == 0) return {};
+  if (n == 0) return std::nullopt;
   std::vector<int> carried(static_cast<std::size_t>(n), 0);
-  for (const ChainErrors::Axis& a : chain.axes)
+  for (const ChainErrors::Axis& a : chain.axes) {
+    if (a.on < -1 || a.on >= n) return std::nullopt;
     if (a.on >= 0) ++carried[static_cast<std::size_t>(a.on)];
-  int innermost = -1;
+  }
+  ChainOrder order;
   for (int i = 0; i < n; ++i) {
-    if (carried[static_cast<std::size_t>(i)] > 1) return {};  // a fork: two chains
-    if (carried[static_cast<std::size_t>(i)] == 0) {
-      if (innermost >= 0) return {};  // two bodies that carry nothing
-      innermost = i;
+    const ChainErrors::Axis& a = chain.axes[static_cast<std::size_t>(i)];
+    if (carried[static_cast<std::size_t>(i)] > 1) return std::nullopt;  // a fork: two chains
+    if (carried[static_cast<std::size_t>(i)] != 0) continue;
+    std::vector<int>& side = a.table ? order.table : order.head;
+    if (!side.empty()) return std::nullopt;  // two bodies of one side that carry nothing
+    // From the innermost outwards; every link on the same side, at most n of them (no loop).
+    for (int k = i; k >= 0; k = chain.axes[static_cast<std::size_t>(k)].on) {
+      if (static_cast<int>(side.size()) == n ||
+          chain.axes[static_cast<std::size_t>(k)].table != a.table)
+        return std::nullopt;
+      side.push_back(k);
     }
   }
-  std::vector<int> order;
-  for (int i = innermost; i >= 0 && static_cast<int>(order.size()) <= n;
-       i = chain.axes[static_cast<std::size_t>(i)].on)
-    order.push_back(i);
-  if (static_cast<int>(order.size()) != n) return {};
-  for (const int i : order)
-    if (chain.axes[static_cast<std::size_t>(i)].table !=
-        chain.axes[static_cast<std::size_t>(order[0])].table)
-      return {};
+  if (static_cast<int>(order.table.size() + order.head.size()) != n) return std::nullopt;
   return order;
 }
 
 namespace {
 
-// The point at the pose with the location errors e (5 per axis, um and urad): each axis turned
-// about its real line, the innermost first.
-Eigen::Vector3d chain_point_mm(const ChainErrors& chain, const std::vector<int>& order,
-                               const Eigen::VectorXd& e, const ChainPose& pose) {
-  Eigen::Vector3d x = pose.point_mm;
-  for (const int i : order) {
+// A point at the pose with the location errors e (5 per axis, um and urad): each axis of one
+// side turned about its real line, the innermost first.
+Eigen::Vector3d chain_point_mm(const ChainErrors& chain, const std::vector<int>& side,
+                               const Eigen::VectorXd& e, const ChainPose& pose,
+                               const Eigen::Vector3d& point_mm) {
+  Eigen::Vector3d x = point_mm;
+  for (const int i : side) {
     const ChainErrors::Axis& a = chain.axes[static_cast<std::size_t>(i)];
     const Eigen::Index b = 5 * i;
     const Eigen::Vector3d p = a.point_mm + 1e-3 * (e(b) * a.vector[0] + e(b + 1) * a.vector[1]);
@@ -324,9 +327,21 @@ Eigen::Vector3d chain_point_mm(const ChainErrors& chain, const std::vector<int>&
   return x;
 }
 
+// What the prediction is of, at the location errors e (mm): one side, the point where its axes
+// put it; a table and a head, the tool tip's place less the workpiece point's (the linear axes'
+// move, the same for both, left out).
+Eigen::Vector3d chain_place_mm(const ChainErrors& chain, const ChainOrder& order,
+                               const Eigen::VectorXd& e, const ChainPose& pose) {
+  if (!order.both())
+    return chain_point_mm(chain, order.table.empty() ? order.head : order.table, e, pose,
+                          pose.point_mm);
+  return chain_point_mm(chain, order.head, e, pose, *pose.tool_mm) -
+         chain_point_mm(chain, order.table, e, pose, pose.point_mm);
+}
+
 }  // namespace
 
-ChainPointPrediction predict_chain_point(const ChainErrors& chain, const std::vector<int>& order,
+ChainPointPrediction predict_chain_point(const ChainErrors& chain, const ChainOrder& order,
                                          const ChainPose& pose,
                                          const PredictionCoverage& coverage) {
   ChainPointPrediction r;
@@ -339,19 +354,31 @@ ChainPointPrediction predict_chain_point(const ChainErrors& chain, const std::ve
       known[5 * i + q] = chain.axes[i].location[q].has_value();
       e(static_cast<Eigen::Index>(5 * i + q)) = chain.axes[i].location[q].value_or(0.0);
     }
-  r.nominal_mm = chain_point_mm(chain, order, Eigen::VectorXd::Zero(m), pose);
+  if (order.both() != pose.tool_mm.has_value())
+    throw std::invalid_argument(order.both() ? "a table and a head: the pose needs the tool tip"
+                                             : "one side: the pose has no tool tip");
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(m);
+  const std::vector<int>& work = order.table.empty() ? order.head : order.table;
+  r.nominal_mm = chain_point_mm(chain, work, zero, pose, pose.point_mm);
+  const Eigen::Vector3d nominal_place = chain_place_mm(chain, order, zero, pose);
   Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, m);
   constexpr double h = 1e-3;
   for (Eigen::Index c = 0; c < m; ++c) {
     Eigen::VectorXd up = e, down = e;
     up(c) += h, down(c) -= h;
     J.col(c) = 1e3 *
-               (chain_point_mm(chain, order, up, pose) - chain_point_mm(chain, order, down, pose)) /
+               (chain_place_mm(chain, order, up, pose) - chain_place_mm(chain, order, down, pose)) /
                (2 * h);
     if (!known[static_cast<std::size_t>(c)] && J.col(c).norm() > 1e-9) r.determined = false;
   }
   if (!r.determined) return r;
-  r.error_um = 1e3 * (chain_point_mm(chain, order, e, pose) - r.nominal_mm);
+  r.error_um = 1e3 * (chain_place_mm(chain, order, e, pose) - nominal_place);
+  if (order.both()) {
+    r.tool_um = 1e3 * (chain_point_mm(chain, order.head, e, pose, *pose.tool_mm) -
+                       chain_point_mm(chain, order.head, zero, pose, *pose.tool_mm));
+    r.workpiece_um =
+        1e3 * (chain_point_mm(chain, order.table, e, pose, pose.point_mm) - r.nominal_mm);
+  }
   r.covariance = J * chain.covariance * J.transpose();
   r.U_um = length_uncertainty(r.covariance, coverage);
   return r;

@@ -104,7 +104,7 @@ std::optional<HeldOutRows> held_out_rows(const AxisErrors& axis, const Design& d
   Design design = design_in;
   design.errors = ErrorModel{};
   const Parameterisation param(design);
-  HeldOutRows h{build_linear_model(design, param, readings), {}, {}, {}, {}, {}, {}};
+  HeldOutRows h{build_linear_model(design, param, readings), {}, {}, {}, {}, {}, {}, {}};
   const LinearModel& model = h.model;
   const Eigen::Index n = model.J.rows();
   const int stations = param.n_stations();

@@ -154,32 +154,49 @@ struct ChainErrors {
   Eigen::MatrixXd covariance;  // of the location errors, 5 per axis in axes' order (um, urad)
 };
 
-// A pose of a machine: every rotary axis' commanded angle (in `axes`' order) and a point fixed to
-// the innermost body (the axis that carries no other: on a table the workpiece's point, on a head
-// the tool tip), given where it is with every axis at zero (machine frame, mm).
+// A pose of a machine: every rotary axis' commanded angle (in `axes`' order) and the points fixed
+// to its innermost bodies, given where they are with every axis at zero (machine frame, mm). One
+// side alone (table on table, or head on head): `point_mm` is the innermost body's point (on a
+// table the workpiece's, on a head the tool tip). A table and a head: `point_mm` is the
+// workpiece's point on the innermost table, `tool_mm` the tool tip in the innermost head (the
+// linear axes at zero too).
 struct ChainPose {
   std::vector<double> angles_deg;
   Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();
+  std::optional<Eigen::Vector3d> tool_mm;
 };
 
 struct ChainPointPrediction {
   ChainPose pose;
   bool determined = true;  // false: a location error it moves with is not determined
-  Eigen::Vector3d nominal_mm = Eigen::Vector3d::Zero();  // where the controller's model puts it
-  // The point's true minus nominal position (machine frame, um): each axis turned about its real
-  // line (exact rotations: T_1 ... T_n x, the innermost first), its covariance to first order
-  // (central differences of 1e-3 um and urad) from the chain's, and its length uncertainty.
+  // Where the controller's model puts the point (a table and a head: the workpiece's point, where
+  // TCPM brings the tool tip).
+  Eigen::Vector3d nominal_mm = Eigen::Vector3d::Zero();
+  // One side: the point's true minus nominal position (machine frame, um), each axis turned about
+  // its real line (exact rotations: T_1 ... T_n x, the innermost first). A table and a head: the
+  // tool tip's place relative to the workpiece's point, true minus nominal, = the tool tip's
+  // displacement minus the workpiece point's (the linear axes move both alike; they are taken as
+  // exact); its covariance to first order (central differences of 1e-3 um and urad) from the
+  // chain's (the two sides' correlation included), and its length uncertainty.
   Eigen::Vector3d error_um = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   double U_um = 0;
+  // A table and a head: the two displacements whose difference is error_um (um).
+  std::optional<Eigen::Vector3d> tool_um, workpiece_um;
 };
 
-// The axes' order from the innermost body outwards, when they form one chain on one side (every
-// axis but the outermost carried by the next): otherwise empty.
-std::vector<int> chain_order(const ChainErrors& chain);
+// The axes on each side from the innermost body outwards: on each side one chain (every axis but
+// that side's outermost carried by the next one of the same side; the outermost carried by the
+// machine's frame). Either side may be empty, not both.
+struct ChainOrder {
+  std::vector<int> table, head;
+  bool both() const { return !table.empty() && !head.empty(); }
+};
+// Nothing where the axes are not so (a fork: two axes on one carrier; a head carried by a table).
+std::optional<ChainOrder> chain_order(const ChainErrors& chain);
 
-// `order`: chain_order(chain), not empty.
-ChainPointPrediction predict_chain_point(const ChainErrors& chain, const std::vector<int>& order,
+// `order`: chain_order(chain). `pose.tool_mm` is given exactly where order.both().
+ChainPointPrediction predict_chain_point(const ChainErrors& chain, const ChainOrder& order,
                                          const ChainPose& pose, const PredictionCoverage& coverage);
 
 // The prediction at one pose. An angle is a measured one when it equals it within 1e-9 deg (on a

@@ -38,34 +38,43 @@ ChainErrors chain_errors_of(const ChainFile& f) {
       if (f.axes[j].letter == f.axes[i].on) c.axes[i].on = static_cast<int>(j);
   }
   c.covariance = f.covariance;
-  if (chain_order(c).empty()) {
+  if (!chain_order(c)) {
     std::string sides;
     for (const ChainFileAxis& a : f.axes)
       sides += (sides.empty() ? "" : ", ") + std::string(1, a.letter) +
                (a.table ? " table" : " head") + (a.on ? std::string(" on ") + a.on : std::string());
     throw InputError(f.source, "axes",
                      "the axes (" + sides +
-                         ") are not one chain on one side: a table and a head (the tool tip "
-                         "against the workpiece needs the tool's place in the head, which a "
-                         "machine result does not hold) are predicted axis by axis (predict "
-                         "--result with each axis' result)");
+                         ") are not one chain on each side (every axis but a side's outermost "
+                         "carried by the next of the same side): predict each axis' result "
+                         "(predict --result with it)");
   }
   return c;
 }
 
-std::vector<ChainPose> parse_chain_poses(const std::string& text, const std::string& source,
-                                         const ChainErrors& chain) {
-  std::vector<std::string> names;  // the columns, the axes' order first
+std::vector<std::string> chain_pose_columns(const ChainErrors& chain) {
+  std::vector<std::string> names;  // the axes' order first
   for (const ChainErrors::Axis& a : chain.axes) names.push_back(std::string(1, a.letter) + "_deg");
   for (const char* c : {"x_mm", "y_mm", "z_mm"}) names.emplace_back(c);
+  if (const std::optional<ChainOrder> order = chain_order(chain); order && order->both())
+    for (const char* c : {"tool_x_mm", "tool_y_mm", "tool_z_mm"}) names.emplace_back(c);
+  return names;
+}
+
+std::vector<ChainPose> parse_chain_poses(const std::string& text, const std::string& source,
+                                         const ChainErrors& chain) {
+  const std::vector<std::string> names = chain_pose_columns(chain);
+  const bool tool = names.size() == chain.axes.size() + 6;
   std::string expected;
   for (const std::string& n : names) expected += (expected.empty() ? "" : ", ") + n;
   std::vector<ChainPose> poses;
   for_each_pose_row(
       text, source, names,
       expected +
-          ": each axis' angle, and a point fixed to the innermost body, machine frame with every "
-          "axis at zero",
+          (tool ? ": each axis' angle, a point fixed to the workpiece on the innermost table and "
+                  "the tool tip in the innermost head, machine frame with every axis at zero"
+                : ": each axis' angle, and a point fixed to the innermost body, machine frame "
+                  "with every axis at zero"),
       [&](const std::function<double(const std::string&)>& number, const std::string& where) {
         ChainPose p;
         for (std::size_t k = 0; k < chain.axes.size(); ++k) {
@@ -75,14 +84,20 @@ std::vector<ChainPose> parse_chain_poses(const std::string& text, const std::str
                              fmt_num(a, 12) + " deg is beyond +-36000 deg");
           p.angles_deg.push_back(a);
         }
-        for (int k = 0; k < 3; ++k) {
-          const std::string& name = names[chain.axes.size() + static_cast<std::size_t>(k)];
-          p.point_mm(k) = number(name);
-          if (!(std::abs(p.point_mm(k)) <= limits::kMaxLength_mm))
-            throw InputError(source, where + ", column " + name,
-                             fmt_num(p.point_mm(k), 12) + " mm is beyond +-" +
-                                 fmt_num(limits::kMaxLength_mm, 12) + " mm");
-        }
+        auto point = [&](std::size_t first) {
+          Eigen::Vector3d x;
+          for (int k = 0; k < 3; ++k) {
+            const std::string& name = names[first + static_cast<std::size_t>(k)];
+            x(k) = number(name);
+            if (!(std::abs(x(k)) <= limits::kMaxLength_mm))
+              throw InputError(source, where + ", column " + name,
+                               fmt_num(x(k), 12) + " mm is beyond +-" +
+                                   fmt_num(limits::kMaxLength_mm, 12) + " mm");
+          }
+          return x;
+        };
+        p.point_mm = point(chain.axes.size());
+        if (tool) p.tool_mm = point(chain.axes.size() + 3);
         poses.push_back(p);
       });
   return poses;
@@ -94,7 +109,7 @@ ChainPredictResult predict_chain(const ChainFile& f, ChainErrors chain,
   r.result_source = f.source;
   r.machine_name = f.machine_name;
   r.chain = std::move(chain);
-  r.order = chain_order(r.chain);
+  r.order = *chain_order(r.chain);
   r.coverage = prediction_coverage(coverage_probability, std::nullopt);
   r.warnings = f.warnings;
   for (const ChainPose& p : poses)
@@ -107,9 +122,15 @@ namespace {
 json vec_json(const Eigen::Vector3d& v) { return json::array({r6(v.x()), r6(v.y()), r6(v.z())}); }
 
 std::string chain_body_text(const ChainPredictResult& p) {
-  const ChainErrors::Axis& inner = p.chain.axes[static_cast<std::size_t>(p.order.front())];
-  return inner.table ? std::string("a workpiece's point on the ") + inner.letter + " table"
-                     : std::string("a tool tip in the ") + inner.letter + " head";
+  auto letter = [&](int i) {
+    return std::string(1, p.chain.axes[static_cast<std::size_t>(i)].letter);
+  };
+  if (p.order.both())
+    return "the tool tip in the " + letter(p.order.head.front()) +
+           " head against a workpiece's point on the " + letter(p.order.table.front()) + " table";
+  return p.order.head.empty()
+             ? "a workpiece's point on the " + letter(p.order.table.front()) + " table"
+             : "a tool tip in the " + letter(p.order.head.front()) + " head";
 }
 
 // The largest error among the determined points, or -1.
@@ -136,6 +157,17 @@ const char* const kChainError =
     "real line, the controller's line moved by the machine result's location errors (in its "
     "carrier's body); the location errors alone (a machine result states no component error "
     "motions: they are not in the error nor in U)";
+const char* const kChainToolError =
+    "the tool tip's place relative to the workpiece's point, true minus nominal (machine frame, "
+    "um): the tool tip's displacement (the head's axes turned about their real lines) minus the "
+    "workpiece point's (the table's), the linear axes taken as exact; each real line the "
+    "controller's moved by the machine result's location errors (in its carrier's body); the "
+    "location errors alone (a machine result states no component error motions: they are not in "
+    "the error nor in U)";
+
+const char* chain_error_text(const ChainPredictResult& p) {
+  return p.order.both() ? kChainToolError : kChainError;
+}
 
 }  // namespace
 
@@ -149,6 +181,7 @@ json chain_prediction_to_json(const ChainPredictResult& p) {
            {"point_mm", vec_json(x.pose.point_mm)},
            {"nominal_mm", vec_json(x.nominal_mm)},
            {"determined", x.determined}};
+    if (x.pose.tool_mm) j["tool_mm"] = vec_json(*x.pose.tool_mm);
     if (x.determined) {
       const Eigen::Vector3d std = x.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
       json cov = json::array();
@@ -159,6 +192,8 @@ json chain_prediction_to_json(const ChainPredictResult& p) {
       j["std_um"] = vec_json(std);
       j["covariance_um2"] = cov;
       j["U_um"] = r6(x.U_um);
+      if (x.tool_um) j["tool_um"] = vec_json(*x.tool_um);
+      if (x.workpiece_um) j["workpiece_um"] = vec_json(*x.workpiece_um);
     } else {
       j["reason"] =
           "the machine result does not determine every location error this point moves with";
@@ -171,7 +206,7 @@ json chain_prediction_to_json(const ChainPredictResult& p) {
            {"inputs", {{"result", p.result_source}, {"poses", p.poses_source}}},
            {"machine", p.machine_name},
            {"body", chain_body_text(p)},
-           {"error", kChainError},
+           {"error", chain_error_text(p)},
            {"basis", "location"},
            {"coverage_probability", p.coverage.coverage_probability},
            {"k", p.coverage.k},
@@ -195,17 +230,20 @@ std::string chain_prediction_text(const ChainPredictResult& p) {
   for (const std::string& w : p.warnings)
     s << "Warning (the machine result's; its uncertainties may be too small): " << terminal_text(w)
       << "\n";
-  s << "error: " << kChainError << "; U: the true error vector lies within U of it with "
+  s << "error: " << chain_error_text(p) << "; U: the true error vector lies within U of it with "
     << fmt_num(100 * p.coverage.coverage_probability, 4) << " % (Gaussian)\n";
   auto triple = [](const Eigen::Vector3d& v, int decimals) {
     return "(" + fmt_rounded(v.x(), decimals) + ", " + fmt_rounded(v.y(), decimals) + ", " +
            fmt_rounded(v.z(), decimals) + ")";
   };
-  s << std::setw(22) << "angles deg" << std::setw(26) << "point mm (x, y, z)" << std::setw(28)
-    << "error um (x, y, z)" << std::setw(8) << "|e|" << std::setw(7) << "U"
+  const bool tool = p.order.both();
+  s << std::setw(22) << "angles deg" << std::setw(26) << "point mm (x, y, z)";
+  if (tool) s << std::setw(26) << "tool tip mm (x, y, z)";
+  s << std::setw(28) << "error um (x, y, z)" << std::setw(8) << "|e|" << std::setw(7) << "U"
     << "\n";
   for (const ChainPointPrediction& x : p.points) {
     s << std::setw(22) << angles_text(p, x.pose) << std::setw(26) << triple(x.pose.point_mm, 1);
+    if (x.pose.tool_mm) s << std::setw(26) << triple(*x.pose.tool_mm, 1);
     if (!x.determined) {
       s << "  not determined: the machine result does not determine every location error it "
            "moves with\n";
@@ -218,10 +256,16 @@ std::string chain_prediction_text(const ChainPredictResult& p) {
     const ChainPointPrediction& x = p.points[static_cast<std::size_t>(i)];
     s << "Largest error: " << fmt_rounded(x.error_um.norm(), 2) << " um (U "
       << fmt_rounded(x.U_um, 2) << " um) at " << angles_text(p, x.pose) << " deg, point "
-      << triple(x.pose.point_mm, 1) << " mm\n";
+      << triple(x.pose.point_mm, 1) << " mm";
+    if (x.pose.tool_mm) s << ", tool tip " << triple(*x.pose.tool_mm, 1) << " mm";
+    s << "\n";
   }
-  s << "On a table the tool meets the workpiece's point off by minus the error; on a head the "
-       "tool tip is off by it.\n";
+  if (tool)
+    s << "The tool tip is off the workpiece's point by the error (the tool's and the workpiece's "
+         "parts: --out's tool_um, workpiece_um).\n";
+  else
+    s << "On a table the tool meets the workpiece's point off by minus the error; on a head the "
+         "tool tip is off by it.\n";
   return s.str();
 }
 

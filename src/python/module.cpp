@@ -1793,7 +1793,8 @@ PYBIND11_MODULE(dbbkit, m) {
           if (at.is_none() || radii_mm || design || location_only)
             throw InputError("at", "",
                              "a machine result is predicted at poses (at: a CSV's path or rows "
-                             "[one angle per axis, x_mm, y_mm, z_mm]) alone");
+                             "[one angle per axis, x_mm, y_mm, z_mm; a table and a head: and "
+                             "tool_x_mm, tool_y_mm, tool_z_mm]) alone");
           const std::string source =
               as_path(result) && !json_text(result) ? *as_path(result) : std::string("result");
           const io::ChainFile f = io::chain_from_text(*text, source);
@@ -1809,14 +1810,18 @@ PYBIND11_MODULE(dbbkit, m) {
             if (rows.size() > limits::kMaxPoses)
               throw InputError("at", "",
                                "more than " + std::to_string(limits::kMaxPoses) + " poses");
-            std::string csv;
-            for (const ChainErrors::Axis& a : chain.axes) csv += std::string(1, a.letter) + "_deg,";
-            csv += "x_mm,y_mm,z_mm\n";
+            const std::vector<std::string> columns = io::chain_pose_columns(chain);
+            std::string csv, names;
+            for (const std::string& c : columns) {
+              csv += (csv.empty() ? "" : ",") + c;
+              names += (names.empty() ? "" : ", ") + c;
+            }
+            csv += "\n";
             for (std::size_t i = 0; i < rows.size(); ++i) {
-              if (rows[i].size() != chain.axes.size() + 3)
-                throw InputError("at", "at[" + std::to_string(i) + "]",
-                                 "expected " + std::to_string(chain.axes.size() + 3) +
-                                     " numbers: one angle per axis, x_mm, y_mm, z_mm");
+              if (rows[i].size() != columns.size())
+                throw InputError(
+                    "at", "at[" + std::to_string(i) + "]",
+                    "expected " + std::to_string(columns.size()) + " numbers: " + names);
               for (std::size_t c = 0; c < rows[i].size(); ++c) {
                 if (!std::isfinite(rows[i][c]))
                   throw InputError("at", "at[" + std::to_string(i) + "]", "not a finite number");

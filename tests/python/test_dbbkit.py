@@ -65,6 +65,23 @@ class InSource(unittest.TestCase):
         os.chdir(self._cwd)
 
 
+def machine_result(tmp, machine, tests):
+    """Each (design, truth) simulated and identified with the command line, then chained: the
+    machine result's path."""
+    results = []
+    for k, (design, truth) in enumerate(tests):
+        csv, out = os.path.join(tmp, f"{k}.csv"), os.path.join(tmp, f"{k}.json")
+        subprocess.run([CLI, "simulate", "--design", design, "--truth", truth, "--out", csv],
+                       cwd=SOURCE, check=True, capture_output=True)
+        subprocess.run([CLI, "identify", "--design", design, "--data", csv, "--out", out,
+                        "--quiet"], cwd=SOURCE, check=True, capture_output=True)
+        results.append(out)
+    m = os.path.join(tmp, "M.json")
+    subprocess.run([CLI, "chain", "--machine", machine, *results, "--out", m, "--quiet"],
+                   cwd=SOURCE, check=True, capture_output=True)
+    return m
+
+
 class RoundTrips(InSource):
     """The same inputs give the same JSON as the command line, to the last digit."""
 
@@ -167,19 +184,9 @@ class RoundTrips(InSource):
         # The A/C trunnion's chain at poses: the CSV or rows [A_deg, C_deg, x, y, z]; the dict
         # predict --out writes.
         with tempfile.TemporaryDirectory() as tmp:
-            results = []
-            for a in ("A", "C"):
-                design = f"designs/a-c-trunnion-{a}.json"
-                csv, out = os.path.join(tmp, a + ".csv"), os.path.join(tmp, a + ".json")
-                subprocess.run([CLI, "simulate", "--design", design, "--truth",
-                                f"tests/data/truth_a_c_trunnion_{a}.json", "--out", csv],
-                               cwd=SOURCE, check=True, capture_output=True)
-                subprocess.run([CLI, "identify", "--design", design, "--data", csv, "--out", out,
-                                "--quiet"], cwd=SOURCE, check=True, capture_output=True)
-                results.append(out)
-            m = os.path.join(tmp, "M.json")
-            subprocess.run([CLI, "chain", "--machine", "designs/machines/a-c-trunnion.json", *results,
-                            "--out", m, "--quiet"], cwd=SOURCE, check=True, capture_output=True)
+            m = machine_result(tmp, "designs/machines/a-c-trunnion.json",
+                               [(f"designs/a-c-trunnion-{a}.json",
+                                 f"tests/data/truth_a_c_trunnion_{a}.json") for a in ("A", "C")])
             poses = "tests/data/poses_a_c_trunnion.csv"
             got = dbbkit.predict(m, at=os.path.join(SOURCE, poses))
             cli = cli_json("predict", "--result", m, "--at", poses)
@@ -195,6 +202,29 @@ class RoundTrips(InSource):
             with self.assertRaises(dbbkit.InputError) as ctx:
                 dbbkit.predict(m, at=[[90, 100, 0, -60]])
             self.assertIn("expected 5 numbers", str(ctx.exception))
+
+    def test_predict_a_tool_tip_against_a_table_as_the_command_line(self):
+        # The paper's B/C machine: rows [B_deg, C_deg, x, y, z, tool_x, tool_y, tool_z] (the
+        # chain's order) or the CSV; the error is the tool tip's less the workpiece point's.
+        with tempfile.TemporaryDirectory() as tmp:
+            m = machine_result(tmp, "designs/machines/paper-b-c.json",
+                               [("designs/paper-b-c-B-off-axis.json",
+                                 "tests/data/truth_paper_b_c_B.json"),
+                                ("designs/paper-b-c-C.json", "tests/data/truth_paper_b_c_C.json")])
+            poses = "tests/data/poses_paper_b_c.csv"
+            got = dbbkit.predict(m, at=os.path.join(SOURCE, poses))
+            got["inputs"]["poses"] = poses
+            self.assertEqual(got, cli_json("predict", "--result", m, "--at", poses))
+            rows = dbbkit.predict(m, at=[[-90, 90, 0, 0, 150, 0, 0, 100]])
+            point = rows["points"][0]
+            self.assertEqual(point, got["points"][2])
+            for axis in range(3):
+                self.assertAlmostEqual(point["error_um"][axis],
+                                       point["tool_um"][axis] - point["workpiece_um"][axis],
+                                       places=5)
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.predict(m, at=[[-90, 90, 0, 0, 150]])
+            self.assertIn("expected 8 numbers", str(ctx.exception))
 
     def test_predict_as_the_command_line(self):
         # The poses' CSV or rows; the dict predict --out writes; bad rows name their place.

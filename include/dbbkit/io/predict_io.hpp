@@ -92,20 +92,22 @@ std::string prediction_text(const PredictResult& p, bool rows = true);
 struct ChainPredictResult {
   std::string result_source, result_sha256, poses_source, machine_name;
   ChainErrors chain;
-  std::vector<int> order;  // chain_order: the innermost body first
+  ChainOrder order;  // chain_order: on each side the innermost body first
   PredictionCoverage coverage;
   std::vector<ChainPointPrediction> points;
   std::vector<std::string> warnings;  // the machine result's, carried
 };
 
 // The chain's errors as a prediction takes them. InputError naming the machine result's key
-// where its axes are not one chain on one side (a table and a head: the tool tip against the
-// workpiece needs the tool's place in the head, which a machine result does not hold).
+// where its axes are not one chain on each side (chain_order).
 ChainErrors chain_errors_of(const ChainFile& f);
-// <L>_deg for each axis of the chain (any order; e.g. A_deg,C_deg), x_mm,y_mm,z_mm: the point
-// fixed to the innermost body, machine frame with every axis at zero, from its origin (mm,
-// within +-limits::kMaxLength_mm); each angle within +-36000 deg. InputError naming the line and
-// column otherwise; at most limits::kMaxPoses rows.
+// The poses' columns: <L>_deg for each axis of the chain (in the chain's order; a file may give
+// them in any), x_mm,y_mm,z_mm: the point fixed to the innermost body (a table and a head: the
+// workpiece's on the innermost table), and for a table and a head tool_x_mm,tool_y_mm,tool_z_mm:
+// the tool tip in the innermost head; machine frame with every axis at zero, from its origin.
+std::vector<std::string> chain_pose_columns(const ChainErrors& chain);
+// Those columns (mm within +-limits::kMaxLength_mm, each angle within +-36000 deg). InputError
+// naming the line and column otherwise; at most limits::kMaxPoses rows.
 std::vector<ChainPose> parse_chain_poses(const std::string& text, const std::string& source,
                                          const ChainErrors& chain);
 // `chain`: chain_errors_of(f), as the poses were read against it.
