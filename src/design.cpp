@@ -265,6 +265,12 @@ void validate_design(const Design& d, const std::string& source) {
   }
 
   validate_noise_and_model(d.noise, d.errors, d.axis, source);
+  // A reading noise as wide as the instrument's range is no noise the instrument can have.
+  require(3e-3 * d.noise.sigma_um() < d.instrument_range_mm, source, "noise",
+          "a reading noise of " + text::significant(d.noise.sigma_um(), 6) +
+              " um (standard deviation) is not small against the instrument's range of +-" +
+              text::significant(d.instrument_range_mm, 6) +
+              " mm: three of it reach the range (the noise is in um)");
   if (d.errors.kind == ErrorModel::Kind::kLegendre) {
     if (d.errors.order > 0) {
       double lo = d.angles_deg.front(), hi = lo;

@@ -14,11 +14,13 @@
 #include <random>
 #include <regex>
 #include <sstream>
+#include <tuple>
 
 #include "cli_util.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/hashing.hpp"
 #include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/io/machine_io.hpp"
 #include "dbbkit/program.hpp"
 #include "test_util.hpp"
 
@@ -280,9 +282,8 @@ Controller nominal_controller() {
           {Eigen::Vector3d(0, 0, -60), Eigen::Vector3d::UnitZ(), 0}};
 }
 
-// Siemens: the swivel data record's assignments as the function manual chains them (type P):
-// the table turns about v1 through the end of l2, then about v2 through the end of l2 + l3.
-Controller siemens_controller(const std::string& mpf) {
+// The record's vectors by name (l1 ... l4, v1, v2), as written for record 1.
+std::map<std::string, Eigen::Vector3d> siemens_vectors(const std::string& mpf) {
   std::map<int, double> v;
   const std::regex assignment(R"(^\$TC_CARR(\d+)\[1\]=([-0-9.]+) ;)");
   std::istringstream in(mpf);
@@ -290,13 +291,26 @@ Controller siemens_controller(const std::string& mpf) {
     std::smatch m;
     if (std::regex_search(line, m, assignment)) v[std::stoi(m[1])] = std::stod(m[2]);
   }
-  auto vec = [&](int first) {
-    for (int k = 0; k < 3; ++k) EXPECT_EQ(v.count(first + k), 1u) << "$TC_CARR" << first + k;
-    return Eigen::Vector3d(v[first], v[first + 1], v[first + 2]);
+  std::map<std::string, Eigen::Vector3d> out;
+  for (const auto& [name, first] : {std::pair{"l1", 1}, std::pair{"l2", 4}, std::pair{"l3", 15},
+                                    std::pair{"l4", 18}, std::pair{"v1", 7}, std::pair{"v2", 10}})
+    if (v.count(first) && v.count(first + 1) && v.count(first + 2))
+      out[name] = Eigen::Vector3d(v[first], v[first + 1], v[first + 2]);
+  return out;
+}
+
+// Siemens: the swivel data record's assignments as the function manual chains them (type P):
+// the table turns about v1 through the end of l2, then about v2 through the end of l2 + l3.
+Controller siemens_controller(const std::string& mpf) {
+  const std::map<std::string, Eigen::Vector3d> v = siemens_vectors(mpf);
+  auto vec = [&](const char* name) {
+    const auto it = v.find(name);
+    EXPECT_NE(it, v.end()) << name;
+    return it == v.end() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : it->second;
   };
-  const Eigen::Vector3d l2 = vec(4), l3 = vec(15), l4 = vec(18);
+  const Eigen::Vector3d l2 = vec("l2"), l3 = vec("l3"), l4 = vec("l4");
   EXPECT_LT((l2 + l3 + l4).norm(), 1e-9) << "the chain is closed";
-  return {{l2, vec(7).normalized(), 0}, {l2 + l3, vec(10).normalized(), 0}};
+  return {{l2, vec("v1").normalized(), 0}, {l2 + l3, vec("v2").normalized(), 0}};
 }
 
 // LinuxCNC xyzac-trt: C about (x-rot-point, y-rot-point) along Z, A about (y-rot-point +
@@ -464,6 +478,127 @@ TEST(ChainCompensation, SiemensLinuxCncAndIsgRoundTripsLeaveWhatRemainsWithinU) 
   std::filesystem::remove_all(dir);
 }
 
+// ---- Siemens' records of machines with a head axis (kinematic types M and T) ----
+
+// How far a controller's line lies from a real one: the offset across it at its point (um) and
+// the angle between them (urad).
+std::pair<double, double> apart(const RealLine& real, const RealLine& ctrl) {
+  const Eigen::Vector3d d = ctrl.direction.normalized();
+  const Eigen::Vector3d w = real.point - ctrl.point;
+  return {1e3 * (w - w.dot(d) * d).norm(), 1e6 * d.cross(real.direction.normalized()).norm()};
+}
+
+// The machine's axis k moved by the location errors l (ISO order), as test::line_of puts it.
+RealLine planted_line(const Machine& m, int k, const std::array<double, 5>& l) {
+  const std::vector<double> zero(m.rotary.size(), 0.0);
+  RealLine r = test::line_of(m.axis_frame(k, zero), l);
+  r.point += m.point_at(k, zero);
+  return r;
+}
+
+// Each axis' test simulated without noise (exact geometry) from its own planted errors,
+// identified and chained: the machine result's path.
+std::string noise_free_chain(const std::filesystem::path& dir, const std::string& machine,
+                             const std::vector<std::pair<std::string, json>>& tests) {
+  std::filesystem::create_directories(dir);
+  std::string results;
+  for (const auto& [design, location] : tests) {
+    const std::string stem = (dir / design).string();
+    std::ofstream(stem + ".truth.json") << json{
+        {"format", "dbbkit.truth/1"},
+        {"location", location},
+        {"geometry", "exact"},
+        {"noise", {{"distribution", "none"}}}}.dump();
+    const std::string d = test::source_path("designs/" + design + ".json");
+    EXPECT_EQ(run_cli("simulate --design " + d + " --truth " + stem + ".truth.json --out " + stem +
+                      ".csv")
+                  .status,
+              0);
+    EXPECT_EQ(run_cli("identify --design " + d + " --data " + stem + ".csv --out " + stem +
+                      ".json --quiet")
+                  .status,
+              0);
+    results += " " + stem + ".json";
+  }
+  const std::string out = (dir / "M.json").string();
+  EXPECT_EQ(run_cli("chain --machine " + test::source_path("designs/machines/" + machine) +
+                    results + " --out " + out + " --quiet")
+                .status,
+            0);
+  return out;
+}
+
+// The paper's B/C machine (a B head, a C table: type M) and the head/head fork (type T): the
+// record's vectors chained as the commissioning manual chains them (M: the head turns about v1
+// through the tool adapter's point + l2, l1 = -l2; the table about v2 through l3, l4 = -l3. T: the
+// inner head about v2 through the tool adapter's point + l3, the outer about v1 through it + l3 +
+// l2, l1 = -(l2 + l3)) put each axis on its planted line, to the first-order model's error on
+// noise-free readings; without the tool adapter's point the record is refused.
+TEST(ChainCompensation, SiemensRecordsOfHeadsPutEachLineWhereItIs) {
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_chain_siemens_heads";
+  std::filesystem::remove_all(dir);
+  const Eigen::Vector3d tool(0, 0, 100);
+  {
+    const std::array<double, 5> lb = {12, -8, 25, 0, -15}, lc = {0, 10, 0, 20, 0};
+    const std::string m = noise_free_chain(
+        dir / "bc", "paper-b-c.json",
+        {{"paper-b-c-B-off-axis", {{"X0B", 12}, {"Z0B", -8}, {"A0B", 25}, {"B0B", -15}}},
+         {"paper-b-c-C", {{"Y0C", 10}, {"B0C", 20}}}});
+    const CliRun without = run_cli("compensation --result " + m + " --format siemens --record 1");
+    EXPECT_EQ(without.status, 2);
+    EXPECT_NE(without.err.find("--tool-reference-mm: required"), std::string::npos) << without.err;
+    const CliRun r = run_cli("compensation --result " + m +
+                             " --format siemens --record 1 --tool-reference-mm 0,0,100");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("kinematic type M (swivel head and swivel table)"), std::string::npos)
+        << r.out;
+    const auto v = siemens_vectors(r.out);
+    ASSERT_EQ(v.size(), 6u) << r.out;
+    EXPECT_LT((v.at("l1") + v.at("l2")).norm(), 1e-9);
+    EXPECT_LT((v.at("l3") + v.at("l4")).norm(), 1e-9);
+    const Machine machine =
+        io::read_machine_file(test::source_path("designs/machines/paper-b-c.json"));
+    const RealLine head{tool + v.at("l2"), v.at("v1"), 0}, table{v.at("l3"), v.at("v2"), 0};
+    for (const auto& [ctrl, k, l] :
+         {std::tuple{head, machine.find('B'), lb}, std::tuple{table, machine.find('C'), lc}}) {
+      const auto [offset_um, tilt_urad] = apart(planted_line(machine, k, l), ctrl);
+      EXPECT_LT(offset_um, 0.05) << k;
+      EXPECT_LT(tilt_urad, 0.5) << k;
+      // Against the nominal line the planted one is well apart: the record corrected it.
+      EXPECT_GT(apart(planted_line(machine, k, l), planted_line(machine, k, {})).first, 5) << k;
+    }
+  }
+  {
+    // The fork's A design determines Z0A alone of A's offsets.
+    const std::array<double, 5> la = {0, -10, 0, 0, 0}, lc = {-12, 9, 0, 0, 0};
+    const std::string m = noise_free_chain(
+        dir / "fork", "a-c-fork-head.json",
+        {{"a-c-fork-head-C", {{"X0C", -12}, {"Y0C", 9}}}, {"a-c-fork-head-A", {{"Z0A", -10}}}});
+    const CliRun r = run_cli("compensation --result " + m +
+                             " --format siemens --record 1 --tool-reference-mm 0,0,100");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("kinematic type T (swivel head)"), std::string::npos) << r.out;
+    const auto v = siemens_vectors(r.out);
+    ASSERT_EQ(v.size(), 5u) << r.out;  // no l4
+    EXPECT_LT((v.at("l1") + v.at("l2") + v.at("l3")).norm(), 1e-9);
+    const Machine machine =
+        io::read_machine_file(test::source_path("designs/machines/a-c-fork-head.json"));
+    const RealLine outer{tool + v.at("l3") + v.at("l2"), v.at("v1"), 0},
+        inner{tool + v.at("l3"), v.at("v2"), 0};
+    for (const auto& [ctrl, k, l] :
+         {std::tuple{outer, machine.find('C'), lc}, std::tuple{inner, machine.find('A'), la}}) {
+      EXPECT_LT(apart(planted_line(machine, k, l), ctrl).first, 0.05) << k;
+      EXPECT_GT(apart(planted_line(machine, k, l), planted_line(machine, k, {})).first, 5) << k;
+    }
+    // Only a record takes the tool adapter's point.
+    const CliRun trunnion = run_cli("compensation --result " + (dir / "bc" / "M.json").string() +
+                                    " --format isg --tool-reference-mm 0,0,100");
+    EXPECT_EQ(trunnion.status, 2);
+    EXPECT_NE(trunnion.err.find("--tool-reference-mm"), std::string::npos) << trunnion.err;
+  }
+  std::filesystem::remove_all(dir);
+}
+
 // What a format cannot hold is refused by name; the machine's texts reach comments only.
 TEST(ChainCompensation, WhatAFormatCannotHoldIsRefusedAndTextStaysInComments) {
   const auto dir = std::filesystem::temp_directory_path() / "dbbkit_chain_compensation_refusals";
@@ -484,7 +619,8 @@ TEST(ChainCompensation, WhatAFormatCannotHoldIsRefusedAndTextStaysInComments) {
               " --format siemens --record 1");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("machine result"), std::string::npos) << r.err;
-  // A head in the chain: the swivel table's record cannot hold it; the table can.
+  // A head in the chain: the record (then of kinematic type M) needs the tool adapter's point;
+  // LinuxCNC's trt modules cannot hold it; the table can.
   json j = json::parse(slurp(m));
   json head = j;
   head["axes"][1]["side"] = "head";
@@ -492,6 +628,10 @@ TEST(ChainCompensation, WhatAFormatCannotHoldIsRefusedAndTextStaysInComments) {
   std::ofstream(dir / "head.json") << head.dump(2);
   r = run_cli("compensation --result " + (dir / "head.json").string() +
               " --format siemens --record 1");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--tool-reference-mm: required"), std::string::npos) << r.err;
+  r = run_cli("compensation --result " + (dir / "head.json").string() +
+              " --format linuxcnc --current x-rot-point=0");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("two table axes"), std::string::npos) << r.err;
   EXPECT_EQ(

@@ -275,6 +275,10 @@ TEST(Cli, MissingFileAndMissingOptionExitTwo) {
   EXPECT_NE(r.err.find("--data"), std::string::npos) << r.err;
   r = run_cli("no-such-command");
   EXPECT_EQ(r.status, 2);
+  // An option given twice: said in dbbkit's words.
+  r = run_cli("identify --design " + kDesignC + " --design " + kDesignC + " --data " + kDataC);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--design: given 2 times; give it once"), std::string::npos) << r.err;
 }
 
 TEST(Cli, OutputOverAnInputIsRefused) {

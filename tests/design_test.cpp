@@ -105,6 +105,25 @@ std::string message_of(const std::function<void(nlohmann::json&)>& edit) {
   return "(accepted)";
 }
 
+// A reading noise whose three standard deviations reach the instrument's range (a noise given in
+// mm where um is meant) is refused at the noise; one well inside it is not.
+TEST(DesignValidation, ANoiseAsWideAsTheInstrumentsRangeIsRefused) {
+  std::string m = message_of([](nlohmann::json& j) {
+    j["noise"] = {{"distribution", "normal"}, {"std_um", 400}};
+  });
+  EXPECT_NE(m.find("d.json: noise: a reading noise of 400 um"), std::string::npos) << m;
+  EXPECT_NE(m.find("range of +-1 mm"), std::string::npos) << m;
+  m = message_of([](nlohmann::json& j) {
+    j["noise"] = {{"distribution", "normal"}, {"std_um", 400}};
+    j["instrument"] = {{"range_mm", 2}};
+  });
+  EXPECT_EQ(m, "(accepted)");
+  EXPECT_EQ(message_of([](nlohmann::json& j) {
+              j["noise"] = {{"accuracy_um", 500}};
+            }),
+            "(accepted)");  // sigma 289 um: three of it are 0.87 mm
+}
+
 // A misspelling is suggested only among the keys the object may hold and does not: never a key
 // that is present and valid (ball_mm {L, h} used to suggest 'L' for H; {start, stop, stpo}
 // 'stop' for step).

@@ -322,6 +322,18 @@ TEST(PredictCli, PredictsFromAResultAndRefusesWhatItCannotUse) {
        "no entry for angle"},
       {[](nlohmann::json& j) { j["iso230"]["motion_covariance"]["at"][0]["matrix"][0][0] = -1e-9; },
        "a negative variance"},
+      {[](nlohmann::json& j) {  // a correlation of 10: no covariance, named where it is
+         auto& m = j["iso230"]["location_covariance"]["matrix"];
+         const double c = 10 * std::sqrt(m[0][0].get<double>() * m[1][1].get<double>());
+         m[0][1] = c, m[1][0] = c;
+       },
+       "iso230.location_covariance.matrix: not positive semidefinite"},
+      {[](nlohmann::json& j) {
+         j["design"]["axis_definition"]["reference"] = {1, 0, 0};
+       },
+       "design.axis_definition.reference"},
+      {[](nlohmann::json& j) { j["design"]["axis"] = "C"; },
+       "design.axis: 'C' is not the axis design.axis_definition describes"},
       {[](nlohmann::json& j) {
          std::swap(j["iso230"]["location_covariance"]["names"][0],
                    j["iso230"]["location_covariance"]["names"][1]);
@@ -945,6 +957,31 @@ TEST(PredictChainCli, PredictsAMachineResultAndRefusesWhatItCannotUse) {
     ADD_FAILURE() << "a table and a head axis: expected the axes refused, got " << m.status << "\n"
                   << m.err;
   }
+  // The paper's own B design (balls on the tool axis) leaves the head's tilts and zero
+  // undetermined: no tool tip off the B line is determined, and nothing is said to be largest.
+  for (const auto& [design, truth] :
+       {std::pair{"paper-b-c-B", "B"}, std::pair{"paper-b-c-C", "C"}}) {
+    ASSERT_EQ(
+        cli(std::string("simulate --design ") + src + "/designs/" + design + ".json --truth " +
+            src + "/tests/data/truth_paper_b_c_" + truth + ".json --out p" + truth + ".csv")
+            .status,
+        0);
+    ASSERT_EQ(cli(std::string("identify --design ") + src + "/designs/" + design +
+                  ".json --data p" + truth + ".csv --out p" + truth + ".json --quiet")
+                  .status,
+              0);
+  }
+  ASSERT_EQ(cli("chain --machine " + src +
+                "/designs/machines/paper-b-c.json pB.json pC.json --out PM.json --quiet")
+                .status,
+            0);
+  const CliRun none =
+      cli("predict --result PM.json --at " + src + "/tests/data/poses_paper_b_c.csv --out pp.json");
+  ASSERT_EQ(none.status, 0) << none.err;
+  EXPECT_NE(none.out.find("No point is determined"), std::string::npos) << none.out;
+  const nlohmann::json pp = nlohmann::json::parse(slurp(d + "/pp.json"));
+  EXPECT_TRUE(pp["largest"].is_null());
+  for (const nlohmann::json& x : pp["points"]) EXPECT_FALSE(x["determined"].get<bool>());
   fs::remove_all(dir);
 }
 

@@ -425,6 +425,22 @@ TEST(VerifyCli, PassesFailsAndRefusesWhatItCannotCheck) {
   ASSERT_EQ(kpr["readings"].size(), 70u);
   EXPECT_TRUE(kpr["readings"][9]["return"].get<bool>());
   EXPECT_FALSE(kpr["readings"][8]["return"].get<bool>());
+  // An instrument counting the other way on one installation: its header says so, its readings
+  // are predicted in that count.
+  nlohmann::json reversed = with_return;
+  reversed["installations"][0]["reading_sign"] = -1;
+  std::ofstream(d + "/kn.json") << reversed.dump();
+  const CliRun counted = cli("predict --result a.json --design kn.json --out kpn.json");
+  ASSERT_EQ(counted.status, 0) << counted.err;
+  const std::string first = reversed["installations"][0]["id"].get<std::string>();
+  EXPECT_NE(counted.out.find("installation " + first +
+                             " (um, in the instrument's reversed count: reading_sign -1):"),
+            std::string::npos)
+      << counted.out;
+  const nlohmann::json kpn = nlohmann::json::parse(slurp(d + "/kpn.json"));
+  EXPECT_NEAR(kpn["readings"][1]["predicted_um"].get<double>(),
+              -kpr["readings"][1]["predicted_um"].get<double>(), 1e-6);
+  EXPECT_EQ(returns.out.find("reversed count"), std::string::npos);
   const CliRun before_other_axis = cli("predict --result a.json --design " + C);
   EXPECT_EQ(before_other_axis.status, 2);
   EXPECT_NE(before_other_axis.err.find("paper-c-turntable.json: axis:"), std::string::npos)

@@ -19,7 +19,7 @@ namespace dbbkit::cli {
 
 namespace {
 struct CompensationArgs {
-  std::string result, format, out, kins;
+  std::string result, format, out, kins, tool_reference;
   std::vector<std::string> current;
   double k = 2.0;
   int record = 0;
@@ -45,6 +45,9 @@ Runner add_compensation(CLI::App& app) {
   sub->add_option("--record", args->record,
                   "siemens: the number n of the swivel data record ($TC_CARR..[n])")
       ->check(CLI::Range(1, 99));
+  sub->add_option("--tool-reference-mm", args->tool_reference,
+                  "siemens, a machine with a head axis: the tool adapter's reference point x,y,z "
+                  "with every axis at zero (machine frame, mm)");
   sub->add_option("--out", args->out, "Output file; '-' or absent: stdout");
   sub->add_option("--kins", args->kins,
                   "linuxcnc: xyzac-trt or xyzbc-trt (an A table: xyzac-trt, a B table: "
@@ -65,6 +68,8 @@ Runner add_compensation(CLI::App& app) {
     o.k = args->k;
     o.linuxcnc_kins = args->kins;
     o.record = args->record;
+    if (!args->tool_reference.empty())
+      o.tool_reference_mm = io::parse_tool_reference(args->tool_reference, "--tool-reference-mm");
     const io::CompensationFormat f = io::compensation_format(args->format, "--format");
     {  // an option the format does not take, before its values are read
       io::CompensationOptions given = o;

@@ -1,10 +1,24 @@
 #include <iostream>
+#include <string>
 
 #include "app.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/escape.hpp"
 #include "dbbkit/io/output.hpp"
 #include "report_options.hpp"
+
+namespace {
+
+// The parser's message in dbbkit's words where it has its own: an option given more than once.
+std::string parse_error_text(const CLI::ParseError& e) {
+  const std::string what = e.what();
+  const std::string said = ": At Most 1 required but received ";
+  if (const std::size_t at = what.find(said); at != std::string::npos)
+    return what.substr(0, at) + ": given " + what.substr(at + said.size()) + " times; give it once";
+  return what;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   dbbkit::cli::set_command_line(argc, argv);
@@ -15,7 +29,7 @@ int main(int argc, char** argv) {
     // Help and the version as the parser writes them; an error with its values escaped, as
     // every message of dbbkit (an option's value may hold any bytes).
     if (e.get_exit_code() == 0) return cl->app.exit(e);
-    std::cerr << "dbbkit: error: " << dbbkit::io::terminal_text(e.what())
+    std::cerr << "dbbkit: error: " << dbbkit::io::terminal_text(parse_error_text(e))
               << "\nRun with --help for more information.\n";
     return 2;
   }

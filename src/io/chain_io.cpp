@@ -130,8 +130,8 @@ ResultQuantity chain_quantity(ObjectReader& o, double k) {
   if (q.unit != "um" && q.unit != "urad") o.fail("unit", "expected um or urad");
   q.value = value_or_null(o, "value", false);
   q.std = value_or_null(o, "std", true);
-  if (q.value.has_value() != q.std.has_value())
-    o.fail("std", "a value without its std (or a std without its value)");
+  if (q.value && !q.std) o.fail("std", "null: a value without its std");
+  if (!q.value && q.std) o.fail("value", "null: a std without its value");
   if (q.std && !(*q.std > 0)) o.fail("std", "0: no measurement determines a value exactly");
   const json& U = o.required("U");
   if (!U.is_null() || q.value) {

@@ -569,28 +569,90 @@ std::pair<std::size_t, std::size_t> table_pair(const ChainFile& m, const std::st
                        " lists the corrected lines of any machine");
 }
 
+// The swivel data record's kinematic type and its two rotary axes (v1, v2) as the Sinumerik
+// commissioning manual orders them: two tables (P: v1 the one that carries the other), two heads
+// (T: v1 the one nearer the machine's frame, that carries the other), a head and a table (M: v1
+// the head). Refused otherwise.
+struct SiemensAxes {
+  char type = 'P';
+  std::size_t first = 0, second = 1;
+};
+
+SiemensAxes siemens_axes(const ChainFile& m) {
+  std::string sides;
+  for (const ChainFileAxis& a : m.axes)
+    sides +=
+        (sides.empty() ? "" : ", ") + std::string(1, a.letter) + " " + (a.table ? "table" : "head");
+  if (m.axes.size() == 2) {
+    const ChainFileAxis &a = m.axes[0], &b = m.axes[1];
+    if (a.table == b.table) {
+      const char type = a.table ? 'P' : 'T';
+      if (b.on == a.letter) return {type, 0, 1};
+      if (a.on == b.letter) return {type, 1, 0};
+    } else if (!a.on && !b.on) {
+      return a.table ? SiemensAxes{'M', 1, 0} : SiemensAxes{'M', 0, 1};
+    }
+  }
+  throw InputError(option_name("--format"), "",
+                   option_with_value("--format", "siemens") +
+                       " takes a machine of two rotary axes: two tables or two heads, one "
+                       "carried by the other, or a head and a table; this machine result holds " +
+                       sides + ": " + option_with_value("--format", "table") +
+                       " lists the corrected lines of any machine");
+}
+
 std::string siemens(const ChainFile& m, const CompensationOptions& o) {
   if (o.record <= 0)
     throw InputError(option_name("--record"), "",
                      "required with " + option_with_value("--format", "siemens") +
                          ": the number n of the swivel data record ($TC_CARR..[n]) that holds "
                          "this machine's kinematics");
-  const auto [first, second] = table_pair(m, option_with_value("--format", "siemens"));
+  const SiemensAxes axes = siemens_axes(m);
+  const std::size_t first = axes.first, second = axes.second;
+  const bool head = axes.type != 'P';
+  if (head && !o.tool_reference_mm)
+    throw InputError(option_name("--tool-reference-mm"), "",
+                     "required with " + option_with_value("--format", "siemens") +
+                         " on a machine with a head axis: the tool adapter's reference point "
+                         "(where the tool's length is measured from) with every axis at zero, "
+                         "machine frame, mm, e.g. 0,0,100: the record's head vectors start there");
+  if (!head && o.tool_reference_mm)
+    throw InputError(option_name("--tool-reference-mm"), "",
+                     "a machine of two table axes (kinematic type P) has no vector from the tool "
+                     "adapter: leave it out");
   const ChainFileAxis &a1 = m.axes[first], &a2 = m.axes[second];
   const CorrectedLine c1 = corrected_line(m, first, o.k), c2 = corrected_line(m, second, o.k);
   const std::string n = std::to_string(o.record);
+  const Eigen::Vector3d t = o.tool_reference_mm.value_or(Eigen::Vector3d::Zero());
+  const std::string from_tool = "the tool adapter's reference point (--tool-reference-mm " +
+                                fmt_num(t.x(), 12) + "," + fmt_num(t.y(), 12) + "," +
+                                fmt_num(t.z(), 12) + ")";
   std::ostringstream s;
   s << machine_provenance(m, "; ");
-  s << "; Sinumerik swivel data record " << n << " (--record " << n
-    << "), kinematic type P (swivel table): the offset vectors in mm and the rotary axis "
-       "vectors as unit vectors, in the machine frame with every axis at zero:\n"
-    << ";   l2 = the point of " << a1.letter
-    << " (from the machine's reference point, the machine file's origin),\n"
-    << ";   l3 = from it to the point of " << a2.letter
-    << ", l4 = -(l2 + l3) (the chain closed), v1 = the direction of " << a1.letter
-    << ", v2 = that of " << a2.letter << "\n"
+  s << "; Sinumerik swivel data record " << n << " (--record " << n << "), kinematic type "
+    << axes.type
+    << (axes.type == 'P'   ? " (swivel table)"
+        : axes.type == 'T' ? " (swivel head)"
+                           : " (swivel head and swivel table)")
+    << ": the offset vectors in mm and the rotary axis vectors as unit vectors, in the machine "
+       "frame with every axis at zero:\n";
+  if (axes.type == 'P')
+    s << ";   l2 = the point of " << a1.letter
+      << " (from the machine's reference point, the machine file's origin),\n"
+      << ";   l3 = from it to the point of " << a2.letter << ", l4 = -(l2 + l3) (the chain closed)";
+  else if (axes.type == 'T')
+    s << ";   l3 = from " << from_tool << " to the point of " << a2.letter << ",\n"
+      << ";   l2 = from it to the point of " << a1.letter << ", l1 = -(l2 + l3) (the chain closed)";
+  else
+    s << ";   l2 = from " << from_tool << " to the point of the head axis " << a1.letter
+      << ", l1 = -l2,\n"
+      << ";   l3 = the point of the table axis " << a2.letter
+      << " (from the machine's reference point, the machine file's origin), l4 = -l3 (the "
+         "chains closed)";
+  s << ", v1 = the direction of " << a1.letter << ", v2 = that of " << a2.letter << "\n"
     << "; the values replace the record's: check before running that it holds the machine "
-       "file's nominal values (each line says them), and keep a copy of the record\n"
+       "file's nominal values (each line says them) and is of kinematic type "
+    << axes.type << ", and keep a copy of the record\n"
     << "; v1 and v2 in the machine file's sense (the axis turns right-handed about it): where "
        "the record holds a table axis' vector reversed, reverse the written one\n"
     << "; U = k u, " << k_text(o.k) << "\n";
@@ -613,13 +675,22 @@ std::string siemens(const ChainFile& m, const CompensationOptions& o) {
     Eigen::Vector3d value, nominal;
     Eigen::MatrixXd d;  // 3 x 5n
   };
-  const Eigen::Vector3d l2 = c1.point, l3 = c2.point - c1.point;
-  const std::vector<Assignment> out = {
-      {4, "l2", l2, a1.point_mm, c1.dpoint},
-      {15, "l3", l3, a2.point_mm - a1.point_mm, c2.dpoint - c1.dpoint},
-      {18, "l4", -(l2 + l3), -a2.point_mm, -c2.dpoint},
-      {7, "v1", c1.direction, a1.direction, c1.ddirection},
-      {10, "v2", c2.direction, a2.direction, c2.ddirection}};
+  const Eigen::Vector3d &p1 = c1.point, &p2 = c2.point, &n1 = a1.point_mm, &n2 = a2.point_mm;
+  const Eigen::MatrixXd &d1 = c1.dpoint, &d2 = c2.dpoint;
+  std::vector<Assignment> out;
+  if (axes.type == 'P')
+    out = {{4, "l2", p1, n1, d1}, {15, "l3", p2 - p1, n2 - n1, d2 - d1}, {18, "l4", -p2, -n2, -d2}};
+  else if (axes.type == 'T')
+    out = {{1, "l1", t - p1, t - n1, -d1},
+           {4, "l2", p1 - p2, n1 - n2, d1 - d2},
+           {15, "l3", p2 - t, n2 - t, d2}};
+  else
+    out = {{1, "l1", t - p1, t - n1, -d1},
+           {4, "l2", p1 - t, n1 - t, d1},
+           {15, "l3", p2, n2, d2},
+           {18, "l4", -p2, -n2, -d2}};
+  out.push_back({7, "v1", c1.direction, a1.direction, c1.ddirection});
+  out.push_back({10, "v2", c2.direction, a2.direction, c2.ddirection});
   for (const Assignment& x : out) {
     const bool length = x.what[0] == 'l';
     for (int c = 0; c < 3; ++c) {
@@ -761,10 +832,27 @@ CompensationFormat compensation_format(const std::string& name, const std::strin
                    quote_value(name) + " (expected isg, linuxcnc, siemens or table)");
 }
 
+Eigen::Vector3d parse_tool_reference(const std::string& text, const std::string& key) {
+  const std::vector<double> x = parse_number_list(text, key);
+  if (x.size() != 3)
+    throw InputError(
+        key, "", "expected the point x,y,z in mm (three numbers), got " + std::to_string(x.size()));
+  for (std::size_t k = 0; k < 3; ++k)
+    if (!(std::abs(x[k]) <= kMaxCompensation_mm))
+      throw InputError(
+          key, "item " + std::to_string(k + 1),
+          fmt_num(x[k], 12) + " mm is beyond +-" + fmt_num(kMaxCompensation_mm, 6) + " mm");
+  return {x[0], x[1], x[2]};
+}
+
 void check_compensation_options(CompensationFormat format, const CompensationOptions& options) {
   if (options.record != 0 && format != CompensationFormat::kSiemens)
     throw InputError(option_name("--record"), "",
                      "numbers Siemens' swivel data record (" +
+                         option_with_value("--format", "siemens") + "); this format has none");
+  if (options.tool_reference_mm && format != CompensationFormat::kSiemens)
+    throw InputError(option_name("--tool-reference-mm"), "",
+                     "places the tool adapter for Siemens' swivel data record (" +
                          option_with_value("--format", "siemens") + "); this format has none");
   if (format == CompensationFormat::kLinuxCnc) return;
   const std::string name = format == CompensationFormat::kIsg       ? "isg"

@@ -155,7 +155,8 @@ AxisFrame read_axis(ObjectReader& top) {
     if (axis != "C") {
       top.fail("axis", "unknown axis " + quote_value(axis) +
                            " (expected \"C\", \"B\" or the general form {letter, side, "
-                           "direction, reference})");
+                           "direction, reference}; another letter names an axis of the "
+                           "design's machine, which the design names with \"machine\")");
     }
     return AxisFrame::c_turntable();
   }

@@ -215,6 +215,7 @@ json chain_prediction_to_json(const ChainPredictResult& p) {
            {"points", points},
            {"result_warnings", warnings}};
   if (!p.result_sha256.empty()) out["inputs"]["result_sha256"] = p.result_sha256;
+  out["largest"] = nullptr;  // no point determined
   if (const int i = largest_chain_point(p); i >= 0) {
     const ChainPointPrediction& x = p.points[static_cast<std::size_t>(i)];
     out["largest"] = {{"index", i}, {"length_um", r6(x.error_um.norm())}, {"U_um", r6(x.U_um)}};
@@ -237,6 +238,8 @@ std::string chain_prediction_text(const ChainPredictResult& p) {
            fmt_rounded(v.z(), decimals) + ")";
   };
   const bool tool = p.order.both();
+  s << (tool ? "points and tool tips" : "points")
+    << " where they are with every axis at zero; errors in the machine frame\n";
   s << std::setw(22) << "angles deg" << std::setw(26) << "point mm (x, y, z)";
   if (tool) s << std::setw(26) << "tool tip mm (x, y, z)";
   s << std::setw(28) << "error um (x, y, z)" << std::setw(8) << "|e|" << std::setw(7) << "U"
@@ -260,7 +263,10 @@ std::string chain_prediction_text(const ChainPredictResult& p) {
     if (x.pose.tool_mm) s << ", tool tip " << triple(*x.pose.tool_mm, 1) << " mm";
     s << "\n";
   }
-  if (tool)
+  if (largest_chain_point(p) < 0)
+    s << "No point is determined: the machine result leaves a location error every point moves "
+         "with undetermined (its axes' results say which).\n";
+  else if (tool)
     s << "The tool tip is off the workpiece's point by the error (the tool's and the workpiece's "
          "parts: --out's tool_um, workpiece_um).\n";
   else

@@ -9,6 +9,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/io/text.hpp"
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/user_text.hpp"
@@ -129,12 +130,26 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
       text_of(member(design, "errors_model", source, "design"), source, "design.errors_model");
   {
     // The axis as the design wrote it (the shorthand or the general form).
-    const json* form = design.contains("axis_definition")
-                           ? &design["axis_definition"]
-                           : &member(design, "axis", source, "design");
+    const bool definition = design.contains("axis_definition");
+    const json* form =
+        definition ? &design["axis_definition"] : &member(design, "axis", source, "design");
     json holder = {{"axis", *form}};
     ObjectReader top(holder, source, "design");
-    r.axis = read_axis(top);
+    try {
+      r.axis = read_axis(top);
+    } catch (const InputError& e) {
+      // Named as the result holds it.
+      const std::string where = e.where();
+      if (!definition || where.rfind("axis", 0) != 0) throw;
+      throw InputError(e.source(), "design.axis_definition" + where.substr(4), e.detail());
+    }
+    // Both written: the label the definition gives.
+    if (definition && design.contains("axis") && design["axis"].is_string() &&
+        design["axis"].get<std::string>() != r.axis.label())
+      throw InputError(source, "design.axis",
+                       quote_value(design["axis"].get<std::string>(), 60) +
+                           " is not the axis design.axis_definition describes (" + r.axis.label() +
+                           ")");
   }
   if (j.contains("warnings")) {
     const json& w = j["warnings"];
@@ -313,6 +328,16 @@ ResultFile result_from_text(const std::string& text, const std::string& source) 
     }
     if ((c - c.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1 + c.cwiseAbs().maxCoeff()))
       throw InputError(source, path + ".matrix", "not symmetric");
+    // Written with 6 decimals: a covariance's smallest eigenvalue is then above -1e-6 of its
+    // largest entry's size.
+    const double lowest =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 5, 5>>(c, Eigen::EigenvaluesOnly)
+            .eigenvalues()
+            .minCoeff();
+    if (lowest < -1e-6 * (1 + c.cwiseAbs().maxCoeff()))
+      throw InputError(
+          source, path + ".matrix",
+          "not positive semidefinite (an eigenvalue " + fmt_num(lowest, 6) + "): not a covariance");
     r.location_covariance = c;
   }
   if (iso.contains("motion_covariance")) {

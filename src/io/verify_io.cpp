@@ -1,5 +1,6 @@
 #include "dbbkit/io/verify_io.hpp"
 
+#include <algorithm>
 #include <boost/math/distributions/chi_squared.hpp>
 #include <boost/math/distributions/normal.hpp>
 #include <cmath>
@@ -61,6 +62,13 @@ bool same_file(const std::string& a, const std::string& b) {
   return std::filesystem::exists(a, ec) && std::filesystem::equivalent(a, b, ec) && !ec;
 }
 
+std::vector<std::string> reversed_installations(const Design& design) {
+  std::vector<std::string> ids;
+  for (const Installation& in : design.installations)
+    if (in.reading_sign < 0) ids.push_back(in.id);
+  return ids;
+}
+
 void check_test_size(std::size_t readings, const std::string& source) {
   if (readings > limits::kMaxVerifyReadings)
     throw InputError(source, "",
@@ -90,6 +98,7 @@ VerifyReport verify(const ResultFile& result, const Design& design,
   r.k = boost::math::quantile(boost::math::normal(), 0.5 + coverage_probability / 2);
   r.readings = readings;
   r.warnings = result.warnings;
+  r.reversed = reversed_installations(design);
   r.result_dof = axis.dof;
   VerifyOptions o;
   o.coverage_probability = coverage_probability;
@@ -279,6 +288,8 @@ std::string verification_text(const VerifyReport& r) {
       s << "  " << terminal_text(in.installation) << " at " << r.letter << " "
         << angle_text(in.angle_deg) << " deg";
       if (in.line > 0) s << " (line " << in.line << ")";
+      if (std::find(r.reversed.begin(), r.reversed.end(), in.installation) != r.reversed.end())
+        s << " (reversed count)";
       s << ": read " << fmt_rounded(c.read_um, 2) << ", predicted "
         << fmt_rounded(c.predicted_um, 2) << ", residual " << fmt_rounded(c.residual_um, 2)
         << ", std " << fmt_rounded(c.std_um, 2) << " (" << fmt_rounded(c.normalized, 1)
@@ -314,6 +325,7 @@ TestPrediction predict_test(const ResultFile& result, const Design& design,
   t.k = boost::math::quantile(boost::math::normal(), 0.5 + coverage_probability / 2);
   t.result_dof = axis.dof;
   t.warnings = result.warnings;
+  t.reversed = reversed_installations(design);
   VerifyOptions o;
   o.coverage_probability = coverage_probability;
   o.location_only = location_only;
@@ -403,7 +415,11 @@ std::string test_prediction_text(const TestPrediction& t) {
   for (const PredictedReading& r : p.readings) {
     if (r.reading.installation != installation) {
       installation = r.reading.installation;
-      s << "installation " << terminal_text(installation) << " (um):\n";
+      s << "installation " << terminal_text(installation)
+        << (std::find(t.reversed.begin(), t.reversed.end(), installation) != t.reversed.end()
+                ? " (um, in the instrument's reversed count: reading_sign -1)"
+                : " (um)")
+        << ":\n";
     }
     const std::string value = fmt_rounded(r.predicted_um, 2);
     s << "  " << t.letter << " " << angle_text(r.reading.angle_deg) << " deg"

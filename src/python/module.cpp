@@ -208,6 +208,54 @@ std::optional<std::string> as_path(py::handle h) {
   return path;
 }
 
+// Rows of numbers (a list of lists, or an array: its tolist()), one per column; booleans, text
+// and what no float takes refused naming at[i].column.
+std::vector<std::vector<double>> number_rows(py::handle at, const std::string& key,
+                                             const std::vector<std::string>& columns) {
+  py::object rows = py::reinterpret_borrow<py::object>(at);
+  if (py::hasattr(rows, "tolist") && !py::isinstance<py::list>(rows)) rows = rows.attr("tolist")();
+  const std::size_t width = columns.size();
+  std::string names;
+  for (const std::string& c : columns) names += (names.empty() ? "" : ", ") + c;
+  const std::string expected =
+      "expected rows of " + std::to_string(width) + " numbers [" + names + "] (or a CSV's path)";
+  if (!py::isinstance<py::sequence>(rows) || py::isinstance<py::str>(rows) ||
+      py::isinstance<py::bytes>(rows))
+    throw InputError(key, "", expected);
+  const py::sequence list = py::reinterpret_borrow<py::sequence>(rows);
+  if (list.size() == 0) throw InputError(key, "", "no pose");
+  if (list.size() > limits::kMaxPoses)
+    throw InputError(key, "", "more than " + std::to_string(limits::kMaxPoses) + " poses");
+  std::vector<std::vector<double>> out;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string where = key + "[" + std::to_string(i) + "]";
+    const py::object row = list[i];
+    if (!py::isinstance<py::sequence>(row) || py::isinstance<py::str>(row) ||
+        py::isinstance<py::bytes>(row) || py::len(row) != width)
+      throw InputError(key, where, expected);
+    std::vector<double> numbers;
+    for (std::size_t c = 0; c < width; ++c) {
+      const py::object cell = py::reinterpret_borrow<py::sequence>(row)[c];
+      const std::string at_cell = where + "." + columns[c];
+      if (py::isinstance<py::bool_>(cell) || py::isinstance<py::str>(cell) ||
+          py::isinstance<py::bytes>(cell) || cell.is_none())
+        throw InputError(key, at_cell, "not a number");
+      double x = 0;
+      try {
+        x = py::float_(cell).cast<double>();
+      } catch (const py::error_already_set&) {
+        throw InputError(key, at_cell, "not a number");
+      } catch (const py::cast_error&) {
+        throw InputError(key, at_cell, "not a number");
+      }
+      if (!std::isfinite(x)) throw InputError(key, at_cell, "not a finite number");
+      numbers.push_back(x);
+    }
+    out.push_back(std::move(numbers));
+  }
+  return out;
+}
+
 // ---------------------------------------------------------------- argument checks
 
 void check_finite_in(const char* name, double x, double lo, double hi) {
@@ -1805,33 +1853,32 @@ PYBIND11_MODULE(dbbkit, m) {
             poses = io::parse_chain_poses(io::read_text_file(*path), *path, chain);
             poses_source = *path;
           } else {
-            const auto rows = py::cast<std::vector<std::vector<double>>>(at);
-            if (rows.empty()) throw InputError("at", "", "no pose");
-            if (rows.size() > limits::kMaxPoses)
-              throw InputError("at", "",
-                               "more than " + std::to_string(limits::kMaxPoses) + " poses");
             const std::vector<std::string> columns = io::chain_pose_columns(chain);
-            std::string csv, names;
-            for (const std::string& c : columns) {
-              csv += (csv.empty() ? "" : ",") + c;
-              names += (names.empty() ? "" : ", ") + c;
-            }
+            const std::vector<std::vector<double>> rows = number_rows(at, "at", columns);
+            std::string csv;
+            for (const std::string& c : columns) csv += (csv.empty() ? "" : ",") + c;
             csv += "\n";
-            for (std::size_t i = 0; i < rows.size(); ++i) {
-              if (rows[i].size() != columns.size())
-                throw InputError(
-                    "at", "at[" + std::to_string(i) + "]",
-                    "expected " + std::to_string(columns.size()) + " numbers: " + names);
-              for (std::size_t c = 0; c < rows[i].size(); ++c) {
-                if (!std::isfinite(rows[i][c]))
-                  throw InputError("at", "at[" + std::to_string(i) + "]", "not a finite number");
+            for (const std::vector<double>& row : rows) {
+              for (std::size_t c = 0; c < row.size(); ++c) {
                 std::ostringstream cell;
-                cell << std::setprecision(17) << rows[i][c];
+                cell << std::setprecision(17) << row[c];
                 csv += (c ? "," : "") + cell.str();
               }
               csv += "\n";
             }
-            poses = io::parse_chain_poses(csv, "at", chain);
+            try {
+              poses = io::parse_chain_poses(csv, "at", chain);
+            } catch (const InputError& e) {
+              // The CSV's line n is row n - 2.
+              const std::string w = e.where();
+              if (w.rfind("line ", 0) != 0) throw;
+              const std::size_t end = w.find_first_not_of("0123456789", 5);
+              const int line = std::stoi(w.substr(5, end - 5));
+              throw InputError("at",
+                               "at[" + std::to_string(line - 2) + "]" +
+                                   (end == std::string::npos ? "" : w.substr(end)),
+                               e.detail());
+            }
           }
           io::ChainPredictResult p = io::predict_chain(f, chain, poses, coverage);
           p.poses_source = poses_source;
@@ -1857,14 +1904,10 @@ PYBIND11_MODULE(dbbkit, m) {
           poses = io::read_poses_file(*path, r.axis);
           source = *path;
         } else {
-          const auto rows = py::cast<std::vector<std::vector<double>>>(at);
-          if (rows.empty()) throw InputError("at", "", "no pose");
-          if (rows.size() > limits::kMaxPoses)
-            throw InputError("at", "", "more than " + std::to_string(limits::kMaxPoses) + " poses");
+          const std::vector<std::vector<double>> rows =
+              number_rows(at, "at", {"angle_deg", "x_mm", "y_mm", "z_mm"});
           for (std::size_t i = 0; i < rows.size(); ++i) {
             const std::string where = "at[" + std::to_string(i) + "]";
-            if (rows[i].size() != 4)
-              throw InputError("at", where, "expected [angle_deg, x_mm, y_mm, z_mm]");
             Pose p;
             p.angle_deg = rows[i][0];
             p.point_mm = Eigen::Vector3d(rows[i][1], rows[i][2], rows[i][3]);
@@ -1889,7 +1932,10 @@ PYBIND11_MODULE(dbbkit, m) {
       "(default the result's), as predict --grid-*) from a result (path, result or its json), "
       "with its uncertainty and what entering the location errors leaves; or, with `design` (a "
       "test of the same axis), each of its readings before it is run, with U, as predict "
-      "--design; the dict `predict --out` writes");
+      "--design; from a machine result (dbbkit chain --out, a path or its JSON text), `at` "
+      "rows [one angle per axis in the result's axes order, x_mm, y_mm, z_mm] (a table and a "
+      "head: and tool_x_mm, tool_y_mm, tool_z_mm) or a CSV with those columns; the dict "
+      "`predict --out` writes");
   m.def(
       "verify",
       [result_of, result_sha](py::handle result, const PyDesign& design, const PyMeasurements& data,
@@ -1915,7 +1961,8 @@ PYBIND11_MODULE(dbbkit, m) {
                   const std::map<std::string, double>& current, double k, int record,
                   std::optional<std::vector<double>> radii_mm,
                   std::optional<std::vector<double>> heights_mm, py::handle around,
-                  std::optional<std::vector<double>> angles_deg) {
+                  std::optional<std::vector<double>> angles_deg,
+                  std::optional<std::vector<double>> tool_reference_mm) {
         const std::optional<io::GridRequest> request =
             grid_request(radii_mm, heights_mm, around, angles_deg);
         check_finite_in("k", k, 1, 10);
@@ -1926,6 +1973,15 @@ PYBIND11_MODULE(dbbkit, m) {
         o.k = k;
         o.linuxcnc_kins = kins;
         o.record = record;
+        if (tool_reference_mm) {
+          if (tool_reference_mm->size() != 3)
+            throw InputError("tool_reference_mm", "", "expected the point [x, y, z] in mm");
+          for (const double x : *tool_reference_mm)
+            check_finite_in("tool_reference_mm", x, -io::kMaxCompensation_mm,
+                            io::kMaxCompensation_mm);
+          o.tool_reference_mm = Eigen::Vector3d((*tool_reference_mm)[0], (*tool_reference_mm)[1],
+                                                (*tool_reference_mm)[2]);
+        }
         for (const auto& [pin, v] : current) {
           check_finite_in("current", v, -io::kMaxCompensation_mm, io::kMaxCompensation_mm);
           o.current_mm[pin] = v;
@@ -1954,8 +2010,10 @@ PYBIND11_MODULE(dbbkit, m) {
       py::arg("current") = std::map<std::string, double>{}, py::arg("k") = 2.0,
       py::arg("record") = 0, py::arg("radii_mm") = py::none(), py::arg("heights_mm") = py::none(),
       py::arg("around") = py::none(), py::arg("angles_deg") = py::none(),
+      py::arg("tool_reference_mm") = py::none(),
       "`dbbkit compensation`: the location errors of a result, or a machine result's corrected "
-      "kinematics (chain), for a controller (format isg, linuxcnc, siemens: record, or table), "
+      "kinematics (chain), for a controller (format isg, linuxcnc, siemens: record, and on a "
+      "machine with a head axis tool_reference_mm [x, y, z], as --tool-reference-mm; or table), "
       "as the text the command writes; radii_mm, heights_mm, around, angles_deg: the envelope "
       "the decision to enter rests on, as --grid-*");
 

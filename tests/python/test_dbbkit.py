@@ -201,7 +201,7 @@ class RoundTrips(InSource):
                              rows["points"])
             with self.assertRaises(dbbkit.InputError) as ctx:
                 dbbkit.predict(m, at=[[90, 100, 0, -60]])
-            self.assertIn("expected 5 numbers", str(ctx.exception))
+            self.assertIn("expected rows of 5 numbers", str(ctx.exception))
 
     def test_predict_a_tool_tip_against_a_table_as_the_command_line(self):
         # The paper's B/C machine: rows [B_deg, C_deg, x, y, z, tool_x, tool_y, tool_z] (the
@@ -224,7 +224,30 @@ class RoundTrips(InSource):
                                        places=5)
             with self.assertRaises(dbbkit.InputError) as ctx:
                 dbbkit.predict(m, at=[[-90, 90, 0, 0, 150]])
-            self.assertIn("expected 8 numbers", str(ctx.exception))
+            self.assertIn("expected rows of 8 numbers", str(ctx.exception))
+            # Rows that are not numbers are named by row and column, never cast.
+            for rows, says in (([[0, 0, 0, 0, 0, 0, 0, True]], "at[0].tool_z_mm: not a number"),
+                               ([[0, "0", 0, 0, 0, 0, 0, 100]], "at[0].C_deg: not a number"),
+                               ([[0, 0, 0, 0, 0, 0, None, 100]], "at[0].tool_y_mm: not a number"),
+                               (5, "expected rows of 8 numbers"),
+                               ([0, 0, 0, 0, 0, 0, 0, 100], "at[0]: expected rows"),
+                               ([[0, 0, 0, 0, 0, 0, 0, 1e300]], "at[0], column tool_z_mm")):
+                with self.assertRaises(dbbkit.InputError, msg=str(rows)) as ctx:
+                    dbbkit.predict(m, at=rows)
+                self.assertIn(says, str(ctx.exception))
+            # Its Siemens record (kinematic type M) as the command line writes it.
+            record = dbbkit.compensation(m, "siemens", record=1, tool_reference_mm=[0, 0, 100])
+            self.assertIn("kinematic type M", record)
+            self.assertEqual(record, subprocess.run(
+                [CLI, "compensation", "--result", m, "--format", "siemens", "--record", "1",
+                 "--tool-reference-mm", "0,0,100"], cwd=SOURCE, check=True,
+                capture_output=True, text=True).stdout)
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.compensation(m, "siemens", record=1)
+            self.assertIn("tool_reference_mm: required", str(ctx.exception))
+            with self.assertRaises(dbbkit.InputError) as ctx:
+                dbbkit.compensation(m, "siemens", record=1, tool_reference_mm=[0, 0])
+            self.assertIn("tool_reference_mm", str(ctx.exception))
 
     def test_predict_as_the_command_line(self):
         # The poses' CSV or rows; the dict predict --out writes; bad rows name their place.

@@ -53,6 +53,9 @@ struct CompensationOptions {
   std::map<std::string, double> current_mm;
   // siemens: the number of the swivel data record written (0: not given).
   int record = 0;
+  // siemens, a machine with a head axis (kinematic types T and M): the tool adapter's reference
+  // point with every axis at zero, machine frame, mm (where the record's head vectors start).
+  std::optional<Eigen::Vector3d> tool_reference_mm;
   // An identify or diagnose result: the envelope the decision to enter rests on (io::grid_of's,
   // defaults filled in); absent: each value on its own (|value| > U).
   std::optional<EnvelopeGrid> envelope;
@@ -71,6 +74,10 @@ struct EnvelopeJudgement : EnteringJudgement {
 // errors' covariance.
 EnvelopeJudgement judge_envelope(const ResultFile& result, const EnvelopeGrid& grid, double k,
                                  const std::array<bool, 5>& takes = {true, true, true, true, true});
+
+// --tool-reference-mm's value: three numbers x,y,z (mm, within +-kMaxCompensation_mm);
+// InputError naming `key` otherwise.
+Eigen::Vector3d parse_tool_reference(const std::string& text, const std::string& key);
 
 // Refuses the options the format does not take (kins and current are LinuxCNC's): throws
 // InputError(option_name("--current") or ("--kins")) saying so.

@@ -26,6 +26,9 @@ struct VerifyReport {
   Verification v;
   std::vector<Reading> readings;      // as given (installation, angle, line)
   std::vector<std::string> warnings;  // the result's, carried
+  // The installations whose instrument counts the other way (reading_sign -1): their readings,
+  // read and predicted, are in that count.
+  std::vector<std::string> reversed;
   // What the verdict should be read with: the test's readings are the result's own, or the
   // statistic lies so low (p > 0.999) that the uncertainties may be overstated.
   std::vector<std::string> notes;
@@ -59,6 +62,7 @@ struct TestPrediction {
   std::optional<double> result_dof;
   PredictedTest p;
   std::vector<std::string> warnings;  // the result's, carried
+  std::vector<std::string> reversed;  // installations of reading_sign -1 (VerifyReport's)
 };
 
 // InputError as verify's (the test's axis or machine, a location error not determined, more
