@@ -282,14 +282,15 @@ Controller nominal_controller() {
           {Eigen::Vector3d(0, 0, -60), Eigen::Vector3d::UnitZ(), 0}};
 }
 
-// The record's vectors by name (l1 ... l4, v1, v2), as written for record 1.
-std::map<std::string, Eigen::Vector3d> siemens_vectors(const std::string& mpf) {
+// The record's vectors by name (l1 ... l4, v1, v2), as written for record 1 (`was`: the values
+// each line says the record held).
+std::map<std::string, Eigen::Vector3d> siemens_vectors(const std::string& mpf, bool was = false) {
   std::map<int, double> v;
-  const std::regex assignment(R"(^\$TC_CARR(\d+)\[1\]=([-0-9.]+) ;)");
+  const std::regex assignment(R"(^\$TC_CARR(\d+)\[1\]=([-0-9.]+) ; \S+ [xyz], was ([-0-9.]+))");
   std::istringstream in(mpf);
   for (std::string line; std::getline(in, line);) {
     std::smatch m;
-    if (std::regex_search(line, m, assignment)) v[std::stoi(m[1])] = std::stod(m[2]);
+    if (std::regex_search(line, m, assignment)) v[std::stoi(m[1])] = std::stod(m[was ? 3 : 2]);
   }
   std::map<std::string, Eigen::Vector3d> out;
   for (const auto& [name, first] : {std::pair{"l1", 1}, std::pair{"l2", 4}, std::pair{"l3", 15},
@@ -537,7 +538,8 @@ std::string noise_free_chain(const std::filesystem::path& dir, const std::string
 TEST(ChainCompensation, SiemensRecordsOfHeadsPutEachLineWhereItIs) {
   const auto dir = std::filesystem::temp_directory_path() / "dbbkit_chain_siemens_heads";
   std::filesystem::remove_all(dir);
-  const Eigen::Vector3d tool(0, 0, 100);
+  // Off both C lines, so that a tool adapter's point written into a table's vector would show.
+  const Eigen::Vector3d tool(3, -2, 100);
   {
     const std::array<double, 5> lb = {12, -8, 25, 0, -15}, lc = {0, 10, 0, 20, 0};
     const std::string m = noise_free_chain(
@@ -548,7 +550,7 @@ TEST(ChainCompensation, SiemensRecordsOfHeadsPutEachLineWhereItIs) {
     EXPECT_EQ(without.status, 2);
     EXPECT_NE(without.err.find("--tool-reference-mm: required"), std::string::npos) << without.err;
     const CliRun r = run_cli("compensation --result " + m +
-                             " --format siemens --record 1 --tool-reference-mm 0,0,100");
+                             " --format siemens --record 1 --tool-reference-mm 3,-2,100");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("kinematic type M (swivel head and swivel table)"), std::string::npos)
         << r.out;
@@ -556,6 +558,14 @@ TEST(ChainCompensation, SiemensRecordsOfHeadsPutEachLineWhereItIs) {
     ASSERT_EQ(v.size(), 6u) << r.out;
     EXPECT_LT((v.at("l1") + v.at("l2")).norm(), 1e-9);
     EXPECT_LT((v.at("l3") + v.at("l4")).norm(), 1e-9);
+    // What each line says the record held: the machine file's, from the tool adapter given.
+    const auto was = siemens_vectors(r.out, true);
+    ASSERT_EQ(was.size(), 6u) << r.out;
+    EXPECT_LT((was.at("l2") - Eigen::Vector3d(-3, 2, 150)).norm(), 1e-9);
+    EXPECT_LT((was.at("l1") - Eigen::Vector3d(3, -2, -150)).norm(), 1e-9);
+    EXPECT_LT(was.at("l3").norm(), 1e-9);
+    EXPECT_LT((was.at("v1") - Eigen::Vector3d::UnitY()).norm(), 1e-9);
+    EXPECT_LT((was.at("v2") - Eigen::Vector3d::UnitZ()).norm(), 1e-9);
     const Machine machine =
         io::read_machine_file(test::source_path("designs/machines/paper-b-c.json"));
     const RealLine head{tool + v.at("l2"), v.at("v1"), 0}, table{v.at("l3"), v.at("v2"), 0};
@@ -575,22 +585,35 @@ TEST(ChainCompensation, SiemensRecordsOfHeadsPutEachLineWhereItIs) {
         dir / "fork", "a-c-fork-head.json",
         {{"a-c-fork-head-C", {{"X0C", -12}, {"Y0C", 9}}}, {"a-c-fork-head-A", {{"Z0A", -10}}}});
     const CliRun r = run_cli("compensation --result " + m +
-                             " --format siemens --record 1 --tool-reference-mm 0,0,100");
+                             " --format siemens --record 1 --tool-reference-mm 3,-2,100");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("kinematic type T (swivel head)"), std::string::npos) << r.out;
     const auto v = siemens_vectors(r.out);
     ASSERT_EQ(v.size(), 5u) << r.out;  // no l4
     EXPECT_LT((v.at("l1") + v.at("l2") + v.at("l3")).norm(), 1e-9);
+    const auto was = siemens_vectors(r.out, true);
+    ASSERT_EQ(was.size(), 5u) << r.out;
+    EXPECT_LT((was.at("l3") - Eigen::Vector3d(-3, 2, 200)).norm(), 1e-9);
+    EXPECT_LT(was.at("l2").norm(), 1e-9);
+    EXPECT_LT((was.at("l1") - Eigen::Vector3d(3, -2, -200)).norm(), 1e-9);
+    EXPECT_LT((was.at("v1") - Eigen::Vector3d::UnitZ()).norm(), 1e-9);  // C, the outer
+    EXPECT_LT((was.at("v2") - Eigen::Vector3d::UnitX()).norm(), 1e-9);  // A, the inner
     const Machine machine =
         io::read_machine_file(test::source_path("designs/machines/a-c-fork-head.json"));
     const RealLine outer{tool + v.at("l3") + v.at("l2"), v.at("v1"), 0},
         inner{tool + v.at("l3"), v.at("v2"), 0};
     for (const auto& [ctrl, k, l] :
          {std::tuple{outer, machine.find('C'), lc}, std::tuple{inner, machine.find('A'), la}}) {
-      EXPECT_LT(apart(planted_line(machine, k, l), ctrl).first, 0.05) << k;
+      const auto [offset_um, tilt_urad] = apart(planted_line(machine, k, l), ctrl);
+      EXPECT_LT(offset_um, 0.05) << k;
+      EXPECT_LT(tilt_urad, 0.5) << k;
       EXPECT_GT(apart(planted_line(machine, k, l), planted_line(machine, k, {})).first, 5) << k;
     }
-    // Only a record takes the tool adapter's point.
+    // Only a record takes the tool adapter's point, even given empty.
+    EXPECT_EQ(run_cli("compensation --result " + (dir / "bc" / "M.json").string() +
+                      " --format table --tool-reference-mm ''")
+                  .status,
+              2);
     const CliRun trunnion = run_cli("compensation --result " + (dir / "bc" / "M.json").string() +
                                     " --format isg --tool-reference-mm 0,0,100");
     EXPECT_EQ(trunnion.status, 2);

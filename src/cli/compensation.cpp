@@ -45,9 +45,10 @@ Runner add_compensation(CLI::App& app) {
   sub->add_option("--record", args->record,
                   "siemens: the number n of the swivel data record ($TC_CARR..[n])")
       ->check(CLI::Range(1, 99));
-  sub->add_option("--tool-reference-mm", args->tool_reference,
-                  "siemens, a machine with a head axis: the tool adapter's reference point x,y,z "
-                  "with every axis at zero (machine frame, mm)");
+  CLI::Option* tool_reference = sub->add_option(
+      "--tool-reference-mm", args->tool_reference,
+      "siemens, a machine with a head axis: the tool adapter's reference point x,y,z with every "
+      "axis at zero, in the machine file's frame (where its point_mm are given), mm");
   sub->add_option("--out", args->out, "Output file; '-' or absent: stdout");
   sub->add_option("--kins", args->kins,
                   "linuxcnc: xyzac-trt or xyzbc-trt (an A table: xyzac-trt, a B table: "
@@ -61,14 +62,14 @@ Runner add_compensation(CLI::App& app) {
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the file asked for");
   args->grid.add(sub, "The envelope the decision to enter rests on (as predict's map)");
 
-  return [args]() {
+  return [args, tool_reference]() {
     io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}}, {args->result});
     const std::string text = io::read_json_file(args->result);
     io::CompensationOptions o;
     o.k = args->k;
     o.linuxcnc_kins = args->kins;
     o.record = args->record;
-    if (!args->tool_reference.empty())
+    if (tool_reference->count() > 0)
       o.tool_reference_mm = io::parse_tool_reference(args->tool_reference, "--tool-reference-mm");
     const io::CompensationFormat f = io::compensation_format(args->format, "--format");
     {  // an option the format does not take, before its values are read

@@ -614,8 +614,10 @@ std::string siemens(const ChainFile& m, const CompensationOptions& o) {
     throw InputError(option_name("--tool-reference-mm"), "",
                      "required with " + option_with_value("--format", "siemens") +
                          " on a machine with a head axis: the tool adapter's reference point "
-                         "(where the tool's length is measured from) with every axis at zero, "
-                         "machine frame, mm, e.g. 0,0,100: the record's head vectors start there");
+                         "(where the tool's length is measured from) with every axis at zero, in "
+                         "the machine file's frame (where its point_mm are given, not the "
+                         "control's machine coordinates), mm, e.g. 0,0,100: the record's head "
+                         "vectors start there");
   if (!head && o.tool_reference_mm)
     throw InputError(option_name("--tool-reference-mm"), "",
                      "a machine of two table axes (kinematic type P) has no vector from the tool "
@@ -652,9 +654,15 @@ std::string siemens(const ChainFile& m, const CompensationOptions& o) {
   s << ", v1 = the direction of " << a1.letter << ", v2 = that of " << a2.letter << "\n"
     << "; the values replace the record's: check before running that it holds the machine "
        "file's nominal values (each line says them) and is of kinematic type "
-    << axes.type << ", and keep a copy of the record\n"
+    << axes.type << ", and keep a copy of the record\n";
+  if (head)
+    s << "; the points are in the machine file's frame (where its point_mm are given), not the "
+         "control's machine coordinates; the head vectors' 'was' values use the tool adapter's "
+         "point given: where the record's differ, that point is not the record's: do not run\n";
+  s << "; the record's fine offsets ($TC_CARR41 to $TC_CARR60) add to these values: check that "
+       "they are zero, or subtract them from what is written\n"
     << "; v1 and v2 in the machine file's sense (the axis turns right-handed about it): where "
-       "the record holds a table axis' vector reversed, reverse the written one\n"
+       "the record holds an axis' vector reversed, reverse the written one\n"
     << "; U = k u, " << k_text(o.k) << "\n";
   s << "; the location errors:\n";
   for (const ChainFileAxis& a : m.axes) {
