@@ -360,7 +360,6 @@ ChainPointPrediction predict_chain_point(const ChainErrors& chain, const ChainOr
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(m);
   const std::vector<int>& work = order.table.empty() ? order.head : order.table;
   r.nominal_mm = chain_point_mm(chain, work, zero, pose, pose.point_mm);
-  const Eigen::Vector3d nominal_place = chain_place_mm(chain, order, zero, pose);
   Eigen::Matrix<double, 3, Eigen::Dynamic> J(3, m);
   constexpr double h = 1e-3;
   for (Eigen::Index c = 0; c < m; ++c) {
@@ -372,12 +371,16 @@ ChainPointPrediction predict_chain_point(const ChainErrors& chain, const ChainOr
     if (!known[static_cast<std::size_t>(c)] && J.col(c).norm() > 1e-9) r.determined = false;
   }
   if (!r.determined) return r;
-  r.error_um = 1e3 * (chain_place_mm(chain, order, e, pose) - nominal_place);
+  // Each side's displacement once; a table and a head: the tool tip's less the point's.
+  const Eigen::Vector3d work_um =
+      1e3 * (chain_point_mm(chain, work, e, pose, pose.point_mm) - r.nominal_mm);
   if (order.both()) {
     r.tool_um = 1e3 * (chain_point_mm(chain, order.head, e, pose, *pose.tool_mm) -
                        chain_point_mm(chain, order.head, zero, pose, *pose.tool_mm));
-    r.workpiece_um =
-        1e3 * (chain_point_mm(chain, order.table, e, pose, pose.point_mm) - r.nominal_mm);
+    r.workpiece_um = work_um;
+    r.error_um = *r.tool_um - work_um;
+  } else {
+    r.error_um = work_um;
   }
   r.covariance = J * chain.covariance * J.transpose();
   r.U_um = length_uncertainty(r.covariance, coverage);

@@ -14,7 +14,6 @@
 #include <random>
 #include <regex>
 #include <sstream>
-#include <tuple>
 
 #include "cli_util.hpp"
 #include "dbbkit/io/design_io.hpp"
@@ -497,6 +496,16 @@ RealLine planted_line(const Machine& m, int k, const std::array<double, 5>& l) {
   return r;
 }
 
+// A controller's line of axis k on its planted one (to the first-order model's error on
+// noise-free readings), the planted one well apart from the nominal: the record corrected it.
+void expect_on_planted_line(const Machine& m, int k, const std::array<double, 5>& l,
+                            const RealLine& ctrl) {
+  const auto [offset_um, tilt_urad] = apart(planted_line(m, k, l), ctrl);
+  EXPECT_LT(offset_um, 0.05) << k;
+  EXPECT_LT(tilt_urad, 0.5) << k;
+  EXPECT_GT(apart(planted_line(m, k, l), planted_line(m, k, {})).first, 5) << k;
+}
+
 // Each axis' test simulated without noise (exact geometry) from its own planted errors,
 // identified and chained: the machine result's path.
 std::string noise_free_chain(const std::filesystem::path& dir, const std::string& machine,
@@ -569,14 +578,8 @@ TEST(ChainCompensation, SiemensRecordsOfHeadsPutEachLineWhereItIs) {
     const Machine machine =
         io::read_machine_file(test::source_path("designs/machines/paper-b-c.json"));
     const RealLine head{tool + v.at("l2"), v.at("v1"), 0}, table{v.at("l3"), v.at("v2"), 0};
-    for (const auto& [ctrl, k, l] :
-         {std::tuple{head, machine.find('B'), lb}, std::tuple{table, machine.find('C'), lc}}) {
-      const auto [offset_um, tilt_urad] = apart(planted_line(machine, k, l), ctrl);
-      EXPECT_LT(offset_um, 0.05) << k;
-      EXPECT_LT(tilt_urad, 0.5) << k;
-      // Against the nominal line the planted one is well apart: the record corrected it.
-      EXPECT_GT(apart(planted_line(machine, k, l), planted_line(machine, k, {})).first, 5) << k;
-    }
+    expect_on_planted_line(machine, machine.find('B'), lb, head);
+    expect_on_planted_line(machine, machine.find('C'), lc, table);
   }
   {
     // The fork's A design determines Z0A alone of A's offsets.
@@ -602,13 +605,8 @@ TEST(ChainCompensation, SiemensRecordsOfHeadsPutEachLineWhereItIs) {
         io::read_machine_file(test::source_path("designs/machines/a-c-fork-head.json"));
     const RealLine outer{tool + v.at("l3") + v.at("l2"), v.at("v1"), 0},
         inner{tool + v.at("l3"), v.at("v2"), 0};
-    for (const auto& [ctrl, k, l] :
-         {std::tuple{outer, machine.find('C'), lc}, std::tuple{inner, machine.find('A'), la}}) {
-      const auto [offset_um, tilt_urad] = apart(planted_line(machine, k, l), ctrl);
-      EXPECT_LT(offset_um, 0.05) << k;
-      EXPECT_LT(tilt_urad, 0.5) << k;
-      EXPECT_GT(apart(planted_line(machine, k, l), planted_line(machine, k, {})).first, 5) << k;
-    }
+    expect_on_planted_line(machine, machine.find('C'), lc, outer);
+    expect_on_planted_line(machine, machine.find('A'), la, inner);
     // Only a record takes the tool adapter's point, even given empty.
     EXPECT_EQ(run_cli("compensation --result " + (dir / "bc" / "M.json").string() +
                       " --format table --tool-reference-mm ''")

@@ -61,10 +61,37 @@ std::vector<std::string> chain_pose_columns(const ChainErrors& chain) {
   return names;
 }
 
+ChainPose chain_pose_of(const ChainErrors& chain, const std::vector<std::string>& columns,
+                        const std::function<double(std::size_t)>& value, const std::string& source,
+                        const std::string& where) {
+  ChainPose p;
+  for (std::size_t k = 0; k < chain.axes.size(); ++k) {
+    const double a = value(k);
+    if (!(std::abs(a) <= 36000))
+      throw InputError(source, where + ", column " + columns[k],
+                       fmt_num(a, 12) + " deg is beyond +-36000 deg");
+    p.angles_deg.push_back(a);
+  }
+  auto point = [&](std::size_t first) {
+    Eigen::Vector3d x;
+    for (std::size_t k = 0; k < 3; ++k) {
+      x(static_cast<Eigen::Index>(k)) = value(first + k);
+      if (!(std::abs(x(static_cast<Eigen::Index>(k))) <= limits::kMaxLength_mm))
+        throw InputError(source, where + ", column " + columns[first + k],
+                         fmt_num(x(static_cast<Eigen::Index>(k)), 12) + " mm is beyond +-" +
+                             fmt_num(limits::kMaxLength_mm, 12) + " mm");
+    }
+    return x;
+  };
+  p.point_mm = point(chain.axes.size());
+  if (columns.size() > chain.axes.size() + 3) p.tool_mm = point(chain.axes.size() + 3);
+  return p;
+}
+
 std::vector<ChainPose> parse_chain_poses(const std::string& text, const std::string& source,
                                          const ChainErrors& chain) {
   const std::vector<std::string> names = chain_pose_columns(chain);
-  const bool tool = names.size() == chain.axes.size() + 6;
+  const bool tool = names.size() > chain.axes.size() + 3;
   std::string expected;
   for (const std::string& n : names) expected += (expected.empty() ? "" : ", ") + n;
   std::vector<ChainPose> poses;
@@ -76,29 +103,8 @@ std::vector<ChainPose> parse_chain_poses(const std::string& text, const std::str
                 : ": each axis' angle, and a point fixed to the innermost body, machine frame "
                   "with every axis at zero"),
       [&](const std::function<double(const std::string&)>& number, const std::string& where) {
-        ChainPose p;
-        for (std::size_t k = 0; k < chain.axes.size(); ++k) {
-          const double a = number(names[k]);
-          if (!(std::abs(a) <= 36000))
-            throw InputError(source, where + ", column " + names[k],
-                             fmt_num(a, 12) + " deg is beyond +-36000 deg");
-          p.angles_deg.push_back(a);
-        }
-        auto point = [&](std::size_t first) {
-          Eigen::Vector3d x;
-          for (int k = 0; k < 3; ++k) {
-            const std::string& name = names[first + static_cast<std::size_t>(k)];
-            x(k) = number(name);
-            if (!(std::abs(x(k)) <= limits::kMaxLength_mm))
-              throw InputError(source, where + ", column " + name,
-                               fmt_num(x(k), 12) + " mm is beyond +-" +
-                                   fmt_num(limits::kMaxLength_mm, 12) + " mm");
-          }
-          return x;
-        };
-        p.point_mm = point(chain.axes.size());
-        if (tool) p.tool_mm = point(chain.axes.size() + 3);
-        poses.push_back(p);
+        poses.push_back(chain_pose_of(
+            chain, names, [&](std::size_t k) { return number(names[k]); }, source, where));
       });
   return poses;
 }

@@ -1855,30 +1855,10 @@ PYBIND11_MODULE(dbbkit, m) {
           } else {
             const std::vector<std::string> columns = io::chain_pose_columns(chain);
             const std::vector<std::vector<double>> rows = number_rows(at, "at", columns);
-            std::string csv;
-            for (const std::string& c : columns) csv += (csv.empty() ? "" : ",") + c;
-            csv += "\n";
-            for (const std::vector<double>& row : rows) {
-              for (std::size_t c = 0; c < row.size(); ++c) {
-                std::ostringstream cell;
-                cell << std::setprecision(17) << row[c];
-                csv += (c ? "," : "") + cell.str();
-              }
-              csv += "\n";
-            }
-            try {
-              poses = io::parse_chain_poses(csv, "at", chain);
-            } catch (const InputError& e) {
-              // The CSV's line n is row n - 2.
-              const std::string w = e.where();
-              if (w.rfind("line ", 0) != 0) throw;
-              const std::size_t end = w.find_first_not_of("0123456789", 5);
-              const int line = std::stoi(w.substr(5, end - 5));
-              throw InputError("at",
-                               "at[" + std::to_string(line - 2) + "]" +
-                                   (end == std::string::npos ? "" : w.substr(end)),
-                               e.detail());
-            }
+            for (std::size_t i = 0; i < rows.size(); ++i)
+              poses.push_back(io::chain_pose_of(
+                  chain, columns, [&](std::size_t k) { return rows[i][k]; }, "at",
+                  "at[" + std::to_string(i) + "]"));
           }
           io::ChainPredictResult p = io::predict_chain(f, chain, poses, coverage);
           p.poses_source = poses_source;

@@ -106,8 +106,14 @@ ChainErrors chain_errors_of(const ChainFile& f);
 // workpiece's on the innermost table), and for a table and a head tool_x_mm,tool_y_mm,tool_z_mm:
 // the tool tip in the innermost head; machine frame with every axis at zero, from its origin.
 std::vector<std::string> chain_pose_columns(const ChainErrors& chain);
-// Those columns (mm within +-limits::kMaxLength_mm, each angle within +-36000 deg). InputError
-// naming the line and column otherwise; at most limits::kMaxPoses rows.
+// One pose from its values in those columns (`value(k)`: columns[k]'s, read in order): mm within
+// +-limits::kMaxLength_mm, each angle within +-36000 deg; InputError at "<where>, column <name>"
+// otherwise.
+ChainPose chain_pose_of(const ChainErrors& chain, const std::vector<std::string>& columns,
+                        const std::function<double(std::size_t)>& value, const std::string& source,
+                        const std::string& where);
+// Those columns (as chain_pose_of), InputError naming the line and column otherwise; at most
+// limits::kMaxPoses rows.
 std::vector<ChainPose> parse_chain_poses(const std::string& text, const std::string& source,
                                          const ChainErrors& chain);
 // `chain`: chain_errors_of(f), as the poses were read against it.
