@@ -456,7 +456,7 @@ BENCHMARK(BM_DiagnoseGrowthAngles)
 void BM_ReadingsFromTrace(benchmark::State& state) {
   const Design d = paper_c();
   const std::vector<Sweep> sweeps = {Sweep::kCCW, Sweep::kCW};
-  const std::vector<Stop> stops = program_stops(d, sweeps);
+  const std::vector<Stop> stops = program_stops(d, 0, sweeps);
   std::vector<double> levels;
   for (const Stop& s : stops)
     for (std::size_t q = 0; q < s.sweeps.size(); ++q)

@@ -113,6 +113,20 @@ bool Design::setup_nuisance_declared() const {
   return false;
 }
 
+bool Design::partial_sweeps() const {
+  for (const Installation& in : installations) {
+    if (!in.angles_deg.empty() && in.angles_deg.size() < angles_deg.size()) return true;
+  }
+  return false;
+}
+
+int Design::readings_per_round() const {
+  int n = 0;
+  for (std::size_t i = 0; i < installations.size(); ++i)
+    n += readings_per_sweep(static_cast<int>(i));
+  return n;
+}
+
 int Design::find_installation(const std::string& id) const {
   for (size_t i = 0; i < installations.size(); ++i) {
     if (installations[i].id == id) return static_cast<int>(i);
@@ -205,6 +219,52 @@ void validate_noise_and_model(const NoiseModel& n, const ErrorModel& m, const Ax
 bool table_ball_beyond_tool(const AxisFrame& axis, const Direction& direction, int sign) {
   return !axis.head() || sign * direction.body.dot(axis.reference()) <= kBeyondTool;
 }
+
+namespace {
+
+// Each installation's own angles (installations[i].angles_deg): angles of the design, none
+// twice; and every angle of the design is read by some installation.
+void validate_installation_angles(const Design& d, const std::string& source) {
+  std::vector<double> sorted = d.angles_deg;
+  std::sort(sorted.begin(), sorted.end());
+  // The index in `sorted` of the design's angle within kAngleTolerance_deg of a, or -1.
+  auto design_angle = [&](double a) -> long {
+    const auto it = std::lower_bound(sorted.begin(), sorted.end(), a - kAngleTolerance_deg);
+    if (it == sorted.end() || !(std::abs(*it - a) < kAngleTolerance_deg)) return -1;
+    return it - sorted.begin();
+  };
+  std::vector<char> read(sorted.size(), 0);
+  for (std::size_t i = 0; i < d.installations.size(); ++i) {
+    const Installation& in = d.installations[i];
+    if (in.angles_deg.empty()) {
+      std::fill(read.begin(), read.end(), 1);
+      continue;
+    }
+    const std::string key = "installations[" + std::to_string(i) + "].angles_deg";
+    std::vector<char> own(sorted.size(), 0);
+    for (std::size_t k = 0; k < in.angles_deg.size(); ++k) {
+      const double a = in.angles_deg[k];
+      const std::string at = key + "[" + std::to_string(k) + "]";
+      require(finite(a), source, at, "angle is not a finite number");
+      const long j = design_angle(a);
+      require(j >= 0, source, at,
+              "angle " + text::significant(a, 12) +
+                  " deg is not an angle of the design's angles_deg (an installation reads at "
+                  "some of the design's angles)");
+      require(!own[static_cast<std::size_t>(j)], source, at,
+              "angle " + text::significant(a, 12) + " deg is given twice");
+      own[static_cast<std::size_t>(j)] = read[static_cast<std::size_t>(j)] = 1;
+    }
+  }
+  for (std::size_t j = 0; j < sorted.size(); ++j) {
+    require(read[j], source, "angles_deg",
+            "angle " + text::significant(sorted[j], 12) +
+                " deg is read by no installation (each installation's angles_deg leaves it "
+                "out): drop it from the design's angles or add it to an installation's");
+  }
+}
+
+}  // namespace
 
 void validate_design(const Design& d, const std::string& source) {
   // Text is data (user_text.hpp): what no writer could carry safely is refused here.
@@ -394,6 +454,7 @@ void validate_design(const Design& d, const std::string& source) {
       require(in.blocks_mm.empty(), source, key + ".stack_mm", "blocks need the cup's height");
     }
   }
+  validate_installation_angles(d, source);
 }
 
 std::vector<DesignMachine::AxisAngle> DesignMachine::angles_with(double tested_deg) const {

@@ -633,7 +633,7 @@ TimeEstimate design_time(const Kit& kit, const Design& design, int sweeps) {
   TimeEstimate t;
   t.positions = ball_positions(design);
   t.installations = static_cast<int>(design.installations.size());
-  t.readings = t.installations * design.readings_per_sweep() * sweeps;
+  t.readings = design.readings_per_round() * sweeps;
   t.setups_s = (kit.time_per_position_s > 0 ? t.positions * kit.time_per_position_s : 0.0) +
                t.installations * kit.time_per_installation_s;
   t.readings_s = t.readings * kit.time_per_reading_s;
@@ -936,8 +936,12 @@ double fit_bars(const Kit& kit, Design& design) {
   const std::vector<double>& bars = sorted_bars(kit, storage);
   const std::optional<ArcEnds> ends = arc_of(design.angles_deg);
   double worst = -std::numeric_limits<double>::infinity();
-  for (Installation& in : design.installations)
-    worst = std::max(worst, fit_bar_on(kit, design.axis, in, bars, ends));
+  for (std::size_t i = 0; i < design.installations.size(); ++i) {
+    Installation& in = design.installations[i];
+    // Each over its own arc (the design's, or the installation's angles).
+    worst = std::max(worst, fit_bar_on(kit, design.axis, in, bars,
+                                       in.angles_deg.empty() ? ends : arc_of(in.angles_deg)));
+  }
   return worst;
 }
 

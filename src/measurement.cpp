@@ -17,18 +17,20 @@ const char* sweep_name(Sweep s) { return s == Sweep::kCW ? "cw" : "ccw"; }
 
 std::vector<Reading> nominal_readings(const Design& design) {
   std::vector<Reading> out;
-  out.reserve(design.installations.size() * design.angles_deg.size());
-  for (const Installation& in : design.installations) {
-    for (double a : design.angles_deg) {
+  out.reserve(static_cast<std::size_t>(design.readings_per_round()));
+  for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
+    const Installation& in = design.installations[static_cast<std::size_t>(i)];
+    const std::vector<double>& angles = design.angles_of(i);
+    for (double a : angles) {
       Reading r;
       r.installation = in.id;
       r.angle_deg = a;
       out.push_back(std::move(r));
     }
-    if (design.readings_per_sweep() > static_cast<int>(design.angles_deg.size())) {
+    if (design.readings_per_sweep(i) > static_cast<int>(angles.size())) {
       Reading r;  // the return reading (design_model's row)
       r.installation = in.id;
-      r.angle_deg = *std::min_element(design.angles_deg.begin(), design.angles_deg.end());
+      r.angle_deg = *std::min_element(angles.begin(), angles.end());
       out.push_back(std::move(r));
     }
   }
@@ -59,6 +61,21 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
         s << " (outside its range " << *lo << " .. " << *hi << " deg)";
       }
       throw InputError(source, where, s.str());
+    }
+    if (const int k = index.at(r.installation); !design.installations[k].angles_deg.empty()) {
+      const std::vector<double>& own = design.installations[k].angles_deg;
+      const bool among = std::any_of(own.begin(), own.end(), [&](double a) {
+        return std::abs(a - r.angle_deg) < kAngleTolerance_deg;
+      });
+      if (!among) {
+        std::ostringstream s;
+        s << std::setprecision(12) << "angle " << r.angle_deg
+          << " deg is not an angle of installation " << r.installation
+          << " (its angles_deg: " << own.size() << " angles from "
+          << *std::min_element(own.begin(), own.end()) << " to "
+          << *std::max_element(own.begin(), own.end()) << " deg)";
+        throw InputError(source, where, s.str());
+      }
     }
     if (!std::isfinite(r.reading_um))
       throw InputError(source, where, "reading is not a finite number");

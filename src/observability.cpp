@@ -479,8 +479,9 @@ bool AngleStations::serves(const Design& design) const {
 
 std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm,
                                          const AngleStations* stations) {
-  // A return reading reads one angle twice: the closed forms take one reading per angle.
-  if (design.return_reading) return std::nullopt;
+  // A return reading reads one angle twice: the closed forms take one reading per angle, of
+  // every installation.
+  if (design.return_reading || design.partial_sweeps()) return std::nullopt;
   if (design.installations.empty()) return std::nullopt;
   // Declared set-up tolerances change the estimate (setup.hpp): fast_worst_total answers.
   if (design.setup_nuisance_declared()) return std::nullopt;
@@ -510,8 +511,9 @@ std::optional<WorstCase> fast_worst_case(const Design& design, double reference_
 std::optional<TotalWorstCase> fast_worst_total(const Design& design, double reference_length_mm,
                                                bool with_noise_part,
                                                const AngleStations* stations) {
-  // A return reading reads one angle twice: the closed forms take one reading per angle.
-  if (design.return_reading) return std::nullopt;
+  // A return reading reads one angle twice: the closed forms take one reading per angle, of
+  // every installation.
+  if (design.return_reading || design.partial_sweeps()) return std::nullopt;
   if (!design.setup_nuisance_declared()) {
     const std::optional<WorstCase> w = fast_worst_case(design, reference_length_mm, stations);
     if (!w) return std::nullopt;
@@ -708,8 +710,9 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
 
 std::optional<SetupInformation> fast_setup_information(const Design& design,
                                                        const AngleStations* stations) {
-  // A return reading reads one angle twice: the closed forms take one reading per angle.
-  if (design.return_reading) return std::nullopt;
+  // A return reading reads one angle twice: the closed forms take one reading per angle, of
+  // every installation.
+  if (design.return_reading || design.partial_sweeps()) return std::nullopt;
   // fast_worst_total's notation. An effect of installation i has the columns phi(g)' x_k on
   // that installation's readings (x_k the harmonic coefficients of its column k, X = [x_k]),
   // and R'R = sum_hl Phi_hl X_h' W N X_l reduces to w N_ii X' Phi X: the axis errors take the

@@ -1114,7 +1114,7 @@ std::vector<BindingConstraint> binding_constraints(const Kit& kit, const Optimiz
     b.time_s = probe.time_s;
     b.positions = ball_positions(probe.design);
     b.installations = static_cast<int>(probe.design.installations.size());
-    b.readings = b.installations * probe.design.readings_per_sweep();
+    b.readings = probe.design.readings_per_round();
   }
   std::stable_sort(
       out.begin(), out.end(),

@@ -279,13 +279,13 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   program.axis = design.axis;
   program.options = options;
   const std::vector<Sweep> sweeps = program_sweeps(options.sweeps);
-  const double first = sweep_angles(design, sweeps.front()).front();
   check_machine_options(design, options);
   program.machine = design.machine;
   // With a machine, the cups are placed with the axis at its park angle (the table level, the
-  // spindle upright), then turned.
-  const double placement_angle =
-      design.machine ? design.machine->park_angles()[design.machine->axis] : first;
+  // spindle upright), then turned; without one, at each installation's first angle.
+  const std::optional<double> park =
+      design.machine ? std::optional<double>(design.machine->park_angles()[design.machine->axis])
+                     : std::nullopt;
 
   std::size_t positions = 0;
   // The highest point anything reaches (work frame Z; the table surface (C) or the table ball
@@ -304,6 +304,8 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     InstallationProgram ip;
     ip.installation = i;
     ip.bar_mm = *inst.bar_mm;
+    const double first = sweep_angles(design, i, sweeps.front()).front();
+    const double placement_angle = park.value_or(first);
     const Eigen::Vector3d body = ball_body_mm(design.axis, inst);
     ip.fixed_ball_mm = design.axis.table() ? body : Eigen::Vector3d::Zero();
     // The table's cup is placed once per ball position (B: once, at the origin).
@@ -333,7 +335,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     for (const Sweep s : sweeps) {
       ProgramSweep ps;
       ps.direction = s;
-      const std::vector<SweepReading> order = sweep_readings(design, s);
+      const std::vector<SweepReading> order = sweep_readings(design, i, s);
       auto add_to = [&](ProgramSweep& to, double a, bool reading) {
         if (++positions > kMaxProgramPositions) {
           throw InputError("program", "path_tolerance_mm",
@@ -394,12 +396,14 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     // The table's disc and the solids that turn with the axis rise as it turns: the plane clears
     // their highest point at every angle the program visits.
     std::vector<double> angles = design.angles_deg;
-    angles.push_back(placement_angle);
+    angles.push_back(design.machine->park_angles()[design.machine->axis]);
     highest = std::max(highest, machine_top_z(design, angles));
   }
   // A plane given below the highest point plus the margin would send the sideways rapids
-  // through the table, the balls or the bar: refused, naming the least it may be.
-  const double lowest_plane = highest + reach + options.clearance_margin_mm;
+  // through the table, the balls or the bar: refused, naming the least it may be. A head turns
+  // at the plane: its ball, at most the reach from the pivot, then stays the margin above the
+  // table ball's centre (the highest point of a head's test below it), and every position below.
+  const double lowest_plane = std::max(highest, reach) + options.clearance_margin_mm;
   if (options.clearance_z_mm && *options.clearance_z_mm < lowest_plane) {
     throw InputError(option_name("--clearance-z-mm"), "",
                      "Z " + text::significant(*options.clearance_z_mm, 6) +
@@ -407,8 +411,8 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
                          text::significant(lowest_plane, 6) +
                          " mm: the highest point the program reaches (Z " +
                          text::significant(highest, 6) + " mm" +
-                         (reach > 0 ? ", plus the longest pivot-to-ball distance " +
-                                          text::significant(reach, 6) + " mm"
+                         (reach > 0 ? ") or the longest pivot-to-ball distance (" +
+                                          text::significant(reach, 6) + " mm, whichever is more"
                                     : std::string()) +
                          ") plus " + option_name("--clearance-margin-mm") + " " +
                          text::significant(options.clearance_margin_mm, 6) +
@@ -451,7 +455,54 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   if (const std::string clash = machine_clash(design, program); !clash.empty())
     throw InputError("design", "machine",
                      "machine " + quote_value(design.machine->machine->name) + ": " + clash);
+  if (design.machine && design.axis.head())
+    program.preset_range = head_preset_range(design, program);
   return program;
+}
+
+MeasurementProgram::PresetRange head_preset_range(const Design& design,
+                                                  const MeasurementProgram& program) {
+  const Machine& m = *design.machine->machine;
+  // The commanded pivot positions (work frame) and the spindle balls they carry.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  double lowest = std::numeric_limits<double>::infinity();
+  auto take = [&](const Eigen::Vector3d& pivot) {
+    lo = lo.cwiseMin(pivot);
+    hi = hi.cwiseMax(pivot);
+  };
+  for (const InstallationProgram& ip : program.installations) {
+    const Installation& inst = design.installations[static_cast<std::size_t>(ip.installation)];
+    take(ip.placement_mm);
+    for (const ProgramSweep& s : ip.sweeps) {
+      for (const ProgramPosition& p : s.positions) {
+        take(p.linear_mm);
+        const Eigen::Vector3d ball = p.linear_mm + ball_position_mm(design.axis, inst, p.angle_deg);
+        lowest = std::min({lowest, p.linear_mm.z(), ball.z()});
+      }
+    }
+  }
+  hi.z() = std::max(hi.z(), program.clearance_z_mm);  // the rapids at the plane
+  // The linear axes put the pivot at origin + their values: a preset q commands q + X.
+  const Eigen::Vector3d zero = design.machine->origin_mm();
+  MeasurementProgram::PresetRange r;
+  r.lowest_z_mm = lowest;
+  const char* names = "XYZ";
+  for (int i = 0; i < 3; ++i) {
+    const auto& t = m.linear_travel_mm[static_cast<std::size_t>(i)];
+    r.min_mm(i) = t[0] + zero(i) - lo(i);
+    r.max_mm(i) = t[1] + zero(i) - hi(i);
+    if (r.min_mm(i) > r.max_mm(i))
+      throw InputError("design", "machine",
+                       "machine " + quote_value(m.name) + ": the head test's pivot spans " +
+                           names[i] + " " + text::significant(lo(i), 7) + " to " +
+                           text::significant(hi(i), 7) +
+                           " mm of the work frame (the clearance plane included), " +
+                           text::significant(hi(i) - lo(i), 7) + " mm, more than the " + names[i] +
+                           " travel's " + text::significant(t[1] - t[0], 7) +
+                           " mm: no place of the table ball keeps it inside the travel");
+  }
+  return r;
 }
 
 std::vector<Sweep> program_sweeps(ProgramOptions::Sweeps sweeps) {
@@ -468,8 +519,8 @@ std::optional<ProgramOptions::Sweeps> program_sweeps_named(const std::string& na
   return std::nullopt;
 }
 
-std::vector<double> sweep_angles(const Design& design, Sweep sweep) {
-  std::vector<double> angles = design.angles_deg;
+std::vector<double> sweep_angles(const Design& design, int installation, Sweep sweep) {
+  std::vector<double> angles = design.angles_of(installation);
   std::sort(angles.begin(), angles.end());
   if (sweep == Sweep::kCW) std::reverse(angles.begin(), angles.end());
   return angles;
@@ -477,9 +528,9 @@ std::vector<double> sweep_angles(const Design& design, Sweep sweep) {
 
 Sweep opposite(Sweep sweep) { return sweep == Sweep::kCW ? Sweep::kCCW : Sweep::kCW; }
 
-std::vector<SweepReading> sweep_readings(const Design& design, Sweep sweep) {
+std::vector<SweepReading> sweep_readings(const Design& design, int installation, Sweep sweep) {
   std::vector<SweepReading> out;
-  for (const double a : sweep_angles(design, sweep)) out.push_back({a, sweep, false});
+  for (const double a : sweep_angles(design, installation, sweep)) out.push_back({a, sweep, false});
   if (design.return_reading && out.size() > 1)
     out.push_back({out.front().angle_deg, opposite(sweep), true});
   return out;

@@ -503,6 +503,7 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
   std::vector<Eigen::Matrix<double, 6, 1>> errors;
   errors.reserve(design.angles_deg.size());
   for (double a : design.angles_deg) errors.push_back(param.errors_at_angle(a, theta));
+  const bool partial = design.partial_sweeps();
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
     const Installation& in = design.installations[i];
     const SetupUncertainty u = design.setup_of(i);
@@ -513,6 +514,10 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
     const double centring_um = 3.0 * u.centring_um * std::sqrt(3.0);
     for (std::size_t ia = 0; ia < design.angles_deg.size(); ++ia) {
       const double a = design.angles_deg[ia];
+      if (partial && !in.angles_deg.empty() &&
+          std::none_of(in.angles_deg.begin(), in.angles_deg.end(),
+                       [a](double b) { return std::abs(a - b) < kAngleTolerance_deg; }))
+        continue;  // not read at this angle
       const Eigen::Vector3d P = ball_position_mm(design.axis, in, a);
       const Eigen::Vector3d dir = direction_machine(design.axis, in, a);
       const Eigen::Matrix<double, 6, 1>& e6 = errors[ia];
@@ -551,20 +556,24 @@ void bound_first_order_bias(FirstOrderCheck& check, const SetupSolver& solver,
 }
 
 std::vector<double> design_row_times(const Design& design, const TestClock& clock) {
-  std::vector<double> sorted = design.angles_deg;
-  std::sort(sorted.begin(), sorted.end());
-  const int per_sweep = design.readings_per_sweep();
-  const double installation_s = per_sweep * clock.per_reading_s + clock.per_installation_s;
-  const std::vector<int> rank = run_rank(design);  // the program's order
+  const std::size_t n = design.installations.size();
+  // Each installation's time (its set-up and its readings), in the program's order.
+  std::vector<double> duration(n);
+  for (std::size_t k = 0; k < n; ++k)
+    duration[k] = design.readings_per_sweep(static_cast<int>(k)) * clock.per_reading_s +
+                  clock.per_installation_s;
+  const std::vector<double> start = run_starts(design, duration);
   std::vector<double> out;
-  for (std::size_t k = 0; k < design.installations.size(); ++k) {
-    const double start = static_cast<double>(rank[k]) * installation_s;
-    for (const double a : design.angles_deg) {  // design_model's order, read in sweep order
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::vector<double>& angles = design.angles_of(static_cast<int>(k));
+    std::vector<double> sorted = angles;
+    std::sort(sorted.begin(), sorted.end());
+    for (const double a : angles) {  // design_model's order, read in sweep order
       const auto at = std::lower_bound(sorted.begin(), sorted.end(), a) - sorted.begin();
-      out.push_back(start + static_cast<double>(at) * clock.per_reading_s);
+      out.push_back(start[k] + static_cast<double>(at) * clock.per_reading_s);
     }
-    if (per_sweep > static_cast<int>(design.angles_deg.size()))
-      out.push_back(start + static_cast<double>(sorted.size()) * clock.per_reading_s);
+    if (design.readings_per_sweep(static_cast<int>(k)) > static_cast<int>(angles.size()))
+      out.push_back(start[k] + static_cast<double>(sorted.size()) * clock.per_reading_s);
   }
   return out;
 }

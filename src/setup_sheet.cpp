@@ -256,6 +256,23 @@ std::vector<int> run_rank(const Design& design) {
   return rank;
 }
 
+std::vector<double> run_starts(const Design& design, const std::vector<double>& duration_s) {
+  const std::vector<int> rank = run_rank(design);
+  const std::size_t n = rank.size();
+  std::vector<double> start(n, 0.0);
+  const bool equal = std::all_of(duration_s.begin(), duration_s.end(),
+                                 [&](double d) { return d == duration_s.front(); });
+  if (equal) {
+    for (std::size_t k = 0; k < n; ++k) start[k] = static_cast<double>(rank[k]) * duration_s[k];
+    return start;
+  }
+  std::vector<std::size_t> by_rank(n);
+  for (std::size_t k = 0; k < n; ++k) by_rank[static_cast<std::size_t>(rank[k])] = k;
+  double t = 0;
+  for (const std::size_t k : by_rank) start[k] = t, t += duration_s[k];
+  return start;
+}
+
 RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
   if (!(std::isfinite(r) && r >= 1e-3 && r <= 10))
     throw InputError(option_name("--resolution-mm"), "",
@@ -296,8 +313,10 @@ RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
   }
   if (kit) {
     out.travel_checked = true;
-    for (const Installation& in : out.design.installations) {
-      const double v = travel_violation_mm(*kit, design.axis, in, out.design.angles_deg);
+    for (std::size_t i = 0; i < out.design.installations.size(); ++i) {
+      const Installation& in = out.design.installations[i];
+      const double v =
+          travel_violation_mm(*kit, design.axis, in, out.design.angles_of(static_cast<int>(i)));
       if (v > kAssemblyTolerance_mm) out.outside_travel.emplace_back(in.id, v);
     }
   }
@@ -317,8 +336,10 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
     sheet.travel_checked = true;
     for (const auto& [from, to] : {std::pair{&design, &sheet.outside_travel_as_given},
                                    {&sheet.design, &sheet.outside_travel}}) {
-      for (const Installation& in : from->installations) {
-        const double v = travel_violation_mm(*kit, design.axis, in, from->angles_deg);
+      for (std::size_t i = 0; i < from->installations.size(); ++i) {
+        const Installation& in = from->installations[i];
+        const double v =
+            travel_violation_mm(*kit, design.axis, in, from->angles_of(static_cast<int>(i)));
         if (v > kAssemblyTolerance_mm) to->emplace_back(in.id, v);
       }
     }
@@ -327,9 +348,11 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
     sheet.workspace_checks = workspace_checks(*kit);
     sheet.workspace_checked = !sheet.workspace_checks.empty();
     sheet.workspace_stated = kit->workspace.has_value();
-    for (const Installation& in : sheet.design.installations) {
-      for (const Clash& c : installation_clashes(*kit, design.axis, in, sheet.design.angles_deg,
-                                                 kAssemblyTolerance_mm))
+    for (std::size_t i = 0; i < sheet.design.installations.size(); ++i) {
+      const Installation& in = sheet.design.installations[i];
+      for (const Clash& c :
+           installation_clashes(*kit, design.axis, in, sheet.design.angles_of(static_cast<int>(i)),
+                                kAssemblyTolerance_mm))
         sheet.clashes.emplace_back(in.id, c);
     }
   }
@@ -358,9 +381,10 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
   if (kit) {
     const int sweeps = program.sweeps == ProgramOptions::Sweeps::kBoth ? 2 : 1;
     sheet.time = design_time(*kit, sheet.design, sweeps);
-    const double per_sweep =
-        static_cast<double>(sheet.design.readings_per_sweep()) * sweeps * kit->time_per_reading_s;
     for (const SetupStep& s : sheet.order.steps) {
+      const double per_sweep =
+          static_cast<double>(sheet.design.readings_per_sweep(s.installation)) * sweeps *
+          kit->time_per_reading_s;
       const double t =
           (s.moves_cup ? kit->time_per_position_s : 0.0) + kit->time_per_installation_s;
       sheet.setup_time_s.push_back(t);

@@ -171,8 +171,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
   }
   {
     const double sweeps = truth.schedule ? static_cast<double>(truth.schedule->sweeps.size()) : 1.0;
-    const double n = static_cast<double>(design.installations.size()) *
-                     static_cast<double>(design.readings_per_sweep()) * sweeps * truth.repeats;
+    const double n = static_cast<double>(design.readings_per_round()) * sweeps * truth.repeats;
     if (n > static_cast<double>(limits::kMaxReadings)) {
       throw InputError(source, "repeats",
                        "the simulation would make more than " +
@@ -325,26 +324,28 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
   const std::vector<Sweep> sweeps =
       truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::kCCW};
   // The readings are written in design order; the clock runs the installations in the order a
-  // program runs them (run_rank), each as long as the others.
-  const std::vector<int> rank = run_rank(design);
-  double installation_s = 0;
+  // program runs them (run_rank).
+  std::vector<double> start(design.installations.size(), 0.0);
   if (truth.schedule) {
-    const std::size_t per_sweep =
-        design.angles_deg.size() * static_cast<std::size_t>(truth.repeats) +
-        (design.return_reading && design.angles_deg.size() > 1 ? 1 : 0);
-    installation_s =
-        static_cast<double>(per_sweep * sweeps.size()) * truth.schedule->per_reading_s +
-        truth.schedule->per_installation_s;
+    std::vector<double> duration(design.installations.size());
+    for (std::size_t i = 0; i < duration.size(); ++i) {
+      const std::size_t n = design.angles_of(static_cast<int>(i)).size();
+      const std::size_t per_sweep =
+          n * static_cast<std::size_t>(truth.repeats) + (design.return_reading && n > 1 ? 1 : 0);
+      duration[i] = static_cast<double>(per_sweep * sweeps.size()) * truth.schedule->per_reading_s +
+                    truth.schedule->per_installation_s;
+    }
+    start = run_starts(design, duration);
   }
   for (std::size_t i = 0; i < design.installations.size(); ++i) {
     const Installation& inst = design.installations[i];
-    t = static_cast<double>(rank[i]) * installation_s;
+    t = start[i];
     // A sweep direction run again (ccw, cw, ccw) continues its repeats' numbering, so that no two
     // readings of one installation, angle and sweep share a repeat number.
     int ccw_runs = 0, cw_runs = 0;
     for (Sweep sweep : sweeps) {
       const int run = sweep == Sweep::kCW ? cw_runs++ : ccw_runs++;
-      std::vector<double> angles = design.angles_deg;
+      std::vector<double> angles = design.angles_of(static_cast<int>(i));
       if (sweep == Sweep::kCW) std::reverse(angles.begin(), angles.end());
       for (double a : angles) {
         for (int r = 0; r < truth.repeats; ++r) {
@@ -365,7 +366,7 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
         // (sweep_readings: the smallest angle for ccw, whatever the design's order).
         Reading reading;
         reading.installation = inst.id;
-        reading.angle_deg = sweep_readings(design, sweep).back().angle_deg;
+        reading.angle_deg = sweep_readings(design, static_cast<int>(i), sweep).back().angle_deg;
         if (truth.schedule) {
           reading.time_s = t;
           reading.sweep = opposite(sweep);

@@ -224,10 +224,11 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
   return out;
 }
 
-std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& sweeps) {
+std::vector<Stop> program_stops(const Design& design, int installation,
+                                const std::vector<Sweep>& sweeps) {
   std::vector<Stop> stops;
   for (const Sweep s : sweeps) {
-    for (const SweepReading& r : sweep_readings(design, s)) {
+    for (const SweepReading& r : sweep_readings(design, installation, s)) {
       if (!stops.empty() && stops.back().angle_deg == r.angle_deg) {
         stops.back().sweeps.push_back(r.approach);  // no move between: one stop
       } else {
@@ -315,7 +316,8 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
   TraceReadings out;
   out.search = find_plateaus(trace, options, source);
   const std::vector<Plateau>& P = out.search.plateaus;
-  const std::vector<Stop> stops = program_stops(design, sweeps);
+  const int index = design.find_installation(installation);
+  const std::vector<Stop> stops = program_stops(design, index, sweeps);
   // The program stands at its first angle from the bar's mounting to the first reading: a trace
   // recorded from its start begins still. One that begins moving started during a move, its
   // first stop's dwell lost (or too short to be one); its dwells then match the stops in number
@@ -336,7 +338,7 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
     throw InputError(source, "installation " + installation,
                      "found " + std::to_string(P.size()) + " dwells, the sweep" +
                          (sweeps.size() > 1 ? "s have " : " has ") + std::to_string(stops.size()) +
-                         " stops (" + std::to_string(design.angles_deg.size()) + " angles" +
+                         " stops (" + std::to_string(design.angles_of(index).size()) + " angles" +
                          (sweeps.size() == 2  ? ", both sweeps"
                           : sweeps.size() > 2 ? ", " + std::to_string(sweeps.size()) + " sweeps"
                                               : std::string()) +

@@ -250,7 +250,8 @@ PredictedTest predict_test_readings(const AxisErrors& axis, const Design& design
     PredictedReading r;
     r.reading = readings[static_cast<std::size_t>(i)];
     // nominal_readings: each installation's angles, then its return reading where it has one.
-    r.is_return = ++taken[r.reading.installation] > design.angles_deg.size();
+    r.is_return = ++taken[r.reading.installation] >
+                  design.angles_of(design.find_installation(r.reading.installation)).size();
     r.basis = h->measured[static_cast<std::size_t>(h->station[static_cast<std::size_t>(i)])]
                   ? PredictionBasis::kMotions
                   : PredictionBasis::kLocationOnly;

@@ -36,7 +36,7 @@ TEST(ReturnReading, TheDesignKeyIsReadWrittenAndChecked) {
   j["return_reading"] = true;
   const Design d = io::design_from_json(j, "d.json");
   EXPECT_TRUE(d.return_reading);
-  EXPECT_EQ(d.readings_per_sweep(), static_cast<int>(d.angles_deg.size()) + 1);
+  EXPECT_EQ(d.readings_per_sweep(0), static_cast<int>(d.angles_deg.size()) + 1);
   EXPECT_EQ(io::design_to_json(d)["return_reading"], true);
   j["return_reading"] = "yes";
   try {
@@ -92,7 +92,7 @@ TEST(ReturnReading, ProgramAndSimulateTakeItAtTheEndOfEachSweep) {
   EXPECT_NE(text.find(" 0 deg return ccw)"), std::string::npos);
 
   // readings matches a trace's dwells to the same stops: the return is a stop of its own.
-  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW, Sweep::kCW});
+  const std::vector<Stop> stops = program_stops(d, 0, {Sweep::kCCW, Sweep::kCW});
   ASSERT_EQ(stops.size(), 2 * (n_angles + 1));
   EXPECT_EQ(stops[n_angles].angle_deg, lo);
   EXPECT_EQ(stops[n_angles].sweeps, std::vector<Sweep>{Sweep::kCW});
@@ -148,7 +148,7 @@ TEST(DriftCheck, TheStatedBiasIsWhatIdentifyMoves) {
     const double T_min = ev.drift.test_min;
     // The test's length on simulate's clock: installations x (readings x 3 s + 240 s), less the
     // 240 s after the last and the 3 s after the last reading.
-    const double per_inst = d.readings_per_sweep() * 3.0 + 240.0;
+    const double per_inst = d.readings_per_sweep(0) * 3.0 + 240.0;
     EXPECT_NEAR(T_min * 60, d.installations.size() * per_inst - 240 - 3, 1e-9);
     for (const DriftCheck& c : ev.drift.effects) {
       ASSERT_TRUE(c.bias_per_um) << c.label;

@@ -113,7 +113,7 @@ CliRun simulate_paper_traces(const std::filesystem::path& dir, const std::string
 
 // A simulated trace of `d`'s ccw sweep (the simulator's defaults), every stop at `level_um`.
 SimulatedTrace level_trace(const Design& d, double level_um) {
-  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  const std::vector<Stop> stops = program_stops(d, 0, {Sweep::kCCW});
   return simulate_trace(stops, std::vector<double>(stops.size(), level_um), {});
 }
 
@@ -175,7 +175,7 @@ struct TypeACount {
 // (with the drift the simulator adds on its clock at each reading's time).
 double worst_error(const Design& d, const std::vector<Sweep>& sweeps, const TraceSimulation& o,
                    std::uint64_t seed, DwellOptions dwell = {}, TypeACount* type_a = nullptr) {
-  const std::vector<Stop> stops = program_stops(d, sweeps);
+  const std::vector<Stop> stops = program_stops(d, 0, sweeps);
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> level(-50, 50);
   std::vector<double> levels;
@@ -243,7 +243,7 @@ TEST(TraceDwells, RecoverTheSimulatorsLevelsOverVariedTraces) {
 TEST(TraceDwells, TooManyOrTooFewDwellsNameTheInstallationAndBothCounts) {
   const Design d = test::paper_design('C');
   TraceSimulation o;
-  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW, Sweep::kCW});
+  const std::vector<Stop> stops = program_stops(d, 0, {Sweep::kCCW, Sweep::kCW});
   ASSERT_EQ(stops.size(), 2 * d.angles_deg.size() - 1);  // the turn: one stop, two readings
   const SimulatedTrace sim =
       simulate_trace(stops, std::vector<double>(2 * d.angles_deg.size(), 1.0), o);
@@ -270,7 +270,7 @@ TEST(TraceDwells, TooManyOrTooFewDwellsNameTheInstallationAndBothCounts) {
 // as many dwells as stops, each a stop later than its angle. Refused, naming the likely cause.
 TEST(TraceDwells, RecordingStartedDuringAMoveIsRefused) {
   const Design d = test::paper_design('C');
-  std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  std::vector<Stop> stops = program_stops(d, 0, {Sweep::kCCW});
   stops.push_back({0.0, {Sweep::kCCW}});  // home
   std::vector<double> levels;
   for (std::size_t k = 0; k < stops.size(); ++k) levels.push_back(std::sin(0.7 * k) * 5);
@@ -293,7 +293,7 @@ TEST(TraceDwells, RecordingStartedDuringAMoveIsRefused) {
 // refused, naming the sample and the jump, or the unit.
 TEST(TraceDwells, ClockJumpsAndEpochMillisecondsAreRefused) {
   const Design d = test::paper_design('C');
-  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  const std::vector<Stop> stops = program_stops(d, 0, {Sweep::kCCW});
   SimulatedTrace sim = simulate_trace(stops, std::vector<double>(stops.size(), 1.0), {});
   Trace t = sim.trace;
   const std::size_t at = t.time_s.size() / 2;
@@ -311,7 +311,7 @@ TEST(TraceDwells, ClockJumpsAndEpochMillisecondsAreRefused) {
 // readings are taken, and the abnormal dwells named in warnings.
 TEST(TraceDwells, AbnormalDwellsAreNamed) {
   const Design d = test::paper_design('C');
-  const std::vector<Stop> stops = program_stops(d, {Sweep::kCCW});
+  const std::vector<Stop> stops = program_stops(d, 0, {Sweep::kCCW});
   TraceSimulation o;
   SimulatedTrace sim = simulate_trace(stops, std::vector<double>(stops.size(), 0.0), o);
   // Stretch dwell 5 to 8 s (a pause) by inserting still samples; add noise to dwell 9.

@@ -85,6 +85,10 @@ struct Installation {
   std::vector<double> bar_parts_mm;
   std::optional<double> cup_mm;
   std::vector<double> blocks_mm;
+  // The angles this installation is read at, when not every angle of the design (design key
+  // installations[i].angles_deg): a subset of the design's angles, e.g. one side of a trunnion's
+  // travel with the bar on that side. Empty: every angle of the design.
+  std::vector<double> angles_deg;
 };
 
 // Instrument noise of one reading. Uniform: +-half_width (the instrument's
@@ -186,10 +190,21 @@ struct Design {
   std::vector<Installation> installations;
   std::optional<Prediction> predicted;
 
-  // The readings one sweep of one installation takes: every angle, and the return reading.
-  int readings_per_sweep() const {
-    return static_cast<int>(angles_deg.size()) + (return_reading && angles_deg.size() > 1 ? 1 : 0);
+  // The angles installation i is read at: its own, or every angle of the design.
+  const std::vector<double>& angles_of(int i) const {
+    const std::vector<double>& own = installations[static_cast<std::size_t>(i)].angles_deg;
+    return own.empty() ? angles_deg : own;
   }
+  // Whether some installation is read at part of the design's angles only (the closed forms of
+  // observability.hpp take every installation at every angle).
+  bool partial_sweeps() const;
+  // The readings one sweep of installation i takes: its angles, and the return reading.
+  int readings_per_sweep(int i) const {
+    const std::size_t n = angles_of(i).size();
+    return static_cast<int>(n) + (return_reading && n > 1 ? 1 : 0);
+  }
+  // The readings one sweep of every installation takes, together.
+  int readings_per_round() const;
   // The set-up tolerances of installation i (its override over the default).
   SetupUncertainty setup_of(int i) const;
   // Whether any installation declares a length offset or centring tolerance

@@ -86,9 +86,9 @@ inline constexpr const char* kOrientCode = "M19";
 // for another name. The one definition readings matches a trace's dwells against.
 std::vector<Sweep> program_sweeps(ProgramOptions::Sweeps sweeps);
 std::optional<ProgramOptions::Sweeps> program_sweeps_named(const std::string& name);
-// The angles of one sweep in the order the program visits them: the design's sorted, increasing
-// for ccw, decreasing for cw.
-std::vector<double> sweep_angles(const Design& design, Sweep sweep);
+// The angles of one sweep of an installation (design index) in the order the program visits
+// them: its angles (Design::angles_of) sorted, increasing for ccw, decreasing for cw.
+std::vector<double> sweep_angles(const Design& design, int installation, Sweep sweep);
 // The readings of one sweep in the order they are taken: its angles (sweep_angles), each read
 // with the axis moving in the sweep's direction, and with design.return_reading the first angle
 // once more at the end, reached by turning back along the arc (approached moving the other way,
@@ -99,7 +99,7 @@ struct SweepReading {
   Sweep approach = Sweep::kCCW;
   bool is_return = false;
 };
-std::vector<SweepReading> sweep_readings(const Design& design, Sweep sweep);
+std::vector<SweepReading> sweep_readings(const Design& design, int installation, Sweep sweep);
 Sweep opposite(Sweep sweep);
 
 // The limits of the options; throws InputError(source, key) outside them:
@@ -166,7 +166,22 @@ struct MeasurementProgram {
   // A design that names its machine: the machine, the axes' park angles and the preset (the
   // axis' nominal point in the machine frame, the work frame's origin).
   std::optional<DesignMachine> machine;
+  // A head's test on a machine: the work frame's origin is the table ball's centre, placed by the
+  // operator. Where it may stand (machine file's frame, mm) for every commanded pivot position
+  // and the clearance plane to stay inside the linear travel (the pivot at the axis' nominal
+  // point with the linear axes at zero), and how far the pivot or the spindle ball comes below
+  // it (work frame Z, the lowest of either; the table ball's least height above the table).
+  struct PresetRange {
+    Eigen::Vector3d min_mm = Eigen::Vector3d::Zero(), max_mm = Eigen::Vector3d::Zero();
+    double lowest_z_mm = 0;
+  };
+  std::optional<PresetRange> preset_range;
 };
+
+// A head's test on a machine (design.machine, a head axis): where the table ball's centre may
+// stand (MeasurementProgram::preset_range); throws InputError(design, machine) when nowhere.
+MeasurementProgram::PresetRange head_preset_range(const Design& design,
+                                                  const MeasurementProgram& program);
 
 // A design that names its machine: what the program's moves meet. The first problem as text
 // (the installation, the angle, the point, the solid or the travel), or empty: a ball, the bar

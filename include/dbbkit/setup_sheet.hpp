@@ -49,6 +49,11 @@ SetupOrder setup_order(const Design& design, std::optional<int> stack_coordinate
 // installation (design index), its place in that order, 0 first. The test's clock follows it
 // (design_row_times, simulate's schedule).
 std::vector<int> run_rank(const Design& design);
+// When each installation starts (design index), the installations run in run_rank's order, each
+// taking duration_s[i] (its set-up and its readings): rank x the time where every installation
+// takes as long as the others (the same numbers as before installations read parts of the
+// design's angles), else the sum of those run before it.
+std::vector<double> run_starts(const Design& design, const std::vector<double>& duration_s);
 
 // The design with L, D (and H without a block stack given) rounded to multiples of
 // resolution_mm, and what that changed.

@@ -76,15 +76,16 @@ struct PlateauSearch {
 PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& options,
                             const std::string& source);
 
-// The program's stops of one installation with readings, in the order it makes them (the
-// design's angles sorted, ccw increasing, cw decreasing; ccw first with both): consecutive
-// readings at one position without a move between them (the turn of the sweep with both) are one
-// stop of several readings.
+// The program's stops of one installation (design index) with readings, in the order it makes
+// them (its angles, Design::angles_of, sorted, ccw increasing, cw decreasing; ccw first with both):
+// consecutive readings at one position without a move between them (the turn of the sweep with
+// both) are one stop of several readings.
 struct Stop {
   double angle_deg = 0;
   std::vector<Sweep> sweeps;  // one per reading taken there, in order
 };
-std::vector<Stop> program_stops(const Design& design, const std::vector<Sweep>& sweeps);
+std::vector<Stop> program_stops(const Design& design, int installation,
+                                const std::vector<Sweep>& sweeps);
 // The sweeps a program makes by name: "ccw", "cw" or "both" (ccw then cw), or a list of them in
 // order ("ccw,cw,ccw", as a truth's schedule.sweeps; at most limits::kMaxSweeps); throws
 // InputError(source, "", ...) for another name.
@@ -156,10 +157,10 @@ struct SimulatedTrace {
   std::optional<double> zero_s, shortest_dwell_s;
 };
 
-// `levels`: one per reading of program_stops(design, sweeps), in order. `times_s` (empty, or one
-// per reading on the test's clock): the trace follows them, each move centred between the last
-// reading of one stop and the first of the next, the machine standing still from one move to the
-// next (longer than the programmed dwell when the schedule leaves time); throws
+// `levels`: one per reading of program_stops(design, installation, sweeps), in order. `times_s`
+// (empty, or one per reading on the test's clock): the trace follows them, each move centred
+// between the last reading of one stop and the first of the next, the machine standing still from
+// one move to the next (longer than the programmed dwell when the schedule leaves time); throws
 // InputError("schedule", "per_reading_s") when a stop's time is shorter than its dwell, and
 // InputError("--trace-out") before making a trace of more than limits::kMaxTraceSamples.
 SimulatedTrace simulate_trace(const std::vector<Stop>& stops, const std::vector<double>& levels,

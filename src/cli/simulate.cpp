@@ -50,10 +50,11 @@ std::vector<std::pair<std::string, SimulatedTrace>> simulated_traces(
       truth.schedule ? truth.schedule->sweeps : std::vector<Sweep>{Sweep::kCCW};
   if (truth.repeats != 1)
     throw InputError(source, "repeats", "a simulated trace takes one reading per angle and sweep");
-  const std::vector<Stop> stops = program_stops(design, sweeps);
-  const std::size_t per_sweep = static_cast<std::size_t>(design.readings_per_sweep());
   std::vector<std::pair<std::string, SimulatedTrace>> out;
   for (std::size_t i = 0; i < design.installations.size(); ++i) {
+    const std::vector<Stop> stops = program_stops(design, static_cast<int>(i), sweeps);
+    const std::size_t per_sweep =
+        static_cast<std::size_t>(design.readings_per_sweep(static_cast<int>(i)));
     const std::string& id = design.installations[i].id;
     check_file_id(id);
     std::vector<const Reading*> own;

@@ -426,6 +426,7 @@ Design design_from_json(const json& j, const std::string& source, const std::str
     }
     if (const json* u = in.optional("setup_std"))
       inst.setup_std = read_setup_override(ObjectReader(*u, source, path + ".setup_std"));
+    if (in.has("angles_deg")) inst.angles_deg = read_angles(in);
     in.finish();
     d.installations.push_back(inst);
   }
@@ -515,6 +516,7 @@ json design_to_json(const Design& d) {
     if (in.cup_mm) i["stack_mm"] = {{"cup", *in.cup_mm}, {"blocks", in.blocks_mm}};
     if (!in.description.empty()) i["description"] = in.description;
     if (in.setup_std.any()) i["setup_std"] = setup_override_to_json(in.setup_std);
+    if (!in.angles_deg.empty()) i["angles_deg"] = in.angles_deg;
     list.push_back(i);
   }
   j["installations"] = list;

@@ -413,6 +413,17 @@ const json& ObjectReader::required(const std::string& key) {
         fail(key,
              "required key is missing (is " + quote_value(it.key()) + " a misspelling of it?)");
     }
+    // With the object's keys declared: a key it holds that is none of them is named beside the
+    // missing one (a misspelling too far for the test above: "yy" for "y", "park" for "park_deg").
+    if (!allowed_.empty()) {
+      for (auto it = value_.begin(); it != value_.end(); ++it) {
+        if (allowed_.count(it.key())) continue;
+        std::string keys;
+        for (const std::string& k : allowed_) keys += (keys.empty() ? "" : ", ") + k;
+        fail(key, "required key is missing, and " + quote_value(it.key()) +
+                      " is no key of this object (its keys: " + keys + "): misspelt?");
+      }
+    }
     fail(key, "required key is missing");
   }
   used_.insert(key);

@@ -34,6 +34,8 @@ int letter_index(const std::vector<RotaryAxisSpec>& axes, const std::string& let
 
 Machine machine_from_json(const json& j, const std::string& source) {
   ObjectReader top(j, source, "");
+  top.allow(
+      {"format", "name", "description", "controller", "linear_travel_mm", "rotary", "workspace"});
   Machine m;
   const std::string format = top.string("format");
   if (format != kMachineFormat)
@@ -51,6 +53,7 @@ Machine machine_from_json(const json& j, const std::string& source) {
   m.controller = *c;
   {
     ObjectReader t = top.object("linear_travel_mm");
+    t.allow({"x", "y", "z"});
     const char* names[] = {"x", "y", "z"};
     for (int i = 0; i < 3; ++i) {
       const std::vector<double> x =
@@ -66,6 +69,8 @@ Machine machine_from_json(const json& j, const std::string& source) {
   if (rotary.size() > 3) top.fail("rotary", "at most three rotary axes (A, B, C)");
   for (std::size_t k = 0; k < rotary.size(); ++k) {
     ObjectReader a(rotary[k], source, "rotary[" + std::to_string(k) + "]");
+    a.allow({"letter", "side", "on", "direction", "point_mm", "reference", "travel_deg", "park_deg",
+             "table"});
     RotaryAxisSpec r;
     const std::string letter = a.string("letter");
     if (letter != "A" && letter != "B" && letter != "C")
@@ -116,6 +121,7 @@ Machine machine_from_json(const json& j, const std::string& source) {
       if (r.side != AxisFrame::Side::kTable)
         a.fail("table", "a head carries no table; give the table on its table axis");
       ObjectReader t(*tj, source, a.key_path("table"));
+      t.allow({"diameter_mm", "surface_mm"});
       r.table_diameter_mm = t.number("diameter_mm");
       r.table_surface_mm = t.number("surface_mm");
       t.finish();
@@ -130,6 +136,7 @@ Machine machine_from_json(const json& j, const std::string& source) {
     if (solids.size() > 1000) w.fail("solids", "at most 1000 solids");
     for (std::size_t s = 0; s < solids.size(); ++s) {
       ObjectReader b(solids[s], source, w.key_path("solids") + "[" + std::to_string(s) + "]");
+      b.allow({"name", "box_mm", "turns_with"});
       WorkspaceSolid solid;
       solid.name = b.string("name");
       const json& box = b.required("box_mm");

@@ -272,6 +272,23 @@ std::string program_text(const Design& design, const MeasurementProgram& program
     head.push_back("work offset " + offset +
                    ": origin at the centre of the table ball, whose cup stays where it is "
                    "placed for the whole test");
+    if (program.preset_range) {
+      const MeasurementProgram::PresetRange& r = *program.preset_range;
+      std::string box;
+      for (int i = 0; i < 3; ++i)
+        box += std::string(i ? ", " : "") + "XYZ"[i] + " " + coord(r.min_mm(i), false) + " to " +
+               coord(r.max_mm(i), false);
+      head.push_back("place the table ball so that its centre [the preset] lies at " + box +
+                     " mm in the machine file's frame: there every pivot position and the "
+                     "clearance plane stay inside the linear travel [the pivot at " +
+                     xyz_text(program.machine->origin_mm()) + " with the linear axes at zero]");
+      head.push_back(
+          r.lowest_z_mm < 0
+              ? "the pivot and the spindle ball come down to Z" + coord(r.lowest_z_mm, false) +
+                    ": stand the table ball's centre at least " + coord(-r.lowest_z_mm, false) +
+                    " mm above the table, more by what the head reaches below its pivot"
+              : "the pivot and the spindle ball stay above the table ball's centre");
+    }
     if (tcpm_throughout) {
       head.push_back("tool T" + tool +
                      ": its length measured to the spindle ball's centre, the tool tip the "
@@ -291,9 +308,10 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   head.push_back("clearance plane Z" + coord(zc, false) +
                  (o.clearance_z_mm
                       ? " [given]"
-                      : " [the highest point reached plus " +
-                            fmt_rounded(o.clearance_margin_mm, 3) + " mm" +
-                            std::string(c ? "" : " and the pivot-to-ball reach") +
+                      : std::string(c ? " [the highest point reached"
+                                      : " [the highest point reached or the longest "
+                                        "pivot-to-ball distance, whichever is more,") +
+                            " plus " + fmt_rounded(o.clearance_margin_mm, 3) + " mm" +
                             std::string(c && program.machine ? ", the table and the solids "
                                                                "that turn with it included"
                                                              : "") +

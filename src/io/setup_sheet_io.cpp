@@ -505,22 +505,64 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
       mm(*std::max_element(d.angles_deg.begin(), d.angles_deg.end())) +
       " deg: " + std::to_string(pr.readings) + " readings. " + time_text(sheet, kit_file);
   w.paragraph(intro);
+  if (d.partial_sweeps()) {
+    // Installations read over part of the travel (e.g. the bar on one side of a trunnion's zero).
+    std::string part;
+    for (std::size_t i = 0; i < d.installations.size(); ++i) {
+      const std::vector<double>& a = d.angles_of(static_cast<int>(i));
+      if (a.size() == d.angles_deg.size()) continue;
+      part += (part.empty() ? "" : "; ") + d.installations[i].id + ": " + std::to_string(a.size()) +
+              " angles from " + mm(*std::min_element(a.begin(), a.end())) + " to " +
+              mm(*std::max_element(a.begin(), a.end())) + " deg";
+    }
+    w.paragraph(
+        "Installations read at part of the angles (their sweeps cover these alone): " + part + ".");
+  }
   if (d.machine) {
     // The machine the axis belongs to: the other axes parked, the preset from its kinematics.
     const Machine& m = *d.machine->machine;
     const std::string parks = parked_text(*d.machine, 3);
     const std::vector<double> a = d.machine->park_angles();
     const Eigen::Vector3d o = d.machine->origin_mm();
-    w.paragraph("Machine " + m.name + " (controller " + controller_name(m.controller) + "): axis " +
-                std::string(1, d.axis.letter()) + " is measured" +
-                (parks.empty() ? "" : " with " + parks + " (parked: the program commands it)") +
-                ". The work frame's origin (the preset) is the axis' nominal point X " + mm(o.x()) +
-                ", Y " + mm(o.y()) + ", Z " + mm(o.z()) +
-                " mm in the machine file's frame (machine coordinates where its origin is the "
-                "machine zero): set it from the controller's kinematics table, never "
-                "by teaching it on the real axis (the location errors are the real axis line "
-                "minus this one). Each cup is placed with the axis at " +
-                mm(a[static_cast<std::size_t>(d.machine->axis)]) + " deg, then turned.");
+    const std::string measured =
+        "Machine " + m.name + " (controller " + controller_name(m.controller) + "): axis " +
+        std::string(1, d.axis.letter()) + " is measured" +
+        (parks.empty() ? "" : " with " + parks + " (parked: the program commands it)");
+    const std::string park = mm(a[static_cast<std::size_t>(d.machine->axis)]);
+    if (d.axis.head() && pr.preset_range) {
+      // A head: the table ball is the work frame's origin, placed under the spindle ball.
+      const MeasurementProgram::PresetRange& r = *pr.preset_range;
+      std::string box;
+      for (int i = 0; i < 3; ++i)
+        box += std::string(i ? ", " : "") + "XYZ"[i] + " " + mm(r.min_mm(i)) + " to " +
+               mm(r.max_mm(i));
+      w.paragraph(
+          measured +
+          ". The work frame's origin (the preset) is the table ball's centre, its cup "
+          "placed under the spindle ball with the axis at " +
+          park +
+          " deg: the head's errors are measured against the tool as it stands there. Place the "
+          "table ball with its centre at " +
+          box + " mm in the machine file's frame (the pivot at X " + mm(o.x()) + ", Y " +
+          mm(o.y()) + ", Z " + mm(o.z()) +
+          " mm with the linear axes at zero): there every pivot position and the clearance plane "
+          "stay inside the linear travel. " +
+          (r.lowest_z_mm < 0
+               ? "The pivot and the spindle ball come down to " + mm(-r.lowest_z_mm) +
+                     " mm below the table ball's centre: stand it at least that high above the "
+                     "table, more by what the head reaches below its pivot."
+               : std::string("The pivot and the spindle ball stay above the table ball's "
+                             "centre.")));
+    } else {
+      w.paragraph(measured +
+                  ". The work frame's origin (the preset) is the axis' nominal point X " +
+                  mm(o.x()) + ", Y " + mm(o.y()) + ", Z " + mm(o.z()) +
+                  " mm in the machine file's frame (machine coordinates where its origin is the "
+                  "machine zero): set it from the controller's kinematics table, never "
+                  "by teaching it on the real axis (the location errors are the real axis line "
+                  "minus this one). Each cup is placed with the axis at " +
+                  park + " deg, then turned.");
+    }
   }
   w.paragraph(
       "The program (dbbkit program) reaches and leaves every installation from the "
