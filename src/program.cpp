@@ -495,12 +495,36 @@ MeasurementProgram::PresetRange head_preset_range(const Design& design,
     if (r.min_mm(i) > r.max_mm(i))
       throw InputError("design", "machine",
                        "machine " + quote_value(m.name) + ": the head test's pivot spans " +
-                           names[i] + " " + text::significant(lo(i), 7) + " to " +
-                           text::significant(hi(i), 7) +
+                           names[i] + " " + text::significant(lo(i) + 0.0, 7) + " to " +
+                           text::significant(hi(i) + 0.0, 7) +
                            " mm of the work frame (the clearance plane included), " +
                            text::significant(hi(i) - lo(i), 7) + " mm, more than the " + names[i] +
                            " travel's " + text::significant(t[1] - t[0], 7) +
                            " mm: no place of the table ball keeps it inside the travel");
+  }
+  // The table the ball stands on, level (its axis along Z at the park angles): the pivot and
+  // the spindle ball stay above its surface.
+  const int disc = m.innermost(AxisFrame::Side::kTable);
+  if (disc >= 0 && m.rotary[static_cast<std::size_t>(disc)].table_diameter_mm) {
+    const std::vector<double> park = design.machine->park_angles();
+    const AxisFrame f = m.axis_frame(disc, park);
+    if (std::abs(std::abs(f.direction().z()) - 1) < 1e-12) {
+      const Machine::OnTable at_zero = m.on_table(disc, Eigen::Vector3d::Zero(), park);
+      r.table_surface_z_mm = -at_zero.height_mm * f.direction().z();
+      r.table_radius_mm = 0.5 * *m.rotary[static_cast<std::size_t>(disc)].table_diameter_mm;
+      r.min_mm.z() = std::max(r.min_mm.z(), *r.table_surface_z_mm - std::min(lowest, 0.0));
+      if (r.min_mm.z() > r.max_mm.z())
+        throw InputError(
+            "design", "machine",
+            "machine " + quote_value(m.name) + ": the pivot and the spindle ball come down to " +
+                text::significant(-lowest, 7) + " mm below the table ball's centre, which " +
+                "then stands at Z " + text::significant(r.min_mm.z(), 7) +
+                " mm at least (the table's surface at Z " +
+                text::significant(*r.table_surface_z_mm + 0.0, 7) +
+                "), above the highest place the Z travel leaves it, Z " +
+                text::significant(r.max_mm.z(), 7) +
+                " mm: no place of the table ball keeps the test inside the travel");
+    }
   }
   return r;
 }

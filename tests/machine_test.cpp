@@ -837,6 +837,7 @@ TEST(MachineProgram, AHeadTestSaysWhereTheTableBallMayStand) {
     EXPECT_NE(text.find("place the table ball so that its centre [the preset] lies at X"),
               std::string::npos)
         << name;
+    EXPECT_EQ(text.find("..."), std::string::npos) << name << ": a comment cut short";
   }
   const CliRun sheet =
       run_cli("setup-sheet --design " + design_path("paper-b-c-B") + " --tcpm off");
@@ -847,8 +848,22 @@ TEST(MachineProgram, AHeadTestSaysWhereTheTableBallMayStand) {
   EXPECT_NE(sheet.out.find("mm below the table ball's centre: stand it at least that high"),
             std::string::npos)
       << sheet.out;
-  // A Z travel shorter than the test's reach: refused, saying so.
+  // A Z travel that takes the pivot below the table: the table bounds the ball's height (its
+  // surface at Z 0, the pivot and the spindle ball 182.45 mm below the ball's centre at B-90).
   json mj = json::parse(slurp(test::source_path("designs/machines/paper-b-c.json")));
+  {
+    Machine deep = io::machine_from_json(mj, "m.json");
+    deep.linear_travel_mm[2] = {-400, 500};
+    Design d = io::read_design_file(design_path("paper-b-c-B"));
+    d.machine->machine = std::make_shared<const Machine>(deep);
+    const MeasurementProgram p = measurement_program(d, ProgramOptions{});
+    ASSERT_TRUE(p.preset_range && p.preset_range->table_surface_z_mm);
+    EXPECT_NEAR(*p.preset_range->table_surface_z_mm, 0, 1e-12);
+    EXPECT_NEAR(p.preset_range->min_mm.z(), -p.preset_range->lowest_z_mm, 1e-9);
+    EXPECT_NEAR(p.preset_range->min_mm.z(), 182.4508, 1e-4);
+    EXPECT_NEAR(*p.preset_range->table_radius_mm, 300, 1e-12);
+  }
+  // A Z travel shorter than the test's reach: refused, saying so.
   mj["linear_travel_mm"]["z"] = {0, 300};
   const auto dir = std::filesystem::temp_directory_path() / "dbbkit_head_preset";
   std::filesystem::create_directories(dir);

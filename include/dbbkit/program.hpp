@@ -174,6 +174,10 @@ struct MeasurementProgram {
   struct PresetRange {
     Eigen::Vector3d min_mm = Eigen::Vector3d::Zero(), max_mm = Eigen::Vector3d::Zero();
     double lowest_z_mm = 0;
+    // The machine's table (its innermost table axis' disc, level at the park angles): its
+    // surface's Z and radius (machine file's frame); min_mm.z keeps the pivot and the spindle
+    // ball above that surface.
+    std::optional<double> table_surface_z_mm, table_radius_mm;
   };
   std::optional<PresetRange> preset_range;
 };

@@ -279,9 +279,16 @@ std::string program_text(const Design& design, const MeasurementProgram& program
         box += std::string(i ? ", " : "") + "XYZ"[i] + " " + coord(r.min_mm(i), false) + " to " +
                coord(r.max_mm(i), false);
       head.push_back("place the table ball so that its centre [the preset] lies at " + box +
-                     " mm in the machine file's frame: there every pivot position and the "
-                     "clearance plane stay inside the linear travel [the pivot at " +
-                     xyz_text(program.machine->origin_mm()) + " with the linear axes at zero]");
+                     " mm in the machine file's frame" +
+                     (r.table_radius_mm
+                          ? ", on the table [its surface at Z" +
+                                coord(*r.table_surface_z_mm + 0.0, false) + ", within " +
+                                coord(*r.table_radius_mm, false) + " mm of its axis]"
+                          : std::string()));
+      head.push_back(
+          "there every pivot position and the clearance plane stay inside the linear "
+          "travel [the pivot at " +
+          xyz_text(program.machine->origin_mm()) + " with the linear axes at zero]");
       head.push_back(
           r.lowest_z_mm < 0
               ? "the pivot and the spindle ball come down to Z" + coord(r.lowest_z_mm, false) +

@@ -543,8 +543,12 @@ void write_setup_sheet(ReportWriter& w, const SetupSheet& sheet, const std::stri
           park +
           " deg: the head's errors are measured against the tool as it stands there. Place the "
           "table ball with its centre at " +
-          box + " mm in the machine file's frame (the pivot at X " + mm(o.x()) + ", Y " +
-          mm(o.y()) + ", Z " + mm(o.z()) +
+          box + " mm in the machine file's frame" +
+          (r.table_radius_mm
+               ? ", on the table (its surface at Z " + mm(*r.table_surface_z_mm + 0.0) +
+                     " mm, within " + mm(*r.table_radius_mm) + " mm of its axis)"
+               : std::string()) +
+          " (the pivot at X " + mm(o.x()) + ", Y " + mm(o.y()) + ", Z " + mm(o.z()) +
           " mm with the linear axes at zero): there every pivot position and the clearance plane "
           "stay inside the linear travel. " +
           (r.lowest_z_mm < 0
