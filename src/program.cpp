@@ -290,8 +290,11 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   std::size_t positions = 0;
   // The highest point anything reaches (work frame Z; the table surface (C) or the table ball
   // (B) at 0), for the clearance plane; for B the longest pivot-to-ball distance, so that the
-  // head can turn at the plane with its ball above the table's.
+  // head can turn at the plane with its ball above the table's (kHeadBallsAllowance_mm more).
   double highest = 0, reach = 0;
+  // A head under TCPM: X Y Z command the spindle ball throughout, the plane included (the
+  // pivot turns about it there): the highest point the spindle ball reaches.
+  double highest_ball = 0;
   std::optional<Eigen::Vector3d> previous_ball;  // the body-frame ball of the installation before
   for (const SetupStep& step : setup_order(design, options.stack_coordinate).steps) {
     const int i = step.installation;
@@ -354,6 +357,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
         if (reading) ip.motion_time_s += options.dwell_s;
         last = p.linear_mm;
         highest = std::max(highest, p.linear_mm.z());
+        highest_ball = std::max(highest_ball, p.tcp_mm.z());
         to.positions.push_back(p);
       };
       auto add = [&](double a, bool reading) { add_to(ps, a, reading); };
@@ -403,22 +407,29 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   // through the table, the balls or the bar: refused, naming the least it may be. A head turns
   // at the plane: its ball, at most the reach from the pivot, then stays the margin above the
   // table ball's centre (the highest point of a head's test below it), and every position below.
-  const double lowest_plane = std::max(highest, reach) + options.clearance_margin_mm;
+  if (design.axis.head() && options.tcpm) {
+    highest = std::max(highest_ball, kHeadBallsAllowance_mm);
+    reach = 0;
+  }
+  const double lowest_plane = std::max(highest, reach > 0 ? reach + kHeadBallsAllowance_mm : 0.0) +
+                              options.clearance_margin_mm;
   if (options.clearance_z_mm && *options.clearance_z_mm < lowest_plane) {
-    throw InputError(option_name("--clearance-z-mm"), "",
-                     "Z " + text::significant(*options.clearance_z_mm, 6) +
-                         " mm is below the lowest safe clearance plane, Z " +
-                         text::significant(lowest_plane, 6) +
-                         " mm: the highest point the program reaches (Z " +
-                         text::significant(highest, 6) + " mm" +
-                         (reach > 0 ? ") or the longest pivot-to-ball distance (" +
-                                          text::significant(reach, 6) + " mm, whichever is more"
-                                    : std::string()) +
-                         ") plus " + option_name("--clearance-margin-mm") + " " +
-                         text::significant(options.clearance_margin_mm, 6) +
-                         " mm; every sideways rapid runs at this plane. Give at least Z " +
-                         text::significant(lowest_plane, 6) + " mm (or a smaller " +
-                         option_name("--clearance-margin-mm") + ", at least 1 mm)");
+    throw InputError(
+        option_name("--clearance-z-mm"), "",
+        "Z " + text::significant(*options.clearance_z_mm, 6) +
+            " mm is below the lowest safe clearance plane, Z " +
+            text::significant(lowest_plane, 6) + " mm: the highest point the program reaches (Z " +
+            text::significant(highest, 6) + " mm" +
+            (reach > 0 ? ") or the longest pivot-to-ball distance and the balls' "
+                         "allowance (" +
+                             text::significant(reach, 6) + " + " +
+                             text::significant(kHeadBallsAllowance_mm, 6) + " mm, whichever is more"
+                       : std::string()) +
+            ") plus " + option_name("--clearance-margin-mm") + " " +
+            text::significant(options.clearance_margin_mm, 6) +
+            " mm; every sideways rapid runs at this plane. Give at least Z " +
+            text::significant(lowest_plane, 6) + " mm (or a smaller " +
+            option_name("--clearance-margin-mm") + ", at least 1 mm)");
   }
   program.clearance_z_mm = options.clearance_z_mm.value_or(lowest_plane);
   // The descents and retracts along Z at the feed: to the first position and from the last,
@@ -483,6 +494,16 @@ MeasurementProgram::PresetRange head_preset_range(const Design& design,
     }
   }
   hi.z() = std::max(hi.z(), program.clearance_z_mm);  // the rapids at the plane
+  if (program.options.tcpm) {
+    // Under TCPM the plane's moves and turns command the spindle ball: the pivot stands anywhere
+    // within the reach of it.
+    double reach = 0;
+    for (const Installation& in : design.installations)
+      reach = std::max(reach, ball_body_mm(design.axis, in).norm());
+    lo.head<2>().array() -= reach;
+    hi.head<2>().array() += reach;
+    hi.z() = std::max(hi.z(), program.clearance_z_mm + reach);
+  }
   // The linear axes put the pivot at origin + their values: a preset q commands q + X.
   const Eigen::Vector3d zero = design.machine->origin_mm();
   MeasurementProgram::PresetRange r;

@@ -712,9 +712,17 @@ TEST(MachineDesign, AnInstallationsOwnAnglesAreTheOnesItIsReadAt) {
            },
            "installations[1].angles_deg.step", "must not be 0"},
       });
-  std::filesystem::remove_all(dir);
 
   const Design d = io::read_design_file(file);
+  // An installation's angle within the tolerance of a design angle is that angle.
+  {
+    json near = good;
+    near["installations"][1]["angles_deg"] = json::array({-100.0000000001, -90, 0});
+    std::ofstream(dir / "near.json") << near.dump(2);
+    const Design n = io::read_design_file((dir / "near.json").string());
+    EXPECT_EQ(n.installations[1].angles_deg, (std::vector<double>{-100, -90, 0}));
+    std::filesystem::remove_all(dir);
+  }
   // The design written and read back keeps each installation's angles.
   const Design back = io::design_from_json(io::design_to_json(d), "round trip",
                                            std::filesystem::path(file).parent_path().string());
@@ -838,6 +846,40 @@ TEST(MachineProgram, AHeadTestSaysWhereTheTableBallMayStand) {
               std::string::npos)
         << name;
     EXPECT_EQ(text.find("..."), std::string::npos) << name << ": a comment cut short";
+    // Under TCPM the plane's moves command the spindle ball: the pivot stands where the ball at
+    // the plane puts it, at every angle the head turns through there; the box keeps those in the
+    // travel too.
+    ProgramOptions on;
+    on.tcpm = true;
+    MeasurementProgram t;
+    try {
+      t = measurement_program(d, on);
+    } catch (const InputError&) {
+      continue;  // a ball off the tool axis: no TCPM program
+    }
+    ASSERT_TRUE(t.preset_range) << name;
+    for (int c = 0; c < 8; ++c) {
+      Eigen::Vector3d q;
+      for (int i = 0; i < 3; ++i)
+        q(i) = (c >> i) & 1 ? t.preset_range->max_mm(i) : t.preset_range->min_mm(i);
+      double worst = -1e300;
+      for (const InstallationProgram& ip : t.installations) {
+        const Installation& in = d.installations[ip.installation];
+        for (const ProgramSweep& s : ip.sweeps)
+          for (const ProgramPosition& pos : s.positions) {
+            for (const Eigen::Vector3d& pivot :
+                 {pos.linear_mm, Eigen::Vector3d(Eigen::Vector3d(pos.tcp_mm.x(), pos.tcp_mm.y(),
+                                                                 t.clearance_z_mm) -
+                                                 ball_position_mm(d.axis, in, pos.angle_deg))}) {
+              const Eigen::Vector3d axes = q + pivot - zero;
+              for (int i = 0; i < 3; ++i)
+                worst = std::max({worst, m.linear_travel_mm[i][0] - axes(i),
+                                  axes(i) - m.linear_travel_mm[i][1]});
+            }
+          }
+      }
+      EXPECT_LE(worst, 1e-9) << name << " tcpm corner " << c;
+    }
   }
   const CliRun sheet =
       run_cli("setup-sheet --design " + design_path("paper-b-c-B") + " --tcpm off");

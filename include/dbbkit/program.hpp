@@ -45,6 +45,11 @@ inline constexpr std::size_t kMaxProgramPositions = 200000;
 // The tool number of the ballbar's spindle cup when none is given.
 inline constexpr int kDefaultBallbarTool = 99;
 
+// A head turning at the clearance plane: the room its ball keeps above the table ball's centre
+// besides the margin [mm]: two balls' radii (12.7 mm balls) and the table cup's rim above its
+// ball's centre.
+inline constexpr double kHeadBallsAllowance_mm = 25.0;
+
 struct ProgramOptions {
   // The ball coordinate (0: L, 2: H) a table's cushion blocks set, when known (from a kit: its
   // table's normal); absent: H on the "C" shorthand, and on a table in the general form both L
@@ -63,8 +68,9 @@ struct ProgramOptions {
   // TOOL CALL <n> Z. 1..9999.
   int tool_number = kDefaultBallbarTool;
   // The clearance plane (work frame Z) every sideways rapid runs at; absent: the highest point
-  // any commanded position, table ball or placement reaches, plus the margin (B: plus the
-  // longest pivot-to-ball distance, so that the head can turn there).
+  // any commanded position, table ball or placement reaches, plus the margin (a head: that or
+  // the longest pivot-to-ball distance plus kHeadBallsAllowance_mm, whichever is more, so that
+  // the head can turn there with its ball above the table ball).
   std::optional<double> clearance_z_mm;
   double clearance_margin_mm = 50;
   // The same moves with no bar: a stop at each installation and after the first step of each

@@ -1,6 +1,7 @@
 #include "dbbkit/io/design_io.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -429,6 +430,17 @@ Design design_from_json(const json& j, const std::string& source, const std::str
     if (in.has("angles_deg")) inst.angles_deg = read_angles(in);
     in.finish();
     d.installations.push_back(inst);
+  }
+  // An installation's own angle within kAngleTolerance_deg of a design angle is that angle, as
+  // the design writes it (readings are matched to it exactly); others are refused by
+  // validate_design.
+  std::vector<double> sorted = d.angles_deg;
+  std::sort(sorted.begin(), sorted.end());
+  for (Installation& in : d.installations) {
+    for (double& a : in.angles_deg) {
+      const auto it = std::lower_bound(sorted.begin(), sorted.end(), a - kAngleTolerance_deg);
+      if (it != sorted.end() && std::abs(*it - a) < kAngleTolerance_deg) a = *it;
+    }
   }
   if (const json* p = top.optional("predicted")) {
     ObjectReader pr(*p, source, "predicted");

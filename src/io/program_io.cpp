@@ -315,9 +315,16 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   head.push_back("clearance plane Z" + coord(zc, false) +
                  (o.clearance_z_mm
                       ? " [given]"
-                      : std::string(c ? " [the highest point reached"
-                                      : " [the highest point reached or the longest "
-                                        "pivot-to-ball distance, whichever is more,") +
+                      : std::string(c                 ? " [the highest point reached"
+                                    : tcpm_throughout ? " [the highest point the spindle ball "
+                                                        "reaches, at least " +
+                                                            fmt_rounded(kHeadBallsAllowance_mm, 3) +
+                                                            " mm for the balls,"
+                                                      : " [the highest point reached or the "
+                                                        "longest pivot-to-ball distance and " +
+                                                            fmt_rounded(kHeadBallsAllowance_mm, 3) +
+                                                            " mm for the balls, whichever is "
+                                                            "more,") +
                             " plus " + fmt_rounded(o.clearance_margin_mm, 3) + " mm" +
                             std::string(c && program.machine ? ", the table and the solids "
                                                                "that turn with it included"
@@ -357,6 +364,9 @@ std::string program_text(const Design& design, const MeasurementProgram& program
                    fmt_rounded(o.path_tolerance_mm, 4) + " mm between positions");
   }
   head.push_back("readings: dwell " + fmt_rounded(o.dwell_s, 3) + " s at each design angle" +
+                 (design.partial_sweeps() ? std::string(" an installation reads (its own, where "
+                                                        "the design names them)")
+                                          : std::string()) +
                  (design.return_reading
                       ? std::string(" and again at the first angle of each sweep after its last")
                       : std::string()) +
