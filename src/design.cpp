@@ -220,6 +220,17 @@ bool table_ball_beyond_tool(const AxisFrame& axis, const Direction& direction, i
   return !axis.head() || sign * direction.body.dot(axis.reference()) <= kBeyondTool;
 }
 
+long angle_index(const std::vector<double>& sorted, double a) {
+  const auto it = std::lower_bound(sorted.begin(), sorted.end(), a - kAngleTolerance_deg);
+  if (it == sorted.end() || !(std::abs(*it - a) < kAngleTolerance_deg)) return -1;
+  return it - sorted.begin();
+}
+
+double below_cup_mm(double rise_mm, double bar_mm) {
+  constexpr double kDegree = 3.14159265358979323846 / 180.0;
+  return -rise_mm - bar_mm * std::sin(kMaxBarBelowCup_deg * kDegree);
+}
+
 namespace {
 
 // Each installation's own angles (installations[i].angles_deg): angles of the design, none
@@ -227,12 +238,7 @@ namespace {
 void validate_installation_angles(const Design& d, const std::string& source) {
   std::vector<double> sorted = d.angles_deg;
   std::sort(sorted.begin(), sorted.end());
-  // The index in `sorted` of the design's angle within kAngleTolerance_deg of a, or -1.
-  auto design_angle = [&](double a) -> long {
-    const auto it = std::lower_bound(sorted.begin(), sorted.end(), a - kAngleTolerance_deg);
-    if (it == sorted.end() || !(std::abs(*it - a) < kAngleTolerance_deg)) return -1;
-    return it - sorted.begin();
-  };
+  auto design_angle = [&](double a) { return angle_index(sorted, a); };
   std::vector<char> read(sorted.size(), 0);
   for (std::size_t i = 0; i < d.installations.size(); ++i) {
     const Installation& in = d.installations[i];

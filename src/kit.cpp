@@ -156,8 +156,9 @@ TableCarriage table_carriage(const Kit& kit) {
 std::string reference_length_basis_text(const Kit& kit) {
   switch (kit.reference_length_basis) {
     case Kit::ReferenceLengthBasis::kTableRadius:
-      return "the table's radius (workspace.table.diameter_mm / 2), the kit stating no "
-             "reference_length_mm";
+      return std::string("the table's radius (") +
+             (kit.machine ? "its disc in the machine file" : "workspace.table.diameter_mm / 2") +
+             "), the kit stating no reference_length_mm";
     case Kit::ReferenceLengthBasis::kTableCorner:
       return "the table's farthest corner from the axis (workspace.table), the kit stating no "
              "reference_length_mm";
@@ -727,6 +728,7 @@ void general_table_clash(const Kit& kit, const AxisFrame& axis, const Eigen::Vec
   }
   const double g_height = n.dot(G) - surface;
   note("the spindle ball is below a cup's height", kit.H_base_mm - g_height);
+  note("the bar dips into the table ball's cup", below_cup_mm(n.dot(G - P0), (G - P0).norm()));
   if (!w || w->ball_to_nose_mm <= 0) return;
   const double r = w->spindle_diameter_mm / 2, b = w->ball_to_nose_mm;
   const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
@@ -812,6 +814,7 @@ double clash_extent(const Kit& kit, const AxisFrame& axis, const Eigen::Vector3d
     const Eigen::Vector3d a = h.A0 * G, b = h.A1 * G, c = h.A2 * G;
     const double z_low = arc_min(a.z(), b.z(), c.z(), ends);
     note("the spindle ball is below a cup's height", kit.H_base_mm - z_low);
+    note("the bar dips into the table ball's cup", below_cup_mm(G.z() - P0.z(), (G - P0).norm()));
     if (w && w->ball_to_nose_mm > 0) {
       const double nose_z = z_low + w->ball_to_nose_mm;
       note("the spindle nose reaches the table", w->clearance_mm - nose_z);
@@ -824,13 +827,16 @@ double clash_extent(const Kit& kit, const AxisFrame& axis, const Eigen::Vector3d
   // Head: the table ball stays put (work frame origin); a head point X (pivot frame at angle
   // 0) stands at R(g) (X - G). The spindle at the axis' zero points at the table: heights are
   // along up = -reference, the table surface table_ball_height_mm below the origin.
-  if (!w || !w->table_ball_height_mm) return worst;
   const Eigen::Vector3d up = -axis.reference();
-  const double surface = -*w->table_ball_height_mm;
   auto lowest = [&](const Eigen::Vector3d& X) {
     const Eigen::Vector3d d = X - G;
     return arc_min(up.dot(h.A0 * d), up.dot(h.A1 * d), up.dot(h.A2 * d), ends);
   };
+  // The spindle ball's lowest place against the table ball's: below_cup_mm with v . up at its
+  // least over the arc (v's length, the bar, does not change).
+  note("the bar dips into the table ball's cup", below_cup_mm(lowest(P0), (P0 - G).norm()));
+  if (!w || !w->table_ball_height_mm) return worst;
+  const double surface = -*w->table_ball_height_mm;
   note("the spindle ball nears the table", surface + w->clearance_mm - lowest(P0));
   if (w->ball_to_nose_mm > 0) {
     const Eigen::Vector3d& ref = axis.reference();
@@ -900,6 +906,8 @@ std::vector<std::string> workspace_checks(const Kit& kit) {
       out.push_back("the spindle nose clear of the table and the table ball by " +
                     text::significant(w->clearance_mm, 6) + " mm");
   }
+  out.push_back("the bar at most " + text::significant(kMaxBarBelowCup_deg, 3) +
+                " deg below the plane of the table ball's cup");
   return out;
 }
 
@@ -961,7 +969,7 @@ double fit_bar_on(const Kit& kit, const AxisFrame& axis, Installation& inst,
       if (!table_ball_beyond_tool(axis, inst.direction, sign)) continue;  // inside the head
       double v = ends ? arc_travel_violation(kit, h, ball - sign * bar * inst.direction.body, *ends)
                       : 0.0;  // no angle: nothing turns (travel_violation_mm)
-      if (ends && (kit.workspace || axis.table()))
+      if (ends)
         v = std::max(v, clash_extent(kit, axis, ball, ball - sign * bar * inst.direction.body,
                                      *ends, nullptr));
       if (v <= 0) {

@@ -43,6 +43,12 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
   const Parameterisation positions(design);
   const auto [lo, hi] = std::minmax_element(design.angles_deg.begin(), design.angles_deg.end());
   const std::unordered_map<std::string, int> index = design.installation_index();
+  // Each installation's own angles, sorted (empty: every angle of the design).
+  std::vector<std::vector<double>> own_sorted;
+  for (const Installation& in : design.installations) {
+    own_sorted.push_back(in.angles_deg);
+    std::sort(own_sorted.back().begin(), own_sorted.back().end());
+  }
   for (size_t i = 0; i < readings.size(); ++i) {
     const Reading& r = readings[i];
     const std::string where =
@@ -62,18 +68,14 @@ void validate_readings(const Design& design, const std::vector<Reading>& reading
       }
       throw InputError(source, where, s.str());
     }
-    if (const int k = index.at(r.installation); !design.installations[k].angles_deg.empty()) {
-      const std::vector<double>& own = design.installations[k].angles_deg;
-      const bool among = std::any_of(own.begin(), own.end(), [&](double a) {
-        return std::abs(a - r.angle_deg) < kAngleTolerance_deg;
-      });
-      if (!among) {
+    if (const int k = index.at(r.installation); !own_sorted[k].empty()) {
+      const std::vector<double>& own = own_sorted[k];
+      if (angle_index(own, r.angle_deg) < 0) {
         std::ostringstream s;
         s << std::setprecision(12) << "angle " << r.angle_deg
           << " deg is not an angle of installation " << r.installation
-          << " (its angles_deg: " << own.size() << " angles from "
-          << *std::min_element(own.begin(), own.end()) << " to "
-          << *std::max_element(own.begin(), own.end()) << " deg)";
+          << " (its angles_deg: " << own.size() << " angles from " << own.front() << " to "
+          << own.back() << " deg)";
         throw InputError(source, where, s.str());
       }
     }

@@ -12,7 +12,9 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/parallel.hpp"
+#include "dbbkit/program.hpp"
 #include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
 #include "tolerances.hpp"
@@ -25,6 +27,9 @@ constexpr double kPenalty = 1e12;  // objective of a point the criterion cannot 
 // A geometric constraint holds when its violation v [mm] (travel excursion, separation shortfall)
 // satisfies v <= kGeometryTolerance_mm; NLopt's constraint tolerance is the same.
 constexpr double kGeometryTolerance_mm = 1e-9;
+// The geometric violation a point the machine's program refuses counts as [mm] (the refusal
+// states no distance): infeasible, ranked as one a millimetre outside the travel.
+constexpr double kMachineClash_mm = 1.0;
 // Within one choice, two feasible candidates tie when |f_a - f_b| <= kCandidateTie max(|f_a|,
 // |f_b|) (the shorter measurement is then better).
 constexpr double kCandidateTie = 1e-9;
@@ -800,6 +805,7 @@ Candidate candidate_skeleton(const Kit& kit, const PatternChoice& choice) {
   c.choice = choice;
   Design& d = c.design;
   d.axis = kit.axis;
+  d.machine = kit.machine;
   d.name = kit.name.empty() ? "optimized" : kit.name + "-optimized";
   d.angles_deg = kit_angles(kit, choice.step_deg);
   d.noise = kit.noise;
@@ -862,6 +868,19 @@ void place_candidate(const Kit& kit, Candidate& c, const std::vector<double>& x)
     }
   }
   c.travel_violation_mm = fit_bars(kit, d);
+  c.machine_clash.clear();
+  if (kit.machine && c.travel_violation_mm <= kGeometryTolerance_mm) {
+    // What the program on the machine refuses (its linear travel, the table, the solids such as
+    // a cradle's cheeks), the search does not offer: such a point lies outside by a millimetre.
+    try {
+      ProgramOptions o;
+      o.path_tolerance_mm = limits::kMaxPathTolerance_mm;
+      measurement_program(d, o);
+    } catch (const InputError& e) {
+      c.machine_clash = e.detail();
+      c.travel_violation_mm = std::max(c.travel_violation_mm, kMachineClash_mm);
+    }
+  }
   c.time_s = design_time_s(kit, d);
   c.feasible = c.travel_violation_mm <= kGeometryTolerance_mm &&
                c.separation_violation_mm <= kGeometryTolerance_mm &&

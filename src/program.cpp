@@ -213,6 +213,97 @@ double machine_top_z(const Design& design, const std::vector<double>& angles) {
   return top;
 }
 
+// The table's normal (up from the table ball's cup) at the axis' angle, work frame, or nothing
+// where the design does not say which way its table faces (a table in the general form not
+// about Z, without a machine). A machine's table faces +Z with every axis at zero and turns with
+// the innermost table axis' chain; without one, the frames are the machine's (Z up) except the
+// "B" shorthand's, whose reference (the spindle at B0) points down; a head turning about Z
+// carries a spindle along Z, the table below it.
+std::optional<Eigen::Vector3d> table_up(const Design& design, double angle_deg) {
+  const AxisFrame& axis = design.axis;
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  if (design.machine) {
+    const Machine& m = *design.machine->machine;
+    const int k = m.innermost(AxisFrame::Side::kTable);
+    if (k < 0) return z;
+    return m.body_direction_at(k, z, machine_angles(design, axis.table() ? angle_deg : 0.0));
+  }
+  const bool about_z = axis.machine_axis() == 2;
+  if (axis.table()) {
+    if (!about_z) return std::nullopt;
+    return z;
+  }
+  return about_z ? z : Eigen::Vector3d(-axis.reference());
+}
+
+// Every position and the arcs between them keep the spindle ball and the bar out of the table
+// ball's cup and stand (below_cup_mm); throws InputError naming the installation's sign.
+void check_cups(const Design& design, const MeasurementProgram& program) {
+  const AxisFrame& axis = design.axis;
+  if (axis.table() && !table_up(design, 0)) return;
+  // On a table the bar and the table's normal turn together: one angle tells. On a head the
+  // table stays and the bar turns: between two positions the axis turns, so each installation's
+  // swept range is sampled at most this far apart, its positions exactly.
+  constexpr double kSample_deg = 0.1;
+  const std::optional<Eigen::Vector3d> head_up =
+      axis.head() ? table_up(design, 0) : std::optional<Eigen::Vector3d>();
+  for (const InstallationProgram& ip : program.installations) {
+    const Installation& inst = design.installations[static_cast<std::size_t>(ip.installation)];
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const ProgramSweep& sw : ip.sweeps) {
+      for (const ProgramPosition& p : sw.positions) {
+        lo = std::min(lo, p.angle_deg);
+        hi = std::max(hi, p.angle_deg);
+      }
+    }
+    if (!(lo <= hi)) continue;
+    std::vector<double> angles;
+    if (axis.table()) {
+      angles.push_back(ip.sweeps.front().positions.front().angle_deg);
+    } else {
+      const int n = std::max(1, static_cast<int>(std::ceil((hi - lo) / kSample_deg)));
+      for (int j = 0; j <= n; ++j) angles.push_back(lo + (hi - lo) * j / n);
+      for (const ProgramSweep& sw : ip.sweeps)
+        for (const ProgramPosition& p : sw.positions) angles.push_back(p.angle_deg);
+    }
+    double worst = 0, worst_angle = lo;
+    bool other_side_dips = false;  // the other sign dips somewhere over the same angles too
+    Eigen::Vector3d worst_v = Eigen::Vector3d::Zero(), worst_up = worst_v;
+    for (const double a : angles) {
+      // The spindle ball less the table ball: on a table, F - P = -s bar u; on a head, P - F.
+      const Eigen::Vector3d u = direction_machine(axis, inst, a);
+      const Eigen::Vector3d v = (axis.table() ? -1.0 : 1.0) * inst.sign * ip.bar_mm * u;
+      const Eigen::Vector3d up = head_up ? *head_up : *table_up(design, a);
+      const double by = below_cup_mm(v.dot(up), v.norm());
+      if (by > worst) worst = by, worst_angle = a, worst_v = v, worst_up = up;
+      if (below_cup_mm(-v.dot(up), v.norm()) > 1e-9) other_side_dips = true;
+    }
+    if (worst <= 1e-9) continue;
+    constexpr double kDegree = 3.14159265358979323846 / 180.0;
+    const double below = -worst_v.dot(worst_up);
+    const double tilt = std::asin(std::clamp(below / worst_v.norm(), -1.0, 1.0)) / kDegree;
+    throw InputError(
+        "design", "installations[" + std::to_string(ip.installation) + "].sign",
+        "installation " + inst.id + " at " + std::string(1, axis.letter()) +
+            text::significant(std::round(worst_angle * 1e4) / 1e4, 7) +
+            ": the spindle ball stands " + text::significant(below, 4) +
+            " mm below the table ball's centre, the bar " + text::significant(tilt, 3) +
+            " deg below the plane of its cup (at most " +
+            text::significant(kMaxBarBelowCup_deg, 3) +
+            " deg: beyond, the spindle ball and the bar are driven into the cup and "
+            "its stand); " +
+            (other_side_dips
+                 ? std::string("neither side keeps the bar out of the cup over this "
+                               "installation's angles: read it on each side of the angle "
+                               "where the bar crosses the cup's plane as two installations "
+                               "(each its own angles_deg and sign)")
+                 : "put the table ball on the other side of the spindle ball "
+                   "(sign " +
+                       std::string(inst.sign > 0 ? "-1" : "+1") +
+                       "; reading_sign says how the instrument counted)"));
+  }
+}
+
 }  // namespace
 
 void validate_program_options(const ProgramOptions& o, const std::string& source) {
@@ -466,6 +557,17 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   if (const std::string clash = machine_clash(design, program); !clash.empty())
     throw InputError("design", "machine",
                      "machine " + quote_value(design.machine->machine->name) + ": " + clash);
+  check_cups(design, program);
+  if (design.axis.head()) {
+    if (design.machine) {
+      const Machine& m = *design.machine->machine;
+      const int h = m.innermost(AxisFrame::Side::kHead);
+      program.tool_direction = m.body_direction_at(
+          h, m.rotary[static_cast<std::size_t>(h)].reference, machine_angles(design, 0));
+    } else if (design.axis.machine_axis() != 2) {
+      program.tool_direction = design.axis.reference();
+    }
+  }
   if (design.machine && design.axis.head())
     program.preset_range = head_preset_range(design, program);
   return program;

@@ -512,12 +512,11 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
     const double placement_um =
         3e3 * std::sqrt(u.L_mm * u.L_mm + u.D_mm * u.D_mm + u.H_mm * u.H_mm);
     const double centring_um = 3.0 * u.centring_um * std::sqrt(3.0);
+    std::vector<double> own = partial ? in.angles_deg : std::vector<double>{};
+    std::sort(own.begin(), own.end());
     for (std::size_t ia = 0; ia < design.angles_deg.size(); ++ia) {
       const double a = design.angles_deg[ia];
-      if (partial && !in.angles_deg.empty() &&
-          std::none_of(in.angles_deg.begin(), in.angles_deg.end(),
-                       [a](double b) { return std::abs(a - b) < kAngleTolerance_deg; }))
-        continue;  // not read at this angle
+      if (!own.empty() && angle_index(own, a) < 0) continue;  // not read at this angle
       const Eigen::Vector3d P = ball_position_mm(design.axis, in, a);
       const Eigen::Vector3d dir = direction_machine(design.axis, in, a);
       const Eigen::Matrix<double, 6, 1>& e6 = errors[ia];

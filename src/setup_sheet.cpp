@@ -346,7 +346,6 @@ SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
   }
   if (kit) {
     sheet.workspace_checks = workspace_checks(*kit);
-    sheet.workspace_checked = !sheet.workspace_checks.empty();
     sheet.workspace_stated = kit->workspace.has_value();
     for (std::size_t i = 0; i < sheet.design.installations.size(); ++i) {
       const Installation& in = sheet.design.installations[i];

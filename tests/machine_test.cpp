@@ -17,14 +17,17 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "cli_util.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/machine_io.hpp"
 #include "dbbkit/io/program_io.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/observability.hpp"
+#include "dbbkit/optimize.hpp"
 #include "dbbkit/program.hpp"
 #include "program_lines.hpp"
 #include "test_util.hpp"
@@ -891,7 +894,8 @@ TEST(MachineProgram, AHeadTestSaysWhereTheTableBallMayStand) {
             std::string::npos)
       << sheet.out;
   // A Z travel that takes the pivot below the table: the table bounds the ball's height (its
-  // surface at Z 0, the pivot and the spindle ball 182.45 mm below the ball's centre at B-90).
+  // surface at Z 0; at B-100 the tool points 10 deg above the horizontal, so installation 2r's
+  // pivot, 200 + 150 mm back along it from the table ball, stands 350 sin 10 deg below).
   json mj = json::parse(slurp(test::source_path("designs/machines/paper-b-c.json")));
   {
     Machine deep = io::machine_from_json(mj, "m.json");
@@ -902,7 +906,7 @@ TEST(MachineProgram, AHeadTestSaysWhereTheTableBallMayStand) {
     ASSERT_TRUE(p.preset_range && p.preset_range->table_surface_z_mm);
     EXPECT_NEAR(*p.preset_range->table_surface_z_mm, 0, 1e-12);
     EXPECT_NEAR(p.preset_range->min_mm.z(), -p.preset_range->lowest_z_mm, 1e-9);
-    EXPECT_NEAR(p.preset_range->min_mm.z(), 182.4508, 1e-4);
+    EXPECT_NEAR(p.preset_range->min_mm.z(), 350 * std::sin(10 * kPi / 180), 1e-9);
     EXPECT_NEAR(*p.preset_range->table_radius_mm, 300, 1e-12);
   }
   // A Z travel shorter than the test's reach: refused, saying so.
@@ -918,6 +922,215 @@ TEST(MachineProgram, AHeadTestSaysWhereTheTableBallMayStand) {
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("no place of the table ball keeps it inside the travel"), std::string::npos)
       << r.err;
+  std::filesystem::remove_all(dir);
+}
+
+// The table ball stands in a cup on a stand: no committed design's program drives the spindle
+// ball or the bar more than kMaxBarBelowCup_deg below the plane of that cup, on a table or a
+// head, with or without a machine. The balls' places are written out here from the program's
+// commanded points and rotations about the axis (Eigen::AngleAxisd); "up" is each design's own:
+// a machine's table faces +Z and tilts with a trunnion; the "B" shorthand's frame has the
+// spindle along +Z at B0, so up is -Z there. A bar on the wrong side is refused by name.
+TEST(MachineProgram, NoBallIsDrivenIntoTheTableBallsCup) {
+  const double limit = std::sin(kMaxBarBelowCup_deg * kPi / 180);
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(test::source_path("designs")))
+    if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
+  std::sort(names.begin(), names.end());
+  ASSERT_GE(names.size(), 20u);
+  double deepest_accepted = 0;  // the deepest dip below the cup's plane taken [sin]
+  int checked = 0;
+  for (const std::string& name : names) {
+    const Design d = io::read_design_file(design_path(name));
+    const AxisFrame& axis = d.axis;
+    if (axis.table() && axis.machine_axis() != 2 && !d.machine)
+      continue;  // the table's face unknown
+    const MeasurementProgram p = measurement_program(d, ProgramOptions{});
+    for (const InstallationProgram& ip : p.installations) {
+      const Installation& in = d.installations[ip.installation];
+      const Eigen::Vector3d body = ball_body_mm(axis, in);
+      for (const ProgramSweep& s : ip.sweeps) {
+        for (const ProgramPosition& pos : s.positions) {
+          const Eigen::Matrix3d R =
+              Eigen::AngleAxisd(pos.angle_deg * kPi / 180, axis.direction()).toRotationMatrix();
+          Eigen::Vector3d table_ball, spindle_ball, up;
+          if (axis.table()) {
+            table_ball = R * body;
+            spindle_ball = pos.linear_mm;
+            up = R * Eigen::Vector3d::UnitZ();
+          } else {
+            table_ball = Eigen::Vector3d::Zero();
+            spindle_ball = pos.linear_mm + R * body;  // the pivot, and the ball on the head
+            up = axis.shorthand() == "B" ? Eigen::Vector3d(0, 0, -1) : Eigen::Vector3d::UnitZ();
+          }
+          const Eigen::Vector3d v = spindle_ball - table_ball;
+          EXPECT_NEAR(v.norm(), ip.bar_mm, 1e-6) << name << " " << in.id;
+          const double dip = -v.dot(up) / v.norm();
+          EXPECT_LE(dip, limit + 1e-9) << name << " " << in.id << " at " << pos.angle_deg;
+          deepest_accepted = std::max(deepest_accepted, dip);
+          ++checked;
+        }
+      }
+    }
+  }
+  EXPECT_GT(checked, 5000);
+  // The paper's radial bars at B-100 point 10 deg below the cup's plane, and are taken.
+  EXPECT_NEAR(deepest_accepted, std::sin(10 * kPi / 180), 1e-6);
+
+  // The other side of the bar: refused, naming the installation's sign and the cup.
+  const auto f = std::filesystem::temp_directory_path() / "dbbkit_cup_clash.json";
+  for (const auto& [name, index, says] : std::vector<std::tuple<std::string, int, std::string>>{
+           {"paper-b-c-B", 1, "at B-90: the spindle ball stands 150 mm below"},
+           {"paper-b-head", 4, "at B-90: the spindle ball stands 150 mm below"},
+           {"a-c-fork-head-A", 1, "at A-90: the spindle ball stands 150 mm below"},
+           {"c-turntable-kit-setup-optimized", 7, "at C0: the spindle ball stands 100 mm below"}}) {
+    json e = json::parse(slurp(design_path(name)));
+    if (e.contains("machine"))
+      e["machine"] = test::source_path("designs/" + e["machine"].get<std::string>());
+    json& in = e["installations"][index];
+    in["sign"] = -in.value("sign", 1);
+    std::ofstream(f) << e.dump(2);
+    try {
+      measurement_program(io::read_design_file(f.string()), ProgramOptions{});
+      ADD_FAILURE() << name << ": taken";
+    } catch (const InputError& err) {
+      EXPECT_EQ(err.where(), "installations[" + std::to_string(index) + "].sign") << err.what();
+      const std::string what = err.what();
+      EXPECT_NE(what.find(says), std::string::npos) << what;
+      EXPECT_NE(what.find("90 deg below the plane of its cup (at most 20 deg"), std::string::npos)
+          << what;
+    }
+  }
+  // Over -90..90 deg no side of a tangential bar on the paper's head keeps it out of the cup:
+  // the refusal says to read it as two installations, one side each.
+  {
+    json e = json::parse(slurp(design_path("paper-b-head")));
+    e["angles_deg"] = {{"start", -90}, {"stop", 90}, {"step", 10}};
+    std::ofstream(f) << e.dump(2);
+    try {
+      measurement_program(io::read_design_file(f.string()), ProgramOptions{});
+      ADD_FAILURE() << "a tangential bar over -90..90 deg: taken";
+    } catch (const InputError& err) {
+      EXPECT_EQ(err.where(), "installations[1].sign") << err.what();
+      EXPECT_NE(std::string(err.what()).find("neither side keeps the bar out of the cup"),
+                std::string::npos)
+          << err.what();
+    }
+  }
+  // A bar 25 deg below the plane (the limit is 20): refused; 15 deg: taken. A C table, a ball
+  // on blocks, the bar tilted down towards the spindle ball by an explicit direction.
+  for (const double tilt : {25.0, 15.0}) {
+    const double t = tilt * kPi / 180;
+    json c = {{"format", "dbbkit.design/1"},
+              {"name", "tilted"},
+              {"axis", "C"},
+              {"angles_deg", {{"start", 0}, {"stop", 360}, {"step", 30}}},
+              {"noise", {{"accuracy_um", 1.0}, {"distribution", "uniform"}}},
+              {"installations",
+               {{{"id", "1"},
+                 {"ball_mm", {{"L", 100}, {"H", 200}}},
+                 {"direction", {std::cos(t), 0.0, std::sin(t)}},
+                 {"bar_mm", 100}}}}};
+    std::ofstream(f) << c.dump(2);
+    const Design d = io::read_design_file(f.string());
+    if (tilt > kMaxBarBelowCup_deg) {
+      try {
+        measurement_program(d, ProgramOptions{});
+        ADD_FAILURE() << "a bar 25 deg below its cup's plane: taken";
+      } catch (const InputError& err) {
+        EXPECT_EQ(err.where(), "installations[0].sign");
+        EXPECT_NE(std::string(err.what()).find("the bar 25 deg below the plane of its cup"),
+                  std::string::npos)
+            << err.what();
+      }
+    } else {
+      EXPECT_NO_THROW(measurement_program(d, ProgramOptions{}));
+    }
+  }
+  std::filesystem::remove(f);
+}
+
+// A kit that names its machine: its frame, table and travel are the machine file's, and the
+// search offers only designs the machine's program takes. A block fixed to the machine's frame
+// where the best design's spindle ball stands at one reading: the program refuses that design on
+// the machine with the block, and the search on that machine finds another that it takes.
+TEST(MachineKit, TheSearchOnAMachineOffersOnlyWhatItsProgramTakes) {
+  const std::string kit_file = test::source_path("designs/kits/a-c-trunnion-A-kit.json");
+  json kj = json::parse(slurp(kit_file));
+  // One step and one block: the three searches kept short.
+  kj["angles_deg"]["steps"] = {15};
+  kj["H_mm"]["blocks"] = {50, 100};
+  kj["H_mm"]["max_stack"] = 1;
+  kj["machine"] = test::source_path("designs/machines/a-c-trunnion.json");
+  const Kit k = io::kit_from_json(kj, "kit.json");
+  ASSERT_TRUE(k.machine);
+  const Design a = io::read_design_file(design_path("a-c-trunnion-A"));
+  EXPECT_EQ(axis_difference(k.axis, a.axis), "");
+  EXPECT_EQ(k.table_normal, Eigen::Vector3d::UnitZ());
+  EXPECT_DOUBLE_EQ(k.table_surface_mm, -60);  // the C table's surface, below the A axis
+  const double travel[3][2] = {{-350, 350}, {-400, 400}, {-60, 450}};
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_DOUBLE_EQ(k.travel_mm[i].min, travel[i][0]);
+    EXPECT_DOUBLE_EQ(k.travel_mm[i].max, travel[i][1]);
+  }
+  ASSERT_TRUE(k.workspace && k.workspace->table_diameter_mm);
+  EXPECT_DOUBLE_EQ(*k.workspace->table_diameter_mm, 420);
+
+  OptimizeOptions o;
+  o.criterion = Criterion::kWorstTotal;
+  o.threads = 2;
+  const OptimizeResult r = optimize_kit(k, o);
+  ASSERT_TRUE(r.best && r.best->feasible);
+  const Design& best = r.best->design;
+  ASSERT_TRUE(best.machine);
+  for (const bool tcpm : {false, true}) {
+    ProgramOptions po;
+    po.tcpm = tcpm;
+    EXPECT_NO_THROW(measurement_program(best, po)) << "tcpm " << tcpm;
+  }
+
+  // The block: 10 mm about the spindle ball of the first installation at its first reading.
+  const MeasurementProgram p = measurement_program(best, ProgramOptions{});
+  const Eigen::Vector3d at = best.machine->origin_mm() +
+                             p.installations.front().sweeps.front().positions.front().linear_mm;
+  json mj = json::parse(slurp(test::source_path("designs/machines/a-c-trunnion.json")));
+  mj["workspace"]["solids"].push_back(
+      {{"name", "fixture"},
+       {"box_mm", {{at.x() - 5, at.y() - 5, at.z() - 5}, {at.x() + 5, at.y() + 5, at.z() + 5}}}});
+  const auto dir = std::filesystem::temp_directory_path() / "dbbkit_machine_kit";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "m.json") << mj.dump(2);
+  Design blocked_best = best;
+  blocked_best.machine->machine =
+      std::make_shared<const Machine>(io::read_machine_file((dir / "m.json").string()));
+  try {
+    measurement_program(blocked_best, ProgramOptions{});
+    ADD_FAILURE() << "the block was not met";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("lies inside 'fixture'"), std::string::npos) << e.what();
+  }
+  kj["machine"] = (dir / "m.json").string();
+  const Kit blocked = io::kit_from_json(kj, "kit.json");
+  const OptimizeResult rb = optimize_kit(blocked, o);
+  ASSERT_TRUE(rb.best && rb.best->feasible);
+  EXPECT_NO_THROW(measurement_program(rb.best->design, ProgramOptions{}));
+  EXPECT_GE(rb.best->objective, r.best->objective * (1 - 1e-9));
+
+  // From the command line: the design written elsewhere names the machine relative to itself,
+  // and the program takes it.
+  kj["machine"] = test::source_path("designs/machines/a-c-trunnion.json");
+  std::filesystem::create_directories(dir / "out");
+  std::ofstream(dir / "kit.json") << kj.dump(2);
+  const std::string out = (dir / "out" / "best.json").string();
+  CliRun c = run_cli("optimize --kit " + (dir / "kit.json").string() + " --out " + out +
+                     " --quiet --threads 2");
+  ASSERT_EQ(c.status, 0) << c.err;
+  const json written = json::parse(slurp(out));
+  EXPECT_EQ(written["axis"], "A");
+  EXPECT_EQ(std::filesystem::path(written["machine"].get<std::string>()).is_relative(), true)
+      << written["machine"];
+  c = run_cli("program --design " + out + " --dialect heidenhain --tcpm on");
+  EXPECT_EQ(c.status, 0) << c.err;
   std::filesystem::remove_all(dir);
 }
 

@@ -158,6 +158,24 @@ const std::vector<AxisFrame>& program_frames() {
   return frames;
 }
 
+// Whether the bar stays within kMaxBarBelowCup_deg below the table ball's cup over the design's
+// arc (sampled every 0.5 deg, with a margin for the samples between): the table faces +Z, on the
+// "B" shorthand -Z (its reference, the spindle at B0); a table not about Z states no face.
+bool clear_of_cup(const AxisFrame& axis, const Installation& in, const std::vector<double>& deg) {
+  if (axis.table() && axis.machine_axis() != 2) return true;
+  const Eigen::Vector3d up =
+      axis.shorthand() == "B" ? Eigen::Vector3d(0, 0, -1) : Eigen::Vector3d::UnitZ();
+  const double lo = *std::min_element(deg.begin(), deg.end());
+  const double hi = *std::max_element(deg.begin(), deg.end());
+  for (double a = lo; a <= hi + 1e-9; a += 0.5) {
+    const Eigen::Vector3d v =
+        (axis.table() ? -1.0 : 1.0) * in.sign *
+        (Eigen::AngleAxisd(a * kPi / 180, axis.direction()) * in.direction.body);
+    if (-v.dot(up) > std::sin((kMaxBarBelowCup_deg - 1) * kPi / 180)) return false;
+  }
+  return true;
+}
+
 Design random_design(std::mt19937_64& rng, const AxisFrame& axis) {
   std::uniform_real_distribution<double> U(0, 1);
   Design d;
@@ -170,26 +188,36 @@ Design random_design(std::mt19937_64& rng, const AxisFrame& axis) {
   for (int k = 0; k <= steps; ++k) d.angles_deg.push_back(start + k * step);
   const int n = 1 + static_cast<int>(rng() % 5);
   for (int i = 0; i < n; ++i) {
+    // Drawn again until a side keeps the bar out of the table ball's cup.
     Installation in;
-    in.id = "i" + std::to_string(i);
-    in.L_mm = 20 + 380 * U(rng);
-    in.D_mm = U(rng) < 0.5 ? 0 : -100 + 200 * U(rng);
-    in.H_mm = axis.table() ? 20 + 300 * U(rng) : 0;
-    const int kind = static_cast<int>(rng() % 4);
-    if (kind < 3) {
-      in.direction = Direction::named(axis, static_cast<Direction::Kind>(kind));
-    } else {
-      Eigen::Vector3d v(U(rng) - 0.5, U(rng) - 0.5, U(rng) - 0.5);
-      in.direction = Direction::vector(v.normalized());
-    }
-    in.sign = U(rng) < 0.5 ? 1 : -1;
-    // A head's table ball lies beyond the tool tip (validate_design).
-    if (!table_ball_beyond_tool(axis, in.direction, in.sign)) in.sign = -in.sign;
-    in.bar_mm = std::vector<double>{100, 150, 250, 300, 400}[rng() % 5];
-    // On the C shorthand the spindle ball stays above the table surface (program.hpp): the turn
-    // about Z keeps its height H - sign bar u_z.
-    if (axis.shorthand() == "C" && in.H_mm - in.sign * *in.bar_mm * in.direction.body.z() < 0)
+    for (;;) {
+      in.id = "i" + std::to_string(i);
+      in.L_mm = 20 + 380 * U(rng);
+      in.D_mm = U(rng) < 0.5 ? 0 : -100 + 200 * U(rng);
+      in.H_mm = axis.table() ? 20 + 300 * U(rng) : 0;
+      const int kind = static_cast<int>(rng() % 4);
+      if (kind < 3) {
+        in.direction = Direction::named(axis, static_cast<Direction::Kind>(kind));
+      } else {
+        Eigen::Vector3d v(U(rng) - 0.5, U(rng) - 0.5, U(rng) - 0.5);
+        in.direction = Direction::vector(v.normalized());
+      }
+      in.sign = U(rng) < 0.5 ? 1 : -1;
+      // A head's table ball lies beyond the tool tip (validate_design).
+      if (!table_ball_beyond_tool(axis, in.direction, in.sign)) in.sign = -in.sign;
+      in.bar_mm = std::vector<double>{100, 150, 250, 300, 400}[rng() % 5];
+      // On the C shorthand the spindle ball stays above the table surface (program.hpp): the turn
+      // about Z keeps its height H - sign bar u_z.
+      if (axis.shorthand() == "C" && in.H_mm - in.sign * *in.bar_mm * in.direction.body.z() < 0)
+        in.sign = -in.sign;
+      if (clear_of_cup(axis, in, d.angles_deg)) break;
       in.sign = -in.sign;
+      if (table_ball_beyond_tool(axis, in.direction, in.sign) &&
+          (axis.shorthand() != "C" ||
+           in.H_mm - in.sign * *in.bar_mm * in.direction.body.z() >= 0) &&
+          clear_of_cup(axis, in, d.angles_deg))
+        break;
+    }
     d.installations.push_back(in);
   }
   return d;

@@ -241,10 +241,25 @@ inline constexpr double kBeyondTool = 1e-9;
 // A bar across the tool (tangential, axial) may take either sign.
 bool table_ball_beyond_tool(const AxisFrame& axis, const Direction& direction, int sign);
 
+// The table ball stands in a cup on a stand: the bar may point at most this far below the plane
+// through its centre across the table's normal, the cup's rim and the stand lying beyond [deg].
+// A ballbar's arcs in a vertical plane stop there (220 deg arcs, 20 deg below either side).
+inline constexpr double kMaxBarBelowCup_deg = 20.0;
+
+// How far the spindle ball lies below the deepest place kMaxBarBelowCup_deg allows it, along the
+// table's normal [mm]: `rise_mm` is the spindle ball's centre's height above the table ball's
+// along the normal, `bar_mm` their distance. Positive: the spindle ball or the bar would be
+// driven into the table ball's cup or stand.
+double below_cup_mm(double rise_mm, double bar_mm);
+
 void validate_design(const Design& design, const std::string& source = "design");
 
 // Tolerance on angles: two angles closer than this are the same position.
 // |a - b| < kAngleTolerance_deg  (a full turn: compared modulo 360).
 inline constexpr double kAngleTolerance_deg = 1e-6;
+
+// The index in `sorted` (ascending) of an angle within kAngleTolerance_deg of a, or -1 (a binary
+// search: one place for matching an angle to a list of them).
+long angle_index(const std::vector<double>& sorted, double a);
 
 }  // namespace dbbkit

@@ -103,6 +103,11 @@ struct Workspace {
 struct Kit {
   std::string name;
   AxisFrame axis;
+  // A kit that names its machine and the axis under test (formats.md, "Kit file"): the frame,
+  // a table's normal and surface and its disc come from the machine file, and every design the
+  // search scores names the machine and must be one its program takes (the linear travel, the
+  // table, the workspace's solids such as a cradle's cheeks).
+  std::optional<DesignMachine> machine;
   // Table side: the table's normal (machine frame, angle 0; `table.normal`, the axis'
   // direction on the shorthand "C") and its surface's distance from the frame's origin along
   // it (`table.surface_mm`; 0 on a table whose origin lies on its surface, as the "C"

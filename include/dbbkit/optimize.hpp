@@ -79,6 +79,9 @@ struct Candidate {
   // (kit.hpp installation_clashes), the larger of the two
   double travel_violation_mm = 0;
   double separation_violation_mm = 0;  // <= 0: ball positions at least min_separation apart
+  // A kit that names its machine: why the machine's program refuses the design (its travel,
+  // its table, a solid), or empty; travel_violation_mm then counts it as 1 mm outside.
+  std::string machine_clash;
   double time_s = 0;
   bool feasible = false;  // inside travel, separation and the time budget
   WorstCase worst;

@@ -186,6 +186,10 @@ struct MeasurementProgram {
     std::optional<double> table_surface_z_mm, table_radius_mm;
   };
   std::optional<PresetRange> preset_range;
+  // A head: the spindle's direction with the axis under test at 0 (from the pivot to the tool
+  // tip, work frame): the machine's innermost head axis' reference turned by its head axes; without
+  // a machine the design's reference, except on a head about Z, whose design does not say.
+  std::optional<Eigen::Vector3d> tool_direction;
 };
 
 // A head's test on a machine (design.machine, a head axis): where the table ball's centre may

@@ -106,9 +106,9 @@ struct SetupSheet {
   };
   std::optional<KitTable> kit_table;
   double total_time_s = 0;
-  // With a kit that states a workspace (and on a C table, always: the spindle ball above a
-  // cup's height): every clash of the set-up design's installations, by installation id.
-  bool workspace_checked = false;
+  // With a kit: what was checked (a workspace's clearances where it states one; always the bar
+  // above the table ball's cup and, on a table, the spindle ball above a cup's height) and every
+  // clash of the set-up design's installations, by installation id.
   std::vector<std::string> workspace_checks;  // workspace_checks(kit)
   bool workspace_stated = false;              // the kit has a workspace
   std::vector<std::pair<std::string, Clash>> clashes;

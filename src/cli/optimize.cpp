@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -162,7 +163,20 @@ Runner add_optimize(CLI::App& app) {
     }
     const bool design_out = !args->out.empty() || json_to_stdout(args->out);
     if (res.best && design_out) {
-      const Design d = io::optimized_design(kit, res, args->kit);
+      Design d = io::optimized_design(kit, res, args->kit);
+      if (d.machine) {
+        // The machine as the design names it: relative to the design's own folder (the kit
+        // named it relative to the kit's).
+        namespace fs = std::filesystem;
+        fs::path m(d.machine->file);
+        if (m.is_relative()) m = fs::path(args->kit).parent_path() / m;
+        m = fs::weakly_canonical(fs::absolute(m));
+        const fs::path dir = json_to_stdout(args->out)
+                                 ? fs::current_path()
+                                 : fs::weakly_canonical(fs::absolute(args->out)).parent_path();
+        const fs::path rel = m.lexically_relative(dir);
+        d.machine->file = (rel.empty() ? m : rel).generic_string();
+      }
       outputs.stage("--out", io::dump_json(io::design_to_json(d)) + "\n");
     } else if (design_out) {
       outputs.withhold("--out");  // no design: the file given is left as it is

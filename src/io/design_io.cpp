@@ -283,9 +283,6 @@ json noise_to_json(const NoiseModel& noise) {
   return {{"distribution", "normal"}, {"std_um", noise.std_um}};
 }
 
-namespace {
-
-// "machine": "m.json", "axis": "A" [, "park_deg": {"C": 90}] (formats.md, "Machine file").
 DesignMachine read_design_machine(ObjectReader& top, const std::string& base_dir) {
   DesignMachine dm;
   dm.file = top.string("machine");
@@ -323,8 +320,6 @@ DesignMachine read_design_machine(ObjectReader& top, const std::string& base_dir
   }
   return dm;
 }
-
-}  // namespace
 
 Design design_from_json(const json& j, const std::string& source, const std::string& base_dir) {
   ObjectReader top(j, source, "");
@@ -437,10 +432,8 @@ Design design_from_json(const json& j, const std::string& source, const std::str
   std::vector<double> sorted = d.angles_deg;
   std::sort(sorted.begin(), sorted.end());
   for (Installation& in : d.installations) {
-    for (double& a : in.angles_deg) {
-      const auto it = std::lower_bound(sorted.begin(), sorted.end(), a - kAngleTolerance_deg);
-      if (it != sorted.end() && std::abs(*it - a) < kAngleTolerance_deg) a = *it;
-    }
+    for (double& a : in.angles_deg)
+      if (const long k = angle_index(sorted, a); k >= 0) a = sorted[static_cast<std::size_t>(k)];
   }
   if (const json* p = top.optional("predicted")) {
     ObjectReader pr(*p, source, "predicted");

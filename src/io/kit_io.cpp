@@ -1,6 +1,7 @@
 #include "dbbkit/io/kit_io.hpp"
 
 #include <cctype>
+#include <filesystem>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
@@ -135,7 +136,7 @@ Pattern read_pattern(ObjectReader& top, const AxisFrame& axis, TableCarriage car
 
 }  // namespace
 
-Kit kit_from_json(const json& j, const std::string& source) {
+Kit kit_from_json(const json& j, const std::string& source, const std::string& base_dir) {
   ObjectReader top(j, source, "");
   Kit k;
   const std::string format = top.string("format");
@@ -143,11 +144,42 @@ Kit kit_from_json(const json& j, const std::string& source) {
     top.fail("format", "expected \"" + std::string(kKitFormat) + "\", found \"" + format + "\"");
   k.name = top.optional_string("name").value_or("");
   top.optional_string("description");
-  k.axis = read_axis(top);
+  if (top.has("machine")) {
+    k.machine = read_design_machine(top, base_dir);
+    k.axis = k.machine->machine->axis_frame(k.machine->axis, k.machine->park_angles());
+  } else {
+    if (top.has("park_deg"))
+      top.fail("park_deg", "park angles belong to a kit that names its machine");
+    k.axis = read_axis(top);
+  }
   // A table's blocks raise the ball along the table's normal: on the "C" shorthand the axis
-  // (+Z), with the frame's origin on the surface; in the general form the kit states both.
+  // (+Z), with the frame's origin on the surface; in the general form the kit states both, or
+  // its machine's table does.
   const bool general = k.axis.shorthand().empty();
-  if (k.axis.table() && general) {
+  if (k.axis.table() && k.machine) {
+    if (top.has("table"))
+      top.fail("table",
+               "comes from the machine file (its table's disc: diameter_mm, surface_mm): a kit "
+               "that names its machine states no table of its own");
+    const Machine& m = *k.machine->machine;
+    const int t = m.innermost(AxisFrame::Side::kTable);
+    const RotaryAxisSpec& r = m.rotary[static_cast<std::size_t>(t)];
+    if (!r.table_surface_mm || !r.table_diameter_mm)
+      top.fail("machine", "machine " + quote_value(m.name) + ": its table axis " +
+                              std::string(1, r.letter) +
+                              " states no table (table: diameter_mm, surface_mm): the kit's "
+                              "cups and blocks stand on it");
+    // The table's normal and its surface's centre with the axis under test at 0 (the others
+    // parked), in the kit's frame (its origin the axis' nominal point there).
+    std::vector<double> at_zero = k.machine->park_angles();
+    at_zero[static_cast<std::size_t>(k.machine->axis)] = 0;
+    const Eigen::Vector3d n =
+        m.body_direction_at(t, r.direction.z() < 0 ? -r.direction : r.direction, at_zero);
+    const Eigen::Vector3d centre =
+        m.body_point_at(t, m.table_centre_mm(t), at_zero) - m.point_at(k.machine->axis, at_zero);
+    k.table_normal = snapped_to_machine_axis(n);
+    k.table_surface_mm = k.table_normal.dot(centre);
+  } else if (k.axis.table() && general) {
     if (!top.has("table"))
       top.fail("table",
                "required for a table in the general form: {\"normal\": [x, y, z], "
@@ -160,14 +192,14 @@ Kit kit_from_json(const json& j, const std::string& source) {
     k.table_normal = Eigen::Vector3d(n[0], n[1], n[2]);
     k.table_surface_mm = t.number("surface_mm");
     t.finish();
-  } else if (top.has("table")) {
+  } else if (top.has("table") && !k.machine) {
     top.fail("table", k.axis.table()
                           ? "the shorthand \"C\" has its table's normal along +Z and its origin on "
                             "the surface: write the axis in the general form to state another"
                           : "a table's normal and surface are a table axis': axis " +
                                 k.axis.label() + " carries the head");
   }
-  if (k.axis.table() && !general) k.table_normal = k.axis.direction();
+  if (k.axis.table() && !general && !k.machine) k.table_normal = k.axis.direction();
   const TableCarriage carriage = table_carriage(k);
   k.pattern = read_pattern(top, k.axis, carriage);
   if (const json* n = top.optional("noise"))
@@ -244,7 +276,19 @@ Kit kit_from_json(const json& j, const std::string& source) {
     k.bars_mm = read_numbers(bars, source, top.key_path("bars_mm"));
   }
   k.resolution_mm = top.optional_number("resolution_mm");
-  {
+  if (k.machine && k.axis.table()) {
+    // The spindle ball's travel is the machine's linear travel, in the kit's frame.
+    if (top.has("travel_mm"))
+      top.fail("travel_mm",
+               "comes from the machine file (linear_travel_mm): a table axis' kit that names its "
+               "machine states no travel of its own");
+    const Eigen::Vector3d origin = k.machine->origin_mm();
+    const auto& lt = k.machine->machine->linear_travel_mm;
+    for (int i = 0; i < 3; ++i)
+      k.travel_mm[static_cast<std::size_t>(i)] =
+          Interval{lt[static_cast<std::size_t>(i)][0] - origin(i),
+                   lt[static_cast<std::size_t>(i)][1] - origin(i)};
+  } else {
     ObjectReader t = top.object("travel_mm");
     const char* names[] = {"x", "y", "z"};
     for (int i = 0; i < 3; ++i)
@@ -307,6 +351,15 @@ Kit kit_from_json(const json& j, const std::string& source) {
     w.finish();
     k.workspace = ws;
   }
+  if (k.machine && k.axis.table()) {
+    // The table's outline: the machine's disc, unless the kit's workspace states one.
+    const Machine& m = *k.machine->machine;
+    const RotaryAxisSpec& r =
+        m.rotary[static_cast<std::size_t>(m.innermost(AxisFrame::Side::kTable))];
+    if (!k.workspace) k.workspace = Workspace{};
+    if (!k.workspace->table_diameter_mm && !k.workspace->table_x_mm)
+      k.workspace->table_diameter_mm = r.table_diameter_mm;
+  }
   if (reference_length_mm) {
     k.reference_length_mm = *reference_length_mm;
   } else if (k.axis.table() && k.workspace && k.workspace->table_diameter_mm) {
@@ -340,10 +393,13 @@ Kit kit_from_json(const json& j, const std::string& source) {
   return k;
 }
 
-Kit kit_from_text(const std::string& text, const std::string& source) {
-  return kit_from_json(parse_json(text, source), source);
+Kit kit_from_text(const std::string& text, const std::string& source, const std::string& base_dir) {
+  return kit_from_json(parse_json(text, source), source, base_dir);
 }
 
-Kit read_kit_file(const std::string& path) { return kit_from_text(read_json_file(path), path); }
+Kit read_kit_file(const std::string& path) {
+  return kit_from_text(read_json_file(path), path,
+                       std::filesystem::path(path).parent_path().string());
+}
 
 }  // namespace dbbkit::io

@@ -129,6 +129,9 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
              list + " at every position of this choice";
     }
     case ChoiceState::kOutsideTravel:
+      if (cr.best && !cr.best->machine_clash.empty())
+        return "no position is one the machine's program takes (the nearest: " +
+               cr.best->machine_clash + ")";
       return std::string(kit.workspace || kit.axis.table()
                              ? "no position keeps the following ball inside travel and the "
                                "set-up clear of the workspace (least excursion "

@@ -307,10 +307,22 @@ std::string program_text(const Design& design, const MeasurementProgram& program
           " axis x spindle axis): its length register holds the "
           "distance from the gauge line to the pivot, as the control's head kinematics has it");
     }
-    head.push_back("frame of the design: at " + L + "0 the spindle points " +
-                   direction_text(program.axis.reference()) +
-                   " from the pivot, the ball L along it; " + L + "+ turns the head " +
-                   sense_text(program.axis, true));
+    const std::optional<Eigen::Vector3d>& tool = program.tool_direction;
+    const std::string turns = L + "+ turns the head " + sense_text(program.axis, true);
+    if (tool && (*tool - program.axis.reference()).norm() < 1e-9) {
+      head.push_back("frame of the design: at " + L + "0 the spindle points " +
+                     direction_text(*tool) + " from the pivot, the ball L along it; " + turns);
+    } else {
+      head.push_back(
+          "frame of the design: at " + L + "0 " +
+          (tool ? "the spindle points " + direction_text(snapped_to_machine_axis(*tool)) +
+                      " from the pivot; "
+                : std::string("the spindle's direction is not stated (the design names no "
+                              "machine); ")) +
+          "a ball's L lies along " + direction_text(program.axis.reference()) + ", D along " +
+          direction_text(program.axis.e_D()) + ", H along " + direction_text(program.axis.e_H()) +
+          " from the pivot; " + turns);
+    }
   }
   head.push_back("clearance plane Z" + coord(zc, false) +
                  (o.clearance_z_mm

@@ -32,7 +32,8 @@ std::string sheet_ball_text(const AxisFrame& axis, const Installation& in) {
 
 std::string stack_text(const AxisFrame& axis, const Installation& in,
                        const std::optional<Stack>* kit_stack = nullptr) {
-  if (!axis.table()) return "tool side: ball " + mm(in.L_mm) + " mm from the pivot";
+  if (!axis.table())
+    return "tool side: ball " + mm(ball_body_mm(axis, in).norm()) + " mm from the pivot";
   if (!in.cup_mm && kit_stack) {
     if (!*kit_stack) return "no stack of the kit puts the ball at its height";
     const Stack& st = **kit_stack;
@@ -95,9 +96,6 @@ std::string time_text(const SetupSheet& sheet, const std::string& kit_file) {
 // What the workspace check covered, and every clash.
 std::string workspace_text(const SetupSheet& sheet) {
   if (!sheet.time) return "";  // no kit
-  if (!sheet.workspace_checked)
-    return "The kit states no workspace (workspace.table_ball_height_mm, workspace.spindle): "
-           "the head's clearance from the table is not checked; the air run must show it.";
   if (!sheet.clashes.empty()) {
     std::string t = "CLASH: this set-up cannot stand on the machine as designed:";
     for (const auto& [id, c] : sheet.clashes)
@@ -108,8 +106,12 @@ std::string workspace_text(const SetupSheet& sheet) {
   for (const std::string& c : sheet.workspace_checks) checked += (checked.empty() ? "" : "; ") + c;
   return "Every installation clears the kit's workspace: " + checked +
          (sheet.workspace_stated ? "."
-                                 : ". The kit states no workspace: the table's outline, the "
-                                   "cup's footprint and the spindle nose are not checked.");
+          : sheet.design.axis.head()
+              ? ". The kit states no workspace (workspace.table_ball_height_mm, "
+                "workspace.spindle): the head's clearance from the table is not checked; the air "
+                "run must show it."
+              : ". The kit states no workspace: the table's outline, the cup's footprint and the "
+                "spindle nose are not checked.");
 }
 
 std::string times(int n) {

@@ -384,7 +384,11 @@ PyDesign make_design(py::handle source) {
 }
 
 PyKit make_kit(py::handle source) {
-  return read_input<Kit>(source, "kit", &io::read_kit_file, &io::kit_from_json);
+  // A dict's relative machine path is relative to the working directory.
+  return read_input<Kit>(
+      source, "kit", &io::read_kit_file, +[](const nlohmann::json& j, const std::string& where) {
+        return io::kit_from_json(j, where);
+      });
 }
 
 // validate_readings names "line N"; readings given as arrays (not read from a file or from

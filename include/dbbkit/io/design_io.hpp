@@ -44,6 +44,9 @@ Travel read_travel(ObjectReader& r, const std::string& key, bool full_turn_defau
 
 // "axis": "C" or "B".
 AxisFrame read_axis(ObjectReader& top);
+// "machine": "m.json", "axis": "A" [, "park_deg": {"C": 90}] (formats.md, "Machine file"): a
+// design's or a kit's machine, a relative path read relative to `base_dir`.
+DesignMachine read_design_machine(ObjectReader& top, const std::string& base_dir);
 // The axis as a design or kit writes it: the shorthand "C" or "B", else the general form.
 nlohmann::json axis_to_json(const AxisFrame& axis);
 // The frame written out whatever the design used: letter, side, direction, reference,
