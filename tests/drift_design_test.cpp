@@ -51,7 +51,9 @@ TEST(ReturnReading, TheDesignKeyIsReadWrittenAndChecked) {
 // the dwell named the return reading and its approach; simulate takes the same reading, the
 // opposite sweep, after the sweep's last.
 TEST(ReturnReading, ProgramAndSimulateTakeItAtTheEndOfEachSweep) {
-  const Design d = b_head(true);
+  // A head on its machine (a part program needs the spindle pointing down).
+  Design d = io::read_design_file(test::source_path("designs/paper-b-c-B-off-axis.json"));
+  d.return_reading = true;
   ProgramOptions o;
   o.sweeps = ProgramOptions::Sweeps::kBoth;
   const MeasurementProgram p = measurement_program(d, o);

@@ -1075,6 +1075,20 @@ TEST(MachineKit, TheSearchOnAMachineOffersOnlyWhatItsProgramTakes) {
   }
   ASSERT_TRUE(k.workspace && k.workspace->table_diameter_mm);
   EXPECT_DOUBLE_EQ(*k.workspace->table_diameter_mm, 420);
+  // What comes from the machine is not stated twice; the axis under test is not parked.
+  for (const auto& [key, value] : std::vector<std::pair<std::string, json>>{
+           {"table", {{"normal", {0, 0, 1}}, {"surface_mm", -60}}},
+           {"travel_mm", {{"x", {-1, 1}}, {"y", {-1, 1}}, {"z", {-1, 1}}}},
+           {"park_deg", {{"A", 10}}}}) {
+    json bad = kj;
+    bad[key] = value;
+    try {
+      io::kit_from_json(bad, "kit.json");
+      ADD_FAILURE() << key << ": taken";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.where(), key) << e.what();
+    }
+  }
 
   OptimizeOptions o;
   o.criterion = Criterion::kWorstTotal;

@@ -146,6 +146,10 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
   top.optional_string("description");
   if (top.has("machine")) {
     k.machine = read_design_machine(top, base_dir);
+    if (k.machine->park_overrides.count(k.machine->letter()))
+      top.fail("park_deg", std::string("names the axis under test, ") + k.machine->letter() +
+                               ": a kit parks the other axes (the search places the cups with "
+                               "the axis under test at its machine file's park angle)");
     k.axis = k.machine->machine->axis_frame(k.machine->axis, k.machine->park_angles());
   } else {
     if (top.has("park_deg"))

@@ -196,6 +196,21 @@ std::optional<Dialect> dialect_named(const std::string& name) {
 
 std::string program_text(const Design& design, const MeasurementProgram& program, Dialect dialect,
                          int program_number) {
+  // A program's Z is the machine's, up, away from the table: a head's frame whose spindle points
+  // up at the axis' zero (the "B" shorthand's, the paper's convention) would send every retract
+  // and the clearance plane through the table ball.
+  if (!design.machine && design.axis.head() && design.axis.machine_axis() != 2 &&
+      design.axis.reference().z() > 1e-9)
+    throw InputError("design", "axis",
+                     "the design's frame has the spindle pointing " +
+                         direction_text(design.axis.reference()) + " at " +
+                         std::string(1, design.axis.letter()) +
+                         "0 (the reference; the \"B\" shorthand's convention): a program "
+                         "commands a machine whose Z points up, away from the table, so its "
+                         "retracts and clearance plane would run through the table ball; write "
+                         "the axis in the general form with the spindle pointing down "
+                         "(\"reference\": [0, 0, -1]) or name the machine");
+
   if (program_number < 1 || program_number > 9999)
     throw InputError("--program-number", "", "an O-number is 1..9999");
   const bool c = program.axis.table();
