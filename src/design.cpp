@@ -231,6 +231,37 @@ double below_cup_mm(double rise_mm, double bar_mm) {
   return -rise_mm - bar_mm * std::sin(kMaxBarBelowCup_deg * kDegree);
 }
 
+std::optional<Eigen::Vector3d> head_tool_direction(const AxisFrame& axis,
+                                                   const std::optional<DesignMachine>& machine) {
+  if (!axis.head()) return std::nullopt;
+  if (machine) {
+    const Machine& m = *machine->machine;
+    const int h = m.innermost(AxisFrame::Side::kHead);
+    return m.body_direction_at(h, m.rotary[static_cast<std::size_t>(h)].reference,
+                               machine->angles_at(0));
+  }
+  if (axis.machine_axis() == 2) return std::nullopt;
+  return axis.reference();
+}
+
+std::optional<Eigen::Vector3d> table_up(const AxisFrame& axis,
+                                        const std::optional<DesignMachine>& machine,
+                                        double angle_deg) {
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  if (machine) {
+    const Machine& m = *machine->machine;
+    const int k = m.innermost(AxisFrame::Side::kTable);
+    if (k < 0) return z;
+    return m.body_direction_at(k, z, machine->angles_at(axis.table() ? angle_deg : 0.0));
+  }
+  if (axis.table()) {
+    if (axis.machine_axis() != 2) return std::nullopt;
+    return z;
+  }
+  const std::optional<Eigen::Vector3d> tool = head_tool_direction(axis, machine);
+  return tool ? Eigen::Vector3d(-*tool) : z;
+}
+
 namespace {
 
 // Each installation's own angles (installations[i].angles_deg): angles of the design, none
@@ -463,9 +494,14 @@ void validate_design(const Design& d, const std::string& source) {
   validate_installation_angles(d, source);
 }
 
-std::vector<DesignMachine::AxisAngle> DesignMachine::angles_with(double tested_deg) const {
+std::vector<double> DesignMachine::angles_at(double tested_deg) const {
   std::vector<double> a = park_angles();
   a[static_cast<std::size_t>(axis)] = tested_deg;
+  return a;
+}
+
+std::vector<DesignMachine::AxisAngle> DesignMachine::angles_with(double tested_deg) const {
+  const std::vector<double> a = angles_at(tested_deg);
   std::vector<AxisAngle> out;
   for (std::size_t k = 0; k < a.size(); ++k) out.push_back({machine->rotary[k].letter, a[k]});
   return out;

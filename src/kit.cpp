@@ -825,9 +825,10 @@ double clash_extent(const Kit& kit, const AxisFrame& axis, const Eigen::Vector3d
     return worst;
   }
   // Head: the table ball stays put (work frame origin); a head point X (pivot frame at angle
-  // 0) stands at R(g) (X - G). The spindle at the axis' zero points at the table: heights are
-  // along up = -reference, the table surface table_ball_height_mm below the origin.
-  const Eigen::Vector3d up = -axis.reference();
+  // 0) stands at R(g) (X - G). Heights are along the way the table faces (table_up: against
+  // the spindle at the axis' zero, +Z under a head turning about Z), the table surface
+  // table_ball_height_mm below the origin.
+  const Eigen::Vector3d up = *table_up(axis, kit.machine, 0);
   auto lowest = [&](const Eigen::Vector3d& X) {
     const Eigen::Vector3d d = X - G;
     return arc_min(up.dot(h.A0 * d), up.dot(h.A1 * d), up.dot(h.A2 * d), ends);

@@ -84,13 +84,6 @@ int substeps(const AxisFrame& axis, const Installation& inst, double bar, double
                        text::significant(tol, 6) + " mm");
 }
 
-// The angles of every rotary axis with the axis under test at `angle`, the others parked.
-std::vector<double> machine_angles(const Design& design, double angle) {
-  std::vector<double> a = design.machine->park_angles();
-  a[design.machine->axis] = angle;
-  return a;
-}
-
 // The machine's options against the design: TCPM needs the controller's kinematics (a machine
 // file); under TCPM the tool tip is the spindle ball, on the spindle's axis; without it the tool
 // length acts along Z, so a head axis stands at 0 while a table axis is measured.
@@ -108,9 +101,9 @@ void check_machine_options(const Design& design, const ProgramOptions& o) {
     // The spindle's axis with the axis under test at 0: the innermost head axis' reference (from
     // its pivot to the tool tip) turned by every head axis (machine frame).
     const int h = m.innermost(AxisFrame::Side::kHead);
-    const std::vector<double> at_zero = machine_angles(design, 0);
+    const std::vector<double> at_zero = design.machine->angles_at(0);
     const Eigen::Vector3d pivot = m.body_point_at(h, m.rotary[h].point_mm, at_zero);
-    const Eigen::Vector3d tool = m.body_direction_at(h, m.rotary[h].reference, at_zero);
+    const Eigen::Vector3d tool = *head_tool_direction(design.axis, design.machine);
     const Eigen::Vector3d origin = m.point_at(design.machine->axis, at_zero);
     for (std::size_t i = 0; i < design.installations.size(); ++i) {
       const Installation& inst = design.installations[i];
@@ -189,7 +182,7 @@ double machine_top_z(const Design& design, const std::vector<double>& angles) {
   const Eigen::Vector3d origin = design.machine->origin_mm();
   double top = -std::numeric_limits<double>::infinity();
   for (double angle : angles) {
-    const std::vector<double> a = machine_angles(design, angle);
+    const std::vector<double> a = design.machine->angles_at(angle);
     for (std::size_t k = 0; k < m.rotary.size(); ++k) {
       const RotaryAxisSpec& r = m.rotary[k];
       if (!r.table_diameter_mm) continue;
@@ -213,40 +206,17 @@ double machine_top_z(const Design& design, const std::vector<double>& angles) {
   return top;
 }
 
-// The table's normal (up from the table ball's cup) at the axis' angle, work frame, or nothing
-// where the design does not say which way its table faces (a table in the general form not
-// about Z, without a machine). A machine's table faces +Z with every axis at zero and turns with
-// the innermost table axis' chain; without one, the frames are the machine's (Z up) except the
-// "B" shorthand's, whose reference (the spindle at B0) points down; a head turning about Z
-// carries a spindle along Z, the table below it.
-std::optional<Eigen::Vector3d> table_up(const Design& design, double angle_deg) {
-  const AxisFrame& axis = design.axis;
-  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
-  if (design.machine) {
-    const Machine& m = *design.machine->machine;
-    const int k = m.innermost(AxisFrame::Side::kTable);
-    if (k < 0) return z;
-    return m.body_direction_at(k, z, machine_angles(design, axis.table() ? angle_deg : 0.0));
-  }
-  const bool about_z = axis.machine_axis() == 2;
-  if (axis.table()) {
-    if (!about_z) return std::nullopt;
-    return z;
-  }
-  return about_z ? z : Eigen::Vector3d(-axis.reference());
-}
-
 // Every position and the arcs between them keep the spindle ball and the bar out of the table
 // ball's cup and stand (below_cup_mm); throws InputError naming the installation's sign.
 void check_cups(const Design& design, const MeasurementProgram& program) {
   const AxisFrame& axis = design.axis;
-  if (axis.table() && !table_up(design, 0)) return;
+  if (axis.table() && !table_up(design.axis, design.machine, 0)) return;
   // On a table the bar and the table's normal turn together: one angle tells. On a head the
   // table stays and the bar turns: between two positions the axis turns, so each installation's
   // swept range is sampled at most this far apart, its positions exactly.
   constexpr double kSample_deg = 0.1;
   const std::optional<Eigen::Vector3d> head_up =
-      axis.head() ? table_up(design, 0) : std::optional<Eigen::Vector3d>();
+      axis.head() ? table_up(design.axis, design.machine, 0) : std::optional<Eigen::Vector3d>();
   for (const InstallationProgram& ip : program.installations) {
     const Installation& inst = design.installations[static_cast<std::size_t>(ip.installation)];
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
@@ -273,7 +243,7 @@ void check_cups(const Design& design, const MeasurementProgram& program) {
       // The spindle ball less the table ball: on a table, F - P = -s bar u; on a head, P - F.
       const Eigen::Vector3d u = direction_machine(axis, inst, a);
       const Eigen::Vector3d v = (axis.table() ? -1.0 : 1.0) * inst.sign * ip.bar_mm * u;
-      const Eigen::Vector3d up = head_up ? *head_up : *table_up(design, a);
+      const Eigen::Vector3d up = head_up ? *head_up : *table_up(design.axis, design.machine, a);
       const double by = below_cup_mm(v.dot(up), v.norm());
       if (by > worst) worst = by, worst_angle = a, worst_v = v, worst_up = up;
       if (below_cup_mm(-v.dot(up), v.norm()) > 1e-9) other_side_dips = true;
@@ -415,7 +385,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
       const int disc = m.innermost(AxisFrame::Side::kTable);
       if (disc >= 0 && m.rotary[static_cast<std::size_t>(disc)].table_diameter_mm)
         ip.table_height_mm = m.on_table(disc, design.machine->origin_mm() + P_first,
-                                        machine_angles(design, placement_angle))
+                                        design.machine->angles_at(placement_angle))
                                  .height_mm;
     }
     if (design.axis.table()) {
@@ -558,16 +528,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
     throw InputError("design", "machine",
                      "machine " + quote_value(design.machine->machine->name) + ": " + clash);
   check_cups(design, program);
-  if (design.axis.head()) {
-    if (design.machine) {
-      const Machine& m = *design.machine->machine;
-      const int h = m.innermost(AxisFrame::Side::kHead);
-      program.tool_direction = m.body_direction_at(
-          h, m.rotary[static_cast<std::size_t>(h)].reference, machine_angles(design, 0));
-    } else if (design.axis.machine_axis() != 2) {
-      program.tool_direction = design.axis.reference();
-    }
-  }
+  program.tool_direction = head_tool_direction(design.axis, design.machine);
   if (design.machine && design.axis.head())
     program.preset_range = head_preset_range(design, program);
   return program;
@@ -726,7 +687,7 @@ std::string machine_clash(const Design& design, const MeasurementProgram& progra
       const RotaryAxisSpec& r = m.rotary[disc];
       const Machine::OnTable t =
           m.on_table(disc, origin + ball_position_mm(design.axis, inst, ip.placement_angle_deg),
-                     machine_angles(design, ip.placement_angle_deg));
+                     design.machine->angles_at(ip.placement_angle_deg));
       if (t.height_mm <= 0 || !t.inside_edge)
         return where + ": its table ball lies " +
                (t.height_mm <= 0
@@ -744,7 +705,7 @@ std::string machine_clash(const Design& design, const MeasurementProgram& progra
         if (const std::string t = beyond_travel(origin + p.linear_mm); !t.empty())
           return at + ": the spindle ball's " + t;
         if (!p.reading) continue;
-        const std::vector<double> a = machine_angles(design, p.angle_deg);
+        const std::vector<double> a = design.machine->angles_at(p.angle_deg);
         const Eigen::Vector3d P = origin + ball_position_mm(design.axis, inst, p.angle_deg);
         const Eigen::Vector3d F = origin + p.linear_mm;
         if (disc >= 0) {

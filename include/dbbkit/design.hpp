@@ -150,6 +150,9 @@ struct DesignMachine {
   std::vector<double> park_angles() const { return machine->park_angles(park_overrides); }
   // The axis' nominal point in the machine frame at the park angles: the frame's origin.
   Eigen::Vector3d origin_mm() const { return machine->point_at(axis, park_angles()); }
+  // Every rotary axis' angle (machine order) with the axis under test at `tested_deg`, the
+  // others parked.
+  std::vector<double> angles_at(double tested_deg) const;
   char letter() const { return machine->rotary[axis].letter; }
   // Every rotary axis' letter and angle in the machine's order, the axis under test at
   // `tested_deg` and the others parked; others(): the others alone.
@@ -230,8 +233,6 @@ void validate_setup_uncertainty(const SetupUncertainty& u, const AxisFrame& axis
 // A finite length within +-limits::kMaxLength_mm.
 bool length_within_limits(double x_mm);
 
-// Checks a design built in code or read from a file; throws InputError with
-// `source` and the key of the first problem.
 // The largest sign (u . reference) a head installation may have: a bar across the tool written
 // with 12 digits.
 inline constexpr double kBeyondTool = 1e-9;
@@ -252,6 +253,26 @@ inline constexpr double kMaxBarBelowCup_deg = 20.0;
 // driven into the table ball's cup or stand.
 double below_cup_mm(double rise_mm, double bar_mm);
 
+// A head's spindle direction (from the pivot towards the tool) with the axis under test at 0, in
+// the design's frame: from the machine (the innermost head axis' reference turned by the head
+// axes at the design's angles) or, without one, the frame's reference, except on a head turning
+// about Z, whose reference crosses a spindle the design does not state (nothing then). Nothing
+// for a table.
+std::optional<Eigen::Vector3d> head_tool_direction(const AxisFrame& axis,
+                                                   const std::optional<DesignMachine>& machine);
+
+// Which way the table faces (up from the table ball's cup) with the axis under test at
+// `angle_deg`, in the design's frame; nothing where the design does not say (a table in the
+// general form not about Z, without a machine). A machine's table faces +Z with every axis at
+// zero and turns with the innermost table axis' chain (a head does not turn it); without one, a
+// C table faces +Z (the machine's Z, up) and a head's table faces against its spindle, or +Z
+// under a head turning about Z.
+std::optional<Eigen::Vector3d> table_up(const AxisFrame& axis,
+                                        const std::optional<DesignMachine>& machine,
+                                        double angle_deg);
+
+// Checks a design built in code or read from a file; throws InputError with
+// `source` and the key of the first problem.
 void validate_design(const Design& design, const std::string& source = "design");
 
 // Tolerance on angles: two angles closer than this are the same position.

@@ -175,8 +175,7 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
                               "cups and blocks stand on it");
     // The table's normal and its surface's centre with the axis under test at 0 (the others
     // parked), in the kit's frame (its origin the axis' nominal point there).
-    std::vector<double> at_zero = k.machine->park_angles();
-    at_zero[static_cast<std::size_t>(k.machine->axis)] = 0;
+    const std::vector<double> at_zero = k.machine->angles_at(0);
     const Eigen::Vector3d n =
         m.body_direction_at(t, r.direction.z() < 0 ? -r.direction : r.direction, at_zero);
     const Eigen::Vector3d centre =

@@ -199,8 +199,8 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   // A program's Z is the machine's, up, away from the table: a head's frame whose spindle points
   // up at the axis' zero (the "B" shorthand's, the paper's convention) would send every retract
   // and the clearance plane through the table ball.
-  if (!design.machine && design.axis.head() && design.axis.machine_axis() != 2 &&
-      design.axis.reference().z() > 1e-9)
+  if (const std::optional<Eigen::Vector3d> tool = head_tool_direction(design.axis, design.machine);
+      !design.machine && tool && tool->z() > 1e-9)
     throw InputError("design", "axis",
                      "the design's frame has the spindle pointing " +
                          direction_text(design.axis.reference()) + " at " +
