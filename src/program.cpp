@@ -468,6 +468,7 @@ MeasurementProgram measurement_program(const Design& design, const ProgramOption
   // through the table, the balls or the bar: refused, naming the least it may be. A head turns
   // at the plane: its ball, at most the reach from the pivot, then stays the margin above the
   // table ball's centre (the highest point of a head's test below it), and every position below.
+  program.head_reach_mm = reach;
   if (design.axis.head() && options.tcpm) {
     highest = std::max(highest_ball, kHeadBallsAllowance_mm);
     reach = 0;
@@ -560,9 +561,7 @@ MeasurementProgram::PresetRange head_preset_range(const Design& design,
   if (program.options.tcpm) {
     // Under TCPM the plane's moves and turns command the spindle ball: the pivot stands anywhere
     // within the reach of it.
-    double reach = 0;
-    for (const Installation& in : design.installations)
-      reach = std::max(reach, ball_body_mm(design.axis, in).norm());
+    const double reach = program.head_reach_mm;
     lo.head<2>().array() -= reach;
     hi.head<2>().array() += reach;
     hi.z() = std::max(hi.z(), program.clearance_z_mm + reach);

@@ -172,6 +172,8 @@ struct MeasurementProgram {
   // A design that names its machine: the machine, the axes' park angles and the preset (the
   // axis' nominal point in the machine frame, the work frame's origin).
   std::optional<DesignMachine> machine;
+  // A head: the longest distance from the pivot to a spindle ball [mm].
+  double head_reach_mm = 0;
   // A head's test on a machine: the work frame's origin is the table ball's centre, placed by the
   // operator. Where it may stand (machine file's frame, mm) for every commanded pivot position
   // and the clearance plane to stay inside the linear travel (the pivot at the axis' nominal
