@@ -17,41 +17,83 @@
 namespace dbbkit {
 
 namespace {
-struct KindInfo {
-  EffectKind kind;
-  const char* name;
-  const char* unit;
-  bool shared;
+// The kinds, in EffectKind's order.
+constexpr EffectInfo kEffects[] = {
+    {.kind = EffectKind::kLengthOffset,
+     .name = "length_offset",
+     .unit = "um",
+     .noun = "a length offset",
+     .parameters = {"value"},
+     .whole_test_form = true},
+    {.kind = EffectKind::kCentring,
+     .name = "centring",
+     .unit = "um",
+     .noun = "a centring error",
+     .parameters = {"cx", "cy", "cz"}},
+    {.kind = EffectKind::kDrift,
+     .name = "drift",
+     .unit = "um/min",
+     .noun = "a drift",
+     .parameters = {"value"},
+     .whole_test_form = true,
+     .needs_times = true},
+    {.kind = EffectKind::kReversal,
+     .name = "reversal",
+     .unit = "um",
+     .noun = "a cw-ccw difference",
+     .parameters = {"value"},
+     .whole_test_form = true,
+     .needs_both_sweeps = true},
+    {.kind = EffectKind::kScale,
+     .name = "scale",
+     .unit = "um/m",
+     .noun = "a linear-axis scale error",
+     .parameters = {"x", "y", "z"},
+     .shared = true,
+     .needs_bar = true},
+    {.kind = EffectKind::kSquareness,
+     .name = "squareness",
+     .unit = "urad",
+     .noun = "a linear-axis squareness error",
+     .parameters = {"xy", "yz", "zx"},
+     .shared = true,
+     .needs_bar = true},
+    {.kind = EffectKind::kPeriodic,
+     .name = "periodic",
+     .unit = "um",
+     .noun = "a periodic error",
+     .parameters = {"value"}},
+    {.kind = EffectKind::kStep,
+     .name = "step",
+     .unit = "um",
+     .noun = "a step",
+     .parameters = {"value"},
+     .needs_times = true},
+    {.kind = EffectKind::kThermal,
+     .name = "thermal",
+     .unit = "um",
+     .noun = "a warm-up",
+     .parameters = {"value"},
+     .whole_test_form = true,
+     .whole_test_only = true,
+     .needs_times = true},
 };
-constexpr KindInfo kKinds[] = {
-    {EffectKind::kLengthOffset, "length_offset", "um", false},
-    {EffectKind::kCentring, "centring", "um", false},
-    {EffectKind::kDrift, "drift", "um/min", false},
-    {EffectKind::kReversal, "reversal", "um", false},
-    {EffectKind::kScale, "scale", "um/m", true},
-    {EffectKind::kSquareness, "squareness", "urad", true},
-    {EffectKind::kPeriodic, "periodic", "um", false},
-    {EffectKind::kStep, "step", "um", false},
-    {EffectKind::kThermal, "thermal", "um", false},
-};
-const KindInfo& info(EffectKind k) {
-  for (const KindInfo& i : kKinds) {
-    if (i.kind == k) return i;
-  }
-  return kKinds[0];
-}
 }  // namespace
 
-const char* effect_name(EffectKind kind) { return info(kind).name; }
-const char* effect_unit(EffectKind kind) { return info(kind).unit; }
-bool effect_is_shared(EffectKind kind) { return info(kind).shared; }
-bool effect_has_whole_test_form(EffectKind kind) {
-  return kind == EffectKind::kLengthOffset || kind == EffectKind::kDrift ||
-         kind == EffectKind::kReversal || kind == EffectKind::kThermal;
+const EffectInfo& effect_info(EffectKind kind) {
+  for (const EffectInfo& i : kEffects) {
+    if (i.kind == kind) return i;
+  }
+  return kEffects[0];
 }
 
+const char* effect_name(EffectKind kind) { return effect_info(kind).name; }
+const char* effect_unit(EffectKind kind) { return effect_info(kind).unit; }
+bool effect_is_shared(EffectKind kind) { return effect_info(kind).shared; }
+bool effect_has_whole_test_form(EffectKind kind) { return effect_info(kind).whole_test_form; }
+
 EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key) {
-  for (const KindInfo& i : kKinds) {
+  for (const EffectInfo& i : kEffects) {
     if (name == i.name) return i.kind;
   }
   throw InputError(source, key,
@@ -66,24 +108,16 @@ std::string short_number(double x) { return text::significant(x, 6); }
 
 // Parameters of an effect: three components for the vector effects, else one.
 int effect_parameter_count(EffectKind kind) {
-  return kind == EffectKind::kCentring || kind == EffectKind::kScale ||
-                 kind == EffectKind::kSquareness
-             ? 3
-             : 1;
+  const EffectInfo& i = effect_info(kind);
+  int n = 0;
+  while (n < 3 && i.parameters[n]) ++n;
+  return n;
 }
 }  // namespace
 
 std::vector<std::string> effect_parameter_names(EffectKind kind) {
-  switch (kind) {
-    case EffectKind::kCentring:
-      return {"cx", "cy", "cz"};
-    case EffectKind::kScale:
-      return {"x", "y", "z"};
-    case EffectKind::kSquareness:
-      return {"xy", "yz", "zx"};
-    default:
-      return {"value"};
-  }
+  const EffectInfo& i = effect_info(kind);
+  return std::vector<std::string>(i.parameters, i.parameters + effect_parameter_count(kind));
 }
 
 std::string EffectCandidate::label(const Design& design) const {
@@ -190,7 +224,7 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
     fail(std::string(effect_name(e.kind)) + " is shared by every installation: no [...]");
   if (!effect_is_shared(e.kind) && !bracket)
     fail("which installation ([id], or [all] where the effect has a whole-test form)? " + forms);
-  if (e.kind == EffectKind::kThermal && e.installation >= 0)
+  if (effect_info(e.kind).whole_test_only && e.installation >= 0)
     fail("a warm-up is the whole test's: thermal[all](tau=...min)");
   if (at < label.size()) {
     if (label[at] != '(' || label.back() != ')') fail("unexpected text after the name; " + forms);
@@ -438,16 +472,16 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
     const double start = e.installation < 0 ? layout.test_start_s : layout.start_s[inst];
     full.row(static_cast<Eigen::Index>(i)) = effect_row(design, r, inst, start, e).transpose();
   }
-  const bool timed_effect = e.kind == EffectKind::kDrift || e.kind == EffectKind::kThermal ||
-                            (e.kind == EffectKind::kStep && std::isfinite(e.at_s));
+  const EffectInfo& info = effect_info(e.kind);
+  const bool timed_effect =
+      info.needs_times && (e.kind != EffectKind::kStep || std::isfinite(e.at_s));
   if (timed_effect && time_missing) {
     b.applicability.why = NotApplicable::kNeedsTimes;
   } else if (timed_effect && e.installation < 0 && !layout.common_clock) {
     b.applicability.why = NotApplicable::kNeedsCommonClock;
   }
-  if (e.kind == EffectKind::kReversal && !(cw && ccw))
-    b.applicability.why = NotApplicable::kNeedsBothSweeps;
-  if ((e.kind == EffectKind::kScale || e.kind == EffectKind::kSquareness) && bar_missing) {
+  if (info.needs_both_sweeps && !(cw && ccw)) b.applicability.why = NotApplicable::kNeedsBothSweeps;
+  if (info.needs_bar && bar_missing) {
     b.applicability.why = NotApplicable::kNeedsBar;
   }
   std::vector<int> keep;

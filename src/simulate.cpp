@@ -195,7 +195,8 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
       throw InputError(source, key + ".installation",
                        "installation " + quote_value(e.installation) + " is not in the design");
     }
-    if ((e.effect.kind == EffectKind::kScale || e.effect.kind == EffectKind::kSquareness)) {
+    const EffectInfo& info = effect_info(e.effect.kind);
+    if (info.needs_bar) {
       for (const Installation& in : design.installations) {
         if (!in.bar_mm)
           throw InputError(source, key,
@@ -203,14 +204,12 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
                                " needs bar_mm on every installation of the design");
       }
     }
-    if ((e.effect.kind == EffectKind::kDrift || e.effect.kind == EffectKind::kStep ||
-         e.effect.kind == EffectKind::kThermal) &&
-        !truth.schedule) {
+    if (info.needs_times && !truth.schedule) {
       throw InputError(
           source, key,
           std::string(effect_name(e.effect.kind)) + " needs a schedule (the readings' times)");
     }
-    if (e.effect.kind == EffectKind::kThermal && !e.installation.empty()) {
+    if (info.whole_test_only && !e.installation.empty()) {
       throw InputError(source, key + ".installation",
                        "thermal is one warm-up of the whole test: no installation");
     }
@@ -218,8 +217,7 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
       throw InputError(source, key + ".value.at_s",
                        "a step needs the time it happens (s, the test's clock)");
     }
-    if (e.effect.kind == EffectKind::kReversal &&
-        (!truth.schedule || truth.schedule->sweeps.size() < 2)) {
+    if (info.needs_both_sweeps && (!truth.schedule || truth.schedule->sweeps.size() < 2)) {
       throw InputError(source, key, "reversal needs a schedule with both sweeps");
     }
   }

@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
+#include <string>
 
 #include "dbbkit/kinematics.hpp"
 #include "test_util.hpp"
@@ -118,6 +120,53 @@ TEST(EffectRow, TimeEffectsByHand) {
   EXPECT_DOUBLE_EQ(J_reading_effect(d, r, 100.0, step)(0), 0.0);
   // Another installation's effect does not touch the reading.
   EXPECT_DOUBLE_EQ(J_reading_effect(d, r, 100.0, candidate(EffectKind::kDrift, 2))(0), 0.0);
+}
+
+// The table of effects (effect_info): every kind once, in the enum's order, its name read back
+// to it, its parameters as many as the columns of its row, and what it needs as its block says.
+TEST(EffectTable, EveryKindOnceItsParametersItsRowsColumnsAndItsNeeds) {
+  Design d = test::paper_design('C');
+  for (Installation& in : d.installations) in.bar_mm = kBar;
+  std::vector<Reading> readings = nominal_readings(d);
+  for (std::size_t j = 0; j < readings.size(); ++j) readings[j].time_s = 10.0 * j;
+  const std::vector<EffectKind> kinds = {
+      EffectKind::kLengthOffset, EffectKind::kCentring, EffectKind::kDrift,
+      EffectKind::kReversal,     EffectKind::kScale,    EffectKind::kSquareness,
+      EffectKind::kPeriodic,     EffectKind::kStep,     EffectKind::kThermal};
+  std::set<std::string> names;
+  for (const EffectKind k : kinds) {
+    const EffectInfo& info = effect_info(k);
+    EXPECT_EQ(info.kind, k) << info.name;
+    EXPECT_TRUE(names.insert(info.name).second) << info.name;
+    EXPECT_EQ(effect_kind(info.name, "t", "k"), k);
+    EXPECT_EQ(std::string(effect_name(k)), info.name);
+    EXPECT_EQ(std::string(effect_unit(k)), info.unit);
+    EXPECT_FALSE(std::string(info.noun).empty());
+    EffectCandidate e = candidate(k, info.shared || info.whole_test_only ? -1 : 0);
+    e.at_s = 100;
+    e.tau_min = 10;
+    e.harmonic = 2;
+    const std::vector<std::string> parameters = effect_parameter_names(k);
+    EXPECT_EQ(J_reading_effect(d, readings[0], 0.0, e).size(),
+              static_cast<Eigen::Index>(parameters.size()))
+        << info.name;
+    EXPECT_EQ(effect_info(k).whole_test_form, effect_has_whole_test_form(k));
+    EXPECT_TRUE(!info.whole_test_only || info.whole_test_form) << info.name;
+    // What it needs, as its block on readings without it says.
+    std::vector<Reading> without = readings;
+    for (Reading& r : without) r.time_s.reset();
+    EXPECT_EQ(effect_block(d, without, e).applicability.why == NotApplicable::kNeedsTimes,
+              info.needs_times)
+        << info.name;
+    Design no_bar = d;
+    for (Installation& in : no_bar.installations) in.bar_mm.reset();
+    EXPECT_EQ(effect_block(no_bar, readings, e).applicability.why == NotApplicable::kNeedsBar,
+              info.needs_bar)
+        << info.name;
+    EXPECT_EQ(effect_block(d, readings, e).applicability.why == NotApplicable::kNeedsBothSweeps,
+              info.needs_both_sweeps)
+        << info.name;
+  }
 }
 
 }  // namespace

@@ -45,6 +45,30 @@ enum class EffectKind {
   kThermal
 };
 
+// One effect, one place: what each kind is, read by its rows, its labels, the truth reader, the
+// simulator's checks and diagnose's text. An effect's row (J_reading_effect) is the one thing
+// written per kind elsewhere (effects.cpp), and what a truth file states as its value
+// (formats.md, "Truth file").
+struct EffectInfo {
+  EffectKind kind = EffectKind::kLengthOffset;
+  const char* name = "";  // in labels, truth files and reports
+  const char* unit = "";  // of its values
+  const char* noun = "";  // in diagnose's text: "a centring error of ..."
+  // Its parameters' names (nullptr beyond the last): one column of J each.
+  const char* parameters[3] = {};
+  // Where it applies: shared by every installation (the machine's linear axes, no [..]); or per
+  // installation, with a whole-test form [all] too, or the whole test's alone ([all] only).
+  bool shared = false;
+  bool whole_test_form = false;
+  bool whole_test_only = false;
+  // What its rows need: time_s (a step without times is placed by reading order instead), the
+  // bar (the following ball's position), readings of both sweeps.
+  bool needs_times = false;
+  bool needs_bar = false;
+  bool needs_both_sweeps = false;
+};
+const EffectInfo& effect_info(EffectKind kind);
+
 const char* effect_name(EffectKind kind);
 // Throws InputError(source, key, ...) for an unknown name.
 EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key);

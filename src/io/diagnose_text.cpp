@@ -562,29 +562,7 @@ std::string or_listed(const std::vector<std::string>& items) {
   return out;
 }
 
-const char* kind_noun(EffectKind k) {
-  switch (k) {
-    case EffectKind::kLengthOffset:
-      return "a length offset";
-    case EffectKind::kCentring:
-      return "a centring error";
-    case EffectKind::kDrift:
-      return "a drift";
-    case EffectKind::kReversal:
-      return "a cw-ccw difference";
-    case EffectKind::kScale:
-      return "a linear-axis scale error";
-    case EffectKind::kSquareness:
-      return "a linear-axis squareness error";
-    case EffectKind::kPeriodic:
-      return "a periodic error";
-    case EffectKind::kStep:
-      return "a step";
-    case EffectKind::kThermal:
-      return "a warm-up";
-  }
-  return "an effect";
-}
+const char* kind_noun(EffectKind k) { return effect_info(k).noun; }
 
 std::string installation_of(const Design& design, const EffectCandidate& e) {
   return e.installation >= 0 ? design.installations[static_cast<std::size_t>(e.installation)].id
