@@ -160,6 +160,32 @@ TEST(Workspace, AHeadAgainstTheTableSampledIndependently) {
   EXPECT_TRUE(installation_clashes(kit, test::kAxisB, in, angles).empty());
 }
 
+// A head turning about Z (a fork head's C, no machine): its table faces +Z whatever the frame's
+// reference (+X here, across the spindle), so an axial bar with the table ball above the
+// spindle ball points 90 deg below the cup's plane: into it by bar (1 - sin 20 deg); the other
+// side is clear by bar (1 + sin 20 deg). Taken along the reference, both would read level.
+TEST(Workspace, AHeadTurningAboutZMeasuresTheCupAlongZ) {
+  Kit kit = io::read_kit_file(test::source_path("designs/kits/b-head-kit.json"));
+  kit.workspace.reset();
+  kit.axis = AxisFrame::general('C', AxisFrame::Side::kHead, Eigen::Vector3d::UnitZ(),
+                                Eigen::Vector3d::UnitX(), true);
+  Installation in;
+  in.id = "1a";
+  in.L_mm = 100;
+  in.direction = Direction::vector(Eigen::Vector3d::UnitZ());
+  in.bar_mm = 100;
+  const std::vector<double> angles = {-90, 0, 90};
+  const double s20 = std::sin(20 * M_PI / 180);
+  in.sign = -1;  // the table ball bar above the spindle ball
+  EXPECT_NEAR(clash(installation_clashes(kit, kit.axis, in, angles, kNone),
+                    "the bar dips into the table ball's cup"),
+              100 * (1 - s20), 1e-9);
+  in.sign = 1;
+  EXPECT_NEAR(clash(installation_clashes(kit, kit.axis, in, angles, kNone),
+                    "the bar dips into the table ball's cup"),
+              -100 * (1 + s20), 1e-9);
+}
+
 TEST(Workspace, ReadFromTheKitFileAndCheckedByKey) {
   nlohmann::json j =
       nlohmann::json::parse(slurp(test::source_path("designs/kits/c-turntable-kit.json")));
