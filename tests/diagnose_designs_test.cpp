@@ -509,7 +509,8 @@ TEST_P(FindsEffectOnDesign, AddsItAndExplainsTheResidual) {
   const DesignCase& c = GetParam();
   const Design d = variant_design(c.variant);
   std::mt19937_64 rng(32);
-  const int seeds = 100;
+  // 60 random machines a case (about 10 s each): at most 3 missed, at most 6 inconsistent.
+  const int seeds = 60;
   int found = 0, consistent = 0;
   double inside = 0, total = 0;
   std::string misses;
@@ -553,8 +554,8 @@ TEST_P(FindsEffectOnDesign, AddsItAndExplainsTheResidual) {
     consistent += r.after.p_value && *r.after.p_value > 0.01;
     test::count_errors_within_3u(r, t, d.axis, inside, total);
   }
-  EXPECT_GE(found, 95) << misses;
-  EXPECT_GE(consistent, 90);
+  EXPECT_GE(found, 0.95 * seeds) << misses;
+  EXPECT_GE(consistent, 0.90 * seeds);
   EXPECT_GE(inside / total, 0.98);
 }
 

@@ -35,7 +35,7 @@ using test::thermal;
 TEST(Diagnose, CleanDataAddsNothing) {
   const Design d = fourier_design();
   std::mt19937_64 rng(1);
-  const int seeds = 500;
+  const int seeds = 300;
   const auto [clean, flagged] = test::clean_runs(d, random_fourier_truth, rng, seeds, 5000);
   EXPECT_GE(clean, 0.97 * seeds) << clean << " of " << seeds;
   EXPECT_LE(flagged, 0.03 * seeds);
@@ -58,7 +58,8 @@ TEST_P(FindsEffect, AddsItAndExplainsTheResidual) {
   const EffectCase& c = GetParam();
   const Design d = fourier_design();
   std::mt19937_64 rng(2);
-  const int seeds = 100;
+  // 60 random machines a case: at most 3 missed, at most 6 inconsistent.
+  const int seeds = 60;
   int found = 0, consistent = 0, right_value = 0, values = 0;
   double inside = 0, total = 0;
   for (int s = 0; s < seeds; ++s) {
@@ -98,8 +99,8 @@ TEST_P(FindsEffect, AddsItAndExplainsTheResidual) {
       }
     }
   }
-  EXPECT_GE(found, 95) << c.name;
-  EXPECT_GE(consistent, 90) << c.name;
+  EXPECT_GE(found, 0.95 * seeds) << c.name;
+  EXPECT_GE(consistent, 0.90 * seeds) << c.name;
   EXPECT_GE(inside / total, 0.98) << c.name;
   EXPECT_GE(right_value, 0.95 * values) << c.name << " " << right_value << " of " << values;
 }

@@ -250,13 +250,14 @@ TEST_P(Coverage95, IntervalsContainTheTruth) {
   }
   MonteCarloOptions o;
   o.adaptive = false;
-  o.max_trials = 200000;
+  o.max_trials = 100000;
   o.threads = 2;
   const MonteCarloResult mc =
       monte_carlo_a_priori(d, 0.95, o);  // offsets of the value from the truth
   std::mt19937_64 rng(5);
   std::normal_distribution<double> n01;
-  const int sets = 2000;
+  // 1,000 machines: a value's share within 4.5 standard errors (+-3.1 %) of 95 %.
+  const int sets = 1000;
   std::vector<int> inside(mc.values.size(), 0);
   const Parameterisation param(d);
   for (int s = 0; s < sets; ++s) {
