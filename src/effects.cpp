@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <iterator>
 #include <limits>
 #include <locale>
 #include <optional>
@@ -78,14 +79,17 @@ constexpr EffectInfo kEffects[] = {
      .whole_test_only = true,
      .needs_times = true},
 };
+
+// Each entry at its kind's place: effect_info indexes the table.
+constexpr bool in_kind_order() {
+  for (std::size_t i = 0; i < std::size(kEffects); ++i)
+    if (static_cast<std::size_t>(kEffects[i].kind) != i) return false;
+  return std::size(kEffects) == static_cast<std::size_t>(EffectKind::kThermal) + 1;
+}
+static_assert(in_kind_order(), "kEffects holds every EffectKind once, in the enum's order");
 }  // namespace
 
-const EffectInfo& effect_info(EffectKind kind) {
-  for (const EffectInfo& i : kEffects) {
-    if (i.kind == kind) return i;
-  }
-  return kEffects[0];
-}
+const EffectInfo& effect_info(EffectKind kind) { return kEffects[static_cast<std::size_t>(kind)]; }
 
 const char* effect_name(EffectKind kind) { return effect_info(kind).name; }
 const char* effect_unit(EffectKind kind) { return effect_info(kind).unit; }

@@ -45,10 +45,11 @@ enum class EffectKind {
   kThermal
 };
 
-// One effect, one place: what each kind is, read by its rows, its labels, the truth reader, the
-// simulator's checks and diagnose's text. An effect's row (J_reading_effect) is the one thing
-// written per kind elsewhere (effects.cpp), and what a truth file states as its value
-// (formats.md, "Truth file").
+// One effect, one place: what each kind is, read by its labels, the parameter names, the block's
+// applicability, the truth reader, the simulator's checks and diagnose's nouns. Still written
+// per kind elsewhere: its row (effects.cpp), its value's form in a truth file (formats.md,
+// "Truth file"), diagnose's next step and the scan of a step's time or a warm-up's time
+// constant (selection.cpp).
 struct EffectInfo {
   EffectKind kind = EffectKind::kLengthOffset;
   const char* name = "";  // in labels, truth files and reports

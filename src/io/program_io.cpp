@@ -202,9 +202,8 @@ std::string program_text(const Design& design, const MeasurementProgram& program
   if (const std::optional<Eigen::Vector3d> tool = head_tool_direction(design.axis, design.machine);
       !design.machine && tool && tool->z() > 1e-9)
     throw InputError("design", "axis",
-                     "the design's frame has the spindle pointing " +
-                         direction_text(design.axis.reference()) + " at " +
-                         std::string(1, design.axis.letter()) +
+                     "the design's frame has the spindle pointing " + direction_text(*tool) +
+                         " at " + std::string(1, design.axis.letter()) +
                          "0 (the reference; the \"B\" shorthand's convention): a program "
                          "commands a machine whose Z points up, away from the table, so its "
                          "retracts and clearance plane would run through the table ball; write "
