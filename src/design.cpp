@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/user_text.hpp"
@@ -95,6 +96,8 @@ std::string ErrorModel::describe() const {
 SetupUncertainty SetupOverride::over(const SetupUncertainty& base) const {
   SetupUncertainty u = base;
   if (length_offset_um) u.length_offset_um = *length_offset_um;
+  if (trigger_offset_um) u.trigger_offset_um = *trigger_offset_um;
+  if (placement_um) u.placement_um = *placement_um;
   if (centring_um) u.centring_um = *centring_um;
   if (L_mm) u.L_mm = *L_mm;
   if (D_mm) u.D_mm = *D_mm;
@@ -165,7 +168,9 @@ void validate_setup_uncertainty(const SetupUncertainty& u, const AxisFrame& axis
                                 const std::string& source, const std::string& key) {
   for (const auto& [name, x] :
        {std::pair<const char*, double>{"length_offset_um", u.length_offset_um},
-        {"centring_um", u.centring_um}}) {
+        {"centring_um", u.centring_um},
+        {"trigger_offset_um", u.trigger_offset_um},
+        {"placement_um", u.placement_um}}) {
     require(std::isfinite(x) && x >= 0 && x <= limits::kMaxSetupStd_um, source, key + "." + name,
             "must be a standard uncertainty in [0, 10000] um (docs/formats.md, \"Limits\")");
     // The prior enters as 1 / u^2: a positive u far below any instrument underflows it.
@@ -303,6 +308,79 @@ void validate_installation_angles(const Design& d, const std::string& source) {
 
 }  // namespace
 
+namespace {
+
+// A probe's design: its spheres, and its installations their channels; a ball bar's, no sphere
+// and no channel.
+void validate_instrument(const Design& d, const std::string& source) {
+  if (d.instrument == InstrumentKind::kBallbar) {
+    require(d.spheres.empty(), source, "spheres",
+            "spheres are a touch probe's (instrument.kind probe)");
+    require(d.setup_std.trigger_offset_um == 0 && d.setup_std.placement_um == 0, source,
+            "setup_std",
+            "trigger_offset_um and placement_um are a touch probe's set-up tolerances (instrument."
+            "kind probe)");
+    for (std::size_t i = 0; i < d.installations.size(); ++i)
+      require(!d.installations[i].setup_std.trigger_offset_um &&
+                  !d.installations[i].setup_std.placement_um,
+              source, "installations[" + std::to_string(i) + "].setup_std",
+              "trigger_offset_um and placement_um are a touch probe's set-up tolerances");
+    for (const Installation& in : d.installations)
+      require(!in.probe_channel(), source, "installations",
+              "installation " + quote_value(in.id) + " is a probe's channel in a ball bar design");
+    return;
+  }
+  require(!d.spheres.empty(), source, "spheres", "no spheres");
+  require(d.spheres.size() <= limits::kMaxSpheres, source, "spheres",
+          "more than " + std::to_string(limits::kMaxSpheres) +
+              " spheres (docs/formats.md, \"Limits\")");
+  std::set<std::string> ids;
+  for (std::size_t i = 0; i < d.spheres.size(); ++i) {
+    const Sphere& sp = d.spheres[i];
+    const std::string key = "spheres[" + std::to_string(i) + "]";
+    if (const auto p = id_problem(sp.id))
+      throw InputError(source, key + ".id", quote_value(sp.id) + ": " + *p);
+    require(sp.id != "all", source, key + ".id",
+            "\"all\" names the whole test in an effect's label ([all]): give the sphere another "
+            "id");
+    require(sp.id.find(':') == std::string::npos, source, key + ".id",
+            quote_value(sp.id) +
+                ": a sphere's id holds no ':' (its channels' ids are id:x, id:y, "
+                "id:z)");
+    require(sp.id.size() + 2 <= limits::kMaxIdBytes, source, key + ".id",
+            "a sphere's id is at most " + std::to_string(limits::kMaxIdBytes - 2) +
+                " bytes (its channels' ids add \":x\")");
+    require(ids.insert(sp.id).second, source, key + ".id",
+            "duplicate sphere id " + quote_value(sp.id));
+    if (const auto p = text_problem(sp.description, limits::kMaxTextBytes))
+      throw InputError(source, key + ".description", quote_value(sp.description) + ": " + *p);
+    for (const auto& [name, v] : {std::pair{"L", sp.L_mm}, {"D", sp.D_mm}, {"H", sp.H_mm}})
+      require(length_ok(v), source, key + ".ball_mm." + name,
+              kLengthLimit + ", got " + text::significant(v, 6));
+  }
+  // What a probe's design cannot state: a ball bar's set-up tolerances and return reading.
+  const SetupUncertainty& u = d.setup_std;
+  require(!u.placement() && u.length_offset_um == 0 && u.centring_um == 0, source, "setup_std",
+          "a probe's set-up tolerances are trigger_offset_um and placement_um (a ball bar's "
+          "length offset, centring and ball placement have no meaning for it)");
+  require(!d.return_reading, source, "return_reading",
+          "a return reading is a ball bar sweep's; a probe's repeats are rows of its file");
+  const std::vector<Installation> channels = probe_channels(d.axis, d.spheres);
+  bool same = channels.size() == d.installations.size();
+  for (std::size_t i = 0; same && i < channels.size(); ++i) {
+    const Installation& a = channels[i];
+    const Installation& b = d.installations[i];
+    same = a.id == b.id && a.sphere == b.sphere && a.coordinate == b.coordinate &&
+           a.sign == b.sign && a.L_mm == b.L_mm && a.D_mm == b.D_mm && a.H_mm == b.H_mm &&
+           a.direction.body == b.direction.body && !b.setup_std.any() && b.angles_deg.empty() &&
+           b.reading_sign == 1 && !b.bar_mm;
+  }
+  require(same, source, "installations",
+          "a probe's installations are its spheres' channels (probe_channels), three a sphere");
+}
+
+}  // namespace
+
 void validate_design(const Design& d, const std::string& source) {
   // Text is data (user_text.hpp): what no writer could carry safely is refused here.
   if (const auto p = text_problem(d.name, limits::kMaxNameBytes))
@@ -401,6 +479,7 @@ void validate_design(const Design& d, const std::string& source) {
       throw InputError(source, "predicted.criterion", *problem);
   }
   validate_setup_uncertainty(d.setup_std, d.axis, source, "setup_std");
+  validate_instrument(d, source);
   require(!d.installations.empty(), source, "installations", "no installations");
   require(d.installations.size() <= limits::kMaxInstallations, source, "installations",
           "more than " + std::to_string(limits::kMaxInstallations) +
@@ -431,7 +510,7 @@ void validate_design(const Design& d, const std::string& source) {
     }
     require(in.reading_sign == 1 || in.reading_sign == -1, source, key + ".reading_sign",
             "must be +1 or -1, got " + std::to_string(in.reading_sign));
-    if (!table_ball_beyond_tool(d.axis, in.direction, in.sign)) {
+    if (!in.probe_channel() && !table_ball_beyond_tool(d.axis, in.direction, in.sign)) {
       throw InputError(
           source, key + ".sign",
           "installation " + in.id + " (" + in.direction.label() + ", sign " +

@@ -439,6 +439,7 @@ DeclaredSetUp declared_setup_base(const Design& design, const LinearModel& model
 DiagnoseResult diagnose_once(const Design& design, const std::vector<Reading>& readings,
                              const DiagnoseOptions& options) {
   DiagnoseResult res;
+  res.instrument = design.instrument;
   res.level = options.level;
   const Parameterisation param(design);
   const LinearModel model = build_linear_model(design, param, readings);

@@ -25,40 +25,48 @@ constexpr EffectInfo kEffects[] = {
      .unit = "um",
      .noun = "a length offset",
      .parameters = {"value"},
-     .whole_test_form = true},
+     .whole_test_form = true,
+     .ballbar_only = true,
+     .setup = true},
     {.kind = EffectKind::kCentring,
      .name = "centring",
      .unit = "um",
      .noun = "a centring error",
-     .parameters = {"cx", "cy", "cz"}},
+     .parameters = {"cx", "cy", "cz"},
+     .ballbar_only = true,
+     .setup = true},
     {.kind = EffectKind::kDrift,
      .name = "drift",
      .unit = "um/min",
      .noun = "a drift",
      .parameters = {"value"},
      .whole_test_form = true,
-     .needs_times = true},
+     .needs_times = true,
+     .ballbar_only = true},
     {.kind = EffectKind::kReversal,
      .name = "reversal",
      .unit = "um",
      .noun = "a cw-ccw difference",
      .parameters = {"value"},
      .whole_test_form = true,
-     .needs_both_sweeps = true},
+     .needs_both_sweeps = true,
+     .ballbar_only = true},
     {.kind = EffectKind::kScale,
      .name = "scale",
      .unit = "um/m",
      .noun = "a linear-axis scale error",
      .parameters = {"x", "y", "z"},
      .shared = true,
-     .needs_bar = true},
+     .needs_bar = true,
+     .ballbar_only = true},
     {.kind = EffectKind::kSquareness,
      .name = "squareness",
      .unit = "urad",
      .noun = "a linear-axis squareness error",
      .parameters = {"xy", "yz", "zx"},
      .shared = true,
-     .needs_bar = true},
+     .needs_bar = true,
+     .ballbar_only = true},
     {.kind = EffectKind::kPeriodic,
      .name = "periodic",
      .unit = "um",
@@ -77,19 +85,41 @@ constexpr EffectInfo kEffects[] = {
      .parameters = {"value"},
      .whole_test_form = true,
      .whole_test_only = true,
-     .needs_times = true},
+     .needs_times = true,
+     .ballbar_only = true},
+    {.kind = EffectKind::kTriggerOffset,
+     .name = "trigger_offset",
+     .unit = "um",
+     .noun = "a probe trigger offset",
+     .parameters = {"value"},
+     .probe_only = true,
+     .setup = true},
+    {.kind = EffectKind::kPlacement,
+     .name = "placement",
+     .unit = "um",
+     .noun = "a sphere placement error",
+     .parameters = {"dL", "dD", "dH"},
+     .probe_only = true,
+     .per_sphere = true,
+     .setup = true},
 };
 
 // Each entry at its kind's place: effect_info indexes the table.
 constexpr bool in_kind_order() {
   for (std::size_t i = 0; i < std::size(kEffects); ++i)
     if (static_cast<std::size_t>(kEffects[i].kind) != i) return false;
-  return std::size(kEffects) == static_cast<std::size_t>(EffectKind::kThermal) + 1;
+  return std::size(kEffects) == static_cast<std::size_t>(EffectKind::kPlacement) + 1;
 }
 static_assert(in_kind_order(), "kEffects holds every EffectKind once, in the enum's order");
 }  // namespace
 
 const EffectInfo& effect_info(EffectKind kind) { return kEffects[static_cast<std::size_t>(kind)]; }
+
+std::vector<EffectKind> effect_kinds() {
+  std::vector<EffectKind> out;
+  for (const EffectInfo& i : kEffects) out.push_back(i.kind);
+  return out;
+}
 
 const char* effect_name(EffectKind kind) { return effect_info(kind).name; }
 const char* effect_unit(EffectKind kind) { return effect_info(kind).unit; }
@@ -103,7 +133,36 @@ EffectKind effect_kind(const std::string& name, const std::string& source, const
   throw InputError(source, key,
                    "unknown effect " + quote_value(name) +
                        " (expected length_offset, centring, drift, reversal, step, thermal, "
-                       "scale, squareness or periodic)");
+                       "scale, squareness, trigger_offset, placement or periodic)");
+}
+
+bool effect_fits_instrument(EffectKind kind, InstrumentKind instrument) {
+  const EffectInfo& i = effect_info(kind);
+  return instrument == InstrumentKind::kProbe ? !i.ballbar_only : !i.probe_only;
+}
+
+bool effect_applies_to(const Design& design, const EffectCandidate& e, int inst) {
+  if (e.installation < 0 || e.installation == inst) return true;
+  if (!effect_info(e.kind).per_sphere) return false;
+  const int s = design.installations[static_cast<std::size_t>(e.installation)].sphere;
+  return s >= 0 && design.installations[static_cast<std::size_t>(inst)].sphere == s;
+}
+
+int effect_installation(const Design& design, EffectKind kind, const std::string& id) {
+  if (!effect_info(kind).per_sphere) return design.find_installation(id);
+  for (std::size_t i = 0; i < design.installations.size(); ++i) {
+    const int s = design.installations[i].sphere;
+    if (s >= 0 && design.spheres[static_cast<std::size_t>(s)].id == id) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::string effect_installation_id(const Design& design, const EffectCandidate& e) {
+  if (e.installation < 0) return "";
+  const Installation& in = design.installations[static_cast<std::size_t>(e.installation)];
+  if (effect_info(e.kind).per_sphere && in.sphere >= 0)
+    return design.spheres[static_cast<std::size_t>(in.sphere)].id;
+  return in.id;
 }
 
 namespace {
@@ -127,7 +186,7 @@ std::vector<std::string> effect_parameter_names(EffectKind kind) {
 std::string EffectCandidate::label(const Design& design) const {
   std::string s = effect_name(kind);
   if (component >= 0) s += "." + effect_parameter_names(kind)[component];
-  if (installation >= 0) s += "[" + design.installations[installation].id + "]";
+  if (installation >= 0) s += "[" + effect_installation_id(design, *this) + "]";
   if (installation < 0 && effect_has_whole_test_form(kind)) s += "[all]";
   if (kind == EffectKind::kPeriodic) s += "(" + std::to_string(harmonic) + "/turn)";
   if (kind == EffectKind::kStep && std::isfinite(at_s)) s += "(t=" + short_number(at_s) + "s)";
@@ -217,10 +276,11 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
       if (!effect_has_whole_test_form(e.kind))
         fail(std::string(effect_name(e.kind)) + " has no whole-test form [all]");
     } else {
-      const auto index = design.installation_index();
-      const auto it = index.find(id);
-      if (it == index.end()) fail(quote_value(id) + " is no installation of the design");
-      e.installation = it->second;
+      e.installation = effect_installation(design, e.kind, id);
+      if (e.installation < 0)
+        fail(quote_value(id) + (effect_info(e.kind).per_sphere
+                                    ? " is no sphere of the design"
+                                    : " is no installation of the design"));
     }
     at = close + 1;
   }
@@ -230,6 +290,11 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
     fail("which installation ([id], or [all] where the effect has a whole-test form)? " + forms);
   if (effect_info(e.kind).whole_test_only && e.installation >= 0)
     fail("a warm-up is the whole test's: thermal[all](tau=...min)");
+  if (!effect_fits_instrument(e.kind, design.instrument))
+    fail(std::string(effect_name(e.kind)) + " is an effect of " +
+         (design.instrument == InstrumentKind::kProbe ? "a ball bar" : "a touch probe") +
+         "; this design's instrument is " +
+         (design.instrument == InstrumentKind::kProbe ? "a touch probe" : "a ball bar"));
   if (at < label.size()) {
     if (label[at] != '(' || label.back() != ')') fail("unexpected text after the name; " + forms);
     const std::string arg = label.substr(at + 1, label.size() - at - 2);
@@ -368,7 +433,7 @@ namespace {
 EffectRow effect_row(const Design& design, const Reading& r, int inst, double t0_s,
                      const EffectCandidate& e) {
   EffectRow row = EffectRow::Zero(effect_parameter_count(e.kind));
-  if (e.installation >= 0 && e.installation != inst) return row;
+  if (!effect_applies_to(design, e, inst)) return row;
   const Installation& in = design.installations[inst];
   switch (e.kind) {
     case EffectKind::kLengthOffset:
@@ -405,6 +470,18 @@ EffectRow effect_row(const Design& design, const Reading& r, int inst, double t0
       if (r.time_s && std::isfinite(t0_s) && e.tau_min > 0)
         row(0) = -std::expm1(-(*r.time_s - t0_s) / (60.0 * e.tau_min));
       break;
+    case EffectKind::kTriggerOffset:
+      row(0) = 1.0;
+      break;
+    case EffectKind::kPlacement: {
+      if (!in.probe_channel()) break;
+      const Eigen::Matrix3d R = axis_rotation(design.axis, r.angle_deg);
+      const AxisFrame& a = design.axis;
+      const Eigen::Vector3d per_um[3] = {a.body_point(1e-3, 0, 0), a.body_point(0, 1e-3, 0),
+                                         a.body_point(0, 0, a.has_H() ? 1e-3 : 0.0)};
+      for (int j = 0; j < 3; ++j) row(j) = in.sign * 1e3 * (R * per_um[j])(in.coordinate);
+      break;
+    }
     case EffectKind::kPeriodic: {
       double s, c;
       sincos_deg(e.harmonic * r.angle_deg - e.phase_deg, s, c);
@@ -468,7 +545,7 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
   for (std::size_t i = 0; i < readings.size(); ++i) {
     const Reading& r = readings[i];
     const int inst = layout.installation[i];
-    if (e.installation >= 0 && e.installation != inst) continue;  // does not apply
+    if (!effect_applies_to(design, e, inst)) continue;  // does not apply
     time_missing = time_missing || !r.time_s;
     cw = cw || (r.sweep && *r.sweep == Sweep::kCW);
     ccw = ccw || (r.sweep && *r.sweep == Sweep::kCCW);
@@ -511,9 +588,20 @@ std::vector<EffectBlock> candidate_effects(const Design& design,
                                            const std::vector<Reading>& readings) {
   std::vector<EffectBlock> out;
   const ReadingLayout layout(design, readings);
-  for (EffectKind k : {EffectKind::kLengthOffset, EffectKind::kCentring, EffectKind::kDrift,
-                       EffectKind::kReversal}) {
+  for (EffectKind k :
+       {EffectKind::kLengthOffset, EffectKind::kTriggerOffset, EffectKind::kPlacement,
+        EffectKind::kCentring, EffectKind::kDrift, EffectKind::kReversal}) {
+    if (!effect_fits_instrument(k, design.instrument)) continue;
     for (std::size_t i = 0; i < design.installations.size(); ++i) {
+      if (effect_info(k).per_sphere) {
+        // A sphere's placement once, on its first channel, one coordinate at a time: part of it
+        // can be a rigid motion of the body at every angle (across the plane of three spheres,
+        // a rotation about the line through the other two) while the rest is not.
+        if (design.installations[i].coordinate != 0) continue;
+        for (int c = 0; c < 3; ++c)
+          out.push_back(effect_block(design, readings, layout, {k, static_cast<int>(i), c}));
+        continue;
+      }
       out.push_back(effect_block(design, readings, layout, {k, static_cast<int>(i)}));
     }
     // The same effect once for the whole test: a length change common to every reading (the
@@ -524,6 +612,7 @@ std::vector<EffectBlock> candidate_effects(const Design& design,
   // Shared effects one parameter at a time: part of a scale or squareness can be
   // confounded (an isotropic scale is a length offset) while the rest is not.
   for (EffectKind k : {EffectKind::kScale, EffectKind::kSquareness}) {
+    if (!effect_fits_instrument(k, design.instrument)) continue;
     for (int c = 0; c < 3; ++c) out.push_back(effect_block(design, readings, layout, {k, -1, c}));
   }
   return out;
@@ -572,6 +661,7 @@ std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Re
     }
     out.push_back(f);
   }
+  if (!effect_fits_instrument(EffectKind::kThermal, design.instrument)) return out;
   ScanFamily th;
   th.effect.kind = EffectKind::kThermal;
   th.label = th.effect.label(design);

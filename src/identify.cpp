@@ -158,6 +158,11 @@ std::vector<EffectBlock> append_effects(const Design& design, const std::vector<
     for (const EffectBlock& o : blocks) {
       if (o.label == b.label)
         throw InputError(options.effects_source, b.label, "the effect is given twice");
+      // One effect whole and one of its components (placement[s1], placement.dL[s1]).
+      if (o.effect.kind == e.kind && o.effect.installation == e.installation &&
+          (o.effect.component < 0) != (e.component < 0) && !effect_is_shared(e.kind))
+        throw InputError(options.effects_source, b.label,
+                         "overlaps " + o.label + " (a component of the same effect)");
     }
     if (!b.applicability.applicable() || b.parameters.empty()) {
       throw InputError(options.effects_source, b.label,
@@ -301,6 +306,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                      {},
                      {},
                      {}};
+  res.instrument = design.instrument;
   // The set-up solver refers to res.solver, which stays in place until the return.
   const std::vector<SetupEffect> declared = declared_setup(design, res.model, blocks);
   const SetupSolver setup(res.solver, declared);

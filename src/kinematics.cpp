@@ -56,6 +56,7 @@ Eigen::Vector3d ball_position_mm(const AxisFrame& axis, const Installation& inst
 
 Eigen::Vector3d direction_machine(const AxisFrame& axis, const Installation& inst,
                                   double angle_deg) {
+  if (inst.probe_channel()) return inst.direction.body;  // fixed in the machine frame
   return axis_rotation(axis, angle_deg) * inst.direction.body;
 }
 
@@ -66,7 +67,8 @@ Eigen::Vector3d displacement_um(const Vector6d& e6, const Eigen::Vector3d& P_mm)
 RowVector6d J_reading_error(const AxisFrame& axis, const Installation& inst, double angle_deg) {
   const Eigen::Matrix3d R = axis_rotation(axis, angle_deg);
   const Eigen::Vector3d P = R * ball_body_mm(axis, inst);
-  const Eigen::Vector3d u = R * inst.direction.body;
+  const Eigen::Vector3d u =
+      inst.probe_channel() ? inst.direction.body : Eigen::Vector3d(R * inst.direction.body);
   RowVector6d row;
   // u.(e x P) = e.(P x u)
   row.head<3>() = inst.sign * u.transpose();

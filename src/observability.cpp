@@ -480,8 +480,9 @@ bool AngleStations::serves(const Design& design) const {
 std::optional<WorstCase> fast_worst_case(const Design& design, double reference_length_mm,
                                          const AngleStations* stations) {
   // A return reading reads one angle twice: the closed forms take one reading per angle, of
-  // every installation.
-  if (design.return_reading || design.partial_sweeps()) return std::nullopt;
+  // every installation, each along a direction that turns with the axis.
+  if (design.return_reading || design.partial_sweeps() || !design.directions_turn())
+    return std::nullopt;
   if (design.installations.empty()) return std::nullopt;
   // Declared set-up tolerances change the estimate (setup.hpp): fast_worst_total answers.
   if (design.setup_nuisance_declared()) return std::nullopt;
@@ -512,8 +513,9 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
                                                bool with_noise_part,
                                                const AngleStations* stations) {
   // A return reading reads one angle twice: the closed forms take one reading per angle, of
-  // every installation.
-  if (design.return_reading || design.partial_sweeps()) return std::nullopt;
+  // every installation, each along a direction that turns with the axis.
+  if (design.return_reading || design.partial_sweeps() || !design.directions_turn())
+    return std::nullopt;
   if (!design.setup_nuisance_declared()) {
     const std::optional<WorstCase> w = fast_worst_case(design, reference_length_mm, stations);
     if (!w) return std::nullopt;
@@ -711,8 +713,9 @@ std::optional<TotalWorstCase> fast_worst_total(const Design& design, double refe
 std::optional<SetupInformation> fast_setup_information(const Design& design,
                                                        const AngleStations* stations) {
   // A return reading reads one angle twice: the closed forms take one reading per angle, of
-  // every installation.
-  if (design.return_reading || design.partial_sweeps()) return std::nullopt;
+  // every installation, each along a direction that turns with the axis.
+  if (design.return_reading || design.partial_sweeps() || !design.directions_turn())
+    return std::nullopt;
   // fast_worst_total's notation. An effect of installation i has the columns phi(g)' x_k on
   // that installation's readings (x_k the harmonic coefficients of its column k, X = [x_k]),
   // and R'R = sum_hl Phi_hl X_h' W N X_l reduces to w N_ii X' Phi X: the axis errors take the
@@ -817,6 +820,7 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
   Evaluation ev;
   ev.prior = solver.a_priori();
   ev.reference_length_mm = reference_length_mm;
+  ev.instrument = design.instrument;
   ev.indices = observability_indices(ev.prior.singular_values, ev.prior.rank, ev.prior.n_unknowns,
                                      ev.prior.n_readings);
   ev.criteria = design_criteria(solver);
@@ -843,9 +847,10 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
   ev.worst = worst_case(ev.errors, reference_length_mm);
   if (auto w = setup_undeclared_warning(
           hidden_setup_effects(param, solver, all, columns, functions, reference_length_mm),
-          reference_length_mm))
+          reference_length_mm, design.instrument))
     ev.warnings.push_back(*w);
-  if (!drift) return ev;
+  // A drift over the test's nominal clock: a ball bar program's (a probe's file has no times).
+  if (!drift || design.instrument == InstrumentKind::kProbe) return ev;
   ev.drift = check_drift_effects(design, param, model, setup, functions, detection,
                                  reference_length_mm, drift->clock);
   if (drift->with_return && !design.return_reading && design.angles_deg.size() > 1) {
@@ -869,7 +874,8 @@ DriftChecks design_drift_checks(const Design& design, double reference_length_mm
 }
 
 std::optional<WorstCase> typical_setup_worst(const Design& design, double reference_length_mm) {
-  if (design.setup_nuisance_declared()) return std::nullopt;
+  // A typical ball bar set-up: its length offset and centring.
+  if (design.setup_nuisance_declared() || !design.directions_turn()) return std::nullopt;
   Design typical = design;
   typical.setup_std.length_offset_um = kTypicalLengthOffsetStd_um;
   typical.setup_std.centring_um = kTypicalCentringStd_um;
@@ -896,6 +902,10 @@ std::vector<SweepPoint> sweep_design(const Design& design,
       for (int inst : variables[i].installations) {
         Installation& in = d.installations[inst];
         (variables[i].coord == 0 ? in.L_mm : variables[i].coord == 1 ? in.D_mm : in.H_mm) = x;
+        if (in.probe_channel()) {  // a probe's channel: its sphere moves
+          Sphere& s = d.spheres[static_cast<std::size_t>(in.sphere)];
+          (variables[i].coord == 0 ? s.L_mm : variables[i].coord == 1 ? s.D_mm : s.H_mm) = x;
+        }
       }
     }
     validate_design(d, "--sweep");

@@ -12,6 +12,7 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/parallel.hpp"
 #include "dbbkit/program.hpp"
@@ -1054,6 +1055,7 @@ OptimizeResult exhaustive_search(const Kit& kit, Criterion criterion, double gri
 }
 
 Reference make_reference(const Kit& kit, Design design, const std::string& file) {
+  require_ballbar(design, file, "a kit's reference design");
   Reference r;
   r.file = file;
   r.design = std::move(design);

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/setup_sheet.hpp"
@@ -335,6 +336,7 @@ const InstallationProgram& MeasurementProgram::of(int installation) const {
 
 MeasurementProgram measurement_program(const Design& design, const ProgramOptions& options) {
   validate_design(design);
+  require_ballbar(design, "design", "a measurement program");
   validate_program_options(options, "program");
   MeasurementProgram program;
   program.axis = design.axis;

@@ -16,6 +16,7 @@
 #include <utility>
 
 #include "cost_counters.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/setup_sheet.hpp"
 #include "function_rows.hpp"
@@ -49,14 +50,36 @@ std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& 
   return setup_effects(design, rows, only_declared);
 }
 
+double setup_std_um(const SetupUncertainty& u, EffectKind kind) {
+  switch (kind) {
+    case EffectKind::kLengthOffset:
+      return u.length_offset_um;
+    case EffectKind::kCentring:
+      return u.centring_um;
+    case EffectKind::kTriggerOffset:
+      return u.trigger_offset_um;
+    case EffectKind::kPlacement:
+      return u.placement_um;
+    default:
+      return 0.0;
+  }
+}
+
 std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<Reading>& rows,
                                        bool only_declared) {
   std::vector<SetupEffect> out;
   const ReadingLayout layout(design, rows);
+  // The instrument's set-up effects (EffectInfo::setup): a ball bar's length offset and
+  // centring, a probe's trigger offset and sphere placement (no tolerance declared for these).
+  std::vector<EffectKind> kinds;
+  for (EffectKind k : effect_kinds())
+    if (effect_info(k).setup && effect_fits_instrument(k, design.instrument)) kinds.push_back(k);
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
     const SetupUncertainty u = design.setup_of(i);
-    for (EffectKind kind : {EffectKind::kLengthOffset, EffectKind::kCentring}) {
-      const double std_um = kind == EffectKind::kLengthOffset ? u.length_offset_um : u.centring_um;
+    for (EffectKind kind : kinds) {
+      // A sphere's effect once, on its first channel.
+      if (effect_info(kind).per_sphere && design.installations[i].coordinate != 0) continue;
+      const double std_um = setup_std_um(u, kind);
       if (only_declared && !(std_um > 0)) continue;
       EffectBlock block = effect_block(design, rows, layout, {kind, i});
       if (!block.applicability.applicable()) continue;  // changes no reading of these rows
@@ -493,7 +516,7 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
   FirstOrderCheck fc;
   fc.noise_sigma_um = design.noise.sigma_um();
   for (const Installation& in : design.installations) {
-    if (!in.bar_mm) {
+    if (!in.bar_mm && !in.probe_channel()) {
       fc.without_bar = in.id;
       return fc;
     }
@@ -520,9 +543,17 @@ FirstOrderCheck first_order_check(const Design& design, const Parameterisation& 
       const Eigen::Vector3d P = ball_position_mm(design.axis, in, a);
       const Eigen::Vector3d dir = direction_machine(design.axis, in, a);
       const Eigen::Matrix<double, 6, 1>& e6 = errors[ia];
-      const Eigen::Vector3d dP = e6.head<3>() + 1e-3 * e6.tail<3>().cross(P);  // um
-      const double perp = (dP - dP.dot(dir) * dir).norm() + placement_um + centring_um;
-      const double term = perp * perp / (2.0 * *in.bar_mm * 1e3);
+      double term = 0;
+      if (in.probe_channel()) {
+        // A probe's reading is the sphere's displacement itself: its second-order part is the
+        // exact transform's less the row's, at the identified errors.
+        term = std::abs(exact_probe_reading_um(design.axis, in, a, e6, {}) -
+                        J_reading_error(design.axis, in, a) * e6);
+      } else {
+        const Eigen::Vector3d dP = e6.head<3>() + 1e-3 * e6.tail<3>().cross(P);  // um
+        const double perp = (dP - dP.dot(dir) * dir).norm() + placement_um + centring_um;
+        term = perp * perp / (2.0 * *in.bar_mm * 1e3);
+      }
       if (term > fc.largest_term_um) {
         fc.largest_term_um = term;
         fc.installation = in.id;

@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
@@ -325,6 +326,7 @@ RoundedDesign round_design(const Design& design, double r, const Kit* kit) {
 
 SetupSheet make_setup_sheet(const Design& design, const ProgramOptions& program,
                             std::optional<double> resolution_mm, const Kit* kit) {
+  require_ballbar(design, "design", "a set-up sheet");
   SetupSheet sheet;
   sheet.design = design;
   check_kit_axis(kit, design);

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
@@ -89,8 +90,15 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     if (truth.bar_mm && !(length_within_limits(*truth.bar_mm) && *truth.bar_mm > 0)) {
       throw InputError(source, "bar_mm", "must be a positive length in mm, at most 10000 mm");
     }
+    if (design.instrument == InstrumentKind::kProbe &&
+        (!truth.setup_given.empty() || truth.setup_draw.length_offset_um > 0 ||
+         truth.setup_draw.centring_um > 0 || (truth.setup_draw.ball_mm.array() != 0).any()))
+      throw InputError(source, "setup",
+                       "a probe's set-up is simulated as its effects: placement[sphere] and "
+                       "trigger_offset[sphere:x] in \"effects\"");
     for (size_t i = 0; i < design.installations.size(); ++i) {
-      if (!design.installations[i].bar_mm && !truth.bar_mm) {
+      if (!design.installations[i].probe_channel() && !design.installations[i].bar_mm &&
+          !truth.bar_mm) {
         throw InputError(source, "geometry",
                          "the exact geometry needs the bar: installation '" +
                              design.installations[i].id +
@@ -191,9 +199,21 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
       throw InputError(source, key + ".installation",
                        "this effect needs the installation it applies to");
     }
-    if (!e.installation.empty() && design.find_installation(e.installation) < 0) {
+    if (!e.installation.empty() && effect_installation(design, e.effect.kind, e.installation) < 0) {
+      const bool sphere_given =
+          !effect_info(e.effect.kind).per_sphere && find_sphere(design, e.installation) >= 0;
       throw InputError(source, key + ".installation",
-                       "installation " + quote_value(e.installation) + " is not in the design");
+                       (effect_info(e.effect.kind).per_sphere ? "sphere " : "installation ") +
+                           quote_value(e.installation) + " is not in the design" +
+                           (sphere_given ? " (a sphere: this effect is one channel's, e.g. " +
+                                               probe_channel_id(e.installation, 0) + ")"
+                                         : std::string()));
+    }
+    if (!effect_fits_instrument(e.effect.kind, design.instrument)) {
+      throw InputError(
+          source, key + ".name",
+          std::string(effect_name(e.effect.kind)) + " is not an effect of " +
+              (design.instrument == InstrumentKind::kProbe ? "a touch probe" : "a ball bar"));
     }
     const EffectInfo& info = effect_info(e.effect.kind);
     if (info.needs_bar) {
@@ -384,14 +404,16 @@ std::vector<Reading> simulate(const Design& design, const Truth& truth, std::uin
     const Vector6d errors = truth_errors(truth, design.axis, reading.angle_deg);
     double value = 0;
     if (truth.exact) {
-      value = exact_setup_reading_um(design.axis, inst, reading.angle_deg, errors,
-                                     inst.bar_mm.value_or(*truth.bar_mm), setup[i]);
+      value =
+          exact_instrument_reading_um(design.axis, inst, reading.angle_deg, errors,
+                                      inst.bar_mm.value_or(truth.bar_mm.value_or(0.0)), setup[i]);
     } else {
       value = J_reading_error(design.axis, inst, reading.angle_deg) * errors;
     }
     for (const TruthEffect& e : truth.effects) {
       EffectCandidate c = e.effect;
-      c.installation = e.installation.empty() ? -1 : design.find_installation(e.installation);
+      c.installation =
+          e.installation.empty() ? -1 : effect_installation(design, c.kind, e.installation);
       value +=
           J_reading_effect(design, reading, i, c.installation < 0 ? t_test : t0[i], c).dot(e.value);
     }

@@ -6,6 +6,7 @@
 
 #include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/program.hpp"
 #include "dbbkit/user_text.hpp"
@@ -289,6 +290,7 @@ namespace {
 }  // namespace
 
 void check_trace_installation(const Design& design, const std::string& installation) {
+  require_ballbar(design, "design", "a reading from a trace");
   if (design.find_installation(installation) >= 0) return;
   std::string ids, other_case;
   auto lower = [](std::string x) {

@@ -1,5 +1,6 @@
 #include "dbbkit/uncertainty.hpp"
 
+#include <algorithm>
 #include <boost/math/distributions/normal.hpp>
 #include <boost/math/distributions/students_t.hpp>
 #include <cmath>
@@ -156,15 +157,18 @@ Budget uncertainty_budget(const Design& design, const Parameterisation& param,
       if (nuisance) {
         const SetupSolver::Parts parts = setup->parts(c);
         noise_components(v, c, std::sqrt(parts.noise) * noise_scale);
-        double u2[2] = {0, 0};  // length offset, centring
-        for (int j = 0; j < setup->n_columns(); ++j) {
-          u2[setup->column_kind(j) == EffectKind::kLengthOffset ? 0 : 1] +=
-              parts.setup_by_column(j);
+        // One component per kind of set-up effect, in the table's order ("set-up length offset",
+        // "set-up centring"; a probe's "set-up trigger offset", "set-up placement").
+        std::vector<double> u2(effect_kinds().size(), 0.0);
+        for (int j = 0; j < setup->n_columns(); ++j)
+          u2[static_cast<std::size_t>(setup->column_kind(j))] += parts.setup_by_column(j);
+        for (EffectKind kind : effect_kinds()) {
+          const double x = u2[static_cast<std::size_t>(kind)];
+          if (!(x > 0)) continue;
+          std::string name = effect_name(kind);
+          std::replace(name.begin(), name.end(), '_', ' ');
+          v.components.push_back({"set-up " + name, "B", std::sqrt(x), std::nullopt});
         }
-        if (u2[0] > 0)
-          v.components.push_back({"set-up length offset", "B", std::sqrt(u2[0]), std::nullopt});
-        if (u2[1] > 0)
-          v.components.push_back({"set-up centring", "B", std::sqrt(u2[1]), std::nullopt});
       } else {
         noise_components(v, c, d.std * noise_scale);
       }

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "dbbkit/diagnose.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "number_text.hpp"
 
@@ -115,7 +116,8 @@ std::vector<HiddenSetupEffect> hidden_setup_effects(
 }
 
 std::optional<Warning> setup_undeclared_warning(const std::vector<HiddenSetupEffect>& hidden,
-                                                double reference_length_mm) {
+                                                double reference_length_mm,
+                                                InstrumentKind instrument) {
   if (hidden.empty()) return std::nullopt;
   const HiddenSetupEffect& worst = hidden.front();
   std::string names;
@@ -132,8 +134,8 @@ std::optional<Warning> setup_undeclared_warning(const std::vector<HiddenSetupEff
           text::significant(worst.angle_deg, 6) + " deg by " +
           text::significant(worst.bias_um_per_um, 3) + " um" +
           (angular ? " at " + text::significant(reference_length_mm, 6) + " mm" : "") +
-          ". The stated uncertainties assume a perfect set-up: declare setup_std "
-          "(length_offset_um, centring_um) in the design for intervals that include it."};
+          ". The stated uncertainties assume a perfect set-up: declare setup_std (" +
+          setup_tolerance_keys(instrument) + ") in the design for intervals that include it."};
 }
 
 namespace {
@@ -161,7 +163,8 @@ std::vector<Warning> residual_after_warnings(const DiagnoseResult& r) {
 
 // Set-up effects diagnose cannot detect that move an error by its stated uncertainty at a size
 // below their threshold, without a declared tolerance (setup_risks, most dangerous first).
-std::optional<Warning> setup_risk_warning(const std::vector<SetupRisk>& risks) {
+std::optional<Warning> setup_risk_warning(const std::vector<SetupRisk>& risks,
+                                          InstrumentKind instrument) {
   std::vector<const SetupRisk*> undeclared;
   for (const SetupRisk& r : risks)
     if (r.declared_std_um <= 0) undeclared.push_back(&r);
@@ -176,8 +179,8 @@ std::optional<Warning> setup_risk_warning(const std::vector<SetupRisk>& risks) {
           r.label + " of " + text::significant(r.threshold_um, 3) + " um already moves " +
           kErrorNames[r.error] + " at " + text::significant(r.angle_deg, 6) +
           " deg by its stated uncertainty (" + text::significant(r.stated_std, 3) + unit +
-          "). Declare setup_std (length_offset_um, centring_um) in the design for "
-          "intervals that include them."};
+          "). Declare setup_std (" + setup_tolerance_keys(instrument) +
+          ") in the design for intervals that include them."};
 }
 
 }  // namespace
@@ -216,21 +219,23 @@ std::vector<Warning> diagnose_warnings(const DiagnoseResult& r) {
                ? ", over the first 256 combinations; " + std::to_string(convention->untried) +
                      " more were not tried and may move them further"
                : std::string()) +
-          "), so they may be too uncertain to enter or to decide. To remove it, measure an "
-          "installation that tells them apart; dbbkit identify --effects fits each choice.";
+          "), so they may be too uncertain to enter or to decide. To remove it, measure " +
+          measured_item(r.instrument) +
+          " that tells them apart; dbbkit identify --effects fits each choice.";
     } else {
       consequence =
           "the corrected errors and their ISO terms depend on the choice, and their "
           "uncertainties leave the difference out. Before deciding conformance or entering a "
           "compensation, fit each with dbbkit identify --effects to see the difference, or "
-          "measure an installation that tells them apart.";
+          "measure " +
+          std::string(measured_item(r.instrument)) + " that tells them apart.";
     }
     out.push_back({"equivalent_effects", chosen + (n_chosen == 1 ? " was" : " were") +
                                              " chosen by convention among effects the readings "
                                              "cannot tell apart: " +
                                              consequence});
   }
-  if (auto w = setup_risk_warning(r.setup_risks)) out.push_back(*w);
+  if (auto w = setup_risk_warning(r.setup_risks, r.instrument)) out.push_back(*w);
   return out;
 }
 
@@ -261,11 +266,13 @@ std::vector<Warning> identify_warnings(const Design& design, const IdentifyResul
              " um, " + text::significant(urad, 3) +
              " urad should one of the others take an effect's place (more should several). "
              "dbbkit diagnose carries the difference of every combination in its uncertainties; "
-             "measure an installation that tells them apart to remove it."});
+             "measure " +
+             measured_item(design.instrument) + " that tells them apart to remove it."});
   }
   const double L = design.reference_length_mm.value_or(100.0);
   if (auto w = setup_undeclared_warning(
-          hidden_setup_effects(design, result.param, result.model, result.solver, L), L))
+          hidden_setup_effects(design, result.param, result.model, result.solver, L), L,
+          design.instrument))
     out.push_back(*w);
   return out;
 }

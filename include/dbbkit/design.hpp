@@ -41,23 +41,35 @@ struct Direction {
 //                     reading of the installation),
 //   centring_um       each component (x, y, z, machine frame) of the offset of the
 //                     following ball's path centre from the axis,
-//   L_mm, D_mm, H_mm  the ball as placed.
-// The first two are nuisance effects of the linear model (columns of the effect
-// library with a zero-mean prior, setup.hpp); the ball placement changes a row of
-// J only in proportion to the errors and is propagated at the identified errors
-// (uncertainty.hpp).
+//   L_mm, D_mm, H_mm  the ball as placed;
+// a touch probe's (instrument.hpp):
+//   trigger_offset_um the probe's offset along each machine axis (a constant on every reading
+//                     of a channel),
+//   placement_um      each body coordinate (L, D, H) of the sphere's centre off its stated one
+//                     (a first-order term: the sphere's centre turns with the table).
+// The length offset, the centring, the trigger offset and the sphere's placement are nuisance
+// effects of the linear model (columns of the effect library with a zero-mean prior,
+// setup.hpp); the ball placement changes a row of J only in proportion to the errors and is
+// propagated at the identified errors (uncertainty.hpp).
 struct SetupUncertainty {
   double length_offset_um = 0, centring_um = 0;
   double L_mm = 0, D_mm = 0, H_mm = 0;
+  double trigger_offset_um = 0, placement_um = 0;
   bool placement() const { return L_mm > 0 || D_mm > 0 || H_mm > 0; }
-  bool nuisance() const { return length_offset_um > 0 || centring_um > 0; }
+  bool nuisance() const {
+    return length_offset_um > 0 || centring_um > 0 || trigger_offset_um > 0 || placement_um > 0;
+  }
   bool any() const { return placement() || nuisance(); }
 };
 
 // Per installation: the keys given replace the design's default.
 struct SetupOverride {
   std::optional<double> length_offset_um, centring_um, L_mm, D_mm, H_mm;
-  bool any() const { return length_offset_um || centring_um || L_mm || D_mm || H_mm; }
+  std::optional<double> trigger_offset_um, placement_um;
+  bool any() const {
+    return length_offset_um || centring_um || L_mm || D_mm || H_mm || trigger_offset_um ||
+           placement_um;
+  }
   SetupUncertainty over(const SetupUncertainty& base) const;
 };
 
@@ -89,6 +101,25 @@ struct Installation {
   // installations[i].angles_deg): a subset of the design's angles, e.g. one side of a trunnion's
   // travel with the bar on that side. Empty: every angle of the design.
   std::vector<double> angles_deg;
+  // A touch probe's channel (instrument.hpp): the sphere (Design::spheres) and the machine
+  // coordinate (0, 1, 2: x, y, z) it reads, its direction fixed in the machine frame; -1 for a
+  // ball bar's installation, whose direction turns with the body.
+  int sphere = -1;
+  int coordinate = -1;
+  bool probe_channel() const { return coordinate >= 0; }
+};
+
+// What a design's readings are (instrument.hpp): a ball bar's length changes, or a touch
+// probe's sphere centres in three machine coordinates.
+enum class InstrumentKind { kBallbar, kProbe };
+
+// A calibration sphere fixed to the body that turns (a table axis: on the table; a head: the
+// point of the head the probe in the spindle meets the sphere at), at body coordinates (L, D,
+// H) as a ball bar's ball.
+struct Sphere {
+  std::string id;
+  double L_mm = 0.0, D_mm = 0.0, H_mm = 0.0;
+  std::string description;
 };
 
 // Instrument noise of one reading. Uniform: +-half_width (the instrument's
@@ -190,6 +221,11 @@ struct Design {
   // position, minutes apart, show a drift of the bar or the machine (sweep_readings).
   bool return_reading = false;
   SetupUncertainty setup_std;  // default for every installation
+  // The instrument (design key instrument.kind). A probe design states its spheres; its
+  // installations are their channels, three a sphere (instrument.hpp, probe_channels), which
+  // every model, estimate and check reads as it reads a ball bar's installations.
+  InstrumentKind instrument = InstrumentKind::kBallbar;
+  std::vector<Sphere> spheres;
   std::vector<Installation> installations;
   std::optional<Prediction> predicted;
 
@@ -201,6 +237,9 @@ struct Design {
   // Whether some installation is read at part of the design's angles only (the closed forms of
   // observability.hpp take every installation at every angle).
   bool partial_sweeps() const;
+  // Whether every reading's direction turns with the axis (a ball bar): the closed forms of
+  // observability.hpp turn one body-frame information by the axis' rotation.
+  bool directions_turn() const { return instrument == InstrumentKind::kBallbar; }
   // The readings one sweep of installation i takes: its angles, and the return reading.
   int readings_per_sweep(int i) const {
     const std::size_t n = angles_of(i).size();

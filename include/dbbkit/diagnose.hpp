@@ -157,6 +157,8 @@ struct DiagnoseResult {
   // What makes the corrected errors' uncertainties unreliable (warnings.hpp): the residual
   // after the effects found still contradicting the declared noise.
   std::vector<Warning> warnings;
+  // The design's instrument (its set-up effects' names in the text).
+  InstrumentKind instrument = InstrumentKind::kBallbar;
 };
 
 ResidualSignature residual_signature(const Design& design, const std::vector<Reading>& readings,

@@ -18,7 +18,11 @@
 //                                               value; tau is scanned (selection.hpp)
 //   scale (shared, um/m):                       -s u . dF, dF_k = 1e-3 k_k F_k
 //   squareness (shared, urad):                  -s u . dF, dF = 1e-3 (S_xy F_y, S_yz F_z, S_zx F_x)
-// with F = P - s bar u the following ball (mm, needs bar_mm). Outside the library,
+// with F = P - s bar u the following ball (mm, needs bar_mm). A touch probe's (instrument.hpp):
+//   trigger_offset (per channel, um):           1, the probe's offset along the channel's axis
+//   placement (per sphere, um):                 s e_k . R(g) (dL e_L + dD e_D + dH e_H), the
+//                                               sphere's centre off its stated body coordinates
+// Outside the library,
 // for tests of what the tool does with an unknown effect:
 //   periodic (per installation, um):            cos(k a - phase) times the amplitude
 
@@ -42,7 +46,9 @@ enum class EffectKind {
   kSquareness,
   kPeriodic,
   kStep,
-  kThermal
+  kThermal,
+  kTriggerOffset,
+  kPlacement
 };
 
 // One effect, one place: what each kind is, read by its labels, the parameter names, the block's
@@ -67,7 +73,19 @@ struct EffectInfo {
   bool needs_times = false;
   bool needs_bar = false;
   bool needs_both_sweeps = false;
+  // Which instrument's readings it belongs to (instrument.hpp): a ball bar's alone (its set-up,
+  // the linear axes moving its following ball, and what needs the times or sweeps a probe's file
+  // does not have), a probe's alone, or either; per_sphere: one effect of a probe's sphere, on its
+  // three channels (its label names the sphere).
+  bool ballbar_only = false;
+  bool probe_only = false;
+  bool per_sphere = false;
+  // A set-up effect of its instrument (setup.hpp): one a design may declare a tolerance of and
+  // evaluate judges the detection of.
+  bool setup = false;
 };
+// Every kind, in the enum's order.
+std::vector<EffectKind> effect_kinds();
 const EffectInfo& effect_info(EffectKind kind);
 
 const char* effect_name(EffectKind kind);
@@ -81,18 +99,33 @@ const char* effect_unit(EffectKind kind);
 // Names of the full parameter vector of an effect (before unseen columns are dropped).
 std::vector<std::string> effect_parameter_names(EffectKind kind);
 
+// Whether the effect belongs to the design's instrument.
+bool effect_fits_instrument(EffectKind kind, InstrumentKind instrument);
+
 struct EffectCandidate {
   EffectKind kind = EffectKind::kLengthOffset;
-  int installation = -1;  // -1: shared by all installations
-  int component = -1;     // one parameter of a multi-parameter effect (e.g. scale.x); -1: all
-  int harmonic = 0;       // Periodic only
-  double phase_deg = 0;   // Periodic only
+  // -1: shared by all installations; a sphere's effect (EffectInfo::per_sphere): its first
+  // channel.
+  int installation = -1;
+  int component = -1;    // one parameter of a multi-parameter effect (e.g. scale.x); -1: all
+  int harmonic = 0;      // Periodic only
+  double phase_deg = 0;  // Periodic only
   // Step: the readings of the installation from the time at_s on (the test's clock, as
   // time_s) are offset; a step found in data without times is placed by reading order.
   double at_s = std::numeric_limits<double>::quiet_NaN();
   double tau_min = 0;                             // Thermal only: the time constant
   std::string label(const Design& design) const;  // e.g. "centring[2r]", "squareness.xy"
 };
+
+// Whether an effect applies to the readings of installation `inst`: its own, its sphere's
+// channels, or every installation's.
+bool effect_applies_to(const Design& design, const EffectCandidate& effect, int inst);
+// The installation an effect of `kind` names by `id` (a label's [id], a truth file's
+// installation): the sphere's first channel for a sphere's effect; -1 when the design has none.
+int effect_installation(const Design& design, EffectKind kind, const std::string& id);
+// The id a label and a truth file name an effect's installation by (its sphere's for a sphere's
+// effect); empty for a shared or whole-test effect.
+std::string effect_installation_id(const Design& design, const EffectCandidate& effect);
 
 // The effect a label names (EffectCandidate::label's form, as diagnose writes it):
 // name[.component][[installation id | all]][(t=<s>s) | (tau=<min>min)]. Throws

@@ -149,6 +149,8 @@ struct IdentifyResult {
   std::vector<FittedEffect> effects;
   // What makes the stated uncertainties unreliable here (warnings.hpp); empty: nothing.
   std::vector<Warning> warnings;
+  // The design's instrument (its set-up effects' names in the text).
+  InstrumentKind instrument = InstrumentKind::kBallbar;
 };
 
 // The six functions c.theta that are the errors dx..ez at `station`: column k is

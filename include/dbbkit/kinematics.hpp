@@ -34,7 +34,8 @@ const RotationHarmonics& rotation_harmonics(const AxisFrame& axis);
 // C: (L, D, H) (model.md §3); B: (0, D, L), so that P(b) = (L sin b, D, L cos b) (§4).
 Eigen::Vector3d ball_body_mm(const AxisFrame& axis, const Installation& inst);
 
-// Nominal ball position and unit reading direction in the machine frame at an angle.
+// Nominal ball position and unit reading direction in the machine frame at an angle (a probe
+// channel's direction is fixed in the machine frame: instrument.hpp).
 Eigen::Vector3d ball_position_mm(const AxisFrame& axis, const Installation& inst, double angle_deg);
 Eigen::Vector3d direction_machine(const AxisFrame& axis, const Installation& inst,
                                   double angle_deg);

@@ -21,6 +21,8 @@ constexpr int kMaxSeriesOrder = 100;
 // Measured angles of one design, installations of one design.
 constexpr std::size_t kMaxAngles = 100000;
 constexpr std::size_t kMaxInstallations = 10000;
+// Spheres of one probe design (three channels each): a probing cycle's handful, with room.
+constexpr std::size_t kMaxSpheres = 100;
 // Poses of one predict file (100,000: about 10 s and 0.6 GB with the JSON written).
 constexpr std::size_t kMaxPoses = 100000;
 // Readings of one test verify checks: their covariance is dense (n x n; 5,000: 0.2 GB and

@@ -129,6 +129,8 @@ struct Evaluation {
   std::vector<Unidentifiable> unidentifiable;
   WorstCase worst;  // of the noise part
   double reference_length_mm = 0;
+  // The design's instrument (its set-up effects' names in the text).
+  InstrumentKind instrument = InstrumentKind::kBallbar;
 
   // Set-up (setup.hpp). setup_included: the design declares length offset or
   // centring tolerances, and setup_errors / total_errors / worst_total hold the

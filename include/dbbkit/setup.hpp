@@ -55,6 +55,10 @@ struct SetupEffect {
   double std_um = 0;  // declared standard uncertainty per column (0: none declared)
 };
 
+// The declared standard uncertainty of a set-up effect of `kind` (EffectInfo::setup) [um]; 0 for
+// none and for any other kind.
+double setup_std_um(const SetupUncertainty& u, EffectKind kind);
+
 // Every per-installation length offset and centring the rows can show; with
 // only_declared, only those with a declared tolerance.
 std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& model,

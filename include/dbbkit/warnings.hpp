@@ -51,8 +51,10 @@ std::vector<HiddenSetupEffect> hidden_setup_effects(const Design& design,
 std::vector<HiddenSetupEffect> hidden_setup_effects(
     const Parameterisation& param, const WlsSolver& solver, const std::vector<SetupEffect>& effects,
     const EffectColumns& columns, const DeterminedFunctions& functions, double reference_length_mm);
+// instrument: the design's (the keys of its set-up tolerances in the text).
 std::optional<Warning> setup_undeclared_warning(const std::vector<HiddenSetupEffect>& hidden,
-                                                double reference_length_mm);
+                                                double reference_length_mm,
+                                                InstrumentKind instrument);
 
 // diagnose's warnings: the residual after the effects found (noise_scale when no check explains
 // it, residual otherwise). Declared in diagnose.hpp's terms to keep this header light.

@@ -8,6 +8,7 @@
 #include "checks.hpp"
 #include "commands.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/measurement_io.hpp"
@@ -139,7 +140,11 @@ Runner add_simulate(CLI::App& app) {
     std::vector<io::OutputTarget> targets = {{"--out", args->out.empty() ? "-" : args->out}};
     if (!args->setup_out.empty()) targets.push_back({"--setup-out", args->setup_out});
     const Design design = io::read_design_file(args->design);
+    if (!args->setup_out.empty())
+      require_ballbar(design, args->design,
+                      "a set-up file (--setup-out: a probe's set-up is the truth's effects)");
     if (!args->trace_out.empty()) {
+      require_ballbar(design, args->design, "a trace (--trace-out)");
       for (const Installation& in : design.installations) {
         check_file_id(in.id);
         targets.push_back({"--trace-out " + in.id, args->trace_out + in.id + ".csv"});
@@ -159,7 +164,7 @@ Runner add_simulate(CLI::App& app) {
       throw e.source() == "truth" ? e.with_source(args->truth) : e;
     }
     std::ostringstream csv;
-    io::write_measurements_csv(csv, readings);
+    io::write_measurements_csv(csv, readings, design);
     outputs.stage("--out", csv.str());
     if (!args->setup_out.empty()) {
       if (!truth.exact)

@@ -8,6 +8,7 @@
 #include "../number_text.hpp"
 #include "../tolerances.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/machine_io.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/user_text.hpp"
@@ -251,11 +252,15 @@ SetupOverride read_setup_override(ObjectReader r) {
   o.L_mm = r.optional_number("L_mm");
   o.D_mm = r.optional_number("D_mm");
   o.H_mm = r.optional_number("H_mm");
+  o.trigger_offset_um = r.optional_number("trigger_offset_um");
+  o.placement_um = r.optional_number("placement_um");
   r.finish();
   return o;
 }
 
 json setup_to_json(const SetupUncertainty& u, const AxisFrame& axis) {
+  if (u.trigger_offset_um > 0 || u.placement_um > 0)  // a probe's
+    return {{"trigger_offset_um", u.trigger_offset_um}, {"placement_um", u.placement_um}};
   json j = {{"length_offset_um", u.length_offset_um},
             {"centring_um", u.centring_um},
             {"L_mm", u.L_mm},
@@ -270,7 +275,9 @@ json setup_override_to_json(const SetupOverride& o) {
                                {"centring_um", &o.centring_um},
                                {"L_mm", &o.L_mm},
                                {"D_mm", &o.D_mm},
-                               {"H_mm", &o.H_mm}}) {
+                               {"H_mm", &o.H_mm},
+                               {"trigger_offset_um", &o.trigger_offset_um},
+                               {"placement_um", &o.placement_um}}) {
     if (*v) j[key] = **v;
   }
   return j;
@@ -321,6 +328,51 @@ DesignMachine read_design_machine(ObjectReader& top, const std::string& base_dir
   return dm;
 }
 
+namespace {
+
+// A ball's (or a sphere's) body coordinates, ball_mm: L, D (default 0) and H (required on a
+// table, default 0 on a head, refused on the swinging head B).
+void read_ball(ObjectReader& in, const AxisFrame& axis, double& L, double& D, double& H) {
+  ObjectReader ball = in.object("ball_mm");
+  ball.allow({"L", "D", "H"});
+  L = ball.number("L");
+  D = ball.optional_number("D").value_or(0.0);
+  if (axis.table()) {
+    H = ball.number("H");
+  } else if (axis.has_H()) {
+    H = ball.optional_number("H").value_or(0.0);
+  } else if (ball.has("H")) {
+    ball.fail("H", "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
+  }
+  ball.finish();
+}
+
+// A probe design's spheres (formats.md, "A second instrument"): each with its id, its centre in
+// the body frame (ball_mm, as a ball bar's ball) and a description; their channels become the
+// design's installations.
+void read_spheres(ObjectReader& top, Design& d) {
+  if (top.has("installations"))
+    top.fail("installations",
+             "a probe's design gives spheres (its readings are their centres), not a ball bar's "
+             "installations");
+  const json& list = top.required("spheres");
+  if (!list.is_array() || list.empty())
+    top.fail("spheres", "expected a list of spheres, at least one");
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string path = "spheres[" + std::to_string(i) + "]";
+    ObjectReader in(list[i], top.source(), path);
+    Sphere sp;
+    sp.id = in.string("id");
+    read_ball(in, d.axis, sp.L_mm, sp.D_mm, sp.H_mm);
+    sp.description = in.optional_string("description").value_or("");
+    in.finish();
+    d.spheres.push_back(sp);
+  }
+  d.installations = probe_channels(d.axis, d.spheres);
+}
+
+}  // namespace
+
 Design design_from_json(const json& j, const std::string& source, const std::string& base_dir) {
   ObjectReader top(j, source, "");
   Design d;
@@ -351,6 +403,13 @@ Design design_from_json(const json& j, const std::string& source, const std::str
   d.reference_length_mm = top.optional_number("reference_length_mm");
   if (const json* inst = top.optional("instrument")) {
     ObjectReader r(*inst, source, "instrument");
+    if (const auto kind = r.optional_string("kind")) {
+      if (*kind == "probe") {
+        d.instrument = InstrumentKind::kProbe;
+      } else if (*kind != "ballbar") {
+        r.fail("kind", quote_value(*kind) + " is no instrument (expected ballbar or probe)");
+      }
+    }
     if (const auto v = r.optional_number("range_mm")) d.instrument_range_mm = *v;
     if (const auto v = r.optional_number("max_drift_um_per_min")) d.max_drift_um_per_min = *v;
     r.finish();
@@ -373,25 +432,22 @@ Design design_from_json(const json& j, const std::string& source, const std::str
   if (const json* u = top.optional("setup_std"))
     d.setup_std = read_setup_override(ObjectReader(*u, source, "setup_std")).over({});
 
-  const json& list = top.required("installations");
+  if (d.instrument == InstrumentKind::kProbe) {
+    read_spheres(top, d);
+  } else if (top.has("spheres")) {
+    top.fail("spheres",
+             "spheres are a touch probe's (\"instrument\": {\"kind\": \"probe\"}); a ball bar's "
+             "design gives installations");
+  }
+  const json& list =
+      d.instrument == InstrumentKind::kProbe ? json::array() : top.required("installations");
   if (!list.is_array()) top.fail("installations", "expected a list of installations");
   for (size_t i = 0; i < list.size(); ++i) {
     const std::string path = "installations[" + std::to_string(i) + "]";
     ObjectReader in(list[i], source, path);
     Installation inst;
     inst.id = in.string("id");
-    ObjectReader ball = in.object("ball_mm");
-    ball.allow({"L", "D", "H"});
-    inst.L_mm = ball.number("L");
-    inst.D_mm = ball.optional_number("D").value_or(0.0);
-    if (d.axis.table()) {
-      inst.H_mm = ball.number("H");
-    } else if (d.axis.has_H()) {
-      inst.H_mm = ball.optional_number("H").value_or(0.0);
-    } else if (ball.has("H")) {
-      ball.fail("H", "H is not used for the swinging head B (ball at (L sin b, D, L cos b))");
-    }
-    ball.finish();
+    read_ball(in, d.axis, inst.L_mm, inst.D_mm, inst.H_mm);
     inst.direction = read_direction(in.required("direction"), d.axis, source, path + ".direction");
     inst.sign = in.optional_integer("sign").value_or(1);
     inst.reading_sign = in.optional_integer("reading_sign").value_or(1);
@@ -490,6 +546,8 @@ json design_to_json(const Design& d) {
   }
   j["errors"] = errors;
   if (d.reference_length_mm) j["reference_length_mm"] = *d.reference_length_mm;
+  if (d.instrument != InstrumentKind::kBallbar)
+    j["instrument"]["kind"] = instrument_name(d.instrument);
   if (d.instrument_range_mm != kDefaultInstrumentRange_mm)
     j["instrument"]["range_mm"] = d.instrument_range_mm;
   if (d.max_drift_um_per_min != kDefaultMaxDrift_um_per_min)
@@ -501,8 +559,21 @@ json design_to_json(const Design& d) {
     j["setup_std_mm"] = {{"L", d.setup_std.L_mm}, {"D", d.setup_std.D_mm}};
     if (d.axis.has_H()) j["setup_std_mm"]["H"] = d.setup_std.H_mm;
   }
+  if (d.instrument == InstrumentKind::kProbe) {
+    json spheres = json::array();
+    for (const Sphere& sp : d.spheres) {
+      json ball = {{"L", sp.L_mm}};
+      if (sp.D_mm != 0.0) ball["D"] = sp.D_mm;
+      if (d.axis.table() || (d.axis.has_H() && sp.H_mm != 0.0)) ball["H"] = sp.H_mm;
+      json o = {{"id", sp.id}, {"ball_mm", ball}};
+      if (!sp.description.empty()) o["description"] = sp.description;
+      spheres.push_back(o);
+    }
+    j["spheres"] = spheres;
+  }
   json list = json::array();
   for (const Installation& in : d.installations) {
+    if (in.probe_channel()) continue;  // a probe's channels: its spheres'
     json i;
     i["id"] = in.id;
     json ball = {{"L", in.L_mm}};
@@ -524,7 +595,7 @@ json design_to_json(const Design& d) {
     if (!in.angles_deg.empty()) i["angles_deg"] = in.angles_deg;
     list.push_back(i);
   }
-  j["installations"] = list;
+  if (d.instrument == InstrumentKind::kBallbar) j["installations"] = list;
   if (d.predicted) {
     const Prediction& p = *d.predicted;
     json pj;

@@ -7,8 +7,10 @@
 
 #include "../number_text.hpp"
 #include "dbbkit/effects.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/setup.hpp"
 
 namespace dbbkit::io {
 
@@ -132,14 +134,12 @@ std::string setup_risk_text(const Design& design, const std::vector<SetupRisk>& 
   }
   if (declared) {
     v << ". The errors here are stated for the readings' noise; identify and evaluate carry the "
-         "declared set-up "
-         "tolerances in their total uncertainties. Installations that make these effects "
-         "detectable remove the "
-         "doubt (evaluate lists them).";
+         "declared set-up tolerances in their total uncertainties. "
+      << (design.instrument == InstrumentKind::kProbe ? "Spheres" : "Installations")
+      << " that make these effects detectable remove the doubt (evaluate lists them).";
   } else {
     v << ". Declare set-up tolerances (setup_std) to carry them in the uncertainties, or measure "
-         "installations that "
-         "make them detectable (evaluate lists them).";
+      << measured_items(design.instrument) << " that make them detectable (evaluate lists them).";
   }
   return v.str();
 }
@@ -565,8 +565,7 @@ std::string or_listed(const std::vector<std::string>& items) {
 const char* kind_noun(EffectKind k) { return effect_info(k).noun; }
 
 std::string installation_of(const Design& design, const EffectCandidate& e) {
-  return e.installation >= 0 ? design.installations[static_cast<std::size_t>(e.installation)].id
-                             : std::string();
+  return effect_installation_id(design, e);
 }
 
 // The candidate a label names, when it can be read back (a periodic effect's label cannot).
@@ -640,7 +639,7 @@ std::string effect_phrase(const AddedEffect& a) {
   if (e.kind == EffectKind::kPeriodic)
     p = "a " + std::to_string(e.harmonic) + "-per-turn error";
   else if (e.kind == EffectKind::kScale || e.kind == EffectKind::kSquareness ||
-           (e.kind == EffectKind::kCentring && several))
+           e.kind == EffectKind::kPlacement || (e.kind == EffectKind::kCentring && several))
     p += " (" + names + ")";
   p += " of " + (several ? "(" + values + ")" : values) + " " + a.block.unit;
   if (e.kind == EffectKind::kStep && std::isfinite(e.at_s))
@@ -654,15 +653,24 @@ std::string where_phrase(const Design& design, const AddedEffect& a) {
   const EffectCandidate& e = a.block.effect;
   if (effect_is_shared(e.kind)) return "";
   if (e.installation < 0) return "over the whole test";
-  std::vector<std::string> at{installation_of(design, e)};
+  const std::string here = installation_of(design, e);
+  std::vector<std::string> at{here};
+  std::vector<std::string> along;  // the same sphere's other coordinates
   for (const std::string& l : a.equivalent_to) {
     const std::optional<EffectCandidate> o = parsed(design, l);
-    if (o && o->installation >= 0) at.push_back(installation_of(design, *o));
+    if (!o || o->installation < 0) continue;
+    const std::string id = installation_of(design, *o);
+    if (id == here && o->kind == e.kind && o->component >= 0) {
+      along.push_back(effect_parameter_names(o->kind)[static_cast<std::size_t>(o->component)]);
+    } else if (std::find(at.begin(), at.end(), id) == at.end()) {
+      at.push_back(id);
+    }
   }
-  std::string p = "in installation " + at[0];
-  if (at.size() > 1) {
-    at.erase(at.begin());
-    p += " (or in " + or_listed(at) + " instead: the readings cannot tell which)";
+  std::string p = (effect_info(e.kind).per_sphere ? "in sphere " : "in installation ") + at[0];
+  if (at.size() > 1 || !along.empty()) {
+    std::vector<std::string> alternatives(at.begin() + 1, at.end());
+    if (!along.empty()) alternatives.insert(alternatives.begin(), "its " + or_listed(along));
+    p += " (or in " + or_listed(alternatives) + " instead: the readings cannot tell which)";
   }
   return p;
 }
@@ -674,9 +682,7 @@ std::string beyond_tolerance(const Design& design, const AddedEffect& a) {
   if (e.installation < 0 || e.installation >= static_cast<int>(design.installations.size()))
     return "";
   const SetupUncertainty u = design.setup_of(e.installation);
-  const double t = e.kind == EffectKind::kLengthOffset ? u.length_offset_um
-                   : e.kind == EffectKind::kCentring   ? u.centring_um
-                                                       : 0.0;
+  const double t = setup_std_um(u, e.kind);
   return t > 0 ? " (beyond its declared tolerance, " + n3(t) + " um)" : "";
 }
 
@@ -836,9 +842,14 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
   for (const AddedEffect& a : r.added) {
     const EffectCandidate& e = a.block.effect;
     std::string inst = e.installation >= 0 ? installation_of(design, e) : std::string();
+    std::vector<std::string> ids{inst};
     for (const std::string& l : a.equivalent_to) {
       const std::optional<EffectCandidate> o = parsed(design, l);
-      if (o && o->installation >= 0) inst += " or " + installation_of(design, *o);
+      if (!o || o->installation < 0) continue;
+      const std::string id = installation_of(design, *o);
+      if (std::find(ids.begin(), ids.end(), id) != ids.end()) continue;
+      ids.push_back(id);
+      inst += " or " + id;
     }
     switch (e.kind) {
       case EffectKind::kLengthOffset:
@@ -875,13 +886,26 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
       case EffectKind::kPeriodic:
         action("check the axis drive for a " + std::to_string(e.harmonic) + "-per-turn error");
         break;
+      case EffectKind::kTriggerOffset:
+        action("calibrate the probe (its trigger offsets, on the calibration sphere or ring)");
+        remeasure = true;
+        break;
+      case EffectKind::kPlacement:
+        action(design.axis.head()
+                   ? "check the probe's length and radius in the tool table (the point it meets "
+                     "the sphere at is off the stated one)"
+                   : "state where sphere " + inst +
+                         " really is (ball_mm; it is off the stated centre), or declare its "
+                         "placement tolerance (setup_std.placement_um)");
+        break;
     }
   }
   if (remeasure) action("then measure again");
   bool convention = false;
   for (const Attribution& at : r.attributions) convention = convention || at.convention;
   if (convention)
-    action("to tell the equivalent effects apart, add an installation that separates them");
+    action(std::string("to tell the equivalent effects apart, add ") +
+           measured_item(design.instrument) + " that separates them");
   if (r.significant_after && r.order && r.order->p < r.level)
     action("set errors.order to " + std::to_string(r.order->suggested) + " in the design");
   if (r.noise_larger_than_declared)

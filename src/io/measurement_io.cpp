@@ -9,6 +9,7 @@
 
 #include "csv_cells.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
@@ -24,6 +25,11 @@ using csv::trim;
 const std::vector<std::string> kKnownColumns = {
     "installation", "angle_deg", "reading_mm", "reading_um", "time_s", "sweep",
     "repeat",       "std_um",    "samples",    "u_a_um",     "u_a_dof"};
+// A touch probe's file (formats.md, "A second instrument"): each row three readings, one a
+// channel of the sphere (instrument.hpp).
+const std::vector<std::string> kProbeColumns = {"sphere", "angle_deg", "dx_um",
+                                                "dy_um",  "dz_um",     "repeat"};
+constexpr const char* kProbeValueColumns[3] = {"dx_um", "dy_um", "dz_um"};
 
 }  // namespace
 
@@ -35,6 +41,7 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
   std::map<std::string, int> col;
   std::vector<std::string> header;
   std::vector<Reading> readings;
+  bool probe = false;  // a probe's header (probe_measurement_header)
   while (std::getline(in, raw)) {
     ++line_no;
     if (!raw.empty() && raw.back() == '\r') raw.pop_back();
@@ -57,11 +64,22 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
     }
     std::vector<std::string> cells = split(raw);
     if (header.empty()) {
+      probe = probe_measurement_header(cells);
       header = cells;
       for (size_t i = 0; i < header.size(); ++i) {
         const std::string& h = header[i];
         bool known = false;
-        for (const auto& k : kKnownColumns) known = known || k == h;
+        for (const auto& k : probe ? kProbeColumns : kKnownColumns) known = known || k == h;
+        if (!known && probe)
+          throw InputError(source, where,
+                           "unknown column " + quote_value(h) +
+                               " in a probe's file (expected sphere, angle_deg, dx_um, dy_um, "
+                               "dz_um and optionally repeat)");
+        if (!known && (h == "dx_um" || h == "dy_um" || h == "dz_um"))
+          throw InputError(source, where,
+                           "column " + quote_value(h) +
+                               " is a touch probe's: its file has the column sphere too "
+                               "(sphere,angle_deg,dx_um,dy_um,dz_um[,repeat])");
         if (!known) {
           // Another delimiter (a spreadsheet's export in a locale whose lists use ';'): one
           // column named by the whole header.
@@ -82,6 +100,13 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
         }
         if (!col.emplace(h, static_cast<int>(i)).second)
           throw InputError(source, where, "column " + quote_value(h) + " appears twice");
+      }
+      if (probe) {
+        for (const char* req : {"sphere", "angle_deg", "dx_um", "dy_um", "dz_um"})
+          if (!col.count(req))
+            throw InputError(source, where,
+                             std::string("required column '") + req + "' is missing");
+        continue;
       }
       for (const char* req : {"installation", "angle_deg"}) {
         if (!col.count(req))
@@ -104,6 +129,25 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
     auto present = [&](const std::string& name) {
       return col.count(name) && !cells[col.at(name)].empty();
     };
+    if (probe) {
+      const std::string& sphere = cells[col.at("sphere")];
+      if (sphere.empty()) cell("sphere").fail("empty sphere id");
+      Reading r;
+      r.line = line_no;
+      r.angle_deg = cell("angle_deg").number();
+      if (present("repeat")) r.repeat = cell("repeat").integer();
+      if (readings.size() + 3 > limits::kMaxReadings)
+        throw InputError(source, where,
+                         "more than " + std::to_string(limits::kMaxReadings) +
+                             " readings (three a row), the most one file may hold "
+                             "(docs/formats.md, \"Limits\")");
+      for (int k = 0; k < 3; ++k) {
+        r.installation = probe_channel_id(sphere, k);
+        r.reading_um = cell(kProbeValueColumns[k]).number();
+        readings.push_back(r);
+      }
+      continue;
+    }
     Reading r;
     r.line = line_no;
     r.installation = cells[col.at("installation")];
@@ -169,10 +213,50 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
   return readings;
 }
 
+namespace {
+// Whether a file's first line that holds anything is a probe's header.
+bool probe_file_text(const std::string& text) {
+  std::istringstream in(csv::lf_lines(text));
+  std::string raw;
+  for (bool first = true; std::getline(in, raw); first = false) {
+    if (first && raw.size() >= 3 && raw.compare(0, 3, "\xEF\xBB\xBF") == 0) raw.erase(0, 3);
+    if (!trim(raw).empty()) return probe_measurement_header(split(raw));
+  }
+  return false;
+}
+}  // namespace
+
 std::vector<Reading> read_measurement_file(const std::string& path, const Design& design) {
-  std::vector<Reading> readings = parse_measurements(read_text_file(path), path);
+  const std::string text = read_text_file(path);
+  std::vector<Reading> readings = parse_measurements(text, path);
+  // The file's instrument is the design's.
+  const bool probe_file = probe_file_text(text);
+  if (design.instrument == InstrumentKind::kProbe && !probe_file)
+    throw InputError(path, "line 1",
+                     "the design is a touch probe's: its file has the columns sphere, angle_deg, "
+                     "dx_um, dy_um, dz_um[, repeat] (docs/formats.md)");
+  if (design.instrument != InstrumentKind::kProbe && probe_file)
+    throw InputError(path, "line 1",
+                     "a touch probe's readings (a column sphere) for a ball bar's design");
+  if (probe_file) {
+    for (const Reading& r : readings)
+      if (design.find_installation(r.installation) < 0)
+        throw InputError(path, "line " + std::to_string(r.line),
+                         "sphere " +
+                             quote_value(r.installation.substr(0, r.installation.size() - 2)) +
+                             " is not in the design");
+  }
   validate_readings(design, readings, path);
   return readings;
+}
+
+void write_measurements_csv(std::ostream& out, const std::vector<Reading>& readings,
+                            const Design& design) {
+  if (design.instrument == InstrumentKind::kProbe) {
+    write_probe_measurements_csv(out, design, readings);
+  } else {
+    write_measurements_csv(out, readings);
+  }
 }
 
 void write_measurements_csv(std::ostream& out, const std::vector<Reading>& readings) {

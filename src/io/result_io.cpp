@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/text.hpp"
@@ -137,8 +138,13 @@ json budget_to_json(const Design& design, const Budget& budget) {
   b["coverage_probability"] = budget.coverage_probability;
   b["noise_evaluation"] = noise_evaluation_text(budget);
   if (budget.type_a_scale) b["type_a_scale"] = *budget.type_a_scale;
-  b["setup_std_mm"] = {
-      {"L", design.setup_std.L_mm}, {"D", design.setup_std.D_mm}, {"H", design.setup_std.H_mm}};
+  if (design.instrument == InstrumentKind::kProbe) {
+    b["setup_std_um"] = {{"trigger_offset", design.setup_std.trigger_offset_um},
+                         {"placement", design.setup_std.placement_um}};
+  } else {
+    b["setup_std_mm"] = {
+        {"L", design.setup_std.L_mm}, {"D", design.setup_std.D_mm}, {"H", design.setup_std.H_mm}};
+  }
   json values = json::array();
   for (const ValueBudget& v : budget.values) {
     json comps = json::array();
@@ -482,10 +488,17 @@ std::vector<BriefItem> evaluate_brief(const Design& design, const Evaluation& ev
   }
   std::vector<std::string> next;
   if (ev.prior.status == EstimateStatus::kRankDeficient)
-    next.push_back("add installations that see the undetermined errors (dbbkit optimize)");
+    next.push_back(design.instrument == InstrumentKind::kProbe
+                       ? "add a sphere that sees the undetermined errors (evaluate --sweep maps "
+                         "where)"
+                       : "add installations that see the undetermined errors (dbbkit optimize)");
   if (!design.setup_nuisance_declared())
-    next.push_back("declare length offset and centring tolerances (setup_std) in the design");
-  if (next.empty()) next.push_back("measure it (dbbkit program, setup-sheet), then identify");
+    next.push_back(std::string("declare ") + setup_effect_nouns(design.instrument) +
+                   " tolerances (setup_std) in the design");
+  if (next.empty())
+    next.push_back(design.instrument == InstrumentKind::kProbe
+                       ? "probe the spheres at the design's angles, then identify"
+                       : "measure it (dbbkit program, setup-sheet), then identify");
   add_next_items(out, next);
   return out;
 }
@@ -535,7 +548,9 @@ std::vector<BriefItem> identify_brief(const Design& design, const IdentifyResult
   if (has_warning(result.warnings, "setup_undeclared"))
     next.push_back("declare set-up tolerances (setup_std) in the design");
   if (est.status == EstimateStatus::kRankDeficient)
-    next.push_back("add installations that see the undetermined errors");
+    next.push_back(result.instrument == InstrumentKind::kProbe
+                       ? "add a sphere that sees the undetermined errors"
+                       : "add installations that see the undetermined errors");
   if (next.empty())
     next.push_back("decide on the errors (--tolerances) or enter them (compensation)");
   add_next_items(out, next);
@@ -831,7 +846,7 @@ std::string evaluate_summary(const Design& design, const Evaluation& ev) {
     s << "\na-priori standard uncertainty (k = 1), reading-noise part; '--' = not determined by "
          "the design\n";
     s << errors_table(ev.errors, false);
-    s << "\nset-up part (declared length offset and centring tolerances)\n";
+    s << "\nset-up part (declared " << setup_effect_nouns(ev.instrument) << " tolerances)\n";
     s << errors_table(ev.setup_errors, false);
     s << "\ntotal\n";
     s << errors_table(ev.total_errors, false);
@@ -887,6 +902,13 @@ std::string unidentifiable_text(const std::vector<Unidentifiable>& list) {
 
 json setup_tolerances_to_json(const Design& design) {
   json list = json::array();
+  if (design.instrument == InstrumentKind::kProbe) {  // a probe's: the design's, per sphere
+    for (const Sphere& s : design.spheres)
+      list.push_back({{"sphere", s.id},
+                      {"trigger_offset_um", design.setup_std.trigger_offset_um},
+                      {"placement_um", design.setup_std.placement_um}});
+    return list;
+  }
   for (int i = 0; i < static_cast<int>(design.installations.size()); ++i) {
     const SetupUncertainty u = design.setup_of(i);
     json e = {{"installation", design.installations[i].id},
@@ -1151,6 +1173,14 @@ std::string monte_carlo_message(const MonteCarloResult& mc) {
 }
 
 std::string identify_setup_note(const IdentifyResult& r) {
+  const std::string nouns = setup_effect_nouns(r.instrument);
+  if (r.instrument == InstrumentKind::kProbe)
+    return r.setup_included
+               ? "the errors' uncertainties include the declared " + nouns +
+                     " tolerances: the set-up effects are estimated with their prior (what the "
+                     "readings see is estimated, the rest is propagated at its declared size)"
+               : "set-up uncertainty of the " + nouns +
+                     " is not included: the design declares no such tolerance (setup_std)";
   return r.setup_included
              ? "the errors' uncertainties include the declared length offset and centring "
                "tolerances: the set-up effects are estimated with their prior (what the readings "
@@ -1160,6 +1190,14 @@ std::string identify_setup_note(const IdentifyResult& r) {
 }
 
 std::string evaluation_setup_note(const Evaluation& ev) {
+  if (ev.instrument == InstrumentKind::kProbe)
+    return ev.setup_included
+               ? std::string("the uncertainties include the declared ") +
+                     setup_effect_nouns(ev.instrument) + " tolerances (total = noise and set-up)"
+               : std::string(
+                     "set-up uncertainty is not included: the design "
+                     "declares no ") +
+                     setup_effect_nouns(ev.instrument) + " tolerance (setup_std)";
   return ev.setup_included
              ? "the uncertainties include the declared length offset and centring tolerances "
                "(total = noise and set-up); the ball placement (L, D, H) is propagated at the "
@@ -1172,7 +1210,9 @@ std::string iso_uncertainty_note(const IdentifyResult& r) {
   return std::string(
              "standard uncertainty (k = 1) from the estimate's covariance: reading noise (") +
          noise_evaluation_text(r.budget) + ")" +
-         (r.setup_included ? " and the declared length offset and centring tolerances" : "") +
+         (r.setup_included
+              ? std::string(" and the declared ") + setup_effect_nouns(r.instrument) + " tolerances"
+              : std::string()) +
          (r.placement_declared ? "; the ball placement (L, D, H) is not propagated into them" : "");
 }
 

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "dbbkit/effects.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/user_text.hpp"
@@ -44,7 +45,9 @@ SweepVariable parse_sweep(const Design& design, const std::string& spec) {
     std::istringstream ids(rest.substr(1));
     std::string id;
     while (std::getline(ids, id, ',')) {
-      const int i = design.find_installation(id);
+      int i = design.find_installation(id);
+      if (i < 0 && design.instrument == InstrumentKind::kProbe)  // a sphere: its channels (below)
+        i = effect_installation(design, EffectKind::kPlacement, id);
       if (i < 0)
         throw InputError("--sweep", quote_value(spec),
                          "installation " + quote_value(id) + " is not in the design");
@@ -59,6 +62,19 @@ SweepVariable parse_sweep(const Design& design, const std::string& spec) {
   if (v.installations.empty())
     throw InputError("--sweep", quote_value(spec),
                      "no installation of the design matches " + quote_value(rest));
+  // A probe's sphere moves with all three of its channels.
+  if (design.instrument == InstrumentKind::kProbe) {
+    std::vector<int> whole;
+    for (std::size_t i = 0; i < design.installations.size(); ++i) {
+      for (int j : v.installations)
+        if (design.installations[i].sphere ==
+            design.installations[static_cast<std::size_t>(j)].sphere) {
+          whole.push_back(static_cast<int>(i));
+          break;
+        }
+    }
+    v.installations = whole;
+  }
 
   std::vector<std::string> parts;
   std::istringstream range(spec.substr(eq + 1));

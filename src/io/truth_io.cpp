@@ -115,7 +115,8 @@ Truth truth_from_json(const json& j, const std::string& source) {
           break;
         }
         case EffectKind::kScale:
-        case EffectKind::kSquareness: {
+        case EffectKind::kSquareness:
+        case EffectKind::kPlacement: {
           ObjectReader o(v, source, vpath);
           for (std::size_t k = 0; k < names.size(); ++k)
             te.value(static_cast<Eigen::Index>(k)) = o.optional_number(names[k]).value_or(0.0);

@@ -362,6 +362,8 @@ struct PyMeasurements {
   // The design they were read against: its name, where it came from, and its content (a later
   // check against another design says whose they are).
   std::string design_name, design_source, design_json;
+  // The design's instrument: the file form to_csv writes (a probe's: a row per sphere).
+  std::shared_ptr<const Design> design;
 };
 
 // The measurements of `design` (remembered for the check against another one).
@@ -371,6 +373,7 @@ PyMeasurements measurements_of(const PyDesign& design, std::string source) {
   m.design_name = design.value.name;
   m.design_source = design.source;
   m.design_json = io::dump_json(io::design_to_json(design.value));
+  m.design = std::make_shared<const Design>(design.value);
   return m;
 }
 
@@ -1506,7 +1509,11 @@ PYBIND11_MODULE(dbbkit, m) {
           "to_csv",
           [](const PyMeasurements& mm) {
             std::ostringstream out;
-            io::write_measurements_csv(out, mm.readings);
+            if (mm.design) {
+              io::write_measurements_csv(out, mm.readings, *mm.design);
+            } else {
+              io::write_measurements_csv(out, mm.readings);
+            }
             return out.str();
           },
           "The readings as a measurement CSV")

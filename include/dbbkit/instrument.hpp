@@ -1,0 +1,75 @@
+#pragma once
+// The instrument: what a reading is (docs/architecture.md, "The instrument seam").
+//
+// Every model, estimate and check of dbbkit reads an installation's readings through one row,
+// J_reading_error (kinematics.hpp): reading = s u . dP, dP = d + 1e-3 e x P the displacement of
+// the body's point P. Two instruments give such readings:
+//   ball bar: u the bar's direction, turning with the body (u = R(g) u0); the reading is the
+//             bar's length change, the other ball following on its nominal path;
+//   probe:    a touch probe on a calibration sphere fixed to the turning body; each sphere is
+//             read in three machine coordinates, each a channel (an Installation) whose u is the
+//             machine's x, y or z, fixed in the machine frame. The probed centre minus the
+//             nominal one: s = +1 on a table (the sphere moves with the table), s = -1 on a
+//             head (the probe in the spindle moves with the head, the sphere on the table does
+//             not, so the probed centre moves the other way).
+// The rows of both are harmonic in (1, cos g, sin g); the closed forms of observability.hpp
+// turn one body-frame information by R(g) and hold for directions that turn
+// (Design::directions_turn); a probe's design takes the general path.
+//
+// What differs lives here: a probe's channels from its spheres, its exact reading for the
+// simulator and the file form of its readings (io/measurement_io).
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "dbbkit/design.hpp"
+#include "dbbkit/kinematics.hpp"
+
+namespace dbbkit {
+
+// "ballbar", "probe" (design key instrument.kind).
+const char* instrument_name(InstrumentKind kind);
+
+// What only a ball bar's design has (a program that drives the bar's arcs, a set-up sheet of
+// bars and cups, readings from a bar's traces, a kit's reference): throws InputError(source,
+// "instrument.kind", ...) for a probe's design, naming `what`.
+void require_ballbar(const Design& design, const std::string& source, const std::string& what);
+
+inline constexpr std::array<const char*, 3> kProbeCoordinates = {"x", "y", "z"};
+
+// The instrument's set-up effects as a text names them ("length offset and centring", "trigger
+// offset and sphere placement") and the design keys of their tolerances ("length_offset_um,
+// centring_um", "trigger_offset_um, placement_um").
+const char* setup_effect_nouns(InstrumentKind kind);
+// What a design adds to see more: "an installation" of a ball bar, "a sphere" of a probe (and
+// their plurals).
+const char* measured_item(InstrumentKind kind);
+const char* measured_items(InstrumentKind kind);
+const char* setup_tolerance_keys(InstrumentKind kind);
+
+// The id of a probe channel: the sphere's id, ':' and its coordinate ("s1:x").
+std::string probe_channel_id(const std::string& sphere_id, int coordinate);
+
+// The three channels of every sphere, in the spheres' order (x, y, z each): the sphere's body
+// coordinates, a direction fixed in the machine frame, s = +1 on a table and -1 on a head.
+std::vector<Installation> probe_channels(const AxisFrame& axis, const std::vector<Sphere>& spheres);
+
+// The index of the sphere with this id, or -1.
+int find_sphere(const Design& design, const std::string& id);
+
+// The exact reading of a probe channel, no linearisation: the sphere as placed,
+// B0 = body_point(L + dL, D + dD, H + dH), really at E(e6) R(g) B0 with E = Trans(d) Rx(ex)
+// Ry(ey) Rz(ez); the nominal centre R(g) body_point(L, D, H); reading = s (real - nominal) .
+// e_k [um] plus the trigger offset (SetupError::length_offset_um, the constant of the channel)
+// and the centring's component along e_k (a constant too).
+double exact_probe_reading_um(const AxisFrame& axis, const Installation& channel, double angle_deg,
+                              const Vector6d& e6, const SetupError& setup);
+
+// The exact reading of any installation: a ball bar's (exact_setup_reading_um, bar_mm its
+// bar) or a probe channel's (bar_mm not read).
+double exact_instrument_reading_um(const AxisFrame& axis, const Installation& inst,
+                                   double angle_deg, const Vector6d& e6, double bar_mm,
+                                   const SetupError& setup);
+
+}  // namespace dbbkit

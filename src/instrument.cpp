@@ -1,0 +1,94 @@
+#include "dbbkit/instrument.hpp"
+
+#include <Eigen/Geometry>
+
+#include "dbbkit/error.hpp"
+
+namespace dbbkit {
+
+const char* instrument_name(InstrumentKind kind) {
+  return kind == InstrumentKind::kProbe ? "probe" : "ballbar";
+}
+
+const char* setup_effect_nouns(InstrumentKind kind) {
+  return kind == InstrumentKind::kProbe ? "trigger offset and sphere placement"
+                                        : "length offset and centring";
+}
+
+const char* setup_tolerance_keys(InstrumentKind kind) {
+  return kind == InstrumentKind::kProbe ? "trigger_offset_um, placement_um"
+                                        : "length_offset_um, centring_um";
+}
+
+const char* measured_item(InstrumentKind kind) {
+  return kind == InstrumentKind::kProbe ? "a sphere" : "an installation";
+}
+
+const char* measured_items(InstrumentKind kind) {
+  return kind == InstrumentKind::kProbe ? "spheres" : "installations";
+}
+
+void require_ballbar(const Design& design, const std::string& source, const std::string& what) {
+  if (design.instrument == InstrumentKind::kBallbar) return;
+  throw InputError(source, "instrument.kind",
+                   what +
+                       " is a ball bar's; this design's instrument is a touch probe (its "
+                       "spheres are probed by the controller's own cycle, e.g. "
+                       "KinematicsOpt's or CYCLE996's, at the design's angles)");
+}
+
+std::string probe_channel_id(const std::string& sphere_id, int coordinate) {
+  return sphere_id + ":" + kProbeCoordinates[static_cast<std::size_t>(coordinate)];
+}
+
+std::vector<Installation> probe_channels(const AxisFrame& axis,
+                                         const std::vector<Sphere>& spheres) {
+  std::vector<Installation> out;
+  out.reserve(3 * spheres.size());
+  for (std::size_t s = 0; s < spheres.size(); ++s) {
+    for (int k = 0; k < 3; ++k) {
+      Installation c;
+      c.id = probe_channel_id(spheres[s].id, k);
+      c.L_mm = spheres[s].L_mm;
+      c.D_mm = spheres[s].D_mm;
+      c.H_mm = spheres[s].H_mm;
+      c.direction = Direction::vector(Eigen::Vector3d::Unit(k));
+      c.sign = axis.head() ? -1 : +1;
+      c.sphere = static_cast<int>(s);
+      c.coordinate = k;
+      out.push_back(c);
+    }
+  }
+  return out;
+}
+
+int find_sphere(const Design& design, const std::string& id) {
+  for (std::size_t s = 0; s < design.spheres.size(); ++s)
+    if (design.spheres[s].id == id) return static_cast<int>(s);
+  return -1;
+}
+
+double exact_probe_reading_um(const AxisFrame& axis, const Installation& c, double angle_deg,
+                              const Vector6d& e6, const SetupError& setup) {
+  const Eigen::Matrix3d R = axis_rotation(axis, angle_deg);
+  const Eigen::Vector3d nominal = R * axis.body_point(c.L_mm, c.D_mm, c.H_mm);
+  const Eigen::Vector3d placed =
+      R * axis.body_point(c.L_mm + setup.ball_mm(0), c.D_mm + setup.ball_mm(1),
+                          axis.has_H() ? c.H_mm + setup.ball_mm(2) : c.H_mm);
+  const Eigen::Matrix3d E = (Eigen::AngleAxisd(1e-6 * e6(3), Eigen::Vector3d::UnitX()) *
+                             Eigen::AngleAxisd(1e-6 * e6(4), Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(1e-6 * e6(5), Eigen::Vector3d::UnitZ()))
+                                .toRotationMatrix();
+  const Eigen::Vector3d real = E * placed + 1e-3 * e6.head<3>();
+  const int k = c.coordinate;
+  return c.sign * 1e3 * (real(k) - nominal(k)) + setup.length_offset_um + setup.centring_um(k);
+}
+
+double exact_instrument_reading_um(const AxisFrame& axis, const Installation& inst,
+                                   double angle_deg, const Vector6d& e6, double bar_mm,
+                                   const SetupError& setup) {
+  if (inst.probe_channel()) return exact_probe_reading_um(axis, inst, angle_deg, e6, setup);
+  return exact_setup_reading_um(axis, inst, angle_deg, e6, bar_mm, setup);
+}
+
+}  // namespace dbbkit
