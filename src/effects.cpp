@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
@@ -150,10 +151,9 @@ bool effect_applies_to(const Design& design, const EffectCandidate& e, int inst)
 
 int effect_installation(const Design& design, EffectKind kind, const std::string& id) {
   if (!effect_info(kind).per_sphere) return design.find_installation(id);
-  for (std::size_t i = 0; i < design.installations.size(); ++i) {
-    const int s = design.installations[i].sphere;
-    if (s >= 0 && design.spheres[static_cast<std::size_t>(s)].id == id) return static_cast<int>(i);
-  }
+  const int s = find_sphere(design, id);
+  for (std::size_t i = 0; s >= 0 && i < design.installations.size(); ++i)
+    if (design.installations[i].sphere == s) return static_cast<int>(i);
   return -1;
 }
 

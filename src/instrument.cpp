@@ -75,11 +75,7 @@ double exact_probe_reading_um(const AxisFrame& axis, const Installation& c, doub
   const Eigen::Vector3d placed =
       R * axis.body_point(c.L_mm + setup.ball_mm(0), c.D_mm + setup.ball_mm(1),
                           axis.has_H() ? c.H_mm + setup.ball_mm(2) : c.H_mm);
-  const Eigen::Matrix3d E = (Eigen::AngleAxisd(1e-6 * e6(3), Eigen::Vector3d::UnitX()) *
-                             Eigen::AngleAxisd(1e-6 * e6(4), Eigen::Vector3d::UnitY()) *
-                             Eigen::AngleAxisd(1e-6 * e6(5), Eigen::Vector3d::UnitZ()))
-                                .toRotationMatrix();
-  const Eigen::Vector3d real = E * placed + 1e-3 * e6.head<3>();
+  const Eigen::Vector3d real = error_rotation(e6) * placed + 1e-3 * e6.head<3>();
   const int k = c.coordinate;
   return c.sign * 1e3 * (real(k) - nominal(k)) + setup.length_offset_um + setup.centring_um(k);
 }

@@ -60,6 +60,13 @@ Eigen::Vector3d direction_machine(const AxisFrame& axis, const Installation& ins
   return axis_rotation(axis, angle_deg) * inst.direction.body;
 }
 
+Eigen::Matrix3d error_rotation(const Vector6d& e6) {
+  return (Eigen::AngleAxisd(1e-6 * e6(3), Eigen::Vector3d::UnitX()) *
+          Eigen::AngleAxisd(1e-6 * e6(4), Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(1e-6 * e6(5), Eigen::Vector3d::UnitZ()))
+      .toRotationMatrix();
+}
+
 Eigen::Vector3d displacement_um(const Vector6d& e6, const Eigen::Vector3d& P_mm) {
   return 1e-3 * e6.tail<3>().cross(P_mm) + e6.head<3>();
 }
@@ -81,10 +88,7 @@ double exact_reading_um(const AxisFrame& axis, const Installation& inst, double 
   const Eigen::Vector3d P = ball_position_mm(axis, inst, angle_deg);
   const Eigen::Vector3d u = direction_machine(axis, inst, angle_deg);
   const Eigen::Vector3d F = P - inst.sign * bar_mm * u;
-  const Eigen::Matrix3d R = (Eigen::AngleAxisd(1e-6 * e6(3), Eigen::Vector3d::UnitX()) *
-                             Eigen::AngleAxisd(1e-6 * e6(4), Eigen::Vector3d::UnitY()) *
-                             Eigen::AngleAxisd(1e-6 * e6(5), Eigen::Vector3d::UnitZ()))
-                                .toRotationMatrix();
+  const Eigen::Matrix3d R = error_rotation(e6);
   const Eigen::Vector3d P_actual = R * P + 1e-3 * e6.head<3>();
   return 1e3 * ((P_actual - F).norm() - (P - F).norm());
 }
@@ -98,10 +102,7 @@ double exact_setup_reading_um(const AxisFrame& axis, const Installation& inst, d
   const Eigen::Vector3d P_nominal = ball_position_mm(axis, inst, angle_deg);
   const Eigen::Vector3d u = direction_machine(axis, inst, angle_deg);
   const Eigen::Vector3d F = P_nominal - inst.sign * bar_mm * u + 1e-3 * setup.centring_um;
-  const Eigen::Matrix3d R = (Eigen::AngleAxisd(1e-6 * e6(3), Eigen::Vector3d::UnitX()) *
-                             Eigen::AngleAxisd(1e-6 * e6(4), Eigen::Vector3d::UnitY()) *
-                             Eigen::AngleAxisd(1e-6 * e6(5), Eigen::Vector3d::UnitZ()))
-                                .toRotationMatrix();
+  const Eigen::Matrix3d R = error_rotation(e6);
   const Eigen::Vector3d P = R * ball_position_mm(axis, placed, angle_deg) + 1e-3 * e6.head<3>();
   return 1e3 * ((P - F).norm() - bar_mm) + setup.length_offset_um;
 }

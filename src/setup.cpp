@@ -70,7 +70,7 @@ std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<R
   std::vector<SetupEffect> out;
   const ReadingLayout layout(design, rows);
   // The instrument's set-up effects (EffectInfo::setup): a ball bar's length offset and
-  // centring, a probe's trigger offset and sphere placement (no tolerance declared for these).
+  // centring, a probe's trigger offset and sphere placement.
   std::vector<EffectKind> kinds;
   for (EffectKind k : effect_kinds())
     if (effect_info(k).setup && effect_fits_instrument(k, design.instrument)) kinds.push_back(k);

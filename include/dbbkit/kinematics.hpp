@@ -40,6 +40,10 @@ Eigen::Vector3d ball_position_mm(const AxisFrame& axis, const Installation& inst
 Eigen::Vector3d direction_machine(const AxisFrame& axis, const Installation& inst,
                                   double angle_deg);
 
+// The rotation of the exact transform of the error motions, Rx(ex) Ry(ey) Rz(ez) (e6 in urad):
+// the one the exact readings (below, instrument.hpp) turn the body by.
+Eigen::Matrix3d error_rotation(const Vector6d& e6);
+
 // First-order displacement of a point of the moving body [um].
 Eigen::Vector3d displacement_um(const Vector6d& e6, const Eigen::Vector3d& P_mm);
 

@@ -33,7 +33,10 @@ constexpr const char* kProbeValueColumns[3] = {"dx_um", "dy_um", "dz_um"};
 
 }  // namespace
 
-std::vector<Reading> parse_measurements(const std::string& text, const std::string& source) {
+namespace {
+
+// parse_measurements, saying whether the header was a probe's.
+std::vector<Reading> parse(const std::string& text, const std::string& source, bool& probe) {
   // LF, CR LF or a CR alone (an old Mac's files) ends a line.
   std::istringstream in(csv::lf_lines(text));
   std::string raw;
@@ -41,7 +44,7 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
   std::map<std::string, int> col;
   std::vector<std::string> header;
   std::vector<Reading> readings;
-  bool probe = false;  // a probe's header (probe_measurement_header)
+  probe = false;  // a probe's header (probe_measurement_header)
   while (std::getline(in, raw)) {
     ++line_no;
     if (!raw.empty() && raw.back() == '\r') raw.pop_back();
@@ -213,24 +216,17 @@ std::vector<Reading> parse_measurements(const std::string& text, const std::stri
   return readings;
 }
 
-namespace {
-// Whether a file's first line that holds anything is a probe's header.
-bool probe_file_text(const std::string& text) {
-  std::istringstream in(csv::lf_lines(text));
-  std::string raw;
-  for (bool first = true; std::getline(in, raw); first = false) {
-    if (first && raw.size() >= 3 && raw.compare(0, 3, "\xEF\xBB\xBF") == 0) raw.erase(0, 3);
-    if (!trim(raw).empty()) return probe_measurement_header(split(raw));
-  }
-  return false;
-}
 }  // namespace
 
+std::vector<Reading> parse_measurements(const std::string& text, const std::string& source) {
+  bool probe = false;
+  return parse(text, source, probe);
+}
+
 std::vector<Reading> read_measurement_file(const std::string& path, const Design& design) {
-  const std::string text = read_text_file(path);
-  std::vector<Reading> readings = parse_measurements(text, path);
+  bool probe_file = false;
+  std::vector<Reading> readings = parse(read_text_file(path), path, probe_file);
   // The file's instrument is the design's.
-  const bool probe_file = probe_file_text(text);
   if (design.instrument == InstrumentKind::kProbe && !probe_file)
     throw InputError(path, "line 1",
                      "the design is a touch probe's: its file has the columns sphere, angle_deg, "
@@ -239,8 +235,9 @@ std::vector<Reading> read_measurement_file(const std::string& path, const Design
     throw InputError(path, "line 1",
                      "a touch probe's readings (a column sphere) for a ball bar's design");
   if (probe_file) {
+    const auto index = design.installation_index();
     for (const Reading& r : readings)
-      if (design.find_installation(r.installation) < 0)
+      if (!index.count(r.installation))
         throw InputError(path, "line " + std::to_string(r.line),
                          "sphere " +
                              quote_value(r.installation.substr(0, r.installation.size() - 2)) +
