@@ -566,6 +566,13 @@ TEST(Diagnose, ReportNamesTheReadingsGivenAfterExcludingGrossOnes) {
     ++checked;
   }
   EXPECT_GT(checked, 0);
+  // The HTML report's Details block keeps its lines (each line feed the block's own, no
+  // replacement character in their place).
+  const std::string html =
+      io::diagnose_report(io::ReportFormat::kHtml, {"test", {}}, d, given, r, a_priori_expansion());
+  const std::size_t pre = html.find("<pre>summary:\n");
+  EXPECT_NE(pre, std::string::npos);
+  EXPECT_EQ(html.find("\xEF\xBF\xBD"), std::string::npos);
 }
 
 // On the paper's C design one reading per angle is redundant: a gross reading in 2r at 100 deg

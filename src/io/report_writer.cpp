@@ -42,7 +42,11 @@ void HtmlWriter::bullets(const std::vector<std::string>& items) {
   body_ += "</ul>\n";
 }
 void HtmlWriter::preformatted(const std::string& text) {
-  body_ += "<pre>" + html_escape(text) + "</pre>\n";
+  // Line by line: the line feeds are the block's own; every other control character is the
+  // escape's to replace.
+  std::string body;
+  for (const std::string& line : split_lines(text)) body += html_escape(line) + "\n";
+  body_ += "<pre>" + body + "</pre>\n";
 }
 void HtmlWriter::table(const std::vector<std::string>& header,
                        const std::vector<std::vector<std::string>>& rows) {
