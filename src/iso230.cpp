@@ -20,6 +20,10 @@ namespace {
 // The rank of the covariance of an error motion's values: eigenvalues lambda_i >
 // kCovarianceRank max lambda count; the rest is rounding of a zero.
 constexpr double kCovarianceRank = 1e-12;
+// A location error's or constant's function Q'c whose norm is below kInexpressible times its
+// block's is identically zero in the error model (rounding of a zero): the model cannot express
+// it. The functions of a model that does are of the order of the angles' I - R, far above.
+constexpr double kInexpressible = 1e-9;
 
 }  // namespace
 
@@ -314,22 +318,29 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
   }
   // The quantities, in their order of report.
   const std::string um = "um", urad = "urad";
+  // A quantity the error model cannot express is no measurement: a model constant over the angle
+  // (a series of order 0) holds no location error, whose functions are then identically zero
+  // (the fit gives 0 +- 0 by construction). Not determined, as a missing combination is.
+  auto expressible = [&](int b, int j) {
+    return Q[b].col(j).norm() > kInexpressible * std::max(Q[b].norm(), 1e-300);
+  };
   auto quantity = [&](int b, int j) {
     Determined d;
-    if (!fitted[b] || !est.determined(Q[b].col(j))) return d;
+    if (!fitted[b] || !expressible(b, j) || !est.determined(Q[b].col(j))) return d;
     d.determined = true;
     d.value = Qtheta[b](j);
     d.std = std::sqrt(std::max(0.0, QSQ[b](j, j)));
     return scaled(d);
   };
+  // Each location error's block and column of Q, in the order of report.
+  const std::array<std::pair<int, int>, 5> location_at = {{{0, 3}, {0, 4}, {1, 3}, {1, 4}, {1, 2}}};
   // The location errors' joint covariance: within a block Q' (Sigma + K S K') Q, across the
   // blocks the same form with the other block's columns.
   {
-    const std::array<std::pair<int, int>, 5> at = {{{0, 3}, {0, 4}, {1, 3}, {1, 4}, {1, 2}}};
     for (int i = 0; i < 5; ++i) {
       for (int j = 0; j < 5; ++j) {
-        const auto [bi, ci] = at[i];
-        const auto [bj, cj] = at[j];
+        const auto [bi, ci] = location_at[static_cast<std::size_t>(i)];
+        const auto [bj, cj] = location_at[static_cast<std::size_t>(j)];
         if (!fitted[bi] || !fitted[bj] || !est.determined(Q[bi].col(ci)) ||
             !est.determined(Q[bj].col(cj)))
           continue;
@@ -341,6 +352,11 @@ IsoResult iso230_quantities(const Design& design, const Parameterisation& param,
     // Symmetric to the bit (the two orders of a cross term round differently).
     const Eigen::Matrix<double, 5, 5> c = out.location_covariance;
     out.location_covariance = 0.5 * (c + c.transpose());
+  }
+  for (int i = 0; i < 5; ++i) {
+    const auto [b, j] = location_at[static_cast<std::size_t>(i)];
+    if (fitted[b] && !expressible(b, j))
+      out.not_in_model.push_back(location_names[static_cast<std::size_t>(i)]);
   }
   out.location = {{location_names[0], um, quantity(0, 3)},
                   {location_names[1], um, quantity(0, 4)},

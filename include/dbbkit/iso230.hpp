@@ -133,6 +133,9 @@ struct IsoResult {
   std::vector<IsoComponentsAtAngle> components;
   IsoMotionValues motion_values;  // empty when not asked for
   std::vector<IsoBlockGap> gaps;  // what a block could not determine
+  // The location errors the error model cannot express (not determined, whatever the readings:
+  // a model constant over the angle holds no offset or tilt of the axis line).
+  std::vector<std::string> not_in_model;
   // The error motions' estimates at two angles are independent: a per-angle model with no set-up
   // effect shared by the angles (no declared length offset, centring or ball placement).
   bool independent_between_angles = false;

@@ -713,7 +713,7 @@ nlohmann::json iso230_to_json(const IsoResult& iso, const std::string& uncertain
         {"trials", mv.trials}, {"converged", mv.converged},
         {"seed", mv.seed},     {"method", iso_motion_note(mv)}};
   }
-  if (!iso.gaps.empty()) j["note"] = iso_gaps_note(iso);
+  if (!iso.gaps.empty() || !iso.not_in_model.empty()) j["note"] = iso_gaps_note(iso);
   return j;
 }
 
@@ -772,7 +772,7 @@ std::string iso230_text(const Design& design, const IsoResult& iso, const std::s
       }
     }
   }
-  if (!iso.gaps.empty()) s << "  " << iso_gaps_note(iso) << "\n";
+  if (!iso.gaps.empty() || !iso.not_in_model.empty()) s << "  " << iso_gaps_note(iso) << "\n";
   (void)design;
   return s.str();
 }
@@ -1252,6 +1252,11 @@ std::string iso_motion_note(const IsoMotionValues& mv) {
 
 std::string iso_gaps_note(const IsoResult& iso) {
   std::string t;
+  if (!iso.not_in_model.empty()) {
+    for (const std::string& n : iso.not_in_model) t += (t.empty() ? "" : ", ") + n;
+    t += ": not in the error model (a model constant over the angle holds no offset or tilt of "
+         "the axis line; a series of order 1 or more does)";
+  }
   for (const IsoBlockGap& g : iso.gaps) {
     t += (t.empty() ? "" : "; ") + std::string(g.block == 0 ? "translations" : "rotations") +
          ": the determined values (" + std::to_string(g.values) +
