@@ -316,10 +316,8 @@ void validate_instrument(const Design& d, const std::string& source) {
   if (d.instrument == InstrumentKind::kBallbar) {
     require(d.spheres.empty(), source, "spheres",
             "spheres are a touch probe's (instrument.kind probe)");
-    require(d.setup_std.trigger_offset_um == 0 && d.setup_std.placement_um == 0, source,
-            "setup_std",
-            "trigger_offset_um and placement_um are a touch probe's set-up tolerances (instrument."
-            "kind probe)");
+    if (const auto p = setup_tolerance_problem(d.setup_std, d.instrument))
+      throw InputError(source, "setup_std", *p);
     for (std::size_t i = 0; i < d.installations.size(); ++i)
       require(!d.installations[i].setup_std.trigger_offset_um &&
                   !d.installations[i].setup_std.placement_um,
@@ -338,18 +336,8 @@ void validate_instrument(const Design& d, const std::string& source) {
   for (std::size_t i = 0; i < d.spheres.size(); ++i) {
     const Sphere& sp = d.spheres[i];
     const std::string key = "spheres[" + std::to_string(i) + "]";
-    if (const auto p = id_problem(sp.id))
+    if (const auto p = sphere_id_problem(sp.id))
       throw InputError(source, key + ".id", quote_value(sp.id) + ": " + *p);
-    require(sp.id != "all", source, key + ".id",
-            "\"all\" names the whole test in an effect's label ([all]): give the sphere another "
-            "id");
-    require(sp.id.find(':') == std::string::npos, source, key + ".id",
-            quote_value(sp.id) +
-                ": a sphere's id holds no ':' (its channels' ids are id:x, id:y, "
-                "id:z)");
-    require(sp.id.size() + 2 <= limits::kMaxIdBytes, source, key + ".id",
-            "a sphere's id is at most " + std::to_string(limits::kMaxIdBytes - 2) +
-                " bytes (its channels' ids add \":x\")");
     require(ids.insert(sp.id).second, source, key + ".id",
             "duplicate sphere id " + quote_value(sp.id));
     if (const auto p = text_problem(sp.description, limits::kMaxTextBytes))
@@ -359,10 +347,8 @@ void validate_instrument(const Design& d, const std::string& source) {
               kLengthLimit + ", got " + text::significant(v, 6));
   }
   // What a probe's design cannot state: a ball bar's set-up tolerances and return reading.
-  const SetupUncertainty& u = d.setup_std;
-  require(!u.placement() && u.length_offset_um == 0 && u.centring_um == 0, source, "setup_std",
-          "a probe's set-up tolerances are trigger_offset_um and placement_um (a ball bar's "
-          "length offset, centring and ball placement have no meaning for it)");
+  if (const auto p = setup_tolerance_problem(d.setup_std, d.instrument))
+    throw InputError(source, "setup_std", *p);
   require(!d.return_reading, source, "return_reading",
           "a return reading is a ball bar sweep's; a probe's repeats are rows of its file");
   const std::vector<Installation> channels = probe_channels(d.axis, d.spheres);

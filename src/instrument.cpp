@@ -3,6 +3,8 @@
 #include <Eigen/Geometry>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/limits.hpp"
+#include "dbbkit/user_text.hpp"
 
 namespace dbbkit {
 
@@ -18,6 +20,11 @@ const char* setup_effect_nouns(InstrumentKind kind) {
 const char* setup_tolerance_keys(InstrumentKind kind) {
   return kind == InstrumentKind::kProbe ? "trigger_offset_um, placement_um"
                                         : "length_offset_um, centring_um";
+}
+
+const char* setup_tolerance_phrase(InstrumentKind kind) {
+  return kind == InstrumentKind::kProbe ? "a trigger offset or placement tolerance"
+                                        : "a length offset or centring tolerance";
 }
 
 const char* measured_item(InstrumentKind kind) {
@@ -60,6 +67,33 @@ std::vector<Installation> probe_channels(const AxisFrame& axis,
     }
   }
   return out;
+}
+
+std::optional<std::string> setup_tolerance_problem(const SetupUncertainty& u, InstrumentKind kind) {
+  if (kind == InstrumentKind::kProbe &&
+      (u.placement() || u.length_offset_um != 0 || u.centring_um != 0))
+    return std::string(
+        "a probe's set-up tolerances are trigger_offset_um and placement_um (a ball bar's "
+        "length offset, centring and ball placement have no meaning for it)");
+  if (kind == InstrumentKind::kBallbar && (u.trigger_offset_um != 0 || u.placement_um != 0))
+    return std::string(
+        "trigger_offset_um and placement_um are a touch probe's set-up tolerances (instrument."
+        "kind probe)");
+  return std::nullopt;
+}
+
+std::optional<std::string> sphere_id_problem(const std::string& id) {
+  if (const auto p = id_problem(id)) return p;
+  if (id == "all")
+    return std::string(
+        "\"all\" names the whole test in an effect's label ([all]): give the sphere "
+        "another id");
+  if (id.find(':') != std::string::npos)
+    return std::string("a sphere's id holds no ':' (its channels' ids are id:x, id:y, id:z)");
+  if (id.size() + 2 > limits::kMaxIdBytes)
+    return "a sphere's id is at most " + std::to_string(limits::kMaxIdBytes - 2) +
+           " bytes (its channels' ids add \":x\")";
+  return std::nullopt;
 }
 
 int find_sphere(const Design& design, const std::string& id) {

@@ -8,6 +8,7 @@
 
 #include "dbbkit/axis_frame.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
@@ -27,6 +28,7 @@ bool finite(double x) { return std::isfinite(x); }
 // Largest number of blocks (their subsets are enumerated) and of angles per step.
 constexpr size_t kMaxBlocks = 16;
 constexpr double kMaxAngles = 100000;
+constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
 
 // The extent of a + b cos(g) + c sin(g) over the arc [lo, hi] (degrees):
 // the end points and the stationary points inside the arc.
@@ -50,8 +52,7 @@ std::pair<double, double> arc_extent(double a, double b, double c, const ArcEnds
     mx = std::max(mx, a + amp);
     mn = std::min(mn, a - amp);
   } else if (amp > 0) {
-    const double g_max =
-        std::atan2(c, b) * 180.0 / 3.14159265358979323846;  // where the value is a + amp
+    const double g_max = std::atan2(c, b) * kDegPerRad;  // where the value is a + amp
     for (const double g : {g_max, g_max + 180.0}) {
       // Is g (modulo 360) inside [lo, hi]?
       const double k = std::ceil((lo_deg - g) / 360.0);
@@ -89,14 +90,34 @@ double arc_travel_violation(const Kit& kit, const RotationHarmonics& h, const Ei
 }  // namespace
 
 std::optional<Pattern> builtin_pattern(const std::string& name, const AxisFrame& axis,
-                                       TableCarriage carriage) {
-  if (name != "three_position") return std::nullopt;
-  using K = Direction::Kind;
+                                       TableCarriage carriage, InstrumentKind instrument) {
   auto var = [](const char* v) { return PatternCoordinate{v, 0}; };
-  const PatternCoordinate zero{};
   Pattern p;
   p.name = name;
   p.builtin = true;
+  if (instrument == InstrumentKind::kProbe) {
+    if (name != "spheres" || !axis.table()) return std::nullopt;
+    // Spheres s1, s2, s3, each at its own place and height (three off one line determine every
+    // error at every angle; one determines the location errors); s2 and s3 optional.
+    const bool across = carriage == TableCarriage::kAcrossAxis;
+    const char* names[3][3] = {{"L1", "D1", "H1"}, {"L2", "D2", "H2"}, {"L3", "D3", "H3"}};
+    const char* trunnion[3][3] = {{"H1", "D1", "S1"}, {"H2", "D2", "S2"}, {"H3", "D3", "S3"}};
+    for (int i = 0; i < 3; ++i) {
+      const auto& n = across ? trunnion[i] : names[i];
+      PatternPosition s;
+      s.id = "s" + std::to_string(i + 1);
+      s.L = var(n[0]);
+      s.D = var(n[1]);
+      s.H = var(n[2]);
+      s.optional = i > 0;
+      p.positions.push_back(s);
+    }
+    p.interchangeable = true;
+    return p;
+  }
+  if (name != "three_position") return std::nullopt;
+  using K = Direction::Kind;
+  const PatternCoordinate zero{};
   if (axis.table() && carriage == TableCarriage::kAcrossAxis) {
     // A trunnion: the blocks set the balls' distance from the axis line (L, heights H1 and
     // H3), the cup slides across the table (D) and along the axis (S). Balls at (H1, D1, S1)
@@ -250,7 +271,8 @@ std::vector<int> offered_optional_positions(const Kit& kit) {
 
 int max_installations(const Kit& kit) {
   int n = 0;
-  for (const PatternPosition& p : kit.pattern.positions) n += static_cast<int>(p.directions.size());
+  for (const PatternPosition& p : kit.pattern.positions)
+    n += kit.instrument == InstrumentKind::kProbe ? 3 : static_cast<int>(p.directions.size());
   return n;
 }
 
@@ -282,16 +304,25 @@ void validate_pattern(const Kit& k, const std::string& source) {
     any_required = any_required || !pos.optional;
     require(!pos.id.empty(), source, key + ".id", "is empty");
     // The position's id plus its direction's letter is an installation id (user_text.hpp).
-    if (pos.id.size() + 1 > limits::kMaxIdBytes) {
+    if (k.instrument != InstrumentKind::kProbe && pos.id.size() + 1 > limits::kMaxIdBytes) {
       throw InputError(source, key + ".id",
                        quote_value(pos.id) + ": at most " +
                            std::to_string(limits::kMaxIdBytes - 1) +
                            " bytes (with its direction's letter, an installation id of at most " +
                            std::to_string(limits::kMaxIdBytes) + ")");
     }
-    if (const auto problem = id_problem(pos.id + "r"))
+    if (k.instrument == InstrumentKind::kProbe) {
+      // A position is a sphere: its id is the sphere's, its channels x, y, z.
+      if (const auto problem = sphere_id_problem(pos.id))
+        throw InputError(source, key + ".id", quote_value(pos.id) + ": " + *problem);
+      require(std::find(ids.begin(), ids.end(), pos.id) == ids.end(), source, key + ".id",
+              "sphere " + quote_value(pos.id) + " appears twice in the pattern");
+      ids.push_back(pos.id);
+    } else if (const auto problem = id_problem(pos.id + "r")) {
       throw InputError(source, key + ".id", quote_value(pos.id) + ": " + *problem);
-    require(!pos.directions.empty(), source, key + ".directions", "no directions");
+    }
+    require(k.instrument == InstrumentKind::kProbe || !pos.directions.empty(), source,
+            key + ".directions", "no directions");
     for (Direction::Kind d : pos.directions) {
       require(d != Direction::Kind::kVector, source, key + ".directions",
               "must be radial, tangential or axial");
@@ -349,6 +380,12 @@ void validate_pattern(const Kit& k, const std::string& source) {
 }
 
 }  // namespace
+
+std::optional<std::string> probe_kit_axis_problem(const AxisFrame& axis) {
+  if (axis.table()) return std::nullopt;
+  return "a probe kit places spheres on a table: axis " + axis.label() +
+         " carries the head (write a head's probe design by hand, docs/formats.md)";
+}
 
 void validate_kit(const Kit& k, const std::string& source) {
   // The kit's name names the designs optimize writes (user_text.hpp).
@@ -417,7 +454,24 @@ void validate_kit(const Kit& k, const std::string& source) {
               "must be a positive length in mm, at most 10000 mm");
     }
   }
-  require(!k.bars_mm.empty(), source, "bars_mm", "no bars");
+  require(k.instrument == InstrumentKind::kProbe || !k.bars_mm.empty(), source, "bars_mm",
+          "no bars");
+  if (k.instrument == InstrumentKind::kProbe) {
+    if (const auto p = probe_kit_axis_problem(k.axis))
+      throw InputError(source, "instrument.kind", *p);
+    require(finite(k.probe.approach_mm) && k.probe.approach_mm > 0 &&
+                k.probe.approach_mm <= limits::kMaxLength_mm,
+            source, "instrument.approach_mm",
+            "must be a positive distance in mm (the tip's centre from the sphere's centre where "
+            "a touch starts), at most 10000 mm");
+    require(k.min_separation_mm > 0, source, "min_separation_mm",
+            "a probe kit states how far apart two spheres' stands stand on the table (at least "
+            "their footprint), above 0 mm");
+    if (k.probe.max_stem_tilt_deg)
+      require(finite(*k.probe.max_stem_tilt_deg) && *k.probe.max_stem_tilt_deg > 0 &&
+                  *k.probe.max_stem_tilt_deg <= 180,
+              source, "instrument.max_stem_tilt_deg", "must be an angle in (0, 180] deg");
+  }
   for (size_t i = 0; i < k.bars_mm.size(); ++i) {
     require(length_within_limits(k.bars_mm[i]) && k.bars_mm[i] > 0, source,
             "bars_mm[" + std::to_string(i) + "]",
@@ -632,9 +686,15 @@ int ball_positions(const Design& design) {
 
 TimeEstimate design_time(const Kit& kit, const Design& design, int sweeps) {
   TimeEstimate t;
-  t.positions = ball_positions(design);
-  t.installations = static_cast<int>(design.installations.size());
-  t.readings = design.readings_per_round() * sweeps;
+  if (design.instrument == InstrumentKind::kProbe) {
+    // A sphere set up is a position; one probing of a sphere gives its three channels.
+    t.positions = static_cast<int>(design.spheres.size());
+    t.readings = design.readings_per_round() / 3 * sweeps;
+  } else {
+    t.positions = ball_positions(design);
+    t.installations = static_cast<int>(design.installations.size());
+    t.readings = design.readings_per_round() * sweeps;
+  }
   t.setups_s = (kit.time_per_position_s > 0 ? t.positions * kit.time_per_position_s : 0.0) +
                t.installations * kit.time_per_installation_s;
   t.readings_s = t.readings * kit.time_per_reading_s;
@@ -883,6 +943,66 @@ std::vector<Clash> installation_clashes(const Kit& kit, const AxisFrame& axis,
   for (const Clash& c : all)
     if (c.by_mm > tolerance_mm) out.push_back(c);
   return out;
+}
+
+namespace {
+
+// sphere_clashes over the arc, each check passed to note(what, by_mm).
+template <class Note>
+void sphere_checks(const Kit& kit, const AxisFrame& axis, const Sphere& sphere, const ArcEnds& ends,
+                   Note&& note) {
+  const RotationHarmonics& h = rotation_harmonics(axis);
+  const Eigen::Vector3d B = axis.body_point(sphere.L_mm, sphere.D_mm, sphere.H_mm);
+  const Eigen::Vector3d a = h.A0 * B, b = h.A1 * B, c = h.A2 * B;
+  const double r = kit.probe.approach_mm;
+  double worst = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    const auto [mn, mx] = arc_extent(a(k), b(k), c(k), ends);
+    // x, y: touched from both sides at the centre's height; z: from above only.
+    const double low = k < 2 ? mn - r : mn, high = mx + r;
+    worst = std::max({worst, kit.travel_mm[k].min - low, high - kit.travel_mm[k].max});
+  }
+  note("the probe's approach leaves the travel", worst);
+  if (kit.probe.max_stem_tilt_deg) {
+    // The stem along the table's normal, turned: its z a sinusoid of the angle.
+    const Eigen::Vector3d n = kit.table_normal;
+    const double z_low = arc_extent((h.A0 * n).z(), (h.A1 * n).z(), (h.A2 * n).z(), ends).first;
+    const double tilt = std::acos(std::clamp(z_low, -1.0, 1.0)) * kDegPerRad;
+    note("the sphere's stem tilts too far", tilt - *kit.probe.max_stem_tilt_deg);
+  }
+  const Workspace* w = kit.workspace ? &*kit.workspace : nullptr;
+  if (w && axis.shorthand() == "C" && (w->table_diameter_mm || w->table_x_mm)) {
+    const double f = w->footprint_mm / 2;
+    const double by =
+        w->table_diameter_mm
+            ? std::hypot(B.x(), B.y()) + f - *w->table_diameter_mm / 2
+            : std::max({w->table_x_mm->min - (B.x() - f), (B.x() + f) - w->table_x_mm->max,
+                        w->table_y_mm->min - (B.y() - f), (B.y() + f) - w->table_y_mm->max});
+    note("the sphere's stand overhangs the table", by);
+  }
+}
+
+}  // namespace
+
+std::vector<Clash> sphere_clashes(const Kit& kit, const AxisFrame& axis, const Sphere& sphere,
+                                  const std::vector<double>& angles_deg, double tolerance_mm) {
+  std::vector<Clash> out;
+  const std::optional<ArcEnds> ends = arc_of(angles_deg);
+  if (!ends) return out;
+  sphere_checks(kit, axis, sphere, *ends, [&](const char* what, double by) {
+    if (by > tolerance_mm) out.push_back({what, by});
+  });
+  return out;
+}
+
+double fit_spheres(const Kit& kit, const Design& design) {
+  double worst = -std::numeric_limits<double>::infinity();
+  const std::optional<ArcEnds> ends = arc_of(design.angles_deg);
+  if (!ends) return worst;
+  for (const Sphere& sp : design.spheres)
+    sphere_checks(kit, design.axis, sp, *ends,
+                  [&](const char*, double by) { worst = std::max(worst, by); });
+  return worst;
 }
 
 std::vector<std::string> workspace_checks(const Kit& kit) {

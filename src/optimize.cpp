@@ -50,9 +50,11 @@ Candidate candidate_skeleton(const Kit& kit, const PatternChoice& choice);
 void place_candidate(const Kit& kit, Candidate& c, const std::vector<double>& x);
 
 std::string kit_stack_text(const Kit& kit, const Stack& s) {
+  // A ball bar's cup, a probe's sphere on its stand.
+  const std::string holder = kit.instrument == InstrumentKind::kProbe ? "stand" : "cup";
   std::string t = mm(s.height_mm) + " mm (";
-  if (s.blocks_mm.empty()) return t + "cup on the table)";
-  t += "cup of " + mm(kit.H_base_mm) + " mm on block";
+  if (s.blocks_mm.empty()) return t + holder + " on the table)";
+  t += holder + " of " + mm(kit.H_base_mm) + " mm on block";
   if (s.blocks_mm.size() > 1) t += "s";
   for (size_t i = 0; i < s.blocks_mm.size(); ++i) t += (i ? " + " : " ") + mm(s.blocks_mm[i]);
   return t + " mm)";
@@ -131,6 +133,15 @@ class DetectionRequirement {
       }
     }
     if (info.effects.empty()) d.ratio = 0;
+    // As a drift's (below): a design that leaves errors undetermined meets no set-up detection,
+    // for the axis errors it fails to measure would take less of an effect, which would then
+    // seem detectable (finite: the generic point of a choice may lose rank where its optimum
+    // does not).
+    if (kit_->require_setup_detection && !info.effects.empty() && c.n_undetermined > 0) {
+      d.ratio = std::max(d.ratio, 1e6);
+      d.effect = "every set-up effect (not every error determined)";
+      d.limit_um.reset();
+    }
     if (kit_->require_drift_detection_um) {
       // The drift over the whole test on the kit's clock (design_drift_checks).
       const TestClock clock{kit_->time_per_reading_s, kit_->time_per_installation_s};
@@ -746,6 +757,8 @@ std::vector<PatternChoice> pattern_choices(const Kit& kit) {
     std::vector<int> idx(vars.size(), 0);
     while (true) {
       bool ok = true;
+      // Interchangeable positions: one labelling of each set of heights (ascending).
+      if (kit.pattern.interchangeable) ok = std::is_sorted(idx.begin(), idx.end());
       for (const std::vector<std::string>& group : kit.pattern.distinct) {
         for (size_t a = 0; a < group.size() && ok; ++a) {
           for (size_t b = 0; b < a && ok; ++b) {
@@ -789,8 +802,10 @@ std::string choice_label(const Kit& kit, const PatternChoice& c) {
   const std::vector<int> offered = offered_optional_positions(kit);
   if (c.n_optional > 0) {
     t += ", adds";
+    if (kit.instrument == InstrumentKind::kProbe) t += c.n_optional == 1 ? " sphere" : " spheres";
     for (int k = 0; k < c.n_optional; ++k) {
       const PatternPosition& p = kit.pattern.positions[offered[k]];
+      if (kit.instrument == InstrumentKind::kProbe) t += " " + p.id;
       for (Direction::Kind d : p.directions) t += " " + installation_id(p, d);
     }
   }
@@ -814,6 +829,16 @@ Candidate candidate_skeleton(const Kit& kit, const PatternChoice& choice) {
   d.reference_length_mm = kit.reference_length_mm;
   d.setup_std = kit.setup_std;
   d.return_reading = kit.return_reading;
+  d.instrument = kit.instrument;
+  if (kit.instrument == InstrumentKind::kProbe) {
+    // A position is a sphere; its channels are the design's installations (placed with it).
+    for (const PatternChoice::Placement& pl : choice.placements) {
+      d.spheres.push_back(Sphere{kit.pattern.positions[pl.position].id, 0, 0, 0, {}});
+      for (int k = 0; k < 3; ++k) c.installation_position.push_back(pl.position);
+    }
+    d.installations = probe_channels(d.axis, d.spheres);
+    return c;
+  }
   for (const PatternChoice::Placement& pl : choice.placements) {
     const PatternPosition& p = kit.pattern.positions[pl.position];
     for (Direction::Kind kind : p.directions) {
@@ -847,6 +872,7 @@ void place_candidate(const Kit& kit, Candidate& c, const std::vector<double>& x)
     return Placed{at[0], at[1], at[2]};
   };
   size_t k = 0;
+  const bool probe = kit.instrument == InstrumentKind::kProbe;
   const std::vector<PatternChoice::Placement>& placements = c.choice.placements;
   for (size_t i = 0; i < placements.size(); ++i) {
     const PatternPosition& p = kit.pattern.positions[placements[i].position];
@@ -856,19 +882,30 @@ void place_candidate(const Kit& kit, Candidate& c, const std::vector<double>& x)
       for (size_t j = 0; j < i; ++j) {
         if (!kit.pattern.positions[placements[j].position].separated) continue;
         const Placed b = placed(placements[j]);
-        const double dist = std::hypot(at.L - b.L, at.D - b.D, at.H - b.H);
+        // Two spheres' stands stand side by side on the table: apart in its plane (the height
+        // coordinate left out); two balls anywhere.
+        const double dL = probe && hc == 0 ? 0.0 : at.L - b.L,
+                     dH = probe && hc == 2 ? 0.0 : at.H - b.H;
+        const double dist = std::hypot(dL, at.D - b.D, dH);
         c.separation_violation_mm =
             std::max(c.separation_violation_mm, kit.min_separation_mm - dist);
       }
     }
-    for (size_t n = 0; n < p.directions.size(); ++n, ++k) {
+    if (probe) {
+      Sphere& sp = d.spheres[i];
+      sp.L_mm = at.L;
+      sp.D_mm = at.D;
+      sp.H_mm = at.H;
+    }
+    const size_t n_installations = probe ? 3 : p.directions.size();
+    for (size_t n = 0; n < n_installations; ++n, ++k) {
       Installation& in = d.installations[k];
       in.L_mm = at.L;
       in.D_mm = at.D;
       in.H_mm = at.H;
     }
   }
-  c.travel_violation_mm = fit_bars(kit, d);
+  c.travel_violation_mm = probe ? fit_spheres(kit, d) : fit_bars(kit, d);
   c.machine_clash.clear();
   if (kit.machine && c.travel_violation_mm <= kGeometryTolerance_mm) {
     // What the program on the machine refuses (its linear travel, the table, the solids such as
@@ -905,6 +942,19 @@ Candidate make_candidate(const Kit& kit, const PatternChoice& choice,
 void describe_installations(const Kit& kit, Candidate& c) {
   std::vector<Stack> stacks;
   if (kit.axis.table()) stacks = block_stacks(kit);
+  if (kit.instrument == InstrumentKind::kProbe) {
+    // A sphere's stand: its height variable's stack (no bar, no cup).
+    for (size_t i = 0; i < c.design.spheres.size(); ++i) {
+      const PatternPosition& p = kit.pattern.positions[c.choice.placements[i].position];
+      const PatternCoordinate& height = height_of(kit, p);
+      std::string t = "the sphere's stand at " + mm(height.value) + " mm (fixed by the pattern)";
+      for (const PatternChoice::Height& h : c.choice.heights)
+        if (height.is_variable() && h.variable == height.variable)
+          t = h.variable + " = " + kit_stack_text(kit, stacks[h.stack]);
+      c.design.spheres[i].description = t;
+    }
+    return;
+  }
   for (size_t k = 0; k < c.design.installations.size(); ++k) {
     Installation& in = c.design.installations[k];
     const PatternPosition& p = kit.pattern.positions[c.installation_position[k]];
@@ -954,6 +1004,12 @@ void describe_installations(const Kit& kit, Candidate& c) {
 
 std::string added_installations(const Kit& kit, const Candidate& c) {
   std::string t;
+  if (kit.instrument == InstrumentKind::kProbe) {
+    for (const PatternChoice::Placement& pl : c.choice.placements)
+      if (kit.pattern.positions[pl.position].optional)
+        t += (t.empty() ? "" : " ") + kit.pattern.positions[pl.position].id;
+    return t.empty() ? "-" : t;
+  }
   for (size_t k = 0; k < c.design.installations.size(); ++k) {
     if (kit.pattern.positions[c.installation_position[k]].optional)
       t += (t.empty() ? "" : " ") + c.design.installations[k].id;
@@ -1055,7 +1111,11 @@ OptimizeResult exhaustive_search(const Kit& kit, Criterion criterion, double gri
 }
 
 Reference make_reference(const Kit& kit, Design design, const std::string& file) {
-  require_ballbar(design, file, "a kit's reference design");
+  if (design.instrument != kit.instrument)
+    throw InputError(file, "instrument.kind",
+                     std::string("the reference is a ") + instrument_name(design.instrument) +
+                         " design, the kit a " + instrument_name(kit.instrument) +
+                         " kit: the ratio would compare instruments, not designs");
   Reference r;
   r.file = file;
   r.design = std::move(design);
@@ -1132,10 +1192,11 @@ std::vector<BindingConstraint> binding_constraints(const Kit& kit, const Optimiz
     if (b.state != ChoiceState::kOverTimeBudget) continue;
     const ChoiceResult& cr = res.choices[b.closest];
     const Candidate probe = make_candidate(kit, cr.choice, cr.choice.space.lower);
+    const TimeEstimate t = design_time(kit, probe.design);
     b.time_s = probe.time_s;
-    b.positions = ball_positions(probe.design);
-    b.installations = static_cast<int>(probe.design.installations.size());
-    b.readings = probe.design.readings_per_round();
+    b.positions = t.positions;
+    b.installations = t.installations;
+    b.readings = t.readings;
   }
   std::stable_sort(
       out.begin(), out.end(),

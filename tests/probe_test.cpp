@@ -7,7 +7,9 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
 #include <functional>
+#include <limits>
 #include <random>
 #include <sstream>
 
@@ -18,11 +20,15 @@
 #include "dbbkit/identify.hpp"
 #include "dbbkit/instrument.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
+#include "dbbkit/io/optimize_io.hpp"
+#include "dbbkit/io/result_io.hpp"
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/observability.hpp"
+#include "dbbkit/optimize.hpp"
 #include "dbbkit/program.hpp"
 #include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
@@ -381,6 +387,261 @@ TEST(Probe, TheCommandLineReadsTheFilesAndRefusesTheOtherInstruments) {
   EXPECT_NE(program.err.find("instrument.kind"), std::string::npos) << program.err;
 }
 
+// A model constant over the angle (a series of order 0) holds no offset or tilt of the axis line:
+// they are not determined from it, and no 0 +- 0 is printed for them (the B head's readings from
+// the head's probe tip, location errors checked by hand in the test above).
+TEST(Probe, AnOrderZeroModelStatesNoLocationError) {
+  Design d = probe_design(test::kAxisB,
+                          {{"t1", 150, 0, 0, ""}, {"t2", 250, 0, 0, ""}, {"t3", 200, 50, 0, ""}},
+                          steps(-90, 90, 15), 0.5);
+  d.errors.kind = ErrorModel::Kind::kLegendre;
+  d.errors.order = 0;
+  const IdentifyResult r = identify(d, nominal_readings(d));
+  // The line's offsets and tilts; its zero (B0B, a constant rotation about it) the model holds.
+  for (int j = 0; j < 4; ++j)
+    EXPECT_FALSE(r.iso.location[static_cast<std::size_t>(j)].value.determined)
+        << r.iso.location[static_cast<std::size_t>(j)].name;
+  EXPECT_TRUE(r.iso.location[4].value.determined);
+  EXPECT_EQ(r.iso.location[4].name, "B0B");
+  EXPECT_EQ(r.iso.not_in_model, (std::vector<std::string>{"X0B", "Z0B", "A0B", "C0B"}));
+  EXPECT_NE(io::iso_gaps_note(r.iso).find("not in the error model"), std::string::npos);
+  d.errors.order = 2;
+  const IdentifyResult r2 = identify(d, nominal_readings(d));
+  for (const auto& q : r2.iso.location) EXPECT_TRUE(q.value.determined) << q.name;
+}
+
+// A probe kit on a C table (formats.md "A second instrument"): `extra` replaces or adds keys.
+std::string probe_kit_text(const std::string& extra = "") {
+  return R"({"format": "dbbkit.kit/1", "name": "k", "axis": "C",
+    "instrument": {"kind": "probe", "approach_mm": 20},
+    "noise": {"std_um": 0.5, "distribution": "normal"}, "reference_length_mm": 100,
+    "errors": {"model": "per_angle"},
+    "L_mm": {"min": 50, "max": 220}, "D_mm": {"min": -150, "max": 150},
+    "H_mm": {"base": 80, "blocks": [150], "max_stack": 1},
+    "min_separation_mm": 60,
+    "angles_deg": {"range": [0, 360], "steps": [45]},
+    "time_s": {"per_reading": 20, "per_position": 300},
+    "workspace": {"table": {"diameter_mm": 500}, "footprint_mm": 40})" +
+         extra + R"(, "travel_mm": {"x": [-300, 300], "y": [-250, 250], "z": [0, 400]}})";
+}
+
+// Each sphere's probing points over the arc, sampled every 0.25 deg with the exact rotation (not
+// the kit's harmonics): the least margin [mm] to the travel and the table's edge (> 0: inside).
+double least_margin(const Kit& kit, const Design& d) {
+  double margin = std::numeric_limits<double>::infinity();
+  const double a = kit.probe.approach_mm;
+  for (const Sphere& sp : d.spheres) {
+    const Eigen::Vector3d B = d.axis.body_point(sp.L_mm, sp.D_mm, sp.H_mm);
+    const double radius = std::hypot(B.x(), B.y()) + kit.workspace->footprint_mm / 2;
+    margin = std::min(margin, *kit.workspace->table_diameter_mm / 2 - radius);
+    for (double g = 0; g <= 360.0; g += 0.25) {
+      const Eigen::Vector3d c = axis_rotation(d.axis, g) * B;
+      for (const Eigen::Vector3d& q : {Eigen::Vector3d(c + a * Eigen::Vector3d::UnitX()),
+                                       Eigen::Vector3d(c - a * Eigen::Vector3d::UnitX()),
+                                       Eigen::Vector3d(c + a * Eigen::Vector3d::UnitY()),
+                                       Eigen::Vector3d(c - a * Eigen::Vector3d::UnitY()),
+                                       Eigen::Vector3d(c + a * Eigen::Vector3d::UnitZ()), c}) {
+        for (int k = 0; k < 3; ++k)
+          margin = std::min({margin, q(k) - kit.travel_mm[static_cast<std::size_t>(k)].min,
+                             kit.travel_mm[static_cast<std::size_t>(k)].max - q(k)});
+      }
+    }
+  }
+  return margin;
+}
+
+TEST(Probe, AKitsSearchPlacesSpheresTheApproachAndTheTableAllow) {
+  const Kit kit = io::kit_from_text(probe_kit_text(), "kit");
+  const OptimizeResult res = optimize_kit(kit, {Criterion::kWorst, 2});
+  ASSERT_TRUE(res.best);
+  const Design& d = res.best->design;
+  EXPECT_EQ(d.instrument, InstrumentKind::kProbe);
+  // Per-angle errors need three spheres off one line: the search takes both optional ones.
+  ASSERT_EQ(d.spheres.size(), 3u);
+  EXPECT_EQ(d.installations.size(), 9u);
+  EXPECT_EQ(res.best->n_undetermined, 0);
+  // Each set of heights once (the spheres differ by their names alone): 2 + 3 + 4 choices of
+  // the two stacks for one, two and three spheres.
+  EXPECT_EQ(res.choices.size(), 9u);
+  // Two stands never share a spot: apart in the table's plane, whatever their heights.
+  for (std::size_t i = 0; i < d.spheres.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      EXPECT_GE(
+          std::hypot(d.spheres[i].L_mm - d.spheres[j].L_mm, d.spheres[i].D_mm - d.spheres[j].D_mm),
+          kit.min_separation_mm - 1e-6);
+  // Every probing point inside the travel and every stand on the table, by sampling.
+  EXPECT_GE(least_margin(kit, d), -1e-6);
+  // The written design is one identify takes, and the time is the probe's: spheres set up and
+  // centres probed.
+  const Design back = io::design_from_json(io::design_to_json(d), "best");
+  EXPECT_EQ(back.spheres.size(), 3u);
+  EXPECT_DOUBLE_EQ(res.best->time_s, 3 * 300.0 + 3 * 9 * 20.0);
+  // No worse than the hand-placed three spheres of designs/probe (inside the kit as well).
+  const Design hand =
+      io::read_design_file(test::source_path("designs/probe/c-table-three-spheres.json"));
+  Design hand_at_45 = hand;
+  hand_at_45.angles_deg = d.angles_deg;
+  const Reference ref = make_reference(kit, hand_at_45, "hand");
+  ASSERT_TRUE(ref.worst.worst_std_um);
+  EXPECT_LE(*res.best->worst.worst_std_um, *ref.worst.worst_std_um * (1 + 1e-9));
+  EXPECT_GE(fit_spheres(kit, hand_at_45), -1e9);  // scored against the same checks
+  EXPECT_LE(fit_spheres(kit, hand_at_45), 0.0);
+}
+
+TEST(Probe, ATightTravelPullsTheSpheresInAndIsSaidWhenNothingFits) {
+  // The x travel leaves 120 mm of radius for a sphere's centre: the search keeps to it.
+  std::string tight = probe_kit_text();
+  tight.replace(tight.find("\"x\": [-300, 300]"), 16, "\"x\": [-140, 140]");
+  const Kit kit = io::kit_from_text(tight, "kit");
+  const OptimizeResult res = optimize_kit(kit, {Criterion::kWorst, 2});
+  ASSERT_TRUE(res.best);
+  const double margin = least_margin(kit, res.best->design);
+  EXPECT_GE(margin, -1e-6);
+  EXPECT_LT(margin, 1.0);  // the travel binds: worst sigma falls with the spheres' spread
+  // A travel no sphere fits: the reason, named.
+  std::string none = probe_kit_text();
+  none.replace(none.find("\"z\": [0, 400]"), 13, "\"z\": [0, 90]");
+  const Kit k2 = io::kit_from_text(none, "kit");
+  const OptimizeResult r2 = optimize_kit(k2, {Criterion::kWorst, 2});
+  EXPECT_FALSE(r2.best);
+  const std::string why = io::binding_text(k2, r2);
+  EXPECT_NE(why.find("the probe's approach inside travel"), std::string::npos) << why;
+}
+
+TEST(Probe, ATrunnionsSphereStemTiltsWithTheTable) {
+  const Kit kit = io::kit_from_text(R"({"format": "dbbkit.kit/1", "axis": {"letter": "A",
+      "side": "table", "direction": [1, 0, 0], "reference": [0, 0, 1], "travel_deg": [-120, 120]},
+    "table": {"normal": [0, 0, 1], "surface_mm": -50},
+    "instrument": {"kind": "probe", "approach_mm": 20, "max_stem_tilt_deg": 60},
+    "noise": {"std_um": 0.5, "distribution": "normal"}, "reference_length_mm": 100,
+    "errors": {"model": "per_angle"}, "D_mm": {"min": -100, "max": 100},
+    "axial_mm": {"min": -100, "max": 100}, "H_mm": {"base": 80, "blocks": [], "max_stack": 0},
+    "travel_mm": {"x": [-400, 400], "y": [-400, 400], "z": [-400, 400]},
+    "angles_deg": {"range": [-90, 90], "steps": [30]},
+    "min_separation_mm": 30, "time_s": {"per_reading": 20, "per_position": 300}})",
+                                    "kit");
+  // A stem on the table tilts as far as the table: 90 deg at the arc's ends, beyond 60.
+  Sphere sp{"s1", 30, 0, 0, ""};
+  const std::vector<Clash> c = sphere_clashes(kit, kit.axis, sp, kit_angles(kit, 30));
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c[0].what, "the sphere's stem tilts too far");
+  EXPECT_NEAR(c[0].by_mm, 30.0, 1e-9);
+  EXPECT_TRUE(sphere_clashes(kit, kit.axis, sp, steps(-60, 60, 30), 1e-9).empty());
+  const OptimizeResult res = optimize_kit(kit, {Criterion::kWorst, 2});
+  EXPECT_FALSE(res.best);
+  EXPECT_NE(io::binding_text(kit, res).find("the stems within their tilt"), std::string::npos);
+}
+
+// Set-up detection required: only a design that determines every error meets it (at rank loss
+// the axis errors would take less of a placement, which would then seem detectable).
+TEST(Probe, RequiredDetectionIsMetOnlyByADesignThatDeterminesEveryError) {
+  Kit kit = io::kit_from_text(
+      probe_kit_text(R"(, "setup_std": {"placement_um": 5}, "require_setup_detection": true)"),
+      "kit");
+  const OptimizeResult res = optimize_kit(kit, {Criterion::kWorstTotal, 2});
+  for (const ChoiceResult& cr : res.choices)
+    if (cr.best && cr.best->feasible) EXPECT_EQ(cr.best->n_undetermined, 0) << cr.label;
+  if (res.best) EXPECT_EQ(res.best->n_undetermined, 0);
+}
+
+TEST(Probe, AProbeKitRefusesWhatOnlyABallBarHas) {
+  auto message_of = [](const std::string& text) {
+    try {
+      io::kit_from_text(text, "kit");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  auto message = [&](const std::string& extra) { return message_of(probe_kit_text(extra)); };
+  // The kit with `from` replaced by `to`.
+  auto replaced = [](const std::string& from, const std::string& to) {
+    std::string t = probe_kit_text();
+    return t.replace(t.find(from), from.size(), to);
+  };
+  EXPECT_NE(message(R"(, "bars_mm": [100])").find("bars_mm: a probe kit has no bars"),
+            std::string::npos);
+  EXPECT_NE(message(R"(, "return_reading": true)").find("return_reading"), std::string::npos);
+  EXPECT_NE(message(R"(, "setup_std": {"centring_um": 5})").find("a probe's set-up tolerances"),
+            std::string::npos);
+  EXPECT_NE(message(R"(, "pattern": {"positions": [{"id": "s1", "L": "L1", "H": "H1",
+      "directions": ["radial"]}]})")
+                .find("no directions"),
+            std::string::npos);
+  EXPECT_NE(message(R"(, "pattern": {"positions": [{"id": "s:1", "L": "L1", "H": "H1"}]})")
+                .find("pattern.positions[0].id"),
+            std::string::npos);
+  EXPECT_NE(message(R"(, "pattern": "three_position")").find("for a probe kit"), std::string::npos);
+  EXPECT_NE(message_of(replaced("\"per_position\"", "\"per_installation\""))
+                .find("a probe has no installations"),
+            std::string::npos);
+  EXPECT_NE(
+      message_of(replaced("\"per_position\": 300", "\"budget\": 3000")).find("time_s.per_position"),
+      std::string::npos);
+  EXPECT_NE(message_of(replaced("\"approach_mm\": 20", "\"approach_mm\": 0"))
+                .find("instrument.approach_mm"),
+            std::string::npos);
+  EXPECT_NE(message_of(replaced("\"min_separation_mm\": 60", "\"min_separation_mm\": 0"))
+                .find("min_separation_mm: a probe kit states how far apart"),
+            std::string::npos);
+  // A ball bar kit told of spheres: the probe's key named.
+  EXPECT_NE(message_of(replaced("\"instrument\": {\"kind\": \"probe\", \"approach_mm\": 20},",
+                                "\"pattern\": \"spheres\","))
+                .find("is a touch probe kit's: add \"instrument\""),
+            std::string::npos);
+  // A ball bar's design is no reference for a probe kit.
+  const Kit kit = io::kit_from_text(probe_kit_text(), "kit");
+  try {
+    make_reference(kit, io::read_design_file(test::kDesignC), "ref");
+    ADD_FAILURE() << "a ball bar reference taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("compare instruments"), std::string::npos);
+  }
+}
+
+TEST(Probe, OptimizeOnTheCommandLineWritesADesignIdentifyTakes) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("dbbkit_probe_kit_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream f(dir / "kit.json");
+    f << probe_kit_text();
+  }
+  const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI +
+                                 " optimize --kit kit.json --out best.json --report r.html");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("Best: 3 spheres"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("3 spheres x 300 s + 27 probings x 20 s"), std::string::npos) << r.out;
+  const CliRun e =
+      run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " evaluate --design best.json");
+  EXPECT_EQ(e.status, 0) << e.err;
+  EXPECT_NE(e.out.find("Determined: every error at every angle"), std::string::npos) << e.out;
+  // A budget for one sphere: a design that leaves errors undetermined, said so, its report
+  // written (a plot of nothing determined says so).
+  const CliRun one = run_cli_shell(
+      "cd " + dir.string() + " && sed 's/\"per_position\": 300}/\"per_position\": 300, " +
+      "\"budget\": 700}/' kit.json > one.json && " + DBBKIT_CLI +
+      " optimize --kit one.json --out one-best.json --report one.html");
+  ASSERT_EQ(one.status, 0) << one.err;
+  EXPECT_NE(one.out.find("Best: 1 sphere,"), std::string::npos) << one.out;
+  EXPECT_NE(one.out.find("1 sphere x 300 s"), std::string::npos) << one.out;
+  EXPECT_NE(one.out.find("Not determined: no error at any angle"), std::string::npos) << one.out;
+  EXPECT_NE(one.out.find("Next: widen what binds"), std::string::npos) << one.out;
+  EXPECT_NE(slurp((dir / "one.html").string()).find("not determined at any angle"),
+            std::string::npos);
+  const CliRun head = run_cli_shell(
+      "cd " + dir.string() + " && sed 's/\"axis\": \"C\"/\"axis\": \"B\"/' kit.json > b.json && " +
+      DBBKIT_CLI + " optimize --quiet --kit b.json");
+  EXPECT_EQ(head.status, 2);
+  EXPECT_NE(head.err.find("instrument.kind"), std::string::npos) << head.err;
+  const CliRun drift = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI +
+                                     " optimize --quiet --kit kit.json --require-detect drift=2");
+  EXPECT_EQ(drift.status, 2);
+  EXPECT_NE(drift.err.find("no time column"), std::string::npos) << drift.err;
+  std::filesystem::remove_all(dir);
+}
+
 // The README's probe example: every line of its output blocks printed by the commands it shows.
 TEST(Readme, ATouchProbeOnCalibrationSpheresPrintsWhatTheReadmeShows) {
   const std::string section =
@@ -402,8 +663,13 @@ TEST(Readme, ATouchProbeOnCalibrationSpheresPrintsWhatTheReadmeShows) {
         "identify --design " + three + " --data three.csv --out id3.json",
         "diagnose --design " + three + " --data three.csv --out dg3.json",
         "simulate --design " + four + " --truth " + truth + " --out four.csv",
-        "diagnose --design " + four + " --data four.csv --out dg4.json"}) {
-    const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " " + cmd);
+        "diagnose --design " + four + " --data four.csv --out dg4.json",
+        "optimize --kit designs/kits/probe-c-table-kit.json --reference "
+        "designs/probe/c-table-three-spheres.json --out " +
+            (dir / "probe-best.json").string()}) {
+    // optimize from the source tree (the README's paths), the others in the scratch folder.
+    const std::string where = cmd.rfind("optimize", 0) == 0 ? src : dir.string();
+    const CliRun r = run_cli_shell("cd " + where + " && " + DBBKIT_CLI + " " + cmd);
     ASSERT_EQ(r.status, 0) << cmd << "\n" << r.err;
     printed += r.out;
   }

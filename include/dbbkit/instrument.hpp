@@ -20,6 +20,7 @@
 // simulator and the file form of its readings (io/measurement_io).
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,13 @@ const char* setup_effect_nouns(InstrumentKind kind);
 const char* measured_item(InstrumentKind kind);
 const char* measured_items(InstrumentKind kind);
 const char* setup_tolerance_keys(InstrumentKind kind);
+// What a kit must declare for a set-up criterion: "a length offset or centring tolerance", "a
+// trigger offset or placement tolerance".
+const char* setup_tolerance_phrase(InstrumentKind kind);
+
+// What is wrong with set-up tolerances for the instrument (a probe's are trigger_offset_um and
+// placement_um, a ball bar's the others), or none.
+std::optional<std::string> setup_tolerance_problem(const SetupUncertainty& u, InstrumentKind kind);
 
 // The id of a probe channel: the sphere's id, ':' and its coordinate ("s1:x").
 std::string probe_channel_id(const std::string& sphere_id, int coordinate);
@@ -54,6 +62,11 @@ std::string probe_channel_id(const std::string& sphere_id, int coordinate);
 // The three channels of every sphere, in the spheres' order (x, y, z each): the sphere's body
 // coordinates, a direction fixed in the machine frame, s = +1 on a table and -1 on a head.
 std::vector<Installation> probe_channels(const AxisFrame& axis, const std::vector<Sphere>& spheres);
+
+// What is wrong with a sphere's id (a design's spheres[].id, a probe kit's pattern position id),
+// or none: an id of user_text.hpp, no ':' (its channels' ids are id:x, id:y, id:z), not "all"
+// (an effect's label for the whole test), short enough for a channel's id.
+std::optional<std::string> sphere_id_problem(const std::string& id);
 
 // The index of the sphere with this id, or -1.
 int find_sphere(const Design& design, const std::string& id);

@@ -47,8 +47,11 @@ struct Pattern {
   std::string name;
   std::vector<PatternPosition> positions;
   std::vector<std::vector<std::string>>
-      distinct;                 // groups of H variables that must take different heights
-  bool builtin = false;         // a named pattern of dbbkit (written by name)
+      distinct;          // groups of H variables that must take different heights
+  bool builtin = false;  // a named pattern of dbbkit (written by name)
+  // Its positions differ by their names alone (a probe's spheres): a choice of heights and its
+  // relabelling are one measurement, and the search takes the heights in ascending order only.
+  bool interchangeable = false;
   int inherited_positions = 0;  // the first positions come from the built-in pattern it extends
 };
 
@@ -59,11 +62,14 @@ struct Pattern {
 // axis line), and the ball slides along the axis (H) and across the table (D).
 enum class TableCarriage { kAlongAxis, kAcrossAxis };
 
-// The built-in patterns by name ("three_position"); absent for an unknown name. A head's
+// The built-in patterns by name ("three_position"; a probe kit's "spheres": s1 required, s2 and
+// s3 optional, each at its own L, D and height); absent for an unknown name or one of the other
+// instrument. A head's
 // pattern offsets its third ball along D on the "B" shorthand (its D lies along the axis) and
 // along H (the axis) on a head in the general form.
 std::optional<Pattern> builtin_pattern(const std::string& name, const AxisFrame& axis,
-                                       TableCarriage carriage = TableCarriage::kAlongAxis);
+                                       TableCarriage carriage = TableCarriage::kAlongAxis,
+                                       InstrumentKind instrument = InstrumentKind::kBallbar);
 
 // Bars as sold: a base bar and extensions screwed onto it, each extension used at most once
 // (a QC20-W: a 100 mm base with 50, 150 and 300 mm extensions).
@@ -100,9 +106,25 @@ struct Workspace {
   double clearance_mm = 10;
 };
 
+// A touch probe's kit (kit key `instrument`, formats.md "A second instrument"): spheres on the
+// table instead of balls and bars. Each sphere is probed at every angle from +-x, +-y and from
+// above; the probe's tip centre starts each touch approach_mm from the sphere's centre (the
+// sphere's radius, the tip's and the travel before the touch), so the sphere's centre plus and
+// minus approach_mm along x and y, and plus it along z, must stay inside travel_mm at every
+// angle. On a table whose normal tilts (a trunnion), the sphere's stem tilts with it: beyond
+// max_stem_tilt_deg from the vertical (+z) the stem shadows the probing (absent: not checked).
+struct ProbeKit {
+  double approach_mm = 0;
+  std::optional<double> max_stem_tilt_deg;
+};
+
 struct Kit {
   std::string name;
   AxisFrame axis;
+  // Ball bar (bars, cups, blocks) or touch probe (spheres on stands of the same blocks; no bars,
+  // no installations: time_s.per_position is a sphere set up, per_reading a sphere probed once).
+  InstrumentKind instrument = InstrumentKind::kBallbar;
+  ProbeKit probe;
   // A kit that names its machine and the axis under test (formats.md, "Kit file"): the frame,
   // a table's normal and surface and its disc come from the machine file, and every design the
   // search scores names the machine and must be one its program takes (the linear travel, the
@@ -200,6 +222,9 @@ std::vector<int> offered_optional_positions(const Kit& kit);
 // The most installations a design of the kit can have.
 int max_installations(const Kit& kit);
 
+// Why a probe kit cannot be on this axis (a head: the kit places spheres on a table), or none.
+std::optional<std::string> probe_kit_axis_problem(const AxisFrame& axis);
+
 // Throws InputError with `source` and the key of the first problem.
 void validate_kit(const Kit& kit, const std::string& source = "kit");
 
@@ -290,5 +315,16 @@ double fit_bar(const Kit& kit, const AxisFrame& axis, Installation& inst,
 // fit_bar for every installation of the design (its axis and angles, the arc formed once);
 // returns the largest excursion (-infinity without installations).
 double fit_bars(const Kit& kit, Design& design);
+
+// A probe kit's checks of one sphere over the arc of the measured angles (ProbeKit), mm by
+// which each is broken (<= 0: clear), the worst of each kind whose by_mm exceeds tolerance_mm:
+//   "the probe's approach leaves the travel"   (centre +-approach_mm along x, y; + along z)
+//   "the sphere's stem tilts too far"          (by_mm: the tilt's excess in deg, as mm)
+//   "the sphere's stand overhangs the table"   (C shorthand, with a table outline)
+std::vector<Clash> sphere_clashes(const Kit& kit, const AxisFrame& axis, const Sphere& sphere,
+                                  const std::vector<double>& angles_deg, double tolerance_mm = 0);
+// The largest by_mm of the checks of every sphere of a probe design (-infinity without
+// spheres): <= 0 clear. The probe's fit_bars.
+double fit_spheres(const Kit& kit, const Design& design);
 
 }  // namespace dbbkit

@@ -12,6 +12,7 @@
 #include "checks.hpp"
 #include "commands.hpp"
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/kit_io.hpp"
@@ -83,6 +84,10 @@ Runner add_optimize(CLI::App& app) {
       if (r == "setup") {
         args->require_detection = true;
       } else if (r.rfind("drift=", 0) == 0) {
+        if (kit.instrument == InstrumentKind::kProbe)
+          throw InputError("--require-detect", quote_value(r),
+                           "a probe's file has no time column: dbbkit tells no drift from a "
+                           "probe's readings");
         const std::string v = r.substr(6);
         char* end = nullptr;
         const double um = std::strtod(v.c_str(), &end);
@@ -100,8 +105,8 @@ Runner add_optimize(CLI::App& app) {
     if (args->require_detection) {
       if (!kit.setup_std.nuisance()) {
         throw InputError(args->kit, "setup_std",
-                         "--require-setup-detection needs a length offset or centring tolerance "
-                         "declared in the kit");
+                         std::string("--require-setup-detection needs ") +
+                             setup_tolerance_phrase(kit.instrument) + " declared in the kit");
       }
       kit.require_setup_detection = true;
     }
@@ -111,8 +116,8 @@ Runner add_optimize(CLI::App& app) {
                                                     "--criterion");
     if (criterion == Criterion::kWorstTotal && !kit.setup_std.nuisance()) {
       throw InputError(args->kit, "setup_std",
-                       "--criterion worst_total needs a length offset or centring tolerance "
-                       "declared in the kit");
+                       std::string("--criterion worst_total needs ") +
+                           setup_tolerance_phrase(kit.instrument) + " declared in the kit");
     }
     std::optional<Reference> reference;
     if (!args->reference.empty()) {
@@ -151,7 +156,9 @@ Runner add_optimize(CLI::App& app) {
     if (!args->pareto_csv.empty()) outputs.stage("--pareto-csv", io::pareto_csv(kit, res));
     const io::RunContext run{command_line(), inputs};
     std::optional<SetupSheet> sheet;
-    if (res.best && (!rep->report.empty() || !rep->summary.empty()))
+    // A ball bar's design has a set-up sheet; a probe's spheres are listed in the report.
+    if (res.best && kit.instrument == InstrumentKind::kBallbar &&
+        (!rep->report.empty() || !rep->summary.empty()))
       sheet = make_setup_sheet(io::optimized_design(kit, res, args->kit), ProgramOptions{},
                                std::nullopt, &kit);
     for (const auto& [option, file, format] :

@@ -666,7 +666,10 @@ std::string where_phrase(const Design& design, const AddedEffect& a) {
       at.push_back(id);
     }
   }
-  std::string p = (effect_info(e.kind).per_sphere ? "in sphere " : "in installation ") + at[0];
+  std::string p = (effect_info(e.kind).per_sphere                ? "in sphere "
+                   : design.instrument == InstrumentKind::kProbe ? "in channel "
+                                                                 : "in installation ") +
+                  at[0];
   if (at.size() > 1 || !along.empty()) {
     std::vector<std::string> alternatives(at.begin() + 1, at.end());
     if (!along.empty()) alternatives.insert(alternatives.begin(), "its " + or_listed(along));

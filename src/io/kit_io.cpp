@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/user_text.hpp"
@@ -53,12 +54,24 @@ PatternCoordinate read_coordinate(ObjectReader& r, const std::string& key) {
   return {"", as_number(*v, r.source(), r.key_path(key))};
 }
 
-PatternPosition read_position(ObjectReader r) {
+PatternPosition read_position(ObjectReader r, InstrumentKind instrument) {
   PatternPosition p;
   p.id = r.string("id");
   p.L = read_coordinate(r, "L");
   p.D = read_coordinate(r, "D");
   p.H = read_coordinate(r, "H");
+  if (instrument == InstrumentKind::kProbe) {
+    // A position is a sphere, probed in x, y and z.
+    if (r.has("directions"))
+      r.fail("directions",
+             "a probe kit's position is a sphere, probed in x, y and z: no directions");
+    if (r.has("needs_offset"))
+      r.fail("needs_offset", "is a head's ball bar pattern's: a probe kit has no head");
+    p.separated = read_flag(r, "separated", true);
+    p.optional = read_flag(r, "optional", false);
+    r.finish();
+    return p;
+  }
   const json& dirs = r.required("directions");
   if (!dirs.is_array())
     r.fail("directions", "expected a list of \"radial\", \"tangential\", \"axial\"");
@@ -85,11 +98,16 @@ PatternPosition read_position(ObjectReader r) {
 }
 
 // "pattern": a built-in name, or {name, extends, positions, distinct}.
-Pattern read_pattern(ObjectReader& top, const AxisFrame& axis, TableCarriage carriage) {
-  const json& v = top.required("pattern");
+Pattern read_pattern(ObjectReader& top, const AxisFrame& axis, TableCarriage carriage,
+                     InstrumentKind instrument) {
   const std::string& source = top.source();
+  const bool probe = instrument == InstrumentKind::kProbe;
   auto named = [&](const std::string& name, const std::string& key) {
-    if (std::optional<Pattern> p = builtin_pattern(name, axis, carriage)) return *p;
+    if (std::optional<Pattern> p = builtin_pattern(name, axis, carriage, instrument)) return *p;
+    if (probe)
+      throw InputError(source, key,
+                       "unknown pattern " + quote_value(name) +
+                           " for a probe kit (expected \"spheres\" or a pattern object)");
     if (name == "free") {
       throw InputError(
           source, key,
@@ -97,24 +115,33 @@ Pattern read_pattern(ObjectReader& top, const AxisFrame& axis, TableCarriage car
           "{\"extends\": \"three_position\", \"positions\": [...optional positions...]} (README, "
           "Kit file)");
     }
-    throw InputError(source, key,
-                     "unknown pattern " + quote_value(name) +
-                         " (expected \"three_position\" or a pattern object)");
+    throw InputError(
+        source, key,
+        "unknown pattern " + quote_value(name) +
+            (name == "spheres" ? " for a ball bar kit (\"spheres\" is a touch probe kit's: add "
+                                 "\"instrument\": {\"kind\": \"probe\", \"approach_mm\": ...})"
+                               : " (expected \"three_position\" or a pattern object)"));
   };
+  // A probe kit's pattern defaults to its spheres.
+  if (probe && !top.has("pattern")) return named("spheres", "pattern");
+  const json& v = top.required("pattern");
   if (v.is_string()) return named(v.get<std::string>(), "pattern");
   ObjectReader r = top.object("pattern");
   Pattern p;
   if (r.has("extends")) {
     p = named(r.string("extends"), r.key_path("extends"));
     p.builtin = false;
+    p.interchangeable = false;  // the positions added differ from the built-in ones
     p.inherited_positions = static_cast<int>(p.positions.size());
   }
   p.name = r.optional_string("name").value_or(p.name.empty() ? "custom" : p.name + "+");
   if (const json* positions = r.optional("positions")) {
     if (!positions->is_array()) r.fail("positions", "expected a list of positions");
     for (size_t i = 0; i < positions->size(); ++i) {
-      p.positions.push_back(read_position(ObjectReader(
-          (*positions)[i], source, r.key_path("positions") + "[" + std::to_string(i) + "]")));
+      p.positions.push_back(
+          read_position(ObjectReader((*positions)[i], source,
+                                     r.key_path("positions") + "[" + std::to_string(i) + "]"),
+                        instrument));
     }
   }
   if (const json* distinct = r.optional("distinct")) {
@@ -144,6 +171,23 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
     top.fail("format", "expected \"" + std::string(kKitFormat) + "\", found \"" + format + "\"");
   k.name = top.optional_string("name").value_or("");
   top.optional_string("description");
+  if (const json* ij = top.optional("instrument")) {
+    ObjectReader in(*ij, source, "instrument");
+    const std::string kind = in.string("kind");
+    if (kind == "probe") {
+      k.instrument = InstrumentKind::kProbe;
+      k.probe.approach_mm = in.number("approach_mm");
+      k.probe.max_stem_tilt_deg = in.optional_number("max_stem_tilt_deg");
+    } else if (kind != "ballbar") {
+      in.fail("kind", quote_value(kind) + " is no instrument (expected ballbar or probe)");
+    }
+    in.finish();
+  }
+  const bool probe = k.instrument == InstrumentKind::kProbe;
+  if (probe && top.has("machine"))
+    top.fail("machine",
+             "a probe kit states its axis and travel_mm (the probe's checks on a machine file's "
+             "solids are a ball bar's program's): write the axis and the travel");
   if (top.has("machine")) {
     k.machine = read_design_machine(top, base_dir);
     if (k.machine->park_overrides.count(k.machine->letter()))
@@ -203,8 +247,11 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
                                 k.axis.label() + " carries the head");
   }
   if (k.axis.table() && !general && !k.machine) k.table_normal = k.axis.direction();
+  if (probe) {
+    if (const auto p = probe_kit_axis_problem(k.axis)) top.fail("instrument.kind", *p);
+  }
   const TableCarriage carriage = table_carriage(k);
-  k.pattern = read_pattern(top, k.axis, carriage);
+  k.pattern = read_pattern(top, k.axis, carriage, k.instrument);
   if (const json* n = top.optional("noise"))
     k.noise = *read_noise(ObjectReader(*n, source, "noise"), false);
   if (const json* e = top.optional("errors"))
@@ -213,12 +260,21 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
   if (const json* u = top.optional("setup_std")) {
     k.setup_std = read_setup_override(ObjectReader(*u, source, "setup_std")).over({});
     validate_setup_uncertainty(k.setup_std, k.axis, source, "setup_std");
+    if (const auto p = setup_tolerance_problem(k.setup_std, k.instrument))
+      top.fail("setup_std", *p);
   }
   k.require_setup_detection = read_flag(top, "require_setup_detection", false);
   if (k.require_setup_detection && !k.setup_std.nuisance()) {
-    top.fail("require_setup_detection",
-             "needs a length offset or centring tolerance declared in setup_std");
+    top.fail(
+        "require_setup_detection",
+        std::string("needs ") + setup_tolerance_phrase(k.instrument) + " declared in setup_std");
   }
+  if (probe && top.has("return_reading"))
+    top.fail("return_reading",
+             "a return reading is a ball bar sweep's; a probe's repeats are rows of its file");
+  if (probe && top.has("require_drift_detection_um"))
+    top.fail("require_drift_detection_um",
+             "a probe's file has no time column: dbbkit tells no drift from a probe's readings");
   k.return_reading = read_flag(top, "return_reading", false);
   k.require_drift_detection_um = top.optional_number("require_drift_detection_um");
   if (k.require_drift_detection_um &&
@@ -254,29 +310,34 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
     top.fail("H_mm", "cushion blocks and a cup height are a table's: axis " + k.axis.label() +
                          " carries the head");
   }
-  if (top.has("bars") && top.has("bars_mm"))
-    top.fail("bars", "give the bars either as sold (bars) or as assembled (bars_mm), not both");
-  if (top.has("bars")) {
-    ObjectReader b = top.object("bars");
-    BarSet set;
-    set.base_mm = b.number("base_mm");
-    if (const json* e = b.optional("extensions_mm"))
-      set.extensions_mm = read_numbers(*e, source, b.key_path("extensions_mm"));
-    if (b.has("max_extensions")) set.max_extensions = b.integer("max_extensions");
-    b.finish();
-    k.bar_set = set;
-    // Checked before the 2^n assemblies are enumerated.
-    if (static_cast<int>(set.extensions_mm.size()) > kMaxBarExtensions)
-      throw InputError(source, "bars.extensions_mm",
-                       "more than " + std::to_string(kMaxBarExtensions) + " extensions");
-    k.bars_mm = assembled_bars(set);
+  if (probe) {
+    for (const char* key : {"bars", "bars_mm"})
+      if (top.has(key)) top.fail(key, "a probe kit has no bars: the probe touches the spheres");
   } else {
-    const json& bars = top.required("bars_mm");
-    // Checked before a number is read: the search tries each bar for each installation.
-    if (bars.is_array() && bars.size() > static_cast<std::size_t>(kMaxBars))
-      top.fail("bars_mm", std::to_string(bars.size()) + " bars: more than the " +
-                              std::to_string(kMaxBars) + " a kit may hold");
-    k.bars_mm = read_numbers(bars, source, top.key_path("bars_mm"));
+    if (top.has("bars") && top.has("bars_mm"))
+      top.fail("bars", "give the bars either as sold (bars) or as assembled (bars_mm), not both");
+    if (top.has("bars")) {
+      ObjectReader b = top.object("bars");
+      BarSet set;
+      set.base_mm = b.number("base_mm");
+      if (const json* e = b.optional("extensions_mm"))
+        set.extensions_mm = read_numbers(*e, source, b.key_path("extensions_mm"));
+      if (b.has("max_extensions")) set.max_extensions = b.integer("max_extensions");
+      b.finish();
+      k.bar_set = set;
+      // Checked before the 2^n assemblies are enumerated.
+      if (static_cast<int>(set.extensions_mm.size()) > kMaxBarExtensions)
+        throw InputError(source, "bars.extensions_mm",
+                         "more than " + std::to_string(kMaxBarExtensions) + " extensions");
+      k.bars_mm = assembled_bars(set);
+    } else {
+      const json& bars = top.required("bars_mm");
+      // Checked before a number is read: the search tries each bar for each installation.
+      if (bars.is_array() && bars.size() > static_cast<std::size_t>(kMaxBars))
+        top.fail("bars_mm", std::to_string(bars.size()) + " bars: more than the " +
+                                std::to_string(kMaxBars) + " a kit may hold");
+      k.bars_mm = read_numbers(bars, source, top.key_path("bars_mm"));
+    }
   }
   k.resolution_mm = top.optional_number("resolution_mm");
   if (k.machine && k.axis.table()) {
@@ -309,13 +370,28 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
   {
     ObjectReader t = top.object("time_s");
     k.time_per_reading_s = t.number("per_reading");
-    k.time_per_installation_s = t.number("per_installation");
-    k.time_per_position_s = t.optional_number("per_position").value_or(0.0);
+    if (probe && t.has("per_installation"))
+      t.fail("per_installation",
+             "a probe has no installations: per_position is a sphere set up, per_reading a "
+             "sphere probed at one angle");
+    k.time_per_installation_s = probe ? 0.0 : t.number("per_installation");
+    // A probe's sphere set-up is its one set-up time: stated, never taken as 0.
+    k.time_per_position_s =
+        probe ? t.number("per_position") : t.optional_number("per_position").value_or(0.0);
     k.time_budget_s = t.optional_number("budget");
     t.finish();
   }
   if (const json* wj = top.optional("workspace")) {
     ObjectReader w(*wj, source, "workspace");
+    if (probe && general)
+      top.fail("workspace",
+               "a probe kit checks the table's outline on the shorthand \"C\" only: the "
+               "sphere's stand on a table in the general form is not checked (leave workspace "
+               "out)");
+    if (probe && w.has("spindle"))
+      w.fail("spindle",
+             "the probe's approach is checked by instrument.approach_mm: a spindle's nose is a "
+             "ball bar kit's");
     Workspace ws;
     if (k.axis.table()) {
       if (const json* tj = w.optional("table")) {

@@ -58,7 +58,9 @@ json candidate_json(const Kit& kit, const Candidate& c) {
 
 }  // namespace
 
-std::string drift_text(const DriftChecks& d) {
+std::string drift_text(const DriftChecks& d, InstrumentKind instrument) {
+  if (instrument == InstrumentKind::kProbe)
+    return "not checked: a probe's file has no time column, so dbbkit tells no drift from it";
   for (const DriftCheck& c : d.effects) {
     if (c.kind != EffectKind::kDrift) continue;
     std::string t = "over the " + fmt_num(d.test_min, 3) + " min test (the kit's clock): ";
@@ -132,6 +134,12 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
       if (cr.best && !cr.best->machine_clash.empty())
         return "no position is one the machine's program takes (the nearest: " +
                cr.best->machine_clash + ")";
+      if (kit.instrument == InstrumentKind::kProbe)
+        return "no position keeps the probe's approach inside travel" +
+               std::string(kit.probe.max_stem_tilt_deg ? ", the stems within their tilt" : "") +
+               (kit.workspace ? ", the stands on the table" : "") + " (least excursion " +
+               mm(cr.best ? cr.best->travel_violation_mm : 0.0) +
+               (kit.probe.max_stem_tilt_deg ? " mm, or deg of a stem's tilt)" : " mm)");
       return std::string(kit.workspace || kit.axis.table()
                              ? "no position keeps the following ball inside travel and the "
                                "set-up clear of the workspace (least excursion "
@@ -139,7 +147,9 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
                                "excursion ") +
              mm(cr.best ? cr.best->travel_violation_mm : 0.0) + " mm)";
     case ChoiceState::kTooClose:
-      return "no position keeps the balls min_separation_mm apart";
+      return std::string("no position keeps the ") +
+             (kit.instrument == InstrumentKind::kProbe ? "spheres" : "balls") +
+             " min_separation_mm apart";
     case ChoiceState::kSetupNotDetected: {
       if (!cr.best || !cr.best->detection) break;
       const Candidate::Detection& d = *cr.best->detection;
@@ -160,6 +170,10 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
 
 std::string time_sum(const Kit& kit, int positions, int installations, int readings) {
   std::string t;
+  if (kit.instrument == InstrumentKind::kProbe)
+    return std::to_string(positions) + (positions == 1 ? " sphere x " : " spheres x ") +
+           fmt_num(kit.time_per_position_s) + " s + " + std::to_string(readings) + " probings x " +
+           fmt_num(kit.time_per_reading_s) + " s";
   if (kit.time_per_position_s > 0)
     t = std::to_string(positions) + " positions x " + fmt_num(kit.time_per_position_s) + " s + ";
   return t + std::to_string(installations) + " installations x " +
@@ -311,17 +325,30 @@ std::vector<BriefItem> optimize_brief(const Kit& kit, const OptimizeResult& res,
   };
   if (!res.best) {
     add("best", "No design fits the kit: " + binding_text(kit, res));
-    add("next", "Next: widen what binds (the travel, the time budget, the blocks or bars).");
+    add("next", kit.instrument == InstrumentKind::kProbe
+                    ? "Next: widen what binds (the travel or approach_mm, max_stem_tilt_deg, the "
+                      "angle range, the time budget, the blocks)."
+                    : "Next: widen what binds (the travel, the time budget, the blocks or bars).");
     return out;
   }
   const Candidate& b = *res.best;
   const Evaluation& ev = res.best_evaluation;
   const std::size_t n = b.design.installations.size(), m = b.design.angles_deg.size();
-  add("best", "Best: " + std::to_string(n) + " installations at " +
-                  std::to_string(ball_positions(b.design)) + " ball positions, " +
-                  std::to_string(m) + " angles (step " + fmt_num(b.choice.step_deg, 6) + " deg), " +
-                  std::to_string(n * m) + " readings, about " + fmt_rounded(b.time_s / 60.0, 1) +
-                  " min by the kit's time model.");
+  const bool probe = kit.instrument == InstrumentKind::kProbe;
+  if (probe) {
+    const std::size_t spheres = b.design.spheres.size();
+    add("best", "Best: " + std::to_string(spheres) + " sphere" + (spheres == 1 ? "" : "s") + ", " +
+                    std::to_string(m) + " angles (step " + fmt_num(b.choice.step_deg, 6) +
+                    " deg), " + std::to_string(spheres * m) + " probed centres (" +
+                    std::to_string(n * m) + " readings), about " + fmt_rounded(b.time_s / 60.0, 1) +
+                    " min by the kit's time model.");
+  } else {
+    add("best", "Best: " + std::to_string(n) + " installations at " +
+                    std::to_string(ball_positions(b.design)) + " ball positions, " +
+                    std::to_string(m) + " angles (step " + fmt_num(b.choice.step_deg, 6) +
+                    " deg), " + std::to_string(n * m) + " readings, about " +
+                    fmt_rounded(b.time_s / 60.0, 1) + " min by the kit's time model.");
+  }
   const std::string noise = worst_phrase(ev.worst, kit.reference_length_mm);
   // A design that leaves some errors undetermined states the worst of those it determines.
   const bool partial = ev.prior.rank < ev.prior.n_unknowns;
@@ -337,6 +364,10 @@ std::vector<BriefItem> optimize_brief(const Kit& kit, const OptimizeResult& res,
                      undetermined + ".");
   } else if (!noise.empty()) {
     add("worst", lead + noise + ", from the reading noise alone" + undetermined + ".");
+  } else {
+    add("worst", "Not determined: no error at any angle (rank " + std::to_string(ev.prior.rank) +
+                     " of " + std::to_string(ev.prior.n_unknowns) +
+                     "): the kit admits no design that measures them.");
   }
   // Where the kit states no lever arm, the summary says which it took (the text and the JSON
   // always do).
@@ -368,9 +399,17 @@ std::vector<BriefItem> optimize_brief(const Kit& kit, const OptimizeResult& res,
                         " deg): per-angle errors are known as well at any step, so the shorter "
                         "measurement wins; set angles_deg.max_step to the resolution you need.");
   }
-  add("next",
-      "Next: dbbkit setup-sheet and program with the design written (--out), an air run "
-      "first.");
+  if (noise.empty() && !ev.worst_total) {  // nothing determined: nothing to measure yet
+    add("next", probe ? "Next: widen what binds (the time budget, the travel or approach_mm, the "
+                        "blocks) until a design determines the errors."
+                      : "Next: widen what binds (the time budget, the travel, the blocks or bars) "
+                        "until a design determines the errors.");
+    return out;
+  }
+  add("next", probe ? "Next: probe the spheres of the design written (--out) at its angles, "
+                      "then dbbkit identify with the probed centres."
+                    : "Next: dbbkit setup-sheet and program with the design written (--out), an "
+                      "air run first.");
   return out;
 }
 
@@ -394,25 +433,41 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   }
   const Candidate& b = *res.best;
   const Evaluation& ev = res.best_evaluation;
+  const bool probe = kit.instrument == InstrumentKind::kProbe;
   s << "\nbest: " << choice_label(kit, b.choice) << "\n";
-  s << std::setw(4) << "id" << std::setw(10) << "L [mm]" << std::setw(10) << "D [mm]";
-  if (kit.axis.has_H()) s << std::setw(10) << "H [mm]";
-  s << std::setw(13) << "direction" << std::setw(10) << "bar [mm]" << std::setw(6) << "sign"
-    << "\n";
   // A coordinate that rounds to zero is written 0.00, not -0.00.
   auto mm = [](double x) { return std::abs(x) < 0.005 ? 0.0 : x; };
-  for (const Installation& in : b.design.installations) {
-    s << std::setw(4) << in.id << std::fixed << std::setprecision(2) << std::setw(10) << mm(in.L_mm)
-      << std::setw(10) << mm(in.D_mm);
-    if (kit.axis.has_H()) s << std::setw(10) << mm(in.H_mm);
-    s << std::setw(13) << in.direction.label() << std::setw(10) << *in.bar_mm << std::setw(6)
-      << in.sign << "\n";
-    s.unsetf(std::ios::fixed);
-  }
   const size_t n_inst = b.design.installations.size(), n_ang = b.design.angles_deg.size();
-  s << "time " << fmt_num(b.time_s, 6) << " s = "
-    << time_sum(kit, ball_positions(b.design), static_cast<int>(n_inst),
-                static_cast<int>(n_inst * n_ang));
+  if (probe) {
+    s << std::setw(4) << "id" << std::setw(10) << "L [mm]" << std::setw(10) << "D [mm]"
+      << std::setw(10) << "H [mm]"
+      << "  stand\n";
+    for (const Sphere& sp : b.design.spheres) {
+      s << std::setw(4) << sp.id << std::fixed << std::setprecision(2) << std::setw(10)
+        << mm(sp.L_mm) << std::setw(10) << mm(sp.D_mm) << std::setw(10) << mm(sp.H_mm) << "  "
+        << sp.description << "\n";
+      s.unsetf(std::ios::fixed);
+    }
+    const TimeEstimate t = design_time(kit, b.design);
+    s << "time " << fmt_num(b.time_s, 6)
+      << " s = " << time_sum(kit, t.positions, t.installations, t.readings);
+  } else {
+    s << std::setw(4) << "id" << std::setw(10) << "L [mm]" << std::setw(10) << "D [mm]";
+    if (kit.axis.has_H()) s << std::setw(10) << "H [mm]";
+    s << std::setw(13) << "direction" << std::setw(10) << "bar [mm]" << std::setw(6) << "sign"
+      << "\n";
+    for (const Installation& in : b.design.installations) {
+      s << std::setw(4) << in.id << std::fixed << std::setprecision(2) << std::setw(10)
+        << mm(in.L_mm) << std::setw(10) << mm(in.D_mm);
+      if (kit.axis.has_H()) s << std::setw(10) << mm(in.H_mm);
+      s << std::setw(13) << in.direction.label() << std::setw(10) << *in.bar_mm << std::setw(6)
+        << in.sign << "\n";
+      s.unsetf(std::ios::fixed);
+    }
+    s << "time " << fmt_num(b.time_s, 6) << " s = "
+      << time_sum(kit, ball_positions(b.design), static_cast<int>(n_inst),
+                  static_cast<int>(n_inst * n_ang));
+  }
   if (kit.time_budget_s) s << " (budget " << fmt_num(*kit.time_budget_s, 6) << " s)";
   s << "\n";
   s << "rank " << ev.prior.rank << " of " << ev.prior.n_unknowns;
@@ -432,7 +487,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   }
   if (res.rounding) s << rounding_text(res) << "\n";
   if (b.detection) s << "set-up detection " << detection_text(*b.detection) << "\n";
-  s << "drift " << drift_text(ev.drift) << "\n";
+  s << "drift " << drift_text(ev.drift, kit.instrument) << "\n";
   s << unidentifiable_text(ev.unidentifiable);
   if (ev.setup_included) {
     s << "\npredicted standard uncertainty (k = 1) at each angle, total (noise and the declared "
@@ -479,13 +534,15 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   if (pareto) {
     s << "\nPareto front, " << criterion_name(res.criterion)
       << " against time (designs that determine as much as "
-      << "the best; each the best of its angle step and installations):\n";
-    s << std::setw(10) << "time [s]" << std::setw(15) << "installations" << std::setw(8) << "angles"
-      << std::setw(12) << "step [deg]" << std::setw(20) << criterion_name(res.criterion)
-      << "  added (optional positions)\n";
+      << "the best; each the best of its angle step and " << (probe ? "spheres" : "installations")
+      << "):\n";
+    s << std::setw(10) << "time [s]" << std::setw(15) << (probe ? "spheres" : "installations")
+      << std::setw(8) << "angles" << std::setw(12) << "step [deg]" << std::setw(20)
+      << criterion_name(res.criterion) << "  added (optional positions)\n";
     for (const Candidate& c : res.pareto) {
-      s << std::setw(10) << fmt_num(c.time_s, 6) << std::setw(15) << c.design.installations.size()
-        << std::setw(8) << c.design.angles_deg.size() << std::setw(12) << fmt_num(c.choice.step_deg)
+      s << std::setw(10) << fmt_num(c.time_s, 6) << std::setw(15)
+        << (probe ? c.design.spheres.size() : c.design.installations.size()) << std::setw(8)
+        << c.design.angles_deg.size() << std::setw(12) << fmt_num(c.choice.step_deg)
         << std::setw(20) << fmt_num(c.objective, 5) << "  " << added_installations(kit, c) << "\n";
     }
   }

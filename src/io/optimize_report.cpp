@@ -89,7 +89,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
     summary.push_back(
         {"worst_total_std_um (noise and set-up)", fmt_opt(ev.worst_total->worst_std_um) + " um"});
   if (b.detection) summary.push_back({"set-up detection", detection_text(*b.detection)});
-  summary.push_back({"drift", drift_text(ev.drift)});
+  summary.push_back({"drift", drift_text(ev.drift, kit.instrument)});
   if (reference) {
     const ReferenceRatios ratios = reference_ratios(res, *reference);
     summary.push_back(
@@ -120,47 +120,62 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   }
   unidentifiable_section(p, ev.unidentifiable);
   p.heading("Trade-off against time");
-  p.figure(
-      [&] {
-        PlotSeries all, front;
-        all.title = "best of each choice";
-        all.style = "points";
-        front.title = "Pareto front";
-        front.style = "linespoints";
-        for (const ChoiceResult& c : res.choices) {
-          if (c.best && c.best->feasible && c.best->objective_defined &&
-              c.best->n_undetermined == b.n_undetermined) {
-            all.x.push_back(c.best->time_s);
-            all.y.push_back(c.best->objective);
+  const bool scored =
+      std::any_of(res.choices.begin(), res.choices.end(), [&](const ChoiceResult& c) {
+        return c.best && c.best->feasible && c.best->objective_defined &&
+               c.best->n_undetermined == b.n_undetermined;
+      });
+  if (!scored)
+    p.paragraph(
+        "No choice's best design scores on the criterion (each leaves errors "
+        "undetermined): nothing to plot against time.");
+  if (scored)
+    p.figure(
+        [&] {
+          PlotSeries all, front;
+          all.title = "best of each choice";
+          all.style = "points";
+          front.title = "Pareto front";
+          front.style = "linespoints";
+          for (const ChoiceResult& c : res.choices) {
+            if (c.best && c.best->feasible && c.best->objective_defined &&
+                c.best->n_undetermined == b.n_undetermined) {
+              all.x.push_back(c.best->time_s);
+              all.y.push_back(c.best->objective);
+            }
           }
-        }
-        for (size_t i = 0; i < res.pareto.size(); ++i) {
-          const Candidate& c = res.pareto[i];
-          front.x.push_back(c.time_s), front.y.push_back(c.objective);
-          front.labels.push_back(fmt_num(c.time_s, 6) + " s, " + fmt_num(c.objective, 4) +
-                                 (i ? "; " + choice_change_text(kit, res.pareto[i - 1], c) : ""));
-        }
-        // The interesting range: up to 2.5 times the front's largest value.
-        double top = 0;
-        for (double v : front.y) top = std::max(top, v);
-        return plot_series(std::string(criterion_name(res.criterion)) + " against measurement time",
-                           "time [s]", criterion_name(res.criterion), {all, front}, 760, 420,
-                           2.5 * top);
-      },
-      "Every discrete choice's best design (points) and the front of those no other beats in both "
-      "time and uncertainty (line), each point of the front labelled with its time, its "
-      "uncertainty and what changes from the point before; the axis ends at 2.5 times the "
-      "front's largest value (worse choices are off the plot, and in the result JSON).");
+          for (size_t i = 0; i < res.pareto.size(); ++i) {
+            const Candidate& c = res.pareto[i];
+            front.x.push_back(c.time_s), front.y.push_back(c.objective);
+            front.labels.push_back(fmt_num(c.time_s, 6) + " s, " + fmt_num(c.objective, 4) +
+                                   (i ? "; " + choice_change_text(kit, res.pareto[i - 1], c) : ""));
+          }
+          // The interesting range: up to 2.5 times the front's largest value.
+          double top = 0;
+          for (double v : front.y) top = std::max(top, v);
+          return plot_series(
+              std::string(criterion_name(res.criterion)) + " against measurement time", "time [s]",
+              criterion_name(res.criterion), {all, front}, 760, 420, 2.5 * top);
+        },
+        "Every discrete choice's best design (points) and the front of those no other beats in "
+        "both "
+        "time and uncertainty (line), each point of the front labelled with its time, its "
+        "uncertainty and what changes from the point before; the axis ends at 2.5 times the "
+        "front's largest value (worse choices are off the plot, and in the result JSON).");
   std::vector<std::vector<std::string>> front;
   for (size_t i = 0; i < res.pareto.size(); ++i) {
     const Candidate& c = res.pareto[i];
-    front.push_back({fmt_num(c.time_s, 6), std::to_string(c.design.installations.size()),
-                     std::to_string(c.design.angles_deg.size()), fmt_num(c.choice.step_deg),
-                     fmt_num(c.objective, 5), added_installations(kit, c),
-                     i == 0 ? "the shortest" : choice_change_text(kit, res.pareto[i - 1], c)});
+    front.push_back(
+        {fmt_num(c.time_s, 6),
+         std::to_string(kit.instrument == InstrumentKind::kProbe ? c.design.spheres.size()
+                                                                 : c.design.installations.size()),
+         std::to_string(c.design.angles_deg.size()), fmt_num(c.choice.step_deg),
+         fmt_num(c.objective, 5), added_installations(kit, c),
+         i == 0 ? "the shortest" : choice_change_text(kit, res.pareto[i - 1], c)});
   }
-  p.table({"time [s]", "installations", "angles", "step [deg]", criterion_name(res.criterion),
-           "added (optional positions)", "what changes from the point before"},
+  p.table({"time [s]", kit.instrument == InstrumentKind::kProbe ? "spheres" : "installations",
+           "angles", "step [deg]", criterion_name(res.criterion), "added (optional positions)",
+           "what changes from the point before"},
           front);
   const std::vector<int> runners = runner_up_choices(res, 5);
   if (!runners.empty()) {

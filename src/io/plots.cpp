@@ -1,5 +1,6 @@
 #include "dbbkit/io/plots.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -186,11 +187,33 @@ std::string plot_errors(const std::vector<ExpandedErrorsAtAngle>& errors, bool v
   sc << "set multiplot layout 2,1 title " << gnuplot_quote(title)
      << "\nset grid\nset key outside right top\n"
      << "set xlabel 'angle [deg]'\n";
-  sc << "set title " << gnuplot_quote("translations: " + what) << "\nset ylabel 'um'\nplot ";
-  for (int i = 0; i < 3; ++i) sc << (i ? ", " : "") << series_plot(tr[i], i);
-  sc << "\nset title " << gnuplot_quote("rotations: " + what) << "\nset ylabel 'urad'\nplot ";
-  for (int i = 0; i < 3; ++i) sc << (i ? ", " : "") << series_plot(rot[i], i + 3);
-  sc << "\nunset multiplot\n";
+  // A panel with no determined value says so (gnuplot refuses a plot of no valid point).
+  double lo = 0, hi = 1;
+  if (!errors.empty()) {
+    lo = errors.front().angle_deg, hi = lo;
+    for (const ExpandedErrorsAtAngle& ea : errors)
+      lo = std::min(lo, ea.angle_deg), hi = std::max(hi, ea.angle_deg);
+  }
+  if (hi <= lo) lo -= 1, hi += 1;
+  auto panel = [&](const std::vector<PlotSeries>& series, int first, const std::string& name,
+                   const char* unit) {
+    sc << "set title " << gnuplot_quote(name + ": " + what) << "\nset ylabel '" << unit << "'\n";
+    bool any = false;
+    for (const PlotSeries& s : series)
+      for (double y : s.y) any = any || std::isfinite(y);
+    if (!any) {
+      sc << "set xrange [" << gnuplot_number(lo) << ":" << gnuplot_number(hi)
+         << "]\nset yrange [0:1]\nset label 1 'not determined at any angle' at graph 0.5, 0.5 "
+            "center\nplot 2 notitle\nunset label 1\nset autoscale\n";
+      return;
+    }
+    sc << "plot ";
+    for (int i = 0; i < 3; ++i) sc << (i ? ", " : "") << series_plot(series[i], i + first);
+    sc << "\n";
+  };
+  panel(tr, 0, "translations", "um");
+  panel(rot, 3, "rotations", "urad");
+  sc << "unset multiplot\n";
   return gnuplot_svg(sc.str(), 900, 640);
 }
 

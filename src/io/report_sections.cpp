@@ -27,16 +27,30 @@ std::vector<std::vector<std::string>> installation_rows(const Design& d) {
 
 void design_section(ReportWriter& p, const Design& d) {
   p.heading("Design");
+  const bool probe = d.instrument == InstrumentKind::kProbe;
+  const std::string measured = probe ? std::to_string(d.spheres.size()) +
+                                           " spheres probed in x, y and z (" +
+                                           std::to_string(d.installations.size()) + " channels)"
+                                     : std::to_string(d.installations.size()) + " installations";
   p.paragraph(d.name + ": axis " + d.axis.label() + ", " + std::to_string(d.angles_deg.size()) +
               " angles from " +
               fmt_num(*std::min_element(d.angles_deg.begin(), d.angles_deg.end()), 6) + " to " +
               fmt_num(*std::max_element(d.angles_deg.begin(), d.angles_deg.end()), 6) + " deg, " +
-              std::to_string(d.installations.size()) + " installations, errors " +
-              d.errors.describe() + ".");
+              measured + ", errors " + d.errors.describe() + ".");
   if (!d.description.empty()) p.paragraph(d.description);
   p.figure([&] { return plot_design(d); },
-           "Ball positions (red) and bars to the following ball (blue), labelled "
-           "with the installations that use them; dashed: the axis of rotation.");
+           probe ? "Sphere centres (red) and the directions each is probed in (blue: machine x, y "
+                   "and z), labelled with their channels; dashed: the axis of rotation."
+                 : "Ball positions (red) and bars to the following ball (blue), labelled "
+                   "with the installations that use them; dashed: the axis of rotation.");
+  if (probe) {
+    std::vector<std::vector<std::string>> rows;
+    for (const Sphere& sp : d.spheres)
+      rows.push_back({sp.id, fmt_num(sp.L_mm, 6), fmt_num(sp.D_mm, 6),
+                      d.axis.has_H() ? fmt_num(sp.H_mm, 6) : "--", sp.description});
+    p.table({"sphere", "L [mm]", "D [mm]", "H [mm]", "set-up"}, rows);
+    return;
+  }
   p.table({"id", "L [mm]", "D [mm]", "H [mm]", "direction", "sign", "bar [mm]", "set-up"},
           installation_rows(d));
 }
@@ -119,7 +133,7 @@ void iso230_section(ReportWriter& p, const IsoResult& iso, const std::string& no
              "interval (at least " + fmt_num(100 * mv.coverage_probability) + " %)", "unit"},
             vals);
   }
-  if (!iso.gaps.empty()) p.paragraph(as_sentence(iso_gaps_note(iso)));
+  if (!iso.gaps.empty() || !iso.not_in_model.empty()) p.paragraph(as_sentence(iso_gaps_note(iso)));
 }
 
 // The conformance decisions (conformance.hpp): the rule, then one row per tolerance.

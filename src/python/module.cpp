@@ -26,6 +26,7 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/identify.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/chain_io.hpp"
 #include "dbbkit/io/compare_io.hpp"
 #include "dbbkit/io/compensation_io.hpp"
@@ -1169,8 +1170,8 @@ PyOptimizeResult run_optimize(const PyKit& k, std::optional<std::string> criteri
   if (require_setup_detection) {
     if (!kit.setup_std.nuisance()) {
       throw InputError(k.source, "setup_std",
-                       "require_setup_detection needs a length offset or centring tolerance "
-                       "declared in the kit");
+                       std::string("require_setup_detection needs ") +
+                           setup_tolerance_phrase(kit.instrument) + " declared in the kit");
     }
     kit.require_setup_detection = true;
   }
@@ -1179,9 +1180,9 @@ PyOptimizeResult run_optimize(const PyKit& k, std::optional<std::string> criteri
                                                                      : "worst",
                                           "criterion");
   if (c == Criterion::kWorstTotal && !kit.setup_std.nuisance()) {
-    throw InputError(
-        k.source, "setup_std",
-        "criterion worst_total needs a length offset or centring tolerance declared in the kit");
+    throw InputError(k.source, "setup_std",
+                     std::string("criterion worst_total needs ") +
+                         setup_tolerance_phrase(kit.instrument) + " declared in the kit");
   }
   OptimizeOptions options;
   options.criterion = c;

@@ -47,8 +47,8 @@ std::string time_sum(const Kit& kit, int positions, int installations, int readi
 std::string detection_text(const Candidate::Detection& d);
 // A drift over the whole test (the best design's, on the kit's clock: OptimizeResult::
 // best_evaluation): its detection limit and what 1 um of it undetected moves most (setup.hpp,
-// DriftCheck).
-std::string drift_text(const DriftChecks& d);
+// DriftCheck); a probe's: not checked (its file has no time column).
+std::string drift_text(const DriftChecks& d, InstrumentKind instrument = InstrumentKind::kBallbar);
 
 // Why the design found stays at rank 5 (OptimizeResult::rank_five), in words; empty when it
 // does not.
