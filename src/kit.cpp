@@ -75,16 +75,30 @@ std::optional<ArcEnds> arc_of(const std::vector<double>& angles_deg) {
   return ArcEnds(*lo_it, *hi_it);
 }
 
-// The travel violation of the following ball's path G turned over the arc (travel_violation_mm).
+// The travel violation of the point G turned over the arc (travel_violation_mm: the following
+// ball's path), each coordinate k reaching below[k] lower and above[k] higher than the point (a
+// probe's approach about a sphere's centre; zero for a ball).
 double arc_travel_violation(const Kit& kit, const RotationHarmonics& h, const Eigen::Vector3d& G,
-                            const ArcEnds& ends) {
+                            const ArcEnds& ends,
+                            const Eigen::Vector3d& below = Eigen::Vector3d::Zero(),
+                            const Eigen::Vector3d& above = Eigen::Vector3d::Zero()) {
   const Eigen::Vector3d a = h.A0 * G, b = h.A1 * G, c = h.A2 * G;
   double worst = -std::numeric_limits<double>::infinity();
   for (int k = 0; k < 3; ++k) {
     const auto [mn, mx] = arc_extent(a(k), b(k), c(k), ends);
-    worst = std::max({worst, kit.travel_mm[k].min - mn, mx - kit.travel_mm[k].max});
+    worst = std::max(
+        {worst, kit.travel_mm[k].min - (mn - below(k)), (mx + above(k)) - kit.travel_mm[k].max});
   }
   return worst;
+}
+
+// How far a circle of diameter footprint_mm about the table point P (x, y at angle 0) overhangs a
+// "C" table's outline (<= 0: on the table): a cup and its blocks, a sphere's stand.
+double footprint_overhang_mm(const Workspace& w, const Eigen::Vector3d& P) {
+  const double f = w.footprint_mm / 2;
+  if (w.table_diameter_mm) return std::hypot(P.x(), P.y()) + f - *w.table_diameter_mm / 2;
+  return std::max({w.table_x_mm->min - (P.x() - f), (P.x() + f) - w.table_x_mm->max,
+                   w.table_y_mm->min - (P.y() - f), (P.y() + f) - w.table_y_mm->max});
 }
 
 }  // namespace
@@ -860,17 +874,8 @@ double clash_extent(const Kit& kit, const AxisFrame& axis, const Eigen::Vector3d
   if (axis.table()) {
     // C: the table turns about +Z with its surface at z = 0; ball and spindle ball turn together,
     // so their heights and horizontal distance do not change over the arc.
-    if (w && (w->table_diameter_mm || w->table_x_mm)) {
-      const double f = w->footprint_mm / 2;
-      double by;
-      if (w->table_diameter_mm) {
-        by = std::hypot(P0.x(), P0.y()) + f - *w->table_diameter_mm / 2;
-      } else {
-        by = std::max({w->table_x_mm->min - (P0.x() - f), (P0.x() + f) - w->table_x_mm->max,
-                       w->table_y_mm->min - (P0.y() - f), (P0.y() + f) - w->table_y_mm->max});
-      }
-      note("the cup and blocks overhang the table", by);
-    }
+    if (w && (w->table_diameter_mm || w->table_x_mm))
+      note("the cup and blocks overhang the table", footprint_overhang_mm(*w, P0));
     const Eigen::Vector3d a = h.A0 * G, b = h.A1 * G, c = h.A2 * G;
     const double z_low = arc_min(a.z(), b.z(), c.z(), ends);
     note("the spindle ball is below a cup's height", kit.H_base_mm - z_low);
@@ -953,16 +958,10 @@ void sphere_checks(const Kit& kit, const AxisFrame& axis, const Sphere& sphere, 
                    Note&& note) {
   const RotationHarmonics& h = rotation_harmonics(axis);
   const Eigen::Vector3d B = axis.body_point(sphere.L_mm, sphere.D_mm, sphere.H_mm);
-  const Eigen::Vector3d a = h.A0 * B, b = h.A1 * B, c = h.A2 * B;
+  // x, y: touched from both sides at the centre's height; z: from above only.
   const double r = kit.probe.approach_mm;
-  double worst = -std::numeric_limits<double>::infinity();
-  for (int k = 0; k < 3; ++k) {
-    const auto [mn, mx] = arc_extent(a(k), b(k), c(k), ends);
-    // x, y: touched from both sides at the centre's height; z: from above only.
-    const double low = k < 2 ? mn - r : mn, high = mx + r;
-    worst = std::max({worst, kit.travel_mm[k].min - low, high - kit.travel_mm[k].max});
-  }
-  note("the probe's approach leaves the travel", worst);
+  note("the probe's approach leaves the travel",
+       arc_travel_violation(kit, h, B, ends, Eigen::Vector3d(r, r, 0), Eigen::Vector3d(r, r, r)));
   if (kit.probe.max_stem_tilt_deg) {
     // The stem along the table's normal, turned: its z a sinusoid of the angle.
     const Eigen::Vector3d n = kit.table_normal;
@@ -971,15 +970,8 @@ void sphere_checks(const Kit& kit, const AxisFrame& axis, const Sphere& sphere, 
     note("the sphere's stem tilts too far", tilt - *kit.probe.max_stem_tilt_deg);
   }
   const Workspace* w = kit.workspace ? &*kit.workspace : nullptr;
-  if (w && axis.shorthand() == "C" && (w->table_diameter_mm || w->table_x_mm)) {
-    const double f = w->footprint_mm / 2;
-    const double by =
-        w->table_diameter_mm
-            ? std::hypot(B.x(), B.y()) + f - *w->table_diameter_mm / 2
-            : std::max({w->table_x_mm->min - (B.x() - f), (B.x() + f) - w->table_x_mm->max,
-                        w->table_y_mm->min - (B.y() - f), (B.y() + f) - w->table_y_mm->max});
-    note("the sphere's stand overhangs the table", by);
-  }
+  if (w && axis.shorthand() == "C" && (w->table_diameter_mm || w->table_x_mm))
+    note("the sphere's stand overhangs the table", footprint_overhang_mm(*w, B));
 }
 
 }  // namespace
