@@ -19,6 +19,97 @@
 namespace dbbkit {
 
 namespace {
+
+// Each kind's row of one reading (EffectRowFn), F = P - s bar u the following ball (mm).
+
+// length_offset (per installation or [all], um): 1.
+void row_length_offset(const EffectRowInput&, double* row) { row[0] = kLengthOffsetRow; }
+
+// centring (per installation, um): -s u . c, c the constant offset of the following ball's path
+// (machine frame).
+void row_centring(const EffectRowInput& in, double* row) {
+  Eigen::Map<Eigen::Vector3d> out(row);
+  out = centring_row(in.design.axis, in.installation, in.reading.angle_deg);
+}
+
+// drift (per installation or [all], um/min): (t - t0) / 60, t0 the first reading's time of the
+// installation, or of the whole test (one clock through the test).
+void row_drift(const EffectRowInput& in, double* row) {
+  if (in.reading.time_s && std::isfinite(in.t0_s)) row[0] = (*in.reading.time_s - in.t0_s) / 60.0;
+}
+
+// reversal (per installation or [all], um): +1/2 on cw sweeps, -1/2 on ccw: value = cw - ccw.
+void row_reversal(const EffectRowInput& in, double* row) {
+  if (in.reading.sweep) row[0] = *in.reading.sweep == Sweep::kCW ? 0.5 : -0.5;
+}
+
+// The following ball F (mm) and the reading per um of its motion per mm of F, or nothing
+// without a bar.
+bool following_ball(const EffectRowInput& in, Eigen::Vector3d& F, Eigen::Vector3d& w) {
+  const Installation& inst = in.installation;
+  if (!inst.bar_mm) return false;
+  const AxisFrame& axis = in.design.axis;
+  const Eigen::Vector3d u = direction_machine(axis, inst, in.reading.angle_deg);
+  F = ball_position_mm(axis, inst, in.reading.angle_deg) - inst.sign * *inst.bar_mm * u;
+  w = -inst.sign * 1e-3 * u;
+  return true;
+}
+
+// scale (shared, um/m): -s u . dF, dF_k = 1e-3 k_k F_k.
+void row_scale(const EffectRowInput& in, double* row) {
+  Eigen::Vector3d F, w;
+  if (!following_ball(in, F, w)) return;
+  Eigen::Map<Eigen::Vector3d> out(row);
+  out = w.cwiseProduct(F);
+}
+
+// squareness (shared, urad): -s u . dF, dF = 1e-3 (S_xy F_y, S_yz F_z, S_zx F_x).
+void row_squareness(const EffectRowInput& in, double* row) {
+  Eigen::Vector3d F, w;
+  if (!following_ball(in, F, w)) return;
+  row[0] = w.x() * F.y(), row[1] = w.y() * F.z(), row[2] = w.z() * F.x();
+}
+
+// periodic (per installation, um): cos(k a - phase) times the amplitude; a simulated truth's,
+// for tests of what the tool does with an effect it does not know.
+void row_periodic(const EffectRowInput& in, double* row) {
+  double s, c;
+  sincos_deg(in.effect.harmonic * in.reading.angle_deg - in.effect.phase_deg, s, c);
+  row[0] = c;
+}
+
+// step (per installation, um): 1 from the reading at which the installation's readings jump on
+// (a knock, a slipped magnet); its time is scanned (selection.hpp).
+void row_step(const EffectRowInput& in, double* row) {
+  if (in.reading.time_s && *in.reading.time_s >= in.effect.at_s) row[0] = 1.0;
+}
+
+// thermal ([all], um): 1 - exp(-(t - t0) / tau), t0 the test's first reading: a warm-up
+// approaching a plateau of the value; tau is scanned (selection.hpp).
+void row_thermal(const EffectRowInput& in, double* row) {
+  if (in.reading.time_s && std::isfinite(in.t0_s) && in.effect.tau_min > 0)
+    row[0] = -std::expm1(-(*in.reading.time_s - in.t0_s) / (60.0 * in.effect.tau_min));
+}
+
+// trigger_offset (per probe channel, um): 1, the probe's offset along the channel's axis.
+void row_trigger_offset(const EffectRowInput&, double* row) { row[0] = 1.0; }
+
+// placement (per sphere, um): s e_k . R(g) (dL e_L + dD e_D + dH e_H), the sphere's centre off
+// its stated body coordinates.
+void row_placement(const EffectRowInput& in, double* row) {
+  if (!in.installation.probe_channel()) return;
+  const AxisFrame& a = in.design.axis;
+  const Eigen::Matrix3d R = axis_rotation(a, in.reading.angle_deg);
+  const Eigen::Vector3d per_um[3] = {a.body_point(1e-3, 0, 0), a.body_point(0, 1e-3, 0),
+                                     a.body_point(0, 0, a.has_H() ? 1e-3 : 0.0)};
+  for (int j = 0; j < 3; ++j)
+    row[j] = in.installation.sign * 1e3 * (R * per_um[j])(in.installation.coordinate);
+}
+
+// Scale and squareness: the linear axes' errors, one step for both.
+constexpr const char* kLinearAxesNextStep =
+    "check the linear axes' scale and squareness before compensating the rotary axis";
+
 // The kinds, in EffectKind's order.
 constexpr EffectInfo kEffects[] = {
     {.kind = EffectKind::kLengthOffset,
@@ -26,90 +117,141 @@ constexpr EffectInfo kEffects[] = {
      .unit = "um",
      .noun = "a length offset",
      .parameters = {"value"},
+     .row = row_length_offset,
      .whole_test_form = true,
      .ballbar_only = true,
-     .setup = true},
-    {.kind = EffectKind::kCentring,
-     .name = "centring",
-     .unit = "um",
-     .noun = "a centring error",
-     .parameters = {"cx", "cy", "cz"},
-     .ballbar_only = true,
-     .setup = true},
-    {.kind = EffectKind::kDrift,
-     .name = "drift",
-     .unit = "um/min",
-     .noun = "a drift",
-     .parameters = {"value"},
-     .whole_test_form = true,
-     .needs_times = true,
-     .ballbar_only = true},
-    {.kind = EffectKind::kReversal,
-     .name = "reversal",
-     .unit = "um",
-     .noun = "a cw-ccw difference",
-     .parameters = {"value"},
-     .whole_test_form = true,
-     .needs_both_sweeps = true,
-     .ballbar_only = true},
-    {.kind = EffectKind::kScale,
-     .name = "scale",
-     .unit = "um/m",
-     .noun = "a linear-axis scale error",
-     .parameters = {"x", "y", "z"},
-     .shared = true,
-     .needs_bar = true,
-     .ballbar_only = true},
-    {.kind = EffectKind::kSquareness,
-     .name = "squareness",
-     .unit = "urad",
-     .noun = "a linear-axis squareness error",
-     .parameters = {"xy", "yz", "zx"},
-     .shared = true,
-     .needs_bar = true,
-     .ballbar_only = true},
-    {.kind = EffectKind::kPeriodic,
-     .name = "periodic",
-     .unit = "um",
-     .noun = "a periodic error",
-     .parameters = {"value"}},
-    {.kind = EffectKind::kStep,
-     .name = "step",
-     .unit = "um",
-     .noun = "a step",
-     .parameters = {"value"},
-     .needs_times = true},
-    {.kind = EffectKind::kThermal,
-     .name = "thermal",
-     .unit = "um",
-     .noun = "a warm-up",
-     .parameters = {"value"},
-     .whole_test_form = true,
-     .whole_test_only = true,
-     .needs_times = true,
-     .ballbar_only = true},
+     .setup = true,
+     .setup_std = &SetupUncertainty::length_offset_um,
+     .next_step = "re-zero the bar in its calibrator and re-seat the balls of installation {where}",
+     .next_step_whole_test = "check the bar's calibrated length",
+     .redo_setup = true},
     {.kind = EffectKind::kTriggerOffset,
      .name = "trigger_offset",
      .unit = "um",
      .noun = "a probe trigger offset",
      .parameters = {"value"},
+     .row = row_trigger_offset,
      .probe_only = true,
-     .setup = true},
+     .setup = true,
+     .setup_std = &SetupUncertainty::trigger_offset_um,
+     .next_step = "calibrate the probe (its trigger offsets, on the calibration sphere or ring)",
+     .redo_setup = true},
     {.kind = EffectKind::kPlacement,
      .name = "placement",
      .unit = "um",
      .noun = "a sphere placement error",
      .parameters = {"dL", "dD", "dH"},
+     .row = row_placement,
+     .truth_value = TruthValue::kNamed,
+     .by_component = true,
      .probe_only = true,
      .per_sphere = true,
-     .setup = true},
+     .setup = true,
+     .setup_std = &SetupUncertainty::placement_um,
+     .next_step = "state where sphere {where} really is (ball_mm; it is off the stated centre), or "
+                  "declare its placement tolerance (setup_std.placement_um)",
+     .next_step_on_head = "check the probe's length and radius in the tool table (the point it "
+                          "meets the sphere at is off the stated one)"},
+    {.kind = EffectKind::kCentring,
+     .name = "centring",
+     .unit = "um",
+     .noun = "a centring error",
+     .parameters = {"cx", "cy", "cz"},
+     .row = row_centring,
+     .truth_value = TruthValue::kList,
+     .ballbar_only = true,
+     .setup = true,
+     .setup_std = &SetupUncertainty::centring_um,
+     .next_step = "re-centre the cup of installation {where}",
+     .redo_setup = true},
+    {.kind = EffectKind::kDrift,
+     .name = "drift",
+     .unit = "um/min",
+     .noun = "a drift",
+     .parameters = {"value"},
+     .row = row_drift,
+     .whole_test_form = true,
+     .needs_times = true,
+     .ballbar_only = true,
+     .next_step = "warm the machine up until the readings stop drifting, and measure again"},
+    {.kind = EffectKind::kReversal,
+     .name = "reversal",
+     .unit = "um",
+     .noun = "a cw-ccw difference",
+     .parameters = {"value"},
+     .row = row_reversal,
+     .whole_test_form = true,
+     .needs_both_sweeps = true,
+     .ballbar_only = true,
+     .next_step = "check the axis' backlash (the cw-ccw difference in {where})",
+     .next_step_whole_test = "check the axis' backlash (the cw-ccw difference)"},
+    {.kind = EffectKind::kScale,
+     .name = "scale",
+     .unit = "um/m",
+     .noun = "a linear-axis scale error",
+     .parameters = {"x", "y", "z"},
+     .row = row_scale,
+     .truth_value = TruthValue::kNamed,
+     .shared = true,
+     .by_component = true,
+     .needs_bar = true,
+     .ballbar_only = true,
+     .next_step = kLinearAxesNextStep},
+    {.kind = EffectKind::kSquareness,
+     .name = "squareness",
+     .unit = "urad",
+     .noun = "a linear-axis squareness error",
+     .parameters = {"xy", "yz", "zx"},
+     .row = row_squareness,
+     .truth_value = TruthValue::kNamed,
+     .shared = true,
+     .by_component = true,
+     .needs_bar = true,
+     .ballbar_only = true,
+     .next_step = kLinearAxesNextStep},
+    {.kind = EffectKind::kPeriodic,
+     .name = "periodic",
+     .unit = "um",
+     .noun = "a periodic error",
+     .parameters = {"value"},
+     .row = row_periodic,
+     .position = EffectPosition::kHarmonic,
+     .truth_value = TruthValue::kObject,
+     .truth_value_key = "amplitude_um",
+     .next_step = "check the axis drive for a {harmonic}-per-turn error"},
+    {.kind = EffectKind::kStep,
+     .name = "step",
+     .unit = "um",
+     .noun = "a step",
+     .parameters = {"value"},
+     .row = row_step,
+     .position = EffectPosition::kTime,
+     .truth_value = TruthValue::kObject,
+     .truth_value_key = "size_um",
+     .needs_times = true,
+     .next_step = "look for a knocked or loose ball in installation {where}"},
+    {.kind = EffectKind::kThermal,
+     .name = "thermal",
+     .unit = "um",
+     .noun = "a warm-up",
+     .parameters = {"value"},
+     .row = row_thermal,
+     .position = EffectPosition::kTimeConstant,
+     .truth_value = TruthValue::kObject,
+     .truth_value_key = "plateau_um",
+     .whole_test_form = true,
+     .whole_test_only = true,
+     .needs_times = true,
+     .ballbar_only = true,
+     .next_step = "warm the machine up (three time constants: about {settle_min} min) and measure "
+                  "again"},
 };
 
 // Each entry at its kind's place: effect_info indexes the table.
 constexpr bool in_kind_order() {
   for (std::size_t i = 0; i < std::size(kEffects); ++i)
     if (static_cast<std::size_t>(kEffects[i].kind) != i) return false;
-  return std::size(kEffects) == static_cast<std::size_t>(EffectKind::kPlacement) + 1;
+  return std::size(kEffects) == static_cast<std::size_t>(EffectKind::kThermal) + 1;
 }
 static_assert(in_kind_order(), "kEffects holds every EffectKind once, in the enum's order");
 }  // namespace
@@ -128,13 +270,16 @@ bool effect_is_shared(EffectKind kind) { return effect_info(kind).shared; }
 bool effect_has_whole_test_form(EffectKind kind) { return effect_info(kind).whole_test_form; }
 
 EffectKind effect_kind(const std::string& name, const std::string& source, const std::string& key) {
+  std::string names;
   for (const EffectInfo& i : kEffects) {
     if (name == i.name) return i.kind;
+    names += std::string(names.empty()                  ? ""
+                         : &i == std::end(kEffects) - 1 ? " or "
+                                                        : ", ") +
+             i.name;
   }
   throw InputError(source, key,
-                   "unknown effect " + quote_value(name) +
-                       " (expected length_offset, centring, drift, reversal, step, thermal, "
-                       "scale, squareness, trigger_offset, placement or periodic)");
+                   "unknown effect " + quote_value(name) + " (expected " + names + ")");
 }
 
 bool effect_fits_instrument(EffectKind kind, InstrumentKind instrument) {
@@ -188,9 +333,19 @@ std::string EffectCandidate::label(const Design& design) const {
   if (component >= 0) s += "." + effect_parameter_names(kind)[component];
   if (installation >= 0) s += "[" + effect_installation_id(design, *this) + "]";
   if (installation < 0 && effect_has_whole_test_form(kind)) s += "[all]";
-  if (kind == EffectKind::kPeriodic) s += "(" + std::to_string(harmonic) + "/turn)";
-  if (kind == EffectKind::kStep && std::isfinite(at_s)) s += "(t=" + short_number(at_s) + "s)";
-  if (kind == EffectKind::kThermal) s += "(tau=" + short_number(tau_min) + "min)";
+  switch (effect_info(kind).position) {
+    case EffectPosition::kNone:
+      break;
+    case EffectPosition::kHarmonic:
+      s += "(" + std::to_string(harmonic) + "/turn)";
+      break;
+    case EffectPosition::kTime:
+      if (std::isfinite(at_s)) s += "(t=" + short_number(at_s) + "s)";
+      break;
+    case EffectPosition::kTimeConstant:
+      s += "(tau=" + short_number(tau_min) + "min)";
+      break;
+  }
   return s;
 }
 
@@ -249,7 +404,8 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
   const std::size_t name_end = label.find_first_of(".[(");
   EffectCandidate e;
   e.kind = effect_kind(label.substr(0, name_end), source, key);
-  if (e.kind == EffectKind::kPeriodic)
+  const EffectPosition position = effect_info(e.kind).position;
+  if (position == EffectPosition::kHarmonic)
     fail("a periodic effect is a simulated truth's (its phase is not in the label); " + forms);
   std::size_t at = name_end == std::string::npos ? label.size() : name_end;
   if (at < label.size() && label[at] == '.') {  // one component of a vector effect
@@ -298,12 +454,12 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
   if (at < label.size()) {
     if (label[at] != '(' || label.back() != ')') fail("unexpected text after the name; " + forms);
     const std::string arg = label.substr(at + 1, label.size() - at - 2);
-    if (e.kind == EffectKind::kStep && arg.rfind("t=", 0) == 0 && arg.back() == 's') {
+    if (position == EffectPosition::kTime && arg.rfind("t=", 0) == 0 && arg.back() == 's') {
       const std::optional<double> t = label_number(arg.substr(2, arg.size() - 3), false);
       if (!t) fail("the step's time must be a number of seconds, e.g. (t=120s)");
       e.at_s = *t;
-    } else if (e.kind == EffectKind::kThermal && arg.rfind("tau=", 0) == 0 && arg.size() > 7 &&
-               arg.compare(arg.size() - 3, 3, "min") == 0) {
+    } else if (position == EffectPosition::kTimeConstant && arg.rfind("tau=", 0) == 0 &&
+               arg.size() > 7 && arg.compare(arg.size() - 3, 3, "min") == 0) {
       const std::optional<double> t = label_number(arg.substr(4, arg.size() - 7), true);
       if (!t) fail("the time constant must be a positive number of minutes, e.g. (tau=30min)");
       e.tau_min = *t;
@@ -311,11 +467,11 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
       fail(quote_value("(" + arg + ")") + " is not a position of " + effect_name(e.kind) + "; " +
            forms);
     }
-  } else if (e.kind == EffectKind::kStep) {
+  } else if (position == EffectPosition::kTime) {
     fail(
         "a step needs its time on the test's clock: step[id](t=...s) (a step found in readings "
         "without time_s has no time to name)");
-  } else if (e.kind == EffectKind::kThermal) {
+  } else if (position == EffectPosition::kTimeConstant) {
     fail("a warm-up needs its time constant: thermal[all](tau=...min)");
   }
   return e;
@@ -434,61 +590,7 @@ EffectRow effect_row(const Design& design, const Reading& r, int inst, double t0
                      const EffectCandidate& e) {
   EffectRow row = EffectRow::Zero(effect_parameter_count(e.kind));
   if (!effect_applies_to(design, e, inst)) return row;
-  const Installation& in = design.installations[inst];
-  switch (e.kind) {
-    case EffectKind::kLengthOffset:
-      row(0) = kLengthOffsetRow;
-      break;
-    case EffectKind::kCentring:
-      row = centring_row(design.axis, in, r.angle_deg);
-      break;
-    case EffectKind::kDrift:
-      if (r.time_s && std::isfinite(t0_s)) row(0) = (*r.time_s - t0_s) / 60.0;
-      break;
-    case EffectKind::kReversal:
-      if (r.sweep) row(0) = *r.sweep == Sweep::kCW ? 0.5 : -0.5;
-      break;
-    case EffectKind::kScale:
-    case EffectKind::kSquareness: {
-      if (!in.bar_mm) break;
-      const Eigen::Vector3d u = direction_machine(design.axis, in, r.angle_deg);
-      const Eigen::Vector3d F =
-          ball_position_mm(design.axis, in, r.angle_deg) - in.sign * *in.bar_mm * u;
-      const Eigen::Vector3d w =
-          -in.sign * 1e-3 * u;  // reading per um of following-ball motion, per mm of F
-      if (e.kind == EffectKind::kScale) {
-        row = w.cwiseProduct(F);
-      } else {
-        row << w.x() * F.y(), w.y() * F.z(), w.z() * F.x();
-      }
-      break;
-    }
-    case EffectKind::kStep:
-      if (r.time_s && *r.time_s >= e.at_s) row(0) = 1.0;
-      break;
-    case EffectKind::kThermal:
-      if (r.time_s && std::isfinite(t0_s) && e.tau_min > 0)
-        row(0) = -std::expm1(-(*r.time_s - t0_s) / (60.0 * e.tau_min));
-      break;
-    case EffectKind::kTriggerOffset:
-      row(0) = 1.0;
-      break;
-    case EffectKind::kPlacement: {
-      if (!in.probe_channel()) break;
-      const Eigen::Matrix3d R = axis_rotation(design.axis, r.angle_deg);
-      const AxisFrame& a = design.axis;
-      const Eigen::Vector3d per_um[3] = {a.body_point(1e-3, 0, 0), a.body_point(0, 1e-3, 0),
-                                         a.body_point(0, 0, a.has_H() ? 1e-3 : 0.0)};
-      for (int j = 0; j < 3; ++j) row(j) = in.sign * 1e3 * (R * per_um[j])(in.coordinate);
-      break;
-    }
-    case EffectKind::kPeriodic: {
-      double s, c;
-      sincos_deg(e.harmonic * r.angle_deg - e.phase_deg, s, c);
-      row(0) = c;
-      break;
-    }
-  }
+  effect_info(e.kind).row({design, r, design.installations[inst], t0_s, e}, row.data());
   return row;
 }
 
@@ -555,7 +657,7 @@ EffectBlock effect_block(const Design& design, const std::vector<Reading>& readi
   }
   const EffectInfo& info = effect_info(e.kind);
   const bool timed_effect =
-      info.needs_times && (e.kind != EffectKind::kStep || std::isfinite(e.at_s));
+      info.needs_times && (info.position != EffectPosition::kTime || std::isfinite(e.at_s));
   if (timed_effect && time_missing) {
     b.applicability.why = NotApplicable::kNeedsTimes;
   } else if (timed_effect && e.installation < 0 && !layout.common_clock) {
@@ -588,17 +690,25 @@ std::vector<EffectBlock> candidate_effects(const Design& design,
                                            const std::vector<Reading>& readings) {
   std::vector<EffectBlock> out;
   const ReadingLayout layout(design, readings);
-  for (EffectKind k :
-       {EffectKind::kLengthOffset, EffectKind::kTriggerOffset, EffectKind::kPlacement,
-        EffectKind::kCentring, EffectKind::kDrift, EffectKind::kReversal}) {
-    if (!effect_fits_instrument(k, design.instrument)) continue;
+  // The effects of a fixed position, in the table's order, those of the design's instrument.
+  for (const EffectInfo& info : kEffects) {
+    const EffectKind k = info.kind;
+    if (info.position != EffectPosition::kNone || !effect_fits_instrument(k, design.instrument))
+      continue;
+    if (info.shared) {
+      // Shared effects one parameter at a time: part of a scale or squareness can be
+      // confounded (an isotropic scale is a length offset) while the rest is not.
+      for (int c = 0; c < effect_parameter_count(k); ++c)
+        out.push_back(effect_block(design, readings, layout, {k, -1, c}));
+      continue;
+    }
     for (std::size_t i = 0; i < design.installations.size(); ++i) {
-      if (effect_info(k).per_sphere) {
+      if (info.per_sphere) {
         // A sphere's placement once, on its first channel, one coordinate at a time: part of it
         // can be a rigid motion of the body at every angle (across the plane of three spheres,
         // a rotation about the line through the other two) while the rest is not.
         if (design.installations[i].coordinate != 0) continue;
-        for (int c = 0; c < 3; ++c)
+        for (int c = 0; c < effect_parameter_count(k); ++c)
           out.push_back(effect_block(design, readings, layout, {k, static_cast<int>(i), c}));
         continue;
       }
@@ -606,21 +716,15 @@ std::vector<EffectBlock> candidate_effects(const Design& design,
     }
     // The same effect once for the whole test: a length change common to every reading (the
     // bar's own length), one drift on the test's clock, one reversal of every installation.
-    if (effect_has_whole_test_form(k))
-      out.push_back(effect_block(design, readings, layout, {k, -1}));
-  }
-  // Shared effects one parameter at a time: part of a scale or squareness can be
-  // confounded (an isotropic scale is a length offset) while the rest is not.
-  for (EffectKind k : {EffectKind::kScale, EffectKind::kSquareness}) {
-    if (!effect_fits_instrument(k, design.instrument)) continue;
-    for (int c = 0; c < 3; ++c) out.push_back(effect_block(design, readings, layout, {k, -1, c}));
+    if (info.whole_test_form) out.push_back(effect_block(design, readings, layout, {k, -1}));
   }
   return out;
 }
 
 EffectBlock ScanFamily::alternative(const Design& design, const std::vector<Reading>& readings,
                                     int k) const {
-  if (effect.kind != EffectKind::kStep) return alternatives.at(static_cast<std::size_t>(k));
+  if (effect_info(effect.kind).position != EffectPosition::kTime)
+    return alternatives.at(static_cast<std::size_t>(k));
   EffectBlock b;
   b.effect = effect;
   const Reading& first =
@@ -638,15 +742,19 @@ EffectBlock ScanFamily::alternative(const Design& design, const std::vector<Read
   return b;
 }
 
-std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Reading>& readings) {
-  std::vector<ScanFamily> out;
+namespace {
+
+// A family of each installation whose position is a time: the installation's readings in time
+// order (file order when one has no time), split in two at each alternative.
+void time_families(const Design& design, const std::vector<Reading>& readings, EffectKind kind,
+                   std::vector<ScanFamily>& out) {
   const auto index = design.installation_index();
   std::vector<std::vector<int>> rows(design.installations.size());
   for (std::size_t j = 0; j < readings.size(); ++j)
     rows[index.at(readings[j].installation)].push_back(static_cast<int>(j));
   for (std::size_t i = 0; i < design.installations.size(); ++i) {
     ScanFamily f;
-    f.effect.kind = EffectKind::kStep;
+    f.effect.kind = kind;
     f.effect.installation = static_cast<int>(i);
     f.label = f.effect.label(design);
     f.rows = rows[i];
@@ -661,9 +769,14 @@ std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Re
     }
     out.push_back(f);
   }
-  if (!effect_fits_instrument(EffectKind::kThermal, design.instrument)) return out;
+}
+
+// The whole test's family whose position is a time constant: a block for each of a geometric
+// grid of kThermalTaus values from T / 20 to 2 T, T the test's duration.
+void time_constant_family(const Design& design, const std::vector<Reading>& readings,
+                          EffectKind kind, std::vector<ScanFamily>& out) {
   ScanFamily th;
-  th.effect.kind = EffectKind::kThermal;
+  th.effect.kind = kind;
   th.label = th.effect.label(design);
   th.label = th.label.substr(0, th.label.find('('));
   double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;
@@ -691,6 +804,18 @@ std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Re
     }
   }
   out.push_back(th);
+}
+
+}  // namespace
+
+std::vector<ScanFamily> scan_families(const Design& design, const std::vector<Reading>& readings) {
+  std::vector<ScanFamily> out;
+  for (const EffectInfo& info : kEffects) {
+    if (!effect_fits_instrument(info.kind, design.instrument)) continue;
+    if (info.position == EffectPosition::kTime) time_families(design, readings, info.kind, out);
+    if (info.position == EffectPosition::kTimeConstant)
+      time_constant_family(design, readings, info.kind, out);
+  }
   return out;
 }
 

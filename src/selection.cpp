@@ -21,6 +21,15 @@ constexpr double kTie = 1e-9;
 // narrower than kLogTauBracket.
 constexpr double kLogTauBracket = 1e-6;
 
+// A scanned effect's position (effects.hpp, EffectPosition): a time among its installation's
+// readings, scanned by splitting them (a step), or a time constant on a grid, refined (a warm-up).
+bool splits_readings(const EffectCandidate& e) {
+  return effect_info(e.kind).position == EffectPosition::kTime;
+}
+bool has_time_constant(const EffectCandidate& e) {
+  return effect_info(e.kind).position == EffectPosition::kTimeConstant;
+}
+
 CandidateStatus status(const std::string& label, CandidateState state, CandidateReason reason) {
   CandidateStatus s;
   s.label = label;
@@ -276,7 +285,7 @@ class Selector {
           if (family_used_[f]) continue;
           const ScanFamily& fam = families_[f];
           ScanTest st;
-          if (fam.effect.kind == EffectKind::kStep) {
+          if (splits_readings(fam.effect)) {
             st = tester.scan_steps(fam.rows, fam.min_segment);
           } else {
             for (std::size_t k = 0; k < fam.alternatives.size(); ++k) {
@@ -421,7 +430,7 @@ class Selector {
       if (fits_almost_as_well(trial_chi2[i], trial)) a.close_alternatives.push_back(pool_[i].label);
     }
     Estimate after = trial;
-    if (fam.effect.kind == EffectKind::kThermal) {
+    if (has_time_constant(fam.effect)) {
       block = refine_thermal(fam, k, after);
       // Its time constant refined (below the grid's), the warm-up may start faster than any
       // machine or bar: then it is no finding either.
@@ -515,7 +524,7 @@ class Selector {
 
   // The scanned family an added block came from, or -1.
   int family_of(const EffectBlock& b) const {
-    if (b.effect.kind != EffectKind::kStep && b.effect.kind != EffectKind::kThermal) return -1;
+    if (effect_info(b.effect.kind).position == EffectPosition::kNone) return -1;
     for (std::size_t f = 0; f < families_.size(); ++f) {
       if (families_[f].effect.kind == b.effect.kind &&
           families_[f].effect.installation == b.effect.installation) {
@@ -666,7 +675,9 @@ class Selector {
 
   // One whole-test term against the same effect per installation, for each kind that has both.
   void compare_structures() {
-    for (EffectKind kind : {EffectKind::kLengthOffset, EffectKind::kDrift, EffectKind::kReversal}) {
+    for (EffectKind kind : effect_kinds()) {
+      const EffectInfo& info = effect_info(kind);
+      if (!info.whole_test_form || info.whole_test_only) continue;
       int whole = -1;  // pool index of the whole-test candidate
       for (std::size_t i = 0; i < pool_.size(); ++i) {
         if (pool_[i].effect.kind == kind && pool_[i].effect.installation < 0 &&
@@ -766,8 +777,7 @@ class Selector {
       for (std::size_t f = 0; f < families_.size(); ++f) {
         if (family_used_[f]) continue;
         const auto b = best_of_family(families_[f], tester);
-        if (!b || !consider(b->first, b->second) ||
-            families_[f].effect.kind != EffectKind::kThermal)
+        if (!b || !consider(b->first, b->second) || !has_time_constant(families_[f].effect))
           continue;
         // A warm-up's time constant is poorly determined where a drift fits almost as well: every
         // time constant of the grid that fits almost as well is an alternative too.
@@ -809,7 +819,7 @@ class Selector {
   // (refined_tau). None when no alternative raises the rank.
   std::optional<std::pair<EffectBlock, ColumnTest>> best_of_family(
       const ScanFamily& fam, const ColumnTester& tester) const {
-    if (fam.effect.kind == EffectKind::kStep) {
+    if (splits_readings(fam.effect)) {
       const ScanTest st = tester.scan_steps(fam.rows, fam.min_segment);
       if (st.best < 0) return std::nullopt;
       return std::make_pair(fam.alternative(*design_, *readings_, st.best), st.test);
@@ -822,7 +832,7 @@ class Selector {
         k = static_cast<int>(a), t = ta;
     }
     if (k < 0) return std::nullopt;
-    if (fam.effect.kind != EffectKind::kThermal)
+    if (!has_time_constant(fam.effect))
       return std::make_pair(fam.alternative(*design_, *readings_, k), t);
     EffectBlock b = thermal_block(fam, refined_tau(fam, k, tester));
     const ColumnTest tb = tester.test(b.J_reading_effect);
@@ -838,8 +848,7 @@ class Selector {
     int m = 0;
     if (f >= 0) {
       const ScanFamily& fam = families_[f];
-      m = static_cast<int>(fam.effect.kind == EffectKind::kStep ? fam.rows.size()
-                                                                : fam.alternatives.size());
+      m = static_cast<int>(splits_readings(fam.effect) ? fam.rows.size() : fam.alternatives.size());
     }
     return parameter_cost(b, m);
   }
@@ -982,8 +991,8 @@ double bic(const Estimate& e) { return bic(static_cast<double>(e.n_readings), e.
 
 double parameter_cost(const EffectBlock& b, int scanned_alternatives) {
   double cost = 2.0 * static_cast<double>(b.J_reading_effect.cols());
-  const bool scanned = b.effect.kind == EffectKind::kStep ||
-                       (b.effect.kind == EffectKind::kThermal && b.J_reading_effect.cols() == 1);
+  const bool scanned =
+      splits_readings(b.effect) || (has_time_constant(b.effect) && b.J_reading_effect.cols() == 1);
   if (scanned && scanned_alternatives > 1)
     cost += 2.0 * std::log(static_cast<double>(scanned_alternatives));
   return cost;

@@ -51,18 +51,8 @@ std::vector<SetupEffect> setup_effects(const Design& design, const LinearModel& 
 }
 
 double setup_std_um(const SetupUncertainty& u, EffectKind kind) {
-  switch (kind) {
-    case EffectKind::kLengthOffset:
-      return u.length_offset_um;
-    case EffectKind::kCentring:
-      return u.centring_um;
-    case EffectKind::kTriggerOffset:
-      return u.trigger_offset_um;
-    case EffectKind::kPlacement:
-      return u.placement_um;
-    default:
-      return 0.0;
-  }
+  const auto member = effect_info(kind).setup_std;
+  return member ? u.*member : 0.0;
 }
 
 std::vector<SetupEffect> setup_effects(const Design& design, const std::vector<Reading>& rows,

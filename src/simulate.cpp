@@ -231,14 +231,17 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
     }
     if (info.whole_test_only && !e.installation.empty()) {
       throw InputError(source, key + ".installation",
-                       "thermal is one warm-up of the whole test: no installation");
+                       std::string(effect_name(e.effect.kind)) + " is " + info.noun +
+                           " of the whole test: no installation");
     }
-    if (e.effect.kind == EffectKind::kStep && !std::isfinite(e.effect.at_s)) {
+    if (info.position == EffectPosition::kTime && !std::isfinite(e.effect.at_s)) {
       throw InputError(source, key + ".value.at_s",
-                       "a step needs the time it happens (s, the test's clock)");
+                       std::string(info.noun) + " needs the time it happens (s, the test's clock)");
     }
     if (info.needs_both_sweeps && (!truth.schedule || truth.schedule->sweeps.size() < 2)) {
-      throw InputError(source, key, "reversal needs a schedule with both sweeps");
+      throw InputError(
+          source, key,
+          std::string(effect_name(e.effect.kind)) + " needs a schedule with both sweeps");
     }
   }
   if (truth.schedule) {

@@ -9,10 +9,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 
+#include "dbbkit/instrument.hpp"
+#include "dbbkit/io/truth_io.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/simulate.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -166,6 +170,110 @@ TEST(EffectTable, EveryKindOnceItsParametersItsRowsColumnsAndItsNeeds) {
     EXPECT_EQ(effect_block(d, readings, e).applicability.why == NotApplicable::kNeedsBothSweeps,
               info.needs_both_sweeps)
         << info.name;
+  }
+}
+
+// What else the table holds of each kind, read back where it is used: its row (the same as
+// J_reading_effect's), its label read back to the same effect (effect_from_label), its value
+// read from a truth file in the form the table states (truth_from_json), its next step's
+// placeholders those diagnose fills, and every set-up effect's declared tolerance read from the
+// member the table names.
+TEST(EffectTable, EachKindsRowLabelTruthFormAndNextStepAreItsEntrys) {
+  Design ballbar = test::paper_design('C');
+  for (Installation& in : ballbar.installations) in.bar_mm = kBar;
+  Design probe;
+  probe.name = "probe";
+  probe.axis = test::kAxisC;
+  probe.angles_deg = {0, 90, 180, 270};
+  probe.noise.std_um = 0.5;
+  probe.instrument = InstrumentKind::kProbe;
+  probe.spheres = {{"s1", 150, 0, 80, ""}, {"s2", 100, 120, 230, ""}};
+  probe.installations = probe_channels(probe.axis, probe.spheres);
+  validate_design(probe);
+  for (const EffectKind k : effect_kinds()) {
+    const EffectInfo& info = effect_info(k);
+    SCOPED_TRACE(info.name);
+    ASSERT_NE(info.row, nullptr);
+    const Design& d = effect_fits_instrument(k, InstrumentKind::kBallbar) ? ballbar : probe;
+    EffectCandidate e = candidate(k, info.shared || info.whole_test_only ? -1 : 0);
+    e.at_s = 100;
+    e.tau_min = 10;
+    e.harmonic = 2;
+    // The row the table's function writes is J_reading_effect's.
+    std::vector<Reading> readings = nominal_readings(d);
+    for (std::size_t j = 0; j < readings.size(); ++j) {
+      readings[j].time_s = 10.0 * j;
+      readings[j].sweep = j % 2 ? Sweep::kCW : Sweep::kCCW;
+    }
+    // The last reading the effect applies to (after the step's time).
+    std::size_t j = readings.size() - 1;
+    while (!effect_applies_to(d, e, d.find_installation(readings[j].installation))) --j;
+    const Reading& r = readings[j];
+    const int inst = d.find_installation(r.installation);
+    double row[3] = {0, 0, 0};
+    info.row({d, r, d.installations[inst], 1.0, e}, row);
+    const Eigen::VectorXd J = J_reading_effect(d, r, 1.0, e);
+    for (Eigen::Index c = 0; c < J.size(); ++c) EXPECT_EQ(row[c], J(c));
+    EXPECT_GT(std::abs(row[0]) + std::abs(row[1]) + std::abs(row[2]), 0.0);
+    // The label names the same effect again (a harmonic has no label form).
+    if (info.position != EffectPosition::kHarmonic) {
+      const EffectCandidate back = effect_from_label(d, e.label(d), "t", "k");
+      EXPECT_EQ(back.kind, k);
+      EXPECT_EQ(back.installation, e.installation);
+      if (info.position == EffectPosition::kTime) EXPECT_EQ(back.at_s, e.at_s);
+      if (info.position == EffectPosition::kTimeConstant) EXPECT_EQ(back.tau_min, e.tau_min);
+    }
+    // A truth file states the value in the table's form.
+    const std::vector<std::string> names = effect_parameter_names(k);
+    nlohmann::json value;
+    switch (info.truth_value) {
+      case TruthValue::kNumber:
+        value = 1.0;
+        break;
+      case TruthValue::kList:
+        value = nlohmann::json::array();
+        for (std::size_t c = 0; c < names.size(); ++c) value.push_back(1.0 + c);
+        break;
+      case TruthValue::kNamed:
+        for (std::size_t c = 0; c < names.size(); ++c) value[names[c]] = 1.0 + c;
+        break;
+      case TruthValue::kObject:
+        value[info.truth_value_key] = 1.0;
+        if (info.position == EffectPosition::kTime) value["at_s"] = 100;
+        if (info.position == EffectPosition::kTimeConstant) value["tau_min"] = 10;
+        if (info.position == EffectPosition::kHarmonic) value["harmonic"] = 2;
+        break;
+    }
+    const nlohmann::json truth = {{"format", io::kTruthFormat},
+                                  {"location", {{"X0C", 1.0}}},
+                                  {"effects", {{{"name", info.name}, {"value", value}}}}};
+    const Truth t = io::truth_from_json(truth, "truth");
+    ASSERT_EQ(t.effects.size(), 1u);
+    EXPECT_EQ(t.effects[0].effect.kind, k);
+    ASSERT_EQ(t.effects[0].value.size(), static_cast<Eigen::Index>(names.size()));
+    for (std::size_t c = 0; c < names.size(); ++c)
+      EXPECT_EQ(t.effects[0].value(static_cast<Eigen::Index>(c)),
+                names.size() == 1 ? 1.0 : 1.0 + c);
+    if (info.position == EffectPosition::kTime) EXPECT_EQ(t.effects[0].effect.at_s, 100);
+    if (info.position == EffectPosition::kTimeConstant) EXPECT_EQ(t.effects[0].effect.tau_min, 10);
+    if (info.position == EffectPosition::kHarmonic) EXPECT_EQ(t.effects[0].effect.harmonic, 2);
+    // The next step: every placeholder one diagnose fills.
+    for (const char* text : {info.next_step, info.next_step_whole_test, info.next_step_on_head}) {
+      if (!text) continue;
+      std::string rest = text;
+      EXPECT_FALSE(rest.empty());
+      for (const char* key : {"{where}", "{settle_min}", "{harmonic}"})
+        for (std::size_t at; (at = rest.find(key)) != std::string::npos;)
+          rest.erase(at, std::string(key).size());
+      EXPECT_EQ(rest.find_first_of("{}"), std::string::npos) << text;
+    }
+    // A set-up effect's declared tolerance is where the table says.
+    EXPECT_EQ(info.setup, info.setup_std != nullptr);
+    if (info.setup) {
+      SetupUncertainty u;
+      u.*info.setup_std = 7.0;
+      EXPECT_EQ(setup_std_um(u, k), 7.0);
+    }
   }
 }
 

@@ -1,30 +1,11 @@
 #pragma once
 // Effects the six error motions do not describe (model.md §6), each a block of
-// extra columns of J with a name, a unit and the installations it applies to.
-// A reading changes by row . value, with row from J_reading_effect():
-//   length_offset (per installation, um):       1
-//   centring (per installation, um):            -s u . c, c the constant offset of the
-//                                               following ball's path (machine frame)
-//   drift (per installation, um/min):           (t - t0) / 60, t0 the installation's first reading
-//   reversal (per installation, um):            +1/2 on cw sweeps, -1/2 on ccw: value = cw - ccw
-//   length_offset, drift, reversal [all]:       the same with one value for the whole test
-//                                               (installation -1); the drift's t0 is then the
-//                                               test's first reading (one clock through the test)
-//   step (per installation, um):               1 from the reading at which the installation's
-//                                               readings jump on (a knock, a slipped magnet);
-//                                               its position is scanned (selection.hpp)
-//   thermal[all] (um):                          1 - exp(-(t - t0) / tau), t0 the test's first
-//                                               reading: a warm-up approaching a plateau of the
-//                                               value; tau is scanned (selection.hpp)
-//   scale (shared, um/m):                       -s u . dF, dF_k = 1e-3 k_k F_k
-//   squareness (shared, urad):                  -s u . dF, dF = 1e-3 (S_xy F_y, S_yz F_z, S_zx F_x)
-// with F = P - s bar u the following ball (mm, needs bar_mm). A touch probe's (instrument.hpp):
-//   trigger_offset (per channel, um):           1, the probe's offset along the channel's axis
-//   placement (per sphere, um):                 s e_k . R(g) (dL e_L + dD e_D + dH e_H), the
-//                                               sphere's centre off its stated body coordinates
-// Outside the library,
-// for tests of what the tool does with an unknown effect:
-//   periodic (per installation, um):            cos(k a - phase) times the amplitude
+// extra columns of J with a name, a unit and the installations it applies to. A reading changes
+// by row . value. Every kind is one entry of the table in effects.cpp (EffectInfo): its name,
+// unit, parameters, row, where it applies, its position (a step's time, a warm-up's time
+// constant), its value's form in a truth file and diagnose's noun and next step. Adding an effect
+// is an enum value here, an entry and its row there, and its line in the truth file's format
+// (README, "Truth file").
 
 #include <Eigen/Core>
 #include <limits>
@@ -37,8 +18,11 @@
 
 namespace dbbkit {
 
+// In the order diagnose offers them (candidate_effects, scan_families) and names a set-up's parts.
 enum class EffectKind {
   kLengthOffset,
+  kTriggerOffset,
+  kPlacement,
   kCentring,
   kDrift,
   kReversal,
@@ -46,16 +30,43 @@ enum class EffectKind {
   kSquareness,
   kPeriodic,
   kStep,
-  kThermal,
-  kTriggerOffset,
-  kPlacement
+  kThermal
 };
 
-// One effect, one place: what each kind is, read by its labels, the parameter names, the block's
-// applicability, the truth reader, the simulator's checks and diagnose's nouns. Still written
-// per kind elsewhere: its row (effects.cpp), its value's form in a truth file (formats.md,
-// "Truth file"), diagnose's next step and the scan of a step's time or a warm-up's time
-// constant (selection.cpp).
+struct EffectCandidate;
+
+// What one reading's row of an effect is formed from; t0_s is the first time of the readings the
+// effect spans (its installation's, or the whole test's for a whole-test effect).
+struct EffectRowInput {
+  const Design& design;
+  const Reading& reading;
+  const Installation& installation;
+  double t0_s;
+  const EffectCandidate& effect;
+};
+// Writes the effect's row for one reading (reading um per unit of each parameter) into `row`,
+// zeroed, one entry per parameter.
+using EffectRowFn = void (*)(const EffectRowInput& in, double* row);
+
+// What places an effect beyond its kind and installation:
+//   kNone: nothing; diagnose offers it as one block (candidate_effects);
+//   kTime: a time on the test's clock (EffectCandidate::at_s; label "(t=<s>s)", truth "at_s"),
+//     scanned over the installation's readings, split in two (scan_families);
+//   kTimeConstant: a time constant (tau_min; label "(tau=<min>min)", truth "tau_min"), scanned
+//     over a grid and refined (scan_families, selection);
+//   kHarmonic: a harmonic and a phase (harmonic, phase_deg; truth "harmonic", "phase_deg"): a
+//     simulated truth's alone, no label reads it back.
+enum class EffectPosition { kNone, kTime, kTimeConstant, kHarmonic };
+
+// How a truth file states the effect's value (README, "Truth file"):
+//   kNumber: a number; kList: the parameters as a list, the last may be left out ([cx, cy] or
+//   [cx, cy, cz]); kNamed: an object of the parameters by name, each 0 when left out; kObject:
+//   an object of `truth_value_key` and the position's keys.
+enum class TruthValue { kNumber, kList, kNamed, kObject };
+
+// One effect, one place: what each kind is, read by its labels, its rows, the parameter names,
+// the block's applicability, the scans of selection, the truth reader, the simulator's checks and
+// diagnose's text.
 struct EffectInfo {
   EffectKind kind = EffectKind::kLengthOffset;
   const char* name = "";  // in labels, truth files and reports
@@ -63,11 +74,18 @@ struct EffectInfo {
   const char* noun = "";  // in diagnose's text: "a centring error of ..."
   // Its parameters' names (nullptr beyond the last): one column of J each.
   const char* parameters[3] = {};
+  EffectRowFn row = nullptr;
+  EffectPosition position = EffectPosition::kNone;
+  TruthValue truth_value = TruthValue::kNumber;
+  const char* truth_value_key = "";  // kObject: the value's key, e.g. "size_um"
   // Where it applies: shared by every installation (the machine's linear axes, no [..]); or per
   // installation, with a whole-test form [all] too, or the whole test's alone ([all] only).
   bool shared = false;
   bool whole_test_form = false;
   bool whole_test_only = false;
+  // Offered one parameter at a time (part of it can be confounded while the rest is not), and
+  // its parameters named in diagnose's text.
+  bool by_component = false;
   // What its rows need: time_s (a step without times is placed by reading order instead), the
   // bar (the following ball's position), readings of both sweeps.
   bool needs_times = false;
@@ -80,9 +98,18 @@ struct EffectInfo {
   bool ballbar_only = false;
   bool probe_only = false;
   bool per_sphere = false;
-  // A set-up effect of its instrument (setup.hpp): one a design may declare a tolerance of and
-  // evaluate judges the detection of.
+  // A set-up effect of its instrument (setup.hpp): one a design may declare a tolerance of (the
+  // member of SetupUncertainty that holds it) and evaluate judges the detection of.
   bool setup = false;
+  double SetupUncertainty::*setup_std = nullptr;
+  // Diagnose's next step when the effect is found, with {where} the installation(s) or sphere,
+  // {settle_min} three time constants (min), {harmonic} the harmonic: for an installation's (or
+  // sphere's) effect; for the whole test's or a shared one (nullptr: the first); on a head's axis
+  // (nullptr: as on a table). redo_setup: the set-up is redone, then the test measured again.
+  const char* next_step = "";
+  const char* next_step_whole_test = nullptr;
+  const char* next_step_on_head = nullptr;
+  bool redo_setup = false;
 };
 // Every kind, in the enum's order.
 std::vector<EffectKind> effect_kinds();

@@ -541,6 +541,25 @@ namespace {
 
 std::string n3(double x) { return fmt_num(x, 3); }
 
+// A next step of the effect table (EffectInfo::next_step) with its placeholders filled, in one
+// pass over the table's text (a value is never read again for a placeholder).
+std::string filled(const std::string& text,
+                   std::initializer_list<std::pair<const char*, std::string>> values) {
+  std::string out;
+  for (std::size_t at = 0; at < text.size();) {
+    bool replaced = false;
+    for (const auto& [key, value] : values) {
+      if (text.compare(at, std::char_traits<char>::length(key), key) != 0) continue;
+      out += value;
+      at += std::char_traits<char>::length(key);
+      replaced = true;
+      break;
+    }
+    if (!replaced) out += text[at++];
+  }
+  return out;
+}
+
 // "a, b and c"; beyond `budget` characters the rest as "and N more".
 std::string listed(const std::vector<std::string>& items, std::size_t budget = 150) {
   std::string out;
@@ -598,19 +617,23 @@ std::string family_phrase(const Design& design, const std::vector<std::string>& 
     if (f == families.end()) f = families.insert(families.end(), Family{e->kind, {}});
     const std::string w = e->installation >= 0 ? installation_of(design, *e) : "the whole test";
     if (std::find(f->where.begin(), f->where.end(), w) == f->where.end()) f->where.push_back(w);
-    const double x = e->kind == EffectKind::kThermal ? e->tau_min : e->at_s;
+    const EffectPosition position = effect_info(e->kind).position;
+    const double x = position == EffectPosition::kTimeConstant ? e->tau_min
+                     : position == EffectPosition::kTime       ? e->at_s
+                                                               : std::nan("");
     if (std::isfinite(x)) f->lo = std::min(f->lo, x), f->hi = std::max(f->hi, x);
   }
   std::vector<std::string> phrases;
   for (const Family& f : families) {
     std::string p = kind_noun(f.kind);
-    if (f.kind == EffectKind::kThermal && f.lo <= f.hi) {
+    const EffectPosition position = effect_info(f.kind).position;
+    if (position == EffectPosition::kTimeConstant && f.lo <= f.hi) {
       p += f.hi > f.lo ? " with a time constant between " + n3(f.lo) + " and " + n3(f.hi) + " min"
                        : " with a time constant of " + n3(f.lo) + " min";
     } else if (!effect_is_shared(f.kind)) {
       const bool whole = f.where.size() == 1 && f.where[0] == "the whole test";
       p += (whole ? " over " : " in ") + or_listed(f.where);
-      if (f.kind == EffectKind::kStep && f.lo <= f.hi)
+      if (position == EffectPosition::kTime && f.lo <= f.hi)
         p += " at t = " + fmt_num(f.lo, 6) +
              (f.hi > f.lo ? " to " + fmt_num(f.hi, 6) : std::string()) + " s";
     }
@@ -628,7 +651,8 @@ std::string effect_phrase(const AddedEffect& a) {
     values += (k ? ", " : "") + n3(a.values[k].value);
     names += (k ? ", " : "") + a.block.parameters[k];
   }
-  if (e.kind == EffectKind::kThermal) {  // the plateau, and the time constant when fitted
+  const EffectInfo& info = effect_info(e.kind);
+  if (info.position == EffectPosition::kTimeConstant) {  // the value, and the fitted constant
     const double tau = a.values.size() > 1 ? a.values[1].value : e.tau_min;
     return std::string(kind_noun(e.kind)) + " of " +
            (a.values.empty() ? std::string("?") : n3(a.values[0].value)) + " um with a time " +
@@ -636,13 +660,12 @@ std::string effect_phrase(const AddedEffect& a) {
   }
   const bool several = a.values.size() > 1;
   std::string p = kind_noun(e.kind);
-  if (e.kind == EffectKind::kPeriodic)
+  if (info.position == EffectPosition::kHarmonic)
     p = "a " + std::to_string(e.harmonic) + "-per-turn error";
-  else if (e.kind == EffectKind::kScale || e.kind == EffectKind::kSquareness ||
-           e.kind == EffectKind::kPlacement || (e.kind == EffectKind::kCentring && several))
+  else if (info.by_component || several)
     p += " (" + names + ")";
   p += " of " + (several ? "(" + values + ")" : values) + " " + a.block.unit;
-  if (e.kind == EffectKind::kStep && std::isfinite(e.at_s))
+  if (info.position == EffectPosition::kTime && std::isfinite(e.at_s))
     p += " at t = " + fmt_num(e.at_s, 6) + " s";
   return p;
 }
@@ -854,54 +877,15 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
       ids.push_back(id);
       inst += " or " + id;
     }
-    switch (e.kind) {
-      case EffectKind::kLengthOffset:
-        action(inst.empty() ? "check the bar's calibrated length"
-                            : "re-zero the bar in its calibrator and re-seat the balls of "
-                              "installation " +
-                                  inst);
-        remeasure = true;
-        break;
-      case EffectKind::kCentring:
-        action("re-centre the cup of installation " + inst);
-        remeasure = true;
-        break;
-      case EffectKind::kDrift:
-      case EffectKind::kThermal:
-        action(e.kind == EffectKind::kThermal
-                   ? "warm the machine up (three time constants: about " +
-                         n3(3 * (a.values.size() > 1 ? a.values[1].value : e.tau_min)) +
-                         " min) and measure again"
-                   : std::string("warm the machine up until the readings stop drifting, and "
-                                 "measure again"));
-        break;
-      case EffectKind::kStep:
-        action("look for a knocked or loose ball in installation " + inst);
-        break;
-      case EffectKind::kReversal:
-        action("check the axis' backlash (the cw-ccw difference" +
-               (inst.empty() ? std::string() : " in " + inst) + ")");
-        break;
-      case EffectKind::kScale:
-      case EffectKind::kSquareness:
-        action("check the linear axes' scale and squareness before compensating the rotary axis");
-        break;
-      case EffectKind::kPeriodic:
-        action("check the axis drive for a " + std::to_string(e.harmonic) + "-per-turn error");
-        break;
-      case EffectKind::kTriggerOffset:
-        action("calibrate the probe (its trigger offsets, on the calibration sphere or ring)");
-        remeasure = true;
-        break;
-      case EffectKind::kPlacement:
-        action(design.axis.head()
-                   ? "check the probe's length and radius in the tool table (the point it meets "
-                     "the sphere at is off the stated one)"
-                   : "state where sphere " + inst +
-                         " really is (ball_mm; it is off the stated centre), or declare its "
-                         "placement tolerance (setup_std.placement_um)");
-        break;
-    }
+    const EffectInfo& info = effect_info(e.kind);
+    const char* step = design.axis.head() && info.next_step_on_head ? info.next_step_on_head
+                       : inst.empty() && info.next_step_whole_test  ? info.next_step_whole_test
+                                                                    : info.next_step;
+    const double tau = a.values.size() > 1 ? a.values[1].value : e.tau_min;
+    action(filled(step, {{"{where}", inst},
+                         {"{settle_min}", n3(3 * tau)},
+                         {"{harmonic}", std::to_string(e.harmonic)}}));
+    remeasure = remeasure || info.redo_setup;
   }
   if (remeasure) action("then measure again");
   bool convention = false;

@@ -61,6 +61,63 @@ void read_errors(ObjectReader& top, const std::string& source, Truth& t) {
   errors.finish();
 }
 
+// An effect's value as its kind's truth form states it (EffectInfo::truth_value), its position's
+// keys with it.
+void read_truth_value(const json& v, const std::string& source, const std::string& vpath,
+                      TruthEffect& te) {
+  const EffectInfo& info = effect_info(te.effect.kind);
+  const std::vector<std::string> names = effect_parameter_names(te.effect.kind);
+  switch (info.truth_value) {
+    case TruthValue::kNumber:
+      te.value(0) = as_number(v, source, vpath);
+      return;
+    case TruthValue::kList: {
+      std::string shorter, all;
+      for (std::size_t k = 0; k < names.size(); ++k) {
+        all += (k ? ", " : "") + names[k];
+        if (k + 1 < names.size()) shorter = all;
+      }
+      if (!v.is_array() || v.size() + 1 < names.size() || v.size() > names.size())
+        throw InputError(source, vpath,
+                         "expected [" + shorter + "] or [" + all + "] in " + info.unit);
+      for (std::size_t k = 0; k < v.size(); ++k)
+        te.value(static_cast<Eigen::Index>(k)) =
+            as_number(v[k], source, vpath + "[" + std::to_string(k) + "]");
+      return;
+    }
+    case TruthValue::kNamed: {
+      ObjectReader o(v, source, vpath);
+      for (std::size_t k = 0; k < names.size(); ++k)
+        te.value(static_cast<Eigen::Index>(k)) = o.optional_number(names[k]).value_or(0.0);
+      o.finish();
+      return;
+    }
+    case TruthValue::kObject:
+      break;
+  }
+  ObjectReader o(v, source, vpath);
+  switch (info.position) {  // the position's required key first, then the value
+    case EffectPosition::kHarmonic:
+      te.effect.harmonic = o.integer("harmonic");
+      if (te.effect.harmonic < 1) o.fail("harmonic", "must be >= 1");
+      break;
+    case EffectPosition::kTime:
+      te.effect.at_s = o.number("at_s");
+      break;
+    case EffectPosition::kTimeConstant:
+      te.effect.tau_min = o.number("tau_min");
+      if (!(te.effect.tau_min > 0) || !std::isfinite(te.effect.tau_min))
+        o.fail("tau_min", "must be a finite time > 0 min");
+      break;
+    case EffectPosition::kNone:
+      break;
+  }
+  te.value(0) = o.number(info.truth_value_key);
+  if (info.position == EffectPosition::kHarmonic)
+    te.effect.phase_deg = o.optional_number("phase_deg").value_or(0.0);
+  o.finish();
+}
+
 }  // namespace
 
 Truth truth_from_json(const json& j, const std::string& source) {
@@ -101,56 +158,11 @@ Truth truth_from_json(const json& j, const std::string& source) {
       TruthEffect te;
       te.effect.kind = effect_kind(e.string("name"), source, path + ".name");
       te.installation = e.optional_string("installation").value_or("");
-      const std::vector<std::string> names = effect_parameter_names(te.effect.kind);
-      te.value = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(names.size()));
+      te.value = Eigen::VectorXd::Zero(
+          static_cast<Eigen::Index>(effect_parameter_names(te.effect.kind).size()));
       const json& v = e.required("value");
       const std::string vpath = path + ".value";
-      switch (te.effect.kind) {
-        case EffectKind::kCentring: {
-          if (!v.is_array() || v.size() < 2 || v.size() > 3)
-            throw InputError(source, vpath, "expected [cx, cy] or [cx, cy, cz] in um");
-          for (std::size_t k = 0; k < v.size(); ++k)
-            te.value(static_cast<Eigen::Index>(k)) =
-                as_number(v[k], source, vpath + "[" + std::to_string(k) + "]");
-          break;
-        }
-        case EffectKind::kScale:
-        case EffectKind::kSquareness:
-        case EffectKind::kPlacement: {
-          ObjectReader o(v, source, vpath);
-          for (std::size_t k = 0; k < names.size(); ++k)
-            te.value(static_cast<Eigen::Index>(k)) = o.optional_number(names[k]).value_or(0.0);
-          o.finish();
-          break;
-        }
-        case EffectKind::kPeriodic: {
-          ObjectReader o(v, source, vpath);
-          te.effect.harmonic = o.integer("harmonic");
-          if (te.effect.harmonic < 1) o.fail("harmonic", "must be >= 1");
-          te.value(0) = o.number("amplitude_um");
-          te.effect.phase_deg = o.optional_number("phase_deg").value_or(0.0);
-          o.finish();
-          break;
-        }
-        case EffectKind::kStep: {
-          ObjectReader o(v, source, vpath);
-          te.effect.at_s = o.number("at_s");
-          te.value(0) = o.number("size_um");
-          o.finish();
-          break;
-        }
-        case EffectKind::kThermal: {
-          ObjectReader o(v, source, vpath);
-          te.effect.tau_min = o.number("tau_min");
-          if (!(te.effect.tau_min > 0) || !std::isfinite(te.effect.tau_min))
-            o.fail("tau_min", "must be a finite time > 0 min");
-          te.value(0) = o.number("plateau_um");
-          o.finish();
-          break;
-        }
-        default:
-          te.value(0) = as_number(v, source, vpath);
-      }
+      read_truth_value(v, source, vpath, te);
       e.finish();
       t.effects.push_back(te);
     }
