@@ -453,7 +453,8 @@ void validate_design(const Design& d, const std::string& source) {
     // it: numbers that can be.
     const Prediction& p = *d.predicted;
     for (const auto& [key, v] : {std::pair{"worst_std_um", p.worst_std_um},
-                                 {"worst_determined_std_um", p.worst_determined_std_um}}) {
+                                 {"worst_determined_std_um", p.worst_determined_std_um},
+                                 {"worst_total_std_um", p.worst_total_std_um}}) {
       require(!v || (std::isfinite(*v) && *v >= 0), source, std::string("predicted.") + key,
               "must be a standard uncertainty >= 0 um (or null)");
     }

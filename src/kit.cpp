@@ -403,7 +403,7 @@ std::optional<std::string> probe_kit_axis_problem(const AxisFrame& axis) {
 
 void validate_kit(const Kit& k, const std::string& source) {
   // The kit's name names the designs optimize writes (user_text.hpp).
-  if (const auto p = text_problem(k.name, limits::kMaxNameBytes - 10))
+  if (const auto p = text_problem(k.name, limits::kMaxKitNameBytes))
     throw InputError(source, "name", quote_value(k.name) + ": " + *p);
   validate_noise_and_model(k.noise, k.errors, k.axis, source);
   require(finite(k.reference_length_mm) && k.reference_length_mm > 0, source, "reference_length_mm",

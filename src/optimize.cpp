@@ -822,7 +822,7 @@ Candidate candidate_skeleton(const Kit& kit, const PatternChoice& choice) {
   Design& d = c.design;
   d.axis = kit.axis;
   d.machine = kit.machine;
-  d.name = kit.name.empty() ? "optimized" : kit.name + "-optimized";
+  d.name = kit.name.empty() ? "optimized" : kit.name + std::string(limits::kOptimizedSuffix);
   d.angles_deg = kit_angles(kit, choice.step_deg);
   d.noise = kit.noise;
   d.errors = kit.errors;

@@ -13,10 +13,13 @@
 #include <set>
 
 #include "dbbkit/diagnose.hpp"
+#include "dbbkit/error.hpp"
+#include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/optimize_io.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/user_text.hpp"
 #include "test_util.hpp"
 
 namespace dbbkit {
@@ -617,6 +620,21 @@ TEST(Pattern, KitFileExtendsTheBuiltIn) {
             1u);
 }
 
+// A kit's name names the design optimize writes ("<name>-optimized"): the longest kit name
+// leaves that design's name within a design's limit, and one byte more is refused.
+TEST(Pattern, TheLongestKitNameNamesADesignWithinTheDesignsLimit) {
+  Kit k = small_c_kit();
+  k.name = std::string(limits::kMaxKitNameBytes, 'k');
+  EXPECT_NO_THROW(validate_kit(k));
+  Design d = test::paper_design('C');
+  d.name = k.name + "-optimized";
+  EXPECT_NO_THROW(validate_design(d));
+  k.name += "k";
+  EXPECT_THROW(validate_kit(k), InputError);
+  d.name += "d";
+  EXPECT_THROW(validate_design(d), InputError);
+}
+
 TEST(Pattern, TheBuiltInWrittenAsDataSearchesTheSame) {
   const Kit builtin = small_c_kit();
   Kit data = builtin;
@@ -668,6 +686,16 @@ TEST(Pattern, OptionalPositionsAreAddedInOrderAndBuyTotal) {
   const TotalWorstCase best = dense_worst_total(r.best->design, k.reference_length_mm);
   EXPECT_NEAR(*best.total.worst_std_um, r.best->objective, 1e-9 * r.best->objective);
   EXPECT_LT(r.best->objective, 0.95 * plain.best->objective);
+  // The design written states the total it was chosen by, beside the noise alone, and reads
+  // it back.
+  const Design written = io::optimized_design(k, r, "kit.json");
+  ASSERT_TRUE(written.predicted && written.predicted->worst_total_std_um);
+  EXPECT_EQ(written.predicted->criterion, "worst_total_std_um");
+  EXPECT_NEAR(*written.predicted->worst_total_std_um, r.best->objective, 1e-9 * r.best->objective);
+  EXPECT_LT(*written.predicted->worst_std_um, *written.predicted->worst_total_std_um);
+  const Design back = io::design_from_json(io::design_to_json(written), "written");
+  ASSERT_TRUE(back.predicted && back.predicted->worst_total_std_um);
+  EXPECT_EQ(*back.predicted->worst_total_std_um, *written.predicted->worst_total_std_um);
   std::cout << "small C kit, 10 um / 5 um: three_position " << plain.best->objective
             << " um, with 4a 5r 5t " << r.best->objective << " um\n";
   // The Pareto front: longer measurements only where they buy a smaller total.

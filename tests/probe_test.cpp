@@ -572,6 +572,14 @@ TEST(Probe, AProbeKitRefusesWhatOnlyABallBarHas) {
                 .find("pattern.positions[0].id"),
             std::string::npos);
   EXPECT_NE(message(R"(, "pattern": "three_position")").find("for a probe kit"), std::string::npos);
+  EXPECT_NE(message(R"(, "pattern": {"positions": [{"id": "s1", "L": "L1", "H": "H1",
+      "separated": false}]})")
+                .find("pattern.positions[0].separated: every sphere's stand stands apart"),
+            std::string::npos);
+  EXPECT_NE(
+      message_of(replaced("\"footprint_mm\": 40}", "\"footprint_mm\": 40, \"clearance_mm\": 5}"))
+          .find("workspace.clearance_mm: is the spindle's clearance"),
+      std::string::npos);
   EXPECT_NE(message_of(replaced("\"per_position\"", "\"per_installation\""))
                 .find("a probe has no installations"),
             std::string::npos);
@@ -609,9 +617,18 @@ TEST(Probe, OptimizeOnTheCommandLineWritesADesignIdentifyTakes) {
     f << probe_kit_text();
   }
   const CliRun r = run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI +
-                                 " optimize --kit kit.json --out best.json --report r.html");
+                                 " optimize --kit kit.json --out best.json --report r.html " +
+                                 "--result res.json --pareto-csv front.csv");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("Best: 3 spheres"), std::string::npos) << r.out;
+  // The result and the Pareto front count spheres (each three channels).
+  const nlohmann::json res = nlohmann::json::parse(slurp((dir / "res.json").string()));
+  EXPECT_EQ(res["best"]["n_spheres"], 3);
+  EXPECT_EQ(res["best"]["added_spheres"], "s2 s3");
+  EXPECT_FALSE(res["best"].contains("n_installations"));
+  const std::string front = slurp((dir / "front.csv").string());
+  EXPECT_EQ(front.substr(0, front.find('\n')),
+            "time_s,n_spheres,n_angles,step_deg,worst_std_um,added_spheres");
   EXPECT_NE(r.out.find("3 spheres x 300 s + 27 probings x 20 s"), std::string::npos) << r.out;
   const CliRun e =
       run_cli_shell("cd " + dir.string() + " && " + DBBKIT_CLI + " evaluate --design best.json");

@@ -147,6 +147,9 @@ struct ErrorModel {
 struct Prediction {
   std::string criterion;
   std::optional<double> worst_std_um, worst_determined_std_um;
+  // With declared set-up tolerances: the worst of noise and set-up (the criterion
+  // worst_total_std_um ranks by it).
+  std::optional<double> worst_total_std_um;
   int rank = 0, n_unknowns = 0;
   std::optional<double> time_s;
 };

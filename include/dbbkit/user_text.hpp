@@ -24,6 +24,10 @@ namespace limits {
 // (a description, an assumption, any other string of an input file).
 constexpr std::size_t kMaxIdBytes = 64;
 constexpr std::size_t kMaxNameBytes = 200;
+// A kit's name: the design optimize writes is named after it with kOptimizedSuffix, within
+// kMaxNameBytes.
+constexpr std::string_view kOptimizedSuffix = "-optimized";
+constexpr std::size_t kMaxKitNameBytes = kMaxNameBytes - kOptimizedSuffix.size();
 constexpr std::size_t kMaxTextBytes = 4000;
 }  // namespace limits
 

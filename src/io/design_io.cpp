@@ -495,9 +495,9 @@ Design design_from_json(const json& j, const std::string& source, const std::str
     ObjectReader pr(*p, source, "predicted");
     Prediction pred;
     pred.criterion = pr.optional_string("criterion").value_or("");
-    for (auto [key, field] :
-         {std::pair{"worst_std_um", &pred.worst_std_um},
-          std::pair{"worst_determined_std_um", &pred.worst_determined_std_um}}) {
+    for (auto [key, field] : {std::pair{"worst_std_um", &pred.worst_std_um},
+                              std::pair{"worst_determined_std_um", &pred.worst_determined_std_um},
+                              std::pair{"worst_total_std_um", &pred.worst_total_std_um}}) {
       if (const json* v = pr.optional(key); v && !v->is_null())
         *field = as_number(*v, source, pr.key_path(key));
     }
@@ -603,6 +603,7 @@ json design_to_json(const Design& d) {
     pj["worst_std_um"] = p.worst_std_um ? json(*p.worst_std_um) : json(nullptr);
     pj["worst_determined_std_um"] =
         p.worst_determined_std_um ? json(*p.worst_determined_std_um) : json(nullptr);
+    if (p.worst_total_std_um) pj["worst_total_std_um"] = *p.worst_total_std_um;
     pj["rank"] = p.rank;
     pj["n_unknowns"] = p.n_unknowns;
     if (p.time_s) pj["time_s"] = *p.time_s;

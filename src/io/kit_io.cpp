@@ -67,7 +67,10 @@ PatternPosition read_position(ObjectReader r, InstrumentKind instrument) {
              "a probe kit's position is a sphere, probed in x, y and z: no directions");
     if (r.has("needs_offset"))
       r.fail("needs_offset", "is a head's ball bar pattern's: a probe kit has no head");
-    p.separated = read_flag(r, "separated", true);
+    if (r.has("separated"))
+      r.fail("separated",
+             "every sphere's stand stands apart in a probe kit (min_separation_mm, in the "
+             "table's plane): no separated");
     p.optional = read_flag(r, "optional", false);
     r.finish();
     return p;
@@ -392,6 +395,10 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
       w.fail("spindle",
              "the probe's approach is checked by instrument.approach_mm: a spindle's nose is a "
              "ball bar kit's");
+    if (probe && w.has("clearance_mm"))
+      w.fail("clearance_mm",
+             "is the spindle's clearance from the table, a ball bar kit's: a probe kit checks "
+             "the approach (instrument.approach_mm) and the stands (footprint_mm)");
     Workspace ws;
     if (k.axis.table()) {
       if (const json* tj = w.optional("table")) {

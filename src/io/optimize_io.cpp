@@ -29,8 +29,14 @@ json candidate_json(const Kit& kit, const Candidate& c) {
   json j;
   j["choice"] = choice_label(kit, c.choice);
   j["step_deg"] = c.choice.step_deg;
-  j["n_installations"] = c.design.installations.size();
-  j["added_installations"] = added_installations(kit, c);
+  // A probe's design counts its spheres (each three channels, the design's installations).
+  if (kit.instrument == InstrumentKind::kProbe) {
+    j["n_spheres"] = c.design.spheres.size();
+    j["added_spheres"] = added_installations(kit, c);
+  } else {
+    j["n_installations"] = c.design.installations.size();
+    j["added_installations"] = added_installations(kit, c);
+  }
   j["n_angles"] = c.design.angles_deg.size();
   j["time_s"] = c.time_s;
   j["worst_std_um"] = optional_number(c.worst.worst_std_um);
@@ -105,6 +111,7 @@ Design optimized_design(const Kit& kit, const OptimizeResult& res, const std::st
   p.criterion = criterion_name(res.criterion);
   p.worst_std_um = ev.worst.worst_std_um;
   p.worst_determined_std_um = ev.worst.worst_determined_std_um;
+  if (ev.worst_total) p.worst_total_std_um = ev.worst_total->worst_std_um;
   p.rank = ev.prior.rank;
   p.n_unknowns = ev.prior.n_unknowns;
   p.time_s = res.best->time_s;
@@ -551,13 +558,15 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
 
 std::string pareto_csv(const Kit& kit, const OptimizeResult& res) {
   std::ostringstream s;
-  s << "time_s,n_installations,n_angles,step_deg," << criterion_name(res.criterion)
-    << ",added_installations\n";
+  const bool probe = kit.instrument == InstrumentKind::kProbe;
+  const char* items = probe ? "spheres" : "installations";
+  s << "time_s,n_" << items << ",n_angles,step_deg," << criterion_name(res.criterion) << ",added_"
+    << items << "\n";
   s << std::setprecision(10);
   for (const Candidate& c : res.pareto) {
-    s << c.time_s << "," << c.design.installations.size() << "," << c.design.angles_deg.size()
-      << "," << c.choice.step_deg << "," << c.objective << "," << added_installations(kit, c)
-      << "\n";
+    s << c.time_s << "," << (probe ? c.design.spheres.size() : c.design.installations.size()) << ","
+      << c.design.angles_deg.size() << "," << c.choice.step_deg << "," << c.objective << ","
+      << added_installations(kit, c) << "\n";
   }
   return s.str();
 }
