@@ -16,6 +16,7 @@
 #include <string>
 
 #include "../src/random.hpp"
+#include "../src/wls_solver.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"

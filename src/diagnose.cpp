@@ -14,6 +14,7 @@
 #include "dbbkit/warnings.hpp"
 #include "number_text.hpp"
 #include "tolerances.hpp"
+#include "wls_solver.hpp"
 
 namespace dbbkit {
 

@@ -21,6 +21,7 @@
 #include "series_l1.hpp"
 #include "small_eigen.hpp"
 #include "spd_inverse.hpp"
+#include "wls_solver.hpp"
 
 namespace dbbkit {
 

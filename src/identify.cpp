@@ -16,6 +16,7 @@
 #include "dbbkit/user_text.hpp"
 #include "dbbkit/warnings.hpp"
 #include "number_text.hpp"
+#include "wls_solver.hpp"
 
 namespace dbbkit {
 
@@ -291,7 +292,7 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
       model.sigma_um(i) = std::sqrt(b * b + a * a);
     }
   }
-  WlsSolver solver(model, options.estimate);
+  auto solver = std::make_shared<const WlsSolver>(model, options.estimate);
   IdentifyResult res{std::move(param),
                      std::move(model),
                      std::move(solver),
@@ -307,11 +308,11 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
                      {},
                      {}};
   res.instrument = design.instrument;
-  // The set-up solver refers to res.solver, which stays in place until the return.
+  // The set-up solver refers to *res.solver, shared with the result.
   const std::vector<SetupEffect> declared = declared_setup(design, res.model, blocks);
-  const SetupSolver setup(res.solver, declared);
+  const SetupSolver setup(*res.solver, declared);
   res.estimate = setup.solve(res.model.y_um);
-  res.budget = uncertainty_budget(design, res.param, res.model, res.solver, res.estimate,
+  res.budget = uncertainty_budget(design, res.param, res.model, *res.solver, res.estimate,
                                   options.budget, &setup);
   // Every determined value has its entry in the budget, whose u_c is its standard uncertainty.
   res.errors = at_stations(res.param, res.estimate, false);
@@ -371,15 +372,15 @@ IdentifyResult identify(const Design& design, const std::vector<Reading>& readin
 }
 
 Eigen::MatrixXd budget_covariance(const Design& design, const IdentifyResult& result) {
-  const SetupSolver setup(result.solver, declared_setup(design, result.model, result.effects));
-  return budget_covariance(design, result.param, result.model, result.solver, result.estimate,
+  const SetupSolver setup(*result.solver, declared_setup(design, result.model, result.effects));
+  return budget_covariance(design, result.param, result.model, *result.solver, result.estimate,
                            result.budget, &setup);
 }
 
 MonteCarloResult monte_carlo(const Design& design, const IdentifyResult& result,
                              const MonteCarloOptions& options) {
-  const SetupSolver setup(result.solver, declared_setup(design, result.model, result.effects));
-  return monte_carlo(design, result.param, result.model, result.solver, result.estimate,
+  const SetupSolver setup(*result.solver, declared_setup(design, result.model, result.effects));
+  return monte_carlo(design, result.param, result.model, *result.solver, result.estimate,
                      result.budget, options, &setup);
 }
 

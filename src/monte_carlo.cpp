@@ -16,6 +16,7 @@
 #include "dbbkit/setup.hpp"
 #include "dbbkit/user_text.hpp"
 #include "random.hpp"
+#include "wls_solver.hpp"
 
 namespace dbbkit {
 

@@ -13,6 +13,7 @@
 #include "dbbkit/warnings.hpp"
 #include "small_eigen.hpp"
 #include "tolerances.hpp"
+#include "wls_solver.hpp"
 
 namespace dbbkit {
 

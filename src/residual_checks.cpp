@@ -11,6 +11,7 @@
 #include "dbbkit/effects.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
+#include "wls_solver.hpp"
 
 namespace dbbkit {
 

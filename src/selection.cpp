@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "dbbkit/residual_checks.hpp"
+#include "wls_solver.hpp"
 
 namespace dbbkit {
 

@@ -27,6 +27,8 @@
 
 #if defined(__SSE2__) || DBBKIT_WIDE_VECTORS
 #include <immintrin.h>
+
+#include "wls_solver.hpp"
 #endif
 
 // The kernels pass vectors by value only to functions always inlined into their caller, so no

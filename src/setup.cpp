@@ -21,6 +21,7 @@
 #include "dbbkit/setup_sheet.hpp"
 #include "function_rows.hpp"
 #include "tolerances.hpp"
+#include "wls_solver.hpp"
 
 namespace dbbkit {
 

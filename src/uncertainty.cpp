@@ -9,6 +9,7 @@
 #include "dbbkit/setup.hpp"
 #include "dbbkit/user_text.hpp"
 #include "number_text.hpp"
+#include "wls_solver.hpp"
 
 namespace dbbkit {
 

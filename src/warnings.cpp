@@ -8,6 +8,7 @@
 #include "dbbkit/instrument.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "number_text.hpp"
+#include "wls_solver.hpp"
 
 namespace dbbkit {
 
@@ -271,7 +272,7 @@ std::vector<Warning> identify_warnings(const Design& design, const IdentifyResul
   }
   const double L = design.reference_length_mm.value_or(100.0);
   if (auto w = setup_undeclared_warning(
-          hidden_setup_effects(design, result.param, result.model, result.solver, L), L,
+          hidden_setup_effects(design, result.param, result.model, *result.solver, L), L,
           design.instrument))
     out.push_back(*w);
   return out;

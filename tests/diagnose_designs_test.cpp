@@ -12,6 +12,7 @@
 #include <map>
 #include <random>
 
+#include "../src/wls_solver.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/effects.hpp"
 #include "dbbkit/identify.hpp"

@@ -7,6 +7,7 @@
 #include <random>
 #include <sstream>
 
+#include "../src/wls_solver.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"

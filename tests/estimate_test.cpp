@@ -10,6 +10,7 @@
 #include "../src/series_l1.hpp"
 #include "../src/simd.hpp"
 #include "../src/spd_inverse.hpp"
+#include "../src/wls_solver.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/measurement.hpp"
 #include "dbbkit/parameterisation.hpp"

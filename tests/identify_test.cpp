@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include "../src/wls_solver.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/simulate.hpp"
 #include "dbbkit/uncertainty.hpp"
@@ -79,12 +80,12 @@ TEST(Identify, SeriesBiasBoundIsTheLargestOverTheDenseGain) {
   std::mt19937_64 rng(5);
   const IdentifyResult r = identify(d, simulate(d, random_model_truth(d, rng), 3));
   ASSERT_FALSE(r.setup_included);
-  ASSERT_TRUE(r.solver.J_theta_reading().series_l1());
+  ASSERT_TRUE(r.solver->J_theta_reading().series_l1());
   ASSERT_TRUE(r.first_order.computed);
   ASSERT_TRUE(r.first_order.bias_bound_std);
   ASSERT_EQ(r.budget.values.size(), 6u * 75u);
   const Eigen::MatrixXd CG = test::dense(budget_functions(r.param, r.budget)) *
-                             test::dense(r.solver.J_theta_reading().sparse());
+                             test::dense(r.solver->J_theta_reading().sparse());
   double largest = -1;
   std::size_t place = 0;
   for (std::size_t v = 0; v < r.budget.values.size(); ++v) {

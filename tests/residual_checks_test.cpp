@@ -9,6 +9,7 @@
 #include <boost/math/distributions/fisher_f.hpp>
 #include <random>
 
+#include "../src/wls_solver.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"

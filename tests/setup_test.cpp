@@ -17,6 +17,7 @@
 #include <random>
 
 #include "../src/tolerances.hpp"
+#include "../src/wls_solver.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/io/design_io.hpp"

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "../src/wls_solver.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/identify.hpp"
 #include "dbbkit/monte_carlo.hpp"
@@ -176,10 +177,10 @@ TEST(BudgetCovariance, NoisePartIsThatOfTheGainAndScalesWithTypeA) {
     opt.budget.type_a = type_a;
     const IdentifyResult r = identify(d, readings, opt);
     const Eigen::MatrixXd C = budget_functions(r.param, r.budget);
-    const Eigen::MatrixXd CG = C * r.solver.J_theta_reading().sparse();
+    const Eigen::MatrixXd CG = C * r.solver->J_theta_reading().sparse();
     const double s2 = type_a ? *r.budget.type_a_scale * *r.budget.type_a_scale : 1.0;
     const Eigen::MatrixXd expected =
-        s2 * CG * r.solver.sigma_um().cwiseAbs2().asDiagonal() * CG.transpose();
+        s2 * CG * r.solver->sigma_um().cwiseAbs2().asDiagonal() * CG.transpose();
     const Eigen::MatrixXd cov = budget_covariance(d, r);
     EXPECT_TRUE(test::near(cov, expected, 1e-9 * expected.cwiseAbs().maxCoeff())) << type_a;
     for (size_t v = 0; v < r.budget.values.size(); ++v) {
@@ -206,7 +207,7 @@ TEST(BudgetCovariance, SetupPartAgreesWithTheVarianceOfSums) {
   ASSERT_EQ(m, static_cast<Eigen::Index>(r.budget.values.size()));
   for (Eigen::Index v = 0; v < m; ++v)
     EXPECT_NEAR(std::sqrt(cov(v, v)), r.budget.values[v].u_c, 1e-9 * r.budget.values[v].u_c);
-  const SetupSolver setup(r.solver, setup_effects(d, r.model, true));
+  const SetupSolver setup(*r.solver, setup_effects(d, r.model, true));
   const std::vector<SetupInput> inputs = setup_inputs(d);
   const Eigen::MatrixXd GD =
       setup.gain_times(J_reading_setup(d, r.param, r.model, inputs, r.estimate.theta));

@@ -5,6 +5,7 @@
 // determine (model.md §4 "known defect", §7).
 
 #include <array>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -131,7 +132,8 @@ struct FirstOrderCheck {
 struct IdentifyResult {
   Parameterisation param;
   LinearModel model;
-  WlsSolver solver;
+  // The model's factorisation (internal, src/wls_solver.hpp), shared by copies of the result.
+  std::shared_ptr<const WlsSolver> solver;
   Estimate estimate;
   Budget budget;
   std::vector<ErrorsAtAngle> errors;
