@@ -792,11 +792,10 @@ void time_constant_family(const Design& design, const std::vector<Reading>& read
     th.applicability.why = NotApplicable::kNeedsEveryTime;
   } else if (!(t1 > t0)) {
     th.applicability.why = NotApplicable::kNeedsSeveralTimes;
-  } else if (!readings_on_one_clock(design, readings)) {
+  } else if (const ReadingLayout layout(design, readings); !layout.common_clock) {
     th.applicability.why = NotApplicable::kNeedsCommonClock;
   } else {
     const double T_min = (t1 - t0) / 60.0;
-    const ReadingLayout layout(design, readings);
     for (int k = 0; k < kThermalTaus; ++k) {
       EffectCandidate c = th.effect;
       c.tau_min = T_min / 20.0 * std::pow(40.0, k / double(kThermalTaus - 1));

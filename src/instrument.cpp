@@ -35,6 +35,11 @@ const char* measured_items(InstrumentKind kind) {
   return kind == InstrumentKind::kProbe ? "spheres" : "installations";
 }
 
+std::size_t measured_count(const Design& design) {
+  return design.instrument == InstrumentKind::kProbe ? design.spheres.size()
+                                                     : design.installations.size();
+}
+
 void require_ballbar(const Design& design, const std::string& source, const std::string& what) {
   if (design.instrument == InstrumentKind::kBallbar) return;
   throw InputError(source, "instrument.kind",

@@ -47,6 +47,9 @@ const char* setup_effect_nouns(InstrumentKind kind);
 // their plurals).
 const char* measured_item(InstrumentKind kind);
 const char* measured_items(InstrumentKind kind);
+// How many of them a design has: a probe's spheres (each three channels, its installations), a
+// ball bar's installations.
+std::size_t measured_count(const Design& design);
 const char* setup_tolerance_keys(InstrumentKind kind);
 // What a kit must declare for a set-up criterion: "a length offset or centring tolerance", "a
 // trigger offset or placement tolerance".

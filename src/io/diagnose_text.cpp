@@ -560,6 +560,11 @@ std::string filled(const std::string& text,
   return out;
 }
 
+// An added warm-up's time constant [min]: fitted (its second value) or the scanned one.
+double fitted_tau_min(const AddedEffect& a) {
+  return a.values.size() > 1 ? a.values[1].value : a.block.effect.tau_min;
+}
+
 // "a, b and c"; beyond `budget` characters the rest as "and N more".
 std::string listed(const std::vector<std::string>& items, std::size_t budget = 150) {
   std::string out;
@@ -653,10 +658,9 @@ std::string effect_phrase(const AddedEffect& a) {
   }
   const EffectInfo& info = effect_info(e.kind);
   if (info.position == EffectPosition::kTimeConstant) {  // the value, and the fitted constant
-    const double tau = a.values.size() > 1 ? a.values[1].value : e.tau_min;
     return std::string(kind_noun(e.kind)) + " of " +
            (a.values.empty() ? std::string("?") : n3(a.values[0].value)) + " um with a time " +
-           "constant of " + n3(tau) + " min";
+           "constant of " + n3(fitted_tau_min(a)) + " min";
   }
   const bool several = a.values.size() > 1;
   std::string p = kind_noun(e.kind);
@@ -881,9 +885,8 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
     const char* step = design.axis.head() && info.next_step_on_head ? info.next_step_on_head
                        : inst.empty() && info.next_step_whole_test  ? info.next_step_whole_test
                                                                     : info.next_step;
-    const double tau = a.values.size() > 1 ? a.values[1].value : e.tau_min;
     action(filled(step, {{"{where}", inst},
-                         {"{settle_min}", n3(3 * tau)},
+                         {"{settle_min}", n3(3 * fitted_tau_min(a))},
                          {"{harmonic}", std::to_string(e.harmonic)}}));
     remeasure = remeasure || info.redo_setup;
   }

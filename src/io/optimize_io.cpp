@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
@@ -30,13 +31,9 @@ json candidate_json(const Kit& kit, const Candidate& c) {
   j["choice"] = choice_label(kit, c.choice);
   j["step_deg"] = c.choice.step_deg;
   // A probe's design counts its spheres (each three channels, the design's installations).
-  if (kit.instrument == InstrumentKind::kProbe) {
-    j["n_spheres"] = c.design.spheres.size();
-    j["added_spheres"] = added_installations(kit, c);
-  } else {
-    j["n_installations"] = c.design.installations.size();
-    j["added_installations"] = added_installations(kit, c);
-  }
+  const std::string items = measured_items(kit.instrument);
+  j["n_" + items] = measured_count(c.design);
+  j["added_" + items] = added_installations(kit, c);
   j["n_angles"] = c.design.angles_deg.size();
   j["time_s"] = c.time_s;
   j["worst_std_um"] = optional_number(c.worst.worst_std_um);
@@ -541,15 +538,14 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   if (pareto) {
     s << "\nPareto front, " << criterion_name(res.criterion)
       << " against time (designs that determine as much as "
-      << "the best; each the best of its angle step and " << (probe ? "spheres" : "installations")
+      << "the best; each the best of its angle step and " << measured_items(kit.instrument)
       << "):\n";
-    s << std::setw(10) << "time [s]" << std::setw(15) << (probe ? "spheres" : "installations")
+    s << std::setw(10) << "time [s]" << std::setw(15) << measured_items(kit.instrument)
       << std::setw(8) << "angles" << std::setw(12) << "step [deg]" << std::setw(20)
       << criterion_name(res.criterion) << "  added (optional positions)\n";
     for (const Candidate& c : res.pareto) {
-      s << std::setw(10) << fmt_num(c.time_s, 6) << std::setw(15)
-        << (probe ? c.design.spheres.size() : c.design.installations.size()) << std::setw(8)
-        << c.design.angles_deg.size() << std::setw(12) << fmt_num(c.choice.step_deg)
+      s << std::setw(10) << fmt_num(c.time_s, 6) << std::setw(15) << measured_count(c.design)
+        << std::setw(8) << c.design.angles_deg.size() << std::setw(12) << fmt_num(c.choice.step_deg)
         << std::setw(20) << fmt_num(c.objective, 5) << "  " << added_installations(kit, c) << "\n";
     }
   }
@@ -558,15 +554,13 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
 
 std::string pareto_csv(const Kit& kit, const OptimizeResult& res) {
   std::ostringstream s;
-  const bool probe = kit.instrument == InstrumentKind::kProbe;
-  const char* items = probe ? "spheres" : "installations";
+  const char* items = measured_items(kit.instrument);
   s << "time_s,n_" << items << ",n_angles,step_deg," << criterion_name(res.criterion) << ",added_"
     << items << "\n";
   s << std::setprecision(10);
   for (const Candidate& c : res.pareto) {
-    s << c.time_s << "," << (probe ? c.design.spheres.size() : c.design.installations.size()) << ","
-      << c.design.angles_deg.size() << "," << c.choice.step_deg << "," << c.objective << ","
-      << added_installations(kit, c) << "\n";
+    s << c.time_s << "," << measured_count(c.design) << "," << c.design.angles_deg.size() << ","
+      << c.choice.step_deg << "," << c.objective << "," << added_installations(kit, c) << "\n";
   }
   return s.str();
 }

@@ -3,6 +3,7 @@
 #include <limits>
 #include <memory>
 
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/optimize_io.hpp"
 #include "dbbkit/io/plots.hpp"
 #include "dbbkit/io/report_writer.hpp"
@@ -165,16 +166,13 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
   std::vector<std::vector<std::string>> front;
   for (size_t i = 0; i < res.pareto.size(); ++i) {
     const Candidate& c = res.pareto[i];
-    front.push_back(
-        {fmt_num(c.time_s, 6),
-         std::to_string(kit.instrument == InstrumentKind::kProbe ? c.design.spheres.size()
-                                                                 : c.design.installations.size()),
-         std::to_string(c.design.angles_deg.size()), fmt_num(c.choice.step_deg),
-         fmt_num(c.objective, 5), added_installations(kit, c),
-         i == 0 ? "the shortest" : choice_change_text(kit, res.pareto[i - 1], c)});
+    front.push_back({fmt_num(c.time_s, 6), std::to_string(measured_count(c.design)),
+                     std::to_string(c.design.angles_deg.size()), fmt_num(c.choice.step_deg),
+                     fmt_num(c.objective, 5), added_installations(kit, c),
+                     i == 0 ? "the shortest" : choice_change_text(kit, res.pareto[i - 1], c)});
   }
-  p.table({"time [s]", kit.instrument == InstrumentKind::kProbe ? "spheres" : "installations",
-           "angles", "step [deg]", criterion_name(res.criterion), "added (optional positions)",
+  p.table({"time [s]", measured_items(kit.instrument), "angles", "step [deg]",
+           criterion_name(res.criterion), "added (optional positions)",
            "what changes from the point before"},
           front);
   const std::vector<int> runners = runner_up_choices(res, 5);
