@@ -15,7 +15,9 @@
 #include <fstream>
 #include <string>
 
+#include "../src/factorised.hpp"
 #include "../src/random.hpp"
+#include "../src/setup_solver.hpp"
 #include "../src/wls_solver.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/identify.hpp"

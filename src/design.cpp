@@ -116,6 +116,8 @@ bool Design::setup_nuisance_declared() const {
   return false;
 }
 
+bool Design::directions_turn() const { return instrument_info(instrument).directions_turn; }
+
 bool Design::partial_sweeps() const {
   for (const Installation& in : installations) {
     if (!in.angles_deg.empty() && in.angles_deg.size() < angles_deg.size()) return true;

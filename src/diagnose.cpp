@@ -7,12 +7,14 @@
 #include <cmath>
 #include <limits>
 
+#include "column_tester.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/setup.hpp"
 #include "dbbkit/warnings.hpp"
 #include "number_text.hpp"
+#include "setup_solver.hpp"
 #include "tolerances.hpp"
 #include "wls_solver.hpp"
 

@@ -448,9 +448,10 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
     fail("a warm-up is the whole test's: thermal[all](tau=...min)");
   if (!effect_fits_instrument(e.kind, design.instrument))
     fail(std::string(effect_name(e.kind)) + " is an effect of " +
-         (design.instrument == InstrumentKind::kProbe ? "a ball bar" : "a touch probe") +
-         "; this design's instrument is " +
-         (design.instrument == InstrumentKind::kProbe ? "a touch probe" : "a ball bar"));
+         instrument_info(effect_info(e.kind).ballbar_only ? InstrumentKind::kBallbar
+                                                          : InstrumentKind::kProbe)
+             .noun +
+         "; this design's instrument is " + instrument_info(design.instrument).noun);
   if (at < label.size()) {
     if (label[at] != '(' || label.back() != ')') fail("unexpected text after the name; " + forms);
     const std::string arg = label.substr(at + 1, label.size() - at - 2);

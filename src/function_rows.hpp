@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "dbbkit/estimate.hpp"
+#include "setup_solver.hpp"
 
 namespace dbbkit::detail {
 

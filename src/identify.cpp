@@ -15,7 +15,9 @@
 #include "dbbkit/setup.hpp"
 #include "dbbkit/user_text.hpp"
 #include "dbbkit/warnings.hpp"
+#include "factorised.hpp"
 #include "number_text.hpp"
+#include "setup_solver.hpp"
 #include "wls_solver.hpp"
 
 namespace dbbkit {
@@ -48,6 +50,7 @@ RigidMotion rigid_motion(const Design& design, double angle_deg, const Eigen::Ve
   m.direction = a;
   m.point_mm = Q_mm;
   m.on_all_balls = true;
+  m.instrument = design.instrument;
   for (const Installation& inst : design.installations) {
     const Eigen::Vector3d P = ball_position_mm(design.axis, inst, angle_deg);
     if ((P - Q_mm).cross(a).norm() > kOnLine_mm) m.on_all_balls = false;

@@ -1,6 +1,7 @@
 #include "dbbkit/instrument.hpp"
 
 #include <Eigen/Geometry>
+#include <array>
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/limits.hpp"
@@ -8,43 +9,133 @@
 
 namespace dbbkit {
 
-const char* instrument_name(InstrumentKind kind) {
-  return kind == InstrumentKind::kProbe ? "probe" : "ballbar";
+namespace {
+
+// In the order of InstrumentKind (checked below).
+constexpr std::array<InstrumentInfo, 2> kInstruments = {{
+    {.kind = InstrumentKind::kBallbar,
+     .name = "ballbar",
+     .noun = "a ball bar",
+     .item = "an installation",
+     .items = "installations",
+     .items_capitalised = "Installations",
+     .points = "balls",
+     .row_carrier = "installation",
+     .setup_effect_nouns = "length offset and centring",
+     .setup_effects_plural = "length offsets and centrings",
+     .setup_tolerance_keys = "length_offset_um, centring_um",
+     .setup_tolerance_phrase = "a length offset or centring tolerance",
+     .setup_tolerance_none = "length offset or centring tolerance",
+     .setup_included_more =
+         "; the ball placement (L, D, H) is propagated at the identified errors by identify",
+     .has_clock = true,
+     .no_clock_reason = "",
+     .directions_turn = true,
+     .has_program = true,
+     .evaluate_add_next = "add installations that see the undetermined errors (dbbkit optimize)",
+     .identify_add_next = "add installations that see the undetermined errors",
+     .measure_next = "measure it (dbbkit program, setup-sheet), then identify",
+     .widen_next = "Next: widen what binds (the travel, the time budget, the blocks or bars).",
+     .motion_on_all_points = "every ball of the design lies on that line, so no reading sees it",
+     .motion_across_readings = "it moves the balls only across their reading directions",
+     .design_caption = "Ball positions (red) and bars to the following ball (blue), labelled "
+                       "with the installations that use them; dashed: the axis of rotation."},
+    {.kind = InstrumentKind::kProbe,
+     .name = "probe",
+     .noun = "a touch probe",
+     .item = "a sphere",
+     .items = "spheres",
+     .items_capitalised = "Spheres",
+     .points = "spheres",
+     .row_carrier = "channel",
+     .setup_effect_nouns = "trigger offset and sphere placement",
+     .setup_effects_plural = "trigger offset and sphere placement",
+     .setup_tolerance_keys = "trigger_offset_um, placement_um",
+     .setup_tolerance_phrase = "a trigger offset or placement tolerance",
+     .setup_tolerance_none = "trigger offset and sphere placement tolerance",
+     .setup_included_more = "",
+     .has_clock = false,
+     .no_clock_reason = "a probe's file has no time column, so dbbkit tells no drift from it",
+     .directions_turn = false,
+     .has_program = false,
+     .evaluate_add_next =
+         "add a sphere that sees the undetermined errors (evaluate --sweep maps where)",
+     .identify_add_next = "add a sphere that sees the undetermined errors",
+     .measure_next = "probe the spheres at the design's angles, then identify",
+     .widen_next = "Next: widen what binds (the travel or approach_mm, max_stem_tilt_deg, the "
+                   "angle range, the time budget, the blocks).",
+     .motion_on_all_points =
+         "every sphere's centre of the design lies on that line, so no probing sees it",
+     .motion_across_readings = "it moves the spheres' centres only along coordinates not probed",
+     .design_caption = "Sphere centres (red) and the directions each is probed in (blue: machine "
+                       "x, y and z), labelled with their channels; dashed: the axis of rotation."},
+}};
+
+constexpr bool instruments_in_order() {
+  for (std::size_t i = 0; i < kInstruments.size(); ++i)
+    if (static_cast<std::size_t>(kInstruments[i].kind) != i) return false;
+  return true;
+}
+static_assert(instruments_in_order(), "kInstruments is indexed by InstrumentKind");
+
+}  // namespace
+
+const InstrumentInfo& instrument_info(InstrumentKind kind) {
+  return kInstruments[static_cast<std::size_t>(kind)];
+}
+
+const char* instrument_name(InstrumentKind kind) { return instrument_info(kind).name; }
+
+std::optional<InstrumentKind> instrument_named(const std::string& name) {
+  for (const InstrumentInfo& i : kInstruments)
+    if (name == i.name) return i.kind;
+  return std::nullopt;
+}
+
+std::string instrument_names() {
+  std::string out;
+  for (std::size_t i = 0; i < kInstruments.size(); ++i)
+    out += std::string(i == 0                         ? ""
+                       : i + 1 == kInstruments.size() ? " or "
+                                                      : ", ") +
+           kInstruments[i].name;
+  return out;
 }
 
 const char* setup_effect_nouns(InstrumentKind kind) {
-  return kind == InstrumentKind::kProbe ? "trigger offset and sphere placement"
-                                        : "length offset and centring";
+  return instrument_info(kind).setup_effect_nouns;
 }
 
 const char* setup_tolerance_keys(InstrumentKind kind) {
-  return kind == InstrumentKind::kProbe ? "trigger_offset_um, placement_um"
-                                        : "length_offset_um, centring_um";
+  return instrument_info(kind).setup_tolerance_keys;
 }
 
 const char* setup_tolerance_phrase(InstrumentKind kind) {
-  return kind == InstrumentKind::kProbe ? "a trigger offset or placement tolerance"
-                                        : "a length offset or centring tolerance";
+  return instrument_info(kind).setup_tolerance_phrase;
 }
 
-const char* measured_item(InstrumentKind kind) {
-  return kind == InstrumentKind::kProbe ? "a sphere" : "an installation";
-}
+const char* measured_item(InstrumentKind kind) { return instrument_info(kind).item; }
 
-const char* measured_items(InstrumentKind kind) {
-  return kind == InstrumentKind::kProbe ? "spheres" : "installations";
-}
+const char* measured_items(InstrumentKind kind) { return instrument_info(kind).items; }
 
 std::size_t measured_count(const Design& design) {
   return design.instrument == InstrumentKind::kProbe ? design.spheres.size()
                                                      : design.installations.size();
 }
 
+std::string measured_phrase(const Design& design) {
+  if (design.instrument == InstrumentKind::kProbe)
+    return std::to_string(design.spheres.size()) + " spheres probed in x, y and z (" +
+           std::to_string(design.installations.size()) + " channels)";
+  return std::to_string(design.installations.size()) + " installations";
+}
+
 void require_ballbar(const Design& design, const std::string& source, const std::string& what) {
-  if (design.instrument == InstrumentKind::kBallbar) return;
+  if (instrument_info(design.instrument).has_program) return;
   throw InputError(source, "instrument.kind",
-                   what +
-                       " is a ball bar's; this design's instrument is a touch probe (its "
+                   what + " is a ball bar's; this design's instrument is " +
+                       instrument_info(design.instrument).noun +
+                       " (its "
                        "spheres are probed by the controller's own cycle, e.g. "
                        "KinematicsOpt's or CYCLE996's, at the design's angles)");
 }
@@ -88,6 +179,10 @@ std::optional<std::string> setup_tolerance_problem(const SetupUncertainty& u, In
 }
 
 std::optional<std::string> sphere_id_problem(const std::string& id) {
+  // The sphere's own limit first: an id too long for its channels is told so at any length.
+  if (id.size() + 2 > limits::kMaxIdBytes)
+    return "a sphere's id is at most " + std::to_string(limits::kMaxIdBytes - 2) +
+           " bytes (its channels' ids add \":x\"); this one has " + std::to_string(id.size());
   if (const auto p = id_problem(id)) return p;
   if (id == "all")
     return std::string(
@@ -95,9 +190,6 @@ std::optional<std::string> sphere_id_problem(const std::string& id) {
         "another id");
   if (id.find(':') != std::string::npos)
     return std::string("a sphere's id holds no ':' (its channels' ids are id:x, id:y, id:z)");
-  if (id.size() + 2 > limits::kMaxIdBytes)
-    return "a sphere's id is at most " + std::to_string(limits::kMaxIdBytes - 2) +
-           " bytes (its channels' ids add \":x\")";
   return std::nullopt;
 }
 

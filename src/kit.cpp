@@ -555,8 +555,11 @@ void validate_kit(const Kit& k, const std::string& source) {
   require(finite(k.time_per_position_s) && k.time_per_position_s >= 0, source,
           "time_s.per_position", "must be a time >= 0 s");
   if (k.resolution_mm) {
-    require(finite(*k.resolution_mm) && *k.resolution_mm >= 1e-3 && *k.resolution_mm <= 10, source,
-            "resolution_mm", "must be in [0.001, 10] mm");
+    require(finite(*k.resolution_mm) && *k.resolution_mm >= limits::kMinResolution_mm &&
+                *k.resolution_mm <= limits::kMaxResolution_mm,
+            source, "resolution_mm",
+            "must be in [" + text::significant(limits::kMinResolution_mm, 6) + ", " +
+                text::significant(limits::kMaxResolution_mm, 6) + "] mm");
   }
   if (k.time_budget_s) {
     require(finite(*k.time_budget_s) && *k.time_budget_s > 0, source, "time_s.budget",

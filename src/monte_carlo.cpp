@@ -15,7 +15,9 @@
 #include "dbbkit/parallel.hpp"
 #include "dbbkit/setup.hpp"
 #include "dbbkit/user_text.hpp"
+#include "factorised.hpp"
 #include "random.hpp"
+#include "setup_solver.hpp"
 #include "wls_solver.hpp"
 
 namespace dbbkit {

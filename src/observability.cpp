@@ -7,10 +7,13 @@
 #include <limits>
 
 #include "dbbkit/effects.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"
 #include "dbbkit/warnings.hpp"
+#include "factorised.hpp"
+#include "setup_solver.hpp"
 #include "small_eigen.hpp"
 #include "tolerances.hpp"
 #include "wls_solver.hpp"
@@ -851,7 +854,7 @@ Evaluation evaluate_design(const Design& design, double reference_length_mm,
           reference_length_mm, design.instrument))
     ev.warnings.push_back(*w);
   // A drift over the test's nominal clock: a ball bar program's (a probe's file has no times).
-  if (!drift || design.instrument == InstrumentKind::kProbe) return ev;
+  if (!drift || !instrument_info(design.instrument).has_clock) return ev;
   ev.drift = check_drift_effects(design, param, model, setup, functions, detection,
                                  reference_length_mm, drift->clock);
   if (drift->with_return && !design.return_reading && design.angles_deg.size() > 1) {

@@ -677,6 +677,27 @@ Criterion criterion_from_name(const std::string& name, const std::string& source
                        " (expected worst, worst_total, D, A, E or condition)");
 }
 
+Criterion search_criterion(Kit& kit, const std::string& name, bool require_setup_detection,
+                           const std::string& kit_source, const std::string& criterion_option,
+                           const std::string& detection_option) {
+  const bool declared = kit.setup_std.nuisance();
+  const auto needs = [&](const std::string& what) {
+    return InputError(
+        kit_source, "setup_std",
+        what + " needs " + setup_tolerance_phrase(kit.instrument) + " declared in the kit");
+  };
+  if (require_setup_detection) {
+    if (!declared) throw needs(detection_option);
+    kit.require_setup_detection = true;
+  }
+  const Criterion c = criterion_from_name(!name.empty() ? name
+                                          : declared    ? "worst_total"
+                                                        : "worst",
+                                          criterion_option);
+  if (c == Criterion::kWorstTotal && !declared) throw needs(criterion_option + " worst_total");
+  return c;
+}
+
 const char* criterion_name(Criterion c) {
   switch (c) {
     case Criterion::kWorst:

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 
+#include "column_tester.hpp"
 #include "dbbkit/effects.hpp"
 #include "dbbkit/linear_model.hpp"
 #include "dbbkit/parameterisation.hpp"

@@ -5,6 +5,9 @@
 #include <limits>
 #include <optional>
 
+#include "column_tester.hpp"
+#include "dbbkit/effects.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/residual_checks.hpp"
 #include "wls_solver.hpp"
 
@@ -227,6 +230,12 @@ class Selector {
       status_[i] =
           status(pool_[i].label, CandidateState::kEquivalent, CandidateReason::kEquivalent);
       status_[i].other = pool_[chosen].label;
+      // Which of the two carries it: the later sphere of a sphere's effect, else the later row
+      // carrier (a ball bar's installation, a probe's channel).
+      if (design_)
+        status_[i].note = effect_info(pool_[i].effect.kind).per_sphere
+                              ? "sphere"
+                              : instrument_info(design_->instrument).row_carrier;
     }
   }
 

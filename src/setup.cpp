@@ -20,6 +20,7 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/setup_sheet.hpp"
 #include "function_rows.hpp"
+#include "setup_solver.hpp"
 #include "tolerances.hpp"
 #include "wls_solver.hpp"
 
@@ -385,6 +386,39 @@ SetupEffectInformation effect_information(const Eigen::VectorXd& w, const SetupE
   return info;
 }
 
+// The directions of an effect's parameters that R_e = unexplained(base, X_e) leaves at zero where
+// it sees some (none where it sees none: then no direction is singled out), by
+// added_rank's rule: R_e with its columns scaled to unit whitened norm (D), the right singular
+// vectors v beyond its added rank; a parameter direction D^-1 v, unit, its largest component
+// positive.
+std::vector<std::vector<double>> hidden_directions(const Eigen::VectorXd& w, const SetupEffect& e,
+                                                   const Eigen::Ref<const Eigen::MatrixXd>& Re) {
+  const Eigen::VectorXd norms = (w.asDiagonal() * e.J_reading_effect).colwise().norm().transpose();
+  const int seen = added_rank(triangular_factor(Re), norms);
+  Eigen::MatrixXd T = triangular_factor(Re);
+  for (Eigen::Index j = 0; j < T.cols(); ++j) {
+    if (norms(j) > 0) {
+      T.col(j) /= norms(j);
+    } else {
+      T.col(j).setZero();
+    }
+  }
+  std::vector<std::vector<double>> out;
+  if (seen == 0) return out;  // none seen: every direction is the axis errors', none to name
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(T, Eigen::ComputeFullV);
+  for (Eigen::Index k = seen; k < T.cols(); ++k) {
+    Eigen::VectorXd v = svd.matrixV().col(k);
+    for (Eigen::Index j = 0; j < v.size(); ++j)
+      if (norms(j) > 0) v(j) /= norms(j);
+    v.normalize();
+    Eigen::Index largest = 0;
+    v.cwiseAbs().maxCoeff(&largest);
+    if (v(largest) < 0) v = -v;
+    out.emplace_back(v.data(), v.data() + v.size());
+  }
+  return out;
+}
+
 }  // namespace
 
 SetupInformation dense_setup_information(const Design& design) {
@@ -466,6 +500,9 @@ std::vector<SetupEffectCheck> check_setup_effects(
     const Eigen::Index q = e.J_reading_effect.cols();
     const SetupEffectInformation info = effect_information(w, e, R.middleCols(column, q));
     ch.detectable = info.detectable;
+    ch.parameters = e.parameters;
+    if (!info.detectable && q > 1)
+      ch.hidden_directions = hidden_directions(w, e, R.middleCols(column, q));
     // The noncentrality for the power depends on (q, dof) alone, and is kept
     // (noncentrality_for_power): the effects of every installation share a few.
     ch.detection_limit_um = detection_limit_um(info.q, info.detectable, info.min_information,

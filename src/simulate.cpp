@@ -210,10 +210,9 @@ void validate_truth(const Truth& truth, const Design& design, const std::string&
                                          : std::string()));
     }
     if (!effect_fits_instrument(e.effect.kind, design.instrument)) {
-      throw InputError(
-          source, key + ".name",
-          std::string(effect_name(e.effect.kind)) + " is not an effect of " +
-              (design.instrument == InstrumentKind::kProbe ? "a touch probe" : "a ball bar"));
+      throw InputError(source, key + ".name",
+                       std::string(effect_name(e.effect.kind)) + " is not an effect of " +
+                           instrument_info(design.instrument).noun);
     }
     const EffectInfo& info = effect_info(e.effect.kind);
     if (info.needs_bar) {

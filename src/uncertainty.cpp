@@ -8,7 +8,9 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/setup.hpp"
 #include "dbbkit/user_text.hpp"
+#include "factorised.hpp"
 #include "number_text.hpp"
+#include "setup_solver.hpp"
 #include "wls_solver.hpp"
 
 namespace dbbkit {

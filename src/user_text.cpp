@@ -95,14 +95,15 @@ std::optional<std::string> id_problem(std::string_view id) {
     return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9');
   };
   if (!alnum(id.front())) return "an id starts with a letter or a digit";
-  for (char c : id) {
+  for (std::size_t i = 0; i < id.size();) {
+    const char c = id[i];
     if (!alnum(c) && c != '-' && c != '_' && c != '.' && c != '+' && c != ':') {
+      // The whole character, not its first byte: text_problem has checked the UTF-8.
+      const internal::CodePoint cp = internal::decode_utf8(id, i);
       return std::string("an id holds ASCII letters, digits and - _ . + : only (not '") +
-             (static_cast<unsigned char>(c) < 0x80 && c >= 0x20
-                  ? std::string(1, c)
-                  : escape(static_cast<unsigned char>(c))) +
-             "')";
+             (cp.value < 0x80 && cp.value >= 0x20 ? std::string(1, c) : escape(cp.value)) + "')";
     }
+    ++i;
   }
   return std::nullopt;
 }

@@ -7,7 +7,9 @@
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/instrument.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "factorised.hpp"
 #include "number_text.hpp"
+#include "setup_solver.hpp"
 #include "wls_solver.hpp"
 
 namespace dbbkit {

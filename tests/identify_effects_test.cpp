@@ -8,6 +8,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "../src/factorised.hpp"
 #include "cli_util.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/effects.hpp"

@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
+#include "../src/factorised.hpp"
 #include "../src/wls_solver.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/linear_model.hpp"

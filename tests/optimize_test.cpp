@@ -12,6 +12,7 @@
 #include <random>
 #include <set>
 
+#include "../src/setup_solver.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"

@@ -216,10 +216,55 @@ TEST(Probe, TwoSpheresOnOneVerticalLineCannotSeeARotationAboutIt) {
         axis_rotation(d.axis, *u.angle_deg) * Eigen::Vector3d(150, 0, 0);
     EXPECT_NEAR(u.motion->point_mm.x(), through.x(), 1e-6);
     EXPECT_NEAR(u.motion->point_mm.y(), through.y(), 1e-6);
+    // Said of the spheres' centres, not of balls.
+    const std::string said = io::unidentifiable_interpretation(u);
+    EXPECT_NE(said.find("every sphere's centre of the design lies on that line"), std::string::npos)
+        << said;
+    EXPECT_EQ(said.find("ball"), std::string::npos) << said;
   }
   // A third sphere off that line sees every error at every angle.
   EXPECT_EQ(evaluate_design(three_spheres_c(), 100.0).prior.rank,
             evaluate_design(three_spheres_c(), 100.0).prior.n_unknowns);
+}
+
+TEST(Probe, APlacementAcrossThePlaneOfThreeSpheresIsTakenByTheAxisErrors) {
+  // By hand: with the other two spheres fixed, the one rigid motion that moves a sphere is the
+  // rotation about the line through the other two, which moves it along the normal of the
+  // three spheres' plane; per-angle errors take any rigid motion at each angle, so a placement
+  // of s1 along that normal is never seen, and every other direction is.
+  const Design d = three_spheres_c();
+  const Evaluation ev = evaluate_design(d, 100.0);
+  const Eigen::Vector3d s1(150, 0, 80), s2(150, 0, 230), s3(100, 120, 80);
+  const Eigen::Vector3d n = ((s2 - s1).cross(s3 - s1)).normalized();
+  int checked = 0;
+  for (const SetupEffectCheck& c : ev.setup_checks) {
+    if (c.kind != EffectKind::kPlacement) continue;
+    EXPECT_FALSE(c.detectable) << c.label;
+    ASSERT_EQ(c.hidden_directions.size(), 1u) << c.label;
+    ASSERT_EQ(c.parameters, (std::vector<std::string>{"dL", "dD", "dH"}));
+    const std::vector<double>& v = c.hidden_directions[0];
+    const Eigen::Vector3d h(v[0], v[1], v[2]);
+    EXPECT_NEAR(h.norm(), 1.0, 1e-12);
+    EXPECT_NEAR(std::abs(h.dot(n)), 1.0, 1e-6) << c.label << ": " << h.transpose();
+    const std::string text = io::hidden_directions_text(c);
+    EXPECT_NE(text.find("as a whole: the axis errors take (dL, dD, dH) = ("), std::string::npos)
+        << text;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 3);
+  // Each component alone adds what the axis errors cannot reproduce: diagnose can find it.
+  int components = 0;
+  for (const CandidateStatus& c : effect_detectability(d, nominal_readings(d)))
+    if (c.label.rfind("placement.", 0) == 0 && ++components)
+      EXPECT_EQ(c.state, CandidateState::kDetectable) << c.label;
+  EXPECT_EQ(components, 9);
+  // The JSON states the direction by parameter.
+  const nlohmann::json j = io::setup_checks_to_json(ev.setup_checks, 100.0);
+  for (const nlohmann::json& e : j)
+    if (e["effect"].get<std::string>().rfind("placement", 0) == 0)
+      EXPECT_EQ(e["hidden_directions"].size(), 1u) << e.dump();
+    else
+      EXPECT_TRUE(e["hidden_directions"].empty()) << e.dump();
 }
 
 TEST(Probe, DiagnoseFindsASphereOffItsStatedCentreAndATriggerOffset) {
@@ -542,6 +587,99 @@ TEST(Probe, RequiredDetectionIsMetOnlyByADesignThatDeterminesEveryError) {
   for (const ChoiceResult& cr : res.choices)
     if (cr.best && cr.best->feasible) EXPECT_EQ(cr.best->n_undetermined, 0) << cr.label;
   if (res.best) EXPECT_EQ(res.best->n_undetermined, 0);
+}
+
+TEST(InstrumentTable, EachInstrumentsWordsAndFlagsAreItsEntrys) {
+  // The writers, the checks and the commands read what differs between instruments from one
+  // entry (instrument_info), in the enum's order; every word a text needs is there.
+  const Design ballbar = io::read_design_file(test::kDesignC);
+  const Design probe = three_spheres_c();
+  for (const Design* d : {&ballbar, &probe}) {
+    const InstrumentInfo& info = instrument_info(d->instrument);
+    EXPECT_EQ(info.kind, d->instrument);
+    EXPECT_STREQ(instrument_name(d->instrument), info.name);
+    EXPECT_STREQ(measured_item(d->instrument), info.item);
+    EXPECT_STREQ(measured_items(d->instrument), info.items);
+    EXPECT_STREQ(setup_effect_nouns(d->instrument), info.setup_effect_nouns);
+    EXPECT_STREQ(setup_tolerance_phrase(d->instrument), info.setup_tolerance_phrase);
+    EXPECT_EQ(d->directions_turn(), info.directions_turn);
+    for (const char* word :
+         {info.noun, info.item, info.items, info.items_capitalised, info.points, info.row_carrier,
+          info.setup_effect_nouns, info.setup_effects_plural, info.setup_tolerance_keys,
+          info.setup_tolerance_phrase, info.setup_tolerance_none, info.evaluate_add_next,
+          info.identify_add_next, info.measure_next, info.widen_next, info.motion_on_all_points,
+          info.motion_across_readings, info.design_caption})
+      EXPECT_GT(std::string(word).size(), 0u) << info.name;
+    // A design without a clock says why wherever a drift is asked of it.
+    EXPECT_EQ(info.has_clock, std::string(info.no_clock_reason).empty()) << info.name;
+    // require_ballbar refuses exactly a design whose instrument has no program.
+    bool refused = false;
+    try {
+      require_ballbar(*d, "design.json", "a part program");
+    } catch (const InputError& e) {
+      refused = true;
+      EXPECT_NE(std::string(e.what()).find(instrument_info(d->instrument).noun), std::string::npos)
+          << e.what();
+    }
+    EXPECT_EQ(refused, !info.has_program) << info.name;
+  }
+  EXPECT_TRUE(instrument_info(InstrumentKind::kBallbar).has_clock);
+  EXPECT_FALSE(instrument_info(InstrumentKind::kProbe).has_clock);
+  // The words as the results print them.
+  EXPECT_EQ(measured_phrase(ballbar),
+            std::to_string(ballbar.installations.size()) + " installations");
+  EXPECT_EQ(measured_phrase(probe), "3 spheres probed in x, y and z (9 channels)");
+  Evaluation ev;
+  ev.instrument = InstrumentKind::kBallbar;
+  EXPECT_EQ(io::evaluation_setup_note(ev),
+            "set-up uncertainty is not included: the design declares no length offset or "
+            "centring tolerance (setup_std)");
+  ev.setup_included = true;
+  EXPECT_EQ(io::evaluation_setup_note(ev),
+            "the uncertainties include the declared length offset and centring tolerances "
+            "(total = noise and set-up); the ball placement (L, D, H) is propagated at the "
+            "identified errors by identify");
+  ev.instrument = InstrumentKind::kProbe;
+  EXPECT_EQ(io::evaluation_setup_note(ev),
+            "the uncertainties include the declared trigger offset and sphere placement "
+            "tolerances (total = noise and set-up)");
+}
+
+TEST(Probe, TheSearchsCriterionIsTheOneTheKitAllows) {
+  // One rule for the command line and Python (search_criterion): worst_total by default where
+  // the kit declares set-up tolerances, worst elsewhere; worst_total or set-up detection asked of
+  // a kit without them is refused at setup_std, in the instrument's words, by the caller's names.
+  Kit bare = io::kit_from_text(probe_kit_text(), "kit.json");
+  EXPECT_EQ(search_criterion(bare, "", false, "kit.json", "--criterion", "--detect"),
+            Criterion::kWorst);
+  EXPECT_EQ(search_criterion(bare, "D", false, "kit.json", "--criterion", "--detect"),
+            Criterion::kD);
+  EXPECT_FALSE(bare.require_setup_detection);
+  auto refusal = [](Kit k, const std::string& name, bool detect) {
+    try {
+      search_criterion(k, name, detect, "kit.json", "criterion", "require_setup_detection");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string total = refusal(bare, "worst_total", false);
+  EXPECT_NE(total.find("kit.json"), std::string::npos) << total;
+  EXPECT_NE(total.find("setup_std"), std::string::npos) << total;
+  EXPECT_NE(total.find("criterion worst_total needs a trigger offset or placement tolerance"),
+            std::string::npos)
+      << total;
+  const std::string detect = refusal(bare, "", true);
+  EXPECT_NE(detect.find("require_setup_detection needs a trigger offset or placement tolerance"),
+            std::string::npos)
+      << detect;
+  EXPECT_NE(refusal(bare, "best", false).find("unknown criterion"), std::string::npos);
+
+  Kit declared =
+      io::kit_from_text(probe_kit_text(R"(, "setup_std": {"placement_um": 5})"), "kit.json");
+  EXPECT_EQ(search_criterion(declared, "", true, "kit.json", "--criterion", "--detect"),
+            Criterion::kWorstTotal);
+  EXPECT_TRUE(declared.require_setup_detection);
 }
 
 TEST(Probe, AProbeKitRefusesWhatOnlyABallBarHas) {

@@ -9,6 +9,7 @@
 #include <boost/math/distributions/fisher_f.hpp>
 #include <random>
 
+#include "../src/column_tester.hpp"
 #include "../src/wls_solver.hpp"
 #include "dbbkit/diagnose.hpp"
 #include "dbbkit/io/design_io.hpp"

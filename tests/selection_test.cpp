@@ -194,6 +194,20 @@ TEST(Selection, EquivalentCandidatesGoToTheLaterInstallation) {
   EXPECT_EQ(status_of(s, "length_offset[0]").state, CandidateState::kEquivalent);
   // Only the difference is determined: the later installation's offset is minus the earlier's 6.
   EXPECT_NEAR(s.added[0].values.at(0).value, -6.0, 4 * s.added[0].values.at(0).std);
+  // Without a design the text names an installation, as a ball bar's does; a probe's design
+  // names the later channel, or the later sphere for a sphere's effect (selection sets the note
+  // from the instrument's entry).
+  CandidateStatus equivalent = status_of(s, "length_offset[0]");
+  EXPECT_NE(io::candidate_detail(equivalent).find("the later installation carries it"),
+            std::string::npos)
+      << io::candidate_detail(equivalent);
+  for (const char* carrier : {"channel", "sphere"}) {
+    equivalent.note = carrier;
+    EXPECT_NE(io::candidate_detail(equivalent)
+                  .find(std::string("by convention the later ") + carrier + " carries it"),
+              std::string::npos)
+        << io::candidate_detail(equivalent);
+  }
 }
 
 // The data are 8 a + 5 b. Forward selection takes first the candidate nearest them

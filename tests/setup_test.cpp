@@ -16,6 +16,7 @@
 #include <boost/math/distributions/normal.hpp>
 #include <random>
 
+#include "../src/setup_solver.hpp"
 #include "../src/tolerances.hpp"
 #include "../src/wls_solver.hpp"
 #include "dbbkit/diagnose.hpp"

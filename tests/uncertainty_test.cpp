@@ -6,6 +6,8 @@
 #include <cmath>
 #include <random>
 
+#include "../src/factorised.hpp"
+#include "../src/setup_solver.hpp"
 #include "../src/wls_solver.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/identify.hpp"

@@ -13,6 +13,7 @@
 #include <string>
 
 #include "dbbkit/error.hpp"
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/escape.hpp"
 #include "hostile_strings.hpp"
 
@@ -52,6 +53,26 @@ TEST(UserText, AnIdIsAsciiLettersDigitsAndAFewMarks) {
   EXPECT_TRUE(id_problem(std::string("a\0b", 3)).has_value());
   EXPECT_TRUE(id_problem(std::string(65, 'a')).has_value());
   EXPECT_FALSE(id_problem(std::string(64, 'a')).has_value());
+  // A character outside ASCII is named whole (U+00E4), not by its first byte (0xC3).
+  const std::string umlaut = *id_problem("a\xc3\xa4");
+  EXPECT_NE(umlaut.find("\\u00E4"), std::string::npos) << umlaut;
+  EXPECT_EQ(umlaut.find("\\xC3"), std::string::npos) << umlaut;
+  EXPECT_NE(id_problem("a\xf0\x9f\x98\x80")->find("\\u1F600"), std::string::npos);
+}
+
+TEST(UserText, ASpheresIdTooLongIsToldSoAtAnyLength) {
+  // A sphere's channels add ":x", so its id has two bytes less than an id: one message for
+  // every length beyond it, not one up to an id's limit and another past it.
+  for (std::size_t n :
+       {limits::kMaxIdBytes - 1, limits::kMaxIdBytes, limits::kMaxIdBytes + 1, std::size_t{300}}) {
+    const auto p = sphere_id_problem(std::string(n, 's'));
+    ASSERT_TRUE(p.has_value()) << n;
+    EXPECT_NE(p->find("a sphere's id is at most " + std::to_string(limits::kMaxIdBytes - 2)),
+              std::string::npos)
+        << *p;
+    EXPECT_NE(p->find("this one has " + std::to_string(n)), std::string::npos) << *p;
+  }
+  EXPECT_FALSE(sphere_id_problem(std::string(limits::kMaxIdBytes - 2, 's')).has_value());
 }
 
 TEST(UserText, AQuotedValueIsShortAndPrintable) {

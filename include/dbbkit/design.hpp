@@ -242,7 +242,7 @@ struct Design {
   bool partial_sweeps() const;
   // Whether every reading's direction turns with the axis (a ball bar): the closed forms of
   // observability.hpp turn one body-frame information by the axis' rotation.
-  bool directions_turn() const { return instrument == InstrumentKind::kBallbar; }
+  bool directions_turn() const;  // instrument_info(instrument).directions_turn
   // The readings one sweep of installation i takes: its angles, and the return reading.
   int readings_per_sweep(int i) const {
     const std::size_t n = angles_of(i).size();

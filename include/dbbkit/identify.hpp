@@ -55,8 +55,8 @@ std::vector<ExpandedErrorsAtAngle> expanded_errors(const std::vector<ErrorsAtAng
 // A null direction confined to one position is a small rigid motion (d, e) of the moving
 // body: a translation along `direction` (e = 0), or a rotation or screw motion about the line
 // through `point_mm` along `direction` (machine frame). tool_axis: that line is the B head's
-// tool axis; on_all_balls: every ball of the design lies on it (no reading sees the motion),
-// otherwise it moves the balls only across their reading directions.
+// tool axis; on_all_balls: every ball (a probe's: every sphere's centre) of the design lies on it
+// (no reading sees the motion), otherwise it moves the balls only across their reading directions.
 struct RigidMotion {
   enum class Kind { kTranslation, kRotation, kScrew };
   Kind kind = Kind::kTranslation;
@@ -64,6 +64,7 @@ struct RigidMotion {
   Eigen::Vector3d point_mm = Eigen::Vector3d::Zero();
   bool tool_axis = false;
   bool on_all_balls = false;
+  InstrumentKind instrument = InstrumentKind::kBallbar;  // whose points: balls or spheres' centres
 };
 
 struct Unidentifiable {

@@ -29,7 +29,64 @@
 
 namespace dbbkit {
 
-// "ballbar", "probe" (design key instrument.kind).
+// What an instrument is to everything that does not compute its rows: one entry per instrument
+// (instrument_info), read by the writers, the checks and the commands instead of asking which
+// instrument it is. Its words are those of the results (formats.md); a flag says what a design of
+// it can have (a clock, a program, directions that turn). Adding an instrument is its enum value
+// (design.hpp), its entry here, its rows (kinematics: J_reading_error's direction), its exact
+// reading (exact_instrument_reading_um), its file (io) and its kit's fit (kit.cpp).
+struct InstrumentInfo {
+  InstrumentKind kind;
+  const char* name;  // the design key instrument.kind: "ballbar", "probe"
+  const char* noun;  // "a ball bar", "a touch probe"
+  // What a design adds to see more, and their plurals: "an installation", "installations",
+  // "Installations" (a ball bar's); "a sphere", "spheres", "Spheres" (a probe's).
+  const char* item;
+  const char* items;
+  const char* items_capitalised;
+  // The points the design places on the body: "balls", "spheres".
+  const char* points;
+  // A row's carrier as a place is named ("in installation 1r", "in channel s1:x").
+  const char* row_carrier;
+  // The set-up effects: their nouns ("length offset and centring"), their plural as a result's
+  // note names what is not included ("length offsets and centrings"), the design keys of their
+  // tolerances, a tolerance as a kit must declare one ("a length offset or centring tolerance")
+  // and as a design declares none ("length offset or centring tolerance").
+  const char* setup_effect_nouns;
+  const char* setup_effects_plural;
+  const char* setup_tolerance_keys;
+  const char* setup_tolerance_phrase;
+  const char* setup_tolerance_none;
+  // What else evaluate's note says of the set-up when its tolerances are included (a ball bar:
+  // that the ball placement is propagated by identify), or "".
+  const char* setup_included_more;
+  // Whether a design's readings have times (a drift or a warm-up can be told), and why not.
+  bool has_clock;
+  const char* no_clock_reason;
+  // Whether every reading's direction turns with the axis (the closed forms of observability).
+  bool directions_turn;
+  // Whether dbbkit writes its part program and set-up sheet, and reads its traces.
+  bool has_program;
+  // The next steps the briefs name: a design that leaves errors undetermined (evaluate's, and
+  // identify's), a design that is ready to measure, and a kit in which no design fits.
+  const char* evaluate_add_next;
+  const char* identify_add_next;
+  const char* measure_next;
+  const char* widen_next;
+  // What a rigid motion that no reading sees is, for the design's points: on one line with all
+  // of them, or moving them only where no reading looks.
+  const char* motion_on_all_points;
+  const char* motion_across_readings;
+  // The report's caption of the design's drawing.
+  const char* design_caption;
+};
+const InstrumentInfo& instrument_info(InstrumentKind kind);
+// The instrument a design or kit names (instrument.kind), or none; and every name, as a reader's
+// message lists them ("ballbar or probe").
+std::optional<InstrumentKind> instrument_named(const std::string& name);
+std::string instrument_names();
+
+// "ballbar", "probe" (design key instrument.kind): instrument_info(kind).name.
 const char* instrument_name(InstrumentKind kind);
 
 // What only a ball bar's design has (a program that drives the bar's arcs, a set-up sheet of
@@ -50,6 +107,9 @@ const char* measured_items(InstrumentKind kind);
 // How many of them a design has: a probe's spheres (each three channels, its installations), a
 // ball bar's installations.
 std::size_t measured_count(const Design& design);
+// What a design measures, counted: "7 installations", "3 spheres probed in x, y and z (9
+// channels)".
+std::string measured_phrase(const Design& design);
 const char* setup_tolerance_keys(InstrumentKind kind);
 // What a kit must declare for a set-up criterion: "a length offset or centring tolerance", "a
 // trigger offset or placement tolerance".

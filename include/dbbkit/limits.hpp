@@ -86,18 +86,49 @@ constexpr double kMaxFeed_mm_per_min = 60000;
 constexpr double kMinPathTolerance_mm = 1e-4;
 constexpr double kMaxPathTolerance_mm = 1;
 constexpr int kMinToolNumber = 1;
+// A part program's number (an O-number: `program --program-number`).
+constexpr int kMinProgramNumber = 1;
+constexpr int kMaxProgramNumber = 9999;
 constexpr int kMaxToolNumber = 9999;
 constexpr double kMinClearanceMargin_mm = 1;
 constexpr double kMaxClearanceMargin_mm = 1000;
+// The drift over the whole test a design must detect (a kit's require_drift_detection_um,
+// `optimize --require-detect drift=UM`) [um]: above 0, at most 1 mm.
+constexpr double kMaxRequiredDrift_um = 1000;
 // The program's dwell a trace is searched for (`readings --dwell-s`): at least 0.01 s, ten
 // samples at 1 kHz; at most kMaxDwell_s. A dwell is at least kMinDwellShare of it long.
 constexpr double kMinTraceDwell_s = 0.01;
 constexpr double kMinDwellShare = 0.05;
+// A trace's own start on the test's clock (`readings --start-s`) [s], at most 1e11 in size.
+constexpr double kMaxTraceStart_s = 1e11;
+// A simulated trace (`simulate --trace-*`): its dwell [s], sample rate [Hz], sample noise [um],
+// a move's largest bar excursion [um] and a drift on its own clock [um/min].
+constexpr double kMinSimulatedDwell_s = 0.05;
+constexpr double kMinSimulatedRate_hz = 10;
+constexpr double kMaxSimulatedRate_hz = 100000;
+constexpr double kMaxSimulatedTraceNoise_um = 100;
+constexpr double kMaxSimulatedExcursion_um = 1000;
+constexpr double kMaxSimulatedDrift_um_per_min = 100;
+// A set-up sheet's rounding of the ball positions [mm] (`setup-sheet --resolution-mm`, a kit's
+// resolution_mm).
+constexpr double kMinResolution_mm = 1e-3;
+constexpr double kMaxResolution_mm = 10;
 
 // Ranges of the run options (command-line options and the Python module's arguments).
 // Coverage probability of an expanded uncertainty.
 constexpr double kMinCoverage = 0.5;
 constexpr double kMaxCoverage = 0.9999;
+// The coverage factor k of a written expanded uncertainty (`compensation --k`).
+constexpr double kMinCoverageFactor = 1;
+constexpr double kMaxCoverageFactor = 10;
+// The family-wise level of compare's tests.
+constexpr double kMinCompareLevel = 1e-6;
+constexpr double kMaxCompareLevel = 0.5;
+// The number n of a Siemens swivel data record ($TC_CARR..[n]).
+constexpr int kMinSwivelRecord = 1;
+constexpr int kMaxSwivelRecord = 99;
+// A design gate's relative tolerance of worst_std_um (`bench --tolerance`): below 1.
+constexpr double kMaxBenchTolerance = 0.999999;
 // The reference length that turns angular uncertainty into um [mm] (up to kMaxLength_mm).
 constexpr double kMinReferenceLength_mm = 1e-3;
 // diagnose: the family-wise level of each selection step, and the most effects added.

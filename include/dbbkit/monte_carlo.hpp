@@ -25,8 +25,6 @@
 
 namespace dbbkit {
 
-class SetupSolver;
-
 struct MonteCarloOptions {
   std::uint64_t seed = 1;
   int threads = 1;             // 0: all hardware threads
@@ -79,13 +77,6 @@ struct MonteCarloResult {
 
 // Numerical tolerance of a standard uncertainty u with n_dig significant digits: 1/2 10^l.
 double numerical_tolerance(double u, int significant_digits);
-
-// With `setup` (declared length offset and centring tolerances, setup.hpp) the
-// estimate is its own and every trial also draws the set-up effects from their priors.
-MonteCarloResult monte_carlo(const Design& design, const Parameterisation& param,
-                             const LinearModel& model, const WlsSolver& solver, const Estimate& est,
-                             const Budget& budget, const MonteCarloOptions& options,
-                             const SetupSolver* setup = nullptr);
 
 // The design as it would be measured, replayed at zero errors with the declared noise (Type B):
 // checks the linear a-priori uncertainties of `evaluate`.

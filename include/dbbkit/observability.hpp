@@ -41,7 +41,6 @@ struct DesignCriteria {
   double E_min_eigenvalue = 0;
   double G_max_leverage = 0;
 };
-DesignCriteria design_criteria(const WlsSolver& solver);
 
 // Largest standard uncertainty over all angles and all six errors, angular
 // errors converted to um at the reference length: u[um] = 1e-3 * L_ref[mm] * u[urad].

@@ -84,31 +84,6 @@ struct ScanTest {
   }
 };
 
-class ColumnTester {
- public:
-  // `fit` = solver.solve(y) for the readings y.
-  ColumnTester(const WlsSolver& solver, const Estimate& fit, const EstimateOptions& options = {});
-
-  ColumnTest test(const Eigen::MatrixXd& X) const;
-
-  // Steps between consecutive readings of `rows` (one installation, in time order), with at
-  // least min_segment readings on each side.
-  ScanTest scan_steps(const std::vector<int>& rows, int min_segment) const;
-
-  // Each reading of `rows` alone (its indicator column): the externally studentised residual,
-  // t^2 = F(1, dof - 1).
-  ScanTest scan_readings(const std::vector<int>& rows) const;
-
- private:
-  // The one-column test from x'Wr, x'Wx and |R|^2.
-  ColumnTest one_column(double xWr, double xWx, double R2) const;
-
-  const WlsSolver& solver_;
-  const Estimate& fit_;
-  EstimateOptions options_;
-  Eigen::VectorXd w_;  // 1 / sigma^2
-};
-
 // ---------------------------------------------------------------------------
 // The checks diagnose runs on a fitted model (J: the axis errors and the effects
 // added; y the readings). Each is a stated test at diagnose's level.
@@ -167,13 +142,6 @@ std::vector<double> residual_harmonics(const std::vector<Reading>& readings,
 void mark_implausible(const Design& design, const std::vector<Reading>& readings,
                       std::vector<ResidualFeature>& features);
 
-// Every feature of every installation, against the model of `solver` fitted to the readings
-// (`fit` = solver.solve(y)); `readings` as validated against `design`.
-std::vector<ResidualFeature> residual_features(const Design& design,
-                                               const std::vector<Reading>& readings,
-                                               const WlsSolver& solver, const Estimate& fit,
-                                               const EstimateOptions& options = {});
-
 // Gross readings, one at a time: the reading whose indicator column gives the smallest
 // scan p (the externally studentised residual, Bonferroni over the readings) is flagged
 // when that p is below `level`; its column is appended and the next is sought, at most
@@ -200,13 +168,13 @@ std::vector<GrossReading> gross_readings(const Jacobian& J, const Eigen::VectorX
 
 // The errors' columns of each order K' = K+1 .. K+4 that the positions allow (2K'+1 <= P for
 // Fourier, K'+1 <= P for Legendre), each the whole J of that order, with K'; empty for a
-// per-angle model. ColumnTester::test takes the part the model of order K does not span.
+// per-angle model. The order check (diagnose) tests the part the model of order K does not span.
 std::vector<std::pair<int, Eigen::MatrixXd>> higher_order_columns(
     const Design& design, const std::vector<Reading>& readings);
 
 // The model's order (Fourier or Legendre errors): the errors' columns of order K' = K+1 ..
 // K+4 (as far as the positions allow: 2K'+1 for Fourier, K'+1 for Legendre) appended to J
-// (the solver's, which holds those of order K and the effects added); the K' of lowest BIC is
+// (the fitted model's, which holds those of order K and the effects added); the K' of lowest BIC is
 // suggested when its F-test p times the orders tried is below the level. The fit with it: chi2 and
 // dof.
 struct OrderCheck {
@@ -219,15 +187,6 @@ struct OrderCheck {
   int dof_with = 0;
   std::optional<double> p_value_with;  // P(chi2_dof >= chi2) with K'
 };
-std::optional<OrderCheck> model_order_check(const Design& design,
-                                            const std::vector<Reading>& readings,
-                                            const WlsSolver& solver, const Estimate& fit,
-                                            const EstimateOptions& options = {});
-// The same on columns already built (higher_order_columns), tested against the model `tester`
-// holds, whose fit is `fit`; `order` the design's.
-std::optional<OrderCheck> model_order_check(
-    int order, const std::vector<std::pair<int, Eigen::MatrixXd>>& higher,
-    const ColumnTester& tester, const Estimate& fit);
 
 // The scale of the noise: the readings scatter k = sqrt(chi2 / dof) times the declared
 // noise, with the 95 % interval [sqrt(chi2 / q_0.975), sqrt(chi2 / q_0.025)] (q the

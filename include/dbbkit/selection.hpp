@@ -191,8 +191,9 @@ struct CandidateStatus {
   std::string label;
   CandidateState state = CandidateState::kNotSignificant;
   CandidateReason reason = CandidateReason::kNotTested;
-  std::string other;            // the effect(s) or the alternative the reason names
-  std::string note;             // kRankShortOfModel: the error model
+  std::string other;  // the effect(s) or the alternative the reason names
+  std::string note;   // kRankShortOfModel: the error model; kEquivalent: what the later one is
+                      // ("installation", a probe's "sphere" or "channel")
   Applicability applicability;  // kNotApplicable
   int step = 0, columns = 0, added_rank = 0, scanned = 0;
   bool with_added = false;

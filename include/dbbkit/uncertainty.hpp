@@ -92,26 +92,7 @@ std::optional<double> iso_degrees_of_freedom(const Budget& budget);
 // nu_eff = u_c^4 / sum(u_i^4 / nu_i) over components with finite nu (Welch-Satterthwaite).
 std::optional<double> welch_satterthwaite(const std::vector<BudgetComponent>& components);
 
-class SetupSolver;
-
 // The functions c.theta of the budget's values, one row each (values x parameters), sparse.
 FunctionRows budget_functions(const Parameterisation& param, const Budget& budget);
-
-// Throws InputError when Type A is asked for and the residual has no degrees of freedom.
-// With `setup` (declared length offset and centring tolerances), `est` is its estimate
-// and the noise and set-up parts are its own.
-Budget uncertainty_budget(const Design& design, const Parameterisation& param,
-                          const LinearModel& model, const WlsSolver& solver, const Estimate& est,
-                          const BudgetOptions& options, const SetupSolver* setup = nullptr);
-
-// The joint covariance of the budget's values (values x values, in the order of
-// budget.values, each in its unit): the components of every u_c with the correlations
-// between values, i.e. reading noise (times the Type A factor squared), the set-up
-// length offsets and centrings (with `setup`) and the set-up inputs L, D, H (through
-// the same sensitivities as the budget). Its diagonal is u_c^2. Dense: values^2 doubles.
-Eigen::MatrixXd budget_covariance(const Design& design, const Parameterisation& param,
-                                  const LinearModel& model, const WlsSolver& solver,
-                                  const Estimate& est, const Budget& budget,
-                                  const SetupSolver* setup = nullptr);
 
 }  // namespace dbbkit

@@ -38,19 +38,6 @@ struct HiddenSetupEffect {
   int error = 0;
   double angle_deg = 0;
 };
-// Every such effect of the design (setup_effects), most biasing first: the undeclared effects'
-// columns through the model's factorisation in one product (effect_columns).
-std::vector<HiddenSetupEffect> hidden_setup_effects(const Design& design,
-                                                    const Parameterisation& param,
-                                                    const LinearModel& model,
-                                                    const WlsSolver& solver,
-                                                    double reference_length_mm);
-// The same among `effects` (those with a declared tolerance passed over), their columns formed
-// with `solver` (effect_columns(solver, effects)), the determined functions of its a-priori
-// estimate given (determined_functions).
-std::vector<HiddenSetupEffect> hidden_setup_effects(
-    const Parameterisation& param, const WlsSolver& solver, const std::vector<SetupEffect>& effects,
-    const EffectColumns& columns, const DeterminedFunctions& functions, double reference_length_mm);
 // instrument: the design's (the keys of its set-up tolerances in the text).
 std::optional<Warning> setup_undeclared_warning(const std::vector<HiddenSetupEffect>& hidden,
                                                 double reference_length_mm,

@@ -35,7 +35,7 @@ Runner add_bench(CLI::App& app) {
   sub->add_option(
          "--tolerance", args->tolerance,
          "Relative change of worst_std_um allowed (default: the baseline's tolerance_relative)")
-      ->check(finite_in(0, 0.999999));
+      ->check(finite_in(0, limits::kMaxBenchTolerance));
   sub->add_option(
       "--write-baseline", args->write_baseline,
       "Write the present figures as a new baseline file (with --tolerance, default 0.001); the "

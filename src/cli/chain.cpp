@@ -37,7 +37,7 @@ Runner add_chain(CLI::App& app) {
   sub->add_option("--out", args->out, "JSON result (dbbkit.chain/1); '-': stdout");
   sub->add_option("--coverage", args->coverage,
                   "Coverage probability of U (default 0.95; normal, k from it)")
-      ->check(finite_in(0.5, 0.9999));
+      ->check(finite_in(limits::kMinCoverage, limits::kMaxCoverage));
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the files asked for");
   return [args]() {
     std::vector<std::string> inputs = {args->machine};

@@ -8,6 +8,7 @@
 #include <sstream>
 #include <string>
 
+#include "dbbkit/limits.hpp"
 #include "dbbkit/parallel.hpp"
 
 namespace dbbkit::cli {

@@ -30,7 +30,7 @@ Runner add_compare(CLI::App& app) {
   sub->add_option("--out", args->out, "JSON result (dbbkit.compare/1); '-': stdout");
   sub->add_option("--level", args->level,
                   "Family-wise significance level over the quantities compared (default 0.05)")
-      ->check(finite_in(1e-6, 0.5));
+      ->check(finite_in(limits::kMinCompareLevel, limits::kMaxCompareLevel));
   add_report_options(sub, rep);
   return [args, rep]() {
     io::OutputSet outputs(output_targets(args->out, *rep), {args->a, args->b});

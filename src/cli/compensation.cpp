@@ -44,7 +44,7 @@ Runner add_compensation(CLI::App& app) {
       ->check(CLI::IsMember({"isg", "linuxcnc", "siemens", "table"}));
   sub->add_option("--record", args->record,
                   "siemens: the number n of the swivel data record ($TC_CARR..[n])")
-      ->check(CLI::Range(1, 99));
+      ->check(CLI::Range(limits::kMinSwivelRecord, limits::kMaxSwivelRecord));
   CLI::Option* tool_reference = sub->add_option(
       "--tool-reference-mm", args->tool_reference,
       "siemens, a machine with a head axis: the tool adapter's reference point x,y,z with every "
@@ -58,7 +58,7 @@ Runner add_compensation(CLI::App& app) {
                   "without it the change is written as a comment")
       ->take_all();
   sub->add_option("--k", args->k, "Coverage factor of the expanded uncertainties (default 2)")
-      ->check(finite_in(1, 10));
+      ->check(finite_in(limits::kMinCoverageFactor, limits::kMaxCoverageFactor));
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the file asked for");
   args->grid.add(sub, "The envelope the decision to enter rests on (as predict's map)");
 

@@ -19,6 +19,8 @@
 #include "dbbkit/io/optimize_io.hpp"
 #include "dbbkit/io/output.hpp"
 #include "dbbkit/io/reports.hpp"
+#include "dbbkit/io/text.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/setup_sheet.hpp"
 #include "dbbkit/user_text.hpp"
 #include "report_options.hpp"
@@ -84,41 +86,26 @@ Runner add_optimize(CLI::App& app) {
       if (r == "setup") {
         args->require_detection = true;
       } else if (r.rfind("drift=", 0) == 0) {
-        if (kit.instrument == InstrumentKind::kProbe)
+        if (!instrument_info(kit.instrument).has_clock)
           throw InputError("--require-detect", quote_value(r),
-                           "a probe's file has no time column: dbbkit tells no drift from a "
-                           "probe's readings");
+                           instrument_info(kit.instrument).no_clock_reason);
         const std::string v = r.substr(6);
         char* end = nullptr;
         const double um = std::strtod(v.c_str(), &end);
         if (v.empty() || v.find_first_not_of("0123456789.") != std::string::npos ||
-            end != v.c_str() + v.size() || !(um > 0 && um <= 1000))
+            end != v.c_str() + v.size() || !(um > 0 && um <= limits::kMaxRequiredDrift_um))
           throw InputError("--require-detect", quote_value(r),
-                           "a drift over the whole test in um, above 0 and at most 1000 "
-                           "(drift=2)");
+                           "a drift over the whole test in um, above 0 and at most " +
+                               io::fmt_num(limits::kMaxRequiredDrift_um, 6) + " (drift=2)");
         kit.require_drift_detection_um = um;
       } else {
         throw InputError("--require-detect", quote_value(r),
                          "expected setup or drift=UM (a drift of UM um over the whole test)");
       }
     }
-    if (args->require_detection) {
-      if (!kit.setup_std.nuisance()) {
-        throw InputError(args->kit, "setup_std",
-                         std::string("--require-setup-detection needs ") +
-                             setup_tolerance_phrase(kit.instrument) + " declared in the kit");
-      }
-      kit.require_setup_detection = true;
-    }
-    const Criterion criterion = criterion_from_name(!args->criterion.empty()   ? args->criterion
-                                                    : kit.setup_std.nuisance() ? "worst_total"
-                                                                               : "worst",
-                                                    "--criterion");
-    if (criterion == Criterion::kWorstTotal && !kit.setup_std.nuisance()) {
-      throw InputError(args->kit, "setup_std",
-                       std::string("--criterion worst_total needs ") +
-                           setup_tolerance_phrase(kit.instrument) + " declared in the kit");
-    }
+    const Criterion criterion =
+        search_criterion(kit, args->criterion, args->require_detection, args->kit, "--criterion",
+                         "--require-setup-detection");
     std::optional<Reference> reference;
     if (!args->reference.empty()) {
       reference = make_reference(kit, io::read_design_file(args->reference), args->reference);
@@ -157,7 +144,7 @@ Runner add_optimize(CLI::App& app) {
     const io::RunContext run{command_line(), inputs};
     std::optional<SetupSheet> sheet;
     // A ball bar's design has a set-up sheet; a probe's spheres are listed in the report.
-    if (res.best && kit.instrument == InstrumentKind::kBallbar &&
+    if (res.best && instrument_info(kit.instrument).has_program &&
         (!rep->report.empty() || !rep->summary.empty()))
       sheet = make_setup_sheet(io::optimized_design(kit, res, args->kit), ProgramOptions{},
                                std::nullopt, &kit);

@@ -82,7 +82,7 @@ Runner add_predict(CLI::App& app) {
   sub->add_option("--coverage", args->coverage,
                   "Coverage probability of U (default 0.95; normal, or t with the result's "
                   "degrees of freedom)")
-      ->check(finite_in(0.5, 0.9999));
+      ->check(finite_in(limits::kMinCoverage, limits::kMaxCoverage));
   sub->add_flag("--location-only", args->location_only,
                 "The location errors alone at every angle (what a controller's kinematics can be "
                 "off by), the component error motions left out");

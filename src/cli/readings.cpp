@@ -105,7 +105,8 @@ Runner add_readings(CLI::App& app) {
       const double s = v.find_first_not_of("0123456789+-.eE") == std::string::npos
                            ? std::strtod(v.c_str(), &end)
                            : std::numeric_limits<double>::quiet_NaN();
-      if (end != v.c_str() + v.size() || !std::isfinite(s) || std::abs(s) > 1e11)
+      if (end != v.c_str() + v.size() || !std::isfinite(s) ||
+          std::abs(s) > limits::kMaxTraceStart_s)
         throw InputError("--start", quote_value(t),
                          "expected a number of seconds (decimal, at most 1e11 in size)");
       start[id] = s;

@@ -40,7 +40,7 @@ Runner add_setup_sheet(CLI::App& app) {
   sub->add_option("--resolution-mm", args->resolution_mm,
                   "Round the ball positions to multiples of this, and state the worst case and "
                   "the travel again")
-      ->check(finite_in(1e-3, 10));
+      ->check(finite_in(limits::kMinResolution_mm, limits::kMaxResolution_mm));
   add_program_options(sub, prog);
   add_report_options(sub, rep);
   return [args, prog, rep]() {

@@ -117,21 +117,22 @@ Runner add_simulate(CLI::App& app) {
                   "PREFIX<id>.csv (e.g. traces/): dwells at the readings, moves with bar "
                   "excursions, settling, noise");
   sub->add_option("--trace-dwell-s", args->trace.dwell_s, "The traces' dwell at each angle [s]")
-      ->check(finite_in(0.05, 600))
+      ->check(finite_in(limits::kMinSimulatedDwell_s, limits::kMaxDwell_s))
       ->capture_default_str();
   sub->add_option("--trace-rate-hz", args->trace.rate_hz, "The traces' sample rate [Hz]")
-      ->check(finite_in(10, 100000))
+      ->check(finite_in(limits::kMinSimulatedRate_hz, limits::kMaxSimulatedRate_hz))
       ->capture_default_str();
   sub->add_option("--trace-noise-um", args->trace.noise_um, "The traces' sample noise [um]")
-      ->check(finite_in(0, 100))
+      ->check(finite_in(0, limits::kMaxSimulatedTraceNoise_um))
       ->capture_default_str();
   sub->add_option("--trace-excursion-um", args->trace.excursion_um,
                   "The largest bar excursion of a move [um]")
-      ->check(finite_in(0, 1000))
+      ->check(finite_in(0, limits::kMaxSimulatedExcursion_um))
       ->capture_default_str();
   sub->add_option("--trace-drift-um-per-min", args->trace.drift_um_per_min,
                   "A drift of the traces on their own clock [um/min]")
-      ->check(finite_in(-100, 100))
+      ->check(
+          finite_in(-limits::kMaxSimulatedDrift_um_per_min, limits::kMaxSimulatedDrift_um_per_min))
       ->capture_default_str();
   // simulate prints nothing but the files asked for; --quiet is accepted as by every command.
   sub->add_flag("--quiet", args->quiet,

@@ -36,7 +36,7 @@ Runner add_verify(CLI::App& app) {
   sub->add_option("--coverage", args->coverage,
                   "Coverage probability of the check (default 0.95: a right result fails 5 % of "
                   "such tests)")
-      ->check(finite_in(0.5, 0.9999));
+      ->check(finite_in(limits::kMinCoverage, limits::kMaxCoverage));
   sub->add_flag("--location-only", args->location_only,
                 "The location errors alone at every angle, the component error motions left in "
                 "the residual");

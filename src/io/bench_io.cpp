@@ -10,6 +10,8 @@
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/user_text.hpp"
+#include "object_reader.hpp"
+#include "result_blocks.hpp"
 
 namespace dbbkit::io {
 

@@ -4,12 +4,14 @@
 #include <cmath>
 #include <sstream>
 
+#include "../number_text.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
+#include "object_reader.hpp"
 
 namespace dbbkit::io {
 
@@ -171,7 +173,9 @@ ChainFile chain_from_text(const std::string& text, const std::string& source) {
   (void)text_key(o, "dbbkit_version");
   (void)text_key(o, "uncertainty");
   const double p = o.number("coverage_probability");
-  if (!(p >= 0.5 && p <= 0.9999)) o.fail("coverage_probability", "expected 0.5 to 0.9999");
+  if (!(p >= limits::kMinCoverage && p <= limits::kMaxCoverage))
+    o.fail("coverage_probability", "expected " + text::significant(limits::kMinCoverage, 6) +
+                                       " to " + text::significant(limits::kMaxCoverage, 6));
   const double k = o.number("k");
   if (!(k >= 0.5 && k <= 10)) o.fail("k", "expected a coverage factor, 0.5 to 10");
   {

@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 
@@ -12,6 +13,9 @@
 #include "dbbkit/io/machine_io.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/user_text.hpp"
+#include "design_reader.hpp"
+#include "object_reader.hpp"
+#include "result_blocks.hpp"
 
 namespace dbbkit::io {
 
@@ -347,6 +351,58 @@ void read_ball(ObjectReader& in, const AxisFrame& axis, double& L, double& D, do
   ball.finish();
 }
 
+// A ball bar's design's installations (formats.md, "Design file"): each with its id, its ball,
+// the bar's direction and sign, its bar, its cup's stack, its own set-up tolerances and angles.
+void read_installations(ObjectReader& top, Design& d) {
+  if (top.has("spheres"))
+    top.fail("spheres",
+             "spheres are a touch probe's (\"instrument\": {\"kind\": \"probe\"}); a ball bar's "
+             "design gives installations");
+  const json& list = top.required("installations");
+  if (!list.is_array()) top.fail("installations", "expected a list of installations");
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string path = "installations[" + std::to_string(i) + "]";
+    ObjectReader in(list[i], top.source(), path);
+    Installation inst;
+    inst.id = in.string("id");
+    read_ball(in, d.axis, inst.L_mm, inst.D_mm, inst.H_mm);
+    inst.direction =
+        read_direction(in.required("direction"), d.axis, top.source(), path + ".direction");
+    inst.sign = in.optional_integer("sign").value_or(1);
+    inst.reading_sign = in.optional_integer("reading_sign").value_or(1);
+    if (inst.reading_sign != 1 && inst.reading_sign != -1)
+      in.fail("reading_sign", "must be +1 or -1, got " + std::to_string(inst.reading_sign));
+    if (inst.sign != 1 && inst.sign != -1)
+      in.fail("sign", "must be +1 or -1, got " + std::to_string(inst.sign));
+    inst.bar_mm = in.optional_number("bar_mm");
+    inst.description = in.optional_string("description").value_or("");
+    if (const json* parts = in.optional("bar_parts_mm"))
+      inst.bar_parts_mm = read_numbers(*parts, top.source(), path + ".bar_parts_mm");
+    if (const json* st = in.optional("stack_mm")) {
+      if (!d.axis.table())
+        in.fail("stack_mm", "a cup on cushion blocks stands on a table: axis " + d.axis.label() +
+                                " carries the head");
+      if (d.axis.shorthand().empty())
+        in.fail("stack_mm",
+                "the cup and blocks add up to H, along the axis, as on the C turntable whose "
+                "table's normal is its axis; on axis " +
+                    d.axis.label() +
+                    " their direction is the table's normal, which the design does not state: "
+                    "give the ball's L, D and H alone");
+      ObjectReader stack(*st, top.source(), path + ".stack_mm");
+      inst.cup_mm = stack.number("cup");
+      if (const json* b = stack.optional("blocks"))
+        inst.blocks_mm = read_numbers(*b, top.source(), stack.key_path("blocks"));
+      stack.finish();
+    }
+    if (const json* u = in.optional("setup_std"))
+      inst.setup_std = read_setup_override(ObjectReader(*u, top.source(), path + ".setup_std"));
+    if (in.has("angles_deg")) inst.angles_deg = read_angles(in);
+    in.finish();
+    d.installations.push_back(inst);
+  }
+}
+
 // A probe design's spheres (formats.md, "A second instrument"): each with its id, its centre in
 // the body frame (ball_mm, as a ball bar's ball) and a description; their channels become the
 // design's installations.
@@ -369,6 +425,67 @@ void read_spheres(ObjectReader& top, Design& d) {
     d.spheres.push_back(sp);
   }
   d.installations = probe_channels(d.axis, d.spheres);
+}
+
+// A ball's or sphere's centre as a design writes it: L, D where not 0, H on a table or where not 0.
+json ball_json(const AxisFrame& axis, double L_mm, double D_mm, double H_mm) {
+  json ball = {{"L", L_mm}};
+  if (D_mm != 0.0) ball["D"] = D_mm;
+  if (axis.table() || (axis.has_H() && H_mm != 0.0)) ball["H"] = H_mm;
+  return ball;
+}
+
+void write_installations(json& j, const Design& d) {
+  json list = json::array();
+  for (const Installation& in : d.installations) {
+    json i;
+    i["id"] = in.id;
+    i["ball_mm"] = ball_json(d.axis, in.L_mm, in.D_mm, in.H_mm);
+    if (in.direction.kind == Direction::Kind::kVector) {
+      i["direction"] = {in.direction.body.x(), in.direction.body.y(), in.direction.body.z()};
+    } else {
+      i["direction"] = in.direction.label();
+    }
+    if (in.sign != 1) i["sign"] = in.sign;
+    if (in.reading_sign != 1) i["reading_sign"] = in.reading_sign;
+    if (in.bar_mm) i["bar_mm"] = *in.bar_mm;
+    if (!in.bar_parts_mm.empty()) i["bar_parts_mm"] = in.bar_parts_mm;
+    if (in.cup_mm) i["stack_mm"] = {{"cup", *in.cup_mm}, {"blocks", in.blocks_mm}};
+    if (!in.description.empty()) i["description"] = in.description;
+    if (in.setup_std.any()) i["setup_std"] = setup_override_to_json(in.setup_std);
+    if (!in.angles_deg.empty()) i["angles_deg"] = in.angles_deg;
+    list.push_back(i);
+  }
+  j["installations"] = list;
+}
+
+void write_spheres(json& j, const Design& d) {
+  json spheres = json::array();
+  for (const Sphere& sp : d.spheres) {
+    json o = {{"id", sp.id}, {"ball_mm", ball_json(d.axis, sp.L_mm, sp.D_mm, sp.H_mm)}};
+    if (!sp.description.empty()) o["description"] = sp.description;
+    spheres.push_back(o);
+  }
+  j["spheres"] = spheres;
+}
+
+// Each instrument's part of a design file, in the order of InstrumentKind: what it measures (a
+// ball bar's installations, a probe's spheres), read and written. The rest of the file is every
+// instrument's.
+struct InstrumentFile {
+  InstrumentKind kind;
+  void (*read)(ObjectReader& top, Design& d);
+  void (*write)(json& j, const Design& d);
+};
+constexpr std::array<InstrumentFile, 2> kInstrumentFiles = {{
+    {InstrumentKind::kBallbar, read_installations, write_installations},
+    {InstrumentKind::kProbe, read_spheres, write_spheres},
+}};
+static_assert(kInstrumentFiles[0].kind == InstrumentKind::kBallbar &&
+                  kInstrumentFiles[1].kind == InstrumentKind::kProbe,
+              "kInstrumentFiles is indexed by InstrumentKind");
+const InstrumentFile& instrument_file(InstrumentKind kind) {
+  return kInstrumentFiles[static_cast<std::size_t>(kind)];
 }
 
 }  // namespace
@@ -404,11 +521,11 @@ Design design_from_json(const json& j, const std::string& source, const std::str
   if (const json* inst = top.optional("instrument")) {
     ObjectReader r(*inst, source, "instrument");
     if (const auto kind = r.optional_string("kind")) {
-      if (*kind == "probe") {
-        d.instrument = InstrumentKind::kProbe;
-      } else if (*kind != "ballbar") {
-        r.fail("kind", quote_value(*kind) + " is no instrument (expected ballbar or probe)");
-      }
+      const std::optional<InstrumentKind> named = instrument_named(*kind);
+      if (!named)
+        r.fail("kind",
+               quote_value(*kind) + " is no instrument (expected " + instrument_names() + ")");
+      d.instrument = *named;
     }
     if (const auto v = r.optional_number("range_mm")) d.instrument_range_mm = *v;
     if (const auto v = r.optional_number("max_drift_um_per_min")) d.max_drift_um_per_min = *v;
@@ -432,56 +549,7 @@ Design design_from_json(const json& j, const std::string& source, const std::str
   if (const json* u = top.optional("setup_std"))
     d.setup_std = read_setup_override(ObjectReader(*u, source, "setup_std")).over({});
 
-  if (d.instrument == InstrumentKind::kProbe) {
-    read_spheres(top, d);
-  } else if (top.has("spheres")) {
-    top.fail("spheres",
-             "spheres are a touch probe's (\"instrument\": {\"kind\": \"probe\"}); a ball bar's "
-             "design gives installations");
-  }
-  const json& list =
-      d.instrument == InstrumentKind::kProbe ? json::array() : top.required("installations");
-  if (!list.is_array()) top.fail("installations", "expected a list of installations");
-  for (size_t i = 0; i < list.size(); ++i) {
-    const std::string path = "installations[" + std::to_string(i) + "]";
-    ObjectReader in(list[i], source, path);
-    Installation inst;
-    inst.id = in.string("id");
-    read_ball(in, d.axis, inst.L_mm, inst.D_mm, inst.H_mm);
-    inst.direction = read_direction(in.required("direction"), d.axis, source, path + ".direction");
-    inst.sign = in.optional_integer("sign").value_or(1);
-    inst.reading_sign = in.optional_integer("reading_sign").value_or(1);
-    if (inst.reading_sign != 1 && inst.reading_sign != -1)
-      in.fail("reading_sign", "must be +1 or -1, got " + std::to_string(inst.reading_sign));
-    if (inst.sign != 1 && inst.sign != -1)
-      in.fail("sign", "must be +1 or -1, got " + std::to_string(inst.sign));
-    inst.bar_mm = in.optional_number("bar_mm");
-    inst.description = in.optional_string("description").value_or("");
-    if (const json* parts = in.optional("bar_parts_mm"))
-      inst.bar_parts_mm = read_numbers(*parts, source, path + ".bar_parts_mm");
-    if (const json* st = in.optional("stack_mm")) {
-      if (!d.axis.table())
-        in.fail("stack_mm", "a cup on cushion blocks stands on a table: axis " + d.axis.label() +
-                                " carries the head");
-      if (d.axis.shorthand().empty())
-        in.fail("stack_mm",
-                "the cup and blocks add up to H, along the axis, as on the C turntable whose "
-                "table's normal is its axis; on axis " +
-                    d.axis.label() +
-                    " their direction is the table's normal, which the design does not state: "
-                    "give the ball's L, D and H alone");
-      ObjectReader stack(*st, source, path + ".stack_mm");
-      inst.cup_mm = stack.number("cup");
-      if (const json* b = stack.optional("blocks"))
-        inst.blocks_mm = read_numbers(*b, source, stack.key_path("blocks"));
-      stack.finish();
-    }
-    if (const json* u = in.optional("setup_std"))
-      inst.setup_std = read_setup_override(ObjectReader(*u, source, path + ".setup_std"));
-    if (in.has("angles_deg")) inst.angles_deg = read_angles(in);
-    in.finish();
-    d.installations.push_back(inst);
-  }
+  instrument_file(d.instrument).read(top, d);
   // An installation's own angle within kAngleTolerance_deg of a design angle is that angle, as
   // the design writes it (readings are matched to it exactly); others are refused by
   // validate_design.
@@ -559,43 +627,7 @@ json design_to_json(const Design& d) {
     j["setup_std_mm"] = {{"L", d.setup_std.L_mm}, {"D", d.setup_std.D_mm}};
     if (d.axis.has_H()) j["setup_std_mm"]["H"] = d.setup_std.H_mm;
   }
-  if (d.instrument == InstrumentKind::kProbe) {
-    json spheres = json::array();
-    for (const Sphere& sp : d.spheres) {
-      json ball = {{"L", sp.L_mm}};
-      if (sp.D_mm != 0.0) ball["D"] = sp.D_mm;
-      if (d.axis.table() || (d.axis.has_H() && sp.H_mm != 0.0)) ball["H"] = sp.H_mm;
-      json o = {{"id", sp.id}, {"ball_mm", ball}};
-      if (!sp.description.empty()) o["description"] = sp.description;
-      spheres.push_back(o);
-    }
-    j["spheres"] = spheres;
-  }
-  json list = json::array();
-  for (const Installation& in : d.installations) {
-    if (in.probe_channel()) continue;  // a probe's channels: its spheres'
-    json i;
-    i["id"] = in.id;
-    json ball = {{"L", in.L_mm}};
-    if (in.D_mm != 0.0) ball["D"] = in.D_mm;
-    if (d.axis.table() || (d.axis.has_H() && in.H_mm != 0.0)) ball["H"] = in.H_mm;
-    i["ball_mm"] = ball;
-    if (in.direction.kind == Direction::Kind::kVector) {
-      i["direction"] = {in.direction.body.x(), in.direction.body.y(), in.direction.body.z()};
-    } else {
-      i["direction"] = in.direction.label();
-    }
-    if (in.sign != 1) i["sign"] = in.sign;
-    if (in.reading_sign != 1) i["reading_sign"] = in.reading_sign;
-    if (in.bar_mm) i["bar_mm"] = *in.bar_mm;
-    if (!in.bar_parts_mm.empty()) i["bar_parts_mm"] = in.bar_parts_mm;
-    if (in.cup_mm) i["stack_mm"] = {{"cup", *in.cup_mm}, {"blocks", in.blocks_mm}};
-    if (!in.description.empty()) i["description"] = in.description;
-    if (in.setup_std.any()) i["setup_std"] = setup_override_to_json(in.setup_std);
-    if (!in.angles_deg.empty()) i["angles_deg"] = in.angles_deg;
-    list.push_back(i);
-  }
-  if (d.instrument == InstrumentKind::kBallbar) j["installations"] = list;
+  instrument_file(d.instrument).write(j, d);
   if (d.predicted) {
     const Prediction& p = *d.predicted;
     json pj;

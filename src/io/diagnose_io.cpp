@@ -8,6 +8,7 @@
 #include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "result_blocks.hpp"
 
 namespace dbbkit::io {
 

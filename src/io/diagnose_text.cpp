@@ -135,7 +135,7 @@ std::string setup_risk_text(const Design& design, const std::vector<SetupRisk>& 
   if (declared) {
     v << ". The errors here are stated for the readings' noise; identify and evaluate carry the "
          "declared set-up tolerances in their total uncertainties. "
-      << (design.instrument == InstrumentKind::kProbe ? "Spheres" : "Installations")
+      << instrument_info(design.instrument).items_capitalised
       << " that make these effects detectable remove the doubt (evaluate lists them).";
   } else {
     v << ". Declare set-up tolerances (setup_std) to carry them in the uncertainties, or measure "
@@ -483,8 +483,8 @@ std::string candidate_detail(const CandidateStatus& c) {
       break;
     case CandidateReason::kEquivalent:
       t = "explains the data exactly as " + c.other +
-          " does (only their difference is determined); by convention the later installation "
-          "carries it";
+          " does (only their difference is determined); by convention the later " +
+          (c.note.empty() ? std::string("installation") : c.note) + " carries it";
       break;
     case CandidateReason::kReleased:
       t = "equivalent to " + c.other + ", which left the model";
@@ -693,10 +693,11 @@ std::string where_phrase(const Design& design, const AddedEffect& a) {
       at.push_back(id);
     }
   }
-  std::string p = (effect_info(e.kind).per_sphere                ? "in sphere "
-                   : design.instrument == InstrumentKind::kProbe ? "in channel "
-                                                                 : "in installation ") +
-                  at[0];
+  std::string p =
+      "in " +
+      std::string(effect_info(e.kind).per_sphere ? "sphere"
+                                                 : instrument_info(design.instrument).row_carrier) +
+      " " + at[0];
   if (at.size() > 1 || !along.empty()) {
     std::vector<std::string> alternatives(at.begin() + 1, at.end());
     if (!along.empty()) alternatives.insert(alternatives.begin(), "its " + or_listed(along));

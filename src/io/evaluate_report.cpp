@@ -62,7 +62,8 @@ void setup_checks_section(ReportWriter& p, const Evaluation& ev) {
              kErrorNames[c.bias_error] + " at " + fmt_num(c.bias_angle_deg, 6) + " deg)";
     }
     rows.push_back({c.label, c.declared_std_um > 0 ? fmt_num(c.declared_std_um) : "not declared",
-                    c.detectable ? "yes" : "NO", fmt_opt(c.detection_limit_um), bias});
+                    c.detectable ? "yes" : "NO" + hidden_directions_text(c),
+                    fmt_opt(c.detection_limit_um), bias});
   }
   p.table({"effect", "declared std [um]", "detectable", "detection limit [um]", "largest bias"},
           rows);

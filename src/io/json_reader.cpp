@@ -16,6 +16,7 @@
 #include "dbbkit/error.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
+#include "object_reader.hpp"
 
 namespace dbbkit::io {
 

@@ -3,11 +3,16 @@
 #include <cctype>
 #include <filesystem>
 
+#include "../number_text.hpp"
 #include "dbbkit/error.hpp"
 #include "dbbkit/instrument.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
+#include "design_reader.hpp"
+#include "object_reader.hpp"
+#include "result_blocks.hpp"
 
 namespace dbbkit::io {
 
@@ -177,12 +182,14 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
   if (const json* ij = top.optional("instrument")) {
     ObjectReader in(*ij, source, "instrument");
     const std::string kind = in.string("kind");
-    if (kind == "probe") {
-      k.instrument = InstrumentKind::kProbe;
+    const std::optional<InstrumentKind> named = instrument_named(kind);
+    if (!named)
+      in.fail("kind",
+              quote_value(kind) + " is no instrument (expected " + instrument_names() + ")");
+    k.instrument = *named;
+    if (k.instrument == InstrumentKind::kProbe) {
       k.probe.approach_mm = in.number("approach_mm");
       k.probe.max_stem_tilt_deg = in.optional_number("max_stem_tilt_deg");
-    } else if (kind != "ballbar") {
-      in.fail("kind", quote_value(kind) + " is no instrument (expected ballbar or probe)");
     }
     in.finish();
   }
@@ -281,9 +288,11 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
   k.return_reading = read_flag(top, "return_reading", false);
   k.require_drift_detection_um = top.optional_number("require_drift_detection_um");
   if (k.require_drift_detection_um &&
-      !(*k.require_drift_detection_um > 0 && *k.require_drift_detection_um <= 1000))
+      !(*k.require_drift_detection_um > 0 &&
+        *k.require_drift_detection_um <= limits::kMaxRequiredDrift_um))
     top.fail("require_drift_detection_um",
-             "must be a drift over the whole test in um, above 0 and at most 1000");
+             "must be a drift over the whole test in um, above 0 and at most " +
+                 text::significant(limits::kMaxRequiredDrift_um, 6));
   if (carriage == TableCarriage::kAcrossAxis) {
     if (top.has("L_mm"))
       top.fail("L_mm",

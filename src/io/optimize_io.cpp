@@ -13,6 +13,7 @@
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/user_text.hpp"
+#include "result_blocks.hpp"
 
 namespace dbbkit::io {
 
@@ -62,8 +63,8 @@ json candidate_json(const Kit& kit, const Candidate& c) {
 }  // namespace
 
 std::string drift_text(const DriftChecks& d, InstrumentKind instrument) {
-  if (instrument == InstrumentKind::kProbe)
-    return "not checked: a probe's file has no time column, so dbbkit tells no drift from it";
+  if (!instrument_info(instrument).has_clock)
+    return std::string("not checked: ") + instrument_info(instrument).no_clock_reason;
   for (const DriftCheck& c : d.effects) {
     if (c.kind != EffectKind::kDrift) continue;
     std::string t = "over the " + fmt_num(d.test_min, 3) + " min test (the kit's clock): ";
@@ -151,8 +152,7 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
                                "excursion ") +
              mm(cr.best ? cr.best->travel_violation_mm : 0.0) + " mm)";
     case ChoiceState::kTooClose:
-      return std::string("no position keeps the ") +
-             (kit.instrument == InstrumentKind::kProbe ? "spheres" : "balls") +
+      return std::string("no position keeps the ") + instrument_info(kit.instrument).points +
              " min_separation_mm apart";
     case ChoiceState::kSetupNotDetected: {
       if (!cr.best || !cr.best->detection) break;
@@ -329,10 +329,7 @@ std::vector<BriefItem> optimize_brief(const Kit& kit, const OptimizeResult& res,
   };
   if (!res.best) {
     add("best", "No design fits the kit: " + binding_text(kit, res));
-    add("next", kit.instrument == InstrumentKind::kProbe
-                    ? "Next: widen what binds (the travel or approach_mm, max_stem_tilt_deg, the "
-                      "angle range, the time budget, the blocks)."
-                    : "Next: widen what binds (the travel, the time budget, the blocks or bars).");
+    add("next", instrument_info(kit.instrument).widen_next);
     return out;
   }
   const Candidate& b = *res.best;

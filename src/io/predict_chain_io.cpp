@@ -15,6 +15,7 @@
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
+#include "result_blocks.hpp"
 
 namespace dbbkit::io {
 

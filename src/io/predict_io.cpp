@@ -17,6 +17,7 @@
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/limits.hpp"
 #include "dbbkit/user_text.hpp"
+#include "result_blocks.hpp"
 
 namespace dbbkit::io {
 

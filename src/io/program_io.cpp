@@ -9,6 +9,7 @@
 #include "dbbkit/io/escape.hpp"
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
+#include "dbbkit/limits.hpp"
 #include "dbbkit/machine.hpp"
 
 namespace dbbkit::io {
@@ -210,8 +211,10 @@ std::string program_text(const Design& design, const MeasurementProgram& program
                          "the axis in the general form with the spindle pointing down "
                          "(\"reference\": [0, 0, -1]) or name the machine");
 
-  if (program_number < 1 || program_number > 9999)
-    throw InputError("--program-number", "", "an O-number is 1..9999");
+  if (program_number < limits::kMinProgramNumber || program_number > limits::kMaxProgramNumber)
+    throw InputError("--program-number", "",
+                     "an O-number is " + std::to_string(limits::kMinProgramNumber) + ".." +
+                         std::to_string(limits::kMaxProgramNumber));
   const bool c = program.axis.table();
   const char rotary = program.axis.letter();
   const ProgramOptions& o = program.options;

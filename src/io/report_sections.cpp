@@ -6,6 +6,7 @@
 #include <sstream>
 #include <utility>
 
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/plots.hpp"
 #include "dbbkit/io/result_io.hpp"
 #include "dbbkit/io/text.hpp"
@@ -27,23 +28,15 @@ std::vector<std::vector<std::string>> installation_rows(const Design& d) {
 
 void design_section(ReportWriter& p, const Design& d) {
   p.heading("Design");
-  const bool probe = d.instrument == InstrumentKind::kProbe;
-  const std::string measured = probe ? std::to_string(d.spheres.size()) +
-                                           " spheres probed in x, y and z (" +
-                                           std::to_string(d.installations.size()) + " channels)"
-                                     : std::to_string(d.installations.size()) + " installations";
+  const std::string measured = measured_phrase(d);
   p.paragraph(d.name + ": axis " + d.axis.label() + ", " + std::to_string(d.angles_deg.size()) +
               " angles from " +
               fmt_num(*std::min_element(d.angles_deg.begin(), d.angles_deg.end()), 6) + " to " +
               fmt_num(*std::max_element(d.angles_deg.begin(), d.angles_deg.end()), 6) + " deg, " +
               measured + ", errors " + d.errors.describe() + ".");
   if (!d.description.empty()) p.paragraph(d.description);
-  p.figure([&] { return plot_design(d); },
-           probe ? "Sphere centres (red) and the directions each is probed in (blue: machine x, y "
-                   "and z), labelled with their channels; dashed: the axis of rotation."
-                 : "Ball positions (red) and bars to the following ball (blue), labelled "
-                   "with the installations that use them; dashed: the axis of rotation.");
-  if (probe) {
+  p.figure([&] { return plot_design(d); }, instrument_info(d.instrument).design_caption);
+  if (d.instrument == InstrumentKind::kProbe) {  // its spheres, not its channels
     std::vector<std::vector<std::string>> rows;
     for (const Sphere& sp : d.spheres)
       rows.push_back({sp.id, fmt_num(sp.L_mm, 6), fmt_num(sp.D_mm, 6),

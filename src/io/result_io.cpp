@@ -12,6 +12,7 @@
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/linear_model.hpp"
+#include "result_blocks.hpp"
 
 namespace dbbkit::io {
 
@@ -488,17 +489,11 @@ std::vector<BriefItem> evaluate_brief(const Design& design, const Evaluation& ev
   }
   std::vector<std::string> next;
   if (ev.prior.status == EstimateStatus::kRankDeficient)
-    next.push_back(design.instrument == InstrumentKind::kProbe
-                       ? "add a sphere that sees the undetermined errors (evaluate --sweep maps "
-                         "where)"
-                       : "add installations that see the undetermined errors (dbbkit optimize)");
+    next.push_back(instrument_info(design.instrument).evaluate_add_next);
   if (!design.setup_nuisance_declared())
     next.push_back(std::string("declare ") + setup_effect_nouns(design.instrument) +
                    " tolerances (setup_std) in the design");
-  if (next.empty())
-    next.push_back(design.instrument == InstrumentKind::kProbe
-                       ? "probe the spheres at the design's angles, then identify"
-                       : "measure it (dbbkit program, setup-sheet), then identify");
+  if (next.empty()) next.push_back(instrument_info(design.instrument).measure_next);
   add_next_items(out, next);
   return out;
 }
@@ -548,9 +543,7 @@ std::vector<BriefItem> identify_brief(const Design& design, const IdentifyResult
   if (has_warning(result.warnings, "setup_undeclared"))
     next.push_back("declare set-up tolerances (setup_std) in the design");
   if (est.status == EstimateStatus::kRankDeficient)
-    next.push_back(result.instrument == InstrumentKind::kProbe
-                       ? "add a sphere that sees the undetermined errors"
-                       : "add installations that see the undetermined errors");
+    next.push_back(instrument_info(result.instrument).identify_add_next);
   if (next.empty())
     next.push_back("decide on the errors (--tolerances) or enter them (compensation)");
   add_next_items(out, next);
@@ -943,6 +936,14 @@ json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks, double re
               {"declared_std_um", c.declared_std_um > 0 ? json(c.declared_std_um) : json(nullptr)},
               {"detectable", c.detectable},
               {"detection_limit_um", optional_number(c.detection_limit_um)}};
+    // Not detectable as a whole: the directions of its parameters the axis errors take.
+    json hidden = json::array();
+    for (const std::vector<double>& v : c.hidden_directions) {
+      json d = json::object();
+      for (std::size_t k = 0; k < v.size(); ++k) d[c.parameters[k]] = r6(v[k]);
+      hidden.push_back(d);
+    }
+    e["hidden_directions"] = hidden;
     e["largest_bias_per_um"] = bias_json(c.bias_per_um, c.bias_um_per_um, c.bias_error,
                                          c.bias_angle_deg, " per um", reference_length_mm);
     list.push_back(e);
@@ -950,18 +951,33 @@ json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks, double re
   return list;
 }
 
+// " as a whole: the axis errors take (dL, dD, dH) = (0.13, -0.42, 0.9)" for an effect of several
+// parameters that is not detectable as a whole; "" otherwise.
+std::string hidden_directions_text(const SetupEffectCheck& c) {
+  if (c.hidden_directions.empty()) return {};
+  std::string names;
+  for (const std::string& p : c.parameters) names += (names.empty() ? "" : ", ") + p;
+  std::string t = " as a whole: the axis errors take (" + names + ") = ";
+  for (std::size_t k = 0; k < c.hidden_directions.size(); ++k) {
+    std::string v;
+    for (double x : c.hidden_directions[k]) v += (v.empty() ? "" : ", ") + fmt_rounded(x, 2);
+    t += (k == 0 ? "(" : " and (") + v + ")";
+  }
+  return t;
+}
+
 namespace {
 // "detectable, limit 2.35 um; 1 um moves dy at -100 deg by 0.762 um" (per: " um" or
 // " um over the test").
 std::string detection_and_bias(bool detectable, const std::optional<double>& limit,
                                const std::optional<double>& bias, int error, double angle_deg,
-                               const std::string& per) {
+                               const std::string& per, const std::string& hidden = "") {
   std::ostringstream line;
   if (detectable) {
     line << " detectable";
     if (limit) line << ", limit " << std::setprecision(3) << *limit << per;
   } else {
-    line << " NOT detectable";
+    line << " NOT detectable" << hidden;
   }
   if (bias) {
     line << "; 1" << per << " moves " << kErrorNames[error] << " at " << angle_deg << " deg by "
@@ -985,7 +1001,7 @@ std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks,
     if (c.declared_std_um > 0)
       line << " declared " << std::setprecision(3) << c.declared_std_um << " um;";
     line << detection_and_bias(c.detectable, c.detection_limit_um, c.bias_per_um, c.bias_error,
-                               c.bias_angle_deg, " um");
+                               c.bias_angle_deg, " um", hidden_directions_text(c));
     s << line.str() << "\n";
   }
   return s.str();
@@ -1173,37 +1189,23 @@ std::string monte_carlo_message(const MonteCarloResult& mc) {
 }
 
 std::string identify_setup_note(const IdentifyResult& r) {
-  const std::string nouns = setup_effect_nouns(r.instrument);
-  if (r.instrument == InstrumentKind::kProbe)
-    return r.setup_included
-               ? "the errors' uncertainties include the declared " + nouns +
-                     " tolerances: the set-up effects are estimated with their prior (what the "
-                     "readings see is estimated, the rest is propagated at its declared size)"
-               : "set-up uncertainty of the " + nouns +
-                     " is not included: the design declares no such tolerance (setup_std)";
+  const InstrumentInfo& info = instrument_info(r.instrument);
   return r.setup_included
-             ? "the errors' uncertainties include the declared length offset and centring "
-               "tolerances: the set-up effects are estimated with their prior (what the readings "
-               "see is estimated, the rest is propagated at its declared size)"
-             : "set-up uncertainty of the length offsets and centrings is not included: the "
-               "design declares no such tolerance (setup_std)";
+             ? std::string("the errors' uncertainties include the declared ") +
+                   info.setup_effect_nouns +
+                   " tolerances: the set-up effects are estimated with their prior (what the "
+                   "readings see is estimated, the rest is propagated at its declared size)"
+             : std::string("set-up uncertainty of the ") + info.setup_effects_plural +
+                   " is not included: the design declares no such tolerance (setup_std)";
 }
 
 std::string evaluation_setup_note(const Evaluation& ev) {
-  if (ev.instrument == InstrumentKind::kProbe)
-    return ev.setup_included
-               ? std::string("the uncertainties include the declared ") +
-                     setup_effect_nouns(ev.instrument) + " tolerances (total = noise and set-up)"
-               : std::string(
-                     "set-up uncertainty is not included: the design "
-                     "declares no ") +
-                     setup_effect_nouns(ev.instrument) + " tolerance (setup_std)";
+  const InstrumentInfo& info = instrument_info(ev.instrument);
   return ev.setup_included
-             ? "the uncertainties include the declared length offset and centring tolerances "
-               "(total = noise and set-up); the ball placement (L, D, H) is propagated at the "
-               "identified errors by identify"
-             : "set-up uncertainty is not included: the design declares no length offset or "
-               "centring tolerance (setup_std)";
+             ? std::string("the uncertainties include the declared ") + info.setup_effect_nouns +
+                   " tolerances (total = noise and set-up)" + info.setup_included_more
+             : std::string("set-up uncertainty is not included: the design declares no ") +
+                   info.setup_tolerance_none + " (setup_std)";
 }
 
 std::string iso_uncertainty_note(const IdentifyResult& r) {
@@ -1300,8 +1302,9 @@ std::string rigid_motion_text(const RigidMotion& m) {
       " about the line through " + vec_text(m.point_mm) + " mm along " + vec_text(m.direction) +
       " (machine frame)";
   if (m.tool_axis) s += ", the tool axis";
-  s += m.on_all_balls ? "; every ball of the design lies on that line, so no reading sees it"
-                      : "; it moves the balls only across their reading directions";
+  const InstrumentInfo& info = instrument_info(m.instrument);
+  s += std::string("; ") +
+       (m.on_all_balls ? info.motion_on_all_points : info.motion_across_readings);
   return s;
 }
 

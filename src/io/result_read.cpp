@@ -13,6 +13,8 @@
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/kinematics.hpp"
 #include "dbbkit/user_text.hpp"
+#include "design_reader.hpp"
+#include "object_reader.hpp"
 
 namespace dbbkit::io {
 

@@ -6,6 +6,9 @@
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/user_text.hpp"
+#include "design_reader.hpp"
+#include "object_reader.hpp"
+#include "result_blocks.hpp"
 
 namespace dbbkit::io {
 

@@ -16,6 +16,7 @@
 #include "dbbkit/io/text.hpp"
 #include "dbbkit/iso230.hpp"
 #include "dbbkit/limits.hpp"
+#include "result_blocks.hpp"
 
 namespace dbbkit::io {
 

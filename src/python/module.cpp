@@ -640,7 +640,7 @@ py::tuple measurements_from_trace(const PyDesign& design, const py::dict& traces
   for (const auto& [id, s] : start_s) {
     if (!traces.contains(py::str(id)))
       throw InputError("start_s", quote_value(id), "no trace of this installation");
-    check_finite_in("start_s", s, -1e11, 1e11);
+    check_finite_in("start_s", s, -limits::kMaxTraceStart_s, limits::kMaxTraceStart_s);
   }
   check_finite_in("min_share", min_share, limits::kMinDwellShare, 1);
   const std::vector<Sweep> sw = sweeps_by_name(sweeps, "sweeps");
@@ -969,7 +969,8 @@ struct PySetupSheet {
 SetupSheet sheet_of(const PyDesign& d, const PyKit* kit, std::optional<double> resolution_mm,
                     const ProgramOptions& options) {
   if (resolution_mm)
-    check_finite_in("resolution_mm", *resolution_mm, 1e-3, 10);
+    check_finite_in("resolution_mm", *resolution_mm, limits::kMinResolution_mm,
+                    limits::kMaxResolution_mm);
   else if (kit)
     resolution_mm = kit->value.resolution_mm;
   if (kit && kit->value.axis.letter() != d.value.axis.letter())
@@ -993,7 +994,8 @@ std::string run_program(const PyDesign& d, const std::string& dialect, std::opti
   if (!named_dialect)
     throw InputError("argument", "dialect",
                      quote_value(dialect) + " (expected iso, heidenhain or sinumerik)");
-  check_integer_in("program_number", program_number, 1, 9999);
+  check_integer_in("program_number", program_number, limits::kMinProgramNumber,
+                   limits::kMaxProgramNumber);
   const ProgramOptions o =
       py_program_options(d, sweeps, dwell_s, feed_mm_min, path_tolerance_mm, tool, clearance_z_mm,
                          clearance_margin_mm, air_run, orient_code, tcpm);
@@ -1167,23 +1169,8 @@ PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double
 PyOptimizeResult run_optimize(const PyKit& k, std::optional<std::string> criterion, int threads,
                               bool require_setup_detection, std::optional<PyDesign> reference) {
   Kit kit = k.value;
-  if (require_setup_detection) {
-    if (!kit.setup_std.nuisance()) {
-      throw InputError(k.source, "setup_std",
-                       std::string("require_setup_detection needs ") +
-                           setup_tolerance_phrase(kit.instrument) + " declared in the kit");
-    }
-    kit.require_setup_detection = true;
-  }
-  const Criterion c = criterion_from_name(criterion                  ? *criterion
-                                          : kit.setup_std.nuisance() ? "worst_total"
-                                                                     : "worst",
-                                          "criterion");
-  if (c == Criterion::kWorstTotal && !kit.setup_std.nuisance()) {
-    throw InputError(k.source, "setup_std",
-                     std::string("criterion worst_total needs ") +
-                         setup_tolerance_phrase(kit.instrument) + " declared in the kit");
-  }
+  const Criterion c = search_criterion(kit, criterion.value_or(""), require_setup_detection,
+                                       k.source, "criterion", "require_setup_detection");
   OptimizeOptions options;
   options.criterion = c;
   options.threads = thread_count("threads", threads);
@@ -1791,7 +1778,7 @@ PYBIND11_MODULE(dbbkit, m) {
   m.def(
       "compare",
       [result_of](py::handle a, py::handle b, double level) {
-        check_finite_in("level", level, 1e-6, 0.5);
+        check_finite_in("level", level, limits::kMinCompareLevel, limits::kMaxCompareLevel);
         return to_python(io::comparison_to_json(
             io::compare_results(result_of(a, "a"), result_of(b, "b"), level)));
       },
@@ -1957,9 +1944,9 @@ PYBIND11_MODULE(dbbkit, m) {
                   std::optional<std::vector<double>> tool_reference_mm) {
         const std::optional<io::GridRequest> request =
             grid_request(radii_mm, heights_mm, around, angles_deg);
-        check_finite_in("k", k, 1, 10);
-        if (record < 0 || record > 99)
-          throw InputError("record", "", "expected a swivel data record's number, 1 to 99");
+        check_finite_in("k", k, limits::kMinCoverageFactor, limits::kMaxCoverageFactor);
+        if (record != 0)
+          check_integer_in("record", record, limits::kMinSwivelRecord, limits::kMaxSwivelRecord);
         const io::CompensationFormat f = io::compensation_format(format, "argument");
         io::CompensationOptions o;
         o.k = k;

@@ -23,21 +23,15 @@ struct InputFiles {
   std::string design, data;
 };
 
-// What every result carries first: format, version, input files, design, noise.
-nlohmann::json result_header(const std::string& format, const Design& design,
-                             const InputFiles& inputs);
-// status, message, n_readings, n_unknowns, rank, condition_number, condition_scaling.
-void add_rank_block(nlohmann::json& j, const Estimate& est);
+// The effects fitted with the errors (identify --effects) as terminal lines (empty without
+// effects).
+std::string fitted_effects_text(const std::vector<FittedEffect>& effects);
 
 // `dbbkit.identify/1`. Without `with_readings` the per-reading rows (key "readings") are
 // left out, for json_text to write them one at a time.
 nlohmann::json identify_to_json(const Design& design, const std::vector<Reading>& readings,
                                 const IdentifyResult& result, const InputFiles& inputs,
                                 const MonteCarloResult* mc = nullptr, bool with_readings = true);
-// The effects fitted with the errors (identify --effects): JSON (label, value and std by
-// parameter, unit) and terminal lines (empty without effects).
-nlohmann::json fitted_effects_to_json(const std::vector<FittedEffect>& effects);
-std::string fitted_effects_text(const std::vector<FittedEffect>& effects);
 // Row i of the "readings" array of `dbbkit.identify/1`: the reading, the fitted value and
 // the residual as the instrument counted (the installation's reading_sign).
 nlohmann::json identify_reading_row(const Design& design, const std::vector<Reading>& readings,
@@ -54,14 +48,6 @@ nlohmann::json budget_to_json(const Design& design, const Budget& budget);
 nlohmann::json monte_carlo_to_json(const MonteCarloResult& mc);
 std::string monte_carlo_summary(const MonteCarloResult& mc);
 
-// A value as written to the result files: to 1e-6 of its unit (pm, prad), far below any
-// uncertainty (+ 0.0: a value rounding to zero is 0, never -0).
-inline double r6(double x) { return std::round(x * 1e6) / 1e6 + 0.0; }
-
-// A number, or null when absent (a value that cannot be computed is never a number).
-nlohmann::json optional_number(const std::optional<double>& x);
-// The residual block {rms_um, chi2, dof, p_value}.
-nlohmann::json residual_to_json(const Estimate& est);
 // formats.md "Results: warnings": [{"kind", "text"}], empty when nothing makes a stated
 // uncertainty unreliable.
 nlohmann::json warnings_to_json(const std::vector<Warning>& warnings);
@@ -69,15 +55,17 @@ nlohmann::json warnings_to_json(const std::vector<Warning>& warnings);
 std::string warnings_text(const std::vector<Warning>& warnings);
 
 // `dbbkit.evaluate/1`.
-// The set-up tolerances of every installation; what the design can tell of each set-up
-// effect (setup.hpp) as JSON and as text.
-nlohmann::json setup_tolerances_to_json(const Design& design);
+// What the design can tell of each set-up effect (setup.hpp) as JSON and as text.
 nlohmann::json setup_checks_to_json(const std::vector<SetupEffectCheck>& checks,
                                     double reference_length_mm);
 // What an undetected drift or warm-up over the whole test does (Evaluation::drift), and what a
 // return reading would change; empty when the test has one time only.
 std::string drift_checks_text(const Evaluation& ev);
 nlohmann::json drift_checks_to_json(const DriftChecks& d, double reference_length_mm);
+// " as a whole: the axis errors take (dL, dD, dH) = (0.13, -0.42, 0.9)" for a set-up effect of
+// several parameters that is not detectable as a whole (SetupEffectCheck::hidden_directions);
+// empty otherwise.
+std::string hidden_directions_text(const SetupEffectCheck& c);
 std::string setup_checks_text(const std::vector<SetupEffectCheck>& checks,
                               const DetectionSettings& detection);
 
@@ -94,11 +82,6 @@ nlohmann::json effects_to_json(const std::vector<CandidateStatus>& effects);
 // The effects a design can tell from the axis errors, on the terminal: one line per state.
 std::string effects_summary(const Design& design, const std::vector<CandidateStatus>& effects);
 
-// The errors block (value and std per angle, null where not determined); with
-// values = false only the std is written (a-priori evaluation).
-nlohmann::json errors_to_json(const std::vector<ErrorsAtAngle>& errors, bool values);
-nlohmann::json unidentifiable_to_json(const std::vector<Unidentifiable>& list);
-
 // "rms .. um, chi2 .. on .. dof, p .." for the terminal.
 std::string residual_text(const Estimate& est);
 
@@ -110,8 +93,6 @@ std::string identify_summary(const Design& design, const IdentifyResult& result)
 // standard uncertainty, whether the residual bears the stated uncertainties out, and what to
 // do next; at most six sentences (text.hpp).
 std::vector<BriefItem> identify_brief(const Design& design, const IdentifyResult& result);
-// {"topic", "text"} per item.
-nlohmann::json brief_to_json(const std::vector<BriefItem>& brief);
 // "2.06 um (dy at 180 deg; angular errors x 100 mm)"; empty when nothing is determined.
 std::string worst_phrase(const WorstCase& w, double reference_length_mm);
 // The ISO 230-7 quantities of an identification (iso230.hpp): JSON and the terminal's text.
