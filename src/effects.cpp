@@ -404,6 +404,13 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
   const std::size_t name_end = label.find_first_of(".[(");
   EffectCandidate e;
   e.kind = effect_kind(label.substr(0, name_end), source, key);
+  // Of the other instrument: said before its place is looked for among this design's.
+  if (!effect_fits_instrument(e.kind, design.instrument))
+    fail(std::string(effect_name(e.kind)) + " is an effect of " +
+         instrument_info(effect_info(e.kind).ballbar_only ? InstrumentKind::kBallbar
+                                                          : InstrumentKind::kProbe)
+             .noun +
+         "; this design's instrument is " + instrument_info(design.instrument).noun);
   const EffectPosition position = effect_info(e.kind).position;
   if (position == EffectPosition::kHarmonic)
     fail("a periodic effect is a simulated truth's (its phase is not in the label); " + forms);
@@ -433,10 +440,15 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
         fail(std::string(effect_name(e.kind)) + " has no whole-test form [all]");
     } else {
       e.installation = effect_installation(design, e.kind, id);
+      if (e.installation < 0 && !effect_info(e.kind).per_sphere && find_sphere(design, id) >= 0)
+        fail(quote_value(id) + " is a sphere; " + effect_name(e.kind) +
+             " is one channel's: " + probe_channel_id(id, 0) + ", " + probe_channel_id(id, 1) +
+             " or " + probe_channel_id(id, 2));
       if (e.installation < 0)
-        fail(quote_value(id) + (effect_info(e.kind).per_sphere
-                                    ? " is no sphere of the design"
-                                    : " is no installation of the design"));
+        fail(quote_value(id) + " is no " +
+             (effect_info(e.kind).per_sphere ? "sphere"
+                                             : instrument_info(design.instrument).row_carrier) +
+             " of the design");
     }
     at = close + 1;
   }
@@ -446,12 +458,6 @@ EffectCandidate effect_from_label(const Design& design, const std::string& label
     fail("which installation ([id], or [all] where the effect has a whole-test form)? " + forms);
   if (effect_info(e.kind).whole_test_only && e.installation >= 0)
     fail("a warm-up is the whole test's: thermal[all](tau=...min)");
-  if (!effect_fits_instrument(e.kind, design.instrument))
-    fail(std::string(effect_name(e.kind)) + " is an effect of " +
-         instrument_info(effect_info(e.kind).ballbar_only ? InstrumentKind::kBallbar
-                                                          : InstrumentKind::kProbe)
-             .noun +
-         "; this design's instrument is " + instrument_info(design.instrument).noun);
   if (at < label.size()) {
     if (label[at] != '(' || label.back() != ')') fail("unexpected text after the name; " + forms);
     const std::string arg = label.substr(at + 1, label.size() - at - 2);

@@ -39,7 +39,14 @@ constexpr std::array<InstrumentInfo, 2> kInstruments = {{
      .motion_on_all_points = "every ball of the design lies on that line, so no reading sees it",
      .motion_across_readings = "it moves the balls only across their reading directions",
      .design_caption = "Ball positions (red) and bars to the following ball (blue), labelled "
-                       "with the installations that use them; dashed: the axis of rotation."},
+                       "with the installations that use them; dashed: the axis of rotation.",
+     .polar_plot = "a ballbar plot",
+     .polar_reading = "the bar read longer than the model, inwards where shorter",
+     .equivalent_determined = "only their difference",
+     .equivalent_convention = "the later installation",
+     .first_order_term =
+         "|D_perp|^2 / (2 bar), D_perp: the balls' relative displacement across the bar from the "
+         "identified errors and the set-up at 3 standard uncertainties"},
     {.kind = InstrumentKind::kProbe,
      .name = "probe",
      .noun = "a touch probe",
@@ -68,7 +75,15 @@ constexpr std::array<InstrumentInfo, 2> kInstruments = {{
          "every sphere's centre of the design lies on that line, so no probing sees it",
      .motion_across_readings = "it moves the spheres' centres only along coordinates not probed",
      .design_caption = "Sphere centres (red) and the directions each is probed in (blue: machine "
-                       "x, y and z), labelled with their channels; dashed: the axis of rotation."},
+                       "x, y and z), labelled with their channels; dashed: the axis of rotation.",
+     .polar_plot = "a polar plot",
+     .polar_reading = "the channel read more than the model along its machine axis, inwards where "
+                      "less",
+     .equivalent_determined = "only one combination of them",
+     .equivalent_convention =
+         "the later sphere or channel (within one sphere, to the component found first)",
+     .first_order_term = "the probed coordinate of the sphere's centre turned by the exact "
+                         "transform less the first-order row's, at the identified errors"},
 }};
 
 constexpr bool instruments_in_order() {

@@ -230,12 +230,16 @@ class Selector {
       status_[i] =
           status(pool_[i].label, CandidateState::kEquivalent, CandidateReason::kEquivalent);
       status_[i].other = pool_[chosen].label;
-      // Which of the two carries it: the later sphere of a sphere's effect, else the later row
-      // carrier (a ball bar's installation, a probe's channel).
-      if (design_)
-        status_[i].note = effect_info(pool_[i].effect.kind).per_sphere
-                              ? "sphere"
-                              : instrument_info(design_->instrument).row_carrier;
+      // Which of the two carries it: of one installation (a sphere's components), the one found
+      // first; else the later sphere of a sphere's effect, or the later row carrier (a ball bar's
+      // installation, a probe's channel).
+      if (pool_[i].effect.installation == pool_[chosen].effect.installation)
+        status_[i].note = "the component found first";
+      else if (design_)
+        status_[i].note =
+            std::string("the later ") + (effect_info(pool_[i].effect.kind).per_sphere
+                                             ? "sphere"
+                                             : instrument_info(design_->instrument).row_carrier);
     }
   }
 

@@ -542,6 +542,7 @@ std::vector<SetupEffectCheck> check_setup_effects(
 FirstOrderCheck first_order_check(const Design& design, const Parameterisation& param,
                                   const Eigen::VectorXd& theta) {
   FirstOrderCheck fc;
+  fc.instrument = design.instrument;
   fc.noise_sigma_um = design.noise.sigma_um();
   for (const Installation& in : design.installations) {
     if (!in.bar_mm && !in.probe_channel()) {

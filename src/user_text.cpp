@@ -47,7 +47,7 @@ std::string hex(char32_t c, int digits) {
   return buf;
 }
 
-// One character as an escape: \n, \t, \r, \0, \xNN (a byte), \uNNNN (a code point).
+// One character as an escape: \n, \t, \r, \0, \xNN (a byte), \uNNNN or \UNNNNNNNN (a code point).
 std::string escape(char32_t c) {
   switch (c) {
     case '\n':
@@ -59,7 +59,9 @@ std::string escape(char32_t c) {
     case 0:
       return "\\0";
     default:
-      return c < 0x80 ? "\\x" + hex(c, 2) : "\\u" + hex(c, 4);
+      // Four hex digits within the Basic Multilingual Plane, eight beyond it (as C and Python
+      // write them: four digits of U+1F600 would read as U+1F60 and a 0).
+      return c < 0x80 ? "\\x" + hex(c, 2) : c <= 0xFFFF ? "\\u" + hex(c, 4) : "\\U" + hex(c, 8);
   }
 }
 

@@ -96,7 +96,7 @@ std::vector<HiddenSetupEffect> hidden_setup_effects(
     }
     if (hidden_dirs.empty()) continue;              // every direction shows in the residual
     const auto GX = columns.G0X.middleCols(c0, q);  // the errors' estimate per um of each column
-    HiddenSetupEffect h{e.label, 0, 0, 0};
+    HiddenSetupEffect h{e.label, 0, 0, 0, static_cast<int>(e.parameters.size())};
     for (const DeterminedFunctions::Function& f : fns.functions) {
       double norm2 = 0;  // |c'G X_e V_null|^2
       for (Eigen::Index d : hidden_dirs) {
@@ -105,7 +105,11 @@ std::vector<HiddenSetupEffect> hidden_setup_effects(
         norm2 += along * along;
       }
       const double b = std::sqrt(norm2) * (f.error < 3 ? 1.0 : 1e-3 * reference_length_mm);
-      if (b > h.bias_um_per_um) h = {e.label, b, f.error, param.station_angle_deg(f.station)};
+      if (b > h.bias_um_per_um) {
+        h.bias_um_per_um = b;
+        h.error = f.error;
+        h.angle_deg = param.station_angle_deg(f.station);
+      }
     }
     if (h.bias_um_per_um > 1e-9) out.push_back(h);
   }
@@ -133,9 +137,9 @@ std::optional<Warning> setup_undeclared_warning(const std::vector<HiddenSetupEff
       std::to_string(hidden.size()) + " set-up effect" + (hidden.size() > 1 ? "s" : "") + " (" +
           names +
           ") cannot be told from the axis errors and leave no trace in the residual: each um of " +
-          worst.label + " moves " + kErrorNames[worst.error] + " at " +
-          text::significant(worst.angle_deg, 6) + " deg by " +
-          text::significant(worst.bias_um_per_um, 3) + " um" +
+          worst.label + (worst.parameters > 1 ? " along the direction no reading sees" : "") +
+          " moves " + kErrorNames[worst.error] + " at " + text::significant(worst.angle_deg, 6) +
+          " deg by " + text::significant(worst.bias_um_per_um, 3) + " um" +
           (angular ? " at " + text::significant(reference_length_mm, 6) + " mm" : "") +
           ". The stated uncertainties assume a perfect set-up: declare setup_std (" +
           setup_tolerance_keys(instrument) + ") in the design for intervals that include it."};

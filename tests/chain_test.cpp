@@ -660,6 +660,13 @@ TEST(ChainCompensation, WhatAFormatCannotHoldIsRefusedAndTextStaysInComments) {
   CliRun r = run_cli("compensation --result " + m + " --format siemens");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("--record: required"), std::string::npos) << r.err;
+  // A record's number with a leading zero is decimal: 010 is record 10, never octal 8.
+  r = run_cli("compensation --result " + m + " --format siemens --record 010");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("Sinumerik swivel data record 10 (--record 10)"), std::string::npos)
+      << r.out.substr(0, 800);
+  EXPECT_TRUE(std::regex_search(r.out, std::regex(R"(\$TC_CARR\d+\[10\]=)"))) << r.out;
+  EXPECT_FALSE(std::regex_search(r.out, std::regex(R"(\$TC_CARR\d+\[8\]=)"))) << r.out;
   r = run_cli("compensation --result " + m + " --format isg --record 2");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("--record"), std::string::npos) << r.err;

@@ -252,6 +252,15 @@ TEST(Probe, APlacementAcrossThePlaneOfThreeSpheresIsTakenByTheAxisErrors) {
     ++checked;
   }
   EXPECT_EQ(checked, 3);
+  // The warning's bias is that of the unseen direction, and says so (the check's is the largest
+  // over every direction).
+  bool warned = false;
+  for (const Warning& w : ev.warnings)
+    if (w.kind == "setup_undeclared") {
+      warned = true;
+      EXPECT_NE(w.text.find("along the direction no reading sees"), std::string::npos) << w.text;
+    }
+  EXPECT_TRUE(warned);
   // Each component alone adds what the axis errors cannot reproduce: diagnose can find it.
   int components = 0;
   for (const CandidateStatus& c : effect_detectability(d, nominal_readings(d)))
@@ -603,12 +612,29 @@ TEST(InstrumentTable, EachInstrumentsWordsAndFlagsAreItsEntrys) {
     EXPECT_STREQ(setup_effect_nouns(d->instrument), info.setup_effect_nouns);
     EXPECT_STREQ(setup_tolerance_phrase(d->instrument), info.setup_tolerance_phrase);
     EXPECT_EQ(d->directions_turn(), info.directions_turn);
-    for (const char* word :
-         {info.noun, info.item, info.items, info.items_capitalised, info.points, info.row_carrier,
-          info.setup_effect_nouns, info.setup_effects_plural, info.setup_tolerance_keys,
-          info.setup_tolerance_phrase, info.setup_tolerance_none, info.evaluate_add_next,
-          info.identify_add_next, info.measure_next, info.widen_next, info.motion_on_all_points,
-          info.motion_across_readings, info.design_caption})
+    for (const char* word : {info.noun,
+                             info.item,
+                             info.items,
+                             info.items_capitalised,
+                             info.points,
+                             info.row_carrier,
+                             info.setup_effect_nouns,
+                             info.setup_effects_plural,
+                             info.setup_tolerance_keys,
+                             info.setup_tolerance_phrase,
+                             info.setup_tolerance_none,
+                             info.evaluate_add_next,
+                             info.identify_add_next,
+                             info.measure_next,
+                             info.widen_next,
+                             info.motion_on_all_points,
+                             info.motion_across_readings,
+                             info.design_caption,
+                             info.equivalent_determined,
+                             info.equivalent_convention,
+                             info.polar_plot,
+                             info.polar_reading,
+                             info.first_order_term})
       EXPECT_GT(std::string(word).size(), 0u) << info.name;
     // A design without a clock says why wherever a drift is asked of it.
     EXPECT_EQ(info.has_clock, std::string(info.no_clock_reason).empty()) << info.name;
@@ -643,6 +669,37 @@ TEST(InstrumentTable, EachInstrumentsWordsAndFlagsAreItsEntrys) {
   EXPECT_EQ(io::evaluation_setup_note(ev),
             "the uncertainties include the declared trigger offset and sphere placement "
             "tolerances (total = noise and set-up)");
+}
+
+TEST(Probe, AnEffectsLabelIsToldInTheProbesTerms) {
+  const Design d = three_spheres_c();
+  auto message = [&](const std::string& label) {
+    try {
+      effect_from_label(d, label, "--effects", "");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  // A channel's effect named by its sphere: told which channels there are.
+  EXPECT_NE(message("trigger_offset[s1]")
+                .find("'s1' is a sphere; trigger_offset is one channel's: "
+                      "s1:x, s1:y or s1:z"),
+            std::string::npos)
+      << message("trigger_offset[s1]");
+  // A ball bar's effect: said so first, wherever it is placed.
+  for (const char* label : {"length_offset[s1]", "centring[s1]", "length_offset[s1:x]"})
+    EXPECT_NE(message(label).find("is an effect of a ball bar; this design's instrument is a touch "
+                                  "probe"),
+              std::string::npos)
+        << message(label);
+  // No such channel or sphere: named as the probe's.
+  EXPECT_NE(message("trigger_offset[s9:x]").find("'s9:x' is no channel of the design"),
+            std::string::npos)
+      << message("trigger_offset[s9:x]");
+  EXPECT_NE(message("placement[s9]").find("'s9' is no sphere of the design"), std::string::npos);
+  EXPECT_EQ(message("trigger_offset[s1:x]"), "no error");
+  EXPECT_EQ(message("placement[s2]"), "no error");
 }
 
 TEST(Probe, TheSearchsCriterionIsTheOneTheKitAllows) {

@@ -552,6 +552,29 @@ TEST(ProgramCli, EveryCommittedDesignHasAProgramInBothDialects) {
   EXPECT_EQ(refused, 3);  // paper-b-head and the two optimized B-head designs
 }
 
+TEST(ProgramCli, WholeNumbersWithLeadingZerosAreDecimal) {
+  // An O-number or a tool written with leading zeros (O0010, T012) is that decimal number, never
+  // the octal one the option parser would otherwise read (T012 would call tool 10).
+  const std::string c = DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json";
+  CliRun r = run_cli("program --design " + c + " --dialect iso --program-number 0010 --tool 012");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("O0010"), std::string::npos) << r.out.substr(0, 300);
+  EXPECT_NE(r.out.find("T12 M06"), std::string::npos) << r.out.substr(0, 600);
+  EXPECT_EQ(r.out.find("T10 M06"), std::string::npos);
+  // Hexadecimal and signs beyond the range stay refused, naming the option.
+  for (const char* bad : {"0x10", "1e1", "10.0", "-0"}) {
+    r = run_cli("program --design " + c + " --dialect iso --tool " + bad);
+    EXPECT_EQ(r.status, 2) << bad;
+    EXPECT_NE(r.err.find("--tool"), std::string::npos) << bad << ": " << r.err;
+  }
+  // The swivel data record's number likewise (it was read by CLI11's own range: 0x10 was 16).
+  r = run_cli("compensation --result " DBBKIT_SOURCE_DIR
+              "/reports/paper-c-turntable-diagnose.json --format siemens --record 0x10");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--record"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("is not a whole number"), std::string::npos) << r.err;
+}
+
 TEST(ProgramCli, BadRequestsExitTwoSayingWhy) {
   const std::string c = DBBKIT_SOURCE_DIR "/designs/paper-c-turntable.json";
   // Retired: a spindle pointing down is the design's frame, so that identify models it too.

@@ -57,7 +57,8 @@ TEST(UserText, AnIdIsAsciiLettersDigitsAndAFewMarks) {
   const std::string umlaut = *id_problem("a\xc3\xa4");
   EXPECT_NE(umlaut.find("\\u00E4"), std::string::npos) << umlaut;
   EXPECT_EQ(umlaut.find("\\xC3"), std::string::npos) << umlaut;
-  EXPECT_NE(id_problem("a\xf0\x9f\x98\x80")->find("\\u1F600"), std::string::npos);
+  EXPECT_NE(id_problem("a\xf0\x9f\x98\x80")->find("'\\U0001F600'"), std::string::npos)
+      << *id_problem("a\xf0\x9f\x98\x80");
 }
 
 TEST(UserText, ASpheresIdTooLongIsToldSoAtAnyLength) {

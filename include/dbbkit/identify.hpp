@@ -112,7 +112,10 @@ struct SetupEstimate {
 // term |D_perp|^2 / (2 bar) of any reading, with D_perp the relative displacement of
 // the two balls perpendicular to the bar from the identified errors plus the set-up
 // at 3 standard uncertainties (ball placement L/D/H and centring).
+// A probe's term is its exact reading (the sphere's centre turned by the exact transform) less
+// the row's at the identified errors.
 struct FirstOrderCheck {
+  InstrumentKind instrument = InstrumentKind::kBallbar;  // whose term (InstrumentInfo)
   bool computed = false;
   std::string without_bar;  // not computed: the first installation without bar_mm
   double largest_term_um = 0;

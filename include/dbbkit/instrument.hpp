@@ -79,6 +79,17 @@ struct InstrumentInfo {
   const char* motion_across_readings;
   // The report's caption of the design's drawing.
   const char* design_caption;
+  // The residual around the turn (the reports' polar plot): what it is shown as ("a ballbar
+  // plot") and which way a trace leaves the circle.
+  const char* polar_plot;
+  const char* polar_reading;
+  // Two equivalent effects (each spans the other modulo the model): what the data determine of
+  // them, and to which one diagnose attributes the effect by convention (the later installation;
+  // of a probe, the later sphere or channel, and within one sphere the component found first).
+  const char* equivalent_determined;
+  const char* equivalent_convention;
+  // The second-order term of a reading the first-order check bounds (identify's JSON).
+  const char* first_order_term;
 };
 const InstrumentInfo& instrument_info(InstrumentKind kind);
 // The instrument a design or kit names (instrument.kind), or none; and every name, as a reader's

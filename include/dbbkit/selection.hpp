@@ -193,7 +193,8 @@ struct CandidateStatus {
   CandidateReason reason = CandidateReason::kNotTested;
   std::string other;  // the effect(s) or the alternative the reason names
   std::string note;   // kRankShortOfModel: the error model; kEquivalent: what the later one is
-                      // ("installation", a probe's "sphere" or "channel")
+                      // ("the later installation", "the later channel", "the later
+                      // sphere", "the component found first"; empty: the later installation)
   Applicability applicability;  // kNotApplicable
   int step = 0, columns = 0, added_rank = 0, scanned = 0;
   bool with_added = false;

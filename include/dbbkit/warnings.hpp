@@ -37,6 +37,9 @@ struct HiddenSetupEffect {
   double bias_um_per_um = 0;
   int error = 0;
   double angle_deg = 0;
+  // The effect's parameters: of several, the bias is that of the direction no reading sees (the
+  // set-up checks state the largest over every direction, which may be more).
+  int parameters = 1;
 };
 // instrument: the design's (the keys of its set-up tolerances in the text).
 std::optional<Warning> setup_undeclared_warning(const std::vector<HiddenSetupEffect>& hidden,

@@ -4,6 +4,7 @@
 // Range lets NaN through (every comparison with NaN is false); these do not.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -34,6 +35,9 @@ inline CLI::Validator finite_in(double lo, double hi) {
 }
 
 // A whole number in [lo, hi], written in decimal digits (no sign for lo >= 0, no exponent, no hex).
+// Leading zeros are decimal ("010" is 10, as an O-number or a tool is written): the value is
+// rewritten in its plain form before CLI11 converts it, which would read a leading 0 as octal. An
+// option takes it with ->transform, so that the rewritten value is the one converted.
 inline CLI::Validator integer_in(long long lo, long long hi) {
   std::ostringstream desc;
   desc << "INT in [" << lo << ", " << hi << "]";
@@ -51,22 +55,28 @@ inline CLI::Validator integer_in(long long lo, long long hi) {
           m << "'" << s << "' is outside [" << lo << ", " << hi << "]";
           return m.str();
         }
+        s = std::to_string(x);
         return "";
       },
       desc.str());
 }
 
-// A seed: a whole number in [0, 2^64 - 1], decimal digits only (so "-1" is not taken as 2^64 - 1).
+// A seed: a whole number in [0, 2^64 - 1], decimal digits only (so "-1" is not taken as 2^64 - 1);
+// leading zeros are decimal, rewritten away as integer_in does (->transform).
 inline CLI::Validator seed_value() {
   return CLI::Validator(
       [](std::string& s) -> std::string {
-        if (s.empty() || s.size() > 20)
+        if (s.empty() || s.size() > 64)
           return "'" + s + "' is not a seed (a whole number in [0, 2^64 - 1])";
         for (char c : s) {
           if (c < '0' || c > '9')
             return "'" + s + "' is not a seed (a whole number in [0, 2^64 - 1])";
         }
-        if (s.size() == 20 && s > "18446744073709551615") return "'" + s + "' is beyond 2^64 - 1";
+        const std::size_t first = std::min(s.find_first_not_of('0'), s.size() - 1);
+        const std::string digits = s.substr(first);
+        if (digits.size() > 20 || (digits.size() == 20 && digits > "18446744073709551615"))
+          return "'" + s + "' is beyond 2^64 - 1";
+        s = digits;
         return "";
       },
       "SEED in [0, 2^64-1]");

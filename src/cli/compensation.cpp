@@ -44,7 +44,7 @@ Runner add_compensation(CLI::App& app) {
       ->check(CLI::IsMember({"isg", "linuxcnc", "siemens", "table"}));
   sub->add_option("--record", args->record,
                   "siemens: the number n of the swivel data record ($TC_CARR..[n])")
-      ->check(CLI::Range(limits::kMinSwivelRecord, limits::kMaxSwivelRecord));
+      ->transform(integer_in(limits::kMinSwivelRecord, limits::kMaxSwivelRecord));
   CLI::Option* tool_reference = sub->add_option(
       "--tool-reference-mm", args->tool_reference,
       "siemens, a machine with a head axis: the tool adapter's reference point x,y,z with every "

@@ -45,7 +45,7 @@ Runner add_diagnose(CLI::App& app) {
       ->check(finite_in(limits::kMinLevel, limits::kMaxLevel))
       ->capture_default_str();
   sub->add_option("--max-effects", args->max_effects, "Most effects added")
-      ->check(integer_in(0, limits::kMaxEffects))
+      ->transform(integer_in(0, limits::kMaxEffects))
       ->capture_default_str();
   sub->add_flag("--exclude-gross", args->exclude_gross,
                 "Refit without the gross readings found (at most 10), and say so in the verdict "

@@ -30,7 +30,7 @@ struct GridOptions {
         sub->add_option("--grid-around", around,
                         "Its points on each circle, evenly spaced from the radial direction "
                         "(default 8)")
-            ->check(integer_in(1, 360));
+            ->transform(integer_in(1, 360));
     angles_option = sub->add_option("--grid-angles-deg", angles,
                                     "Its angles, e.g. -90,0,90 (default: every angle the result "
                                     "measured)");

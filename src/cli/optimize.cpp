@@ -71,7 +71,7 @@ Runner add_optimize(CLI::App& app) {
   sub->add_option("--pareto-csv", args->pareto_csv, "Write the Pareto front as CSV");
   sub->add_option("--threads", args->threads,
                   "Worker threads (0: all cores); the result does not depend on it")
-      ->check(thread_count());
+      ->transform(thread_count());
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
   return [args, rep]() {

@@ -45,7 +45,7 @@ Runner add_program(CLI::App& app) {
                   "its workspace; its time model is stated");
   add_program_options(sub, prog);
   sub->add_option("--program-number", args->program_number, "ISO O-number (default 1)")
-      ->check(integer_in(limits::kMinProgramNumber, limits::kMaxProgramNumber));
+      ->transform(integer_in(limits::kMinProgramNumber, limits::kMaxProgramNumber));
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the files asked for");
   return [args, prog]() {
     io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}},

@@ -43,7 +43,7 @@ inline void add_program_options(CLI::App* sub, const std::shared_ptr<ProgramArgs
   sub->add_option("--tool", args->options.tool_number,
                   "Tool number of the ballbar's spindle cup (T, H; default 99): its length "
                   "measured to the ball centre (C), to the pivot (B)")
-      ->check(integer_in(limits::kMinToolNumber, limits::kMaxToolNumber));
+      ->transform(integer_in(limits::kMinToolNumber, limits::kMaxToolNumber));
   sub->add_option("--clearance-z-mm", args->options.clearance_z_mm,
                   "Z of the clearance plane in the work frame, where every sideways rapid runs "
                   "(default: the highest point reached plus --clearance-margin-mm)")

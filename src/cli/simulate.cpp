@@ -107,7 +107,7 @@ Runner add_simulate(CLI::App& app) {
   sub->add_option("--truth", args->truth, "Truth file (dbbkit.truth/1)")->required();
   sub->add_option("--seed", args->seed,
                   "Seed of the noise generator (overrides the truth file's seed)")
-      ->check(seed_value());
+      ->transform(seed_value());
   sub->add_option("--out", args->out, "Measurement CSV; '-' or absent: stdout");
   sub->add_option(
       "--setup-out", args->setup_out,

@@ -25,21 +25,21 @@ inline void add_uncertainty_options(CLI::App* sub, const std::shared_ptr<Uncerta
   sub->add_flag("--monte-carlo", args->monte_carlo,
                 "Check the linear result by Monte Carlo (JCGM 101)");
   sub->add_option("--mc-seed", args->mc.seed, "Monte Carlo seed")
-      ->check(seed_value())
+      ->transform(seed_value())
       ->capture_default_str();
   sub->add_option("--mc-threads", args->mc.threads, "Monte Carlo threads (0: all)")
-      ->check(thread_count())
+      ->transform(thread_count())
       ->capture_default_str();
   sub->add_option("--mc-max-trials", args->mc.max_trials, "Most Monte Carlo trials")
-      ->check(integer_in(limits::kMinMonteCarloTrials, limits::kMaxMonteCarloTrials))
+      ->transform(integer_in(limits::kMinMonteCarloTrials, limits::kMaxMonteCarloTrials))
       ->capture_default_str();
   sub->add_option("--mc-batch", args->mc.batch_trials,
                   "Trials per adaptive batch (a multiple of 1000)")
-      ->check(integer_in(limits::kMinMonteCarloTrials, limits::kMaxMonteCarloBatch))
+      ->transform(integer_in(limits::kMinMonteCarloTrials, limits::kMaxMonteCarloBatch))
       ->capture_default_str();
   sub->add_option("--mc-digits", args->mc.significant_digits,
                   "Significant digits of u that set the numerical tolerance")
-      ->check(integer_in(limits::kMinSignificantDigits, limits::kMaxSignificantDigits))
+      ->transform(integer_in(limits::kMinSignificantDigits, limits::kMaxSignificantDigits))
       ->capture_default_str();
 }
 

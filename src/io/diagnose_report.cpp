@@ -3,6 +3,7 @@
 #include <limits>
 #include <memory>
 
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/diagnose_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/plots.hpp"
@@ -85,8 +86,9 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
   }
   design_section(p, design);
   p.heading("Residuals before and after");
+  const InstrumentInfo& info = instrument_info(design.instrument);
   auto residual_figure = [&](const char* title, const Eigen::VectorXd& residual,
-                             const char* caption) {
+                             const std::string& caption) {
     p.figure(
         [&] {
           return plot_residual_panels(std::string(title) + " [um]",
@@ -94,19 +96,19 @@ std::string diagnose_report(ReportFormat f, const RunContext& run, const Design&
         },
         caption);
   };
-  residual_figure(
-      "residual before (axis errors only)", r.before.residual_um,
-      "Residual with the six error motions alone: a panel per installation on one scale, each "
-      "sweep a line in angle order.");
+  residual_figure("residual before (axis errors only)", r.before.residual_um,
+                  "Residual with the six error motions alone: a panel per " +
+                      std::string(info.row_carrier) +
+                      " on one scale, each sweep a line in angle order.");
   residual_figure("residual after (with the effects added)", r.after.residual_um,
-                  "Residual per installation with the effects added.");
+                  "Residual per " + std::string(info.row_carrier) + " with the effects added.");
   p.figure(
       [&] {
         return plot_residual_polar("residual before, around the turn",
                                    residual_panels(design, readings, r.before.residual_um));
       },
-      "The residual before as a ballbar plot: each trace leaves the dashed circle outwards where "
-      "the bar read longer than the model, inwards where shorter.");
+      "The residual before as " + std::string(info.polar_plot) +
+          ": each trace leaves the dashed circle outwards where " + info.polar_reading + ".");
   p.heading("Change of the errors");
   {
     std::vector<std::vector<std::string>> largest;

@@ -171,26 +171,27 @@ std::string describe_feature(const Design& design, const std::vector<Reading>& r
                              const ResidualFeature& f) {
   std::ostringstream s;
   const std::string inst =
-      f.installation >= 0 ? design.installations[f.installation].id : std::string("all");
+      std::string(instrument_info(design.instrument).row_carrier) + " " +
+      (f.installation >= 0 ? design.installations[f.installation].id : std::string("all"));
   auto pm = [&](const char* unit) {
     return fmt_num(f.value, 4) + " +- " + fmt_num(f.std, 2) + " " + unit;
   };
   switch (f.kind) {
     case FeatureKind::kMean:
-      s << "a mean residual of " << pm("um") << " in installation " << inst;
+      s << "a mean residual of " << pm("um") << " in " << inst;
       break;
     case FeatureKind::kHarmonic:
-      s << "a " << f.harmonic << "-per-turn term of amplitude " << fmt_num(f.value, 4)
-        << " um in installation " << inst;
+      s << "a " << f.harmonic << "-per-turn term of amplitude " << fmt_num(f.value, 4) << " um in "
+        << inst;
       break;
     case FeatureKind::kDrift:
-      s << "a drift of " << pm("um/min") << " in installation " << inst;
+      s << "a drift of " << pm("um/min") << " in " << inst;
       break;
     case FeatureKind::kReversal:
-      s << "a difference cw - ccw of " << pm("um") << " in installation " << inst;
+      s << "a difference cw - ccw of " << pm("um") << " in " << inst;
       break;
     case FeatureKind::kStep:
-      s << "a step of " << pm("um") << " in installation " << inst << " from the reading "
+      s << "a step of " << pm("um") << " in " << inst << " from the reading "
         << reading_text(readings[f.row]);
       break;
     case FeatureKind::kReading: {
@@ -295,9 +296,9 @@ std::string diagnose_verdict(const Design& design, const std::vector<Reading>& r
         if (a.equivalent_to.empty()) continue;
         v << a.block.label << " is equivalent to";
         for (const std::string& l : a.equivalent_to) v << " " << l;
-        v << ": the data determine only their difference, so it is attributed by convention to the "
-             "later "
-             "installation. ";
+        v << ": the data determine " << instrument_info(design.instrument).equivalent_determined
+          << ", so it is attributed by convention to "
+          << instrument_info(design.instrument).equivalent_convention << ". ";
       }
       for (const Attribution& at : res.attributions) {
         if (at.convention) attribution_sentence(at.effect, true);
@@ -483,8 +484,8 @@ std::string candidate_detail(const CandidateStatus& c) {
       break;
     case CandidateReason::kEquivalent:
       t = "explains the data exactly as " + c.other +
-          " does (only their difference is determined); by convention the later " +
-          (c.note.empty() ? std::string("installation") : c.note) + " carries it";
+          " does (only their difference is determined); by convention " +
+          (c.note.empty() ? std::string("the later installation") : c.note) + " carries it";
       break;
     case CandidateReason::kReleased:
       t = "equivalent to " + c.other + ", which left the model";

@@ -3,6 +3,7 @@
 #include <limits>
 #include <memory>
 
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/plots.hpp"
 #include "dbbkit/io/report_writer.hpp"
@@ -84,7 +85,8 @@ std::string evaluate_report(ReportFormat f, const RunContext& run, const Design&
   summary_section(p, evaluate_brief(design, ev));
   warnings_section(p, ev.warnings);
   p.heading("What the design can identify");
-  std::string s = std::to_string(est.n_readings) + " readings (one per installation and angle), " +
+  std::string s = std::to_string(est.n_readings) + " readings (one per " +
+                  instrument_info(design.instrument).row_carrier + " and angle), " +
                   std::to_string(est.n_unknowns) + " unknowns, rank " + std::to_string(est.rank) +
                   ". ";
   if (est.condition_number)

@@ -3,6 +3,7 @@
 #include <limits>
 #include <memory>
 
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/plots.hpp"
 #include "dbbkit/io/report_writer.hpp"
 #include "dbbkit/io/reports.hpp"
@@ -52,21 +53,22 @@ std::string identify_report(ReportFormat f, const RunContext& run, const Design&
   iso230_section(p, r.iso, iso_uncertainty_note(r));
   if (conformance) conformance_section(p, *conformance);
   p.heading("Residuals");
+  const InstrumentInfo& info = instrument_info(design.instrument);
   p.figure(
       [&] {
-        return plot_residual_panels("residual per installation [um]",
+        return plot_residual_panels("residual per " + std::string(info.row_carrier) + " [um]",
                                     residual_panels(design, readings, est.residual_um));
       },
-      "Residual of every reading against the fitted model: a panel per installation on one "
-      "scale, each sweep a line in angle order.");
+      "Residual of every reading against the fitted model: a panel per " +
+          std::string(info.row_carrier) + " on one scale, each sweep a line in angle order.");
   p.figure(
       [&] {
         return plot_residual_polar("residual around the turn",
                                    residual_panels(design, readings, est.residual_um));
       },
-      "The same residuals as a ballbar plot: each trace leaves the dashed circle outwards where "
-      "the bar read longer than the model, inwards where shorter (not to scale with the "
-      "machine).");
+      "The same residuals as " + std::string(info.polar_plot) +
+          ": each trace leaves the dashed circle outwards where " + info.polar_reading +
+          " (not to scale with the machine).");
   // The budget of the value with the largest U of each error (JCGM 100).
   p.heading("Uncertainty budget (JCGM 100)");
   p.paragraph(

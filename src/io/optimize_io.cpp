@@ -131,9 +131,9 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
         for (const std::string& e : cr.best->detection->undetectable)
           list += (list.empty() ? "" : ", ") + e;
       }
-      return "no position lets diagnose detect every declared set-up effect (and drift "
-             "required): the axis errors take " +
-             list + " at every position of this choice";
+      return std::string("no position lets diagnose detect every declared set-up effect") +
+             (kit.require_drift_detection_um ? " (and the drift required)" : "") +
+             ": the axis errors take " + list + " at every position of this choice";
     }
     case ChoiceState::kOutsideTravel:
       if (cr.best && !cr.best->machine_clash.empty())
@@ -158,9 +158,9 @@ std::string choice_status_text(const Kit& kit, const ChoiceResult& cr) {
       if (!cr.best || !cr.best->detection) break;
       const Candidate::Detection& d = *cr.best->detection;
       const bool drift = d.effect.rfind("drift", 0) == 0;
-      return "no position lets diagnose detect every declared set-up effect (and drift "
-             "required) at its declared size: " +
-             d.effect +
+      return std::string("no position lets diagnose detect every declared set-up effect") +
+             (kit.require_drift_detection_um ? " (and the drift required)" : "") +
+             " at its declared size: " + d.effect +
              (d.limit_um ? " is detected from " + mm(*d.limit_um) +
                                (drift ? " um over the test (required " : " um (declared ") +
                                mm(d.declared_std_um) + " um)"

@@ -232,15 +232,12 @@ std::string monte_carlo_summary(const MonteCarloResult& mc) {
 
 json first_order_to_json(const FirstOrderCheck& f) {
   if (!f.computed) return {{"computed", false}, {"reason", first_order_reason(f)}};
-  json j = {
-      {"computed", true},
-      {"largest_term_um", r6(f.largest_term_um)},
-      {"at", {{"installation", f.installation}, {"angle_deg", f.angle_deg}}},
-      {"threshold_um", r6(f.threshold_um)},
-      {"warning", f.warn},
-      {"term",
-       "|D_perp|^2 / (2 bar), D_perp: the balls' relative displacement across the bar from the "
-       "identified errors and the set-up at 3 standard uncertainties"}};
+  json j = {{"computed", true},
+            {"largest_term_um", r6(f.largest_term_um)},
+            {"at", {{"installation", f.installation}, {"angle_deg", f.angle_deg}}},
+            {"threshold_um", r6(f.threshold_um)},
+            {"warning", f.warn},
+            {"term", instrument_info(f.instrument).first_order_term}};
   j["bias_bound_std"] = optional_number(f.bias_bound_std);
   if (f.bias_error >= 0)
     j["bias_bound_at"] = {{"error", kErrorNames[f.bias_error]}, {"angle_deg", f.bias_angle_deg}};
