@@ -5,6 +5,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/observability.hpp"
 #include "dbbkit/parameterisation.hpp"
 

@@ -4,6 +4,7 @@
 
 #include "dbbkit/error.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/json_reader.hpp"
 #include "dbbkit/io/truth_io.hpp"
 #include "dbbkit/simulate.hpp"
 
