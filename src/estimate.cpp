@@ -963,24 +963,31 @@ int added_rank(const WlsSolver& solver, const Eigen::MatrixXd& X, const Estimate
   return added_rank(unexplained(solver, X), norms, options);
 }
 
-int added_rank(const Eigen::MatrixXd& unexplained_part, const Eigen::VectorXd& norms,
-               const EstimateOptions& options) {
-  const int q = static_cast<int>(unexplained_part.cols());
-  if (q == 0 || unexplained_part.rows() == 0) return 0;
+Eigen::MatrixXd scaled_factor(const Eigen::MatrixXd& R, const Eigen::VectorXd& whitened_norms) {
   // Scaling the columns commutes with the triangular factor: R D = Q (T D).
-  Eigen::MatrixXd R = triangular_factor(unexplained_part);
-  for (int j = 0; j < q; ++j) {
-    if (norms(j) > 0) {
-      R.col(j) /= norms(j);
+  Eigen::MatrixXd T = triangular_factor(R);
+  for (Eigen::Index j = 0; j < T.cols(); ++j) {
+    if (whitened_norms(j) > 0) {
+      T.col(j) /= whitened_norms(j);
     } else {
-      R.col(j).setZero();
+      T.col(j).setZero();
     }
   }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(R);
+  return T;
+}
+
+int rank_above_threshold(const Eigen::VectorXd& singular_values, const EstimateOptions& options) {
   const double tol = std::sqrt(options.min_relative_singular_value);
   int r = 0;
-  for (int k = 0; k < svd.singularValues().size(); ++k) r += svd.singularValues()(k) > tol;
+  for (Eigen::Index k = 0; k < singular_values.size(); ++k) r += singular_values(k) > tol;
   return r;
+}
+
+int added_rank(const Eigen::MatrixXd& unexplained_part, const Eigen::VectorXd& norms,
+               const EstimateOptions& options) {
+  if (unexplained_part.cols() == 0 || unexplained_part.rows() == 0) return 0;
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled_factor(unexplained_part, norms));
+  return rank_above_threshold(svd.singularValues(), options);
 }
 
 bool Estimate::determined(const Function& c) const {

@@ -21,6 +21,9 @@ constexpr std::array<InstrumentInfo, 2> kInstruments = {{
      .items_capitalised = "Installations",
      .points = "balls",
      .row_carrier = "installation",
+     .row_column = "inst",
+     .rows_per_item = 1,
+     .item_read = "",
      .setup_effect_nouns = "length offset and centring",
      .setup_effects_plural = "length offsets and centrings",
      .setup_tolerance_keys = "length_offset_um, centring_um",
@@ -55,6 +58,9 @@ constexpr std::array<InstrumentInfo, 2> kInstruments = {{
      .items_capitalised = "Spheres",
      .points = "spheres",
      .row_carrier = "channel",
+     .row_column = "channel",
+     .rows_per_item = 3,
+     .item_read = "probed in x, y and z",
      .setup_effect_nouns = "trigger offset and sphere placement",
      .setup_effects_plural = "trigger offset and sphere placement",
      .setup_tolerance_keys = "trigger_offset_um, placement_um",
@@ -99,8 +105,6 @@ const InstrumentInfo& instrument_info(InstrumentKind kind) {
   return kInstruments[static_cast<std::size_t>(kind)];
 }
 
-const char* instrument_name(InstrumentKind kind) { return instrument_info(kind).name; }
-
 std::optional<InstrumentKind> instrument_named(const std::string& name) {
   for (const InstrumentInfo& i : kInstruments)
     if (name == i.name) return i.kind;
@@ -117,32 +121,17 @@ std::string instrument_names() {
   return out;
 }
 
-const char* setup_effect_nouns(InstrumentKind kind) {
-  return instrument_info(kind).setup_effect_nouns;
-}
-
-const char* setup_tolerance_keys(InstrumentKind kind) {
-  return instrument_info(kind).setup_tolerance_keys;
-}
-
-const char* setup_tolerance_phrase(InstrumentKind kind) {
-  return instrument_info(kind).setup_tolerance_phrase;
-}
-
-const char* measured_item(InstrumentKind kind) { return instrument_info(kind).item; }
-
-const char* measured_items(InstrumentKind kind) { return instrument_info(kind).items; }
-
 std::size_t measured_count(const Design& design) {
-  return design.instrument == InstrumentKind::kProbe ? design.spheres.size()
-                                                     : design.installations.size();
+  return design.installations.size() / instrument_info(design.instrument).rows_per_item;
 }
 
 std::string measured_phrase(const Design& design) {
-  if (design.instrument == InstrumentKind::kProbe)
-    return std::to_string(design.spheres.size()) + " spheres probed in x, y and z (" +
-           std::to_string(design.installations.size()) + " channels)";
-  return std::to_string(design.installations.size()) + " installations";
+  const InstrumentInfo& info = instrument_info(design.instrument);
+  std::string out = std::to_string(measured_count(design)) + " " + info.items;
+  if (info.rows_per_item > 1)
+    out += std::string(" ") + info.item_read + " (" + std::to_string(design.installations.size()) +
+           " " + info.row_carrier + "s)";
+  return out;
 }
 
 void require_ballbar(const Design& design, const std::string& source, const std::string& what) {

@@ -677,22 +677,23 @@ Criterion criterion_from_name(const std::string& name, const std::string& source
                        " (expected worst, worst_total, D, A, E or condition)");
 }
 
-Criterion search_criterion(Kit& kit, const std::string& name, bool require_setup_detection,
-                           const std::string& kit_source, const std::string& criterion_option,
+Criterion search_criterion(Kit& kit, const std::optional<std::string>& name,
+                           bool require_setup_detection, const std::string& kit_source,
+                           const std::string& criterion_option,
                            const std::string& detection_option) {
   const bool declared = kit.setup_std.nuisance();
   const auto needs = [&](const std::string& what) {
-    return InputError(
-        kit_source, "setup_std",
-        what + " needs " + setup_tolerance_phrase(kit.instrument) + " declared in the kit");
+    return InputError(kit_source, "setup_std",
+                      what + " needs " + instrument_info(kit.instrument).setup_tolerance_phrase +
+                          " declared in the kit");
   };
   if (require_setup_detection) {
     if (!declared) throw needs(detection_option);
     kit.require_setup_detection = true;
   }
-  const Criterion c = criterion_from_name(!name.empty() ? name
-                                          : declared    ? "worst_total"
-                                                        : "worst",
+  const Criterion c = criterion_from_name(name       ? *name
+                                          : declared ? "worst_total"
+                                                     : "worst",
                                           criterion_option);
   if (c == Criterion::kWorstTotal && !declared) throw needs(criterion_option + " worst_total");
   return c;
@@ -1134,8 +1135,8 @@ OptimizeResult exhaustive_search(const Kit& kit, Criterion criterion, double gri
 Reference make_reference(const Kit& kit, Design design, const std::string& file) {
   if (design.instrument != kit.instrument)
     throw InputError(file, "instrument.kind",
-                     std::string("the reference is a ") + instrument_name(design.instrument) +
-                         " design, the kit a " + instrument_name(kit.instrument) +
+                     std::string("the reference is a ") + instrument_info(design.instrument).name +
+                         " design, the kit a " + instrument_info(kit.instrument).name +
                          " kit: the ratio would compare instruments, not designs");
   Reference r;
   r.file = file;

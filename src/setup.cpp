@@ -367,49 +367,53 @@ std::optional<double> detection_limit_um(int q, bool detectable, double min_info
 
 namespace {
 
-// From R_e = unexplained(base, X_e) (whitened): its smallest singular value squared and
-// added_rank.
-SetupEffectInformation effect_information(const Eigen::VectorXd& w, const SetupEffect& e,
-                                          const Eigen::Ref<const Eigen::MatrixXd>& Re) {
+// One set-up effect's R_e = unexplained(base, X_e) (whitened), factorised once: its triangular
+// factor T (the singular values of R_e), the whitened column norms |W X_e_j| and added_rank's
+// scaled factor T D with its SVD (the rank it counts, and the directions beyond it).
+struct EffectFactor {
+  Eigen::MatrixXd T;
+  Eigen::VectorXd norms;
+  Eigen::JacobiSVD<Eigen::MatrixXd> scaled;
+  int seen = 0;  // added_rank
+};
+
+EffectFactor effect_factor(const Eigen::VectorXd& w, const SetupEffect& e,
+                           const Eigen::Ref<const Eigen::MatrixXd>& Re, bool with_directions) {
+  EffectFactor f;
+  f.T = triangular_factor(Re);  // one QR
+  f.norms = (w.asDiagonal() * e.J_reading_effect).colwise().norm().transpose();
+  if (f.T.cols() == 0 || f.T.rows() == 0) return f;
+  f.scaled.compute(scaled_factor(f.T, f.norms), with_directions ? Eigen::ComputeFullV : 0);
+  f.seen = rank_above_threshold(f.scaled.singularValues());
+  return f;
+}
+
+// Its smallest singular value squared and whether added_rank sees all its columns.
+SetupEffectInformation effect_information(const SetupEffect& e, const EffectFactor& f) {
   SetupEffectInformation info;
   info.kind = e.kind;
   info.installation = e.installation;
   info.declared_std_um = e.std_um;
   info.q = static_cast<int>(e.J_reading_effect.cols());
-  const Eigen::MatrixXd T = triangular_factor(Re);  // the singular values of Re, one QR
-  info.detectable =
-      added_rank(T, (w.asDiagonal() * e.J_reading_effect).colwise().norm().transpose()) == info.q;
+  info.detectable = f.seen == info.q;
   if (info.detectable) {
-    const double r = Eigen::JacobiSVD<Eigen::MatrixXd>(T).singularValues()(info.q - 1);
+    const double r = Eigen::JacobiSVD<Eigen::MatrixXd>(f.T).singularValues()(info.q - 1);
     info.min_information = r * r;
   }
   return info;
 }
 
-// The directions of an effect's parameters that R_e = unexplained(base, X_e) leaves at zero where
-// it sees some (none where it sees none: then no direction is singled out), by
-// added_rank's rule: R_e with its columns scaled to unit whitened norm (D), the right singular
-// vectors v beyond its added rank; a parameter direction D^-1 v, unit, its largest component
-// positive.
-std::vector<std::vector<double>> hidden_directions(const Eigen::VectorXd& w, const SetupEffect& e,
-                                                   const Eigen::Ref<const Eigen::MatrixXd>& Re) {
-  const Eigen::VectorXd norms = (w.asDiagonal() * e.J_reading_effect).colwise().norm().transpose();
-  const int seen = added_rank(triangular_factor(Re), norms);
-  Eigen::MatrixXd T = triangular_factor(Re);
-  for (Eigen::Index j = 0; j < T.cols(); ++j) {
-    if (norms(j) > 0) {
-      T.col(j) /= norms(j);
-    } else {
-      T.col(j).setZero();
-    }
-  }
+// The directions of an effect's parameters that R_e leaves at zero where it sees some (none where
+// it sees none: then no direction is singled out), by added_rank's rule: the right singular
+// vectors v of the scaled factor T D beyond its added rank; a parameter direction D^-1 v, unit,
+// its largest component positive. `f` was formed with its directions.
+std::vector<std::vector<double>> hidden_directions(const EffectFactor& f) {
   std::vector<std::vector<double>> out;
-  if (seen == 0) return out;  // none seen: every direction is the axis errors', none to name
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(T, Eigen::ComputeFullV);
-  for (Eigen::Index k = seen; k < T.cols(); ++k) {
-    Eigen::VectorXd v = svd.matrixV().col(k);
+  if (f.seen == 0) return out;  // none seen: every direction is the axis errors', none to name
+  for (Eigen::Index k = f.seen; k < f.T.cols(); ++k) {
+    Eigen::VectorXd v = f.scaled.matrixV().col(k);
     for (Eigen::Index j = 0; j < v.size(); ++j)
-      if (norms(j) > 0) v(j) /= norms(j);
+      if (f.norms(j) > 0) v(j) /= f.norms(j);
     v.normalize();
     Eigen::Index largest = 0;
     v.cwiseAbs().maxCoeff(&largest);
@@ -430,7 +434,8 @@ SetupInformation dense_setup_information(const Design& design) {
   out.rank = base.a_priori().rank;
   const Eigen::VectorXd w = base.sigma_um().cwiseInverse();
   for (const SetupEffect& e : setup_effects(design, model, true))
-    out.effects.push_back(effect_information(w, e, unexplained(base, e.J_reading_effect)));
+    out.effects.push_back(
+        effect_information(e, effect_factor(w, e, unexplained(base, e.J_reading_effect), false)));
   return out;
 }
 
@@ -498,11 +503,12 @@ std::vector<SetupEffectCheck> check_setup_effects(
     ch.kind = e.kind;
     ch.declared_std_um = e.std_um;
     const Eigen::Index q = e.J_reading_effect.cols();
-    const SetupEffectInformation info = effect_information(w, e, R.middleCols(column, q));
+    // The directions beyond the rank are wanted only for an effect seen in part.
+    const EffectFactor factor = effect_factor(w, e, R.middleCols(column, q), q > 1);
+    const SetupEffectInformation info = effect_information(e, factor);
     ch.detectable = info.detectable;
     ch.parameters = e.parameters;
-    if (!info.detectable && q > 1)
-      ch.hidden_directions = hidden_directions(w, e, R.middleCols(column, q));
+    if (!info.detectable && q > 1) ch.hidden_directions = hidden_directions(factor);
     // The noncentrality for the power depends on (q, dof) alone, and is kept
     // (noncentrality_for_power): the effects of every installation share a few.
     ch.detection_limit_um = detection_limit_um(info.q, info.detectable, info.min_information,

@@ -49,7 +49,23 @@ constexpr double kNoiseFloor_um = 0.005;
 constexpr double kMinWindowSamples = 20;
 constexpr double kMinSampleInterval_s = 1e-6;
 
+// The stillness test's window in samples at interval dt (at least kMinWindowSamples), and how far
+// a still window's mean may lie from its neighbours' at this noise (mean_factor standard errors
+// of the difference of two means, noise sqrt(2 / w)).
+double window_samples(double dt, const DwellOptions& o) {
+  return std::max(static_cast<double>(kMinWindowSamples), o.window_s / dt);
+}
+double mean_tolerance_um(double noise_um, double w, const DwellOptions& o) {
+  return o.mean_factor * std::max(noise_um, kNoiseFloor_um) * std::sqrt(2.0 / w);
+}
+
 }  // namespace
+
+double max_still_drift_um_per_min(double noise_um, double sample_interval_s,
+                                  const DwellOptions& o) {
+  const double w = std::round(window_samples(sample_interval_s, o));
+  return 0.5 * mean_tolerance_um(noise_um, w, o) / (w * sample_interval_s) * 60.0;
+}
 
 long Trace::line_of(std::size_t i) const {
   const auto it = std::upper_bound(
@@ -148,7 +164,7 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
   }
   // Consecutive windows of w samples (at least kMinWindowSamples, so that each window's mean and
   // scatter are estimates): their means and scatters.
-  const double per_window = std::max(static_cast<double>(kMinWindowSamples), o.window_s / dt);
+  const double per_window = window_samples(dt, o);
   if (per_window * 4 > static_cast<double>(n)) {
     throw InputError(source, "",
                      "a trace of " + std::to_string(n) + " samples every " + seconds(dt) +
@@ -178,7 +194,7 @@ PlateauSearch find_plateaus(const Trace& trace, const DwellOptions& o, const std
   // Still: the window's scatter within the noise, and its mean within the noise of the means of
   // its neighbours (a bar moving at a fraction of a um/s changes the mean from window to window
   // long before it widens a window's scatter).
-  const double mean_tol = o.mean_factor * noise * std::sqrt(2.0 / static_cast<double>(w));
+  const double mean_tol = mean_tolerance_um(noise, static_cast<double>(w), o);
   std::vector<char> still(blocks, 0);
   for (std::size_t b = 0; b < blocks; ++b) {
     const bool quiet = block[b].std <= o.scatter_factor * noise;
@@ -337,19 +353,24 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
                text::significant(P[k].end_s, 6);
     }
     if (P.size() > 40) found += ", ...";
-    throw InputError(source, "installation " + installation,
-                     "found " + std::to_string(P.size()) + " dwells, the sweep" +
-                         (sweeps.size() > 1 ? "s have " : " has ") + std::to_string(stops.size()) +
-                         " stops (" + std::to_string(design.angles_of(index).size()) + " angles" +
-                         (sweeps.size() == 2  ? ", both sweeps"
-                          : sweeps.size() > 2 ? ", " + std::to_string(sweeps.size()) + " sweeps"
-                                              : std::string()) +
-                         "); dwells found (s): " + (found.empty() ? "none" : found) + ". Check " +
-                         option_name("--dwell-s") + " (the program's dwell), " +
-                         option_name("--sweeps") +
-                         ", and that the trace is this "
-                         "installation's whole run (a move must show in the bar's length)" +
-                         (moving.empty() ? "" : "; " + moving));
+    throw InputError(
+        source, "installation " + installation,
+        "found " + std::to_string(P.size()) + " dwells, the sweep" +
+            (sweeps.size() > 1 ? "s have " : " has ") + std::to_string(stops.size()) + " stops (" +
+            std::to_string(design.angles_of(index).size()) + " angles" +
+            (sweeps.size() == 2  ? ", both sweeps"
+             : sweeps.size() > 2 ? ", " + std::to_string(sweeps.size()) + " sweeps"
+                                 : std::string()) +
+            "); dwells found (s): " + (found.empty() ? "none" : found) + ". Check " +
+            option_name("--dwell-s") + " (the program's dwell), " + option_name("--sweeps") +
+            ", that the trace is this "
+            "installation's whole run (a move must show in the bar's length) and "
+            "that the bar drifts by less than about " +
+            text::significant(max_still_drift_um_per_min(out.search.noise_um,
+                                                         out.search.sample_interval_s, options),
+                              2) +
+            " um/min (at the sample noise found, " + text::significant(out.search.noise_um, 2) +
+            " um, a faster drift is never still)" + (moving.empty() ? "" : "; " + moving));
   }
   if (!moving.empty()) {
     throw InputError(

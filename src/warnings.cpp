@@ -142,7 +142,8 @@ std::optional<Warning> setup_undeclared_warning(const std::vector<HiddenSetupEff
           " deg by " + text::significant(worst.bias_um_per_um, 3) + " um" +
           (angular ? " at " + text::significant(reference_length_mm, 6) + " mm" : "") +
           ". The stated uncertainties assume a perfect set-up: declare setup_std (" +
-          setup_tolerance_keys(instrument) + ") in the design for intervals that include it."};
+          instrument_info(instrument).setup_tolerance_keys +
+          ") in the design for intervals that include it."};
 }
 
 namespace {
@@ -186,7 +187,7 @@ std::optional<Warning> setup_risk_warning(const std::vector<SetupRisk>& risks,
           r.label + " of " + text::significant(r.threshold_um, 3) + " um already moves " +
           kErrorNames[r.error] + " at " + text::significant(r.angle_deg, 6) +
           " deg by its stated uncertainty (" + text::significant(r.stated_std, 3) + unit +
-          "). Declare setup_std (" + setup_tolerance_keys(instrument) +
+          "). Declare setup_std (" + instrument_info(instrument).setup_tolerance_keys +
           ") in the design for intervals that include them."};
 }
 
@@ -227,7 +228,7 @@ std::vector<Warning> diagnose_warnings(const DiagnoseResult& r) {
                      " more were not tried and may move them further"
                : std::string()) +
           "), so they may be too uncertain to enter or to decide. To remove it, measure " +
-          measured_item(r.instrument) +
+          instrument_info(r.instrument).item +
           " that tells them apart; dbbkit identify --effects fits each choice.";
     } else {
       consequence =
@@ -235,7 +236,7 @@ std::vector<Warning> diagnose_warnings(const DiagnoseResult& r) {
           "uncertainties leave the difference out. Before deciding conformance or entering a "
           "compensation, fit each with dbbkit identify --effects to see the difference, or "
           "measure " +
-          std::string(measured_item(r.instrument)) + " that tells them apart.";
+          std::string(instrument_info(r.instrument).item) + " that tells them apart.";
     }
     out.push_back({"equivalent_effects", chosen + (n_chosen == 1 ? " was" : " were") +
                                              " chosen by convention among effects the readings "
@@ -274,7 +275,7 @@ std::vector<Warning> identify_warnings(const Design& design, const IdentifyResul
              " urad should one of the others take an effect's place (more should several). "
              "dbbkit diagnose carries the difference of every combination in its uncertainties; "
              "measure " +
-             measured_item(design.instrument) + " that tells them apart to remove it."});
+             instrument_info(design.instrument).item + " that tells them apart to remove it."});
   }
   const double L = design.reference_length_mm.value_or(100.0);
   if (auto w = setup_undeclared_warning(

@@ -169,4 +169,13 @@ Eigen::MatrixXd triangular_factor(const Eigen::MatrixXd& A);
 int added_rank(const Eigen::MatrixXd& R, const Eigen::VectorXd& whitened_norms,
                const EstimateOptions& options = {});
 
+// added_rank's matrix: triangular_factor(R) with column j divided by whitened_norms(j) (zeroed
+// where that norm is zero), the columns of unit whitened norm whose singular values it counts.
+Eigen::MatrixXd scaled_factor(const Eigen::MatrixXd& R, const Eigen::VectorXd& whitened_norms);
+
+// How many of the singular values of a scaled_factor added_rank counts:
+// those above sqrt(min_relative_singular_value).
+int rank_above_threshold(const Eigen::VectorXd& singular_values,
+                         const EstimateOptions& options = {});
+
 }  // namespace dbbkit

@@ -336,6 +336,13 @@ TEST(Cli, OptimizeWithoutADesignLeavesOutAsItIsAndSaysWhy) {
   EXPECT_EQ(plain.status, 2);
   EXPECT_NE(plain.err.find("setup_std"), std::string::npos) << plain.err;
   EXPECT_FALSE(std::filesystem::exists(out));
+  // An empty criterion is asked for and names none: refused before the search, not the default.
+  const CliRun empty =
+      run_cli("optimize --kit " + test::source_path("designs/kits/c-turntable-kit.json") +
+              " --criterion '' --out " + out);
+  EXPECT_EQ(empty.status, 2);
+  EXPECT_NE(empty.err.find("unknown criterion ''"), std::string::npos) << empty.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
 }
 
 TEST(Cli, IdentifyPaperBReportsNullsAndTheCombination) {

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "dbbkit/error.hpp"
@@ -269,6 +271,32 @@ TEST(DriftCheck, OptimizeRequiresTheDriftDetected) {
   kit.require_drift_detection_um = 15;
   const OptimizeResult unmet = optimize_kit(kit, {Criterion::kWorstTotal, 2});
   EXPECT_FALSE(unmet.best && unmet.best->feasible);
+}
+
+// A required drift is a size a result can print (at least 1 nm) and a machine can have (at most
+// 1 mm): below or above, the kit's key is refused saying both bounds (1e-300 was taken, and
+// printed as 0).
+TEST(DriftCheck, ARequiredDriftIsOneAResultCanState) {
+  std::ifstream in(test::source_path("designs/kits/b-head-kit.json"));
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string head = "\"format\": \"dbbkit.kit/1\",";
+  ASSERT_NE(text.find(head), std::string::npos);
+  const auto with = [&](const std::string& value) {
+    std::string t = text;
+    t.insert(t.find(head) + head.size(), " \"require_drift_detection_um\": " + value + ",");
+    return t;
+  };
+  for (const char* bad : {"0", "1e-300", "0.0009", "1000.5"}) {
+    try {
+      io::kit_from_text(with(bad), "kit.json");
+      ADD_FAILURE() << bad << " was taken";
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find("require_drift_detection_um"), std::string::npos) << m;
+      EXPECT_NE(m.find("at least 0.001 and at most 1000"), std::string::npos) << m;
+    }
+  }
+  EXPECT_EQ(*io::kit_from_text(with("0.001"), "kit.json").require_drift_detection_um, 0.001);
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include "dbbkit/identify.hpp"
 #include "dbbkit/instrument.hpp"
 #include "dbbkit/io/design_io.hpp"
+#include "dbbkit/io/diagnose_io.hpp"
 #include "dbbkit/io/kit_io.hpp"
 #include "dbbkit/io/measurement_io.hpp"
 #include "dbbkit/io/optimize_io.hpp"
@@ -304,6 +305,12 @@ TEST(Probe, DiagnoseFindsASphereOffItsStatedCentreAndATriggerOffset) {
       << ::testing::PrintToString(found);
   EXPECT_TRUE(has("trigger_offset[s1:z]")) << ::testing::PrintToString(found);
   EXPECT_FALSE(r.significant_after);
+  // The residual's tables name a row by its channel and place the sphere fully: s3 lies off the
+  // plane through the axis (D = 120 mm), so D is a column beside L and H.
+  const std::string text = io::diagnose_summary(d, readings, r);
+  EXPECT_NE(text.find(" channel    L_mm    D_mm    H_mm    n"), std::string::npos) << text;
+  EXPECT_NE(text.find("    s3:x   100.0   120.0    80.0"), std::string::npos) << text;
+  EXPECT_EQ(text.find("inst "), std::string::npos) << text;
 }
 
 TEST(Probe, EffectsBelongToTheirInstrument) {
@@ -606,18 +613,20 @@ TEST(InstrumentTable, EachInstrumentsWordsAndFlagsAreItsEntrys) {
   for (const Design* d : {&ballbar, &probe}) {
     const InstrumentInfo& info = instrument_info(d->instrument);
     EXPECT_EQ(info.kind, d->instrument);
-    EXPECT_STREQ(instrument_name(d->instrument), info.name);
-    EXPECT_STREQ(measured_item(d->instrument), info.item);
-    EXPECT_STREQ(measured_items(d->instrument), info.items);
-    EXPECT_STREQ(setup_effect_nouns(d->instrument), info.setup_effect_nouns);
-    EXPECT_STREQ(setup_tolerance_phrase(d->instrument), info.setup_tolerance_phrase);
+    EXPECT_EQ(instrument_named(info.name), d->instrument);
     EXPECT_EQ(d->directions_turn(), info.directions_turn);
+    // An item's rows are the design's installations: a ball bar's one each, a probe sphere's
+    // three channels.
+    EXPECT_EQ(measured_count(*d) * info.rows_per_item, d->installations.size()) << info.name;
+    EXPECT_EQ(info.rows_per_item > 1, !std::string(info.item_read).empty()) << info.name;
+    EXPECT_LE(std::string(info.row_column).size(), 8u) << info.name;
     for (const char* word : {info.noun,
                              info.item,
                              info.items,
                              info.items_capitalised,
                              info.points,
                              info.row_carrier,
+                             info.row_column,
                              info.setup_effect_nouns,
                              info.setup_effects_plural,
                              info.setup_tolerance_keys,
@@ -707,12 +716,12 @@ TEST(Probe, TheSearchsCriterionIsTheOneTheKitAllows) {
   // the kit declares set-up tolerances, worst elsewhere; worst_total or set-up detection asked of
   // a kit without them is refused at setup_std, in the instrument's words, by the caller's names.
   Kit bare = io::kit_from_text(probe_kit_text(), "kit.json");
-  EXPECT_EQ(search_criterion(bare, "", false, "kit.json", "--criterion", "--detect"),
+  EXPECT_EQ(search_criterion(bare, std::nullopt, false, "kit.json", "--criterion", "--detect"),
             Criterion::kWorst);
   EXPECT_EQ(search_criterion(bare, "D", false, "kit.json", "--criterion", "--detect"),
             Criterion::kD);
   EXPECT_FALSE(bare.require_setup_detection);
-  auto refusal = [](Kit k, const std::string& name, bool detect) {
+  auto refusal = [](Kit k, const std::optional<std::string>& name, bool detect) {
     try {
       search_criterion(k, name, detect, "kit.json", "criterion", "require_setup_detection");
     } catch (const InputError& e) {
@@ -726,15 +735,18 @@ TEST(Probe, TheSearchsCriterionIsTheOneTheKitAllows) {
   EXPECT_NE(total.find("criterion worst_total needs a trigger offset or placement tolerance"),
             std::string::npos)
       << total;
-  const std::string detect = refusal(bare, "", true);
+  const std::string detect = refusal(bare, std::nullopt, true);
   EXPECT_NE(detect.find("require_setup_detection needs a trigger offset or placement tolerance"),
             std::string::npos)
       << detect;
   EXPECT_NE(refusal(bare, "best", false).find("unknown criterion"), std::string::npos);
+  // An empty name is asked for and is no criterion's; it is not the default.
+  EXPECT_NE(refusal(bare, "", false).find("unknown criterion ''"), std::string::npos)
+      << refusal(bare, "", false);
 
   Kit declared =
       io::kit_from_text(probe_kit_text(R"(, "setup_std": {"placement_um": 5})"), "kit.json");
-  EXPECT_EQ(search_criterion(declared, "", true, "kit.json", "--criterion", "--detect"),
+  EXPECT_EQ(search_criterion(declared, std::nullopt, true, "kit.json", "--criterion", "--detect"),
             Criterion::kWorstTotal);
   EXPECT_TRUE(declared.require_setup_detection);
 }

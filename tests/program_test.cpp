@@ -587,6 +587,15 @@ TEST(ProgramCli, BadRequestsExitTwoSayingWhy) {
   EXPECT_NE(r.err.find("--dialect"), std::string::npos) << r.err;
   r = run_cli("program --design " + c + " --dialect iso --path-tolerance-mm 0");
   EXPECT_EQ(r.status, 2);
+  // An O-number is an ISO program's: asked of another dialect it is refused, not dropped.
+  for (const std::string dialect : {"heidenhain", "sinumerik"}) {
+    r = run_cli("program --design " + c + " --dialect " + dialect + " --program-number 7");
+    EXPECT_EQ(r.status, 2) << dialect;
+    EXPECT_NE(r.err.find("--program-number"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("an O-number is an ISO program's; a " + dialect), std::string::npos)
+        << r.err;
+    EXPECT_TRUE(r.out.empty()) << r.out.substr(0, 200);
+  }
   // A design without a bar: the file and the key are named.
   const auto dir = std::filesystem::temp_directory_path() / "dbbkit_program_test";
   std::filesystem::create_directories(dir);

@@ -266,6 +266,37 @@ TEST(TraceDwells, TooManyOrTooFewDwellsNameTheInstallationAndBothCounts) {
                InputError);
 }
 
+// The fastest drift the dwell finder takes for still (max_still_drift_um_per_min: half its
+// tolerance of neighbouring windows' means): a trace drifting at 0.9 of it is read stop for stop;
+// at three times it dwells are lost, and the refusal states the drift the finder takes.
+TEST(TraceDwells, ADriftTheFinderTakesForStillIsTheOneItStates) {
+  const Design d = test::paper_design('C');
+  TraceSimulation o;  // 0.15 um at 1 kHz
+  const double still = max_still_drift_um_per_min(o.noise_um, 1.0 / o.rate_hz);
+  // By hand: windows of 0.1 s, 100 samples; half of 6 standard errors 0.15 sqrt(2 / 100) um.
+  EXPECT_NEAR(still, 0.5 * 6 * 0.15 * std::sqrt(2.0 / 100) / 0.1 * 60, 1e-9);
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    o.seed = seed;
+    o.drift_um_per_min = (seed % 2 ? 0.9 : -0.9) * still;
+    EXPECT_LT(worst_error(d, {Sweep::kCCW}, o, seed), 1.0) << seed;
+  }
+  o.drift_um_per_min = 3 * still;
+  const std::vector<Stop> stops = program_stops(d, 0, {Sweep::kCCW});
+  const SimulatedTrace sim = simulate_trace(stops, std::vector<double>(stops.size(), 1.0), o);
+  const std::string r = refusal(
+      [&] { readings_from_trace(d, "1r", sim.trace, {Sweep::kCCW}, DwellOptions{}, "1r.csv"); });
+  // The drift it states is the one it takes at the noise it found (the drift widens a window's
+  // scatter a little, and with it the noise found).
+  const std::string said = "drifts by less than about ";
+  ASSERT_NE(r.find(said), std::string::npos) << r;
+  const double stated = std::stod(r.substr(r.find(said) + said.size()));
+  const std::string noise = "at the sample noise found, ";
+  ASSERT_NE(r.find(noise), std::string::npos) << r;
+  const double found = std::stod(r.substr(r.find(noise) + noise.size()));
+  EXPECT_NEAR(stated, max_still_drift_um_per_min(found, 1.0 / o.rate_hz), 0.05 * stated) << r;
+  EXPECT_GE(stated, 0.9 * still) << r;
+}
+
 // A recording started during the first move, with a return home and a dwell there at the end:
 // as many dwells as stops, each a stop later than its angle. Refused, naming the likely cause.
 TEST(TraceDwells, RecordingStartedDuringAMoveIsRefused) {
@@ -753,6 +784,27 @@ TEST(TraceCommandLine, OneFileTwoInstallationsAndTracesTooLarge) {
   EXPECT_NE(r.err.find("50000000"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "big.csv"));
   EXPECT_FALSE(fs::exists(dir / "big_1r.csv"));
+  // A drift the dwell finder would never take for still: refused before anything is written,
+  // stating the drift it takes at the traces' noise and rate (a trace of 100 um/min was written,
+  // and readings could not read it).
+  r = run_cli_shell(cd + DBBKIT_CLI + " simulate --design " + D + " --truth " +
+                    test::source_path("tests/data/truth_c_per_angle.json") +
+                    " --seed 4 --out fast.csv --trace-out fast_ --trace-drift-um-per-min 100");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--trace-drift-um-per-min"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("a drift of at most 38.2 um/min"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "fast.csv"));
+  EXPECT_FALSE(fs::exists(dir / "fast_1r.csv"));
+  // A trace's option without --trace-out would change nothing written: refused, not dropped.
+  for (const char* option : {"--trace-dwell-s 5", "--trace-rate-hz 500", "--trace-noise-um 0.1",
+                             "--trace-excursion-um 10", "--trace-drift-um-per-min 1"}) {
+    r = run_cli_shell(cd + DBBKIT_CLI + " simulate --design " + D + " --truth " +
+                      test::source_path("tests/data/truth_c_per_angle.json") +
+                      " --seed 4 --out lone.csv " + option);
+    EXPECT_EQ(r.status, 2) << option;
+    EXPECT_NE(r.err.find("--trace-out"), std::string::npos) << option << ": " << r.err;
+    EXPECT_FALSE(fs::exists(dir / "lone.csv")) << option;
+  }
   fs::remove_all(dir);
 }
 

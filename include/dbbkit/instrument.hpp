@@ -20,6 +20,7 @@
 // simulator and the file form of its readings (io/measurement_io).
 
 #include <array>
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <vector>
@@ -48,6 +49,12 @@ struct InstrumentInfo {
   const char* points;
   // A row's carrier as a place is named ("in installation 1r", "in channel s1:x").
   const char* row_carrier;
+  // Its column's heading in a text table, eight characters at most ("inst", "channel").
+  const char* row_column;
+  // How many of them one item has (a ball bar's installation is one, a probe's sphere three
+  // channels), and how the item is read when more than one ("probed in x, y and z").
+  std::size_t rows_per_item;
+  const char* item_read;
   // The set-up effects: their nouns ("length offset and centring"), their plural as a result's
   // note names what is not included ("length offsets and centrings"), the design keys of their
   // tolerances, a tolerance as a kit must declare one ("a length offset or centring tolerance")
@@ -97,9 +104,6 @@ const InstrumentInfo& instrument_info(InstrumentKind kind);
 std::optional<InstrumentKind> instrument_named(const std::string& name);
 std::string instrument_names();
 
-// "ballbar", "probe" (design key instrument.kind): instrument_info(kind).name.
-const char* instrument_name(InstrumentKind kind);
-
 // What only a ball bar's design has (a program that drives the bar's arcs, a set-up sheet of
 // bars and cups, readings from a bar's traces, a kit's reference): throws InputError(source,
 // "instrument.kind", ...) for a probe's design, naming `what`.
@@ -107,24 +111,12 @@ void require_ballbar(const Design& design, const std::string& source, const std:
 
 inline constexpr std::array<const char*, 3> kProbeCoordinates = {"x", "y", "z"};
 
-// The instrument's set-up effects as a text names them ("length offset and centring", "trigger
-// offset and sphere placement") and the design keys of their tolerances ("length_offset_um,
-// centring_um", "trigger_offset_um, placement_um").
-const char* setup_effect_nouns(InstrumentKind kind);
-// What a design adds to see more: "an installation" of a ball bar, "a sphere" of a probe (and
-// their plurals).
-const char* measured_item(InstrumentKind kind);
-const char* measured_items(InstrumentKind kind);
-// How many of them a design has: a probe's spheres (each three channels, its installations), a
-// ball bar's installations.
+// How many items a design measures (InstrumentInfo::item): a probe's spheres (each three
+// channels, its installations), a ball bar's installations.
 std::size_t measured_count(const Design& design);
 // What a design measures, counted: "7 installations", "3 spheres probed in x, y and z (9
 // channels)".
 std::string measured_phrase(const Design& design);
-const char* setup_tolerance_keys(InstrumentKind kind);
-// What a kit must declare for a set-up criterion: "a length offset or centring tolerance", "a
-// trigger offset or placement tolerance".
-const char* setup_tolerance_phrase(InstrumentKind kind);
 
 // What is wrong with set-up tolerances for the instrument (a probe's are trigger_offset_um and
 // placement_um, a ball bar's the others), or none.

@@ -93,7 +93,9 @@ constexpr int kMaxToolNumber = 9999;
 constexpr double kMinClearanceMargin_mm = 1;
 constexpr double kMaxClearanceMargin_mm = 1000;
 // The drift over the whole test a design must detect (a kit's require_drift_detection_um,
-// `optimize --require-detect drift=UM`) [um]: above 0, at most 1 mm.
+// `optimize --require-detect drift=UM`) [um]: at least 1 nm (a tenth of a ball bar's resolution;
+// a smaller one would print as 0 in a result's six decimals), at most 1 mm.
+constexpr double kMinRequiredDrift_um = 0.001;
 constexpr double kMaxRequiredDrift_um = 1000;
 // The program's dwell a trace is searched for (`readings --dwell-s`): at least 0.01 s, ten
 // samples at 1 kHz; at most kMaxDwell_s. A dwell is at least kMinDwellShare of it long.

@@ -29,14 +29,16 @@ const char* criterion_name(Criterion c);
 // The criterion a command line or script names: worst, worst_total, D, A, E, condition.
 // Throws InputError(source, "", ...) for any other name.
 Criterion criterion_from_name(const std::string& name, const std::string& source);
-// The criterion of a search over `kit` as a command line or a script asks for it: `name`, or
-// (empty) worst_total where the kit declares set-up tolerances and worst elsewhere; with
+// The criterion of a search over `kit` as a command line or a script asks for it: `name` (an
+// empty one is no criterion's), or (none asked) worst_total where the kit declares set-up
+// tolerances and worst elsewhere; with
 // require_setup_detection, the kit is marked to require it. Throws InputError(kit_source,
 // "setup_std", ...) when worst_total or set-up detection is asked of a kit that declares no set-up
 // tolerance; `criterion_option` and `detection_option` are how the caller names the two
 // ("--criterion", "require_setup_detection").
-Criterion search_criterion(Kit& kit, const std::string& name, bool require_setup_detection,
-                           const std::string& kit_source, const std::string& criterion_option,
+Criterion search_criterion(Kit& kit, const std::optional<std::string>& name,
+                           bool require_setup_detection, const std::string& kit_source,
+                           const std::string& criterion_option,
                            const std::string& detection_option);
 
 // The continuous variables of a choice: names ("L1", "D3", ...) and bounds in mm.

@@ -54,6 +54,13 @@ struct DwellOptions {
   std::optional<double> noise_um;
 };
 
+// The fastest drift [um/min] the stillness test still takes for standing still: one that moves a
+// window's mean from its neighbour's by half the test's tolerance (mean_factor standard errors) at
+// this sample noise [um] and interval [s]. A bar drifting faster leaves dwells unfound (readings
+// refuses its trace), so simulate writes no trace of one.
+double max_still_drift_um_per_min(double noise_um, double sample_interval_s,
+                                  const DwellOptions& options = {});
+
 struct Plateau {
   double start_s = 0, end_s = 0;  // the still run
   double settled_start_s = 0, settled_end_s = 0;

@@ -48,12 +48,13 @@ Runner add_optimize(CLI::App& app) {
       "the design on stdout when it is not a terminal, else the summary");
   sub->add_option("--result", args->result,
                   "Search result JSON (dbbkit.optimize/1): every choice, the Pareto front");
-  sub->add_option("--criterion", args->criterion,
-                  "worst (worst_std_um; the default without set-up tolerances), worst_total "
-                  "(worst_total_std_um: "
-                  "noise and the kit's setup_std; the default with them), D (max log det M), A "
-                  "(min trace M^-1), E "
-                  "(max smallest eigenvalue), condition (min condition number)");
+  CLI::Option* criterion_option =
+      sub->add_option("--criterion", args->criterion,
+                      "worst (worst_std_um; the default without set-up tolerances), worst_total "
+                      "(worst_total_std_um: "
+                      "noise and the kit's setup_std; the default with them), D (max log det M), A "
+                      "(min trace M^-1), E "
+                      "(max smallest eigenvalue), condition (min condition number)");
   sub->add_option(
       "--reference", args->reference,
       "A design to compare with (same noise and error model as the kit): ratio of worst_std_um");
@@ -74,7 +75,7 @@ Runner add_optimize(CLI::App& app) {
       ->transform(thread_count());
   auto rep = std::make_shared<ReportArgs>();
   add_report_options(sub, rep);
-  return [args, rep]() {
+  return [args, rep, criterion_option]() {
     args->quiet = rep->quiet;
     const std::vector<std::string> inputs = {args->kit, args->reference};
     io::OutputSet outputs(
@@ -93,9 +94,11 @@ Runner add_optimize(CLI::App& app) {
         char* end = nullptr;
         const double um = std::strtod(v.c_str(), &end);
         if (v.empty() || v.find_first_not_of("0123456789.") != std::string::npos ||
-            end != v.c_str() + v.size() || !(um > 0 && um <= limits::kMaxRequiredDrift_um))
+            end != v.c_str() + v.size() ||
+            !(um >= limits::kMinRequiredDrift_um && um <= limits::kMaxRequiredDrift_um))
           throw InputError("--require-detect", quote_value(r),
-                           "a drift over the whole test in um, above 0 and at most " +
+                           "a drift over the whole test in um, at least " +
+                               io::fmt_num(limits::kMinRequiredDrift_um, 6) + " and at most " +
                                io::fmt_num(limits::kMaxRequiredDrift_um, 6) + " (drift=2)");
         kit.require_drift_detection_um = um;
       } else {
@@ -103,9 +106,9 @@ Runner add_optimize(CLI::App& app) {
                          "expected setup or drift=UM (a drift of UM um over the whole test)");
       }
     }
-    const Criterion criterion =
-        search_criterion(kit, args->criterion, args->require_detection, args->kit, "--criterion",
-                         "--require-setup-detection");
+    const Criterion criterion = search_criterion(
+        kit, criterion_option->count() > 0 ? std::optional(args->criterion) : std::nullopt,
+        args->require_detection, args->kit, "--criterion", "--require-setup-detection");
     std::optional<Reference> reference;
     if (!args->reference.empty()) {
       reference = make_reference(kit, io::read_design_file(args->reference), args->reference);

@@ -44,10 +44,16 @@ Runner add_program(CLI::App& app) {
                   "ball stays in its travel, the clearance plane too, and nothing clashes with "
                   "its workspace; its time model is stated");
   add_program_options(sub, prog);
-  sub->add_option("--program-number", args->program_number, "ISO O-number (default 1)")
-      ->transform(integer_in(limits::kMinProgramNumber, limits::kMaxProgramNumber));
+  CLI::Option* program_number =
+      sub->add_option("--program-number", args->program_number,
+                      "ISO O-number (default 1; iso only: a heidenhain program is named by "
+                      "its BEGIN PGM line, a sinumerik one by its file)")
+          ->transform(integer_in(limits::kMinProgramNumber, limits::kMaxProgramNumber));
   sub->add_flag("--quiet", args->quiet, "Nothing on the terminal but the files asked for");
-  return [args, prog]() {
+  return [args, prog, program_number]() {
+    if (program_number->count() > 0)
+      if (const auto refusal = io::program_number_refusal(*io::dialect_named(args->dialect)))
+        throw InputError("--program-number", "", *refusal);
     io::OutputSet outputs({{"--out", args->out.empty() ? "-" : args->out}},
                           {args->design, args->kit});
     const Design design = io::read_design_file(args->design);

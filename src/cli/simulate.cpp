@@ -112,32 +112,50 @@ Runner add_simulate(CLI::App& app) {
   sub->add_option(
       "--setup-out", args->setup_out,
       "The set-up errors used (dbbkit.setup-errors/1 JSON; exact geometry), drawn or given");
-  sub->add_option("--trace-out", args->trace_out,
-                  "Also a raw 1 kHz trace of each installation, as the instrument records it, to "
-                  "PREFIX<id>.csv (e.g. traces/): dwells at the readings, moves with bar "
-                  "excursions, settling, noise");
+  CLI::Option* trace_out = sub->add_option(
+      "--trace-out", args->trace_out,
+      "Also a raw 1 kHz trace of each installation, as the instrument records it, to "
+      "PREFIX<id>.csv (e.g. traces/): dwells at the readings, moves with bar "
+      "excursions, settling, noise");
   sub->add_option("--trace-dwell-s", args->trace.dwell_s, "The traces' dwell at each angle [s]")
       ->check(finite_in(limits::kMinSimulatedDwell_s, limits::kMaxDwell_s))
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(trace_out);
   sub->add_option("--trace-rate-hz", args->trace.rate_hz, "The traces' sample rate [Hz]")
       ->check(finite_in(limits::kMinSimulatedRate_hz, limits::kMaxSimulatedRate_hz))
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(trace_out);
   sub->add_option("--trace-noise-um", args->trace.noise_um, "The traces' sample noise [um]")
       ->check(finite_in(0, limits::kMaxSimulatedTraceNoise_um))
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(trace_out);
   sub->add_option("--trace-excursion-um", args->trace.excursion_um,
                   "The largest bar excursion of a move [um]")
       ->check(finite_in(0, limits::kMaxSimulatedExcursion_um))
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(trace_out);
   sub->add_option("--trace-drift-um-per-min", args->trace.drift_um_per_min,
                   "A drift of the traces on their own clock [um/min]")
       ->check(
           finite_in(-limits::kMaxSimulatedDrift_um_per_min, limits::kMaxSimulatedDrift_um_per_min))
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(trace_out);
   // simulate prints nothing but the files asked for; --quiet is accepted as by every command.
   sub->add_flag("--quiet", args->quiet,
                 "Nothing on the terminal but the files asked for (the default)");
   return [args]() {
+    // A trace whose bar drifts faster than the dwell finder takes for still could not be read.
+    const double still =
+        max_still_drift_um_per_min(args->trace.noise_um, 1.0 / args->trace.rate_hz);
+    if (std::abs(args->trace.drift_um_per_min) > still)
+      throw InputError("--trace-drift-um-per-min", io::fmt_num(args->trace.drift_um_per_min, 6),
+                       "at a sample noise of " + io::fmt_num(args->trace.noise_um, 6) + " um and " +
+                           io::fmt_num(args->trace.rate_hz, 6) +
+                           " Hz the bar would never stand still for readings' dwell finder, "
+                           "which takes a drift of at most " +
+                           io::fmt_num(still, 3) +
+                           " um/min there: readings could not read the traces (a larger "
+                           "--trace-noise-um takes more)");
     std::vector<io::OutputTarget> targets = {{"--out", args->out.empty() ? "-" : args->out}};
     if (!args->setup_out.empty()) targets.push_back({"--setup-out", args->setup_out});
     const Design design = io::read_design_file(args->design);

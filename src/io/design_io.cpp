@@ -615,7 +615,7 @@ json design_to_json(const Design& d) {
   j["errors"] = errors;
   if (d.reference_length_mm) j["reference_length_mm"] = *d.reference_length_mm;
   if (d.instrument != InstrumentKind::kBallbar)
-    j["instrument"]["kind"] = instrument_name(d.instrument);
+    j["instrument"]["kind"] = instrument_info(d.instrument).name;
   if (d.instrument_range_mm != kDefaultInstrumentRange_mm)
     j["instrument"]["range_mm"] = d.instrument_range_mm;
   if (d.max_drift_um_per_min != kDefaultMaxDrift_um_per_min)

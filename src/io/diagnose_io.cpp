@@ -4,6 +4,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "dbbkit/instrument.hpp"
 #include "dbbkit/io/design_io.hpp"
 #include "dbbkit/io/diagnose_text.hpp"
 #include "dbbkit/io/result_io.hpp"
@@ -128,20 +129,27 @@ double unsigned_zero(double x, int decimals) {
 std::string signature_text(const ResidualSignature& s, const Design& design,
                            const std::vector<Reading>& readings) {
   const AxisFrame& axis = design.axis;
+  // The place of each row's point: L, and D where the axis has no H or a point lies off the
+  // plane through the axis (a probe's spheres, an offset head's balls), H where the axis has it.
+  bool off_plane = false;
+  for (const auto& i : s.installations) off_plane = off_plane || i.D_mm != 0;
+  const bool show_d = !axis.has_H() || off_plane;
   std::ostringstream o;
-  o << std::setw(8) << "inst" << std::setw(8) << "L_mm" << std::setw(8)
-    << (axis.has_H() ? "H_mm" : "D_mm") << std::setw(5) << "n" << std::setw(10) << "mean"
-    << std::setw(10) << "rms";
+  o << std::setw(8) << instrument_info(design.instrument).row_column << std::setw(8) << "L_mm";
+  if (show_d) o << std::setw(8) << "D_mm";
+  if (axis.has_H()) o << std::setw(8) << "H_mm";
+  o << std::setw(5) << "n" << std::setw(10) << "mean" << std::setw(10) << "rms";
   if (axis.full_turn())
     o << std::setw(9) << "1/turn" << std::setw(9) << "2/turn" << std::setw(9) << "3/turn"
       << std::setw(9) << "4/turn";
   o << std::setw(12) << "um/min" << std::setw(10) << "cw-ccw"
     << "\n";
   for (const auto& i : s.installations) {
-    o << std::setw(8) << i.id << std::fixed << std::setprecision(1) << std::setw(8) << i.L_mm
-      << std::setw(8) << (axis.has_H() ? i.H_mm : i.D_mm) << std::setw(5) << i.n << std::fixed
-      << std::setprecision(2) << std::setw(10) << unsigned_zero(i.mean_um, 2) << std::setw(10)
-      << i.rms_um;
+    o << std::setw(8) << i.id << std::fixed << std::setprecision(1) << std::setw(8) << i.L_mm;
+    if (show_d) o << std::setw(8) << i.D_mm;
+    if (axis.has_H()) o << std::setw(8) << i.H_mm;
+    o << std::setw(5) << i.n << std::fixed << std::setprecision(2) << std::setw(10)
+      << unsigned_zero(i.mean_um, 2) << std::setw(10) << i.rms_um;
     if (axis.full_turn()) {
       for (int k = 0; k < 4; ++k) {
         if (k < static_cast<int>(i.harmonic_um.size())) {

@@ -139,7 +139,8 @@ std::string setup_risk_text(const Design& design, const std::vector<SetupRisk>& 
       << " that make these effects detectable remove the doubt (evaluate lists them).";
   } else {
     v << ". Declare set-up tolerances (setup_std) to carry them in the uncertainties, or measure "
-      << measured_items(design.instrument) << " that make them detectable (evaluate lists them).";
+      << instrument_info(design.instrument).items
+      << " that make them detectable (evaluate lists them).";
   }
   return v.str();
 }
@@ -897,7 +898,7 @@ std::vector<BriefItem> diagnose_brief(const Design& design, const DiagnoseResult
   for (const Attribution& at : r.attributions) convention = convention || at.convention;
   if (convention)
     action(std::string("to tell the equivalent effects apart, add ") +
-           measured_item(design.instrument) + " that separates them");
+           instrument_info(design.instrument).item + " that separates them");
   if (r.significant_after && r.order && r.order->p < r.level)
     action("set errors.order to " + std::to_string(r.order->suggested) + " in the design");
   if (r.noise_larger_than_declared)

@@ -275,9 +275,9 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
   }
   k.require_setup_detection = read_flag(top, "require_setup_detection", false);
   if (k.require_setup_detection && !k.setup_std.nuisance()) {
-    top.fail(
-        "require_setup_detection",
-        std::string("needs ") + setup_tolerance_phrase(k.instrument) + " declared in setup_std");
+    top.fail("require_setup_detection", std::string("needs ") +
+                                            instrument_info(k.instrument).setup_tolerance_phrase +
+                                            " declared in setup_std");
   }
   if (probe && top.has("return_reading"))
     top.fail("return_reading",
@@ -288,11 +288,12 @@ Kit kit_from_json(const json& j, const std::string& source, const std::string& b
   k.return_reading = read_flag(top, "return_reading", false);
   k.require_drift_detection_um = top.optional_number("require_drift_detection_um");
   if (k.require_drift_detection_um &&
-      !(*k.require_drift_detection_um > 0 &&
+      !(*k.require_drift_detection_um >= limits::kMinRequiredDrift_um &&
         *k.require_drift_detection_um <= limits::kMaxRequiredDrift_um))
-    top.fail("require_drift_detection_um",
-             "must be a drift over the whole test in um, above 0 and at most " +
-                 text::significant(limits::kMaxRequiredDrift_um, 6));
+    top.fail("require_drift_detection_um", "must be a drift over the whole test in um, at least " +
+                                               text::significant(limits::kMinRequiredDrift_um, 6) +
+                                               " and at most " +
+                                               text::significant(limits::kMaxRequiredDrift_um, 6));
   if (carriage == TableCarriage::kAcrossAxis) {
     if (top.has("L_mm"))
       top.fail("L_mm",

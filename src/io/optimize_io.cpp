@@ -32,7 +32,7 @@ json candidate_json(const Kit& kit, const Candidate& c) {
   j["choice"] = choice_label(kit, c.choice);
   j["step_deg"] = c.choice.step_deg;
   // A probe's design counts its spheres (each three channels, the design's installations).
-  const std::string items = measured_items(kit.instrument);
+  const std::string items = instrument_info(kit.instrument).items;
   j["n_" + items] = measured_count(c.design);
   j["added_" + items] = added_installations(kit, c);
   j["n_angles"] = c.design.angles_deg.size();
@@ -535,9 +535,9 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
   if (pareto) {
     s << "\nPareto front, " << criterion_name(res.criterion)
       << " against time (designs that determine as much as "
-      << "the best; each the best of its angle step and " << measured_items(kit.instrument)
+      << "the best; each the best of its angle step and " << instrument_info(kit.instrument).items
       << "):\n";
-    s << std::setw(10) << "time [s]" << std::setw(15) << measured_items(kit.instrument)
+    s << std::setw(10) << "time [s]" << std::setw(15) << instrument_info(kit.instrument).items
       << std::setw(8) << "angles" << std::setw(12) << "step [deg]" << std::setw(20)
       << criterion_name(res.criterion) << "  added (optional positions)\n";
     for (const Candidate& c : res.pareto) {
@@ -551,7 +551,7 @@ std::string optimize_summary(const Kit& kit, const OptimizeResult& res, const st
 
 std::string pareto_csv(const Kit& kit, const OptimizeResult& res) {
   std::ostringstream s;
-  const char* items = measured_items(kit.instrument);
+  const char* items = instrument_info(kit.instrument).items;
   s << "time_s,n_" << items << ",n_angles,step_deg," << criterion_name(res.criterion) << ",added_"
     << items << "\n";
   s << std::setprecision(10);

@@ -171,7 +171,7 @@ std::string optimize_report(ReportFormat f, const RunContext& run, const Kit& ki
                      fmt_num(c.objective, 5), added_installations(kit, c),
                      i == 0 ? "the shortest" : choice_change_text(kit, res.pareto[i - 1], c)});
   }
-  p.table({"time [s]", measured_items(kit.instrument), "angles", "step [deg]",
+  p.table({"time [s]", instrument_info(kit.instrument).items, "angles", "step [deg]",
            criterion_name(res.criterion), "added (optional positions)",
            "what changes from the point before"},
           front);

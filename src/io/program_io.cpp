@@ -195,6 +195,20 @@ std::optional<Dialect> dialect_named(const std::string& name) {
   return std::nullopt;
 }
 
+std::optional<std::string> program_number_refusal(Dialect dialect) {
+  switch (dialect) {
+    case Dialect::kIso:
+      return std::nullopt;
+    case Dialect::kHeidenhain:
+      return "an O-number is an ISO program's; a heidenhain program is named by its BEGIN PGM "
+             "line: leave the number out";
+    case Dialect::kSinumerik:
+      return "an O-number is an ISO program's; a sinumerik program is named by its file: leave "
+             "the number out";
+  }
+  return std::nullopt;
+}
+
 std::string program_text(const Design& design, const MeasurementProgram& program, Dialect dialect,
                          int program_number) {
   // A program's Z is the machine's, up, away from the table: a head's frame whose spindle points

@@ -1,6 +1,7 @@
 #include "report_sections.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <iomanip>
 #include <sstream>
@@ -15,16 +16,50 @@
 
 namespace dbbkit::io::detail {
 
-std::vector<std::vector<std::string>> installation_rows(const Design& d) {
+namespace {
+
+struct DesignTable {
+  std::vector<std::string> header;
   std::vector<std::vector<std::string>> rows;
+};
+
+// A ball bar's installations: id, L, D, H, direction, sign, bar, set-up.
+DesignTable installation_table(const Design& d) {
+  DesignTable t;
+  t.header = {"id", "L [mm]", "D [mm]", "H [mm]", "direction", "sign", "bar [mm]", "set-up"};
   for (const Installation& in : d.installations) {
-    rows.push_back({in.id, fmt_num(in.L_mm, 6), fmt_num(in.D_mm, 6),
-                    d.axis.has_H() ? fmt_num(in.H_mm, 6) : "--", in.direction.label(),
-                    std::to_string(in.sign), in.bar_mm ? fmt_num(*in.bar_mm, 6) : "--",
-                    in.description});
+    t.rows.push_back({in.id, fmt_num(in.L_mm, 6), fmt_num(in.D_mm, 6),
+                      d.axis.has_H() ? fmt_num(in.H_mm, 6) : "--", in.direction.label(),
+                      std::to_string(in.sign), in.bar_mm ? fmt_num(*in.bar_mm, 6) : "--",
+                      in.description});
   }
-  return rows;
+  return t;
 }
+
+// A probe's spheres, not its channels: id, L, D, H, set-up.
+DesignTable sphere_table(const Design& d) {
+  DesignTable t;
+  t.header = {"sphere", "L [mm]", "D [mm]", "H [mm]", "set-up"};
+  for (const Sphere& sp : d.spheres)
+    t.rows.push_back({sp.id, fmt_num(sp.L_mm, 6), fmt_num(sp.D_mm, 6),
+                      d.axis.has_H() ? fmt_num(sp.H_mm, 6) : "--", sp.description});
+  return t;
+}
+
+// What the design section lists, one per instrument in the order of InstrumentKind.
+struct InstrumentTable {
+  InstrumentKind kind;
+  DesignTable (*table)(const Design& d);
+};
+constexpr std::array<InstrumentTable, 2> kDesignTables = {{
+    {InstrumentKind::kBallbar, installation_table},
+    {InstrumentKind::kProbe, sphere_table},
+}};
+static_assert(kDesignTables[0].kind == InstrumentKind::kBallbar &&
+                  kDesignTables[1].kind == InstrumentKind::kProbe,
+              "kDesignTables is indexed by InstrumentKind");
+
+}  // namespace
 
 void design_section(ReportWriter& p, const Design& d) {
   p.heading("Design");
@@ -36,16 +71,8 @@ void design_section(ReportWriter& p, const Design& d) {
               measured + ", errors " + d.errors.describe() + ".");
   if (!d.description.empty()) p.paragraph(d.description);
   p.figure([&] { return plot_design(d); }, instrument_info(d.instrument).design_caption);
-  if (d.instrument == InstrumentKind::kProbe) {  // its spheres, not its channels
-    std::vector<std::vector<std::string>> rows;
-    for (const Sphere& sp : d.spheres)
-      rows.push_back({sp.id, fmt_num(sp.L_mm, 6), fmt_num(sp.D_mm, 6),
-                      d.axis.has_H() ? fmt_num(sp.H_mm, 6) : "--", sp.description});
-    p.table({"sphere", "L [mm]", "D [mm]", "H [mm]", "set-up"}, rows);
-    return;
-  }
-  p.table({"id", "L [mm]", "D [mm]", "H [mm]", "direction", "sign", "bar [mm]", "set-up"},
-          installation_rows(d));
+  const DesignTable t = kDesignTables[static_cast<std::size_t>(d.instrument)].table(d);
+  p.table(t.header, t.rows);
 }
 
 // Residual against angle, one line per installation.

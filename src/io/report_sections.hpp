@@ -18,9 +18,8 @@ namespace dbbkit::io::detail {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// The installations as table rows: id, L, D, H, direction, sign, bar, set-up.
-std::vector<std::vector<std::string>> installation_rows(const Design& d);
-// The design: a sentence, its drawing and the installations' table.
+// The design: a sentence, its drawing and the table of what it measures (a ball bar's
+// installations, a probe's spheres).
 void design_section(ReportWriter& p, const Design& d);
 // The residual of each installation, each sweep (and repeat) a line in angle order.
 std::vector<ResidualPanel> residual_panels(const Design& d, const std::vector<Reading>& readings,

@@ -488,7 +488,7 @@ std::vector<BriefItem> evaluate_brief(const Design& design, const Evaluation& ev
   if (ev.prior.status == EstimateStatus::kRankDeficient)
     next.push_back(instrument_info(design.instrument).evaluate_add_next);
   if (!design.setup_nuisance_declared())
-    next.push_back(std::string("declare ") + setup_effect_nouns(design.instrument) +
+    next.push_back(std::string("declare ") + instrument_info(design.instrument).setup_effect_nouns +
                    " tolerances (setup_std) in the design");
   if (next.empty()) next.push_back(instrument_info(design.instrument).measure_next);
   add_next_items(out, next);
@@ -836,7 +836,8 @@ std::string evaluate_summary(const Design& design, const Evaluation& ev) {
     s << "\na-priori standard uncertainty (k = 1), reading-noise part; '--' = not determined by "
          "the design\n";
     s << errors_table(ev.errors, false);
-    s << "\nset-up part (declared " << setup_effect_nouns(ev.instrument) << " tolerances)\n";
+    s << "\nset-up part (declared " << instrument_info(ev.instrument).setup_effect_nouns
+      << " tolerances)\n";
     s << errors_table(ev.setup_errors, false);
     s << "\ntotal\n";
     s << errors_table(ev.total_errors, false);
@@ -1209,9 +1210,9 @@ std::string iso_uncertainty_note(const IdentifyResult& r) {
   return std::string(
              "standard uncertainty (k = 1) from the estimate's covariance: reading noise (") +
          noise_evaluation_text(r.budget) + ")" +
-         (r.setup_included
-              ? std::string(" and the declared ") + setup_effect_nouns(r.instrument) + " tolerances"
-              : std::string()) +
+         (r.setup_included ? std::string(" and the declared ") +
+                                 instrument_info(r.instrument).setup_effect_nouns + " tolerances"
+                           : std::string()) +
          (r.placement_declared ? "; the ball placement (L, D, H) is not propagated into them" : "");
 }
 

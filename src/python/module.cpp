@@ -985,8 +985,8 @@ SetupSheet sheet_of(const PyDesign& d, const PyKit* kit, std::optional<double> r
 }
 
 std::string run_program(const PyDesign& d, const std::string& dialect, std::optional<PyKit> kit,
-                        int program_number, const std::string& sweeps, double dwell_s,
-                        double feed_mm_min, double path_tolerance_mm, int tool,
+                        std::optional<int> program_number, const std::string& sweeps,
+                        double dwell_s, double feed_mm_min, double path_tolerance_mm, int tool,
                         std::optional<double> clearance_z_mm, double clearance_margin_mm,
                         bool air_run, const std::string& orient_code,
                         const std::optional<std::string>& tcpm) {
@@ -994,8 +994,12 @@ std::string run_program(const PyDesign& d, const std::string& dialect, std::opti
   if (!named_dialect)
     throw InputError("argument", "dialect",
                      quote_value(dialect) + " (expected iso, heidenhain or sinumerik)");
-  check_integer_in("program_number", program_number, limits::kMinProgramNumber,
-                   limits::kMaxProgramNumber);
+  if (program_number) {
+    if (const auto refusal = io::program_number_refusal(*named_dialect))
+      throw InputError("argument", "program_number", *refusal);
+    check_integer_in("program_number", *program_number, limits::kMinProgramNumber,
+                     limits::kMaxProgramNumber);
+  }
   const ProgramOptions o =
       py_program_options(d, sweeps, dwell_s, feed_mm_min, path_tolerance_mm, tool, clearance_z_mm,
                          clearance_margin_mm, air_run, orient_code, tcpm);
@@ -1013,7 +1017,7 @@ std::string run_program(const PyDesign& d, const std::string& dialect, std::opti
       throw e.source() == "design" ? e.with_source(d.source) : e;
     }
   }
-  return io::program_text(d.value, program, *named_dialect, program_number);
+  return io::program_text(d.value, program, *named_dialect, program_number.value_or(1));
 }
 
 PySetupSheet run_setup_sheet(const PyDesign& d, std::optional<PyKit> kit,
@@ -1169,8 +1173,8 @@ PyDiagnoseResult run_diagnose(const PyDesign& d, const PyMeasurements& m, double
 PyOptimizeResult run_optimize(const PyKit& k, std::optional<std::string> criterion, int threads,
                               bool require_setup_detection, std::optional<PyDesign> reference) {
   Kit kit = k.value;
-  const Criterion c = search_criterion(kit, criterion.value_or(""), require_setup_detection,
-                                       k.source, "criterion", "require_setup_detection");
+  const Criterion c = search_criterion(kit, criterion, require_setup_detection, k.source,
+                                       "criterion", "require_setup_detection");
   OptimizeOptions options;
   options.criterion = c;
   options.threads = thread_count("threads", threads);
@@ -2122,7 +2126,7 @@ PYBIND11_MODULE(dbbkit, m) {
           "The installations in the order to set them up")
       .def("_repr_html_", [](const PySetupSheet& r) { return iframe(r.report("html")); });
   m.def("program", &run_program, py::arg("design"), py::arg("dialect"), py::arg("kit") = py::none(),
-        py::arg("program_number") = 1, py::arg("sweeps") = "ccw", py::arg("dwell_s") = 2.0,
+        py::arg("program_number") = py::none(), py::arg("sweeps") = "ccw", py::arg("dwell_s") = 2.0,
         py::arg("feed_mm_min") = 500.0, py::arg("path_tolerance_mm") = 0.05,
         py::arg("tool") = kDefaultBallbarTool, py::arg("clearance_z_mm") = py::none(),
         py::arg("clearance_margin_mm") = 50.0, py::arg("air_run") = false,

@@ -606,6 +606,7 @@ class RoundTrips(InSource):
                             (lambda: dbbkit.program(d, "iso", dwell_s=0), "dwell_s"),
                             (lambda: dbbkit.program(d, "iso", dwell_s=1e-4), "dwell_s"),
                             (lambda: dbbkit.program(d, "iso", feed_mm_min=0.5), "feed_mm_min"),
+                            (lambda: dbbkit.program(d, "heidenhain", program_number=3), "program_number"),
                             (lambda: dbbkit.setup_sheet(d, sweeps="up"), "sweeps")):
             with self.assertRaises(dbbkit.InputError) as ctx:
                 call()
@@ -822,6 +823,7 @@ class BadInput(InSource):
                               "reference_length_mm")
         kit = dbbkit.Kit("designs/kits/c-turntable-kit.json")
         self.assertInputError(lambda: dbbkit.optimize(kit, criterion="best"), "criterion", None, "unknown criterion")
+        self.assertInputError(lambda: dbbkit.optimize(kit, criterion=""), "criterion", None, "unknown criterion ''")
         self.assertInputError(lambda: dbbkit.optimize(kit, threads=-1), "argument", "threads")
         self.assertInputError(lambda: dbbkit.identify(d, m, tolerances={"format": "dbbkit.tolerances/1",
                                                                         "limits": [{"quantity": "XOC"}]}),

@@ -25,6 +25,9 @@ namespace dbbkit::io {
 enum class Dialect { kIso, kHeidenhain, kSinumerik };
 // "iso", "heidenhain", "sinumerik"; nullopt for another name.
 std::optional<Dialect> dialect_named(const std::string& name);
+// Why a dialect takes no O-number (a heidenhain program is named by its BEGIN PGM line, a
+// sinumerik one by its file), or none for iso: a number asked of one is refused, not dropped.
+std::optional<std::string> program_number_refusal(Dialect dialect);
 
 // The program text. `program_number` (ISO O-number, 1..9999) is written as O%04d.
 std::string program_text(const Design& design, const MeasurementProgram& program, Dialect dialect,
