@@ -64,8 +64,10 @@ double mean_tolerance_um(double noise_um, double w, const DwellOptions& o) {
 double max_still_drift_um_per_min(double noise_um, double sample_interval_s,
                                   const DwellOptions& o) {
   const double w = std::round(window_samples(sample_interval_s, o));
-  return 0.5 * mean_tolerance_um(noise_um, w, o) / (w * sample_interval_s) * 60.0;
+  return 0.25 * mean_tolerance_um(noise_um, w, o) / (w * sample_interval_s) * 60.0;
 }
+
+double stillness_noise_um(double noise_um) { return std::max(noise_um, kNoiseFloor_um); }
 
 long Trace::line_of(std::size_t i) const {
   const auto it = std::upper_bound(
@@ -369,8 +371,9 @@ TraceReadings readings_from_trace(const Design& design, const std::string& insta
             text::significant(max_still_drift_um_per_min(out.search.noise_um,
                                                          out.search.sample_interval_s, options),
                               2) +
-            " um/min (at the sample noise found, " + text::significant(out.search.noise_um, 2) +
-            " um, a faster drift is never still)" + (moving.empty() ? "" : "; " + moving));
+            " um/min (at the sample noise found, " +
+            text::significant(stillness_noise_um(out.search.noise_um), 2) +
+            " um, a faster drift is often not still)" + (moving.empty() ? "" : "; " + moving));
   }
   if (!moving.empty()) {
     throw InputError(

@@ -664,6 +664,9 @@ TEST(InstrumentTable, EachInstrumentsWordsAndFlagsAreItsEntrys) {
   EXPECT_EQ(measured_phrase(ballbar),
             std::to_string(ballbar.installations.size()) + " installations");
   EXPECT_EQ(measured_phrase(probe), "3 spheres probed in x, y and z (9 channels)");
+  // What a design counts: a ball bar's installations, a probe's spheres (not its channels).
+  EXPECT_EQ(measured_count(ballbar), ballbar.installations.size());
+  EXPECT_EQ(measured_count(probe), probe.spheres.size());
   Evaluation ev;
   ev.instrument = InstrumentKind::kBallbar;
   EXPECT_EQ(io::evaluation_setup_note(ev),

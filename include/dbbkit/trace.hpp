@@ -54,12 +54,17 @@ struct DwellOptions {
   std::optional<double> noise_um;
 };
 
-// The fastest drift [um/min] the stillness test still takes for standing still: one that moves a
-// window's mean from its neighbour's by half the test's tolerance (mean_factor standard errors) at
-// this sample noise [um] and interval [s]. A bar drifting faster leaves dwells unfound (readings
-// refuses its trace), so simulate writes no trace of one.
+// The fastest drift [um/min] the stillness test reliably takes for standing still: one that moves
+// a window's mean from its neighbour's by a quarter of the test's tolerance (mean_factor = 6
+// standard errors of the difference: the noise must then exceed 4.5 of them, about 3e-6 a window,
+// for a still window to fail) at this sample noise [um] (the stillness test's floor below it) and
+// interval [s]. The boundary is statistical: at half the tolerance about one installation in 50
+// lost a dwell, and twice this drift is sometimes read. simulate writes no trace of a faster
+// drift; readings' refusal of a dwell count states it.
 double max_still_drift_um_per_min(double noise_um, double sample_interval_s,
                                   const DwellOptions& options = {});
+// The noise the stillness test uses for a sample noise [um]: at least its floor (5 nm).
+double stillness_noise_um(double noise_um);
 
 struct Plateau {
   double start_s = 0, end_s = 0;  // the still run

@@ -151,11 +151,11 @@ Runner add_simulate(CLI::App& app) {
       throw InputError("--trace-drift-um-per-min", io::fmt_num(args->trace.drift_um_per_min, 6),
                        "at a sample noise of " + io::fmt_num(args->trace.noise_um, 6) + " um and " +
                            io::fmt_num(args->trace.rate_hz, 6) +
-                           " Hz the bar would never stand still for readings' dwell finder, "
-                           "which takes a drift of at most " +
+                           " Hz readings' dwell finder reliably takes a drift of at most " +
                            io::fmt_num(still, 3) +
-                           " um/min there: readings could not read the traces (a larger "
-                           "--trace-noise-um takes more)");
+                           " um/min for standing still (a quarter of its tolerance of neighbouring "
+                           "windows' means); faster, it may lose dwells and refuse the traces (a "
+                           "larger --trace-noise-um takes more)");
     std::vector<io::OutputTarget> targets = {{"--out", args->out.empty() ? "-" : args->out}};
     if (!args->setup_out.empty()) targets.push_back({"--setup-out", args->setup_out});
     const Design design = io::read_design_file(args->design);
