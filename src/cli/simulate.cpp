@@ -144,7 +144,8 @@ Runner add_simulate(CLI::App& app) {
   sub->add_flag("--quiet", args->quiet,
                 "Nothing on the terminal but the files asked for (the default)");
   return [args]() {
-    // A trace whose bar drifts faster than the dwell finder takes for still could not be read.
+    // A trace whose bar drifts faster than the dwell finder reliably takes for still may lose
+    // dwells, and readings would refuse it.
     const double still =
         max_still_drift_um_per_min(args->trace.noise_um, 1.0 / args->trace.rate_hz);
     if (std::abs(args->trace.drift_um_per_min) > still)
